@@ -1,0 +1,1 @@
+//! The sandbox game: the reference example of the public API.
