@@ -1,1 +1,19 @@
-//! engine
+//! The engine layer of the rendering plugin: a small application shell over `bevy_ecs`
+//! (schedules, plugins, time), transforms and their hierarchy, cameras, lights, generational
+//! asset storage, CPU-side meshes, materials and images, and glTF loading.
+//!
+//! Nothing in this crate knows about Vulkan: the `plugins` crate extracts the data defined here
+//! (meshes, materials, images, transforms, lights) into the `render` crate's plain records.
+
+pub mod app;
+pub mod asset;
+pub mod camera;
+pub mod gltf;
+pub mod image;
+pub mod light;
+pub mod material;
+pub mod mesh;
+pub mod prelude;
+pub mod scene;
+pub mod time;
+pub mod transform;

@@ -1,0 +1,70 @@
+//! The perspective camera component.
+//!
+//! Projection convention: right-handed view space looking down -Z, reverse-Z depth with an
+//! infinite far plane (depth 1 at the near plane, 0 at infinity), depth range [0, 1] as Vulkan
+//! expects. This is glam's `perspective_infinite_reverse_rh`, whose clip-space Y points up; the
+//! renderer flips Y (negative viewport height) to match Vulkan's downward framebuffer Y.
+
+use bevy_ecs::prelude::*;
+use glam::Mat4;
+
+use crate::transform::Transform;
+
+/// A perspective camera; its view is the inverse of its entity's `GlobalTransform`.
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[require(Transform)]
+pub struct Camera {
+    /// Vertical field of view in radians.
+    pub fov_y: f32,
+    /// Distance to the near plane in metres (the far plane is at infinity).
+    pub near: f32,
+    /// Linear exposure multiplier applied to radiance before tonemapping.
+    pub exposure: f32,
+    /// Whether this camera renders.
+    pub active: bool,
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Camera {
+            fov_y: 60f32.to_radians(),
+            near: 0.05,
+            exposure: 1.0,
+            active: true,
+        }
+    }
+}
+
+impl Camera {
+    /// The projection matrix for a viewport of `aspect` = width / height. Non-finite or
+    /// non-positive inputs are clamped to small positive values rather than producing NaN.
+    pub fn projection(&self, aspect: f32) -> Mat4 {
+        let fov = if self.fov_y.is_finite() {
+            self.fov_y.clamp(1e-3, std::f32::consts::PI - 1e-3)
+        } else {
+            60f32.to_radians()
+        };
+        let aspect = if aspect.is_finite() && aspect > 0.0 { aspect } else { 1.0 };
+        let near = if self.near.is_finite() && self.near > 0.0 { self.near } else { 0.05 };
+        Mat4::perspective_infinite_reverse_rh(fov, aspect, near)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{Vec3, Vec4};
+
+    #[test]
+    fn reverse_z_depth() {
+        let camera = Camera::default();
+        let proj = camera.projection(16.0 / 9.0);
+        let near = proj * Vec4::new(0.0, 0.0, -camera.near, 1.0);
+        let far = proj * Vec4::new(0.0, 0.0, -1.0e6, 1.0);
+        assert!((near.z / near.w - 1.0).abs() < 1e-5);
+        assert!((far.z / far.w).abs() < 1e-6);
+        // A point above the axis lands at positive clip Y (Y up before the viewport flip).
+        let up = proj * Vec3::new(0.0, 1.0, -2.0).extend(1.0);
+        assert!(up.y > 0.0);
+    }
+}

@@ -1,0 +1,139 @@
+//! Punctual light components in physical units (glTF `KHR_lights_punctual` semantics).
+//!
+//! Point and spot lights have an optional range; without one their culling range comes from
+//! their intensity by seed 001 (Elagabani 2025), eq. 4.1: the distance at which the inverse
+//! square falloff drops below [`MIN_LIGHT_INTENSITY`].
+
+use bevy_ecs::prelude::*;
+use glam::Vec3;
+
+use crate::transform::Transform;
+
+/// Intensity threshold below which a light's contribution is ignored (seed 001, eq. 4.1).
+pub const MIN_LIGHT_INTENSITY: f32 = 0.02;
+
+/// The culling range of a light of `intensity` candela: seed 001, eq. 4.1,
+/// `I / D² = 0.02  ⇔  D = 50 · √(0.02 · I)` (which equals `√(I / 0.02)`).
+/// Negative or non-finite intensities give 0.
+pub fn range_from_intensity(intensity: f32) -> f32 {
+    if intensity.is_finite() && intensity > 0.0 {
+        50.0 * (MIN_LIGHT_INTENSITY * intensity).sqrt()
+    } else {
+        0.0
+    }
+}
+
+/// An omnidirectional light at its entity's position.
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[require(Transform)]
+pub struct PointLight {
+    /// Linear RGB colour.
+    pub color: Vec3,
+    /// Luminous intensity in candela.
+    pub intensity: f32,
+    /// Explicit range in metres; `None` derives it from the intensity.
+    pub range: Option<f32>,
+}
+
+impl Default for PointLight {
+    fn default() -> Self {
+        PointLight {
+            color: Vec3::ONE,
+            intensity: 10.0,
+            range: None,
+        }
+    }
+}
+
+impl PointLight {
+    /// The explicit range, or [`range_from_intensity`] of the intensity.
+    pub fn effective_range(&self) -> f32 {
+        self.range.unwrap_or_else(|| range_from_intensity(self.intensity))
+    }
+}
+
+/// A cone light at its entity's position, shining along its local -Z.
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[require(Transform)]
+pub struct SpotLight {
+    /// Linear RGB colour.
+    pub color: Vec3,
+    /// Luminous intensity in candela along the axis.
+    pub intensity: f32,
+    /// Explicit range in metres; `None` derives it from the intensity.
+    pub range: Option<f32>,
+    /// Angle from the axis (radians) inside which the intensity is full (glTF `innerConeAngle`).
+    pub inner_angle: f32,
+    /// Angle from the axis (radians) beyond which there is no light (glTF `outerConeAngle`).
+    pub outer_angle: f32,
+}
+
+impl Default for SpotLight {
+    fn default() -> Self {
+        SpotLight {
+            color: Vec3::ONE,
+            intensity: 10.0,
+            range: None,
+            inner_angle: 0.0,
+            outer_angle: std::f32::consts::FRAC_PI_4,
+        }
+    }
+}
+
+impl SpotLight {
+    /// The explicit range, or [`range_from_intensity`] of the intensity.
+    pub fn effective_range(&self) -> f32 {
+        self.range.unwrap_or_else(|| range_from_intensity(self.intensity))
+    }
+}
+
+/// A light infinitely far away, shining along its entity's local -Z.
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[require(Transform)]
+pub struct DirectionalLight {
+    /// Linear RGB colour.
+    pub color: Vec3,
+    /// Illuminance in lux on a surface facing the light.
+    pub illuminance: f32,
+}
+
+impl Default for DirectionalLight {
+    fn default() -> Self {
+        DirectionalLight {
+            color: Vec3::ONE,
+            illuminance: 5.0,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn range_matches_eq_4_1() {
+        // D = sqrt(I / 0.02): I = 2 -> 10 m, I = 50 -> 50 m, I = 0.02 -> 1 m.
+        assert!((range_from_intensity(2.0) - 10.0).abs() < 1e-4);
+        assert!((range_from_intensity(50.0) - 50.0).abs() < 1e-3);
+        assert!((range_from_intensity(0.02) - 1.0).abs() < 1e-5);
+        let d = range_from_intensity(123.0);
+        assert!((123.0 / (d * d) - MIN_LIGHT_INTENSITY).abs() < 1e-6);
+        assert_eq!(range_from_intensity(-1.0), 0.0);
+        assert_eq!(range_from_intensity(f32::NAN), 0.0);
+    }
+
+    #[test]
+    fn explicit_range_wins() {
+        let light = PointLight {
+            range: Some(3.0),
+            intensity: 1e6,
+            ..Default::default()
+        };
+        assert_eq!(light.effective_range(), 3.0);
+        let spot = SpotLight {
+            intensity: 8.0,
+            ..Default::default()
+        };
+        assert!((spot.effective_range() - 20.0).abs() < 1e-4);
+    }
+}

@@ -1,0 +1,19 @@
+//! The engine prelude: the types a game uses every day, plus `bevy_ecs::prelude::*` and the
+//! common `glam` types, so that `use engine::prelude::*;` is enough for most systems.
+//!
+//! Note that [`Name`] here is the engine's [`crate::scene::Name`], which shadows
+//! `bevy_ecs::prelude::Name`.
+
+pub use bevy_ecs::prelude::*;
+pub use glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3, Vec3A, Vec4};
+
+pub use crate::app::{App, Plugin, PostUpdate, PreUpdate, Render, Startup, Update};
+pub use crate::asset::{AssetEvent, Assets, Handle};
+pub use crate::camera::Camera;
+pub use crate::image::{ColorSpace, Image};
+pub use crate::light::{DirectionalLight, PointLight, SpotLight};
+pub use crate::material::{AlphaMode, Material};
+pub use crate::mesh::{Mesh, shapes};
+pub use crate::scene::{MeshInstance, Name};
+pub use crate::time::Time;
+pub use crate::transform::{GlobalTransform, Transform, TransformPlugin, TransformSystems};

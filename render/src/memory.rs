@@ -1,0 +1,261 @@
+//! Buffers and images with their memory (through `gpu-allocator`), and deferred destruction.
+//!
+//! Anything the GPU may still read when the CPU lets go of it goes into [`Graveyard`] with the
+//! timeline value of the last frame that could use it, and is destroyed once the GPU has passed
+//! that value.
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+
+use crate::RenderError;
+use crate::device::GpuContext;
+
+/// A buffer and its memory.
+pub struct Buffer {
+    /// The Vulkan buffer.
+    pub raw: vk::Buffer,
+    allocation: Option<Allocation>,
+    /// Size in bytes.
+    pub size: u64,
+    /// Device address (0 unless created with `SHADER_DEVICE_ADDRESS`).
+    pub address: vk::DeviceAddress,
+}
+
+impl Buffer {
+    /// Creates a buffer of `size` bytes in `location`.
+    pub fn new(
+        ctx: &GpuContext,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+    ) -> Result<Buffer, RenderError> {
+        let d = &ctx.device;
+        let size = size.max(16);
+        // SAFETY: a valid create info; the buffer is bound to memory below before any use.
+        let raw = unsafe { d.create_buffer(&vk::BufferCreateInfo::default().size(size).usage(usage), None) }?;
+        // SAFETY: `raw` is a live buffer of this device.
+        let requirements = unsafe { d.get_buffer_memory_requirements(raw) };
+        let allocation = ctx.allocator().allocate(&AllocationCreateDesc {
+            name,
+            requirements,
+            location,
+            linear: true,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        });
+        let allocation = match allocation {
+            Ok(a) => a,
+            Err(e) => {
+                // SAFETY: the buffer was never used.
+                unsafe { d.destroy_buffer(raw, None) };
+                return Err(e.into());
+            }
+        };
+        // SAFETY: the allocation satisfies the buffer's requirements and is not bound elsewhere.
+        unsafe { d.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) }?;
+        let address = if usage.contains(vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS) {
+            // SAFETY: the buffer is bound and was created with SHADER_DEVICE_ADDRESS.
+            unsafe { d.get_buffer_device_address(&vk::BufferDeviceAddressInfo::default().buffer(raw)) }
+        } else {
+            0
+        };
+        Ok(Buffer { raw, allocation: Some(allocation), size, address })
+    }
+
+    /// The CPU view of a host-visible buffer.
+    pub fn mapped(&mut self) -> &mut [u8] {
+        self.allocation
+            .as_mut()
+            .and_then(|a| a.mapped_slice_mut())
+            .expect("mapped() on a buffer that is not host-visible")
+    }
+
+    /// Destroys the buffer now. The caller guarantees the GPU no longer uses it.
+    pub fn destroy(mut self, ctx: &GpuContext) {
+        // SAFETY: guaranteed by the caller (directly or through the Graveyard).
+        unsafe { ctx.device.destroy_buffer(self.raw, None) };
+        if let Some(a) = self.allocation.take() {
+            if let Err(e) = ctx.allocator().free(a) {
+                tracing::error!("freeing buffer memory failed: {e}");
+            }
+        }
+    }
+}
+
+/// How to create an [`Image`].
+#[derive(Clone, Copy, Debug)]
+pub struct ImageDesc<'a> {
+    /// Debug name.
+    pub name: &'a str,
+    /// Texel format.
+    pub format: vk::Format,
+    /// Size in pixels.
+    pub extent: vk::Extent2D,
+    /// Mip levels.
+    pub mip_levels: u32,
+    /// Usage.
+    pub usage: vk::ImageUsageFlags,
+}
+
+/// A 2D image, its memory and a view of all its mips.
+pub struct Image {
+    /// The Vulkan image.
+    pub raw: vk::Image,
+    /// A view of every mip level.
+    pub view: vk::ImageView,
+    allocation: Option<Allocation>,
+    /// Texel format.
+    pub format: vk::Format,
+    /// Size of level 0.
+    pub extent: vk::Extent2D,
+    /// Mip levels.
+    pub mip_levels: u32,
+    /// Colour or depth aspect.
+    pub aspect: vk::ImageAspectFlags,
+}
+
+impl Image {
+    /// Creates an image in device-local memory.
+    pub fn new(ctx: &GpuContext, desc: &ImageDesc) -> Result<Image, RenderError> {
+        let d = &ctx.device;
+        let aspect = if is_depth_format(desc.format) { vk::ImageAspectFlags::DEPTH } else { vk::ImageAspectFlags::COLOR };
+        let info = vk::ImageCreateInfo::default()
+            .image_type(vk::ImageType::TYPE_2D)
+            .format(desc.format)
+            .extent(vk::Extent3D { width: desc.extent.width, height: desc.extent.height, depth: 1 })
+            .mip_levels(desc.mip_levels)
+            .array_layers(1)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(desc.usage)
+            .initial_layout(vk::ImageLayout::UNDEFINED);
+        // SAFETY: a valid create info; bound to memory below before use.
+        let raw = unsafe { d.create_image(&info, None) }?;
+        // SAFETY: `raw` is a live image of this device.
+        let requirements = unsafe { d.get_image_memory_requirements(raw) };
+        let allocation = ctx.allocator().allocate(&AllocationCreateDesc {
+            name: desc.name,
+            requirements,
+            location: MemoryLocation::GpuOnly,
+            linear: false,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        });
+        let allocation = match allocation {
+            Ok(a) => a,
+            Err(e) => {
+                // SAFETY: never used.
+                unsafe { d.destroy_image(raw, None) };
+                return Err(e.into());
+            }
+        };
+        // SAFETY: the allocation satisfies the image's requirements.
+        unsafe { d.bind_image_memory(raw, allocation.memory(), allocation.offset()) }?;
+        let view_info = vk::ImageViewCreateInfo::default()
+            .image(raw)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(desc.format)
+            .subresource_range(vk::ImageSubresourceRange {
+                aspect_mask: aspect,
+                base_mip_level: 0,
+                level_count: desc.mip_levels,
+                base_array_layer: 0,
+                layer_count: 1,
+            });
+        // SAFETY: the image is bound and the range lies inside it.
+        let view = unsafe { d.create_image_view(&view_info, None) }?;
+        Ok(Image {
+            raw,
+            view,
+            allocation: Some(allocation),
+            format: desc.format,
+            extent: desc.extent,
+            mip_levels: desc.mip_levels,
+            aspect,
+        })
+    }
+
+    /// The subresource range covering every mip.
+    pub fn full_range(&self) -> vk::ImageSubresourceRange {
+        vk::ImageSubresourceRange {
+            aspect_mask: self.aspect,
+            base_mip_level: 0,
+            level_count: self.mip_levels,
+            base_array_layer: 0,
+            layer_count: 1,
+        }
+    }
+
+    /// Destroys the image now. The caller guarantees the GPU no longer uses it.
+    pub fn destroy(mut self, ctx: &GpuContext) {
+        // SAFETY: guaranteed by the caller.
+        unsafe {
+            ctx.device.destroy_image_view(self.view, None);
+            ctx.device.destroy_image(self.raw, None);
+        }
+        if let Some(a) = self.allocation.take() {
+            if let Err(e) = ctx.allocator().free(a) {
+                tracing::error!("freeing image memory failed: {e}");
+            }
+        }
+    }
+}
+
+/// True for depth formats.
+pub fn is_depth_format(format: vk::Format) -> bool {
+    matches!(format, vk::Format::D32_SFLOAT | vk::Format::D24_UNORM_S8_UINT | vk::Format::D16_UNORM | vk::Format::D32_SFLOAT_S8_UINT)
+}
+
+/// A resource waiting for the GPU to finish with it.
+pub enum Retired {
+    /// A buffer.
+    Buffer(Buffer),
+    /// An image.
+    Image(Image),
+}
+
+/// Deferred destruction: resources wait here until the GPU's timeline passes their frame.
+#[derive(Default)]
+pub struct Graveyard {
+    entries: Vec<(u64, Retired)>,
+}
+
+impl Graveyard {
+    /// Destroys `resource` once the GPU timeline reaches `after`.
+    pub fn bury(&mut self, after: u64, resource: Retired) {
+        self.entries.push((after, resource));
+    }
+
+    /// Destroys everything the GPU has finished with.
+    pub fn collect(&mut self, ctx: &GpuContext, completed: u64) {
+        if self.entries.iter().all(|(after, _)| *after > completed) {
+            return;
+        }
+        let mut i = 0;
+        while i < self.entries.len() {
+            if self.entries[i].0 <= completed {
+                match self.entries.swap_remove(i).1 {
+                    Retired::Buffer(b) => b.destroy(ctx),
+                    Retired::Image(img) => img.destroy(ctx),
+                }
+            } else {
+                i += 1;
+            }
+        }
+    }
+
+    /// Destroys everything; the caller has waited for the GPU to go idle.
+    pub fn clear(&mut self, ctx: &GpuContext) {
+        self.collect(ctx, u64::MAX);
+    }
+
+    /// Number of resources waiting.
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// True when nothing waits.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+}

@@ -1,0 +1,350 @@
+//! The renderer: frames in flight, the per-frame upload of what changed, and one recording
+//! function per pipeline.
+//!
+//! Two frames are in flight. A timeline semaphore counts finished frames; before frame N reuses
+//! its slot's command buffer, staging ring and timestamp pool, the CPU waits for frame N−2, reads
+//! that frame's GPU times, and destroys what was buried for it.
+
+use std::time::Instant;
+
+use ash::vk;
+
+use crate::RenderError;
+use crate::device::{DeviceSettings, GpuContext, Tier};
+use crate::forward::ForwardPasses;
+use crate::gpu_scene::GpuScene;
+use crate::memory::Graveyard;
+use crate::pass::PassContext;
+use crate::pipeline::{ScenePush, create_layout};
+use crate::scene::{FrameCounters, SceneMirror};
+use crate::targets::{Targets, f16_to_f32, read_back};
+use crate::timestamps::{GpuTimer, PassTimes};
+use crate::tonemap::{HDR_TEXTURE_SLOT, Tonemap};
+use crate::upload::StagingRing;
+
+/// Frames the CPU may record ahead of the GPU.
+pub const FRAMES_IN_FLIGHT: usize = 2;
+
+/// Which renderer draws the frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum PipelineKind {
+    /// Forward shading with a reverse-Z depth prepass.
+    #[default]
+    Forward,
+}
+
+impl PipelineKind {
+    /// The name used in `--stats` and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            PipelineKind::Forward => "forward",
+        }
+    }
+}
+
+/// How to create a [`Renderer`].
+#[derive(Clone, Debug, Default)]
+pub struct RendererSettings {
+    /// Device creation.
+    pub device: DeviceSettings,
+}
+
+/// Per-frame choices that may change from one frame to the next.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameSettings {
+    /// The pipeline to record.
+    pub pipeline: PipelineKind,
+    /// Radiance of pixels no geometry covers.
+    pub clear_color: [f32; 4],
+}
+
+impl Default for FrameSettings {
+    fn default() -> Self {
+        Self { pipeline: PipelineKind::Forward, clear_color: [0.0, 0.0, 0.0, 1.0] }
+    }
+}
+
+/// GPU times of a frame that has finished executing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FinishedFrame {
+    /// The frame's number (as returned in [`FrameReport::frame`]).
+    pub frame: u64,
+    /// Its passes' GPU times.
+    pub gpu: PassTimes,
+}
+
+/// What [`Renderer::render`] reports about the frame it recorded.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameReport {
+    /// This frame's number, from 0.
+    pub frame: u64,
+    /// Work done for this frame (uploads, records, acceleration structures, live counts).
+    pub counters: FrameCounters,
+    /// CPU time spent uploading and recording, in milliseconds.
+    pub record_ms: f32,
+    /// A frame that finished on the GPU while this one was being prepared, with its GPU times.
+    pub finished: Option<FinishedFrame>,
+}
+
+struct FrameSlot {
+    pool: vk::CommandPool,
+    cmd: vk::CommandBuffer,
+    staging: StagingRing,
+    timer: GpuTimer,
+    /// Timeline value that marks this slot's last submission done.
+    value: u64,
+    frame: u64,
+}
+
+struct Resources {
+    frames: Vec<FrameSlot>,
+    timeline: vk::Semaphore,
+    layout: vk::PipelineLayout,
+    scene: GpuScene,
+    forward: ForwardPasses,
+    tonemap: Tonemap,
+    targets: Targets,
+    graveyard: Graveyard,
+}
+
+/// The renderer. It owns the device; create one per window or offscreen view.
+pub struct Renderer {
+    res: std::mem::ManuallyDrop<Resources>,
+    frame_number: u64,
+    ctx: GpuContext,
+}
+
+impl Renderer {
+    /// Creates the device, pipelines and offscreen targets of `width`×`height`.
+    pub fn new(settings: &RendererSettings, width: u32, height: u32) -> Result<Self, RenderError> {
+        if width == 0 || height == 0 || width > 16384 || height > 16384 {
+            return Err(RenderError::Other(format!("render size {width}x{height} is out of range (1..=16384)")));
+        }
+        let ctx = GpuContext::new(&settings.device)?;
+        let res = Self::create_resources(&ctx, vk::Extent2D { width, height });
+        match res {
+            Ok(res) => Ok(Self { res: std::mem::ManuallyDrop::new(res), frame_number: 0, ctx }),
+            Err(e) => Err(e),
+        }
+    }
+
+    fn create_resources(ctx: &GpuContext, extent: vk::Extent2D) -> Result<Resources, RenderError> {
+        let d = &ctx.device;
+        let scene = GpuScene::new(ctx)?;
+        let layout = create_layout(ctx, scene.set_layout)?;
+        let forward = ForwardPasses::new(ctx, layout)?;
+        let tonemap = Tonemap::new(ctx, layout, crate::targets::DISPLAY_FORMAT)?;
+        let targets = Targets::new(ctx, extent)?;
+        scene.bind_target(ctx, HDR_TEXTURE_SLOT, targets.hdr.image.view);
+        let mut type_info = vk::SemaphoreTypeCreateInfo::default().semaphore_type(vk::SemaphoreType::TIMELINE).initial_value(0);
+        // SAFETY: valid create info; destroyed in Drop.
+        let timeline = unsafe { d.create_semaphore(&vk::SemaphoreCreateInfo::default().push_next(&mut type_info), None) }?;
+        let mut frames = Vec::with_capacity(FRAMES_IN_FLIGHT);
+        for _ in 0..FRAMES_IN_FLIGHT {
+            // SAFETY: valid create infos; destroyed in Drop.
+            let (pool, cmd) = unsafe {
+                let pool = d.create_command_pool(
+                    &vk::CommandPoolCreateInfo::default()
+                        .queue_family_index(ctx.queue_family)
+                        .flags(vk::CommandPoolCreateFlags::TRANSIENT),
+                    None,
+                )?;
+                let cmd = d.allocate_command_buffers(&vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1))?[0];
+                (pool, cmd)
+            };
+            frames.push(FrameSlot { pool, cmd, staging: StagingRing::new(ctx, 64 * 1024)?, timer: GpuTimer::new(ctx)?, value: 0, frame: 0 });
+        }
+        Ok(Resources { frames, timeline, layout, scene, forward, tonemap, targets, graveyard: Graveyard::default() })
+    }
+
+    /// The device's name.
+    pub fn device_name(&self) -> &str {
+        &self.ctx.device_name
+    }
+
+    /// The capability tier in use.
+    pub fn tier(&self) -> Tier {
+        self.ctx.tier
+    }
+
+    /// The render size.
+    pub fn size(&self) -> (u32, u32) {
+        (self.res.targets.extent.width, self.res.targets.extent.height)
+    }
+
+    /// Whether the Vulkan validation layer is active.
+    pub fn validation_enabled(&self) -> bool {
+        self.ctx.validation_enabled
+    }
+
+    /// Validation errors reported since the last call (always empty when validation is off).
+    pub fn take_validation_errors(&self) -> Vec<String> {
+        self.ctx.validation.take_errors()
+    }
+
+    /// Bytes of GPU memory allocated through the allocator (for leak checks).
+    pub fn gpu_memory_in_use(&self) -> u64 {
+        self.ctx.allocator().generate_report().total_allocated_bytes
+    }
+
+    /// Uploads what changed in `mirror` and records and submits one frame.
+    pub fn render(&mut self, mirror: &mut SceneMirror, settings: &FrameSettings) -> Result<FrameReport, RenderError> {
+        let start = Instant::now();
+        let frame = self.frame_number;
+        let slot_index = (frame % FRAMES_IN_FLIGHT as u64) as usize;
+        let ctx = &self.ctx;
+        let res = &mut *self.res;
+        let d = &ctx.device;
+
+        // Wait for this slot's previous frame, then harvest its timings and free its garbage.
+        let slot = &mut res.frames[slot_index];
+        if slot.value > 0 {
+            let semaphores = [res.timeline];
+            let values = [slot.value];
+            // SAFETY: waiting on a live semaphore for a value a submitted batch will signal.
+            unsafe { d.wait_semaphores(&vk::SemaphoreWaitInfo::default().semaphores(&semaphores).values(&values), u64::MAX) }?;
+        }
+        let finished = slot.timer.collect(ctx).map(|gpu| FinishedFrame { frame: slot.frame, gpu });
+        // SAFETY: the semaphore is live.
+        let completed = unsafe { d.get_semaphore_counter_value(res.timeline) }?;
+        res.graveyard.collect(ctx, completed);
+        slot.staging.reset();
+        let frame_value = frame + 1;
+
+        // SAFETY: the slot's previous submission has completed, so its pool may be reset.
+        unsafe {
+            d.reset_command_pool(slot.pool, vk::CommandPoolResetFlags::empty())?;
+            d.begin_command_buffer(slot.cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))?;
+        }
+        let cmd = slot.cmd;
+        {
+            let slot = &mut res.frames[slot_index];
+            res.scene.sync(ctx, cmd, mirror, &mut slot.staging, &mut res.graveyard, frame_value, completed)?;
+        }
+        mirror.counters.instances = mirror.instances.len() as u64;
+        mirror.counters.lights = mirror.lights.len() as u64;
+
+        let push = ScenePush {
+            camera: res.scene.camera.address(),
+            instances: res.scene.instances.address(),
+            materials: res.scene.materials.address(),
+            lights: res.scene.lights.address(),
+            light_count: mirror.lights.slot_count(),
+            ..Default::default()
+        };
+        let slot = &mut res.frames[slot_index];
+        let mut pass = PassContext { ctx, cmd, layout: res.layout, bindless: res.scene.set, push, timer: &mut slot.timer };
+        match settings.pipeline {
+            PipelineKind::Forward => record_forward(
+                &mut pass,
+                FrameParts { targets: &mut res.targets, forward: &res.forward, tonemap: &res.tonemap, scene: &res.scene },
+                mirror,
+                settings,
+            ),
+        }
+
+        // SAFETY: recording is complete; the submit signals the timeline with this frame's value.
+        unsafe {
+            d.end_command_buffer(cmd)?;
+            let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
+            let signals = [vk::SemaphoreSubmitInfo::default()
+                .semaphore(res.timeline)
+                .value(frame_value)
+                .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)];
+            let submit = vk::SubmitInfo2::default().command_buffer_infos(&cmds).signal_semaphore_infos(&signals);
+            d.queue_submit2(ctx.queue, &[submit], vk::Fence::null())?;
+        }
+        let slot = &mut res.frames[slot_index];
+        slot.value = frame_value;
+        slot.frame = frame;
+        self.frame_number += 1;
+        Ok(FrameReport { frame, counters: mirror.counters, record_ms: start.elapsed().as_secs_f32() * 1e3, finished })
+    }
+
+    /// Waits for the GPU and returns the timings of every frame not yet reported, oldest first.
+    pub fn finish(&mut self) -> Vec<FinishedFrame> {
+        self.ctx.wait_idle();
+        let mut slots: Vec<&mut FrameSlot> = self.res.frames.iter_mut().collect();
+        slots.sort_by_key(|s| s.frame);
+        let ctx = &self.ctx;
+        slots.into_iter().filter_map(|s| s.timer.collect(ctx).map(|gpu| FinishedFrame { frame: s.frame, gpu })).collect()
+    }
+
+    /// The tone-mapped image of the last frame as RGBA8 sRGB rows (waits for the GPU).
+    pub fn read_display(&mut self) -> Result<Vec<u8>, RenderError> {
+        self.ctx.wait_idle();
+        read_back(&self.ctx, &mut self.res.targets.display, 4)
+    }
+
+    /// The linear radiance of the last frame as RGBA f32 (waits for the GPU).
+    pub fn read_hdr(&mut self) -> Result<Vec<[f32; 4]>, RenderError> {
+        self.ctx.wait_idle();
+        let bytes = read_back(&self.ctx, &mut self.res.targets.hdr, 8)?;
+        Ok(bytes
+            .chunks_exact(8)
+            .map(|px| std::array::from_fn(|c| f16_to_f32(u16::from_le_bytes([px[c * 2], px[c * 2 + 1]]))))
+            .collect())
+    }
+
+    /// The depth of the last frame (reverse-Z: 1 at the near plane, 0 at infinity).
+    pub fn read_depth(&mut self) -> Result<Vec<f32>, RenderError> {
+        self.ctx.wait_idle();
+        let bytes = read_back(&self.ctx, &mut self.res.targets.depth, 4)?;
+        Ok(bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect())
+    }
+
+    /// Recreates the targets at a new size (waits for the GPU).
+    pub fn resize(&mut self, width: u32, height: u32) -> Result<(), RenderError> {
+        if width == 0 || height == 0 || width > 16384 || height > 16384 {
+            return Err(RenderError::Other(format!("render size {width}x{height} is out of range (1..=16384)")));
+        }
+        self.ctx.wait_idle();
+        let targets = Targets::new(&self.ctx, vk::Extent2D { width, height })?;
+        let old = std::mem::replace(&mut self.res.targets, targets);
+        old.destroy(&self.ctx);
+        self.res.scene.bind_target(&self.ctx, HDR_TEXTURE_SLOT, self.res.targets.hdr.image.view);
+        Ok(())
+    }
+}
+
+/// The parts of the renderer a pipeline's recording function uses.
+struct FrameParts<'a> {
+    targets: &'a mut Targets,
+    forward: &'a ForwardPasses,
+    tonemap: &'a Tonemap,
+    scene: &'a GpuScene,
+}
+
+/// One forward frame: depth prepass, shading with depth EQUAL, tone mapping.
+fn record_forward(p: &mut PassContext, f: FrameParts, mirror: &SceneMirror, settings: &FrameSettings) {
+    let draws = &mirror.draws;
+    f.forward.prepass(p, f.targets, f.scene, draws);
+    f.forward.shade(p, f.targets, f.scene, draws, settings.clear_color);
+    f.tonemap.record(p, &mut f.targets.hdr, &mut f.targets.display);
+}
+
+impl Drop for Renderer {
+    fn drop(&mut self) {
+        self.ctx.wait_idle();
+        // SAFETY: the GPU is idle; `res` is never used again.
+        let res = unsafe { std::mem::ManuallyDrop::take(&mut self.res) };
+        let ctx = &self.ctx;
+        let Resources { frames, timeline, layout, scene, forward, tonemap, targets, mut graveyard } = res;
+        for f in frames {
+            f.staging.destroy(ctx);
+            f.timer.destroy(ctx);
+            // SAFETY: idle GPU; the pool frees its command buffer.
+            unsafe { ctx.device.destroy_command_pool(f.pool, None) };
+        }
+        graveyard.clear(ctx);
+        forward.destroy(ctx);
+        tonemap.destroy(ctx);
+        targets.destroy(ctx);
+        scene.destroy(ctx);
+        // SAFETY: idle GPU; nothing references these any more.
+        unsafe {
+            ctx.device.destroy_pipeline_layout(layout, None);
+            ctx.device.destroy_semaphore(timeline, None);
+        }
+    }
+}

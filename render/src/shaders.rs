@@ -1,0 +1,30 @@
+//! SPIR-V compiled from `shaders/` by `build.rs` (glslc), and shader-module creation.
+
+use ash::vk;
+
+use crate::RenderError;
+use crate::device::GpuContext;
+
+macro_rules! spirv {
+    ($($name:ident = $file:literal;)*) => {
+        $(
+            #[doc = concat!("SPIR-V of `shaders/", $file, "`.")]
+            pub const $name: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/", $file, ".spv"));
+        )*
+    };
+}
+
+spirv! {
+    MESH_VERT = "mesh.vert";
+    PREPASS_MASK_FRAG = "prepass_mask.frag";
+    FORWARD_FRAG = "forward.frag";
+    FULLSCREEN_VERT = "fullscreen.vert";
+    TONEMAP_FRAG = "tonemap.frag";
+}
+
+/// Creates a shader module from SPIR-V bytes.
+pub fn module(ctx: &GpuContext, spirv: &[u8]) -> Result<vk::ShaderModule, RenderError> {
+    let words = ash::util::read_spv(&mut std::io::Cursor::new(spirv)).map_err(|e| RenderError::Other(format!("bad SPIR-V: {e}")))?;
+    // SAFETY: `words` is SPIR-V produced by glslc at build time.
+    Ok(unsafe { ctx.device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None) }?)
+}

@@ -1,0 +1,110 @@
+//! Per-pass GPU times from timestamp queries.
+//!
+//! Each frame in flight owns a query pool; a pass is bracketed by two timestamps. Results are
+//! read when the frame's slot comes round again (its fence has passed), so reading never stalls.
+
+use ash::vk;
+
+use crate::RenderError;
+use crate::device::GpuContext;
+
+/// Most passes one frame can time.
+pub const MAX_PASSES: usize = 16;
+
+/// GPU milliseconds per pass for one frame, in recording order; no heap allocation.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PassTimes {
+    entries: [(&'static str, f32); MAX_PASSES],
+    len: usize,
+    /// From the first pass's start to the last pass's end.
+    pub total_ms: f32,
+}
+
+impl PassTimes {
+    /// `(pass name, milliseconds)` pairs in recording order.
+    pub fn iter(&self) -> impl Iterator<Item = (&'static str, f32)> + '_ {
+        self.entries[..self.len].iter().copied()
+    }
+
+    /// The time of one pass.
+    pub fn get(&self, name: &str) -> Option<f32> {
+        self.iter().find(|(n, _)| *n == name).map(|(_, ms)| ms)
+    }
+}
+
+/// Timestamp queries for one frame slot.
+pub struct GpuTimer {
+    pool: vk::QueryPool,
+    names: [&'static str; MAX_PASSES],
+    len: usize,
+    open: bool,
+    raw: [u64; MAX_PASSES * 2],
+}
+
+impl GpuTimer {
+    /// Creates the query pool.
+    pub fn new(ctx: &GpuContext) -> Result<Self, RenderError> {
+        let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count((MAX_PASSES * 2) as u32);
+        // SAFETY: valid create info; destroyed in `destroy`.
+        let pool = unsafe { ctx.device.create_query_pool(&info, None) }?;
+        // SAFETY: host reset (Vulkan 1.2 core, enabled) of a pool no command buffer uses yet.
+        unsafe { ctx.device.reset_query_pool(pool, 0, (MAX_PASSES * 2) as u32) };
+        Ok(Self { pool, names: [""; MAX_PASSES], len: 0, open: false, raw: [0; MAX_PASSES * 2] })
+    }
+
+    /// Reads the previous use's results (its frame has completed) and resets for a new frame.
+    pub fn collect(&mut self, ctx: &GpuContext) -> Option<PassTimes> {
+        let n = self.len;
+        self.len = 0;
+        if n == 0 {
+            return None;
+        }
+        let data = &mut self.raw[..n * 2];
+        // SAFETY: the queries [0, 2n) were written by a command buffer that has completed.
+        let ok = unsafe { ctx.device.get_query_pool_results(self.pool, 0, data, vk::QueryResultFlags::TYPE_64) };
+        // SAFETY: the frame that used the pool has completed; host reset is enabled.
+        unsafe { ctx.device.reset_query_pool(self.pool, 0, (MAX_PASSES * 2) as u32) };
+        if let Err(e) = ok {
+            tracing::warn!("timestamp results unavailable: {e}");
+            return None;
+        }
+        let to_ms = ctx.timestamp_period_ns as f64 * 1e-6;
+        let mut times = PassTimes::default();
+        for i in 0..n {
+            let ms = data[i * 2 + 1].saturating_sub(data[i * 2]) as f64 * to_ms;
+            times.entries[i] = (self.names[i], ms as f32);
+        }
+        times.len = n;
+        times.total_ms = (data[n * 2 - 1].saturating_sub(data[0]) as f64 * to_ms) as f32;
+        Some(times)
+    }
+
+    /// Opens a timed pass. Passes beyond [`MAX_PASSES`] are not timed.
+    pub fn begin(&mut self, ctx: &GpuContext, cmd: vk::CommandBuffer, name: &'static str) {
+        debug_assert!(!self.open, "nested GPU timer scopes");
+        if self.len >= MAX_PASSES {
+            return;
+        }
+        self.names[self.len] = name;
+        self.open = true;
+        // SAFETY: `cmd` is recording; the query was reset after its last use.
+        unsafe { ctx.device.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.pool, (self.len * 2) as u32) };
+    }
+
+    /// Closes the pass opened by `begin`.
+    pub fn end(&mut self, ctx: &GpuContext, cmd: vk::CommandBuffer) {
+        if !self.open {
+            return;
+        }
+        self.open = false;
+        // SAFETY: as in `begin`.
+        unsafe { ctx.device.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.pool, (self.len * 2 + 1) as u32) };
+        self.len += 1;
+    }
+
+    /// Destroys the pool; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        // SAFETY: the GPU is idle.
+        unsafe { ctx.device.destroy_query_pool(self.pool, None) };
+    }
+}

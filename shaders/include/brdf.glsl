@@ -1,0 +1,77 @@
+// The Frostbite standard material (seed 000 §2.3; Lagarde and de Rousiers 2014): GGX normal
+// distribution, height-correlated Smith visibility, Schlick Fresnel, renormalised Disney diffuse.
+// tests/tests/brdf.rs evaluates the same equations on the CPU and compares against the GPU.
+#ifndef BRDF_GLSL
+#define BRDF_GLSL
+
+const float PI = 3.14159265358979;
+// Seed 000 §2.3: "a constant value of 0.02 for all non metals".
+const float DIELECTRIC_F0 = 0.02;
+
+vec3 f_schlick(vec3 f0, float f90, float u) {
+    return f0 + (vec3(f90) - f0) * pow(1.0 - u, 5.0);
+}
+
+float f_schlick1(float f0, float f90, float u) {
+    return f0 + (f90 - f0) * pow(1.0 - u, 5.0);
+}
+
+// GGX / Trowbridge-Reitz normal distribution; alpha = roughness².
+float d_ggx(float n_dot_h, float alpha) {
+    float a2 = alpha * alpha;
+    float f = (n_dot_h * a2 - n_dot_h) * n_dot_h + 1.0;
+    return a2 / (PI * f * f);
+}
+
+// Height-correlated Smith G divided by 4|n·l||n·v| (Heitz 2014, Frostbite eq. 5.1.2).
+float v_smith_ggx_correlated(float n_dot_v, float n_dot_l, float alpha) {
+    float a2 = alpha * alpha;
+    float lambda_v = n_dot_l * sqrt((-n_dot_v * a2 + n_dot_v) * n_dot_v + a2);
+    float lambda_l = n_dot_v * sqrt((-n_dot_l * a2 + n_dot_l) * n_dot_l + a2);
+    return 0.5 / (lambda_v + lambda_l);
+}
+
+// Renormalised Disney diffuse (Frostbite listing 1), without the 1/π.
+float fd_disney_renormalized(float n_dot_v, float n_dot_l, float l_dot_h, float linear_roughness) {
+    float energy_bias = mix(0.0, 0.5, linear_roughness);
+    float energy_factor = mix(1.0, 1.0 / 1.51, linear_roughness);
+    float fd90 = energy_bias + 2.0 * l_dot_h * l_dot_h * linear_roughness;
+    float light_scatter = f_schlick1(1.0, fd90, n_dot_l);
+    float view_scatter = f_schlick1(1.0, fd90, n_dot_v);
+    return light_scatter * view_scatter * energy_factor;
+}
+
+struct SurfaceBrdf {
+    vec3 diffuse_color;   // base colour × (1 − metallic)
+    vec3 f0;              // mix(DIELECTRIC_F0, base colour, metallic)
+    float roughness;      // perceptual ("linear") roughness
+    float alpha;          // roughness²
+};
+
+SurfaceBrdf surface_brdf(vec3 base_color, float metallic, float roughness) {
+    SurfaceBrdf s;
+    s.roughness = clamp(roughness, 0.045, 1.0);  // keeps GGX finite for mirror-like surfaces
+    s.alpha = s.roughness * s.roughness;
+    s.diffuse_color = base_color * (1.0 - metallic);
+    s.f0 = mix(vec3(DIELECTRIC_F0), base_color, metallic);
+    return s;
+}
+
+// f(l, v) · (n·l): the reflected radiance per unit incident irradiance-from-normal-direction.
+vec3 brdf_cos(SurfaceBrdf s, vec3 n, vec3 v, vec3 l) {
+    float n_dot_l = clamp(dot(n, l), 0.0, 1.0);
+    if (n_dot_l <= 0.0) return vec3(0.0);
+    vec3 h = normalize(v + l);
+    float n_dot_v = abs(dot(n, v)) + 1e-5;
+    float n_dot_h = clamp(dot(n, h), 0.0, 1.0);
+    float l_dot_h = clamp(dot(l, h), 0.0, 1.0);
+
+    vec3 f = f_schlick(s.f0, 1.0, l_dot_h);
+    float vis = v_smith_ggx_correlated(n_dot_v, n_dot_l, s.alpha);
+    float d = d_ggx(n_dot_h, s.alpha);
+    vec3 fr = d * vis * f;
+    vec3 fd = s.diffuse_color * (fd_disney_renormalized(n_dot_v, n_dot_l, l_dot_h, s.roughness) / PI);
+    return (fr + fd) * n_dot_l;
+}
+
+#endif

@@ -1,0 +1,15 @@
+// The interface between mesh.vert and every fragment stage that shades meshes.
+#ifndef MESH_IO_GLSL
+#define MESH_IO_GLSL
+#ifdef VERTEX_STAGE
+#define IO out
+#else
+#define IO in
+#endif
+layout(location = 0) IO vec3 v_world_pos;
+layout(location = 1) IO vec3 v_normal;
+layout(location = 2) IO vec4 v_tangent;
+layout(location = 3) IO vec2 v_uv;
+layout(location = 4) flat IO uint v_material;
+#undef IO
+#endif

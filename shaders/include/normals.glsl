@@ -1,0 +1,19 @@
+// Tangent-space normal mapping with the MikkTSpace convention (bitangent = sign × cross(n, t)).
+#ifndef NORMALS_GLSL
+#define NORMALS_GLSL
+
+vec3 perturb_normal(vec3 n, vec4 tangent, vec3 tangent_space_normal, float scale) {
+    vec3 t = tangent.xyz - n * dot(n, tangent.xyz);
+    float tl = length(t);
+    if (tl < 1e-6) return n;
+    t /= tl;
+    vec3 b = cross(n, t) * (tangent.w < 0.0 ? -1.0 : 1.0);
+    vec3 ts = vec3(tangent_space_normal.xy * scale, tangent_space_normal.z);
+    return normalize(mat3(t, b, n) * ts);
+}
+
+vec3 decode_normal_texel(vec3 texel) {
+    return texel * 2.0 - 1.0;
+}
+
+#endif

@@ -1,0 +1,24 @@
+#version 460
+// One vertex shader for the depth prepass and the shading pass, so that both produce bit-identical
+// depth (the shading pass tests EQUAL against the prepass).
+#define VERTEX_STAGE
+#include "scene.glsl"
+#include "mesh_io.glsl"
+
+layout(location = 0) in vec3 a_position;
+layout(location = 1) in vec3 a_normal;
+layout(location = 2) in vec2 a_uv;
+layout(location = 3) in vec4 a_tangent;
+
+invariant gl_Position;
+
+void main() {
+    GpuInstance inst = scene.instances.instances[gl_InstanceIndex];
+    vec4 world = inst.model * vec4(a_position, 1.0);
+    v_world_pos = world.xyz;
+    v_normal = mat3(inst.normal_model) * a_normal;
+    v_tangent = vec4(mat3(inst.model) * a_tangent.xyz, a_tangent.w);
+    v_uv = a_uv;
+    v_material = inst.material;
+    gl_Position = scene.camera.camera.view_proj * world;
+}
