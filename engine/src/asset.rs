@@ -281,7 +281,10 @@ mod tests {
         );
         assert_eq!(assets.drain_events().count(), 0);
         assert_eq!(assets.get(a), Some(&11));
-        assert_eq!(assets.iter().map(|(h, v)| (h, *v)).collect::<Vec<_>>(), vec![(a, 11)]);
+        assert_eq!(
+            assets.iter().map(|(h, v)| (h, *v)).collect::<Vec<_>>(),
+            vec![(a, 11)]
+        );
     }
 
     #[test]

@@ -44,8 +44,16 @@ impl Camera {
         } else {
             60f32.to_radians()
         };
-        let aspect = if aspect.is_finite() && aspect > 0.0 { aspect } else { 1.0 };
-        let near = if self.near.is_finite() && self.near > 0.0 { self.near } else { 0.05 };
+        let aspect = if aspect.is_finite() && aspect > 0.0 {
+            aspect
+        } else {
+            1.0
+        };
+        let near = if self.near.is_finite() && self.near > 0.0 {
+            self.near
+        } else {
+            0.05
+        };
         Mat4::perspective_infinite_reverse_rh(fov, aspect, near)
     }
 }

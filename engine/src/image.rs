@@ -27,7 +27,9 @@ pub enum ColorSpace {
 #[derive(Error, Debug)]
 pub enum ImageError {
     /// The pixel data does not match the stated size, or the size is zero.
-    #[error("invalid image size {width}x{height}: expected {expected} bytes of RGBA8 data, got {actual}")]
+    #[error(
+        "invalid image size {width}x{height}: expected {expected} bytes of RGBA8 data, got {actual}"
+    )]
     InvalidSize {
         /// Width in pixels.
         width: u32,
@@ -120,7 +122,9 @@ impl Image {
 
     /// Decodes an in-memory PNG or JPEG.
     pub fn from_encoded(bytes: &[u8], color_space: ColorSpace) -> Result<Image, ImageError> {
-        decode(bytes, color_space, || format!("<{} bytes in memory>", bytes.len()))
+        decode(bytes, color_space, || {
+            format!("<{} bytes in memory>", bytes.len())
+        })
     }
 
     /// A 1×1 image of one colour.
@@ -306,7 +310,10 @@ mod tests {
         for (level, data) in image.mips.iter().enumerate() {
             let (w, h) = sizes[level];
             assert_eq!(data.len(), (w * h * 4) as usize);
-            assert!(data.iter().all(|&v| v == 200), "constant image stays constant");
+            assert!(
+                data.iter().all(|&v| v == 200),
+                "constant image stays constant"
+            );
         }
         let tall = Image::from_rgba8(1, 6, vec![0; 24], ColorSpace::Srgb).unwrap();
         assert_eq!(tall.mip_count(), 3);
@@ -346,7 +353,11 @@ mod tests {
     fn bad_sizes_are_errors() {
         assert!(matches!(
             Image::from_rgba8(2, 2, vec![0; 15], ColorSpace::Srgb),
-            Err(ImageError::InvalidSize { expected: 16, actual: 15, .. })
+            Err(ImageError::InvalidSize {
+                expected: 16,
+                actual: 15,
+                ..
+            })
         ));
         assert!(Image::from_rgba8(0, 4, vec![], ColorSpace::Srgb).is_err());
         assert!(matches!(
@@ -358,9 +369,14 @@ mod tests {
     #[test]
     fn encoded_png_round_trips() {
         let mut png = Vec::new();
-        let pixels = ::image::RgbaImage::from_fn(4, 4, |x, y| ::image::Rgba([x as u8 * 60, y as u8 * 60, 7, 255]));
+        let pixels = ::image::RgbaImage::from_fn(4, 4, |x, y| {
+            ::image::Rgba([x as u8 * 60, y as u8 * 60, 7, 255])
+        });
         pixels
-            .write_to(&mut std::io::Cursor::new(&mut png), ::image::ImageFormat::Png)
+            .write_to(
+                &mut std::io::Cursor::new(&mut png),
+                ::image::ImageFormat::Png,
+            )
             .unwrap();
         let image = Image::from_encoded(&png, ColorSpace::Linear).unwrap();
         assert_eq!((image.width, image.height, image.mip_count()), (4, 4, 3));

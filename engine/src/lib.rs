@@ -5,6 +5,9 @@
 //! Nothing in this crate knows about Vulkan: the `plugins` crate extracts the data defined here
 //! (meshes, materials, images, transforms, lights) into the `render` crate's plain records.
 
+#![warn(missing_docs)]
+#![forbid(unsafe_code)]
+
 pub mod app;
 pub mod asset;
 pub mod camera;

@@ -48,7 +48,8 @@ impl Default for PointLight {
 impl PointLight {
     /// The explicit range, or [`range_from_intensity`] of the intensity.
     pub fn effective_range(&self) -> f32 {
-        self.range.unwrap_or_else(|| range_from_intensity(self.intensity))
+        self.range
+            .unwrap_or_else(|| range_from_intensity(self.intensity))
     }
 }
 
@@ -83,7 +84,8 @@ impl Default for SpotLight {
 impl SpotLight {
     /// The explicit range, or [`range_from_intensity`] of the intensity.
     pub fn effective_range(&self) -> f32 {
-        self.range.unwrap_or_else(|| range_from_intensity(self.intensity))
+        self.range
+            .unwrap_or_else(|| range_from_intensity(self.intensity))
     }
 }
 

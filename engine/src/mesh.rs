@@ -3,7 +3,11 @@
 //!
 //! Tangents come from the `mikktspace` crate (the reference MikkTSpace algorithm that baked
 //! normal maps such as glTF's expect), then are Gram–Schmidt orthonormalised against the vertex
-//! normal. Where the UV mapping is degenerate (no UV gradient, zero-area triangles, unreferenced
+//! normal. Tangent-space convention (glTF's): `tangent.xyz` follows +U, and the bitangent
+//! `B = w · cross(N, T)` points towards *decreasing* V, i.e. "up" in an image whose first row
+//! is V = 0, so a normal map's +Y (green) means image-up. MikkTSpace itself orients the
+//! bitangent along +V, so its sign is negated (as three.js' `computeMikkTSpaceTangents` does with
+//! `negateSign` for glTF). Shaders use `n = normalize(T·x + B·y + N·z)`. Where the UV mapping is degenerate (no UV gradient, zero-area triangles, unreferenced
 //! vertices) the tangent falls back to an arbitrary unit vector perpendicular to the normal, so
 //! tangents are always finite, unit length and orthogonal to the normal.
 
@@ -109,7 +113,7 @@ impl Mesh {
                 });
             }
         }
-        if self.indices.len() % 3 != 0 {
+        if !self.indices.len().is_multiple_of(3) {
             return Err(MeshError::IndexCount(self.indices.len()));
         }
         if let Some((at, &index)) = self
@@ -133,7 +137,7 @@ impl Mesh {
         self.tangents.clear();
         self.tangents.resize(self.positions.len(), [0.0; 4]);
         match self.validate() {
-            Ok(()) if !self.indices.is_empty() => {
+            Ok(()) if self.mikktspace_safe() => {
                 if !mikktspace::generate_tangents(&mut MikkGeometry(self)) {
                     warn!("MikkTSpace failed; using fallback tangents");
                 }
@@ -141,6 +145,12 @@ impl Mesh {
             Ok(()) => {}
             Err(error) => warn!(%error, "invalid mesh; using fallback tangents"),
         }
+        self.orthonormalize_tangents();
+    }
+
+    /// Makes every tangent unit length and orthogonal to its normal (Gram–Schmidt), with `w`
+    /// exactly ±1; degenerate tangents become an arbitrary perpendicular unit vector.
+    pub fn orthonormalize_tangents(&mut self) {
         for (i, tangent) in self.tangents.iter_mut().enumerate() {
             let normal = self
                 .normals
@@ -149,6 +159,29 @@ impl Mesh {
                 .unwrap_or(Vec3::Y);
             *tangent = orthonormal_tangent(normal, *tangent);
         }
+    }
+
+    /// Whether the `mikktspace` crate can process this (valid) mesh: it indexes out of bounds
+    /// when the referenced positions span no volume on any axis or are not finite, and NaN
+    /// normals or UVs would poison its vertex welding.
+    fn mikktspace_safe(&self) -> bool {
+        let Some(&first) = self.indices.first() else {
+            return false;
+        };
+        let first = Vec3::from(self.positions[first as usize]);
+        let (mut min, mut max) = (first, first);
+        for &i in &self.indices {
+            let i = i as usize;
+            let p = Vec3::from(self.positions[i]);
+            let finite = p.is_finite()
+                && Vec3::from(self.normals[i]).is_finite()
+                && self.uvs[i].iter().all(|v| v.is_finite());
+            if !finite {
+                return false;
+            }
+            (min, max) = (min.min(p), max.max(p));
+        }
+        (max - min).max_element() > 0.0
     }
 
     /// The axis-aligned bounds `(min, max)` of the positions (both zero for an empty mesh).
@@ -218,7 +251,8 @@ impl Mesh {
         self.normals.extend_from_slice(&other.normals);
         self.uvs.extend_from_slice(&other.uvs);
         self.tangents.extend_from_slice(&other.tangents);
-        self.indices.extend(other.indices.iter().map(|&i| i + offset));
+        self.indices
+            .extend(other.indices.iter().map(|&i| i + offset));
     }
 }
 
@@ -289,7 +323,8 @@ impl mikktspace::Geometry for MikkGeometry<'_> {
 
     fn set_tangent_encoded(&mut self, tangent: [f32; 4], face: usize, vert: usize) {
         let index = self.vertex(face, vert);
-        self.0.tangents[index] = tangent;
+        // MikkTSpace's bitangent follows +V; glTF's (and ours) points to image-up, i.e. -V.
+        self.0.tangents[index] = [tangent[0], tangent[1], tangent[2], -tangent[3]];
     }
 }
 
@@ -340,7 +375,12 @@ pub mod shapes {
         }
 
         /// A flat quad from four corners in boundary order; UVs from `uv(position)`.
-        pub(super) fn flat_quad(&mut self, corners: [Vec3; 4], normal: Vec3, uv: impl Fn(Vec3) -> Vec2) {
+        pub(super) fn flat_quad(
+            &mut self,
+            corners: [Vec3; 4],
+            normal: Vec3,
+            uv: impl Fn(Vec3) -> Vec2,
+        ) {
             let v = corners.map(|p| self.vertex(p, normal, uv(p)));
             self.quad(v);
         }
@@ -431,8 +471,15 @@ pub mod shapes {
             let theta = PI * i as f32 / stacks as f32;
             for j in 0..=sectors {
                 let phi = TAU * j as f32 / sectors as f32;
-                let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
-                let uv = Vec2::new(TAU * r * j as f32 / sectors as f32, PI * r * i as f32 / stacks as f32);
+                let n = Vec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.cos(),
+                    theta.sin() * phi.sin(),
+                );
+                let uv = Vec2::new(
+                    TAU * r * j as f32 / sectors as f32,
+                    PI * r * i as f32 / stacks as f32,
+                );
                 b.vertex(n * r, n, uv);
             }
         }
@@ -486,7 +533,11 @@ pub mod shapes {
     /// semicircle's crown stays 20 % of the wall height below the top.
     pub(super) fn arch_layout(width: f32, height: f32, arch_radius: f32) -> (f32, f32) {
         let gap = 0.2 * height;
-        let radius = arch_radius.abs().min(0.45 * width).min(height - gap).max(0.0);
+        let radius = arch_radius
+            .abs()
+            .min(0.45 * width)
+            .min(height - gap)
+            .max(0.0);
         (radius, (height - gap - radius).max(0.0))
     }
 
@@ -494,7 +545,13 @@ pub mod shapes {
     /// y = 0, `thickness` along Z centred) with a semicircular-arched doorway through its centre:
     /// `2·arch_radius` wide, the crown 20 % of the height below the top (the radius is clamped to
     /// fit), the arch split into `segments` (≥ 2) pieces. UVs are in metres.
-    pub fn arch_wall(width: f32, height: f32, thickness: f32, arch_radius: f32, segments: u32) -> Mesh {
+    pub fn arch_wall(
+        width: f32,
+        height: f32,
+        thickness: f32,
+        arch_radius: f32,
+        segments: u32,
+    ) -> Mesh {
         let (w, h, t) = (width.abs(), height.abs(), thickness.abs());
         let (r, ys) = arch_layout(w, h, arch_radius);
         let (hw, ht) = (w / 2.0, t / 2.0);
@@ -513,8 +570,16 @@ pub mod shapes {
         let arc = |a: f32| centre + Vec2::new(a.cos(), a.sin()) * r;
         let boundary = |a: f32| {
             let dir = Vec2::new(a.cos(), a.sin());
-            let to_side = if dir.x.abs() > 1e-6 { hw / dir.x.abs() } else { f32::INFINITY };
-            let to_top = if dir.y > 1e-6 { (h - ys) / dir.y } else { f32::INFINITY };
+            let to_side = if dir.x.abs() > 1e-6 {
+                hw / dir.x.abs()
+            } else {
+                f32::INFINITY
+            };
+            let to_top = if dir.y > 1e-6 {
+                (h - ys) / dir.y
+            } else {
+                f32::INFINITY
+            };
             centre + dir * to_side.min(to_top)
         };
 
@@ -524,12 +589,22 @@ pub mod shapes {
             let at = |p: Vec2| Vec3::new(p.x, p.y, z);
             if ys > 0.0 {
                 for (x0, x1) in [(-hw, -r), (r, hw)] {
-                    let quad = [Vec2::new(x0, 0.0), Vec2::new(x1, 0.0), Vec2::new(x1, ys), Vec2::new(x0, ys)];
+                    let quad = [
+                        Vec2::new(x0, 0.0),
+                        Vec2::new(x1, 0.0),
+                        Vec2::new(x1, ys),
+                        Vec2::new(x0, ys),
+                    ];
                     b.flat_quad(quad.map(at), normal, uv);
                 }
             }
             for pair in angles.windows(2) {
-                let quad = [arc(pair[0]), arc(pair[1]), boundary(pair[1]), boundary(pair[0])];
+                let quad = [
+                    arc(pair[0]),
+                    arc(pair[1]),
+                    boundary(pair[1]),
+                    boundary(pair[0]),
+                ];
                 b.flat_quad(quad.map(at), normal, uv);
             }
         }
@@ -537,23 +612,45 @@ pub mod shapes {
         // Outer ends, top and the two bottom strips beside the opening.
         let corners = |x0: f32, x1: f32, y0: f32, y1: f32, zs: bool| {
             if zs {
-                [Vec3::new(x0, y0, -ht), Vec3::new(x0, y0, ht), Vec3::new(x1, y1, ht), Vec3::new(x1, y1, -ht)]
+                [
+                    Vec3::new(x0, y0, -ht),
+                    Vec3::new(x0, y0, ht),
+                    Vec3::new(x1, y1, ht),
+                    Vec3::new(x1, y1, -ht),
+                ]
             } else {
-                [Vec3::new(x0, y0, -ht), Vec3::new(x1, y0, -ht), Vec3::new(x1, y1, ht), Vec3::new(x0, y1, ht)]
+                [
+                    Vec3::new(x0, y0, -ht),
+                    Vec3::new(x1, y0, -ht),
+                    Vec3::new(x1, y1, ht),
+                    Vec3::new(x0, y1, ht),
+                ]
             }
         };
-        b.flat_quad(corners(-hw, -hw, 0.0, h, true), Vec3::NEG_X, |p| Vec2::new(p.z + ht, h - p.y));
-        b.flat_quad(corners(hw, hw, 0.0, h, true), Vec3::X, |p| Vec2::new(ht - p.z, h - p.y));
-        b.flat_quad(corners(-hw, hw, h, h, false), Vec3::Y, |p| Vec2::new(p.x + hw, p.z + ht));
+        b.flat_quad(corners(-hw, -hw, 0.0, h, true), Vec3::NEG_X, |p| {
+            Vec2::new(p.z + ht, h - p.y)
+        });
+        b.flat_quad(corners(hw, hw, 0.0, h, true), Vec3::X, |p| {
+            Vec2::new(ht - p.z, h - p.y)
+        });
+        b.flat_quad(corners(-hw, hw, h, h, false), Vec3::Y, |p| {
+            Vec2::new(p.x + hw, p.z + ht)
+        });
         for (x0, x1) in [(-hw, -r), (r, hw)] {
-            b.flat_quad(corners(x0, x1, 0.0, 0.0, false), Vec3::NEG_Y, |p| Vec2::new(p.x + hw, p.z + ht));
+            b.flat_quad(corners(x0, x1, 0.0, 0.0, false), Vec3::NEG_Y, |p| {
+                Vec2::new(p.x + hw, p.z + ht)
+            });
         }
 
         if r > 0.0 {
             // Jambs face into the opening.
             if ys > 0.0 {
-                b.flat_quad(corners(-r, -r, 0.0, ys, true), Vec3::X, |p| Vec2::new(p.z + ht, ys - p.y));
-                b.flat_quad(corners(r, r, 0.0, ys, true), Vec3::NEG_X, |p| Vec2::new(p.z + ht, ys - p.y));
+                b.flat_quad(corners(-r, -r, 0.0, ys, true), Vec3::X, |p| {
+                    Vec2::new(p.z + ht, ys - p.y)
+                });
+                b.flat_quad(corners(r, r, 0.0, ys, true), Vec3::NEG_X, |p| {
+                    Vec2::new(p.z + ht, ys - p.y)
+                });
             }
             // The intrados: smooth normals pointing at the arch centre, U = arc length.
             for pair in angles.windows(2) {
@@ -601,7 +698,10 @@ mod tests {
             for (i, (t, n)) in mesh.tangents.iter().zip(&mesh.normals).enumerate() {
                 let (t3, n3) = (Vec3::new(t[0], t[1], t[2]), Vec3::from(*n));
                 assert!((n3.length() - 1.0).abs() < 1e-4, "{name} normal {i}");
-                assert!((t3.length() - 1.0).abs() < 1e-4, "{name} tangent {i} length");
+                assert!(
+                    (t3.length() - 1.0).abs() < 1e-4,
+                    "{name} tangent {i} length"
+                );
                 assert!(t3.dot(n3).abs() < 1e-4, "{name} tangent {i} not orthogonal");
                 assert!(t[3] == 1.0 || t[3] == -1.0, "{name} tangent {i} sign");
             }
@@ -609,11 +709,26 @@ mod tests {
     }
 
     #[test]
-    fn plane_tangent_follows_u() {
-        // U grows along +X on the plane, so MikkTSpace must give tangent +X (not the fallback).
+    fn plane_tangent_follows_u_and_bitangent_points_to_decreasing_v() {
+        // U grows along +X and V along +Z on the plane, so MikkTSpace must give tangent +X (not
+        // the fallback) and the bitangent w·cross(N, T) must point along -Z (image up).
         let mesh = plane(2.0, 2.0, 2, 1.0);
-        for t in &mesh.tangents {
-            assert!((Vec3::new(t[0], t[1], t[2]) - Vec3::X).length() < 1e-4, "{t:?}");
+        for (t, n) in mesh.tangents.iter().zip(&mesh.normals) {
+            let tangent = Vec3::new(t[0], t[1], t[2]);
+            assert!((tangent - Vec3::X).length() < 1e-4, "{t:?}");
+            let bitangent = Vec3::from(*n).cross(tangent) * t[3];
+            assert!((bitangent - Vec3::NEG_Z).length() < 1e-4, "{bitangent}");
+        }
+        // On a box side V runs down the face, so the bitangent points up.
+        let cube = cuboid(Vec3::ONE, 1.0);
+        for ((t, n), p) in cube.tangents.iter().zip(&cube.normals).zip(&cube.positions) {
+            if n[1].abs() < 0.5 {
+                let bitangent = Vec3::from(*n).cross(Vec3::new(t[0], t[1], t[2])) * t[3];
+                assert!(
+                    (bitangent - Vec3::Y).length() < 1e-4,
+                    "at {p:?}: {bitangent}"
+                );
+            }
         }
     }
 
@@ -625,7 +740,10 @@ mod tests {
                 let p = |i: usize| Vec3::from(mesh.positions[i]);
                 let geometric = (p(b) - p(a)).cross(p(c) - p(a));
                 let shading: Vec3 = [a, b, c].iter().map(|&i| Vec3::from(mesh.normals[i])).sum();
-                assert!(geometric.dot(shading) > 0.0, "{name} triangle {t} winds backwards");
+                assert!(
+                    geometric.dot(shading) > 0.0,
+                    "{name} triangle {t} winds backwards"
+                );
             }
         }
     }
@@ -634,7 +752,10 @@ mod tests {
     fn convex_shapes_have_outward_normals() {
         for (name, mesh) in all_shapes().into_iter().take(4).skip(1) {
             for (p, n) in mesh.positions.iter().zip(&mesh.normals) {
-                assert!(Vec3::from(*p).dot(Vec3::from(*n)) > 0.0, "{name}: inward normal at {p:?}");
+                assert!(
+                    Vec3::from(*p).dot(Vec3::from(*n)) > 0.0,
+                    "{name}: inward normal at {p:?}"
+                );
             }
         }
     }
@@ -671,7 +792,10 @@ mod tests {
         assert!(!through(r * 0.6, ys + r * 0.6));
         assert!(through(0.0, ys + r + 0.1), "above the crown is wall");
         assert!(through(-w / 2.0 + 0.1, 0.5), "pier is wall");
-        assert!(through(r * 0.8, ys + r * 0.8), "the arch's spandrel is wall");
+        assert!(
+            through(r * 0.8, ys + r * 0.8),
+            "the arch's spandrel is wall"
+        );
         let (min, max) = mesh.aabb();
         assert!((min - Vec3::new(-3.0, 0.0, -0.25)).length() < 1e-5);
         assert!((max - Vec3::new(3.0, 4.0, 0.25)).length() < 1e-5);
@@ -684,12 +808,22 @@ mod tests {
         let uv = vec![[0.0; 2]; 3];
         assert_eq!(
             Mesh::new(p.clone(), n.clone(), uv.clone(), vec![0, 1, 3]),
-            Err(MeshError::IndexOutOfRange { at: 2, index: 3, vertices: 3 })
+            Err(MeshError::IndexOutOfRange {
+                at: 2,
+                index: 3,
+                vertices: 3
+            })
         );
-        assert_eq!(Mesh::new(p.clone(), n.clone(), uv.clone(), vec![0, 1]), Err(MeshError::IndexCount(2)));
+        assert_eq!(
+            Mesh::new(p.clone(), n.clone(), uv.clone(), vec![0, 1]),
+            Err(MeshError::IndexCount(2))
+        );
         assert!(matches!(
             Mesh::new(p.clone(), n[..2].to_vec(), uv.clone(), vec![0, 1, 2]),
-            Err(MeshError::AttributeLength { attribute: "normals", .. })
+            Err(MeshError::AttributeLength {
+                attribute: "normals",
+                ..
+            })
         ));
         // Degenerate UVs and a zero-area triangle still give finite, orthonormal tangents.
         let mesh = Mesh::new(p, n, uv, vec![0, 1, 2]).unwrap();
@@ -709,8 +843,14 @@ mod tests {
             let [a, b, c] = tri(&mirrored, t);
             let p = |i: usize| Vec3::from(mirrored.positions[i]);
             let geometric = (p(b) - p(a)).cross(p(c) - p(a));
-            assert!(geometric.dot(Vec3::from(mirrored.normals[a])) > 0.0, "mirror keeps winding");
-            assert!(Vec3::from(mirrored.normals[a]).dot(p(a)) > 0.0, "normals stay outward");
+            assert!(
+                geometric.dot(Vec3::from(mirrored.normals[a])) > 0.0,
+                "mirror keeps winding"
+            );
+            assert!(
+                Vec3::from(mirrored.normals[a]).dot(p(a)) > 0.0,
+                "normals stay outward"
+            );
         }
         let mut merged = cube.clone();
         merged.merge(&mirrored);
@@ -722,10 +862,19 @@ mod tests {
     #[test]
     fn smooth_normals_average_faces() {
         // Two triangles folded at 90° along the X axis share vertices 0 and 1.
-        let positions = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]];
+        let positions = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 0.0, -1.0],
+            [0.0, 1.0, 0.0],
+        ];
         let normals = smooth_normals(&positions, &[0, 1, 2, 0, 1, 3]);
         let expected = Vec3::new(0.0, 1.0, 1.0).normalize();
-        assert!((Vec3::from(normals[0]) - expected).length() < 1e-5, "{:?}", normals[0]);
+        assert!(
+            (Vec3::from(normals[0]) - expected).length() < 1e-5,
+            "{:?}",
+            normals[0]
+        );
         assert!((Vec3::from(normals[2]) - Vec3::Y).length() < 1e-5);
     }
 }

@@ -212,7 +212,10 @@ pub fn propagate_transforms(
             current = child_of.parent();
             depth += 1;
             if depth > MAX_DEPTH || current == entity {
-                warn!(?entity, "transform hierarchy is cyclic or too deep; not propagated");
+                warn!(
+                    ?entity,
+                    "transform hierarchy is cyclic or too deep; not propagated"
+                );
                 continue 'seeds;
             }
             if dirty.contains(current) {

@@ -1,1 +1,218 @@
-//! plugins
+//! The bridge between the ECS and the renderer.
+//!
+//! [`RenderPlugin`] adds the extraction systems (change detection into the [`RenderMirror`]) and
+//! the frame system that hands the mirror to the GPU [`render::Renderer`] when one is present
+//! as [`GpuRenderer`]. Without a `GpuRenderer` everything but the GPU work still runs, which is
+//! how the headless ECS tests check extraction.
+//!
+//! ```no_run
+//! use engine::prelude::*;
+//! use plugins::{GpuRenderer, RenderPlugin, RenderSettings};
+//!
+//! let mut app = App::new();
+//! app.add_plugins(RenderPlugin::new(RenderSettings { size: (320, 240), ..Default::default() }));
+//! let renderer = render::Renderer::new(&Default::default(), 320, 240).expect("a Vulkan device");
+//! app.insert_resource(GpuRenderer(renderer));
+//! app.update(); // extract, upload what changed, record, submit
+//! ```
+
+pub mod extract;
+
+use std::collections::VecDeque;
+use std::time::Instant;
+
+use bevy_ecs::prelude::*;
+use engine::app::{App, Plugin, Render};
+use glam::Vec3;
+use render::scene::GpuMaterial;
+use render::{FrameCounters, FrameSettings, PassTimes, PipelineKind, Renderer, SceneMirror};
+
+pub use extract::MirrorSlots;
+
+/// Render configuration; change it between frames to switch pipelines.
+#[derive(Resource, Clone, Debug)]
+pub struct RenderSettings {
+    /// The pipeline that draws the frame.
+    pub pipeline: PipelineKind,
+    /// Render size in pixels (sets the camera's aspect ratio).
+    pub size: (u32, u32),
+    /// Uniform ambient radiance.
+    pub ambient: Vec3,
+    /// Radiance where no geometry is drawn.
+    pub clear_color: [f32; 4],
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self { pipeline: PipelineKind::Forward, size: (1280, 720), ambient: Vec3::splat(0.03), clear_color: [0.35, 0.45, 0.6, 1.0] }
+    }
+}
+
+/// The CPU copy of the GPU scene that extraction writes.
+#[derive(Resource)]
+pub struct RenderMirror(pub SceneMirror);
+
+/// The GPU renderer. Insert it to draw; leave it out for ECS-only tests.
+#[derive(Resource)]
+pub struct GpuRenderer(pub Renderer);
+
+/// Statistics of one frame, complete once its GPU times are known.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameStats {
+    /// Frame number, from 0.
+    pub frame: u64,
+    /// The pipeline that drew it.
+    pub pipeline: PipelineKind,
+    /// Render size.
+    pub size: (u32, u32),
+    /// Per-pass GPU milliseconds.
+    pub gpu: PassTimes,
+    /// CPU milliseconds in the extraction systems.
+    pub cpu_extract_ms: f32,
+    /// CPU milliseconds uploading and recording.
+    pub cpu_record_ms: f32,
+    /// Work counters.
+    pub counters: FrameCounters,
+}
+
+/// Counters of the last frame and a queue of finished frames' statistics.
+#[derive(Resource, Default)]
+pub struct RenderStats {
+    /// Counters of the most recent frame (also without a GPU).
+    pub last: FrameCounters,
+    /// Frames recorded but not yet finished on the GPU.
+    pending: VecDeque<FrameStats>,
+    /// Frames whose GPU times are known, oldest first. Consumers drain it; it keeps at most
+    /// [`RenderStats::MAX_COMPLETED`] entries.
+    pub completed: VecDeque<FrameStats>,
+    /// The last error the renderer reported, if any.
+    pub last_error: Option<String>,
+    extract_started: Option<Instant>,
+    extract_ms: f32,
+}
+
+impl RenderStats {
+    /// Completed frames kept when nobody drains them.
+    pub const MAX_COMPLETED: usize = 256;
+
+    fn complete(&mut self, frame: u64, gpu: PassTimes) {
+        while let Some(front) = self.pending.front() {
+            if front.frame > frame {
+                break;
+            }
+            let mut stats = self.pending.pop_front().expect("front exists");
+            if stats.frame == frame {
+                stats.gpu = gpu;
+                if self.completed.len() == Self::MAX_COMPLETED {
+                    self.completed.pop_front();
+                }
+                self.completed.push_back(stats);
+            }
+        }
+    }
+}
+
+/// System sets of the render schedule, in order.
+#[derive(SystemSet, Clone, Debug, PartialEq, Eq, Hash)]
+pub enum RenderSystems {
+    /// Change detection into the mirror.
+    Extract,
+    /// Upload, record and submit.
+    Render,
+}
+
+/// Adds extraction and rendering to an app.
+pub struct RenderPlugin {
+    settings: RenderSettings,
+}
+
+impl RenderPlugin {
+    /// A plugin with these settings.
+    pub fn new(settings: RenderSettings) -> Self {
+        Self { settings }
+    }
+}
+
+impl Plugin for RenderPlugin {
+    fn build(&self, app: &mut App) {
+        let mut mirror = SceneMirror::new();
+        let default_material = mirror.materials.insert(GpuMaterial::default());
+        app.insert_resource(self.settings.clone())
+            .insert_resource(RenderMirror(mirror))
+            .insert_resource(MirrorSlots::new(default_material))
+            .insert_resource(RenderStats::default());
+        app.schedule_mut(Render).configure_sets((RenderSystems::Extract, RenderSystems::Render).chain());
+        app.add_systems(
+            Render,
+            (
+                begin_frame,
+                extract::extract_images,
+                extract::extract_materials,
+                extract::extract_meshes,
+                extract::extract_instances,
+                extract::extract_lights,
+                extract::extract_camera,
+                end_extract,
+            )
+                .chain()
+                .in_set(RenderSystems::Extract),
+        );
+        app.add_systems(Render, render_frame.in_set(RenderSystems::Render));
+    }
+}
+
+fn begin_frame(mut mirror: ResMut<RenderMirror>, mut stats: ResMut<RenderStats>) {
+    mirror.0.begin_frame();
+    stats.extract_started = Some(Instant::now());
+}
+
+fn end_extract(mut stats: ResMut<RenderStats>, mirror: Res<RenderMirror>) {
+    stats.extract_ms = stats.extract_started.take().map_or(0.0, |t| t.elapsed().as_secs_f32() * 1e3);
+    stats.last = mirror.0.counters;
+}
+
+/// Hands the mirror to the renderer: uploads what changed, records and submits the frame.
+fn render_frame(
+    renderer: Option<ResMut<GpuRenderer>>,
+    mut mirror: ResMut<RenderMirror>,
+    settings: Res<RenderSettings>,
+    mut stats: ResMut<RenderStats>,
+) {
+    let Some(mut renderer) = renderer else {
+        return;
+    };
+    let frame_settings = FrameSettings { pipeline: settings.pipeline, clear_color: settings.clear_color };
+    match renderer.0.render(&mut mirror.0, &frame_settings) {
+        Ok(report) => {
+            stats.last = report.counters;
+            let extract_ms = stats.extract_ms;
+            stats.pending.push_back(FrameStats {
+                frame: report.frame,
+                pipeline: settings.pipeline,
+                size: renderer.0.size(),
+                gpu: PassTimes::default(),
+                cpu_extract_ms: extract_ms,
+                cpu_record_ms: report.record_ms,
+                counters: report.counters,
+            });
+            if let Some(done) = report.finished {
+                stats.complete(done.frame, done.gpu);
+            }
+        }
+        Err(e) => {
+            tracing::error!("frame failed: {e}");
+            stats.last_error = Some(e.to_string());
+        }
+    }
+}
+
+/// Waits for the GPU and moves every pending frame's statistics to `completed`. Call before
+/// reading the final statistics or a screenshot.
+pub fn finish_frames(world: &mut World) {
+    let Some(mut renderer) = world.get_resource_mut::<GpuRenderer>() else { return };
+    let finished = renderer.0.finish();
+    let mut stats = world.resource_mut::<RenderStats>();
+    for f in finished {
+        stats.complete(f.frame, f.gpu);
+    }
+}

@@ -54,9 +54,11 @@ impl PassContext<'_> {
         if let Some(depth) = depth {
             info = info.depth_attachment(depth);
         }
-        // SAFETY: `cmd` is recording outside a render pass; attachments are in their declared layouts.
+        // SAFETY (both blocks): `cmd` is recording; every pipeline has viewport, scissor and cull
+        // mode dynamic, and this sets all three before any draw.
         unsafe { self.ctx.device.cmd_begin_rendering(self.cmd, &info) };
         crate::pipeline::set_viewport(self.ctx, self.cmd, extent);
+        unsafe { self.ctx.device.cmd_set_cull_mode(self.cmd, vk::CullModeFlags::NONE) };
     }
 
     /// Ends dynamic rendering.
@@ -70,7 +72,7 @@ impl PassContext<'_> {
     pub fn draw_meshes(&self, scene: &GpuScene, draws: &[Option<DrawItem>], filter: impl Fn(&DrawItem) -> bool) {
         let d = &self.ctx.device;
         let mut bound_mesh = None;
-        let mut cull = None;
+        let mut cull = Some(vk::CullModeFlags::NONE); // begin_rendering's default
         for (slot, draw) in draws.iter().enumerate() {
             let Some(draw) = draw.filter(|d| filter(d)) else { continue };
             let Some(mesh) = scene.mesh(draw.mesh) else { continue };

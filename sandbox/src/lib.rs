@@ -1,1 +1,5 @@
 //! The sandbox game: the reference example of the public API.
+
+pub mod scene;
+pub mod headless;
+pub mod stats;

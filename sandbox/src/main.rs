@@ -1,1 +1,100 @@
-fn main() {}
+//! `sandbox`: the reference game. This build plays headless: it renders a scene offscreen and
+//! writes a screenshot and per-frame statistics.
+
+use std::path::PathBuf;
+
+use anyhow::{Result, bail};
+use clap::Parser;
+use render::{PipelineKind, Tier};
+use sandbox::headless::{HeadlessOptions, SceneSource, run};
+
+/// Command line. The flags are stable; later versions add flags, none change meaning.
+#[derive(Parser, Debug)]
+#[command(version, about = "The ecs-decals sandbox")]
+struct Cli {
+    /// Render offscreen (no window).
+    #[arg(long)]
+    headless: bool,
+    /// Frames to render.
+    #[arg(long, default_value_t = 120)]
+    frames: u32,
+    /// Render size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "1280x720", value_parser = parse_size)]
+    size: (u32, u32),
+    /// `default` (the generated courtyard) or a .gltf/.glb path.
+    #[arg(long, default_value = "default")]
+    scene: String,
+    /// Write the last frame here as PNG.
+    #[arg(long)]
+    screenshot: Option<PathBuf>,
+    /// Write one JSON object per frame here.
+    #[arg(long)]
+    stats: Option<PathBuf>,
+    /// Pipeline: forward.
+    #[arg(long, default_value = "forward", value_parser = parse_pipeline)]
+    pipeline: PipelineKind,
+    /// Highest capability tier to use: ray_query, ray_tracing_pipeline or none.
+    #[arg(long, default_value = "ray_query", value_parser = parse_tier)]
+    tier: Tier,
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("expected WIDTHxHEIGHT, got {s:?}"))?;
+    let w: u32 = w.parse().map_err(|_| format!("bad width in {s:?}"))?;
+    let h: u32 = h.parse().map_err(|_| format!("bad height in {s:?}"))?;
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(format!("size {s} out of range (1..=16384 each way)"));
+    }
+    Ok((w, h))
+}
+
+fn parse_pipeline(s: &str) -> Result<PipelineKind, String> {
+    match s {
+        "forward" => Ok(PipelineKind::Forward),
+        _ => Err(format!("unknown pipeline {s:?} (available: forward)")),
+    }
+}
+
+fn parse_tier(s: &str) -> Result<Tier, String> {
+    Tier::from_name(s).ok_or_else(|| format!("unknown tier {s:?} (ray_query, ray_tracing_pipeline, none)"))
+}
+
+fn main() -> Result<()> {
+    tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()))
+        .with_writer(std::io::stderr)
+        .init();
+    let cli = Cli::parse();
+    if !cli.headless {
+        eprintln!("sandbox: this build has no window yet; playing the scene headless instead");
+    }
+    let screenshot = cli.screenshot.or_else(|| (!cli.headless).then(|| PathBuf::from("out/sandbox.png")));
+    let opts = HeadlessOptions {
+        frames: cli.frames,
+        size: cli.size,
+        scene: SceneSource::parse(&cli.scene),
+        screenshot: screenshot.clone(),
+        stats: cli.stats.clone(),
+        pipeline: cli.pipeline,
+        max_tier: cli.tier,
+    };
+    if let Some(dir) = screenshot.as_ref().and_then(|p| p.parent()).filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)?;
+    }
+    let summary = run(&opts)?;
+    let renderer = &summary.app.world.resource::<plugins::GpuRenderer>().0;
+    println!("device: {} (tier {})", renderer.device_name(), renderer.tier().name());
+    if let Some(last) = summary.frames.last() {
+        println!("last frame: {last}");
+    }
+    if let Some(p) = &screenshot {
+        println!("screenshot: {}", p.display());
+    }
+    if let Some(p) = &cli.stats {
+        println!("stats: {} ({} frames)", p.display(), summary.frames.len());
+    }
+    if !summary.validation_errors.is_empty() {
+        bail!("{} Vulkan validation errors, first: {}", summary.validation_errors.len(), summary.validation_errors[0]);
+    }
+    Ok(())
+}

@@ -1,1 +1,71 @@
 //! Shared helpers for the integration tests.
+
+use std::path::PathBuf;
+
+use engine::prelude::*;
+use plugins::{GpuRenderer, RenderPlugin, RenderSettings};
+use render::{Renderer, RendererSettings};
+
+/// The third-party glTF models beside the project (`../shared/assets/gltf`), if present.
+pub fn shared_gltf_dir() -> Option<PathBuf> {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets/gltf");
+    dir.is_dir().then_some(dir)
+}
+
+/// An app with the render plugin but no GPU: extraction runs, nothing is drawn.
+pub fn ecs_app() -> App {
+    let mut app = App::new();
+    app.world.resource_mut::<Time>().set_fixed_step(Some(std::time::Duration::from_millis(16)));
+    app.add_plugins(RenderPlugin::new(RenderSettings { size: (64, 64), ..Default::default() }));
+    app
+}
+
+/// An app that renders offscreen at `w`×`h` on the default device with validation on.
+pub fn gpu_app(w: u32, h: u32, settings: RenderSettings) -> App {
+    let mut app = App::new();
+    app.world.resource_mut::<Time>().set_fixed_step(Some(std::time::Duration::from_millis(16)));
+    app.add_plugins(RenderPlugin::new(RenderSettings { size: (w, h), ..settings }));
+    let renderer = Renderer::new(&RendererSettings::default(), w, h).expect("a Vulkan device (run scripts/setup.sh)");
+    assert!(renderer.validation_enabled(), "GPU tests need the validation layer");
+    app.insert_resource(GpuRenderer(renderer));
+    app
+}
+
+/// The renderer of a GPU app.
+pub fn renderer(app: &mut App) -> &mut Renderer {
+    &mut app.world.resource_mut::<GpuRenderer>().into_inner().0
+}
+
+/// Fails the test if the validation layer reported anything.
+pub fn assert_no_validation_errors(app: &mut App) {
+    let errors = renderer(app).take_validation_errors();
+    assert!(errors.is_empty(), "{} validation errors:\n{}", errors.len(), errors.join("\n"));
+}
+
+/// Statistics over an RGBA8 image, for "non-degenerate image" checks.
+#[derive(Debug, Clone, Copy)]
+pub struct ImageStats {
+    /// Fraction of pixels that differ from the clear colour by more than 2/255 in some channel.
+    pub coverage: f64,
+    /// Variance of luma (0..1 scale).
+    pub luma_variance: f64,
+    /// Mean luma (0..1).
+    pub mean_luma: f64,
+}
+
+/// Computes [`ImageStats`]; `clear` is the background colour as the display shows it.
+pub fn image_stats(rgba: &[u8], clear: [u8; 3]) -> ImageStats {
+    let n = (rgba.len() / 4) as f64;
+    let mut covered = 0usize;
+    let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+    for px in rgba.chunks_exact(4) {
+        if (0..3).any(|c| (px[c] as i32 - clear[c] as i32).abs() > 2) {
+            covered += 1;
+        }
+        let y = (0.2126 * px[0] as f64 + 0.7152 * px[1] as f64 + 0.0722 * px[2] as f64) / 255.0;
+        sum += y;
+        sum2 += y * y;
+    }
+    let mean = sum / n;
+    ImageStats { coverage: covered as f64 / n, luma_variance: sum2 / n - mean * mean, mean_luma: mean }
+}

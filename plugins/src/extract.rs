@@ -1,0 +1,319 @@
+//! Extraction: change-detection systems that keep the [`RenderMirror`] in step with the World.
+//!
+//! Each system looks only at what changed this frame: `Changed`/`Added` filters for components,
+//! `RemovedComponents` for despawns, and asset events for meshes, images and materials. Records
+//! go into stable slots keyed by entity (or asset handle), so a frame in which nothing changed
+//! writes nothing and uploads nothing.
+
+use bevy_ecs::prelude::*;
+use engine::asset::{AssetEvent, Assets, Handle};
+use engine::camera::Camera;
+use engine::image::{ColorSpace, Image};
+use engine::light::{DirectionalLight, PointLight, SpotLight};
+use engine::material::{AlphaMode, Material};
+use engine::mesh::Mesh;
+use engine::scene::MeshInstance;
+use engine::transform::GlobalTransform;
+use glam::{Mat4, Vec2, Vec3};
+use render::scene::{
+    DrawItem, GpuCamera, GpuInstance, GpuLight, GpuMaterial, GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_DOUBLE_SIDED, MeshData,
+    MeshId, SceneMirror, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE, TextureData,
+};
+use std::collections::HashMap;
+
+use crate::{RenderMirror, RenderSettings};
+
+/// Where each asset and entity lives in the mirror.
+#[derive(Resource, Default)]
+pub struct MirrorSlots {
+    meshes: HashMap<Handle<Mesh>, MeshId>,
+    textures: HashMap<Handle<Image>, u32>,
+    materials: HashMap<Handle<Material>, (u32, DrawFlags)>,
+    instances: HashMap<Entity, u32>,
+    lights: HashMap<Entity, u32>,
+    /// The slot of the material used when an instance's material is missing.
+    pub default_material: u32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+struct DrawFlags {
+    alpha_mask: bool,
+    double_sided: bool,
+}
+
+impl MirrorSlots {
+    /// Empty maps; `default_material` is the slot used for instances without a material.
+    pub fn new(default_material: u32) -> Self {
+        Self { default_material, ..Default::default() }
+    }
+
+    /// The instance slot of `entity`, if it is mirrored.
+    pub fn instance(&self, entity: Entity) -> Option<u32> {
+        self.instances.get(&entity).copied()
+    }
+
+    /// The light slot of `entity`, if it is mirrored.
+    pub fn light(&self, entity: Entity) -> Option<u32> {
+        self.lights.get(&entity).copied()
+    }
+
+    /// The material slot of `handle`, if it is mirrored.
+    pub fn material(&self, handle: Handle<Material>) -> Option<u32> {
+        self.materials.get(&handle).map(|(slot, _)| *slot)
+    }
+
+    /// The bindless texture slot of `handle`, if it is mirrored.
+    pub fn texture(&self, handle: Handle<Image>) -> Option<u32> {
+        self.textures.get(&handle).copied()
+    }
+}
+
+/// Converts an engine mesh into interleaved vertices.
+pub fn mesh_data(mesh: &Mesh) -> MeshData {
+    let vertices = (0..mesh.positions.len())
+        .map(|i| GpuVertex {
+            position: mesh.positions[i],
+            normal: mesh.normals.get(i).copied().unwrap_or([0.0, 1.0, 0.0]),
+            uv: mesh.uvs.get(i).copied().unwrap_or([0.0, 0.0]),
+            tangent: mesh.tangents.get(i).copied().unwrap_or([1.0, 0.0, 0.0, 1.0]),
+        })
+        .collect();
+    MeshData { vertices, indices: mesh.indices.clone() }
+}
+
+fn texture_data(image: &Image) -> TextureData {
+    TextureData { width: image.width, height: image.height, srgb: image.color_space == ColorSpace::Srgb, mips: image.mips.clone() }
+}
+
+/// Uploads new images, re-uploads modified ones, frees removed ones.
+pub fn extract_images(
+    mut images: ResMut<Assets<Image>>,
+    mut mirror: ResMut<RenderMirror>,
+    mut slots: ResMut<MirrorSlots>,
+    mut materials: ResMut<Assets<Material>>,
+) {
+    let images = &mut *images;
+    let mut replaced = Vec::new();
+    for event in images.drain_events().collect::<Vec<_>>() {
+        let handle = event.handle();
+        if let Some(old) = slots.textures.remove(&handle) {
+            mirror.0.remove_texture(old);
+            replaced.push(handle);
+        }
+        if let (AssetEvent::Added(_) | AssetEvent::Modified(_), Some(image)) = (&event, images.get(handle)) {
+            let slot = mirror.0.add_texture(texture_data(image));
+            slots.textures.insert(handle, slot);
+        }
+    }
+    if !replaced.is_empty() {
+        // Materials that sampled a replaced image must point at its new slot (or the fallback).
+        let stale: Vec<_> = materials
+            .iter()
+            .filter(|(_, m)| {
+                [m.base_color_texture, m.metallic_roughness_texture, m.normal_texture, m.occlusion_texture, m.emissive_texture]
+                    .into_iter()
+                    .flatten()
+                    .any(|h| replaced.contains(&h))
+            })
+            .map(|(h, _)| h)
+            .collect();
+        for h in stale {
+            materials.get_mut(h); // records a Modified event that extract_materials handles
+        }
+    }
+}
+
+fn gpu_material(m: &Material, slots: &MirrorSlots) -> (GpuMaterial, DrawFlags) {
+    let tex = |h: Option<Handle<Image>>, fallback: u32| h.and_then(|h| slots.textures.get(&h).copied()).unwrap_or(fallback);
+    let (alpha_mask, cutoff) = match m.alpha_mode {
+        AlphaMode::Opaque => (false, 0.0),
+        AlphaMode::Mask(c) => (true, c),
+        // Blended materials are alpha-tested at 0.5 until a transparency pass exists.
+        AlphaMode::Blend => (true, 0.5),
+    };
+    let mut flags = 0;
+    if alpha_mask {
+        flags |= MATERIAL_ALPHA_MASK;
+    }
+    if m.double_sided {
+        flags |= MATERIAL_DOUBLE_SIDED;
+    }
+    let gpu = GpuMaterial {
+        base_color: m.base_color.to_array(),
+        emissive: m.emissive.to_array(),
+        normal_scale: m.normal_scale,
+        metallic: m.metallic,
+        roughness: m.roughness,
+        alpha_cutoff: cutoff,
+        occlusion_strength: m.occlusion_strength,
+        base_color_tex: tex(m.base_color_texture, TEXTURE_WHITE),
+        metallic_roughness_tex: tex(m.metallic_roughness_texture, TEXTURE_WHITE),
+        normal_tex: tex(m.normal_texture, TEXTURE_FLAT_NORMAL),
+        occlusion_tex: tex(m.occlusion_texture, TEXTURE_WHITE),
+        emissive_tex: tex(m.emissive_texture, TEXTURE_WHITE),
+        flags,
+        pad: [0; 2],
+    };
+    (gpu, DrawFlags { alpha_mask, double_sided: m.double_sided })
+}
+
+/// Writes added and modified materials into their slots; frees removed ones.
+pub fn extract_materials(
+    mut materials: ResMut<Assets<Material>>,
+    mut mirror: ResMut<RenderMirror>,
+    mut slots: ResMut<MirrorSlots>,
+    instances: Query<(Entity, &MeshInstance)>,
+) {
+    let mut changed_flags = Vec::new();
+    let events: Vec<_> = materials.drain_events().collect();
+    let mirror = &mut mirror.0;
+    for event in events {
+        let handle = event.handle();
+        match (&event, materials.get(handle)) {
+            (AssetEvent::Added(_) | AssetEvent::Modified(_), Some(material)) => {
+                let (gpu, flags) = gpu_material(material, &slots);
+                let old = slots.materials.get(&handle).copied();
+                let slot = SceneMirror::write(&mut mirror.counters, &mut mirror.materials, old.map(|(s, _)| s), gpu);
+                slots.materials.insert(handle, (slot, flags));
+                if old.is_some_and(|(_, f)| f != flags) {
+                    changed_flags.push(handle);
+                }
+            }
+            _ => {
+                if let Some((slot, _)) = slots.materials.remove(&handle) {
+                    mirror.materials.remove(slot);
+                    mirror.counters.records_written += 1;
+                }
+            }
+        }
+    }
+    // An instance's draw item caches its material's alpha mode and sidedness.
+    if !changed_flags.is_empty() {
+        for (entity, inst) in &instances {
+            if changed_flags.contains(&inst.material) {
+                if let (Some(&slot), Some(&(_, flags))) = (slots.instances.get(&entity), slots.materials.get(&inst.material)) {
+                    if let Some(Some(draw)) = mirror.draws.get_mut(slot as usize) {
+                        draw.alpha_mask = flags.alpha_mask;
+                        draw.double_sided = flags.double_sided;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Uploads added meshes, replaces modified ones, frees removed ones.
+pub fn extract_meshes(mut meshes: ResMut<Assets<Mesh>>, mut mirror: ResMut<RenderMirror>, mut slots: ResMut<MirrorSlots>) {
+    let events: Vec<_> = meshes.drain_events().collect();
+    for event in events {
+        let handle = event.handle();
+        if let Some(old) = slots.meshes.remove(&handle) {
+            mirror.0.remove_mesh(old);
+        }
+        if let (AssetEvent::Added(_) | AssetEvent::Modified(_), Some(mesh)) = (&event, meshes.get(handle)) {
+            let id = mirror.0.add_mesh(mesh_data(mesh));
+            slots.meshes.insert(handle, id);
+        }
+    }
+}
+
+/// Mirrors mesh instances whose transform or mesh/material changed; frees removed ones.
+pub fn extract_instances(
+    changed: Query<(Entity, &MeshInstance, &GlobalTransform), Or<(Changed<MeshInstance>, Changed<GlobalTransform>)>>,
+    mut removed: RemovedComponents<MeshInstance>,
+    mut mirror: ResMut<RenderMirror>,
+    mut slots: ResMut<MirrorSlots>,
+    live: Query<(), With<MeshInstance>>,
+) {
+    let mirror = &mut mirror.0;
+    for entity in removed.read() {
+        if live.contains(entity) {
+            continue; // removed and re-added in the same frame: handled as a change below
+        }
+        if let Some(slot) = slots.instances.remove(&entity) {
+            mirror.remove_instance(slot);
+        }
+    }
+    for (entity, inst, global) in &changed {
+        let Some(&mesh) = slots.meshes.get(&inst.mesh) else {
+            tracing::warn!(?entity, "mesh instance refers to a mesh that is not loaded; not drawn");
+            if let Some(slot) = slots.instances.remove(&entity) {
+                mirror.remove_instance(slot);
+            }
+            continue;
+        };
+        let (material, flags) = slots.materials.get(&inst.material).copied().unwrap_or((slots.default_material, DrawFlags::default()));
+        let record = GpuInstance::new(global.compute_matrix(), material);
+        let draw = DrawItem { mesh, alpha_mask: flags.alpha_mask, double_sided: flags.double_sided };
+        let slot = mirror.set_instance(slots.instances.get(&entity).copied(), record, draw);
+        slots.instances.insert(entity, slot);
+    }
+}
+
+type ChangedLight = Or<(Changed<GlobalTransform>, Changed<PointLight>, Changed<SpotLight>, Changed<DirectionalLight>)>;
+
+/// Mirrors lights whose transform or parameters changed; frees removed ones.
+#[allow(clippy::type_complexity)]
+pub fn extract_lights(
+    changed: Query<(Entity, &GlobalTransform, Option<&PointLight>, Option<&SpotLight>, Option<&DirectionalLight>), ChangedLight>,
+    mut removed_point: RemovedComponents<PointLight>,
+    mut removed_spot: RemovedComponents<SpotLight>,
+    mut removed_dir: RemovedComponents<DirectionalLight>,
+    live: Query<(), Or<(With<PointLight>, With<SpotLight>, With<DirectionalLight>)>>,
+    mut mirror: ResMut<RenderMirror>,
+    mut slots: ResMut<MirrorSlots>,
+) {
+    let mirror = &mut mirror.0;
+    for entity in removed_point.read().chain(removed_spot.read()).chain(removed_dir.read()) {
+        if live.contains(entity) {
+            continue;
+        }
+        if let Some(slot) = slots.lights.remove(&entity) {
+            mirror.lights.remove(slot);
+            mirror.counters.records_written += 1;
+        }
+    }
+    for (entity, global, point, spot, dir) in &changed {
+        let position = global.translation();
+        let direction = global.forward();
+        let record = if let Some(l) = spot {
+            GpuLight::spot(position, direction, l.color * l.intensity, l.effective_range(), l.inner_angle, l.outer_angle)
+        } else if let Some(l) = point {
+            GpuLight::point(position, l.color * l.intensity, l.effective_range())
+        } else if let Some(l) = dir {
+            GpuLight::directional(direction, l.color * l.illuminance)
+        } else {
+            continue;
+        };
+        let slot = SceneMirror::write(&mut mirror.counters, &mut mirror.lights, slots.lights.get(&entity).copied(), record);
+        slots.lights.insert(entity, slot);
+    }
+}
+
+/// Builds the camera record from the first active camera. The mirror ignores an identical
+/// record, so a still camera uploads nothing.
+pub fn extract_camera(cameras: Query<(&Camera, &GlobalTransform)>, settings: Res<RenderSettings>, mut mirror: ResMut<RenderMirror>) {
+    let Some((camera, global)) = cameras.iter().find(|(c, _)| c.active) else {
+        return;
+    };
+    let (w, h) = settings.size;
+    let view = global.compute_matrix().inverse();
+    let proj = camera.projection(w as f32 / h.max(1) as f32);
+    let view_proj = proj * view;
+    mirror.0.set_camera(camera_record(view, proj, view_proj, global.translation(), camera.exposure, (w, h), settings.ambient));
+}
+
+fn camera_record(view: Mat4, proj: Mat4, view_proj: Mat4, position: Vec3, exposure: f32, (w, h): (u32, u32), ambient: Vec3) -> GpuCamera {
+    GpuCamera {
+        view,
+        proj,
+        view_proj,
+        inv_view_proj: view_proj.inverse(),
+        position,
+        exposure,
+        viewport_size: Vec2::new(w as f32, h as f32),
+        inv_viewport_size: Vec2::new(1.0 / w as f32, 1.0 / h as f32),
+        ambient,
+        pad: 0,
+    }
+}

@@ -1,0 +1,214 @@
+//! Headless play: render N frames of a scene offscreen, then write a screenshot and the
+//! per-frame statistics. The CLI, the README's run command and the tests all go through here.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use anyhow::{Context, Result, bail};
+use bevy_ecs::world::World;
+use engine::app::{App, PostUpdate};
+use engine::asset::Assets;
+use engine::camera::Camera;
+use engine::light::{DirectionalLight, PointLight, SpotLight};
+use engine::mesh::Mesh;
+use engine::scene::MeshInstance;
+use engine::time::Time;
+use engine::transform::{GlobalTransform, Transform};
+use glam::Vec3;
+use plugins::{GpuRenderer, RenderPlugin, RenderSettings, RenderStats, finish_frames};
+use render::{DeviceSettings, PipelineKind, Renderer, RendererSettings, Tier};
+
+use crate::scene;
+
+/// Which scene to load.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SceneSource {
+    /// The generated courtyard.
+    Default,
+    /// A glTF or GLB file.
+    Gltf(PathBuf),
+}
+
+impl SceneSource {
+    /// `default` or a path.
+    pub fn parse(s: &str) -> Self {
+        if s == "default" { SceneSource::Default } else { SceneSource::Gltf(PathBuf::from(s)) }
+    }
+}
+
+/// A headless run.
+#[derive(Clone, Debug)]
+pub struct HeadlessOptions {
+    /// Frames to render.
+    pub frames: u32,
+    /// Render size.
+    pub size: (u32, u32),
+    /// The scene.
+    pub scene: SceneSource,
+    /// Where to write the last frame as PNG.
+    pub screenshot: Option<PathBuf>,
+    /// Where to write one JSON object per frame.
+    pub stats: Option<PathBuf>,
+    /// The pipeline.
+    pub pipeline: PipelineKind,
+    /// Cap on the capability tier.
+    pub max_tier: Tier,
+}
+
+impl Default for HeadlessOptions {
+    fn default() -> Self {
+        Self {
+            frames: 3,
+            size: (320, 240),
+            scene: SceneSource::Default,
+            screenshot: None,
+            stats: None,
+            pipeline: PipelineKind::Forward,
+            max_tier: Tier::RayQuery,
+        }
+    }
+}
+
+/// What a run produced.
+pub struct RunSummary {
+    /// The app after the run (for tests to inspect).
+    pub app: App,
+    /// The last frame, RGBA8 sRGB.
+    pub pixels: Vec<u8>,
+    /// The statistics of every frame, oldest first.
+    pub frames: Vec<serde_json::Value>,
+    /// Validation errors reported during the run.
+    pub validation_errors: Vec<String>,
+}
+
+/// Builds an app with the render plugin and a GPU renderer, and loads the scene into it.
+pub fn build_app(opts: &HeadlessOptions) -> Result<App> {
+    let (w, h) = opts.size;
+    if opts.frames == 0 {
+        bail!("--frames must be at least 1");
+    }
+    let mut app = App::new();
+    app.world.resource_mut::<Time>().set_fixed_step(Some(Duration::from_secs_f64(1.0 / 60.0)));
+    app.add_plugins(RenderPlugin::new(RenderSettings { size: (w, h), pipeline: opts.pipeline, ..Default::default() }));
+    load_scene(&mut app.world, &opts.scene)?;
+    let settings = RendererSettings { device: DeviceSettings { max_tier: opts.max_tier, ..Default::default() } };
+    let renderer = Renderer::new(&settings, w, h).context("could not start the renderer")?;
+    app.insert_resource(GpuRenderer(renderer));
+    Ok(app)
+}
+
+/// Spawns the scene, adding a camera and a light when a glTF file brings none.
+pub fn load_scene(world: &mut World, source: &SceneSource) -> Result<()> {
+    match source {
+        SceneSource::Default => {
+            scene::spawn_courtyard(world);
+        }
+        SceneSource::Gltf(path) => {
+            let gltf = engine::gltf::load(path).with_context(|| format!("could not load scene {}", path.display()))?;
+            gltf.spawn(world);
+            frame_scene(world);
+        }
+    }
+    Ok(())
+}
+
+/// Runs the whole headless session.
+pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
+    let mut app = build_app(opts)?;
+    let mut stats_file = match &opts.stats {
+        Some(p) => Some(std::io::BufWriter::new(create(p)?)),
+        None => None,
+    };
+    let mut frames = Vec::with_capacity(opts.frames as usize);
+    for _ in 0..opts.frames {
+        app.update();
+        if let Some(e) = app.world.resource::<RenderStats>().last_error.clone() {
+            bail!("rendering failed: {e}");
+        }
+        drain_stats(&mut app, &mut frames);
+    }
+    finish_frames(&mut app.world);
+    drain_stats(&mut app, &mut frames);
+    if let Some(f) = &mut stats_file {
+        for v in &frames {
+            writeln!(f, "{v}")?;
+        }
+        f.flush()?;
+    }
+    let renderer = &mut app.world.resource_mut::<GpuRenderer>().0;
+    let pixels = renderer.read_display().context("reading back the frame")?;
+    let validation_errors = renderer.take_validation_errors();
+    if let Some(path) = &opts.screenshot {
+        let (w, h) = opts.size;
+        image::save_buffer(path, &pixels, w, h, image::ExtendedColorType::Rgba8)
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(RunSummary { app, pixels, frames, validation_errors })
+}
+
+fn drain_stats(app: &mut App, out: &mut Vec<serde_json::Value>) {
+    let renderer = &app.world.resource::<GpuRenderer>().0;
+    let (tier, device) = (renderer.tier().name(), renderer.device_name().to_string());
+    let mut stats = app.world.resource_mut::<RenderStats>();
+    while let Some(s) = stats.completed.pop_front() {
+        out.push(crate::stats::frame_json(&s, tier, &device));
+    }
+}
+
+fn create(path: &Path) -> Result<std::fs::File> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))
+}
+
+/// Gives a loaded model what it needs to be seen: when it has no camera, one looking at its
+/// bounds from the front-right and above; when it has no light, a sun and a fill light.
+pub fn frame_scene(world: &mut World) {
+    let _ = world.try_run_schedule(PostUpdate); // propagate transforms so bounds are in world space
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    let mut query = world.query::<(&MeshInstance, &GlobalTransform)>();
+    let meshes = world.resource::<Assets<Mesh>>();
+    for (inst, global) in query.iter(world) {
+        let Some(mesh) = meshes.get(inst.mesh) else { continue };
+        let (a, b) = mesh.aabb();
+        for i in 0..8 {
+            let corner = Vec3::new(
+                if i & 1 == 0 { a.x } else { b.x },
+                if i & 2 == 0 { a.y } else { b.y },
+                if i & 4 == 0 { a.z } else { b.z },
+            );
+            let p = global.transform_point(corner);
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+    }
+    if !lo.is_finite() {
+        lo = Vec3::splat(-1.0);
+        hi = Vec3::splat(1.0);
+    }
+    let centre = (lo + hi) * 0.5;
+    let radius = ((hi - lo).length() * 0.5).max(0.01);
+    let has_camera = world.query::<&Camera>().iter(world).any(|c| c.active);
+    if !has_camera {
+        let camera = Camera::default();
+        let distance = radius / (camera.fov_y * 0.5).sin() * 1.1;
+        let eye = centre + Vec3::new(0.45, 0.35, 1.0).normalize() * distance;
+        world.spawn((camera, Transform::from_translation(eye).looking_at(centre, Vec3::Y)));
+    }
+    let has_light = world.query::<&PointLight>().iter(world).next().is_some()
+        || world.query::<&SpotLight>().iter(world).next().is_some()
+        || world.query::<&DirectionalLight>().iter(world).next().is_some();
+    if !has_light {
+        world.spawn((
+            DirectionalLight { color: Vec3::new(1.0, 0.96, 0.9), illuminance: 3.0 },
+            Transform::from_translation(centre).looking_at(centre + Vec3::new(-0.4, -1.0, -0.6), Vec3::Y),
+        ));
+        world.spawn((
+            PointLight { color: Vec3::new(0.6, 0.7, 1.0), intensity: 4.0 * radius * radius, range: None },
+            Transform::from_translation(centre + Vec3::new(-1.2, 0.6, 1.2) * radius),
+        ));
+    }
+}
