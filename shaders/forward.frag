@@ -19,7 +19,8 @@ void main() {
     float occlusion = mix(1.0, sample_texture(m.occlusion_tex, v_uv).r, m.occlusion_strength);
     vec3 emissive = m.emissive * sample_texture(m.emissive_tex, v_uv).rgb;
 
-    vec3 n = normalize(v_normal);
+    float nl = dot(v_normal, v_normal);
+    vec3 n = nl > 1e-12 ? v_normal * inversesqrt(nl) : vec3(0.0, 1.0, 0.0);
     if ((m.flags & MATERIAL_DOUBLE_SIDED) != 0u && !gl_FrontFacing) n = -n;
     vec3 ts = decode_normal_texel(sample_texture(m.normal_tex, v_uv).xyz);
     n = perturb_normal(n, v_tangent, ts, m.normal_scale);

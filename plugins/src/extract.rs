@@ -141,7 +141,9 @@ fn gpu_material(m: &Material, slots: &MirrorSlots) -> (GpuMaterial, DrawFlags) {
     let gpu = GpuMaterial {
         base_color: m.base_color.to_array(),
         emissive: m.emissive.to_array(),
-        normal_scale: m.normal_scale,
+        // The built-in flat normal texel (128/255) decodes to a normal tilted by 0.2°, which is
+        // visible in sharp highlights; a zero scale makes "no normal map" exactly flat.
+        normal_scale: if m.normal_texture.is_some() { m.normal_scale } else { 0.0 },
         metallic: m.metallic,
         roughness: m.roughness,
         alpha_cutoff: cutoff,

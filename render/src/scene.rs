@@ -519,6 +519,17 @@ impl SceneMirror {
         self.counters = FrameCounters::default();
     }
 
+    /// Forgets every pending upload, as if an uploader had copied it all (for uploaders other
+    /// than the GPU renderer, and for tests without a GPU).
+    pub fn clear_dirty(&mut self) {
+        self.instances.take_dirty(|_, _| {});
+        self.materials.take_dirty(|_, _| {});
+        self.lights.take_dirty(|_, _| {});
+        self.camera_dirty = false;
+        self.pending_meshes.clear();
+        self.pending_textures.clear();
+    }
+
     /// True when the renderer has nothing to upload.
     pub fn is_clean(&self) -> bool {
         self.instances.dirty_count() == 0

@@ -164,7 +164,8 @@ fn create(path: &Path) -> Result<std::fs::File> {
 }
 
 /// Gives a loaded model what it needs to be seen: when it has no camera, one looking at its
-/// bounds from the front-right and above; when it has no light, a sun and a fill light.
+/// bounds from the front-right and above; when it has no light, a sun, a fill light and a
+/// brighter ambient term.
 pub fn frame_scene(world: &mut World) {
     let _ = world.try_run_schedule(PostUpdate); // propagate transforms so bounds are in world space
     let mut lo = Vec3::splat(f32::INFINITY);
@@ -194,7 +195,7 @@ pub fn frame_scene(world: &mut World) {
     let has_camera = world.query::<&Camera>().iter(world).any(|c| c.active);
     if !has_camera {
         let camera = Camera::default();
-        let distance = radius / (camera.fov_y * 0.5).sin() * 1.1;
+        let distance = radius / (camera.fov_y * 0.5).sin() * 0.85;
         let eye = centre + Vec3::new(0.45, 0.35, 1.0).normalize() * distance;
         world.spawn((camera, Transform::from_translation(eye).looking_at(centre, Vec3::Y)));
     }
@@ -202,6 +203,10 @@ pub fn frame_scene(world: &mut World) {
         || world.query::<&SpotLight>().iter(world).next().is_some()
         || world.query::<&DirectionalLight>().iter(world).next().is_some();
     if !has_light {
+        // Without image-based lighting metals would be black; a brighter ambient stands in.
+        if let Some(mut settings) = world.get_resource_mut::<plugins::RenderSettings>() {
+            settings.ambient = Vec3::splat(0.35);
+        }
         world.spawn((
             DirectionalLight { color: Vec3::new(1.0, 0.96, 0.9), illuminance: 3.0 },
             Transform::from_translation(centre).looking_at(centre + Vec3::new(-0.4, -1.0, -0.6), Vec3::Y),

@@ -62,7 +62,9 @@ vec3 brdf_cos(SurfaceBrdf s, vec3 n, vec3 v, vec3 l) {
     float n_dot_l = clamp(dot(n, l), 0.0, 1.0);
     if (n_dot_l <= 0.0) return vec3(0.0);
     vec3 h = normalize(v + l);
-    float n_dot_v = abs(dot(n, v)) + 1e-5;
+    // Frostbite adds 1e-5 to avoid a zero; the clamp keeps pow(1 − n·v, 5) off negative bases,
+    // which GLSL's pow turns into NaN.
+    float n_dot_v = min(abs(dot(n, v)) + 1e-5, 1.0);
     float n_dot_h = clamp(dot(n, h), 0.0, 1.0);
     float l_dot_h = clamp(dot(l, h), 0.0, 1.0);
 

@@ -9,7 +9,10 @@ vec3 perturb_normal(vec3 n, vec4 tangent, vec3 tangent_space_normal, float scale
     t /= tl;
     vec3 b = cross(n, t) * (tangent.w < 0.0 ? -1.0 : 1.0);
     vec3 ts = vec3(tangent_space_normal.xy * scale, tangent_space_normal.z);
-    return normalize(mat3(t, b, n) * ts);
+    vec3 perturbed = mat3(t, b, n) * ts;
+    float len2 = dot(perturbed, perturbed);
+    // A texel of (0.5, 0.5, 0.5) encodes no direction at all; keep the geometric normal.
+    return len2 > 1e-12 ? perturbed * inversesqrt(len2) : n;
 }
 
 vec3 decode_normal_texel(vec3 texel) {

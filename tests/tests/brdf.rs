@@ -20,7 +20,7 @@ fn brdf_cos(base: Vec3, metallic: f32, roughness: f32, n: Vec3, v: Vec3, l: Vec3
     let rough = roughness.clamp(0.045, 1.0);
     let alpha = rough * rough;
     let h = (v + l).normalize();
-    let n_dot_v = n.dot(v).abs() + 1e-5;
+    let n_dot_v = (n.dot(v).abs() + 1e-5).min(1.0);
     let n_dot_h = n.dot(h).clamp(0.0, 1.0);
     let l_dot_h = l.dot(h).clamp(0.0, 1.0);
     let f0 = Vec3::splat(0.02).lerp(base, metallic);

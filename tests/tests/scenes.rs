@@ -1,0 +1,61 @@
+//! Whole scenes on the GPU (lavapipe at small sizes): the generated courtyard and the glTF models
+//! in ../shared/assets/gltf render without validation errors and with a non-degenerate image.
+//!
+//! "Non-degenerate" is checked as: no NaN or infinity in the HDR target; coverage (pixels that
+//! differ from the clear colour) and luma variance above stated floors; and a frame in which
+//! nothing changed uploads nothing.
+
+use sandbox::headless::{HeadlessOptions, SceneSource, run};
+use tests::{image_stats, shared_gltf_dir};
+
+/// The default clear colour (0.35, 0.45, 0.6) after tone mapping and sRGB encoding.
+const CLEAR_DISPLAY_COLOR: [u8; 3] = [151, 171, 197];
+
+fn check_scene(scene: SceneSource, min_coverage: f64) {
+    let opts = HeadlessOptions { frames: 4, size: (160, 120), scene, ..Default::default() };
+    let mut summary = run(&opts).expect("scene renders");
+    assert!(summary.validation_errors.is_empty(), "validation errors: {:#?}", summary.validation_errors);
+    let hdr = summary.app.world.resource_mut::<plugins::GpuRenderer>().into_inner().0.read_hdr().expect("readback");
+    let nan = hdr.iter().flatten().filter(|v| v.is_nan()).count();
+    let inf = hdr.iter().flatten().filter(|v| v.is_infinite()).count();
+    assert!(nan == 0 && inf == 0, "no NaN ({nan}) or infinity ({inf}) in the HDR target");
+    let stats = image_stats(&summary.pixels, CLEAR_DISPLAY_COLOR);
+    eprintln!("{stats:?}");
+    assert!(stats.coverage >= min_coverage, "geometry covers at least {min_coverage}: {stats:?}");
+    assert!(stats.luma_variance > 0.002, "the image is not flat: {stats:?}");
+    assert!(stats.mean_luma > 0.05 && stats.mean_luma < 0.95, "neither black nor blown out: {stats:?}");
+
+    assert_eq!(summary.frames.len(), 4, "one stats object per frame");
+    let first = &summary.frames[0]["counters"];
+    assert!(first["bytes_uploaded"].as_u64().unwrap() > 0, "the first frame uploads the scene");
+    for later in &summary.frames[1..] {
+        assert_eq!(later["counters"]["bytes_uploaded"], 0, "a frame with no change uploads nothing: {later}");
+        assert_eq!(later["counters"]["records_written"], 0);
+        for pass in ["prepass", "forward", "tonemap", "total"] {
+            assert!(later["gpu_ms"][pass].as_f64().is_some_and(|ms| ms > 0.0), "GPU time for {pass}: {later}");
+        }
+    }
+}
+
+#[test]
+fn default_courtyard_renders() {
+    check_scene(SceneSource::Default, 0.5);
+}
+
+#[test]
+fn damaged_helmet_renders() {
+    let Some(dir) = shared_gltf_dir() else {
+        eprintln!("skipping: ../shared/assets/gltf not found");
+        return;
+    };
+    check_scene(SceneSource::Gltf(dir.join("DamagedHelmet/DamagedHelmet.glb")), 0.12);
+}
+
+#[test]
+fn suzanne_renders() {
+    let Some(dir) = shared_gltf_dir() else {
+        eprintln!("skipping: ../shared/assets/gltf not found");
+        return;
+    };
+    check_scene(SceneSource::Gltf(dir.join("Suzanne/Suzanne.gltf")), 0.12);
+}
