@@ -162,6 +162,11 @@ impl Renderer {
         &self.ctx.device_name
     }
 
+    /// The ray tracing extensions the device offers (whatever tier is in use).
+    pub fn capabilities(&self) -> crate::Capabilities {
+        self.ctx.capabilities
+    }
+
     /// The capability tier in use.
     pub fn tier(&self) -> Tier {
         self.ctx.tier

@@ -59,3 +59,19 @@ fn suzanne_renders() {
     };
     check_scene(SceneSource::Gltf(dir.join("Suzanne/Suzanne.gltf")), 0.12);
 }
+
+#[test]
+fn a_setting_forces_a_lower_capability_tier() {
+    for (tier, name) in [(render::Tier::NoRayTracing, "none"), (render::Tier::RayTracingPipeline, "ray_tracing_pipeline")] {
+        let opts = HeadlessOptions { frames: 2, size: (64, 48), max_tier: tier, ..Default::default() };
+        let summary = run(&opts).expect("renders at a forced tier");
+        assert!(summary.validation_errors.is_empty(), "{:#?}", summary.validation_errors);
+        let reported = summary.frames[0]["tier"].as_str().unwrap().to_string();
+        // The device may be below the cap (a GPU without ray tracing), never above it.
+        let actual = render::Tier::from_name(&reported).expect("a known tier name");
+        assert!(actual <= tier, "tier {reported} exceeds the forced cap {name}");
+        if summary.app.world.resource::<plugins::GpuRenderer>().0.capabilities().best_tier() >= tier {
+            assert_eq!(reported, name, "a device that offers more uses exactly the cap");
+        }
+    }
+}
