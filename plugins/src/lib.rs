@@ -16,6 +16,7 @@
 //! app.update(); // extract, upload what changed, record, submit
 //! ```
 
+pub mod decal;
 pub mod extract;
 
 use std::collections::VecDeque;

@@ -80,7 +80,8 @@ pub struct FrameReport {
     pub frame: u64,
     /// Work done for this frame (uploads, records, acceleration structures, live counts).
     pub counters: FrameCounters,
-    /// CPU time spent uploading and recording, in milliseconds.
+    /// CPU time spent uploading and recording, in milliseconds (not counting the wait for the
+    /// frame slot's previous use to finish).
     pub record_ms: f32,
     /// A frame that finished on the GPU while this one was being prepared, with its GPU times.
     pub finished: Option<FinishedFrame>,
@@ -194,7 +195,6 @@ impl Renderer {
 
     /// Uploads what changed in `mirror` and records and submits one frame.
     pub fn render(&mut self, mirror: &mut SceneMirror, settings: &FrameSettings) -> Result<FrameReport, RenderError> {
-        let start = Instant::now();
         let frame = self.frame_number;
         let slot_index = (frame % FRAMES_IN_FLIGHT as u64) as usize;
         let ctx = &self.ctx;
@@ -212,6 +212,8 @@ impl Renderer {
         let finished = slot.timer.collect(ctx).map(|gpu| FinishedFrame { frame: slot.frame, gpu });
         // SAFETY: the semaphore is live.
         let completed = unsafe { d.get_semaphore_counter_value(res.timeline) }?;
+        // CPU time is measured from here: waiting for the GPU is not recording.
+        let start = Instant::now();
         res.graveyard.collect(ctx, completed);
         slot.staging.reset();
         let frame_value = frame + 1;
