@@ -1,6 +1,10 @@
 //! Compiles every GLSL stage in `shaders/` to SPIR-V with the `glslc` program (Debian package
 //! `glslc`). Debian's `libshaderc` does not link from Rust, so we call the program instead.
 //! A shader error fails the build with glslc's own message, which names the file and line.
+//!
+//! A stage whose first line is `// variants: NAME [NAME…]` is also compiled once per NAME with
+//! `-DNAME`, into `<file>.<NAME>.spv` (e.g. the forward shader with and without ray-query
+//! decals, since SPIR-V that uses ray queries cannot even be loaded on devices without them).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -25,24 +29,32 @@ fn main() {
         println!("cargo:rerun-if-changed={}", entry.path().display());
     }
 
-    let mut failures = Vec::new();
+    let mut jobs = Vec::new();
     for src in &sources {
         println!("cargo:rerun-if-changed={}", src.display());
-        let name = src.file_name().unwrap().to_string_lossy();
-        let out = out_dir.join(format!("{name}.spv"));
-        let result = Command::new(&glslc)
-            .arg("--target-env=vulkan1.3")
-            .arg("-O")
-            .arg("-I")
-            .arg(shader_dir.join("include"))
-            .arg(src)
-            .arg("-o")
-            .arg(&out)
-            .output();
+        let name = src.file_name().unwrap().to_string_lossy().into_owned();
+        jobs.push((src.clone(), None, out_dir.join(format!("{name}.spv"))));
+        let text = std::fs::read_to_string(src).unwrap_or_default();
+        if let Some(list) = text.lines().next().and_then(|l| l.strip_prefix("// variants:")) {
+            for variant in list.split_whitespace() {
+                jobs.push((src.clone(), Some(variant.to_string()), out_dir.join(format!("{name}.{variant}.spv"))));
+            }
+        }
+    }
+
+    let mut failures = Vec::new();
+    for (src, define, out) in &jobs {
+        let mut command = Command::new(&glslc);
+        command.arg("--target-env=vulkan1.3").arg("-O").arg("-I").arg(shader_dir.join("include"));
+        if let Some(define) = define {
+            command.arg(format!("-D{define}"));
+        }
+        let result = command.arg(src).arg("-o").arg(out).output();
         match result {
             Ok(o) if o.status.success() => {}
             Ok(o) => failures.push(format!(
-                "{}{}",
+                "{}{}{}",
+                define.as_ref().map(|d| format!("(variant {d}) ")).unwrap_or_default(),
                 String::from_utf8_lossy(&o.stdout),
                 String::from_utf8_lossy(&o.stderr)
             )),

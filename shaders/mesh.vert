@@ -20,5 +20,6 @@ void main() {
     v_tangent = vec4(mat3(inst.model) * a_tangent.xyz, a_tangent.w);
     v_uv = a_uv;
     v_material = inst.material;
+    v_instance = gl_InstanceIndex;
     gl_Position = scene.camera.camera.view_proj * world;
 }

@@ -26,7 +26,11 @@
 use bevy_ecs::prelude::*;
 use engine::asset::Handle;
 use engine::image::Image;
-use glam::{Vec2, Vec4};
+use engine::time::Time;
+use glam::{Mat4, Vec2, Vec4};
+use render::scene::{
+    DECAL_ALBEDO, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, GpuDecal, GpuDecalMaterial, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
+};
 
 /// What a decal does to the surfaces it covers. Every attribute is optional, so a decal can
 /// change any subset: a puddle changes roughness and normals, a stain only albedo.
@@ -162,7 +166,7 @@ impl Decal {
 pub struct DecalReceiver(pub u32);
 
 /// Despawns a decal after `remaining` seconds, fading its opacity to zero over the last
-/// `fade_out` seconds. Driven by the [`DecalPlugin`](crate::decal)'s lifetime system.
+/// `fade_out` seconds. Driven by [`update_decal_lifetimes`], which the render plugin adds.
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
 pub struct DecalLifetime {
     /// Seconds left.
@@ -177,5 +181,79 @@ impl DecalLifetime {
     /// Lives `seconds`, fading over the last `fade_out` seconds.
     pub fn new(seconds: f32, fade_out: f32) -> Self {
         Self { remaining: seconds, fade_out: fade_out.max(0.0), initial_opacity: 1.0 }
+    }
+}
+
+/// Counts down every [`DecalLifetime`], fades the decal's opacity over the last `fade_out`
+/// seconds and despawns it when the time is up. Runs in `Update`.
+pub fn update_decal_lifetimes(mut commands: Commands, time: Res<Time>, mut decals: Query<(Entity, &mut DecalLifetime, &mut Decal)>) {
+    let dt = time.delta_secs();
+    for (entity, mut life, mut decal) in &mut decals {
+        life.remaining -= dt;
+        if life.remaining <= 0.0 {
+            commands.entity(entity).despawn();
+            continue;
+        }
+        if life.remaining < life.fade_out {
+            let opacity = life.initial_opacity * (life.remaining / life.fade_out);
+            // Written only when it changes, so a decal that is not fading is not re-extracted.
+            if decal.opacity != opacity {
+                decal.opacity = opacity;
+            }
+        }
+    }
+}
+
+/// The decal's GPU record (its `world_to_decal` is filled in by the table from the transform).
+pub(crate) fn gpu_decal(decal: &Decal, material: u32) -> GpuDecal {
+    let corners = decal.uv.corners();
+    let (fade_scale, fade_offset) = match decal.angle_fade {
+        Some(fade) => {
+            let (cos_start, cos_end) = (fade.start.cos(), fade.end.cos());
+            let scale = 1.0 / (cos_start - cos_end).max(1e-4);
+            (scale, -cos_end * scale)
+        }
+        None => (0.0, 1.0),
+    };
+    GpuDecal {
+        world_to_decal: Mat4::IDENTITY,
+        uv01: [corners[0].x, corners[0].y, corners[1].x, corners[1].y],
+        uv23: [corners[2].x, corners[2].y, corners[3].x, corners[3].y],
+        material,
+        channel: decal.channel.min(3) as u32,
+        weight: decal.weight.max(1e-4),
+        receivers: decal.receivers,
+        opacity: decal.opacity.clamp(0.0, 1.0),
+        fade_scale,
+        fade_offset,
+        pad: 0,
+    }
+}
+
+/// The GPU record of a decal material, with texture handles resolved to bindless slots.
+pub(crate) fn gpu_decal_material(m: &DecalMaterial, texture: impl Fn(Option<Handle<Image>>, u32) -> u32) -> GpuDecalMaterial {
+    let mut flags = 0;
+    if m.base_color.is_some() {
+        flags |= DECAL_ALBEDO;
+    }
+    if m.normal_texture.is_some() {
+        flags |= DECAL_NORMAL;
+    }
+    if m.roughness.is_some() {
+        flags |= DECAL_ROUGHNESS;
+    }
+    if m.metallic.is_some() {
+        flags |= DECAL_METALLIC;
+    }
+    GpuDecalMaterial {
+        base_color: m.base_color.unwrap_or(Vec4::ONE).to_array(),
+        base_color_tex: texture(m.base_color_texture, TEXTURE_WHITE),
+        normal_tex: texture(m.normal_texture, TEXTURE_FLAT_NORMAL),
+        metallic_roughness_tex: texture(m.metallic_roughness_texture, TEXTURE_WHITE),
+        flags,
+        normal_scale: m.normal_scale,
+        roughness: m.roughness.unwrap_or(0.0),
+        metallic: m.metallic.unwrap_or(0.0),
+        pad: 0.0,
     }
 }

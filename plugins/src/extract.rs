@@ -21,6 +21,7 @@ use render::scene::{
 };
 use std::collections::HashMap;
 
+use crate::decal::{DEFAULT_RECEIVER_LAYERS, Decal, DecalMaterial, DecalReceiver, gpu_decal, gpu_decal_material};
 use crate::{RenderMirror, RenderSettings};
 
 /// Where each asset and entity lives in the mirror.
@@ -31,6 +32,8 @@ pub struct MirrorSlots {
     materials: HashMap<Handle<Material>, (u32, DrawFlags)>,
     instances: HashMap<Entity, u32>,
     lights: HashMap<Entity, u32>,
+    decals: HashMap<Entity, u32>,
+    decal_materials: HashMap<Handle<DecalMaterial>, u32>,
     /// The slot of the material used when an instance's material is missing.
     pub default_material: u32,
 }
@@ -55,6 +58,11 @@ impl MirrorSlots {
     /// The light slot of `entity`, if it is mirrored.
     pub fn light(&self, entity: Entity) -> Option<u32> {
         self.lights.get(&entity).copied()
+    }
+
+    /// The decal slot of `entity`, if it is mirrored.
+    pub fn decal(&self, entity: Entity) -> Option<u32> {
+        self.decals.get(&entity).copied()
     }
 
     /// The material slot of `handle`, if it is mirrored.
@@ -91,6 +99,7 @@ pub fn extract_images(
     mut mirror: ResMut<RenderMirror>,
     mut slots: ResMut<MirrorSlots>,
     mut materials: ResMut<Assets<Material>>,
+    mut decal_materials: ResMut<Assets<DecalMaterial>>,
 ) {
     let images = &mut *images;
     let mut replaced = Vec::new();
@@ -119,6 +128,16 @@ pub fn extract_images(
             .collect();
         for h in stale {
             materials.get_mut(h); // records a Modified event that extract_materials handles
+        }
+        let stale: Vec<_> = decal_materials
+            .iter()
+            .filter(|(_, m)| {
+                [m.base_color_texture, m.normal_texture, m.metallic_roughness_texture].into_iter().flatten().any(|h| replaced.contains(&h))
+            })
+            .map(|(h, _)| h)
+            .collect();
+        for h in stale {
+            decal_materials.get_mut(h);
         }
     }
 }
@@ -219,9 +238,12 @@ pub fn extract_meshes(mut meshes: ResMut<Assets<Mesh>>, mut mirror: ResMut<Rende
     }
 }
 
-/// Mirrors mesh instances whose transform or mesh/material changed; frees removed ones.
+type ChangedInstance = Or<(Changed<MeshInstance>, Changed<GlobalTransform>, Changed<DecalReceiver>)>;
+
+/// Mirrors mesh instances whose transform, mesh, material or decal layers changed; frees
+/// removed ones.
 pub fn extract_instances(
-    changed: Query<(Entity, &MeshInstance, &GlobalTransform), Or<(Changed<MeshInstance>, Changed<GlobalTransform>)>>,
+    changed: Query<(Entity, &MeshInstance, &GlobalTransform, Option<&DecalReceiver>), ChangedInstance>,
     mut removed: RemovedComponents<MeshInstance>,
     mut mirror: ResMut<RenderMirror>,
     mut slots: ResMut<MirrorSlots>,
@@ -236,7 +258,7 @@ pub fn extract_instances(
             mirror.remove_instance(slot);
         }
     }
-    for (entity, inst, global) in &changed {
+    for (entity, inst, global, receiver) in &changed {
         let Some(&mesh) = slots.meshes.get(&inst.mesh) else {
             tracing::warn!(?entity, "mesh instance refers to a mesh that is not loaded; not drawn");
             if let Some(slot) = slots.instances.remove(&entity) {
@@ -245,7 +267,8 @@ pub fn extract_instances(
             continue;
         };
         let (material, flags) = slots.materials.get(&inst.material).copied().unwrap_or((slots.default_material, DrawFlags::default()));
-        let record = GpuInstance::new(global.compute_matrix(), material);
+        let layers = receiver.map_or(DEFAULT_RECEIVER_LAYERS, |r| r.0);
+        let record = GpuInstance::new(global.compute_matrix(), material, layers);
         let draw = DrawItem { mesh, alpha_mask: flags.alpha_mask, double_sided: flags.double_sided };
         let slot = mirror.set_instance(slots.instances.get(&entity).copied(), record, draw);
         slots.instances.insert(entity, slot);
@@ -317,5 +340,62 @@ fn camera_record(view: Mat4, proj: Mat4, view_proj: Mat4, position: Vec3, exposu
         inv_viewport_size: Vec2::new(1.0 / w as f32, 1.0 / h as f32),
         ambient,
         pad: 0,
+    }
+}
+
+/// Writes added and modified decal materials into their slots; frees removed ones. A decal whose
+/// material changed keeps its slot reference, so only the material record is rewritten.
+pub fn extract_decal_materials(mut materials: ResMut<Assets<DecalMaterial>>, mut mirror: ResMut<RenderMirror>, mut slots: ResMut<MirrorSlots>) {
+    let events: Vec<_> = materials.drain_events().collect();
+    let mirror = &mut mirror.0;
+    for event in events {
+        let handle = event.handle();
+        match (&event, materials.get(handle)) {
+            (AssetEvent::Added(_) | AssetEvent::Modified(_), Some(material)) => {
+                let gpu = gpu_decal_material(material, |h, fallback| h.and_then(|h| slots.textures.get(&h).copied()).unwrap_or(fallback));
+                let old = slots.decal_materials.get(&handle).copied();
+                let slot = SceneMirror::write(&mut mirror.counters, &mut mirror.decal_materials, old, gpu);
+                slots.decal_materials.insert(handle, slot);
+            }
+            _ => {
+                if let Some(slot) = slots.decal_materials.remove(&handle) {
+                    mirror.decal_materials.remove(slot);
+                    mirror.counters.records_written += 1;
+                }
+            }
+        }
+    }
+}
+
+/// Mirrors decals that were spawned, moved (directly or through a parent) or edited into their
+/// stable slots, with their boxes; frees despawned ones. Unchanged decals cost nothing.
+pub fn extract_decals(
+    changed: Query<(Entity, &Decal, &GlobalTransform), Or<(Changed<Decal>, Changed<GlobalTransform>)>>,
+    mut removed: RemovedComponents<Decal>,
+    live: Query<(), With<Decal>>,
+    mut mirror: ResMut<RenderMirror>,
+    mut slots: ResMut<MirrorSlots>,
+) {
+    let mirror = &mut mirror.0;
+    for entity in removed.read() {
+        if live.contains(entity) {
+            continue;
+        }
+        if let Some(slot) = slots.decals.remove(&entity) {
+            mirror.decals.remove(slot);
+            mirror.counters.records_written += 1;
+        }
+    }
+    for (entity, decal, global) in &changed {
+        let Some(&material) = slots.decal_materials.get(&decal.material) else {
+            tracing::warn!(?entity, "decal refers to a decal material that does not exist; not drawn");
+            if let Some(slot) = slots.decals.remove(&entity) {
+                mirror.decals.remove(slot);
+            }
+            continue;
+        };
+        let slot = mirror.decals.write(slots.decals.get(&entity).copied(), global.compute_matrix(), gpu_decal(decal, material));
+        mirror.counters.records_written += 1;
+        slots.decals.insert(entity, slot);
     }
 }

@@ -26,7 +26,7 @@ use bevy_ecs::prelude::*;
 use engine::app::{App, Plugin, Render};
 use glam::Vec3;
 use render::scene::GpuMaterial;
-use render::{FrameCounters, FrameSettings, PassTimes, PipelineKind, Renderer, SceneMirror};
+use render::{DebugView, FrameCounters, FrameSettings, PassTimes, PipelineKind, Renderer, SceneMirror};
 
 pub use extract::MirrorSlots;
 
@@ -41,11 +41,22 @@ pub struct RenderSettings {
     pub ambient: Vec3,
     /// Radiance where no geometry is drawn.
     pub clear_color: [f32; 4],
+    /// What the shading pass shows (the lit image, or a debug view).
+    pub debug_view: DebugView,
+    /// Draw decal boxes over the image.
+    pub show_decal_boxes: bool,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        Self { pipeline: PipelineKind::Forward, size: (1280, 720), ambient: Vec3::splat(0.03), clear_color: [0.35, 0.45, 0.6, 1.0] }
+        Self {
+            pipeline: PipelineKind::Forward,
+            size: (1280, 720),
+            ambient: Vec3::splat(0.03),
+            clear_color: [0.35, 0.45, 0.6, 1.0],
+            debug_view: DebugView::Lit,
+            show_decal_boxes: false,
+        }
     }
 }
 
@@ -150,7 +161,9 @@ impl Plugin for RenderPlugin {
                 extract::extract_images,
                 extract::extract_materials,
                 extract::extract_meshes,
+                extract::extract_decal_materials,
                 extract::extract_instances,
+                extract::extract_decals,
                 extract::extract_lights,
                 extract::extract_camera,
                 end_extract,
@@ -159,6 +172,8 @@ impl Plugin for RenderPlugin {
                 .in_set(RenderSystems::Extract),
         );
         app.add_systems(Render, render_frame.in_set(RenderSystems::Render));
+        app.insert_resource(engine::asset::Assets::<decal::DecalMaterial>::default());
+        app.add_systems(engine::app::Update, decal::update_decal_lifetimes);
     }
 }
 
@@ -182,7 +197,12 @@ fn render_frame(
     let Some(mut renderer) = renderer else {
         return;
     };
-    let frame_settings = FrameSettings { pipeline: settings.pipeline, clear_color: settings.clear_color };
+    let frame_settings = FrameSettings {
+        pipeline: settings.pipeline,
+        clear_color: settings.clear_color,
+        debug_view: settings.debug_view,
+        show_decal_boxes: settings.show_decal_boxes,
+    };
     match renderer.0.render(&mut mirror.0, &frame_settings) {
         Ok(report) => {
             stats.last = report.counters;

@@ -1,11 +1,12 @@
 //! The forward pipeline: a reverse-Z depth prepass (seed 001 §4.1; alpha test only for masked
-//! materials) and a shading pass that tests depth EQUAL, so each pixel is shaded once with the
-//! Frostbite BRDF of seed 000 §2.3.
+//! materials) and a shading pass that tests depth EQUAL, so each pixel is shaded once: decals
+//! found by a zero-length ray query (seed 000 §4.2.2) are blended into the surface attributes,
+//! then every light is applied with the Frostbite BRDF of seed 000 §2.3.
 
 use ash::vk;
 
 use crate::RenderError;
-use crate::device::GpuContext;
+use crate::device::{GpuContext, Tier};
 use crate::gpu_scene::GpuScene;
 use crate::pass::{PassContext, color_attachment, depth_attachment};
 use crate::pipeline::{GraphicsDesc, create_graphics};
@@ -42,7 +43,9 @@ impl ForwardPasses {
                 layout,
                 &GraphicsDesc {
                     name: "forward",
-                    fragment: Some(shaders::FORWARD_FRAG),
+                    // Ray-query decals need the ray query tier; SPIR-V using ray queries cannot
+                    // even be loaded on other devices.
+                    fragment: Some(if ctx.tier == Tier::RayQuery { shaders::FORWARD_FRAG_RAY_QUERY_DECALS } else { shaders::FORWARD_FRAG }),
                     color_formats: &[HDR_FORMAT],
                     depth_compare: Some(vk::CompareOp::EQUAL),
                     depth_write: false,

@@ -30,22 +30,45 @@ pub struct GpuTable {
     buffer: Buffer,
     capacity: u32,
     stride: u64,
+    extra_usage: vk::BufferUsageFlags,
+    /// Zero the slots past the mirror's high-water mark when the buffer is (re)created, for
+    /// readers that consume the whole capacity (the decal BLAS build).
+    zero_tail: bool,
 }
 
 impl GpuTable {
     fn new<T: Pod>(ctx: &GpuContext, name: &'static str, capacity: u32) -> Result<Self, RenderError> {
-        let stride = std::mem::size_of::<T>() as u64;
-        Ok(Self { name, buffer: Self::create(ctx, name, stride * capacity as u64)?, capacity, stride })
+        Self::with_usage::<T>(ctx, name, capacity, vk::BufferUsageFlags::empty(), false)
     }
 
-    fn create(ctx: &GpuContext, name: &str, size: u64) -> Result<Buffer, RenderError> {
+    fn with_usage<T: Pod>(
+        ctx: &GpuContext,
+        name: &'static str,
+        capacity: u32,
+        extra_usage: vk::BufferUsageFlags,
+        zero_tail: bool,
+    ) -> Result<Self, RenderError> {
+        let stride = std::mem::size_of::<T>() as u64;
+        let buffer = Self::create(ctx, name, stride * capacity as u64, extra_usage)?;
+        Ok(Self { name, buffer, capacity, stride, extra_usage, zero_tail })
+    }
+
+    fn create(ctx: &GpuContext, name: &str, size: u64, extra_usage: vk::BufferUsageFlags) -> Result<Buffer, RenderError> {
         Buffer::new(
             ctx,
             name,
             size,
-            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST
+                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
+                | extra_usage,
             MemoryLocation::GpuOnly,
         )
+    }
+
+    /// Number of records the buffer holds.
+    pub fn capacity(&self) -> u32 {
+        self.capacity
     }
 
     /// Device address of record 0.
@@ -65,7 +88,7 @@ impl GpuTable {
             return Ok(false);
         }
         let capacity = slots.next_power_of_two().max(self.capacity * 2);
-        let old = std::mem::replace(&mut self.buffer, Self::create(ctx, self.name, self.stride * capacity as u64)?);
+        let old = std::mem::replace(&mut self.buffer, Self::create(ctx, self.name, self.stride * capacity as u64, self.extra_usage)?);
         graveyard.bury(frame_value, Retired::Buffer(old));
         self.capacity = capacity;
         Ok(true)
@@ -77,6 +100,7 @@ impl GpuTable {
 #[allow(clippy::too_many_arguments)]
 fn upload_table<T: Pod>(
     ctx: &GpuContext,
+    cmd: vk::CommandBuffer,
     graveyard: &mut Graveyard,
     frame_value: u64,
     table: &mut SlotTable<T>,
@@ -88,6 +112,16 @@ fn upload_table<T: Pod>(
     let regrown = gpu.ensure(ctx, graveyard, frame_value, table.slot_count())?;
     if !regrown && table.dirty_count() == 0 {
         return Ok(None);
+    }
+    if regrown && gpu.zero_tail {
+        // SAFETY: `cmd` is recording; the new buffer is not yet used by anything.
+        unsafe { ctx.device.cmd_fill_buffer(cmd, gpu.buffer(), 0, vk::WHOLE_SIZE, 0) };
+        memory_barrier(
+            &ctx.device,
+            cmd,
+            (vk::PipelineStageFlags2::CLEAR, vk::AccessFlags2::TRANSFER_WRITE),
+            (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE),
+        );
     }
     regions.clear();
     let stride = gpu.stride;
@@ -119,6 +153,45 @@ fn upload_table<T: Pod>(
     }
     counters.bytes_uploaded += regions.iter().map(|r| r.size).sum::<u64>();
     Ok(Some(gpu.buffer()))
+}
+
+/// A [`SlotTable`] of any record type, as the uploader sees it.
+trait DirtyTable {
+    #[allow(clippy::too_many_arguments)]
+    fn upload(
+        &mut self,
+        ctx: &GpuContext,
+        cmd: vk::CommandBuffer,
+        graveyard: &mut Graveyard,
+        frame_value: u64,
+        gpu: &mut GpuTable,
+        staging: &mut StagingRing,
+        regions: &mut Vec<vk::BufferCopy>,
+        counters: &mut FrameCounters,
+    ) -> Result<Option<vk::Buffer>, RenderError>;
+}
+
+impl<T: Pod> DirtyTable for SlotTable<T> {
+    fn upload(
+        &mut self,
+        ctx: &GpuContext,
+        cmd: vk::CommandBuffer,
+        graveyard: &mut Graveyard,
+        frame_value: u64,
+        gpu: &mut GpuTable,
+        staging: &mut StagingRing,
+        regions: &mut Vec<vk::BufferCopy>,
+        counters: &mut FrameCounters,
+    ) -> Result<Option<vk::Buffer>, RenderError> {
+        upload_table(ctx, cmd, graveyard, frame_value, self, gpu, staging, regions, counters)
+    }
+}
+
+/// What [`GpuScene::sync`] did that later passes need to know.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SyncReport {
+    /// Decal boxes rewritten this frame (drives the BLAS refit).
+    pub decal_boxes_changed: u32,
 }
 
 /// Bytes the dirty records of `table` need in the staging ring (worst case: all of them).
@@ -153,6 +226,12 @@ pub struct GpuScene {
     pub lights: GpuTable,
     /// The camera record.
     pub camera: GpuTable,
+    /// Decal records.
+    pub decals: GpuTable,
+    /// Decal boxes (acceleration-structure build input), over the whole capacity.
+    pub decal_aabbs: GpuTable,
+    /// Decal materials.
+    pub decal_materials: GpuTable,
     /// Meshes by [`MeshId`].
     pub meshes: Vec<Option<GpuMesh>>,
     textures: Vec<Option<Image>>,
@@ -240,6 +319,19 @@ impl GpuScene {
             materials: GpuTable::new::<crate::scene::GpuMaterial>(ctx, "materials", 64)?,
             lights: GpuTable::new::<crate::scene::GpuLight>(ctx, "lights", 16)?,
             camera: GpuTable::new::<GpuCamera>(ctx, "camera", 1)?,
+            decals: GpuTable::new::<crate::scene::GpuDecal>(ctx, "decals", 64)?,
+            decal_aabbs: GpuTable::with_usage::<crate::scene::GpuAabb>(
+                ctx,
+                "decal boxes",
+                64,
+                if ctx.tier >= Tier::RayTracingPipeline {
+                    vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+                } else {
+                    vk::BufferUsageFlags::empty()
+                },
+                true,
+            )?,
+            decal_materials: GpuTable::new::<crate::scene::GpuDecalMaterial>(ctx, "decal materials", 16)?,
             meshes: Vec::new(),
             textures: (0..RESERVED_TEXTURES).map(|_| None).collect(),
             set_layout,
@@ -361,7 +453,8 @@ impl GpuScene {
         graveyard: &mut Graveyard,
         frame_value: u64,
         completed_value: u64,
-    ) -> Result<(), RenderError> {
+    ) -> Result<SyncReport, RenderError> {
+        let mut report = SyncReport::default();
         // Slots whose last user has finished go back to the mirror for reuse.
         self.released_textures.retain(|&(after, slot)| {
             if after <= completed_value {
@@ -384,13 +477,16 @@ impl GpuScene {
         }
 
         if mirror.is_clean() {
-            return Ok(());
+            return Ok(report);
         }
         let mut counters = mirror.counters;
         let camera_dirty = mirror.take_camera_dirty();
         let need = staging_need(&mirror.instances, &self.instances)
             + staging_need(&mirror.materials, &self.materials)
             + staging_need(&mirror.lights, &self.lights)
+            + staging_need(&mirror.decals.records, &self.decals)
+            + staging_need(&mirror.decals.aabbs, &self.decal_aabbs)
+            + staging_need(&mirror.decal_materials, &self.decal_materials)
             + std::mem::size_of::<GpuCamera>() as u64
             + 64;
         staging.reserve(ctx, graveyard, frame_value, need)?;
@@ -411,12 +507,19 @@ impl GpuScene {
         }
 
         let mut regions = std::mem::take(&mut self.regions);
-        let dst = upload_table(ctx, graveyard, frame_value, &mut mirror.instances, &mut self.instances, staging, &mut regions, &mut counters)?;
-        record_copies(ctx, cmd, staging.buffer(), dst, &regions);
-        let dst = upload_table(ctx, graveyard, frame_value, &mut mirror.materials, &mut self.materials, staging, &mut regions, &mut counters)?;
-        record_copies(ctx, cmd, staging.buffer(), dst, &regions);
-        let dst = upload_table(ctx, graveyard, frame_value, &mut mirror.lights, &mut self.lights, staging, &mut regions, &mut counters)?;
-        record_copies(ctx, cmd, staging.buffer(), dst, &regions);
+        report.decal_boxes_changed = mirror.decals.aabbs.dirty_count() as u32;
+        let tables: [(&mut dyn DirtyTable, &mut GpuTable); 6] = [
+            (&mut mirror.instances, &mut self.instances),
+            (&mut mirror.materials, &mut self.materials),
+            (&mut mirror.lights, &mut self.lights),
+            (&mut mirror.decals.records, &mut self.decals),
+            (&mut mirror.decals.aabbs, &mut self.decal_aabbs),
+            (&mut mirror.decal_materials, &mut self.decal_materials),
+        ];
+        for (table, gpu) in tables {
+            let dst = table.upload(ctx, cmd, graveyard, frame_value, gpu, staging, &mut regions, &mut counters)?;
+            record_copies(ctx, cmd, staging.buffer(), dst, &regions);
+        }
         if camera_dirty {
             let src = staging.push(bytemuck::bytes_of(mirror.camera()));
             let region = [vk::BufferCopy { src_offset: src, dst_offset: 0, size: std::mem::size_of::<GpuCamera>() as u64 }];
@@ -438,7 +541,7 @@ impl GpuScene {
             ),
         );
         mirror.counters = counters;
-        Ok(())
+        Ok(report)
     }
 
     fn upload_meshes(
@@ -495,7 +598,7 @@ impl GpuScene {
 
     /// Destroys everything; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for t in [self.instances, self.materials, self.lights, self.camera] {
+        for t in [self.instances, self.materials, self.lights, self.camera, self.decals, self.decal_aabbs, self.decal_materials] {
             t.buffer.destroy(ctx);
         }
         for m in self.meshes.into_iter().flatten() {

@@ -5,6 +5,7 @@
 //! in stable slots that extraction keeps up to date, plus per-frame [`renderer::FrameSettings`].
 //! `plugins` bridges the ECS to it.
 
+pub mod decals;
 pub mod device;
 pub mod forward;
 pub mod gpu_scene;
@@ -21,7 +22,7 @@ pub mod tonemap;
 pub mod upload;
 
 pub use device::{Capabilities, DeviceSettings, Tier};
-pub use renderer::{FinishedFrame, FrameReport, FrameSettings, PipelineKind, Renderer, RendererSettings};
+pub use renderer::{DebugView, FinishedFrame, FrameReport, FrameSettings, PipelineKind, Renderer, RendererSettings};
 pub use scene::{FrameCounters, SceneMirror};
 pub use timestamps::PassTimes;
 

@@ -212,6 +212,8 @@ pub enum Retired {
     Buffer(Buffer),
     /// An image.
     Image(Image),
+    /// An acceleration structure and its storage.
+    AccelerationStructure(ash::vk::AccelerationStructureKHR, Buffer),
 }
 
 /// Deferred destruction: resources wait here until the GPU's timeline passes their frame.
@@ -237,6 +239,13 @@ impl Graveyard {
                 match self.entries.swap_remove(i).1 {
                     Retired::Buffer(b) => b.destroy(ctx),
                     Retired::Image(img) => img.destroy(ctx),
+                    Retired::AccelerationStructure(raw, buffer) => {
+                        if let Some(rt) = &ctx.ray_tracing {
+                            // SAFETY: the GPU has passed the last frame that used it.
+                            unsafe { rt.acceleration_structure.destroy_acceleration_structure(raw, None) };
+                        }
+                        buffer.destroy(ctx);
+                    }
                 }
             } else {
                 i += 1;

@@ -21,14 +21,20 @@ pub struct ScenePush {
     pub materials: u64,
     /// Address of the light table.
     pub lights: u64,
+    /// Address of the decal table.
+    pub decals: u64,
+    /// Address of the decal material table.
+    pub decal_materials: u64,
+    /// Address of the decal TLAS (0: no decals).
+    pub decal_tlas: u64,
     /// High-water mark of light slots.
     pub light_count: u32,
     /// A full-screen pass's input image (bindless slot).
     pub texture_index: u32,
-    /// Debug visualisation selector.
+    /// Debug visualisation selector (`DebugView as u32`).
     pub debug_view: u32,
-    /// Padding.
-    pub pad: u32,
+    /// Live decals (0 skips the decal loop).
+    pub decal_count: u32,
 }
 
 /// Creates the shared pipeline layout.

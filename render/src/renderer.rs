@@ -10,6 +10,7 @@ use std::time::Instant;
 use ash::vk;
 
 use crate::RenderError;
+use crate::decals::DecalAccel;
 use crate::device::{DeviceSettings, GpuContext, Tier};
 use crate::forward::ForwardPasses;
 use crate::gpu_scene::GpuScene;
@@ -49,6 +50,25 @@ pub struct RendererSettings {
     pub device: DeviceSettings,
 }
 
+/// What the shading pass writes: the lit image, or one of the inputs to lighting.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+#[repr(u32)]
+pub enum DebugView {
+    /// The lit image.
+    #[default]
+    Lit = 0,
+    /// Decals tested per pixel (boxes the ray query reported), as a heat map.
+    DecalHeatmap = 1,
+    /// Albedo after decals (linear).
+    Albedo = 2,
+    /// World normal after decals, encoded n × 0.5 + 0.5.
+    Normal = 3,
+    /// Roughness (R) and metallic (G) after decals.
+    RoughnessMetallic = 4,
+    /// Decals tested per pixel as a raw count in R (for tests).
+    DecalCount = 5,
+}
+
 /// Per-frame choices that may change from one frame to the next.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameSettings {
@@ -56,11 +76,15 @@ pub struct FrameSettings {
     pub pipeline: PipelineKind,
     /// Radiance of pixels no geometry covers.
     pub clear_color: [f32; 4],
+    /// What the shading pass outputs.
+    pub debug_view: DebugView,
+    /// Draw every decal's box (oriented, green) and AABB (yellow) over the image.
+    pub show_decal_boxes: bool,
 }
 
 impl Default for FrameSettings {
     fn default() -> Self {
-        Self { pipeline: PipelineKind::Forward, clear_color: [0.0, 0.0, 0.0, 1.0] }
+        Self { pipeline: PipelineKind::Forward, clear_color: [0.0, 0.0, 0.0, 1.0], debug_view: DebugView::Lit, show_decal_boxes: false }
     }
 }
 
@@ -105,6 +129,7 @@ struct Resources {
     forward: ForwardPasses,
     tonemap: Tonemap,
     targets: Targets,
+    decal_accel: DecalAccel,
     graveyard: Graveyard,
 }
 
@@ -155,7 +180,8 @@ impl Renderer {
             };
             frames.push(FrameSlot { pool, cmd, staging: StagingRing::new(ctx, 64 * 1024)?, timer: GpuTimer::new(ctx)?, value: 0, frame: 0 });
         }
-        Ok(Resources { frames, timeline, layout, scene, forward, tonemap, targets, graveyard: Graveyard::default() })
+        let decal_accel = DecalAccel::new(ctx);
+        Ok(Resources { frames, timeline, layout, scene, forward, tonemap, targets, decal_accel, graveyard: Graveyard::default() })
     }
 
     /// The device's name.
@@ -224,23 +250,39 @@ impl Renderer {
             d.begin_command_buffer(slot.cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))?;
         }
         let cmd = slot.cmd;
-        {
+        let sync = {
             let slot = &mut res.frames[slot_index];
-            res.scene.sync(ctx, cmd, mirror, &mut slot.staging, &mut res.graveyard, frame_value, completed)?;
-        }
+            res.scene.sync(ctx, cmd, mirror, &mut slot.staging, &mut res.graveyard, frame_value, completed)?
+        };
         mirror.counters.instances = mirror.instances.len() as u64;
         mirror.counters.lights = mirror.lights.len() as u64;
+        mirror.counters.decals = mirror.decals.len() as u64;
 
-        let push = ScenePush {
+        let slot = &mut res.frames[slot_index];
+        let mut pass = PassContext { ctx, cmd, layout: res.layout, bindless: res.scene.set, push: ScenePush::default(), timer: &mut slot.timer };
+        res.decal_accel.record(
+            &mut pass,
+            &mut res.graveyard,
+            frame_value,
+            res.scene.decal_aabbs.address(),
+            if mirror.decals.records.slot_count() == 0 { 0 } else { res.scene.decal_aabbs.capacity() },
+            sync.decal_boxes_changed,
+            &mut mirror.counters,
+        )?;
+        let decals_enabled = ctx.tier == Tier::RayQuery && !mirror.decals.is_empty();
+        pass.push = ScenePush {
             camera: res.scene.camera.address(),
             instances: res.scene.instances.address(),
             materials: res.scene.materials.address(),
             lights: res.scene.lights.address(),
+            decals: res.scene.decals.address(),
+            decal_materials: res.scene.decal_materials.address(),
+            decal_tlas: if decals_enabled { res.decal_accel.tlas_address() } else { 0 },
             light_count: mirror.lights.slot_count(),
-            ..Default::default()
+            texture_index: 0,
+            debug_view: settings.debug_view as u32,
+            decal_count: if decals_enabled { mirror.decals.len() as u32 } else { 0 },
         };
-        let slot = &mut res.frames[slot_index];
-        let mut pass = PassContext { ctx, cmd, layout: res.layout, bindless: res.scene.set, push, timer: &mut slot.timer };
         match settings.pipeline {
             PipelineKind::Forward => record_forward(
                 &mut pass,
@@ -336,7 +378,7 @@ impl Drop for Renderer {
         // SAFETY: the GPU is idle; `res` is never used again.
         let res = unsafe { std::mem::ManuallyDrop::take(&mut self.res) };
         let ctx = &self.ctx;
-        let Resources { frames, timeline, layout, scene, forward, tonemap, targets, mut graveyard } = res;
+        let Resources { frames, timeline, layout, scene, forward, tonemap, targets, decal_accel, mut graveyard } = res;
         for f in frames {
             f.staging.destroy(ctx);
             f.timer.destroy(ctx);
@@ -344,6 +386,7 @@ impl Drop for Renderer {
             unsafe { ctx.device.destroy_command_pool(f.pool, None) };
         }
         graveyard.clear(ctx);
+        decal_accel.destroy(ctx);
         forward.destroy(ctx);
         tonemap.destroy(ctx);
         targets.destroy(ctx);

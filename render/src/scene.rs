@@ -45,16 +45,17 @@ pub struct GpuInstance {
     pub normal_model: Mat4,
     /// Slot of the instance's material in the material table.
     pub material: u32,
-    /// Reserved.
-    pub flags: u32,
+    /// Decal receiver layers: a decal lands here when its mask shares a bit with these.
+    pub decal_layers: u32,
     /// Padding to 16 bytes.
     pub pad: [u32; 2],
 }
 
 impl GpuInstance {
-    /// The record for an instance placed by `model` and shaded with the material in `material`.
-    pub fn new(model: Mat4, material: u32) -> Self {
-        Self { model, normal_model: model.inverse().transpose(), material, flags: 0, pad: [0; 2] }
+    /// The record for an instance placed by `model`, shaded with the material in `material`,
+    /// receiving decals on `decal_layers`.
+    pub fn new(model: Mat4, material: u32, decal_layers: u32) -> Self {
+        Self { model, normal_model: model.inverse().transpose(), material, decal_layers, pad: [0; 2] }
     }
 }
 
@@ -192,6 +193,135 @@ impl GpuLight {
             range: f32::INFINITY,
             ..Self::zeroed()
         }
+    }
+}
+
+/// One decal projector (seed 000 §4.1, "reduced form for shading"). The decal's box is
+/// `[-0.5, 0.5]³` in decal space; it projects along −Z. A zeroed record (a free slot) has no
+/// receiver bits and so never applies.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuDecal {
+    /// World to decal space.
+    pub world_to_decal: Mat4,
+    /// UVs of the box corners at local (−x,−y) and (+x,−y).
+    pub uv01: [f32; 4],
+    /// UVs of the corners at (+x,+y) and (−x,+y).
+    pub uv23: [f32; 4],
+    /// Slot in the decal material table.
+    pub material: u32,
+    /// Blending channel 0..=3.
+    pub channel: u32,
+    /// Weight within the channel.
+    pub weight: f32,
+    /// Receiver layers the decal lands on.
+    pub receivers: u32,
+    /// Overall opacity.
+    pub opacity: f32,
+    /// Angle fade: fade = saturate(cos θ × scale + offset); (0, 1) disables it.
+    pub fade_scale: f32,
+    /// See `fade_scale`.
+    pub fade_offset: f32,
+    /// Padding to 16 bytes.
+    pub pad: u32,
+}
+
+/// Decal material flag: blends albedo.
+pub const DECAL_ALBEDO: u32 = 1;
+/// Decal material flag: blends normals.
+pub const DECAL_NORMAL: u32 = 2;
+/// Decal material flag: blends roughness.
+pub const DECAL_ROUGHNESS: u32 = 4;
+/// Decal material flag: blends metallic.
+pub const DECAL_METALLIC: u32 = 8;
+
+/// What a decal applies.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuDecalMaterial {
+    /// Albedo factor (rgb) and opacity (a).
+    pub base_color: [f32; 4],
+    /// Bindless slot of the RGBA texture (alpha is coverage).
+    pub base_color_tex: u32,
+    /// Bindless slot of the normal map.
+    pub normal_tex: u32,
+    /// Bindless slot of the metallic (B) / roughness (G) texture.
+    pub metallic_roughness_tex: u32,
+    /// `DECAL_*` flags.
+    pub flags: u32,
+    /// Normal map XY strength.
+    pub normal_scale: f32,
+    /// Roughness to blend in.
+    pub roughness: f32,
+    /// Metallic to blend in.
+    pub metallic: f32,
+    /// Padding.
+    pub pad: f32,
+}
+
+/// An axis-aligned box as acceleration-structure builds read it (`VkAabbPositionsKHR`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuAabb {
+    /// Minimum corner.
+    pub min: [f32; 3],
+    /// Maximum corner.
+    pub max: [f32; 3],
+}
+
+impl GpuAabb {
+    /// The AABB of the box `[-0.5, 0.5]³` transformed by `decal_to_world`.
+    pub fn of_unit_box(decal_to_world: Mat4) -> Self {
+        let centre = decal_to_world.w_axis.truncate();
+        let half = (decal_to_world.x_axis.truncate().abs() + decal_to_world.y_axis.truncate().abs() + decal_to_world.z_axis.truncate().abs()) * 0.5;
+        Self { min: (centre - half).to_array(), max: (centre + half).to_array() }
+    }
+}
+
+/// Decal records and their boxes, in the same stable slots: the BLAS primitive index of a box
+/// is the index of its record.
+#[derive(Default)]
+pub struct DecalTable {
+    /// Shading records.
+    pub records: SlotTable<GpuDecal>,
+    /// Boxes for the acceleration structure.
+    pub aabbs: SlotTable<GpuAabb>,
+}
+
+impl DecalTable {
+    /// Writes a decal placed by `decal_to_world` into `slot` (or a new slot).
+    pub fn write(&mut self, slot: Option<u32>, decal_to_world: Mat4, mut record: GpuDecal) -> u32 {
+        record.world_to_decal = decal_to_world.inverse();
+        let aabb = GpuAabb::of_unit_box(decal_to_world);
+        match slot {
+            Some(slot) => {
+                self.records.write(slot, record);
+                self.aabbs.write(slot, aabb);
+                slot
+            }
+            None => {
+                let slot = self.records.insert(record);
+                let aabb_slot = self.aabbs.insert(aabb);
+                debug_assert_eq!(slot, aabb_slot, "records and boxes share slots");
+                slot
+            }
+        }
+    }
+
+    /// Frees a slot: the record is zeroed (never applies) and the box collapses to a point.
+    pub fn remove(&mut self, slot: u32) {
+        self.records.remove(slot);
+        self.aabbs.remove(slot);
+    }
+
+    /// Live decals.
+    pub fn len(&self) -> usize {
+        self.records.len()
+    }
+
+    /// True when no decal is live.
+    pub fn is_empty(&self) -> bool {
+        self.records.is_empty()
     }
 }
 
@@ -388,6 +518,10 @@ pub struct SceneMirror {
     pub materials: SlotTable<GpuMaterial>,
     /// Lights.
     pub lights: SlotTable<GpuLight>,
+    /// Decals and their boxes.
+    pub decals: DecalTable,
+    /// Decal materials.
+    pub decal_materials: SlotTable<GpuDecalMaterial>,
     camera: GpuCamera,
     camera_dirty: bool,
     /// Meshes waiting for upload.
@@ -525,6 +659,9 @@ impl SceneMirror {
         self.instances.take_dirty(|_, _| {});
         self.materials.take_dirty(|_, _| {});
         self.lights.take_dirty(|_, _| {});
+        self.decals.records.take_dirty(|_, _| {});
+        self.decals.aabbs.take_dirty(|_, _| {});
+        self.decal_materials.take_dirty(|_, _| {});
         self.camera_dirty = false;
         self.pending_meshes.clear();
         self.pending_textures.clear();
@@ -535,6 +672,9 @@ impl SceneMirror {
         self.instances.dirty_count() == 0
             && self.materials.dirty_count() == 0
             && self.lights.dirty_count() == 0
+            && self.decals.records.dirty_count() == 0
+            && self.decals.aabbs.dirty_count() == 0
+            && self.decal_materials.dirty_count() == 0
             && !self.camera_dirty
             && self.pending_meshes.is_empty()
             && self.pending_textures.is_empty()
@@ -595,5 +735,41 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuMaterial>(), 80);
         assert_eq!(std::mem::size_of::<GpuLight>(), 64);
         assert_eq!(std::mem::size_of::<GpuVertex>(), 48);
+        assert_eq!(std::mem::size_of::<GpuDecal>(), 128);
+        assert_eq!(std::mem::size_of::<GpuDecalMaterial>(), 48);
+        assert_eq!(std::mem::size_of::<GpuAabb>(), 24);
+    }
+
+    #[test]
+    fn decal_boxes_bound_their_oriented_box() {
+        let m = Mat4::from_scale_rotation_translation(
+            Vec3::new(2.0, 1.0, 0.5),
+            glam::Quat::from_rotation_y(0.7) * glam::Quat::from_rotation_x(0.3),
+            Vec3::new(1.0, 2.0, 3.0),
+        );
+        let aabb = GpuAabb::of_unit_box(m);
+        for i in 0..8 {
+            let c = Vec3::new(
+                if i & 1 == 0 { -0.5 } else { 0.5 },
+                if i & 2 == 0 { -0.5 } else { 0.5 },
+                if i & 4 == 0 { -0.5 } else { 0.5 },
+            );
+            let p = m.transform_point3(c);
+            for a in 0..3 {
+                assert!(p[a] >= aabb.min[a] - 1e-5 && p[a] <= aabb.max[a] + 1e-5, "corner {p} inside {aabb:?}");
+            }
+        }
+        // Tight: some corner touches each face.
+        for a in 0..3 {
+            let touches = (0..8).any(|i| {
+                let c = Vec3::new(
+                    if i & 1 == 0 { -0.5 } else { 0.5 },
+                    if i & 2 == 0 { -0.5 } else { 0.5 },
+                    if i & 4 == 0 { -0.5 } else { 0.5 },
+                );
+                (m.transform_point3(c)[a] - aabb.max[a]).abs() < 1e-5
+            });
+            assert!(touches, "axis {a} is tight");
+        }
     }
 }

@@ -18,6 +18,7 @@ spirv! {
     MESH_VERT = "mesh.vert";
     PREPASS_MASK_FRAG = "prepass_mask.frag";
     FORWARD_FRAG = "forward.frag";
+    FORWARD_FRAG_RAY_QUERY_DECALS = "forward.frag.RAY_QUERY_DECALS";
     FULLSCREEN_VERT = "fullscreen.vert";
     TONEMAP_FRAG = "tonemap.frag";
 }

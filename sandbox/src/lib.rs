@@ -3,3 +3,5 @@
 pub mod scene;
 pub mod headless;
 pub mod stats;
+pub mod decal_textures;
+pub mod scatter;

@@ -11,5 +11,6 @@ layout(location = 1) IO vec3 v_normal;
 layout(location = 2) IO vec4 v_tangent;
 layout(location = 3) IO vec2 v_uv;
 layout(location = 4) flat IO uint v_material;
+layout(location = 5) flat IO uint v_instance;
 #undef IO
 #endif

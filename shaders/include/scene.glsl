@@ -26,7 +26,7 @@ struct GpuInstance {
     mat4 model;
     mat4 normal_model;  // inverse-transpose of model
     uint material;
-    uint flags;
+    uint decal_layers;  // decal receiver layers
     uint pad0;
     uint pad1;
 };
@@ -80,11 +80,21 @@ layout(push_constant) uniform ScenePush {
     InstancesRef instances;
     MaterialsRef materials;
     LightsRef lights;
+    uint64_t decals;           // DecalsRef (decals.glsl)
+    uint64_t decal_materials;  // DecalMaterialsRef
+    uint64_t decal_tlas;       // acceleration structure address; 0 without decals
     uint light_count;     // high-water mark of light slots; empty slots have kind LIGHT_NONE
     uint texture_index;   // a pass's own input image (full-screen passes)
-    uint debug_view;
-    uint pad0;
+    uint debug_view;      // DebugView in renderer.rs
+    uint decal_count;     // live decals; 0 skips the decal loop
 } scene;
+
+const uint DEBUG_LIT = 0u;
+const uint DEBUG_DECAL_HEATMAP = 1u;
+const uint DEBUG_ALBEDO = 2u;
+const uint DEBUG_NORMAL = 3u;
+const uint DEBUG_ROUGHNESS_METALLIC = 4u;
+const uint DEBUG_DECAL_COUNT = 5u;
 
 layout(set = 0, binding = 0) uniform sampler2D textures[];
 

@@ -69,3 +69,42 @@ pub fn image_stats(rgba: &[u8], clear: [u8; 3]) -> ImageStats {
     let mean = sum / n;
     ImageStats { coverage: covered as f64 / n, luma_variance: sum2 / n - mean * mean, mean_luma: mean }
 }
+
+/// A camera looking straight down at the origin from `height`, and the matching pixel → ground
+/// (y = 0) mapping, for image tests on a horizontal plane.
+pub struct TopDownView {
+    /// The camera's transform.
+    pub transform: Transform,
+    /// The camera.
+    pub camera: Camera,
+    /// Image size.
+    pub size: (u32, u32),
+}
+
+impl TopDownView {
+    /// A view from `height` above the origin; image up is world −Z.
+    pub fn new(height: f32, size: (u32, u32)) -> Self {
+        let transform = Transform::from_xyz(0.0, height, 0.0).looking_at(Vec3::ZERO, Vec3::NEG_Z);
+        Self { transform, camera: Camera { fov_y: 50f32.to_radians(), ..Default::default() }, size }
+    }
+
+    /// Spawns the camera.
+    pub fn spawn(&self, world: &mut World) {
+        world.spawn((self.camera, self.transform));
+    }
+
+    /// Where the centre of pixel (`px`, `py`) sees the plane y = `plane_y`.
+    pub fn ground_point(&self, px: u32, py: u32, plane_y: f32) -> Option<Vec3> {
+        let (w, h) = self.size;
+        let view = self.transform.compute_matrix().inverse();
+        let inv = (self.camera.projection(w as f32 / h as f32) * view).inverse();
+        let ndc = Vec2::new((px as f32 + 0.5) / w as f32 * 2.0 - 1.0, 1.0 - (py as f32 + 0.5) / h as f32 * 2.0);
+        let eye = self.transform.translation;
+        let dir = (inv.project_point3(ndc.extend(0.5)) - eye).normalize();
+        if dir.y.abs() < 1e-6 {
+            return None;
+        }
+        let t = (plane_y - eye.y) / dir.y;
+        (t > 0.0).then(|| eye + dir * t)
+    }
+}

@@ -1,0 +1,355 @@
+//! The decal acceleration structures (seed 000 §4.2.1, made incremental): one BLAS of AABB
+//! geometry whose primitive *i* is the box of decal record *i*, and a TLAS holding one instance
+//! of it.
+//!
+//! The seed built both once for static, pre-placed decals. Gameplay spawns and despawns decals
+//! every frame, so here the BLAS is built over the decal table's *capacity* (a power of two):
+//! free slots hold a zero-size box at the origin whose record never applies, which keeps the
+//! primitive count fixed so spawning into a free slot, despawning and moving are all a refit
+//! (`VK_BUILD_ACCELERATION_STRUCTURE_MODE_UPDATE_KHR`), which costs a fraction of a build.
+//!
+//! Rebuild policy: a full build happens when the capacity changes (the table grew), and when
+//! the boxes refitted since the last build add up to a quarter of the capacity: a refit keeps
+//! the tree's topology, so as boxes move away from where they were when the tree was built its
+//! nodes grow and overlap, and traversal slows. The BLAS is built with
+//! `PREFER_FAST_TRACE | ALLOW_UPDATE`; the TLAS is rebuilt (one instance: microseconds) whenever
+//! the BLAS changed. A frame with no decal change does no acceleration-structure work.
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use crate::RenderError;
+use crate::device::GpuContext;
+use crate::memory::{Buffer, Graveyard, Retired};
+use crate::pass::PassContext;
+use crate::scene::{FrameCounters, GpuAabb};
+
+/// Fraction of the capacity that may be refitted before the BLAS is rebuilt.
+pub const REBUILD_AFTER_REFIT_FRACTION: f32 = 0.25;
+
+/// An acceleration structure and its storage.
+struct AccelStruct {
+    raw: vk::AccelerationStructureKHR,
+    buffer: Buffer,
+    address: vk::DeviceAddress,
+}
+
+impl AccelStruct {
+    fn new(ctx: &GpuContext, ty: vk::AccelerationStructureTypeKHR, size: u64, name: &str) -> Result<Self, RenderError> {
+        let rt = ctx.ray_tracing.as_ref().ok_or_else(|| RenderError::Other("acceleration structures need the ray tracing tier".into()))?;
+        let buffer = Buffer::new(
+            ctx,
+            name,
+            size,
+            vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+            MemoryLocation::GpuOnly,
+        )?;
+        let info = vk::AccelerationStructureCreateInfoKHR::default().buffer(buffer.raw).size(size).ty(ty);
+        // SAFETY: the buffer is live, bound, and large enough (size from the build-size query).
+        let raw = match unsafe { rt.acceleration_structure.create_acceleration_structure(&info, None) } {
+            Ok(raw) => raw,
+            Err(e) => {
+                buffer.destroy(ctx);
+                return Err(e.into());
+            }
+        };
+        // SAFETY: `raw` was just created on this device.
+        let address = unsafe {
+            rt.acceleration_structure
+                .get_acceleration_structure_device_address(&vk::AccelerationStructureDeviceAddressInfoKHR::default().acceleration_structure(raw))
+        };
+        Ok(Self { raw, buffer, address })
+    }
+
+    fn destroy(self, ctx: &GpuContext) {
+        if let Some(rt) = &ctx.ray_tracing {
+            // SAFETY: the caller guarantees the GPU no longer uses it.
+            unsafe { rt.acceleration_structure.destroy_acceleration_structure(self.raw, None) };
+        }
+        self.buffer.destroy(ctx);
+    }
+}
+
+/// What happened to the BLAS this frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BlasWork {
+    /// Nothing changed.
+    None,
+    /// Boxes moved, appeared in free slots or vanished: refit.
+    Update,
+    /// Capacity changed or refits degraded the tree: full build.
+    Build,
+}
+
+/// Chooses the BLAS work for a frame (the rebuild policy, as a pure function).
+pub fn plan_blas_work(built_capacity: Option<u32>, capacity: u32, changed: u32, refitted_since_build: u64) -> BlasWork {
+    match built_capacity {
+        None => BlasWork::Build,
+        Some(c) if c != capacity => BlasWork::Build,
+        _ if changed == 0 => BlasWork::None,
+        _ if (refitted_since_build + changed as u64) as f32 > capacity as f32 * REBUILD_AFTER_REFIT_FRACTION => BlasWork::Build,
+        _ => BlasWork::Update,
+    }
+}
+
+/// The decal BLAS and TLAS.
+pub struct DecalAccel {
+    blas: Option<AccelStruct>,
+    tlas: Option<AccelStruct>,
+    instances: Option<Buffer>,
+    scratch: Option<Buffer>,
+    built_capacity: Option<u32>,
+    refitted_since_build: u64,
+    scratch_alignment: u64,
+}
+
+impl DecalAccel {
+    /// Empty; nothing is allocated until the first decal appears.
+    pub fn new(ctx: &GpuContext) -> Self {
+        let mut as_props = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
+        if ctx.ray_tracing.is_some() {
+            let mut props = vk::PhysicalDeviceProperties2::default().push_next(&mut as_props);
+            // SAFETY: a valid physical device and a chain of locals.
+            unsafe { ctx.instance.get_physical_device_properties2(ctx.physical, &mut props) };
+        }
+        Self {
+            blas: None,
+            tlas: None,
+            instances: None,
+            scratch: None,
+            built_capacity: None,
+            refitted_since_build: 0,
+            scratch_alignment: (as_props.min_acceleration_structure_scratch_offset_alignment as u64).max(1),
+        }
+    }
+
+    /// Device address of the TLAS (0 before the first build).
+    pub fn tlas_address(&self) -> vk::DeviceAddress {
+        self.tlas.as_ref().map_or(0, |t| t.address)
+    }
+
+    /// Refits or rebuilds the BLAS over `capacity` boxes at `aabbs` (of which `changed` were
+    /// rewritten this frame), then rebuilds the TLAS. Records nothing when nothing changed.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &mut self,
+        p: &mut PassContext,
+        graveyard: &mut Graveyard,
+        frame_value: u64,
+        aabbs: vk::DeviceAddress,
+        capacity: u32,
+        changed: u32,
+        counters: &mut FrameCounters,
+    ) -> Result<(), RenderError> {
+        let ctx = p.ctx;
+        let Some(rt) = ctx.ray_tracing.as_ref() else { return Ok(()) };
+        if capacity == 0 {
+            return Ok(());
+        }
+        let work = plan_blas_work(self.built_capacity, capacity, changed, self.refitted_since_build);
+        if work == BlasWork::None {
+            return Ok(());
+        }
+        let asx = &rt.acceleration_structure;
+
+        let geometry = [vk::AccelerationStructureGeometryKHR::default()
+            .geometry_type(vk::GeometryTypeKHR::AABBS)
+            .geometry(vk::AccelerationStructureGeometryDataKHR {
+                aabbs: vk::AccelerationStructureGeometryAabbsDataKHR::default()
+                    .data(vk::DeviceOrHostAddressConstKHR { device_address: aabbs })
+                    .stride(std::mem::size_of::<GpuAabb>() as u64),
+            })
+            .flags(vk::GeometryFlagsKHR::OPAQUE)];
+        let blas_flags = vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE | vk::BuildAccelerationStructureFlagsKHR::ALLOW_UPDATE;
+        let mut blas_sizes = vk::AccelerationStructureBuildSizesInfoKHR::default();
+        // SAFETY: a size query with a geometry description of locals.
+        unsafe {
+            asx.get_acceleration_structure_build_sizes(
+                vk::AccelerationStructureBuildTypeKHR::DEVICE,
+                &vk::AccelerationStructureBuildGeometryInfoKHR::default()
+                    .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
+                    .flags(blas_flags)
+                    .geometries(&geometry),
+                &[capacity],
+                &mut blas_sizes,
+            )
+        };
+        let tlas_geometry_for = |address: vk::DeviceAddress| {
+            [vk::AccelerationStructureGeometryKHR::default()
+                .geometry_type(vk::GeometryTypeKHR::INSTANCES)
+                .geometry(vk::AccelerationStructureGeometryDataKHR {
+                    instances: vk::AccelerationStructureGeometryInstancesDataKHR::default()
+                        .data(vk::DeviceOrHostAddressConstKHR { device_address: address }),
+                })]
+        };
+        let tlas_flags = vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE;
+        let mut tlas_sizes = vk::AccelerationStructureBuildSizesInfoKHR::default();
+        let probe = tlas_geometry_for(0);
+        // SAFETY: as above.
+        unsafe {
+            asx.get_acceleration_structure_build_sizes(
+                vk::AccelerationStructureBuildTypeKHR::DEVICE,
+                &vk::AccelerationStructureBuildGeometryInfoKHR::default()
+                    .ty(vk::AccelerationStructureTypeKHR::TOP_LEVEL)
+                    .flags(tlas_flags)
+                    .geometries(&probe),
+                &[1],
+                &mut tlas_sizes,
+            )
+        };
+
+        // (Re)allocate for a new capacity. The old structures may still be read by a frame in
+        // flight, so they go to the graveyard.
+        if work == BlasWork::Build && self.blas.as_ref().is_none_or(|b| b.buffer.size < blas_sizes.acceleration_structure_size) {
+            let blas = AccelStruct::new(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, blas_sizes.acceleration_structure_size, "decal blas")?;
+            if let Some(old) = self.blas.replace(blas) {
+                graveyard.bury(frame_value, Retired::AccelerationStructure(old.raw, old.buffer));
+            }
+            self.write_instance(ctx, graveyard, frame_value)?;
+        }
+        if self.tlas.is_none() {
+            self.tlas = Some(AccelStruct::new(ctx, vk::AccelerationStructureTypeKHR::TOP_LEVEL, tlas_sizes.acceleration_structure_size, "decal tlas")?);
+        }
+        let scratch_need = blas_sizes.build_scratch_size.max(blas_sizes.update_scratch_size).max(tlas_sizes.build_scratch_size) + self.scratch_alignment;
+        if self.scratch.as_ref().is_none_or(|s| s.size < scratch_need) {
+            let scratch = Buffer::new(
+                ctx,
+                "decal scratch",
+                scratch_need.next_power_of_two(),
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+                MemoryLocation::GpuOnly,
+            )?;
+            if let Some(old) = self.scratch.replace(scratch) {
+                graveyard.bury(frame_value, Retired::Buffer(old));
+            }
+        }
+        let scratch_address = self.scratch.as_ref().expect("allocated above").address.next_multiple_of(self.scratch_alignment);
+        let blas = self.blas.as_ref().expect("built above");
+        let tlas = self.tlas.as_ref().expect("created above");
+
+        let update = work == BlasWork::Update;
+        let name = if update { "blas_update" } else { "blas_build" };
+        p.timed(name, |p| {
+            // Previous frames' ray queries must be done with the structures before they change.
+            crate::sync::memory_barrier(
+                &ctx.device,
+                p.cmd,
+                (vk::PipelineStageFlags2::FRAGMENT_SHADER | vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::NONE),
+                (vk::PipelineStageFlags2::ACCELERATION_STRUCTURE_BUILD_KHR, vk::AccessFlags2::ACCELERATION_STRUCTURE_WRITE_KHR),
+            );
+            let mut info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+                .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
+                .flags(blas_flags)
+                .mode(if update { vk::BuildAccelerationStructureModeKHR::UPDATE } else { vk::BuildAccelerationStructureModeKHR::BUILD })
+                .dst_acceleration_structure(blas.raw)
+                .geometries(&geometry)
+                .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch_address });
+            if update {
+                info = info.src_acceleration_structure(blas.raw);
+            }
+            let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(capacity)];
+            // SAFETY: `cmd` is recording; the AABB buffer holds `capacity` boxes written by
+            // copies that a barrier has made visible to builds; scratch is large enough.
+            unsafe { asx.cmd_build_acceleration_structures(p.cmd, &[info], &[&ranges[..]]) };
+        });
+        p.timed("tlas_build", |p| {
+            crate::sync::memory_barrier(
+                &ctx.device,
+                p.cmd,
+                (vk::PipelineStageFlags2::ACCELERATION_STRUCTURE_BUILD_KHR, vk::AccessFlags2::ACCELERATION_STRUCTURE_WRITE_KHR),
+                (
+                    vk::PipelineStageFlags2::ACCELERATION_STRUCTURE_BUILD_KHR,
+                    vk::AccessFlags2::ACCELERATION_STRUCTURE_READ_KHR | vk::AccessFlags2::ACCELERATION_STRUCTURE_WRITE_KHR,
+                ),
+            );
+            let instances = self.instances.as_ref().expect("written with the BLAS");
+            let geometry = tlas_geometry_for(instances.address);
+            let info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+                .ty(vk::AccelerationStructureTypeKHR::TOP_LEVEL)
+                .flags(tlas_flags)
+                .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
+                .dst_acceleration_structure(tlas.raw)
+                .geometries(&geometry)
+                .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch_address });
+            let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(1)];
+            // SAFETY: as above; the instance buffer is host-written before submission.
+            unsafe { asx.cmd_build_acceleration_structures(p.cmd, &[info], &[&ranges[..]]) };
+            crate::sync::memory_barrier(
+                &ctx.device,
+                p.cmd,
+                (vk::PipelineStageFlags2::ACCELERATION_STRUCTURE_BUILD_KHR, vk::AccessFlags2::ACCELERATION_STRUCTURE_WRITE_KHR),
+                (
+                    vk::PipelineStageFlags2::FRAGMENT_SHADER | vk::PipelineStageFlags2::COMPUTE_SHADER,
+                    vk::AccessFlags2::ACCELERATION_STRUCTURE_READ_KHR,
+                ),
+            );
+        });
+
+        counters.tlas_builds += 1;
+        if update {
+            counters.blas_updates += 1;
+            self.refitted_since_build += changed as u64;
+        } else {
+            counters.blas_builds += 1;
+            self.refitted_since_build = 0;
+            self.built_capacity = Some(capacity);
+        }
+        Ok(())
+    }
+
+    fn write_instance(&mut self, ctx: &GpuContext, graveyard: &mut Graveyard, frame_value: u64) -> Result<(), RenderError> {
+        let blas = self.blas.as_ref().expect("called after the BLAS exists");
+        let instance = vk::AccelerationStructureInstanceKHR {
+            transform: vk::TransformMatrixKHR { matrix: [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0] },
+            instance_custom_index_and_mask: vk::Packed24_8::new(0, 0xff),
+            instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(
+                0,
+                vk::GeometryInstanceFlagsKHR::FORCE_OPAQUE.as_raw() as u8,
+            ),
+            acceleration_structure_reference: vk::AccelerationStructureReferenceKHR { device_handle: blas.address },
+        };
+        // A new buffer rather than rewriting one a frame in flight may be reading.
+        let mut buffer = Buffer::new(
+            ctx,
+            "decal tlas instance",
+            std::mem::size_of::<vk::AccelerationStructureInstanceKHR>() as u64,
+            vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+            MemoryLocation::CpuToGpu,
+        )?;
+        // SAFETY: AccelerationStructureInstanceKHR is a plain #[repr(C)] struct of 64 bytes
+        // with no padding; viewing it as bytes is sound.
+        let bytes = unsafe {
+            std::slice::from_raw_parts((&instance as *const vk::AccelerationStructureInstanceKHR).cast::<u8>(), std::mem::size_of_val(&instance))
+        };
+        buffer.mapped()[..bytes.len()].copy_from_slice(bytes);
+        if let Some(old) = self.instances.replace(buffer) {
+            graveyard.bury(frame_value, Retired::Buffer(old));
+        }
+        Ok(())
+    }
+
+    /// Destroys everything; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        for a in [self.blas, self.tlas].into_iter().flatten() {
+            a.destroy(ctx);
+        }
+        for b in [self.instances, self.scratch].into_iter().flatten() {
+            b.destroy(ctx);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rebuild_policy() {
+        assert_eq!(plan_blas_work(None, 64, 0, 0), BlasWork::Build, "first use builds");
+        assert_eq!(plan_blas_work(Some(64), 64, 0, 10), BlasWork::None, "no change, no work");
+        assert_eq!(plan_blas_work(Some(64), 64, 3, 0), BlasWork::Update, "moves refit");
+        assert_eq!(plan_blas_work(Some(64), 128, 3, 0), BlasWork::Build, "a new capacity rebuilds");
+        assert_eq!(plan_blas_work(Some(64), 64, 8, 8), BlasWork::Update, "16 of 64 refitted: still a refit");
+        assert_eq!(plan_blas_work(Some(64), 64, 9, 8), BlasWork::Build, "beyond a quarter: rebuild");
+    }
+}

@@ -1,0 +1,136 @@
+// Ray-query decals (seed 000 §4): the decal records, the containment test and texture lookup of
+// one decal (§4.1.3), and the zero-length ray-query loop that enumerates every decal whose AABB
+// holds the shaded point (§4.2.2, Listing 4.1).
+//
+// Gradients: derivatives do not exist inside the loop (non-uniform control flow), so callers
+// take the world-position derivatives before it; each decal maps them into its own space and
+// through its bilinear UV map to get textureGrad's UV gradients, so decals are mip-mapped.
+//
+// Normals: a decal's normal map is read in a tangent frame built at the surface from the
+// decal's own axes (the gradients of decal-space x and y, projected onto the surface), so a
+// rotated decal's normals rotate with it whatever the surface's UV layout.
+#ifndef DECALS_GLSL
+#define DECALS_GLSL
+
+#include "scene.glsl"
+#include "blend.glsl"
+#include "normals.glsl"
+
+struct GpuDecal {
+    mat4 world_to_decal;   // box = [-0.5, 0.5]^3, projecting along -Z
+    vec4 uv01;             // corner UVs at local (-x,-y) and (+x,-y)
+    vec4 uv23;             // at (+x,+y) and (-x,+y)
+    uint material;
+    uint channel;
+    float weight;
+    uint receivers;        // 0 in free slots: never applies
+    float opacity;
+    float fade_scale;      // angle fade = saturate(cos * scale + offset)
+    float fade_offset;
+    uint pad0;
+};
+
+const uint DECAL_ALBEDO = 1u;
+const uint DECAL_NORMAL = 2u;
+const uint DECAL_ROUGHNESS = 4u;
+const uint DECAL_METALLIC = 8u;
+
+struct GpuDecalMaterial {
+    vec4 base_color;
+    uint base_color_tex;
+    uint normal_tex;
+    uint metallic_roughness_tex;
+    uint flags;
+    float normal_scale;
+    float roughness;
+    float metallic;
+    float pad0;
+};
+
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer DecalsRef { GpuDecal decals[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer DecalMaterialsRef { GpuDecalMaterial decal_materials[]; };
+
+// The surface as decals see it.
+struct DecalSurface {
+    vec3 position;
+    vec3 dpdx;             // world-position derivatives, taken before the loop
+    vec3 dpdy;
+    vec3 geometric_normal; // for the angle fade
+    vec3 normal;           // shading normal the decal normal maps are built on
+    uint layers;           // receiver layers of the instance
+};
+
+// Tests one decal against the surface and accumulates it into its channel (Listing 4.2).
+void apply_decal(inout DecalBlend b, uint index, DecalSurface s) {
+    GpuDecal d = DecalsRef(scene.decals).decals[index];
+    if ((d.receivers & s.layers) == 0u) return;
+    vec3 local = (d.world_to_decal * vec4(s.position, 1.0)).xyz;
+    if (any(greaterThan(abs(local), vec3(0.5)))) return;   // outside the oriented box
+
+    // Angle fade: the gradient of decal-space z is the projection axis (pointing back at the
+    // projector); surfaces facing it have cos = 1.
+    mat3 to_local = mat3(d.world_to_decal);
+    vec3 grad_x = vec3(d.world_to_decal[0][0], d.world_to_decal[1][0], d.world_to_decal[2][0]);
+    vec3 grad_y = vec3(d.world_to_decal[0][1], d.world_to_decal[1][1], d.world_to_decal[2][1]);
+    vec3 grad_z = vec3(d.world_to_decal[0][2], d.world_to_decal[1][2], d.world_to_decal[2][2]);
+    float cos_angle = dot(s.geometric_normal, normalize(grad_z));
+    float fade = clamp(cos_angle * d.fade_scale + d.fade_offset, 0.0, 1.0);
+    if (fade <= 0.0) return;
+
+    // Bilinear UVs over the four corners, and their derivatives along decal x and y.
+    vec2 st = local.xy + 0.5;
+    vec2 c0 = d.uv01.xy, c1 = d.uv01.zw, c2 = d.uv23.xy, c3 = d.uv23.zw;
+    vec2 uv = mix(mix(c0, c1, st.x), mix(c3, c2, st.x), st.y);
+    vec2 duv_ds = mix(c1 - c0, c2 - c3, st.y);
+    vec2 duv_dt = mix(c3 - c0, c2 - c1, st.x);
+    vec2 dlx = (to_local * s.dpdx).xy;
+    vec2 dly = (to_local * s.dpdy).xy;
+    vec2 duvdx = duv_ds * dlx.x + duv_dt * dlx.y;
+    vec2 duvdy = duv_ds * dly.x + duv_dt * dly.y;
+
+    GpuDecalMaterial m = DecalMaterialsRef(scene.decal_materials).decal_materials[d.material];
+    vec4 texel = textureGrad(textures[nonuniformEXT(m.base_color_tex)], uv, duvdx, duvdy);
+    float a = clamp(texel.a * m.base_color.a * d.opacity * fade, 0.0, 1.0);
+    if (a <= 0.0) return;
+    uint c = min(d.channel, DECAL_CHANNELS - 1u);
+    float w = d.weight;
+
+    if ((m.flags & DECAL_ALBEDO) != 0u) blend_albedo(b, c, texel.rgb * m.base_color.rgb, a, w);
+    if ((m.flags & DECAL_NORMAL) != 0u) {
+        vec3 ts = decode_normal_texel(textureGrad(textures[nonuniformEXT(m.normal_tex)], uv, duvdx, duvdy).xyz);
+        vec3 t = grad_x - s.normal * dot(s.normal, grad_x);
+        float tl = dot(t, t);
+        t = tl > 1e-12 ? t * inversesqrt(tl) : vec3(1.0, 0.0, 0.0);
+        // Bitangent along decal +y (image up), right-handed with the surface normal.
+        float sign_y = dot(cross(s.normal, t), grad_y) < 0.0 ? -1.0 : 1.0;
+        vec3 n = perturb_normal(s.normal, vec4(t, sign_y), ts, m.normal_scale);
+        blend_normal(b, c, n, a, w);
+    }
+    if ((m.flags & (DECAL_ROUGHNESS | DECAL_METALLIC)) != 0u) {
+        vec2 mr = textureGrad(textures[nonuniformEXT(m.metallic_roughness_tex)], uv, duvdx, duvdy).bg;
+        if ((m.flags & DECAL_ROUGHNESS) != 0u) blend_roughness(b, c, m.roughness * mr.y, a, w);
+        if ((m.flags & DECAL_METALLIC) != 0u) blend_metallic(b, c, m.metallic * mr.x, a, w);
+    }
+}
+
+#ifdef RAY_QUERY_DECALS
+#extension GL_EXT_ray_query : require
+
+// Listing 4.1: a ray of length zero at the surface point; every AABB containing the point is a
+// candidate, confirmed by apply_decal's box test. Returns the number of candidates (heat map).
+uint gather_decals(inout DecalBlend b, DecalSurface s) {
+    if (scene.decal_count == 0u) return 0u;
+    rayQueryEXT query;
+    rayQueryInitializeEXT(query, accelerationStructureEXT(scene.decal_tlas),
+                          gl_RayFlagsSkipClosestHitShaderEXT | gl_RayFlagsOpaqueEXT,
+                          0xFF, s.position, 0.0, vec3(1.0, 0.0, 0.0), 0.0);
+    uint tested = 0u;
+    while (rayQueryProceedEXT(query)) {
+        tested += 1u;
+        apply_decal(b, uint(rayQueryGetIntersectionPrimitiveIndexEXT(query, false)), s);
+    }
+    return tested;
+}
+#endif
+
+#endif
