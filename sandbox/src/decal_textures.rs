@@ -195,10 +195,10 @@ fn wrap_angle(a: f32) -> f32 {
 pub fn bullet_hole() -> DecalTextureSet {
     const SIZE: u32 = 128;
     // Cracks: (angle, length, seed) — lengths in units of the half width.
-    let cracks: Vec<(f32, f32, u32)> = (0..7)
+    let cracks: Vec<(f32, f32, u32)> = (0..6)
         .map(|i| {
-            let angle = (i as f32 + 0.7 * hash01(i, 0, 101)) / 7.0 * TAU;
-            let length = 0.5 + 0.32 * hash01(i, 1, 101);
+            let angle = (i as f32 + 0.8 * hash01(i, 0, 101)) / 6.0 * TAU;
+            let length = 0.48 + 0.3 * hash01(i, 1, 101);
             (angle, length, 200 + i)
         })
         .collect();
@@ -207,25 +207,28 @@ pub fn bullet_hole() -> DecalTextureSet {
         let r = p.length();
         let theta = p.y.atan2(p.x);
         let hole = 0.15 + 0.05 * (angular_noise(theta, 9, 11) - 0.5);
-        // Chipped ring: smooth irregularity plus blocky chips per angular sector.
-        let sector = ((theta.rem_euclid(TAU) / TAU) * 23.0) as u32;
-        let chips = 0.09 * hash01(sector, 0, 13) * hash01(sector, 1, 13);
-        let ring = 0.34 + 0.12 * (angular_noise(theta, 7, 12) - 0.5) + chips;
+        // Chipped ring: broad irregularity plus finer chips.
+        let ring = 0.37 + 0.12 * (angular_noise(theta, 7, 12) - 0.5)
+            + 0.07 * (angular_noise(theta, 23, 13) - 0.5);
         let grain = fbm(uv, 8, 14);
 
-        // Cracks: wiggly radial lines tapering outwards.
+        // Cracks: wiggly radial lines, thinning and fading outwards (at least a texel wide so
+        // they do not break up into dashes).
+        let texel = 2.0 / SIZE as f32;
         let mut crack = 0.0f32;
         for &(angle, length, seed) in &cracks {
             if r < hole || r > length {
                 continue;
             }
-            let wiggle = 0.25 * (value_noise(Vec2::new(r * 0.8, 0.5), 4, seed) - 0.5);
-            let lateral = wrap_angle(theta - angle - wiggle).abs() * r * 0.5; // in UV units
-            let width = 0.006 * (1.0 - r / length) + 0.0015;
-            crack = crack.max(1.0 - smoothstep(width * 0.5, width, lateral));
+            let wiggle = 0.5 * (value_noise(Vec2::new(r * 0.9, 0.5), 5, seed) - 0.5)
+                + 0.12 * (value_noise(Vec2::new(r * 3.0, 0.5), 8, seed + 50) - 0.5);
+            let lateral = wrap_angle(theta - angle - wiggle).abs() * r; // in units of r
+            let taper = 1.0 - r / length;
+            let half_width = texel * (0.45 + 0.8 * taper);
+            let line = 1.0 - smoothstep(half_width - texel * 0.5, half_width + texel * 0.5, lateral);
+            crack = crack.max(line * smoothstep(0.0, 0.25, taper));
         }
 
-        let texel = 2.0 / SIZE as f32;
         let in_hole = 1.0 - smoothstep(hole - texel, hole + texel, r);
         let in_ring = 1.0 - smoothstep(ring - texel, ring + texel, r);
         // Soot: dense near the ring, fading out by r ≈ 0.88.
@@ -233,7 +236,8 @@ pub fn bullet_hole() -> DecalTextureSet {
         let coverage = in_ring.max(soot * 0.9).max(crack * (1.0 - smoothstep(0.7, 0.88, r)));
 
         // Colours (linear): exposed chipped material, burnt towards the hole, soot outside.
-        let chipped = Vec3::new(0.36, 0.34, 0.31) * (0.7 + 0.6 * grain);
+        let chipped = Vec3::new(0.3, 0.285, 0.26) * (0.7 + 0.6 * grain)
+            * (0.8 + 0.2 * smoothstep(hole, ring, r));
         let burnt = Vec3::new(0.035, 0.028, 0.022);
         let black = Vec3::new(0.008, 0.006, 0.005);
         let burn = 1.0 - smoothstep(hole, hole + 0.22, r);
@@ -253,6 +257,12 @@ pub fn bullet_hole() -> DecalTextureSet {
     })
 }
 
+/// Polynomial smooth maximum of `a` and `b` over a blend width `k`.
+fn smooth_max(a: f32, b: f32, k: f32) -> f32 {
+    let h = (0.5 + 0.5 * (a - b) / k).clamp(0.0, 1.0);
+    b + (a - b) * h + k * h * (1.0 - h)
+}
+
 /// Signed distance (UV units, negative inside) of an ellipse, approximated by scaling.
 fn ellipse_sd(p: Vec2, centre: Vec2, radii: Vec2) -> f32 {
     let q = (p - centre) / radii;
@@ -268,12 +278,17 @@ pub fn footprint() -> DecalTextureSet {
         let texel = 1.0 / SIZE as f32;
         let noise = fbm(uv, 8, 41);
         let edge_noise = 0.012 * (fbm(uv * 2.0, 8, 42) - 0.5);
-        // Forefoot: a wide ellipse towards the toe, cut flat at the waist.
-        let fore = ellipse_sd(uv, Vec2::new(0.51, 0.31), Vec2::new(0.165, 0.255))
-            .max(uv.y - 0.57)
-            // Big-toe side fuller: trim the little-toe side near the toe.
-            .max(ellipse_sd(uv, Vec2::new(0.47, 0.36), Vec2::new(0.27, 0.33)));
-        let heel = ellipse_sd(uv, Vec2::new(0.5, 0.8), Vec2::new(0.12, 0.135)).max(0.685 - uv.y);
+        // Forefoot: rounded toe, widest at the ball, tapering towards the waist; its centre line
+        // leans towards the big-toe side (image-left for a right shoe seen from above).
+        let (toe, waist) = (0.055, 0.585);
+        let t = ((uv.y - toe) / (waist - toe)).clamp(0.0, 1.0);
+        let round = 1.0 - (1.0 - (t / 0.4).min(1.0)).powi(2);
+        let half_width = 0.158 * round.max(0.0).sqrt() * (1.0 - 0.3 * smoothstep(0.4, 1.0, t));
+        let centre = 0.5 - 0.035 * (1.0 - t) + 0.02 * t;
+        // The forefoot ends on a slant (the outer side reaches further) with rounded corners.
+        let end = waist - 0.015 + 0.025 * ((uv.x - centre) / 0.11).clamp(-1.5, 1.5);
+        let fore = smooth_max(((uv.x - centre).abs() - half_width).max(toe - uv.y), uv.y - end, 0.04);
+        let heel = ellipse_sd(uv, Vec2::new(0.52, 0.815), Vec2::new(0.118, 0.128)).max(0.695 - uv.y);
         let sole = fore.min(heel) + edge_noise;
         let inside = 1.0 - smoothstep(-texel, texel, sole);
 
@@ -316,11 +331,12 @@ pub fn footprint() -> DecalTextureSet {
 /// damp rim. 256² texels.
 pub fn puddle() -> DecalTextureSet {
     const SIZE: u32 = 256;
-    // Ripple sources: (centre, phase, amplitude).
-    let ripples: Vec<(Vec2, f32, f32)> = (0..3)
+    // Rain-drop ripple sources: (centre, phase, amplitude, wavelength).
+    let ripples: Vec<(Vec2, f32, f32, f32)> = (0..6)
         .map(|i| {
-            let c = Vec2::new(0.35 + 0.3 * hash01(i, 0, 61), 0.35 + 0.3 * hash01(i, 1, 61));
-            (c, TAU * hash01(i, 2, 61), 0.0006 + 0.0004 * hash01(i, 3, 61))
+            let c = Vec2::new(0.25 + 0.5 * hash01(i, 0, 61), 0.25 + 0.5 * hash01(i, 1, 61));
+            let wavelength = 0.025 + 0.02 * hash01(i, 4, 61);
+            (c, TAU * hash01(i, 2, 61), 0.0005 + 0.0005 * hash01(i, 3, 61), wavelength)
         })
         .collect();
     render(PUDDLE, SIZE, Maps { normal: true, metallic_roughness: true }, |uv| {
@@ -334,10 +350,11 @@ pub fn puddle() -> DecalTextureSet {
         let deep = Vec3::new(0.1, 0.115, 0.135) * (0.9 + 0.2 * silt);
         let color = rim.lerp(deep, water);
 
-        let mut height = 0.0;
-        for &(c, phase, amplitude) in &ripples {
-            let d = (uv - c).length();
-            height += amplitude * (d * TAU * 22.0 + phase).sin() * (-d * 5.0).exp();
+        // Each drop's rings spread a few wavelengths, plus a faint wind swell.
+        let mut height = 0.0015 * (value_noise(uv + Vec2::new(0.0, 0.3), 5, 65) - 0.5);
+        for &(c, phase, amplitude, wavelength) in &ripples {
+            let d = (uv - c).length() / wavelength;
+            height += amplitude * (d * TAU + phase).sin() * (-d / 3.0).exp();
         }
         height *= water;
         let roughness = 0.05 + 0.55 * (1.0 - water);
@@ -383,7 +400,8 @@ impl Leaf {
             2 => w *= 1.0 - 0.08 * (s * 14.0).fract(),
             _ => {}
         }
-        let inside_d = (w - t.abs()) * self.half_length; // UV units, positive inside
+        // UV units, positive inside; beyond the tip and base the blade ends.
+        let inside_d = (w - t.abs() - (s.abs() - 1.0).max(0.0)) * self.half_length;
         let blade = smoothstep(-texel, texel, inside_d);
         // The stem sticks out behind the base.
         let stem_d = if (-1.3..=-0.9).contains(&s) { 0.018 - t.abs() } else { -1.0 };
@@ -418,22 +436,21 @@ pub fn leaves() -> DecalTextureSet {
         Vec3::new(0.42, 0.07, 0.02),  // red-brown
         Vec3::new(0.3, 0.14, 0.035),  // tan
     ];
-    // Jittered 3×3 grid, seven cells used, so the leaves spread without piling up.
-    let cells = [0u32, 1, 2, 3, 5, 6, 7, 8, 4];
+    // Jittered 3×3 grid, one leaf per cell, so the leaves spread without piling up.
+    let cells = [0u32, 4, 2, 6, 8, 1, 3, 5, 7];
     let leaves: Vec<Leaf> = cells
         .iter()
-        .take(8)
         .enumerate()
         .map(|(i, &cell)| {
             let i = i as u32;
-            let half_length = 0.1 + 0.045 * hash01(i, 0, 71);
+            let half_length = 0.11 + 0.05 * hash01(i, 0, 71);
             let angle = TAU * hash01(i, 1, 71);
             let axis = Vec2::new(angle.cos(), angle.sin());
             let (gx, gy) = ((cell % 3) as f32, (cell / 3) as f32);
             let jitter = Vec2::new(hash01(i, 2, 71), hash01(i, 3, 71)) - 0.5;
             // Keep the whole leaf (1.3 half lengths with the stem) clear of the border.
             let reach = half_length * 1.3 + 0.06;
-            let centre = ((Vec2::new(gx, gy) + 0.5 + jitter * 0.5) / 3.0)
+            let centre = ((Vec2::new(gx, gy) + 0.5 + jitter * 0.6) / 3.0)
                 .clamp(Vec2::splat(reach), Vec2::splat(1.0 - reach));
             Leaf {
                 centre,
@@ -441,7 +458,7 @@ pub fn leaves() -> DecalTextureSet {
                 half_length,
                 width: 0.38 + 0.14 * hash01(i, 4, 71),
                 shape: hash(i, 5, 71) % 3,
-                color: PALETTE[(hash(i, 6, 71) % PALETTE.len() as u32) as usize],
+                color: PALETTE[((i + hash(0, 6, 71)) % PALETTE.len() as u32) as usize],
                 seed: i,
             }
         })
@@ -458,7 +475,7 @@ pub fn leaves() -> DecalTextureSet {
                 continue;
             }
             let blotch = fbm(uv, 8, 90 + leaf.seed);
-            let spots = smoothstep(0.68, 0.74, value_noise(uv, 24, 95 + leaf.seed));
+            let spots = smoothstep(0.74, 0.8, value_noise(uv, 40, 95 + leaf.seed));
             let dry = smoothstep(0.0, 0.5, 1.0 - (leaf.centre - uv).length() / leaf.half_length);
             let mut leaf_color = leaf.color * (0.7 + 0.6 * blotch);
             leaf_color = leaf_color.lerp(leaf.color * 0.35, (1.0 - dry) * 0.6);

@@ -218,7 +218,7 @@ mod tests {
     use engine::material::Material;
     use engine::mesh::shapes;
 
-    /// A 10 m ground plane and a rotated, scaled, translated cube under a moved parent.
+    /// A 10 m ground plane and a rotated, mirrored, scaled, translated cube under a moved parent.
     fn plane_and_cube(world: &mut World) -> Vec<Handle<DecalMaterial>> {
         let (plane, cube) = {
             let mut meshes = world.get_resource_or_init::<Assets<Mesh>>();
@@ -230,7 +230,9 @@ mod tests {
         world.spawn((
             Transform::from_xyz(0.5, 1.0, 0.5)
                 .with_rotation(Quat::from_euler(glam::EulerRot::YXZ, 0.6, 0.3, -0.2))
-                .with_scale(Vec3::new(1.5, 2.0, 1.0)),
+                // Mirrored (negative X scale): the triangles' winding flips in world space, so
+                // the face normal must follow the vertex normals to face outwards.
+                .with_scale(Vec3::new(-1.5, 2.0, 1.0)),
             MeshInstance { mesh: cube, material },
             ChildOf(parent),
         ));

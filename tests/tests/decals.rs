@@ -201,3 +201,281 @@ fn random_overlapping_stacks_match_the_cpu_blending_reference() {
         eprintln!("seed {seed}: {checked} pixels ({covered} under decals), worst abs error {worst:.5}");
     }
 }
+
+/// One opaque red decal; returns whether each checked pixel shows it, compared with whether its
+/// centre lies inside `inside(p)` (pixels within `margin` world units of the boundary skipped).
+fn check_single_decal(app: &mut App, view: &TopDownView, inside: impl Fn(Vec3) -> Option<bool>) -> (usize, usize) {
+    let (albedo, _) = read_views(app);
+    assert_no_validation_errors(app);
+    let (mut hits, mut misses) = (0, 0);
+    for py in 0..SIZE.1 {
+        for px in 0..SIZE.0 {
+            let Some(p) = view.ground_point(px, py, 0.0) else { continue };
+            let Some(expected) = inside(p) else { continue };
+            let got = Vec3::from_slice(&albedo[(py * SIZE.0 + px) as usize][..3]);
+            let shows = (got - Vec3::new(1.0, 0.0, 0.0)).abs().max_element() < 2e-3;
+            let plain = (got - SURFACE_ALBEDO).abs().max_element() < 2e-3;
+            assert!(shows || plain, "pixel ({px},{py}) is neither decal nor surface: {got}");
+            assert_eq!(shows, expected, "pixel ({px},{py}) at {p}: decal shown {shows}, expected {expected}");
+            if expected { hits += 1 } else { misses += 1 }
+        }
+    }
+    (hits, misses)
+}
+
+fn red_material(app: &mut App) -> Handle<DecalMaterial> {
+    app.world.resource_mut::<Assets<DecalMaterial>>().add(DecalMaterial { base_color: Some(Vec4::new(1.0, 0.0, 0.0, 1.0)), ..Default::default() })
+}
+
+#[test]
+fn containment_follows_the_oriented_box_at_faces_and_corners() {
+    let (mut app, view) = plane_app();
+    let material = red_material(&mut app);
+    let transform = downward(Vec3::new(0.3, 0.0, -0.2), Vec2::new(2.0, 1.2), 1.0, 0.5);
+    let to_decal = transform.compute_matrix().inverse();
+    app.world.spawn((Decal::new(material), transform));
+    let pixel = 2.0 * 4.0 * (view.camera.fov_y * 0.5).tan() / SIZE.1 as f32;
+    let margin = 0.75 * pixel;
+    let (hits, misses) = check_single_decal(&mut app, &view, |p| {
+        let local = to_decal.transform_point3(p);
+        // Distance outside (>0) or inside (<0) the box's x/y extent, in world units.
+        let dx = (local.x.abs() - 0.5) * 2.0;
+        let dy = (local.y.abs() - 0.5) * 1.2;
+        let d = dx.max(dy);
+        (d.abs() > margin).then_some(d < 0.0)
+    });
+    assert!(hits > 400 && misses > 400, "both sides checked: {hits} inside, {misses} outside");
+
+    // Corners: points just inside each corner show the decal, points just outside do not.
+    let (albedo, _) = read_views(&mut app);
+    let m = transform.compute_matrix();
+    for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+        for (scale, expected) in [(0.42, true), (0.58, false)] {
+            let p = m.transform_point3(Vec3::new(sx * scale, sy * scale, 0.0));
+            let (px, py) = pixel_of(&view, p);
+            let got = Vec3::from_slice(&albedo[(py * SIZE.0 + px) as usize][..3]);
+            assert_eq!(got.x > 0.9 && got.y < 0.1, expected, "corner ({sx},{sy}) at scale {scale}: {got}");
+        }
+    }
+}
+
+/// The pixel whose centre is nearest to ground point `p`.
+fn pixel_of(view: &TopDownView, p: Vec3) -> (u32, u32) {
+    let mut best = (0, 0, f32::INFINITY);
+    for py in 0..SIZE.1 {
+        for px in 0..SIZE.0 {
+            if let Some(q) = view.ground_point(px, py, 0.0) {
+                let d = q.distance(p);
+                if d < best.2 {
+                    best = (px, py, d);
+                }
+            }
+        }
+    }
+    (best.0, best.1)
+}
+
+#[test]
+fn the_projection_depth_bounds_the_decal() {
+    // The box spans y in [0.1, 1.1]: the plane at y = 0 lies below its bottom face.
+    let (mut app, view) = plane_app();
+    let material = red_material(&mut app);
+    app.world.spawn((Decal::new(material), downward(Vec3::new(0.0, 0.6, 0.0), Vec2::splat(2.0), 1.0, 0.0)));
+    let (hits, misses) = check_single_decal(&mut app, &view, |_| Some(false));
+    assert_eq!(hits, 0);
+    assert!(misses > 5000);
+    // Lowered so the plane is 0.05 inside the bottom face: now it shows.
+    let decal = app.world.query_filtered::<Entity, With<Decal>>().single(&app.world).unwrap();
+    app.world.get_mut::<Transform>(decal).unwrap().translation.y = 0.45;
+    let (hits, _) = check_single_decal(&mut app, &view, |p| (p.x.abs().max(p.z.abs()) - 1.0).abs().gt(&0.06).then_some(p.x.abs().max(p.z.abs()) < 1.0));
+    assert!(hits > 500);
+}
+
+#[test]
+fn receiver_masks_keep_decals_off_other_layers() {
+    let (mut app, view) = plane_app();
+    // A second, raised plane on the right half that only receives layer 2.
+    let mesh = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(3.0, 6.0, 1, 1.0));
+    let material = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(SURFACE_ALBEDO.extend(1.0), SURFACE_METALLIC, SURFACE_ROUGHNESS));
+    app.world.spawn((MeshInstance { mesh, material }, Transform::from_xyz(1.5, 0.05, 0.0), DecalReceiver(2)));
+    let red = red_material(&mut app);
+    let mut decal = Decal::new(red);
+    decal.receivers = 1; // the ground's default layer only
+    app.world.spawn((decal, downward(Vec3::ZERO, Vec2::splat(2.4), 1.0, 0.0)));
+    let (hits, misses) = check_single_decal(&mut app, &view, |p| {
+        let inside = p.x.abs() < 1.2 && p.z.abs() < 1.2;
+        let near_edge = (p.x.abs() - 1.2).abs() < 0.06 || (p.z.abs() - 1.2).abs() < 0.06 || p.x.abs() < 0.06;
+        // Right of x = 0 the raised plane (layer 2) covers the ground.
+        (!near_edge).then_some(inside && p.x < 0.0)
+    });
+    assert!(hits > 300 && misses > 300, "{hits} {misses}");
+}
+
+#[test]
+fn angle_fade_follows_the_angle_between_surface_and_projection_axis() {
+    for (tilt_deg, expected_alpha) in [(20.0f32, 1.0f32), (45.0, 0.5), (70.0, 0.0)] {
+        let (mut app, view) = plane_app();
+        let material = red_material(&mut app);
+        let mut decal = Decal::new(material);
+        // Fade linear in cos θ between 30° and 60°: at 45° halfway in cos.
+        decal.angle_fade = Some(AngleFade { start: 30f32.to_radians(), end: 60f32.to_radians() });
+        let tilt = Quat::from_rotation_z(tilt_deg.to_radians());
+        let t = Transform::from_translation(Vec3::ZERO)
+            .with_rotation(tilt * Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2))
+            .with_scale(Vec3::new(1.5, 1.5, 1.5));
+        app.world.spawn((decal, t));
+        let (albedo, _) = read_views(&mut app);
+        assert_no_validation_errors(&mut app);
+        let cos = tilt_deg.to_radians().cos();
+        let (c30, c60) = (30f32.to_radians().cos(), 60f32.to_radians().cos());
+        let alpha = ((cos - c60) / (c30 - c60)).clamp(0.0, 1.0);
+        assert!((alpha - expected_alpha).abs() < 0.2, "test setup: {alpha}");
+        let (px, py) = pixel_of(&view, Vec3::ZERO);
+        let got = Vec3::from_slice(&albedo[(py * SIZE.0 + px) as usize][..3]);
+        let expected = Vec3::new(1.0, 0.0, 0.0) * alpha + SURFACE_ALBEDO * (1.0 - alpha);
+        assert!((got - expected).abs().max_element() < 2e-3, "tilt {tilt_deg}°: got {got}, expected {expected}");
+    }
+}
+
+fn counters(app: &App) -> render::FrameCounters {
+    app.world.resource::<RenderStats>().last
+}
+
+/// Whether the pixel nearest `p` shows the red decal (albedo view must be active).
+fn shows_red_at(app: &mut App, view: &TopDownView, p: Vec3) -> bool {
+    let hdr = renderer(app).read_hdr().unwrap();
+    let (px, py) = pixel_of(view, p);
+    let got = &hdr[(py * SIZE.0 + px) as usize];
+    got[0] > 0.9 && got[1] < 0.1
+}
+
+#[test]
+fn ecs_sequences_give_the_expected_image_and_the_expected_work() {
+    let (mut app, view) = plane_app();
+    let red = red_material(&mut app);
+    let record_bytes = (std::mem::size_of::<render::scene::GpuDecal>() + std::mem::size_of::<render::scene::GpuAabb>()) as u64;
+
+    // Spawn 10 decals in a row, plus one riding on a parent.
+    let decals: Vec<Entity> = (0..10)
+        .map(|i| app.world.spawn((Decal::new(red), downward(Vec3::new(-1.8 + i as f32 * 0.4, 0.0, -1.0), Vec2::splat(0.25), 1.0, 0.0))).id())
+        .collect();
+    let parent = app.world.spawn(Transform::from_xyz(0.0, 0.0, 1.0)).id();
+    let rider = app.world.spawn((Decal::new(red), downward(Vec3::ZERO, Vec2::splat(0.3), 1.0, 0.0), ChildOf(parent))).id();
+    app.update();
+    let c = counters(&app);
+    assert_eq!((c.blas_builds, c.blas_updates, c.tlas_builds, c.decals), (1, 0, 1, 11), "first frame builds: {c:?}");
+    assert!(shows_red_at(&mut app, &view, Vec3::new(-1.8, 0.0, -1.0)));
+    assert!(shows_red_at(&mut app, &view, Vec3::new(0.0, 0.0, 1.0)), "the child decal sits under its parent");
+
+    // Nothing changes: no bytes, no acceleration-structure work.
+    app.update();
+    let c = counters(&app);
+    assert_eq!((c.bytes_uploaded, c.records_written, c.blas_builds, c.blas_updates, c.tlas_builds), (0, 0, 0, 0, 0), "{c:?}");
+
+    // Move one decal: one record and one box uploaded, a refit, a TLAS build; the image follows.
+    app.world.get_mut::<Transform>(decals[0]).unwrap().translation = Vec3::new(-1.8, 0.0, 0.3);
+    app.update();
+    let c = counters(&app);
+    assert_eq!((c.records_written, c.bytes_uploaded, c.blas_builds, c.blas_updates, c.tlas_builds), (1, record_bytes, 0, 1, 1), "{c:?}");
+    assert!(shows_red_at(&mut app, &view, Vec3::new(-1.8, 0.0, 0.3)));
+    assert!(!shows_red_at(&mut app, &view, Vec3::new(-1.8, 0.0, -1.0)), "the old place is clear");
+
+    // Move the parent: its child decal follows, by refit.
+    app.world.get_mut::<Transform>(parent).unwrap().translation = Vec3::new(1.2, 0.0, 1.0);
+    app.update();
+    let c = counters(&app);
+    assert_eq!((c.records_written, c.blas_updates, c.blas_builds), (1, 1, 0), "{c:?}");
+    assert!(shows_red_at(&mut app, &view, Vec3::new(1.2, 0.0, 1.0)));
+    assert!(!shows_red_at(&mut app, &view, Vec3::new(0.0, 0.0, 1.0)));
+
+    // Despawn two: their slots empty by refit, the image clears.
+    let freed: Vec<u32> = decals[3..5].iter().map(|&e| app.world.resource::<MirrorSlots>().decal(e).unwrap()).collect();
+    app.world.despawn(decals[3]);
+    app.world.despawn(decals[4]);
+    app.update();
+    let c = counters(&app);
+    assert_eq!((c.decals, c.blas_updates, c.blas_builds), (9, 1, 0), "{c:?}");
+    assert!(!shows_red_at(&mut app, &view, Vec3::new(-1.8 + 3.0 * 0.4, 0.0, -1.0)));
+    let _ = rider;
+
+    // Respawn into the freed slots: still a refit, not a build.
+    let respawned: Vec<Entity> = (0..2)
+        .map(|i| app.world.spawn((Decal::new(red), downward(Vec3::new(-1.0 + i as f32, 0.0, 0.0), Vec2::splat(0.3), 1.0, 0.0))).id())
+        .collect();
+    app.update();
+    let c = counters(&app);
+    let mut reused: Vec<u32> = respawned.iter().map(|&e| app.world.resource::<MirrorSlots>().decal(e).unwrap()).collect();
+    reused.sort();
+    let mut freed_sorted = freed.clone();
+    freed_sorted.sort();
+    assert_eq!(reused, freed_sorted, "new decals take the freed slots");
+    assert_eq!((c.decals, c.blas_updates, c.blas_builds), (11, 1, 0), "{c:?}");
+    assert!(shows_red_at(&mut app, &view, Vec3::new(0.0, 0.0, 0.0)));
+
+    // Growing past the capacity (64) rebuilds, once.
+    for i in 0..60 {
+        app.world.spawn((Decal::new(red), downward(Vec3::new(-2.0 + (i % 10) as f32 * 0.1, 0.0, 1.6), Vec2::splat(0.05), 1.0, 0.0)));
+    }
+    app.update();
+    let c = counters(&app);
+    assert_eq!((c.decals, c.blas_builds, c.blas_updates, c.tlas_builds), (71, 1, 0, 1), "{c:?}");
+    app.update();
+    let c = counters(&app);
+    assert_eq!((c.blas_builds, c.blas_updates, c.tlas_builds, c.bytes_uploaded), (0, 0, 0, 0), "{c:?}");
+    assert_no_validation_errors(&mut app);
+}
+
+#[test]
+fn lifetimes_fade_decals_out_and_despawn_them_on_time() {
+    // Headless ECS: 60 frames per second, a 1 s lifetime fading over its last 0.5 s.
+    let mut app = tests::ecs_app();
+    let material = app.world.resource_mut::<Assets<DecalMaterial>>().add(DecalMaterial::default());
+    app.world.resource_mut::<Time>().set_fixed_step(Some(std::time::Duration::from_secs_f64(1.0 / 60.0)));
+    let e = app.world.spawn((Decal::new(material), Transform::default(), DecalLifetime::new(1.0, 0.5))).id();
+    let opacity_in_mirror = |app: &App| {
+        let slot = app.world.resource::<MirrorSlots>().decal(e)?;
+        app.world.resource::<RenderMirror>().0.decals.records.get(slot).map(|r| r.opacity)
+    };
+    let mut seen = Vec::new();
+    for frame in 1..=70 {
+        app.update();
+        let alive = app.world.get_entity(e).is_ok();
+        if !alive {
+            seen.push((frame, None));
+            break;
+        }
+        seen.push((frame, opacity_in_mirror(&app)));
+    }
+    let opacity_at = |f: usize| seen[f - 1].1.expect("alive");
+    assert_eq!(opacity_at(10), 1.0, "full opacity before the fade");
+    assert!((opacity_at(45) - 0.5).abs() < 0.05, "halfway through the fade: {}", opacity_at(45));
+    assert!(opacity_at(59) < 0.05);
+    let (last_frame, state) = *seen.last().unwrap();
+    assert_eq!(state, None, "despawned");
+    assert!((60..=61).contains(&last_frame), "despawned after 1 s, at frame {last_frame}");
+    assert_eq!(app.world.resource::<RenderMirror>().0.decals.len(), 0, "its slot is freed");
+}
+
+#[test]
+fn ten_thousand_decals_render_without_validation_errors() {
+    let mut app = gpu_app(64, 48, RenderSettings { debug_view: DebugView::Albedo, ..Default::default() });
+    let view = TopDownView::new(4.0, (64, 48));
+    view.spawn(&mut app.world);
+    let mesh = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(12.0, 12.0, 1, 1.0));
+    let material = app.world.resource_mut::<Assets<Material>>().add(Material::default());
+    app.world.spawn((MeshInstance { mesh, material }, Transform::default()));
+    let red = red_material(&mut app);
+    let mut rng = Lcg(7);
+    let batch: Vec<_> = (0..10_000)
+        .map(|_| (Decal::new(red), downward(Vec3::new(rng.range(-3.0, 3.0), 0.0, rng.range(-2.0, 2.0)), Vec2::splat(rng.range(0.05, 0.2)), 0.5, rng.range(0.0, 6.3))))
+        .collect();
+    app.world.spawn_batch(batch);
+    app.update();
+    app.update();
+    let c = counters(&app);
+    assert_eq!(c.decals, 10_000);
+    let albedo = renderer(&mut app).read_hdr().unwrap();
+    let red = albedo.iter().filter(|p| p[0] > 0.9 && p[1] < 0.1).count();
+    assert!(red > albedo.len() / 4, "decals cover much of the plane: {red} of {} pixels", albedo.len());
+    assert_no_validation_errors(&mut app);
+}
