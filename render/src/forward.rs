@@ -34,6 +34,7 @@ impl ForwardPasses {
             depth_format: Some(DEPTH_FORMAT),
             depth_compare: Some(vk::CompareOp::GREATER),
             depth_write: true,
+            topology: vk::PrimitiveTopology::TRIANGLE_LIST,
         };
         Ok(Self {
             prepass_opaque: create_graphics(ctx, layout, &prepass)?,

@@ -5,6 +5,7 @@
 //! in stable slots that extraction keeps up to date, plus per-frame [`renderer::FrameSettings`].
 //! `plugins` bridges the ECS to it.
 
+pub mod decal_debug;
 pub mod decals;
 pub mod device;
 pub mod forward;

@@ -27,6 +27,8 @@ pub struct ScenePush {
     pub decal_materials: u64,
     /// Address of the decal TLAS (0: no decals).
     pub decal_tlas: u64,
+    /// Address of the decal boxes.
+    pub decal_aabbs: u64,
     /// High-water mark of light slots.
     pub light_count: u32,
     /// A full-screen pass's input image (bindless slot).
@@ -70,6 +72,8 @@ pub struct GraphicsDesc<'a> {
     pub depth_compare: Option<vk::CompareOp>,
     /// Write depth.
     pub depth_write: bool,
+    /// Primitive topology.
+    pub topology: vk::PrimitiveTopology,
 }
 
 impl<'a> GraphicsDesc<'a> {
@@ -84,6 +88,7 @@ impl<'a> GraphicsDesc<'a> {
             depth_format: None,
             depth_compare: None,
             depth_write: false,
+            topology: vk::PrimitiveTopology::TRIANGLE_LIST,
         }
     }
 }
@@ -121,7 +126,7 @@ pub fn create_graphics(ctx: &GpuContext, layout: vk::PipelineLayout, desc: &Grap
     } else {
         vk::PipelineVertexInputStateCreateInfo::default()
     };
-    let input_assembly = vk::PipelineInputAssemblyStateCreateInfo::default().topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+    let input_assembly = vk::PipelineInputAssemblyStateCreateInfo::default().topology(desc.topology);
     let viewport = vk::PipelineViewportStateCreateInfo::default().viewport_count(1).scissor_count(1);
     let raster = vk::PipelineRasterizationStateCreateInfo::default()
         .polygon_mode(vk::PolygonMode::FILL)

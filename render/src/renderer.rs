@@ -10,6 +10,7 @@ use std::time::Instant;
 use ash::vk;
 
 use crate::RenderError;
+use crate::decal_debug::DecalBoxes;
 use crate::decals::DecalAccel;
 use crate::device::{DeviceSettings, GpuContext, Tier};
 use crate::forward::ForwardPasses;
@@ -130,6 +131,7 @@ struct Resources {
     tonemap: Tonemap,
     targets: Targets,
     decal_accel: DecalAccel,
+    decal_boxes: DecalBoxes,
     graveyard: Graveyard,
 }
 
@@ -181,7 +183,8 @@ impl Renderer {
             frames.push(FrameSlot { pool, cmd, staging: StagingRing::new(ctx, 64 * 1024)?, timer: GpuTimer::new(ctx)?, value: 0, frame: 0 });
         }
         let decal_accel = DecalAccel::new(ctx);
-        Ok(Resources { frames, timeline, layout, scene, forward, tonemap, targets, decal_accel, graveyard: Graveyard::default() })
+        let decal_boxes = DecalBoxes::new(ctx, layout)?;
+        Ok(Resources { frames, timeline, layout, scene, forward, tonemap, targets, decal_accel, decal_boxes, graveyard: Graveyard::default() })
     }
 
     /// The device's name.
@@ -278,6 +281,7 @@ impl Renderer {
             decals: res.scene.decals.address(),
             decal_materials: res.scene.decal_materials.address(),
             decal_tlas: if decals_enabled { res.decal_accel.tlas_address() } else { 0 },
+            decal_aabbs: res.scene.decal_aabbs.address(),
             light_count: mirror.lights.slot_count(),
             texture_index: 0,
             debug_view: settings.debug_view as u32,
@@ -286,7 +290,13 @@ impl Renderer {
         match settings.pipeline {
             PipelineKind::Forward => record_forward(
                 &mut pass,
-                FrameParts { targets: &mut res.targets, forward: &res.forward, tonemap: &res.tonemap, scene: &res.scene },
+                FrameParts {
+                    targets: &mut res.targets,
+                    forward: &res.forward,
+                    tonemap: &res.tonemap,
+                    scene: &res.scene,
+                    decal_boxes: &res.decal_boxes,
+                },
                 mirror,
                 settings,
             ),
@@ -362,13 +372,18 @@ struct FrameParts<'a> {
     forward: &'a ForwardPasses,
     tonemap: &'a Tonemap,
     scene: &'a GpuScene,
+    decal_boxes: &'a DecalBoxes,
 }
 
-/// One forward frame: depth prepass, shading with depth EQUAL, tone mapping.
+/// One forward frame: depth prepass, shading with depth EQUAL (ray-query decals included),
+/// optional decal boxes, tone mapping.
 fn record_forward(p: &mut PassContext, f: FrameParts, mirror: &SceneMirror, settings: &FrameSettings) {
     let draws = &mirror.draws;
     f.forward.prepass(p, f.targets, f.scene, draws);
     f.forward.shade(p, f.targets, f.scene, draws, settings.clear_color);
+    if settings.show_decal_boxes {
+        f.decal_boxes.record(p, &mut f.targets.hdr, mirror.decals.records.slot_count());
+    }
     f.tonemap.record(p, &mut f.targets.hdr, &mut f.targets.display);
 }
 
@@ -378,7 +393,7 @@ impl Drop for Renderer {
         // SAFETY: the GPU is idle; `res` is never used again.
         let res = unsafe { std::mem::ManuallyDrop::take(&mut self.res) };
         let ctx = &self.ctx;
-        let Resources { frames, timeline, layout, scene, forward, tonemap, targets, decal_accel, mut graveyard } = res;
+        let Resources { frames, timeline, layout, scene, forward, tonemap, targets, decal_accel, decal_boxes, mut graveyard } = res;
         for f in frames {
             f.staging.destroy(ctx);
             f.timer.destroy(ctx);
@@ -387,6 +402,7 @@ impl Drop for Renderer {
         }
         graveyard.clear(ctx);
         decal_accel.destroy(ctx);
+        decal_boxes.destroy(ctx);
         forward.destroy(ctx);
         tonemap.destroy(ctx);
         targets.destroy(ctx);

@@ -21,6 +21,8 @@ spirv! {
     FORWARD_FRAG_RAY_QUERY_DECALS = "forward.frag.RAY_QUERY_DECALS";
     FULLSCREEN_VERT = "fullscreen.vert";
     TONEMAP_FRAG = "tonemap.frag";
+    DECAL_BOXES_VERT = "decal_boxes.vert";
+    FLAT_COLOR_FRAG = "flat_color.frag";
 }
 
 /// Creates a shader module from SPIR-V bytes.

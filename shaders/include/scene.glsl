@@ -83,6 +83,7 @@ layout(push_constant) uniform ScenePush {
     uint64_t decals;           // DecalsRef (decals.glsl)
     uint64_t decal_materials;  // DecalMaterialsRef
     uint64_t decal_tlas;       // acceleration structure address; 0 without decals
+    uint64_t decal_aabbs;      // the boxes the decal BLAS is built from
     uint light_count;     // high-water mark of light slots; empty slots have kind LIGHT_NONE
     uint texture_index;   // a pass's own input image (full-screen passes)
     uint debug_view;      // DebugView in renderer.rs

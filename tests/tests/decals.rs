@@ -479,3 +479,34 @@ fn ten_thousand_decals_render_without_validation_errors() {
     assert!(red > albedo.len() / 4, "decals cover much of the plane: {red} of {} pixels", albedo.len());
     assert_no_validation_errors(&mut app);
 }
+
+#[test]
+fn debug_views_show_boxes_and_count_the_decals_tested_per_pixel() {
+    let (mut app, view) = plane_app();
+    let red = red_material(&mut app);
+    // Three boxes that overlap at the origin; the rotated one's AABB is larger than its box.
+    for (x, yaw) in [(-0.3f32, 0.0f32), (0.3, 0.0), (0.0, 0.7)] {
+        app.world.spawn((Decal::new(red), downward(Vec3::new(x, 0.0, 0.0), Vec2::splat(1.0), 1.0, yaw)));
+    }
+    app.world.resource_mut::<RenderSettings>().debug_view = DebugView::DecalCount;
+    app.update();
+    let counts = renderer(&mut app).read_hdr().unwrap();
+    let at = |p: Vec3| {
+        let (px, py) = pixel_of(&view, p);
+        counts[(py * SIZE.0 + px) as usize][0]
+    };
+    assert_eq!(at(Vec3::ZERO), 3.0, "all three AABBs hold the origin");
+    assert_eq!(at(Vec3::new(1.9, 0.0, 1.5)), 0.0, "nothing far away");
+    assert_eq!(at(Vec3::new(-0.75, 0.0, 0.0)), 1.0, "only the left box");
+
+    let mut settings = app.world.resource_mut::<RenderSettings>();
+    settings.debug_view = DebugView::Albedo;
+    settings.show_decal_boxes = true;
+    app.update();
+    let hdr = renderer(&mut app).read_hdr().unwrap();
+    let green = hdr.iter().filter(|p| p[1] > 0.9 && p[0] < 0.2 && p[2] < 0.3).count();
+    let yellow = hdr.iter().filter(|p| p[0] > 0.9 && p[1] > 0.8 && p[2] < 0.2).count();
+    assert!(green > 100, "oriented boxes drawn: {green} pixels");
+    assert!(yellow > 50, "AABBs drawn: {yellow} pixels");
+    assert_no_validation_errors(&mut app);
+}

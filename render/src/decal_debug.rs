@@ -1,0 +1,64 @@
+//! Debug view of decals: every live decal's oriented box (green) and the AABB the acceleration
+//! structure holds for it (yellow), drawn as lines over the HDR image, on top of everything.
+//! (The per-pixel heat map of decals tested is a debug view of the shading pass instead:
+//! `DebugView::DecalHeatmap`.)
+
+use ash::vk;
+
+use crate::RenderError;
+use crate::device::GpuContext;
+use crate::pass::{PassContext, color_attachment};
+use crate::pipeline::{GraphicsDesc, ScenePush, create_graphics};
+use crate::shaders;
+use crate::sync::Access;
+use crate::targets::{HDR_FORMAT, Target};
+
+/// The box-drawing pass.
+pub struct DecalBoxes {
+    pipeline: vk::Pipeline,
+}
+
+impl DecalBoxes {
+    /// Creates the line pipeline.
+    pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
+        let formats = [HDR_FORMAT];
+        let desc = GraphicsDesc {
+            name: "decal boxes",
+            vertex: shaders::DECAL_BOXES_VERT,
+            fragment: Some(shaders::FLAT_COLOR_FRAG),
+            mesh_vertices: false,
+            color_formats: &formats,
+            depth_format: None,
+            depth_compare: None,
+            depth_write: false,
+            topology: vk::PrimitiveTopology::LINE_LIST,
+        };
+        Ok(Self { pipeline: create_graphics(ctx, layout, &desc)? })
+    }
+
+    /// Draws the boxes of decal slots `0..slots` into `hdr`.
+    pub fn record(&self, p: &mut PassContext, hdr: &mut Target, slots: u32) {
+        if slots == 0 {
+            return;
+        }
+        p.timed("decal_boxes", |p| {
+            hdr.use_as(p.ctx, p.cmd, Access::ColorAttachmentWrite);
+            let color = [color_attachment(hdr.image.view, None)];
+            p.begin_rendering(hdr.image.extent, &color, None);
+            for (mode, _) in [(0u32, "oriented"), (1, "aabb")] {
+                let push = ScenePush { texture_index: mode, ..p.push };
+                p.bind_graphics(self.pipeline, &push);
+                // SAFETY: `cmd` is recording inside the rendering scope with the pipeline bound;
+                // the decal tables hold at least `slots` records.
+                unsafe { p.ctx.device.cmd_draw(p.cmd, 24, slots, 0, 0) };
+            }
+            p.end_rendering();
+        });
+    }
+
+    /// Destroys the pipeline; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        // SAFETY: the GPU is idle.
+        unsafe { ctx.device.destroy_pipeline(self.pipeline, None) };
+    }
+}
