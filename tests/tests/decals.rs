@@ -510,3 +510,36 @@ fn debug_views_show_boxes_and_count_the_decals_tested_per_pixel() {
     assert!(yellow > 50, "AABBs drawn: {yellow} pixels");
     assert_no_validation_errors(&mut app);
 }
+
+#[test]
+fn decal_normal_maps_rotate_with_the_decal() {
+    // A constant tangent-space normal tilted towards +X (decal space): (0.6, 0, 0.8).
+    let texel = [((0.6f32 * 0.5 + 0.5) * 255.0).round() as u8, 128, ((0.8f32 * 0.5 + 0.5) * 255.0).round() as u8, 255];
+    let ts = Vec3::new(texel[0] as f32, texel[1] as f32, texel[2] as f32) / 255.0 * 2.0 - 1.0;
+    for yaw in [0.0f32, std::f32::consts::FRAC_PI_2, 2.3] {
+        let (mut app, view) = plane_app();
+        let image = Image::from_rgba8(4, 4, texel.repeat(16), ColorSpace::Linear).unwrap();
+        let image = app.world.resource_mut::<Assets<Image>>().add(image);
+        let material = app.world.resource_mut::<Assets<DecalMaterial>>().add(DecalMaterial {
+            base_color: None,
+            normal_texture: Some(image),
+            ..Default::default()
+        });
+        app.world.spawn((Decal::new(material), downward(Vec3::ZERO, Vec2::splat(1.5), 1.0, yaw)));
+        app.world.resource_mut::<RenderSettings>().debug_view = DebugView::Normal;
+        app.update();
+        let hdr = renderer(&mut app).read_hdr().unwrap();
+        assert_no_validation_errors(&mut app);
+        let (px, py) = pixel_of(&view, Vec3::ZERO);
+        let got = Vec3::from_slice(&hdr[(py * SIZE.0 + px) as usize][..3]) * 2.0 - 1.0;
+        // Decal x in world is the yawed +X; decal y (image up) the yawed −Z; the surface normal +Y.
+        let t = Quat::from_rotation_y(yaw) * Vec3::X;
+        let b = Quat::from_rotation_y(yaw) * Vec3::NEG_Z;
+        let expected = (t * ts.x + b * ts.y + Vec3::Y * ts.z).normalize();
+        assert!((got - expected).length() < 4e-3, "yaw {yaw}: normal {got}, expected {expected}");
+        // Outside the decal the plane's own normal remains.
+        let (px, py) = pixel_of(&view, Vec3::new(1.9, 0.0, 1.4));
+        let plain = Vec3::from_slice(&hdr[(py * SIZE.0 + px) as usize][..3]) * 2.0 - 1.0;
+        assert!((plain - Vec3::Y).length() < 2e-3, "{plain}");
+    }
+}
