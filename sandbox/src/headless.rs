@@ -17,7 +17,9 @@ use engine::time::Time;
 use engine::transform::{GlobalTransform, Transform};
 use glam::Vec3;
 use plugins::{GpuRenderer, RenderPlugin, RenderSettings, RenderStats, finish_frames};
-use render::{DeviceSettings, PipelineKind, Renderer, RendererSettings, Tier};
+use engine::image::Image;
+use plugins::decal::DecalMaterial;
+use render::{DebugView, DeviceSettings, PipelineKind, Renderer, RendererSettings, Tier};
 
 use crate::scene;
 
@@ -54,6 +56,16 @@ pub struct HeadlessOptions {
     pub pipeline: PipelineKind,
     /// Cap on the capability tier.
     pub max_tier: Tier,
+    /// Decals to scatter over the scene's surfaces.
+    pub decals: usize,
+    /// Seed of the scatter.
+    pub decal_seed: u64,
+    /// What the shading pass shows.
+    pub debug_view: DebugView,
+    /// Draw decal boxes over the image.
+    pub show_decal_boxes: bool,
+    /// Percentage of decals nudged every frame (benchmarks refits).
+    pub move_decals_percent: f32,
 }
 
 impl Default for HeadlessOptions {
@@ -66,6 +78,11 @@ impl Default for HeadlessOptions {
             stats: None,
             pipeline: PipelineKind::Forward,
             max_tier: Tier::RayQuery,
+            decals: 0,
+            decal_seed: 1,
+            debug_view: DebugView::Lit,
+            show_decal_boxes: false,
+            move_decals_percent: 0.0,
         }
     }
 }
@@ -90,8 +107,25 @@ pub fn build_app(opts: &HeadlessOptions) -> Result<App> {
     }
     let mut app = App::new();
     app.world.resource_mut::<Time>().set_fixed_step(Some(Duration::from_secs_f64(1.0 / 60.0)));
-    app.add_plugins(RenderPlugin::new(RenderSettings { size: (w, h), pipeline: opts.pipeline, ..Default::default() }));
+    app.add_plugins(RenderPlugin::new(RenderSettings {
+        size: (w, h),
+        pipeline: opts.pipeline,
+        debug_view: opts.debug_view,
+        show_decal_boxes: opts.show_decal_boxes,
+        ..Default::default()
+    }));
     load_scene(&mut app.world, &opts.scene)?;
+    if opts.decals > 0 {
+        let materials = app.world.resource_scope(|world, mut materials: bevy_ecs::world::Mut<Assets<DecalMaterial>>| {
+            crate::decal_textures::add_builtin_materials(&mut world.resource_mut::<Assets<Image>>(), &mut materials)
+        });
+        let placed = crate::scatter::scatter_decals(&mut app.world, opts.decals, opts.decal_seed, &materials);
+        tracing::info!(requested = opts.decals, placed, "scattered decals");
+    }
+    if opts.move_decals_percent > 0.0 {
+        app.insert_resource(DecalJitter { percent: opts.move_decals_percent, cursor: 0 });
+        app.add_systems(engine::app::Update, jitter_decals);
+    }
     let settings = RendererSettings { device: DeviceSettings { max_tier: opts.max_tier, ..Default::default() } };
     let renderer = Renderer::new(&settings, w, h).context("could not start the renderer")?;
     app.insert_resource(GpuRenderer(renderer));
@@ -216,4 +250,34 @@ pub fn frame_scene(world: &mut World) {
             Transform::from_translation(centre + Vec3::new(-1.2, 0.6, 1.2) * radius),
         ));
     }
+}
+
+/// Moves a rotating window of decals a little every frame, so benchmarks see a steady stream
+/// of refits (and the periodic rebuilds the policy triggers).
+#[derive(bevy_ecs::resource::Resource)]
+pub struct DecalJitter {
+    /// Percentage of decals moved per frame.
+    pub percent: f32,
+    cursor: usize,
+}
+
+fn jitter_decals(
+    mut jitter: bevy_ecs::system::ResMut<DecalJitter>,
+    time: bevy_ecs::system::Res<Time>,
+    mut decals: bevy_ecs::system::Query<&mut Transform, bevy_ecs::query::With<plugins::decal::Decal>>,
+) {
+    let total = decals.iter().len();
+    if total == 0 {
+        return;
+    }
+    let moved = ((total as f32 * jitter.percent / 100.0).ceil() as usize).min(total);
+    let start = jitter.cursor % total;
+    let wobble = Vec3::new(time.elapsed_secs().sin(), 0.0, time.elapsed_secs().cos()) * 0.002;
+    for (i, mut t) in decals.iter_mut().enumerate() {
+        let offset = (i + total - start) % total;
+        if offset < moved {
+            t.translation += wobble;
+        }
+    }
+    jitter.cursor = start + moved;
 }

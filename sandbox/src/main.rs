@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{Result, bail};
 use clap::Parser;
-use render::{PipelineKind, Tier};
+use render::{DebugView, PipelineKind, Tier};
 use sandbox::headless::{HeadlessOptions, SceneSource, run};
 
 /// Command line. The flags are stable; later versions add flags, none change meaning.
@@ -36,6 +36,32 @@ struct Cli {
     /// Highest capability tier to use: ray_query, ray_tracing_pipeline or none.
     #[arg(long, default_value = "ray_query", value_parser = parse_tier)]
     tier: Tier,
+    /// Scatter this many decals over the scene's surfaces (built-in textures).
+    #[arg(long, default_value_t = 0)]
+    decals: usize,
+    /// Seed for --decals.
+    #[arg(long, default_value_t = 1)]
+    decal_seed: u64,
+    /// What to show: lit, decal-heatmap, albedo, normal, roughness-metallic.
+    #[arg(long, default_value = "lit", value_parser = parse_debug_view)]
+    debug_view: DebugView,
+    /// Draw every decal's box and AABB.
+    #[arg(long)]
+    decal_boxes: bool,
+    /// Nudge this percentage of the decals every frame (for refit benchmarks).
+    #[arg(long, default_value_t = 0.0)]
+    move_decals: f32,
+}
+
+fn parse_debug_view(s: &str) -> Result<DebugView, String> {
+    Ok(match s {
+        "lit" => DebugView::Lit,
+        "decal-heatmap" => DebugView::DecalHeatmap,
+        "albedo" => DebugView::Albedo,
+        "normal" => DebugView::Normal,
+        "roughness-metallic" => DebugView::RoughnessMetallic,
+        _ => return Err(format!("unknown view {s:?} (lit, decal-heatmap, albedo, normal, roughness-metallic)")),
+    })
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -77,6 +103,11 @@ fn main() -> Result<()> {
         stats: cli.stats.clone(),
         pipeline: cli.pipeline,
         max_tier: cli.tier,
+        decals: cli.decals,
+        decal_seed: cli.decal_seed,
+        debug_view: cli.debug_view,
+        show_decal_boxes: cli.decal_boxes,
+        move_decals_percent: cli.move_decals,
     };
     if let Some(dir) = screenshot.as_ref().and_then(|p| p.parent()).filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)?;

@@ -47,7 +47,7 @@ fn reference(p: Vec3, decals: &[RefDecal]) -> (Vec3, f32, f32) {
             continue;
         }
         let (a, w, c) = (d.alpha, d.weight, d.channel);
-        let mut add = |acc: &mut Acc, v: Vec3| {
+        let add = |acc: &mut Acc, v: Vec3| {
             acc.sum += v * a * w;
             acc.vis *= 1.0 - a;
             acc.wsum += a * w;
