@@ -15,7 +15,7 @@ use crate::RenderError;
 use crate::device::{GpuContext, Tier};
 use crate::memory::{Buffer, Graveyard, Image, ImageDesc, Retired};
 use crate::scene::{
-    FrameCounters, GpuCamera, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
+    FrameCounters, GpuAabb, GpuCamera, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
     TextureData,
 };
 use crate::sync::{Access, ImageState, memory_barrier, transition};
@@ -31,9 +31,9 @@ pub struct GpuTable {
     capacity: u32,
     stride: u64,
     extra_usage: vk::BufferUsageFlags,
-    /// Zero the slots past the mirror's high-water mark when the buffer is (re)created, for
+    /// Fill the slots past the mirror's high-water mark when the buffer is (re)created, for
     /// readers that consume the whole capacity (the decal BLAS build).
-    zero_tail: bool,
+    fill_tail: bool,
 }
 
 impl GpuTable {
@@ -46,11 +46,11 @@ impl GpuTable {
         name: &'static str,
         capacity: u32,
         extra_usage: vk::BufferUsageFlags,
-        zero_tail: bool,
+        fill_tail: bool,
     ) -> Result<Self, RenderError> {
         let stride = std::mem::size_of::<T>() as u64;
         let buffer = Self::create(ctx, name, stride * capacity as u64, extra_usage)?;
-        Ok(Self { name, buffer, capacity, stride, extra_usage, zero_tail })
+        Ok(Self { name, buffer, capacity, stride, extra_usage, fill_tail })
     }
 
     fn create(ctx: &GpuContext, name: &str, size: u64, extra_usage: vk::BufferUsageFlags) -> Result<Buffer, RenderError> {
@@ -95,12 +95,18 @@ impl GpuTable {
     }
 }
 
+/// Makes records for never-used slots `first..first + count` from the live records.
+type TailFn<T> = fn(&[T], u32, u32) -> Box<dyn Iterator<Item = T> + '_>;
+
+fn decal_parking(live: &[GpuAabb], first: u32, count: u32) -> Box<dyn Iterator<Item = GpuAabb> + '_> {
+    Box::new(GpuAabb::parking(live, first, count))
+}
+
 /// Copies the dirty records of `table` (or all of them after a regrow) through `staging` into
 /// `gpu`. Contiguous dirty slots become one copy region.
 #[allow(clippy::too_many_arguments)]
 fn upload_table<T: Pod>(
     ctx: &GpuContext,
-    cmd: vk::CommandBuffer,
     graveyard: &mut Graveyard,
     frame_value: u64,
     table: &mut SlotTable<T>,
@@ -108,29 +114,31 @@ fn upload_table<T: Pod>(
     staging: &mut StagingRing,
     regions: &mut Vec<vk::BufferCopy>,
     counters: &mut FrameCounters,
+    tail: Option<TailFn<T>>,
 ) -> Result<Option<vk::Buffer>, RenderError> {
     let regrown = gpu.ensure(ctx, graveyard, frame_value, table.slot_count())?;
     if !regrown && table.dirty_count() == 0 {
         return Ok(None);
     }
-    if regrown && gpu.zero_tail {
-        // SAFETY: `cmd` is recording; the new buffer is not yet used by anything.
-        unsafe { ctx.device.cmd_fill_buffer(cmd, gpu.buffer(), 0, vk::WHOLE_SIZE, 0) };
-        memory_barrier(
-            &ctx.device,
-            cmd,
-            (vk::PipelineStageFlags2::CLEAR, vk::AccessFlags2::TRANSFER_WRITE),
-            (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE),
-        );
-    }
     regions.clear();
     let stride = gpu.stride;
+    let capacity = gpu.capacity;
     table.take_dirty(|dirty, records| {
         if regrown {
             let bytes = bytemuck::cast_slice(records);
             if !bytes.is_empty() {
                 let src = staging.push(bytes);
                 regions.push(vk::BufferCopy { src_offset: src, dst_offset: 0, size: bytes.len() as u64 });
+            }
+            if let Some(tail) = tail {
+                // Only when the table grows (geometrically), so this allocation is rare.
+                let first = records.len() as u32;
+                let parked: Vec<T> = tail(records, first, capacity - first).collect();
+                let bytes: &[u8] = bytemuck::cast_slice(&parked);
+                if !bytes.is_empty() {
+                    let src = staging.push(bytes);
+                    regions.push(vk::BufferCopy { src_offset: src, dst_offset: first as u64 * stride, size: bytes.len() as u64 });
+                }
             }
             return;
         }
@@ -161,7 +169,6 @@ trait DirtyTable {
     fn upload(
         &mut self,
         ctx: &GpuContext,
-        cmd: vk::CommandBuffer,
         graveyard: &mut Graveyard,
         frame_value: u64,
         gpu: &mut GpuTable,
@@ -175,7 +182,6 @@ impl<T: Pod> DirtyTable for SlotTable<T> {
     fn upload(
         &mut self,
         ctx: &GpuContext,
-        cmd: vk::CommandBuffer,
         graveyard: &mut Graveyard,
         frame_value: u64,
         gpu: &mut GpuTable,
@@ -183,7 +189,7 @@ impl<T: Pod> DirtyTable for SlotTable<T> {
         regions: &mut Vec<vk::BufferCopy>,
         counters: &mut FrameCounters,
     ) -> Result<Option<vk::Buffer>, RenderError> {
-        upload_table(ctx, cmd, graveyard, frame_value, self, gpu, staging, regions, counters)
+        upload_table(ctx, graveyard, frame_value, self, gpu, staging, regions, counters, None)
     }
 }
 
@@ -198,7 +204,8 @@ pub struct SyncReport {
 fn staging_need<T: Pod>(table: &SlotTable<T>, gpu: &GpuTable) -> u64 {
     let stride = std::mem::size_of::<T>() as u64;
     if table.slot_count() > gpu.capacity {
-        table.slot_count() as u64 * stride + 16
+        // The whole new capacity (records plus any tail), in one piece per slot at worst.
+        table.slot_count().next_power_of_two().max(gpu.capacity * 2) as u64 * (stride + 16) + 16
     } else {
         table.dirty_count() as u64 * (stride + 16)
     }
@@ -508,18 +515,30 @@ impl GpuScene {
 
         let mut regions = std::mem::take(&mut self.regions);
         report.decal_boxes_changed = mirror.decals.aabbs.dirty_count() as u32;
-        let tables: [(&mut dyn DirtyTable, &mut GpuTable); 6] = [
+        let tables: [(&mut dyn DirtyTable, &mut GpuTable); 5] = [
             (&mut mirror.instances, &mut self.instances),
             (&mut mirror.materials, &mut self.materials),
             (&mut mirror.lights, &mut self.lights),
             (&mut mirror.decals.records, &mut self.decals),
-            (&mut mirror.decals.aabbs, &mut self.decal_aabbs),
             (&mut mirror.decal_materials, &mut self.decal_materials),
         ];
         for (table, gpu) in tables {
-            let dst = table.upload(ctx, cmd, graveyard, frame_value, gpu, staging, &mut regions, &mut counters)?;
+            let dst = table.upload(ctx, graveyard, frame_value, gpu, staging, &mut regions, &mut counters)?;
             record_copies(ctx, cmd, staging.buffer(), dst, &regions);
         }
+        let parking: Option<TailFn<GpuAabb>> = self.decal_aabbs.fill_tail.then_some(decal_parking);
+        let dst = upload_table(
+            ctx,
+            graveyard,
+            frame_value,
+            &mut mirror.decals.aabbs,
+            &mut self.decal_aabbs,
+            staging,
+            &mut regions,
+            &mut counters,
+            parking,
+        )?;
+        record_copies(ctx, cmd, staging.buffer(), dst, &regions);
         if camera_dirty {
             let src = staging.push(bytemuck::bytes_of(mirror.camera()));
             let region = [vk::BufferCopy { src_offset: src, dst_offset: 0, size: std::mem::size_of::<GpuCamera>() as u64 }];

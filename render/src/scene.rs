@@ -270,6 +270,30 @@ pub struct GpuAabb {
 }
 
 impl GpuAabb {
+    /// A zero-size box at `p`.
+    pub fn point(p: Vec3) -> Self {
+        Self { min: p.to_array(), max: p.to_array() }
+    }
+
+    /// The zero-size box at this box's centre.
+    pub fn collapsed(&self) -> Self {
+        Self::point((Vec3::from(self.min) + Vec3::from(self.max)) * 0.5)
+    }
+
+    /// Boxes for never-used slots `first..first + count` of the decal BLAS: distinct points 1 mm
+    /// apart on a line through the centroid of `live` (zero-size, so no query ever lands on
+    /// them, and near the decals, so a slot's first refit does not stretch the tree across the
+    /// world). Coincident padding boxes made NVIDIA's BLAS builds 2.5–3.5× slower (see
+    /// docs/BENCHMARKS.md).
+    pub fn parking(live: &[GpuAabb], first: u32, count: u32) -> impl Iterator<Item = GpuAabb> {
+        let centroid = if live.is_empty() {
+            Vec3::ZERO
+        } else {
+            live.iter().map(|b| (Vec3::from(b.min) + Vec3::from(b.max)) * 0.5).sum::<Vec3>() / live.len() as f32
+        };
+        (first..first + count).map(move |i| Self::point(centroid + Vec3::new(i as f32 * 1e-3, 0.0, 0.0)))
+    }
+
     /// The AABB of the box `[-0.5, 0.5]³` transformed by `decal_to_world`.
     pub fn of_unit_box(decal_to_world: Mat4) -> Self {
         let centre = decal_to_world.w_axis.truncate();
@@ -308,10 +332,14 @@ impl DecalTable {
         }
     }
 
-    /// Frees a slot: the record is zeroed (never applies) and the box collapses to a point.
+    /// Frees a slot: the record is zeroed (never applies) and the box collapses to its centre,
+    /// so the BLAS keeps its primitive count (a refit, not a build) and free boxes stay distinct
+    /// and where they were (see `render::decals` on why coincident boxes are avoided).
     pub fn remove(&mut self, slot: u32) {
+        if let Some(aabb) = self.aabbs.get(slot).copied() {
+            self.aabbs.release_with(slot, aabb.collapsed());
+        }
         self.records.remove(slot);
-        self.aabbs.remove(slot);
     }
 
     /// Live decals.
@@ -447,13 +475,18 @@ impl<T: Pod> SlotTable<T> {
 
     /// Releases a slot; its record is zeroed (an empty light, an unused instance) and uploaded.
     pub fn remove(&mut self, slot: u32) {
+        self.release_with(slot, T::zeroed());
+    }
+
+    /// Releases a slot, leaving `parked` in it (uploaded like any record) until it is reused.
+    pub fn release_with(&mut self, slot: u32, parked: T) {
         let i = slot as usize;
         if !self.live.get(i).copied().unwrap_or(false) {
             return;
         }
         self.live[i] = false;
         self.live_count -= 1;
-        self.records[i] = T::zeroed();
+        self.records[i] = parked;
         self.mark_dirty(slot);
         self.free.push(slot);
     }
