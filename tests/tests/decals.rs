@@ -543,3 +543,48 @@ fn decal_normal_maps_rotate_with_the_decal() {
         assert!((plain - Vec3::Y).length() < 2e-3, "{plain}");
     }
 }
+
+/// Where the game wants a bullet hole: a gameplay event a system reads.
+#[derive(Resource, Default)]
+struct ShotAt(Option<Vec3>);
+
+/// An ordinary gameplay system: spawns a bullet hole with `Commands` wherever it was told.
+fn shoot(mut commands: Commands, mut shot: ResMut<ShotAt>, holes: Res<BulletHole>) {
+    if let Some(hit) = shot.0.take() {
+        let transform = Transform::from_translation(hit)
+            .looking_at(hit - Vec3::Y, Vec3::NEG_Z) // local −Z into the ground
+            .with_scale(Vec3::new(0.6, 0.6, 0.3));
+        commands.spawn((Decal::new(holes.0), transform));
+    }
+}
+
+#[derive(Resource)]
+struct BulletHole(Handle<DecalMaterial>);
+
+#[test]
+fn a_gameplay_system_spawns_a_bullet_hole_that_shows_in_the_same_frame() {
+    let (mut app, view) = plane_app();
+    let set = sandbox::decal_textures::bullet_hole();
+    let material = {
+        let mut images = app.world.resource_mut::<Assets<Image>>();
+        sandbox::decal_textures::decal_material(&set, &mut images)
+    };
+    let material = app.world.resource_mut::<Assets<DecalMaterial>>().add(material);
+    app.insert_resource(BulletHole(material)).insert_resource(ShotAt::default());
+    app.add_systems(Update, shoot);
+    app.update();
+    let before = renderer(&mut app).read_hdr().unwrap();
+
+    let target = Vec3::new(0.8, 0.0, -0.5);
+    app.world.resource_mut::<ShotAt>().0 = Some(target);
+    app.update();
+    let after = renderer(&mut app).read_hdr().unwrap();
+    assert_no_validation_errors(&mut app);
+    assert_eq!(app.world.resource::<RenderStats>().last.decals, 1);
+    let (px, py) = pixel_of(&view, target);
+    let i = (py * SIZE.0 + px) as usize;
+    let darkening = Vec3::from_slice(&before[i][..3]).length() - Vec3::from_slice(&after[i][..3]).length();
+    assert!(darkening > 0.2, "the burnt centre of the hole darkens the albedo: before {:?} after {:?}", before[i], after[i]);
+    let (fx, fy) = pixel_of(&view, target + Vec3::new(1.0, 0.0, 0.0));
+    assert_eq!(before[(fy * SIZE.0 + fx) as usize], after[(fy * SIZE.0 + fx) as usize], "1 m away nothing changed");
+}
