@@ -244,12 +244,16 @@ type ChangedInstance = Or<(Changed<MeshInstance>, Changed<GlobalTransform>, Chan
 /// removed ones.
 pub fn extract_instances(
     changed: Query<(Entity, &MeshInstance, &GlobalTransform, Option<&DecalReceiver>), ChangedInstance>,
+    all: Query<(Entity, &MeshInstance, &GlobalTransform, Option<&DecalReceiver>)>,
     mut removed: RemovedComponents<MeshInstance>,
+    mut removed_receivers: RemovedComponents<DecalReceiver>,
     mut mirror: ResMut<RenderMirror>,
     mut slots: ResMut<MirrorSlots>,
     live: Query<(), With<MeshInstance>>,
 ) {
     let mirror = &mut mirror.0;
+    // An instance that lost its DecalReceiver falls back to the default layers.
+    let lost_receiver = removed_receivers.read().filter_map(|e| all.get(e).ok());
     for entity in removed.read() {
         if live.contains(entity) {
             continue; // removed and re-added in the same frame: handled as a change below
@@ -258,7 +262,7 @@ pub fn extract_instances(
             mirror.remove_instance(slot);
         }
     }
-    for (entity, inst, global, receiver) in &changed {
+    for (entity, inst, global, receiver) in changed.iter().chain(lost_receiver) {
         let Some(&mesh) = slots.meshes.get(&inst.mesh) else {
             tracing::warn!(?entity, "mesh instance refers to a mesh that is not loaded; not drawn");
             if let Some(slot) = slots.instances.remove(&entity) {

@@ -103,3 +103,23 @@ fn a_frame_without_changes_writes_nothing() {
         assert!(mirror.is_clean(), "nothing queued for upload");
     }
 }
+
+#[test]
+fn decal_receiver_layers_reach_the_instance_record() {
+    use plugins::decal::{DEFAULT_RECEIVER_LAYERS, DecalReceiver};
+    let mut app = ecs_app();
+    let (mesh, material) = quad_assets(&mut app);
+    let e = app.world.spawn((MeshInstance { mesh, material }, Transform::default())).id();
+    app.update();
+    let layers = |app: &App| {
+        let slot = app.world.resource::<MirrorSlots>().instance(e).unwrap();
+        app.world.resource::<RenderMirror>().0.instances.get(slot).unwrap().decal_layers
+    };
+    assert_eq!(layers(&app), DEFAULT_RECEIVER_LAYERS);
+    app.world.entity_mut(e).insert(DecalReceiver(0b100));
+    app.update();
+    assert_eq!(layers(&app), 0b100);
+    app.world.entity_mut(e).remove::<DecalReceiver>();
+    app.update();
+    assert_eq!(layers(&app), DEFAULT_RECEIVER_LAYERS, "removing the component restores the default");
+}
