@@ -26,7 +26,7 @@ use bevy_ecs::prelude::*;
 use engine::app::{App, Plugin, Render};
 use glam::Vec3;
 use render::scene::GpuMaterial;
-use render::{DebugView, FrameCounters, FrameSettings, PassTimes, PipelineKind, Renderer, SceneMirror};
+use render::{DebugView, DecalMethod, FrameCounters, FrameSettings, PassTimes, PipelineKind, Renderer, SceneMirror};
 
 pub use extract::MirrorSlots;
 
@@ -35,6 +35,8 @@ pub use extract::MirrorSlots;
 pub struct RenderSettings {
     /// The pipeline that draws the frame.
     pub pipeline: PipelineKind,
+    /// How decals are applied.
+    pub decal_method: DecalMethod,
     /// Render size in pixels (sets the camera's aspect ratio).
     pub size: (u32, u32),
     /// Uniform ambient radiance.
@@ -51,6 +53,7 @@ impl Default for RenderSettings {
     fn default() -> Self {
         Self {
             pipeline: PipelineKind::Forward,
+            decal_method: DecalMethod::RayQuery,
             size: (1280, 720),
             ambient: Vec3::splat(0.03),
             clear_color: [0.35, 0.45, 0.6, 1.0],
@@ -75,6 +78,8 @@ pub struct FrameStats {
     pub frame: u64,
     /// The pipeline that drew it.
     pub pipeline: PipelineKind,
+    /// The decal method it used.
+    pub decal_method: DecalMethod,
     /// Render size.
     pub size: (u32, u32),
     /// Per-pass GPU milliseconds.
@@ -199,6 +204,7 @@ fn render_frame(
     };
     let frame_settings = FrameSettings {
         pipeline: settings.pipeline,
+        decal_method: settings.decal_method,
         clear_color: settings.clear_color,
         debug_view: settings.debug_view,
         show_decal_boxes: settings.show_decal_boxes,
@@ -210,6 +216,7 @@ fn render_frame(
             stats.pending.push_back(FrameStats {
                 frame: report.frame,
                 pipeline: settings.pipeline,
+                decal_method: report.decal_method,
                 size: renderer.0.size(),
                 gpu: PassTimes::default(),
                 cpu_extract_ms: extract_ms,

@@ -32,6 +32,8 @@ impl DecalBoxes {
             depth_compare: None,
             depth_write: false,
             topology: vk::PrimitiveTopology::LINE_LIST,
+            blend: crate::pipeline::Blend::Replace,
+            write_masks: &[],
         };
         Ok(Self { pipeline: create_graphics(ctx, layout, &desc)? })
     }

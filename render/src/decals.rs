@@ -105,6 +105,7 @@ pub struct DecalAccel {
     scratch: Option<Buffer>,
     built_capacity: Option<u32>,
     refitted_since_build: u64,
+    pending_changes: u32,
     scratch_alignment: u64,
 }
 
@@ -124,6 +125,7 @@ impl DecalAccel {
             scratch: None,
             built_capacity: None,
             refitted_since_build: 0,
+            pending_changes: 0,
             scratch_alignment: (as_props.min_acceleration_structure_scratch_offset_alignment as u64).max(1),
         }
     }
@@ -134,7 +136,9 @@ impl DecalAccel {
     }
 
     /// Refits or rebuilds the BLAS over `capacity` boxes at `aabbs` (of which `changed` were
-    /// rewritten this frame), then rebuilds the TLAS. Records nothing when nothing changed.
+    /// rewritten this frame), then rebuilds the TLAS. Records nothing when nothing changed, or
+    /// when ray-query decals are not `in_use` this frame (the changes wait for the next frame
+    /// that uses them).
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &mut self,
@@ -144,13 +148,17 @@ impl DecalAccel {
         aabbs: vk::DeviceAddress,
         capacity: u32,
         changed: u32,
+        in_use: bool,
         counters: &mut FrameCounters,
     ) -> Result<(), RenderError> {
         let ctx = p.ctx;
         let Some(rt) = ctx.ray_tracing.as_ref() else { return Ok(()) };
-        if capacity == 0 {
+        // Changes made while ray-query decals are not in use are applied when they are again.
+        self.pending_changes += changed;
+        if capacity == 0 || !in_use {
             return Ok(());
         }
+        let changed = std::mem::take(&mut self.pending_changes);
         let work = plan_blas_work(self.built_capacity, capacity, changed, self.refitted_since_build);
         if work == BlasWork::None {
             return Ok(());

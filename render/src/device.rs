@@ -264,6 +264,8 @@ impl GpuContext {
 
         let features = vk::PhysicalDeviceFeatures::default()
             .sampler_anisotropy(true)
+            .independent_blend(true)
+            .geometry_shader(true) // gl_PrimitiveID in fragment shaders (visibility buffer)
             .shader_int64(true)
             .fill_mode_non_solid(false);
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
@@ -437,6 +439,8 @@ fn pick_physical_device(instance: &ash::Instance) -> Result<(vk::PhysicalDevice,
             ("shaderSampledImageArrayNonUniformIndexing", f12.shader_sampled_image_array_non_uniform_indexing),
             ("samplerAnisotropy", base.sampler_anisotropy),
             ("shaderInt64", base.shader_int64),
+            ("independentBlend", base.independent_blend),
+            ("geometryShader", base.geometry_shader),
         ];
         if let Some((missing, _)) = required.iter().find(|(_, ok)| *ok == vk::FALSE) {
             rejected.push(format!("{name}: lacks {missing}"));

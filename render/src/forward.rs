@@ -35,6 +35,8 @@ impl ForwardPasses {
             depth_compare: Some(vk::CompareOp::GREATER),
             depth_write: true,
             topology: vk::PrimitiveTopology::TRIANGLE_LIST,
+            blend: crate::pipeline::Blend::Replace,
+            write_masks: &[],
         };
         Ok(Self {
             prepass_opaque: create_graphics(ctx, layout, &prepass)?,

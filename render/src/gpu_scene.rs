@@ -15,7 +15,7 @@ use crate::RenderError;
 use crate::device::{GpuContext, Tier};
 use crate::memory::{Buffer, Graveyard, Image, ImageDesc, Retired};
 use crate::scene::{
-    FrameCounters, GpuAabb, GpuCamera, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
+    FrameCounters, GpuAabb, GpuCamera, GpuMeshInfo, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
     TextureData,
 };
 use crate::sync::{Access, ImageState, memory_barrier, transition};
@@ -23,6 +23,8 @@ use crate::upload::StagingRing;
 
 /// Bindless array size.
 pub const MAX_TEXTURES: u32 = 4096;
+/// Size of the unsigned-integer array (render targets only).
+pub const MAX_UINT_TEXTURES: u32 = 16;
 
 /// A device-local array of records that grows geometrically.
 pub struct GpuTable {
@@ -193,6 +195,29 @@ impl<T: Pod> DirtyTable for SlotTable<T> {
     }
 }
 
+/// Uploads a whole array into `gpu` (growing it as needed). For small tables that change
+/// rarely (the mesh table, the deferred decal order).
+#[allow(clippy::too_many_arguments)]
+fn upload_array(
+    ctx: &GpuContext,
+    graveyard: &mut Graveyard,
+    frame_value: u64,
+    gpu: &mut GpuTable,
+    bytes: &[u8],
+    staging: &mut StagingRing,
+    regions: &mut Vec<vk::BufferCopy>,
+    counters: &mut FrameCounters,
+) -> Result<vk::Buffer, RenderError> {
+    gpu.ensure(ctx, graveyard, frame_value, (bytes.len() as u64).div_ceil(gpu.stride) as u32)?;
+    regions.clear();
+    if !bytes.is_empty() {
+        let src = staging.push(bytes);
+        regions.push(vk::BufferCopy { src_offset: src, dst_offset: 0, size: bytes.len() as u64 });
+        counters.bytes_uploaded += bytes.len() as u64;
+    }
+    Ok(gpu.buffer())
+}
+
 /// What [`GpuScene::sync`] did that later passes need to know.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SyncReport {
@@ -239,6 +264,14 @@ pub struct GpuScene {
     pub decal_aabbs: GpuTable,
     /// Decal materials.
     pub decal_materials: GpuTable,
+    /// Vertex and index addresses per mesh.
+    pub mesh_table: GpuTable,
+    mesh_info: Vec<GpuMeshInfo>,
+    mesh_info_dirty: bool,
+    /// Deferred decals' draw order (decal slots).
+    pub decal_order: GpuTable,
+    decal_order_cpu: Vec<u32>,
+    decal_order_dirty: bool,
     /// Meshes by [`MeshId`].
     pub meshes: Vec<Option<GpuMesh>>,
     textures: Vec<Option<Image>>,
@@ -260,15 +293,24 @@ impl GpuScene {
     /// Creates empty tables, the bindless set and the built-in textures.
     pub fn new(ctx: &GpuContext) -> Result<Self, RenderError> {
         let d = &ctx.device;
-        let binding_flags = [vk::DescriptorBindingFlags::PARTIALLY_BOUND
+        let bindless = vk::DescriptorBindingFlags::PARTIALLY_BOUND
             | vk::DescriptorBindingFlags::UPDATE_AFTER_BIND
-            | vk::DescriptorBindingFlags::UPDATE_UNUSED_WHILE_PENDING];
+            | vk::DescriptorBindingFlags::UPDATE_UNUSED_WHILE_PENDING;
+        let binding_flags = [bindless, bindless];
         let mut flags_info = vk::DescriptorSetLayoutBindingFlagsCreateInfo::default().binding_flags(&binding_flags);
-        let bindings = [vk::DescriptorSetLayoutBinding::default()
-            .binding(0)
-            .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
-            .descriptor_count(MAX_TEXTURES)
-            .stage_flags(vk::ShaderStageFlags::ALL)];
+        let bindings = [
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(0)
+                .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                .descriptor_count(MAX_TEXTURES)
+                .stage_flags(vk::ShaderStageFlags::ALL),
+            // Unsigned-integer targets (G-buffer layers, visibility ids) need usampler2D.
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(1)
+                .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                .descriptor_count(MAX_UINT_TEXTURES)
+                .stage_flags(vk::ShaderStageFlags::ALL),
+        ];
         // SAFETY: create infos point at locals; the objects are destroyed in `destroy`.
         let (set_layout, pool, set, repeat_sampler, clamp_sampler) = unsafe {
             let set_layout = d.create_descriptor_set_layout(
@@ -278,7 +320,10 @@ impl GpuScene {
                     .push_next(&mut flags_info),
                 None,
             )?;
-            let sizes = [vk::DescriptorPoolSize { ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER, descriptor_count: MAX_TEXTURES }];
+            let sizes = [vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+                descriptor_count: MAX_TEXTURES + MAX_UINT_TEXTURES,
+            }];
             let pool = d.create_descriptor_pool(
                 &vk::DescriptorPoolCreateInfo::default()
                     .max_sets(1)
@@ -339,6 +384,12 @@ impl GpuScene {
                 true,
             )?,
             decal_materials: GpuTable::new::<crate::scene::GpuDecalMaterial>(ctx, "decal materials", 16)?,
+            mesh_table: GpuTable::new::<GpuMeshInfo>(ctx, "mesh table", 64)?,
+            mesh_info: Vec::new(),
+            mesh_info_dirty: false,
+            decal_order: GpuTable::new::<u32>(ctx, "decal order", 64)?,
+            decal_order_cpu: Vec::new(),
+            decal_order_dirty: false,
             meshes: Vec::new(),
             textures: (0..RESERVED_TEXTURES).map(|_| None).collect(),
             set_layout,
@@ -373,16 +424,21 @@ impl GpuScene {
         Ok(scene)
     }
 
-    /// Writes `view` into bindless slot `slot` with the clamp sampler (render targets).
-    pub fn bind_target(&self, ctx: &GpuContext, slot: u32, view: vk::ImageView) {
-        self.write_descriptor(ctx, slot, view, self.clamp_sampler);
+    /// Writes a render target's `view` into bindless slot `slot` (of the unsigned-integer array
+    /// when `uint`), with the clamp sampler. Only for slots no pending frame samples.
+    pub fn bind_target(&self, ctx: &GpuContext, slot: u32, view: vk::ImageView, uint: bool) {
+        self.write_descriptor_at(ctx, if uint { 1 } else { 0 }, slot, view, self.clamp_sampler);
     }
 
     fn write_descriptor(&self, ctx: &GpuContext, slot: u32, view: vk::ImageView, sampler: vk::Sampler) {
+        self.write_descriptor_at(ctx, 0, slot, view, sampler);
+    }
+
+    fn write_descriptor_at(&self, ctx: &GpuContext, binding: u32, slot: u32, view: vk::ImageView, sampler: vk::Sampler) {
         let info = [vk::DescriptorImageInfo { sampler, image_view: view, image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL }];
         let write = vk::WriteDescriptorSet::default()
             .dst_set(self.set)
-            .dst_binding(0)
+            .dst_binding(binding)
             .dst_array_element(slot)
             .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
             .image_info(&info);
@@ -480,10 +536,12 @@ impl GpuScene {
         for id in mirror.released_meshes.drain(..) {
             if let Some(mesh) = self.meshes.get_mut(id.0 as usize).and_then(Option::take) {
                 graveyard.bury(frame_value, Retired::Buffer(mesh.buffer));
+                self.mesh_info[id.0 as usize] = GpuMeshInfo::default();
+                self.mesh_info_dirty = true;
             }
         }
 
-        if mirror.is_clean() {
+        if mirror.is_clean() && !self.decal_order_dirty {
             return Ok(report);
         }
         let mut counters = mirror.counters;
@@ -494,6 +552,9 @@ impl GpuScene {
             + staging_need(&mirror.decals.records, &self.decals)
             + staging_need(&mirror.decals.aabbs, &self.decal_aabbs)
             + staging_need(&mirror.decal_materials, &self.decal_materials)
+            + 2 * (std::mem::size_of::<GpuMeshInfo>() * (self.mesh_info.len() + mirror.pending_meshes.len())) as u64
+            + 2 * (4 * self.decal_order_cpu.len()) as u64
+            + 64
             + std::mem::size_of::<GpuCamera>() as u64
             + 64;
         staging.reserve(ctx, graveyard, frame_value, need)?;
@@ -539,6 +600,14 @@ impl GpuScene {
             parking,
         )?;
         record_copies(ctx, cmd, staging.buffer(), dst, &regions);
+        if std::mem::take(&mut self.mesh_info_dirty) {
+            let dst = upload_array(ctx, graveyard, frame_value, &mut self.mesh_table, bytemuck::cast_slice(&self.mesh_info), staging, &mut regions, &mut counters)?;
+            record_copies(ctx, cmd, staging.buffer(), Some(dst), &regions);
+        }
+        if std::mem::take(&mut self.decal_order_dirty) {
+            let dst = upload_array(ctx, graveyard, frame_value, &mut self.decal_order, bytemuck::cast_slice(&self.decal_order_cpu), staging, &mut regions, &mut counters)?;
+            record_copies(ctx, cmd, staging.buffer(), Some(dst), &regions);
+        }
         if camera_dirty {
             let src = staging.push(bytemuck::bytes_of(mirror.camera()));
             let region = [vk::BufferCopy { src_offset: src, dst_offset: 0, size: std::mem::size_of::<GpuCamera>() as u64 }];
@@ -601,6 +670,11 @@ impl GpuScene {
             if self.meshes.len() <= slot {
                 self.meshes.resize_with(slot + 1, || None);
             }
+            if self.mesh_info.len() <= slot {
+                self.mesh_info.resize(slot + 1, GpuMeshInfo::default());
+            }
+            self.mesh_info[slot] = GpuMeshInfo { vertices: buffer.address, indices: buffer.address + index_offset };
+            self.mesh_info_dirty = true;
             let mesh = GpuMesh { buffer, index_offset, index_count: data.indices.len() as u32, vertex_count: data.vertices.len() as u32 };
             if let Some(old) = self.meshes[slot].replace(mesh) {
                 graveyard.bury(frame_value, Retired::Buffer(old.buffer));
@@ -610,6 +684,13 @@ impl GpuScene {
         Ok(())
     }
 
+    /// Sets the deferred decals' draw order (uploaded with the next sync).
+    pub fn set_decal_order(&mut self, order: &[u32]) {
+        self.decal_order_cpu.clear();
+        self.decal_order_cpu.extend_from_slice(order);
+        self.decal_order_dirty = true;
+    }
+
     /// The mesh for `id`, once uploaded.
     pub fn mesh(&self, id: MeshId) -> Option<&GpuMesh> {
         self.meshes.get(id.0 as usize).and_then(Option::as_ref)
@@ -617,7 +698,17 @@ impl GpuScene {
 
     /// Destroys everything; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for t in [self.instances, self.materials, self.lights, self.camera, self.decals, self.decal_aabbs, self.decal_materials] {
+        for t in [
+            self.instances,
+            self.materials,
+            self.lights,
+            self.camera,
+            self.decals,
+            self.decal_aabbs,
+            self.decal_materials,
+            self.mesh_table,
+            self.decal_order,
+        ] {
             t.buffer.destroy(ctx);
         }
         for m in self.meshes.into_iter().flatten() {

@@ -7,6 +7,7 @@
 
 pub mod decal_debug;
 pub mod decals;
+pub mod deferred;
 pub mod device;
 pub mod forward;
 pub mod gpu_scene;
@@ -21,9 +22,10 @@ pub mod targets;
 pub mod timestamps;
 pub mod tonemap;
 pub mod upload;
+pub mod visbuffer;
 
 pub use device::{Capabilities, DeviceSettings, Tier};
-pub use renderer::{DebugView, FinishedFrame, FrameReport, FrameSettings, PipelineKind, Renderer, RendererSettings};
+pub use renderer::{DebugView, DecalMethod, FinishedFrame, FrameReport, FrameSettings, PipelineKind, Renderer, RendererSettings};
 pub use scene::{FrameCounters, SceneMirror};
 pub use timestamps::PassTimes;
 

@@ -29,6 +29,10 @@ pub struct ScenePush {
     pub decal_tlas: u64,
     /// Address of the decal boxes.
     pub decal_aabbs: u64,
+    /// Address of the mesh table (vertex and index addresses).
+    pub meshes: u64,
+    /// Address of the deferred decals' draw order.
+    pub decal_order: u64,
     /// High-water mark of light slots.
     pub light_count: u32,
     /// A full-screen pass's input image (bindless slot).
@@ -74,6 +78,21 @@ pub struct GraphicsDesc<'a> {
     pub depth_write: bool,
     /// Primitive topology.
     pub topology: vk::PrimitiveTopology,
+    /// How colour outputs combine with the attachments.
+    pub blend: Blend,
+    /// Per-attachment write masks (empty: RGBA everywhere).
+    pub write_masks: &'a [vk::ColorComponentFlags],
+}
+
+/// Colour blending for every attachment of a pipeline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Blend {
+    /// Outputs replace the attachment.
+    Replace,
+    /// Outputs add to the attachment (lighting over emitted radiance).
+    Additive,
+    /// `src.rgb · src.a + dst.rgb · (1 − src.a)`; the attachment's alpha is kept.
+    Alpha,
 }
 
 impl<'a> GraphicsDesc<'a> {
@@ -89,6 +108,8 @@ impl<'a> GraphicsDesc<'a> {
             depth_compare: None,
             depth_write: false,
             topology: vk::PrimitiveTopology::TRIANGLE_LIST,
+            blend: Blend::Replace,
+            write_masks: &[],
         }
     }
 }
@@ -138,10 +159,30 @@ pub fn create_graphics(ctx: &GpuContext, layout: vk::PipelineLayout, desc: &Grap
         .depth_test_enable(desc.depth_compare.is_some())
         .depth_write_enable(desc.depth_write)
         .depth_compare_op(desc.depth_compare.unwrap_or(vk::CompareOp::ALWAYS));
-    let blend_attachments: Vec<_> = desc
-        .color_formats
-        .iter()
-        .map(|_| vk::PipelineColorBlendAttachmentState::default().color_write_mask(vk::ColorComponentFlags::RGBA))
+    let blend_attachments: Vec<_> = (0..desc.color_formats.len())
+        .map(|i| {
+            let mask = desc.write_masks.get(i).copied().unwrap_or(vk::ColorComponentFlags::RGBA);
+            let state = vk::PipelineColorBlendAttachmentState::default().color_write_mask(mask);
+            match desc.blend {
+                Blend::Replace => state,
+                Blend::Additive => state
+                    .blend_enable(true)
+                    .src_color_blend_factor(vk::BlendFactor::ONE)
+                    .dst_color_blend_factor(vk::BlendFactor::ONE)
+                    .color_blend_op(vk::BlendOp::ADD)
+                    .src_alpha_blend_factor(vk::BlendFactor::ZERO)
+                    .dst_alpha_blend_factor(vk::BlendFactor::ONE)
+                    .alpha_blend_op(vk::BlendOp::ADD),
+                Blend::Alpha => state
+                    .blend_enable(true)
+                    .src_color_blend_factor(vk::BlendFactor::SRC_ALPHA)
+                    .dst_color_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)
+                    .color_blend_op(vk::BlendOp::ADD)
+                    .src_alpha_blend_factor(vk::BlendFactor::ZERO)
+                    .dst_alpha_blend_factor(vk::BlendFactor::ONE)
+                    .alpha_blend_op(vk::BlendOp::ADD),
+            }
+        })
         .collect();
     let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
     let dynamic_states = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR, vk::DynamicState::CULL_MODE];

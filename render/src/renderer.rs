@@ -19,9 +19,11 @@ use crate::memory::Graveyard;
 use crate::pass::PassContext;
 use crate::pipeline::{ScenePush, create_layout};
 use crate::scene::{FrameCounters, SceneMirror};
-use crate::targets::{Targets, f16_to_f32, read_back};
+use crate::targets::{Targets, f16_to_f32, read_back, slots};
 use crate::timestamps::{GpuTimer, PassTimes};
-use crate::tonemap::{HDR_TEXTURE_SLOT, Tonemap};
+use crate::tonemap::Tonemap;
+use crate::deferred::{DecalRun, DeferredPasses, plan_deferred_decals};
+use crate::visbuffer::VisBufferPasses;
 use crate::upload::StagingRing;
 
 /// Frames the CPU may record ahead of the GPU.
@@ -33,13 +35,69 @@ pub enum PipelineKind {
     /// Forward shading with a reverse-Z depth prepass.
     #[default]
     Forward,
+    /// Deferred shading: G-buffer, optional deferred decals, full-screen lighting.
+    Deferred,
+    /// Visibility-buffer deferred texturing.
+    VisBuffer,
 }
 
 impl PipelineKind {
+    /// Every pipeline.
+    pub const ALL: [PipelineKind; 3] = [PipelineKind::Forward, PipelineKind::Deferred, PipelineKind::VisBuffer];
+
     /// The name used in `--stats` and on the command line.
     pub fn name(self) -> &'static str {
         match self {
             PipelineKind::Forward => "forward",
+            PipelineKind::Deferred => "deferred",
+            PipelineKind::VisBuffer => "visbuffer",
+        }
+    }
+
+    /// Parses [`PipelineKind::name`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|p| p.name() == name)
+    }
+}
+
+/// How decals are applied.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum DecalMethod {
+    /// Ray-query decals in the shading pass (needs the ray query tier).
+    #[default]
+    RayQuery,
+    /// Rasterised decal boxes blended into the G-buffer (deferred pipeline only; other
+    /// pipelines fall back to ray-query decals). Needs no ray tracing at all.
+    DeferredDecals,
+    /// No decals.
+    Off,
+}
+
+impl DecalMethod {
+    /// Every method.
+    pub const ALL: [DecalMethod; 3] = [DecalMethod::RayQuery, DecalMethod::DeferredDecals, DecalMethod::Off];
+
+    /// The name used in `--stats` and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            DecalMethod::RayQuery => "ray_query",
+            DecalMethod::DeferredDecals => "deferred",
+            DecalMethod::Off => "off",
+        }
+    }
+
+    /// Parses [`DecalMethod::name`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+
+    /// The method actually used with `pipeline`: deferred decals exist only in the deferred
+    /// pipeline.
+    pub fn effective(self, pipeline: PipelineKind) -> DecalMethod {
+        match (self, pipeline) {
+            (DecalMethod::DeferredDecals, PipelineKind::Deferred) => DecalMethod::DeferredDecals,
+            (DecalMethod::DeferredDecals, _) => DecalMethod::RayQuery,
+            (m, _) => m,
         }
     }
 }
@@ -75,6 +133,8 @@ pub enum DebugView {
 pub struct FrameSettings {
     /// The pipeline to record.
     pub pipeline: PipelineKind,
+    /// How decals are applied (see [`DecalMethod::effective`]).
+    pub decal_method: DecalMethod,
     /// Radiance of pixels no geometry covers.
     pub clear_color: [f32; 4],
     /// What the shading pass outputs.
@@ -85,7 +145,13 @@ pub struct FrameSettings {
 
 impl Default for FrameSettings {
     fn default() -> Self {
-        Self { pipeline: PipelineKind::Forward, clear_color: [0.0, 0.0, 0.0, 1.0], debug_view: DebugView::Lit, show_decal_boxes: false }
+        Self {
+            pipeline: PipelineKind::Forward,
+            decal_method: DecalMethod::RayQuery,
+            clear_color: [0.0, 0.0, 0.0, 1.0],
+            debug_view: DebugView::Lit,
+            show_decal_boxes: false,
+        }
     }
 }
 
@@ -103,6 +169,8 @@ pub struct FinishedFrame {
 pub struct FrameReport {
     /// This frame's number, from 0.
     pub frame: u64,
+    /// The decal method used (after [`DecalMethod::effective`]).
+    pub decal_method: DecalMethod,
     /// Work done for this frame (uploads, records, acceleration structures, live counts).
     pub counters: FrameCounters,
     /// CPU time spent uploading and recording, in milliseconds (not counting the wait for the
@@ -130,8 +198,11 @@ struct Resources {
     forward: ForwardPasses,
     tonemap: Tonemap,
     targets: Targets,
+    deferred: DeferredPasses,
+    visbuffer: VisBufferPasses,
     decal_accel: DecalAccel,
     decal_boxes: DecalBoxes,
+    decal_order: DeferredDecalOrder,
     graveyard: Graveyard,
 }
 
@@ -163,7 +234,10 @@ impl Renderer {
         let forward = ForwardPasses::new(ctx, layout)?;
         let tonemap = Tonemap::new(ctx, layout, crate::targets::DISPLAY_FORMAT)?;
         let targets = Targets::new(ctx, extent)?;
-        scene.bind_target(ctx, HDR_TEXTURE_SLOT, targets.hdr.image.view);
+        scene.bind_target(ctx, slots::HDR, targets.hdr.image.view, false);
+        scene.bind_target(ctx, slots::DEPTH, targets.depth.image.view, false);
+        let deferred = DeferredPasses::new(ctx, layout)?;
+        let visbuffer = VisBufferPasses::new(ctx, layout)?;
         let mut type_info = vk::SemaphoreTypeCreateInfo::default().semaphore_type(vk::SemaphoreType::TIMELINE).initial_value(0);
         // SAFETY: valid create info; destroyed in Drop.
         let timeline = unsafe { d.create_semaphore(&vk::SemaphoreCreateInfo::default().push_next(&mut type_info), None) }?;
@@ -184,7 +258,21 @@ impl Renderer {
         }
         let decal_accel = DecalAccel::new(ctx);
         let decal_boxes = DecalBoxes::new(ctx, layout)?;
-        Ok(Resources { frames, timeline, layout, scene, forward, tonemap, targets, decal_accel, decal_boxes, graveyard: Graveyard::default() })
+        Ok(Resources {
+            frames,
+            timeline,
+            layout,
+            scene,
+            forward,
+            tonemap,
+            targets,
+            deferred,
+            visbuffer,
+            decal_accel,
+            decal_boxes,
+            decal_order: DeferredDecalOrder::default(),
+            graveyard: Graveyard::default(),
+        })
     }
 
     /// The device's name.
@@ -253,6 +341,30 @@ impl Renderer {
             d.begin_command_buffer(slot.cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))?;
         }
         let cmd = slot.cmd;
+
+        // Targets the pipeline needs (created once, on first use).
+        {
+            let (scene, ctx) = (&res.scene, ctx);
+            let bind = |slot: u32, view: vk::ImageView, uint: bool| scene.bind_target(ctx, slot, view, uint);
+            match settings.pipeline {
+                PipelineKind::Forward => {}
+                PipelineKind::Deferred => {
+                    res.targets.gbuffer(ctx, bind)?;
+                }
+                PipelineKind::VisBuffer => {
+                    res.targets.visibility(ctx, bind)?;
+                }
+            }
+        }
+        let decal_method = settings.decal_method.effective(settings.pipeline);
+        // The deferred decals' draw order follows every change to decals or their materials.
+        let decals_changed = mirror.decals.records.dirty_count() > 0 || mirror.decal_materials.dirty_count() > 0;
+        if decal_method == DecalMethod::DeferredDecals && (decals_changed || !res.decal_order.valid) {
+            res.decal_order.rebuild(mirror);
+            res.scene.set_decal_order(&res.decal_order.slots);
+        } else if decals_changed {
+            res.decal_order.valid = false;
+        }
         let sync = {
             let slot = &mut res.frames[slot_index];
             res.scene.sync(ctx, cmd, mirror, &mut slot.staging, &mut res.graveyard, frame_value, completed)?
@@ -270,9 +382,10 @@ impl Renderer {
             res.scene.decal_aabbs.address(),
             if mirror.decals.records.slot_count() == 0 { 0 } else { res.scene.decal_aabbs.capacity() },
             sync.decal_boxes_changed,
+            decal_method == DecalMethod::RayQuery,
             &mut mirror.counters,
         )?;
-        let decals_enabled = ctx.tier == Tier::RayQuery && !mirror.decals.is_empty();
+        let decals_enabled = decal_method == DecalMethod::RayQuery && ctx.tier == Tier::RayQuery && !mirror.decals.is_empty();
         pass.push = ScenePush {
             camera: res.scene.camera.address(),
             instances: res.scene.instances.address(),
@@ -282,25 +395,32 @@ impl Renderer {
             decal_materials: res.scene.decal_materials.address(),
             decal_tlas: if decals_enabled { res.decal_accel.tlas_address() } else { 0 },
             decal_aabbs: res.scene.decal_aabbs.address(),
+            meshes: res.scene.mesh_table.address(),
+            decal_order: res.scene.decal_order.address(),
             light_count: mirror.lights.slot_count(),
             texture_index: 0,
             debug_view: settings.debug_view as u32,
             decal_count: if decals_enabled { mirror.decals.len() as u32 } else { 0 },
         };
+        let mut parts = FrameParts {
+            targets: &mut res.targets,
+            forward: &res.forward,
+            deferred: &res.deferred,
+            visbuffer: &res.visbuffer,
+            tonemap: &res.tonemap,
+            scene: &res.scene,
+            decal_boxes: &res.decal_boxes,
+            decal_runs: if decal_method == DecalMethod::DeferredDecals { &res.decal_order.runs } else { &[] },
+        };
         match settings.pipeline {
-            PipelineKind::Forward => record_forward(
-                &mut pass,
-                FrameParts {
-                    targets: &mut res.targets,
-                    forward: &res.forward,
-                    tonemap: &res.tonemap,
-                    scene: &res.scene,
-                    decal_boxes: &res.decal_boxes,
-                },
-                mirror,
-                settings,
-            ),
+            PipelineKind::Forward => record_forward(&mut pass, &mut parts, mirror, settings),
+            PipelineKind::Deferred => record_deferred(&mut pass, &mut parts, mirror, settings),
+            PipelineKind::VisBuffer => record_visbuffer(&mut pass, &mut parts, mirror, settings),
         }
+        if settings.show_decal_boxes {
+            parts.decal_boxes.record(&mut pass, &mut parts.targets.hdr, mirror.decals.records.slot_count());
+        }
+        parts.tonemap.record(&mut pass, &mut parts.targets.hdr, &mut parts.targets.display);
 
         // SAFETY: recording is complete; the submit signals the timeline with this frame's value.
         unsafe {
@@ -317,7 +437,7 @@ impl Renderer {
         slot.value = frame_value;
         slot.frame = frame;
         self.frame_number += 1;
-        Ok(FrameReport { frame, counters: mirror.counters, record_ms: start.elapsed().as_secs_f32() * 1e3, finished })
+        Ok(FrameReport { frame, decal_method, counters: mirror.counters, record_ms: start.elapsed().as_secs_f32() * 1e3, finished })
     }
 
     /// Waits for the GPU and returns the timings of every frame not yet reported, oldest first.
@@ -361,7 +481,8 @@ impl Renderer {
         let targets = Targets::new(&self.ctx, vk::Extent2D { width, height })?;
         let old = std::mem::replace(&mut self.res.targets, targets);
         old.destroy(&self.ctx);
-        self.res.scene.bind_target(&self.ctx, HDR_TEXTURE_SLOT, self.res.targets.hdr.image.view);
+        self.res.scene.bind_target(&self.ctx, slots::HDR, self.res.targets.hdr.image.view, false);
+        self.res.scene.bind_target(&self.ctx, slots::DEPTH, self.res.targets.depth.image.view, false);
         Ok(())
     }
 }
@@ -370,21 +491,55 @@ impl Renderer {
 struct FrameParts<'a> {
     targets: &'a mut Targets,
     forward: &'a ForwardPasses,
+    deferred: &'a DeferredPasses,
+    visbuffer: &'a VisBufferPasses,
     tonemap: &'a Tonemap,
     scene: &'a GpuScene,
     decal_boxes: &'a DecalBoxes,
+    decal_runs: &'a [DecalRun],
 }
 
-/// One forward frame: depth prepass, shading with depth EQUAL (ray-query decals included),
-/// optional decal boxes, tone mapping.
-fn record_forward(p: &mut PassContext, f: FrameParts, mirror: &SceneMirror, settings: &FrameSettings) {
-    let draws = &mirror.draws;
-    f.forward.prepass(p, f.targets, f.scene, draws);
-    f.forward.shade(p, f.targets, f.scene, draws, settings.clear_color);
-    if settings.show_decal_boxes {
-        f.decal_boxes.record(p, &mut f.targets.hdr, mirror.decals.records.slot_count());
+/// Forward: depth prepass, then shading with depth EQUAL (ray-query decals included).
+fn record_forward(p: &mut PassContext, f: &mut FrameParts, mirror: &SceneMirror, settings: &FrameSettings) {
+    f.forward.prepass(p, f.targets, f.scene, &mirror.draws);
+    f.forward.shade(p, f.targets, f.scene, &mirror.draws, settings.clear_color);
+}
+
+/// Deferred: G-buffer, deferred decals (when they are the method), full-screen lighting
+/// (ray-query decals included when they are).
+fn record_deferred(p: &mut PassContext, f: &mut FrameParts, mirror: &SceneMirror, settings: &FrameSettings) {
+    f.deferred.geometry(p, f.targets, f.scene, &mirror.draws, settings.clear_color);
+    f.deferred.decals(p, f.targets, f.decal_runs);
+    f.deferred.lighting(p, f.targets);
+}
+
+/// Visibility buffer: ids and depth, then one full-screen pass that rebuilds and shades.
+fn record_visbuffer(p: &mut PassContext, f: &mut FrameParts, mirror: &SceneMirror, settings: &FrameSettings) {
+    f.visbuffer.visibility(p, f.targets, f.scene, &mirror.draws);
+    f.visbuffer.shade(p, f.targets, settings.clear_color);
+}
+
+/// The deferred decals' draw order: live decal slots sorted by channel, then weight, and the
+/// runs that share a set of attributes. Rebuilt only when decals or their materials change.
+#[derive(Default)]
+struct DeferredDecalOrder {
+    keys: Vec<(u32, f32, u32)>,
+    slots: Vec<u32>,
+    runs: Vec<DecalRun>,
+    valid: bool,
+}
+
+impl DeferredDecalOrder {
+    fn rebuild(&mut self, mirror: &SceneMirror) {
+        plan_deferred_decals(
+            mirror.decals.records.records(),
+            mirror.decal_materials.records(),
+            &mut self.keys,
+            &mut self.slots,
+            &mut self.runs,
+        );
+        self.valid = true;
     }
-    f.tonemap.record(p, &mut f.targets.hdr, &mut f.targets.display);
 }
 
 impl Drop for Renderer {
@@ -393,7 +548,21 @@ impl Drop for Renderer {
         // SAFETY: the GPU is idle; `res` is never used again.
         let res = unsafe { std::mem::ManuallyDrop::take(&mut self.res) };
         let ctx = &self.ctx;
-        let Resources { frames, timeline, layout, scene, forward, tonemap, targets, decal_accel, decal_boxes, mut graveyard } = res;
+        let Resources {
+            frames,
+            timeline,
+            layout,
+            scene,
+            forward,
+            tonemap,
+            targets,
+            deferred,
+            visbuffer,
+            decal_accel,
+            decal_boxes,
+            decal_order: _,
+            mut graveyard,
+        } = res;
         for f in frames {
             f.staging.destroy(ctx);
             f.timer.destroy(ctx);
@@ -404,6 +573,8 @@ impl Drop for Renderer {
         decal_accel.destroy(ctx);
         decal_boxes.destroy(ctx);
         forward.destroy(ctx);
+        deferred.destroy(ctx);
+        visbuffer.destroy(ctx);
         tonemap.destroy(ctx);
         targets.destroy(ctx);
         scene.destroy(ctx);

@@ -47,15 +47,17 @@ pub struct GpuInstance {
     pub material: u32,
     /// Decal receiver layers: a decal lands here when its mask shares a bit with these.
     pub decal_layers: u32,
+    /// The instance's mesh (its index in the renderer's mesh table; set by the mirror).
+    pub mesh: u32,
     /// Padding to 16 bytes.
-    pub pad: [u32; 2],
+    pub pad: u32,
 }
 
 impl GpuInstance {
     /// The record for an instance placed by `model`, shaded with the material in `material`,
     /// receiving decals on `decal_layers`.
     pub fn new(model: Mat4, material: u32, decal_layers: u32) -> Self {
-        Self { model, normal_model: model.inverse().transpose(), material, decal_layers, pad: [0; 2] }
+        Self { model, normal_model: model.inverse().transpose(), material, decal_layers, mesh: 0, pad: 0 }
     }
 }
 
@@ -68,8 +70,9 @@ pub const MATERIAL_DOUBLE_SIDED: u32 = 2;
 pub const TEXTURE_WHITE: u32 = 0;
 /// Bindless slot of the built-in flat normal map.
 pub const TEXTURE_FLAT_NORMAL: u32 = 1;
-/// Number of bindless slots the renderer reserves for itself (built-ins and render targets).
-pub const RESERVED_TEXTURES: u32 = 4;
+/// Number of bindless slots the renderer reserves for itself (built-ins and render targets;
+/// see `targets::slots`).
+pub const RESERVED_TEXTURES: u32 = 16;
 
 /// A metallic-roughness material.
 #[repr(C)]
@@ -353,6 +356,16 @@ impl DecalTable {
     }
 }
 
+/// Where a mesh's vertices and indices live (the visibility buffer fetches them).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuMeshInfo {
+    /// Device address of the first vertex.
+    pub vertices: u64,
+    /// Device address of the first index.
+    pub indices: u64,
+}
+
 /// One vertex as the mesh pipelines read it (binding 0, interleaved).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
@@ -586,7 +599,8 @@ impl SceneMirror {
     }
 
     /// Adds or replaces the draw of an instance slot.
-    pub fn set_instance(&mut self, slot: Option<u32>, record: GpuInstance, draw: DrawItem) -> u32 {
+    pub fn set_instance(&mut self, slot: Option<u32>, mut record: GpuInstance, draw: DrawItem) -> u32 {
+        record.mesh = draw.mesh.0;
         let slot = match slot {
             Some(slot) => {
                 self.instances.write(slot, record);

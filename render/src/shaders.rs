@@ -22,6 +22,16 @@ spirv! {
     FULLSCREEN_VERT = "fullscreen.vert";
     TONEMAP_FRAG = "tonemap.frag";
     DECAL_BOXES_VERT = "decal_boxes.vert";
+    GBUFFER_FRAG = "gbuffer.frag";
+    GBUFFER_FRAG_ALPHA_MASK = "gbuffer.frag.ALPHA_MASK";
+    DEFERRED_LIGHTING_FRAG = "deferred_lighting.frag";
+    DEFERRED_LIGHTING_FRAG_RAY_QUERY_DECALS = "deferred_lighting.frag.RAY_QUERY_DECALS";
+    DECAL_BOX_VERT = "decal_box.vert";
+    DEFERRED_DECAL_FRAG = "deferred_decal.frag";
+    VISBUFFER_FRAG = "visbuffer.frag";
+    VISBUFFER_FRAG_ALPHA_MASK = "visbuffer.frag.ALPHA_MASK";
+    VISBUFFER_SHADE_FRAG = "visbuffer_shade.frag";
+    VISBUFFER_SHADE_FRAG_RAY_QUERY_DECALS = "visbuffer_shade.frag.RAY_QUERY_DECALS";
     FLAT_COLOR_FRAG = "flat_color.frag";
 }
 

@@ -18,6 +18,34 @@ pub const HDR_FORMAT: vk::Format = vk::Format::R16G16B16A16_SFLOAT;
 pub const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 /// Display (tone-mapped) format.
 pub const DISPLAY_FORMAT: vk::Format = vk::Format::R8G8B8A8_SRGB;
+/// G-buffer formats; shaders/gbuffer.frag says why each.
+pub const GBUFFER_ALBEDO_FORMAT: vk::Format = vk::Format::R8G8B8A8_SRGB;
+/// Shading normal × 0.5 + 0.5.
+pub const GBUFFER_NORMAL_FORMAT: vk::Format = vk::Format::A2B10G10R10_UNORM_PACK32;
+/// Roughness, metallic.
+pub const GBUFFER_MATERIAL_FORMAT: vk::Format = vk::Format::R8G8_UNORM;
+/// Decal receiver layers (low 8 bits).
+pub const GBUFFER_LAYERS_FORMAT: vk::Format = vk::Format::R8_UINT;
+/// Visibility buffer: instance slot, triangle index.
+pub const VISIBILITY_FORMAT: vk::Format = vk::Format::R32G32_UINT;
+
+/// Bindless slots where render targets are bound for sampling (shaders/include/scene.glsl).
+pub mod slots {
+    /// HDR colour (tone mapping reads it).
+    pub const HDR: u32 = 2;
+    /// Depth (full-screen passes reconstruct positions from it).
+    pub const DEPTH: u32 = 3;
+    /// G-buffer albedo.
+    pub const GBUFFER_ALBEDO: u32 = 4;
+    /// G-buffer normal.
+    pub const GBUFFER_NORMAL: u32 = 5;
+    /// G-buffer roughness/metallic.
+    pub const GBUFFER_MATERIAL: u32 = 6;
+    /// Unsigned-integer array: G-buffer receiver layers.
+    pub const UINT_LAYERS: u32 = 0;
+    /// Unsigned-integer array: visibility buffer.
+    pub const UINT_VISIBILITY: u32 = 1;
+}
 
 /// An image and its tracked state.
 pub struct Target {
@@ -45,7 +73,20 @@ impl Target {
     }
 }
 
-/// The targets of one view.
+/// The deferred pipelines' attribute targets.
+pub struct GBuffer {
+    /// Albedo and occlusion.
+    pub albedo: Target,
+    /// Shading normal.
+    pub normal: Target,
+    /// Roughness and metallic.
+    pub material: Target,
+    /// Decal receiver layers.
+    pub layers: Target,
+}
+
+/// The targets of one view. The G-buffer and visibility buffer are created the first time a
+/// pipeline needs them and kept (switching pipelines back and forth allocates nothing new).
 pub struct Targets {
     /// Size in pixels.
     pub extent: vk::Extent2D,
@@ -55,6 +96,10 @@ pub struct Targets {
     pub depth: Target,
     /// Tone-mapped sRGB output (headless; a window presents the swapchain image instead).
     pub display: Target,
+    /// Deferred shading's attributes.
+    pub gbuffer: Option<GBuffer>,
+    /// The visibility buffer.
+    pub visibility: Option<Target>,
 }
 
 impl Targets {
@@ -66,7 +111,41 @@ impl Targets {
             hdr: Target::new(ctx, "hdr", HDR_FORMAT, extent, U::COLOR_ATTACHMENT | U::SAMPLED | U::TRANSFER_SRC)?,
             depth: Target::new(ctx, "depth", DEPTH_FORMAT, extent, U::DEPTH_STENCIL_ATTACHMENT | U::SAMPLED | U::TRANSFER_SRC)?,
             display: Target::new(ctx, "display", DISPLAY_FORMAT, extent, U::COLOR_ATTACHMENT | U::TRANSFER_SRC)?,
+            gbuffer: None,
+            visibility: None,
         })
+    }
+
+    /// The G-buffer, created on first use; `bind` is called with (slot, view, is_uint) for each
+    /// new target so the bindless set can point at it.
+    pub fn gbuffer(&mut self, ctx: &GpuContext, mut bind: impl FnMut(u32, vk::ImageView, bool)) -> Result<&mut GBuffer, RenderError> {
+        use vk::ImageUsageFlags as U;
+        if self.gbuffer.is_none() {
+            let usage = U::COLOR_ATTACHMENT | U::SAMPLED | U::TRANSFER_SRC;
+            let g = GBuffer {
+                albedo: Target::new(ctx, "gbuffer albedo", GBUFFER_ALBEDO_FORMAT, self.extent, usage)?,
+                normal: Target::new(ctx, "gbuffer normal", GBUFFER_NORMAL_FORMAT, self.extent, usage)?,
+                material: Target::new(ctx, "gbuffer material", GBUFFER_MATERIAL_FORMAT, self.extent, usage)?,
+                layers: Target::new(ctx, "gbuffer layers", GBUFFER_LAYERS_FORMAT, self.extent, usage)?,
+            };
+            bind(slots::GBUFFER_ALBEDO, g.albedo.image.view, false);
+            bind(slots::GBUFFER_NORMAL, g.normal.image.view, false);
+            bind(slots::GBUFFER_MATERIAL, g.material.image.view, false);
+            bind(slots::UINT_LAYERS, g.layers.image.view, true);
+            self.gbuffer = Some(g);
+        }
+        Ok(self.gbuffer.as_mut().expect("created above"))
+    }
+
+    /// The visibility buffer, created on first use (see [`Targets::gbuffer`] for `bind`).
+    pub fn visibility(&mut self, ctx: &GpuContext, mut bind: impl FnMut(u32, vk::ImageView, bool)) -> Result<&mut Target, RenderError> {
+        use vk::ImageUsageFlags as U;
+        if self.visibility.is_none() {
+            let t = Target::new(ctx, "visibility", VISIBILITY_FORMAT, self.extent, U::COLOR_ATTACHMENT | U::SAMPLED | U::TRANSFER_SRC)?;
+            bind(slots::UINT_VISIBILITY, t.image.view, true);
+            self.visibility = Some(t);
+        }
+        Ok(self.visibility.as_mut().expect("created above"))
     }
 
     /// Destroys the targets; the GPU must be idle.
@@ -74,6 +153,14 @@ impl Targets {
         self.hdr.image.destroy(ctx);
         self.depth.image.destroy(ctx);
         self.display.image.destroy(ctx);
+        if let Some(g) = self.gbuffer {
+            for t in [g.albedo, g.normal, g.material, g.layers] {
+                t.image.destroy(ctx);
+            }
+        }
+        if let Some(v) = self.visibility {
+            v.image.destroy(ctx);
+        }
     }
 }
 

@@ -11,8 +11,6 @@ use crate::shaders;
 use crate::sync::Access;
 use crate::targets::Target;
 
-/// Bindless slot where the HDR target is bound for sampling.
-pub const HDR_TEXTURE_SLOT: u32 = 2;
 
 /// The tone-mapping pass.
 pub struct Tonemap {
@@ -40,7 +38,7 @@ impl Tonemap {
             display.overwrite_as(p.ctx, p.cmd, Access::ColorAttachmentWrite);
             let color = [color_attachment(display.image.view, None)];
             p.begin_rendering(display.image.extent, &color, None);
-            let push = crate::pipeline::ScenePush { texture_index: HDR_TEXTURE_SLOT, ..p.push };
+            let push = crate::pipeline::ScenePush { texture_index: crate::targets::slots::HDR, ..p.push };
             p.bind_graphics(self.pipeline, &push);
             // SAFETY: `cmd` is recording inside the rendering scope with the pipeline bound.
             unsafe { p.ctx.device.cmd_draw(p.cmd, 3, 1, 0, 0) };

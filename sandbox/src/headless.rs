@@ -19,7 +19,7 @@ use glam::Vec3;
 use plugins::{GpuRenderer, RenderPlugin, RenderSettings, RenderStats, finish_frames};
 use engine::image::Image;
 use plugins::decal::DecalMaterial;
-use render::{DebugView, DeviceSettings, PipelineKind, Renderer, RendererSettings, Tier};
+use render::{DebugView, DecalMethod, DeviceSettings, PipelineKind, Renderer, RendererSettings, Tier};
 
 use crate::scene;
 
@@ -54,6 +54,8 @@ pub struct HeadlessOptions {
     pub stats: Option<PathBuf>,
     /// The pipeline.
     pub pipeline: PipelineKind,
+    /// How decals are applied.
+    pub decal_method: DecalMethod,
     /// Cap on the capability tier.
     pub max_tier: Tier,
     /// Decals to scatter over the scene's surfaces.
@@ -77,6 +79,7 @@ impl Default for HeadlessOptions {
             screenshot: None,
             stats: None,
             pipeline: PipelineKind::Forward,
+            decal_method: DecalMethod::RayQuery,
             max_tier: Tier::RayQuery,
             decals: 0,
             decal_seed: 1,
@@ -110,6 +113,7 @@ pub fn build_app(opts: &HeadlessOptions) -> Result<App> {
     app.add_plugins(RenderPlugin::new(RenderSettings {
         size: (w, h),
         pipeline: opts.pipeline,
+        decal_method: opts.decal_method,
         debug_view: opts.debug_view,
         show_decal_boxes: opts.show_decal_boxes,
         ..Default::default()

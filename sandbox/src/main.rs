@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{Result, bail};
 use clap::Parser;
-use render::{DebugView, PipelineKind, Tier};
+use render::{DebugView, DecalMethod, PipelineKind, Tier};
 use sandbox::headless::{HeadlessOptions, SceneSource, run};
 
 /// Command line. The flags are stable; later versions add flags, none change meaning.
@@ -30,9 +30,12 @@ struct Cli {
     /// Write one JSON object per frame here.
     #[arg(long)]
     stats: Option<PathBuf>,
-    /// Pipeline: forward.
+    /// Pipeline: forward, deferred or visbuffer.
     #[arg(long, default_value = "forward", value_parser = parse_pipeline)]
     pipeline: PipelineKind,
+    /// Decal method: ray_query, deferred (deferred pipeline only) or off.
+    #[arg(long, default_value = "ray_query", value_parser = parse_decal_method)]
+    decal_method: DecalMethod,
     /// Highest capability tier to use: ray_query, ray_tracing_pipeline or none.
     #[arg(long, default_value = "ray_query", value_parser = parse_tier)]
     tier: Tier,
@@ -75,10 +78,11 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 }
 
 fn parse_pipeline(s: &str) -> Result<PipelineKind, String> {
-    match s {
-        "forward" => Ok(PipelineKind::Forward),
-        _ => Err(format!("unknown pipeline {s:?} (available: forward)")),
-    }
+    PipelineKind::from_name(s).ok_or_else(|| format!("unknown pipeline {s:?} (forward, deferred, visbuffer)"))
+}
+
+fn parse_decal_method(s: &str) -> Result<DecalMethod, String> {
+    DecalMethod::from_name(s).ok_or_else(|| format!("unknown decal method {s:?} (ray_query, deferred, off)"))
 }
 
 fn parse_tier(s: &str) -> Result<Tier, String> {
@@ -102,6 +106,7 @@ fn main() -> Result<()> {
         screenshot: screenshot.clone(),
         stats: cli.stats.clone(),
         pipeline: cli.pipeline,
+        decal_method: cli.decal_method,
         max_tier: cli.tier,
         decals: cli.decals,
         decal_seed: cli.decal_seed,

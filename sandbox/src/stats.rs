@@ -1,6 +1,7 @@
 //! The `--stats` file: one JSON object per frame.
 //!
-//! Keys (stable; later features add keys, none change meaning): `frame`, `pipeline`, `tier`,
+//! Keys (stable; later features add keys, none change meaning): `frame`, `pipeline`,
+//! `decal_method`, `tier`,
 //! `device`, `size` `[w, h]`, `gpu_ms` (one key per pass plus `total`), `cpu_ms` (`extract`,
 //! `record`), and `counters` (`bytes_uploaded`, `records_written`, `blas_builds`,
 //! `blas_updates`, `tlas_builds`, `instances`, `lights`, `decals`).
@@ -19,6 +20,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
     json!({
         "frame": stats.frame,
         "pipeline": stats.pipeline.name(),
+        "decal_method": stats.decal_method.name(),
         "tier": tier,
         "device": device,
         "size": [stats.size.0, stats.size.1],

@@ -15,6 +15,11 @@ vec3 perturb_normal(vec3 n, vec4 tangent, vec3 tangent_space_normal, float scale
     return len2 > 1e-12 ? perturbed * inversesqrt(len2) : n;
 }
 
+vec3 safe_normalize(vec3 v, vec3 fallback) {
+    float l2 = dot(v, v);
+    return l2 > 1e-12 ? v * inversesqrt(l2) : fallback;
+}
+
 vec3 decode_normal_texel(vec3 texel) {
     return texel * 2.0 - 1.0;
 }

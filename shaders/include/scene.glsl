@@ -8,6 +8,7 @@
 #extension GL_EXT_buffer_reference : require
 #extension GL_EXT_nonuniform_qualifier : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#extension GL_EXT_scalar_block_layout : require
 
 struct GpuCamera {
     mat4 view;
@@ -27,9 +28,15 @@ struct GpuInstance {
     mat4 normal_model;  // inverse-transpose of model
     uint material;
     uint decal_layers;  // decal receiver layers
-    uint pad0;
+    uint mesh;          // index into the mesh table (visibility buffer)
     uint pad1;
 };
+
+struct GpuVertex { float px, py, pz, nx, ny, nz, u, v, tx, ty, tz, tw; };
+struct GpuMeshInfo { uint64_t vertices; uint64_t indices; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer VerticesRef { GpuVertex vertices[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer IndicesRef { uint indices[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer MeshesRef { GpuMeshInfo meshes[]; };
 
 const uint MATERIAL_ALPHA_MASK = 1u;
 const uint MATERIAL_DOUBLE_SIDED = 2u;
@@ -84,6 +91,8 @@ layout(push_constant) uniform ScenePush {
     uint64_t decal_materials;  // DecalMaterialsRef
     uint64_t decal_tlas;       // acceleration structure address; 0 without decals
     uint64_t decal_aabbs;      // the boxes the decal BLAS is built from
+    uint64_t meshes;           // MeshesRef: vertex and index addresses per mesh
+    uint64_t decal_order;      // deferred decals: live decal slots sorted by channel, then weight
     uint light_count;     // high-water mark of light slots; empty slots have kind LIGHT_NONE
     uint texture_index;   // a pass's own input image (full-screen passes)
     uint debug_view;      // DebugView in renderer.rs
@@ -98,6 +107,16 @@ const uint DEBUG_ROUGHNESS_METALLIC = 4u;
 const uint DEBUG_DECAL_COUNT = 5u;
 
 layout(set = 0, binding = 0) uniform sampler2D textures[];
+layout(set = 0, binding = 1) uniform usampler2D uint_textures[];
+
+// Bindless slots of the render targets (render/src/targets.rs).
+const uint SLOT_HDR = 2u;
+const uint SLOT_DEPTH = 3u;
+const uint SLOT_GBUFFER_ALBEDO = 4u;
+const uint SLOT_GBUFFER_NORMAL = 5u;
+const uint SLOT_GBUFFER_MATERIAL = 6u;
+const uint UINT_SLOT_LAYERS = 0u;
+const uint UINT_SLOT_VISIBILITY = 1u;
 
 vec4 sample_texture(uint index, vec2 uv) {
     return texture(textures[nonuniformEXT(index)], uv);

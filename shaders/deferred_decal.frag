@@ -1,0 +1,43 @@
+#version 460
+// Deferred decals (seed 000 §3.2, §5.1.2.1), the comparison technique: for each pixel a box
+// covers, reconstruct the position from depth, test it against the oriented box, and
+// alpha-blend the decal's attributes into the G-buffer (the pipeline's blend state and write
+// masks do the blending; decals are drawn in channel-then-weight order, so later ones land on
+// top). The decal evaluation is the same function ray-query decals use.
+#include "scene.glsl"
+#include "depth.glsl"
+#include "decals.glsl"
+
+layout(location = 0) flat in uint v_slot;
+layout(location = 0) out vec4 gb_albedo;
+layout(location = 1) out vec4 gb_normal;
+layout(location = 2) out vec4 gb_material;
+
+void main() {
+    ivec2 px = ivec2(gl_FragCoord.xy);
+    float depth = texelFetch(textures[SLOT_DEPTH], px, 0).r;
+    if (depth <= 0.0) discard;
+    DecalSurface s;
+    s.position = world_from_depth(vec2(px), depth);
+    world_derivatives(SLOT_DEPTH, px, depth, s.position, s.dpdx, s.dpdy);
+    vec3 n = safe_normalize(cross(s.dpdy, s.dpdx), vec3(0.0, 1.0, 0.0));
+    vec3 to_eye = scene.camera.camera.position - s.position;
+    s.geometric_normal = dot(n, to_eye) < 0.0 ? -n : n;
+    s.normal = s.geometric_normal; // the G-buffer normal cannot be read while it is blended into
+    s.layers = texelFetch(uint_textures[UINT_SLOT_LAYERS], px, 0).r;
+
+    DecalBlend b;
+    blend_init(b);
+    apply_decal(b, v_slot, s);
+    uint c = min(DecalsRef(scene.decals).decals[v_slot].channel, DECAL_CHANNELS - 1u);
+    // One decal in its channel: sum / weight is its value, 1 − visibility its alpha.
+    vec4 w = b.weight[c];
+    if (w.x + w.y + w.z + w.w <= 0.0) discard;
+    gb_albedo = w.x > 0.0 ? vec4(b.albedo[c].rgb / w.x, 1.0 - b.albedo[c].a) : vec4(0.0);
+    gb_normal = w.y > 0.0 ? vec4(safe_normalize(b.normal[c].xyz, s.normal) * 0.5 + 0.5, 1.0 - b.normal[c].w) : vec4(0.0);
+    // Roughness and metallic share one attachment and so one alpha (the write mask keeps the
+    // one the decal does not set).
+    float rough_a = 1.0 - b.spec[c].z;
+    float metal_a = 1.0 - b.spec[c].w;
+    gb_material = vec4(w.z > 0.0 ? b.spec[c].x / w.z : 0.0, w.w > 0.0 ? b.spec[c].y / w.w : 0.0, 0.0, max(rough_a, metal_a));
+}

@@ -1,0 +1,37 @@
+// variants: ALPHA_MASK
+#version 460
+// Deferred shading, geometry pass (seed 000 §2.6): material attributes into the G-buffer.
+//   albedo    RGBA8_SRGB      albedo, occlusion      (sRGB keeps dark albedo precise in 8 bits)
+//   normal    A2B10G10R10     shading normal × 0.5 + 0.5 (10 bits a component, and linear, so
+//                             deferred decals can alpha-blend into it; an octahedral encoding
+//                             would be tighter but cannot be blended)
+//   material  RG8_UNORM       roughness, metallic
+//   layers    R8_UINT         decal receiver layers (the low 8 bits: the deferred pipelines
+//                             support 8 layers)
+//   hdr       RGBA16F         emitted radiance (the lighting pass adds to it)
+// The geometric normal that decals fade by is reconstructed from depth, so it costs no storage.
+#include "scene.glsl"
+#include "mesh_io.glsl"
+#include "material.glsl"
+
+layout(location = 0) out vec4 gb_albedo;
+layout(location = 1) out vec4 gb_normal;
+layout(location = 2) out vec4 gb_material;
+layout(location = 3) out uint gb_layers;
+layout(location = 4) out vec4 out_emissive;
+
+void main() {
+    GpuMaterial m = scene.materials.materials[v_material];
+    MaterialSample ms = sample_material(m, v_uv, dFdx(v_uv), dFdy(v_uv));
+#ifdef ALPHA_MASK
+    if (ms.base.a < m.alpha_cutoff) discard;
+#endif
+    vec3 geometric_n = safe_normalize(v_normal, vec3(0.0, 1.0, 0.0));
+    if ((m.flags & MATERIAL_DOUBLE_SIDED) != 0u && !gl_FrontFacing) geometric_n = -geometric_n;
+    vec3 n = perturb_normal(geometric_n, v_tangent, ms.tangent_normal, m.normal_scale);
+    gb_albedo = vec4(ms.base.rgb, ms.occlusion);
+    gb_normal = vec4(n * 0.5 + 0.5, 1.0);
+    gb_material = vec4(ms.roughness, ms.metallic, 0.0, 1.0);
+    gb_layers = scene.instances.instances[v_instance].decal_layers & 0xFFu;
+    out_emissive = vec4(scene.debug_view == DEBUG_LIT ? ms.emissive : vec3(0.0), 1.0);
+}

@@ -1,0 +1,41 @@
+// Reverse-Z depth to world position (seed 001 alg. 4.1, with its fma form of the NDC mapping),
+// and world-position derivatives for full-screen passes. A full-screen pass has no surface to
+// differentiate, and quad derivatives of reconstructed positions break at depth edges (the
+// artefacts seed 000 §4.1.3 reports for deferred decals); instead each pixel picks, per axis,
+// the neighbour whose depth is closer to its own, so the difference stays on one surface.
+#ifndef DEPTH_GLSL
+#define DEPTH_GLSL
+
+#include "scene.glsl"
+#include "normals.glsl"
+
+// `px` is the pixel; the viewport is flipped (render/src/pipeline.rs), so row 0 is NDC y = +1.
+vec3 world_from_depth(vec2 px, float depth) {
+    GpuCamera cam = scene.camera.camera;
+    vec2 ndc = vec2(fma((px.x + 0.5) * cam.inv_viewport_size.x, 2.0, -1.0),
+                    fma((px.y + 0.5) * cam.inv_viewport_size.y, -2.0, 1.0));
+    vec4 w = cam.inv_view_proj * vec4(ndc, depth, 1.0);
+    return w.xyz / w.w;
+}
+
+float depth_at(uint depth_slot, ivec2 px) {
+    ivec2 size = ivec2(scene.camera.camera.viewport_size);
+    return texelFetch(textures[nonuniformEXT(depth_slot)], clamp(px, ivec2(0), size - 1), 0).r;
+}
+
+// World position of the pixel one step along `dir`, preferring the side on the same surface.
+vec3 neighbour_difference(uint depth_slot, ivec2 px, float depth, vec3 p, ivec2 dir) {
+    float d_plus = depth_at(depth_slot, px + dir);
+    float d_minus = depth_at(depth_slot, px - dir);
+    bool use_plus = abs(d_plus - depth) <= abs(d_minus - depth);
+    if (use_plus && d_plus > 0.0) return world_from_depth(vec2(px + dir), d_plus) - p;
+    if (d_minus > 0.0) return p - world_from_depth(vec2(px - dir), d_minus);
+    return vec3(0.0);
+}
+
+void world_derivatives(uint depth_slot, ivec2 px, float depth, vec3 p, out vec3 dpdx, out vec3 dpdy) {
+    dpdx = neighbour_difference(depth_slot, px, depth, p, ivec2(1, 0));
+    dpdy = neighbour_difference(depth_slot, px, depth, p, ivec2(0, 1));
+}
+
+#endif
