@@ -108,3 +108,39 @@ impl TopDownView {
         (t > 0.0).then(|| eye + dir * t)
     }
 }
+
+impl TopDownView {
+    /// The pixel whose centre sees the ground point nearest to `p`.
+    pub fn pixel_of(&self, p: Vec3) -> (u32, u32) {
+        let mut best = (0, 0, f32::INFINITY);
+        for py in 0..self.size.1 {
+            for px in 0..self.size.0 {
+                if let Some(q) = self.ground_point(px, py, p.y) {
+                    let d = q.distance(p);
+                    if d < best.2 {
+                        best = (px, py, d);
+                    }
+                }
+            }
+        }
+        (best.0, best.1)
+    }
+}
+
+/// Mean and 99th-percentile absolute difference over every channel of two RGBA images,
+/// counting only pixels where `mask` is true.
+pub fn error_stats(a: &[[f32; 4]], b: &[[f32; 4]], mask: impl Fn(usize) -> bool) -> (f32, f32) {
+    let mut errors: Vec<f32> = Vec::with_capacity(a.len() * 3);
+    for (i, (x, y)) in a.iter().zip(b).enumerate() {
+        if mask(i) {
+            errors.extend((0..3).map(|c| (x[c] - y[c]).abs()));
+        }
+    }
+    if errors.is_empty() {
+        return (0.0, 0.0);
+    }
+    errors.sort_by(f32::total_cmp);
+    let mean = errors.iter().sum::<f32>() / errors.len() as f32;
+    let p99 = errors[((errors.len() - 1) as f32 * 0.99) as usize];
+    (mean, p99)
+}
