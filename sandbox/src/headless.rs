@@ -68,7 +68,23 @@ pub struct HeadlessOptions {
     pub show_decal_boxes: bool,
     /// Percentage of decals nudged every frame (benchmarks refits).
     pub move_decals_percent: f32,
+    /// Replace the scene with one of the seed's benchmark scenarios.
+    pub bench_scene: Option<crate::bench::BenchScene>,
+    /// Run `frames` frames with every pipeline and decal method in turn (see [`COMPARE_SET`]).
+    pub compare: bool,
 }
+
+/// The pipeline and decal-method pairs `--compare` runs, in order: every pipeline with ray-query
+/// decals and without decals, and the deferred pipeline with deferred decals.
+pub const COMPARE_SET: [(PipelineKind, DecalMethod); 7] = [
+    (PipelineKind::Forward, DecalMethod::Off),
+    (PipelineKind::Forward, DecalMethod::RayQuery),
+    (PipelineKind::Deferred, DecalMethod::Off),
+    (PipelineKind::Deferred, DecalMethod::RayQuery),
+    (PipelineKind::Deferred, DecalMethod::DeferredDecals),
+    (PipelineKind::VisBuffer, DecalMethod::Off),
+    (PipelineKind::VisBuffer, DecalMethod::RayQuery),
+];
 
 impl Default for HeadlessOptions {
     fn default() -> Self {
@@ -86,6 +102,8 @@ impl Default for HeadlessOptions {
             debug_view: DebugView::Lit,
             show_decal_boxes: false,
             move_decals_percent: 0.0,
+            bench_scene: None,
+            compare: false,
         }
     }
 }
@@ -118,7 +136,10 @@ pub fn build_app(opts: &HeadlessOptions) -> Result<App> {
         show_decal_boxes: opts.show_decal_boxes,
         ..Default::default()
     }));
-    load_scene(&mut app.world, &opts.scene)?;
+    match opts.bench_scene {
+        Some(scene) => crate::bench::spawn_bench_scene(&mut app.world, scene),
+        None => load_scene(&mut app.world, &opts.scene)?,
+    }
     if opts.decals > 0 {
         let materials = app.world.resource_scope(|world, mut materials: bevy_ecs::world::Mut<Assets<DecalMaterial>>| {
             crate::decal_textures::add_builtin_materials(&mut world.resource_mut::<Assets<Image>>(), &mut materials)
@@ -158,8 +179,15 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
         Some(p) => Some(std::io::BufWriter::new(create(p)?)),
         None => None,
     };
-    let mut frames = Vec::with_capacity(opts.frames as usize);
-    for _ in 0..opts.frames {
+    let combos: &[(PipelineKind, DecalMethod)] = if opts.compare { &COMPARE_SET } else { &[] };
+    let total = opts.frames as usize * combos.len().max(1);
+    let mut frames = Vec::with_capacity(total);
+    for i in 0..total {
+        if let Some(&(pipeline, method)) = combos.get(i / opts.frames as usize) {
+            let mut settings = app.world.resource_mut::<plugins::RenderSettings>();
+            settings.pipeline = pipeline;
+            settings.decal_method = method;
+        }
         app.update();
         if let Some(e) = app.world.resource::<RenderStats>().last_error.clone() {
             bail!("rendering failed: {e}");

@@ -5,3 +5,4 @@ pub mod headless;
 pub mod stats;
 pub mod decal_textures;
 pub mod scatter;
+pub mod bench;

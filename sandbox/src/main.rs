@@ -54,6 +54,12 @@ struct Cli {
     /// Nudge this percentage of the decals every frame (for refit benchmarks).
     #[arg(long, default_value_t = 0.0)]
     move_decals: f32,
+    /// A benchmark scene instead of --scene: few-blended-decals, decals-and-lights, many-decals.
+    #[arg(long)]
+    bench_scene: Option<String>,
+    /// Run --frames frames with each pipeline and decal method in turn (7 combinations).
+    #[arg(long)]
+    compare: bool,
 }
 
 fn parse_debug_view(s: &str) -> Result<DebugView, String> {
@@ -113,6 +119,8 @@ fn main() -> Result<()> {
         debug_view: cli.debug_view,
         show_decal_boxes: cli.decal_boxes,
         move_decals_percent: cli.move_decals,
+        bench_scene: cli.bench_scene.as_deref().map(sandbox::bench::BenchScene::parse).transpose()?,
+        compare: cli.compare,
     };
     if let Some(dir) = screenshot.as_ref().and_then(|p| p.parent()).filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)?;

@@ -1,0 +1,147 @@
+//! Benchmark scenes: the seed's first three test scenarios (seed 000 §5.2.2–5.2.4) rebuilt on
+//! the courtyard, so Figures 5.1–5.3 can be redone side by side with `--compare`, which runs
+//! every pipeline and decal method on the same scene in one process.
+//!
+//! | scene | seed | here |
+//! | --- | --- | --- |
+//! | `few-blended-decals` | §5.2.2: Sun Temple, 6 large decals in two groups (weights 1, 100, 1000), 3 lights | two groups of sigil, leaves and puddle (weights 1, 100, 1000; the left group's puddle in channel 1), 4 m wide, filling a downward view; the courtyard's 5 lights |
+//! | `decals-and-lights` | §5.2.3: Bistro, 100 puddle decals, 28 lights | 100 puddles (cubical boxes, 1.5–3 m) on the ground, 28 point and spot lights |
+//! | `many-decals` | §5.2.4: Emerald Square, 100,000 leaf decals on the ground, 1 light | 100,000 leaf decals (0.2–0.6 m) on the ground, the sun alone |
+
+use anyhow::{Result, bail};
+use bevy_ecs::prelude::*;
+use engine::asset::{Assets, Handle};
+use engine::image::Image;
+use engine::light::{DirectionalLight, PointLight, SpotLight};
+use engine::transform::Transform;
+use glam::{Quat, Vec3};
+use plugins::decal::{Decal, DecalMaterial};
+
+use crate::decal_textures;
+use crate::scatter::SplitMix64;
+use crate::scene::spawn_courtyard;
+
+/// The benchmark scenes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BenchScene {
+    /// Seed 000 §5.2.2.
+    FewBlendedDecals,
+    /// Seed 000 §5.2.3.
+    DecalsAndLights,
+    /// Seed 000 §5.2.4.
+    ManyDecals,
+}
+
+impl BenchScene {
+    /// Parses the command-line name.
+    pub fn parse(name: &str) -> Result<Self> {
+        Ok(match name {
+            "few-blended-decals" => BenchScene::FewBlendedDecals,
+            "decals-and-lights" => BenchScene::DecalsAndLights,
+            "many-decals" => BenchScene::ManyDecals,
+            _ => bail!("unknown bench scene {name:?} (few-blended-decals, decals-and-lights, many-decals)"),
+        })
+    }
+}
+
+fn material(world: &mut World, set: decal_textures::DecalTextureSet) -> Handle<DecalMaterial> {
+    let m = decal_textures::decal_material(&set, &mut world.resource_mut::<Assets<Image>>());
+    world.resource_mut::<Assets<DecalMaterial>>().add(m)
+}
+
+/// A decal lying on the ground (y = 0), projecting down, turned by `yaw`.
+fn ground_decal(material: Handle<DecalMaterial>, centre: Vec3, size: f32, depth: f32, yaw: f32, channel: u8, weight: f32) -> (Decal, Transform) {
+    let mut decal = Decal::new(material);
+    decal.channel = channel;
+    decal.weight = weight;
+    let transform = Transform::from_translation(centre)
+        .with_rotation(Quat::from_rotation_y(yaw) * Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2))
+        .with_scale(Vec3::new(size, size, depth));
+    (decal, transform)
+}
+
+/// Spawns `scene` into `world` (which has the render plugin).
+pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
+    let info = spawn_courtyard(world);
+    let mut rng = SplitMix64::new(5);
+    match scene {
+        BenchScene::FewBlendedDecals => {
+            let sigil = material(world, decal_textures::sigil());
+            let leaves = material(world, decal_textures::leaves());
+            let puddle = material(world, decal_textures::puddle());
+            for (x, puddle_channel) in [(-6.5f32, 1u8), (-1.5, 0)] {
+                for (i, (m, weight)) in [(sigil, 1.0), (leaves, 100.0), (puddle, 1000.0)].into_iter().enumerate() {
+                    let channel = if weight == 1000.0 { puddle_channel } else { 0 };
+                    let centre = Vec3::new(x + i as f32 * 0.6, 0.0, 6.0 + i as f32 * 0.4);
+                    world.spawn(ground_decal(m, centre, 4.0, 1.0, i as f32 * 0.4, channel, weight));
+                }
+            }
+            *world.get_mut::<Transform>(info.camera).expect("courtyard camera") =
+                Transform::from_xyz(-3.5, 7.0, 12.5).looking_at(Vec3::new(-3.5, 0.0, 6.5), Vec3::Y);
+        }
+        BenchScene::DecalsAndLights => {
+            let puddle = material(world, decal_textures::puddle());
+            let batch: Vec<_> = (0..100)
+                .map(|_| {
+                    let size = rng.range_f32(1.5, 3.0);
+                    let centre = Vec3::new(rng.range_f32(-19.0, 19.0), 0.0, rng.range_f32(-19.0, 19.0));
+                    ground_decal(puddle, centre, size, size, rng.range_f32(0.0, 6.28), 0, 1.0)
+                })
+                .collect();
+            world.spawn_batch(batch);
+            let existing = world.query::<&PointLight>().iter(world).count()
+                + world.query::<&SpotLight>().iter(world).count()
+                + world.query::<&DirectionalLight>().iter(world).count();
+            for i in 0..28usize.saturating_sub(existing) {
+                let angle = i as f32 / 23.0 * std::f32::consts::TAU;
+                let colour = Vec3::new(1.0, 0.75 + 0.2 * (i % 3) as f32 / 2.0, 0.5 + 0.4 * (i % 2) as f32);
+                world.spawn((
+                    PointLight { color: colour, intensity: 12.0, range: None },
+                    Transform::from_xyz(angle.cos() * 15.0, 2.6, angle.sin() * 15.0),
+                ));
+            }
+        }
+        BenchScene::ManyDecals => {
+            let leaves = material(world, decal_textures::leaves());
+            let batch: Vec<_> = (0..100_000)
+                .map(|_| {
+                    let size = rng.range_f32(0.2, 0.6);
+                    let centre = Vec3::new(rng.range_f32(-21.5, 21.5), 0.0, rng.range_f32(-21.5, 21.5));
+                    ground_decal(leaves, centre, size, 0.2, rng.range_f32(0.0, 6.28), 0, 1.0)
+                })
+                .collect();
+            world.spawn_batch(batch);
+            let lights: Vec<Entity> = world
+                .query_filtered::<Entity, Or<(With<PointLight>, With<SpotLight>)>>()
+                .iter(world)
+                .collect();
+            for e in lights {
+                world.despawn(e);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scenes_have_the_seed_scenarios_counts() {
+        for (scene, decals, lights) in [
+            (BenchScene::FewBlendedDecals, 6, 5),
+            (BenchScene::DecalsAndLights, 100, 28),
+            (BenchScene::ManyDecals, 100_000, 1),
+        ] {
+            let mut app = engine::app::App::new();
+            app.add_plugins(plugins::RenderPlugin::new(Default::default()));
+            spawn_bench_scene(&mut app.world, scene);
+            let d = app.world.query::<&Decal>().iter(&app.world).count();
+            let l = app.world.query::<&PointLight>().iter(&app.world).count()
+                + app.world.query::<&SpotLight>().iter(&app.world).count()
+                + app.world.query::<&DirectionalLight>().iter(&app.world).count();
+            assert_eq!((d, l), (decals, lights), "{scene:?}");
+        }
+        assert!(BenchScene::parse("nope").is_err());
+    }
+}
