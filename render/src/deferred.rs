@@ -107,8 +107,11 @@ impl DeferredPasses {
                     fragment: Some(shaders::DEFERRED_DECAL_FRAG),
                     mesh_vertices: false,
                     color_formats: &decal_formats,
-                    depth_format: None,
-                    depth_compare: None,
+                    // Front faces tested against the scene's depth (read-only): boxes hidden
+                    // behind other geometry cost nothing. Boxes the camera is inside are drawn
+                    // inside-out at the near plane instead (shaders/decal_box.vert).
+                    depth_format: Some(DEPTH_FORMAT),
+                    depth_compare: Some(vk::CompareOp::GREATER_OR_EQUAL),
                     depth_write: false,
                     topology: vk::PrimitiveTopology::TRIANGLE_LIST,
                     blend: Blend::Alpha,
@@ -159,21 +162,22 @@ impl DeferredPasses {
         let Targets { extent, depth, gbuffer, .. } = targets;
         let g = gbuffer.as_mut().expect("created by the renderer before recording");
         p.timed("deferred_decals", |p| {
-            depth.use_as(p.ctx, p.cmd, Access::FragmentSampled);
+            depth.use_as(p.ctx, p.cmd, Access::DepthSampled);
             g.layers.use_as(p.ctx, p.cmd, Access::FragmentSampled);
             for t in [&mut g.albedo, &mut g.normal, &mut g.material] {
                 t.use_as(p.ctx, p.cmd, Access::ColorAttachmentWrite);
             }
             let colors =
                 [color_attachment(g.albedo.image.view, None), color_attachment(g.normal.image.view, None), color_attachment(g.material.image.view, None)];
-            p.begin_rendering(*extent, &colors, None);
+            let depth_info = depth_attachment(depth.image.view, Access::DepthSampled.layout(), None);
+            p.begin_rendering(*extent, &colors, Some(&depth_info));
             let push = p.push;
             for run in runs {
                 p.bind_graphics(self.decals[(run.flags & 15) as usize], &push);
                 // SAFETY: `cmd` is recording inside the rendering scope with the pipeline bound;
                 // the draw order table holds `first + count` entries.
                 unsafe {
-                    p.ctx.device.cmd_set_cull_mode(p.cmd, vk::CullModeFlags::FRONT);
+                    p.ctx.device.cmd_set_cull_mode(p.cmd, vk::CullModeFlags::BACK);
                     p.ctx.device.cmd_draw(p.cmd, 36, run.count, 0, run.first);
                 }
             }
@@ -186,7 +190,7 @@ impl DeferredPasses {
         let Targets { extent, hdr, depth, gbuffer, .. } = targets;
         let g = gbuffer.as_mut().expect("created by the renderer before recording");
         p.timed("lighting", |p| {
-            depth.use_as(p.ctx, p.cmd, Access::FragmentSampled);
+            depth.use_as(p.ctx, p.cmd, Access::DepthSampled);
             for t in [&mut g.albedo, &mut g.normal, &mut g.material, &mut g.layers] {
                 t.use_as(p.ctx, p.cmd, Access::FragmentSampled);
             }

@@ -427,15 +427,21 @@ impl GpuScene {
     /// Writes a render target's `view` into bindless slot `slot` (of the unsigned-integer array
     /// when `uint`), with the clamp sampler. Only for slots no pending frame samples.
     pub fn bind_target(&self, ctx: &GpuContext, slot: u32, view: vk::ImageView, uint: bool) {
-        self.write_descriptor_at(ctx, if uint { 1 } else { 0 }, slot, view, self.clamp_sampler);
+        self.write_descriptor_at(ctx, if uint { 1 } else { 0 }, slot, view, self.clamp_sampler, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL);
+    }
+
+    /// Writes the depth target into slot `slot`; passes sample it in `DEPTH_READ_ONLY_OPTIMAL`
+    /// (`Access::DepthSampled`), so it can be a read-only depth attachment at the same time.
+    pub fn bind_depth_target(&self, ctx: &GpuContext, slot: u32, view: vk::ImageView) {
+        self.write_descriptor_at(ctx, 0, slot, view, self.clamp_sampler, vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL);
     }
 
     fn write_descriptor(&self, ctx: &GpuContext, slot: u32, view: vk::ImageView, sampler: vk::Sampler) {
-        self.write_descriptor_at(ctx, 0, slot, view, sampler);
+        self.write_descriptor_at(ctx, 0, slot, view, sampler, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL);
     }
 
-    fn write_descriptor_at(&self, ctx: &GpuContext, binding: u32, slot: u32, view: vk::ImageView, sampler: vk::Sampler) {
-        let info = [vk::DescriptorImageInfo { sampler, image_view: view, image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL }];
+    fn write_descriptor_at(&self, ctx: &GpuContext, binding: u32, slot: u32, view: vk::ImageView, sampler: vk::Sampler, layout: vk::ImageLayout) {
+        let info = [vk::DescriptorImageInfo { sampler, image_view: view, image_layout: layout }];
         let write = vk::WriteDescriptorSet::default()
             .dst_set(self.set)
             .dst_binding(binding)

@@ -235,7 +235,7 @@ impl Renderer {
         let tonemap = Tonemap::new(ctx, layout, crate::targets::DISPLAY_FORMAT)?;
         let targets = Targets::new(ctx, extent)?;
         scene.bind_target(ctx, slots::HDR, targets.hdr.image.view, false);
-        scene.bind_target(ctx, slots::DEPTH, targets.depth.image.view, false);
+        scene.bind_depth_target(ctx, slots::DEPTH, targets.depth.image.view);
         let deferred = DeferredPasses::new(ctx, layout)?;
         let visbuffer = VisBufferPasses::new(ctx, layout)?;
         let mut type_info = vk::SemaphoreTypeCreateInfo::default().semaphore_type(vk::SemaphoreType::TIMELINE).initial_value(0);
@@ -482,7 +482,7 @@ impl Renderer {
         let old = std::mem::replace(&mut self.res.targets, targets);
         old.destroy(&self.ctx);
         self.res.scene.bind_target(&self.ctx, slots::HDR, self.res.targets.hdr.image.view, false);
-        self.res.scene.bind_target(&self.ctx, slots::DEPTH, self.res.targets.depth.image.view, false);
+        self.res.scene.bind_depth_target(&self.ctx, slots::DEPTH, self.res.targets.depth.image.view);
         Ok(())
     }
 }

@@ -20,6 +20,9 @@ pub enum Access {
     DepthAttachmentRead,
     /// Sampled in a fragment shader.
     FragmentSampled,
+    /// A depth image sampled in fragment shaders and, in the same pass, bound as a read-only
+    /// depth attachment (deferred decals test against it while reconstructing from it).
+    DepthSampled,
     /// Sampled in a fragment or compute shader.
     ShaderSampled,
     /// Source of a copy.
@@ -49,6 +52,11 @@ impl Access {
                 L::DEPTH_READ_ONLY_OPTIMAL,
             ),
             Access::FragmentSampled => (S::FRAGMENT_SHADER, A::SHADER_SAMPLED_READ, L::SHADER_READ_ONLY_OPTIMAL),
+            Access::DepthSampled => (
+                S::FRAGMENT_SHADER | S::EARLY_FRAGMENT_TESTS | S::LATE_FRAGMENT_TESTS,
+                A::SHADER_SAMPLED_READ | A::DEPTH_STENCIL_ATTACHMENT_READ,
+                L::DEPTH_READ_ONLY_OPTIMAL,
+            ),
             Access::ShaderSampled => {
                 (S::FRAGMENT_SHADER | S::COMPUTE_SHADER, A::SHADER_SAMPLED_READ, L::SHADER_READ_ONLY_OPTIMAL)
             }

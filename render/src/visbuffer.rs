@@ -74,7 +74,7 @@ impl VisBufferPasses {
         let Targets { extent, hdr, depth, visibility, .. } = targets;
         let ids = visibility.as_mut().expect("created by the renderer before recording");
         p.timed("visbuffer_shade", |p| {
-            depth.use_as(p.ctx, p.cmd, Access::FragmentSampled);
+            depth.use_as(p.ctx, p.cmd, Access::DepthSampled);
             ids.use_as(p.ctx, p.cmd, Access::FragmentSampled);
             hdr.overwrite_as(p.ctx, p.cmd, Access::ColorAttachmentWrite);
             let colors = [color_attachment(hdr.image.view, Some(clear))];

@@ -210,3 +210,32 @@ fn switching_pipelines_every_frame_leaks_nothing() {
     assert_eq!(Some(end), level, "GPU memory in use returns to its level");
     assert_no_validation_errors(&mut app);
 }
+
+#[test]
+fn deferred_decals_work_with_the_camera_inside_the_box_and_behind_occluders() {
+    let (mut app, view) = decal_plane_app();
+    let cyan = Vec3::new(0.0, 1.0, 1.0);
+    // A box 10 m deep around the camera (at 4 m height): its front faces are behind the camera.
+    let material = app.world.resource_mut::<Assets<DecalMaterial>>().add(DecalMaterial { base_color: Some(cyan.extend(1.0)), ..Default::default() });
+    let huge = Transform::from_xyz(-1.5, 0.0, 0.0)
+        .with_rotation(Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2))
+        .with_scale(Vec3::new(2.0, 2.0, 10.0));
+    app.world.spawn((Decal::new(material), huge));
+    // A decal under an opaque slab: the slab hides it, so it must not show.
+    let slab_mesh = app.world.resource_mut::<Assets<Mesh>>().add(shapes::cuboid(Vec3::new(1.0, 0.1, 1.0), 1.0));
+    let slab_material = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec4::new(0.1, 0.1, 0.1, 1.0), 0.0, 0.5));
+    app.world.spawn((MeshInstance { mesh: slab_mesh, material: slab_material }, Transform::from_xyz(1.5, 0.6, 0.0)));
+    flat_decal(&mut app, Vec3::new(1.0, 0.0, 0.0), 1.0, Vec3::new(1.5, 0.0, 0.0), 0, 1.0);
+
+    for method in [DecalMethod::RayQuery, DecalMethod::DeferredDecals] {
+        let (albedo, _) = render_with(&mut app, PipelineKind::Deferred, method, DebugView::Albedo);
+        assert_no_validation_errors(&mut app);
+        let at = |p: Vec3| {
+            let (px, py) = view.pixel_of(p);
+            Vec3::from_slice(&albedo[(py * SIZE.0 + px) as usize][..3])
+        };
+        assert!((at(Vec3::new(-1.5, 0.0, 0.0)) - cyan).abs().max_element() < 0.01, "{method:?}: camera inside the box: {}", at(Vec3::new(-1.5, 0.0, 0.0)));
+        let slab_top = at(Vec3::new(1.5, 0.65, 0.0));
+        assert!((slab_top - Vec3::splat(0.1)).abs().max_element() < 0.01, "{method:?}: the slab is not painted: {slab_top}");
+    }
+}
