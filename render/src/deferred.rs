@@ -2,7 +2,17 @@
 //! G-buffer, optional deferred decals (§3.2, §5.1.2.1) alpha-blend into it, and one full-screen
 //! lighting pass applies ray-query decals (when they are the method) and every light.
 //!
-//! The G-buffer's formats and the reasons for them are in `shaders/gbuffer.frag`. Deferred
+//! Decal normals: the seed transformed deferred decals' normals with the decal's
+//! inverse-transpose and notes that this is wrong when the decal is oriented unlike the surface.
+//! Instead of storing a compressed tangent frame in the G-buffer to fix that, we build the frame
+//! the decal's normal map is read in from the decal's own axes projected onto the surface normal
+//! (`shaders/include/decals.glsl`), which is right for any orientation and needs only the normal
+//! the G-buffer already holds: the fix costs no G-buffer bytes. (Ray-query decals in the lighting
+//! pass use the normal-mapped G-buffer normal; deferred decals, which cannot read the normal
+//! target while blending into it, use the geometric normal reconstructed from depth.)
+//!
+//! The G-buffer's formats and the reasons for them are in `shaders/gbuffer.frag` (11 bytes a
+//! pixel beside depth and the HDR target). Deferred
 //! decals are drawn in channel-then-weight order as runs of instanced boxes; each run shares the
 //! decal material's set of attributes, which selects one of 16 pipelines whose write masks touch
 //! only those attributes.

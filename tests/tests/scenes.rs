@@ -75,3 +75,33 @@ fn a_setting_forces_a_lower_capability_tier() {
         }
     }
 }
+
+#[test]
+fn a_benchmark_scene_runs_every_pipeline_and_decal_method_in_one_run() {
+    let opts = HeadlessOptions {
+        frames: 2,
+        size: (96, 54),
+        bench_scene: Some(sandbox::bench::BenchScene::FewBlendedDecals),
+        compare: true,
+        ..Default::default()
+    };
+    let summary = run(&opts).expect("the comparison runs");
+    assert!(summary.validation_errors.is_empty(), "{:#?}", summary.validation_errors);
+    assert_eq!(summary.frames.len(), 2 * sandbox::headless::COMPARE_SET.len());
+    for (i, (pipeline, method)) in sandbox::headless::COMPARE_SET.iter().enumerate() {
+        for frame in &summary.frames[i * 2..i * 2 + 2] {
+            assert_eq!(frame["pipeline"], pipeline.name());
+            assert_eq!(frame["decal_method"], method.name());
+            let passes: &[&str] = match pipeline {
+                render::PipelineKind::Forward => &["prepass", "forward"],
+                render::PipelineKind::Deferred => &["gbuffer", "lighting"],
+                render::PipelineKind::VisBuffer => &["visibility", "visbuffer_shade"],
+            };
+            for pass in passes {
+                assert!(frame["gpu_ms"][pass].as_f64().is_some_and(|ms| ms > 0.0), "{pass} timed: {frame}");
+            }
+            assert_eq!(frame["gpu_ms"]["deferred_decals"].is_number(), *method == render::DecalMethod::DeferredDecals, "{frame}");
+            assert_eq!(frame["counters"]["decals"], 6);
+        }
+    }
+}
