@@ -1,6 +1,7 @@
 //! The engine layer of the rendering plugin: a small application shell over `bevy_ecs`
-//! (schedules, plugins, time), transforms and their hierarchy, cameras, lights, generational
-//! asset storage, CPU-side meshes, materials and images, and glTF loading.
+//! (schedules, plugins, time), window-independent keyboard and mouse state, transforms and their
+//! hierarchy, cameras, lights, generational asset storage, CPU-side meshes, materials and
+//! images, and glTF loading.
 //!
 //! Nothing in this crate knows about Vulkan: the `plugins` crate extracts the data defined here
 //! (meshes, materials, images, transforms, lights) into the `render` crate's plain records.
@@ -13,6 +14,7 @@ pub mod asset;
 pub mod camera;
 pub mod gltf;
 pub mod image;
+pub mod input;
 pub mod light;
 pub mod material;
 pub mod mesh;

@@ -11,6 +11,7 @@ pub use crate::app::{App, Plugin, PostUpdate, PreUpdate, Render, Startup, Update
 pub use crate::asset::{AssetEvent, Assets, Handle};
 pub use crate::camera::Camera;
 pub use crate::image::{ColorSpace, Image};
+pub use crate::input::{Input, InputPlugin, Key, MouseButton};
 pub use crate::light::{DirectionalLight, PointLight, SpotLight};
 pub use crate::material::{AlphaMode, Material};
 pub use crate::mesh::{Mesh, shapes};

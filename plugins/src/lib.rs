@@ -71,6 +71,16 @@ pub struct RenderMirror(pub SceneMirror);
 #[derive(Resource)]
 pub struct GpuRenderer(pub Renderer);
 
+/// A window to present to. When present, frames go to the window's swapchain (with the
+/// [`OverlayInput`] drawn on top) instead of the offscreen display target. Remove it and hand it
+/// to [`Renderer::destroy_window_surface`] before the window closes.
+#[derive(Resource)]
+pub struct WindowTarget(pub render::window::WindowSurface);
+
+/// The egui overlay for the next frame (taken by the render system).
+#[derive(Resource, Default)]
+pub struct OverlayInput(pub Option<render::overlay::OverlayFrame>);
+
 /// Statistics of one frame, complete once its GPU times are known.
 #[derive(Clone, Copy, Debug)]
 pub struct FrameStats {
@@ -195,6 +205,8 @@ fn end_extract(mut stats: ResMut<RenderStats>, mirror: Res<RenderMirror>) {
 /// Hands the mirror to the renderer: uploads what changed, records and submits the frame.
 fn render_frame(
     renderer: Option<ResMut<GpuRenderer>>,
+    window: Option<ResMut<WindowTarget>>,
+    overlay: Option<ResMut<OverlayInput>>,
     mut mirror: ResMut<RenderMirror>,
     settings: Res<RenderSettings>,
     mut stats: ResMut<RenderStats>,
@@ -209,8 +221,16 @@ fn render_frame(
         debug_view: settings.debug_view,
         show_decal_boxes: settings.show_decal_boxes,
     };
-    match renderer.0.render(&mut mirror.0, &frame_settings) {
-        Ok(report) => {
+    let result = match window {
+        Some(mut window) => {
+            let mut overlay = overlay.and_then(|mut o| o.0.take());
+            renderer.0.render_to_window(&mut mirror.0, &frame_settings, &mut window.0, overlay.as_mut())
+        }
+        None => renderer.0.render(&mut mirror.0, &frame_settings).map(Some),
+    };
+    match result {
+        Ok(None) => {} // nothing drawn (minimised window); the changes wait for the next frame
+        Ok(Some(report)) => {
             stats.last = report.counters;
             let extract_ms = stats.extract_ms;
             stats.pending.push_back(FrameStats {

@@ -75,7 +75,8 @@ pub struct DeviceSettings {
     pub validation: bool,
     /// Cap on the capability tier (the device's best tier is used when it is lower).
     pub max_tier: Tier,
-    /// Instance extensions a window surface needs (empty when headless).
+    /// Instance extensions a window surface needs (empty when headless); see
+    /// [`crate::window::required_extensions`].
     pub surface_extensions: Vec<&'static CStr>,
 }
 
@@ -155,7 +156,7 @@ pub struct GpuContext {
     /// Its family.
     pub queue_family: u32,
     /// Memory for buffers and images.
-    pub allocator: ManuallyDrop<Mutex<Allocator>>,
+    pub allocator: ManuallyDrop<Arc<Mutex<Allocator>>>,
     /// Device name as the driver reports it.
     pub device_name: String,
     /// Extensions the device offers.
@@ -332,7 +333,7 @@ impl GpuContext {
             device,
             queue,
             queue_family,
-            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            allocator: ManuallyDrop::new(Arc::new(Mutex::new(allocator))),
             device_name,
             capabilities: caps,
             tier,
@@ -394,6 +395,8 @@ impl Drop for GpuContext {
         // by its owner (the renderer drops its resources before its context). The allocator
         // frees its memory blocks before the device goes, and the messenger before the instance.
         unsafe {
+            // Everything sharing the allocator (the egui renderer) is dropped by now, so this is
+            // the last reference and the memory blocks go before the device.
             ManuallyDrop::drop(&mut self.allocator);
             self.device.destroy_device(None);
             if let Some((loader, messenger)) = self.debug_utils.take() {

@@ -12,6 +12,7 @@ pub mod device;
 pub mod forward;
 pub mod gpu_scene;
 pub mod memory;
+pub mod overlay;
 pub mod pass;
 pub mod pipeline;
 pub mod renderer;
@@ -23,6 +24,7 @@ pub mod timestamps;
 pub mod tonemap;
 pub mod upload;
 pub mod visbuffer;
+pub mod window;
 
 pub use device::{Capabilities, DeviceSettings, Tier};
 pub use renderer::{DebugView, DecalMethod, FinishedFrame, FrameReport, FrameSettings, PipelineKind, Renderer, RendererSettings};

@@ -21,7 +21,9 @@ use crate::pipeline::{ScenePush, create_layout};
 use crate::scene::{FrameCounters, SceneMirror};
 use crate::targets::{Targets, f16_to_f32, read_back, slots};
 use crate::timestamps::{GpuTimer, PassTimes};
+use crate::overlay::{Overlay, OverlayFrame};
 use crate::tonemap::Tonemap;
+use crate::window::WindowSurface;
 use crate::deferred::{DecalRun, DeferredPasses, plan_deferred_decals};
 use crate::visbuffer::VisBufferPasses;
 use crate::upload::StagingRing;
@@ -203,6 +205,8 @@ struct Resources {
     decal_accel: DecalAccel,
     decal_boxes: DecalBoxes,
     decal_order: DeferredDecalOrder,
+    window_tonemap: Option<Tonemap>,
+    overlay: Option<(Overlay, vk::Format)>,
     graveyard: Graveyard,
 }
 
@@ -271,6 +275,8 @@ impl Renderer {
             decal_accel,
             decal_boxes,
             decal_order: DeferredDecalOrder::default(),
+            window_tonemap: None,
+            overlay: None,
             graveyard: Graveyard::default(),
         })
     }
@@ -310,8 +316,47 @@ impl Renderer {
         self.ctx.allocator().generate_report().total_allocated_bytes
     }
 
-    /// Uploads what changed in `mirror` and records and submits one frame.
+    /// Uploads what changed in `mirror` and records and submits one frame (offscreen).
     pub fn render(&mut self, mirror: &mut SceneMirror, settings: &FrameSettings) -> Result<FrameReport, RenderError> {
+        Ok(self.render_inner(mirror, settings, None)?.expect("offscreen frames are never skipped"))
+    }
+
+    /// Creates a surface and swapchain for a window (the renderer must have been created with
+    /// the window system's `surface_extensions`).
+    pub fn create_window_surface(
+        &self,
+        display: raw_window_handle::RawDisplayHandle,
+        window: raw_window_handle::RawWindowHandle,
+        width: u32,
+        height: u32,
+    ) -> Result<WindowSurface, RenderError> {
+        WindowSurface::new(&self.ctx, display, window, width, height)
+    }
+
+    /// Destroys a window surface (waits for the GPU).
+    pub fn destroy_window_surface(&self, surface: WindowSurface) {
+        surface.destroy(&self.ctx);
+    }
+
+    /// Like [`Renderer::render`], but into the window's next swapchain image, with the egui
+    /// `overlay` drawn on top, then presented. Returns `None` when no image could be drawn this
+    /// frame (minimised window, swapchain rebuilt): the scene's changes wait for the next frame.
+    pub fn render_to_window(
+        &mut self,
+        mirror: &mut SceneMirror,
+        settings: &FrameSettings,
+        window: &mut WindowSurface,
+        overlay: Option<&mut OverlayFrame>,
+    ) -> Result<Option<FrameReport>, RenderError> {
+        self.render_inner(mirror, settings, Some((window, overlay)))
+    }
+
+    fn render_inner(
+        &mut self,
+        mirror: &mut SceneMirror,
+        settings: &FrameSettings,
+        mut window: Option<(&mut WindowSurface, Option<&mut OverlayFrame>)>,
+    ) -> Result<Option<FrameReport>, RenderError> {
         let frame = self.frame_number;
         let slot_index = (frame % FRAMES_IN_FLIGHT as u64) as usize;
         let ctx = &self.ctx;
@@ -326,6 +371,34 @@ impl Renderer {
             // SAFETY: waiting on a live semaphore for a value a submitted batch will signal.
             unsafe { d.wait_semaphores(&vk::SemaphoreWaitInfo::default().semaphores(&semaphores).values(&values), u64::MAX) }?;
         }
+        let acquired = match &mut window {
+            Some((surface, overlay)) => {
+                // Overlay textures first: they must not be lost when no image can be drawn.
+                if let Some(frame) = overlay {
+                    if res.overlay.as_ref().is_none_or(|(_, f)| *f != surface.format) {
+                        ctx.wait_idle();
+                        if let Some((old, _)) = res.overlay.replace((Overlay::new(ctx, surface.format)?, surface.format)) {
+                            old.destroy(ctx);
+                        }
+                    }
+                    res.overlay.as_mut().expect("created above").0.prepare(ctx, frame)?;
+                }
+                match surface.acquire(ctx, slot_index)? {
+                    Some(image) => {
+                        if res.window_tonemap.as_ref().is_none_or(|t| t.format() != surface.format) {
+                            ctx.wait_idle();
+                            if let Some(old) = res.window_tonemap.replace(Tonemap::new(ctx, res.layout, surface.format)?) {
+                                old.destroy(ctx);
+                            }
+                        }
+                        Some(image)
+                    }
+                    None => return Ok(None),
+                }
+            }
+            None => None,
+        };
+        let slot = &mut res.frames[slot_index];
         let finished = slot.timer.collect(ctx).map(|gpu| FinishedFrame { frame: slot.frame, gpu });
         // SAFETY: the semaphore is live.
         let completed = unsafe { d.get_semaphore_counter_value(res.timeline) }?;
@@ -420,24 +493,55 @@ impl Renderer {
         if settings.show_decal_boxes {
             parts.decal_boxes.record(&mut pass, &mut parts.targets.hdr, mirror.decals.records.slot_count());
         }
-        parts.tonemap.record(&mut pass, &mut parts.targets.hdr, &mut parts.targets.display);
+        match (&mut window, &acquired) {
+            (Some((surface, overlay)), Some(image)) => {
+                let i = image.index as usize;
+                let (view, extent) = (surface.views[i], surface.extent);
+                let tonemap = res.window_tonemap.as_ref().expect("created at acquire");
+                tonemap.record(&mut pass, &mut parts.targets.hdr, view, extent, &mut surface.states[i]);
+                if let (Some(frame), Some((egui, _))) = (overlay, res.overlay.as_mut()) {
+                    let mut result = Ok(());
+                    pass.timed("overlay", |p| {
+                        let color = [crate::pass::color_attachment(view, None)];
+                        p.begin_rendering(extent, &color, None);
+                        result = egui.record(p.cmd, extent, frame);
+                        p.end_rendering();
+                    });
+                    result?;
+                }
+                crate::sync::transition(&ctx.device, cmd, &mut surface.states[i], crate::sync::Access::Present, false);
+            }
+            _ => {
+                let display = &mut parts.targets.display;
+                let (view, extent) = (display.image.view, display.image.extent);
+                parts.tonemap.record(&mut pass, &mut parts.targets.hdr, view, extent, &mut display.state);
+            }
+        }
 
         // SAFETY: recording is complete; the submit signals the timeline with this frame's value.
         unsafe {
             d.end_command_buffer(cmd)?;
             let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
-            let signals = [vk::SemaphoreSubmitInfo::default()
+            let mut signals = vec![vk::SemaphoreSubmitInfo::default()
                 .semaphore(res.timeline)
                 .value(frame_value)
                 .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)];
-            let submit = vk::SubmitInfo2::default().command_buffer_infos(&cmds).signal_semaphore_infos(&signals);
+            let mut waits = Vec::new();
+            if let Some(image) = &acquired {
+                waits.push(vk::SemaphoreSubmitInfo::default().semaphore(image.wait).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS));
+                signals.push(vk::SemaphoreSubmitInfo::default().semaphore(image.signal).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS));
+            }
+            let submit = vk::SubmitInfo2::default().command_buffer_infos(&cmds).wait_semaphore_infos(&waits).signal_semaphore_infos(&signals);
             d.queue_submit2(ctx.queue, &[submit], vk::Fence::null())?;
+        }
+        if let (Some((surface, _)), Some(image)) = (&mut window, &acquired) {
+            surface.present(ctx, image)?;
         }
         let slot = &mut res.frames[slot_index];
         slot.value = frame_value;
         slot.frame = frame;
         self.frame_number += 1;
-        Ok(FrameReport { frame, decal_method, counters: mirror.counters, record_ms: start.elapsed().as_secs_f32() * 1e3, finished })
+        Ok(Some(FrameReport { frame, decal_method, counters: mirror.counters, record_ms: start.elapsed().as_secs_f32() * 1e3, finished }))
     }
 
     /// Waits for the GPU and returns the timings of every frame not yet reported, oldest first.
@@ -561,8 +665,16 @@ impl Drop for Renderer {
             decal_accel,
             decal_boxes,
             decal_order: _,
+            window_tonemap,
+            overlay,
             mut graveyard,
         } = res;
+        if let Some(t) = window_tonemap {
+            t.destroy(ctx);
+        }
+        if let Some((o, _)) = overlay {
+            o.destroy(ctx);
+        }
         for f in frames {
             f.staging.destroy(ctx);
             f.timer.destroy(ctx);

@@ -8,7 +8,7 @@ use crate::device::GpuContext;
 use crate::pass::{PassContext, color_attachment};
 use crate::pipeline::{GraphicsDesc, create_graphics};
 use crate::shaders;
-use crate::sync::Access;
+use crate::sync::{Access, ImageState};
 use crate::targets::Target;
 
 
@@ -31,13 +31,14 @@ impl Tonemap {
         self.format
     }
 
-    /// Reads `hdr`, writes `display`.
-    pub fn record(&self, p: &mut PassContext, hdr: &mut Target, display: &mut Target) {
+    /// Reads `hdr`, writes the display image (`view`, `extent`, tracked by `state`): the
+    /// offscreen display target or a swapchain image.
+    pub fn record(&self, p: &mut PassContext, hdr: &mut Target, view: vk::ImageView, extent: vk::Extent2D, state: &mut ImageState) {
         p.timed("tonemap", |p| {
             hdr.use_as(p.ctx, p.cmd, Access::FragmentSampled);
-            display.overwrite_as(p.ctx, p.cmd, Access::ColorAttachmentWrite);
-            let color = [color_attachment(display.image.view, None)];
-            p.begin_rendering(display.image.extent, &color, None);
+            crate::sync::transition(&p.ctx.device, p.cmd, state, Access::ColorAttachmentWrite, true);
+            let color = [color_attachment(view, None)];
+            p.begin_rendering(extent, &color, None);
             let push = crate::pipeline::ScenePush { texture_index: crate::targets::slots::HDR, ..p.push };
             p.bind_graphics(self.pipeline, &push);
             // SAFETY: `cmd` is recording inside the rendering scope with the pipeline bound.

@@ -122,6 +122,12 @@ pub struct RunSummary {
 
 /// Builds an app with the render plugin and a GPU renderer, and loads the scene into it.
 pub fn build_app(opts: &HeadlessOptions) -> Result<App> {
+    let settings = RendererSettings { device: DeviceSettings { max_tier: opts.max_tier, ..Default::default() } };
+    build_app_with(opts, &settings)
+}
+
+/// [`build_app`] with explicit renderer settings (a window adds its surface extensions).
+pub fn build_app_with(opts: &HeadlessOptions, renderer_settings: &RendererSettings) -> Result<App> {
     let (w, h) = opts.size;
     if opts.frames == 0 {
         bail!("--frames must be at least 1");
@@ -151,8 +157,7 @@ pub fn build_app(opts: &HeadlessOptions) -> Result<App> {
         app.insert_resource(DecalJitter { percent: opts.move_decals_percent, cursor: 0 });
         app.add_systems(engine::app::Update, jitter_decals);
     }
-    let settings = RendererSettings { device: DeviceSettings { max_tier: opts.max_tier, ..Default::default() } };
-    let renderer = Renderer::new(&settings, w, h).context("could not start the renderer")?;
+    let renderer = Renderer::new(renderer_settings, w, h).context("could not start the renderer")?;
     app.insert_resource(GpuRenderer(renderer));
     Ok(app)
 }

@@ -6,3 +6,5 @@ pub mod stats;
 pub mod decal_textures;
 pub mod scatter;
 pub mod bench;
+pub mod overlay_ui;
+pub mod window;

@@ -60,6 +60,12 @@ struct Cli {
     /// Run --frames frames with each pipeline and decal method in turn (7 combinations).
     #[arg(long)]
     compare: bool,
+    /// Windowed: close after this many frames (tests).
+    #[arg(long)]
+    exit_after: Option<u32>,
+    /// Windowed: resize the window to WIDTHxHEIGHT halfway through --exit-after (tests).
+    #[arg(long, value_parser = parse_size)]
+    resize_to: Option<(u32, u32)>,
 }
 
 fn parse_debug_view(s: &str) -> Result<DebugView, String> {
@@ -101,10 +107,11 @@ fn main() -> Result<()> {
         .with_writer(std::io::stderr)
         .init();
     let cli = Cli::parse();
-    if !cli.headless {
-        eprintln!("sandbox: this build has no window yet; playing the scene headless instead");
+    let windowed = !cli.headless && sandbox::window::display_available();
+    if !cli.headless && !windowed {
+        eprintln!("sandbox: no display available (neither DISPLAY nor WAYLAND_DISPLAY is set); playing a short scene headless instead");
     }
-    let screenshot = cli.screenshot.or_else(|| (!cli.headless).then(|| PathBuf::from("out/sandbox.png")));
+    let screenshot = cli.screenshot.clone().or_else(|| (!cli.headless).then(|| PathBuf::from("out/sandbox.png")));
     let opts = HeadlessOptions {
         frames: cli.frames,
         size: cli.size,
@@ -122,6 +129,14 @@ fn main() -> Result<()> {
         bench_scene: cli.bench_scene.as_deref().map(sandbox::bench::BenchScene::parse).transpose()?,
         compare: cli.compare,
     };
+    if windowed {
+        let window_opts = sandbox::window::WindowOptions {
+            base: opts,
+            exit_after: cli.exit_after,
+            resize_to: cli.resize_to,
+        };
+        return sandbox::window::run_windowed(window_opts);
+    }
     if let Some(dir) = screenshot.as_ref().and_then(|p| p.parent()).filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)?;
     }

@@ -1,0 +1,424 @@
+//! CPU ray casts against the scene: [`SceneRaycaster`] holds the world-space triangles of every
+//! solid [`MeshInstance`] in a bounding volume hierarchy and answers nearest-hit queries.
+//!
+//! The BVH comes from the [`obvhs`] crate (a PLOC builder with reinsertion optimisation, and a
+//! stack-based closest-hit traversal); this module supplies the triangles and the ray–triangle
+//! test (Möller–Trumbore, double-sided, edges inclusive so that a ray along a shared edge of a
+//! floor does not slip through). obvhs 0.3 is used because it is the release line built on
+//! glam 0.30, the version of the rest of the workspace (0.4 moved to glam 0.33).
+//!
+//! Solid means: every entity with a `MeshInstance` and a `GlobalTransform` whose mesh is in
+//! `Assets<Mesh>`, except the [`Player`] and its descendants (the player never shoots or stands
+//! on itself) and meshes with `DecalReceiver(0)` (pure decoration that takes no decals, such as
+//! a skybox or a glass pane, is not solid for the game either).
+//!
+//! The raycaster is a snapshot. [`rebuild_raycaster`] (in `PostUpdate`, after transform
+//! propagation) rebuilds it when a solid instance was added, removed, moved or changed its mesh
+//! or receiver layers; for the static courtyard that is once. Edits of a mesh asset in place are
+//! not tracked: call [`SceneRaycaster::mark_stale`] after them.
+
+use std::time::Duration;
+
+use bevy_ecs::change_detection::Tick;
+use bevy_ecs::prelude::*;
+use bevy_ecs::system::{RunSystemOnce, SystemChangeTick};
+use engine::asset::Assets;
+use engine::mesh::Mesh;
+use engine::scene::MeshInstance;
+use engine::transform::{GlobalTransform, propagate_transforms};
+use glam::{Affine3A, Vec3, Vec3A};
+use obvhs::BvhBuildParams;
+use obvhs::bvh2::Bvh2;
+use obvhs::bvh2::builder::build_bvh2_from_tris;
+use obvhs::ray::{Ray, RayHit};
+use plugins::decal::DecalReceiver;
+
+use super::player::Player;
+
+/// The nearest intersection of a ray with the scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Distance along the (normalised) ray, in metres.
+    pub t: f32,
+    /// The world-space hit point.
+    pub point: Vec3,
+    /// The unit geometric normal of the triangle hit, turned to face the ray's origin.
+    pub normal: Vec3,
+    /// The mesh instance hit.
+    pub entity: Entity,
+}
+
+/// A world-space triangle prepared for intersection.
+#[derive(Clone, Copy, Debug)]
+struct Triangle {
+    v0: Vec3A,
+    e1: Vec3A,
+    e2: Vec3A,
+    /// Index into [`SceneRaycaster::entities`].
+    owner: u32,
+}
+
+impl Triangle {
+    /// Distance to the intersection with `ray` within its `[tmin, tmax]`, or infinity.
+    fn intersect(&self, ray: &Ray) -> f32 {
+        let p = ray.direction.cross(self.e2);
+        let det = self.e1.dot(p);
+        // Parallel to the plane (or degenerate): no hit. Written so that NaN also misses.
+        if !(det.abs() > f32::MIN_POSITIVE) {
+            return f32::INFINITY;
+        }
+        let inv_det = 1.0 / det;
+        let s = ray.origin - self.v0;
+        let u = s.dot(p) * inv_det;
+        if !(0.0..=1.0).contains(&u) {
+            return f32::INFINITY;
+        }
+        let q = s.cross(self.e1);
+        let v = ray.direction.dot(q) * inv_det;
+        if !(v >= 0.0 && u + v <= 1.0) {
+            return f32::INFINITY;
+        }
+        let t = self.e2.dot(q) * inv_det;
+        if t >= ray.tmin && t <= ray.tmax {
+            t
+        } else {
+            f32::INFINITY
+        }
+    }
+}
+
+/// Ray casts against the scene's solid triangles (see the module docs). A resource; the empty
+/// default hits nothing.
+#[derive(Resource, Default)]
+pub struct SceneRaycaster {
+    bvh: Bvh2,
+    /// Triangles in the BVH's primitive order, so a leaf's range indexes them directly.
+    triangles: Vec<Triangle>,
+    /// The mesh-instance entity of each `Triangle::owner`.
+    entities: Vec<Entity>,
+    /// The world change tick the snapshot reflects; `None` forces a rebuild.
+    built: Option<Tick>,
+}
+
+impl SceneRaycaster {
+    /// Builds a raycaster over the solid mesh instances of `world`, first bringing every
+    /// `GlobalTransform` up to date (transform propagation runs once).
+    pub fn build(world: &mut World) -> SceneRaycaster {
+        if let Err(error) = world.run_system_once(propagate_transforms) {
+            tracing::warn!(%error, "could not propagate transforms before building the raycaster");
+        }
+        world.init_resource::<Assets<Mesh>>();
+        let mut raycaster = match world.run_system_once(collect_solids) {
+            Ok(raycaster) => raycaster,
+            Err(error) => {
+                tracing::warn!(%error, "could not gather the scene's meshes for ray casts");
+                SceneRaycaster::default()
+            }
+        };
+        // Changes made after this point get a newer tick, so `rebuild_raycaster` sees them.
+        raycaster.built = Some(world.increment_change_tick());
+        raycaster
+    }
+
+    /// Builds a raycaster over `instances`: each mesh placed by its local-to-world transform
+    /// and reported as its entity when hit. Degenerate and non-finite triangles are skipped.
+    pub fn from_meshes<'a>(
+        instances: impl IntoIterator<Item = (Entity, &'a Mesh, Affine3A)>,
+    ) -> SceneRaycaster {
+        let mut triangles = Vec::new();
+        let mut entities = Vec::new();
+        for (entity, mesh, to_world) in instances {
+            let owner = entities.len() as u32;
+            let before = triangles.len();
+            let position = |i: u32| {
+                mesh.positions
+                    .get(i as usize)
+                    .map(|&p| to_world.transform_point3a(Vec3A::from(p)))
+            };
+            for tri in mesh.indices.chunks_exact(3) {
+                let (Some(v0), Some(v1), Some(v2)) =
+                    (position(tri[0]), position(tri[1]), position(tri[2]))
+                else {
+                    continue;
+                };
+                let (e1, e2) = (v1 - v0, v2 - v0);
+                let area = e1.cross(e2).length_squared();
+                if v0.is_finite() && area.is_finite() && area > 1e-16 {
+                    triangles.push(Triangle { v0, e1, e2, owner });
+                }
+            }
+            if triangles.len() > before {
+                entities.push(entity);
+            }
+        }
+        if triangles.is_empty() {
+            return SceneRaycaster::default();
+        }
+        let boxes: Vec<obvhs::triangle::Triangle> = triangles
+            .iter()
+            .map(|t| obvhs::triangle::Triangle {
+                v0: t.v0,
+                v1: t.v0 + t.e1,
+                v2: t.v0 + t.e2,
+            })
+            .collect();
+        let bvh = build_bvh2_from_tris(
+            &boxes,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
+        // Reorder once so traversal indexes the triangles without the indirection.
+        let triangles = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| triangles[i as usize])
+            .collect();
+        SceneRaycaster {
+            bvh,
+            triangles,
+            entities,
+            built: None,
+        }
+    }
+
+    /// The nearest hit of the ray from `origin` along `direction` (normalised here, so `t` is
+    /// in metres) no farther than `max_t` (which may be infinite), or `None`. Non-finite
+    /// origins, zero or non-finite directions and non-positive `max_t` hit nothing.
+    pub fn cast(&self, origin: Vec3, direction: Vec3, max_t: f32) -> Option<Hit> {
+        let direction = direction.try_normalize()?;
+        if self.triangles.is_empty() || !origin.is_finite() || !(max_t > 0.0) {
+            return None;
+        }
+        let ray = Ray::new(origin.into(), direction.into(), 0.0, max_t);
+        let mut hit = RayHit::none();
+        let found = self
+            .bvh
+            .ray_traverse(ray, &mut hit, |ray, i| self.triangles[i].intersect(ray));
+        if !found {
+            return None;
+        }
+        let triangle = self.triangles.get(hit.primitive_id as usize)?;
+        let normal = Vec3::from(triangle.e1.cross(triangle.e2)).normalize_or_zero();
+        let normal = if normal.dot(direction) > 0.0 { -normal } else { normal };
+        Some(Hit {
+            t: hit.t,
+            point: origin + direction * hit.t,
+            normal,
+            entity: self.entities[triangle.owner as usize],
+        })
+    }
+
+    /// Number of triangles in the BVH.
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// Number of mesh instances with at least one triangle in the BVH.
+    pub fn instance_count(&self) -> usize {
+        self.entities.len()
+    }
+
+    /// Whether there is nothing to hit.
+    pub fn is_empty(&self) -> bool {
+        self.triangles.is_empty()
+    }
+
+    /// Makes [`rebuild_raycaster`] rebuild at its next run (after editing a mesh asset in
+    /// place, which it cannot detect).
+    pub fn mark_stale(&mut self) {
+        self.built = None;
+    }
+}
+
+/// Mesh instances as [`collect_solids`] and [`rebuild_raycaster`] read them.
+type Instances<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Entity,
+        Ref<'static, MeshInstance>,
+        Ref<'static, GlobalTransform>,
+        Option<Ref<'static, DecalReceiver>>,
+    ),
+>;
+
+/// Whether `entity` is the player or one of its descendants.
+fn belongs_to_player(entity: Entity, players: &Query<Ref<Player>>, parents: &Query<&ChildOf>) -> bool {
+    // Hierarchies deeper than this are not expected; stopping keeps a corrupt (cyclic) one
+    // from hanging the game.
+    const MAX_DEPTH: usize = 256;
+    let mut current = entity;
+    for _ in 0..MAX_DEPTH {
+        if players.contains(current) {
+            return true;
+        }
+        match parents.get(current) {
+            Ok(child_of) => current = child_of.parent(),
+            Err(_) => return false,
+        }
+    }
+    false
+}
+
+/// Builds a raycaster over the solid instances (see the module docs).
+fn gather(
+    instances: &Instances,
+    players: &Query<Ref<Player>>,
+    parents: &Query<&ChildOf>,
+    meshes: &Assets<Mesh>,
+) -> SceneRaycaster {
+    SceneRaycaster::from_meshes(instances.iter().filter_map(|(entity, instance, global, receiver)| {
+        let solid = receiver.is_none_or(|r| r.0 != 0) && !belongs_to_player(entity, players, parents);
+        let mesh = meshes.get(instance.mesh).filter(|_| solid)?;
+        Some((entity, mesh, global.affine()))
+    }))
+}
+
+/// [`gather`] as a one-shot system for [`SceneRaycaster::build`].
+fn collect_solids(
+    instances: Instances,
+    players: Query<Ref<Player>>,
+    parents: Query<&ChildOf>,
+    meshes: Res<Assets<Mesh>>,
+) -> SceneRaycaster {
+    gather(&instances, &players, &parents, &meshes)
+}
+
+/// Rebuilds the [`SceneRaycaster`] when the solid geometry changed since it was built: a mesh
+/// instance added, removed or moved, its mesh handle or receiver layers changed, or a player
+/// added or removed (changes to the player's own meshes are ignored). Runs in `PostUpdate`
+/// after transform propagation, so the next frame's `Update` casts against the current scene.
+#[allow(clippy::too_many_arguments)]
+pub fn rebuild_raycaster(
+    mut raycaster: ResMut<SceneRaycaster>,
+    instances: Instances,
+    players: Query<Ref<Player>>,
+    parents: Query<&ChildOf>,
+    meshes: Option<Res<Assets<Mesh>>>,
+    mut removed_instances: RemovedComponents<MeshInstance>,
+    mut removed_receivers: RemovedComponents<DecalReceiver>,
+    mut removed_players: RemovedComponents<Player>,
+    ticks: SystemChangeTick,
+) {
+    // Drain every reader each frame, whether or not a rebuild follows.
+    let removed = removed_instances.read().count()
+        + removed_receivers.read().count()
+        + removed_players.read().count()
+        > 0;
+    let Some(meshes) = meshes else { return };
+    let stale = match raycaster.built {
+        None => true,
+        Some(built) => {
+            removed
+                || players.iter().any(|player| player.is_added_after(built))
+                || instances.iter().any(|(entity, instance, global, receiver)| {
+                    let changed = instance.is_changed_after(built)
+                        || global.is_changed_after(built)
+                        || receiver.is_some_and(|r| r.is_changed_after(built));
+                    changed && !belongs_to_player(entity, &players, &parents)
+                })
+        }
+    };
+    if stale {
+        *raycaster = gather(&instances, &players, &parents, &meshes);
+        raycaster.built = Some(ticks.this_run());
+        tracing::debug!(
+            triangles = raycaster.triangle_count(),
+            instances = raycaster.instance_count(),
+            "rebuilt the scene raycaster"
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use engine::app::App;
+    use engine::material::Material;
+    use engine::mesh::shapes;
+    use engine::transform::Transform;
+
+    fn spawn_mesh(world: &mut World, mesh: Mesh, transform: Transform) -> Entity {
+        let mesh = world.resource_mut::<Assets<Mesh>>().add(mesh);
+        let material = world.resource_mut::<Assets<Material>>().add(Material::default());
+        world.spawn((transform, MeshInstance { mesh, material })).id()
+    }
+
+    #[test]
+    fn hits_the_nearest_surface_with_a_facing_normal() {
+        let mut app = App::new();
+        let ground = spawn_mesh(&mut app.world, shapes::plane(10.0, 10.0, 3, 1.0), Transform::IDENTITY);
+        let cube = spawn_mesh(&mut app.world, shapes::cuboid(Vec3::ONE, 1.0), Transform::from_xyz(0.0, 0.5, 0.0));
+        let raycaster = SceneRaycaster::build(&mut app.world);
+        assert_eq!(raycaster.instance_count(), 2);
+
+        let down = raycaster.cast(Vec3::new(0.2, 5.0, 0.1), Vec3::NEG_Y * 3.0, f32::INFINITY).unwrap();
+        assert_eq!(down.entity, cube);
+        assert!((down.t - 4.0).abs() < 1e-5 && (down.point.y - 1.0).abs() < 1e-5);
+        assert!((down.normal - Vec3::Y).length() < 1e-5);
+
+        let beside = raycaster.cast(Vec3::new(3.0, 5.0, 0.0), Vec3::NEG_Y, f32::INFINITY).unwrap();
+        assert_eq!(beside.entity, ground);
+        // From below, the ground's normal faces down, towards the ray.
+        let below = raycaster.cast(Vec3::new(3.0, -1.0, 0.0), Vec3::Y, f32::INFINITY).unwrap();
+        assert!((below.normal - Vec3::NEG_Y).length() < 1e-5);
+        // Out of range, bad input, away from everything.
+        assert!(raycaster.cast(Vec3::new(3.0, 5.0, 0.0), Vec3::NEG_Y, 4.9).is_none());
+        assert!(raycaster.cast(Vec3::new(3.0, 5.0, 0.0), Vec3::ZERO, 10.0).is_none());
+        assert!(raycaster.cast(Vec3::NAN, Vec3::NEG_Y, 10.0).is_none());
+        assert!(raycaster.cast(Vec3::new(3.0, 5.0, 0.0), Vec3::Y, f32::INFINITY).is_none());
+        assert!(SceneRaycaster::default().cast(Vec3::ZERO, Vec3::NEG_Y, 1.0).is_none());
+    }
+
+    #[test]
+    fn player_and_non_receivers_are_not_solid() {
+        let mut app = App::new();
+        let ground = spawn_mesh(&mut app.world, shapes::plane(10.0, 10.0, 1, 1.0), Transform::IDENTITY);
+        let player = app.world.spawn((Player, Transform::from_xyz(0.0, 1.0, 0.0))).id();
+        let body = spawn_mesh(&mut app.world, shapes::cuboid(Vec3::splat(0.5), 1.0), Transform::IDENTITY);
+        app.world.entity_mut(body).insert(ChildOf(player));
+        let glass = spawn_mesh(&mut app.world, shapes::plane(10.0, 10.0, 1, 1.0), Transform::from_xyz(0.0, 3.0, 0.0));
+        app.world.entity_mut(glass).insert(DecalReceiver(0));
+        let raycaster = SceneRaycaster::build(&mut app.world);
+        assert_eq!(raycaster.instance_count(), 1);
+        let hit = raycaster.cast(Vec3::new(0.0, 5.0, 0.0), Vec3::NEG_Y, 10.0).unwrap();
+        assert_eq!(hit.entity, ground);
+    }
+
+    #[test]
+    fn rebuilds_only_when_solid_geometry_changes() {
+        let mut app = App::new();
+        app.world.init_resource::<SceneRaycaster>();
+        app.add_systems(
+            engine::app::PostUpdate,
+            rebuild_raycaster.after(engine::transform::TransformSystems::Propagate),
+        );
+        let cube = spawn_mesh(&mut app.world, shapes::cuboid(Vec3::ONE, 1.0), Transform::IDENTITY);
+        let player = app.world.spawn((Player, Transform::IDENTITY)).id();
+        let body = spawn_mesh(&mut app.world, shapes::cuboid(Vec3::ONE, 1.0), Transform::IDENTITY);
+        app.world.entity_mut(body).insert(ChildOf(player));
+        let hit_x = |app: &App| {
+            app.world
+                .resource::<SceneRaycaster>()
+                .cast(Vec3::new(0.0, 0.0, 10.0), Vec3::NEG_Z, 100.0)
+                .map(|h| h.point.z)
+        };
+        app.update();
+        assert_eq!(app.world.resource::<SceneRaycaster>().instance_count(), 1);
+        assert_eq!(hit_x(&app), Some(0.5));
+        // Moving the player (and with it its body) does not rebuild: mark the snapshot so a
+        // rebuild would be visible as a different `built` tick.
+        let built = app.world.resource::<SceneRaycaster>().built;
+        app.world.get_mut::<Transform>(player).unwrap().translation.x = 3.0;
+        app.update();
+        assert_eq!(app.world.resource::<SceneRaycaster>().built, built);
+        // Moving a solid instance does.
+        app.world.get_mut::<Transform>(cube).unwrap().translation.z = -2.0;
+        app.update();
+        assert_eq!(hit_x(&app), Some(-1.5));
+        // Despawning it too.
+        app.world.despawn(cube);
+        app.update();
+        assert_eq!(hit_x(&app), None);
+    }
+}

@@ -1,0 +1,172 @@
+//! The egui overlay: frame time and per-pass GPU times (with a graph of the last seconds), what
+//! the scene holds and what the GPU built this frame, and controls for the pipeline, the decal
+//! method, the debug views and spawning or clearing decals and lights.
+
+use std::collections::VecDeque;
+
+use bevy_ecs::prelude::*;
+use engine::asset::Assets;
+use engine::image::Image;
+use engine::light::PointLight;
+use engine::transform::Transform;
+use glam::Vec3;
+use plugins::decal::{Decal, DecalMaterial};
+use plugins::{FrameStats, RenderSettings, RenderStats};
+use render::{DebugView, DecalMethod, PipelineKind};
+
+/// Frames kept for the graph (about five seconds at 60 Hz).
+const HISTORY: usize = 300;
+
+/// Marks lights spawned from the overlay (so "clear lights" leaves the scene's own alone).
+#[derive(Component)]
+pub struct OverlayLight;
+
+/// State of the overlay between frames.
+pub struct OverlayUi {
+    /// Whether the overlay is drawn (a key toggles it).
+    pub visible: bool,
+    history: VecDeque<FrameStats>,
+    frame_ms: VecDeque<f32>,
+    spawn_count: usize,
+    seed: u64,
+}
+
+impl Default for OverlayUi {
+    fn default() -> Self {
+        Self { visible: true, history: VecDeque::with_capacity(HISTORY), frame_ms: VecDeque::with_capacity(HISTORY), spawn_count: 100, seed: 1 }
+    }
+}
+
+impl OverlayUi {
+    /// Records the CPU frame time and drains finished frames' statistics from the world.
+    pub fn observe(&mut self, world: &mut World, frame_ms: f32) {
+        if self.frame_ms.len() == HISTORY {
+            self.frame_ms.pop_front();
+        }
+        self.frame_ms.push_back(frame_ms);
+        let mut stats = world.resource_mut::<RenderStats>();
+        while let Some(s) = stats.completed.pop_front() {
+            if self.history.len() == HISTORY {
+                self.history.pop_front();
+            }
+            self.history.push_back(s);
+        }
+    }
+
+    /// Draws the overlay and applies what the user changed.
+    pub fn show(&mut self, ctx: &egui::Context, world: &mut World) {
+        if !self.visible {
+            return;
+        }
+        egui::Window::new("ecs-decals").default_pos([12.0, 12.0]).resizable(false).show(ctx, |ui| {
+            self.timings(ui);
+            ui.separator();
+            self.counts(ui, world);
+            ui.separator();
+            self.controls(ui, world);
+            ui.small("F1 hides this overlay");
+        });
+    }
+
+    fn timings(&self, ui: &mut egui::Ui) {
+        let frame = self.frame_ms.back().copied().unwrap_or(0.0);
+        ui.label(format!("frame {frame:.2} ms ({:.0} fps)", if frame > 0.0 { 1000.0 / frame } else { 0.0 }));
+        if let Some(last) = self.history.back() {
+            let passes: Vec<String> = last.gpu.iter().map(|(name, ms)| format!("{name} {ms:.2}")).collect();
+            ui.label(format!("GPU {:.2} ms: {}", last.gpu.total_ms, passes.join(", ")));
+        }
+        // A small graph of frame time (white) and GPU time (green) over the last seconds.
+        let (rect, _) = ui.allocate_exact_size(egui::vec2(260.0, 60.0), egui::Sense::hover());
+        let painter = ui.painter_at(rect);
+        painter.rect_filled(rect, 2.0, egui::Color32::from_black_alpha(120));
+        let max = self.frame_ms.iter().copied().fold(16.7f32, f32::max);
+        let plot = |values: &mut dyn Iterator<Item = f32>, count: usize, colour: egui::Color32| {
+            let points: Vec<egui::Pos2> = values
+                .enumerate()
+                .map(|(i, v)| {
+                    let x = rect.left() + rect.width() * i as f32 / (HISTORY - 1) as f32 + rect.width() * (HISTORY - count) as f32 / HISTORY as f32;
+                    egui::pos2(x, rect.bottom() - rect.height() * (v / max).min(1.0))
+                })
+                .collect();
+            painter.add(egui::Shape::line(points, egui::Stroke::new(1.0, colour)));
+        };
+        plot(&mut self.frame_ms.iter().copied(), self.frame_ms.len(), egui::Color32::WHITE);
+        plot(&mut self.history.iter().map(|s| s.gpu.total_ms), self.history.len(), egui::Color32::LIGHT_GREEN);
+        ui.small(format!("graph: frame (white) and GPU (green) time, top = {max:.1} ms"));
+    }
+
+    fn counts(&self, ui: &mut egui::Ui, world: &World) {
+        let c = world.resource::<RenderStats>().last;
+        ui.label(format!("instances {}   lights {}   decals {}", c.instances, c.lights, c.decals));
+        ui.label(format!("this frame: BLAS builds {}, refits {}, TLAS builds {}, {} bytes uploaded", c.blas_builds, c.blas_updates, c.tlas_builds, c.bytes_uploaded));
+    }
+
+    fn controls(&mut self, ui: &mut egui::Ui, world: &mut World) {
+        let mut settings = world.resource_mut::<RenderSettings>();
+        egui::ComboBox::from_label("pipeline").selected_text(settings.pipeline.name()).show_ui(ui, |ui| {
+            for p in PipelineKind::ALL {
+                ui.selectable_value(&mut settings.pipeline, p, p.name());
+            }
+        });
+        egui::ComboBox::from_label("decals").selected_text(settings.decal_method.name()).show_ui(ui, |ui| {
+            for m in DecalMethod::ALL {
+                ui.selectable_value(&mut settings.decal_method, m, m.name());
+            }
+        });
+        let views = [
+            (DebugView::Lit, "lit"),
+            (DebugView::DecalHeatmap, "decal heat map"),
+            (DebugView::Albedo, "albedo"),
+            (DebugView::Normal, "normal"),
+            (DebugView::RoughnessMetallic, "roughness/metallic"),
+        ];
+        let current = views.iter().find(|(v, _)| *v == settings.debug_view).map_or("lit", |(_, n)| n);
+        egui::ComboBox::from_label("view").selected_text(current).show_ui(ui, |ui| {
+            for (v, name) in views {
+                ui.selectable_value(&mut settings.debug_view, v, name);
+            }
+        });
+        ui.checkbox(&mut settings.show_decal_boxes, "decal boxes");
+        ui.add(egui::Slider::new(&mut self.spawn_count, 1..=5000).text("spawn count").logarithmic(true));
+        ui.horizontal(|ui| {
+            if ui.button("spawn decals").clicked() {
+                self.spawn_decals(world);
+            }
+            if ui.button("clear decals").clicked() {
+                let decals: Vec<Entity> = world.query_filtered::<Entity, With<Decal>>().iter(world).collect();
+                for e in decals {
+                    world.despawn(e);
+                }
+            }
+        });
+        ui.horizontal(|ui| {
+            if ui.button("spawn lights").clicked() {
+                self.spawn_lights(world);
+            }
+            if ui.button("clear lights").clicked() {
+                let lights: Vec<Entity> = world.query_filtered::<Entity, With<OverlayLight>>().iter(world).collect();
+                for e in lights {
+                    world.despawn(e);
+                }
+            }
+        });
+    }
+
+    fn spawn_decals(&mut self, world: &mut World) {
+        let materials = world.resource_scope(|world, mut materials: Mut<Assets<DecalMaterial>>| {
+            crate::decal_textures::add_builtin_materials(&mut world.resource_mut::<Assets<Image>>(), &mut materials)
+        });
+        self.seed += 1;
+        crate::scatter::scatter_decals(world, self.spawn_count, self.seed, &materials);
+    }
+
+    fn spawn_lights(&mut self, world: &mut World) {
+        self.seed += 1;
+        let mut rng = crate::scatter::SplitMix64::new(self.seed);
+        for _ in 0..self.spawn_count.min(256) {
+            let colour = Vec3::new(rng.range_f32(0.2, 1.0), rng.range_f32(0.2, 1.0), rng.range_f32(0.2, 1.0));
+            let at = Vec3::new(rng.range_f32(-20.0, 20.0), rng.range_f32(0.5, 4.0), rng.range_f32(-20.0, 20.0));
+            world.spawn((PointLight { color: colour, intensity: 10.0, range: None }, Transform::from_translation(at), OverlayLight));
+        }
+    }
+}
