@@ -1,0 +1,128 @@
+//! The windowed sandbox under Xvfb on lavapipe: it runs a few seconds, a screenshot of the X
+//! screen shows the scene and the overlay, the window is resized mid-run, and the process exits
+//! cleanly (a validation error makes it exit with an error). Without a display the same command
+//! says so and plays headless, writing a screenshot.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+struct Xvfb {
+    child: Child,
+    display: String,
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn start_xvfb() -> Xvfb {
+    let n = 40 + std::process::id() % 200;
+    let display = format!(":{n}");
+    let child = Command::new("Xvfb")
+        .args([display.as_str(), "-screen", "0", "800x600x24", "-nolisten", "tcp"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("Xvfb is installed (scripts/setup.sh installs it)");
+    let socket = PathBuf::from(format!("/tmp/.X11-unix/X{n}"));
+    let start = Instant::now();
+    while !socket.exists() {
+        assert!(start.elapsed() < Duration::from_secs(20), "Xvfb did not start");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    Xvfb { child, display }
+}
+
+/// An RGB screenshot of the whole X screen via `xwd` (x11-apps), decoded from XWD.
+fn screenshot(display: &str) -> Option<(u32, u32, Vec<[u8; 3]>)> {
+    let out = Command::new("xwd").args(["-root", "-silent", "-display", display]).output().ok()?;
+    let d = out.stdout;
+    if !out.status.success() || d.len() < 100 {
+        return None;
+    }
+    let field = |i: usize| u32::from_be_bytes([d[i * 4], d[i * 4 + 1], d[i * 4 + 2], d[i * 4 + 3]]);
+    let (header, width, height, byte_order, bpp, bpl, ncolors) = (field(0), field(4), field(5), field(7), field(11), field(12), field(19));
+    assert_eq!(bpp, 32, "24-bit Xvfb screens are stored at 32 bits a pixel");
+    let start = (header + ncolors * 12) as usize;
+    let mut pixels = Vec::with_capacity((width * height) as usize);
+    for y in 0..height as usize {
+        for x in 0..width as usize {
+            let o = start + y * bpl as usize + x * 4;
+            let p = &d[o..o + 4];
+            pixels.push(if byte_order == 0 { [p[2], p[1], p[0]] } else { [p[1], p[2], p[3]] });
+        }
+    }
+    Some((width, height, pixels))
+}
+
+fn near(p: [u8; 3], q: [u8; 3], tolerance: i32) -> bool {
+    (0..3).all(|c| (p[c] as i32 - q[c] as i32).abs() <= tolerance)
+}
+
+#[test]
+fn windowed_sandbox_shows_scene_and_overlay_survives_a_resize_and_exits_cleanly() {
+    let x = start_xvfb();
+    let mut sandbox = Command::new(env!("CARGO_BIN_EXE_sandbox"))
+        .args(["--size", "640x400", "--exit-after", "150", "--resize-to", "560x340"])
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("RENDER_VALIDATION", "1")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the sandbox starts");
+
+    // Poll the screen until the window shows the courtyard's sky and the overlay's panel.
+    let (mut sky, mut panel) = (0usize, 0usize);
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_secs(90) {
+        if let Ok(Some(_)) = sandbox.try_wait() {
+            break;
+        }
+        if let Some((w, h, pixels)) = screenshot(&x.display) {
+            // Only the window's area (top-left 640×400 of the 800×600 screen).
+            let region = |px: &[[u8; 3]]| -> Vec<[u8; 3]> {
+                (0..400.min(h) as usize).flat_map(|y| (0..640.min(w) as usize).map(move |x| (y, x))).map(|(y, x)| px[y * w as usize + x]).collect()
+            };
+            let window = region(&pixels);
+            sky = window.iter().filter(|p| near(**p, [151, 171, 197], 12)).count();
+            // egui's dark theme fills windows with (20, 20, 20) once blended to sRGB.
+            panel = window.iter().filter(|p| near(**p, [20, 20, 20], 4)).count();
+            if sky > 20_000 && panel > 20_000 {
+                break;
+            }
+        }
+        std::thread::sleep(Duration::from_millis(300));
+    }
+    let output = sandbox.wait_with_output().expect("the sandbox exits");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "clean exit, no validation error:\n{stderr}");
+    assert!(!stderr.contains("Validation Error"), "{stderr}");
+    assert!(sky > 20_000, "the scene (its sky) is visible in the window: {sky} pixels");
+    assert!(panel > 20_000, "the egui overlay is visible: {panel} pixels");
+}
+
+#[test]
+fn without_a_display_the_run_command_plays_headless_and_says_where_the_screenshot_is() {
+    let dir = std::env::temp_dir().join(format!("sandbox-nodisplay-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let output = Command::new(env!("CARGO_BIN_EXE_sandbox"))
+        .args(["--frames", "3", "--size", "160x90"])
+        .current_dir(&dir)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .expect("the sandbox runs");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(stderr.contains("no display available"), "it says why it plays headless: {stderr}");
+    assert!(stdout.contains("screenshot: out/sandbox.png"), "it says where the screenshot is: {stdout}");
+    let png = image::open(Path::new(&dir).join("out/sandbox.png")).expect("the screenshot exists").to_rgba8();
+    assert_eq!(png.dimensions(), (160, 90));
+    std::fs::remove_dir_all(&dir).ok();
+}
