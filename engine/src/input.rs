@@ -161,7 +161,10 @@ impl Key {
 
     /// The digit key for `digit` (0..=9), or `None`.
     pub fn digit(digit: u32) -> Option<Key> {
-        Key::ALL.get(12 + digit as usize).copied().filter(|_| digit <= 9)
+        Key::ALL
+            .get(12 + digit as usize)
+            .copied()
+            .filter(|_| digit <= 9)
     }
 
     fn bit(self) -> u32 {
@@ -359,7 +362,11 @@ mod tests {
         input.set_cursor(Some(Vec2::new(10.0, 20.0)));
         input.begin_frame();
         assert_eq!(input.mouse_motion, Vec2::ZERO);
-        assert_eq!(input.cursor, Some(Vec2::new(10.0, 20.0)), "the cursor is not per-frame");
+        assert_eq!(
+            input.cursor,
+            Some(Vec2::new(10.0, 20.0)),
+            "the cursor is not per-frame"
+        );
         input.set_cursor(Some(Vec2::new(f32::INFINITY, 0.0)));
         assert_eq!(input.cursor, None);
     }

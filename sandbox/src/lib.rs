@@ -6,5 +6,6 @@ pub mod stats;
 pub mod decal_textures;
 pub mod scatter;
 pub mod bench;
+pub mod game;
 pub mod overlay_ui;
 pub mod window;

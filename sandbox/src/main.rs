@@ -6,6 +6,8 @@ use std::path::PathBuf;
 use anyhow::{Result, bail};
 use clap::Parser;
 use render::{DebugView, DecalMethod, PipelineKind, Tier};
+use sandbox::game::play::run_scripted;
+use sandbox::game::script::Script;
 use sandbox::headless::{HeadlessOptions, SceneSource, run};
 
 /// Command line. The flags are stable; later versions add flags, none change meaning.
@@ -60,6 +62,9 @@ struct Cli {
     /// Run --frames frames with each pipeline and decal method in turn (7 combinations).
     #[arg(long)]
     compare: bool,
+    /// Headless: play this script (see sandbox::game::script) with the game's systems.
+    #[arg(long)]
+    script: Option<PathBuf>,
     /// Windowed: close after this many frames (tests).
     #[arg(long)]
     exit_after: Option<u32>,
@@ -140,20 +145,49 @@ fn main() -> Result<()> {
     if let Some(dir) = screenshot.as_ref().and_then(|p| p.parent()).filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)?;
     }
+    // Without a display, the run command still plays: the built-in demo script.
+    let script = match (&cli.script, cli.headless) {
+        (Some(path), _) => Some(Script::load(path)?),
+        (None, false) => Some(Script::parse(DEMO_SCRIPT).expect("the built-in demo script parses")),
+        (None, true) => None,
+    };
+    if let Some(script) = script {
+        let mut opts = opts;
+        if !cli.headless {
+            opts.frames = opts.frames.min(30); // after the script: a short settle
+        }
+        let summary = run_scripted(&opts, script)?;
+        report(&summary.app, &summary.frames, &screenshot, &cli.stats, &summary.validation_errors)?;
+        println!("game: {}", serde_json::to_string(&summary.game)?);
+        return Ok(());
+    }
     let summary = run(&opts)?;
-    let renderer = &summary.app.world.resource::<plugins::GpuRenderer>().0;
+    report(&summary.app, &summary.frames, &screenshot, &cli.stats, &summary.validation_errors)
+}
+
+/// The demo the run command plays when there is no display (assets/scripts/demo.txt).
+const DEMO_SCRIPT: &str = include_str!("../../assets/scripts/demo.txt");
+
+fn report(
+    app: &engine::app::App,
+    frames: &[serde_json::Value],
+    screenshot: &Option<PathBuf>,
+    stats: &Option<PathBuf>,
+    validation_errors: &[String],
+) -> Result<()> {
+    let renderer = &app.world.resource::<plugins::GpuRenderer>().0;
     println!("device: {} (tier {})", renderer.device_name(), renderer.tier().name());
-    if let Some(last) = summary.frames.last() {
+    if let Some(last) = frames.last() {
         println!("last frame: {last}");
     }
-    if let Some(p) = &screenshot {
+    if let Some(p) = screenshot {
         println!("screenshot: {}", p.display());
     }
-    if let Some(p) = &cli.stats {
-        println!("stats: {} ({} frames)", p.display(), summary.frames.len());
+    if let Some(p) = stats {
+        println!("stats: {} ({} frames)", p.display(), frames.len());
     }
-    if !summary.validation_errors.is_empty() {
-        bail!("{} Vulkan validation errors, first: {}", summary.validation_errors.len(), summary.validation_errors[0]);
+    if !validation_errors.is_empty() {
+        bail!("{} Vulkan validation errors, first: {}", validation_errors.len(), validation_errors[0]);
     }
     Ok(())
 }

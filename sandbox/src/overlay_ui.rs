@@ -53,8 +53,13 @@ impl OverlayUi {
         }
     }
 
-    /// Draws the overlay and applies what the user changed.
+    /// Draws the overlay and applies what the user changed. The crosshair is always drawn.
     pub fn show(&mut self, ctx: &egui::Context, world: &mut World) {
+        let centre = ctx.content_rect().center();
+        let painter = ctx.layer_painter(egui::LayerId::new(egui::Order::Foreground, egui::Id::new("crosshair")));
+        for (a, b) in [((-8.0, 0.0), (-3.0, 0.0)), ((3.0, 0.0), (8.0, 0.0)), ((0.0, -8.0), (0.0, -3.0)), ((0.0, 3.0), (0.0, 8.0))] {
+            painter.line_segment([centre + egui::vec2(a.0, a.1), centre + egui::vec2(b.0, b.1)], egui::Stroke::new(2.0, egui::Color32::WHITE));
+        }
         if !self.visible {
             return;
         }

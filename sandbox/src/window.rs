@@ -16,6 +16,8 @@ use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::raw_window_handle::{HasDisplayHandle, HasWindowHandle};
 use winit::window::{CursorGrabMode, Window, WindowId};
 
+use engine::input::{Input, Key, MouseButton};
+
 use crate::headless::{HeadlessOptions, build_app_with};
 use crate::overlay_ui::OverlayUi;
 
@@ -81,6 +83,9 @@ impl WindowedGame {
         };
         let size = window.inner_size();
         let mut app = build_app_with(&self.opts.base, &settings)?;
+        app.add_plugins(crate::game::GamePlugin);
+        let camera = crate::game::find_camera(&mut app.world).context("the scene has no camera to play with")?;
+        crate::game::setup_game(&mut app.world, camera)?;
         let renderer = &app.world.resource::<GpuRenderer>().0;
         let surface = renderer.create_window_surface(display, raw_window, size.width, size.height)?;
         app.insert_resource(WindowTarget(surface));
@@ -106,6 +111,10 @@ impl WindowedGame {
             Some(OverlayFrame { primitives, textures_delta: output.textures_delta, pixels_per_point: output.pixels_per_point });
 
         r.app.update();
+        // Events that arrive from now on belong to the next frame (engine::input's contract).
+        if let Some(mut input) = r.app.world.get_resource_mut::<Input>() {
+            input.begin_frame();
+        }
         if let Some(e) = r.app.world.resource::<RenderStats>().last_error.clone() {
             self.result = Err(anyhow!("rendering failed: {e}"));
             event_loop.exit();
@@ -183,14 +192,68 @@ impl ApplicationHandler for WindowedGame {
                 }
             }
             WindowEvent::RedrawRequested => self.frame(event_loop),
-            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed && !event.repeat => match event.physical_key {
-                PhysicalKey::Code(KeyCode::F1) => r.ui.visible = !r.ui.visible,
-                PhysicalKey::Code(KeyCode::Escape) if r.cursor_grabbed => Self::set_cursor_grab(r, false),
-                PhysicalKey::Code(KeyCode::Escape) => event_loop.exit(),
-                _ => {}
-            },
-            WindowEvent::MouseInput { state: ElementState::Pressed, .. } if !consumed && !r.cursor_grabbed => Self::set_cursor_grab(r, true),
+            WindowEvent::KeyboardInput { event, .. } => {
+                let pressed = event.state == ElementState::Pressed;
+                if pressed && !event.repeat {
+                    match event.physical_key {
+                        PhysicalKey::Code(KeyCode::F1) => r.ui.visible = !r.ui.visible,
+                        PhysicalKey::Code(KeyCode::Escape) if r.cursor_grabbed => Self::set_cursor_grab(r, false),
+                        PhysicalKey::Code(KeyCode::Escape) => event_loop.exit(),
+                        _ => {}
+                    }
+                }
+                // Keys go to the game unless egui is typing into a widget.
+                if let (PhysicalKey::Code(code), false) = (event.physical_key, consumed && pressed) {
+                    if let (Some(key), Some(mut input)) = (game_key(code), r.app.world.get_resource_mut::<Input>()) {
+                        if pressed { input.press(key) } else { input.release(key) }
+                    }
+                }
+            }
+            WindowEvent::MouseInput { state, button, .. } => {
+                let pressed = state == ElementState::Pressed;
+                if pressed && !consumed && !r.cursor_grabbed {
+                    // The first click captures the mouse for mouse look; it does not shoot.
+                    Self::set_cursor_grab(r, true);
+                } else if r.cursor_grabbed || !pressed {
+                    let button = match button {
+                        winit::event::MouseButton::Left => Some(MouseButton::Left),
+                        winit::event::MouseButton::Right => Some(MouseButton::Right),
+                        winit::event::MouseButton::Middle => Some(MouseButton::Middle),
+                        _ => None,
+                    };
+                    if let (Some(button), Some(mut input)) = (button, r.app.world.get_resource_mut::<Input>()) {
+                        if pressed { input.press_button(button) } else { input.release_button(button) }
+                    }
+                }
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                if let Some(mut input) = r.app.world.get_resource_mut::<Input>() {
+                    input.set_cursor(Some(glam::Vec2::new(position.x as f32, position.y as f32)));
+                }
+            }
+            WindowEvent::CursorLeft { .. } => {
+                if let Some(mut input) = r.app.world.get_resource_mut::<Input>() {
+                    input.set_cursor(None);
+                }
+            }
+            WindowEvent::Focused(false) => {
+                if let Some(mut input) = r.app.world.get_resource_mut::<Input>() {
+                    input.release_all(); // no key stays stuck down while another window has focus
+                }
+                Self::set_cursor_grab(r, false);
+            }
             _ => {}
+        }
+    }
+
+    fn device_event(&mut self, _event_loop: &ActiveEventLoop, _device: winit::event::DeviceId, event: winit::event::DeviceEvent) {
+        let Some(r) = self.running.as_mut() else { return };
+        if let winit::event::DeviceEvent::MouseMotion { delta } = event {
+            if r.cursor_grabbed {
+                if let Some(mut input) = r.app.world.get_resource_mut::<Input>() {
+                    input.add_mouse_motion(glam::Vec2::new(delta.0 as f32, delta.1 as f32));
+                }
+            }
         }
     }
 
@@ -203,4 +266,33 @@ impl ApplicationHandler for WindowedGame {
     fn exiting(&mut self, _event_loop: &ActiveEventLoop) {
         self.shut_down();
     }
+}
+
+/// The game's key for a physical key, if the game uses it.
+fn game_key(code: KeyCode) -> Option<Key> {
+    Some(match code {
+        KeyCode::KeyW => Key::W,
+        KeyCode::KeyA => Key::A,
+        KeyCode::KeyS => Key::S,
+        KeyCode::KeyD => Key::D,
+        KeyCode::KeyE => Key::E,
+        KeyCode::KeyF => Key::F,
+        KeyCode::KeyL => Key::L,
+        KeyCode::Space => Key::Space,
+        KeyCode::ShiftLeft | KeyCode::ShiftRight => Key::Shift,
+        KeyCode::Escape => Key::Escape,
+        KeyCode::Tab => Key::Tab,
+        KeyCode::F1 => Key::F1,
+        KeyCode::Digit0 => Key::Digit0,
+        KeyCode::Digit1 => Key::Digit1,
+        KeyCode::Digit2 => Key::Digit2,
+        KeyCode::Digit3 => Key::Digit3,
+        KeyCode::Digit4 => Key::Digit4,
+        KeyCode::Digit5 => Key::Digit5,
+        KeyCode::Digit6 => Key::Digit6,
+        KeyCode::Digit7 => Key::Digit7,
+        KeyCode::Digit8 => Key::Digit8,
+        KeyCode::Digit9 => Key::Digit9,
+        _ => return None,
+    })
 }

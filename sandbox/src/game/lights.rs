@@ -34,7 +34,12 @@ pub fn vivid_colour(rng: &mut SplitMix64) -> Vec3 {
 }
 
 /// Where a light dropped along the ray from `origin` in `direction` goes (see the module docs).
-pub fn light_position(raycaster: &SceneRaycaster, settings: &GameSettings, origin: Vec3, direction: Vec3) -> Vec3 {
+pub fn light_position(
+    raycaster: &SceneRaycaster,
+    settings: &GameSettings,
+    origin: Vec3,
+    direction: Vec3,
+) -> Vec3 {
     let Some(hit) = raycaster.cast(origin, direction, settings.max_shot_distance) else {
         return origin + direction * settings.light_fallback_distance;
     };
@@ -62,16 +67,28 @@ pub fn drop_light(
     if !input.just_pressed(Key::L) {
         return;
     }
-    let Ok((camera, transform)) = players.single() else { return };
+    let Ok((camera, transform)) = players.single() else {
+        return;
+    };
     let aspect = render_aspect(render_settings.as_deref());
     let Some((origin, direction)) = screen_ray(camera, transform, aspect, crosshair.0) else {
         return;
     };
     let position = light_position(&raycaster, &settings, origin, direction);
-    let light = PointLight { color: vivid_colour(&mut rng.0), intensity: settings.light_intensity, range: None };
+    let light = PointLight {
+        color: vivid_colour(&mut rng.0),
+        intensity: settings.light_intensity,
+        range: None,
+    };
     let transform = Transform::from_translation(position);
     let entity = commands
-        .spawn((light, transform, GlobalTransform::from(transform), GameLight, Name::new("Dropped light")))
+        .spawn((
+            light,
+            transform,
+            GlobalTransform::from(transform),
+            GameLight,
+            Name::new("Dropped light"),
+        ))
         .id();
     order.push(entity);
     stats.lights += 1;
@@ -96,16 +113,31 @@ mod tests {
         let reddest = colours.iter().filter(|c| c.x == 1.0).count();
         let greenest = colours.iter().filter(|c| c.y == 1.0).count();
         let bluest = colours.iter().filter(|c| c.z == 1.0).count();
-        assert!(reddest > 5 && greenest > 5 && bluest > 5, "{reddest} {greenest} {bluest}");
+        assert!(
+            reddest > 5 && greenest > 5 && bluest > 5,
+            "{reddest} {greenest} {bluest}"
+        );
     }
 
     #[test]
     fn lights_float_in_front_of_surfaces() {
         let floor = shapes::plane(10.0, 10.0, 1, 1.0);
-        let raycaster = SceneRaycaster::from_meshes([(Entity::from_raw_u32(1).unwrap(), &floor, Affine3A::IDENTITY)]);
+        let raycaster = SceneRaycaster::from_meshes([(
+            Entity::from_raw_u32(1).unwrap(),
+            &floor,
+            Affine3A::IDENTITY,
+        )]);
         let settings = GameSettings::default();
-        let p = light_position(&raycaster, &settings, Vec3::new(0.0, 2.0, 0.0), Vec3::new(0.0, -1.0, -1.0));
-        assert!((p - Vec3::new(0.0, 1.0 + 1e-3, -2.0)).length() < 1e-4, "{p}");
+        let p = light_position(
+            &raycaster,
+            &settings,
+            Vec3::new(0.0, 2.0, 0.0),
+            Vec3::new(0.0, -1.0, -1.0),
+        );
+        assert!(
+            (p - Vec3::new(0.0, 1.0 + 1e-3, -2.0)).length() < 1e-4,
+            "{p}"
+        );
         let p = light_position(&raycaster, &settings, Vec3::new(0.0, 2.0, 0.0), Vec3::Y);
         assert!((p - Vec3::new(0.0, 5.0, 0.0)).length() < 1e-5, "{p}");
     }

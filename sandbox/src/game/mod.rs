@@ -22,7 +22,7 @@
 //!
 //! let mut app = App::new();
 //! app.add_plugins(RenderPlugin::new(RenderSettings::default()));
-//! app.add_plugins(GamePlugin::default());
+//! app.add_plugins(GamePlugin);
 //! let courtyard = sandbox::scene::spawn_courtyard(&mut app.world);
 //! setup_game(&mut app.world, courtyard.camera)?; // the courtyard's camera becomes the player
 //! loop {
@@ -47,7 +47,7 @@ pub mod raycast;
 pub mod script;
 pub mod shooting;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, anyhow, bail};
 use bevy_ecs::prelude::*;
 use bevy_ecs::system::RunSystemOnce;
 use engine::app::{App, Plugin, PostUpdate, PreUpdate, Update};
@@ -151,7 +151,8 @@ impl GameAssets {
         world.init_resource::<Assets<DecalMaterial>>();
         let assets = world.resource_scope(|world, mut materials: Mut<Assets<DecalMaterial>>| {
             let mut images = world.resource_mut::<Assets<Image>>();
-            let mut add = |set| materials.add(crate::decal_textures::decal_material(&set, &mut images));
+            let mut add =
+                |set| materials.add(crate::decal_textures::decal_material(&set, &mut images));
             GameAssets {
                 bullet_hole: add(crate::decal_textures::bullet_hole()),
                 footprint: add(crate::decal_textures::footprint()),
@@ -186,11 +187,12 @@ pub enum GameSystems {
     Move,
     /// [`footprints::lay_footprints`], [`shooting::shoot`], [`lights::drop_light`].
     Act,
-    /// [`decal_cap::enforce_decal_cap`], [`decal_cap::enforce_light_cap`].
+    /// [`decal_cap::enforce_decal_cap`], [`decal_cap::enforce_light_cap`]. `Act` runs before
+    /// and `Recycle` after `plugins::decal::update_decal_lifetimes`.
     Recycle,
 }
 
-/// Adds the game: its resources ([`Input`] through `engine`'s [`InputPlugin`],
+/// Adds the game: its resources ([`engine::input::Input`] through [`InputPlugin`],
 /// [`GameSettings`], [`GameRng`], [`DecalCap`], [`LightCap`], [`Crosshair`], [`GameStats`],
 /// an empty [`SceneRaycaster`]), the gameplay systems in `Update` ([`GameSystems`]), the script
 /// player in `PreUpdate` (active while a [`ScriptPlayer`] resource exists) and the raycaster's
@@ -216,7 +218,11 @@ impl Plugin for GamePlugin {
         world.init_resource::<SceneRaycaster>();
 
         app.schedule_mut(Update)
-            .configure_sets((GameSystems::Move, GameSystems::Act, GameSystems::Recycle).chain());
+            .configure_sets((GameSystems::Move, GameSystems::Act, GameSystems::Recycle).chain())
+            // A decal's lifetime starts counting down in the frame it was spawned, and the caps
+            // see the decals whose lifetime ended this frame as gone.
+            .configure_sets(GameSystems::Act.before(plugins::decal::update_decal_lifetimes))
+            .configure_sets(GameSystems::Recycle.after(plugins::decal::update_decal_lifetimes));
         app.add_systems(
             PreUpdate,
             script::play_script.run_if(resource_exists::<ScriptPlayer>),
@@ -224,7 +230,11 @@ impl Plugin for GamePlugin {
         app.add_systems(Update, player::move_player.in_set(GameSystems::Move));
         app.add_systems(
             Update,
-            (footprints::lay_footprints, shooting::shoot, lights::drop_light)
+            (
+                footprints::lay_footprints,
+                shooting::shoot,
+                lights::drop_light,
+            )
                 .chain()
                 .in_set(GameSystems::Act),
         );
@@ -261,7 +271,7 @@ pub fn setup_game(world: &mut World, camera: Entity) -> Result<()> {
     }
     world
         .run_system_once(propagate_transforms)
-        .context("propagating transforms")?;
+        .map_err(|error| anyhow!("propagating transforms: {error}"))?;
     let global = world
         .get::<GlobalTransform>(camera)
         .copied()
@@ -281,15 +291,9 @@ pub fn setup_game(world: &mut World, camera: Entity) -> Result<()> {
     GameAssets::init(world);
     // Built after `Player` is inserted, so that meshes under the camera are left out.
     let raycaster = SceneRaycaster::build(world);
-    let step = controller.walk(&raycaster, transform.translation, Vec3::ZERO);
     world.insert_resource(raycaster);
-    let mut entity = world.entity_mut(camera);
-    if let Some(mut transform) = entity.get_mut::<Transform>() {
-        transform.translation = step.eye;
-    }
-    if let Some(mut motion) = entity.get_mut::<PlayerMotion>() {
-        *motion = PlayerMotion::standing(step.feet, step.floor);
-    }
+    let feet = global.translation() - Vec3::Y * controller.eye_height;
+    teleport(world, camera, feet, global.forward())?;
     Ok(())
 }
 
@@ -313,6 +317,35 @@ pub fn spawn_player(world: &mut World, feet: Vec3, forward: Vec3) -> Result<Enti
         return Err(error);
     }
     Ok(camera)
+}
+
+/// Moves the player entity `player` to stand at `feet` (on the floor below, if any) looking
+/// along `forward` (its pitch included), as on a respawn: the controller keeps its other
+/// settings, this frame's motion and the footprint trail start afresh. Uses the current
+/// [`SceneRaycaster`] to find the floor. Fails when `player` has no [`PlayerController`] or
+/// `feet` is not finite.
+pub fn teleport(world: &mut World, player: Entity, feet: Vec3, forward: Vec3) -> Result<()> {
+    if !feet.is_finite() {
+        bail!("the player position {feet} is not finite");
+    }
+    let Some(mut controller) = world.get::<PlayerController>(player).copied() else {
+        bail!("entity {player} is not a player (no PlayerController)");
+    };
+    let looking = PlayerController::looking_along(forward);
+    (controller.yaw, controller.pitch) = (looking.yaw, looking.pitch);
+    let eye = feet + Vec3::Y * controller.eye_height;
+    let step = controller.walk(
+        &world.get_resource_or_init::<SceneRaycaster>(),
+        eye,
+        Vec3::ZERO,
+    );
+    world.entity_mut(player).insert((
+        controller,
+        Transform::from_translation(step.eye).with_rotation(controller.rotation()),
+        PlayerMotion::standing(step.feet, step.floor),
+        FootprintTrail::default(),
+    ));
+    Ok(())
 }
 
 /// The first active camera in the world, for scenes that do not say which one to play with.
@@ -365,7 +398,10 @@ mod tests {
     fn setup_game_rejects_bad_entities() {
         let mut app = App::new();
         let not_a_camera = app.world.spawn(Transform::IDENTITY).id();
-        assert!(setup_game(&mut app.world, not_a_camera).is_err(), "needs GamePlugin");
+        assert!(
+            setup_game(&mut app.world, not_a_camera).is_err(),
+            "needs GamePlugin"
+        );
         app.add_plugins(GamePlugin);
         let error = setup_game(&mut app.world, not_a_camera).unwrap_err();
         assert!(error.to_string().contains("no Camera"), "{error}");

@@ -4,8 +4,9 @@
 //! The BVH comes from the [`obvhs`] crate (a PLOC builder with reinsertion optimisation, and a
 //! stack-based closest-hit traversal); this module supplies the triangles and the ray–triangle
 //! test (Möller–Trumbore, double-sided, edges inclusive so that a ray along a shared edge of a
-//! floor does not slip through). obvhs 0.3 is used because it is the release line built on
-//! glam 0.30, the version of the rest of the workspace (0.4 moved to glam 0.33).
+//! floor does not slip through). obvhs 0.3 is used because it is the release line that accepts
+//! glam 0.30, the version of the rest of the workspace (0.4 requires glam 0.33); vectors cross
+//! the boundary as arrays, so this module also builds if obvhs resolves to a newer glam.
 //!
 //! Solid means: every entity with a `MeshInstance` and a `GlobalTransform` whose mesh is in
 //! `Assets<Mesh>`, except the [`Player`] and its descendants (the player never shoots or stands
@@ -59,27 +60,28 @@ struct Triangle {
 }
 
 impl Triangle {
-    /// Distance to the intersection with `ray` within its `[tmin, tmax]`, or infinity.
-    fn intersect(&self, ray: &Ray) -> f32 {
-        let p = ray.direction.cross(self.e2);
+    /// Distance to the intersection of the ray from `origin` along `direction` within
+    /// `[tmin, tmax]`, or infinity.
+    fn intersect(&self, origin: Vec3A, direction: Vec3A, tmin: f32, tmax: f32) -> f32 {
+        let p = direction.cross(self.e2);
         let det = self.e1.dot(p);
-        // Parallel to the plane (or degenerate): no hit. Written so that NaN also misses.
-        if !(det.abs() > f32::MIN_POSITIVE) {
+        // Parallel to the plane, degenerate, or NaN: no hit.
+        if det.is_nan() || det.abs() <= f32::MIN_POSITIVE {
             return f32::INFINITY;
         }
         let inv_det = 1.0 / det;
-        let s = ray.origin - self.v0;
+        let s = origin - self.v0;
         let u = s.dot(p) * inv_det;
         if !(0.0..=1.0).contains(&u) {
             return f32::INFINITY;
         }
         let q = s.cross(self.e1);
-        let v = ray.direction.dot(q) * inv_det;
+        let v = direction.dot(q) * inv_det;
         if !(v >= 0.0 && u + v <= 1.0) {
             return f32::INFINITY;
         }
         let t = self.e2.dot(q) * inv_det;
-        if t >= ray.tmin && t <= ray.tmax {
+        if t >= tmin && t <= tmax {
             t
         } else {
             f32::INFINITY
@@ -157,9 +159,10 @@ impl SceneRaycaster {
         let boxes: Vec<obvhs::triangle::Triangle> = triangles
             .iter()
             .map(|t| obvhs::triangle::Triangle {
-                v0: t.v0,
-                v1: t.v0 + t.e1,
-                v2: t.v0 + t.e2,
+                // `into` from arrays: whichever glam version obvhs is built with.
+                v0: t.v0.to_array().into(),
+                v1: (t.v0 + t.e1).to_array().into(),
+                v2: (t.v0 + t.e2).to_array().into(),
             })
             .collect();
         let bvh = build_bvh2_from_tris(
@@ -186,20 +189,31 @@ impl SceneRaycaster {
     /// origins, zero or non-finite directions and non-positive `max_t` hit nothing.
     pub fn cast(&self, origin: Vec3, direction: Vec3, max_t: f32) -> Option<Hit> {
         let direction = direction.try_normalize()?;
-        if self.triangles.is_empty() || !origin.is_finite() || !(max_t > 0.0) {
+        if self.triangles.is_empty() || !origin.is_finite() || max_t.is_nan() || max_t <= 0.0 {
             return None;
         }
-        let ray = Ray::new(origin.into(), direction.into(), 0.0, max_t);
+        let ray = Ray::new(
+            origin.to_array().into(),
+            direction.to_array().into(),
+            0.0,
+            max_t,
+        );
+        let (from, along) = (Vec3A::from(origin), Vec3A::from(direction));
         let mut hit = RayHit::none();
-        let found = self
-            .bvh
-            .ray_traverse(ray, &mut hit, |ray, i| self.triangles[i].intersect(ray));
+        // obvhs shrinks the ray's `tmax` to the nearest hit so far as it traverses.
+        let found = self.bvh.ray_traverse(ray, &mut hit, |ray, i| {
+            self.triangles[i].intersect(from, along, ray.tmin, ray.tmax)
+        });
         if !found {
             return None;
         }
         let triangle = self.triangles.get(hit.primitive_id as usize)?;
         let normal = Vec3::from(triangle.e1.cross(triangle.e2)).normalize_or_zero();
-        let normal = if normal.dot(direction) > 0.0 { -normal } else { normal };
+        let normal = if normal.dot(direction) > 0.0 {
+            -normal
+        } else {
+            normal
+        };
         Some(Hit {
             t: hit.t,
             point: origin + direction * hit.t,
@@ -243,7 +257,11 @@ type Instances<'w, 's> = Query<
 >;
 
 /// Whether `entity` is the player or one of its descendants.
-fn belongs_to_player(entity: Entity, players: &Query<Ref<Player>>, parents: &Query<&ChildOf>) -> bool {
+fn belongs_to_player(
+    entity: Entity,
+    players: &Query<Ref<Player>>,
+    parents: &Query<&ChildOf>,
+) -> bool {
     // Hierarchies deeper than this are not expected; stopping keeps a corrupt (cyclic) one
     // from hanging the game.
     const MAX_DEPTH: usize = 256;
@@ -267,11 +285,14 @@ fn gather(
     parents: &Query<&ChildOf>,
     meshes: &Assets<Mesh>,
 ) -> SceneRaycaster {
-    SceneRaycaster::from_meshes(instances.iter().filter_map(|(entity, instance, global, receiver)| {
-        let solid = receiver.is_none_or(|r| r.0 != 0) && !belongs_to_player(entity, players, parents);
-        let mesh = meshes.get(instance.mesh).filter(|_| solid)?;
-        Some((entity, mesh, global.affine()))
-    }))
+    SceneRaycaster::from_meshes(instances.iter().filter_map(
+        |(entity, instance, global, receiver)| {
+            let solid =
+                receiver.is_none_or(|r| r.0 != 0) && !belongs_to_player(entity, players, parents);
+            let mesh = meshes.get(instance.mesh).filter(|_| solid)?;
+            Some((entity, mesh, global.affine()))
+        },
+    ))
 }
 
 /// [`gather`] as a one-shot system for [`SceneRaycaster::build`].
@@ -311,12 +332,14 @@ pub fn rebuild_raycaster(
         Some(built) => {
             removed
                 || players.iter().any(|player| player.is_added_after(built))
-                || instances.iter().any(|(entity, instance, global, receiver)| {
-                    let changed = instance.is_changed_after(built)
-                        || global.is_changed_after(built)
-                        || receiver.is_some_and(|r| r.is_changed_after(built));
-                    changed && !belongs_to_player(entity, &players, &parents)
-                })
+                || instances
+                    .iter()
+                    .any(|(entity, instance, global, receiver)| {
+                        let changed = instance.is_changed_after(built)
+                            || global.is_changed_after(built)
+                            || receiver.is_some_and(|r| r.is_changed_after(built));
+                        changed && !belongs_to_player(entity, &players, &parents)
+                    })
         }
     };
     if stale {
@@ -340,48 +363,99 @@ mod tests {
 
     fn spawn_mesh(world: &mut World, mesh: Mesh, transform: Transform) -> Entity {
         let mesh = world.resource_mut::<Assets<Mesh>>().add(mesh);
-        let material = world.resource_mut::<Assets<Material>>().add(Material::default());
-        world.spawn((transform, MeshInstance { mesh, material })).id()
+        let material = world
+            .resource_mut::<Assets<Material>>()
+            .add(Material::default());
+        world
+            .spawn((transform, MeshInstance { mesh, material }))
+            .id()
     }
 
     #[test]
     fn hits_the_nearest_surface_with_a_facing_normal() {
         let mut app = App::new();
-        let ground = spawn_mesh(&mut app.world, shapes::plane(10.0, 10.0, 3, 1.0), Transform::IDENTITY);
-        let cube = spawn_mesh(&mut app.world, shapes::cuboid(Vec3::ONE, 1.0), Transform::from_xyz(0.0, 0.5, 0.0));
+        let ground = spawn_mesh(
+            &mut app.world,
+            shapes::plane(10.0, 10.0, 3, 1.0),
+            Transform::IDENTITY,
+        );
+        let cube = spawn_mesh(
+            &mut app.world,
+            shapes::cuboid(Vec3::ONE, 1.0),
+            Transform::from_xyz(0.0, 0.5, 0.0),
+        );
         let raycaster = SceneRaycaster::build(&mut app.world);
         assert_eq!(raycaster.instance_count(), 2);
 
-        let down = raycaster.cast(Vec3::new(0.2, 5.0, 0.1), Vec3::NEG_Y * 3.0, f32::INFINITY).unwrap();
+        let down = raycaster
+            .cast(Vec3::new(0.2, 5.0, 0.1), Vec3::NEG_Y * 3.0, f32::INFINITY)
+            .unwrap();
         assert_eq!(down.entity, cube);
         assert!((down.t - 4.0).abs() < 1e-5 && (down.point.y - 1.0).abs() < 1e-5);
         assert!((down.normal - Vec3::Y).length() < 1e-5);
 
-        let beside = raycaster.cast(Vec3::new(3.0, 5.0, 0.0), Vec3::NEG_Y, f32::INFINITY).unwrap();
+        let beside = raycaster
+            .cast(Vec3::new(3.0, 5.0, 0.0), Vec3::NEG_Y, f32::INFINITY)
+            .unwrap();
         assert_eq!(beside.entity, ground);
         // From below, the ground's normal faces down, towards the ray.
-        let below = raycaster.cast(Vec3::new(3.0, -1.0, 0.0), Vec3::Y, f32::INFINITY).unwrap();
+        let below = raycaster
+            .cast(Vec3::new(3.0, -1.0, 0.0), Vec3::Y, f32::INFINITY)
+            .unwrap();
         assert!((below.normal - Vec3::NEG_Y).length() < 1e-5);
         // Out of range, bad input, away from everything.
-        assert!(raycaster.cast(Vec3::new(3.0, 5.0, 0.0), Vec3::NEG_Y, 4.9).is_none());
-        assert!(raycaster.cast(Vec3::new(3.0, 5.0, 0.0), Vec3::ZERO, 10.0).is_none());
+        assert!(
+            raycaster
+                .cast(Vec3::new(3.0, 5.0, 0.0), Vec3::NEG_Y, 4.9)
+                .is_none()
+        );
+        assert!(
+            raycaster
+                .cast(Vec3::new(3.0, 5.0, 0.0), Vec3::ZERO, 10.0)
+                .is_none()
+        );
         assert!(raycaster.cast(Vec3::NAN, Vec3::NEG_Y, 10.0).is_none());
-        assert!(raycaster.cast(Vec3::new(3.0, 5.0, 0.0), Vec3::Y, f32::INFINITY).is_none());
-        assert!(SceneRaycaster::default().cast(Vec3::ZERO, Vec3::NEG_Y, 1.0).is_none());
+        assert!(
+            raycaster
+                .cast(Vec3::new(3.0, 5.0, 0.0), Vec3::Y, f32::INFINITY)
+                .is_none()
+        );
+        assert!(
+            SceneRaycaster::default()
+                .cast(Vec3::ZERO, Vec3::NEG_Y, 1.0)
+                .is_none()
+        );
     }
 
     #[test]
     fn player_and_non_receivers_are_not_solid() {
         let mut app = App::new();
-        let ground = spawn_mesh(&mut app.world, shapes::plane(10.0, 10.0, 1, 1.0), Transform::IDENTITY);
-        let player = app.world.spawn((Player, Transform::from_xyz(0.0, 1.0, 0.0))).id();
-        let body = spawn_mesh(&mut app.world, shapes::cuboid(Vec3::splat(0.5), 1.0), Transform::IDENTITY);
+        let ground = spawn_mesh(
+            &mut app.world,
+            shapes::plane(10.0, 10.0, 1, 1.0),
+            Transform::IDENTITY,
+        );
+        let player = app
+            .world
+            .spawn((Player, Transform::from_xyz(0.0, 1.0, 0.0)))
+            .id();
+        let body = spawn_mesh(
+            &mut app.world,
+            shapes::cuboid(Vec3::splat(0.5), 1.0),
+            Transform::IDENTITY,
+        );
         app.world.entity_mut(body).insert(ChildOf(player));
-        let glass = spawn_mesh(&mut app.world, shapes::plane(10.0, 10.0, 1, 1.0), Transform::from_xyz(0.0, 3.0, 0.0));
+        let glass = spawn_mesh(
+            &mut app.world,
+            shapes::plane(10.0, 10.0, 1, 1.0),
+            Transform::from_xyz(0.0, 3.0, 0.0),
+        );
         app.world.entity_mut(glass).insert(DecalReceiver(0));
         let raycaster = SceneRaycaster::build(&mut app.world);
         assert_eq!(raycaster.instance_count(), 1);
-        let hit = raycaster.cast(Vec3::new(0.0, 5.0, 0.0), Vec3::NEG_Y, 10.0).unwrap();
+        let hit = raycaster
+            .cast(Vec3::new(0.0, 5.0, 0.0), Vec3::NEG_Y, 10.0)
+            .unwrap();
         assert_eq!(hit.entity, ground);
     }
 
@@ -393,9 +467,17 @@ mod tests {
             engine::app::PostUpdate,
             rebuild_raycaster.after(engine::transform::TransformSystems::Propagate),
         );
-        let cube = spawn_mesh(&mut app.world, shapes::cuboid(Vec3::ONE, 1.0), Transform::IDENTITY);
+        let cube = spawn_mesh(
+            &mut app.world,
+            shapes::cuboid(Vec3::ONE, 1.0),
+            Transform::IDENTITY,
+        );
         let player = app.world.spawn((Player, Transform::IDENTITY)).id();
-        let body = spawn_mesh(&mut app.world, shapes::cuboid(Vec3::ONE, 1.0), Transform::IDENTITY);
+        let body = spawn_mesh(
+            &mut app.world,
+            shapes::cuboid(Vec3::ONE, 1.0),
+            Transform::IDENTITY,
+        );
         app.world.entity_mut(body).insert(ChildOf(player));
         let hit_x = |app: &App| {
             app.world
@@ -409,7 +491,11 @@ mod tests {
         // Moving the player (and with it its body) does not rebuild: mark the snapshot so a
         // rebuild would be visible as a different `built` tick.
         let built = app.world.resource::<SceneRaycaster>().built;
-        app.world.get_mut::<Transform>(player).unwrap().translation.x = 3.0;
+        app.world
+            .get_mut::<Transform>(player)
+            .unwrap()
+            .translation
+            .x = 3.0;
         app.update();
         assert_eq!(app.world.resource::<SceneRaycaster>().built, built);
         // Moving a solid instance does.

@@ -46,13 +46,21 @@ pub struct BulletHole;
 /// bottom-right) of a camera at `camera_transform` (world space, scale ignored), for a viewport
 /// of `aspect` = width / height: its origin (the eye) and unit direction. `None` for
 /// non-finite input.
-pub fn screen_ray(camera: &Camera, camera_transform: &Transform, aspect: f32, screen: Vec2) -> Option<(Vec3, Vec3)> {
+pub fn screen_ray(
+    camera: &Camera,
+    camera_transform: &Transform,
+    aspect: f32,
+    screen: Vec2,
+) -> Option<(Vec3, Vec3)> {
     if !screen.is_finite() || !camera_transform.translation.is_finite() {
         return None;
     }
     let ndc = Vec2::new(2.0 * screen.x - 1.0, 1.0 - 2.0 * screen.y);
     // Reverse-Z: depth 1 is the near plane, the only finite one of an infinite projection.
-    let near = camera.projection(aspect).inverse().project_point3(ndc.extend(1.0));
+    let near = camera
+        .projection(aspect)
+        .inverse()
+        .project_point3(ndc.extend(1.0));
     let direction = (camera_transform.rotation.normalize() * near).try_normalize()?;
     Some((camera_transform.translation, direction))
 }
@@ -109,7 +117,8 @@ pub fn shoot(
     };
     stats.hits += 1;
     let angle = rng.0.range_f32(0.0, std::f32::consts::TAU);
-    let transform = bullet_hole_transform(&hit, settings.bullet_hole_size, settings.decal_depth, angle);
+    let transform =
+        bullet_hole_transform(&hit, settings.bullet_hole_size, settings.decal_depth, angle);
     let mut decal = Decal::new(assets.bullet_hole);
     decal.receivers = GAME_DECAL_RECEIVERS;
     let entity = commands
@@ -132,7 +141,8 @@ mod tests {
     #[test]
     fn screen_ray_matches_the_projection() {
         let camera = Camera::default();
-        let transform = Transform::from_xyz(1.0, 2.0, 3.0).looking_at(Vec3::new(1.0, 2.0, -10.0), Vec3::Y);
+        let transform =
+            Transform::from_xyz(1.0, 2.0, 3.0).looking_at(Vec3::new(1.0, 2.0, -10.0), Vec3::Y);
         let aspect = 2.0;
         let (origin, centre) = screen_ray(&camera, &transform, aspect, Vec2::splat(0.5)).unwrap();
         assert_eq!(origin, transform.translation);
@@ -141,7 +151,10 @@ mod tests {
         let (_, corner) = screen_ray(&camera, &transform, aspect, Vec2::new(1.0, 0.0)).unwrap();
         let tan = (camera.fov_y * 0.5).tan();
         let expected = Vec3::new(tan * aspect, tan, -1.0).normalize();
-        assert!((corner - expected).length() < 1e-5, "{corner} vs {expected}");
+        assert!(
+            (corner - expected).length() < 1e-5,
+            "{corner} vs {expected}"
+        );
         // And projects back to that corner.
         let view_proj = camera.projection(aspect) * transform.compute_matrix().inverse();
         let ndc = view_proj.project_point3(origin + corner * 5.0);
@@ -165,6 +178,9 @@ mod tests {
         }
         let a = bullet_hole_transform(&hit, 0.25, 0.2, 0.0).rotation * Vec3::X;
         let b = bullet_hole_transform(&hit, 0.25, 0.2, 1.0).rotation * Vec3::X;
-        assert!((a.dot(b) - 1f32.cos()).abs() < 1e-5, "rotated about the normal by the angle");
+        assert!(
+            (a.dot(b) - 1f32.cos()).abs() < 1e-5,
+            "rotated about the normal by the angle"
+        );
     }
 }
