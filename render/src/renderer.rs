@@ -522,16 +522,23 @@ impl Renderer {
         unsafe {
             d.end_command_buffer(cmd)?;
             let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
-            let mut signals = vec![vk::SemaphoreSubmitInfo::default()
+            // Fixed-size arrays, sliced: a steady-state frame allocates nothing.
+            let timeline = vk::SemaphoreSubmitInfo::default()
                 .semaphore(res.timeline)
                 .value(frame_value)
-                .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)];
-            let mut waits = Vec::new();
-            if let Some(image) = &acquired {
-                waits.push(vk::SemaphoreSubmitInfo::default().semaphore(image.wait).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS));
-                signals.push(vk::SemaphoreSubmitInfo::default().semaphore(image.signal).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS));
-            }
-            let submit = vk::SubmitInfo2::default().command_buffer_infos(&cmds).wait_semaphore_infos(&waits).signal_semaphore_infos(&signals);
+                .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS);
+            let (waits, signals, n) = match &acquired {
+                Some(image) => (
+                    [vk::SemaphoreSubmitInfo::default().semaphore(image.wait).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)],
+                    [timeline, vk::SemaphoreSubmitInfo::default().semaphore(image.signal).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)],
+                    1,
+                ),
+                None => ([vk::SemaphoreSubmitInfo::default()], [timeline, vk::SemaphoreSubmitInfo::default()], 0),
+            };
+            let submit = vk::SubmitInfo2::default()
+                .command_buffer_infos(&cmds)
+                .wait_semaphore_infos(&waits[..n])
+                .signal_semaphore_infos(&signals[..1 + n]);
             d.queue_submit2(ctx.queue, &[submit], vk::Fence::null())?;
         }
         if let (Some((surface, _)), Some(image)) = (&mut window, &acquired) {
