@@ -109,6 +109,8 @@ impl ValidationLog {
     }
 }
 
+// SAFETY: called only by the Vulkan loader, with the callback data valid for the call and `user`
+// set to the `ValidationLog` this module registered (see `GpuContext::new`).
 unsafe extern "system" fn debug_callback(
     severity: vk::DebugUtilsMessageSeverityFlagsEXT,
     kind: vk::DebugUtilsMessageTypeFlagsEXT,
