@@ -85,7 +85,7 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
                 .map(|_| {
                     let size = rng.range_f32(1.5, 3.0);
                     let centre = Vec3::new(rng.range_f32(-19.0, 19.0), 0.0, rng.range_f32(-19.0, 19.0));
-                    ground_decal(puddle, centre, size, size, rng.range_f32(0.0, 6.28), 0, 1.0)
+                    ground_decal(puddle, centre, size, size, rng.range_f32(0.0, std::f32::consts::TAU), 0, 1.0)
                 })
                 .collect();
             world.spawn_batch(batch);
@@ -107,7 +107,7 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
                 .map(|_| {
                     let size = rng.range_f32(0.2, 0.6);
                     let centre = Vec3::new(rng.range_f32(-21.5, 21.5), 0.0, rng.range_f32(-21.5, 21.5));
-                    ground_decal(leaves, centre, size, 0.2, rng.range_f32(0.0, 6.28), 0, 1.0)
+                    ground_decal(leaves, centre, size, 0.2, rng.range_f32(0.0, std::f32::consts::TAU), 0, 1.0)
                 })
                 .collect();
             world.spawn_batch(batch);

@@ -156,7 +156,7 @@ fn random_overlapping_stacks_match_the_cpu_blending_reference() {
                     Vec3::new(rng.range(-1.0, 1.0), 0.0, rng.range(-0.8, 0.8)),
                     Vec2::new(rng.range(1.5, 3.0), rng.range(1.5, 3.0)),
                     1.0,
-                    rng.range(0.0, 6.28),
+                    rng.range(0.0, std::f32::consts::TAU),
                 );
                 let has_albedo = rng.next() < 0.8;
                 RefDecal {
