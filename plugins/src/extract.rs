@@ -211,14 +211,12 @@ pub fn extract_materials(
     // An instance's draw item caches its material's alpha mode and sidedness.
     if !changed_flags.is_empty() {
         for (entity, inst) in &instances {
-            if changed_flags.contains(&inst.material) {
-                if let (Some(&slot), Some(&(_, flags))) = (slots.instances.get(&entity), slots.materials.get(&inst.material)) {
-                    if let Some(Some(draw)) = mirror.draws.get_mut(slot as usize) {
+            if changed_flags.contains(&inst.material)
+                && let (Some(&slot), Some(&(_, flags))) = (slots.instances.get(&entity), slots.materials.get(&inst.material))
+                    && let Some(Some(draw)) = mirror.draws.get_mut(slot as usize) {
                         draw.alpha_mask = flags.alpha_mask;
                         draw.double_sided = flags.double_sided;
                     }
-                }
-            }
         }
     }
 }
@@ -371,10 +369,12 @@ pub fn extract_decal_materials(mut materials: ResMut<Assets<DecalMaterial>>, mut
     }
 }
 
+type ChangedDecal = Or<(Changed<Decal>, Changed<GlobalTransform>)>;
+
 /// Mirrors decals that were spawned, moved (directly or through a parent) or edited into their
 /// stable slots, with their boxes; frees despawned ones. Unchanged decals cost nothing.
 pub fn extract_decals(
-    changed: Query<(Entity, &Decal, &GlobalTransform), Or<(Changed<Decal>, Changed<GlobalTransform>)>>,
+    changed: Query<(Entity, &Decal, &GlobalTransform), ChangedDecal>,
     mut removed: RemovedComponents<Decal>,
     live: Query<(), With<Decal>>,
     mut mirror: ResMut<RenderMirror>,

@@ -513,6 +513,7 @@ impl GpuScene {
 
     /// Brings the GPU scene up to date with `mirror`, recording copies into `cmd`. Only dirty
     /// records, new meshes and new textures are copied.
+    #[allow(clippy::too_many_arguments)]
     pub fn sync(
         &mut self,
         ctx: &GpuContext,

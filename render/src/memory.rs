@@ -75,11 +75,10 @@ impl Buffer {
     pub fn destroy(mut self, ctx: &GpuContext) {
         // SAFETY: guaranteed by the caller (directly or through the Graveyard).
         unsafe { ctx.device.destroy_buffer(self.raw, None) };
-        if let Some(a) = self.allocation.take() {
-            if let Err(e) = ctx.allocator().free(a) {
+        if let Some(a) = self.allocation.take()
+            && let Err(e) = ctx.allocator().free(a) {
                 tracing::error!("freeing buffer memory failed: {e}");
             }
-        }
     }
 }
 
@@ -193,11 +192,10 @@ impl Image {
             ctx.device.destroy_image_view(self.view, None);
             ctx.device.destroy_image(self.raw, None);
         }
-        if let Some(a) = self.allocation.take() {
-            if let Err(e) = ctx.allocator().free(a) {
+        if let Some(a) = self.allocation.take()
+            && let Err(e) = ctx.allocator().free(a) {
                 tracing::error!("freeing image memory failed: {e}");
             }
-        }
     }
 }
 

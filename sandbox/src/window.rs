@@ -121,11 +121,10 @@ impl WindowedGame {
             return;
         }
         self.frames += 1;
-        if let (Some(limit), Some((w, h))) = (self.opts.exit_after, self.opts.resize_to) {
-            if self.frames == limit / 2 {
+        if let (Some(limit), Some((w, h))) = (self.opts.exit_after, self.opts.resize_to)
+            && self.frames == limit / 2 {
                 let _ = r.window.request_inner_size(winit::dpi::PhysicalSize::new(w, h));
             }
-        }
         if self.opts.exit_after.is_some_and(|n| self.frames >= n) {
             event_loop.exit();
         }
@@ -203,11 +202,10 @@ impl ApplicationHandler for WindowedGame {
                     }
                 }
                 // Keys go to the game unless egui is typing into a widget.
-                if let (PhysicalKey::Code(code), false) = (event.physical_key, consumed && pressed) {
-                    if let (Some(key), Some(mut input)) = (game_key(code), r.app.world.get_resource_mut::<Input>()) {
+                if let (PhysicalKey::Code(code), false) = (event.physical_key, consumed && pressed)
+                    && let (Some(key), Some(mut input)) = (game_key(code), r.app.world.get_resource_mut::<Input>()) {
                         if pressed { input.press(key) } else { input.release(key) }
                     }
-                }
             }
             WindowEvent::MouseInput { state, button, .. } => {
                 let pressed = state == ElementState::Pressed;
@@ -248,13 +246,11 @@ impl ApplicationHandler for WindowedGame {
 
     fn device_event(&mut self, _event_loop: &ActiveEventLoop, _device: winit::event::DeviceId, event: winit::event::DeviceEvent) {
         let Some(r) = self.running.as_mut() else { return };
-        if let winit::event::DeviceEvent::MouseMotion { delta } = event {
-            if r.cursor_grabbed {
-                if let Some(mut input) = r.app.world.get_resource_mut::<Input>() {
+        if let winit::event::DeviceEvent::MouseMotion { delta } = event
+            && r.cursor_grabbed
+                && let Some(mut input) = r.app.world.get_resource_mut::<Input>() {
                     input.add_mouse_motion(glam::Vec2::new(delta.0 as f32, delta.1 as f32));
                 }
-            }
-        }
     }
 
     fn about_to_wait(&mut self, _event_loop: &ActiveEventLoop) {
