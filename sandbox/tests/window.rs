@@ -19,22 +19,33 @@ impl Drop for Xvfb {
     }
 }
 
+/// Starts Xvfb on a free display number (a number another server, or a stale lock, holds makes
+/// that server exit at once: the next number is tried).
 fn start_xvfb() -> Xvfb {
-    let n = 40 + std::process::id() % 200;
-    let display = format!(":{n}");
-    let child = Command::new("Xvfb")
-        .args([display.as_str(), "-screen", "0", "800x600x24", "-nolisten", "tcp"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("Xvfb is installed (scripts/setup.sh installs it)");
-    let socket = PathBuf::from(format!("/tmp/.X11-unix/X{n}"));
-    let start = Instant::now();
-    while !socket.exists() {
-        assert!(start.elapsed() < Duration::from_secs(20), "Xvfb did not start");
-        std::thread::sleep(Duration::from_millis(100));
+    for attempt in 0..10 {
+        let n = 40 + (std::process::id() + attempt * 17) % 400;
+        let display = format!(":{n}");
+        let mut child = Command::new("Xvfb")
+            .args([display.as_str(), "-screen", "0", "800x600x24", "-nolisten", "tcp"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("Xvfb is installed (scripts/setup.sh installs it)");
+        let socket = PathBuf::from(format!("/tmp/.X11-unix/X{n}"));
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(20) {
+            if matches!(child.try_wait(), Ok(Some(_))) {
+                break; // this display is taken
+            }
+            if socket.exists() {
+                return Xvfb { child, display };
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        let _ = child.kill();
+        let _ = child.wait();
     }
-    Xvfb { child, display }
+    panic!("Xvfb did not start on any of 10 display numbers");
 }
 
 /// An RGB screenshot of the whole X screen via `xwd` (x11-apps), decoded from XWD.
