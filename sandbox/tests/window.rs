@@ -24,6 +24,10 @@ impl Drop for Xvfb {
 fn start_xvfb() -> Xvfb {
     for attempt in 0..10 {
         let n = 40 + (std::process::id() + attempt * 17) % 400;
+        let socket = PathBuf::from(format!("/tmp/.X11-unix/X{n}"));
+        if socket.exists() || Path::new(&format!("/tmp/.X{n}-lock")).exists() {
+            continue; // another server has (or had) this display
+        }
         let display = format!(":{n}");
         let mut child = Command::new("Xvfb")
             .args([display.as_str(), "-screen", "0", "800x600x24", "-nolisten", "tcp"])
@@ -31,7 +35,6 @@ fn start_xvfb() -> Xvfb {
             .stderr(Stdio::null())
             .spawn()
             .expect("Xvfb is installed (scripts/setup.sh installs it)");
-        let socket = PathBuf::from(format!("/tmp/.X11-unix/X{n}"));
         let start = Instant::now();
         while start.elapsed() < Duration::from_secs(20) {
             if matches!(child.try_wait(), Ok(Some(_))) {
