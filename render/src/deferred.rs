@@ -80,19 +80,7 @@ const GBUFFER_FORMATS: [vk::Format; 5] = [GBUFFER_ALBEDO_FORMAT, GBUFFER_NORMAL_
 impl DeferredPasses {
     /// Creates the pipelines.
     pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
-        let geometry = GraphicsDesc {
-            name: "gbuffer",
-            vertex: shaders::MESH_VERT,
-            fragment: Some(shaders::GBUFFER_FRAG),
-            mesh_vertices: true,
-            color_formats: &GBUFFER_FORMATS,
-            depth_format: Some(DEPTH_FORMAT),
-            depth_compare: Some(vk::CompareOp::GREATER),
-            depth_write: true,
-            topology: vk::PrimitiveTopology::TRIANGLE_LIST,
-            blend: Blend::Replace,
-            write_masks: &[],
-        };
+        let geometry = GraphicsDesc::mesh("gbuffer", Some(shaders::GBUFFER_FRAG), &GBUFFER_FORMATS);
         let hdr = [HDR_FORMAT];
         let lighting_fs =
             if ctx.tier == Tier::RayQuery { shaders::DEFERRED_LIGHTING_FRAG_RAY_QUERY_DECALS } else { shaders::DEFERRED_LIGHTING_FRAG };

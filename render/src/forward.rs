@@ -13,7 +13,7 @@ use crate::pipeline::{GraphicsDesc, create_graphics};
 use crate::scene::DrawItem;
 use crate::shaders;
 use crate::sync::Access;
-use crate::targets::{DEPTH_FORMAT, HDR_FORMAT, Targets};
+use crate::targets::{HDR_FORMAT, Targets};
 
 /// Pipelines of the forward renderer.
 pub struct ForwardPasses {
@@ -25,19 +25,7 @@ pub struct ForwardPasses {
 impl ForwardPasses {
     /// Creates the pipelines.
     pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
-        let prepass = GraphicsDesc {
-            name: "prepass",
-            vertex: shaders::MESH_VERT,
-            fragment: None,
-            mesh_vertices: true,
-            color_formats: &[],
-            depth_format: Some(DEPTH_FORMAT),
-            depth_compare: Some(vk::CompareOp::GREATER),
-            depth_write: true,
-            topology: vk::PrimitiveTopology::TRIANGLE_LIST,
-            blend: crate::pipeline::Blend::Replace,
-            write_masks: &[],
-        };
+        let prepass = GraphicsDesc::mesh("prepass", None, &[]);
         Ok(Self {
             prepass_opaque: create_graphics(ctx, layout, &prepass)?,
             prepass_mask: create_graphics(ctx, layout, &GraphicsDesc { fragment: Some(shaders::PREPASS_MASK_FRAG), ..prepass })?,

@@ -96,6 +96,24 @@ pub enum Blend {
 }
 
 impl<'a> GraphicsDesc<'a> {
+    /// A pass that draws the scene's meshes through `mesh.vert` with reverse-Z depth (tested
+    /// GREATER and written), so every such pass produces the same depth.
+    pub fn mesh(name: &'a str, fragment: Option<&'a [u8]>, color_formats: &'a [vk::Format]) -> Self {
+        Self {
+            name,
+            vertex: shaders::MESH_VERT,
+            fragment,
+            mesh_vertices: true,
+            color_formats,
+            depth_format: Some(crate::targets::DEPTH_FORMAT),
+            depth_compare: Some(vk::CompareOp::GREATER),
+            depth_write: true,
+            topology: vk::PrimitiveTopology::TRIANGLE_LIST,
+            blend: Blend::Replace,
+            write_masks: &[],
+        }
+    }
+
     /// A full-screen pass: no vertex input, no depth, one colour target.
     pub fn fullscreen(name: &'a str, fragment: &'a [u8], color_formats: &'a [vk::Format]) -> Self {
         Self {

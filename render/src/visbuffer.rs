@@ -14,7 +14,7 @@ use crate::pipeline::{GraphicsDesc, create_graphics};
 use crate::scene::DrawItem;
 use crate::shaders;
 use crate::sync::Access;
-use crate::targets::{DEPTH_FORMAT, HDR_FORMAT, Targets, VISIBILITY_FORMAT};
+use crate::targets::{HDR_FORMAT, Targets, VISIBILITY_FORMAT};
 
 /// Pipelines of the visibility-buffer renderer.
 pub struct VisBufferPasses {
@@ -27,19 +27,7 @@ impl VisBufferPasses {
     /// Creates the pipelines.
     pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
         let formats = [VISIBILITY_FORMAT];
-        let ids = GraphicsDesc {
-            name: "visibility",
-            vertex: shaders::MESH_VERT,
-            fragment: Some(shaders::VISBUFFER_FRAG),
-            mesh_vertices: true,
-            color_formats: &formats,
-            depth_format: Some(DEPTH_FORMAT),
-            depth_compare: Some(vk::CompareOp::GREATER),
-            depth_write: true,
-            topology: vk::PrimitiveTopology::TRIANGLE_LIST,
-            blend: crate::pipeline::Blend::Replace,
-            write_masks: &[],
-        };
+        let ids = GraphicsDesc::mesh("visibility", Some(shaders::VISBUFFER_FRAG), &formats);
         let hdr = [HDR_FORMAT];
         let shade_fs =
             if ctx.tier == Tier::RayQuery { shaders::VISBUFFER_SHADE_FRAG_RAY_QUERY_DECALS } else { shaders::VISBUFFER_SHADE_FRAG };
