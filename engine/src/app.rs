@@ -67,10 +67,7 @@ impl App {
         world.insert_resource(Assets::<Mesh>::default());
         world.insert_resource(Assets::<Material>::default());
         world.insert_resource(Assets::<Image>::default());
-        let mut app = App {
-            world,
-            started: false,
-        };
+        let mut app = App { world, started: false };
         app.schedule_mut(Startup);
         app.schedule_mut(PreUpdate);
         app.schedule_mut(Update);
@@ -87,11 +84,7 @@ impl App {
     }
 
     /// Adds `systems` to the schedule `label` (created if missing).
-    pub fn add_systems<M>(
-        &mut self,
-        label: impl ScheduleLabel,
-        systems: impl IntoScheduleConfigs<ScheduleSystem, M>,
-    ) -> &mut Self {
+    pub fn add_systems<M>(&mut self, label: impl ScheduleLabel, systems: impl IntoScheduleConfigs<ScheduleSystem, M>) -> &mut Self {
         self.schedule_mut(label).add_systems(systems);
         self
     }
@@ -104,10 +97,7 @@ impl App {
 
     /// The schedule `label`, created empty if it does not exist yet.
     pub fn schedule_mut(&mut self, label: impl ScheduleLabel) -> &mut Schedule {
-        self.world
-            .get_resource_or_init::<Schedules>()
-            .into_inner()
-            .entry(label)
+        self.world.get_resource_or_init::<Schedules>().into_inner().entry(label)
     }
 
     /// Runs one frame: [`Startup`] on the first call only, then advances [`Time`] and runs

@@ -21,11 +21,7 @@ pub struct Handle<T> {
 
 impl<T> Handle<T> {
     fn new(index: u32, generation: u32) -> Self {
-        Handle {
-            index,
-            generation,
-            _marker: PhantomData,
-        }
+        Handle { index, generation, _marker: PhantomData }
     }
 
     /// The slot index: dense and small, suitable for indexing GPU tables.
@@ -148,12 +144,7 @@ pub struct Assets<T: Send + Sync + 'static> {
 
 impl<T: Send + Sync + 'static> Default for Assets<T> {
     fn default() -> Self {
-        Assets {
-            slots: Vec::new(),
-            free: Vec::new(),
-            len: 0,
-            events: Vec::new(),
-        }
+        Assets { slots: Vec::new(), free: Vec::new(), len: 0, events: Vec::new() }
     }
 }
 
@@ -166,10 +157,7 @@ impl<T: Send + Sync + 'static> Assets<T> {
             Handle::new(index, slot.generation)
         } else {
             let index = u32::try_from(self.slots.len()).expect("more than u32::MAX assets");
-            self.slots.push(Slot {
-                generation: 0,
-                value: Some(asset),
-            });
+            self.slots.push(Slot { generation: 0, value: Some(asset) });
             Handle::new(index, 0)
         };
         self.len += 1;
@@ -178,9 +166,7 @@ impl<T: Send + Sync + 'static> Assets<T> {
     }
 
     fn slot(&self, handle: Handle<T>) -> Option<&Slot<T>> {
-        self.slots
-            .get(handle.index as usize)
-            .filter(|slot| slot.generation == handle.generation)
+        self.slots.get(handle.index as usize).filter(|slot| slot.generation == handle.generation)
     }
 
     /// The asset, or `None` if the handle is stale.
@@ -195,10 +181,7 @@ impl<T: Send + Sync + 'static> Assets<T> {
 
     /// Mutable access; records [`AssetEvent::Modified`] when the handle is live.
     pub fn get_mut(&mut self, handle: Handle<T>) -> Option<&mut T> {
-        let slot = self
-            .slots
-            .get_mut(handle.index as usize)
-            .filter(|slot| slot.generation == handle.generation)?;
+        let slot = self.slots.get_mut(handle.index as usize).filter(|slot| slot.generation == handle.generation)?;
         let value = slot.value.as_mut()?;
         self.events.push(AssetEvent::Modified(handle));
         Some(value)
@@ -207,10 +190,7 @@ impl<T: Send + Sync + 'static> Assets<T> {
     /// Removes and returns the asset, making every copy of `handle` stale; records
     /// [`AssetEvent::Removed`].
     pub fn remove(&mut self, handle: Handle<T>) -> Option<T> {
-        let slot = self
-            .slots
-            .get_mut(handle.index as usize)
-            .filter(|slot| slot.generation == handle.generation)?;
+        let slot = self.slots.get_mut(handle.index as usize).filter(|slot| slot.generation == handle.generation)?;
         let value = slot.value.take()?;
         slot.generation = slot.generation.wrapping_add(1);
         self.free.push(handle.index);
@@ -270,21 +250,10 @@ mod tests {
         *assets.get_mut(a).unwrap() += 10;
         assets.remove(b);
         let events: Vec<_> = assets.drain_events().collect();
-        assert_eq!(
-            events,
-            vec![
-                AssetEvent::Added(a),
-                AssetEvent::Added(b),
-                AssetEvent::Modified(a),
-                AssetEvent::Removed(b),
-            ]
-        );
+        assert_eq!(events, vec![AssetEvent::Added(a), AssetEvent::Added(b), AssetEvent::Modified(a), AssetEvent::Removed(b),]);
         assert_eq!(assets.drain_events().count(), 0);
         assert_eq!(assets.get(a), Some(&11));
-        assert_eq!(
-            assets.iter().map(|(h, v)| (h, *v)).collect::<Vec<_>>(),
-            vec![(a, 11)]
-        );
+        assert_eq!(assets.iter().map(|(h, v)| (h, *v)).collect::<Vec<_>>(), vec![(a, 11)]);
     }
 
     #[test]

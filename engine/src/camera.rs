@@ -26,12 +26,7 @@ pub struct Camera {
 
 impl Default for Camera {
     fn default() -> Self {
-        Camera {
-            fov_y: 60f32.to_radians(),
-            near: 0.05,
-            exposure: 1.0,
-            active: true,
-        }
+        Camera { fov_y: 60f32.to_radians(), near: 0.05, exposure: 1.0, active: true }
     }
 }
 
@@ -39,21 +34,9 @@ impl Camera {
     /// The projection matrix for a viewport of `aspect` = width / height. Non-finite or
     /// non-positive inputs are clamped to small positive values rather than producing NaN.
     pub fn projection(&self, aspect: f32) -> Mat4 {
-        let fov = if self.fov_y.is_finite() {
-            self.fov_y.clamp(1e-3, std::f32::consts::PI - 1e-3)
-        } else {
-            60f32.to_radians()
-        };
-        let aspect = if aspect.is_finite() && aspect > 0.0 {
-            aspect
-        } else {
-            1.0
-        };
-        let near = if self.near.is_finite() && self.near > 0.0 {
-            self.near
-        } else {
-            0.05
-        };
+        let fov = if self.fov_y.is_finite() { self.fov_y.clamp(1e-3, std::f32::consts::PI - 1e-3) } else { 60f32.to_radians() };
+        let aspect = if aspect.is_finite() && aspect > 0.0 { aspect } else { 1.0 };
+        let near = if self.near.is_finite() && self.near > 0.0 { self.near } else { 0.05 };
         Mat4::perspective_infinite_reverse_rh(fov, aspect, near)
     }
 }

@@ -260,61 +260,30 @@ pub struct GltfScene {
 
 /// Loads a `.gltf` or `.glb` file, resolving relative URIs against its directory.
 pub fn load(path: &Path) -> Result<GltfScene, GltfError> {
-    let bytes = std::fs::read(path).map_err(|source| GltfError::Io {
-        path: path.to_owned(),
-        source,
-    })?;
+    let bytes = std::fs::read(path).map_err(|source| GltfError::Io { path: path.to_owned(), source })?;
     let base = path.parent().unwrap_or(Path::new(""));
-    let name = path.file_stem().map_or_else(
-        || "glTF scene".to_owned(),
-        |s| s.to_string_lossy().into_owned(),
-    );
+    let name = path.file_stem().map_or_else(|| "glTF scene".to_owned(), |s| s.to_string_lossy().into_owned());
     load_impl(&bytes, Some(base), path, name)
 }
 
 /// Loads glTF or GLB bytes; relative URIs resolve against `base_dir` (without one, only
 /// embedded and `data:` resources are allowed).
 pub fn load_slice(bytes: &[u8], base_dir: Option<&Path>) -> Result<GltfScene, GltfError> {
-    load_impl(
-        bytes,
-        base_dir,
-        Path::new("<memory>"),
-        "glTF scene".to_owned(),
-    )
+    load_impl(bytes, base_dir, Path::new("<memory>"), "glTF scene".to_owned())
 }
 
-fn load_impl(
-    bytes: &[u8],
-    base: Option<&Path>,
-    file: &Path,
-    name: String,
-) -> Result<GltfScene, GltfError> {
-    let Gltf { document, blob } = Gltf::from_slice(bytes).map_err(|source| GltfError::Parse {
-        path: file.to_owned(),
-        source,
-    })?;
+fn load_impl(bytes: &[u8], base: Option<&Path>, file: &Path, name: String) -> Result<GltfScene, GltfError> {
+    let Gltf { document, blob } = Gltf::from_slice(bytes).map_err(|source| GltfError::Parse { path: file.to_owned(), source })?;
     let buffers = load_buffers(&document, blob, base)?;
-    let mut images = ImageLoader {
-        buffers: &buffers,
-        base,
-        images: Vec::new(),
-        slots: HashMap::new(),
-    };
-    let mut materials = document
-        .materials()
-        .map(|m| load_material(&m, &mut images))
-        .collect::<Result<Vec<_>, _>>()?;
+    let mut images = ImageLoader { buffers: &buffers, base, images: Vec::new(), slots: HashMap::new() };
+    let mut materials = document.materials().map(|m| load_material(&m, &mut images)).collect::<Result<Vec<_>, _>>()?;
     let mut default_material = None;
     let mut meshes = Vec::with_capacity(document.meshes().len());
     for mesh in document.meshes() {
         let mut primitives = Vec::new();
         for primitive in mesh.primitives() {
             let label = match mesh.name() {
-                Some(name) => format!(
-                    "'{name}' (#{}) primitive {}",
-                    mesh.index(),
-                    primitive.index()
-                ),
+                Some(name) => format!("'{name}' (#{}) primitive {}", mesh.index(), primitive.index()),
                 None => format!("#{} primitive {}", mesh.index(), primitive.index()),
             };
             let converted = load_primitive(&primitive, &buffers, &label)?;
@@ -330,23 +299,11 @@ fn load_impl(
         meshes.push(primitives);
     }
     let nodes = load_nodes(&document);
-    let roots = match document
-        .default_scene()
-        .or_else(|| document.scenes().next())
-    {
+    let roots = match document.default_scene().or_else(|| document.scenes().next()) {
         Some(scene) => scene.nodes().map(|n| n.index()).collect(),
-        None => (0..nodes.len())
-            .filter(|&i| nodes[i].parent.is_none())
-            .collect(),
+        None => (0..nodes.len()).filter(|&i| nodes[i].parent.is_none()).collect(),
     };
-    let scene = GltfScene {
-        name,
-        meshes,
-        materials,
-        images: images.images,
-        nodes,
-        roots,
-    };
+    let scene = GltfScene { name, meshes, materials, images: images.images, nodes, roots };
     info!(
         file = %file.display(),
         meshes = scene.meshes.len(),
@@ -362,11 +319,7 @@ fn load_impl(
 impl GltfScene {
     /// Total triangles over all primitives (each mesh counted once, not per instance).
     pub fn triangle_count(&self) -> usize {
-        self.meshes
-            .iter()
-            .flatten()
-            .map(|(mesh, _)| mesh.triangle_count())
-            .sum()
+        self.meshes.iter().flatten().map(|(mesh, _)| mesh.triangle_count()).sum()
     }
 
     /// Adds the images, materials and meshes to the world's `Assets` (created if missing) and
@@ -376,29 +329,15 @@ impl GltfScene {
     pub fn spawn(self, world: &mut World) -> Entity {
         let image_handles: Vec<Handle<Image>> = {
             let mut assets = world.get_resource_or_init::<Assets<Image>>();
-            self.images
-                .into_iter()
-                .map(|image| assets.add(image))
-                .collect()
+            self.images.into_iter().map(|image| assets.add(image)).collect()
         };
         let material_handles: Vec<Handle<Material>> = {
             let mut assets = world.get_resource_or_init::<Assets<Material>>();
-            self.materials
-                .iter()
-                .map(|m| assets.add(m.to_material(&image_handles)))
-                .collect()
+            self.materials.iter().map(|m| assets.add(m.to_material(&image_handles))).collect()
         };
         let mesh_handles: Vec<Vec<(Handle<Mesh>, usize)>> = {
             let mut assets = world.get_resource_or_init::<Assets<Mesh>>();
-            self.meshes
-                .into_iter()
-                .map(|prims| {
-                    prims
-                        .into_iter()
-                        .map(|(m, mat)| (assets.add(m), mat))
-                        .collect()
-                })
-                .collect()
+            self.meshes.into_iter().map(|prims| prims.into_iter().map(|(m, mat)| (assets.add(m), mat)).collect()).collect()
         };
 
         let root = world.spawn((Transform::IDENTITY, Name(self.name))).id();
@@ -432,20 +371,11 @@ impl GltfScene {
                 entity.insert(camera);
             }
             let id = entity.id();
-            for &(mesh, material) in node
-                .mesh
-                .and_then(|m| mesh_handles.get(m))
-                .into_iter()
-                .flatten()
-            {
+            for &(mesh, material) in node.mesh.and_then(|m| mesh_handles.get(m)).into_iter().flatten() {
                 let Some(&material) = material_handles.get(material) else {
                     continue;
                 };
-                world.spawn((
-                    Transform::IDENTITY,
-                    MeshInstance { mesh, material },
-                    ChildOf(id),
-                ));
+                world.spawn((Transform::IDENTITY, MeshInstance { mesh, material }, ChildOf(id)));
             }
             stack.extend(node.children.iter().rev().map(|&child| (child, id)));
         }
@@ -455,14 +385,7 @@ impl GltfScene {
 
 /// Shortens `data:` URIs for error messages.
 fn short_uri(uri: &str) -> String {
-    if uri.len() > 64 {
-        format!(
-            "{}…",
-            &uri[..uri.char_indices().nth(48).map_or(uri.len(), |(i, _)| i)]
-        )
-    } else {
-        uri.to_owned()
-    }
+    if uri.len() > 64 { format!("{}…", &uri[..uri.char_indices().nth(48).map_or(uri.len(), |(i, _)| i)]) } else { uri.to_owned() }
 }
 
 /// Decodes `%XX` escapes in a relative URI.
@@ -492,10 +415,7 @@ fn percent_decode(uri: &str) -> String {
 
 /// Reads the bytes a buffer or image URI refers to.
 fn read_uri(uri: &str, base: Option<&Path>) -> Result<Vec<u8>, GltfError> {
-    let bad = |reason: &str| GltfError::BadUri {
-        uri: short_uri(uri),
-        reason: reason.to_owned(),
-    };
+    let bad = |reason: &str| GltfError::BadUri { uri: short_uri(uri), reason: reason.to_owned() };
     if uri.starts_with("data:") {
         // gltf's own base64 decoder (it pads the result to a multiple of 4 bytes, which
         // neither buffers nor PNG/JPEG decoders mind).
@@ -503,10 +423,7 @@ fn read_uri(uri: &str, base: Option<&Path>) -> Result<Vec<u8>, GltfError> {
             .map(|data| data.0)
             .map_err(|e| bad(&format!("invalid data URI: {e}")));
     }
-    let relative = if let Some(path) = uri
-        .strip_prefix("file://")
-        .or_else(|| uri.strip_prefix("file:"))
-    {
+    let relative = if let Some(path) = uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")) {
         path
     } else if uri.contains(':') {
         return Err(bad("unsupported URI scheme"));
@@ -518,19 +435,11 @@ fn read_uri(uri: &str, base: Option<&Path>) -> Result<Vec<u8>, GltfError> {
     };
     let path = base.join(percent_decode(relative));
     std::fs::read(&path).map_err(|source| {
-        if source.kind() == std::io::ErrorKind::NotFound {
-            GltfError::MissingFile { path }
-        } else {
-            GltfError::Io { path, source }
-        }
+        if source.kind() == std::io::ErrorKind::NotFound { GltfError::MissingFile { path } } else { GltfError::Io { path, source } }
     })
 }
 
-fn load_buffers(
-    document: &Document,
-    mut blob: Option<Vec<u8>>,
-    base: Option<&Path>,
-) -> Result<Vec<Vec<u8>>, GltfError> {
+fn load_buffers(document: &Document, mut blob: Option<Vec<u8>>, base: Option<&Path>) -> Result<Vec<Vec<u8>>, GltfError> {
     document
         .buffers()
         .map(|buffer| {
@@ -542,10 +451,7 @@ fn load_buffers(
                     })?,
                     format!("#{} (GLB BIN chunk)", buffer.index()),
                 ),
-                ::gltf::buffer::Source::Uri(uri) => (
-                    read_uri(uri, base)?,
-                    format!("#{} ({})", buffer.index(), short_uri(uri)),
-                ),
+                ::gltf::buffer::Source::Uri(uri) => (read_uri(uri, base)?, format!("#{} ({})", buffer.index(), short_uri(uri))),
             };
             if data.len() < buffer.length() {
                 return Err(GltfError::BadBuffer {
@@ -567,17 +473,9 @@ struct ImageLoader<'a> {
 }
 
 impl ImageLoader<'_> {
-    fn get(
-        &mut self,
-        info: &::gltf::Texture<'_>,
-        tex_coord: u32,
-        cs: ColorSpace,
-    ) -> Result<usize, GltfError> {
+    fn get(&mut self, info: &::gltf::Texture<'_>, tex_coord: u32, cs: ColorSpace) -> Result<usize, GltfError> {
         if tex_coord != 0 {
-            warn!(
-                texture = info.index(),
-                tex_coord, "only TEXCOORD_0 is supported; using it"
-            );
+            warn!(texture = info.index(), tex_coord, "only TEXCOORD_0 is supported; using it");
         }
         let source = info.source();
         let index = source.index();
@@ -603,20 +501,13 @@ impl ImageLoader<'_> {
                 ::gltf::image::Source::View { view, .. } => view_bytes(&view, self.buffers)
                     .ok_or_else(|| GltfError::BadBuffer {
                         buffer: format!("#{}", view.buffer().index()),
-                        reason: format!(
-                            "view {} of image {} lies outside the buffer",
-                            view.index(),
-                            describe()
-                        ),
+                        reason: format!("view {} of image {} lies outside the buffer", view.index(), describe()),
                     })?
                     .to_vec(),
             };
             Image::from_encoded(&bytes, cs)
         }
-        .map_err(|source| GltfError::Image {
-            uri_or_index: describe(),
-            source,
-        })?;
+        .map_err(|source| GltfError::Image { uri_or_index: describe(), source })?;
         self.images.push(image);
         let slot = self.images.len() - 1;
         self.slots.insert((index, cs), slot);
@@ -631,40 +522,18 @@ fn view_bytes<'b>(view: &::gltf::buffer::View<'_>, buffers: &'b [Vec<u8>]) -> Op
     buffer.get(view.offset()..end)
 }
 
-fn load_material(
-    m: &::gltf::Material<'_>,
-    images: &mut ImageLoader<'_>,
-) -> Result<GltfMaterial, GltfError> {
+fn load_material(m: &::gltf::Material<'_>, images: &mut ImageLoader<'_>) -> Result<GltfMaterial, GltfError> {
     let pbr = m.pbr_metallic_roughness();
-    let mut tex =
-        |info: Option<(::gltf::Texture<'_>, u32)>, cs| -> Result<Option<usize>, GltfError> {
-            info.map(|(texture, set)| images.get(&texture, set, cs))
-                .transpose()
-        };
-    let base_color_texture = tex(
-        pbr.base_color_texture()
-            .map(|i| (i.texture(), i.tex_coord())),
-        ColorSpace::Srgb,
-    )?;
-    let metallic_roughness_texture = tex(
-        pbr.metallic_roughness_texture()
-            .map(|i| (i.texture(), i.tex_coord())),
-        ColorSpace::Linear,
-    )?;
+    let mut tex = |info: Option<(::gltf::Texture<'_>, u32)>, cs| -> Result<Option<usize>, GltfError> {
+        info.map(|(texture, set)| images.get(&texture, set, cs)).transpose()
+    };
+    let base_color_texture = tex(pbr.base_color_texture().map(|i| (i.texture(), i.tex_coord())), ColorSpace::Srgb)?;
+    let metallic_roughness_texture = tex(pbr.metallic_roughness_texture().map(|i| (i.texture(), i.tex_coord())), ColorSpace::Linear)?;
     let normal = m.normal_texture();
-    let normal_texture = tex(
-        normal.as_ref().map(|i| (i.texture(), i.tex_coord())),
-        ColorSpace::Linear,
-    )?;
+    let normal_texture = tex(normal.as_ref().map(|i| (i.texture(), i.tex_coord())), ColorSpace::Linear)?;
     let occlusion = m.occlusion_texture();
-    let occlusion_texture = tex(
-        occlusion.as_ref().map(|i| (i.texture(), i.tex_coord())),
-        ColorSpace::Linear,
-    )?;
-    let emissive_texture = tex(
-        m.emissive_texture().map(|i| (i.texture(), i.tex_coord())),
-        ColorSpace::Srgb,
-    )?;
+    let occlusion_texture = tex(occlusion.as_ref().map(|i| (i.texture(), i.tex_coord())), ColorSpace::Linear)?;
+    let emissive_texture = tex(m.emissive_texture().map(|i| (i.texture(), i.tex_coord())), ColorSpace::Srgb)?;
     Ok(GltfMaterial {
         name: m.name().map(str::to_owned),
         base_color: Vec4::from(pbr.base_color_factor()),
@@ -688,16 +557,7 @@ fn load_material(
 }
 
 fn describe_accessor(accessor: &Accessor<'_>) -> String {
-    format!(
-        "{:?} {:?}{}",
-        accessor.dimensions(),
-        accessor.data_type(),
-        if accessor.normalized() {
-            " normalized"
-        } else {
-            ""
-        }
-    )
+    format!("{:?} {:?}{}", accessor.dimensions(), accessor.data_type(), if accessor.normalized() { " normalized" } else { "" })
 }
 
 fn component_size(data_type: DataType) -> usize {
@@ -718,11 +578,7 @@ fn decode_component(data_type: DataType, normalized: bool, b: &[u8]) -> f64 {
         DataType::U32 => (u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64, 1.0),
         DataType::F32 => (f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64, 1.0),
     };
-    if normalized && !matches!(data_type, DataType::F32 | DataType::U32) {
-        (value / max).max(-1.0)
-    } else {
-        value
-    }
+    if normalized && !matches!(data_type, DataType::F32 | DataType::U32) { (value / max).max(-1.0) } else { value }
 }
 
 /// Upper bound on the elements of an accessor without a buffer view (sparse-only).
@@ -730,17 +586,8 @@ const MAX_UNBACKED_ELEMENTS: usize = 1 << 26;
 
 /// Reads an accessor into `count × components` values, honouring offsets, strides and sparse
 /// substitution, with every range checked against its buffer.
-fn read_accessor(
-    accessor: &Accessor<'_>,
-    buffers: &[Vec<u8>],
-    mesh: &str,
-    attribute: &str,
-) -> Result<Vec<f64>, GltfError> {
-    let fail = |reason: String| GltfError::BadAccessor {
-        mesh: mesh.to_owned(),
-        attribute: attribute.to_owned(),
-        reason,
-    };
+fn read_accessor(accessor: &Accessor<'_>, buffers: &[Vec<u8>], mesh: &str, attribute: &str) -> Result<Vec<f64>, GltfError> {
+    let fail = |reason: String| GltfError::BadAccessor { mesh: mesh.to_owned(), attribute: attribute.to_owned(), reason };
     let (data_type, normalized) = (accessor.data_type(), accessor.normalized());
     let comps = accessor.dimensions().multiplicity();
     let csize = component_size(data_type);
@@ -748,24 +595,14 @@ fn read_accessor(
     let count = accessor.count();
     let mut out;
     if let Some(view) = accessor.view() {
-        let bytes = view_bytes(&view, buffers).ok_or_else(|| {
-            fail(format!(
-                "buffer view {} lies outside its buffer",
-                view.index()
-            ))
-        })?;
+        let bytes = view_bytes(&view, buffers).ok_or_else(|| fail(format!("buffer view {} lies outside its buffer", view.index())))?;
         let stride = view.stride().unwrap_or(elem);
         if stride < elem {
-            return Err(fail(format!(
-                "byte stride {stride} is smaller than the element size {elem}"
-            )));
+            return Err(fail(format!("byte stride {stride} is smaller than the element size {elem}")));
         }
         let needed = match count {
             0 => Some(accessor.offset()),
-            n => (n - 1)
-                .checked_mul(stride)
-                .and_then(|s| s.checked_add(accessor.offset()))
-                .and_then(|s| s.checked_add(elem)),
+            n => (n - 1).checked_mul(stride).and_then(|s| s.checked_add(accessor.offset())).and_then(|s| s.checked_add(elem)),
         };
         if needed.is_none_or(|n| n > bytes.len()) {
             return Err(fail(format!(
@@ -778,10 +615,7 @@ fn read_accessor(
         out = Vec::with_capacity(count * comps);
         for i in 0..count {
             let start = accessor.offset() + i * stride;
-            out.extend(
-                (0..comps)
-                    .map(|c| decode_component(data_type, normalized, &bytes[start + c * csize..])),
-            );
+            out.extend((0..comps).map(|c| decode_component(data_type, normalized, &bytes[start + c * csize..])));
         }
     } else {
         if count > MAX_UNBACKED_ELEMENTS {
@@ -809,13 +643,10 @@ fn read_accessor(
         for k in 0..sparse.count() {
             let target = decode_component(index_type, false, &index_bytes[k * isize..]) as usize;
             if target >= count {
-                return Err(fail(format!(
-                    "sparse index {target} is out of range for {count} elements"
-                )));
+                return Err(fail(format!("sparse index {target} is out of range for {count} elements")));
             }
             for c in 0..comps {
-                out[target * comps + c] =
-                    decode_component(data_type, normalized, &value_bytes[k * elem + c * csize..]);
+                out[target * comps + c] = decode_component(data_type, normalized, &value_bytes[k * elem + c * csize..]);
             }
         }
     }
@@ -831,10 +662,7 @@ fn read_attribute<const N: usize>(
     allowed: impl Fn(DataType, bool) -> bool,
 ) -> Result<Vec<[f32; N]>, GltfError> {
     if accessor.dimensions().multiplicity() != N
-        || matches!(
-            accessor.dimensions(),
-            Dimensions::Mat2 | Dimensions::Mat3 | Dimensions::Mat4
-        )
+        || matches!(accessor.dimensions(), Dimensions::Mat2 | Dimensions::Mat3 | Dimensions::Mat4)
         || !allowed(accessor.data_type(), accessor.normalized())
     {
         return Err(GltfError::UnsupportedAttribute {
@@ -844,39 +672,22 @@ fn read_attribute<const N: usize>(
         });
     }
     let values = read_accessor(accessor, buffers, mesh, attribute)?;
-    Ok(values
-        .chunks_exact(N)
-        .map(|c| std::array::from_fn(|i| c[i] as f32))
-        .collect())
+    Ok(values.chunks_exact(N).map(|c| std::array::from_fn(|i| c[i] as f32)).collect())
 }
 
 fn is_float(data_type: DataType, normalized: bool) -> bool {
     data_type == DataType::F32 && !normalized
 }
 
-fn load_primitive(
-    primitive: &::gltf::Primitive<'_>,
-    buffers: &[Vec<u8>],
-    mesh: &str,
-) -> Result<Mesh, GltfError> {
+fn load_primitive(primitive: &::gltf::Primitive<'_>, buffers: &[Vec<u8>], mesh: &str) -> Result<Mesh, GltfError> {
     let mode = primitive.mode();
-    if !matches!(
-        mode,
-        Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
-    ) {
-        return Err(GltfError::UnsupportedPrimitiveMode {
-            mesh: mesh.to_owned(),
-            mode: format!("{mode:?}"),
-        });
+    if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+        return Err(GltfError::UnsupportedPrimitiveMode { mesh: mesh.to_owned(), mode: format!("{mode:?}") });
     }
     let attribute = |semantic: ::gltf::Semantic| primitive.get(&semantic);
-    let position_accessor =
-        attribute(::gltf::Semantic::Positions).ok_or_else(|| GltfError::MissingAttribute {
-            mesh: mesh.to_owned(),
-            attribute: "POSITION".into(),
-        })?;
-    let positions: Vec<[f32; 3]> =
-        read_attribute(&position_accessor, buffers, mesh, "POSITION", is_float)?;
+    let position_accessor = attribute(::gltf::Semantic::Positions)
+        .ok_or_else(|| GltfError::MissingAttribute { mesh: mesh.to_owned(), attribute: "POSITION".into() })?;
+    let positions: Vec<[f32; 3]> = read_attribute(&position_accessor, buffers, mesh, "POSITION", is_float)?;
     let n = positions.len();
     let same_count = |name: &str, len: usize| {
         if len == n {
@@ -889,9 +700,7 @@ fn load_primitive(
             })
         }
     };
-    let normals = attribute(::gltf::Semantic::Normals)
-        .map(|a| read_attribute::<3>(&a, buffers, mesh, "NORMAL", is_float))
-        .transpose()?;
+    let normals = attribute(::gltf::Semantic::Normals).map(|a| read_attribute::<3>(&a, buffers, mesh, "NORMAL", is_float)).transpose()?;
     let uvs = attribute(::gltf::Semantic::TexCoords(0))
         .map(|a| {
             read_attribute::<2>(&a, buffers, mesh, "TEXCOORD_0", |t, norm| {
@@ -899,17 +708,13 @@ fn load_primitive(
             })
         })
         .transpose()?;
-    let tangents = attribute(::gltf::Semantic::Tangents)
-        .map(|a| read_attribute::<4>(&a, buffers, mesh, "TANGENT", is_float))
-        .transpose()?;
+    let tangents =
+        attribute(::gltf::Semantic::Tangents).map(|a| read_attribute::<4>(&a, buffers, mesh, "TANGENT", is_float)).transpose()?;
     let raw_indices: Vec<u32> = match primitive.indices() {
         Some(accessor) => {
             if accessor.dimensions() != Dimensions::Scalar
                 || accessor.normalized()
-                || !matches!(
-                    accessor.data_type(),
-                    DataType::U8 | DataType::U16 | DataType::U32
-                )
+                || !matches!(accessor.data_type(), DataType::U8 | DataType::U16 | DataType::U32)
             {
                 return Err(GltfError::UnsupportedAttribute {
                     mesh: mesh.to_owned(),
@@ -917,10 +722,7 @@ fn load_primitive(
                     found: describe_accessor(&accessor),
                 });
             }
-            read_accessor(&accessor, buffers, mesh, "indices")?
-                .into_iter()
-                .map(|i| i as u32)
-                .collect()
+            read_accessor(&accessor, buffers, mesh, "indices")?.into_iter().map(|i| i as u32).collect()
         }
         None => (0..n as u32).collect(),
     };
@@ -931,9 +733,9 @@ fn load_primitive(
                 if i % 2 == 0 { [a, b, c] } else { [b, a, c] }
             })
             .collect(),
-        Mode::TriangleFan => (1..raw_indices.len().saturating_sub(1))
-            .flat_map(|i| [raw_indices[i], raw_indices[i + 1], raw_indices[0]])
-            .collect(),
+        Mode::TriangleFan => {
+            (1..raw_indices.len().saturating_sub(1)).flat_map(|i| [raw_indices[i], raw_indices[i + 1], raw_indices[0]]).collect()
+        }
         _ => raw_indices,
     };
     if let Some(normals) = &normals {
@@ -948,18 +750,13 @@ fn load_primitive(
     let normals = normals.unwrap_or_else(|| smooth_normals(&positions, &indices));
     let uvs = uvs.unwrap_or_else(|| vec![[0.0; 2]; n]);
     let result = match tangents {
-        Some(tangents) => {
-            Mesh::from_parts(positions, normals, uvs, tangents, indices).map(|mut mesh| {
-                mesh.orthonormalize_tangents();
-                mesh
-            })
-        }
+        Some(tangents) => Mesh::from_parts(positions, normals, uvs, tangents, indices).map(|mut mesh| {
+            mesh.orthonormalize_tangents();
+            mesh
+        }),
         None => Mesh::new(positions, normals, uvs, indices),
     };
-    result.map_err(|source| GltfError::Mesh {
-        mesh: mesh.to_owned(),
-        source,
-    })
+    result.map_err(|source| GltfError::Mesh { mesh: mesh.to_owned(), source })
 }
 
 fn load_nodes(document: &Document) -> Vec<GltfNode> {
@@ -970,25 +767,16 @@ fn load_nodes(document: &Document) -> Vec<GltfNode> {
             let rotation = Quat::from_array(r);
             let transform = Transform {
                 translation: Vec3::from(t),
-                rotation: if rotation.is_finite() && rotation.length_squared() > 0.0 {
-                    rotation.normalize()
-                } else {
-                    Quat::IDENTITY
-                },
+                rotation: if rotation.is_finite() && rotation.length_squared() > 0.0 { rotation.normalize() } else { Quat::IDENTITY },
                 scale: Vec3::from(s),
             };
             let light = node.light().map(|light| {
                 let color = Vec3::from(light.color());
                 match light.kind() {
-                    ::gltf::khr_lights_punctual::Kind::Point => GltfLight::Point(PointLight {
-                        color,
-                        intensity: light.intensity(),
-                        range: light.range(),
-                    }),
-                    ::gltf::khr_lights_punctual::Kind::Spot {
-                        inner_cone_angle,
-                        outer_cone_angle,
-                    } => GltfLight::Spot(SpotLight {
+                    ::gltf::khr_lights_punctual::Kind::Point => {
+                        GltfLight::Point(PointLight { color, intensity: light.intensity(), range: light.range() })
+                    }
+                    ::gltf::khr_lights_punctual::Kind::Spot { inner_cone_angle, outer_cone_angle } => GltfLight::Spot(SpotLight {
                         color,
                         intensity: light.intensity(),
                         range: light.range(),
@@ -996,24 +784,14 @@ fn load_nodes(document: &Document) -> Vec<GltfNode> {
                         outer_angle: outer_cone_angle,
                     }),
                     ::gltf::khr_lights_punctual::Kind::Directional => {
-                        GltfLight::Directional(DirectionalLight {
-                            color,
-                            illuminance: light.intensity(),
-                        })
+                        GltfLight::Directional(DirectionalLight { color, illuminance: light.intensity() })
                     }
                 }
             });
             let camera = node.camera().and_then(|camera| match camera.projection() {
-                ::gltf::camera::Projection::Perspective(p) => Some(Camera {
-                    fov_y: p.yfov(),
-                    near: p.znear(),
-                    ..Default::default()
-                }),
+                ::gltf::camera::Projection::Perspective(p) => Some(Camera { fov_y: p.yfov(), near: p.znear(), ..Default::default() }),
                 ::gltf::camera::Projection::Orthographic(_) => {
-                    warn!(
-                        camera = camera.index(),
-                        "orthographic glTF cameras are not supported; skipped"
-                    );
+                    warn!(camera = camera.index(), "orthographic glTF cameras are not supported; skipped");
                     None
                 }
             });
@@ -1032,10 +810,7 @@ fn load_nodes(document: &Document) -> Vec<GltfNode> {
         for child in nodes[parent].children.clone() {
             match nodes[child].parent {
                 None => nodes[child].parent = Some(parent),
-                Some(first) => warn!(
-                    child,
-                    first, parent, "glTF node has two parents; keeping the first"
-                ),
+                Some(first) => warn!(child, first, parent, "glTF node has two parents; keeping the first"),
             }
         }
     }

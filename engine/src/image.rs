@@ -27,9 +27,7 @@ pub enum ColorSpace {
 #[derive(Error, Debug)]
 pub enum ImageError {
     /// The pixel data does not match the stated size, or the size is zero.
-    #[error(
-        "invalid image size {width}x{height}: expected {expected} bytes of RGBA8 data, got {actual}"
-    )]
+    #[error("invalid image size {width}x{height}: expected {expected} bytes of RGBA8 data, got {actual}")]
     InvalidSize {
         /// Width in pixels.
         width: u32,
@@ -84,57 +82,29 @@ impl std::fmt::Debug for Image {
 
 impl Image {
     /// Builds an image and its mip chain from tightly packed RGBA8 level-0 data.
-    pub fn from_rgba8(
-        width: u32,
-        height: u32,
-        data: Vec<u8>,
-        color_space: ColorSpace,
-    ) -> Result<Image, ImageError> {
-        let expected = (width as usize)
-            .checked_mul(height as usize)
-            .and_then(|n| n.checked_mul(4))
-            .filter(|&n| n > 0);
+    pub fn from_rgba8(width: u32, height: u32, data: Vec<u8>, color_space: ColorSpace) -> Result<Image, ImageError> {
+        let expected = (width as usize).checked_mul(height as usize).and_then(|n| n.checked_mul(4)).filter(|&n| n > 0);
         if expected != Some(data.len()) {
-            return Err(ImageError::InvalidSize {
-                width,
-                height,
-                expected: expected.unwrap_or(0),
-                actual: data.len(),
-            });
+            return Err(ImageError::InvalidSize { width, height, expected: expected.unwrap_or(0), actual: data.len() });
         }
         let mips = build_mips(width, height, data, color_space);
-        Ok(Image {
-            width,
-            height,
-            color_space,
-            mips,
-        })
+        Ok(Image { width, height, color_space, mips })
     }
 
     /// Reads and decodes a PNG or JPEG file.
     pub fn load(path: &Path, color_space: ColorSpace) -> Result<Image, ImageError> {
-        let bytes = std::fs::read(path).map_err(|source| ImageError::Io {
-            path: path.to_owned(),
-            source,
-        })?;
+        let bytes = std::fs::read(path).map_err(|source| ImageError::Io { path: path.to_owned(), source })?;
         decode(&bytes, color_space, || path.display().to_string())
     }
 
     /// Decodes an in-memory PNG or JPEG.
     pub fn from_encoded(bytes: &[u8], color_space: ColorSpace) -> Result<Image, ImageError> {
-        decode(bytes, color_space, || {
-            format!("<{} bytes in memory>", bytes.len())
-        })
+        decode(bytes, color_space, || format!("<{} bytes in memory>", bytes.len()))
     }
 
     /// A 1×1 image of one colour.
     pub fn solid(rgba: [u8; 4], color_space: ColorSpace) -> Image {
-        Image {
-            width: 1,
-            height: 1,
-            color_space,
-            mips: vec![rgba.to_vec()],
-        }
+        Image { width: 1, height: 1, color_space, mips: vec![rgba.to_vec()] }
     }
 
     /// Number of mip levels (level 0 included).
@@ -148,17 +118,8 @@ impl Image {
     }
 }
 
-fn decode(
-    bytes: &[u8],
-    color_space: ColorSpace,
-    what: impl Fn() -> String,
-) -> Result<Image, ImageError> {
-    let rgba = ::image::load_from_memory(bytes)
-        .map_err(|source| ImageError::Decode {
-            what: what(),
-            source,
-        })?
-        .into_rgba8();
+fn decode(bytes: &[u8], color_space: ColorSpace, what: impl Fn() -> String) -> Result<Image, ImageError> {
+    let rgba = ::image::load_from_memory(bytes).map_err(|source| ImageError::Decode { what: what(), source })?.into_rgba8();
     let (width, height) = rgba.dimensions();
     Image::from_rgba8(width, height, rgba.into_raw(), color_space)
 }
@@ -175,11 +136,7 @@ struct SrgbTables {
 }
 
 fn srgb_to_linear(c: f64) -> f64 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
+    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
 }
 
 fn srgb_tables() -> &'static SrgbTables {
@@ -210,11 +167,7 @@ fn axis_taps(src: u32, dst: u32) -> Vec<Taps> {
             let (start, end) = (x as f64 * scale, (x + 1) as f64 * scale);
             let first = start.floor() as usize;
             let last = (end.ceil() as usize).min(src as usize);
-            let mut taps = Taps {
-                first,
-                count: 0,
-                weights: [0.0; 3],
-            };
+            let mut taps = Taps { first, count: 0, weights: [0.0; 3] };
             for i in first..last {
                 let overlap = (end.min(i as f64 + 1.0) - start.max(i as f64)).max(0.0);
                 if taps.count < 3 {
@@ -269,13 +222,9 @@ fn build_mips(width: u32, height: u32, level0: Vec<u8>, color_space: ColorSpace)
         let next = if level == 1 {
             let src = &mips[0];
             match color_space {
-                ColorSpace::Srgb => downsample(w, h, nw, nh, |i| {
-                    if i % 4 == 3 {
-                        src[i] as f32 / 255.0
-                    } else {
-                        tables.decode[src[i] as usize]
-                    }
-                }),
+                ColorSpace::Srgb => {
+                    downsample(w, h, nw, nh, |i| if i % 4 == 3 { src[i] as f32 / 255.0 } else { tables.decode[src[i] as usize] })
+                }
                 ColorSpace::Linear => downsample(w, h, nw, nh, |i| src[i] as f32 / 255.0),
             }
         } else {
@@ -285,9 +234,7 @@ fn build_mips(width: u32, height: u32, level0: Vec<u8>, color_space: ColorSpace)
             .iter()
             .enumerate()
             .map(|(i, &v)| match color_space {
-                ColorSpace::Srgb if i % 4 != 3 => {
-                    tables.midpoints.partition_point(|&m| m <= v) as u8
-                }
+                ColorSpace::Srgb if i % 4 != 3 => tables.midpoints.partition_point(|&m| m <= v) as u8,
                 _ => encode_linear(v),
             })
             .collect();
@@ -310,10 +257,7 @@ mod tests {
         for (level, data) in image.mips.iter().enumerate() {
             let (w, h) = sizes[level];
             assert_eq!(data.len(), (w * h * 4) as usize);
-            assert!(
-                data.iter().all(|&v| v == 200),
-                "constant image stays constant"
-            );
+            assert!(data.iter().all(|&v| v == 200), "constant image stays constant");
         }
         let tall = Image::from_rgba8(1, 6, vec![0; 24], ColorSpace::Srgb).unwrap();
         assert_eq!(tall.mip_count(), 3);
@@ -353,31 +297,17 @@ mod tests {
     fn bad_sizes_are_errors() {
         assert!(matches!(
             Image::from_rgba8(2, 2, vec![0; 15], ColorSpace::Srgb),
-            Err(ImageError::InvalidSize {
-                expected: 16,
-                actual: 15,
-                ..
-            })
+            Err(ImageError::InvalidSize { expected: 16, actual: 15, .. })
         ));
         assert!(Image::from_rgba8(0, 4, vec![], ColorSpace::Srgb).is_err());
-        assert!(matches!(
-            Image::from_encoded(b"not a png", ColorSpace::Srgb),
-            Err(ImageError::Decode { .. })
-        ));
+        assert!(matches!(Image::from_encoded(b"not a png", ColorSpace::Srgb), Err(ImageError::Decode { .. })));
     }
 
     #[test]
     fn encoded_png_round_trips() {
         let mut png = Vec::new();
-        let pixels = ::image::RgbaImage::from_fn(4, 4, |x, y| {
-            ::image::Rgba([x as u8 * 60, y as u8 * 60, 7, 255])
-        });
-        pixels
-            .write_to(
-                &mut std::io::Cursor::new(&mut png),
-                ::image::ImageFormat::Png,
-            )
-            .unwrap();
+        let pixels = ::image::RgbaImage::from_fn(4, 4, |x, y| ::image::Rgba([x as u8 * 60, y as u8 * 60, 7, 255]));
+        pixels.write_to(&mut std::io::Cursor::new(&mut png), ::image::ImageFormat::Png).unwrap();
         let image = Image::from_encoded(&png, ColorSpace::Linear).unwrap();
         assert_eq!((image.width, image.height, image.mip_count()), (4, 4, 3));
         assert_eq!(&image.mips[0][4..8], &[60, 0, 7, 255]);

@@ -154,17 +154,12 @@ impl Key {
         if name.eq_ignore_ascii_case("esc") {
             return Some(Key::Escape);
         }
-        Key::ALL
-            .into_iter()
-            .find(|key| key.name().eq_ignore_ascii_case(name))
+        Key::ALL.into_iter().find(|key| key.name().eq_ignore_ascii_case(name))
     }
 
     /// The digit key for `digit` (0..=9), or `None`.
     pub fn digit(digit: u32) -> Option<Key> {
-        Key::ALL
-            .get(12 + digit as usize)
-            .copied()
-            .filter(|_| digit <= 9)
+        Key::ALL.get(12 + digit as usize).copied().filter(|_| digit <= 9)
     }
 
     fn bit(self) -> u32 {
@@ -362,11 +357,7 @@ mod tests {
         input.set_cursor(Some(Vec2::new(10.0, 20.0)));
         input.begin_frame();
         assert_eq!(input.mouse_motion, Vec2::ZERO);
-        assert_eq!(
-            input.cursor,
-            Some(Vec2::new(10.0, 20.0)),
-            "the cursor is not per-frame"
-        );
+        assert_eq!(input.cursor, Some(Vec2::new(10.0, 20.0)), "the cursor is not per-frame");
         input.set_cursor(Some(Vec2::new(f32::INFINITY, 0.0)));
         assert_eq!(input.cursor, None);
     }

@@ -16,11 +16,7 @@ pub const MIN_LIGHT_INTENSITY: f32 = 0.02;
 /// `I / D² = 0.02  ⇔  D = 50 · √(0.02 · I)` (which equals `√(I / 0.02)`).
 /// Negative or non-finite intensities give 0.
 pub fn range_from_intensity(intensity: f32) -> f32 {
-    if intensity.is_finite() && intensity > 0.0 {
-        50.0 * (MIN_LIGHT_INTENSITY * intensity).sqrt()
-    } else {
-        0.0
-    }
+    if intensity.is_finite() && intensity > 0.0 { 50.0 * (MIN_LIGHT_INTENSITY * intensity).sqrt() } else { 0.0 }
 }
 
 /// An omnidirectional light at its entity's position.
@@ -37,19 +33,14 @@ pub struct PointLight {
 
 impl Default for PointLight {
     fn default() -> Self {
-        PointLight {
-            color: Vec3::ONE,
-            intensity: 10.0,
-            range: None,
-        }
+        PointLight { color: Vec3::ONE, intensity: 10.0, range: None }
     }
 }
 
 impl PointLight {
     /// The explicit range, or [`range_from_intensity`] of the intensity.
     pub fn effective_range(&self) -> f32 {
-        self.range
-            .unwrap_or_else(|| range_from_intensity(self.intensity))
+        self.range.unwrap_or_else(|| range_from_intensity(self.intensity))
     }
 }
 
@@ -71,21 +62,14 @@ pub struct SpotLight {
 
 impl Default for SpotLight {
     fn default() -> Self {
-        SpotLight {
-            color: Vec3::ONE,
-            intensity: 10.0,
-            range: None,
-            inner_angle: 0.0,
-            outer_angle: std::f32::consts::FRAC_PI_4,
-        }
+        SpotLight { color: Vec3::ONE, intensity: 10.0, range: None, inner_angle: 0.0, outer_angle: std::f32::consts::FRAC_PI_4 }
     }
 }
 
 impl SpotLight {
     /// The explicit range, or [`range_from_intensity`] of the intensity.
     pub fn effective_range(&self) -> f32 {
-        self.range
-            .unwrap_or_else(|| range_from_intensity(self.intensity))
+        self.range.unwrap_or_else(|| range_from_intensity(self.intensity))
     }
 }
 
@@ -101,10 +85,7 @@ pub struct DirectionalLight {
 
 impl Default for DirectionalLight {
     fn default() -> Self {
-        DirectionalLight {
-            color: Vec3::ONE,
-            illuminance: 5.0,
-        }
+        DirectionalLight { color: Vec3::ONE, illuminance: 5.0 }
     }
 }
 
@@ -126,16 +107,9 @@ mod tests {
 
     #[test]
     fn explicit_range_wins() {
-        let light = PointLight {
-            range: Some(3.0),
-            intensity: 1e6,
-            ..Default::default()
-        };
+        let light = PointLight { range: Some(3.0), intensity: 1e6, ..Default::default() };
         assert_eq!(light.effective_range(), 3.0);
-        let spot = SpotLight {
-            intensity: 8.0,
-            ..Default::default()
-        };
+        let spot = SpotLight { intensity: 8.0, ..Default::default() };
         assert!((spot.effective_range() - 20.0).abs() < 1e-4);
     }
 }

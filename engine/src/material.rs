@@ -75,11 +75,6 @@ impl Default for Material {
 impl Material {
     /// An untextured material with the given linear base colour, metallic and roughness.
     pub fn from_color(base_color: Vec4, metallic: f32, roughness: f32) -> Self {
-        Material {
-            base_color,
-            metallic,
-            roughness,
-            ..Default::default()
-        }
+        Material { base_color, metallic, roughness, ..Default::default() }
     }
 }

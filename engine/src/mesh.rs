@@ -63,12 +63,7 @@ pub struct Mesh {
 
 impl Mesh {
     /// Validates the attributes and indices and generates tangents.
-    pub fn new(
-        positions: Vec<[f32; 3]>,
-        normals: Vec<[f32; 3]>,
-        uvs: Vec<[f32; 2]>,
-        indices: Vec<u32>,
-    ) -> Result<Mesh, MeshError> {
+    pub fn new(positions: Vec<[f32; 3]>, normals: Vec<[f32; 3]>, uvs: Vec<[f32; 2]>, indices: Vec<u32>) -> Result<Mesh, MeshError> {
         let tangents = vec![[0.0; 4]; positions.len()];
         let mut mesh = Mesh::from_parts(positions, normals, uvs, tangents, indices)?;
         mesh.generate_tangents();
@@ -83,13 +78,7 @@ impl Mesh {
         tangents: Vec<[f32; 4]>,
         indices: Vec<u32>,
     ) -> Result<Mesh, MeshError> {
-        let mesh = Mesh {
-            positions,
-            normals,
-            uvs,
-            tangents,
-            indices,
-        };
+        let mesh = Mesh { positions, normals, uvs, tangents, indices };
         mesh.validate()?;
         Ok(mesh)
     }
@@ -100,33 +89,16 @@ impl Mesh {
         if u32::try_from(n).is_err() {
             return Err(MeshError::TooManyVertices(n));
         }
-        for (attribute, found) in [
-            ("normals", self.normals.len()),
-            ("uvs", self.uvs.len()),
-            ("tangents", self.tangents.len()),
-        ] {
+        for (attribute, found) in [("normals", self.normals.len()), ("uvs", self.uvs.len()), ("tangents", self.tangents.len())] {
             if found != n {
-                return Err(MeshError::AttributeLength {
-                    attribute,
-                    expected: n,
-                    found,
-                });
+                return Err(MeshError::AttributeLength { attribute, expected: n, found });
             }
         }
         if !self.indices.len().is_multiple_of(3) {
             return Err(MeshError::IndexCount(self.indices.len()));
         }
-        if let Some((at, &index)) = self
-            .indices
-            .iter()
-            .enumerate()
-            .find(|&(_, &i)| i as usize >= n)
-        {
-            return Err(MeshError::IndexOutOfRange {
-                at,
-                index,
-                vertices: n,
-            });
+        if let Some((at, &index)) = self.indices.iter().enumerate().find(|&(_, &i)| i as usize >= n) {
+            return Err(MeshError::IndexOutOfRange { at, index, vertices: n });
         }
         Ok(())
     }
@@ -152,11 +124,7 @@ impl Mesh {
     /// exactly ±1; degenerate tangents become an arbitrary perpendicular unit vector.
     pub fn orthonormalize_tangents(&mut self) {
         for (i, tangent) in self.tangents.iter_mut().enumerate() {
-            let normal = self
-                .normals
-                .get(i)
-                .and_then(|&n| Vec3::from(n).try_normalize())
-                .unwrap_or(Vec3::Y);
+            let normal = self.normals.get(i).and_then(|&n| Vec3::from(n).try_normalize()).unwrap_or(Vec3::Y);
             *tangent = orthonormal_tangent(normal, *tangent);
         }
     }
@@ -173,9 +141,7 @@ impl Mesh {
         for &i in &self.indices {
             let i = i as usize;
             let p = Vec3::from(self.positions[i]);
-            let finite = p.is_finite()
-                && Vec3::from(self.normals[i]).is_finite()
-                && self.uvs[i].iter().all(|v| v.is_finite());
+            let finite = p.is_finite() && Vec3::from(self.normals[i]).is_finite() && self.uvs[i].iter().all(|v| v.is_finite());
             if !finite {
                 return false;
             }
@@ -204,17 +170,9 @@ impl Mesh {
     pub fn transformed(&self, m: Mat4) -> Mesh {
         let linear = Mat3::from_mat4(m);
         let det = linear.determinant();
-        let normal_matrix = if det.abs() > f32::MIN_POSITIVE {
-            linear.inverse().transpose()
-        } else {
-            linear
-        };
+        let normal_matrix = if det.abs() > f32::MIN_POSITIVE { linear.inverse().transpose() } else { linear };
         let flip = det < 0.0;
-        let normals: Vec<[f32; 3]> = self
-            .normals
-            .iter()
-            .map(|&n| (normal_matrix * Vec3::from(n)).normalize_or(Vec3::Y).into())
-            .collect();
+        let normals: Vec<[f32; 3]> = self.normals.iter().map(|&n| (normal_matrix * Vec3::from(n)).normalize_or(Vec3::Y).into()).collect();
         let tangents = self
             .tangents
             .iter()
@@ -232,11 +190,7 @@ impl Mesh {
             }
         }
         Mesh {
-            positions: self
-                .positions
-                .iter()
-                .map(|&p| m.transform_point3(Vec3::from(p)).into())
-                .collect(),
+            positions: self.positions.iter().map(|&p| m.transform_point3(Vec3::from(p)).into()).collect(),
             normals,
             uvs: self.uvs.clone(),
             tangents,
@@ -251,8 +205,7 @@ impl Mesh {
         self.normals.extend_from_slice(&other.normals);
         self.uvs.extend_from_slice(&other.uvs);
         self.tangents.extend_from_slice(&other.tangents);
-        self.indices
-            .extend(other.indices.iter().map(|&i| i + offset));
+        self.indices.extend(other.indices.iter().map(|&i| i + offset));
     }
 }
 
@@ -265,28 +218,20 @@ pub fn smooth_normals(positions: &[[f32; 3]], indices: &[u32]) -> Vec<[f32; 3]> 
         if a.max(b).max(c) >= positions.len() {
             continue;
         }
-        let (pa, pb, pc) = (
-            Vec3::from(positions[a]),
-            Vec3::from(positions[b]),
-            Vec3::from(positions[c]),
-        );
+        let (pa, pb, pc) = (Vec3::from(positions[a]), Vec3::from(positions[b]), Vec3::from(positions[c]));
         let area_normal = (pb - pa).cross(pc - pa);
         for i in [a, b, c] {
             sums[i] += area_normal;
         }
     }
-    sums.into_iter()
-        .map(|n| n.try_normalize().unwrap_or(Vec3::Y).into())
-        .collect()
+    sums.into_iter().map(|n| n.try_normalize().unwrap_or(Vec3::Y).into()).collect()
 }
 
 /// Makes `tangent.xyz` a unit vector orthogonal to the unit `normal` (any perpendicular one if
 /// it is degenerate) and `w` exactly ±1.
 fn orthonormal_tangent(normal: Vec3, tangent: [f32; 4]) -> [f32; 4] {
     let t = Vec3::new(tangent[0], tangent[1], tangent[2]);
-    let t = (t - normal * normal.dot(t))
-        .try_normalize()
-        .unwrap_or_else(|| normal.any_orthonormal_vector());
+    let t = (t - normal * normal.dot(t)).try_normalize().unwrap_or_else(|| normal.any_orthonormal_vector());
     let w = if tangent[3] < 0.0 { -1.0 } else { 1.0 };
     t.extend(w).into()
 }
@@ -375,12 +320,7 @@ pub mod shapes {
         }
 
         /// A flat quad from four corners in boundary order; UVs from `uv(position)`.
-        pub(super) fn flat_quad(
-            &mut self,
-            corners: [Vec3; 4],
-            normal: Vec3,
-            uv: impl Fn(Vec3) -> Vec2,
-        ) {
+        pub(super) fn flat_quad(&mut self, corners: [Vec3; 4], normal: Vec3, uv: impl Fn(Vec3) -> Vec2) {
             let v = corners.map(|p| self.vertex(p, normal, uv(p)));
             self.quad(v);
         }
@@ -388,16 +328,7 @@ pub mod shapes {
         /// A `seg_u`×`seg_v` grid spanning `origin + s·u_axis + t·v_axis`, `s, t ∈ [0, 1]`, with
         /// UV `uv_scale · (s·|u_axis|, t·|v_axis|)`.
         #[allow(clippy::too_many_arguments)]
-        pub(super) fn grid(
-            &mut self,
-            origin: Vec3,
-            u_axis: Vec3,
-            v_axis: Vec3,
-            normal: Vec3,
-            seg_u: u32,
-            seg_v: u32,
-            uv_scale: f32,
-        ) {
+        pub(super) fn grid(&mut self, origin: Vec3, u_axis: Vec3, v_axis: Vec3, normal: Vec3, seg_u: u32, seg_v: u32, uv_scale: f32) {
             let (seg_u, seg_v) = (seg_u.max(1), seg_v.max(1));
             let base = self.mesh.positions.len() as u32;
             let (len_u, len_v) = (u_axis.length(), v_axis.length());
@@ -429,15 +360,7 @@ pub mod shapes {
     pub fn plane(size_x: f32, size_z: f32, subdivisions: u32, uv_scale: f32) -> Mesh {
         let (sx, sz) = (size_x.abs(), size_z.abs());
         let mut b = Builder::default();
-        b.grid(
-            Vec3::new(-sx / 2.0, 0.0, -sz / 2.0),
-            Vec3::X * sx,
-            Vec3::Z * sz,
-            Vec3::Y,
-            subdivisions,
-            subdivisions,
-            uv_scale,
-        );
+        b.grid(Vec3::new(-sx / 2.0, 0.0, -sz / 2.0), Vec3::X * sx, Vec3::Z * sz, Vec3::Y, subdivisions, subdivisions, uv_scale);
         b.build()
     }
 
@@ -471,15 +394,8 @@ pub mod shapes {
             let theta = PI * i as f32 / stacks as f32;
             for j in 0..=sectors {
                 let phi = TAU * j as f32 / sectors as f32;
-                let n = Vec3::new(
-                    theta.sin() * phi.cos(),
-                    theta.cos(),
-                    theta.sin() * phi.sin(),
-                );
-                let uv = Vec2::new(
-                    TAU * r * j as f32 / sectors as f32,
-                    PI * r * i as f32 / stacks as f32,
-                );
+                let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
+                let uv = Vec2::new(TAU * r * j as f32 / sectors as f32, PI * r * i as f32 / stacks as f32);
                 b.vertex(n * r, n, uv);
             }
         }
@@ -533,11 +449,7 @@ pub mod shapes {
     /// semicircle's crown stays 20 % of the wall height below the top.
     pub(super) fn arch_layout(width: f32, height: f32, arch_radius: f32) -> (f32, f32) {
         let gap = 0.2 * height;
-        let radius = arch_radius
-            .abs()
-            .min(0.45 * width)
-            .min(height - gap)
-            .max(0.0);
+        let radius = arch_radius.abs().min(0.45 * width).min(height - gap).max(0.0);
         (radius, (height - gap - radius).max(0.0))
     }
 
@@ -545,13 +457,7 @@ pub mod shapes {
     /// y = 0, `thickness` along Z centred) with a semicircular-arched doorway through its centre:
     /// `2·arch_radius` wide, the crown 20 % of the height below the top (the radius is clamped to
     /// fit), the arch split into `segments` (≥ 2) pieces. UVs are in metres.
-    pub fn arch_wall(
-        width: f32,
-        height: f32,
-        thickness: f32,
-        arch_radius: f32,
-        segments: u32,
-    ) -> Mesh {
+    pub fn arch_wall(width: f32, height: f32, thickness: f32, arch_radius: f32, segments: u32) -> Mesh {
         let (w, h, t) = (width.abs(), height.abs(), thickness.abs());
         let (r, ys) = arch_layout(w, h, arch_radius);
         let (hw, ht) = (w / 2.0, t / 2.0);
@@ -559,9 +465,7 @@ pub mod shapes {
 
         // Angles around the arch centre from the left (π) to the right (0), including the ones
         // pointing at the wall's top corners so that radial strips follow the outline exactly.
-        let mut angles: Vec<f32> = (0..=segments.max(2))
-            .map(|k| PI * (1.0 - k as f32 / segments.max(2) as f32))
-            .collect();
+        let mut angles: Vec<f32> = (0..=segments.max(2)).map(|k| PI * (1.0 - k as f32 / segments.max(2) as f32)).collect();
         angles.push((h - ys).atan2(-hw));
         angles.push((h - ys).atan2(hw));
         angles.sort_by(|a, b| b.total_cmp(a));
@@ -570,16 +474,8 @@ pub mod shapes {
         let arc = |a: f32| centre + Vec2::new(a.cos(), a.sin()) * r;
         let boundary = |a: f32| {
             let dir = Vec2::new(a.cos(), a.sin());
-            let to_side = if dir.x.abs() > 1e-6 {
-                hw / dir.x.abs()
-            } else {
-                f32::INFINITY
-            };
-            let to_top = if dir.y > 1e-6 {
-                (h - ys) / dir.y
-            } else {
-                f32::INFINITY
-            };
+            let to_side = if dir.x.abs() > 1e-6 { hw / dir.x.abs() } else { f32::INFINITY };
+            let to_top = if dir.y > 1e-6 { (h - ys) / dir.y } else { f32::INFINITY };
             centre + dir * to_side.min(to_top)
         };
 
@@ -589,22 +485,12 @@ pub mod shapes {
             let at = |p: Vec2| Vec3::new(p.x, p.y, z);
             if ys > 0.0 {
                 for (x0, x1) in [(-hw, -r), (r, hw)] {
-                    let quad = [
-                        Vec2::new(x0, 0.0),
-                        Vec2::new(x1, 0.0),
-                        Vec2::new(x1, ys),
-                        Vec2::new(x0, ys),
-                    ];
+                    let quad = [Vec2::new(x0, 0.0), Vec2::new(x1, 0.0), Vec2::new(x1, ys), Vec2::new(x0, ys)];
                     b.flat_quad(quad.map(at), normal, uv);
                 }
             }
             for pair in angles.windows(2) {
-                let quad = [
-                    arc(pair[0]),
-                    arc(pair[1]),
-                    boundary(pair[1]),
-                    boundary(pair[0]),
-                ];
+                let quad = [arc(pair[0]), arc(pair[1]), boundary(pair[1]), boundary(pair[0])];
                 b.flat_quad(quad.map(at), normal, uv);
             }
         }
@@ -612,45 +498,23 @@ pub mod shapes {
         // Outer ends, top and the two bottom strips beside the opening.
         let corners = |x0: f32, x1: f32, y0: f32, y1: f32, zs: bool| {
             if zs {
-                [
-                    Vec3::new(x0, y0, -ht),
-                    Vec3::new(x0, y0, ht),
-                    Vec3::new(x1, y1, ht),
-                    Vec3::new(x1, y1, -ht),
-                ]
+                [Vec3::new(x0, y0, -ht), Vec3::new(x0, y0, ht), Vec3::new(x1, y1, ht), Vec3::new(x1, y1, -ht)]
             } else {
-                [
-                    Vec3::new(x0, y0, -ht),
-                    Vec3::new(x1, y0, -ht),
-                    Vec3::new(x1, y1, ht),
-                    Vec3::new(x0, y1, ht),
-                ]
+                [Vec3::new(x0, y0, -ht), Vec3::new(x1, y0, -ht), Vec3::new(x1, y1, ht), Vec3::new(x0, y1, ht)]
             }
         };
-        b.flat_quad(corners(-hw, -hw, 0.0, h, true), Vec3::NEG_X, |p| {
-            Vec2::new(p.z + ht, h - p.y)
-        });
-        b.flat_quad(corners(hw, hw, 0.0, h, true), Vec3::X, |p| {
-            Vec2::new(ht - p.z, h - p.y)
-        });
-        b.flat_quad(corners(-hw, hw, h, h, false), Vec3::Y, |p| {
-            Vec2::new(p.x + hw, p.z + ht)
-        });
+        b.flat_quad(corners(-hw, -hw, 0.0, h, true), Vec3::NEG_X, |p| Vec2::new(p.z + ht, h - p.y));
+        b.flat_quad(corners(hw, hw, 0.0, h, true), Vec3::X, |p| Vec2::new(ht - p.z, h - p.y));
+        b.flat_quad(corners(-hw, hw, h, h, false), Vec3::Y, |p| Vec2::new(p.x + hw, p.z + ht));
         for (x0, x1) in [(-hw, -r), (r, hw)] {
-            b.flat_quad(corners(x0, x1, 0.0, 0.0, false), Vec3::NEG_Y, |p| {
-                Vec2::new(p.x + hw, p.z + ht)
-            });
+            b.flat_quad(corners(x0, x1, 0.0, 0.0, false), Vec3::NEG_Y, |p| Vec2::new(p.x + hw, p.z + ht));
         }
 
         if r > 0.0 {
             // Jambs face into the opening.
             if ys > 0.0 {
-                b.flat_quad(corners(-r, -r, 0.0, ys, true), Vec3::X, |p| {
-                    Vec2::new(p.z + ht, ys - p.y)
-                });
-                b.flat_quad(corners(r, r, 0.0, ys, true), Vec3::NEG_X, |p| {
-                    Vec2::new(p.z + ht, ys - p.y)
-                });
+                b.flat_quad(corners(-r, -r, 0.0, ys, true), Vec3::X, |p| Vec2::new(p.z + ht, ys - p.y));
+                b.flat_quad(corners(r, r, 0.0, ys, true), Vec3::NEG_X, |p| Vec2::new(p.z + ht, ys - p.y));
             }
             // The intrados: smooth normals pointing at the arch centre, U = arc length.
             for pair in angles.windows(2) {
@@ -658,10 +522,7 @@ pub mod shapes {
                     let p = arc(a);
                     let n = -Vec3::new(a.cos(), a.sin(), 0.0);
                     let s = (PI - a) * r + ys;
-                    [
-                        b.vertex(Vec3::new(p.x, p.y, ht), n, Vec2::new(ht * 2.0, s)),
-                        b.vertex(Vec3::new(p.x, p.y, -ht), n, Vec2::new(0.0, s)),
-                    ]
+                    [b.vertex(Vec3::new(p.x, p.y, ht), n, Vec2::new(ht * 2.0, s)), b.vertex(Vec3::new(p.x, p.y, -ht), n, Vec2::new(0.0, s))]
                 });
                 b.quad([v[0][0], v[1][0], v[1][1], v[0][1]]);
             }
@@ -698,10 +559,7 @@ mod tests {
             for (i, (t, n)) in mesh.tangents.iter().zip(&mesh.normals).enumerate() {
                 let (t3, n3) = (Vec3::new(t[0], t[1], t[2]), Vec3::from(*n));
                 assert!((n3.length() - 1.0).abs() < 1e-4, "{name} normal {i}");
-                assert!(
-                    (t3.length() - 1.0).abs() < 1e-4,
-                    "{name} tangent {i} length"
-                );
+                assert!((t3.length() - 1.0).abs() < 1e-4, "{name} tangent {i} length");
                 assert!(t3.dot(n3).abs() < 1e-4, "{name} tangent {i} not orthogonal");
                 assert!(t[3] == 1.0 || t[3] == -1.0, "{name} tangent {i} sign");
             }
@@ -724,10 +582,7 @@ mod tests {
         for ((t, n), p) in cube.tangents.iter().zip(&cube.normals).zip(&cube.positions) {
             if n[1].abs() < 0.5 {
                 let bitangent = Vec3::from(*n).cross(Vec3::new(t[0], t[1], t[2])) * t[3];
-                assert!(
-                    (bitangent - Vec3::Y).length() < 1e-4,
-                    "at {p:?}: {bitangent}"
-                );
+                assert!((bitangent - Vec3::Y).length() < 1e-4, "at {p:?}: {bitangent}");
             }
         }
     }
@@ -740,10 +595,7 @@ mod tests {
                 let p = |i: usize| Vec3::from(mesh.positions[i]);
                 let geometric = (p(b) - p(a)).cross(p(c) - p(a));
                 let shading: Vec3 = [a, b, c].iter().map(|&i| Vec3::from(mesh.normals[i])).sum();
-                assert!(
-                    geometric.dot(shading) > 0.0,
-                    "{name} triangle {t} winds backwards"
-                );
+                assert!(geometric.dot(shading) > 0.0, "{name} triangle {t} winds backwards");
             }
         }
     }
@@ -752,10 +604,7 @@ mod tests {
     fn convex_shapes_have_outward_normals() {
         for (name, mesh) in all_shapes().into_iter().take(4).skip(1) {
             for (p, n) in mesh.positions.iter().zip(&mesh.normals) {
-                assert!(
-                    Vec3::from(*p).dot(Vec3::from(*n)) > 0.0,
-                    "{name}: inward normal at {p:?}"
-                );
+                assert!(Vec3::from(*p).dot(Vec3::from(*n)) > 0.0, "{name}: inward normal at {p:?}");
             }
         }
     }
@@ -792,10 +641,7 @@ mod tests {
         assert!(!through(r * 0.6, ys + r * 0.6));
         assert!(through(0.0, ys + r + 0.1), "above the crown is wall");
         assert!(through(-w / 2.0 + 0.1, 0.5), "pier is wall");
-        assert!(
-            through(r * 0.8, ys + r * 0.8),
-            "the arch's spandrel is wall"
-        );
+        assert!(through(r * 0.8, ys + r * 0.8), "the arch's spandrel is wall");
         let (min, max) = mesh.aabb();
         assert!((min - Vec3::new(-3.0, 0.0, -0.25)).length() < 1e-5);
         assert!((max - Vec3::new(3.0, 4.0, 0.25)).length() < 1e-5);
@@ -808,22 +654,12 @@ mod tests {
         let uv = vec![[0.0; 2]; 3];
         assert_eq!(
             Mesh::new(p.clone(), n.clone(), uv.clone(), vec![0, 1, 3]),
-            Err(MeshError::IndexOutOfRange {
-                at: 2,
-                index: 3,
-                vertices: 3
-            })
+            Err(MeshError::IndexOutOfRange { at: 2, index: 3, vertices: 3 })
         );
-        assert_eq!(
-            Mesh::new(p.clone(), n.clone(), uv.clone(), vec![0, 1]),
-            Err(MeshError::IndexCount(2))
-        );
+        assert_eq!(Mesh::new(p.clone(), n.clone(), uv.clone(), vec![0, 1]), Err(MeshError::IndexCount(2)));
         assert!(matches!(
             Mesh::new(p.clone(), n[..2].to_vec(), uv.clone(), vec![0, 1, 2]),
-            Err(MeshError::AttributeLength {
-                attribute: "normals",
-                ..
-            })
+            Err(MeshError::AttributeLength { attribute: "normals", .. })
         ));
         // Degenerate UVs and a zero-area triangle still give finite, orthonormal tangents.
         let mesh = Mesh::new(p, n, uv, vec![0, 1, 2]).unwrap();
@@ -843,14 +679,8 @@ mod tests {
             let [a, b, c] = tri(&mirrored, t);
             let p = |i: usize| Vec3::from(mirrored.positions[i]);
             let geometric = (p(b) - p(a)).cross(p(c) - p(a));
-            assert!(
-                geometric.dot(Vec3::from(mirrored.normals[a])) > 0.0,
-                "mirror keeps winding"
-            );
-            assert!(
-                Vec3::from(mirrored.normals[a]).dot(p(a)) > 0.0,
-                "normals stay outward"
-            );
+            assert!(geometric.dot(Vec3::from(mirrored.normals[a])) > 0.0, "mirror keeps winding");
+            assert!(Vec3::from(mirrored.normals[a]).dot(p(a)) > 0.0, "normals stay outward");
         }
         let mut merged = cube.clone();
         merged.merge(&mirrored);
@@ -862,19 +692,10 @@ mod tests {
     #[test]
     fn smooth_normals_average_faces() {
         // Two triangles folded at 90° along the X axis share vertices 0 and 1.
-        let positions = [
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [0.0, 0.0, -1.0],
-            [0.0, 1.0, 0.0],
-        ];
+        let positions = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]];
         let normals = smooth_normals(&positions, &[0, 1, 2, 0, 1, 3]);
         let expected = Vec3::new(0.0, 1.0, 1.0).normalize();
-        assert!(
-            (Vec3::from(normals[0]) - expected).length() < 1e-5,
-            "{:?}",
-            normals[0]
-        );
+        assert!((Vec3::from(normals[0]) - expected).length() < 1e-5, "{:?}", normals[0]);
         assert!((Vec3::from(normals[2]) - Vec3::Y).length() < 1e-5);
     }
 }

@@ -20,10 +20,7 @@ pub struct Time {
 impl Time {
     /// A clock that advances by `step` every frame instead of following the real clock.
     pub fn fixed(step: Duration) -> Self {
-        Time {
-            fixed_step: Some(step),
-            ..Default::default()
-        }
+        Time { fixed_step: Some(step), ..Default::default() }
     }
 
     /// Duration of the current frame (zero during the first real-clock frame).

@@ -35,11 +35,7 @@ impl Default for Transform {
 
 impl Transform {
     /// No translation, rotation or scale.
-    pub const IDENTITY: Self = Transform {
-        translation: Vec3::ZERO,
-        rotation: Quat::IDENTITY,
-        scale: Vec3::ONE,
-    };
+    pub const IDENTITY: Self = Transform { translation: Vec3::ZERO, rotation: Quat::IDENTITY, scale: Vec3::ONE };
 
     /// A translation by `(x, y, z)`.
     pub fn from_xyz(x: f32, y: f32, z: f32) -> Self {
@@ -48,26 +44,17 @@ impl Transform {
 
     /// A pure translation.
     pub fn from_translation(translation: Vec3) -> Self {
-        Transform {
-            translation,
-            ..Self::IDENTITY
-        }
+        Transform { translation, ..Self::IDENTITY }
     }
 
     /// A pure rotation.
     pub fn from_rotation(rotation: Quat) -> Self {
-        Transform {
-            rotation,
-            ..Self::IDENTITY
-        }
+        Transform { rotation, ..Self::IDENTITY }
     }
 
     /// A pure scale.
     pub fn from_scale(scale: Vec3) -> Self {
-        Transform {
-            scale,
-            ..Self::IDENTITY
-        }
+        Transform { scale, ..Self::IDENTITY }
     }
 
     /// This transform with its translation replaced.
@@ -96,10 +83,7 @@ impl Transform {
             return self;
         };
         let back = -dir;
-        let right = up
-            .cross(back)
-            .try_normalize()
-            .unwrap_or_else(|| back.any_orthonormal_vector());
+        let right = up.cross(back).try_normalize().unwrap_or_else(|| back.any_orthonormal_vector());
         let up = back.cross(right);
         self.rotation = Quat::from_mat3(&Mat3::from_cols(right, up, back)).normalize();
         self
@@ -171,10 +155,7 @@ pub struct TransformPlugin;
 
 impl Plugin for TransformPlugin {
     fn build(&self, app: &mut App) {
-        app.add_systems(
-            PostUpdate,
-            propagate_transforms.in_set(TransformSystems::Propagate),
-        );
+        app.add_systems(PostUpdate, propagate_transforms.in_set(TransformSystems::Propagate));
     }
 }
 
@@ -212,10 +193,7 @@ pub fn propagate_transforms(
             current = child_of.parent();
             depth += 1;
             if depth > MAX_DEPTH || current == entity {
-                warn!(
-                    ?entity,
-                    "transform hierarchy is cyclic or too deep; not propagated"
-                );
+                warn!(?entity, "transform hierarchy is cyclic or too deep; not propagated");
                 continue 'seeds;
             }
             if dirty.contains(current) {
@@ -233,10 +211,7 @@ pub fn propagate_transforms(
 }
 
 /// Recomputes the subtrees rooted at the entities on `stack`, depth first, emptying it.
-fn propagate_stack(
-    stack: &mut Vec<(Entity, Affine3A)>,
-    nodes: &mut Query<(&Transform, &mut GlobalTransform, Option<&Children>)>,
-) {
+fn propagate_stack(stack: &mut Vec<(Entity, Affine3A)>, nodes: &mut Query<(&Transform, &mut GlobalTransform, Option<&Children>)>) {
     while let Some((entity, parent_affine)) = stack.pop() {
         let Ok((transform, mut global, children)) = nodes.get_mut(entity) else {
             continue;

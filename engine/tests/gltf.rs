@@ -27,11 +27,7 @@ fn base64(bytes: &[u8]) -> String {
     const ALPHABET: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     let mut out = String::new();
     for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
+        let b = [chunk[0], *chunk.get(1).unwrap_or(&0), *chunk.get(2).unwrap_or(&0)];
         let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
         for i in 0..4 {
             if i <= chunk.len() {
@@ -45,9 +41,7 @@ fn base64(bytes: &[u8]) -> String {
 }
 
 fn write_png(path: &Path) {
-    let pixels = image::RgbaImage::from_fn(4, 4, |x, y| {
-        image::Rgba([(x * 60) as u8, (y * 60) as u8, 128, 255])
-    });
+    let pixels = image::RgbaImage::from_fn(4, 4, |x, y| image::Rgba([(x * 60) as u8, (y * 60) as u8, 128, 255]));
     pixels.save(path).unwrap();
 }
 
@@ -111,11 +105,7 @@ fn write_scene(dir: &Path, json: &str, with_bin: bool) -> PathBuf {
 
 fn find_named(world: &mut World, name: &str) -> Entity {
     let mut query = world.query::<(Entity, &engine::scene::Name)>();
-    query
-        .iter(world)
-        .find(|(_, n)| n.0 == name)
-        .map(|(e, _)| e)
-        .unwrap()
+    query.iter(world).find(|(_, n)| n.0 == name).map(|(e, _)| e).unwrap()
 }
 
 #[test]
@@ -128,11 +118,7 @@ fn valid_scene_loads_and_spawns() {
     assert_eq!(scene.triangle_count(), 2);
     // The same PNG is used as sRGB (base colour, emissive) and linear (occlusion): two images.
     assert_eq!(scene.images.len(), 2);
-    assert_eq!(
-        scene.materials.len(),
-        2,
-        "default material appended for the second primitive"
-    );
+    assert_eq!(scene.materials.len(), 2, "default material appended for the second primitive");
     let red = &scene.materials[0];
     assert_eq!(red.base_color_texture, red.emissive_texture);
     assert_ne!(red.base_color_texture, red.occlusion_texture);
@@ -147,19 +133,13 @@ fn valid_scene_loads_and_spawns() {
     assert_eq!(world.get::<engine::scene::Name>(root).unwrap().0, "scene");
 
     let mut instances = world.query::<(&MeshInstance, &GlobalTransform, &ChildOf)>();
-    let instances: Vec<_> = instances
-        .iter(world)
-        .map(|(m, g, c)| (*m, *g, c.parent()))
-        .collect();
+    let instances: Vec<_> = instances.iter(world).map(|(m, g, c)| (*m, *g, c.parent())).collect();
     assert_eq!(instances.len(), 2);
     let tri = find_named(world, "Tri");
     assert!(instances.iter().all(|(_, _, parent)| *parent == tri));
     // Root (1,0,0) + Arm (0,2,0), scaled 2: vertex (1,1,0) lands at (3,4,0).
     let corner = instances[0].1.transform_point(Vec3::new(1.0, 1.0, 0.0));
-    assert!(
-        (corner - Vec3::new(3.0, 4.0, 0.0)).length() < 1e-5,
-        "{corner}"
-    );
+    assert!((corner - Vec3::new(3.0, 4.0, 0.0)).length() < 1e-5, "{corner}");
 
     let materials = world.resource::<Assets<Material>>();
     let mut saw_red = false;
@@ -187,29 +167,16 @@ fn valid_scene_loads_and_spawns() {
 
     let lamp = find_named(world, "Lamp");
     let light = *world.get::<PointLight>(lamp).unwrap();
-    assert_eq!(
-        (light.color, light.intensity, light.range),
-        (Vec3::new(1.0, 0.5, 0.25), 8.0, None)
-    );
-    assert!(
-        (world.get::<GlobalTransform>(lamp).unwrap().translation() - Vec3::new(1.0, 3.0, 0.0))
-            .length()
-            < 1e-6
-    );
+    assert_eq!((light.color, light.intensity, light.range), (Vec3::new(1.0, 0.5, 0.25), 8.0, None));
+    assert!((world.get::<GlobalTransform>(lamp).unwrap().translation() - Vec3::new(1.0, 3.0, 0.0)).length() < 1e-6);
     let spot = find_named(world, "Spot");
     let spot = *world.get::<SpotLight>(spot).unwrap();
-    assert_eq!(
-        (spot.range, spot.inner_angle, spot.outer_angle),
-        (Some(5.0), 0.2, 0.6)
-    );
+    assert_eq!((spot.range, spot.inner_angle, spot.outer_angle), (Some(5.0), 0.2, 0.6));
 
     let cam = find_named(world, "Cam");
     let camera = *world.get::<Camera>(cam).unwrap();
     assert_eq!((camera.fov_y, camera.near), (0.8, 0.1));
-    assert_eq!(
-        world.get::<GlobalTransform>(cam).unwrap().translation(),
-        Vec3::new(5.0, 6.0, 7.0)
-    );
+    assert_eq!(world.get::<GlobalTransform>(cam).unwrap().translation(), Vec3::new(5.0, 6.0, 7.0));
     assert_eq!(world.get::<ChildOf>(cam).unwrap().parent(), root);
 
     let arm = find_named(world, "Arm");
@@ -226,10 +193,7 @@ fn truncated_json_is_a_parse_error_naming_the_file() {
     let json = scene_json("tri.bin", "VEC3", 4);
     let path = write_scene(&dir, &json[..json.len() / 2], true);
     let error = gltf::load(&path).unwrap_err();
-    assert!(
-        matches!(&error, GltfError::Parse { path: p, .. } if *p == path),
-        "{error:?}"
-    );
+    assert!(matches!(&error, GltfError::Parse { path: p, .. } if *p == path), "{error:?}");
     assert!(error.to_string().contains("scene.gltf"), "{error}");
 }
 
@@ -239,10 +203,7 @@ fn missing_buffer_is_reported_by_path() {
     let path = write_scene(&dir, &scene_json("missing%20data.bin", "VEC3", 4), false);
     let error = gltf::load(&path).unwrap_err();
     let expected = dir.join("missing data.bin");
-    assert!(
-        matches!(&error, GltfError::MissingFile { path } if *path == expected),
-        "{error:?}"
-    );
+    assert!(matches!(&error, GltfError::MissingFile { path } if *path == expected), "{error:?}");
     assert!(error.to_string().contains("missing data.bin"), "{error}");
 }
 
@@ -252,27 +213,17 @@ fn missing_image_is_reported_by_path() {
     let path = write_scene(&dir, &scene_json("tri.bin", "VEC3", 4), true);
     std::fs::remove_file(dir.join("checker.png")).unwrap();
     let error = gltf::load(&path).unwrap_err();
-    assert!(
-        matches!(&error, GltfError::MissingFile { path } if path.ends_with("checker.png")),
-        "{error:?}"
-    );
+    assert!(matches!(&error, GltfError::MissingFile { path } if path.ends_with("checker.png")), "{error:?}");
 }
 
 #[test]
 fn vec2_positions_are_rejected_with_mesh_and_attribute() {
     let dir = temp_dir("vec2");
-    let uri = format!(
-        "data:application/octet-stream;base64,{}",
-        base64(&triangle_bin())
-    );
+    let uri = format!("data:application/octet-stream;base64,{}", base64(&triangle_bin()));
     let path = write_scene(&dir, &scene_json(&uri, "VEC2", 4), false);
     let error = gltf::load(&path).unwrap_err();
     match &error {
-        GltfError::UnsupportedAttribute {
-            mesh,
-            attribute,
-            found,
-        } => {
+        GltfError::UnsupportedAttribute { mesh, attribute, found } => {
             assert!(mesh.contains("Triangle"), "{mesh}");
             assert_eq!(attribute, "POSITION");
             assert!(found.contains("Vec2"), "{found}");
@@ -280,50 +231,27 @@ fn vec2_positions_are_rejected_with_mesh_and_attribute() {
         other => panic!("expected UnsupportedAttribute, got {other:?}"),
     }
     let message = error.to_string();
-    assert!(
-        message.contains("Triangle") && message.contains("POSITION"),
-        "{message}"
-    );
+    assert!(message.contains("Triangle") && message.contains("POSITION"), "{message}");
 }
 
 #[test]
 fn data_uri_buffers_load_and_lines_are_rejected() {
     let dir = temp_dir("data-uri");
-    let uri = format!(
-        "data:application/octet-stream;base64,{}",
-        base64(&triangle_bin())
-    );
+    let uri = format!("data:application/octet-stream;base64,{}", base64(&triangle_bin()));
     let path = write_scene(&dir, &scene_json(&uri, "VEC3", 4), false);
     assert_eq!(gltf::load(&path).unwrap().triangle_count(), 2);
     let path = write_scene(&dir, &scene_json(&uri, "VEC3", 1), false);
     let error = gltf::load(&path).unwrap_err();
-    assert!(
-        matches!(&error, GltfError::UnsupportedPrimitiveMode { mode, .. } if mode == "Lines"),
-        "{error:?}"
-    );
+    assert!(matches!(&error, GltfError::UnsupportedPrimitiveMode { mode, .. } if mode == "Lines"), "{error:?}");
     // From memory without a base directory, the external PNG cannot be resolved.
     let bytes = std::fs::read(&path).unwrap();
-    let json = String::from_utf8(bytes)
-        .unwrap()
-        .replace("\"mode\": 1", "\"mode\": 4");
-    assert!(matches!(
-        gltf::load_slice(json.as_bytes(), None),
-        Err(GltfError::BadUri { .. })
-    ));
-    assert_eq!(
-        gltf::load_slice(json.as_bytes(), Some(&dir))
-            .unwrap()
-            .images
-            .len(),
-        2
-    );
+    let json = String::from_utf8(bytes).unwrap().replace("\"mode\": 1", "\"mode\": 4");
+    assert!(matches!(gltf::load_slice(json.as_bytes(), None), Err(GltfError::BadUri { .. })));
+    assert_eq!(gltf::load_slice(json.as_bytes(), Some(&dir)).unwrap().images.len(), 2);
 }
 
 fn models_dir() -> Option<PathBuf> {
-    let dir = PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../shared/assets/gltf"
-    ));
+    let dir = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/assets/gltf"));
     if dir.is_dir() {
         Some(dir)
     } else {
@@ -336,11 +264,7 @@ fn models_dir() -> Option<PathBuf> {
 fn damaged_helmet_loads_with_all_textures() {
     let Some(dir) = models_dir() else { return };
     let scene = gltf::load(&dir.join("DamagedHelmet/DamagedHelmet.glb")).unwrap();
-    assert!(
-        scene.triangle_count() > 10_000,
-        "{}",
-        scene.triangle_count()
-    );
+    assert!(scene.triangle_count() > 10_000, "{}", scene.triangle_count());
     let material = &scene.materials[scene.meshes[0][0].1];
     for (name, texture) in [
         ("base colour", material.base_color_texture),
@@ -349,12 +273,8 @@ fn damaged_helmet_loads_with_all_textures() {
         ("emissive", material.emissive_texture),
         ("occlusion", material.occlusion_texture),
     ] {
-        let image =
-            &scene.images[texture.unwrap_or_else(|| panic!("helmet has no {name} texture"))];
-        assert!(
-            image.width >= 256 && image.mip_count() > 8,
-            "{name}: {image:?}"
-        );
+        let image = &scene.images[texture.unwrap_or_else(|| panic!("helmet has no {name} texture"))];
+        assert!(image.width >= 256 && image.mip_count() > 8, "{name}: {image:?}");
     }
     let mesh = &scene.meshes[0][0].0;
     mesh.validate().unwrap();

@@ -14,19 +14,14 @@ fn count_changed(query: Query<(), Changed<GlobalTransform>>, mut count: ResMut<C
 
 fn app() -> App {
     let mut app = App::new();
-    app.world
-        .resource_mut::<Time>()
-        .set_fixed_step(Some(Duration::from_millis(16)));
+    app.world.resource_mut::<Time>().set_fixed_step(Some(Duration::from_millis(16)));
     app.insert_resource(ChangedGlobals::default());
     app.add_systems(Render, count_changed);
     app
 }
 
 fn global(app: &App, entity: Entity) -> Vec3 {
-    app.world
-        .get::<GlobalTransform>(entity)
-        .unwrap()
-        .translation()
+    app.world.get::<GlobalTransform>(entity).unwrap().translation()
 }
 
 fn close(a: Vec3, b: Vec3) -> bool {
@@ -36,18 +31,9 @@ fn close(a: Vec3, b: Vec3) -> bool {
 #[test]
 fn hierarchy_propagates_and_idles_without_changes() {
     let mut app = app();
-    let parent = app
-        .world
-        .spawn(Transform::from_xyz(1.0, 0.0, 0.0).with_scale(Vec3::splat(2.0)))
-        .id();
-    let child = app
-        .world
-        .spawn((Transform::from_xyz(0.0, 1.0, 0.0), ChildOf(parent)))
-        .id();
-    let grandchild = app
-        .world
-        .spawn((Transform::from_xyz(0.0, 0.0, 1.0), ChildOf(child)))
-        .id();
+    let parent = app.world.spawn(Transform::from_xyz(1.0, 0.0, 0.0).with_scale(Vec3::splat(2.0))).id();
+    let child = app.world.spawn((Transform::from_xyz(0.0, 1.0, 0.0), ChildOf(parent))).id();
+    let grandchild = app.world.spawn((Transform::from_xyz(0.0, 0.0, 1.0), ChildOf(child))).id();
     app.update();
     assert!(close(global(&app, parent), Vec3::new(1.0, 0.0, 0.0)));
     assert!(close(global(&app, child), Vec3::new(1.0, 2.0, 0.0)));
@@ -73,11 +59,7 @@ fn hierarchy_propagates_and_idles_without_changes() {
     assert_eq!(app.world.resource::<ChangedGlobals>().0, 0);
 
     // Moving a leaf touches only the leaf.
-    app.world
-        .get_mut::<Transform>(grandchild)
-        .unwrap()
-        .translation
-        .x = 1.0;
+    app.world.get_mut::<Transform>(grandchild).unwrap().translation.x = 1.0;
     app.update();
     assert!(close(global(&app, grandchild), Vec3::new(2.0, 2.0, -3.0)));
     assert_eq!(app.world.resource::<ChangedGlobals>().0, 1);
@@ -87,32 +69,16 @@ fn hierarchy_propagates_and_idles_without_changes() {
 fn reparenting_and_orphaning() {
     let mut app = app();
     let a = app.world.spawn(Transform::from_xyz(10.0, 0.0, 0.0)).id();
-    let b = app
-        .world
-        .spawn(
-            Transform::from_xyz(0.0, 10.0, 0.0)
-                .with_rotation(Quat::from_rotation_z(std::f32::consts::FRAC_PI_2)),
-        )
-        .id();
-    let child = app
-        .world
-        .spawn((Transform::from_xyz(1.0, 0.0, 0.0), ChildOf(a)))
-        .id();
-    let leaf = app
-        .world
-        .spawn((Transform::from_xyz(1.0, 0.0, 0.0), ChildOf(child)))
-        .id();
+    let b = app.world.spawn(Transform::from_xyz(0.0, 10.0, 0.0).with_rotation(Quat::from_rotation_z(std::f32::consts::FRAC_PI_2))).id();
+    let child = app.world.spawn((Transform::from_xyz(1.0, 0.0, 0.0), ChildOf(a))).id();
+    let leaf = app.world.spawn((Transform::from_xyz(1.0, 0.0, 0.0), ChildOf(child))).id();
     app.update();
     assert!(close(global(&app, leaf), Vec3::new(12.0, 0.0, 0.0)));
 
     // Reparent `child` under the rotated `b`: +X maps to +Y.
     app.world.entity_mut(child).insert(ChildOf(b));
     app.update();
-    assert!(
-        close(global(&app, child), Vec3::new(0.0, 11.0, 0.0)),
-        "{}",
-        global(&app, child)
-    );
+    assert!(close(global(&app, child), Vec3::new(0.0, 11.0, 0.0)), "{}", global(&app, child));
     assert!(close(global(&app, leaf), Vec3::new(0.0, 12.0, 0.0)));
     assert_eq!(app.world.resource::<ChangedGlobals>().0, 2);
     assert!(app.world.get::<Children>(a).is_none_or(|c| c.is_empty()));
@@ -133,10 +99,7 @@ fn deep_chain_is_linear_and_correct() {
     let mut parent = app.world.spawn(Transform::IDENTITY).id();
     let root = parent;
     for _ in 0..2000 {
-        parent = app
-            .world
-            .spawn((Transform::from_xyz(0.0, 0.5, 0.0), ChildOf(parent)))
-            .id();
+        parent = app.world.spawn((Transform::from_xyz(0.0, 0.5, 0.0), ChildOf(parent))).id();
     }
     app.update();
     assert!(close(global(&app, parent), Vec3::new(0.0, 1000.0, 0.0)));

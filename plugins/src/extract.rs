@@ -16,8 +16,8 @@ use engine::scene::MeshInstance;
 use engine::transform::GlobalTransform;
 use glam::{Mat4, Vec2, Vec3};
 use render::scene::{
-    DrawItem, GpuCamera, GpuInstance, GpuLight, GpuMaterial, GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_DOUBLE_SIDED, MeshData,
-    MeshId, SceneMirror, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE, TextureData,
+    DrawItem, GpuCamera, GpuInstance, GpuLight, GpuMaterial, GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_DOUBLE_SIDED, MeshData, MeshId,
+    SceneMirror, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE, TextureData,
 };
 use std::collections::HashMap;
 
@@ -213,10 +213,11 @@ pub fn extract_materials(
         for (entity, inst) in &instances {
             if changed_flags.contains(&inst.material)
                 && let (Some(&slot), Some(&(_, flags))) = (slots.instances.get(&entity), slots.materials.get(&inst.material))
-                    && let Some(Some(draw)) = mirror.draws.get_mut(slot as usize) {
-                        draw.alpha_mask = flags.alpha_mask;
-                        draw.double_sided = flags.double_sided;
-                    }
+                && let Some(Some(draw)) = mirror.draws.get_mut(slot as usize)
+            {
+                draw.alpha_mask = flags.alpha_mask;
+                draw.double_sided = flags.double_sided;
+            }
         }
     }
 }
@@ -347,7 +348,11 @@ fn camera_record(view: Mat4, proj: Mat4, view_proj: Mat4, position: Vec3, exposu
 
 /// Writes added and modified decal materials into their slots; frees removed ones. A decal whose
 /// material changed keeps its slot reference, so only the material record is rewritten.
-pub fn extract_decal_materials(mut materials: ResMut<Assets<DecalMaterial>>, mut mirror: ResMut<RenderMirror>, mut slots: ResMut<MirrorSlots>) {
+pub fn extract_decal_materials(
+    mut materials: ResMut<Assets<DecalMaterial>>,
+    mut mirror: ResMut<RenderMirror>,
+    mut slots: ResMut<MirrorSlots>,
+) {
     let events: Vec<_> = materials.drain_events().collect();
     let mirror = &mut mirror.0;
     for event in events {

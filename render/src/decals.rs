@@ -60,8 +60,9 @@ impl AccelStruct {
         };
         // SAFETY: `raw` was just created on this device.
         let address = unsafe {
-            rt.acceleration_structure
-                .get_acceleration_structure_device_address(&vk::AccelerationStructureDeviceAddressInfoKHR::default().acceleration_structure(raw))
+            rt.acceleration_structure.get_acceleration_structure_device_address(
+                &vk::AccelerationStructureDeviceAddressInfoKHR::default().acceleration_structure(raw),
+            )
         };
         Ok(Self { raw, buffer, address })
     }
@@ -188,12 +189,12 @@ impl DecalAccel {
             )
         };
         let tlas_geometry_for = |address: vk::DeviceAddress| {
-            [vk::AccelerationStructureGeometryKHR::default()
-                .geometry_type(vk::GeometryTypeKHR::INSTANCES)
-                .geometry(vk::AccelerationStructureGeometryDataKHR {
+            [vk::AccelerationStructureGeometryKHR::default().geometry_type(vk::GeometryTypeKHR::INSTANCES).geometry(
+                vk::AccelerationStructureGeometryDataKHR {
                     instances: vk::AccelerationStructureGeometryInstancesDataKHR::default()
                         .data(vk::DeviceOrHostAddressConstKHR { device_address: address }),
-                })]
+                },
+            )]
         };
         let tlas_flags = vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE;
         let mut tlas_sizes = vk::AccelerationStructureBuildSizesInfoKHR::default();
@@ -214,16 +215,27 @@ impl DecalAccel {
         // (Re)allocate for a new capacity. The old structures may still be read by a frame in
         // flight, so they go to the graveyard.
         if work == BlasWork::Build && self.blas.as_ref().is_none_or(|b| b.buffer.size < blas_sizes.acceleration_structure_size) {
-            let blas = AccelStruct::new(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, blas_sizes.acceleration_structure_size, "decal blas")?;
+            let blas = AccelStruct::new(
+                ctx,
+                vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+                blas_sizes.acceleration_structure_size,
+                "decal blas",
+            )?;
             if let Some(old) = self.blas.replace(blas) {
                 graveyard.bury(frame_value, Retired::AccelerationStructure(old.raw, old.buffer));
             }
             self.write_instance(ctx, graveyard, frame_value)?;
         }
         if self.tlas.is_none() {
-            self.tlas = Some(AccelStruct::new(ctx, vk::AccelerationStructureTypeKHR::TOP_LEVEL, tlas_sizes.acceleration_structure_size, "decal tlas")?);
+            self.tlas = Some(AccelStruct::new(
+                ctx,
+                vk::AccelerationStructureTypeKHR::TOP_LEVEL,
+                tlas_sizes.acceleration_structure_size,
+                "decal tlas",
+            )?);
         }
-        let scratch_need = blas_sizes.build_scratch_size.max(blas_sizes.update_scratch_size).max(tlas_sizes.build_scratch_size) + self.scratch_alignment;
+        let scratch_need =
+            blas_sizes.build_scratch_size.max(blas_sizes.update_scratch_size).max(tlas_sizes.build_scratch_size) + self.scratch_alignment;
         if self.scratch.as_ref().is_none_or(|s| s.size < scratch_need) {
             let scratch = Buffer::new(
                 ctx,
@@ -332,7 +344,10 @@ impl DecalAccel {
         // SAFETY: AccelerationStructureInstanceKHR is a plain #[repr(C)] struct of 64 bytes
         // with no padding; viewing it as bytes is sound.
         let bytes = unsafe {
-            std::slice::from_raw_parts((&instance as *const vk::AccelerationStructureInstanceKHR).cast::<u8>(), std::mem::size_of_val(&instance))
+            std::slice::from_raw_parts(
+                (&instance as *const vk::AccelerationStructureInstanceKHR).cast::<u8>(),
+                std::mem::size_of_val(&instance),
+            )
         };
         buffer.mapped()[..bytes.len()].copy_from_slice(bytes);
         if let Some(old) = self.instances.replace(buffer) {

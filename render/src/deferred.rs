@@ -75,7 +75,8 @@ pub struct DeferredPasses {
     decals: Vec<vk::Pipeline>,
 }
 
-const GBUFFER_FORMATS: [vk::Format; 5] = [GBUFFER_ALBEDO_FORMAT, GBUFFER_NORMAL_FORMAT, GBUFFER_MATERIAL_FORMAT, GBUFFER_LAYERS_FORMAT, HDR_FORMAT];
+const GBUFFER_FORMATS: [vk::Format; 5] =
+    [GBUFFER_ALBEDO_FORMAT, GBUFFER_NORMAL_FORMAT, GBUFFER_MATERIAL_FORMAT, GBUFFER_LAYERS_FORMAT, HDR_FORMAT];
 
 impl DeferredPasses {
     /// Creates the pipelines.
@@ -94,7 +95,8 @@ impl DeferredPasses {
             let masks = [
                 if flags & DECAL_ALBEDO != 0 { rgb } else { C::empty() },
                 if flags & DECAL_NORMAL != 0 { rgb } else { C::empty() },
-                (if flags & DECAL_ROUGHNESS != 0 { C::R } else { C::empty() }) | (if flags & DECAL_METALLIC != 0 { C::G } else { C::empty() }),
+                (if flags & DECAL_ROUGHNESS != 0 { C::R } else { C::empty() })
+                    | (if flags & DECAL_METALLIC != 0 { C::G } else { C::empty() }),
             ];
             decals.push(create_graphics(
                 ctx,
@@ -165,8 +167,11 @@ impl DeferredPasses {
             for t in [&mut g.albedo, &mut g.normal, &mut g.material] {
                 t.use_as(p.ctx, p.cmd, Access::ColorAttachmentWrite);
             }
-            let colors =
-                [color_attachment(g.albedo.image.view, None), color_attachment(g.normal.image.view, None), color_attachment(g.material.image.view, None)];
+            let colors = [
+                color_attachment(g.albedo.image.view, None),
+                color_attachment(g.normal.image.view, None),
+                color_attachment(g.material.image.view, None),
+            ];
             let depth_info = depth_attachment(depth.image.view, Access::DepthSampled.layout(), None);
             p.begin_rendering(*extent, &colors, Some(&depth_info));
             let push = p.push;

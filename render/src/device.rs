@@ -205,10 +205,7 @@ impl GpuContext {
         }
 
         let app_name = CString::new("ecs-decals").expect("no NUL");
-        let app_info = vk::ApplicationInfo::default()
-            .application_name(&app_name)
-            .engine_name(&app_name)
-            .api_version(vk::API_VERSION_1_3);
+        let app_info = vk::ApplicationInfo::default().application_name(&app_name).engine_name(&app_name).api_version(vk::API_VERSION_1_3);
         let mut instance_exts: Vec<*const i8> = settings.surface_extensions.iter().map(|e| e.as_ptr()).collect();
         if validation {
             instance_exts.push(ext::debug_utils::NAME.as_ptr());
@@ -283,10 +280,7 @@ impl GpuContext {
             .timeline_semaphore(true)
             .scalar_block_layout(true)
             .host_query_reset(true);
-        let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
-            .dynamic_rendering(true)
-            .synchronization2(true)
-            .maintenance4(true);
+        let mut f13 = vk::PhysicalDeviceVulkan13Features::default().dynamic_rendering(true).synchronization2(true).maintenance4(true);
         let mut f_as = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
         let mut f_rq = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
         let mut f_rtp = vk::PhysicalDeviceRayTracingPipelineFeaturesKHR::default().ray_tracing_pipeline(true);
@@ -372,9 +366,7 @@ impl GpuContext {
                 &vk::CommandPoolCreateInfo::default().queue_family_index(self.queue_family).flags(vk::CommandPoolCreateFlags::TRANSIENT),
                 None,
             )?;
-            let cmd = d.allocate_command_buffers(
-                &vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1),
-            )?[0];
+            let cmd = d.allocate_command_buffers(&vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1))?[0];
             d.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))?;
             record(cmd);
             d.end_command_buffer(cmd)?;
@@ -419,7 +411,11 @@ fn pick_physical_device(instance: &ash::Instance) -> Result<(vk::PhysicalDevice,
         let props = unsafe { instance.get_physical_device_properties(pd) };
         let name = props.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
         if props.api_version < vk::API_VERSION_1_3 {
-            rejected.push(format!("{name}: Vulkan {}.{} < 1.3", vk::api_version_major(props.api_version), vk::api_version_minor(props.api_version)));
+            rejected.push(format!(
+                "{name}: Vulkan {}.{} < 1.3",
+                vk::api_version_major(props.api_version),
+                vk::api_version_minor(props.api_version)
+            ));
             continue;
         }
         // SAFETY: as above.
@@ -453,9 +449,10 @@ fn pick_physical_device(instance: &ash::Instance) -> Result<(vk::PhysicalDevice,
         }
         // SAFETY: as above.
         let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
-        let Some(family) = families.iter().position(|f| {
-            f.queue_flags.contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE) && f.timestamp_valid_bits > 0
-        }) else {
+        let Some(family) = families
+            .iter()
+            .position(|f| f.queue_flags.contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE) && f.timestamp_valid_bits > 0)
+        else {
             rejected.push(format!("{name}: no graphics queue with timestamps"));
             continue;
         };

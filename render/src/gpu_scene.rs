@@ -401,10 +401,7 @@ impl GpuScene {
             regions: Vec::with_capacity(64),
             mesh_usage,
         };
-        let builtins = [
-            (TEXTURE_WHITE, [255u8, 255, 255, 255]),
-            (TEXTURE_FLAT_NORMAL, [128u8, 128, 255, 255]),
-        ];
+        let builtins = [(TEXTURE_WHITE, [255u8, 255, 255, 255]), (TEXTURE_FLAT_NORMAL, [128u8, 128, 255, 255])];
         let mut staging = Vec::new();
         ctx.run_once(|cmd| {
             for (slot, texel) in builtins {
@@ -440,7 +437,15 @@ impl GpuScene {
         self.write_descriptor_at(ctx, 0, slot, view, sampler, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL);
     }
 
-    fn write_descriptor_at(&self, ctx: &GpuContext, binding: u32, slot: u32, view: vk::ImageView, sampler: vk::Sampler, layout: vk::ImageLayout) {
+    fn write_descriptor_at(
+        &self,
+        ctx: &GpuContext,
+        binding: u32,
+        slot: u32,
+        view: vk::ImageView,
+        sampler: vk::Sampler,
+        layout: vk::ImageLayout,
+    ) {
         let info = [vk::DescriptorImageInfo { sampler, image_view: view, image_layout: layout }];
         let write = vk::WriteDescriptorSet::default()
             .dst_set(self.set)
@@ -456,7 +461,13 @@ impl GpuScene {
 
     /// Creates the image for `data`, records its upload into `cmd` and returns the staging
     /// buffer, which must live until `cmd` has executed.
-    fn record_texture_upload(&mut self, ctx: &GpuContext, cmd: vk::CommandBuffer, slot: u32, data: &TextureData) -> Result<Buffer, RenderError> {
+    fn record_texture_upload(
+        &mut self,
+        ctx: &GpuContext,
+        cmd: vk::CommandBuffer,
+        slot: u32,
+        data: &TextureData,
+    ) -> Result<Buffer, RenderError> {
         if slot >= MAX_TEXTURES {
             return Err(RenderError::Other(format!("texture slot {slot} exceeds the bindless array ({MAX_TEXTURES})")));
         }
@@ -497,9 +508,7 @@ impl GpuScene {
         let mut state = ImageState::new(image.raw, image.full_range());
         transition(&ctx.device, cmd, &mut state, Access::TransferWrite, true);
         // SAFETY: `cmd` is recording; buffer and image are live and the regions lie inside both.
-        unsafe {
-            ctx.device.cmd_copy_buffer_to_image(cmd, staging.raw, image.raw, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &regions)
-        };
+        unsafe { ctx.device.cmd_copy_buffer_to_image(cmd, staging.raw, image.raw, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &regions) };
         transition(&ctx.device, cmd, &mut state, Access::ShaderSampled, false);
         self.write_descriptor(ctx, slot, image.view, self.repeat_sampler);
         if self.textures.len() <= slot as usize {
@@ -608,11 +617,29 @@ impl GpuScene {
         )?;
         record_copies(ctx, cmd, staging.buffer(), dst, &regions);
         if std::mem::take(&mut self.mesh_info_dirty) {
-            let dst = upload_array(ctx, graveyard, frame_value, &mut self.mesh_table, bytemuck::cast_slice(&self.mesh_info), staging, &mut regions, &mut counters)?;
+            let dst = upload_array(
+                ctx,
+                graveyard,
+                frame_value,
+                &mut self.mesh_table,
+                bytemuck::cast_slice(&self.mesh_info),
+                staging,
+                &mut regions,
+                &mut counters,
+            )?;
             record_copies(ctx, cmd, staging.buffer(), Some(dst), &regions);
         }
         if std::mem::take(&mut self.decal_order_dirty) {
-            let dst = upload_array(ctx, graveyard, frame_value, &mut self.decal_order, bytemuck::cast_slice(&self.decal_order_cpu), staging, &mut regions, &mut counters)?;
+            let dst = upload_array(
+                ctx,
+                graveyard,
+                frame_value,
+                &mut self.decal_order,
+                bytemuck::cast_slice(&self.decal_order_cpu),
+                staging,
+                &mut regions,
+                &mut counters,
+            )?;
             record_copies(ctx, cmd, staging.buffer(), Some(dst), &regions);
         }
         if camera_dirty {
@@ -628,7 +655,9 @@ impl GpuScene {
             cmd,
             (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE),
             (
-                vk::PipelineStageFlags2::ALL_GRAPHICS | vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::ACCELERATION_STRUCTURE_BUILD_KHR,
+                vk::PipelineStageFlags2::ALL_GRAPHICS
+                    | vk::PipelineStageFlags2::COMPUTE_SHADER
+                    | vk::PipelineStageFlags2::ACCELERATION_STRUCTURE_BUILD_KHR,
                 vk::AccessFlags2::SHADER_READ
                     | vk::AccessFlags2::VERTEX_ATTRIBUTE_READ
                     | vk::AccessFlags2::INDEX_READ

@@ -65,10 +65,7 @@ impl Buffer {
 
     /// The CPU view of a host-visible buffer.
     pub fn mapped(&mut self) -> &mut [u8] {
-        self.allocation
-            .as_mut()
-            .and_then(|a| a.mapped_slice_mut())
-            .expect("mapped() on a buffer that is not host-visible")
+        self.allocation.as_mut().and_then(|a| a.mapped_slice_mut()).expect("mapped() on a buffer that is not host-visible")
     }
 
     /// Destroys the buffer now. The caller guarantees the GPU no longer uses it.
@@ -76,9 +73,10 @@ impl Buffer {
         // SAFETY: guaranteed by the caller (directly or through the Graveyard).
         unsafe { ctx.device.destroy_buffer(self.raw, None) };
         if let Some(a) = self.allocation.take()
-            && let Err(e) = ctx.allocator().free(a) {
-                tracing::error!("freeing buffer memory failed: {e}");
-            }
+            && let Err(e) = ctx.allocator().free(a)
+        {
+            tracing::error!("freeing buffer memory failed: {e}");
+        }
     }
 }
 
@@ -150,28 +148,19 @@ impl Image {
         };
         // SAFETY: the allocation satisfies the image's requirements.
         unsafe { d.bind_image_memory(raw, allocation.memory(), allocation.offset()) }?;
-        let view_info = vk::ImageViewCreateInfo::default()
-            .image(raw)
-            .view_type(vk::ImageViewType::TYPE_2D)
-            .format(desc.format)
-            .subresource_range(vk::ImageSubresourceRange {
-                aspect_mask: aspect,
-                base_mip_level: 0,
-                level_count: desc.mip_levels,
-                base_array_layer: 0,
-                layer_count: 1,
-            });
+        let view_info =
+            vk::ImageViewCreateInfo::default().image(raw).view_type(vk::ImageViewType::TYPE_2D).format(desc.format).subresource_range(
+                vk::ImageSubresourceRange {
+                    aspect_mask: aspect,
+                    base_mip_level: 0,
+                    level_count: desc.mip_levels,
+                    base_array_layer: 0,
+                    layer_count: 1,
+                },
+            );
         // SAFETY: the image is bound and the range lies inside it.
         let view = unsafe { d.create_image_view(&view_info, None) }?;
-        Ok(Image {
-            raw,
-            view,
-            allocation: Some(allocation),
-            format: desc.format,
-            extent: desc.extent,
-            mip_levels: desc.mip_levels,
-            aspect,
-        })
+        Ok(Image { raw, view, allocation: Some(allocation), format: desc.format, extent: desc.extent, mip_levels: desc.mip_levels, aspect })
     }
 
     /// The subresource range covering every mip.
@@ -193,9 +182,10 @@ impl Image {
             ctx.device.destroy_image(self.raw, None);
         }
         if let Some(a) = self.allocation.take()
-            && let Err(e) = ctx.allocator().free(a) {
-                tracing::error!("freeing image memory failed: {e}");
-            }
+            && let Err(e) = ctx.allocator().free(a)
+        {
+            tracing::error!("freeing image memory failed: {e}");
+        }
     }
 }
 

@@ -72,9 +72,7 @@ impl Overlay {
 
     /// Records the overlay; `cmd` is inside a rendering scope on the target.
     pub fn record(&mut self, cmd: vk::CommandBuffer, extent: vk::Extent2D, frame: &OverlayFrame) -> Result<(), RenderError> {
-        self.renderer
-            .cmd_draw(cmd, extent, frame.pixels_per_point, &frame.primitives)
-            .map_err(|e| RenderError::Other(format!("egui: {e}")))
+        self.renderer.cmd_draw(cmd, extent, frame.pixels_per_point, &frame.primitives).map_err(|e| RenderError::Other(format!("egui: {e}")))
     }
 
     /// Destroys the overlay; the GPU must be idle.

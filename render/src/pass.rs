@@ -46,7 +46,12 @@ impl PassContext<'_> {
     }
 
     /// Begins dynamic rendering into the given attachments over `extent`.
-    pub fn begin_rendering(&self, extent: vk::Extent2D, colors: &[vk::RenderingAttachmentInfo], depth: Option<&vk::RenderingAttachmentInfo>) {
+    pub fn begin_rendering(
+        &self,
+        extent: vk::Extent2D,
+        colors: &[vk::RenderingAttachmentInfo],
+        depth: Option<&vk::RenderingAttachmentInfo>,
+    ) {
         let mut info = vk::RenderingInfo::default()
             .render_area(vk::Rect2D { offset: vk::Offset2D::default(), extent })
             .layer_count(1)

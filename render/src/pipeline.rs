@@ -45,11 +45,8 @@ pub struct ScenePush {
 
 /// Creates the shared pipeline layout.
 pub fn create_layout(ctx: &GpuContext, bindless: vk::DescriptorSetLayout) -> Result<vk::PipelineLayout, RenderError> {
-    let ranges = [vk::PushConstantRange {
-        stage_flags: vk::ShaderStageFlags::ALL,
-        offset: 0,
-        size: std::mem::size_of::<ScenePush>() as u32,
-    }];
+    let ranges =
+        [vk::PushConstantRange { stage_flags: vk::ShaderStageFlags::ALL, offset: 0, size: std::mem::size_of::<ScenePush>() as u32 }];
     let sets = [bindless];
     // SAFETY: valid create info pointing at locals.
     Ok(unsafe {

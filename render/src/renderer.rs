@@ -12,21 +12,21 @@ use ash::vk;
 use crate::RenderError;
 use crate::decal_debug::DecalBoxes;
 use crate::decals::DecalAccel;
+use crate::deferred::{DecalRun, DeferredPasses, plan_deferred_decals};
 use crate::device::{DeviceSettings, GpuContext, Tier};
 use crate::forward::ForwardPasses;
 use crate::gpu_scene::GpuScene;
 use crate::memory::Graveyard;
+use crate::overlay::{Overlay, OverlayFrame};
 use crate::pass::PassContext;
 use crate::pipeline::{ScenePush, create_layout};
 use crate::scene::{FrameCounters, SceneMirror};
 use crate::targets::{Targets, f16_to_f32, read_back, slots};
 use crate::timestamps::{GpuTimer, PassTimes};
-use crate::overlay::{Overlay, OverlayFrame};
 use crate::tonemap::Tonemap;
-use crate::window::WindowSurface;
-use crate::deferred::{DecalRun, DeferredPasses, plan_deferred_decals};
-use crate::visbuffer::VisBufferPasses;
 use crate::upload::StagingRing;
+use crate::visbuffer::VisBufferPasses;
+use crate::window::WindowSurface;
 
 /// Frames the CPU may record ahead of the GPU.
 pub const FRAMES_IN_FLIGHT: usize = 2;
@@ -250,15 +250,21 @@ impl Renderer {
             // SAFETY: valid create infos; destroyed in Drop.
             let (pool, cmd) = unsafe {
                 let pool = d.create_command_pool(
-                    &vk::CommandPoolCreateInfo::default()
-                        .queue_family_index(ctx.queue_family)
-                        .flags(vk::CommandPoolCreateFlags::TRANSIENT),
+                    &vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family).flags(vk::CommandPoolCreateFlags::TRANSIENT),
                     None,
                 )?;
-                let cmd = d.allocate_command_buffers(&vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1))?[0];
+                let cmd =
+                    d.allocate_command_buffers(&vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1))?[0];
                 (pool, cmd)
             };
-            frames.push(FrameSlot { pool, cmd, staging: StagingRing::new(ctx, 64 * 1024)?, timer: GpuTimer::new(ctx)?, value: 0, frame: 0 });
+            frames.push(FrameSlot {
+                pool,
+                cmd,
+                staging: StagingRing::new(ctx, 64 * 1024)?,
+                timer: GpuTimer::new(ctx)?,
+                value: 0,
+                frame: 0,
+            });
         }
         let decal_accel = DecalAccel::new(ctx);
         let decal_boxes = DecalBoxes::new(ctx, layout)?;
@@ -447,7 +453,8 @@ impl Renderer {
         mirror.counters.decals = mirror.decals.len() as u64;
 
         let slot = &mut res.frames[slot_index];
-        let mut pass = PassContext { ctx, cmd, layout: res.layout, bindless: res.scene.set, push: ScenePush::default(), timer: &mut slot.timer };
+        let mut pass =
+            PassContext { ctx, cmd, layout: res.layout, bindless: res.scene.set, push: ScenePush::default(), timer: &mut slot.timer };
         res.decal_accel.record(
             &mut pass,
             &mut res.graveyard,
@@ -530,7 +537,10 @@ impl Renderer {
             let (waits, signals, n) = match &acquired {
                 Some(image) => (
                     [vk::SemaphoreSubmitInfo::default().semaphore(image.wait).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)],
-                    [timeline, vk::SemaphoreSubmitInfo::default().semaphore(image.signal).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)],
+                    [
+                        timeline,
+                        vk::SemaphoreSubmitInfo::default().semaphore(image.signal).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS),
+                    ],
                     1,
                 ),
                 None => ([vk::SemaphoreSubmitInfo::default()], [timeline, vk::SemaphoreSubmitInfo::default()], 0),
@@ -570,10 +580,7 @@ impl Renderer {
     pub fn read_hdr(&mut self) -> Result<Vec<[f32; 4]>, RenderError> {
         self.ctx.wait_idle();
         let bytes = read_back(&self.ctx, &mut self.res.targets.hdr, 8)?;
-        Ok(bytes
-            .chunks_exact(8)
-            .map(|px| std::array::from_fn(|c| f16_to_f32(u16::from_le_bytes([px[c * 2], px[c * 2 + 1]]))))
-            .collect())
+        Ok(bytes.chunks_exact(8).map(|px| std::array::from_fn(|c| f16_to_f32(u16::from_le_bytes([px[c * 2], px[c * 2 + 1]])))).collect())
     }
 
     /// The depth of the last frame (reverse-Z: 1 at the near plane, 0 at infinity).

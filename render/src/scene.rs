@@ -300,7 +300,9 @@ impl GpuAabb {
     /// The AABB of the box `[-0.5, 0.5]³` transformed by `decal_to_world`.
     pub fn of_unit_box(decal_to_world: Mat4) -> Self {
         let centre = decal_to_world.w_axis.truncate();
-        let half = (decal_to_world.x_axis.truncate().abs() + decal_to_world.y_axis.truncate().abs() + decal_to_world.z_axis.truncate().abs()) * 0.5;
+        let half =
+            (decal_to_world.x_axis.truncate().abs() + decal_to_world.y_axis.truncate().abs() + decal_to_world.z_axis.truncate().abs())
+                * 0.5;
         Self { min: (centre - half).to_array(), max: (centre + half).to_array() }
     }
 }
@@ -796,11 +798,8 @@ mod tests {
         );
         let aabb = GpuAabb::of_unit_box(m);
         for i in 0..8 {
-            let c = Vec3::new(
-                if i & 1 == 0 { -0.5 } else { 0.5 },
-                if i & 2 == 0 { -0.5 } else { 0.5 },
-                if i & 4 == 0 { -0.5 } else { 0.5 },
-            );
+            let c =
+                Vec3::new(if i & 1 == 0 { -0.5 } else { 0.5 }, if i & 2 == 0 { -0.5 } else { 0.5 }, if i & 4 == 0 { -0.5 } else { 0.5 });
             let p = m.transform_point3(c);
             for a in 0..3 {
                 assert!(p[a] >= aabb.min[a] - 1e-5 && p[a] <= aabb.max[a] + 1e-5, "corner {p} inside {aabb:?}");

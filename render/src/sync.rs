@@ -46,20 +46,16 @@ impl Access {
                 A::DEPTH_STENCIL_ATTACHMENT_WRITE | A::DEPTH_STENCIL_ATTACHMENT_READ,
                 L::DEPTH_ATTACHMENT_OPTIMAL,
             ),
-            Access::DepthAttachmentRead => (
-                S::EARLY_FRAGMENT_TESTS | S::LATE_FRAGMENT_TESTS,
-                A::DEPTH_STENCIL_ATTACHMENT_READ,
-                L::DEPTH_READ_ONLY_OPTIMAL,
-            ),
+            Access::DepthAttachmentRead => {
+                (S::EARLY_FRAGMENT_TESTS | S::LATE_FRAGMENT_TESTS, A::DEPTH_STENCIL_ATTACHMENT_READ, L::DEPTH_READ_ONLY_OPTIMAL)
+            }
             Access::FragmentSampled => (S::FRAGMENT_SHADER, A::SHADER_SAMPLED_READ, L::SHADER_READ_ONLY_OPTIMAL),
             Access::DepthSampled => (
                 S::FRAGMENT_SHADER | S::EARLY_FRAGMENT_TESTS | S::LATE_FRAGMENT_TESTS,
                 A::SHADER_SAMPLED_READ | A::DEPTH_STENCIL_ATTACHMENT_READ,
                 L::DEPTH_READ_ONLY_OPTIMAL,
             ),
-            Access::ShaderSampled => {
-                (S::FRAGMENT_SHADER | S::COMPUTE_SHADER, A::SHADER_SAMPLED_READ, L::SHADER_READ_ONLY_OPTIMAL)
-            }
+            Access::ShaderSampled => (S::FRAGMENT_SHADER | S::COMPUTE_SHADER, A::SHADER_SAMPLED_READ, L::SHADER_READ_ONLY_OPTIMAL),
             Access::TransferRead => (S::COPY | S::BLIT, A::TRANSFER_READ, L::TRANSFER_SRC_OPTIMAL),
             Access::TransferWrite => (S::COPY | S::BLIT | S::CLEAR, A::TRANSFER_WRITE, L::TRANSFER_DST_OPTIMAL),
             Access::Present => (S::NONE, A::NONE, L::PRESENT_SRC_KHR),
@@ -67,10 +63,7 @@ impl Access {
     }
 
     fn writes(self) -> bool {
-        matches!(
-            self,
-            Access::ColorAttachmentWrite | Access::DepthAttachmentWrite | Access::TransferWrite | Access::Undefined
-        )
+        matches!(self, Access::ColorAttachmentWrite | Access::DepthAttachmentWrite | Access::TransferWrite | Access::Undefined)
     }
 
     /// The image layout this access needs.
@@ -130,11 +123,8 @@ pub fn memory_barrier(
     src: (vk::PipelineStageFlags2, vk::AccessFlags2),
     dst: (vk::PipelineStageFlags2, vk::AccessFlags2),
 ) {
-    let barriers = [vk::MemoryBarrier2::default()
-        .src_stage_mask(src.0)
-        .src_access_mask(src.1)
-        .dst_stage_mask(dst.0)
-        .dst_access_mask(dst.1)];
+    let barriers =
+        [vk::MemoryBarrier2::default().src_stage_mask(src.0).src_access_mask(src.1).dst_stage_mask(dst.0).dst_access_mask(dst.1)];
     // SAFETY: `cmd` is recording.
     unsafe { device.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&barriers)) };
 }

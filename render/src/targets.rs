@@ -56,7 +56,13 @@ pub struct Target {
 }
 
 impl Target {
-    fn new(ctx: &GpuContext, name: &str, format: vk::Format, extent: vk::Extent2D, usage: vk::ImageUsageFlags) -> Result<Self, RenderError> {
+    fn new(
+        ctx: &GpuContext,
+        name: &str,
+        format: vk::Format,
+        extent: vk::Extent2D,
+        usage: vk::ImageUsageFlags,
+    ) -> Result<Self, RenderError> {
         let image = Image::new(ctx, &ImageDesc { name, format, extent, mip_levels: 1, usage })?;
         let state = ImageState::new(image.raw, image.full_range());
         Ok(Self { image, state })

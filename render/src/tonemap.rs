@@ -11,7 +11,6 @@ use crate::shaders;
 use crate::sync::{Access, ImageState};
 use crate::targets::Target;
 
-
 /// The tone-mapping pass.
 pub struct Tonemap {
     pipeline: vk::Pipeline,

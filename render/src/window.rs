@@ -141,9 +141,19 @@ impl WindowSurface {
         self.swapchain = swapchain;
         // SAFETY: the swapchain was just created.
         self.images = unsafe { self.swapchain_fn.get_swapchain_images(swapchain) }?;
-        let range = vk::ImageSubresourceRange { aspect_mask: vk::ImageAspectFlags::COLOR, base_mip_level: 0, level_count: 1, base_array_layer: 0, layer_count: 1 };
+        let range = vk::ImageSubresourceRange {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            base_mip_level: 0,
+            level_count: 1,
+            base_array_layer: 0,
+            layer_count: 1,
+        };
         for &image in &self.images {
-            let view_info = vk::ImageViewCreateInfo::default().image(image).view_type(vk::ImageViewType::TYPE_2D).format(self.format).subresource_range(range);
+            let view_info = vk::ImageViewCreateInfo::default()
+                .image(image)
+                .view_type(vk::ImageViewType::TYPE_2D)
+                .format(self.format)
+                .subresource_range(range);
             // SAFETY: a view of a live swapchain image; destroyed with the swapchain.
             self.views.push(unsafe { ctx.device.create_image_view(&view_info, None) }?);
             self.states.push(ImageState::new(image, range));

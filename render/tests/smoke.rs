@@ -17,7 +17,11 @@ fn lit_quad_renders_and_quiet_frames_upload_nothing() {
     let mut m = SceneMirror::new();
     let mesh = m.add_mesh(quad());
     let mat = m.materials.insert(GpuMaterial::default());
-    m.set_instance(None, GpuInstance::new(Mat4::from_scale(Vec3::splat(4.0)), mat, 1), DrawItem { mesh, alpha_mask: false, double_sided: false });
+    m.set_instance(
+        None,
+        GpuInstance::new(Mat4::from_scale(Vec3::splat(4.0)), mat, 1),
+        DrawItem { mesh, alpha_mask: false, double_sided: false },
+    );
     m.lights.insert(GpuLight::point(Vec3::new(0.0, 1.0, 0.0), Vec3::splat(5.0), 10.0));
     let view = Mat4::look_at_rh(Vec3::new(0.0, 2.0, 3.0), Vec3::ZERO, Vec3::Y);
     let proj = Mat4::perspective_infinite_reverse_rh(1.0, w as f32 / h as f32, 0.1);

@@ -50,7 +50,15 @@ fn material(world: &mut World, set: decal_textures::DecalTextureSet) -> Handle<D
 }
 
 /// A decal lying on the ground (y = 0), projecting down, turned by `yaw`.
-fn ground_decal(material: Handle<DecalMaterial>, centre: Vec3, size: f32, depth: f32, yaw: f32, channel: u8, weight: f32) -> (Decal, Transform) {
+fn ground_decal(
+    material: Handle<DecalMaterial>,
+    centre: Vec3,
+    size: f32,
+    depth: f32,
+    yaw: f32,
+    channel: u8,
+    weight: f32,
+) -> (Decal, Transform) {
     let mut decal = Decal::new(material);
     decal.channel = channel;
     decal.weight = weight;
@@ -111,10 +119,7 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
                 })
                 .collect();
             world.spawn_batch(batch);
-            let lights: Vec<Entity> = world
-                .query_filtered::<Entity, Or<(With<PointLight>, With<SpotLight>)>>()
-                .iter(world)
-                .collect();
+            let lights: Vec<Entity> = world.query_filtered::<Entity, Or<(With<PointLight>, With<SpotLight>)>>().iter(world).collect();
             for e in lights {
                 world.despawn(e);
             }
@@ -128,11 +133,9 @@ mod tests {
 
     #[test]
     fn scenes_have_the_seed_scenarios_counts() {
-        for (scene, decals, lights) in [
-            (BenchScene::FewBlendedDecals, 6, 5),
-            (BenchScene::DecalsAndLights, 100, 28),
-            (BenchScene::ManyDecals, 100_000, 1),
-        ] {
+        for (scene, decals, lights) in
+            [(BenchScene::FewBlendedDecals, 6, 5), (BenchScene::DecalsAndLights, 100, 28), (BenchScene::ManyDecals, 100_000, 1)]
+        {
             let mut app = engine::app::App::new();
             app.add_plugins(plugins::RenderPlugin::new(Default::default()));
             spawn_bench_scene(&mut app.world, scene);

@@ -71,12 +71,7 @@ struct Texel {
 
 impl Texel {
     fn new(color: Vec3, alpha: f32, height: f32) -> Self {
-        Texel {
-            color,
-            alpha,
-            height,
-            roughness: 1.0,
-        }
+        Texel { color, alpha, height, roughness: 1.0 }
     }
 }
 
@@ -93,25 +88,13 @@ fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
 }
 
 fn srgb_byte(linear: f32) -> u8 {
-    let c = if linear.is_finite() {
-        linear.clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let s = if c <= 0.003_130_8 {
-        c * 12.92
-    } else {
-        1.055 * c.powf(1.0 / 2.4) - 0.055
-    };
+    let c = if linear.is_finite() { linear.clamp(0.0, 1.0) } else { 0.0 };
+    let s = if c <= 0.003_130_8 { c * 12.92 } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
     (s * 255.0 + 0.5) as u8
 }
 
 fn unorm_byte(v: f32) -> u8 {
-    let c = if v.is_finite() {
-        v.clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
+    let c = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
     (c * 255.0 + 0.5) as u8
 }
 
@@ -123,12 +106,7 @@ fn border_window(uv: Vec2, size: u32) -> f32 {
 }
 
 /// Renders a `size`² set from `sample(uv)` evaluated at texel centres.
-fn render(
-    name: &'static str,
-    size: u32,
-    maps: Maps,
-    sample: impl Fn(Vec2) -> Texel,
-) -> DecalTextureSet {
+fn render(name: &'static str, size: u32, maps: Maps, sample: impl Fn(Vec2) -> Texel) -> DecalTextureSet {
     let size = size.max(4);
     let n = size as usize;
     let mut texels = Vec::with_capacity(n * n);
@@ -136,11 +114,7 @@ fn render(
         for x in 0..n {
             let uv = (Vec2::new(x as f32, y as f32) + 0.5) / size as f32;
             let mut t = sample(uv);
-            t.alpha = if t.alpha.is_finite() {
-                t.alpha.clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
+            t.alpha = if t.alpha.is_finite() { t.alpha.clamp(0.0, 1.0) } else { 0.0 };
             t.alpha *= border_window(uv, size);
             if !t.height.is_finite() {
                 t.height = 0.0;
@@ -152,12 +126,7 @@ fn render(
 
     let mut albedo = Vec::with_capacity(n * n * 4);
     for (t, &a) in texels.iter().zip(&alpha_bytes) {
-        albedo.extend([
-            srgb_byte(t.color.x),
-            srgb_byte(t.color.y),
-            srgb_byte(t.color.z),
-            a,
-        ]);
+        albedo.extend([srgb_byte(t.color.x), srgb_byte(t.color.y), srgb_byte(t.color.z), a]);
     }
     let image = |data: Vec<u8>, space: ColorSpace| {
         // The data is built for exactly size² texels, so this cannot fail; fall back to a
@@ -200,12 +169,7 @@ fn render(
         image(data, ColorSpace::Linear)
     });
 
-    DecalTextureSet {
-        name,
-        albedo: image(albedo, ColorSpace::Srgb),
-        normal,
-        metallic_roughness,
-    }
+    DecalTextureSet { name, albedo: image(albedo, ColorSpace::Srgb), normal, metallic_roughness }
 }
 
 /// Periodic 1D value noise of an angle (radians), `period` lattice cells per turn.
@@ -238,72 +202,57 @@ pub fn bullet_hole() -> DecalTextureSet {
             (angle, length, 200 + i)
         })
         .collect();
-    render(
-        BULLET_HOLE,
-        SIZE,
-        Maps {
-            normal: true,
-            metallic_roughness: false,
-        },
-        |uv| {
-            let p = (uv - 0.5) * 2.0; // [-1, 1]², r = 1 at the edge midpoints
-            let r = p.length();
-            let theta = p.y.atan2(p.x);
-            let hole = 0.15 + 0.05 * (angular_noise(theta, 9, 11) - 0.5);
-            // Chipped ring: broad irregularity plus finer chips.
-            let ring = 0.37
-                + 0.12 * (angular_noise(theta, 7, 12) - 0.5)
-                + 0.07 * (angular_noise(theta, 23, 13) - 0.5);
-            let grain = fbm(uv, 8, 14);
+    render(BULLET_HOLE, SIZE, Maps { normal: true, metallic_roughness: false }, |uv| {
+        let p = (uv - 0.5) * 2.0; // [-1, 1]², r = 1 at the edge midpoints
+        let r = p.length();
+        let theta = p.y.atan2(p.x);
+        let hole = 0.15 + 0.05 * (angular_noise(theta, 9, 11) - 0.5);
+        // Chipped ring: broad irregularity plus finer chips.
+        let ring = 0.37 + 0.12 * (angular_noise(theta, 7, 12) - 0.5) + 0.07 * (angular_noise(theta, 23, 13) - 0.5);
+        let grain = fbm(uv, 8, 14);
 
-            // Cracks: wiggly radial lines, thinning and fading outwards (at least a texel wide so
-            // they do not break up into dashes).
-            let texel = 2.0 / SIZE as f32;
-            let mut crack = 0.0f32;
-            for &(angle, length, seed) in &cracks {
-                if r < hole || r > length {
-                    continue;
-                }
-                let wiggle = 0.5 * (value_noise(Vec2::new(r * 0.9, 0.5), 5, seed) - 0.5)
-                    + 0.12 * (value_noise(Vec2::new(r * 3.0, 0.5), 8, seed + 50) - 0.5);
-                let lateral = wrap_angle(theta - angle - wiggle).abs() * r; // in units of r
-                let taper = 1.0 - r / length;
-                let half_width = texel * (0.45 + 0.8 * taper);
-                let line =
-                    1.0 - smoothstep(half_width - texel * 0.5, half_width + texel * 0.5, lateral);
-                crack = crack.max(line * smoothstep(0.0, 0.25, taper));
+        // Cracks: wiggly radial lines, thinning and fading outwards (at least a texel wide so
+        // they do not break up into dashes).
+        let texel = 2.0 / SIZE as f32;
+        let mut crack = 0.0f32;
+        for &(angle, length, seed) in &cracks {
+            if r < hole || r > length {
+                continue;
             }
+            let wiggle = 0.5 * (value_noise(Vec2::new(r * 0.9, 0.5), 5, seed) - 0.5)
+                + 0.12 * (value_noise(Vec2::new(r * 3.0, 0.5), 8, seed + 50) - 0.5);
+            let lateral = wrap_angle(theta - angle - wiggle).abs() * r; // in units of r
+            let taper = 1.0 - r / length;
+            let half_width = texel * (0.45 + 0.8 * taper);
+            let line = 1.0 - smoothstep(half_width - texel * 0.5, half_width + texel * 0.5, lateral);
+            crack = crack.max(line * smoothstep(0.0, 0.25, taper));
+        }
 
-            let in_hole = 1.0 - smoothstep(hole - texel, hole + texel, r);
-            let in_ring = 1.0 - smoothstep(ring - texel, ring + texel, r);
-            // Soot: dense near the ring, fading out by r ≈ 0.88.
-            let soot = (1.0 - smoothstep(ring, 0.88, r)).powf(1.6) * (0.6 + 0.4 * grain);
-            let coverage = in_ring
-                .max(soot * 0.9)
-                .max(crack * (1.0 - smoothstep(0.7, 0.88, r)));
+        let in_hole = 1.0 - smoothstep(hole - texel, hole + texel, r);
+        let in_ring = 1.0 - smoothstep(ring - texel, ring + texel, r);
+        // Soot: dense near the ring, fading out by r ≈ 0.88.
+        let soot = (1.0 - smoothstep(ring, 0.88, r)).powf(1.6) * (0.6 + 0.4 * grain);
+        let coverage = in_ring.max(soot * 0.9).max(crack * (1.0 - smoothstep(0.7, 0.88, r)));
 
-            // Colours (linear): exposed chipped material, burnt towards the hole, soot outside.
-            let chipped = Vec3::new(0.3, 0.285, 0.26)
-                * (0.7 + 0.6 * grain)
-                * (0.8 + 0.2 * smoothstep(hole, ring, r));
-            let burnt = Vec3::new(0.035, 0.028, 0.022);
-            let black = Vec3::new(0.008, 0.006, 0.005);
-            let burn = 1.0 - smoothstep(hole, hole + 0.22, r);
-            let ring_color = chipped.lerp(burnt, burn * 0.9);
-            let soot_color = Vec3::new(0.045, 0.04, 0.036) * (0.8 + 0.4 * grain);
-            let mut color = soot_color.lerp(ring_color, in_ring);
-            color = color.lerp(black, in_hole);
-            color = color.lerp(Vec3::splat(0.02), crack * 0.85);
+        // Colours (linear): exposed chipped material, burnt towards the hole, soot outside.
+        let chipped = Vec3::new(0.3, 0.285, 0.26) * (0.7 + 0.6 * grain) * (0.8 + 0.2 * smoothstep(hole, ring, r));
+        let burnt = Vec3::new(0.035, 0.028, 0.022);
+        let black = Vec3::new(0.008, 0.006, 0.005);
+        let burn = 1.0 - smoothstep(hole, hole + 0.22, r);
+        let ring_color = chipped.lerp(burnt, burn * 0.9);
+        let soot_color = Vec3::new(0.045, 0.04, 0.036) * (0.8 + 0.4 * grain);
+        let mut color = soot_color.lerp(ring_color, in_ring);
+        color = color.lerp(black, in_hole);
+        color = color.lerp(Vec3::splat(0.02), crack * 0.85);
 
-            // Height (UV units): a deep bowl in the hole, a cone up the chipped ring, a faint lip.
-            let bowl = -0.05 * (1.0 - smoothstep(hole * 0.3, hole * 1.1, r));
-            let cone = -0.035 * (1.0 - smoothstep(hole, ring, r));
-            let lip = 0.004 * (-((r - ring) / 0.06).powi(2)).exp();
-            let rough = 0.004 * grain * in_ring;
-            let height = bowl + cone + lip + rough - 0.003 * crack;
-            Texel::new(color, coverage, height)
-        },
-    )
+        // Height (UV units): a deep bowl in the hole, a cone up the chipped ring, a faint lip.
+        let bowl = -0.05 * (1.0 - smoothstep(hole * 0.3, hole * 1.1, r));
+        let cone = -0.035 * (1.0 - smoothstep(hole, ring, r));
+        let lip = 0.004 * (-((r - ring) / 0.06).powi(2)).exp();
+        let rough = 0.004 * grain * in_ring;
+        let height = bowl + cone + lip + rough - 0.003 * crack;
+        Texel::new(color, coverage, height)
+    })
 }
 
 /// Polynomial smooth maximum of `a` and `b` over a blend width `k`.
@@ -323,69 +272,54 @@ fn ellipse_sd(p: Vec2, centre: Vec2, radii: Vec2) -> f32 {
 /// the lugs pressed, a slight depression in the normal map. 256² texels.
 pub fn footprint() -> DecalTextureSet {
     const SIZE: u32 = 256;
-    render(
-        FOOTPRINT,
-        SIZE,
-        Maps {
-            normal: true,
-            metallic_roughness: false,
-        },
-        |uv| {
-            let texel = 1.0 / SIZE as f32;
-            let noise = fbm(uv, 8, 41);
-            let edge_noise = 0.012 * (fbm(uv * 2.0, 8, 42) - 0.5);
-            // Forefoot: rounded toe, widest at the ball, tapering towards the waist; its centre line
-            // leans towards the big-toe side (image-left for a right shoe seen from above).
-            let (toe, waist) = (0.055, 0.585);
-            let t = ((uv.y - toe) / (waist - toe)).clamp(0.0, 1.0);
-            let round = 1.0 - (1.0 - (t / 0.4).min(1.0)).powi(2);
-            let half_width = 0.158 * round.max(0.0).sqrt() * (1.0 - 0.3 * smoothstep(0.4, 1.0, t));
-            let centre = 0.5 - 0.035 * (1.0 - t) + 0.02 * t;
-            // The forefoot ends on a slant (the outer side reaches further) with rounded corners.
-            let end = waist - 0.015 + 0.025 * ((uv.x - centre) / 0.11).clamp(-1.5, 1.5);
-            let fore = smooth_max(
-                ((uv.x - centre).abs() - half_width).max(toe - uv.y),
-                uv.y - end,
-                0.04,
-            );
-            let heel =
-                ellipse_sd(uv, Vec2::new(0.52, 0.815), Vec2::new(0.118, 0.128)).max(0.695 - uv.y);
-            let sole = fore.min(heel) + edge_noise;
-            let inside = 1.0 - smoothstep(-texel, texel, sole);
+    render(FOOTPRINT, SIZE, Maps { normal: true, metallic_roughness: false }, |uv| {
+        let texel = 1.0 / SIZE as f32;
+        let noise = fbm(uv, 8, 41);
+        let edge_noise = 0.012 * (fbm(uv * 2.0, 8, 42) - 0.5);
+        // Forefoot: rounded toe, widest at the ball, tapering towards the waist; its centre line
+        // leans towards the big-toe side (image-left for a right shoe seen from above).
+        let (toe, waist) = (0.055, 0.585);
+        let t = ((uv.y - toe) / (waist - toe)).clamp(0.0, 1.0);
+        let round = 1.0 - (1.0 - (t / 0.4).min(1.0)).powi(2);
+        let half_width = 0.158 * round.max(0.0).sqrt() * (1.0 - 0.3 * smoothstep(0.4, 1.0, t));
+        let centre = 0.5 - 0.035 * (1.0 - t) + 0.02 * t;
+        // The forefoot ends on a slant (the outer side reaches further) with rounded corners.
+        let end = waist - 0.015 + 0.025 * ((uv.x - centre) / 0.11).clamp(-1.5, 1.5);
+        let fore = smooth_max(((uv.x - centre).abs() - half_width).max(toe - uv.y), uv.y - end, 0.04);
+        let heel = ellipse_sd(uv, Vec2::new(0.52, 0.815), Vec2::new(0.118, 0.128)).max(0.695 - uv.y);
+        let sole = fore.min(heel) + edge_noise;
+        let inside = 1.0 - smoothstep(-texel, texel, sole);
 
-            // Tread: a rim along the outline, chevron lugs in the forefoot, bars in the heel.
-            let rim = 1.0 - smoothstep(0.012, 0.018, -sole);
-            let lugs = if fore < heel {
-                let chevron = (uv.y + 0.6 * (uv.x - 0.51).abs()) * 26.0;
-                smoothstep(0.3, 0.4, (chevron.fract() - 0.5).abs())
-            } else {
-                let bars = uv.y * 30.0;
-                smoothstep(0.28, 0.38, (bars.fract() - 0.5).abs())
-            };
-            let pressed = rim.max(lugs); // 1 where the sole touched the mud
+        // Tread: a rim along the outline, chevron lugs in the forefoot, bars in the heel.
+        let rim = 1.0 - smoothstep(0.012, 0.018, -sole);
+        let lugs = if fore < heel {
+            let chevron = (uv.y + 0.6 * (uv.x - 0.51).abs()) * 26.0;
+            smoothstep(0.3, 0.4, (chevron.fract() - 0.5).abs())
+        } else {
+            let bars = uv.y * 30.0;
+            smoothstep(0.28, 0.38, (bars.fract() - 0.5).abs())
+        };
+        let pressed = rim.max(lugs); // 1 where the sole touched the mud
 
-            let mud = Vec3::new(0.085, 0.058, 0.035) * (0.75 + 0.5 * noise);
-            let compacted = Vec3::new(0.05, 0.034, 0.021) * (0.85 + 0.3 * noise);
-            let color = mud.lerp(compacted, pressed * inside);
-            let coverage = inside * (0.78 + 0.2 * pressed) * (0.85 + 0.15 * noise);
+        let mud = Vec3::new(0.085, 0.058, 0.035) * (0.75 + 0.5 * noise);
+        let compacted = Vec3::new(0.05, 0.034, 0.021) * (0.85 + 0.3 * noise);
+        let color = mud.lerp(compacted, pressed * inside);
+        let coverage = inside * (0.78 + 0.2 * pressed) * (0.85 + 0.15 * noise);
 
-            // Crumbs of mud around the print.
-            let cell = (uv * 28.0).floor();
-            let (cx, cy) = (cell.x as u32, cell.y as u32);
-            let jitter = Vec2::new(hash01(cx, cy, 43), hash01(cx, cy, 44));
-            let crumb_r = 0.004 + 0.008 * hash01(cx, cy, 45);
-            let crumb_d = (uv - (cell + jitter) / 28.0).length();
-            let near = smoothstep(0.06, 0.0, sole) * (hash01(cx, cy, 46) < 0.55) as u32 as f32;
-            let crumb = near * (1.0 - smoothstep(crumb_r - texel, crumb_r + texel, crumb_d));
-            let coverage = coverage.max(crumb * 0.9);
+        // Crumbs of mud around the print.
+        let cell = (uv * 28.0).floor();
+        let (cx, cy) = (cell.x as u32, cell.y as u32);
+        let jitter = Vec2::new(hash01(cx, cy, 43), hash01(cx, cy, 44));
+        let crumb_r = 0.004 + 0.008 * hash01(cx, cy, 45);
+        let crumb_d = (uv - (cell + jitter) / 28.0).length();
+        let near = smoothstep(0.06, 0.0, sole) * (hash01(cx, cy, 46) < 0.55) as u32 as f32;
+        let crumb = near * (1.0 - smoothstep(crumb_r - texel, crumb_r + texel, crumb_d));
+        let coverage = coverage.max(crumb * 0.9);
 
-            // Depression: the print sinks in, lugs deeper, crumbs sit on top.
-            let height = -0.006 * smoothstep(texel * 2.0, -0.02, sole) - 0.004 * pressed * inside
-                + 0.002 * noise * inside
-                + 0.003 * crumb;
-            Texel::new(color, coverage, height)
-        },
-    )
+        // Depression: the print sinks in, lugs deeper, crumbs sit on top.
+        let height = -0.006 * smoothstep(texel * 2.0, -0.02, sole) - 0.004 * pressed * inside + 0.002 * noise * inside + 0.003 * crumb;
+        Texel::new(color, coverage, height)
+    })
 }
 
 /// A puddle: an irregular blob of dark water with a soft edge, gentle ripples in the normal
@@ -398,49 +332,29 @@ pub fn puddle() -> DecalTextureSet {
         .map(|i| {
             let c = Vec2::new(0.25 + 0.5 * hash01(i, 0, 61), 0.25 + 0.5 * hash01(i, 1, 61));
             let wavelength = 0.025 + 0.02 * hash01(i, 4, 61);
-            (
-                c,
-                TAU * hash01(i, 2, 61),
-                0.0005 + 0.0005 * hash01(i, 3, 61),
-                wavelength,
-            )
+            (c, TAU * hash01(i, 2, 61), 0.0005 + 0.0005 * hash01(i, 3, 61), wavelength)
         })
         .collect();
-    render(
-        PUDDLE,
-        SIZE,
-        Maps {
-            normal: true,
-            metallic_roughness: true,
-        },
-        |uv| {
-            let p = uv - 0.5;
-            let blob = p.length() / 0.37
-                + 0.45 * (fbm(uv, 3, 62) - 0.5)
-                + 0.1 * (value_noise(uv, 6, 63) - 0.5);
-            let coverage = 1.0 - smoothstep(0.82, 1.0, blob);
-            let water = 1.0 - smoothstep(0.6, 0.95, blob);
-            let silt = fbm(uv, 16, 64);
-            let rim = Vec3::new(0.2, 0.18, 0.155) * (0.8 + 0.4 * silt);
-            let deep = Vec3::new(0.1, 0.115, 0.135) * (0.9 + 0.2 * silt);
-            let color = rim.lerp(deep, water);
+    render(PUDDLE, SIZE, Maps { normal: true, metallic_roughness: true }, |uv| {
+        let p = uv - 0.5;
+        let blob = p.length() / 0.37 + 0.45 * (fbm(uv, 3, 62) - 0.5) + 0.1 * (value_noise(uv, 6, 63) - 0.5);
+        let coverage = 1.0 - smoothstep(0.82, 1.0, blob);
+        let water = 1.0 - smoothstep(0.6, 0.95, blob);
+        let silt = fbm(uv, 16, 64);
+        let rim = Vec3::new(0.2, 0.18, 0.155) * (0.8 + 0.4 * silt);
+        let deep = Vec3::new(0.1, 0.115, 0.135) * (0.9 + 0.2 * silt);
+        let color = rim.lerp(deep, water);
 
-            // Each drop's rings spread a few wavelengths, plus a faint wind swell.
-            let mut height = 0.0015 * (value_noise(uv + Vec2::new(0.0, 0.3), 5, 65) - 0.5);
-            for &(c, phase, amplitude, wavelength) in &ripples {
-                let d = (uv - c).length() / wavelength;
-                height += amplitude * (d * TAU + phase).sin() * (-d / 3.0).exp();
-            }
-            height *= water;
-            let roughness = 0.05 + 0.55 * (1.0 - water);
-            Texel {
-                color,
-                alpha: coverage,
-                height,
-                roughness,
-            }
-        },
-    )
+        // Each drop's rings spread a few wavelengths, plus a faint wind swell.
+        let mut height = 0.0015 * (value_noise(uv + Vec2::new(0.0, 0.3), 5, 65) - 0.5);
+        for &(c, phase, amplitude, wavelength) in &ripples {
+            let d = (uv - c).length() / wavelength;
+            height += amplitude * (d * TAU + phase).sin() * (-d / 3.0).exp();
+        }
+        height *= water;
+        let roughness = 0.05 + 0.55 * (1.0 - water);
+        Texel { color, alpha: coverage, height, roughness }
+    })
 }
 
 /// One leaf of [`leaves`]: placement and look.
@@ -485,11 +399,7 @@ impl Leaf {
         let inside_d = (w - t.abs() - (s.abs() - 1.0).max(0.0)) * self.half_length;
         let blade = smoothstep(-texel, texel, inside_d);
         // The stem sticks out behind the base.
-        let stem_d = if (-1.3..=-0.9).contains(&s) {
-            0.018 - t.abs()
-        } else {
-            -1.0
-        };
+        let stem_d = if (-1.3..=-0.9).contains(&s) { 0.018 - t.abs() } else { -1.0 };
         let stem = smoothstep(-texel, texel, stem_d * self.half_length);
         let coverage = blade.max(stem);
         if coverage <= 0.0 {
@@ -498,15 +408,10 @@ impl Leaf {
         // Veins: midrib plus chevron laterals towards the tip.
         let midrib = 1.0 - smoothstep(0.012, 0.03, t.abs() / (1.2 - s).max(0.2));
         let lateral = ((s - t.abs() * 0.8) * 4.5 + hash01(self.seed, 7, 81)).fract();
-        let lateral = (1.0 - smoothstep(0.0, 0.06, lateral.min(1.0 - lateral)))
-            * smoothstep(0.0, 0.25, w - t.abs());
+        let lateral = (1.0 - smoothstep(0.0, 0.06, lateral.min(1.0 - lateral))) * smoothstep(0.0, 0.25, w - t.abs());
         let vein = midrib.max(lateral * 0.7) * blade;
         // Gently curled: higher along the midrib, veins slightly raised.
-        let curl = if w > 0.0 {
-            1.0 - (t / w).powi(2).min(1.0)
-        } else {
-            0.0
-        };
+        let curl = if w > 0.0 { 1.0 - (t / w).powi(2).min(1.0) } else { 0.0 };
         let height = self.half_length * (0.08 * curl + 0.02 * vein) + 0.002 * stem;
         (coverage, vein, height)
     }
@@ -539,8 +444,7 @@ pub fn leaves() -> DecalTextureSet {
             let jitter = Vec2::new(hash01(i, 2, 71), hash01(i, 3, 71)) - 0.5;
             // Keep the whole leaf (1.3 half lengths with the stem) clear of the border.
             let reach = half_length * 1.3 + 0.06;
-            let centre = ((Vec2::new(gx, gy) + 0.5 + jitter * 0.6) / 3.0)
-                .clamp(Vec2::splat(reach), Vec2::splat(1.0 - reach));
+            let centre = ((Vec2::new(gx, gy) + 0.5 + jitter * 0.6) / 3.0).clamp(Vec2::splat(reach), Vec2::splat(1.0 - reach));
             Leaf {
                 centre,
                 axis,
@@ -552,43 +456,31 @@ pub fn leaves() -> DecalTextureSet {
             }
         })
         .collect();
-    render(
-        LEAVES,
-        SIZE,
-        Maps {
-            normal: true,
-            metallic_roughness: false,
-        },
-        |uv| {
-            let texel = 1.0 / SIZE as f32;
-            let mut color = Vec3::new(0.2, 0.1, 0.035);
-            let mut coverage = 0.0f32;
-            let mut height = 0.0f32;
-            // Later leaves lie on top of earlier ones.
-            for (layer, leaf) in leaves.iter().enumerate() {
-                let (c, vein, h) = leaf.sample(uv, texel);
-                if c <= 0.0 {
-                    continue;
-                }
-                let blotch = fbm(uv, 8, 90 + leaf.seed);
-                let spots = smoothstep(0.74, 0.8, value_noise(uv, 40, 95 + leaf.seed));
-                let dry = smoothstep(
-                    0.0,
-                    0.5,
-                    1.0 - (leaf.centre - uv).length() / leaf.half_length,
-                );
-                let mut leaf_color = leaf.color * (0.7 + 0.6 * blotch);
-                leaf_color = leaf_color.lerp(leaf.color * 0.35, (1.0 - dry) * 0.6);
-                leaf_color = leaf_color.lerp(Vec3::new(0.08, 0.04, 0.015), spots * 0.8);
-                leaf_color = leaf_color.lerp(leaf.color * 1.5 + 0.05, vein * 0.45);
-                color = color.lerp(leaf_color, c);
-                coverage = coverage.max(c);
-                let stacked = h + 0.004 * layer as f32;
-                height = height + (stacked - height) * c;
+    render(LEAVES, SIZE, Maps { normal: true, metallic_roughness: false }, |uv| {
+        let texel = 1.0 / SIZE as f32;
+        let mut color = Vec3::new(0.2, 0.1, 0.035);
+        let mut coverage = 0.0f32;
+        let mut height = 0.0f32;
+        // Later leaves lie on top of earlier ones.
+        for (layer, leaf) in leaves.iter().enumerate() {
+            let (c, vein, h) = leaf.sample(uv, texel);
+            if c <= 0.0 {
+                continue;
             }
-            Texel::new(color, coverage, height)
-        },
-    )
+            let blotch = fbm(uv, 8, 90 + leaf.seed);
+            let spots = smoothstep(0.74, 0.8, value_noise(uv, 40, 95 + leaf.seed));
+            let dry = smoothstep(0.0, 0.5, 1.0 - (leaf.centre - uv).length() / leaf.half_length);
+            let mut leaf_color = leaf.color * (0.7 + 0.6 * blotch);
+            leaf_color = leaf_color.lerp(leaf.color * 0.35, (1.0 - dry) * 0.6);
+            leaf_color = leaf_color.lerp(Vec3::new(0.08, 0.04, 0.015), spots * 0.8);
+            leaf_color = leaf_color.lerp(leaf.color * 1.5 + 0.05, vein * 0.45);
+            color = color.lerp(leaf_color, c);
+            coverage = coverage.max(c);
+            let stacked = h + 0.004 * layer as f32;
+            height = height + (stacked - height) * c;
+        }
+        Texel::new(color, coverage, height)
+    })
 }
 
 /// Distance from `p` (relative to the centre) to the sigil's strokes, in UV units.
@@ -596,11 +488,7 @@ fn sigil_distance(p: Vec2, glyphs: &[[(Vec2, Vec2); 3]]) -> f32 {
     let r = p.length();
     let theta = p.y.atan2(p.x);
     let ring = |radius: f32| (r - radius).abs();
-    let mut d = ring(0.445)
-        .min(ring(0.43))
-        .min(ring(0.345))
-        .min(ring(0.27))
-        .min(ring(0.1));
+    let mut d = ring(0.445).min(ring(0.43)).min(ring(0.345)).min(ring(0.27)).min(ring(0.1));
     d = d.min(ring(0.035));
     // Hexagram inscribed in the r = 0.27 ring.
     let corner = |k: u32, offset: f32| {
@@ -609,11 +497,7 @@ fn sigil_distance(p: Vec2, glyphs: &[[(Vec2, Vec2); 3]]) -> f32 {
     };
     for offset in [PI / 2.0, -PI / 2.0] {
         for k in 0..3 {
-            d = d.min(segment_distance(
-                p,
-                corner(k, offset),
-                corner(k + 1, offset),
-            ));
+            d = d.min(segment_distance(p, corner(k, offset), corner(k + 1, offset)));
         }
     }
     // Twelve spokes between the inner rings.
@@ -649,8 +533,7 @@ pub fn sigil() -> DecalTextureSet {
     const SIZE: u32 = 256;
     const SLOTS: u32 = 14;
     // Each rune: three strokes between points of a 3×3 grid spanning ±(0.028, 0.026).
-    let grid =
-        |k: u32| Vec2::new((k % 3) as f32 - 1.0, (k / 3) as f32 - 1.0) * Vec2::new(0.028, 0.026);
+    let grid = |k: u32| Vec2::new((k % 3) as f32 - 1.0, (k / 3) as f32 - 1.0) * Vec2::new(0.028, 0.026);
     let glyphs: Vec<[(Vec2, Vec2); 3]> = (0..SLOTS)
         .map(|slot| {
             std::array::from_fn(|stroke| {
@@ -661,28 +544,20 @@ pub fn sigil() -> DecalTextureSet {
             })
         })
         .collect();
-    render(
-        SIGIL,
-        SIZE,
-        Maps {
-            normal: false,
-            metallic_roughness: false,
-        },
-        |uv| {
-            let p = uv - 0.5;
-            let d = sigil_distance(p, &glyphs);
-            let texel = 1.0 / SIZE as f32;
-            let half_width = 0.0035;
-            let core = 1.0 - smoothstep(half_width - texel, half_width + texel, d);
-            let glow = (-d / 0.012).exp();
-            let haze = 0.12 * (1.0 - smoothstep(0.4, 0.46, p.length()));
-            let coverage = core.max(glow * 0.75).max(haze);
-            let glow_color = Vec3::new(0.18, 0.35, 1.0);
-            let core_color = Vec3::new(0.75, 0.97, 1.0);
-            let color = glow_color.lerp(core_color, core.max(glow * glow * 0.5));
-            Texel::new(color, coverage, 0.0)
-        },
-    )
+    render(SIGIL, SIZE, Maps { normal: false, metallic_roughness: false }, |uv| {
+        let p = uv - 0.5;
+        let d = sigil_distance(p, &glyphs);
+        let texel = 1.0 / SIZE as f32;
+        let half_width = 0.0035;
+        let core = 1.0 - smoothstep(half_width - texel, half_width + texel, d);
+        let glow = (-d / 0.012).exp();
+        let haze = 0.12 * (1.0 - smoothstep(0.4, 0.46, p.length()));
+        let coverage = core.max(glow * 0.75).max(haze);
+        let glow_color = Vec3::new(0.18, 0.35, 1.0);
+        let core_color = Vec3::new(0.75, 0.97, 1.0);
+        let color = glow_color.lerp(core_color, core.max(glow * glow * 0.5));
+        Texel::new(color, coverage, 0.0)
+    })
 }
 
 /// All built-in sets, in the order bullet hole, footprint, puddle, leaves, sigil.
@@ -705,10 +580,7 @@ pub fn all() -> Vec<DecalTextureSet> {
 pub fn decal_material(set: &DecalTextureSet, images: &mut Assets<Image>) -> DecalMaterial {
     let albedo = images.add(set.albedo.clone());
     let normal = set.normal.as_ref().map(|n| images.add(n.clone()));
-    let mr = set
-        .metallic_roughness
-        .as_ref()
-        .map(|m| images.add(m.clone()));
+    let mr = set.metallic_roughness.as_ref().map(|m| images.add(m.clone()));
     let (base_color, normal_scale) = match set.name {
         FOOTPRINT => (Vec4::new(1.0, 1.0, 1.0, 0.9), 0.8),
         PUDDLE => (Vec4::new(0.6, 0.6, 0.65, 0.8), 1.0),
@@ -728,14 +600,8 @@ pub fn decal_material(set: &DecalTextureSet, images: &mut Assets<Image>) -> Deca
 
 /// Generates every built-in set, adds its images to `images` and its material to `materials`;
 /// returns the material handles in the order of [`all`].
-pub fn add_builtin_materials(
-    images: &mut Assets<Image>,
-    materials: &mut Assets<DecalMaterial>,
-) -> Vec<Handle<DecalMaterial>> {
-    all()
-        .iter()
-        .map(|set| materials.add(decal_material(set, images)))
-        .collect()
+pub fn add_builtin_materials(images: &mut Assets<Image>, materials: &mut Assets<DecalMaterial>) -> Vec<Handle<DecalMaterial>> {
+    all().iter().map(|set| materials.add(decal_material(set, images))).collect()
 }
 
 /// Encodes level 0 of `image` as an RGBA8 PNG (best compression).
@@ -745,12 +611,7 @@ pub fn encode_png(image: &Image) -> Result<Vec<u8>> {
     let level0 = image.mips.first().context("image has no mip levels")?;
     let mut png = Vec::new();
     PngEncoder::new_with_quality(&mut png, CompressionType::Best, FilterType::Adaptive)
-        .write_image(
-            level0,
-            image.width,
-            image.height,
-            ::image::ExtendedColorType::Rgba8,
-        )
+        .write_image(level0, image.width, image.height, ::image::ExtendedColorType::Rgba8)
         .context("encoding PNG")?;
     Ok(png)
 }
@@ -786,10 +647,7 @@ pub fn write_pngs(dir: &Path) -> Result<Vec<PathBuf>> {
 
 /// Where the committed copies of the PNGs live: `assets/decals/` of the workspace.
 pub fn assets_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("..")
-        .join("assets")
-        .join("decals")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("assets").join("decals")
 }
 
 #[cfg(test)]
@@ -809,16 +667,10 @@ mod tests {
             assert_eq!(set.albedo.color_space, ColorSpace::Srgb, "{}", set.name);
             assert!(matches!(set.albedo.width, 128 | 256));
             assert_eq!(set.albedo.width, set.albedo.height);
-            assert_eq!(
-                set.albedo.mip_count(),
-                32 - set.albedo.width.leading_zeros()
-            );
+            assert_eq!(set.albedo.mip_count(), 32 - set.albedo.width.leading_zeros());
             for extra in set.normal.iter().chain(&set.metallic_roughness) {
                 assert_eq!(extra.color_space, ColorSpace::Linear, "{}", set.name);
-                assert_eq!(
-                    (extra.width, extra.height),
-                    (set.albedo.width, set.albedo.height)
-                );
+                assert_eq!((extra.width, extra.height), (set.albedo.width, set.albedo.height));
                 assert_eq!(extra.mip_count(), set.albedo.mip_count());
             }
             assert_eq!(set.normal.is_some(), set.name != SIGIL);
@@ -843,18 +695,11 @@ mod tests {
                 }
             }
             let covered = (0..w * h).filter(|&i| alpha(i % w, i / w) > 128).count();
-            assert!(
-                covered * 20 > w * h,
-                "{}: only {covered} texels covered",
-                set.name
-            );
+            assert!(covered * 20 > w * h, "{}: only {covered} texels covered", set.name);
             assert!(covered * 10 < w * h * 9, "{}: almost a full box", set.name);
             // The normal map carries the same coverage.
             if let Some(normal) = &set.normal {
-                let same = normal.mips[0]
-                    .chunks_exact(4)
-                    .zip(set.albedo.mips[0].chunks_exact(4))
-                    .all(|(n, a)| n[3] == a[3]);
+                let same = normal.mips[0].chunks_exact(4).zip(set.albedo.mips[0].chunks_exact(4)).all(|(n, a)| n[3] == a[3]);
                 assert!(same, "{}: normal alpha differs from albedo alpha", set.name);
             }
         }
@@ -867,19 +712,10 @@ mod tests {
             let mut tilted = 0;
             for texel in normal.mips[0].chunks_exact(4) {
                 let n = decode_normal(texel);
-                assert!(
-                    (n.length() - 1.0).abs() < 0.02,
-                    "{}: |{n}| not unit",
-                    set.name
-                );
+                assert!((n.length() - 1.0).abs() < 0.02, "{}: |{n}| not unit", set.name);
                 assert!(n.z > 0.0, "{}: normal {n} faces away", set.name);
                 if texel[3] == 0 {
-                    assert_eq!(
-                        &texel[..3],
-                        &[128, 128, 255],
-                        "{}: uncovered texel not flat",
-                        set.name
-                    );
+                    assert_eq!(&texel[..3], &[128, 128, 255], "{}: uncovered texel not flat", set.name);
                 }
                 tilted += (n.z < 0.995) as usize;
             }
@@ -912,19 +748,11 @@ mod tests {
         let w = mr.width as usize;
         let texel = |x: usize, y: usize| &mr.mips[0][(y * w + x) * 4..][..4];
         let centre = texel(w / 2, w / 2);
-        assert!(
-            (centre[1] as f32 / 255.0) < 0.1,
-            "centre roughness {}",
-            centre[1]
-        );
+        assert!((centre[1] as f32 / 255.0) < 0.1, "centre roughness {}", centre[1]);
         assert_eq!((centre[0], centre[2]), (0, 0), "metallic (B) is zero");
         assert!(mr.mips[0].chunks_exact(4).all(|t| t[2] == 0));
         let corner = texel(2, 2);
-        assert!(
-            corner[1] as f32 / 255.0 > 0.5,
-            "rim roughness {}",
-            corner[1]
-        );
+        assert!(corner[1] as f32 / 255.0 > 0.5, "rim roughness {}", corner[1]);
         let mut images = Assets::default();
         let material = decal_material(&set, &mut images);
         let effective = material.roughness.unwrap() * centre[1] as f32 / 255.0;
@@ -937,18 +765,11 @@ mod tests {
         for set in all() {
             let before = images.len();
             let m = decal_material(&set, &mut images);
-            let added =
-                1 + set.normal.is_some() as usize + set.metallic_roughness.is_some() as usize;
+            let added = 1 + set.normal.is_some() as usize + set.metallic_roughness.is_some() as usize;
             assert_eq!(images.len(), before + added, "{}", set.name);
             assert_eq!(images.get(m.base_color_texture.unwrap()), Some(&set.albedo));
-            assert_eq!(
-                m.normal_texture.and_then(|h| images.get(h)),
-                set.normal.as_ref()
-            );
-            assert_eq!(
-                m.metallic_roughness_texture.and_then(|h| images.get(h)),
-                set.metallic_roughness.as_ref()
-            );
+            assert_eq!(m.normal_texture.and_then(|h| images.get(h)), set.normal.as_ref());
+            assert_eq!(m.metallic_roughness_texture.and_then(|h| images.get(h)), set.metallic_roughness.as_ref());
             assert!(m.base_color.is_some() && m.metallic.is_none());
             assert_eq!(m.roughness.is_some(), set.name == PUDDLE);
         }
@@ -975,10 +796,7 @@ mod tests {
                 count += 1;
                 let decoded = ::image::load_from_memory(&bytes).unwrap().into_rgba8();
                 assert_eq!(decoded.dimensions(), (image.width, image.height), "{file}");
-                assert!(
-                    decoded.as_raw() == &image.mips[0],
-                    "{file} differs from the generator"
-                );
+                assert!(decoded.as_raw() == &image.mips[0], "{file} differs from the generator");
             }
         }
         assert_eq!(count, 10);
@@ -995,8 +813,7 @@ mod tests {
 
     #[test]
     fn write_pngs_reports_an_unwritable_directory() {
-        let file =
-            std::env::temp_dir().join(format!("decal-pngs-not-a-dir-{}", std::process::id()));
+        let file = std::env::temp_dir().join(format!("decal-pngs-not-a-dir-{}", std::process::id()));
         std::fs::write(&file, b"x").unwrap();
         assert!(write_pngs(&file.join("sub")).is_err());
         let _ = std::fs::remove_file(&file);

@@ -10,15 +10,15 @@ use bevy_ecs::world::World;
 use engine::app::{App, PostUpdate};
 use engine::asset::Assets;
 use engine::camera::Camera;
+use engine::image::Image;
 use engine::light::{DirectionalLight, PointLight, SpotLight};
 use engine::mesh::Mesh;
 use engine::scene::MeshInstance;
 use engine::time::Time;
 use engine::transform::{GlobalTransform, Transform};
 use glam::Vec3;
-use plugins::{GpuRenderer, RenderPlugin, RenderSettings, RenderStats, finish_frames};
-use engine::image::Image;
 use plugins::decal::DecalMaterial;
+use plugins::{GpuRenderer, RenderPlugin, RenderSettings, RenderStats, finish_frames};
 use render::{DebugView, DecalMethod, DeviceSettings, PipelineKind, Renderer, RendererSettings, Tier};
 
 use crate::scene;
@@ -212,8 +212,7 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
     let validation_errors = renderer.take_validation_errors();
     if let Some(path) = &opts.screenshot {
         let (w, h) = opts.size;
-        image::save_buffer(path, &pixels, w, h, image::ExtendedColorType::Rgba8)
-            .with_context(|| format!("writing {}", path.display()))?;
+        image::save_buffer(path, &pixels, w, h, image::ExtendedColorType::Rgba8).with_context(|| format!("writing {}", path.display()))?;
     }
     Ok(RunSummary { app, pixels, frames, validation_errors })
 }
@@ -247,11 +246,8 @@ pub fn frame_scene(world: &mut World) {
         let Some(mesh) = meshes.get(inst.mesh) else { continue };
         let (a, b) = mesh.aabb();
         for i in 0..8 {
-            let corner = Vec3::new(
-                if i & 1 == 0 { a.x } else { b.x },
-                if i & 2 == 0 { a.y } else { b.y },
-                if i & 4 == 0 { a.z } else { b.z },
-            );
+            let corner =
+                Vec3::new(if i & 1 == 0 { a.x } else { b.x }, if i & 2 == 0 { a.y } else { b.y }, if i & 4 == 0 { a.z } else { b.z });
             let p = global.transform_point(corner);
             lo = lo.min(p);
             hi = hi.max(p);

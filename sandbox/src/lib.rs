@@ -1,11 +1,11 @@
 //! The sandbox game: the reference example of the public API.
 
-pub mod scene;
-pub mod headless;
-pub mod stats;
-pub mod decal_textures;
-pub mod scatter;
 pub mod bench;
+pub mod decal_textures;
 pub mod game;
+pub mod headless;
 pub mod overlay_ui;
+pub mod scatter;
+pub mod scene;
+pub mod stats;
 pub mod window;

@@ -135,11 +135,7 @@ fn main() -> Result<()> {
         compare: cli.compare,
     };
     if windowed {
-        let window_opts = sandbox::window::WindowOptions {
-            base: opts,
-            exit_after: cli.exit_after,
-            resize_to: cli.resize_to,
-        };
+        let window_opts = sandbox::window::WindowOptions { base: opts, exit_after: cli.exit_after, resize_to: cli.resize_to };
         return sandbox::window::run_windowed(window_opts);
     }
     if let Some(dir) = screenshot.as_ref().and_then(|p| p.parent()).filter(|d| !d.as_os_str().is_empty()) {

@@ -33,7 +33,13 @@ pub struct OverlayUi {
 
 impl Default for OverlayUi {
     fn default() -> Self {
-        Self { visible: true, history: VecDeque::with_capacity(HISTORY), frame_ms: VecDeque::with_capacity(HISTORY), spawn_count: 100, seed: 1 }
+        Self {
+            visible: true,
+            history: VecDeque::with_capacity(HISTORY),
+            frame_ms: VecDeque::with_capacity(HISTORY),
+            spawn_count: 100,
+            seed: 1,
+        }
     }
 }
 
@@ -58,7 +64,8 @@ impl OverlayUi {
         let centre = ctx.content_rect().center();
         let painter = ctx.layer_painter(egui::LayerId::new(egui::Order::Foreground, egui::Id::new("crosshair")));
         for (a, b) in [((-8.0, 0.0), (-3.0, 0.0)), ((3.0, 0.0), (8.0, 0.0)), ((0.0, -8.0), (0.0, -3.0)), ((0.0, 3.0), (0.0, 8.0))] {
-            painter.line_segment([centre + egui::vec2(a.0, a.1), centre + egui::vec2(b.0, b.1)], egui::Stroke::new(2.0, egui::Color32::WHITE));
+            painter
+                .line_segment([centre + egui::vec2(a.0, a.1), centre + egui::vec2(b.0, b.1)], egui::Stroke::new(2.0, egui::Color32::WHITE));
         }
         if !self.visible {
             return;
@@ -89,7 +96,9 @@ impl OverlayUi {
             let points: Vec<egui::Pos2> = values
                 .enumerate()
                 .map(|(i, v)| {
-                    let x = rect.left() + rect.width() * i as f32 / (HISTORY - 1) as f32 + rect.width() * (HISTORY - count) as f32 / HISTORY as f32;
+                    let x = rect.left()
+                        + rect.width() * i as f32 / (HISTORY - 1) as f32
+                        + rect.width() * (HISTORY - count) as f32 / HISTORY as f32;
                     egui::pos2(x, rect.bottom() - rect.height() * (v / max).min(1.0))
                 })
                 .collect();
@@ -103,7 +112,10 @@ impl OverlayUi {
     fn counts(&self, ui: &mut egui::Ui, world: &World) {
         let c = world.resource::<RenderStats>().last;
         ui.label(format!("instances {}   lights {}   decals {}", c.instances, c.lights, c.decals));
-        ui.label(format!("this frame: BLAS builds {}, refits {}, TLAS builds {}, {} bytes uploaded", c.blas_builds, c.blas_updates, c.tlas_builds, c.bytes_uploaded));
+        ui.label(format!(
+            "this frame: BLAS builds {}, refits {}, TLAS builds {}, {} bytes uploaded",
+            c.blas_builds, c.blas_updates, c.tlas_builds, c.bytes_uploaded
+        ));
     }
 
     fn controls(&mut self, ui: &mut egui::Ui, world: &mut World) {

@@ -91,21 +91,11 @@ impl AreaTable {
         // Normals transform with the inverse transpose; a singular transform flattens the mesh
         // to zero area anyway, so its triangles are skipped below.
         let normal_matrix = Mat3::from(affine.matrix3).inverse().transpose();
-        let position = |i: u32| {
-            mesh.positions
-                .get(i as usize)
-                .map(|&p| affine.transform_point3a(Vec3A::from(p)))
-        };
-        let normal = |i: u32| {
-            mesh.normals
-                .get(i as usize)
-                .map_or(Vec3A::ZERO, |&n| Vec3A::from(normal_matrix * Vec3::from(n)))
-        };
+        let position = |i: u32| mesh.positions.get(i as usize).map(|&p| affine.transform_point3a(Vec3A::from(p)));
+        let normal = |i: u32| mesh.normals.get(i as usize).map_or(Vec3A::ZERO, |&n| Vec3A::from(normal_matrix * Vec3::from(n)));
         let mut total = self.total();
         for tri in mesh.indices.chunks_exact(3) {
-            let (Some(a), Some(b), Some(c)) =
-                (position(tri[0]), position(tri[1]), position(tri[2]))
-            else {
+            let (Some(a), Some(b), Some(c)) = (position(tri[0]), position(tri[1]), position(tri[2])) else {
                 continue;
             };
             let (ab, ac) = (b - a, c - a);
@@ -121,12 +111,7 @@ impl AreaTable {
                 face = -face;
             }
             total += 0.5 * double_area as f64;
-            self.triangles.push(Triangle {
-                a,
-                ab,
-                ac,
-                normal: face,
-            });
+            self.triangles.push(Triangle { a, ab, ac, normal: face });
             self.cumulative.push(total);
         }
     }
@@ -135,8 +120,7 @@ impl AreaTable {
     fn pick(&self, rng: &mut SplitMix64) -> Option<&Triangle> {
         let target = rng.next_f64() * self.total();
         let i = self.cumulative.partition_point(|&c| c <= target);
-        self.triangles
-            .get(i.min(self.triangles.len().saturating_sub(1)))
+        self.triangles.get(i.min(self.triangles.len().saturating_sub(1)))
     }
 }
 
@@ -163,20 +147,14 @@ fn refresh_global_transforms(world: &mut World) {
 /// [`SIZE_RANGE`] and a depth of [`DEPTH_RATIO`] × the size; its local +Z is the surface normal,
 /// so it projects along −Z into the surface. Decals are spawned as roots with their
 /// `GlobalTransform` already set.
-pub fn scatter_decals(
-    world: &mut World,
-    count: usize,
-    seed: u64,
-    materials: &[Handle<DecalMaterial>],
-) -> usize {
+pub fn scatter_decals(world: &mut World, count: usize, seed: u64, materials: &[Handle<DecalMaterial>]) -> usize {
     if count == 0 || materials.is_empty() {
         return 0;
     }
     refresh_global_transforms(world);
     let table = {
         let mut table = AreaTable::default();
-        let mut instances =
-            world.query::<(&MeshInstance, &GlobalTransform, Option<&DecalReceiver>)>();
+        let mut instances = world.query::<(&MeshInstance, &GlobalTransform, Option<&DecalReceiver>)>();
         let Some(meshes) = world.get_resource::<Assets<Mesh>>() else {
             return 0;
         };
@@ -212,11 +190,7 @@ pub fn scatter_decals(
         let y = z.cross(x);
         let rotation = Quat::from_mat3(&Mat3::from_cols(x, y, z)).normalize();
         let size = rng.range_f32(SIZE_RANGE.0, SIZE_RANGE.1);
-        let transform = Transform {
-            translation: Vec3::from(point),
-            rotation,
-            scale: Vec3::new(size, size, size * DEPTH_RATIO),
-        };
+        let transform = Transform { translation: Vec3::from(point), rotation, scale: Vec3::new(size, size, size * DEPTH_RATIO) };
         let mut decal = Decal::new(materials[rng.below(materials.len())]);
         decal.channel = rng.below(4) as u8;
         decal.weight = rng.range_f32(WEIGHT_RANGE.0, WEIGHT_RANGE.1);
@@ -239,21 +213,10 @@ mod tests {
     fn plane_and_cube(world: &mut World) -> Vec<Handle<DecalMaterial>> {
         let (plane, cube) = {
             let mut meshes = world.get_resource_or_init::<Assets<Mesh>>();
-            (
-                meshes.add(shapes::plane(10.0, 10.0, 4, 1.0)),
-                meshes.add(shapes::cuboid(Vec3::ONE, 1.0)),
-            )
+            (meshes.add(shapes::plane(10.0, 10.0, 4, 1.0)), meshes.add(shapes::cuboid(Vec3::ONE, 1.0)))
         };
-        let material = world
-            .get_resource_or_init::<Assets<Material>>()
-            .add(Material::default());
-        world.spawn((
-            Transform::IDENTITY,
-            MeshInstance {
-                mesh: plane,
-                material,
-            },
-        ));
+        let material = world.get_resource_or_init::<Assets<Material>>().add(Material::default());
+        world.spawn((Transform::IDENTITY, MeshInstance { mesh: plane, material }));
         let parent = world.spawn(Transform::from_xyz(1.0, 0.0, -2.0)).id();
         world.spawn((
             Transform::from_xyz(0.5, 1.0, 0.5)
@@ -261,16 +224,11 @@ mod tests {
                 // Mirrored (negative X scale): the triangles' winding flips in world space, so
                 // the face normal must follow the vertex normals to face outwards.
                 .with_scale(Vec3::new(-1.5, 2.0, 1.0)),
-            MeshInstance {
-                mesh: cube,
-                material,
-            },
+            MeshInstance { mesh: cube, material },
             ChildOf(parent),
         ));
         let mut decal_materials = world.get_resource_or_init::<Assets<DecalMaterial>>();
-        (0..3)
-            .map(|_| decal_materials.add(DecalMaterial::default()))
-            .collect()
+        (0..3).map(|_| decal_materials.add(DecalMaterial::default())).collect()
     }
 
     fn app_with_scene() -> (App, Vec<Handle<DecalMaterial>>) {
@@ -288,12 +246,8 @@ mod tests {
             let mesh = meshes.get(instance.mesh).unwrap();
             let m = global.compute_matrix();
             for tri in mesh.indices.chunks_exact(3) {
-                let p = [tri[0], tri[1], tri[2]]
-                    .map(|i| m.transform_point3(Vec3::from(mesh.positions[i as usize])));
-                let n = tri
-                    .iter()
-                    .map(|&i| Vec3::from(mesh.normals[i as usize]))
-                    .sum::<Vec3>();
+                let p = [tri[0], tri[1], tri[2]].map(|i| m.transform_point3(Vec3::from(mesh.positions[i as usize])));
+                let n = tri.iter().map(|&i| Vec3::from(mesh.normals[i as usize])).sum::<Vec3>();
                 let world_n = Mat3::from_mat4(m).inverse().transpose() * n;
                 let mut face = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
                 if face.dot(world_n) < 0.0 {
@@ -339,11 +293,7 @@ mod tests {
     }
 
     fn decals(world: &mut World) -> Vec<(Entity, Decal, Transform)> {
-        let mut v: Vec<_> = world
-            .query::<(Entity, &Decal, &Transform)>()
-            .iter(world)
-            .map(|(e, d, t)| (e, d.clone(), *t))
-            .collect();
+        let mut v: Vec<_> = world.query::<(Entity, &Decal, &Transform)>().iter(world).map(|(e, d, t)| (e, d.clone(), *t)).collect();
         v.sort_by_key(|(e, _, _)| *e);
         v
     }
@@ -353,17 +303,11 @@ mod tests {
         let run = |seed| {
             let (mut app, materials) = app_with_scene();
             assert_eq!(scatter_decals(&mut app.world, 200, seed, &materials), 200);
-            decals(&mut app.world)
-                .into_iter()
-                .map(|(_, d, t)| (d, t))
-                .collect::<Vec<_>>()
+            decals(&mut app.world).into_iter().map(|(_, d, t)| (d, t)).collect::<Vec<_>>()
         };
         let (a, b, c) = (run(7), run(7), run(8));
         assert_eq!(a, b);
-        assert_ne!(
-            a.iter().map(|x| x.1).collect::<Vec<_>>(),
-            c.iter().map(|x| x.1).collect::<Vec<_>>()
-        );
+        assert_ne!(a.iter().map(|x| x.1).collect::<Vec<_>>(), c.iter().map(|x| x.1).collect::<Vec<_>>());
     }
 
     #[test]
@@ -375,20 +319,10 @@ mod tests {
         for (entity, decal, transform) in decals(&mut app.world) {
             let (distance, normal) = triangles
                 .iter()
-                .map(|&(tri, n)| {
-                    (
-                        closest_on_triangle(transform.translation, tri)
-                            .distance(transform.translation),
-                        n,
-                    )
-                })
+                .map(|&(tri, n)| (closest_on_triangle(transform.translation, tri).distance(transform.translation), n))
                 .min_by(|x, y| x.0.total_cmp(&y.0))
                 .unwrap();
-            assert!(
-                distance < 1e-3,
-                "decal at {} is {distance} m off",
-                transform.translation
-            );
+            assert!(distance < 1e-3, "decal at {} is {distance} m off", transform.translation);
             let z = transform.rotation * Vec3::Z;
             assert!((z.length() - 1.0).abs() < 1e-4);
             assert!(z.dot(normal) > 0.999, "local +Z {z} vs normal {normal}");
@@ -410,15 +344,9 @@ mod tests {
         // Area-proportional: the cube has 2·(1.5·2 + 1.5·1 + 2·1) = 13 m² next to 100 m² of plane
         // (minus its footprint, still counted: the plane is one mesh), so ~11.5 % of decals.
         let fraction = on_cube as f32 / 2000.0;
-        assert!(
-            (0.08..0.15).contains(&fraction),
-            "{fraction} of decals on the cube"
-        );
+        assert!((0.08..0.15).contains(&fraction), "{fraction} of decals on the cube");
         // Rotations about the normal vary: tangents are not all alike.
-        let spread = rotations
-            .iter()
-            .filter(|x| x.dot(rotations[0]) < 0.0)
-            .count();
+        let spread = rotations.iter().filter(|x| x.dot(rotations[0]) < 0.0).count();
         assert!(spread > 200, "rotation barely varies ({spread})");
         // Every material, channel and a spread of sizes get used.
         let all = decals(&mut app.world);
@@ -428,10 +356,7 @@ mod tests {
         for channel in 0..4 {
             assert!(all.iter().any(|(_, d, _)| d.channel == channel));
         }
-        assert!(
-            all.iter().any(|(_, _, t)| t.scale.x < 0.5)
-                && all.iter().any(|(_, _, t)| t.scale.x > 1.0)
-        );
+        assert!(all.iter().any(|(_, _, t)| t.scale.x < 0.5) && all.iter().any(|(_, _, t)| t.scale.x > 1.0));
     }
 
     #[test]
@@ -451,16 +376,9 @@ mod tests {
         let mut app = App::new();
         assert_eq!(scatter_decals(&mut app.world, 100, 1, &[handle]), 0);
         // An instance whose mesh is missing or has no triangles contributes nothing.
-        let mesh = app
-            .world
-            .resource_mut::<Assets<Mesh>>()
-            .add(Mesh::default());
-        let material = app
-            .world
-            .resource_mut::<Assets<Material>>()
-            .add(Material::default());
-        app.world
-            .spawn((Transform::IDENTITY, MeshInstance { mesh, material }));
+        let mesh = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::default());
+        let material = app.world.resource_mut::<Assets<Material>>().add(Material::default());
+        app.world.spawn((Transform::IDENTITY, MeshInstance { mesh, material }));
         app.world.resource_mut::<Assets<Mesh>>().remove(mesh);
         assert_eq!(scatter_decals(&mut app.world, 100, 1, &[handle]), 0);
         assert_eq!(app.world.query::<&Decal>().iter(&app.world).count(), 0);
@@ -472,33 +390,18 @@ mod tests {
         // still lands where its parent puts it.
         let mut world = World::new();
         let materials = plane_and_cube(&mut world);
-        let plane = world
-            .query_filtered::<Entity, (With<MeshInstance>, Without<ChildOf>)>()
-            .single(&world)
-            .unwrap();
+        let plane = world.query_filtered::<Entity, (With<MeshInstance>, Without<ChildOf>)>().single(&world).unwrap();
         world.entity_mut(plane).insert(DecalReceiver(0));
         assert_eq!(scatter_decals(&mut world, 500, 9, &materials), 500);
         let triangles = world_triangles(&mut world);
-        let cube_only: Vec<_> = triangles
-            .iter()
-            .filter(|(tri, _)| tri.iter().any(|p| p.y.abs() > 1e-4))
-            .collect();
+        let cube_only: Vec<_> = triangles.iter().filter(|(tri, _)| tri.iter().any(|p| p.y.abs() > 1e-4)).collect();
         for (_, _, transform) in decals(&mut world) {
             let distance = cube_only
                 .iter()
-                .map(|(tri, _)| {
-                    closest_on_triangle(transform.translation, *tri).distance(transform.translation)
-                })
+                .map(|(tri, _)| closest_on_triangle(transform.translation, *tri).distance(transform.translation))
                 .fold(f32::INFINITY, f32::min);
-            assert!(
-                distance < 1e-3,
-                "decal at {} is not on the cube",
-                transform.translation
-            );
-            assert!(
-                transform.translation.x > -1.0,
-                "cube moved by its parent (x ≥ ~-0.6)"
-            );
+            assert!(distance < 1e-3, "decal at {} is not on the cube", transform.translation);
+            assert!(transform.translation.x > -1.0, "cube moved by its parent (x ≥ ~-0.6)");
         }
         // Only the plane (layer 0): nothing.
         let mut world = World::new();
@@ -519,10 +422,7 @@ mod tests {
             assert!((0.0..1.0).contains(&x));
             buckets[(x * 10.0) as usize] += 1;
         }
-        assert!(
-            buckets.iter().all(|&b| (9_500..10_500).contains(&b)),
-            "{buckets:?}"
-        );
+        assert!(buckets.iter().all(|&b| (9_500..10_500).contains(&b)), "{buckets:?}");
         assert!((0..1000).all(|_| rng.below(3) < 3));
         assert_eq!(rng.below(0), 0);
         // Known first output of SplitMix64 seeded with 0.
@@ -534,30 +434,16 @@ mod tests {
         let mut app = App::new();
         crate::scene::spawn_courtyard(&mut app.world);
         let mut images = app.world.resource_mut::<Assets<Image>>();
-        let material =
-            crate::decal_textures::decal_material(&crate::decal_textures::sigil(), &mut images);
-        let handle = app
-            .world
-            .get_resource_or_init::<Assets<DecalMaterial>>()
-            .add(material);
+        let material = crate::decal_textures::decal_material(&crate::decal_textures::sigil(), &mut images);
+        let handle = app.world.get_resource_or_init::<Assets<DecalMaterial>>().add(material);
         let start = std::time::Instant::now();
-        assert_eq!(
-            scatter_decals(&mut app.world, 100_000, 5, &[handle]),
-            100_000
-        );
+        assert_eq!(scatter_decals(&mut app.world, 100_000, 5, &[handle]), 100_000);
         let elapsed = start.elapsed();
         eprintln!("scattered 100k decals in {elapsed:?}");
-        assert_eq!(
-            app.world.query::<&Decal>().iter(&app.world).count(),
-            100_000
-        );
+        assert_eq!(app.world.query::<&Decal>().iter(&app.world).count(), 100_000);
         // Inside the courtyard's bounds (the ground is 44 m square).
         for (_, _, t) in decals(&mut app.world).iter().step_by(97) {
-            assert!(
-                t.translation.x.abs() <= 22.5 && t.translation.z.abs() <= 22.5,
-                "{}",
-                t.translation
-            );
+            assert!(t.translation.x.abs() <= 22.5 && t.translation.z.abs() <= 22.5, "{}", t.translation);
             assert!(t.translation.is_finite() && t.rotation.is_normalized());
         }
         app.update(); // The decals survive a frame with propagation.

@@ -55,23 +55,18 @@ pub fn spawn_courtyard(world: &mut World) -> CourtyardInfo {
     };
     let materials = {
         let mut assets = world.get_resource_or_init::<Assets<Material>>();
-        let textured =
-            |(albedo, normal): (Handle<Image>, Handle<Image>), roughness: f32| Material {
-                base_color_texture: Some(albedo),
-                normal_texture: Some(normal),
-                roughness,
-                ..Default::default()
-            };
+        let textured = |(albedo, normal): (Handle<Image>, Handle<Image>), roughness: f32| Material {
+            base_color_texture: Some(albedo),
+            normal_texture: Some(normal),
+            roughness,
+            ..Default::default()
+        };
         Materials {
             ground: assets.add(textured(textures.stone, 0.85)),
             wall: assets.add(textured(textures.brick, 0.9)),
             sandstone: assets.add(textured(textures.sandstone, 0.7)),
             wood: assets.add(textured(textures.wood, 0.65)),
-            water: assets.add(Material::from_color(
-                Vec4::new(0.05, 0.12, 0.16, 1.0),
-                0.0,
-                0.05,
-            )),
+            water: assets.add(Material::from_color(Vec4::new(0.05, 0.12, 0.16, 1.0), 0.0, 0.05)),
             // Gold with the sandstone's normal map for a hammered look.
             gold: assets.add(Material {
                 base_color: Vec4::new(1.0, 0.78, 0.34, 1.0),
@@ -80,38 +75,15 @@ pub fn spawn_courtyard(world: &mut World) -> CourtyardInfo {
                 roughness: 0.3,
                 ..Default::default()
             }),
-            chrome: assets.add(Material::from_color(
-                Vec4::new(0.9, 0.9, 0.92, 1.0),
-                1.0,
-                0.08,
-            )),
-            red_plastic: assets.add(Material::from_color(
-                Vec4::new(0.7, 0.06, 0.05, 1.0),
-                0.0,
-                0.35,
-            )),
-            copper: assets.add(Material::from_color(
-                Vec4::new(0.95, 0.64, 0.54, 1.0),
-                1.0,
-                0.45,
-            )),
-            iron: assets.add(Material::from_color(
-                Vec4::new(0.08, 0.08, 0.09, 1.0),
-                0.8,
-                0.5,
-            )),
+            chrome: assets.add(Material::from_color(Vec4::new(0.9, 0.9, 0.92, 1.0), 1.0, 0.08)),
+            red_plastic: assets.add(Material::from_color(Vec4::new(0.7, 0.06, 0.05, 1.0), 0.0, 0.35)),
+            copper: assets.add(Material::from_color(Vec4::new(0.95, 0.64, 0.54, 1.0), 1.0, 0.45)),
+            iron: assets.add(Material::from_color(Vec4::new(0.08, 0.08, 0.09, 1.0), 0.8, 0.5)),
         }
     };
 
-    let mut scene = SceneBuilder {
-        world,
-        triangles: 0,
-        parent: Entity::PLACEHOLDER,
-    };
-    scene.parent = scene
-        .world
-        .spawn((Transform::IDENTITY, Name::new("Courtyard")))
-        .id();
+    let mut scene = SceneBuilder { world, triangles: 0, parent: Entity::PLACEHOLDER };
+    scene.parent = scene.world.spawn((Transform::IDENTITY, Name::new("Courtyard"))).id();
     build_geometry(&mut scene, &materials);
     let lights = spawn_lights(&mut scene);
 
@@ -126,11 +98,7 @@ pub fn spawn_courtyard(world: &mut World) -> CourtyardInfo {
         ))
         .id();
     tracing::info!(triangles = scene.triangles, lights, "spawned courtyard");
-    CourtyardInfo {
-        camera,
-        triangles: scene.triangles,
-        lights,
-    }
+    CourtyardInfo { camera, triangles: scene.triangles, lights }
 }
 
 struct Textures {
@@ -163,37 +131,18 @@ struct SceneBuilder<'w> {
 impl SceneBuilder<'_> {
     fn mesh(&mut self, mesh: Mesh) -> (Handle<Mesh>, usize) {
         let triangles = mesh.triangle_count();
-        (
-            self.world.get_resource_or_init::<Assets<Mesh>>().add(mesh),
-            triangles,
-        )
+        (self.world.get_resource_or_init::<Assets<Mesh>>().add(mesh), triangles)
     }
 
-    fn instance(
-        &mut self,
-        name: &str,
-        (mesh, triangles): (Handle<Mesh>, usize),
-        material: Handle<Material>,
-        transform: Transform,
-    ) {
+    fn instance(&mut self, name: &str, (mesh, triangles): (Handle<Mesh>, usize), material: Handle<Material>, transform: Transform) {
         self.triangles += triangles;
-        self.world.spawn((
-            transform,
-            MeshInstance { mesh, material },
-            Name::new(name),
-            ChildOf(self.parent),
-        ));
+        self.world.spawn((transform, MeshInstance { mesh, material }, Name::new(name), ChildOf(self.parent)));
     }
 }
 
 fn build_geometry(scene: &mut SceneBuilder<'_>, m: &Materials) {
     // Ground: 44 m so that it runs under the walls; tiles repeat every 2 m.
-    let ground = scene.mesh(shapes::plane(
-        2.0 * HALF_COURT + 4.0,
-        2.0 * HALF_COURT + 4.0,
-        80,
-        0.5,
-    ));
+    let ground = scene.mesh(shapes::plane(2.0 * HALF_COURT + 4.0, 2.0 * HALF_COURT + 4.0, 80, 0.5));
     scene.instance("Ground", ground, m.ground, Transform::IDENTITY);
 
     // Walls: four arched 10 m pieces per side; the brick texture repeats every 2 m.
@@ -203,12 +152,7 @@ fn build_geometry(scene: &mut SceneBuilder<'_>, m: &Materials) {
         for k in 0..4 {
             let along = -15.0 + 10.0 * k as f32;
             let position = rotation * Vec3::new(along, 0.0, -HALF_COURT);
-            scene.instance(
-                &format!("Wall {side}.{k}"),
-                wall_piece,
-                m.wall,
-                Transform::from_translation(position).with_rotation(rotation),
-            );
+            scene.instance(&format!("Wall {side}.{k}"), wall_piece, m.wall, Transform::from_translation(position).with_rotation(rotation));
         }
     }
 
@@ -218,61 +162,22 @@ fn build_geometry(scene: &mut SceneBuilder<'_>, m: &Materials) {
     let columns = [-12.0f32, -6.0, 0.0, 6.0, 12.0]
         .iter()
         .map(|&x| Vec3::new(x, 0.0, -HALF_COURT + 4.0))
-        .chain(
-            [-6.0f32, 0.0, 6.0]
-                .iter()
-                .map(|&z| Vec3::new(HALF_COURT - 4.0, 0.0, z)),
-        );
+        .chain([-6.0f32, 0.0, 6.0].iter().map(|&z| Vec3::new(HALF_COURT - 4.0, 0.0, z)));
     for (i, base) in columns.enumerate() {
-        scene.instance(
-            &format!("Column {i}"),
-            shaft,
-            m.sandstone,
-            Transform::from_translation(base + Vec3::Y * 2.7),
-        );
-        scene.instance(
-            &format!("Plinth {i}"),
-            block,
-            m.sandstone,
-            Transform::from_translation(base + Vec3::Y * 0.2),
-        );
-        scene.instance(
-            &format!("Capital {i}"),
-            block,
-            m.sandstone,
-            Transform::from_translation(base + Vec3::Y * 5.2),
-        );
+        scene.instance(&format!("Column {i}"), shaft, m.sandstone, Transform::from_translation(base + Vec3::Y * 2.7));
+        scene.instance(&format!("Plinth {i}"), block, m.sandstone, Transform::from_translation(base + Vec3::Y * 0.2));
+        scene.instance(&format!("Capital {i}"), block, m.sandstone, Transform::from_translation(base + Vec3::Y * 5.2));
     }
 
     // Fountain: basin, water, pillar and a chrome ball.
     let basin = scene.mesh(shapes::cylinder(3.0, 0.6, 96, 1.0));
-    scene.instance(
-        "Fountain basin",
-        basin,
-        m.sandstone,
-        Transform::from_xyz(0.0, 0.3, 0.0),
-    );
+    scene.instance("Fountain basin", basin, m.sandstone, Transform::from_xyz(0.0, 0.3, 0.0));
     let water = scene.mesh(shapes::cylinder(2.7, 0.04, 96, 1.0));
-    scene.instance(
-        "Fountain water",
-        water,
-        m.water,
-        Transform::from_xyz(0.0, 0.62, 0.0),
-    );
+    scene.instance("Fountain water", water, m.water, Transform::from_xyz(0.0, 0.62, 0.0));
     let pillar = scene.mesh(shapes::cylinder(0.3, 1.8, 48, 1.0));
-    scene.instance(
-        "Fountain pillar",
-        pillar,
-        m.sandstone,
-        Transform::from_xyz(0.0, 1.5, 0.0),
-    );
+    scene.instance("Fountain pillar", pillar, m.sandstone, Transform::from_xyz(0.0, 1.5, 0.0));
     let ball = scene.mesh(shapes::uv_sphere(0.55, 96, 48));
-    scene.instance(
-        "Fountain ball",
-        ball,
-        m.chrome,
-        Transform::from_xyz(0.0, 2.95, 0.0),
-    );
+    scene.instance("Fountain ball", ball, m.chrome, Transform::from_xyz(0.0, 2.95, 0.0));
 
     // Crates: two stacks, slightly rotated.
     let crate_mesh = scene.mesh(shapes::cuboid(Vec3::ONE, 1.0));
@@ -304,73 +209,40 @@ fn build_geometry(scene: &mut SceneBuilder<'_>, m: &Materials) {
         ("Wooden sphere", Vec3::new(3.5, 0.45, 6.5), 0.45, m.wood),
     ];
     for (name, centre, radius, material) in spheres {
-        scene.instance(
-            name,
-            sphere,
-            material,
-            Transform::from_translation(centre).with_scale(Vec3::splat(radius)),
-        );
+        scene.instance(name, sphere, material, Transform::from_translation(centre).with_scale(Vec3::splat(radius)));
     }
 
     // Lamp posts (the lights sit just above their tops, outside any geometry).
     let post = scene.mesh(shapes::cylinder(0.08, 3.0, 24, 1.0));
     for (i, position) in LAMPS.iter().enumerate() {
-        scene.instance(
-            &format!("Lamp post {i}"),
-            post,
-            m.iron,
-            Transform::from_xyz(position.x, 1.5, position.z),
-        );
+        scene.instance(&format!("Lamp post {i}"), post, m.iron, Transform::from_xyz(position.x, 1.5, position.z));
     }
 }
 
 /// Lamp light positions.
-const LAMPS: [Vec3; 3] = [
-    Vec3::new(-12.0, 3.3, -12.0),
-    Vec3::new(12.0, 3.3, -12.0),
-    Vec3::new(12.0, 3.3, 12.0),
-];
+const LAMPS: [Vec3; 3] = [Vec3::new(-12.0, 3.3, -12.0), Vec3::new(12.0, 3.3, -12.0), Vec3::new(12.0, 3.3, 12.0)];
 
 fn spawn_lights(scene: &mut SceneBuilder<'_>) -> usize {
     let parent = scene.parent;
     let world = &mut *scene.world;
     world.spawn((
-        DirectionalLight {
-            color: Vec3::new(1.0, 0.95, 0.86),
-            illuminance: 4.0,
-        },
+        DirectionalLight { color: Vec3::new(1.0, 0.95, 0.86), illuminance: 4.0 },
         Transform::from_xyz(18.0, 25.0, 12.0).looking_at(Vec3::ZERO, Vec3::Y),
         Name::new("Sun"),
         ChildOf(parent),
     ));
-    let colours = [
-        Vec3::new(1.0, 0.72, 0.42),
-        Vec3::new(1.0, 0.8, 0.55),
-        Vec3::new(0.75, 0.85, 1.0),
-    ];
+    let colours = [Vec3::new(1.0, 0.72, 0.42), Vec3::new(1.0, 0.8, 0.55), Vec3::new(0.75, 0.85, 1.0)];
     let intensities = [30.0, 25.0, 40.0];
-    for (i, ((&position, color), intensity)) in
-        LAMPS.iter().zip(colours).zip(intensities).enumerate()
-    {
+    for (i, ((&position, color), intensity)) in LAMPS.iter().zip(colours).zip(intensities).enumerate() {
         world.spawn((
-            PointLight {
-                color,
-                intensity,
-                range: None,
-            },
+            PointLight { color, intensity, range: None },
             Transform::from_translation(position),
             Name::new(format!("Lamp {i}")),
             ChildOf(parent),
         ));
     }
     world.spawn((
-        SpotLight {
-            color: Vec3::new(1.0, 0.97, 0.9),
-            intensity: 60.0,
-            range: None,
-            inner_angle: 0.25,
-            outer_angle: 0.4,
-        },
+        SpotLight { color: Vec3::new(1.0, 0.97, 0.9), intensity: 60.0, range: None, inner_angle: 0.25, outer_angle: 0.4 },
         Transform::from_xyz(-8.0, 7.0, 8.0).looking_at(Vec3::new(0.0, 1.0, 0.0), Vec3::Y),
         Name::new("Fountain spot"),
         ChildOf(parent),
@@ -385,9 +257,7 @@ pub mod textures {
 
     /// A 32-bit integer hash (lowbias32 finaliser) of a lattice point and seed.
     pub fn hash(x: u32, y: u32, seed: u32) -> u32 {
-        let mut h = x.wrapping_mul(0x9E37_79B1)
-            ^ y.wrapping_mul(0x85EB_CA77)
-            ^ seed.wrapping_mul(0xC2B2_AE3D);
+        let mut h = x.wrapping_mul(0x9E37_79B1) ^ y.wrapping_mul(0x85EB_CA77) ^ seed.wrapping_mul(0xC2B2_AE3D);
         h ^= h >> 16;
         h = h.wrapping_mul(0x7FEB_352D);
         h ^= h >> 15;
@@ -428,11 +298,7 @@ pub mod textures {
 
     fn srgb_byte(linear: f32) -> u8 {
         let c = linear.clamp(0.0, 1.0);
-        let s = if c <= 0.003_130_8 {
-            c * 12.92
-        } else {
-            1.055 * c.powf(1.0 / 2.4) - 0.055
-        };
+        let s = if c <= 0.003_130_8 { c * 12.92 } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
         (s * 255.0 + 0.5) as u8
     }
 
@@ -448,12 +314,7 @@ pub mod textures {
             for x in 0..n {
                 let uv = (Vec2::new(x as f32, y as f32) + 0.5) / size as f32;
                 let (color, h) = sample(uv);
-                albedo.extend([
-                    srgb_byte(color.x),
-                    srgb_byte(color.y),
-                    srgb_byte(color.z),
-                    255,
-                ]);
+                albedo.extend([srgb_byte(color.x), srgb_byte(color.y), srgb_byte(color.z), 255]);
                 height.push(h);
             }
         }
@@ -504,11 +365,7 @@ pub mod textures {
         build(size, 3.0, |uv| {
             let (courses, per_course) = (8.0, 4.0);
             let row = (uv.y * courses).floor();
-            let shift = if (row as u32).is_multiple_of(2) {
-                0.0
-            } else {
-                0.5
-            };
+            let shift = if (row as u32).is_multiple_of(2) { 0.0 } else { 0.5 };
             let x = uv.x * per_course + shift;
             let (col, fx) = (x.floor(), x - x.floor());
             let fy = uv.y * courses - row;
@@ -528,8 +385,7 @@ pub mod textures {
     pub fn sandstone(size: u32) -> (Image, Image) {
         build(size, 4.0, |uv| {
             let noise = fbm(uv, 8, 21);
-            let strata =
-                (0.5 + 0.5 * (uv.y * std::f32::consts::TAU * 6.0 + noise * 4.0).sin()) * 0.15;
+            let strata = (0.5 + 0.5 * (uv.y * std::f32::consts::TAU * 6.0 + noise * 4.0).sin()) * 0.15;
             let color = Vec3::new(0.62, 0.5, 0.34) * (0.8 + 0.3 * noise + strata);
             (color, noise + strata)
         })
@@ -551,16 +407,8 @@ pub mod textures {
                 bevel(fb.min(1.0 - fb), 0.02, 0.05)
             };
             // Grain runs along the boards (V), or along U in the horizontal frame parts.
-            let along = if in_frame && uv.y.min(1.0 - uv.y) < frame_width {
-                uv.x
-            } else {
-                uv.y
-            };
-            let across = if in_frame && uv.y.min(1.0 - uv.y) < frame_width {
-                uv.y
-            } else {
-                uv.x
-            };
+            let along = if in_frame && uv.y.min(1.0 - uv.y) < frame_width { uv.x } else { uv.y };
+            let across = if in_frame && uv.y.min(1.0 - uv.y) < frame_width { uv.y } else { uv.x };
             let warp = fbm(Vec2::new(across, along), 8, 31 + board as u32);
             let grain = 0.5 + 0.5 * (across * 180.0 + warp * 12.0).sin();
             let tint = 0.85 + 0.3 * hash01(board as u32, in_frame as u32, 5);
@@ -596,8 +444,7 @@ pub mod textures {
                 assert_eq!(normal.color_space, ColorSpace::Linear);
                 let mut bumpy = 0;
                 for texel in normal.mips[0].chunks_exact(4) {
-                    let n =
-                        Vec3::new(texel[0] as f32, texel[1] as f32, texel[2] as f32) / 127.5 - 1.0;
+                    let n = Vec3::new(texel[0] as f32, texel[1] as f32, texel[2] as f32) / 127.5 - 1.0;
                     assert!((n.length() - 1.0).abs() < 0.02, "{n}");
                     assert!(n.z > 0.2);
                     bumpy += (n.z < 0.99) as u32;
@@ -633,18 +480,11 @@ mod tests {
     #[test]
     fn courtyard_has_tens_of_thousands_of_triangles() {
         let (mut world, info) = spawn();
-        assert!(
-            (20_000..200_000).contains(&info.triangles),
-            "{} triangles",
-            info.triangles
-        );
+        assert!((20_000..200_000).contains(&info.triangles), "{} triangles", info.triangles);
         // The reported count matches the instances actually spawned.
         let mut query = world.query::<&MeshInstance>();
         let meshes = world.resource::<Assets<Mesh>>();
-        let counted: usize = query
-            .iter(&world)
-            .map(|i| meshes.get(i.mesh).unwrap().triangle_count())
-            .sum();
+        let counted: usize = query.iter(&world).map(|i| meshes.get(i.mesh).unwrap().triangle_count()).sum();
         assert_eq!(counted, info.triangles);
         for (_, mesh) in meshes.iter() {
             mesh.validate().unwrap();
@@ -655,11 +495,7 @@ mod tests {
     #[test]
     fn lights_are_mixed_and_in_range() {
         let (mut world, info) = spawn();
-        let suns: Vec<DirectionalLight> = world
-            .query::<&DirectionalLight>()
-            .iter(&world)
-            .copied()
-            .collect();
+        let suns: Vec<DirectionalLight> = world.query::<&DirectionalLight>().iter(&world).copied().collect();
         let points: Vec<PointLight> = world.query::<&PointLight>().iter(&world).copied().collect();
         let spots: Vec<SpotLight> = world.query::<&SpotLight>().iter(&world).copied().collect();
         assert_eq!(info.lights, suns.len() + points.len() + spots.len());
@@ -676,11 +512,7 @@ mod tests {
         let mut named = world.query::<(&MeshInstance, &Name)>();
         let images = world.resource::<Assets<Image>>();
         let materials = world.resource::<Assets<Material>>();
-        let ground = named
-            .iter(&world)
-            .find(|(_, n)| n.0 == "Ground")
-            .map(|(i, _)| materials.get(i.material).unwrap().clone())
-            .unwrap();
+        let ground = named.iter(&world).find(|(_, n)| n.0 == "Ground").map(|(i, _)| materials.get(i.material).unwrap().clone()).unwrap();
         let albedo = images.get(ground.base_color_texture.unwrap()).unwrap();
         let top = albedo.mips.last().unwrap();
         let linear = |c: u8| (c as f32 / 255.0).powf(2.2);
@@ -695,14 +527,8 @@ mod tests {
         let transform = *world.get::<Transform>(info.camera).unwrap();
         assert!(world.get::<Camera>(info.camera).unwrap().active);
         assert!((1.4..2.0).contains(&transform.translation.y));
-        assert!(
-            transform.translation.x.abs() > 10.0 && transform.translation.z.abs() > 10.0,
-            "in a corner"
-        );
-        assert!(
-            transform.translation.x.abs() < HALF_COURT
-                && transform.translation.z.abs() < HALF_COURT
-        );
+        assert!(transform.translation.x.abs() > 10.0 && transform.translation.z.abs() > 10.0, "in a corner");
+        assert!(transform.translation.x.abs() < HALF_COURT && transform.translation.z.abs() < HALF_COURT);
         let to_centre = (-transform.translation).with_y(0.0).normalize();
         assert!(transform.forward().dot(to_centre) > 0.95);
         // Propagation under an App puts the camera where its Transform says.
@@ -718,28 +544,15 @@ mod tests {
         let (mut world, _) = spawn();
         let mut query = world.query::<&MeshInstance>();
         let materials = world.resource::<Assets<Material>>();
-        let used: Vec<&Material> = query
-            .iter(&world)
-            .map(|i| materials.get(i.material).unwrap())
-            .collect();
-        let textured = used
-            .iter()
-            .filter(|m| m.base_color_texture.is_some() && m.normal_texture.is_some())
-            .count();
+        let used: Vec<&Material> = query.iter(&world).map(|i| materials.get(i.material).unwrap()).collect();
+        let textured = used.iter().filter(|m| m.base_color_texture.is_some() && m.normal_texture.is_some()).count();
         assert!(textured * 2 > used.len(), "most instances are textured");
         assert!(used.iter().any(|m| m.metallic == 1.0 && m.roughness < 0.2));
         assert!(used.iter().any(|m| m.metallic == 0.0 && m.roughness > 0.8));
         let images = world.resource::<Assets<Image>>();
         assert_eq!(images.len(), 8);
-        assert!(
-            images
-                .iter()
-                .all(|(_, i)| i.width == TEXTURE_SIZE && i.mip_count() == 9)
-        );
-        let srgb = images
-            .iter()
-            .filter(|(_, i)| i.color_space == ColorSpace::Srgb)
-            .count();
+        assert!(images.iter().all(|(_, i)| i.width == TEXTURE_SIZE && i.mip_count() == 9));
+        let srgb = images.iter().filter(|(_, i)| i.color_space == ColorSpace::Srgb).count();
         assert_eq!(srgb, 4, "albedo sRGB, normal maps linear");
     }
 }

@@ -68,9 +68,7 @@ struct WindowedGame {
 impl WindowedGame {
     fn start(&mut self, event_loop: &ActiveEventLoop) -> Result<Running> {
         let (w, h) = self.opts.base.size;
-        let attributes = Window::default_attributes()
-            .with_title("ecs-decals sandbox")
-            .with_inner_size(winit::dpi::PhysicalSize::new(w, h));
+        let attributes = Window::default_attributes().with_title("ecs-decals sandbox").with_inner_size(winit::dpi::PhysicalSize::new(w, h));
         let window = Arc::new(event_loop.create_window(attributes).context("creating the window")?);
         let display = window.display_handle().map_err(|e| anyhow!("display handle: {e}"))?.as_raw();
         let raw_window = window.window_handle().map_err(|e| anyhow!("window handle: {e}"))?.as_raw();
@@ -91,7 +89,8 @@ impl WindowedGame {
         app.insert_resource(WindowTarget(surface));
         app.insert_resource(OverlayInput::default());
         let egui_ctx = egui::Context::default();
-        let egui_state = egui_winit::State::new(egui_ctx.clone(), egui::ViewportId::ROOT, &window, Some(window.scale_factor() as f32), None, None);
+        let egui_state =
+            egui_winit::State::new(egui_ctx.clone(), egui::ViewportId::ROOT, &window, Some(window.scale_factor() as f32), None, None);
         Ok(Running { app, egui_ctx, egui_state, ui: OverlayUi::default(), last_frame: Instant::now(), cursor_grabbed: false, window })
     }
 
@@ -122,9 +121,10 @@ impl WindowedGame {
         }
         self.frames += 1;
         if let (Some(limit), Some((w, h))) = (self.opts.exit_after, self.opts.resize_to)
-            && self.frames == limit / 2 {
-                let _ = r.window.request_inner_size(winit::dpi::PhysicalSize::new(w, h));
-            }
+            && self.frames == limit / 2
+        {
+            let _ = r.window.request_inner_size(winit::dpi::PhysicalSize::new(w, h));
+        }
         if self.opts.exit_after.is_some_and(|n| self.frames >= n) {
             event_loop.exit();
         }
@@ -203,9 +203,10 @@ impl ApplicationHandler for WindowedGame {
                 }
                 // Keys go to the game unless egui is typing into a widget.
                 if let (PhysicalKey::Code(code), false) = (event.physical_key, consumed && pressed)
-                    && let (Some(key), Some(mut input)) = (game_key(code), r.app.world.get_resource_mut::<Input>()) {
-                        if pressed { input.press(key) } else { input.release(key) }
-                    }
+                    && let (Some(key), Some(mut input)) = (game_key(code), r.app.world.get_resource_mut::<Input>())
+                {
+                    if pressed { input.press(key) } else { input.release(key) }
+                }
             }
             WindowEvent::MouseInput { state, button, .. } => {
                 let pressed = state == ElementState::Pressed;
@@ -248,9 +249,10 @@ impl ApplicationHandler for WindowedGame {
         let Some(r) = self.running.as_mut() else { return };
         if let winit::event::DeviceEvent::MouseMotion { delta } = event
             && r.cursor_grabbed
-                && let Some(mut input) = r.app.world.get_resource_mut::<Input>() {
-                    input.add_mouse_motion(glam::Vec2::new(delta.0 as f32, delta.1 as f32));
-                }
+            && let Some(mut input) = r.app.world.get_resource_mut::<Input>()
+        {
+            input.add_mouse_motion(glam::Vec2::new(delta.0 as f32, delta.1 as f32));
+        }
     }
 
     fn about_to_wait(&mut self, _event_loop: &ActiveEventLoop) {

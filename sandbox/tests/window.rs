@@ -100,7 +100,10 @@ fn windowed_sandbox_shows_scene_and_overlay_survives_a_resize_and_exits_cleanly(
         if let Some((w, h, pixels)) = screenshot(&x.display) {
             // Only the window's area (top-left 640×400 of the 800×600 screen).
             let region = |px: &[[u8; 3]]| -> Vec<[u8; 3]> {
-                (0..400.min(h) as usize).flat_map(|y| (0..640.min(w) as usize).map(move |x| (y, x))).map(|(y, x)| px[y * w as usize + x]).collect()
+                (0..400.min(h) as usize)
+                    .flat_map(|y| (0..640.min(w) as usize).map(move |x| (y, x)))
+                    .map(|(y, x)| px[y * w as usize + x])
+                    .collect()
             };
             let window = region(&pixels);
             sky = window.iter().filter(|p| near(**p, [151, 171, 197], 12)).count();

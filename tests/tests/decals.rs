@@ -70,11 +70,7 @@ fn reference(p: Vec3, decals: &[RefDecal]) -> (Vec3, f32, f32) {
         }
         bg
     };
-    (
-        resolve(&albedo, SURFACE_ALBEDO),
-        resolve(&rough, Vec3::splat(SURFACE_ROUGHNESS)).x,
-        resolve(&metal, Vec3::splat(SURFACE_METALLIC)).x,
-    )
+    (resolve(&albedo, SURFACE_ALBEDO), resolve(&rough, Vec3::splat(SURFACE_ROUGHNESS)).x, resolve(&metal, Vec3::splat(SURFACE_METALLIC)).x)
 }
 
 /// Distance from `p` to the nearest face of any box, in world units (for skipping edge pixels).
@@ -112,7 +108,11 @@ const SIZE: (u32, u32) = (128, 96);
 fn plane_app() -> (App, TopDownView) {
     let mut app = gpu_app(SIZE.0, SIZE.1, RenderSettings { debug_view: DebugView::Albedo, ..Default::default() });
     let mesh = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(12.0, 12.0, 1, 1.0));
-    let material = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(SURFACE_ALBEDO.extend(1.0), SURFACE_METALLIC, SURFACE_ROUGHNESS));
+    let material = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(
+        SURFACE_ALBEDO.extend(1.0),
+        SURFACE_METALLIC,
+        SURFACE_ROUGHNESS,
+    ));
     app.world.spawn((MeshInstance { mesh, material }, Transform::default()));
     let view = TopDownView::new(4.0, SIZE);
     view.spawn(&mut app.world);
@@ -224,7 +224,9 @@ fn check_single_decal(app: &mut App, view: &TopDownView, inside: impl Fn(Vec3) -
 }
 
 fn red_material(app: &mut App) -> Handle<DecalMaterial> {
-    app.world.resource_mut::<Assets<DecalMaterial>>().add(DecalMaterial { base_color: Some(Vec4::new(1.0, 0.0, 0.0, 1.0)), ..Default::default() })
+    app.world
+        .resource_mut::<Assets<DecalMaterial>>()
+        .add(DecalMaterial { base_color: Some(Vec4::new(1.0, 0.0, 0.0, 1.0)), ..Default::default() })
 }
 
 #[test]
@@ -287,7 +289,8 @@ fn the_projection_depth_bounds_the_decal() {
     // Lowered so the plane is 0.05 inside the bottom face: now it shows.
     let decal = app.world.query_filtered::<Entity, With<Decal>>().single(&app.world).unwrap();
     app.world.get_mut::<Transform>(decal).unwrap().translation.y = 0.45;
-    let (hits, _) = check_single_decal(&mut app, &view, |p| (p.x.abs().max(p.z.abs()) - 1.0).abs().gt(&0.06).then_some(p.x.abs().max(p.z.abs()) < 1.0));
+    let (hits, _) =
+        check_single_decal(&mut app, &view, |p| (p.x.abs().max(p.z.abs()) - 1.0).abs().gt(&0.06).then_some(p.x.abs().max(p.z.abs()) < 1.0));
     assert!(hits > 500);
 }
 
@@ -296,7 +299,11 @@ fn receiver_masks_keep_decals_off_other_layers() {
     let (mut app, view) = plane_app();
     // A second, raised plane on the right half that only receives layer 2.
     let mesh = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(3.0, 6.0, 1, 1.0));
-    let material = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(SURFACE_ALBEDO.extend(1.0), SURFACE_METALLIC, SURFACE_ROUGHNESS));
+    let material = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(
+        SURFACE_ALBEDO.extend(1.0),
+        SURFACE_METALLIC,
+        SURFACE_ROUGHNESS,
+    ));
     app.world.spawn((MeshInstance { mesh, material }, Transform::from_xyz(1.5, 0.05, 0.0), DecalReceiver(2)));
     let red = red_material(&mut app);
     let mut decal = Decal::new(red);
@@ -357,7 +364,9 @@ fn ecs_sequences_give_the_expected_image_and_the_expected_work() {
 
     // Spawn 10 decals in a row, plus one riding on a parent.
     let decals: Vec<Entity> = (0..10)
-        .map(|i| app.world.spawn((Decal::new(red), downward(Vec3::new(-1.8 + i as f32 * 0.4, 0.0, -1.0), Vec2::splat(0.25), 1.0, 0.0))).id())
+        .map(|i| {
+            app.world.spawn((Decal::new(red), downward(Vec3::new(-1.8 + i as f32 * 0.4, 0.0, -1.0), Vec2::splat(0.25), 1.0, 0.0))).id()
+        })
         .collect();
     let parent = app.world.spawn(Transform::from_xyz(0.0, 0.0, 1.0)).id();
     app.world.spawn((Decal::new(red), downward(Vec3::ZERO, Vec2::splat(0.3), 1.0, 0.0), ChildOf(parent)));
@@ -466,7 +475,17 @@ fn ten_thousand_decals_render_without_validation_errors() {
     let red = red_material(&mut app);
     let mut rng = Lcg(7);
     let batch: Vec<_> = (0..10_000)
-        .map(|_| (Decal::new(red), downward(Vec3::new(rng.range(-3.0, 3.0), 0.0, rng.range(-2.0, 2.0)), Vec2::splat(rng.range(0.05, 0.2)), 0.5, rng.range(0.0, 6.3))))
+        .map(|_| {
+            (
+                Decal::new(red),
+                downward(
+                    Vec3::new(rng.range(-3.0, 3.0), 0.0, rng.range(-2.0, 2.0)),
+                    Vec2::splat(rng.range(0.05, 0.2)),
+                    0.5,
+                    rng.range(0.0, 6.3),
+                ),
+            )
+        })
         .collect();
     app.world.spawn_batch(batch);
     app.update();

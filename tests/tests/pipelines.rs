@@ -44,7 +44,8 @@ fn courtyard_app() -> App {
     app.world.spawn((
         MeshInstance { mesh, material },
         Transform::from_translation(in_front).looking_at(camera.translation, Vec3::Y).with_rotation(
-            Transform::from_translation(in_front).looking_at(camera.translation, Vec3::Y).rotation * Quat::from_rotation_x(std::f32::consts::FRAC_PI_2),
+            Transform::from_translation(in_front).looking_at(camera.translation, Vec3::Y).rotation
+                * Quat::from_rotation_x(std::f32::consts::FRAC_PI_2),
         ),
     ));
     app
@@ -125,11 +126,16 @@ fn decal_plane_app() -> (App, TopDownView) {
 }
 
 fn flat_decal(app: &mut App, color: Vec3, alpha: f32, centre: Vec3, channel: u8, weight: f32) {
-    let material = app.world.resource_mut::<Assets<DecalMaterial>>().add(DecalMaterial { base_color: Some(color.extend(alpha)), ..Default::default() });
+    let material = app
+        .world
+        .resource_mut::<Assets<DecalMaterial>>()
+        .add(DecalMaterial { base_color: Some(color.extend(alpha)), ..Default::default() });
     let mut decal = Decal::new(material);
     decal.channel = channel;
     decal.weight = weight;
-    let t = Transform::from_translation(centre).with_rotation(Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2)).with_scale(Vec3::new(1.6, 1.6, 1.0));
+    let t = Transform::from_translation(centre)
+        .with_rotation(Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2))
+        .with_scale(Vec3::new(1.6, 1.6, 1.0));
     app.world.spawn((decal, t));
 }
 
@@ -137,7 +143,8 @@ fn flat_decal(app: &mut App, color: Vec3, alpha: f32, centre: Vec3, channel: u8,
 fn ray_query_and_deferred_decals_agree_where_they_must_and_differ_where_blending_does() {
     let (mut app, view) = decal_plane_app();
     let bg = Vec3::splat(0.5);
-    let (red, green, blue, yellow) = (Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 1.0, 0.0));
+    let (red, green, blue, yellow) =
+        (Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 1.0, 0.0));
     let a = 0.6;
     // Left: red (weight 1) and green (weight 1.5), nearly opaque, overlap in one channel.
     let a2 = 0.9;
@@ -165,7 +172,13 @@ fn ray_query_and_deferred_decals_agree_where_they_must_and_differ_where_blending
     // Different channels: both alpha-blend channel 1 over channel 0.
     let stacked = Vec3::new(1.2, 0.0, 0.3);
     let expected = over(yellow, over(blue, bg));
-    assert!(close(at(&rq, stacked), expected) && close(at(&dd, stacked), expected), "{} {} {}", at(&rq, stacked), at(&dd, stacked), expected);
+    assert!(
+        close(at(&rq, stacked), expected) && close(at(&dd, stacked), expected),
+        "{} {} {}",
+        at(&rq, stacked),
+        at(&dd, stacked),
+        expected
+    );
 
     // One channel, two weights: ray-query decals take the weighted average (order-independent,
     // seed §4.3.1); deferred decals draw the heavier one last, on top (sorted, §5.2.2).
@@ -216,7 +229,8 @@ fn deferred_decals_work_with_the_camera_inside_the_box_and_behind_occluders() {
     let (mut app, view) = decal_plane_app();
     let cyan = Vec3::new(0.0, 1.0, 1.0);
     // A box 10 m deep around the camera (at 4 m height): its front faces are behind the camera.
-    let material = app.world.resource_mut::<Assets<DecalMaterial>>().add(DecalMaterial { base_color: Some(cyan.extend(1.0)), ..Default::default() });
+    let material =
+        app.world.resource_mut::<Assets<DecalMaterial>>().add(DecalMaterial { base_color: Some(cyan.extend(1.0)), ..Default::default() });
     let huge = Transform::from_xyz(-1.5, 0.0, 0.0)
         .with_rotation(Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2))
         .with_scale(Vec3::new(2.0, 2.0, 10.0));
@@ -234,7 +248,11 @@ fn deferred_decals_work_with_the_camera_inside_the_box_and_behind_occluders() {
             let (px, py) = view.pixel_of(p);
             Vec3::from_slice(&albedo[(py * SIZE.0 + px) as usize][..3])
         };
-        assert!((at(Vec3::new(-1.5, 0.0, 0.0)) - cyan).abs().max_element() < 0.01, "{method:?}: camera inside the box: {}", at(Vec3::new(-1.5, 0.0, 0.0)));
+        assert!(
+            (at(Vec3::new(-1.5, 0.0, 0.0)) - cyan).abs().max_element() < 0.01,
+            "{method:?}: camera inside the box: {}",
+            at(Vec3::new(-1.5, 0.0, 0.0))
+        );
         let slab_top = at(Vec3::new(1.5, 0.65, 0.0));
         assert!((slab_top - Vec3::splat(0.1)).abs().max_element() < 0.01, "{method:?}: the slab is not painted: {slab_top}");
     }

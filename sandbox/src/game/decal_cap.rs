@@ -66,11 +66,7 @@ pub struct SpawnOrder<M> {
 
 impl<M> Default for SpawnOrder<M> {
     fn default() -> Self {
-        Self {
-            queue: VecDeque::new(),
-            queued: HashSet::new(),
-            _marker: PhantomData,
-        }
+        Self { queue: VecDeque::new(), queued: HashSet::new(), _marker: PhantomData }
     }
 }
 
@@ -153,14 +149,7 @@ pub fn enforce_decal_cap(
     mut removed: RemovedComponents<GameDecal>,
     mut stats: ResMut<GameStats>,
 ) {
-    stats.decals_recycled += recycle_oldest(
-        &mut commands,
-        &mut order,
-        cap.max,
-        &added,
-        &live,
-        &mut removed,
-    );
+    stats.decals_recycled += recycle_oldest(&mut commands, &mut order, cap.max, &added, &live, &mut removed);
 }
 
 /// Keeps at most [`LightCap::max`] [`GameLight`]s alive, despawning the oldest first.
@@ -173,14 +162,7 @@ pub fn enforce_light_cap(
     mut removed: RemovedComponents<GameLight>,
     mut stats: ResMut<GameStats>,
 ) {
-    stats.lights_recycled += recycle_oldest(
-        &mut commands,
-        &mut order,
-        cap.max,
-        &added,
-        &live,
-        &mut removed,
-    );
+    stats.lights_recycled += recycle_oldest(&mut commands, &mut order, cap.max, &added, &live, &mut removed);
 }
 
 #[cfg(test)]
@@ -202,24 +184,12 @@ mod tests {
         let mut app = app(3);
         let first: Vec<Entity> = (0..3).map(|_| app.world.spawn(GameDecal).id()).collect();
         app.update();
-        assert_eq!(
-            app.world
-                .resource::<SpawnOrder<GameDecal>>()
-                .iter()
-                .collect::<Vec<_>>(),
-            first
-        );
+        assert_eq!(app.world.resource::<SpawnOrder<GameDecal>>().iter().collect::<Vec<_>>(), first);
         let newer: Vec<Entity> = (0..2).map(|_| app.world.spawn(GameDecal).id()).collect();
         app.update();
         assert!(app.world.get_entity(first[0]).is_err() && app.world.get_entity(first[1]).is_err());
         let expected = [first[2], newer[0], newer[1]];
-        assert_eq!(
-            app.world
-                .resource::<SpawnOrder<GameDecal>>()
-                .iter()
-                .collect::<Vec<_>>(),
-            expected
-        );
+        assert_eq!(app.world.resource::<SpawnOrder<GameDecal>>().iter().collect::<Vec<_>>(), expected);
         assert_eq!(app.world.resource::<GameStats>().decals_recycled, 2);
     }
 
@@ -234,23 +204,11 @@ mod tests {
         app.update();
         // `a` died by itself: `b` and `c` fit under the cap, nothing was recycled.
         assert!(app.world.get_entity(b).is_ok() && app.world.get_entity(c).is_ok());
-        assert_eq!(
-            app.world
-                .resource::<SpawnOrder<GameDecal>>()
-                .iter()
-                .collect::<Vec<_>>(),
-            [b, c]
-        );
+        assert_eq!(app.world.resource::<SpawnOrder<GameDecal>>().iter().collect::<Vec<_>>(), [b, c]);
         assert_eq!(app.world.resource::<GameStats>().decals_recycled, 0);
         // Losing the marker counts as leaving too.
         app.world.entity_mut(b).remove::<GameDecal>();
         app.update();
-        assert_eq!(
-            app.world
-                .resource::<SpawnOrder<GameDecal>>()
-                .iter()
-                .collect::<Vec<_>>(),
-            [c]
-        );
+        assert_eq!(app.world.resource::<SpawnOrder<GameDecal>>().iter().collect::<Vec<_>>(), [c]);
     }
 }

@@ -55,14 +55,8 @@ impl Foot {
     /// horizontally for the left foot.
     pub fn uv(self) -> DecalUv {
         match self {
-            Foot::Right => DecalUv::Rect {
-                min: Vec2::ZERO,
-                max: Vec2::ONE,
-            },
-            Foot::Left => DecalUv::Rect {
-                min: Vec2::new(1.0, 0.0),
-                max: Vec2::new(0.0, 1.0),
-            },
+            Foot::Right => DecalUv::Rect { min: Vec2::ZERO, max: Vec2::ONE },
+            Foot::Left => DecalUv::Rect { min: Vec2::new(1.0, 0.0), max: Vec2::new(0.0, 1.0) },
         }
     }
 }
@@ -115,18 +109,11 @@ pub fn lay_footprints(
             let foot = trail.next;
             let side = Vec3::Y.cross(direction) * -foot.side(); // Y × forward points left.
             let position = (centre + side * settings.foot_offset).with_y(search_height);
-            if let Some(floor) = raycaster
-                .cast(position, Vec3::NEG_Y, f32::INFINITY)
-                .filter(|hit| hit.normal.y > 0.5)
-            {
+            if let Some(floor) = raycaster.cast(position, Vec3::NEG_Y, f32::INFINITY).filter(|hit| hit.normal.y > 0.5) {
                 let transform = Transform {
                     translation: floor.point,
                     rotation: surface_rotation(floor.normal, direction),
-                    scale: Vec3::new(
-                        settings.footprint_size,
-                        settings.footprint_size,
-                        settings.decal_depth,
-                    ),
+                    scale: Vec3::new(settings.footprint_size, settings.footprint_size, settings.decal_depth),
                 };
                 let mut decal = Decal::new(assets.footprint);
                 decal.uv = foot.uv();
@@ -160,16 +147,10 @@ mod tests {
     fn feet_alternate_and_mirror() {
         assert_eq!(Foot::Left.other(), Foot::Right);
         assert_eq!(Foot::Right.other().other(), Foot::Right);
-        let (DecalUv::Rect { min: l0, max: l1 }, DecalUv::Rect { min: r0, max: r1 }) =
-            (Foot::Left.uv(), Foot::Right.uv())
-        else {
+        let (DecalUv::Rect { min: l0, max: l1 }, DecalUv::Rect { min: r0, max: r1 }) = (Foot::Left.uv(), Foot::Right.uv()) else {
             panic!("rect UVs expected");
         };
-        assert_eq!(
-            (l0.x, l1.x),
-            (r1.x, r0.x),
-            "left mirrors right horizontally"
-        );
+        assert_eq!((l0.x, l1.x), (r1.x, r0.x), "left mirrors right horizontally");
         assert_eq!((l0.y, l1.y), (r0.y, r1.y), "but not vertically");
         // Right of a walk along −Z is +X.
         let side = Vec3::Y.cross(Vec3::NEG_Z) * -Foot::Right.side();

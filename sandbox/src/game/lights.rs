@@ -34,19 +34,12 @@ pub fn vivid_colour(rng: &mut SplitMix64) -> Vec3 {
 }
 
 /// Where a light dropped along the ray from `origin` in `direction` goes (see the module docs).
-pub fn light_position(
-    raycaster: &SceneRaycaster,
-    settings: &GameSettings,
-    origin: Vec3,
-    direction: Vec3,
-) -> Vec3 {
+pub fn light_position(raycaster: &SceneRaycaster, settings: &GameSettings, origin: Vec3, direction: Vec3) -> Vec3 {
     let Some(hit) = raycaster.cast(origin, direction, settings.max_shot_distance) else {
         return origin + direction * settings.light_fallback_distance;
     };
     let start = hit.point + hit.normal * 1e-3;
-    let room = raycaster
-        .cast(start, hit.normal, settings.light_offset * 2.0)
-        .map_or(settings.light_offset, |obstacle| 0.5 * obstacle.t);
+    let room = raycaster.cast(start, hit.normal, settings.light_offset * 2.0).map_or(settings.light_offset, |obstacle| 0.5 * obstacle.t);
     start + hit.normal * settings.light_offset.min(room)
 }
 
@@ -75,21 +68,9 @@ pub fn drop_light(
         return;
     };
     let position = light_position(&raycaster, &settings, origin, direction);
-    let light = PointLight {
-        color: vivid_colour(&mut rng.0),
-        intensity: settings.light_intensity,
-        range: None,
-    };
+    let light = PointLight { color: vivid_colour(&mut rng.0), intensity: settings.light_intensity, range: None };
     let transform = Transform::from_translation(position);
-    let entity = commands
-        .spawn((
-            light,
-            transform,
-            GlobalTransform::from(transform),
-            GameLight,
-            Name::new("Dropped light"),
-        ))
-        .id();
+    let entity = commands.spawn((light, transform, GlobalTransform::from(transform), GameLight, Name::new("Dropped light"))).id();
     order.push(entity);
     stats.lights += 1;
 }
@@ -113,31 +94,16 @@ mod tests {
         let reddest = colours.iter().filter(|c| c.x == 1.0).count();
         let greenest = colours.iter().filter(|c| c.y == 1.0).count();
         let bluest = colours.iter().filter(|c| c.z == 1.0).count();
-        assert!(
-            reddest > 5 && greenest > 5 && bluest > 5,
-            "{reddest} {greenest} {bluest}"
-        );
+        assert!(reddest > 5 && greenest > 5 && bluest > 5, "{reddest} {greenest} {bluest}");
     }
 
     #[test]
     fn lights_float_in_front_of_surfaces() {
         let floor = shapes::plane(10.0, 10.0, 1, 1.0);
-        let raycaster = SceneRaycaster::from_meshes([(
-            Entity::from_raw_u32(1).unwrap(),
-            &floor,
-            Affine3A::IDENTITY,
-        )]);
+        let raycaster = SceneRaycaster::from_meshes([(Entity::from_raw_u32(1).unwrap(), &floor, Affine3A::IDENTITY)]);
         let settings = GameSettings::default();
-        let p = light_position(
-            &raycaster,
-            &settings,
-            Vec3::new(0.0, 2.0, 0.0),
-            Vec3::new(0.0, -1.0, -1.0),
-        );
-        assert!(
-            (p - Vec3::new(0.0, 1.0 + 1e-3, -2.0)).length() < 1e-4,
-            "{p}"
-        );
+        let p = light_position(&raycaster, &settings, Vec3::new(0.0, 2.0, 0.0), Vec3::new(0.0, -1.0, -1.0));
+        assert!((p - Vec3::new(0.0, 1.0 + 1e-3, -2.0)).length() < 1e-4, "{p}");
         let p = light_position(&raycaster, &settings, Vec3::new(0.0, 2.0, 0.0), Vec3::Y);
         assert!((p - Vec3::new(0.0, 5.0, 0.0)).length() < 1e-5, "{p}");
     }

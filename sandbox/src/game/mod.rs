@@ -151,12 +151,8 @@ impl GameAssets {
         world.init_resource::<Assets<DecalMaterial>>();
         let assets = world.resource_scope(|world, mut materials: Mut<Assets<DecalMaterial>>| {
             let mut images = world.resource_mut::<Assets<Image>>();
-            let mut add =
-                |set| materials.add(crate::decal_textures::decal_material(&set, &mut images));
-            GameAssets {
-                bullet_hole: add(crate::decal_textures::bullet_hole()),
-                footprint: add(crate::decal_textures::footprint()),
-            }
+            let mut add = |set| materials.add(crate::decal_textures::decal_material(&set, &mut images));
+            GameAssets { bullet_hole: add(crate::decal_textures::bullet_hole()), footprint: add(crate::decal_textures::footprint()) }
         });
         world.insert_resource(assets);
         assets
@@ -223,31 +219,11 @@ impl Plugin for GamePlugin {
             // see the decals whose lifetime ended this frame as gone.
             .configure_sets(GameSystems::Act.before(plugins::decal::update_decal_lifetimes))
             .configure_sets(GameSystems::Recycle.after(plugins::decal::update_decal_lifetimes));
-        app.add_systems(
-            PreUpdate,
-            script::play_script.run_if(resource_exists::<ScriptPlayer>),
-        );
+        app.add_systems(PreUpdate, script::play_script.run_if(resource_exists::<ScriptPlayer>));
         app.add_systems(Update, player::move_player.in_set(GameSystems::Move));
-        app.add_systems(
-            Update,
-            (
-                footprints::lay_footprints,
-                shooting::shoot,
-                lights::drop_light,
-            )
-                .chain()
-                .in_set(GameSystems::Act),
-        );
-        app.add_systems(
-            Update,
-            (decal_cap::enforce_decal_cap, decal_cap::enforce_light_cap)
-                .chain()
-                .in_set(GameSystems::Recycle),
-        );
-        app.add_systems(
-            PostUpdate,
-            raycast::rebuild_raycaster.after(TransformSystems::Propagate),
-        );
+        app.add_systems(Update, (footprints::lay_footprints, shooting::shoot, lights::drop_light).chain().in_set(GameSystems::Act));
+        app.add_systems(Update, (decal_cap::enforce_decal_cap, decal_cap::enforce_light_cap).chain().in_set(GameSystems::Recycle));
+        app.add_systems(PostUpdate, raycast::rebuild_raycaster.after(TransformSystems::Propagate));
     }
 }
 
@@ -269,16 +245,10 @@ pub fn setup_game(world: &mut World, camera: Entity) -> Result<()> {
     if !entity.contains::<Camera>() {
         bail!("entity {camera} has no Camera component");
     }
-    world
-        .run_system_once(propagate_transforms)
-        .map_err(|error| anyhow!("propagating transforms: {error}"))?;
-    let global = world
-        .get::<GlobalTransform>(camera)
-        .copied()
-        .unwrap_or_default();
+    world.run_system_once(propagate_transforms).map_err(|error| anyhow!("propagating transforms: {error}"))?;
+    let global = world.get::<GlobalTransform>(camera).copied().unwrap_or_default();
     let controller = PlayerController::looking_along(global.forward());
-    let transform =
-        Transform::from_translation(global.translation()).with_rotation(controller.rotation());
+    let transform = Transform::from_translation(global.translation()).with_rotation(controller.rotation());
     // A root from now on: its Transform is in world space, which the controller relies on.
     world.entity_mut(camera).remove::<ChildOf>().insert((
         Player,
@@ -334,11 +304,7 @@ pub fn teleport(world: &mut World, player: Entity, feet: Vec3, forward: Vec3) ->
     let looking = PlayerController::looking_along(forward);
     (controller.yaw, controller.pitch) = (looking.yaw, looking.pitch);
     let eye = feet + Vec3::Y * controller.eye_height;
-    let step = controller.walk(
-        &world.get_resource_or_init::<SceneRaycaster>(),
-        eye,
-        Vec3::ZERO,
-    );
+    let step = controller.walk(&world.get_resource_or_init::<SceneRaycaster>(), eye, Vec3::ZERO);
     world.entity_mut(player).insert((
         controller,
         Transform::from_translation(step.eye).with_rotation(controller.rotation()),
@@ -350,11 +316,7 @@ pub fn teleport(world: &mut World, player: Entity, feet: Vec3, forward: Vec3) ->
 
 /// The first active camera in the world, for scenes that do not say which one to play with.
 pub fn find_camera(world: &mut World) -> Option<Entity> {
-    world
-        .query::<(Entity, &Camera)>()
-        .iter(world)
-        .find(|(_, camera)| camera.active)
-        .map(|(entity, _)| entity)
+    world.query::<(Entity, &Camera)>().iter(world).find(|(_, camera)| camera.active).map(|(entity, _)| entity)
 }
 
 /// A rotation whose local +Z is `normal` and whose local +Y is as close to `up_hint` as the
@@ -362,9 +324,7 @@ pub fn find_camera(world: &mut World) -> Option<Entity> {
 /// decal lying on a surface, projecting along −Z into it. `normal` must be non-zero.
 pub fn surface_rotation(normal: Vec3, up_hint: Vec3) -> Quat {
     let z = normal.normalize_or(Vec3::Z);
-    let y = (up_hint - z * z.dot(up_hint))
-        .try_normalize()
-        .unwrap_or_else(|| z.any_orthonormal_vector());
+    let y = (up_hint - z * z.dot(up_hint)).try_normalize().unwrap_or_else(|| z.any_orthonormal_vector());
     let x = y.cross(z);
     Quat::from_mat3(&Mat3::from_cols(x, y, z)).normalize()
 }
@@ -398,10 +358,7 @@ mod tests {
     fn setup_game_rejects_bad_entities() {
         let mut app = App::new();
         let not_a_camera = app.world.spawn(Transform::IDENTITY).id();
-        assert!(
-            setup_game(&mut app.world, not_a_camera).is_err(),
-            "needs GamePlugin"
-        );
+        assert!(setup_game(&mut app.world, not_a_camera).is_err(), "needs GamePlugin");
         app.add_plugins(GamePlugin);
         let error = setup_game(&mut app.world, not_a_camera).unwrap_err();
         assert!(error.to_string().contains("no Camera"), "{error}");

@@ -49,8 +49,7 @@ pub fn build_game_app(opts: &HeadlessOptions, script: Script) -> Result<App> {
     }
     let mut app = build_app(opts)?;
     app.add_plugins(GamePlugin);
-    let camera =
-        find_camera(&mut app.world).context("the scene has no active camera to play with")?;
+    let camera = find_camera(&mut app.world).context("the scene has no active camera to play with")?;
     setup_game(&mut app.world, camera)?;
     app.insert_resource(ScriptPlayer::new(script));
     Ok(app)
@@ -60,17 +59,8 @@ pub fn build_game_app(opts: &HeadlessOptions, script: Script) -> Result<App> {
 /// when set.
 pub fn run_scripted(opts: &HeadlessOptions, script: Script) -> Result<GameRunSummary> {
     let mut app = build_game_app(opts, script)?;
-    let dt = app
-        .world
-        .resource::<Time>()
-        .fixed_step()
-        .map_or(0.0, |step| step.as_secs_f32());
-    let script_frames = app
-        .world
-        .resource::<ScriptPlayer>()
-        .script()
-        .frames_at(dt)
-        .context("scripted runs need a fixed frame time")?;
+    let dt = app.world.resource::<Time>().fixed_step().map_or(0.0, |step| step.as_secs_f32());
+    let script_frames = app.world.resource::<ScriptPlayer>().script().frames_at(dt).context("scripted runs need a fixed frame time")?;
     let total = script_frames + u64::from(opts.frames);
     let mut snapshots = Vec::with_capacity(total as usize);
     let mut frames = Vec::with_capacity(total as usize);
@@ -89,8 +79,7 @@ pub fn run_scripted(opts: &HeadlessOptions, script: Script) -> Result<GameRunSum
         for frame in &frames {
             writeln!(file, "{frame}")?;
         }
-        file.flush()
-            .with_context(|| format!("writing {}", path.display()))?;
+        file.flush().with_context(|| format!("writing {}", path.display()))?;
     }
     let renderer = &mut app.world.resource_mut::<GpuRenderer>().0;
     let pixels = renderer.read_display().context("reading back the frame")?;
@@ -98,33 +87,19 @@ pub fn run_scripted(opts: &HeadlessOptions, script: Script) -> Result<GameRunSum
     if let Some(path) = &opts.screenshot {
         let (w, h) = opts.size;
         create_parent(path)?;
-        image::save_buffer(path, &pixels, w, h, image::ExtendedColorType::Rgba8)
-            .with_context(|| format!("writing {}", path.display()))?;
+        image::save_buffer(path, &pixels, w, h, image::ExtendedColorType::Rgba8).with_context(|| format!("writing {}", path.display()))?;
     }
     let game = *app.world.resource::<GameStats>();
-    Ok(GameRunSummary {
-        app,
-        pixels,
-        frames,
-        validation_errors,
-        game,
-    })
+    Ok(GameRunSummary { app, pixels, frames, validation_errors, game })
 }
 
 /// The game's state after a frame, as the `game` object of its statistics.
 fn game_snapshot(world: &mut World) -> Value {
-    let eye = world
-        .query_filtered::<&Transform, With<Player>>()
-        .iter(world)
-        .next()
-        .map(|t| t.translation.to_array());
-    let script_line = world
-        .get_resource::<ScriptPlayer>()
-        .and_then(ScriptPlayer::played_line);
+    let eye = world.query_filtered::<&Transform, With<Player>>().iter(world).next().map(|t| t.translation.to_array());
+    let script_line = world.get_resource::<ScriptPlayer>().and_then(ScriptPlayer::played_line);
     let live_decals = world.resource::<SpawnOrder<GameDecal>>().len();
     let live_lights = world.resource::<SpawnOrder<GameLight>>().len();
-    let mut game =
-        serde_json::to_value(*world.resource::<GameStats>()).unwrap_or_else(|_| json!({}));
+    let mut game = serde_json::to_value(*world.resource::<GameStats>()).unwrap_or_else(|_| json!({}));
     if let Value::Object(map) = &mut game {
         map.insert("live_decals".into(), json!(live_decals));
         map.insert("live_lights".into(), json!(live_lights));
@@ -141,8 +116,7 @@ fn drain_stats(app: &mut App, snapshots: &[Value], out: &mut Vec<Value>) {
     let mut stats = app.world.resource_mut::<RenderStats>();
     while let Some(frame) = stats.completed.pop_front() {
         let mut value = crate::stats::frame_json(&frame, tier, &device);
-        if let (Value::Object(map), Some(game)) = (&mut value, snapshots.get(frame.frame as usize))
-        {
+        if let (Value::Object(map), Some(game)) = (&mut value, snapshots.get(frame.frame as usize)) {
             map.insert("game".into(), game.clone());
         }
         out.push(value);

@@ -91,12 +91,7 @@ pub struct PlayerMotion {
 impl PlayerMotion {
     /// A player standing still at `feet`.
     pub fn standing(feet: Vec3, floor: Option<Hit>) -> Self {
-        Self {
-            from: feet,
-            to: feet,
-            floor,
-            blocked: false,
-        }
+        Self { from: feet, to: feet, floor, blocked: false }
     }
 
     /// The horizontal distance walked this frame.
@@ -125,11 +120,7 @@ impl PlayerController {
         let forward = forward.try_normalize().unwrap_or(Vec3::NEG_Z);
         Self {
             yaw: (-forward.x).atan2(-forward.z),
-            pitch: forward
-                .y
-                .clamp(-1.0, 1.0)
-                .asin()
-                .clamp(-MAX_PITCH, MAX_PITCH),
+            pitch: forward.y.clamp(-1.0, 1.0).asin().clamp(-MAX_PITCH, MAX_PITCH),
             ..Default::default()
         }
     }
@@ -156,18 +147,14 @@ impl PlayerController {
             return;
         }
         let yaw = self.yaw - motion.x * self.mouse_sensitivity;
-        self.yaw =
-            (yaw + std::f32::consts::PI).rem_euclid(std::f32::consts::TAU) - std::f32::consts::PI;
+        self.yaw = (yaw + std::f32::consts::PI).rem_euclid(std::f32::consts::TAU) - std::f32::consts::PI;
         self.pitch = (self.pitch - motion.y * self.mouse_sensitivity).clamp(-MAX_PITCH, MAX_PITCH);
     }
 
     /// The horizontal unit direction of the held movement keys (zero when none or opposing).
     pub fn wish_direction(&self, input: &Input) -> Vec3 {
-        let axis = |positive: Key, negative: Key| {
-            input.pressed(positive) as i32 as f32 - input.pressed(negative) as i32 as f32
-        };
-        (self.forward_flat() * axis(Key::W, Key::S) + self.right_flat() * axis(Key::D, Key::A))
-            .normalize_or_zero()
+        let axis = |positive: Key, negative: Key| input.pressed(positive) as i32 as f32 - input.pressed(negative) as i32 as f32;
+        (self.forward_flat() * axis(Key::W, Key::S) + self.right_flat() * axis(Key::D, Key::A)).normalize_or_zero()
     }
 
     /// Moves the player whose eye is at `eye` by the horizontal displacement `displacement`
@@ -177,12 +164,7 @@ impl PlayerController {
     pub fn walk(&self, raycaster: &SceneRaycaster, eye: Vec3, displacement: Vec3) -> Step {
         let start_feet = eye - Vec3::Y * self.eye_height;
         if !eye.is_finite() {
-            return Step {
-                eye,
-                feet: start_feet,
-                floor: None,
-                blocked: true,
-            };
+            return Step { eye, feet: start_feet, floor: None, blocked: true };
         }
         let mut feet = start_feet;
         let mut remaining = displacement.with_y(0.0);
@@ -220,19 +202,11 @@ impl PlayerController {
                 // Nothing to stand on there: stay where we were.
                 blocked = true;
                 let floor = self.floor_below(raycaster, start_feet);
-                (
-                    floor.map_or(start_feet, |f| start_feet.with_y(f.point.y)),
-                    floor,
-                )
+                (floor.map_or(start_feet, |f| start_feet.with_y(f.point.y)), floor)
             }
             None => (feet, None),
         };
-        Step {
-            eye: feet + Vec3::Y * self.eye_height,
-            feet,
-            floor,
-            blocked,
-        }
+        Step { eye: feet + Vec3::Y * self.eye_height, feet, floor, blocked }
     }
 
     /// Heights above the feet at which walls are probed: just above a step, the waist, and
@@ -248,13 +222,7 @@ impl PlayerController {
     /// the wall's horizontal normal. Probes with horizontal rays from the centre line and both
     /// sides of the body at the probe heights; walls met at grazing angles beyond the probes'
     /// reach are left to [`Self::push_out_of_walls`].
-    fn wall_ahead(
-        &self,
-        raycaster: &SceneRaycaster,
-        feet: Vec3,
-        direction: Vec3,
-        length: f32,
-    ) -> Option<(f32, Vec3)> {
+    fn wall_ahead(&self, raycaster: &SceneRaycaster, feet: Vec3, direction: Vec3, length: f32) -> Option<(f32, Vec3)> {
         let side = Vec3::Y.cross(direction).normalize_or_zero() * (0.7 * self.radius);
         let reach = length + 4.0 * self.radius;
         let mut nearest: Option<(f32, Vec3)> = None;
@@ -313,9 +281,7 @@ impl PlayerController {
     /// The walkable floor under `feet`, searched from `max_step` above them downwards.
     fn floor_below(&self, raycaster: &SceneRaycaster, feet: Vec3) -> Option<Hit> {
         let origin = feet + Vec3::Y * (self.max_step + 0.01);
-        raycaster
-            .cast(origin, Vec3::NEG_Y, f32::INFINITY)
-            .filter(|hit| hit.normal.y >= WALKABLE_NORMAL_Y)
+        raycaster.cast(origin, Vec3::NEG_Y, f32::INFINITY).filter(|hit| hit.normal.y >= WALKABLE_NORMAL_Y)
     }
 }
 
@@ -338,12 +304,7 @@ pub fn move_player(
         if input.mouse_motion != glam::Vec2::ZERO {
             controller.look(input.mouse_motion);
         }
-        let speed = controller.speed
-            * if input.pressed(Key::Shift) {
-                controller.sprint_factor
-            } else {
-                1.0
-            };
+        let speed = controller.speed * if input.pressed(Key::Shift) { controller.sprint_factor } else { 1.0 };
         let displacement = controller.wish_direction(&input) * speed * dt;
         let step = controller.walk(&raycaster, transform.translation, displacement);
         *motion = PlayerMotion {
@@ -353,11 +314,7 @@ pub fn move_player(
             blocked: step.blocked,
         };
         let rotation = controller.rotation();
-        transform.set_if_neq(Transform {
-            translation: step.eye,
-            rotation,
-            scale: Vec3::ONE,
-        });
+        transform.set_if_neq(Transform { translation: step.eye, rotation, scale: Vec3::ONE });
     }
 }
 
@@ -375,16 +332,8 @@ mod tests {
         let wall: Mesh = shapes::cuboid(Vec3::new(0.2, 4.0, 20.0), 1.0);
         SceneRaycaster::from_meshes([
             (Entity::from_raw_u32(1).unwrap(), &floor, Affine3A::IDENTITY),
-            (
-                Entity::from_raw_u32(2).unwrap(),
-                &step,
-                Affine3A::from_translation(Vec3::new(0.0, 0.15, -5.0)),
-            ),
-            (
-                Entity::from_raw_u32(3).unwrap(),
-                &wall,
-                Affine3A::from_translation(Vec3::new(2.1, 2.0, 0.0)),
-            ),
+            (Entity::from_raw_u32(2).unwrap(), &step, Affine3A::from_translation(Vec3::new(0.0, 0.15, -5.0))),
+            (Entity::from_raw_u32(3).unwrap(), &wall, Affine3A::from_translation(Vec3::new(2.1, 2.0, 0.0))),
         ])
     }
 
@@ -393,9 +342,7 @@ mod tests {
         let mut controller = PlayerController::looking_along(Vec3::new(1.0, 0.5, -1.0));
         let forward = controller.rotation() * Vec3::NEG_Z;
         assert!((forward - Vec3::new(1.0, 0.5, -1.0).normalize()).length() < 1e-5);
-        assert!(
-            (controller.forward_flat() - Vec3::new(1.0, 0.0, -1.0).normalize()).length() < 1e-5
-        );
+        assert!((controller.forward_flat() - Vec3::new(1.0, 0.0, -1.0).normalize()).length() < 1e-5);
         assert!((controller.rotation() * Vec3::X - controller.right_flat()).length() < 1e-5);
         // Mouse right turns right (clockwise from above), mouse down looks down, pitch clamps.
         let before = controller.forward_flat();
@@ -412,19 +359,13 @@ mod tests {
         let room = room();
         let controller = PlayerController::default();
         let step = controller.walk(&room, Vec3::new(0.0, 5.0, 0.0), Vec3::ZERO);
-        assert!(
-            (step.eye.y - 1.7).abs() < 1e-5,
-            "settles onto the floor: {step:?}"
-        );
+        assert!((step.eye.y - 1.7).abs() < 1e-5, "settles onto the floor: {step:?}");
         // Walk onto the 0.3 m step.
         let mut eye = step.eye;
         for _ in 0..40 {
             eye = controller.walk(&room, eye, Vec3::new(0.0, 0.0, -0.1)).eye;
         }
-        assert!(
-            (eye.z + 4.0).abs() < 1e-4 && (eye.y - 2.0).abs() < 1e-5,
-            "{eye}"
-        );
+        assert!((eye.z + 4.0).abs() < 1e-4 && (eye.y - 2.0).abs() < 1e-5, "{eye}");
     }
 
     #[test]

@@ -81,11 +81,7 @@ impl Triangle {
             return f32::INFINITY;
         }
         let t = self.e2.dot(q) * inv_det;
-        if t >= tmin && t <= tmax {
-            t
-        } else {
-            f32::INFINITY
-        }
+        if t >= tmin && t <= tmax { t } else { f32::INFINITY }
     }
 }
 
@@ -124,23 +120,15 @@ impl SceneRaycaster {
 
     /// Builds a raycaster over `instances`: each mesh placed by its local-to-world transform
     /// and reported as its entity when hit. Degenerate and non-finite triangles are skipped.
-    pub fn from_meshes<'a>(
-        instances: impl IntoIterator<Item = (Entity, &'a Mesh, Affine3A)>,
-    ) -> SceneRaycaster {
+    pub fn from_meshes<'a>(instances: impl IntoIterator<Item = (Entity, &'a Mesh, Affine3A)>) -> SceneRaycaster {
         let mut triangles = Vec::new();
         let mut entities = Vec::new();
         for (entity, mesh, to_world) in instances {
             let owner = entities.len() as u32;
             let before = triangles.len();
-            let position = |i: u32| {
-                mesh.positions
-                    .get(i as usize)
-                    .map(|&p| to_world.transform_point3a(Vec3A::from(p)))
-            };
+            let position = |i: u32| mesh.positions.get(i as usize).map(|&p| to_world.transform_point3a(Vec3A::from(p)));
             for tri in mesh.indices.chunks_exact(3) {
-                let (Some(v0), Some(v1), Some(v2)) =
-                    (position(tri[0]), position(tri[1]), position(tri[2]))
-                else {
+                let (Some(v0), Some(v1), Some(v2)) = (position(tri[0]), position(tri[1]), position(tri[2])) else {
                     continue;
                 };
                 let (e1, e2) = (v1 - v0, v2 - v0);
@@ -165,23 +153,10 @@ impl SceneRaycaster {
                 v2: (t.v0 + t.e2).to_array().into(),
             })
             .collect();
-        let bvh = build_bvh2_from_tris(
-            &boxes,
-            BvhBuildParams::medium_build(),
-            &mut Duration::default(),
-        );
+        let bvh = build_bvh2_from_tris(&boxes, BvhBuildParams::medium_build(), &mut Duration::default());
         // Reorder once so traversal indexes the triangles without the indirection.
-        let triangles = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| triangles[i as usize])
-            .collect();
-        SceneRaycaster {
-            bvh,
-            triangles,
-            entities,
-            built: None,
-        }
+        let triangles = bvh.primitive_indices.iter().map(|&i| triangles[i as usize]).collect();
+        SceneRaycaster { bvh, triangles, entities, built: None }
     }
 
     /// The nearest hit of the ray from `origin` along `direction` (normalised here, so `t` is
@@ -192,34 +167,18 @@ impl SceneRaycaster {
         if self.triangles.is_empty() || !origin.is_finite() || max_t.is_nan() || max_t <= 0.0 {
             return None;
         }
-        let ray = Ray::new(
-            origin.to_array().into(),
-            direction.to_array().into(),
-            0.0,
-            max_t,
-        );
+        let ray = Ray::new(origin.to_array().into(), direction.to_array().into(), 0.0, max_t);
         let (from, along) = (Vec3A::from(origin), Vec3A::from(direction));
         let mut hit = RayHit::none();
         // obvhs shrinks the ray's `tmax` to the nearest hit so far as it traverses.
-        let found = self.bvh.ray_traverse(ray, &mut hit, |ray, i| {
-            self.triangles[i].intersect(from, along, ray.tmin, ray.tmax)
-        });
+        let found = self.bvh.ray_traverse(ray, &mut hit, |ray, i| self.triangles[i].intersect(from, along, ray.tmin, ray.tmax));
         if !found {
             return None;
         }
         let triangle = self.triangles.get(hit.primitive_id as usize)?;
         let normal = Vec3::from(triangle.e1.cross(triangle.e2)).normalize_or_zero();
-        let normal = if normal.dot(direction) > 0.0 {
-            -normal
-        } else {
-            normal
-        };
-        Some(Hit {
-            t: hit.t,
-            point: origin + direction * hit.t,
-            normal,
-            entity: self.entities[triangle.owner as usize],
-        })
+        let normal = if normal.dot(direction) > 0.0 { -normal } else { normal };
+        Some(Hit { t: hit.t, point: origin + direction * hit.t, normal, entity: self.entities[triangle.owner as usize] })
     }
 
     /// Number of triangles in the BVH.
@@ -245,23 +204,11 @@ impl SceneRaycaster {
 }
 
 /// Mesh instances as [`collect_solids`] and [`rebuild_raycaster`] read them.
-type Instances<'w, 's> = Query<
-    'w,
-    's,
-    (
-        Entity,
-        Ref<'static, MeshInstance>,
-        Ref<'static, GlobalTransform>,
-        Option<Ref<'static, DecalReceiver>>,
-    ),
->;
+type Instances<'w, 's> =
+    Query<'w, 's, (Entity, Ref<'static, MeshInstance>, Ref<'static, GlobalTransform>, Option<Ref<'static, DecalReceiver>>)>;
 
 /// Whether `entity` is the player or one of its descendants.
-fn belongs_to_player(
-    entity: Entity,
-    players: &Query<Ref<Player>>,
-    parents: &Query<&ChildOf>,
-) -> bool {
+fn belongs_to_player(entity: Entity, players: &Query<Ref<Player>>, parents: &Query<&ChildOf>) -> bool {
     // Hierarchies deeper than this are not expected; stopping keeps a corrupt (cyclic) one
     // from hanging the game.
     const MAX_DEPTH: usize = 256;
@@ -279,20 +226,12 @@ fn belongs_to_player(
 }
 
 /// Builds a raycaster over the solid instances (see the module docs).
-fn gather(
-    instances: &Instances,
-    players: &Query<Ref<Player>>,
-    parents: &Query<&ChildOf>,
-    meshes: &Assets<Mesh>,
-) -> SceneRaycaster {
-    SceneRaycaster::from_meshes(instances.iter().filter_map(
-        |(entity, instance, global, receiver)| {
-            let solid =
-                receiver.is_none_or(|r| r.0 != 0) && !belongs_to_player(entity, players, parents);
-            let mesh = meshes.get(instance.mesh).filter(|_| solid)?;
-            Some((entity, mesh, global.affine()))
-        },
-    ))
+fn gather(instances: &Instances, players: &Query<Ref<Player>>, parents: &Query<&ChildOf>, meshes: &Assets<Mesh>) -> SceneRaycaster {
+    SceneRaycaster::from_meshes(instances.iter().filter_map(|(entity, instance, global, receiver)| {
+        let solid = receiver.is_none_or(|r| r.0 != 0) && !belongs_to_player(entity, players, parents);
+        let mesh = meshes.get(instance.mesh).filter(|_| solid)?;
+        Some((entity, mesh, global.affine()))
+    }))
 }
 
 /// [`gather`] as a one-shot system for [`SceneRaycaster::build`].
@@ -322,34 +261,25 @@ pub fn rebuild_raycaster(
     ticks: SystemChangeTick,
 ) {
     // Drain every reader each frame, whether or not a rebuild follows.
-    let removed = removed_instances.read().count()
-        + removed_receivers.read().count()
-        + removed_players.read().count()
-        > 0;
+    let removed = removed_instances.read().count() + removed_receivers.read().count() + removed_players.read().count() > 0;
     let Some(meshes) = meshes else { return };
     let stale = match raycaster.built {
         None => true,
         Some(built) => {
             removed
                 || players.iter().any(|player| player.is_added_after(built))
-                || instances
-                    .iter()
-                    .any(|(entity, instance, global, receiver)| {
-                        let changed = instance.is_changed_after(built)
-                            || global.is_changed_after(built)
-                            || receiver.is_some_and(|r| r.is_changed_after(built));
-                        changed && !belongs_to_player(entity, &players, &parents)
-                    })
+                || instances.iter().any(|(entity, instance, global, receiver)| {
+                    let changed = instance.is_changed_after(built)
+                        || global.is_changed_after(built)
+                        || receiver.is_some_and(|r| r.is_changed_after(built));
+                    changed && !belongs_to_player(entity, &players, &parents)
+                })
         }
     };
     if stale {
         *raycaster = gather(&instances, &players, &parents, &meshes);
         raycaster.built = Some(ticks.this_run());
-        tracing::debug!(
-            triangles = raycaster.triangle_count(),
-            instances = raycaster.instance_count(),
-            "rebuilt the scene raycaster"
-        );
+        tracing::debug!(triangles = raycaster.triangle_count(), instances = raycaster.instance_count(), "rebuilt the scene raycaster");
     }
 }
 
@@ -363,99 +293,48 @@ mod tests {
 
     fn spawn_mesh(world: &mut World, mesh: Mesh, transform: Transform) -> Entity {
         let mesh = world.resource_mut::<Assets<Mesh>>().add(mesh);
-        let material = world
-            .resource_mut::<Assets<Material>>()
-            .add(Material::default());
-        world
-            .spawn((transform, MeshInstance { mesh, material }))
-            .id()
+        let material = world.resource_mut::<Assets<Material>>().add(Material::default());
+        world.spawn((transform, MeshInstance { mesh, material })).id()
     }
 
     #[test]
     fn hits_the_nearest_surface_with_a_facing_normal() {
         let mut app = App::new();
-        let ground = spawn_mesh(
-            &mut app.world,
-            shapes::plane(10.0, 10.0, 3, 1.0),
-            Transform::IDENTITY,
-        );
-        let cube = spawn_mesh(
-            &mut app.world,
-            shapes::cuboid(Vec3::ONE, 1.0),
-            Transform::from_xyz(0.0, 0.5, 0.0),
-        );
+        let ground = spawn_mesh(&mut app.world, shapes::plane(10.0, 10.0, 3, 1.0), Transform::IDENTITY);
+        let cube = spawn_mesh(&mut app.world, shapes::cuboid(Vec3::ONE, 1.0), Transform::from_xyz(0.0, 0.5, 0.0));
         let raycaster = SceneRaycaster::build(&mut app.world);
         assert_eq!(raycaster.instance_count(), 2);
 
-        let down = raycaster
-            .cast(Vec3::new(0.2, 5.0, 0.1), Vec3::NEG_Y * 3.0, f32::INFINITY)
-            .unwrap();
+        let down = raycaster.cast(Vec3::new(0.2, 5.0, 0.1), Vec3::NEG_Y * 3.0, f32::INFINITY).unwrap();
         assert_eq!(down.entity, cube);
         assert!((down.t - 4.0).abs() < 1e-5 && (down.point.y - 1.0).abs() < 1e-5);
         assert!((down.normal - Vec3::Y).length() < 1e-5);
 
-        let beside = raycaster
-            .cast(Vec3::new(3.0, 5.0, 0.0), Vec3::NEG_Y, f32::INFINITY)
-            .unwrap();
+        let beside = raycaster.cast(Vec3::new(3.0, 5.0, 0.0), Vec3::NEG_Y, f32::INFINITY).unwrap();
         assert_eq!(beside.entity, ground);
         // From below, the ground's normal faces down, towards the ray.
-        let below = raycaster
-            .cast(Vec3::new(3.0, -1.0, 0.0), Vec3::Y, f32::INFINITY)
-            .unwrap();
+        let below = raycaster.cast(Vec3::new(3.0, -1.0, 0.0), Vec3::Y, f32::INFINITY).unwrap();
         assert!((below.normal - Vec3::NEG_Y).length() < 1e-5);
         // Out of range, bad input, away from everything.
-        assert!(
-            raycaster
-                .cast(Vec3::new(3.0, 5.0, 0.0), Vec3::NEG_Y, 4.9)
-                .is_none()
-        );
-        assert!(
-            raycaster
-                .cast(Vec3::new(3.0, 5.0, 0.0), Vec3::ZERO, 10.0)
-                .is_none()
-        );
+        assert!(raycaster.cast(Vec3::new(3.0, 5.0, 0.0), Vec3::NEG_Y, 4.9).is_none());
+        assert!(raycaster.cast(Vec3::new(3.0, 5.0, 0.0), Vec3::ZERO, 10.0).is_none());
         assert!(raycaster.cast(Vec3::NAN, Vec3::NEG_Y, 10.0).is_none());
-        assert!(
-            raycaster
-                .cast(Vec3::new(3.0, 5.0, 0.0), Vec3::Y, f32::INFINITY)
-                .is_none()
-        );
-        assert!(
-            SceneRaycaster::default()
-                .cast(Vec3::ZERO, Vec3::NEG_Y, 1.0)
-                .is_none()
-        );
+        assert!(raycaster.cast(Vec3::new(3.0, 5.0, 0.0), Vec3::Y, f32::INFINITY).is_none());
+        assert!(SceneRaycaster::default().cast(Vec3::ZERO, Vec3::NEG_Y, 1.0).is_none());
     }
 
     #[test]
     fn player_and_non_receivers_are_not_solid() {
         let mut app = App::new();
-        let ground = spawn_mesh(
-            &mut app.world,
-            shapes::plane(10.0, 10.0, 1, 1.0),
-            Transform::IDENTITY,
-        );
-        let player = app
-            .world
-            .spawn((Player, Transform::from_xyz(0.0, 1.0, 0.0)))
-            .id();
-        let body = spawn_mesh(
-            &mut app.world,
-            shapes::cuboid(Vec3::splat(0.5), 1.0),
-            Transform::IDENTITY,
-        );
+        let ground = spawn_mesh(&mut app.world, shapes::plane(10.0, 10.0, 1, 1.0), Transform::IDENTITY);
+        let player = app.world.spawn((Player, Transform::from_xyz(0.0, 1.0, 0.0))).id();
+        let body = spawn_mesh(&mut app.world, shapes::cuboid(Vec3::splat(0.5), 1.0), Transform::IDENTITY);
         app.world.entity_mut(body).insert(ChildOf(player));
-        let glass = spawn_mesh(
-            &mut app.world,
-            shapes::plane(10.0, 10.0, 1, 1.0),
-            Transform::from_xyz(0.0, 3.0, 0.0),
-        );
+        let glass = spawn_mesh(&mut app.world, shapes::plane(10.0, 10.0, 1, 1.0), Transform::from_xyz(0.0, 3.0, 0.0));
         app.world.entity_mut(glass).insert(DecalReceiver(0));
         let raycaster = SceneRaycaster::build(&mut app.world);
         assert_eq!(raycaster.instance_count(), 1);
-        let hit = raycaster
-            .cast(Vec3::new(0.0, 5.0, 0.0), Vec3::NEG_Y, 10.0)
-            .unwrap();
+        let hit = raycaster.cast(Vec3::new(0.0, 5.0, 0.0), Vec3::NEG_Y, 10.0).unwrap();
         assert_eq!(hit.entity, ground);
     }
 
@@ -463,39 +342,20 @@ mod tests {
     fn rebuilds_only_when_solid_geometry_changes() {
         let mut app = App::new();
         app.world.init_resource::<SceneRaycaster>();
-        app.add_systems(
-            engine::app::PostUpdate,
-            rebuild_raycaster.after(engine::transform::TransformSystems::Propagate),
-        );
-        let cube = spawn_mesh(
-            &mut app.world,
-            shapes::cuboid(Vec3::ONE, 1.0),
-            Transform::IDENTITY,
-        );
+        app.add_systems(engine::app::PostUpdate, rebuild_raycaster.after(engine::transform::TransformSystems::Propagate));
+        let cube = spawn_mesh(&mut app.world, shapes::cuboid(Vec3::ONE, 1.0), Transform::IDENTITY);
         let player = app.world.spawn((Player, Transform::IDENTITY)).id();
-        let body = spawn_mesh(
-            &mut app.world,
-            shapes::cuboid(Vec3::ONE, 1.0),
-            Transform::IDENTITY,
-        );
+        let body = spawn_mesh(&mut app.world, shapes::cuboid(Vec3::ONE, 1.0), Transform::IDENTITY);
         app.world.entity_mut(body).insert(ChildOf(player));
-        let hit_x = |app: &App| {
-            app.world
-                .resource::<SceneRaycaster>()
-                .cast(Vec3::new(0.0, 0.0, 10.0), Vec3::NEG_Z, 100.0)
-                .map(|h| h.point.z)
-        };
+        let hit_x =
+            |app: &App| app.world.resource::<SceneRaycaster>().cast(Vec3::new(0.0, 0.0, 10.0), Vec3::NEG_Z, 100.0).map(|h| h.point.z);
         app.update();
         assert_eq!(app.world.resource::<SceneRaycaster>().instance_count(), 1);
         assert_eq!(hit_x(&app), Some(0.5));
         // Moving the player (and with it its body) does not rebuild: mark the snapshot so a
         // rebuild would be visible as a different `built` tick.
         let built = app.world.resource::<SceneRaycaster>().built;
-        app.world
-            .get_mut::<Transform>(player)
-            .unwrap()
-            .translation
-            .x = 3.0;
+        app.world.get_mut::<Transform>(player).unwrap().translation.x = 3.0;
         app.update();
         assert_eq!(app.world.resource::<SceneRaycaster>().built, built);
         // Moving a solid instance does.

@@ -136,8 +136,7 @@ impl Script {
             if content.is_empty() {
                 continue;
             }
-            let command =
-                parse_command(content).map_err(|message| ScriptError { line, message })?;
+            let command = parse_command(content).map_err(|message| ScriptError { line, message })?;
             commands.push((line, command));
         }
         Ok(Script { commands })
@@ -145,20 +144,13 @@ impl Script {
 
     /// Reads and parses a script file; errors name the file and, for parse errors, the line.
     pub fn load(path: &Path) -> anyhow::Result<Script> {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("reading script {}", path.display()))?;
+        let text = std::fs::read_to_string(path).with_context(|| format!("reading script {}", path.display()))?;
         Script::parse(&text).with_context(|| format!("in script {}", path.display()))
     }
 
     /// A script of the given commands (each reported as its own line).
     pub fn from_commands(commands: impl IntoIterator<Item = Command>) -> Script {
-        Script {
-            commands: commands
-                .into_iter()
-                .enumerate()
-                .map(|(i, c)| (i + 1, c))
-                .collect(),
-        }
+        Script { commands: commands.into_iter().enumerate().map(|(i, c)| (i + 1, c)).collect() }
     }
 
     /// The commands with their line numbers, in order.
@@ -178,11 +170,7 @@ impl Script {
 
     /// Total seconds of the timed commands.
     pub fn timed_seconds(&self) -> f64 {
-        self.commands
-            .iter()
-            .filter_map(|(_, c)| c.seconds())
-            .map(f64::from)
-            .sum()
+        self.commands.iter().filter_map(|(_, c)| c.seconds()).map(f64::from).sum()
     }
 
     /// How many frames the script takes at a fixed frame time of `dt` seconds (> 0), or `None`
@@ -213,11 +201,7 @@ fn parse_command(content: &str) -> Result<Command, String> {
         if args.len() == count {
             Ok(())
         } else {
-            Err(format!(
-                "`{name}` takes {count} argument{} ({usage}), got {}",
-                if count == 1 { "" } else { "s" },
-                args.len()
-            ))
+            Err(format!("`{name}` takes {count} argument{} ({usage}), got {}", if count == 1 { "" } else { "s" }, args.len()))
         }
     };
     match name.as_str() {
@@ -233,9 +217,7 @@ fn parse_command(content: &str) -> Result<Command, String> {
                 "left" => WalkDirection::Left,
                 "right" => WalkDirection::Right,
                 other => {
-                    return Err(format!(
-                        "unknown walking direction `{other}` (forward, back, left, right)"
-                    ));
+                    return Err(format!("unknown walking direction `{other}` (forward, back, left, right)"));
                 }
             };
             Ok(Command::Hold(direction.key(), seconds(args[1])?))
@@ -257,16 +239,11 @@ fn parse_command(content: &str) -> Result<Command, String> {
             2 => {
                 let point = Vec2::new(number(args[0], "U")?, number(args[1], "V")?);
                 if !(0.0..=1.0).contains(&point.x) || !(0.0..=1.0).contains(&point.y) {
-                    return Err(format!(
-                        "screen point ({}, {}) is outside [0, 1]²",
-                        point.x, point.y
-                    ));
+                    return Err(format!("screen point ({}, {}) is outside [0, 1]²", point.x, point.y));
                 }
                 Ok(Command::Shoot(point))
             }
-            n => Err(format!(
-                "`shoot` takes no arguments or 2 (shoot U V), got {n}"
-            )),
+            n => Err(format!("`shoot` takes no arguments or 2 (shoot U V), got {n}")),
         },
         "light" => {
             expect(0, "light")?;
@@ -276,30 +253,19 @@ fn parse_command(content: &str) -> Result<Command, String> {
             expect(1, "key KEY")?;
             Ok(Command::Tap(key(args[0])?))
         }
-        _ => Err(format!(
-            "unknown command `{}` (wait, walk, hold, turn, look, shoot, light, key)",
-            words[0]
-        )),
+        _ => Err(format!("unknown command `{}` (wait, walk, hold, turn, look, shoot, light, key)", words[0])),
     }
 }
 
 fn number(word: &str, what: &str) -> Result<f32, String> {
-    let value: f32 = word
-        .parse()
-        .map_err(|_| format!("{what} `{word}` is not a number"))?;
-    if value.is_finite() {
-        Ok(value)
-    } else {
-        Err(format!("{what} `{word}` is not finite"))
-    }
+    let value: f32 = word.parse().map_err(|_| format!("{what} `{word}` is not a number"))?;
+    if value.is_finite() { Ok(value) } else { Err(format!("{what} `{word}` is not finite")) }
 }
 
 fn seconds(word: &str) -> Result<f32, String> {
     let value = number(word, "seconds")?;
     if !(0.0..=MAX_COMMAND_SECONDS).contains(&value) {
-        return Err(format!(
-            "duration {value} s is outside 0..={MAX_COMMAND_SECONDS} s"
-        ));
+        return Err(format!("duration {value} s is outside 0..={MAX_COMMAND_SECONDS} s"));
     }
     Ok(value)
 }
@@ -337,22 +303,13 @@ enum Tap {
 impl ScriptPlayer {
     /// A player at the start of `script`.
     pub fn new(script: Script) -> Self {
-        Self {
-            script,
-            index: 0,
-            remaining: None,
-            tapped: None,
-            restore_crosshair: None,
-            played_line: None,
-            frames: 0,
-        }
+        Self { script, index: 0, remaining: None, tapped: None, restore_crosshair: None, played_line: None, frames: 0 }
     }
 
     /// Whether every command has had all its frames (after [`Script::frames_at`] steps at a
     /// fixed frame time). Keys still down from the last command are released on the next step.
     pub fn is_finished(&self) -> bool {
-        let last_timed_done = self.index + 1 == self.script.len()
-            && self.remaining.is_some_and(|left| left <= TIME_EPSILON);
+        let last_timed_done = self.index + 1 == self.script.len() && self.remaining.is_some_and(|left| left <= TIME_EPSILON);
         self.index >= self.script.len() || last_timed_done
     }
 
@@ -383,13 +340,7 @@ impl ScriptPlayer {
     /// Plays one frame: starts the input frame ([`Input::begin_frame`]), releases last frame's
     /// taps, and applies the current command for a frame of `dt` seconds. `sensitivity` is the
     /// player's mouse sensitivity in radians per pixel, which turns degrees into mouse motion.
-    pub fn step(
-        &mut self,
-        dt: f32,
-        sensitivity: f32,
-        input: &mut Input,
-        crosshair: &mut Crosshair,
-    ) {
+    pub fn step(&mut self, dt: f32, sensitivity: f32, input: &mut Input, crosshair: &mut Crosshair) {
         input.begin_frame();
         self.frames += 1;
         self.played_line = None;
@@ -401,11 +352,7 @@ impl ScriptPlayer {
         if let Some(centre) = self.restore_crosshair.take() {
             crosshair.0 = centre;
         }
-        let pixels_per_degree = if sensitivity.is_finite() && sensitivity > 0.0 {
-            1f32.to_radians() / sensitivity
-        } else {
-            0.0
-        };
+        let pixels_per_degree = if sensitivity.is_finite() && sensitivity > 0.0 { 1f32.to_radians() / sensitivity } else { 0.0 };
         while let Some(&(line, command)) = self.script.commands.get(self.index) {
             match command {
                 Command::Wait(seconds) | Command::Hold(_, seconds) => {
@@ -474,11 +421,7 @@ pub fn play_script(
     mut crosshair: ResMut<Crosshair>,
     controllers: Query<&PlayerController, With<Player>>,
 ) {
-    let sensitivity = controllers
-        .single()
-        .map_or(PlayerController::default().mouse_sensitivity, |c| {
-            c.mouse_sensitivity
-        });
+    let sensitivity = controllers.single().map_or(PlayerController::default().mouse_sensitivity, |c| c.mouse_sensitivity);
     player.step(time.delta_secs(), sensitivity, &mut input, &mut crosshair);
 }
 
@@ -508,11 +451,7 @@ mod tests {
                 Command::Tap(Key::Escape),
             ]
         );
-        assert_eq!(
-            script.commands()[0].0,
-            3,
-            "line numbers skip comments and blanks"
-        );
+        assert_eq!(script.commands()[0].0, 3, "line numbers skip comments and blanks");
         assert!((script.timed_seconds() - 3.75).abs() < 1e-9);
         assert_eq!(script.frames_at(0.25), Some(2 + 8 + 4 + 1 + 6));
     }
@@ -550,12 +489,7 @@ mod tests {
         while !player.is_finished() {
             player.step(dt, 0.01, &mut input, &mut crosshair);
             w_frames += input.pressed(Key::W) as u32;
-            log.push((
-                input.button_just_pressed(MouseButton::Left),
-                crosshair.0,
-                input.just_pressed(Key::E),
-                input.mouse_motion.x,
-            ));
+            log.push((input.button_just_pressed(MouseButton::Left), crosshair.0, input.just_pressed(Key::E), input.mouse_motion.x));
         }
         assert_eq!(w_frames, 4, "0.5 s at 1/8 s per frame");
         assert_eq!(player.frames(), script.frames_at(dt).unwrap());

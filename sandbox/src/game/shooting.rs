@@ -46,21 +46,13 @@ pub struct BulletHole;
 /// bottom-right) of a camera at `camera_transform` (world space, scale ignored), for a viewport
 /// of `aspect` = width / height: its origin (the eye) and unit direction. `None` for
 /// non-finite input.
-pub fn screen_ray(
-    camera: &Camera,
-    camera_transform: &Transform,
-    aspect: f32,
-    screen: Vec2,
-) -> Option<(Vec3, Vec3)> {
+pub fn screen_ray(camera: &Camera, camera_transform: &Transform, aspect: f32, screen: Vec2) -> Option<(Vec3, Vec3)> {
     if !screen.is_finite() || !camera_transform.translation.is_finite() {
         return None;
     }
     let ndc = Vec2::new(2.0 * screen.x - 1.0, 1.0 - 2.0 * screen.y);
     // Reverse-Z: depth 1 is the near plane, the only finite one of an infinite projection.
-    let near = camera
-        .projection(aspect)
-        .inverse()
-        .project_point3(ndc.extend(1.0));
+    let near = camera.projection(aspect).inverse().project_point3(ndc.extend(1.0));
     let direction = (camera_transform.rotation.normalize() * near).try_normalize()?;
     Some((camera_transform.translation, direction))
 }
@@ -117,20 +109,10 @@ pub fn shoot(
     };
     stats.hits += 1;
     let angle = rng.0.range_f32(0.0, std::f32::consts::TAU);
-    let transform =
-        bullet_hole_transform(&hit, settings.bullet_hole_size, settings.decal_depth, angle);
+    let transform = bullet_hole_transform(&hit, settings.bullet_hole_size, settings.decal_depth, angle);
     let mut decal = Decal::new(assets.bullet_hole);
     decal.receivers = GAME_DECAL_RECEIVERS;
-    let entity = commands
-        .spawn((
-            decal,
-            transform,
-            GlobalTransform::from(transform),
-            BulletHole,
-            GameDecal,
-            Name::new("Bullet hole"),
-        ))
-        .id();
+    let entity = commands.spawn((decal, transform, GlobalTransform::from(transform), BulletHole, GameDecal, Name::new("Bullet hole"))).id();
     order.push(entity);
 }
 
@@ -141,8 +123,7 @@ mod tests {
     #[test]
     fn screen_ray_matches_the_projection() {
         let camera = Camera::default();
-        let transform =
-            Transform::from_xyz(1.0, 2.0, 3.0).looking_at(Vec3::new(1.0, 2.0, -10.0), Vec3::Y);
+        let transform = Transform::from_xyz(1.0, 2.0, 3.0).looking_at(Vec3::new(1.0, 2.0, -10.0), Vec3::Y);
         let aspect = 2.0;
         let (origin, centre) = screen_ray(&camera, &transform, aspect, Vec2::splat(0.5)).unwrap();
         assert_eq!(origin, transform.translation);
@@ -151,10 +132,7 @@ mod tests {
         let (_, corner) = screen_ray(&camera, &transform, aspect, Vec2::new(1.0, 0.0)).unwrap();
         let tan = (camera.fov_y * 0.5).tan();
         let expected = Vec3::new(tan * aspect, tan, -1.0).normalize();
-        assert!(
-            (corner - expected).length() < 1e-5,
-            "{corner} vs {expected}"
-        );
+        assert!((corner - expected).length() < 1e-5, "{corner} vs {expected}");
         // And projects back to that corner.
         let view_proj = camera.projection(aspect) * transform.compute_matrix().inverse();
         let ndc = view_proj.project_point3(origin + corner * 5.0);
@@ -164,12 +142,7 @@ mod tests {
 
     #[test]
     fn bullet_holes_face_out_of_the_surface() {
-        let hit = Hit {
-            t: 1.0,
-            point: Vec3::new(0.0, 1.0, -2.0),
-            normal: Vec3::new(0.0, 0.6, 0.8),
-            entity: Entity::PLACEHOLDER,
-        };
+        let hit = Hit { t: 1.0, point: Vec3::new(0.0, 1.0, -2.0), normal: Vec3::new(0.0, 0.6, 0.8), entity: Entity::PLACEHOLDER };
         for angle in [0.0, 1.0, 4.0] {
             let t = bullet_hole_transform(&hit, 0.25, 0.2, angle);
             assert!((t.rotation * Vec3::Z - hit.normal).length() < 1e-5);
@@ -178,9 +151,6 @@ mod tests {
         }
         let a = bullet_hole_transform(&hit, 0.25, 0.2, 0.0).rotation * Vec3::X;
         let b = bullet_hole_transform(&hit, 0.25, 0.2, 1.0).rotation * Vec3::X;
-        assert!(
-            (a.dot(b) - 1f32.cos()).abs() < 1e-5,
-            "rotated about the normal by the angle"
-        );
+        assert!((a.dot(b) - 1f32.cos()).abs() < 1e-5, "rotated about the normal by the angle");
     }
 }
