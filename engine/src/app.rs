@@ -5,6 +5,10 @@
 //! extraction world. The game loop (windowed or headless) lives in the sandbox and calls
 //! [`App::update`] once per frame. Schedules live in the world's [`Schedules`] resource, so
 //! systems may also run them with `World::run_schedule`.
+//!
+//! This module names no feature plugin, so dependencies point one way: feature modules (such as
+//! `transform`) depend on it, never the reverse. [`App::empty`] is the bare shell; [`App::new`]
+//! (defined in the `defaults` module) adds the engine's `DefaultPlugins` to it.
 
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::{ScheduleLabel, Schedules};
@@ -16,7 +20,6 @@ use crate::image::Image;
 use crate::material::Material;
 use crate::mesh::Mesh;
 use crate::time::Time;
-use crate::transform::TransformPlugin;
 
 /// Runs once, before the first frame's [`PreUpdate`].
 #[derive(ScheduleLabel, Clone, Debug, PartialEq, Eq, Hash)]
@@ -51,16 +54,11 @@ pub struct App {
     started: bool,
 }
 
-impl Default for App {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
 impl App {
-    /// Creates an app with [`Time`], the asset stores `Assets<Mesh>`, `Assets<Material>` and
-    /// `Assets<Image>`, empty frame schedules and the [`TransformPlugin`].
-    pub fn new() -> Self {
+    /// Creates a bare app: [`Time`], the asset stores `Assets<Mesh>`, `Assets<Material>` and
+    /// `Assets<Image>`, and empty frame schedules, without any plugin. Games usually want
+    /// [`App::new`], which adds the engine's default plugins (transform propagation) to this.
+    pub fn empty() -> Self {
         let mut world = World::new();
         world.init_resource::<Schedules>();
         world.insert_resource(Time::default());
@@ -73,7 +71,6 @@ impl App {
         app.schedule_mut(Update);
         app.schedule_mut(PostUpdate);
         app.schedule_mut(Render);
-        app.add_plugins(TransformPlugin);
         app
     }
 

@@ -12,6 +12,7 @@
 pub mod app;
 pub mod asset;
 pub mod camera;
+pub mod defaults;
 pub mod gltf;
 pub mod image;
 pub mod input;

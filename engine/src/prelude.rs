@@ -10,6 +10,7 @@ pub use glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3, Vec3A, Vec4};
 pub use crate::app::{App, Plugin, PostUpdate, PreUpdate, Render, Startup, Update};
 pub use crate::asset::{AssetEvent, Assets, Handle};
 pub use crate::camera::Camera;
+pub use crate::defaults::DefaultPlugins;
 pub use crate::image::{ColorSpace, Image};
 pub use crate::input::{Input, InputPlugin, Key, MouseButton};
 pub use crate::light::{DirectionalLight, PointLight, SpotLight};
