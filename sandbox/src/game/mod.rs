@@ -41,6 +41,7 @@
 pub mod decal_cap;
 pub mod footprints;
 pub mod lights;
+mod markers;
 pub mod play;
 pub mod player;
 pub mod raycast;

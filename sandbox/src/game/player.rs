@@ -27,10 +27,7 @@ use glam::{EulerRot, Quat, Vec3};
 
 use super::raycast::{Hit, SceneRaycaster};
 
-/// Marks the entity the player controls (a camera). The raycaster ignores it and its
-/// descendants, so the player never stands on, collides with or shoots itself.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Player;
+pub use super::markers::Player;
 
 /// Largest pitch up or down, short of straight up/down so that yaw stays meaningful.
 pub const MAX_PITCH: f32 = 89f32.to_radians();

@@ -34,7 +34,7 @@ use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::ray::{Ray, RayHit};
 use plugins::decal::DecalReceiver;
 
-use super::player::Player;
+use super::markers::Player;
 
 /// The nearest intersection of a ray with the scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
