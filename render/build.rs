@@ -5,9 +5,18 @@
 //! A stage whose first line is `// variants: NAME [NAME…]` is also compiled once per NAME with
 //! `-DNAME`, into `<file>.<NAME>.spv` (e.g. the forward shader with and without ray-query
 //! decals, since SPIR-V that uses ray queries cannot even be loaded on devices without them).
+//!
+//! First it writes `$OUT_DIR/layout.glsl` from `src/layout.rs` (the Rust/GLSL records and
+//! constants, compiled here as a module so its layout assertions run before the crate does) and
+//! checks the header against glslang's own layout; shaders include it with `-I $OUT_DIR`.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+
+#[allow(dead_code)]
+#[path = "src/layout.rs"]
+mod layout;
 
 const STAGES: &[&str] = &["vert", "frag", "comp", "rgen", "rint", "rahit", "rchit", "rmiss"];
 
@@ -18,7 +27,11 @@ fn main() {
     println!("cargo:rerun-if-changed={}", shader_dir.join("include").display());
     println!("cargo:rerun-if-env-changed=GLSLC");
 
+    println!("cargo:rerun-if-changed=src/layout.rs");
+
     let glslc = std::env::var("GLSLC").unwrap_or_else(|_| "glslc".into());
+    write_if_changed(&out_dir.join("layout.glsl"), &layout::glsl());
+    check_layout(&glslc, &out_dir);
     let mut sources: Vec<PathBuf> = std::fs::read_dir(&shader_dir)
         .unwrap_or_else(|e| panic!("cannot read {}: {e}", shader_dir.display()))
         .filter_map(|entry| entry.ok().map(|e| e.path()))
@@ -45,7 +58,7 @@ fn main() {
     let mut failures = Vec::new();
     for (src, define, out) in &jobs {
         let mut command = Command::new(&glslc);
-        command.arg("--target-env=vulkan1.3").arg("-O").arg("-I").arg(shader_dir.join("include"));
+        command.arg("--target-env=vulkan1.3").arg("-O").arg("-I").arg(shader_dir.join("include")).arg("-I").arg(&out_dir);
         if let Some(define) = define {
             command.arg(format!("-D{define}"));
         }
@@ -58,13 +71,89 @@ fn main() {
                 String::from_utf8_lossy(&o.stdout),
                 String::from_utf8_lossy(&o.stderr)
             )),
-            Err(e) => panic!(
-                "could not run `{glslc}` ({e}); install it (Debian: `apt-get install glslc`, \
-                 or run scripts/setup.sh) or point the GLSLC variable at it"
-            ),
+            Err(e) => no_glslc(&glslc, e),
         }
     }
     if !failures.is_empty() {
         panic!("shader compilation failed:\n{}", failures.join("\n"));
+    }
+}
+
+fn no_glslc(glslc: &str, e: std::io::Error) -> ! {
+    panic!(
+        "could not run `{glslc}` ({e}); install it (Debian: `apt-get install glslc`, \
+         or run scripts/setup.sh) or point the GLSLC variable at it"
+    )
+}
+
+/// Writes `text` unless the file already holds it (so an unchanged layout touches nothing).
+fn write_if_changed(path: &Path, text: &str) {
+    if std::fs::read_to_string(path).ok().as_deref() != Some(text) {
+        std::fs::write(path, text).unwrap_or_else(|e| panic!("cannot write {}: {e}", path.display()));
+    }
+}
+
+/// Compiles a probe shader that puts every struct of `layout.glsl` in a block of its layout rule
+/// (the push-constant block is already one), and compares the member offsets and array strides
+/// glslang decorates the SPIR-V with against `layout::ITEMS` (which the Rust structs are
+/// asserted against at compile time).
+fn check_layout(glslc: &str, out_dir: &Path) {
+    let structs: Vec<&layout::Struct> =
+        layout::ITEMS.iter().filter_map(|item| if let layout::Item::Struct(s) = item { Some(*s) } else { None }).collect();
+    let mut probe = String::from("#version 460\n#extension GL_EXT_scalar_block_layout : require\n#include \"layout.glsl\"\n");
+    for (binding, s) in structs.iter().enumerate() {
+        let rule = match s.rule {
+            layout::Rule::Std430 => "std430",
+            layout::Rule::Scalar => "scalar",
+            layout::Rule::PushConstant => continue,
+        };
+        probe +=
+            &format!("layout({rule}, binding = {binding}) readonly buffer Probe{binding} {{ {} records[]; }} probe{binding};\n", s.name);
+    }
+    probe += "layout(local_size_x = 1) in;\nvoid main() {}\n";
+    let (src, asm) = (out_dir.join("layout_probe.comp"), out_dir.join("layout_probe.spvasm"));
+    write_if_changed(&src, &probe);
+    let output = Command::new(glslc)
+        .args(["--target-env=vulkan1.3", "-S", "-I"])
+        .arg(out_dir)
+        .arg(&src)
+        .arg("-o")
+        .arg(&asm)
+        .output()
+        .unwrap_or_else(|e| no_glslc(glslc, e));
+    if !output.status.success() {
+        panic!("layout.glsl does not compile:\n{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr));
+    }
+    let asm = std::fs::read_to_string(&asm).expect("glslc wrote the probe's SPIR-V assembly");
+
+    // `OpMemberDecorate %GpuCamera 4 Offset 256`, `OpDecorate %_runtimearr_GpuCamera ArrayStride 304`.
+    let mut offsets: BTreeMap<&str, BTreeMap<usize, usize>> = BTreeMap::new();
+    let mut strides: BTreeMap<&str, usize> = BTreeMap::new();
+    for words in asm.lines().map(|l| l.split_whitespace().collect::<Vec<_>>()) {
+        match words[..] {
+            ["OpMemberDecorate", ty, member, "Offset", offset] => {
+                offsets.entry(ty.trim_start_matches('%')).or_default().insert(member.parse().unwrap(), offset.parse().unwrap());
+            }
+            ["OpDecorate", ty, "ArrayStride", stride] => {
+                if let Some(name) = ty.strip_prefix("%_runtimearr_") {
+                    strides.insert(name, stride.parse().unwrap());
+                }
+            }
+            _ => {}
+        }
+    }
+    let mut errors = Vec::new();
+    for s in &structs {
+        let glslang: Vec<usize> = offsets.get(s.name).map(|m| m.values().copied().collect()).unwrap_or_default();
+        let ours: Vec<usize> = s.fields.iter().map(|f| f.offset).collect();
+        if glslang != ours {
+            errors.push(format!("{}: glslang places the fields at {glslang:?}, layout.rs at {ours:?}", s.name));
+        }
+        if s.rule != layout::Rule::PushConstant && strides.get(s.name) != Some(&s.size) {
+            errors.push(format!("{}: glslang's array stride is {:?}, layout.rs's size {}", s.name, strides.get(s.name), s.size));
+        }
+    }
+    if !errors.is_empty() {
+        panic!("src/layout.rs computes layouts that glslang disagrees with (fix the rules there):\n{}", errors.join("\n"));
     }
 }

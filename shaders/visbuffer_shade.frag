@@ -44,23 +44,23 @@ void main() {
     GpuVertex v1 = vertices.vertices[indices.indices[ids.y * 3u + 1u]];
     GpuVertex v2 = vertices.vertices[indices.indices[ids.y * 3u + 2u]];
 
-    vec3 p0 = (inst.model * vec4(v0.px, v0.py, v0.pz, 1.0)).xyz;
-    vec3 p1 = (inst.model * vec4(v1.px, v1.py, v1.pz, 1.0)).xyz;
-    vec3 p2 = (inst.model * vec4(v2.px, v2.py, v2.pz, 1.0)).xyz;
+    vec3 p0 = (inst.model * vec4(v0.position, 1.0)).xyz;
+    vec3 p1 = (inst.model * vec4(v1.position, 1.0)).xyz;
+    vec3 p2 = (inst.model * vec4(v2.position, 1.0)).xyz;
     vec3 eye = scene.camera.camera.position;
     vec3 dir = ray_dir(vec2(px));
     vec3 b = barycentrics(eye, dir, p0, p1, p2);
     vec3 bx = barycentrics(eye, ray_dir(vec2(px) + vec2(1.0, 0.0)), p0, p1, p2) - b;
     vec3 by = barycentrics(eye, ray_dir(vec2(px) + vec2(0.0, 1.0)), p0, p1, p2) - b;
 
-    mat3x2 uvs = mat3x2(vec2(v0.u, v0.v), vec2(v1.u, v1.v), vec2(v2.u, v2.v));
+    mat3x2 uvs = mat3x2(v0.uv, v1.uv, v2.uv);
     mat3 positions = mat3(p0, p1, p2);
     vec2 uv = uvs * b;
     MaterialSample ms = sample_material(m, uv, uvs * bx, uvs * by);
 
     mat3 normal_model = mat3(inst.normal_model);
-    vec3 normal = normal_model * (mat3(vec3(v0.nx, v0.ny, v0.nz), vec3(v1.nx, v1.ny, v1.nz), vec3(v2.nx, v2.ny, v2.nz)) * b);
-    vec3 tangent = mat3(inst.model) * (mat3(vec3(v0.tx, v0.ty, v0.tz), vec3(v1.tx, v1.ty, v1.tz), vec3(v2.tx, v2.ty, v2.tz)) * b);
+    vec3 normal = normal_model * (mat3(v0.normal, v1.normal, v2.normal) * b);
+    vec3 tangent = mat3(inst.model) * (mat3(v0.tangent.xyz, v1.tangent.xyz, v2.tangent.xyz) * b);
     vec3 geometric_n = safe_normalize(normal, vec3(0.0, 1.0, 0.0));
     // Front-facing as the rasteriser defines it: counter-clockwise on screen.
     bool front = dot(cross(p1 - p0, p2 - p0), dir) < 0.0;
@@ -71,7 +71,7 @@ void main() {
     s.dpdx = positions * bx;
     s.dpdy = positions * by;
     s.geometric_normal = geometric_n;
-    s.normal = perturb_normal(geometric_n, vec4(tangent, v0.tw), ms.tangent_normal, m.normal_scale);
+    s.normal = perturb_normal(geometric_n, vec4(tangent, v0.tangent.w), ms.tangent_normal, m.normal_scale);
     s.albedo = ms.base.rgb;
     s.roughness = ms.roughness;
     s.metallic = ms.metallic;

@@ -29,7 +29,8 @@ use engine::image::Image;
 use engine::time::Time;
 use glam::{Mat4, Vec2, Vec4};
 use render::scene::{
-    DECAL_ALBEDO, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, GpuDecal, GpuDecalMaterial, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
+    DECAL_ALBEDO, DECAL_CHANNELS, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, GpuDecal, GpuDecalMaterial, TEXTURE_FLAT_NORMAL,
+    TEXTURE_WHITE,
 };
 
 /// What a decal does to the surfaces it covers. Every attribute is optional, so a decal can
@@ -220,7 +221,7 @@ pub(crate) fn gpu_decal(decal: &Decal, material: u32) -> GpuDecal {
         uv01: [corners[0].x, corners[0].y, corners[1].x, corners[1].y],
         uv23: [corners[2].x, corners[2].y, corners[3].x, corners[3].y],
         material,
-        channel: decal.channel.min(3) as u32,
+        channel: (decal.channel as u32).min(DECAL_CHANNELS - 1),
         weight: decal.weight.max(1e-4),
         receivers: decal.receivers,
         opacity: decal.opacity.clamp(0.0, 1.0),

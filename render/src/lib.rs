@@ -11,6 +11,7 @@ pub mod deferred;
 pub mod device;
 pub mod forward;
 pub mod gpu_scene;
+pub mod layout;
 pub mod memory;
 pub mod overlay;
 pub mod pass;

@@ -2,46 +2,14 @@
 //! layout every pass shares: the bindless set plus [`ScenePush`] push constants.
 
 use ash::vk;
-use bytemuck::{Pod, Zeroable};
 
 use crate::RenderError;
 use crate::device::GpuContext;
 use crate::scene::GpuVertex;
 use crate::shaders;
 
-/// Push constants shared by every pass (`ScenePush` in `shaders/include/scene.glsl`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub struct ScenePush {
-    /// Address of the camera record.
-    pub camera: u64,
-    /// Address of the instance table.
-    pub instances: u64,
-    /// Address of the material table.
-    pub materials: u64,
-    /// Address of the light table.
-    pub lights: u64,
-    /// Address of the decal table.
-    pub decals: u64,
-    /// Address of the decal material table.
-    pub decal_materials: u64,
-    /// Address of the decal TLAS (0: no decals).
-    pub decal_tlas: u64,
-    /// Address of the decal boxes.
-    pub decal_aabbs: u64,
-    /// Address of the mesh table (vertex and index addresses).
-    pub meshes: u64,
-    /// Address of the deferred decals' draw order.
-    pub decal_order: u64,
-    /// High-water mark of light slots.
-    pub light_count: u32,
-    /// A full-screen pass's input image (bindless slot).
-    pub texture_index: u32,
-    /// Debug visualisation selector (`DebugView as u32`).
-    pub debug_view: u32,
-    /// Live decals (0 skips the decal loop).
-    pub decal_count: u32,
-}
+/// Push constants shared by every pass (defined with the GLSL block in [`crate::layout`]).
+pub use crate::layout::ScenePush;
 
 /// Creates the shared pipeline layout.
 pub fn create_layout(ctx: &GpuContext, bindless: vk::DescriptorSetLayout) -> Result<vk::PipelineLayout, RenderError> {

@@ -117,17 +117,17 @@ pub struct RendererSettings {
 pub enum DebugView {
     /// The lit image.
     #[default]
-    Lit = 0,
+    Lit = crate::layout::DEBUG_LIT,
     /// Decals tested per pixel (boxes the ray query reported), as a heat map.
-    DecalHeatmap = 1,
+    DecalHeatmap = crate::layout::DEBUG_DECAL_HEATMAP,
     /// Albedo after decals (linear).
-    Albedo = 2,
+    Albedo = crate::layout::DEBUG_ALBEDO,
     /// World normal after decals, encoded n × 0.5 + 0.5.
-    Normal = 3,
+    Normal = crate::layout::DEBUG_NORMAL,
     /// Roughness (R) and metallic (G) after decals.
-    RoughnessMetallic = 4,
+    RoughnessMetallic = crate::layout::DEBUG_ROUGHNESS_METALLIC,
     /// Decals tested per pixel as a raw count in R (for tests).
-    DecalCount = 5,
+    DecalCount = crate::layout::DEBUG_DECAL_COUNT,
 }
 
 /// Per-frame choices that may change from one frame to the next.

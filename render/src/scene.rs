@@ -3,55 +3,17 @@
 //! Extraction (in `plugins`) writes records into stable slots of [`SlotTable`]s and queues mesh and
 //! texture uploads; the renderer drains only what is dirty into GPU buffers. Nothing here touches
 //! Vulkan, so change detection, slot reuse and the "a quiet frame writes nothing" rule are
-//! testable without a GPU. Each `Gpu*` struct is `#[repr(C)]` and mirrored field for field in
-//! `shaders/include/scene.glsl` (std430).
+//! testable without a GPU. The `Gpu*` records and shared constants are defined once in
+//! [`crate::layout`], which also generates their GLSL; they are re-exported here.
 
 use bytemuck::{Pod, Zeroable};
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat4, Vec3};
 
-/// The camera as the shaders see it.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct GpuCamera {
-    /// World to view.
-    pub view: Mat4,
-    /// View to clip (reverse-Z, infinite far plane).
-    pub proj: Mat4,
-    /// World to clip.
-    pub view_proj: Mat4,
-    /// Clip to world.
-    pub inv_view_proj: Mat4,
-    /// Camera position in world space.
-    pub position: Vec3,
-    /// Multiplier applied to radiance before tone mapping.
-    pub exposure: f32,
-    /// Render target size in pixels.
-    pub viewport_size: Vec2,
-    /// 1 / viewport size.
-    pub inv_viewport_size: Vec2,
-    /// Uniform ambient radiance (scaled by material occlusion).
-    pub ambient: Vec3,
-    /// Padding to 16 bytes.
-    pub pad: u32,
-}
-
-/// One drawn mesh instance.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct GpuInstance {
-    /// Object to world.
-    pub model: Mat4,
-    /// Inverse-transpose of `model`, for normals.
-    pub normal_model: Mat4,
-    /// Slot of the instance's material in the material table.
-    pub material: u32,
-    /// Decal receiver layers: a decal lands here when its mask shares a bit with these.
-    pub decal_layers: u32,
-    /// The instance's mesh (its index in the renderer's mesh table; set by the mirror).
-    pub mesh: u32,
-    /// Padding to 16 bytes.
-    pub pad: u32,
-}
+pub use crate::layout::{
+    DECAL_ALBEDO, DECAL_CHANNELS, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuDecal, GpuDecalMaterial,
+    GpuInstance, GpuLight, GpuMaterial, GpuMeshInfo, GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_DOUBLE_SIDED, RESERVED_TEXTURES,
+    TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
+};
 
 impl GpuInstance {
     /// The record for an instance placed by `model`, shaded with the material in `material`,
@@ -59,53 +21,6 @@ impl GpuInstance {
     pub fn new(model: Mat4, material: u32, decal_layers: u32) -> Self {
         Self { model, normal_model: model.inverse().transpose(), material, decal_layers, mesh: 0, pad: 0 }
     }
-}
-
-/// Material flag: alpha-tested against `alpha_cutoff`.
-pub const MATERIAL_ALPHA_MASK: u32 = 1;
-/// Material flag: both faces are drawn and lit.
-pub const MATERIAL_DOUBLE_SIDED: u32 = 2;
-
-/// Bindless slot of the built-in 1×1 white texture (a material without a texture samples this).
-pub const TEXTURE_WHITE: u32 = 0;
-/// Bindless slot of the built-in flat normal map.
-pub const TEXTURE_FLAT_NORMAL: u32 = 1;
-/// Number of bindless slots the renderer reserves for itself (built-ins and render targets;
-/// see `targets::slots`).
-pub const RESERVED_TEXTURES: u32 = 16;
-
-/// A metallic-roughness material.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct GpuMaterial {
-    /// Linear base colour and alpha.
-    pub base_color: [f32; 4],
-    /// Emitted radiance.
-    pub emissive: [f32; 3],
-    /// Strength of the normal map's XY.
-    pub normal_scale: f32,
-    /// Metallic factor.
-    pub metallic: f32,
-    /// Perceptual roughness factor.
-    pub roughness: f32,
-    /// Alpha below which masked materials are discarded.
-    pub alpha_cutoff: f32,
-    /// How much the occlusion texture darkens ambient light.
-    pub occlusion_strength: f32,
-    /// Bindless slot of the base colour texture (sRGB).
-    pub base_color_tex: u32,
-    /// Bindless slot of the metallic (B) / roughness (G) texture.
-    pub metallic_roughness_tex: u32,
-    /// Bindless slot of the tangent-space normal map.
-    pub normal_tex: u32,
-    /// Bindless slot of the occlusion texture (R).
-    pub occlusion_tex: u32,
-    /// Bindless slot of the emissive texture (sRGB).
-    pub emissive_tex: u32,
-    /// `MATERIAL_*` flags.
-    pub flags: u32,
-    /// Padding to 16 bytes.
-    pub pad: [u32; 2],
 }
 
 impl Default for GpuMaterial {
@@ -134,35 +49,13 @@ impl Default for GpuMaterial {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LightKind {
     /// An empty slot.
-    None = 0,
+    None = crate::layout::LIGHT_NONE,
     /// Omnidirectional point light.
-    Point = 1,
+    Point = crate::layout::LIGHT_POINT,
     /// Cone-shaped spot light.
-    Spot = 2,
+    Spot = crate::layout::LIGHT_SPOT,
     /// Infinitely distant light.
-    Directional = 3,
-}
-
-/// One punctual light.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct GpuLight {
-    /// World position (point, spot).
-    pub position: Vec3,
-    /// Distance at which the light's contribution reaches zero.
-    pub range: f32,
-    /// Colour × intensity (candela; lux for directional lights).
-    pub color: Vec3,
-    /// A [`LightKind`].
-    pub kind: u32,
-    /// Direction the light travels (spot, directional), unit length.
-    pub direction: Vec3,
-    /// 1 / (cos inner − cos outer).
-    pub spot_scale: f32,
-    /// −cos outer × `spot_scale`.
-    pub spot_offset: f32,
-    /// Padding to 16 bytes.
-    pub pad: [f32; 3],
+    Directional = crate::layout::LIGHT_DIRECTIONAL,
 }
 
 impl GpuLight {
@@ -197,79 +90,6 @@ impl GpuLight {
             ..Self::zeroed()
         }
     }
-}
-
-/// One decal projector (seed 000 §4.1, "reduced form for shading"). The decal's box is
-/// `[-0.5, 0.5]³` in decal space; it projects along −Z. A zeroed record (a free slot) has no
-/// receiver bits and so never applies.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct GpuDecal {
-    /// World to decal space.
-    pub world_to_decal: Mat4,
-    /// UVs of the box corners at local (−x,−y) and (+x,−y).
-    pub uv01: [f32; 4],
-    /// UVs of the corners at (+x,+y) and (−x,+y).
-    pub uv23: [f32; 4],
-    /// Slot in the decal material table.
-    pub material: u32,
-    /// Blending channel 0..=3.
-    pub channel: u32,
-    /// Weight within the channel.
-    pub weight: f32,
-    /// Receiver layers the decal lands on.
-    pub receivers: u32,
-    /// Overall opacity.
-    pub opacity: f32,
-    /// Angle fade: fade = saturate(cos θ × scale + offset); (0, 1) disables it.
-    pub fade_scale: f32,
-    /// See `fade_scale`.
-    pub fade_offset: f32,
-    /// Padding to 16 bytes.
-    pub pad: u32,
-}
-
-/// Decal material flag: blends albedo.
-pub const DECAL_ALBEDO: u32 = 1;
-/// Decal material flag: blends normals.
-pub const DECAL_NORMAL: u32 = 2;
-/// Decal material flag: blends roughness.
-pub const DECAL_ROUGHNESS: u32 = 4;
-/// Decal material flag: blends metallic.
-pub const DECAL_METALLIC: u32 = 8;
-
-/// What a decal applies.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct GpuDecalMaterial {
-    /// Albedo factor (rgb) and opacity (a).
-    pub base_color: [f32; 4],
-    /// Bindless slot of the RGBA texture (alpha is coverage).
-    pub base_color_tex: u32,
-    /// Bindless slot of the normal map.
-    pub normal_tex: u32,
-    /// Bindless slot of the metallic (B) / roughness (G) texture.
-    pub metallic_roughness_tex: u32,
-    /// `DECAL_*` flags.
-    pub flags: u32,
-    /// Normal map XY strength.
-    pub normal_scale: f32,
-    /// Roughness to blend in.
-    pub roughness: f32,
-    /// Metallic to blend in.
-    pub metallic: f32,
-    /// Padding.
-    pub pad: f32,
-}
-
-/// An axis-aligned box as acceleration-structure builds read it (`VkAabbPositionsKHR`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct GpuAabb {
-    /// Minimum corner.
-    pub min: [f32; 3],
-    /// Maximum corner.
-    pub max: [f32; 3],
 }
 
 impl GpuAabb {
@@ -356,30 +176,6 @@ impl DecalTable {
     pub fn is_empty(&self) -> bool {
         self.records.is_empty()
     }
-}
-
-/// Where a mesh's vertices and indices live (the visibility buffer fetches them).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
-pub struct GpuMeshInfo {
-    /// Device address of the first vertex.
-    pub vertices: u64,
-    /// Device address of the first index.
-    pub indices: u64,
-}
-
-/// One vertex as the mesh pipelines read it (binding 0, interleaved).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct GpuVertex {
-    /// Object-space position.
-    pub position: [f32; 3],
-    /// Object-space normal.
-    pub normal: [f32; 3],
-    /// Texture coordinate 0.
-    pub uv: [f32; 2],
-    /// Object-space tangent; w is the bitangent sign.
-    pub tangent: [f32; 4],
 }
 
 /// Geometry to upload: interleaved vertices and a triangle list.
@@ -774,19 +570,6 @@ mod tests {
         m.set_camera(cam);
         assert!(!m.take_camera_dirty());
         assert_eq!(m.counters.records_written, 0);
-    }
-
-    #[test]
-    fn record_sizes_match_the_shaders() {
-        // std430 sizes of the structs in shaders/include/scene.glsl.
-        assert_eq!(std::mem::size_of::<GpuCamera>(), 4 * 64 + 48);
-        assert_eq!(std::mem::size_of::<GpuInstance>(), 144);
-        assert_eq!(std::mem::size_of::<GpuMaterial>(), 80);
-        assert_eq!(std::mem::size_of::<GpuLight>(), 64);
-        assert_eq!(std::mem::size_of::<GpuVertex>(), 48);
-        assert_eq!(std::mem::size_of::<GpuDecal>(), 128);
-        assert_eq!(std::mem::size_of::<GpuDecalMaterial>(), 48);
-        assert_eq!(std::mem::size_of::<GpuAabb>(), 24);
     }
 
     #[test]

@@ -29,22 +29,13 @@ pub const GBUFFER_LAYERS_FORMAT: vk::Format = vk::Format::R8_UINT;
 /// Visibility buffer: instance slot, triangle index.
 pub const VISIBILITY_FORMAT: vk::Format = vk::Format::R32G32_UINT;
 
-/// Bindless slots where render targets are bound for sampling (shaders/include/scene.glsl).
+/// Bindless slots where render targets are bound for sampling (`SLOT_*` in [`crate::layout`],
+/// shared with the shaders).
 pub mod slots {
-    /// HDR colour (tone mapping reads it).
-    pub const HDR: u32 = 2;
-    /// Depth (full-screen passes reconstruct positions from it).
-    pub const DEPTH: u32 = 3;
-    /// G-buffer albedo.
-    pub const GBUFFER_ALBEDO: u32 = 4;
-    /// G-buffer normal.
-    pub const GBUFFER_NORMAL: u32 = 5;
-    /// G-buffer roughness/metallic.
-    pub const GBUFFER_MATERIAL: u32 = 6;
-    /// Unsigned-integer array: G-buffer receiver layers.
-    pub const UINT_LAYERS: u32 = 0;
-    /// Unsigned-integer array: visibility buffer.
-    pub const UINT_VISIBILITY: u32 = 1;
+    pub use crate::layout::{
+        SLOT_DEPTH as DEPTH, SLOT_GBUFFER_ALBEDO as GBUFFER_ALBEDO, SLOT_GBUFFER_MATERIAL as GBUFFER_MATERIAL,
+        SLOT_GBUFFER_NORMAL as GBUFFER_NORMAL, SLOT_HDR as HDR, UINT_SLOT_LAYERS as UINT_LAYERS, UINT_SLOT_VISIBILITY as UINT_VISIBILITY,
+    };
 }
 
 /// An image and its tracked state.

@@ -10,7 +10,7 @@
 #ifndef BLEND_GLSL
 #define BLEND_GLSL
 
-const uint DECAL_CHANNELS = 4u;
+#include "layout.glsl"  // DECAL_CHANNELS
 
 struct DecalBlend {
     vec4 albedo[DECAL_CHANNELS];   // rgb: Σ albedo·a·w,  a: Π(1−a)

@@ -16,37 +16,7 @@
 #include "blend.glsl"
 #include "normals.glsl"
 
-struct GpuDecal {
-    mat4 world_to_decal;   // box = [-0.5, 0.5]^3, projecting along -Z
-    vec4 uv01;             // corner UVs at local (-x,-y) and (+x,-y)
-    vec4 uv23;             // at (+x,+y) and (-x,+y)
-    uint material;
-    uint channel;
-    float weight;
-    uint receivers;        // 0 in free slots: never applies
-    float opacity;
-    float fade_scale;      // angle fade = saturate(cos * scale + offset)
-    float fade_offset;
-    uint pad0;
-};
-
-const uint DECAL_ALBEDO = 1u;
-const uint DECAL_NORMAL = 2u;
-const uint DECAL_ROUGHNESS = 4u;
-const uint DECAL_METALLIC = 8u;
-
-struct GpuDecalMaterial {
-    vec4 base_color;
-    uint base_color_tex;
-    uint normal_tex;
-    uint metallic_roughness_tex;
-    uint flags;
-    float normal_scale;
-    float roughness;
-    float metallic;
-    float pad0;
-};
-
+// GpuDecal, GpuDecalMaterial and the DECAL_* flags are in layout.glsl (render/src/layout.rs).
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer DecalsRef { GpuDecal decals[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer DecalMaterialsRef { GpuDecalMaterial decal_materials[]; };
 

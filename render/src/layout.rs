@@ -1,0 +1,757 @@
+//! The one description of everything Rust and GLSL share: the `Gpu*` records, the push
+//! constants and the constants shaders compare against.
+//!
+//! The `layout! { … }` invocation at the end of this file is the only place these are written.
+//! It expands to
+//! - the `#[repr(C)]`, `Pod` Rust structs and the `pub const`s (re-exported where the rest of the
+//!   crate has always found them: `scene::Gpu*`, `gpu::pipeline::ScenePush`,
+//!   `graph::targets::slots`, and `renderer::DebugView` takes its discriminants from `DEBUG_*`);
+//! - compile-time assertions that each field's Rust type has the size and scalar type of its
+//!   GLSL type, that each field's `offset_of!` is the offset GLSL gives it under the struct's
+//!   layout rule (std430, scalar or push_constant), and that `size_of` is GLSL's array stride;
+//! - [`ITEMS`], the same description as data, and [`glsl`], which writes it as a GLSL header.
+//!
+//! `render/build.rs` compiles this same file (`#[path = "src/layout.rs"] mod layout`), so the
+//! assertions run there too; it writes [`glsl`]'s text to `$OUT_DIR/layout.glsl`, which the
+//! shaders include (through `scene.glsl`), and compiles a probe shader with glslc to check that
+//! glslang places every field at the offset [`ITEMS`] says. Rust, this table and the compiled
+//! shaders therefore cannot disagree: any drift fails the build and names the field.
+//! Buffer-reference blocks (`CameraRef { GpuCamera camera; }`) and helper functions stay in the
+//! hand-written includes; only the shared data lives here.
+//!
+//! # Adding a field
+//! 1. Write it in the struct below, in the order GLSL should see it, with a `///` doc (the doc
+//!    becomes the field's comment in `layout.glsl`): `/// Metres.` then `pub radius: f32,`.
+//!    Rust types and the GLSL types they become: `f32` float, `u32` uint, `u64` uint64_t,
+//!    `Vec2`/`[f32; 2]` vec2, `Vec3`/`[f32; 3]` vec3, `Vec4`/`[f32; 4]` vec4, `Mat4` mat4,
+//!    `[u32; N]` `uint name[N]` (add others by implementing [`GlslType`]). A push-constant field
+//!    that GLSL sees as a typed buffer reference is `pub camera: u64 as CameraRef,` after a
+//!    `buffer_reference CameraRef;` line.
+//! 2. Keep the size a multiple of the struct's alignment (16 for std430 structs with a vec3,
+//!    vec4 or mat4): take the bytes from the `pad` field or add one. If the field does not land
+//!    where GLSL puts it, the build fails with "`Struct.field`: Rust offset is not the GLSL
+//!    offset"; move it or pad before it.
+//! 3. Use it by the same name in the shaders, and set it where Rust builds the record (struct
+//!    literals without `..Zeroable::zeroed()` must name it). Nothing else to edit.
+//!
+//! # Adding a constant
+//! Write `/// What it means.` then `pub const NAME: u32 = 7;` among the constants at the top of
+//! the invocation (only `u32` constants are supported). It is `NAME` in Rust (re-export it from
+//! the module where Rust code looks for it, as `scene` does) and `const uint NAME = 7u;` in
+//! GLSL, where it replaces any hand-written copy.
+//!
+//! # Adding a struct
+//! Write it like the others, where GLSL should declare it: docs, `#[layout(std430)]` (or
+//! `#[layout(scalar)]` for a struct only read from scalar blocks), an optional
+//! `#[derive(Default)]`, then `pub struct GpuName { … }`. Re-export it where Rust code expects
+//! it; its methods and trait impls can live anywhere in the crate. build.rs checks it against
+//! glslang without further ado. Declare the buffer-reference block that reaches it in the
+//! hand-written include. Structs inside structs are not supported.
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec2, Vec3, Vec4};
+
+/// How GLSL lays out a struct (the block layout it is used in).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Rule {
+    /// `std430` storage and buffer-reference blocks: vec3, vec4 and mat4 align to 16 bytes,
+    /// vec2 and uint64_t to 8, scalars and arrays of scalars to 4.
+    Std430,
+    /// `scalar` blocks (`GL_EXT_scalar_block_layout`): everything aligns to its component.
+    Scalar,
+    /// The `layout(push_constant)` block (std430 rules).
+    PushConstant,
+}
+
+/// The component type of a GLSL type; a field's Rust type and GLSL type must agree on it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scalar {
+    /// 32-bit float.
+    F32,
+    /// 32-bit unsigned integer.
+    U32,
+    /// 64-bit unsigned integer (or a buffer device address).
+    U64,
+}
+
+/// A type a field can have, with its GLSL name and layout. Implemented for the Rust field types
+/// (each names its natural GLSL type) and for buffer-reference names (`buffer_reference X;`).
+pub trait GlslType {
+    /// GLSL type name; for arrays, the element type.
+    const NAME: &'static str;
+    /// Element count of an array (`uint pad[2]`), 0 for a non-array.
+    const ARRAY: usize;
+    /// Component type.
+    const SCALAR: Scalar;
+    /// Size in bytes (the same under every [`Rule`]).
+    const SIZE: usize;
+    /// Alignment under std430.
+    const ALIGN_STD430: usize;
+    /// Alignment under the scalar layout.
+    const ALIGN_SCALAR: usize;
+}
+
+macro_rules! glsl_types {
+    ($($rust:ty => $name:literal, $scalar:ident, $std430:literal, $scalar_align:literal;)*) => {$(
+        impl GlslType for $rust {
+            const NAME: &'static str = $name;
+            const ARRAY: usize = 0;
+            const SCALAR: Scalar = Scalar::$scalar;
+            const SIZE: usize = size_of::<$rust>();
+            const ALIGN_STD430: usize = $std430;
+            const ALIGN_SCALAR: usize = $scalar_align;
+        }
+    )*};
+}
+
+glsl_types! {
+    f32 => "float", F32, 4, 4;
+    u32 => "uint", U32, 4, 4;
+    u64 => "uint64_t", U64, 8, 8;
+    Vec2 => "vec2", F32, 8, 4;
+    [f32; 2] => "vec2", F32, 8, 4;
+    Vec3 => "vec3", F32, 16, 4;
+    [f32; 3] => "vec3", F32, 16, 4;
+    Vec4 => "vec4", F32, 16, 4;
+    [f32; 4] => "vec4", F32, 16, 4;
+    Mat4 => "mat4", F32, 16, 4;
+}
+
+impl<const N: usize> GlslType for [u32; N] {
+    const NAME: &'static str = "uint";
+    const ARRAY: usize = N;
+    const SCALAR: Scalar = Scalar::U32;
+    const SIZE: usize = 4 * N;
+    const ALIGN_STD430: usize = 4;
+    const ALIGN_SCALAR: usize = 4;
+}
+
+/// One field of a [`Struct`] as GLSL sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct Field {
+    /// Name (the same in Rust and GLSL).
+    pub name: &'static str,
+    /// GLSL type name (the element type for arrays).
+    pub glsl: &'static str,
+    /// Array length, 0 for a non-array.
+    pub array: usize,
+    /// Size in bytes.
+    pub size: usize,
+    /// Alignment under the struct's rule.
+    pub align: usize,
+    /// Offset under the struct's rule (what `offset_of!` must equal).
+    pub offset: usize,
+    /// Doc comment lines.
+    pub doc: &'static [&'static str],
+}
+
+/// A struct or the push-constant block as GLSL sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct Struct {
+    /// Name (the same in Rust and GLSL).
+    pub name: &'static str,
+    /// Layout rule.
+    pub rule: Rule,
+    /// Instance name of the push-constant block (`scene`); empty for other structs.
+    pub instance: &'static str,
+    /// Fields, in order, with their offsets.
+    pub fields: &'static [Field],
+    /// Size in bytes, a multiple of the alignment (the std430 array stride; `size_of` must equal it).
+    pub size: usize,
+    /// Doc comment lines.
+    pub doc: &'static [&'static str],
+}
+
+/// One entry of the description.
+#[derive(Clone, Copy, Debug)]
+pub enum Item {
+    /// `const uint NAME = value;`
+    Const {
+        /// Name.
+        name: &'static str,
+        /// Value.
+        value: u32,
+        /// Doc comment lines.
+        doc: &'static [&'static str],
+    },
+    /// A forward declaration `layout(buffer_reference) buffer NAME;` (the block is hand-written).
+    BufferReference {
+        /// Name.
+        name: &'static str,
+        /// Doc comment lines.
+        doc: &'static [&'static str],
+    },
+    /// A struct or the push-constant block.
+    Struct(&'static Struct),
+}
+
+const fn align_up(x: usize, align: usize) -> usize {
+    x.div_ceil(align) * align
+}
+
+#[doc(hidden)]
+pub const fn rule_align<T: GlslType>(rule: Rule) -> usize {
+    match rule {
+        Rule::Scalar => T::ALIGN_SCALAR,
+        Rule::Std430 | Rule::PushConstant => T::ALIGN_STD430,
+    }
+}
+
+#[doc(hidden)]
+/// Places `fields` one after another, each at the next multiple of its alignment.
+pub const fn place<const N: usize>(mut fields: [Field; N]) -> [Field; N] {
+    let mut end = 0;
+    let mut i = 0;
+    while i < N {
+        fields[i].offset = align_up(end, fields[i].align);
+        end = fields[i].offset + fields[i].size;
+        i += 1;
+    }
+    fields
+}
+
+#[doc(hidden)]
+/// The size of a struct of `fields` (placed): the end of the last field, rounded up to the
+/// largest alignment.
+pub const fn struct_size(fields: &[Field]) -> usize {
+    let (mut end, mut align, mut i) = (0, 1, 0);
+    while i < fields.len() {
+        end = fields[i].offset + fields[i].size;
+        if fields[i].align > align {
+            align = fields[i].align;
+        }
+        i += 1;
+    }
+    align_up(end, align)
+}
+
+macro_rules! rule {
+    (std430) => {
+        Rule::Std430
+    };
+    (scalar) => {
+        Rule::Scalar
+    };
+    (push_constant) => {
+        Rule::PushConstant
+    };
+}
+
+macro_rules! glsl_of {
+    ($rust:ty) => {
+        $rust
+    };
+    ($rust:ty as $glsl:ty) => {
+        $glsl
+    };
+}
+
+/// Expands the description; see the module doc.
+macro_rules! layout {
+    (@items [$($item:tt)*]) => {
+        /// The whole description in order: what [`glsl`] writes and `build.rs` checks.
+        pub const ITEMS: &[Item] = &[$($item)*];
+    };
+
+    (@items [$($item:tt)*]
+        $(#[doc = $doc:literal])*
+        pub const $name:ident: u32 = $value:expr;
+        $($rest:tt)*
+    ) => {
+        $(#[doc = $doc])*
+        pub const $name: u32 = $value;
+        layout!(@items [$($item)* Item::Const { name: stringify!($name), value: $name, doc: &[$($doc),*] },] $($rest)*);
+    };
+
+    (@items [$($item:tt)*]
+        $(#[doc = $doc:literal])*
+        buffer_reference $name:ident;
+        $($rest:tt)*
+    ) => {
+        $(#[doc = $doc])*
+        ///
+        /// A GLSL buffer-reference type (its block is declared in the hand-written includes);
+        /// in Rust only a name for the layout description.
+        pub struct $name;
+        impl GlslType for $name {
+            const NAME: &'static str = stringify!($name);
+            const ARRAY: usize = 0;
+            const SCALAR: Scalar = Scalar::U64;
+            const SIZE: usize = 8;
+            const ALIGN_STD430: usize = 8;
+            const ALIGN_SCALAR: usize = 8;
+        }
+        layout!(@items [$($item)* Item::BufferReference { name: stringify!($name), doc: &[$($doc),*] },] $($rest)*);
+    };
+
+    (@items [$($item:tt)*]
+        $(#[doc = $doc:literal])*
+        #[layout($rule:ident $(, instance = $instance:ident)?)]
+        $(#[derive($($derive:ident),*)])?
+        pub struct $name:ident {
+            $(
+                $(#[doc = $field_doc:literal])*
+                pub $field:ident: $rust:ty $(as $glsl:ty)?
+            ),* $(,)?
+        }
+        $($rest:tt)*
+    ) => {
+        $(#[doc = $doc])*
+        #[repr(C)]
+        #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable $($(, $derive)*)?)]
+        pub struct $name {
+            $(
+                $(#[doc = $field_doc])*
+                pub $field: $rust,
+            )*
+        }
+
+        impl $name {
+            /// This struct as GLSL sees it.
+            pub const LAYOUT: Struct = {
+                const FIELDS: &[Field] = &place([$(Field {
+                    name: stringify!($field),
+                    glsl: <glsl_of!($rust $(as $glsl)?) as GlslType>::NAME,
+                    array: <glsl_of!($rust $(as $glsl)?) as GlslType>::ARRAY,
+                    size: <glsl_of!($rust $(as $glsl)?) as GlslType>::SIZE,
+                    align: rule_align::<glsl_of!($rust $(as $glsl)?)>(rule!($rule)),
+                    offset: 0,
+                    doc: &[$($field_doc),*],
+                }),*]);
+                Struct {
+                    name: stringify!($name),
+                    rule: rule!($rule),
+                    instance: concat!("" $(, stringify!($instance))?),
+                    fields: FIELDS,
+                    size: struct_size(FIELDS),
+                    doc: &[$($doc),*],
+                }
+            };
+        }
+
+        #[allow(unused_assignments)]
+        const _: () = {
+            let fields = $name::LAYOUT.fields;
+            let mut i = 0;
+            $(
+                assert!(
+                    size_of::<$rust>() == <glsl_of!($rust $(as $glsl)?) as GlslType>::SIZE
+                        && <$rust as GlslType>::SCALAR as u8 == <glsl_of!($rust $(as $glsl)?) as GlslType>::SCALAR as u8,
+                    concat!("`", stringify!($name), ".", stringify!($field), "`: the Rust type does not match the GLSL type")
+                );
+                assert!(
+                    core::mem::offset_of!($name, $field) == fields[i].offset,
+                    concat!("`", stringify!($name), ".", stringify!($field), "`: Rust offset is not the GLSL offset (reorder or pad)")
+                );
+                i += 1;
+            )*
+            assert!(
+                size_of::<$name>() == $name::LAYOUT.size,
+                concat!("`", stringify!($name), "`: Rust size is not the GLSL size (pad the end)")
+            );
+        };
+
+        layout!(@items [$($item)* Item::Struct(&$name::LAYOUT),] $($rest)*);
+    };
+
+    (@items [$($item:tt)*] $next:tt $($rest:tt)*) => {
+        compile_error!(concat!("layout!: cannot read the item at `", stringify!($next), "` (see the module doc for the forms)"));
+    };
+
+    ($($description:tt)*) => {
+        layout!(@items [] $($description)*);
+    };
+}
+
+/// The GLSL header `build.rs` writes to `$OUT_DIR/layout.glsl`: every item of [`ITEMS`] in
+/// order, docs as comments, fields annotated with their offsets. The same description always
+/// gives the same bytes.
+pub fn glsl() -> String {
+    fn doc(lines: &[&str]) -> String {
+        lines.iter().map(|l| l.trim()).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" ")
+    }
+    /// Lines of `code // comment`, comments aligned.
+    fn aligned(out: &mut String, lines: &[(String, String)]) {
+        let width = lines.iter().map(|(code, _)| code.chars().count()).max().unwrap_or(0);
+        for (code, comment) in lines {
+            if comment.is_empty() {
+                out.push_str(code);
+            } else {
+                out.push_str(&format!("{code:<width$}  // {comment}"));
+            }
+            out.push('\n');
+        }
+    }
+
+    let mut out = String::from(
+        "// Generated by render/build.rs from render/src/layout.rs: do not edit. Edit layout.rs\n\
+         // (its module doc says how); Rust and the shaders both follow it.\n\
+         #ifndef LAYOUT_GLSL\n\
+         #define LAYOUT_GLSL\n\
+         \n\
+         #extension GL_EXT_buffer_reference : require\n\
+         #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require\n",
+    );
+    let mut items = ITEMS.iter().peekable();
+    while let Some(item) = items.next() {
+        out.push('\n');
+        let line = |item: &Item| match *item {
+            Item::Const { name, value, doc: d } => (format!("const uint {name} = {value}u;"), doc(d)),
+            Item::BufferReference { name, doc: d } => (format!("layout(buffer_reference) buffer {name};"), doc(d)),
+            Item::Struct(_) => unreachable!(),
+        };
+        let s = match item {
+            Item::Struct(s) => s,
+            _ => {
+                // A run of constants (or of forward declarations) is one aligned block.
+                let mut run = vec![line(item)];
+                while let Some(next) = items.next_if(|n| std::mem::discriminant(*n) == std::mem::discriminant(item)) {
+                    run.push(line(next));
+                }
+                aligned(&mut out, &run);
+                continue;
+            }
+        };
+        let rule = match s.rule {
+            Rule::Std430 => "std430",
+            Rule::Scalar => "scalar layout: use only in scalar blocks",
+            Rule::PushConstant => "push constants",
+        };
+        out.push_str(&format!("// {} ({rule}, {} bytes)\n", doc(s.doc), s.size));
+        out.push_str(&match s.rule {
+            Rule::PushConstant => format!("layout(push_constant) uniform {} {{\n", s.name),
+            _ => format!("struct {} {{\n", s.name),
+        });
+        let fields: Vec<_> = s
+            .fields
+            .iter()
+            .map(|f| {
+                let array = if f.array > 0 { format!("[{}]", f.array) } else { String::new() };
+                (format!("    {} {}{array};", f.glsl, f.name), format!("{}: {}", f.offset, doc(f.doc)))
+            })
+            .collect();
+        aligned(&mut out, &fields);
+        out.push_str(&match s.rule {
+            Rule::PushConstant => format!("}} {};\n", s.instance),
+            _ => "};\n".to_string(),
+        });
+    }
+    out.push_str("\n#endif\n");
+    out
+}
+
+layout! {
+    /// Material flag: alpha-tested against `alpha_cutoff`.
+    pub const MATERIAL_ALPHA_MASK: u32 = 1;
+    /// Material flag: both faces are drawn and lit.
+    pub const MATERIAL_DOUBLE_SIDED: u32 = 2;
+
+    /// Bindless slot of the built-in 1×1 white texture (a material without a texture samples this).
+    pub const TEXTURE_WHITE: u32 = 0;
+    /// Bindless slot of the built-in flat normal map.
+    pub const TEXTURE_FLAT_NORMAL: u32 = 1;
+    /// Bindless slot where render targets are bound for sampling: HDR colour (tone mapping reads it).
+    pub const SLOT_HDR: u32 = 2;
+    /// Bindless slot: depth (full-screen passes reconstruct positions from it).
+    pub const SLOT_DEPTH: u32 = 3;
+    /// Bindless slot: G-buffer albedo.
+    pub const SLOT_GBUFFER_ALBEDO: u32 = 4;
+    /// Bindless slot: G-buffer normal.
+    pub const SLOT_GBUFFER_NORMAL: u32 = 5;
+    /// Bindless slot: G-buffer roughness/metallic.
+    pub const SLOT_GBUFFER_MATERIAL: u32 = 6;
+    /// Number of bindless slots the renderer reserves for itself (built-ins and render targets;
+    /// scene textures start here).
+    pub const RESERVED_TEXTURES: u32 = 16;
+    /// Unsigned-integer bindless array (`uint_textures`): G-buffer receiver layers.
+    pub const UINT_SLOT_LAYERS: u32 = 0;
+    /// Unsigned-integer bindless array: visibility buffer.
+    pub const UINT_SLOT_VISIBILITY: u32 = 1;
+
+    /// Light kind (`GpuLight::kind`, `LightKind`): an empty slot.
+    pub const LIGHT_NONE: u32 = 0;
+    /// Light kind: omnidirectional point light.
+    pub const LIGHT_POINT: u32 = 1;
+    /// Light kind: cone-shaped spot light.
+    pub const LIGHT_SPOT: u32 = 2;
+    /// Light kind: infinitely distant light.
+    pub const LIGHT_DIRECTIONAL: u32 = 3;
+
+    /// Decal material flag: blends albedo.
+    pub const DECAL_ALBEDO: u32 = 1;
+    /// Decal material flag: blends normals.
+    pub const DECAL_NORMAL: u32 = 2;
+    /// Decal material flag: blends roughness.
+    pub const DECAL_ROUGHNESS: u32 = 4;
+    /// Decal material flag: blends metallic.
+    pub const DECAL_METALLIC: u32 = 8;
+    /// Number of decal blending channels (`GpuDecal::channel` is below this).
+    pub const DECAL_CHANNELS: u32 = 4;
+
+    /// Debug view (`ScenePush::debug_view`, `DebugView`): the lit image.
+    pub const DEBUG_LIT: u32 = 0;
+    /// Debug view: decals tested per pixel, as a heat map.
+    pub const DEBUG_DECAL_HEATMAP: u32 = 1;
+    /// Debug view: albedo after decals (linear).
+    pub const DEBUG_ALBEDO: u32 = 2;
+    /// Debug view: world normal after decals, encoded n × 0.5 + 0.5.
+    pub const DEBUG_NORMAL: u32 = 3;
+    /// Debug view: roughness (R) and metallic (G) after decals.
+    pub const DEBUG_ROUGHNESS_METALLIC: u32 = 4;
+    /// Debug view: decals tested per pixel as a raw count in R (for tests).
+    pub const DEBUG_DECAL_COUNT: u32 = 5;
+
+    /// The camera as the shaders see it.
+    #[layout(std430)]
+    pub struct GpuCamera {
+        /// World to view.
+        pub view: Mat4,
+        /// View to clip (reverse-Z, infinite far plane).
+        pub proj: Mat4,
+        /// World to clip.
+        pub view_proj: Mat4,
+        /// Clip to world.
+        pub inv_view_proj: Mat4,
+        /// Camera position in world space.
+        pub position: Vec3,
+        /// Multiplier applied to radiance before tone mapping.
+        pub exposure: f32,
+        /// Render target size in pixels.
+        pub viewport_size: Vec2,
+        /// 1 / viewport size.
+        pub inv_viewport_size: Vec2,
+        /// Uniform ambient radiance (scaled by material occlusion).
+        pub ambient: Vec3,
+        /// Padding to 16 bytes.
+        pub pad: u32,
+    }
+
+    /// One drawn mesh instance.
+    #[layout(std430)]
+    pub struct GpuInstance {
+        /// Object to world.
+        pub model: Mat4,
+        /// Inverse-transpose of `model`, for normals.
+        pub normal_model: Mat4,
+        /// Slot of the instance's material in the material table.
+        pub material: u32,
+        /// Decal receiver layers: a decal lands here when its mask shares a bit with these.
+        pub decal_layers: u32,
+        /// The instance's mesh (its index in the renderer's mesh table; set by the mirror).
+        pub mesh: u32,
+        /// Padding to 16 bytes.
+        pub pad: u32,
+    }
+
+    /// A metallic-roughness material.
+    #[layout(std430)]
+    pub struct GpuMaterial {
+        /// Linear base colour and alpha.
+        pub base_color: [f32; 4],
+        /// Emitted radiance.
+        pub emissive: [f32; 3],
+        /// Strength of the normal map's XY.
+        pub normal_scale: f32,
+        /// Metallic factor.
+        pub metallic: f32,
+        /// Perceptual roughness factor.
+        pub roughness: f32,
+        /// Alpha below which masked materials are discarded.
+        pub alpha_cutoff: f32,
+        /// How much the occlusion texture darkens ambient light.
+        pub occlusion_strength: f32,
+        /// Bindless slot of the base colour texture (sRGB).
+        pub base_color_tex: u32,
+        /// Bindless slot of the metallic (B) / roughness (G) texture (glTF).
+        pub metallic_roughness_tex: u32,
+        /// Bindless slot of the tangent-space normal map.
+        pub normal_tex: u32,
+        /// Bindless slot of the occlusion texture (R).
+        pub occlusion_tex: u32,
+        /// Bindless slot of the emissive texture (sRGB).
+        pub emissive_tex: u32,
+        /// `MATERIAL_*` flags.
+        pub flags: u32,
+        /// Padding to 16 bytes.
+        pub pad: [u32; 2],
+    }
+
+    /// One punctual light.
+    #[layout(std430)]
+    pub struct GpuLight {
+        /// World position (point, spot).
+        pub position: Vec3,
+        /// Distance at which the light's contribution reaches zero.
+        pub range: f32,
+        /// Colour × intensity (candela; lux for directional lights).
+        pub color: Vec3,
+        /// A `LIGHT_*` kind (`LightKind` in Rust).
+        pub kind: u32,
+        /// Direction the light travels (spot, directional), unit length.
+        pub direction: Vec3,
+        /// 1 / (cos inner − cos outer).
+        pub spot_scale: f32,
+        /// −cos outer × `spot_scale`.
+        pub spot_offset: f32,
+        /// Padding to 16 bytes.
+        pub pad: [u32; 3],
+    }
+
+    /// One decal projector (seed 000 §4.1, "reduced form for shading"). The decal's box is
+    /// `[-0.5, 0.5]³` in decal space; it projects along −Z. A zeroed record (a free slot) has no
+    /// receiver bits and so never applies.
+    #[layout(std430)]
+    pub struct GpuDecal {
+        /// World to decal space.
+        pub world_to_decal: Mat4,
+        /// UVs of the box corners at local (−x,−y) and (+x,−y).
+        pub uv01: [f32; 4],
+        /// UVs of the corners at (+x,+y) and (−x,+y).
+        pub uv23: [f32; 4],
+        /// Slot in the decal material table.
+        pub material: u32,
+        /// Blending channel, below `DECAL_CHANNELS`.
+        pub channel: u32,
+        /// Weight within the channel.
+        pub weight: f32,
+        /// Receiver layers the decal lands on (0 in free slots: never applies).
+        pub receivers: u32,
+        /// Overall opacity.
+        pub opacity: f32,
+        /// Angle fade: fade = saturate(cos θ × scale + offset); (0, 1) disables it.
+        pub fade_scale: f32,
+        /// See `fade_scale`.
+        pub fade_offset: f32,
+        /// Padding to 16 bytes.
+        pub pad: u32,
+    }
+
+    /// What a decal applies.
+    #[layout(std430)]
+    pub struct GpuDecalMaterial {
+        /// Albedo factor (rgb) and opacity (a).
+        pub base_color: [f32; 4],
+        /// Bindless slot of the RGBA texture (alpha is coverage).
+        pub base_color_tex: u32,
+        /// Bindless slot of the normal map.
+        pub normal_tex: u32,
+        /// Bindless slot of the metallic (B) / roughness (G) texture.
+        pub metallic_roughness_tex: u32,
+        /// `DECAL_*` flags.
+        pub flags: u32,
+        /// Normal map XY strength.
+        pub normal_scale: f32,
+        /// Roughness to blend in.
+        pub roughness: f32,
+        /// Metallic to blend in.
+        pub metallic: f32,
+        /// Padding.
+        pub pad: f32,
+    }
+
+    /// An axis-aligned box as acceleration-structure builds read it (`VkAabbPositionsKHR`).
+    #[layout(scalar)]
+    pub struct GpuAabb {
+        /// Minimum corner.
+        pub min: [f32; 3],
+        /// Maximum corner.
+        pub max: [f32; 3],
+    }
+
+    /// Where a mesh's vertices and indices live (the visibility buffer fetches them).
+    #[layout(std430)]
+    #[derive(Default)]
+    pub struct GpuMeshInfo {
+        /// Device address of the first vertex.
+        pub vertices: u64,
+        /// Device address of the first index.
+        pub indices: u64,
+    }
+
+    /// One vertex as the mesh pipelines read it (binding 0, interleaved).
+    #[layout(scalar)]
+    pub struct GpuVertex {
+        /// Object-space position.
+        pub position: [f32; 3],
+        /// Object-space normal.
+        pub normal: [f32; 3],
+        /// Texture coordinate 0.
+        pub uv: [f32; 2],
+        /// Object-space tangent; w is the bitangent sign.
+        pub tangent: [f32; 4],
+    }
+
+    /// The camera record (block in scene.glsl).
+    buffer_reference CameraRef;
+    /// The instance table (block in scene.glsl).
+    buffer_reference InstancesRef;
+    /// The material table (block in scene.glsl).
+    buffer_reference MaterialsRef;
+    /// The light table (block in scene.glsl).
+    buffer_reference LightsRef;
+
+    /// Push constants shared by every pass.
+    #[layout(push_constant, instance = scene)]
+    #[derive(Default)]
+    pub struct ScenePush {
+        /// Address of the camera record.
+        pub camera: u64 as CameraRef,
+        /// Address of the instance table.
+        pub instances: u64 as InstancesRef,
+        /// Address of the material table.
+        pub materials: u64 as MaterialsRef,
+        /// Address of the light table.
+        pub lights: u64 as LightsRef,
+        /// Address of the decal table (`DecalsRef`, decals.glsl).
+        pub decals: u64,
+        /// Address of the decal material table (`DecalMaterialsRef`).
+        pub decal_materials: u64,
+        /// Address of the decal TLAS (0: no decals).
+        pub decal_tlas: u64,
+        /// Address of the decal boxes the decal BLAS is built from.
+        pub decal_aabbs: u64,
+        /// Address of the mesh table (`MeshesRef`: vertex and index addresses per mesh).
+        pub meshes: u64,
+        /// Address of the deferred decals' draw order (live slots sorted by channel, then weight).
+        pub decal_order: u64,
+        /// High-water mark of light slots; empty slots have kind `LIGHT_NONE`.
+        pub light_count: u32,
+        /// A full-screen pass's input image (bindless slot).
+        pub texture_index: u32,
+        /// Debug visualisation selector (a `DEBUG_*` value).
+        pub debug_view: u32,
+        /// Live decals (0 skips the decal loop).
+        pub decal_count: u32,
+    }
+}
+
+const _: () = {
+    let slots = [SLOT_HDR, SLOT_DEPTH, SLOT_GBUFFER_ALBEDO, SLOT_GBUFFER_NORMAL, SLOT_GBUFFER_MATERIAL, TEXTURE_WHITE, TEXTURE_FLAT_NORMAL];
+    let mut i = 0;
+    while i < slots.len() {
+        assert!(slots[i] < RESERVED_TEXTURES, "built-in bindless slots must be below RESERVED_TEXTURES");
+        i += 1;
+    }
+};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shaders_were_built_from_this_description() {
+        assert_eq!(glsl(), include_str!(concat!(env!("OUT_DIR"), "/layout.glsl")));
+    }
+
+    #[test]
+    fn offsets_follow_the_glsl_rules() {
+        // vec3 + float share 16 bytes; a vec3 after a float starts at the next 16 under std430,
+        // right after it under scalar; uint arrays align to 4.
+        let offsets = |s: &Struct| s.fields.iter().map(|f| f.offset).collect::<Vec<_>>();
+        assert_eq!(offsets(&GpuLight::LAYOUT), [0, 12, 16, 28, 32, 44, 48, 52]);
+        assert_eq!(GpuLight::LAYOUT.size, 64);
+        assert_eq!(offsets(&GpuVertex::LAYOUT), [0, 12, 24, 32]);
+        assert_eq!(offsets(&GpuMaterial::LAYOUT)[..3], [0, 16, 28]);
+        assert_eq!(offsets(&ScenePush::LAYOUT)[10..], [80, 84, 88, 92]);
+    }
+}
