@@ -15,16 +15,16 @@ layout(location = 2) out vec4 gb_material;
 
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
-    float depth = texelFetch(textures[SLOT_DEPTH], px, 0).r;
+    float depth = texelFetch(depth_target, px, 0).r;
     if (depth <= 0.0) discard;
     DecalSurface s;
     s.position = world_from_depth(vec2(px), depth);
-    world_derivatives(SLOT_DEPTH, px, depth, s.position, s.dpdx, s.dpdy);
+    world_derivatives(px, depth, s.position, s.dpdx, s.dpdy);
     vec3 n = safe_normalize(cross(s.dpdy, s.dpdx), vec3(0.0, 1.0, 0.0));
     vec3 to_eye = scene.camera.camera.position - s.position;
     s.geometric_normal = dot(n, to_eye) < 0.0 ? -n : n;
     s.normal = s.geometric_normal; // the G-buffer normal cannot be read while it is blended into
-    s.layers = texelFetch(uint_textures[UINT_SLOT_LAYERS], px, 0).r;
+    s.layers = texelFetch(gbuffer_layers, px, 0).r;
 
     DecalBlend b;
     blend_init(b);

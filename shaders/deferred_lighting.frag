@@ -11,16 +11,16 @@ layout(location = 0) out vec4 out_color;
 
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
-    float depth = texelFetch(textures[SLOT_DEPTH], px, 0).r;
+    float depth = texelFetch(depth_target, px, 0).r;
     if (depth <= 0.0) discard; // sky: the clear colour stays
     vec3 p = world_from_depth(vec2(px), depth);
     SurfaceInputs s;
     s.position = p;
-    world_derivatives(SLOT_DEPTH, px, depth, p, s.dpdx, s.dpdy);
+    world_derivatives(px, depth, p, s.dpdx, s.dpdy);
     s.geometric_normal = safe_normalize(cross(s.dpdy, s.dpdx), vec3(0.0, 1.0, 0.0));
-    vec4 albedo = texelFetch(textures[SLOT_GBUFFER_ALBEDO], px, 0);
-    vec3 n = texelFetch(textures[SLOT_GBUFFER_NORMAL], px, 0).xyz * 2.0 - 1.0;
-    vec2 rm = texelFetch(textures[SLOT_GBUFFER_MATERIAL], px, 0).rg;
+    vec4 albedo = texelFetch(gbuffer_albedo, px, 0);
+    vec3 n = texelFetch(gbuffer_normal, px, 0).xyz * 2.0 - 1.0;
+    vec2 rm = texelFetch(gbuffer_material, px, 0).rg;
     s.normal = safe_normalize(n, s.geometric_normal);
     if (dot(s.geometric_normal, s.normal) < 0.0) s.geometric_normal = -s.geometric_normal;
     s.albedo = albedo.rgb;
@@ -28,6 +28,6 @@ void main() {
     s.roughness = rm.r;
     s.metallic = rm.g;
     s.emissive = vec3(0.0); // written by the geometry pass
-    s.decal_layers = texelFetch(uint_textures[UINT_SLOT_LAYERS], px, 0).r;
+    s.decal_layers = texelFetch(gbuffer_layers, px, 0).r;
     out_color = shade_surface(s);
 }

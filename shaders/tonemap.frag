@@ -7,6 +7,6 @@ layout(location = 0) in vec2 v_uv;
 layout(location = 0) out vec4 out_color;
 
 void main() {
-    vec3 hdr = texture(textures[nonuniformEXT(scene.texture_index)], v_uv).rgb;
+    vec3 hdr = texture(hdr_target, v_uv).rgb;
     out_color = vec4(pbr_neutral(hdr * scene.camera.camera.exposure), 1.0);
 }

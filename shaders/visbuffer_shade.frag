@@ -32,9 +32,9 @@ vec3 ray_dir(vec2 px) {
 
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
-    float depth = texelFetch(textures[SLOT_DEPTH], px, 0).r;
+    float depth = texelFetch(depth_target, px, 0).r;
     if (depth <= 0.0) discard; // sky: the clear colour stays
-    uvec2 ids = texelFetch(uint_textures[UINT_SLOT_VISIBILITY], px, 0).rg;
+    uvec2 ids = texelFetch(visibility_ids, px, 0).rg;
     GpuInstance inst = scene.instances.instances[ids.x];
     GpuMaterial m = scene.materials.materials[inst.material];
     GpuMeshInfo mesh = MeshesRef(scene.meshes).meshes[inst.mesh];

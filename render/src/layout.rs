@@ -450,23 +450,27 @@ layout! {
     pub const TEXTURE_WHITE: u32 = 0;
     /// Bindless slot of the built-in flat normal map.
     pub const TEXTURE_FLAT_NORMAL: u32 = 1;
-    /// Bindless slot where render targets are bound for sampling: HDR colour (tone mapping reads it).
-    pub const SLOT_HDR: u32 = 2;
-    /// Bindless slot: depth (full-screen passes reconstruct positions from it).
-    pub const SLOT_DEPTH: u32 = 3;
-    /// Bindless slot: G-buffer albedo.
-    pub const SLOT_GBUFFER_ALBEDO: u32 = 4;
-    /// Bindless slot: G-buffer normal.
-    pub const SLOT_GBUFFER_NORMAL: u32 = 5;
-    /// Bindless slot: G-buffer roughness/metallic.
-    pub const SLOT_GBUFFER_MATERIAL: u32 = 6;
+    /// Descriptor binding (set 0) of the HDR target (`hdr_target`; tone mapping samples it).
+    /// Each render target has a binding of its own, not a slot in the bindless array: a shader
+    /// then statically uses exactly the targets its pass declares it samples, and the
+    /// synchronization validation layer (which treats every element of a used array as read)
+    /// sees no false read of a target another attachment is writing.
+    pub const BINDING_HDR: u32 = 1;
+    /// Binding of the depth target (`depth_target`; full-screen passes reconstruct positions).
+    pub const BINDING_DEPTH: u32 = 2;
+    /// Binding of the G-buffer albedo (`gbuffer_albedo`).
+    pub const BINDING_GBUFFER_ALBEDO: u32 = 3;
+    /// Binding of the G-buffer normal (`gbuffer_normal`).
+    pub const BINDING_GBUFFER_NORMAL: u32 = 4;
+    /// Binding of the G-buffer roughness/metallic (`gbuffer_material`).
+    pub const BINDING_GBUFFER_MATERIAL: u32 = 5;
+    /// Binding of the G-buffer receiver layers (`gbuffer_layers`, unsigned integer).
+    pub const BINDING_GBUFFER_LAYERS: u32 = 6;
+    /// Binding of the visibility buffer's ids (`visibility_ids`, unsigned integer).
+    pub const BINDING_VISIBILITY: u32 = 7;
     /// Number of bindless slots the renderer reserves for itself (built-ins and render targets;
     /// scene textures start here).
     pub const RESERVED_TEXTURES: u32 = 16;
-    /// Unsigned-integer bindless array (`uint_textures`): G-buffer receiver layers.
-    pub const UINT_SLOT_LAYERS: u32 = 0;
-    /// Unsigned-integer bindless array: visibility buffer.
-    pub const UINT_SLOT_VISIBILITY: u32 = 1;
 
     /// Light kind (`GpuLight::kind`, `LightKind`): an empty slot.
     pub const LIGHT_NONE: u32 = 0;
@@ -726,7 +730,7 @@ layout! {
 }
 
 const _: () = {
-    let slots = [SLOT_HDR, SLOT_DEPTH, SLOT_GBUFFER_ALBEDO, SLOT_GBUFFER_NORMAL, SLOT_GBUFFER_MATERIAL, TEXTURE_WHITE, TEXTURE_FLAT_NORMAL];
+    let slots = [TEXTURE_WHITE, TEXTURE_FLAT_NORMAL];
     let mut i = 0;
     while i < slots.len() {
         assert!(slots[i] < RESERVED_TEXTURES, "built-in bindless slots must be below RESERVED_TEXTURES");

@@ -4,47 +4,31 @@
 //! This crate knows nothing of the ECS. It takes plain data: a [`scene::SceneMirror`] of records
 //! in stable slots that extraction keeps up to date, plus per-frame [`renderer::FrameSettings`].
 //! `plugins` bridges the ECS to it.
+//!
+//! | module | holds |
+//! | --- | --- |
+//! | [`gpu`] | the Vulkan core: device, memory, uploads, timestamps, shaders, pipeline creation |
+//! | [`graph`] | the frame graph: passes declare their reads and writes, barriers are derived |
+//! | [`layout`] | the records, push constants and constants Rust and GLSL share, described once |
+//! | [`scene`] | the scene mirror (plain data) and its GPU tables |
+//! | [`decals`] | decal acceleration structures, deferred decals, decal debug views |
+//! | [`pipelines`] | forward, deferred and visibility-buffer frames |
+//! | [`present`] | tone mapping, overlay, window swapchain |
+//! | [`renderer`] | frames in flight, submit |
 
-pub mod decal_debug;
 pub mod decals;
-pub mod deferred;
-pub mod device;
-pub mod forward;
-pub mod gpu_scene;
+pub mod error;
+pub mod gpu;
+pub mod graph;
 pub mod layout;
-pub mod memory;
-pub mod overlay;
-pub mod pass;
-pub mod pipeline;
+pub mod pipelines;
+pub mod present;
 pub mod renderer;
 pub mod scene;
-pub mod shaders;
-pub mod sync;
-pub mod targets;
-pub mod timestamps;
-pub mod tonemap;
-pub mod upload;
-pub mod visbuffer;
-pub mod window;
 
-pub use device::{Capabilities, DeviceSettings, Tier};
+pub use error::RenderError;
+pub use gpu::device::{Capabilities, DeviceSettings, Tier};
+pub use gpu::timestamps::PassTimes;
+pub use present::{overlay, window};
 pub use renderer::{DebugView, DecalMethod, FinishedFrame, FrameReport, FrameSettings, PipelineKind, Renderer, RendererSettings};
 pub use scene::{FrameCounters, SceneMirror};
-pub use timestamps::PassTimes;
-
-/// Everything that can go wrong in the renderer.
-#[derive(Debug, thiserror::Error)]
-pub enum RenderError {
-    /// No usable Vulkan loader, driver or device; the message says what to install.
-    #[error("{0}")]
-    NoVulkan(String),
-    /// A Vulkan call failed.
-    #[error("Vulkan call failed: {0}")]
-    Vulkan(#[from] ash::vk::Result),
-    /// GPU memory could not be allocated.
-    #[error("GPU memory allocation failed: {0}")]
-    Allocation(#[from] gpu_allocator::AllocationError),
-    /// Anything else, described.
-    #[error("{0}")]
-    Other(String),
-}

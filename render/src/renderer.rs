@@ -1,5 +1,5 @@
-//! The renderer: frames in flight, the per-frame upload of what changed, and one recording
-//! function per pipeline.
+//! The renderer: frames in flight and their submission. Each frame waits for its slot, records
+//! the chosen pipeline's frame function (`crate::pipelines`) on the frame graph, and submits.
 //!
 //! Two frames are in flight. A timeline semaphore counts finished frames; before frame N reuses
 //! its slot's command buffer, staging ring and timestamp pool, the CPU waits for frame N−2, reads
@@ -10,26 +10,26 @@ use std::time::Instant;
 use ash::vk;
 
 use crate::RenderError;
-use crate::decal_debug::DecalBoxes;
-use crate::decals::DecalAccel;
-use crate::deferred::{DecalRun, DeferredPasses, plan_deferred_decals};
-use crate::device::{DeviceSettings, GpuContext, Tier};
-use crate::forward::ForwardPasses;
-use crate::gpu_scene::GpuScene;
-use crate::memory::Graveyard;
-use crate::overlay::{Overlay, OverlayFrame};
-use crate::pass::PassContext;
-use crate::pipeline::{ScenePush, create_layout};
+use crate::decals::Decals;
+use crate::gpu::device::{DeviceSettings, GpuContext, Tier};
+use crate::gpu::memory::Graveyard;
+use crate::gpu::pipeline::{ScenePush, create_layout};
+use crate::gpu::timestamps::{GpuTimer, PassTimes};
+use crate::gpu::upload::{StagingRing, Upload};
+use crate::graph::targets::{DEPTH, DISPLAY, DISPLAY_FORMAT, HDR, f16_to_f32};
+use crate::graph::{Frame, FrameGraph, ImageId, ImageRef, ImageUse};
+use crate::pipelines::deferred::DeferredPasses;
+use crate::pipelines::forward::ForwardPasses;
+use crate::pipelines::visbuffer::VisBufferPasses;
+use crate::pipelines::{FrameParts, deferred_frame, forward_frame, visbuffer_frame};
+use crate::present::Present;
+use crate::present::overlay::{Overlay, OverlayFrame};
+use crate::present::tonemap::Tonemap;
+use crate::present::window::{AcquiredImage, WindowSurface};
+use crate::scene::gpu::GpuScene;
 use crate::scene::{FrameCounters, SceneMirror};
-use crate::targets::{Targets, f16_to_f32, read_back, slots};
-use crate::timestamps::{GpuTimer, PassTimes};
-use crate::tonemap::Tonemap;
-use crate::upload::StagingRing;
-use crate::visbuffer::VisBufferPasses;
-use crate::window::WindowSurface;
 
-/// Frames the CPU may record ahead of the GPU.
-pub const FRAMES_IN_FLIGHT: usize = 2;
+pub use crate::gpu::FRAMES_IN_FLIGHT;
 
 /// Which renderer draws the frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
@@ -196,15 +196,15 @@ struct Resources {
     frames: Vec<FrameSlot>,
     timeline: vk::Semaphore,
     layout: vk::PipelineLayout,
+    graph: FrameGraph,
+    /// The graph's name for the swapchain image being drawn.
+    swapchain_image: ImageId,
     scene: GpuScene,
     forward: ForwardPasses,
-    tonemap: Tonemap,
-    targets: Targets,
     deferred: DeferredPasses,
     visbuffer: VisBufferPasses,
-    decal_accel: DecalAccel,
-    decal_boxes: DecalBoxes,
-    decal_order: DeferredDecalOrder,
+    decals: Decals,
+    tonemap: Tonemap,
     window_tonemap: Option<Tonemap>,
     overlay: Option<(Overlay, vk::Format)>,
     graveyard: Graveyard,
@@ -220,28 +220,18 @@ pub struct Renderer {
 impl Renderer {
     /// Creates the device, pipelines and offscreen targets of `width`×`height`.
     pub fn new(settings: &RendererSettings, width: u32, height: u32) -> Result<Self, RenderError> {
-        if width == 0 || height == 0 || width > 16384 || height > 16384 {
-            return Err(RenderError::Other(format!("render size {width}x{height} is out of range (1..=16384)")));
-        }
+        check_size(width, height)?;
         let ctx = GpuContext::new(&settings.device)?;
-        let res = Self::create_resources(&ctx, vk::Extent2D { width, height });
-        match res {
-            Ok(res) => Ok(Self { res: std::mem::ManuallyDrop::new(res), frame_number: 0, ctx }),
-            Err(e) => Err(e),
-        }
+        let res = Self::create_resources(&ctx, vk::Extent2D { width, height })?;
+        Ok(Self { res: std::mem::ManuallyDrop::new(res), frame_number: 0, ctx })
     }
 
     fn create_resources(ctx: &GpuContext, extent: vk::Extent2D) -> Result<Resources, RenderError> {
         let d = &ctx.device;
-        let scene = GpuScene::new(ctx)?;
+        let mut graph = FrameGraph::new(extent);
+        let swapchain_image = graph.external_image("swapchain image");
+        let scene = GpuScene::new(ctx, &mut graph)?;
         let layout = create_layout(ctx, scene.set_layout)?;
-        let forward = ForwardPasses::new(ctx, layout)?;
-        let tonemap = Tonemap::new(ctx, layout, crate::targets::DISPLAY_FORMAT)?;
-        let targets = Targets::new(ctx, extent)?;
-        scene.bind_target(ctx, slots::HDR, targets.hdr.image.view, false);
-        scene.bind_depth_target(ctx, slots::DEPTH, targets.depth.image.view);
-        let deferred = DeferredPasses::new(ctx, layout)?;
-        let visbuffer = VisBufferPasses::new(ctx, layout)?;
         let mut type_info = vk::SemaphoreTypeCreateInfo::default().semaphore_type(vk::SemaphoreType::TIMELINE).initial_value(0);
         // SAFETY: valid create info; destroyed in Drop.
         let timeline = unsafe { d.create_semaphore(&vk::SemaphoreCreateInfo::default().push_next(&mut type_info), None) }?;
@@ -253,34 +243,23 @@ impl Renderer {
                     &vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family).flags(vk::CommandPoolCreateFlags::TRANSIENT),
                     None,
                 )?;
-                let cmd =
-                    d.allocate_command_buffers(&vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1))?[0];
+                let cmd = d.allocate_command_buffers(&vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1))?[0];
                 (pool, cmd)
             };
-            frames.push(FrameSlot {
-                pool,
-                cmd,
-                staging: StagingRing::new(ctx, 64 * 1024)?,
-                timer: GpuTimer::new(ctx)?,
-                value: 0,
-                frame: 0,
-            });
+            frames.push(FrameSlot { pool, cmd, staging: StagingRing::new(ctx, 64 * 1024)?, timer: GpuTimer::new(ctx)?, value: 0, frame: 0 });
         }
-        let decal_accel = DecalAccel::new(ctx);
-        let decal_boxes = DecalBoxes::new(ctx, layout)?;
         Ok(Resources {
             frames,
             timeline,
             layout,
+            forward: ForwardPasses::new(ctx, layout)?,
+            deferred: DeferredPasses::new(ctx, layout)?,
+            visbuffer: VisBufferPasses::new(ctx, layout)?,
+            decals: Decals::new(ctx, &mut graph, layout)?,
+            tonemap: Tonemap::new(ctx, layout, DISPLAY_FORMAT)?,
+            graph,
+            swapchain_image,
             scene,
-            forward,
-            tonemap,
-            targets,
-            deferred,
-            visbuffer,
-            decal_accel,
-            decal_boxes,
-            decal_order: DeferredDecalOrder::default(),
             window_tonemap: None,
             overlay: None,
             graveyard: Graveyard::default(),
@@ -304,7 +283,8 @@ impl Renderer {
 
     /// The render size.
     pub fn size(&self) -> (u32, u32) {
-        (self.res.targets.extent.width, self.res.targets.extent.height)
+        let e = self.res.graph.extent();
+        (e.width, e.height)
     }
 
     /// Whether the Vulkan validation layer is active.
@@ -378,30 +358,10 @@ impl Renderer {
             unsafe { d.wait_semaphores(&vk::SemaphoreWaitInfo::default().semaphores(&semaphores).values(&values), u64::MAX) }?;
         }
         let acquired = match &mut window {
-            Some((surface, overlay)) => {
-                // Overlay textures first: they must not be lost when no image can be drawn.
-                if let Some(frame) = overlay {
-                    if res.overlay.as_ref().is_none_or(|(_, f)| *f != surface.format) {
-                        ctx.wait_idle();
-                        if let Some((old, _)) = res.overlay.replace((Overlay::new(ctx, surface.format)?, surface.format)) {
-                            old.destroy(ctx);
-                        }
-                    }
-                    res.overlay.as_mut().expect("created above").0.prepare(ctx, frame)?;
-                }
-                match surface.acquire(ctx, slot_index)? {
-                    Some(image) => {
-                        if res.window_tonemap.as_ref().is_none_or(|t| t.format() != surface.format) {
-                            ctx.wait_idle();
-                            if let Some(old) = res.window_tonemap.replace(Tonemap::new(ctx, res.layout, surface.format)?) {
-                                old.destroy(ctx);
-                            }
-                        }
-                        Some(image)
-                    }
-                    None => return Ok(None),
-                }
-            }
+            Some((surface, overlay)) => match res.acquire(ctx, surface, overlay.as_deref_mut(), slot_index)? {
+                Some(image) => Some(image),
+                None => return Ok(None),
+            },
             None => None,
         };
         let slot = &mut res.frames[slot_index];
@@ -413,7 +373,6 @@ impl Renderer {
         res.graveyard.collect(ctx, completed);
         slot.staging.reset();
         let frame_value = frame + 1;
-
         // SAFETY: the slot's previous submission has completed, so its pool may be reset.
         unsafe {
             d.reset_command_pool(slot.pool, vk::CommandPoolResetFlags::empty())?;
@@ -421,134 +380,69 @@ impl Renderer {
         }
         let cmd = slot.cmd;
 
-        // Targets the pipeline needs (created once, on first use).
-        {
-            let (scene, ctx) = (&res.scene, ctx);
-            let bind = |slot: u32, view: vk::ImageView, uint: bool| scene.bind_target(ctx, slot, view, uint);
-            match settings.pipeline {
-                PipelineKind::Forward => {}
-                PipelineKind::Deferred => {
-                    res.targets.gbuffer(ctx, bind)?;
-                }
-                PipelineKind::VisBuffer => {
-                    res.targets.visibility(ctx, bind)?;
-                }
+        // The display image: the offscreen target, or the acquired swapchain image.
+        let (target, tonemap, overlay): (ImageRef, &Tonemap, _) = match (&mut window, &acquired) {
+            (Some((surface, overlay)), Some(image)) => {
+                let i = image.index as usize;
+                res.graph.import(res.swapchain_image, surface.images[i], surface.views[i], surface.extent, surface.states[i]);
+                let egui = res.overlay.as_mut().map(|(o, _)| o).zip(overlay.as_deref());
+                (res.swapchain_image.into(), res.window_tonemap.as_ref().expect("created at acquire"), egui)
             }
-        }
-        let decal_method = settings.decal_method.effective(settings.pipeline);
-        // The deferred decals' draw order follows every change to decals or their materials.
-        let decals_changed = mirror.decals.records.dirty_count() > 0 || mirror.decal_materials.dirty_count() > 0;
-        if decal_method == DecalMethod::DeferredDecals && (decals_changed || !res.decal_order.valid) {
-            res.decal_order.rebuild(mirror);
-            res.scene.set_decal_order(&res.decal_order.slots);
-        } else if decals_changed {
-            res.decal_order.valid = false;
-        }
-        let sync = {
-            let slot = &mut res.frames[slot_index];
-            res.scene.sync(ctx, cmd, mirror, &mut slot.staging, &mut res.graveyard, frame_value, completed)?
+            _ => ((&DISPLAY).into(), &res.tonemap, None),
         };
-        mirror.counters.instances = mirror.instances.len() as u64;
-        mirror.counters.lights = mirror.lights.len() as u64;
-        mirror.counters.decals = mirror.decals.len() as u64;
-
-        let slot = &mut res.frames[slot_index];
-        let mut pass =
-            PassContext { ctx, cmd, layout: res.layout, bindless: res.scene.set, push: ScenePush::default(), timer: &mut slot.timer };
-        res.decal_accel.record(
-            &mut pass,
-            &mut res.graveyard,
-            frame_value,
-            res.scene.decal_aabbs.address(),
-            if mirror.decals.records.slot_count() == 0 { 0 } else { res.scene.decal_aabbs.capacity() },
-            sync.decal_boxes_changed,
-            decal_method == DecalMethod::RayQuery,
-            &mut mirror.counters,
-        )?;
-        let decals_enabled = decal_method == DecalMethod::RayQuery && ctx.tier == Tier::RayQuery && !mirror.decals.is_empty();
-        pass.push = ScenePush {
-            camera: res.scene.camera.address(),
-            instances: res.scene.instances.address(),
-            materials: res.scene.materials.address(),
-            lights: res.scene.lights.address(),
-            decals: res.scene.decals.address(),
-            decal_materials: res.scene.decal_materials.address(),
-            decal_tlas: if decals_enabled { res.decal_accel.tlas_address() } else { 0 },
-            decal_aabbs: res.scene.decal_aabbs.address(),
-            meshes: res.scene.mesh_table.address(),
-            decal_order: res.scene.decal_order.address(),
-            light_count: mirror.lights.slot_count(),
-            texture_index: 0,
-            debug_view: settings.debug_view as u32,
-            decal_count: if decals_enabled { mirror.decals.len() as u32 } else { 0 },
+        let mut f = Frame {
+            ctx,
+            cmd,
+            graph: &mut res.graph,
+            timer: &mut slot.timer,
+            layout: res.layout,
+            bindless: res.scene.set,
+            push: ScenePush::default(),
+            upload: Upload { ctx, staging: &mut slot.staging, graveyard: &mut res.graveyard, frame_value, completed, bytes: 0 },
         };
         let mut parts = FrameParts {
-            targets: &mut res.targets,
+            scene: &mut res.scene,
+            decals: &mut res.decals,
             forward: &res.forward,
             deferred: &res.deferred,
             visbuffer: &res.visbuffer,
-            tonemap: &res.tonemap,
-            scene: &res.scene,
-            decal_boxes: &res.decal_boxes,
-            decal_runs: if decal_method == DecalMethod::DeferredDecals { &res.decal_order.runs } else { &[] },
+            present: Present { tonemap, target, overlay },
         };
         match settings.pipeline {
-            PipelineKind::Forward => record_forward(&mut pass, &mut parts, mirror, settings),
-            PipelineKind::Deferred => record_deferred(&mut pass, &mut parts, mirror, settings),
-            PipelineKind::VisBuffer => record_visbuffer(&mut pass, &mut parts, mirror, settings),
+            PipelineKind::Forward => forward_frame(&mut f, &mut parts, mirror, settings)?,
+            PipelineKind::Deferred => deferred_frame(&mut f, &mut parts, mirror, settings)?,
+            PipelineKind::VisBuffer => visbuffer_frame(&mut f, &mut parts, mirror, settings)?,
         }
-        if settings.show_decal_boxes {
-            parts.decal_boxes.record(&mut pass, &mut parts.targets.hdr, mirror.decals.records.slot_count());
+        if let (Some((surface, _)), Some(image)) = (&mut window, &acquired) {
+            f.hand_over(res.swapchain_image, ImageUse::Present);
+            surface.states[image.index as usize] = res.graph.state(res.swapchain_image);
         }
-        match (&mut window, &acquired) {
-            (Some((surface, overlay)), Some(image)) => {
-                let i = image.index as usize;
-                let (view, extent) = (surface.views[i], surface.extent);
-                let tonemap = res.window_tonemap.as_ref().expect("created at acquire");
-                tonemap.record(&mut pass, &mut parts.targets.hdr, view, extent, &mut surface.states[i]);
-                if let (Some(frame), Some((egui, _))) = (overlay, res.overlay.as_mut()) {
-                    let mut result = Ok(());
-                    pass.timed("overlay", |p| {
-                        let color = [crate::pass::color_attachment(view, None)];
-                        p.begin_rendering(extent, &color, None);
-                        result = egui.record(p.cmd, extent, frame);
-                        p.end_rendering();
-                    });
-                    result?;
-                }
-                crate::sync::transition(&ctx.device, cmd, &mut surface.states[i], crate::sync::Access::Present, false);
-            }
-            _ => {
-                let display = &mut parts.targets.display;
-                let (view, extent) = (display.image.view, display.image.extent);
-                parts.tonemap.record(&mut pass, &mut parts.targets.hdr, view, extent, &mut display.state);
-            }
+        // Targets created this frame go into the bindless set before the submit.
+        for (bind, view) in res.graph.take_new_bindings() {
+            res.scene.bind_target(ctx, bind, view);
         }
+        mirror.counters.instances = mirror.instances.len() as u64;
+        mirror.counters.lights = mirror.lights.len() as u64;
+        mirror.counters.decals = mirror.decals.len() as u64;
+        let decal_method = settings.decal_method.effective(settings.pipeline);
 
         // SAFETY: recording is complete; the submit signals the timeline with this frame's value.
         unsafe {
             d.end_command_buffer(cmd)?;
             let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
             // Fixed-size arrays, sliced: a steady-state frame allocates nothing.
-            let timeline = vk::SemaphoreSubmitInfo::default()
-                .semaphore(res.timeline)
-                .value(frame_value)
-                .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS);
+            let timeline =
+                vk::SemaphoreSubmitInfo::default().semaphore(res.timeline).value(frame_value).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS);
             let (waits, signals, n) = match &acquired {
                 Some(image) => (
                     [vk::SemaphoreSubmitInfo::default().semaphore(image.wait).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)],
-                    [
-                        timeline,
-                        vk::SemaphoreSubmitInfo::default().semaphore(image.signal).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS),
-                    ],
+                    [timeline, vk::SemaphoreSubmitInfo::default().semaphore(image.signal).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)],
                     1,
                 ),
                 None => ([vk::SemaphoreSubmitInfo::default()], [timeline, vk::SemaphoreSubmitInfo::default()], 0),
             };
-            let submit = vk::SubmitInfo2::default()
-                .command_buffer_infos(&cmds)
-                .wait_semaphore_infos(&waits[..n])
-                .signal_semaphore_infos(&signals[..1 + n]);
+            let submit =
+                vk::SubmitInfo2::default().command_buffer_infos(&cmds).wait_semaphore_infos(&waits[..n]).signal_semaphore_infos(&signals[..1 + n]);
             d.queue_submit2(ctx.queue, &[submit], vk::Fence::null())?;
         }
         if let (Some((surface, _)), Some(image)) = (&mut window, &acquired) {
@@ -573,90 +467,68 @@ impl Renderer {
     /// The tone-mapped image of the last frame as RGBA8 sRGB rows (waits for the GPU).
     pub fn read_display(&mut self) -> Result<Vec<u8>, RenderError> {
         self.ctx.wait_idle();
-        read_back(&self.ctx, &mut self.res.targets.display, 4)
+        self.res.graph.read_back(&self.ctx, &DISPLAY, 4)
     }
 
     /// The linear radiance of the last frame as RGBA f32 (waits for the GPU).
     pub fn read_hdr(&mut self) -> Result<Vec<[f32; 4]>, RenderError> {
         self.ctx.wait_idle();
-        let bytes = read_back(&self.ctx, &mut self.res.targets.hdr, 8)?;
+        let bytes = self.res.graph.read_back(&self.ctx, &HDR, 8)?;
         Ok(bytes.chunks_exact(8).map(|px| std::array::from_fn(|c| f16_to_f32(u16::from_le_bytes([px[c * 2], px[c * 2 + 1]])))).collect())
     }
 
     /// The depth of the last frame (reverse-Z: 1 at the near plane, 0 at infinity).
     pub fn read_depth(&mut self) -> Result<Vec<f32>, RenderError> {
         self.ctx.wait_idle();
-        let bytes = read_back(&self.ctx, &mut self.res.targets.depth, 4)?;
+        let bytes = self.res.graph.read_back(&self.ctx, &DEPTH, 4)?;
         Ok(bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect())
     }
 
-    /// Recreates the targets at a new size (waits for the GPU).
+    /// Resizes the targets (waits for the GPU); they are created at the new size when next used.
     pub fn resize(&mut self, width: u32, height: u32) -> Result<(), RenderError> {
-        if width == 0 || height == 0 || width > 16384 || height > 16384 {
-            return Err(RenderError::Other(format!("render size {width}x{height} is out of range (1..=16384)")));
-        }
+        check_size(width, height)?;
         self.ctx.wait_idle();
-        let targets = Targets::new(&self.ctx, vk::Extent2D { width, height })?;
-        let old = std::mem::replace(&mut self.res.targets, targets);
-        old.destroy(&self.ctx);
-        self.res.scene.bind_target(&self.ctx, slots::HDR, self.res.targets.hdr.image.view, false);
-        self.res.scene.bind_depth_target(&self.ctx, slots::DEPTH, self.res.targets.depth.image.view);
+        self.res.graph.resize(vk::Extent2D { width, height });
+        self.res.graph.destroy_retired(&self.ctx);
         Ok(())
     }
 }
 
-/// The parts of the renderer a pipeline's recording function uses.
-struct FrameParts<'a> {
-    targets: &'a mut Targets,
-    forward: &'a ForwardPasses,
-    deferred: &'a DeferredPasses,
-    visbuffer: &'a VisBufferPasses,
-    tonemap: &'a Tonemap,
-    scene: &'a GpuScene,
-    decal_boxes: &'a DecalBoxes,
-    decal_runs: &'a [DecalRun],
+fn check_size(width: u32, height: u32) -> Result<(), RenderError> {
+    if width == 0 || height == 0 || width > 16384 || height > 16384 {
+        return Err(RenderError::Other(format!("render size {width}x{height} is out of range (1..=16384)")));
+    }
+    Ok(())
 }
 
-/// Forward: depth prepass, then shading with depth EQUAL (ray-query decals included).
-fn record_forward(p: &mut PassContext, f: &mut FrameParts, mirror: &SceneMirror, settings: &FrameSettings) {
-    f.forward.prepass(p, f.targets, f.scene, &mirror.draws);
-    f.forward.shade(p, f.targets, f.scene, &mirror.draws, settings.clear_color);
-}
-
-/// Deferred: G-buffer, deferred decals (when they are the method), full-screen lighting
-/// (ray-query decals included when they are).
-fn record_deferred(p: &mut PassContext, f: &mut FrameParts, mirror: &SceneMirror, settings: &FrameSettings) {
-    f.deferred.geometry(p, f.targets, f.scene, &mirror.draws, settings.clear_color);
-    f.deferred.decals(p, f.targets, f.decal_runs);
-    f.deferred.lighting(p, f.targets);
-}
-
-/// Visibility buffer: ids and depth, then one full-screen pass that rebuilds and shades.
-fn record_visbuffer(p: &mut PassContext, f: &mut FrameParts, mirror: &SceneMirror, settings: &FrameSettings) {
-    f.visbuffer.visibility(p, f.targets, f.scene, &mirror.draws);
-    f.visbuffer.shade(p, f.targets, settings.clear_color);
-}
-
-/// The deferred decals' draw order: live decal slots sorted by channel, then weight, and the
-/// runs that share a set of attributes. Rebuilt only when decals or their materials change.
-#[derive(Default)]
-struct DeferredDecalOrder {
-    keys: Vec<(u32, f32, u32)>,
-    slots: Vec<u32>,
-    runs: Vec<DecalRun>,
-    valid: bool,
-}
-
-impl DeferredDecalOrder {
-    fn rebuild(&mut self, mirror: &SceneMirror) {
-        plan_deferred_decals(
-            mirror.decals.records.records(),
-            mirror.decal_materials.records(),
-            &mut self.keys,
-            &mut self.slots,
-            &mut self.runs,
-        );
-        self.valid = true;
+impl Resources {
+    /// Prepares the window's overlay and acquires its next image: `None` when nothing can be
+    /// drawn this frame (minimised, swapchain rebuilt). Overlay textures are applied first, so
+    /// they are not lost when no image can be drawn.
+    fn acquire(
+        &mut self,
+        ctx: &GpuContext,
+        surface: &mut WindowSurface,
+        overlay: Option<&mut OverlayFrame>,
+        slot_index: usize,
+    ) -> Result<Option<AcquiredImage>, RenderError> {
+        if let Some(frame) = overlay {
+            if self.overlay.as_ref().is_none_or(|(_, f)| *f != surface.format) {
+                ctx.wait_idle();
+                if let Some((old, _)) = self.overlay.replace((Overlay::new(ctx, surface.format)?, surface.format)) {
+                    old.destroy(ctx);
+                }
+            }
+            self.overlay.as_mut().expect("created above").0.prepare(ctx, frame)?;
+        }
+        let Some(image) = surface.acquire(ctx, slot_index)? else { return Ok(None) };
+        if self.window_tonemap.as_ref().is_none_or(|t| t.format() != surface.format) {
+            ctx.wait_idle();
+            if let Some(old) = self.window_tonemap.replace(Tonemap::new(ctx, self.layout, surface.format)?) {
+                old.destroy(ctx);
+            }
+        }
+        Ok(Some(image))
     }
 }
 
@@ -670,15 +542,14 @@ impl Drop for Renderer {
             frames,
             timeline,
             layout,
+            graph,
+            swapchain_image: _,
             scene,
             forward,
-            tonemap,
-            targets,
             deferred,
             visbuffer,
-            decal_accel,
-            decal_boxes,
-            decal_order: _,
+            decals,
+            tonemap,
             window_tonemap,
             overlay,
             mut graveyard,
@@ -696,13 +567,12 @@ impl Drop for Renderer {
             unsafe { ctx.device.destroy_command_pool(f.pool, None) };
         }
         graveyard.clear(ctx);
-        decal_accel.destroy(ctx);
-        decal_boxes.destroy(ctx);
+        decals.destroy(ctx);
         forward.destroy(ctx);
         deferred.destroy(ctx);
         visbuffer.destroy(ctx);
         tonemap.destroy(ctx);
-        targets.destroy(ctx);
+        graph.destroy(ctx);
         scene.destroy(ctx);
         // SAFETY: idle GPU; nothing references these any more.
         unsafe {

@@ -18,24 +18,24 @@ vec3 world_from_depth(vec2 px, float depth) {
     return w.xyz / w.w;
 }
 
-float depth_at(uint depth_slot, ivec2 px) {
+float depth_at(ivec2 px) {
     ivec2 size = ivec2(scene.camera.camera.viewport_size);
-    return texelFetch(textures[nonuniformEXT(depth_slot)], clamp(px, ivec2(0), size - 1), 0).r;
+    return texelFetch(depth_target, clamp(px, ivec2(0), size - 1), 0).r;
 }
 
 // World position of the pixel one step along `dir`, preferring the side on the same surface.
-vec3 neighbour_difference(uint depth_slot, ivec2 px, float depth, vec3 p, ivec2 dir) {
-    float d_plus = depth_at(depth_slot, px + dir);
-    float d_minus = depth_at(depth_slot, px - dir);
+vec3 neighbour_difference(ivec2 px, float depth, vec3 p, ivec2 dir) {
+    float d_plus = depth_at(px + dir);
+    float d_minus = depth_at(px - dir);
     bool use_plus = abs(d_plus - depth) <= abs(d_minus - depth);
     if (use_plus && d_plus > 0.0) return world_from_depth(vec2(px + dir), d_plus) - p;
     if (d_minus > 0.0) return p - world_from_depth(vec2(px - dir), d_minus);
     return vec3(0.0);
 }
 
-void world_derivatives(uint depth_slot, ivec2 px, float depth, vec3 p, out vec3 dpdx, out vec3 dpdy) {
-    dpdx = neighbour_difference(depth_slot, px, depth, p, ivec2(1, 0));
-    dpdy = neighbour_difference(depth_slot, px, depth, p, ivec2(0, 1));
+void world_derivatives(ivec2 px, float depth, vec3 p, out vec3 dpdx, out vec3 dpdy) {
+    dpdx = neighbour_difference(px, depth, p, ivec2(1, 0));
+    dpdy = neighbour_difference(px, depth, p, ivec2(0, 1));
 }
 
 #endif

@@ -23,7 +23,15 @@ layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Ma
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer LightsRef { GpuLight lights[]; };
 
 layout(set = 0, binding = 0) uniform sampler2D textures[];
-layout(set = 0, binding = 1) uniform usampler2D uint_textures[];
+// Render targets, one binding each (BINDING_* in layout.glsl): a shader statically uses only
+// the targets its pass samples, which is what the frame graph declares.
+layout(set = 0, binding = BINDING_HDR) uniform sampler2D hdr_target;
+layout(set = 0, binding = BINDING_DEPTH) uniform sampler2D depth_target;
+layout(set = 0, binding = BINDING_GBUFFER_ALBEDO) uniform sampler2D gbuffer_albedo;
+layout(set = 0, binding = BINDING_GBUFFER_NORMAL) uniform sampler2D gbuffer_normal;
+layout(set = 0, binding = BINDING_GBUFFER_MATERIAL) uniform sampler2D gbuffer_material;
+layout(set = 0, binding = BINDING_GBUFFER_LAYERS) uniform usampler2D gbuffer_layers;
+layout(set = 0, binding = BINDING_VISIBILITY) uniform usampler2D visibility_ids;
 
 vec4 sample_texture(uint index, vec2 uv) {
     return texture(textures[nonuniformEXT(index)], uv);

@@ -24,9 +24,9 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use crate::RenderError;
-use crate::device::GpuContext;
-use crate::memory::{Buffer, Graveyard, Retired};
-use crate::pass::PassContext;
+use crate::gpu::device::GpuContext;
+use crate::gpu::memory::{Buffer, Graveyard, Retired};
+use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::scene::{FrameCounters, GpuAabb};
 
 /// Fraction of the capacity that may be refitted before the BLAS is rebuilt.
@@ -108,11 +108,34 @@ pub struct DecalAccel {
     refitted_since_build: u64,
     pending_changes: u32,
     scratch_alignment: u64,
+    res: AccelResources,
+}
+
+/// The frame-graph resources of the decal acceleration structures.
+#[derive(Clone, Copy, Debug)]
+struct AccelResources {
+    blas: ResourceId,
+    tlas: ResourceId,
+    scratch: ResourceId,
+}
+
+/// The decal boxes a build reads: `count` boxes at `address` in the scene's record tables, of
+/// which `changed` were rewritten this frame.
+#[derive(Clone, Copy, Debug)]
+pub struct DecalBoxInput {
+    /// The graph resource holding the boxes.
+    pub tables: ResourceId,
+    /// Device address of box 0.
+    pub address: vk::DeviceAddress,
+    /// Boxes in the table (its capacity; 0 when no decal was ever spawned).
+    pub count: u32,
+    /// Boxes rewritten this frame.
+    pub changed: u32,
 }
 
 impl DecalAccel {
     /// Empty; nothing is allocated until the first decal appears.
-    pub fn new(ctx: &GpuContext) -> Self {
+    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph) -> Self {
         let mut as_props = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
         if ctx.ray_tracing.is_some() {
             let mut props = vk::PhysicalDeviceProperties2::default().push_next(&mut as_props);
@@ -128,7 +151,17 @@ impl DecalAccel {
             refitted_since_build: 0,
             pending_changes: 0,
             scratch_alignment: (as_props.min_acceleration_structure_scratch_offset_alignment as u64).max(1),
+            res: AccelResources {
+                blas: graph.resource("decal blas"),
+                tlas: graph.resource("decal tlas"),
+                scratch: graph.resource("decal as scratch"),
+            },
         }
+    }
+
+    /// The TLAS as a graph resource, for passes that trace it; `None` before the first build.
+    pub fn tlas(&self) -> Option<ResourceId> {
+        self.tlas.as_ref().map(|_| self.res.tlas)
     }
 
     /// Device address of the TLAS (0 before the first build).
@@ -136,23 +169,14 @@ impl DecalAccel {
         self.tlas.as_ref().map_or(0, |t| t.address)
     }
 
-    /// Refits or rebuilds the BLAS over `capacity` boxes at `aabbs` (of which `changed` were
-    /// rewritten this frame), then rebuilds the TLAS. Records nothing when nothing changed, or
-    /// when ray-query decals are not `in_use` this frame (the changes wait for the next frame
-    /// that uses them).
-    #[allow(clippy::too_many_arguments)]
-    pub fn record(
-        &mut self,
-        p: &mut PassContext,
-        graveyard: &mut Graveyard,
-        frame_value: u64,
-        aabbs: vk::DeviceAddress,
-        capacity: u32,
-        changed: u32,
-        in_use: bool,
-        counters: &mut FrameCounters,
-    ) -> Result<(), RenderError> {
-        let ctx = p.ctx;
+    /// Refits or rebuilds the BLAS over the boxes of `input`, then rebuilds the TLAS, as the
+    /// passes `blas_update` or `blas_build`, then `tlas_build`. Records nothing when nothing
+    /// changed, or when ray-traced decals are not `in_use` this frame (the changes wait for the
+    /// next frame that uses them).
+    pub fn build(&mut self, f: &mut Frame, input: DecalBoxInput, in_use: bool, counters: &mut FrameCounters) -> Result<(), RenderError> {
+        let ctx = f.ctx;
+        let (graveyard, frame_value) = (&mut *f.upload.graveyard, f.upload.frame_value);
+        let (aabbs, capacity, changed) = (input.address, input.count, input.changed);
         let Some(rt) = ctx.ray_tracing.as_ref() else { return Ok(()) };
         // Changes made while ray-query decals are not in use are applied when they are again.
         self.pending_changes += changed;
@@ -253,62 +277,45 @@ impl DecalAccel {
         let tlas = self.tlas.as_ref().expect("created above");
 
         let update = work == BlasWork::Update;
-        let name = if update { "blas_update" } else { "blas_build" };
-        p.timed(name, |p| {
-            // Previous frames' ray queries must be done with the structures before they change.
-            crate::sync::memory_barrier(
-                &ctx.device,
-                p.cmd,
-                (vk::PipelineStageFlags2::FRAGMENT_SHADER | vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::NONE),
-                (vk::PipelineStageFlags2::ACCELERATION_STRUCTURE_BUILD_KHR, vk::AccessFlags2::ACCELERATION_STRUCTURE_WRITE_KHR),
-            );
-            let mut info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
-                .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
-                .flags(blas_flags)
-                .mode(if update { vk::BuildAccelerationStructureModeKHR::UPDATE } else { vk::BuildAccelerationStructureModeKHR::BUILD })
-                .dst_acceleration_structure(blas.raw)
-                .geometries(&geometry)
-                .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch_address });
-            if update {
-                info = info.src_acceleration_structure(blas.raw);
-            }
-            let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(capacity)];
-            // SAFETY: `cmd` is recording; the AABB buffer holds `capacity` boxes written by
-            // copies that a barrier has made visible to builds; scratch is large enough.
-            unsafe { asx.cmd_build_acceleration_structures(p.cmd, &[info], &[&ranges[..]]) };
-        });
-        p.timed("tlas_build", |p| {
-            crate::sync::memory_barrier(
-                &ctx.device,
-                p.cmd,
-                (vk::PipelineStageFlags2::ACCELERATION_STRUCTURE_BUILD_KHR, vk::AccessFlags2::ACCELERATION_STRUCTURE_WRITE_KHR),
-                (
-                    vk::PipelineStageFlags2::ACCELERATION_STRUCTURE_BUILD_KHR,
-                    vk::AccessFlags2::ACCELERATION_STRUCTURE_READ_KHR | vk::AccessFlags2::ACCELERATION_STRUCTURE_WRITE_KHR,
-                ),
-            );
-            let instances = self.instances.as_ref().expect("written with the BLAS");
-            let geometry = tlas_geometry_for(instances.address);
-            let info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
-                .ty(vk::AccelerationStructureTypeKHR::TOP_LEVEL)
-                .flags(tlas_flags)
-                .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
-                .dst_acceleration_structure(tlas.raw)
-                .geometries(&geometry)
-                .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch_address });
-            let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(1)];
-            // SAFETY: as above; the instance buffer is host-written before submission.
-            unsafe { asx.cmd_build_acceleration_structures(p.cmd, &[info], &[&ranges[..]]) };
-            crate::sync::memory_barrier(
-                &ctx.device,
-                p.cmd,
-                (vk::PipelineStageFlags2::ACCELERATION_STRUCTURE_BUILD_KHR, vk::AccessFlags2::ACCELERATION_STRUCTURE_WRITE_KHR),
-                (
-                    vk::PipelineStageFlags2::FRAGMENT_SHADER | vk::PipelineStageFlags2::COMPUTE_SHADER,
-                    vk::AccessFlags2::ACCELERATION_STRUCTURE_READ_KHR,
-                ),
-            );
-        });
+        let res = self.res;
+        f.pass(if update { "blas_update" } else { "blas_build" }, PassKind::AccelBuild)
+            .read(input.tables, BufferUse::BuildInput)
+            .write(res.blas, BufferUse::Accel)
+            .write(res.scratch, BufferUse::Accel)
+            .record(|p| {
+                let mut info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+                    .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
+                    .flags(blas_flags)
+                    .mode(if update { vk::BuildAccelerationStructureModeKHR::UPDATE } else { vk::BuildAccelerationStructureModeKHR::BUILD })
+                    .dst_acceleration_structure(blas.raw)
+                    .geometries(&geometry)
+                    .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch_address });
+                if update {
+                    info = info.src_acceleration_structure(blas.raw);
+                }
+                let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(capacity)];
+                // SAFETY: `cmd` is recording; the AABB buffer holds `capacity` boxes, made visible
+                // to builds by the pass's declaration; scratch is large enough.
+                unsafe { asx.cmd_build_acceleration_structures(p.cmd, &[info], &[&ranges[..]]) };
+            })?;
+        let instances = self.instances.as_ref().expect("written with the BLAS").address;
+        f.pass("tlas_build", PassKind::AccelBuild)
+            .read(res.blas, BufferUse::Accel)
+            .write(res.tlas, BufferUse::Accel)
+            .write(res.scratch, BufferUse::Accel)
+            .record(|p| {
+                let geometry = tlas_geometry_for(instances);
+                let info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+                    .ty(vk::AccelerationStructureTypeKHR::TOP_LEVEL)
+                    .flags(tlas_flags)
+                    .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
+                    .dst_acceleration_structure(tlas.raw)
+                    .geometries(&geometry)
+                    .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch_address });
+                let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(1)];
+                // SAFETY: as above; the instance buffer is host-written before submission.
+                unsafe { asx.cmd_build_acceleration_structures(p.cmd, &[info], &[&ranges[..]]) };
+            })?;
 
         counters.tlas_builds += 1;
         if update {

@@ -4,8 +4,9 @@
 //! We need Vulkan 1.3 with dynamic rendering, synchronization2, buffer device address, descriptor
 //! indexing (bindless textures) and timeline semaphores. Ray tracing is optional and reported as
 //! a [`Tier`] (DESIGN.md, "Capability tiers"); [`DeviceSettings::max_tier`] lowers it so one
-//! device can exercise every tier. In debug builds and tests the Khronos validation layer is on
-//! and every error it reports is kept in a [`ValidationLog`] that tests assert empty.
+//! device can exercise every tier. In debug builds and tests the Khronos validation layer is on,
+//! synchronization validation included, and every error it reports is kept in a
+//! [`ValidationLog`] that tests assert empty.
 
 use std::ffi::{CStr, CString, c_void};
 use std::mem::ManuallyDrop;
@@ -76,7 +77,7 @@ pub struct DeviceSettings {
     /// Cap on the capability tier (the device's best tier is used when it is lower).
     pub max_tier: Tier,
     /// Instance extensions a window surface needs (empty when headless); see
-    /// [`crate::window::required_extensions`].
+    /// [`crate::present::window::required_extensions`].
     pub surface_extensions: Vec<&'static CStr>,
 }
 
@@ -209,6 +210,7 @@ impl GpuContext {
         let mut instance_exts: Vec<*const i8> = settings.surface_extensions.iter().map(|e| e.as_ptr()).collect();
         if validation {
             instance_exts.push(ext::debug_utils::NAME.as_ptr());
+            instance_exts.push(ext::validation_features::NAME.as_ptr());
         }
         let layer_ptrs = if validation { vec![layer_name.as_ptr()] } else { vec![] };
         let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
@@ -224,9 +226,13 @@ impl GpuContext {
             .application_info(&app_info)
             .enabled_extension_names(&instance_exts)
             .enabled_layer_names(&layer_ptrs);
+        // Synchronization validation too: hazards between passes (a missing or too narrow
+        // barrier) are errors like any other, and fail the tests.
+        let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+        let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
         if validation {
             // Also catches errors in vkCreateInstance / vkDestroyInstance themselves.
-            instance_info = instance_info.push_next(&mut messenger_info);
+            instance_info = instance_info.push_next(&mut messenger_info).push_next(&mut features);
         }
         // SAFETY: every pointer in the create info refers to locals that outlive the call.
         let instance = unsafe { entry.create_instance(&instance_info, None) }

@@ -6,6 +6,8 @@
 //! testable without a GPU. The `Gpu*` records and shared constants are defined once in
 //! [`crate::layout`], which also generates their GLSL; they are re-exported here.
 
+pub mod gpu;
+
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 

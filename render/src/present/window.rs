@@ -12,9 +12,9 @@ use ash::{khr, vk};
 use raw_window_handle::{RawDisplayHandle, RawWindowHandle};
 
 use crate::RenderError;
-use crate::device::GpuContext;
-use crate::renderer::FRAMES_IN_FLIGHT;
-use crate::sync::ImageState;
+use crate::gpu::device::GpuContext;
+use crate::gpu::FRAMES_IN_FLIGHT;
+use crate::graph::ImageState;
 
 /// The instance extensions a surface on `display` needs.
 pub fn required_extensions(display: RawDisplayHandle) -> Result<Vec<&'static CStr>, RenderError> {
@@ -156,7 +156,7 @@ impl WindowSurface {
                 .subresource_range(range);
             // SAFETY: a view of a live swapchain image; destroyed with the swapchain.
             self.views.push(unsafe { ctx.device.create_image_view(&view_info, None) }?);
-            self.states.push(ImageState::new(image, range));
+            self.states.push(ImageState::default());
             // SAFETY: a plain binary semaphore.
             self.render_done.push(unsafe { ctx.device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }?);
         }

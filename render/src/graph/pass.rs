@@ -1,16 +1,16 @@
-//! What every pass gets: the device, the command buffer being recorded, the shared pipeline
-//! layout with its push constants, and the frame's GPU timer; plus the helpers passes share
-//! (attachments, mesh draws).
+//! What a pass's body gets: the device, the command buffer being recorded, the shared pipeline
+//! layout with its push constants and the render area; plus the helpers passes share (binding,
+//! mesh draws, full-screen triangles).
 
 use ash::vk;
 
-use crate::device::GpuContext;
-use crate::gpu_scene::GpuScene;
-use crate::pipeline::ScenePush;
+use crate::gpu::device::GpuContext;
+use crate::scene::gpu::GpuScene;
+use crate::gpu::pipeline::ScenePush;
 use crate::scene::DrawItem;
-use crate::timestamps::GpuTimer;
 
-/// The recording context handed to each pass function.
+/// What a pass's body records with: the device, the command buffer, the shared pipeline layout
+/// with its push constants, and the render area of the pass's attachments.
 pub struct PassContext<'a> {
     /// The device.
     pub ctx: &'a GpuContext,
@@ -22,18 +22,11 @@ pub struct PassContext<'a> {
     pub bindless: vk::DescriptorSet,
     /// Push constants for scene passes.
     pub push: ScenePush,
-    /// This frame's GPU timer.
-    pub timer: &'a mut GpuTimer,
+    /// The render area (the attachments' size; the targets' size for passes without any).
+    pub extent: vk::Extent2D,
 }
 
 impl PassContext<'_> {
-    /// Records `body` as one timed pass.
-    pub fn timed(&mut self, name: &'static str, body: impl FnOnce(&mut Self)) {
-        self.timer.begin(self.ctx, self.cmd, name);
-        body(self);
-        self.timer.end(self.ctx, self.cmd);
-    }
-
     /// Binds a graphics pipeline with the bindless set and push constants.
     pub fn bind_graphics(&self, pipeline: vk::Pipeline, push: &ScenePush) {
         let d = &self.ctx.device;
@@ -45,13 +38,10 @@ impl PassContext<'_> {
         }
     }
 
-    /// Begins dynamic rendering into the given attachments over `extent`.
-    pub fn begin_rendering(
-        &self,
-        extent: vk::Extent2D,
-        colors: &[vk::RenderingAttachmentInfo],
-        depth: Option<&vk::RenderingAttachmentInfo>,
-    ) {
+    /// Begins dynamic rendering into the given attachments over the pass's extent (the graph
+    /// calls this from the pass's attachment declarations).
+    pub(crate) fn begin_rendering(&self, colors: &[vk::RenderingAttachmentInfo], depth: Option<&vk::RenderingAttachmentInfo>) {
+        let extent = self.extent;
         let mut info = vk::RenderingInfo::default()
             .render_area(vk::Rect2D { offset: vk::Offset2D::default(), extent })
             .layer_count(1)
@@ -62,12 +52,19 @@ impl PassContext<'_> {
         // SAFETY (both blocks): `cmd` is recording; every pipeline has viewport, scissor and cull
         // mode dynamic, and this sets all three before any draw.
         unsafe { self.ctx.device.cmd_begin_rendering(self.cmd, &info) };
-        crate::pipeline::set_viewport(self.ctx, self.cmd, extent);
+        crate::gpu::pipeline::set_viewport(self.ctx, self.cmd, extent);
         unsafe { self.ctx.device.cmd_set_cull_mode(self.cmd, vk::CullModeFlags::NONE) };
     }
 
+    /// Binds `pipeline` with `push` and draws one full-screen triangle.
+    pub fn fullscreen(&self, pipeline: vk::Pipeline, push: &ScenePush) {
+        self.bind_graphics(pipeline, push);
+        // SAFETY: `cmd` is recording inside a rendering scope with the pipeline just bound.
+        unsafe { self.ctx.device.cmd_draw(self.cmd, 3, 1, 0, 0) };
+    }
+
     /// Ends dynamic rendering.
-    pub fn end_rendering(&self) {
+    pub(crate) fn end_rendering(&self) {
         // SAFETY: matches begin_rendering.
         unsafe { self.ctx.device.cmd_end_rendering(self.cmd) };
     }
@@ -98,24 +95,4 @@ impl PassContext<'_> {
             }
         }
     }
-}
-
-/// A colour attachment that is cleared (or loaded) and stored.
-pub fn color_attachment(view: vk::ImageView, clear: Option<[f32; 4]>) -> vk::RenderingAttachmentInfo<'static> {
-    vk::RenderingAttachmentInfo::default()
-        .image_view(view)
-        .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-        .load_op(if clear.is_some() { vk::AttachmentLoadOp::CLEAR } else { vk::AttachmentLoadOp::LOAD })
-        .store_op(vk::AttachmentStoreOp::STORE)
-        .clear_value(vk::ClearValue { color: vk::ClearColorValue { float32: clear.unwrap_or_default() } })
-}
-
-/// A depth attachment; `clear` clears to that depth, otherwise the contents are loaded.
-pub fn depth_attachment(view: vk::ImageView, layout: vk::ImageLayout, clear: Option<f32>) -> vk::RenderingAttachmentInfo<'static> {
-    vk::RenderingAttachmentInfo::default()
-        .image_view(view)
-        .image_layout(layout)
-        .load_op(if clear.is_some() { vk::AttachmentLoadOp::CLEAR } else { vk::AttachmentLoadOp::LOAD })
-        .store_op(vk::AttachmentStoreOp::STORE)
-        .clear_value(vk::ClearValue { depth_stencil: vk::ClearDepthStencilValue { depth: clear.unwrap_or(0.0), stencil: 0 } })
 }

@@ -3,7 +3,7 @@
 use ash::vk;
 
 use crate::RenderError;
-use crate::device::GpuContext;
+use crate::gpu::device::GpuContext;
 
 macro_rules! spirv {
     ($($name:ident = $file:literal;)*) => {

@@ -9,7 +9,7 @@ use gpu_allocator::MemoryLocation;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 
 use crate::RenderError;
-use crate::device::GpuContext;
+use crate::gpu::device::GpuContext;
 
 /// A buffer and its memory.
 pub struct Buffer {

@@ -6,12 +6,12 @@
 use ash::vk;
 
 use crate::RenderError;
-use crate::device::GpuContext;
-use crate::pass::{PassContext, color_attachment};
-use crate::pipeline::{GraphicsDesc, ScenePush, create_graphics};
-use crate::shaders;
-use crate::sync::Access;
-use crate::targets::{HDR_FORMAT, Target};
+use crate::gpu::device::GpuContext;
+use crate::gpu::pipeline::{GraphicsDesc, ScenePush, create_graphics};
+use crate::gpu::shaders;
+use crate::graph::targets::{HDR, HDR_FORMAT};
+use crate::graph::{BufferUse, Frame, Load, PassKind};
+use crate::scene::gpu::GpuScene;
 
 /// The box-drawing pass.
 pub struct DecalBoxes {
@@ -32,30 +32,26 @@ impl DecalBoxes {
             depth_compare: None,
             depth_write: false,
             topology: vk::PrimitiveTopology::LINE_LIST,
-            blend: crate::pipeline::Blend::Replace,
+            blend: crate::gpu::pipeline::Blend::Replace,
             write_masks: &[],
         };
         Ok(Self { pipeline: create_graphics(ctx, layout, &desc)? })
     }
 
-    /// Draws the boxes of decal slots `0..slots` into `hdr`.
-    pub fn record(&self, p: &mut PassContext, hdr: &mut Target, slots: u32) {
+    /// Draws the boxes of decal slots `0..slots` over the HDR target.
+    pub fn record(&self, f: &mut Frame, scene: &GpuScene, slots: u32) -> Result<(), RenderError> {
         if slots == 0 {
-            return;
+            return Ok(());
         }
-        p.timed("decal_boxes", |p| {
-            hdr.use_as(p.ctx, p.cmd, Access::ColorAttachmentWrite);
-            let color = [color_attachment(hdr.image.view, None)];
-            p.begin_rendering(hdr.image.extent, &color, None);
-            for (mode, _) in [(0u32, "oriented"), (1, "aabb")] {
+        f.pass("decal_boxes", PassKind::Graphics).color(&HDR, Load::Keep).read(scene.res.tables, BufferUse::Storage).record(|p| {
+            for mode in [0u32 /* oriented */, 1 /* AABB */] {
                 let push = ScenePush { texture_index: mode, ..p.push };
                 p.bind_graphics(self.pipeline, &push);
                 // SAFETY: `cmd` is recording inside the rendering scope with the pipeline bound;
                 // the decal tables hold at least `slots` records.
                 unsafe { p.ctx.device.cmd_draw(p.cmd, 24, slots, 0, 0) };
             }
-            p.end_rendering();
-        });
+        })
     }
 
     /// Destroys the pipeline; the GPU must be idle.

@@ -4,9 +4,9 @@
 use ash::vk;
 
 use crate::RenderError;
-use crate::device::GpuContext;
+use crate::gpu::device::GpuContext;
 use crate::scene::GpuVertex;
-use crate::shaders;
+use crate::gpu::shaders;
 
 /// Push constants shared by every pass (defined with the GLSL block in [`crate::layout`]).
 pub use crate::layout::ScenePush;
@@ -70,7 +70,7 @@ impl<'a> GraphicsDesc<'a> {
             fragment,
             mesh_vertices: true,
             color_formats,
-            depth_format: Some(crate::targets::DEPTH_FORMAT),
+            depth_format: Some(crate::graph::targets::DEPTH_FORMAT),
             depth_compare: Some(vk::CompareOp::GREATER),
             depth_write: true,
             topology: vk::PrimitiveTopology::TRIANGLE_LIST,

@@ -12,19 +12,19 @@ use bytemuck::Pod;
 use gpu_allocator::MemoryLocation;
 
 use crate::RenderError;
-use crate::device::{GpuContext, Tier};
-use crate::memory::{Buffer, Graveyard, Image, ImageDesc, Retired};
+use crate::gpu::device::{GpuContext, Tier};
+use crate::gpu::memory::{Buffer, Image, ImageDesc, Retired};
 use crate::scene::{
-    FrameCounters, GpuAabb, GpuCamera, GpuMeshInfo, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
+    GpuAabb, GpuCamera, GpuMeshInfo, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
     TextureData,
 };
-use crate::sync::{Access, ImageState, memory_barrier, transition};
-use crate::upload::StagingRing;
+use crate::gpu::upload::{CopyList, Upload};
+use crate::graph::{Bind, BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 
 /// Bindless array size.
 pub const MAX_TEXTURES: u32 = 4096;
-/// Size of the unsigned-integer array (render targets only).
-pub const MAX_UINT_TEXTURES: u32 = 16;
+/// Descriptor bindings after the texture array, one per render target (`BINDING_*`).
+pub const TARGET_BINDINGS: u32 = crate::layout::BINDING_VISIBILITY;
 
 /// A device-local array of records that grows geometrically.
 pub struct GpuTable {
@@ -85,13 +85,13 @@ impl GpuTable {
 
     /// Makes room for `slots` records. Returns true when the buffer was replaced, in which case
     /// every record must be uploaded again.
-    fn ensure(&mut self, ctx: &GpuContext, graveyard: &mut Graveyard, frame_value: u64, slots: u32) -> Result<bool, RenderError> {
+    fn ensure(&mut self, up: &mut Upload, slots: u32) -> Result<bool, RenderError> {
         if slots <= self.capacity {
             return Ok(false);
         }
         let capacity = slots.next_power_of_two().max(self.capacity * 2);
-        let old = std::mem::replace(&mut self.buffer, Self::create(ctx, self.name, self.stride * capacity as u64, self.extra_usage)?);
-        graveyard.bury(frame_value, Retired::Buffer(old));
+        let old = std::mem::replace(&mut self.buffer, Self::create(up.ctx, self.name, self.stride * capacity as u64, self.extra_usage)?);
+        up.graveyard.bury(up.frame_value, Retired::Buffer(old));
         self.capacity = capacity;
         Ok(true)
     }
@@ -104,33 +104,28 @@ fn decal_parking(live: &[GpuAabb], first: u32, count: u32) -> Box<dyn Iterator<I
     Box::new(GpuAabb::parking(live, first, count))
 }
 
-/// Copies the dirty records of `table` (or all of them after a regrow) through `staging` into
-/// `gpu`. Contiguous dirty slots become one copy region.
-#[allow(clippy::too_many_arguments)]
+/// Copies the dirty records of `table` (or all of them after a regrow) through the staging ring
+/// into `gpu`. Contiguous dirty slots become one copy region.
 fn upload_table<T: Pod>(
-    ctx: &GpuContext,
-    graveyard: &mut Graveyard,
-    frame_value: u64,
+    up: &mut Upload,
+    copies: &mut CopyList,
     table: &mut SlotTable<T>,
     gpu: &mut GpuTable,
-    staging: &mut StagingRing,
-    regions: &mut Vec<vk::BufferCopy>,
-    counters: &mut FrameCounters,
     tail: Option<TailFn<T>>,
-) -> Result<Option<vk::Buffer>, RenderError> {
-    let regrown = gpu.ensure(ctx, graveyard, frame_value, table.slot_count())?;
+) -> Result<(), RenderError> {
+    let regrown = gpu.ensure(up, table.slot_count())?;
     if !regrown && table.dirty_count() == 0 {
-        return Ok(None);
+        return Ok(());
     }
-    regions.clear();
     let stride = gpu.stride;
     let capacity = gpu.capacity;
+    let mut copy = copies.buffer_copy(up.staging.buffer(), gpu.buffer());
+    let staging = &mut *up.staging;
     table.take_dirty(|dirty, records| {
         if regrown {
             let bytes = bytemuck::cast_slice(records);
             if !bytes.is_empty() {
-                let src = staging.push(bytes);
-                regions.push(vk::BufferCopy { src_offset: src, dst_offset: 0, size: bytes.len() as u64 });
+                copy.push(staging.push(bytes), 0, bytes.len() as u64);
             }
             if let Some(tail) = tail {
                 // Only when the table grows (geometrically), so this allocation is rare.
@@ -138,8 +133,7 @@ fn upload_table<T: Pod>(
                 let parked: Vec<T> = tail(records, first, capacity - first).collect();
                 let bytes: &[u8] = bytemuck::cast_slice(&parked);
                 if !bytes.is_empty() {
-                    let src = staging.push(bytes);
-                    regions.push(vk::BufferCopy { src_offset: src, dst_offset: first as u64 * stride, size: bytes.len() as u64 });
+                    copy.push(staging.push(bytes), first as u64 * stride, bytes.len() as u64);
                 }
             }
             return;
@@ -153,76 +147,35 @@ fn upload_table<T: Pod>(
                 last += 1;
             }
             let bytes = bytemuck::cast_slice(&records[first as usize..=last as usize]);
-            let src = staging.push(bytes);
-            regions.push(vk::BufferCopy { src_offset: src, dst_offset: first as u64 * stride, size: bytes.len() as u64 });
+            copy.push(staging.push(bytes), first as u64 * stride, bytes.len() as u64);
             i += 1;
         }
     });
-    if regions.is_empty() {
-        return Ok(None);
-    }
-    counters.bytes_uploaded += regions.iter().map(|r| r.size).sum::<u64>();
-    Ok(Some(gpu.buffer()))
+    up.bytes += copy.bytes();
+    Ok(())
 }
 
 /// A [`SlotTable`] of any record type, as the uploader sees it.
 trait DirtyTable {
-    #[allow(clippy::too_many_arguments)]
-    fn upload(
-        &mut self,
-        ctx: &GpuContext,
-        graveyard: &mut Graveyard,
-        frame_value: u64,
-        gpu: &mut GpuTable,
-        staging: &mut StagingRing,
-        regions: &mut Vec<vk::BufferCopy>,
-        counters: &mut FrameCounters,
-    ) -> Result<Option<vk::Buffer>, RenderError>;
+    fn upload(&mut self, up: &mut Upload, copies: &mut CopyList, gpu: &mut GpuTable) -> Result<(), RenderError>;
 }
 
 impl<T: Pod> DirtyTable for SlotTable<T> {
-    fn upload(
-        &mut self,
-        ctx: &GpuContext,
-        graveyard: &mut Graveyard,
-        frame_value: u64,
-        gpu: &mut GpuTable,
-        staging: &mut StagingRing,
-        regions: &mut Vec<vk::BufferCopy>,
-        counters: &mut FrameCounters,
-    ) -> Result<Option<vk::Buffer>, RenderError> {
-        upload_table(ctx, graveyard, frame_value, self, gpu, staging, regions, counters, None)
+    fn upload(&mut self, up: &mut Upload, copies: &mut CopyList, gpu: &mut GpuTable) -> Result<(), RenderError> {
+        upload_table(up, copies, self, gpu, None)
     }
 }
 
 /// Uploads a whole array into `gpu` (growing it as needed). For small tables that change
 /// rarely (the mesh table, the deferred decal order).
-#[allow(clippy::too_many_arguments)]
-fn upload_array(
-    ctx: &GpuContext,
-    graveyard: &mut Graveyard,
-    frame_value: u64,
-    gpu: &mut GpuTable,
-    bytes: &[u8],
-    staging: &mut StagingRing,
-    regions: &mut Vec<vk::BufferCopy>,
-    counters: &mut FrameCounters,
-) -> Result<vk::Buffer, RenderError> {
-    gpu.ensure(ctx, graveyard, frame_value, (bytes.len() as u64).div_ceil(gpu.stride) as u32)?;
-    regions.clear();
+fn upload_array(up: &mut Upload, copies: &mut CopyList, gpu: &mut GpuTable, bytes: &[u8]) -> Result<(), RenderError> {
+    gpu.ensure(up, (bytes.len() as u64).div_ceil(gpu.stride) as u32)?;
     if !bytes.is_empty() {
-        let src = staging.push(bytes);
-        regions.push(vk::BufferCopy { src_offset: src, dst_offset: 0, size: bytes.len() as u64 });
-        counters.bytes_uploaded += bytes.len() as u64;
+        let src = up.staging.push(bytes);
+        copies.buffer_copy(up.staging_buffer(), gpu.buffer()).push(src, 0, bytes.len() as u64);
+        up.bytes += bytes.len() as u64;
     }
-    Ok(gpu.buffer())
-}
-
-/// What [`GpuScene::sync`] did that later passes need to know.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct SyncReport {
-    /// Decal boxes rewritten this frame (drives the BLAS refit).
-    pub decal_boxes_changed: u32,
+    Ok(())
 }
 
 /// Bytes the dirty records of `table` need in the staging ring (worst case: all of them).
@@ -234,6 +187,18 @@ fn staging_need<T: Pod>(table: &SlotTable<T>, gpu: &GpuTable) -> u64 {
     } else {
         table.dirty_count() as u64 * (stride + 16)
     }
+}
+
+/// The frame-graph resources the GPU scene is tracked as.
+#[derive(Clone, Copy, Debug)]
+pub struct SceneResources {
+    /// Every record table (instances, materials, lights, camera, decals and their boxes, the
+    /// mesh table, the deferred decal order): uploaded together, read by every pass.
+    pub tables: ResourceId,
+    /// Vertex and index buffers.
+    pub meshes: ResourceId,
+    /// The bindless material and decal textures.
+    pub textures: ResourceId,
 }
 
 /// Geometry on the GPU: vertices followed by indices in one buffer.
@@ -285,32 +250,32 @@ pub struct GpuScene {
     /// Clamp-to-edge, linear: for render targets sampled by full-screen passes.
     pub clamp_sampler: vk::Sampler,
     released_textures: Vec<(u64, u32)>,
-    regions: Vec<vk::BufferCopy>,
+    copies: CopyList,
+    /// Built-in textures, uploaded with the first frame.
+    builtins: Vec<(u32, TextureData)>,
+    /// The graph resources the scene's buffers and textures are tracked as.
+    pub res: SceneResources,
     mesh_usage: vk::BufferUsageFlags,
 }
 
 impl GpuScene {
     /// Creates empty tables, the bindless set and the built-in textures.
-    pub fn new(ctx: &GpuContext) -> Result<Self, RenderError> {
+    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph) -> Result<Self, RenderError> {
         let d = &ctx.device;
         let bindless = vk::DescriptorBindingFlags::PARTIALLY_BOUND
             | vk::DescriptorBindingFlags::UPDATE_AFTER_BIND
             | vk::DescriptorBindingFlags::UPDATE_UNUSED_WHILE_PENDING;
-        let binding_flags = [bindless, bindless];
+        // Binding 0: the material and decal textures. Bindings 1..=7: one render target each
+        // (`BINDING_*`), so shaders statically use only the targets they sample.
+        let binding_flags = [bindless; 1 + TARGET_BINDINGS as usize];
         let mut flags_info = vk::DescriptorSetLayoutBindingFlagsCreateInfo::default().binding_flags(&binding_flags);
-        let bindings = [
+        let bindings: [vk::DescriptorSetLayoutBinding; 1 + TARGET_BINDINGS as usize] = std::array::from_fn(|i| {
             vk::DescriptorSetLayoutBinding::default()
-                .binding(0)
+                .binding(i as u32)
                 .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
-                .descriptor_count(MAX_TEXTURES)
-                .stage_flags(vk::ShaderStageFlags::ALL),
-            // Unsigned-integer targets (G-buffer layers, visibility ids) need usampler2D.
-            vk::DescriptorSetLayoutBinding::default()
-                .binding(1)
-                .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
-                .descriptor_count(MAX_UINT_TEXTURES)
-                .stage_flags(vk::ShaderStageFlags::ALL),
-        ];
+                .descriptor_count(if i == 0 { MAX_TEXTURES } else { 1 })
+                .stage_flags(vk::ShaderStageFlags::ALL)
+        });
         // SAFETY: create infos point at locals; the objects are destroyed in `destroy`.
         let (set_layout, pool, set, repeat_sampler, clamp_sampler) = unsafe {
             let set_layout = d.create_descriptor_set_layout(
@@ -322,7 +287,7 @@ impl GpuScene {
             )?;
             let sizes = [vk::DescriptorPoolSize {
                 ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-                descriptor_count: MAX_TEXTURES + MAX_UINT_TEXTURES,
+                descriptor_count: MAX_TEXTURES + TARGET_BINDINGS,
             }];
             let pool = d.create_descriptor_pool(
                 &vk::DescriptorPoolCreateInfo::default()
@@ -398,39 +363,31 @@ impl GpuScene {
             repeat_sampler,
             clamp_sampler,
             released_textures: Vec::new(),
-            regions: Vec::with_capacity(64),
+            copies: CopyList::default(),
+            builtins: Vec::new(),
+            res: SceneResources {
+                tables: graph.resource("scene tables"),
+                meshes: graph.resource("meshes"),
+                textures: graph.resource("textures"),
+            },
             mesh_usage,
         };
-        let builtins = [(TEXTURE_WHITE, [255u8, 255, 255, 255]), (TEXTURE_FLAT_NORMAL, [128u8, 128, 255, 255])];
-        let mut staging = Vec::new();
-        ctx.run_once(|cmd| {
-            for (slot, texel) in builtins {
-                let data = TextureData { width: 1, height: 1, srgb: false, mips: vec![texel.to_vec()] };
-                match scene.record_texture_upload(ctx, cmd, slot, &data) {
-                    Ok(buf) => staging.push(buf),
-                    Err(e) => tracing::error!("built-in texture: {e}"),
-                }
-            }
-        })?;
-        for b in staging {
-            b.destroy(ctx);
-        }
-        if scene.textures[TEXTURE_WHITE as usize].is_none() {
-            return Err(RenderError::Other("could not create the built-in textures".into()));
-        }
+        // The built-in textures go up with the first frame's upload, like any other texture.
+        let white = TextureData { width: 1, height: 1, srgb: false, mips: vec![vec![255, 255, 255, 255]] };
+        let flat_normal = TextureData { width: 1, height: 1, srgb: false, mips: vec![vec![128, 128, 255, 255]] };
+        scene.builtins = vec![(TEXTURE_WHITE, white), (TEXTURE_FLAT_NORMAL, flat_normal)];
         Ok(scene)
     }
 
-    /// Writes a render target's `view` into bindless slot `slot` (of the unsigned-integer array
-    /// when `uint`), with the clamp sampler. Only for slots no pending frame samples.
-    pub fn bind_target(&self, ctx: &GpuContext, slot: u32, view: vk::ImageView, uint: bool) {
-        self.write_descriptor_at(ctx, if uint { 1 } else { 0 }, slot, view, self.clamp_sampler, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL);
-    }
-
-    /// Writes the depth target into slot `slot`; passes sample it in `DEPTH_READ_ONLY_OPTIMAL`
-    /// (`Access::DepthSampled`), so it can be a read-only depth attachment at the same time.
-    pub fn bind_depth_target(&self, ctx: &GpuContext, slot: u32, view: vk::ImageView) {
-        self.write_descriptor_at(ctx, 0, slot, view, self.clamp_sampler, vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL);
+    /// Writes a render target's `view` into its bindless slot, with the clamp sampler. Only for
+    /// slots no pending frame samples. Depth is sampled in `DEPTH_READ_ONLY_OPTIMAL`, so it can be
+    /// a read-only depth attachment in the same pass.
+    pub fn bind_target(&self, ctx: &GpuContext, bind: Bind, view: vk::ImageView) {
+        let (binding, layout) = match bind {
+            Bind::Color(binding) => (binding, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL),
+            Bind::Depth(binding) => (binding, vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL),
+        };
+        self.write_descriptor_at(ctx, binding, 0, view, self.clamp_sampler, layout);
     }
 
     fn write_descriptor(&self, ctx: &GpuContext, slot: u32, view: vk::ImageView, sampler: vk::Sampler) {
@@ -459,30 +416,28 @@ impl GpuScene {
         unsafe { ctx.device.update_descriptor_sets(&[write], &[]) };
     }
 
-    /// Creates the image for `data`, records its upload into `cmd` and returns the staging
-    /// buffer, which must live until `cmd` has executed.
-    fn record_texture_upload(
-        &mut self,
-        ctx: &GpuContext,
-        cmd: vk::CommandBuffer,
-        slot: u32,
-        data: &TextureData,
-    ) -> Result<Buffer, RenderError> {
+    /// Creates the image for `data` and prepares its upload: the staging buffer is buried with
+    /// this frame, the copy goes into `copies`.
+    fn prepare_texture(&mut self, up: &mut Upload, copies: &mut CopyList, slot: u32, data: &TextureData) -> Result<(), RenderError> {
+        let ctx = up.ctx;
         if slot >= MAX_TEXTURES {
             return Err(RenderError::Other(format!("texture slot {slot} exceeds the bindless array ({MAX_TEXTURES})")));
         }
-        let total: usize = data.mips.iter().map(|m| m.len()).sum();
-        let mut staging = Buffer::new(ctx, "texture staging", total as u64, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)?;
-        let mut regions = Vec::with_capacity(data.mips.len());
         let mut offset = 0usize;
-        let mapped = staging.mapped();
         for (level, mip) in data.mips.iter().enumerate() {
             let (w, h) = ((data.width >> level).max(1), (data.height >> level).max(1));
             if mip.len() != (w * h * 4) as usize {
                 return Err(RenderError::Other(format!("texture mip {level} has {} bytes, expected {}", mip.len(), w * h * 4)));
             }
+            offset += mip.len();
+        }
+        let mut staging = Buffer::new(ctx, "texture staging", offset as u64, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)?;
+        let src = staging.raw;
+        let mapped = staging.mapped();
+        let mut offset = 0usize;
+        let regions = data.mips.iter().enumerate().map(|(level, mip)| {
             mapped[offset..offset + mip.len()].copy_from_slice(mip);
-            regions.push(vk::BufferImageCopy {
+            let region = vk::BufferImageCopy {
                 buffer_offset: offset as u64,
                 image_subresource: vk::ImageSubresourceLayers {
                     aspect_mask: vk::ImageAspectFlags::COLOR,
@@ -490,11 +445,12 @@ impl GpuScene {
                     base_array_layer: 0,
                     layer_count: 1,
                 },
-                image_extent: vk::Extent3D { width: w, height: h, depth: 1 },
+                image_extent: vk::Extent3D { width: (data.width >> level).max(1), height: (data.height >> level).max(1), depth: 1 },
                 ..Default::default()
-            });
+            };
             offset += mip.len();
-        }
+            region
+        });
         let image = Image::new(
             ctx,
             &ImageDesc {
@@ -505,11 +461,9 @@ impl GpuScene {
                 usage: vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
             },
         )?;
-        let mut state = ImageState::new(image.raw, image.full_range());
-        transition(&ctx.device, cmd, &mut state, Access::TransferWrite, true);
-        // SAFETY: `cmd` is recording; buffer and image are live and the regions lie inside both.
-        unsafe { ctx.device.cmd_copy_buffer_to_image(cmd, staging.raw, image.raw, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &regions) };
-        transition(&ctx.device, cmd, &mut state, Access::ShaderSampled, false);
+        copies.image_copy(src, image.raw, image.full_range(), regions);
+        up.bytes += offset as u64;
+        up.graveyard.bury(up.frame_value, Retired::Buffer(staging));
         self.write_descriptor(ctx, slot, image.view, self.repeat_sampler);
         if self.textures.len() <= slot as usize {
             self.textures.resize_with(slot as usize + 1, || None);
@@ -517,26 +471,18 @@ impl GpuScene {
         if let Some(old) = self.textures[slot as usize].replace(image) {
             old.destroy(ctx); // only reachable for built-ins during setup
         }
-        Ok(staging)
+        Ok(())
     }
 
-    /// Brings the GPU scene up to date with `mirror`, recording copies into `cmd`. Only dirty
-    /// records, new meshes and new textures are copied.
-    #[allow(clippy::too_many_arguments)]
-    pub fn sync(
-        &mut self,
-        ctx: &GpuContext,
-        cmd: vk::CommandBuffer,
-        mirror: &mut SceneMirror,
-        staging: &mut StagingRing,
-        graveyard: &mut Graveyard,
-        frame_value: u64,
-        completed_value: u64,
-    ) -> Result<SyncReport, RenderError> {
-        let mut report = SyncReport::default();
+    /// Brings the GPU scene up to date with `mirror`: prepares copies of what is dirty (only
+    /// dirty records, new meshes and new textures) and records them as the frame's `upload`
+    /// pass. Returns the number of decal boxes rewritten (they drive the BLAS refit).
+    pub fn upload(&mut self, f: &mut Frame, mirror: &mut SceneMirror) -> Result<u32, RenderError> {
+        let up = &mut f.upload;
         // Slots whose last user has finished go back to the mirror for reuse.
+        let completed = up.completed;
         self.released_textures.retain(|&(after, slot)| {
-            if after <= completed_value {
+            if after <= completed {
                 mirror.recycle_texture_slot(slot);
                 false
             } else {
@@ -545,22 +491,21 @@ impl GpuScene {
         });
         for slot in mirror.released_textures.drain(..) {
             if let Some(img) = self.textures.get_mut(slot as usize).and_then(Option::take) {
-                graveyard.bury(frame_value, Retired::Image(img));
+                up.graveyard.bury(up.frame_value, Retired::Image(img));
             }
-            self.released_textures.push((frame_value, slot));
+            self.released_textures.push((up.frame_value, slot));
         }
         for id in mirror.released_meshes.drain(..) {
             if let Some(mesh) = self.meshes.get_mut(id.0 as usize).and_then(Option::take) {
-                graveyard.bury(frame_value, Retired::Buffer(mesh.buffer));
+                up.graveyard.bury(up.frame_value, Retired::Buffer(mesh.buffer));
                 self.mesh_info[id.0 as usize] = GpuMeshInfo::default();
                 self.mesh_info_dirty = true;
             }
         }
 
-        if mirror.is_clean() && !self.decal_order_dirty {
-            return Ok(report);
+        if mirror.is_clean() && !self.decal_order_dirty && self.builtins.is_empty() {
+            return Ok(0);
         }
-        let mut counters = mirror.counters;
         let camera_dirty = mirror.take_camera_dirty();
         let need = staging_need(&mirror.instances, &self.instances)
             + staging_need(&mirror.materials, &self.materials)
@@ -573,25 +518,21 @@ impl GpuScene {
             + 64
             + std::mem::size_of::<GpuCamera>() as u64
             + 64;
-        staging.reserve(ctx, graveyard, frame_value, need)?;
+        up.staging.reserve(up.ctx, up.graveyard, up.frame_value, need)?;
 
-        // Reads of the previous frames must finish before copies overwrite the tables.
-        memory_barrier(
-            &ctx.device,
-            cmd,
-            (vk::PipelineStageFlags2::ALL_GRAPHICS | vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::NONE),
-            (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE),
-        );
-
-        self.upload_meshes(ctx, cmd, mirror, graveyard, frame_value, &mut counters)?;
-        for (slot, data) in std::mem::take(&mut mirror.pending_textures) {
-            let buf = self.record_texture_upload(ctx, cmd, slot, &data)?;
-            counters.bytes_uploaded += data.mips.iter().map(|m| m.len() as u64).sum::<u64>();
-            graveyard.bury(frame_value, Retired::Buffer(buf));
+        let mut copies = std::mem::take(&mut self.copies);
+        copies.clear();
+        let new_meshes = !mirror.pending_meshes.is_empty();
+        self.prepare_meshes(up, &mut copies, mirror)?;
+        let scene_bytes = up.bytes;
+        for (slot, data) in std::mem::take(&mut self.builtins) {
+            self.prepare_texture(up, &mut copies, slot, &data)?;
         }
-
-        let mut regions = std::mem::take(&mut self.regions);
-        report.decal_boxes_changed = mirror.decals.aabbs.dirty_count() as u32;
+        up.bytes = scene_bytes; // the renderer's own textures are not the scene's uploads
+        for (slot, data) in std::mem::take(&mut mirror.pending_textures) {
+            self.prepare_texture(up, &mut copies, slot, &data)?;
+        }
+        let decal_boxes_changed = mirror.decals.aabbs.dirty_count() as u32;
         let tables: [(&mut dyn DirtyTable, &mut GpuTable); 5] = [
             (&mut mirror.instances, &mut self.instances),
             (&mut mirror.materials, &mut self.materials),
@@ -600,86 +541,40 @@ impl GpuScene {
             (&mut mirror.decal_materials, &mut self.decal_materials),
         ];
         for (table, gpu) in tables {
-            let dst = table.upload(ctx, graveyard, frame_value, gpu, staging, &mut regions, &mut counters)?;
-            record_copies(ctx, cmd, staging.buffer(), dst, &regions);
+            table.upload(up, &mut copies, gpu)?;
         }
         let parking: Option<TailFn<GpuAabb>> = self.decal_aabbs.fill_tail.then_some(decal_parking);
-        let dst = upload_table(
-            ctx,
-            graveyard,
-            frame_value,
-            &mut mirror.decals.aabbs,
-            &mut self.decal_aabbs,
-            staging,
-            &mut regions,
-            &mut counters,
-            parking,
-        )?;
-        record_copies(ctx, cmd, staging.buffer(), dst, &regions);
+        upload_table(up, &mut copies, &mut mirror.decals.aabbs, &mut self.decal_aabbs, parking)?;
         if std::mem::take(&mut self.mesh_info_dirty) {
-            let dst = upload_array(
-                ctx,
-                graveyard,
-                frame_value,
-                &mut self.mesh_table,
-                bytemuck::cast_slice(&self.mesh_info),
-                staging,
-                &mut regions,
-                &mut counters,
-            )?;
-            record_copies(ctx, cmd, staging.buffer(), Some(dst), &regions);
+            upload_array(up, &mut copies, &mut self.mesh_table, bytemuck::cast_slice(&self.mesh_info))?;
         }
         if std::mem::take(&mut self.decal_order_dirty) {
-            let dst = upload_array(
-                ctx,
-                graveyard,
-                frame_value,
-                &mut self.decal_order,
-                bytemuck::cast_slice(&self.decal_order_cpu),
-                staging,
-                &mut regions,
-                &mut counters,
-            )?;
-            record_copies(ctx, cmd, staging.buffer(), Some(dst), &regions);
+            upload_array(up, &mut copies, &mut self.decal_order, bytemuck::cast_slice(&self.decal_order_cpu))?;
         }
         if camera_dirty {
-            let src = staging.push(bytemuck::bytes_of(mirror.camera()));
-            let region = [vk::BufferCopy { src_offset: src, dst_offset: 0, size: std::mem::size_of::<GpuCamera>() as u64 }];
-            record_copies(ctx, cmd, staging.buffer(), Some(self.camera.buffer()), &region);
-            counters.bytes_uploaded += region[0].size;
+            let bytes = bytemuck::bytes_of(mirror.camera());
+            let src = up.staging.push(bytes);
+            copies.buffer_copy(up.staging.buffer(), self.camera.buffer()).push(src, 0, bytes.len() as u64);
+            up.bytes += bytes.len() as u64;
         }
-        self.regions = regions;
+        mirror.counters.bytes_uploaded += std::mem::take(&mut up.bytes);
 
-        memory_barrier(
-            &ctx.device,
-            cmd,
-            (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE),
-            (
-                vk::PipelineStageFlags2::ALL_GRAPHICS
-                    | vk::PipelineStageFlags2::COMPUTE_SHADER
-                    | vk::PipelineStageFlags2::ACCELERATION_STRUCTURE_BUILD_KHR,
-                vk::AccessFlags2::SHADER_READ
-                    | vk::AccessFlags2::VERTEX_ATTRIBUTE_READ
-                    | vk::AccessFlags2::INDEX_READ
-                    | vk::AccessFlags2::SHADER_STORAGE_READ,
-            ),
-        );
-        mirror.counters = counters;
-        Ok(report)
+        let res = self.res;
+        let result = f
+            .pass("upload", PassKind::Transfer)
+            .write(res.tables, BufferUse::Transfer)
+            .when(new_meshes, |p| p.write(res.meshes, BufferUse::Transfer))
+            .upload_images(res.textures, copies.images())
+            .record(|p| copies.record(p.ctx, p.cmd));
+        self.copies = copies;
+        result.map(|()| decal_boxes_changed)
     }
 
-    fn upload_meshes(
-        &mut self,
-        ctx: &GpuContext,
-        cmd: vk::CommandBuffer,
-        mirror: &mut SceneMirror,
-        graveyard: &mut Graveyard,
-        frame_value: u64,
-        counters: &mut FrameCounters,
-    ) -> Result<(), RenderError> {
+    fn prepare_meshes(&mut self, up: &mut Upload, copies: &mut CopyList, mirror: &mut SceneMirror) -> Result<(), RenderError> {
         if mirror.pending_meshes.is_empty() {
             return Ok(());
         }
+        let ctx = up.ctx;
         let pending = std::mem::take(&mut mirror.pending_meshes);
         let total: u64 = pending
             .iter()
@@ -697,11 +592,9 @@ impl GpuScene {
             let o = offset as usize;
             mapped[o..o + vbytes.len()].copy_from_slice(vbytes);
             mapped[o + index_offset as usize..o + index_offset as usize + ibytes.len()].copy_from_slice(ibytes);
-            let region = [vk::BufferCopy { src_offset: offset, dst_offset: 0, size }];
-            // SAFETY: `cmd` is recording; the region lies inside both buffers.
-            unsafe { ctx.device.cmd_copy_buffer(cmd, staging.raw, buffer.raw, &region) };
+            copies.buffer_copy(staging.raw, buffer.raw).push(offset, 0, size);
             offset = (offset + size).next_multiple_of(16);
-            counters.bytes_uploaded += vbytes.len() as u64 + ibytes.len() as u64;
+            up.bytes += vbytes.len() as u64 + ibytes.len() as u64;
             let slot = id.0 as usize;
             if self.meshes.len() <= slot {
                 self.meshes.resize_with(slot + 1, || None);
@@ -713,10 +606,10 @@ impl GpuScene {
             self.mesh_info_dirty = true;
             let mesh = GpuMesh { buffer, index_offset, index_count: data.indices.len() as u32, vertex_count: data.vertices.len() as u32 };
             if let Some(old) = self.meshes[slot].replace(mesh) {
-                graveyard.bury(frame_value, Retired::Buffer(old.buffer));
+                up.graveyard.bury(up.frame_value, Retired::Buffer(old.buffer));
             }
         }
-        graveyard.bury(frame_value, Retired::Buffer(staging));
+        up.graveyard.bury(up.frame_value, Retired::Buffer(staging));
         Ok(())
     }
 
@@ -760,12 +653,5 @@ impl GpuScene {
             ctx.device.destroy_descriptor_pool(self.pool, None);
             ctx.device.destroy_descriptor_set_layout(self.set_layout, None);
         }
-    }
-}
-
-fn record_copies(ctx: &GpuContext, cmd: vk::CommandBuffer, src: vk::Buffer, dst: Option<vk::Buffer>, regions: &[vk::BufferCopy]) {
-    if let (Some(dst), false) = (dst, regions.is_empty()) {
-        // SAFETY: `cmd` is recording; the regions lie inside both buffers.
-        unsafe { ctx.device.cmd_copy_buffer(cmd, src, dst, regions) };
     }
 }

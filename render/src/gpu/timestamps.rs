@@ -6,7 +6,7 @@
 use ash::vk;
 
 use crate::RenderError;
-use crate::device::GpuContext;
+use crate::gpu::device::GpuContext;
 
 /// Most passes one frame can time.
 pub const MAX_PASSES: usize = 16;

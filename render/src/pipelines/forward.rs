@@ -6,14 +6,13 @@
 use ash::vk;
 
 use crate::RenderError;
-use crate::device::{GpuContext, Tier};
-use crate::gpu_scene::GpuScene;
-use crate::pass::{PassContext, color_attachment, depth_attachment};
-use crate::pipeline::{GraphicsDesc, create_graphics};
+use crate::gpu::device::{GpuContext, Tier};
+use crate::gpu::pipeline::{GraphicsDesc, create_graphics};
+use crate::gpu::shaders;
+use crate::graph::targets::{DEPTH, HDR, HDR_FORMAT};
+use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind, ResourceId};
 use crate::scene::DrawItem;
-use crate::shaders;
-use crate::sync::Access;
-use crate::targets::{HDR_FORMAT, Targets};
+use crate::scene::gpu::GpuScene;
 
 /// Pipelines of the forward renderer.
 pub struct ForwardPasses {
@@ -47,33 +46,47 @@ impl ForwardPasses {
     }
 
     /// Depth prepass: writes reverse-Z depth for every instance; masked materials discard.
-    pub fn prepass(&self, p: &mut PassContext, targets: &mut Targets, scene: &GpuScene, draws: &[Option<DrawItem>]) {
-        p.timed("prepass", |p| {
-            targets.depth.overwrite_as(p.ctx, p.cmd, Access::DepthAttachmentWrite);
-            let depth = depth_attachment(targets.depth.image.view, Access::DepthAttachmentWrite.layout(), Some(0.0));
-            p.begin_rendering(targets.extent, &[], Some(&depth));
-            let push = p.push;
-            p.bind_graphics(self.prepass_opaque, &push);
-            p.draw_meshes(scene, draws, |d| !d.alpha_mask);
-            p.bind_graphics(self.prepass_mask, &push);
-            p.draw_meshes(scene, draws, |d| d.alpha_mask);
-            p.end_rendering();
-        });
+    pub fn prepass(&self, f: &mut Frame, scene: &GpuScene, draws: &[Option<DrawItem>]) -> Result<(), RenderError> {
+        f.pass("prepass", PassKind::Graphics)
+            .image(&DEPTH, ImageUse::DepthWrite(Load::ClearDepth(0.0)))
+            .read(scene.res.tables, BufferUse::Storage)
+            .read(scene.res.meshes, BufferUse::Vertices)
+            .read(scene.res.textures, BufferUse::SampledImages)
+            .record(|p| {
+                let push = p.push;
+                p.bind_graphics(self.prepass_opaque, &push);
+                p.draw_meshes(scene, draws, |d| !d.alpha_mask);
+                p.bind_graphics(self.prepass_mask, &push);
+                p.draw_meshes(scene, draws, |d| d.alpha_mask);
+            })
     }
 
-    /// Shading: every visible pixel once, lit by every light, into the HDR target.
-    pub fn shade(&self, p: &mut PassContext, targets: &mut Targets, scene: &GpuScene, draws: &[Option<DrawItem>], clear: [f32; 4]) {
-        p.timed("forward", |p| {
-            targets.depth.use_as(p.ctx, p.cmd, Access::DepthAttachmentRead);
-            targets.hdr.overwrite_as(p.ctx, p.cmd, Access::ColorAttachmentWrite);
-            let color = [color_attachment(targets.hdr.image.view, Some(clear))];
-            let depth = depth_attachment(targets.depth.image.view, Access::DepthAttachmentRead.layout(), None);
-            p.begin_rendering(targets.extent, &color, Some(&depth));
+    /// Shading: every visible pixel once, lit by every light, into the HDR target; ray-query
+    /// decals from `decals` (the decal TLAS) when it is given.
+    pub fn shade(
+        &self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        draws: &[Option<DrawItem>],
+        clear: [f32; 4],
+        decals: Option<ResourceId>,
+    ) -> Result<(), RenderError> {
+        let pass = f
+            .pass("forward", PassKind::Graphics)
+            .image(&DEPTH, ImageUse::DepthTest)
+            .color(&HDR, Load::Clear(clear))
+            .read(scene.res.tables, BufferUse::Storage)
+            .read(scene.res.meshes, BufferUse::Vertices)
+            .read(scene.res.textures, BufferUse::SampledImages);
+        let pass = match decals {
+            Some(tlas) => pass.read(tlas, BufferUse::Accel),
+            None => pass,
+        };
+        pass.record(|p| {
             let push = p.push;
             p.bind_graphics(self.shade, &push);
             p.draw_meshes(scene, draws, |_| true);
-            p.end_rendering();
-        });
+        })
     }
 
     /// Destroys the pipelines; the GPU must be idle.

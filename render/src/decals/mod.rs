@@ -1,0 +1,103 @@
+//! Decals (seed 000) on the renderer's side: the acceleration structures over decal boxes that
+//! ray-traced decals enumerate (`accel`), the draw order of deferred decals (`deferred`), and
+//! the debug view of decal boxes (`debug`). The decal records themselves live in the scene's
+//! tables ([`crate::scene::DecalTable`]) and the shading math in `shaders/include/decals.glsl`.
+
+pub mod accel;
+pub mod debug;
+pub mod deferred;
+
+use ash::vk;
+
+use crate::RenderError;
+use crate::gpu::device::{GpuContext, Tier};
+use crate::graph::{Frame, FrameGraph, ResourceId};
+use crate::renderer::{DecalMethod, FrameSettings};
+use crate::scene::SceneMirror;
+use crate::scene::gpu::GpuScene;
+use accel::{DecalAccel, DecalBoxInput};
+use debug::DecalBoxes;
+pub use deferred::{DecalRun, DeferredDecalOrder, plan_deferred_decals};
+
+/// The renderer's decal state.
+pub struct Decals {
+    /// The BLAS and TLAS over decal boxes.
+    pub accel: DecalAccel,
+    /// The box-drawing debug pass.
+    pub boxes: DecalBoxes,
+    /// Deferred decals' draw order.
+    pub order: DeferredDecalOrder,
+}
+
+/// What this frame does with decals, once the acceleration structures are up to date.
+#[derive(Clone, Copy, Debug)]
+pub struct DecalFrame {
+    /// The method applied (after [`DecalMethod::effective`]).
+    pub method: DecalMethod,
+    /// The TLAS the shading passes trace, when ray-query decals are shaded this frame.
+    pub tlas: Option<ResourceId>,
+    /// Its device address (0 without).
+    pub tlas_address: vk::DeviceAddress,
+    /// Live decals the shading passes enumerate (0 skips the decal loop).
+    pub count: u32,
+}
+
+impl Decals {
+    /// Creates the decal passes and registers their graph resources.
+    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
+        Ok(Self { accel: DecalAccel::new(ctx, graph), boxes: DecalBoxes::new(ctx, layout)?, order: DeferredDecalOrder::default() })
+    }
+
+    /// Keeps the deferred decals' draw order in step with this frame's decal changes. Call
+    /// before the scene's upload (which consumes the change marks and uploads the order).
+    pub fn follow_changes(&mut self, mirror: &SceneMirror, scene: &mut GpuScene, s: &FrameSettings) {
+        let method = s.decal_method.effective(s.pipeline);
+        self.order.follow(mirror, scene, method == DecalMethod::DeferredDecals);
+    }
+
+    /// Brings the acceleration structures up to date (`boxes_changed` boxes were uploaded this
+    /// frame) and says what the shading passes apply.
+    pub fn build_accel(
+        &mut self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        mirror: &mut SceneMirror,
+        s: &FrameSettings,
+        boxes_changed: u32,
+    ) -> Result<DecalFrame, RenderError> {
+        let method = s.decal_method.effective(s.pipeline);
+        let input = DecalBoxInput {
+            tables: scene.res.tables,
+            address: scene.decal_aabbs.address(),
+            count: if mirror.decals.records.slot_count() == 0 { 0 } else { scene.decal_aabbs.capacity() },
+            changed: boxes_changed,
+        };
+        self.accel.build(f, input, method == DecalMethod::RayQuery, &mut mirror.counters)?;
+        let shaded = method == DecalMethod::RayQuery && f.ctx.tier == Tier::RayQuery && !mirror.decals.is_empty();
+        Ok(DecalFrame {
+            method,
+            tlas: if shaded { self.accel.tlas() } else { None },
+            tlas_address: if shaded { self.accel.tlas_address() } else { 0 },
+            count: if shaded { mirror.decals.len() as u32 } else { 0 },
+        })
+    }
+
+    /// The deferred decals to draw this frame (none unless they are the method).
+    pub fn deferred_runs(&self, frame: &DecalFrame) -> &[DecalRun] {
+        if frame.method == DecalMethod::DeferredDecals { &self.order.runs } else { &[] }
+    }
+
+    /// The debug view of every decal's box and AABB, when asked for.
+    pub fn draw_boxes(&self, f: &mut Frame, scene: &GpuScene, mirror: &SceneMirror, s: &FrameSettings) -> Result<(), RenderError> {
+        if !s.show_decal_boxes {
+            return Ok(());
+        }
+        self.boxes.record(f, scene, mirror.decals.records.slot_count())
+    }
+
+    /// Destroys everything; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        self.accel.destroy(ctx);
+        self.boxes.destroy(ctx);
+    }
+}

@@ -1,0 +1,12 @@
+//! The Vulkan core every pass builds on: the device and its capability tiers, memory and
+//! deferred destruction, staging uploads, timestamps, SPIR-V and pipeline creation.
+
+pub mod device;
+pub mod memory;
+pub mod pipeline;
+pub mod shaders;
+pub mod timestamps;
+pub mod upload;
+
+/// Frames the CPU may record ahead of the GPU.
+pub const FRAMES_IN_FLIGHT: usize = 2;

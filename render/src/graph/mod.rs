@@ -1,0 +1,652 @@
+//! A frame graph in miniature: passes declare what they read and write, and the graph derives
+//! every barrier and layout transition, begins and ends rendering, and times each pass.
+//!
+//! In the spirit of kajiya's render graph and Frostbite's FrameGraph, sized for this project:
+//!
+//! - **Resources** are images ([`ImageId`]) and buffers or acceleration structures
+//!   ([`ResourceId`]). Render targets are described once by a [`TargetDesc`] and created by the
+//!   graph on first use, kept across frames (a steady-state frame allocates nothing) and
+//!   recreated after [`FrameGraph::resize`]. Other images (swapchain images) are imported, and
+//!   buffers are registered as logical resources: "the scene tables", "the decal BLAS".
+//! - **Passes** are declared with a name, a [`PassKind`] and their uses ([`ImageUse`],
+//!   [`BufferUse`]) through [`Frame::pass`], then recorded with [`PassBuilder::record`].
+//! - **Barriers** come from the declarations only. Each resource remembers its last write and
+//!   the stages that have read it since; a read waits for the last write (once per stage), a
+//!   write waits for the last write and every read since (write-after-read), and an image whose
+//!   layout must change is transitioned. One `vkCmdPipelineBarrier2` per pass carries them all.
+//!   State persists across frames: with one queue, frame N+1's first use waits for frame N's
+//!   last by the same rule.
+//!
+//! **Why immediate, not compiled.** Kajiya and Frostbite collect the whole frame first, then cull
+//! unused passes, alias transient memory and reorder. Our frames are short fixed sequences (one
+//! function per pipeline) in which every declared pass contributes, so the graph derives each
+//! pass's barriers as it is declared and records it at once: the same barriers with no frame
+//! representation to build, and no closures to box (nothing allocates per frame). The
+//! declarations are the interface, so a compiled graph could replace this one without touching
+//! a pass.
+//!
+//! Nothing outside this module calls `vkCmdPipelineBarrier2`.
+
+pub mod access;
+pub mod pass;
+pub mod targets;
+
+use ash::vk;
+
+use crate::RenderError;
+use crate::gpu::device::GpuContext;
+use crate::gpu::memory::{Buffer, Image, ImageDesc};
+use crate::gpu::pipeline::ScenePush;
+use crate::gpu::timestamps::GpuTimer;
+use crate::gpu::upload::Upload;
+
+pub use access::{BufferUse, ImageUse, Load, PassKind};
+use access::ImageAccess;
+pub use pass::PassContext;
+pub use targets::{Bind, TargetDesc};
+
+/// An image the graph tracks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ImageId(u16);
+
+/// A buffer or acceleration structure the graph tracks (a logical resource: it may stand for a
+/// group of buffers that are always used together, such as the scene's record tables).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ResourceId(u16);
+
+/// What happened to a resource lately: the last write and the readers since.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Track {
+    /// Stages and accesses of the last write (a layout transition counts as one, with no
+    /// access).
+    write: Option<(vk::PipelineStageFlags2, vk::AccessFlags2)>,
+    /// Stages the last write has been made visible to.
+    visible: vk::PipelineStageFlags2,
+    /// Stages that read since the last write.
+    readers: vk::PipelineStageFlags2,
+}
+
+impl Track {
+    /// The dependency a use needs (source stage and access), updating the track; `None` when the
+    /// use needs no barrier.
+    fn depend(&mut self, stages: vk::PipelineStageFlags2, access: vk::AccessFlags2, writes: bool, transition: bool) -> Option<Dep> {
+        let write = self.write;
+        let dep = if writes || transition {
+            // Wait for the last write and every read since (write-after-read, -after-write).
+            let (ws, wa) = write.unwrap_or_default();
+            Some(Dep { src_stages: ws | self.readers, src_access: wa, dst_stages: stages, dst_access: access })
+        } else {
+            // A read waits for the last write, once per stage.
+            write.filter(|_| !self.visible.contains(stages)).map(|(ws, wa)| Dep {
+                src_stages: ws,
+                src_access: wa,
+                dst_stages: stages,
+                dst_access: access,
+            })
+        };
+        if writes {
+            *self = Track { write: Some((stages, access)), visible: vk::PipelineStageFlags2::empty(), readers: vk::PipelineStageFlags2::empty() };
+        } else if transition {
+            // The transition happens before `stages`; later readers chain on it.
+            *self = Track { write: Some((stages, vk::AccessFlags2::NONE)), visible: stages, readers: stages };
+        } else {
+            self.visible |= stages;
+            self.readers |= stages;
+        }
+        dep.filter(|d| !d.src_stages.is_empty() || transition)
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Dep {
+    src_stages: vk::PipelineStageFlags2,
+    src_access: vk::AccessFlags2,
+    dst_stages: vk::PipelineStageFlags2,
+    dst_access: vk::AccessFlags2,
+}
+
+/// The state of one tracked image: its layout and its [`Track`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImageState {
+    layout: vk::ImageLayout,
+    track: Track,
+}
+
+impl Default for ImageState {
+    fn default() -> Self {
+        Self { layout: vk::ImageLayout::UNDEFINED, track: Track::default() }
+    }
+}
+
+struct ImageEntry {
+    name: &'static str,
+    /// Set for targets the graph creates; `None` for imported images.
+    desc: Option<&'static TargetDesc>,
+    owned: Option<Image>,
+    raw: vk::Image,
+    view: vk::ImageView,
+    extent: vk::Extent2D,
+    range: vk::ImageSubresourceRange,
+    depth: bool,
+    state: ImageState,
+}
+
+struct ResourceEntry {
+    name: &'static str,
+    track: Track,
+    /// New images the next pass that writes this resource fills by copies (see
+    /// [`PassBuilder::upload_images`]): they are moved from UNDEFINED to TRANSFER_DST first.
+    fresh_images: Vec<(vk::Image, vk::ImageSubresourceRange)>,
+    /// Images filled by a copy and not yet made sampleable: the next pass that reads this
+    /// resource transitions them.
+    pending_images: Vec<(vk::Image, vk::ImageSubresourceRange)>,
+}
+
+/// One declaration of a pass.
+#[derive(Clone, Copy, Debug)]
+enum Decl {
+    Image(ImageRef, ImageUse),
+    Resource(ResourceId, BufferUse, bool),
+}
+
+/// An image named in a declaration: a tracked image, or a target created on first use.
+#[derive(Clone, Copy, Debug)]
+pub enum ImageRef {
+    /// An image already known to the graph.
+    Id(ImageId),
+    /// A render target, created from its description the first time it is named.
+    Target(&'static TargetDesc),
+}
+
+impl From<ImageId> for ImageRef {
+    fn from(id: ImageId) -> Self {
+        ImageRef::Id(id)
+    }
+}
+
+impl From<&'static TargetDesc> for ImageRef {
+    fn from(desc: &'static TargetDesc) -> Self {
+        ImageRef::Target(desc)
+    }
+}
+
+/// The graph: tracked resources, the targets it owns, and scratch space reused every pass.
+pub struct FrameGraph {
+    images: Vec<ImageEntry>,
+    resources: Vec<ResourceEntry>,
+    extent: vk::Extent2D,
+    /// Targets created since [`FrameGraph::take_new_bindings`] was last called, to be bound in
+    /// the bindless set.
+    new_bindings: Vec<(Bind, vk::ImageView)>,
+    decls: Vec<Decl>,
+    image_barriers: Vec<vk::ImageMemoryBarrier2<'static>>,
+    colors: Vec<vk::RenderingAttachmentInfo<'static>>,
+    /// Images dropped by a resize, destroyed once the GPU is idle.
+    retired: Vec<Image>,
+}
+
+impl FrameGraph {
+    /// An empty graph whose targets are `extent` pixels.
+    pub fn new(extent: vk::Extent2D) -> Self {
+        Self {
+            images: Vec::new(),
+            resources: Vec::new(),
+            extent,
+            new_bindings: Vec::new(),
+            decls: Vec::with_capacity(32),
+            image_barriers: Vec::with_capacity(32),
+            colors: Vec::with_capacity(8),
+            retired: Vec::new(),
+        }
+    }
+
+    /// The size of the render targets.
+    pub fn extent(&self) -> vk::Extent2D {
+        self.extent
+    }
+
+    /// Registers a logical buffer or acceleration-structure resource.
+    pub fn resource(&mut self, name: &'static str) -> ResourceId {
+        self.resources.push(ResourceEntry { name, track: Track::default(), fresh_images: Vec::new(), pending_images: Vec::new() });
+        ResourceId((self.resources.len() - 1) as u16)
+    }
+
+    /// Registers an image the graph does not own (a swapchain image); its view, extent and state
+    /// are set each frame with [`FrameGraph::import`].
+    pub fn external_image(&mut self, name: &'static str) -> ImageId {
+        self.images.push(ImageEntry {
+            name,
+            desc: None,
+            owned: None,
+            raw: vk::Image::null(),
+            view: vk::ImageView::null(),
+            extent: vk::Extent2D::default(),
+            range: color_range(),
+            depth: false,
+            state: ImageState::default(),
+        });
+        ImageId((self.images.len() - 1) as u16)
+    }
+
+    /// Points an external image at `raw`/`view` for this frame, in `state`.
+    pub fn import(&mut self, id: ImageId, raw: vk::Image, view: vk::ImageView, extent: vk::Extent2D, state: ImageState) {
+        let e = &mut self.images[id.0 as usize];
+        (e.raw, e.view, e.extent, e.state) = (raw, view, extent, state);
+    }
+
+    /// The state an external image was left in (to hand to the next [`FrameGraph::import`]).
+    pub fn state(&self, id: ImageId) -> ImageState {
+        self.images[id.0 as usize].state
+    }
+
+    /// The image of a target, creating it on first use.
+    pub fn target(&mut self, ctx: &GpuContext, desc: &'static TargetDesc) -> Result<ImageId, RenderError> {
+        if let Some(i) = self.images.iter().position(|e| e.desc.is_some_and(|d| std::ptr::eq(d, desc))) {
+            if self.images[i].owned.is_some() {
+                return Ok(ImageId(i as u16));
+            }
+            self.create_target(ctx, i)?;
+            return Ok(ImageId(i as u16));
+        }
+        self.images.push(ImageEntry {
+            name: desc.name,
+            desc: Some(desc),
+            owned: None,
+            raw: vk::Image::null(),
+            view: vk::ImageView::null(),
+            extent: self.extent,
+            range: color_range(),
+            depth: false,
+            state: ImageState::default(),
+        });
+        let i = self.images.len() - 1;
+        self.create_target(ctx, i)?;
+        Ok(ImageId(i as u16))
+    }
+
+    fn create_target(&mut self, ctx: &GpuContext, i: usize) -> Result<(), RenderError> {
+        let desc = self.images[i].desc.expect("targets have a description");
+        let image = Image::new(ctx, &ImageDesc { name: desc.name, format: desc.format, extent: self.extent, mip_levels: 1, usage: desc.usage })?;
+        let e = &mut self.images[i];
+        (e.raw, e.view, e.extent, e.range) = (image.raw, image.view, image.extent, image.full_range());
+        e.depth = image.aspect.contains(vk::ImageAspectFlags::DEPTH);
+        e.state = ImageState::default();
+        if let Some(bind) = desc.bind {
+            self.new_bindings.push((bind, image.view));
+        }
+        e.owned = Some(image);
+        Ok(())
+    }
+
+    /// A target's image if it has been created (for readback).
+    pub fn existing_target(&self, desc: &'static TargetDesc) -> Option<ImageId> {
+        self.images.iter().position(|e| e.owned.is_some() && e.desc.is_some_and(|d| std::ptr::eq(d, desc))).map(|i| ImageId(i as u16))
+    }
+
+    /// Targets created since the last call and the bindless slots they belong in.
+    pub fn take_new_bindings(&mut self) -> impl Iterator<Item = (Bind, vk::ImageView)> + '_ {
+        self.new_bindings.drain(..)
+    }
+
+    /// Drops every target; they are created again at `extent` when next used. The GPU must be
+    /// idle (call [`FrameGraph::destroy_retired`] after the wait).
+    pub fn resize(&mut self, extent: vk::Extent2D) {
+        self.extent = extent;
+        for e in &mut self.images {
+            if let Some(image) = e.owned.take() {
+                self.retired.push(image);
+            }
+        }
+    }
+
+    /// Destroys the targets a resize dropped; the GPU must no longer use them.
+    pub fn destroy_retired(&mut self, ctx: &GpuContext) {
+        for image in self.retired.drain(..) {
+            image.destroy(ctx);
+        }
+    }
+
+    /// The view of a tracked image.
+    pub fn view(&self, id: ImageId) -> vk::ImageView {
+        self.images[id.0 as usize].view
+    }
+
+    /// Copies a whole single-mip target into host memory and returns its bytes (tightly
+    /// packed). Waits for the GPU; for screenshots and tests, never per frame.
+    pub fn read_back(&mut self, ctx: &GpuContext, desc: &'static TargetDesc, bytes_per_pixel: u64) -> Result<Vec<u8>, RenderError> {
+        let id = self.existing_target(desc).ok_or_else(|| RenderError::Other(format!("nothing has been rendered into `{}` yet", desc.name)))?;
+        let e = &self.images[id.0 as usize];
+        let (raw, extent, aspect) = (e.raw, e.extent, e.range.aspect_mask);
+        let size = extent.width as u64 * extent.height as u64 * bytes_per_pixel;
+        let mut buffer = Buffer::new(ctx, "readback", size, vk::BufferUsageFlags::TRANSFER_DST, gpu_allocator::MemoryLocation::GpuToCpu)?;
+        let result = ctx.run_once(|cmd| {
+            self.decls.clear();
+            self.decls.push(Decl::Image(ImageRef::Id(id), ImageUse::TransferSrc));
+            self.emit_barriers(ctx, cmd, PassKind::Transfer);
+            let region = vk::BufferImageCopy {
+                image_subresource: vk::ImageSubresourceLayers { aspect_mask: aspect, mip_level: 0, base_array_layer: 0, layer_count: 1 },
+                image_extent: vk::Extent3D { width: extent.width, height: extent.height, depth: 1 },
+                ..Default::default()
+            };
+            // SAFETY: `cmd` is recording; the barrier above put the image in TRANSFER_SRC layout
+            // and the buffer holds the whole image.
+            unsafe { ctx.device.cmd_copy_image_to_buffer(cmd, raw, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, buffer.raw, &[region]) };
+        });
+        let bytes = result.map(|_| buffer.mapped()[..size as usize].to_vec());
+        buffer.destroy(ctx);
+        bytes
+    }
+
+    /// Resolves a declaration's image (creating a target on first use).
+    fn resolve(&mut self, ctx: &GpuContext, image: ImageRef) -> Result<ImageId, RenderError> {
+        match image {
+            ImageRef::Id(id) => Ok(id),
+            ImageRef::Target(desc) => self.target(ctx, desc),
+        }
+    }
+
+    /// Derives and records the barriers the current declarations need (one call).
+    fn emit_barriers(&mut self, ctx: &GpuContext, cmd: vk::CommandBuffer, kind: PassKind) {
+        let mut memory: Option<Dep> = None;
+        let mut merge = |dep: Dep| {
+            memory = Some(match memory {
+                None => dep,
+                Some(m) => Dep {
+                    src_stages: m.src_stages | dep.src_stages,
+                    src_access: m.src_access | dep.src_access,
+                    dst_stages: m.dst_stages | dep.dst_stages,
+                    dst_access: m.dst_access | dep.dst_access,
+                },
+            })
+        };
+        self.image_barriers.clear();
+        for decl in &self.decls {
+            match *decl {
+                Decl::Image(ImageRef::Id(id), use_) => {
+                    let e = &mut self.images[id.0 as usize];
+                    let a: ImageAccess = use_.access(kind, e.depth);
+                    let transition = e.state.layout != a.layout || a.discard;
+                    if let Some(dep) = e.state.track.depend(a.stages, a.access, a.writes, transition) {
+                        let old = if a.discard { vk::ImageLayout::UNDEFINED } else { e.state.layout };
+                        self.image_barriers.push(image_barrier(dep, old, a.layout, e.raw, e.range));
+                    }
+                    e.state.layout = a.layout;
+                }
+                Decl::Image(ImageRef::Target(_), _) => unreachable!("targets are resolved when declared"),
+                Decl::Resource(id, use_, write) => {
+                    let e = &mut self.resources[id.0 as usize];
+                    let (stages, access) = use_.access(kind, write);
+                    // Images uploaded into this resource become sampleable for their first reader.
+                    if !write && !e.pending_images.is_empty() {
+                        let (ws, wa) = e.track.write.unwrap_or_default();
+                        let dep = Dep { src_stages: ws, src_access: wa, dst_stages: stages, dst_access: vk::AccessFlags2::SHADER_SAMPLED_READ };
+                        for (raw, range) in e.pending_images.drain(..) {
+                            let layout = vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL;
+                            self.image_barriers.push(image_barrier(dep, vk::ImageLayout::TRANSFER_DST_OPTIMAL, layout, raw, range));
+                        }
+                    }
+                    if let Some(dep) = e.track.depend(stages, access, write, false) {
+                        merge(dep);
+                    }
+                    // New images this pass fills start in TRANSFER_DST (their old contents are
+                    // undefined); the pass's first reader makes them sampleable (above).
+                    if write {
+                        let dep = Dep { src_stages: vk::PipelineStageFlags2::NONE, src_access: vk::AccessFlags2::NONE, dst_stages: stages, dst_access: access };
+                        for (raw, range) in e.fresh_images.drain(..) {
+                            let layout = vk::ImageLayout::TRANSFER_DST_OPTIMAL;
+                            self.image_barriers.push(image_barrier(dep, vk::ImageLayout::UNDEFINED, layout, raw, range));
+                            e.pending_images.push((raw, range));
+                        }
+                    }
+                }
+            }
+        }
+        let memory_barriers: &[vk::MemoryBarrier2] = &match memory {
+            Some(d) => [vk::MemoryBarrier2::default()
+                .src_stage_mask(d.src_stages)
+                .src_access_mask(d.src_access)
+                .dst_stage_mask(d.dst_stages)
+                .dst_access_mask(d.dst_access)],
+            None => [vk::MemoryBarrier2::default()],
+        }[..memory.is_some() as usize];
+        if self.image_barriers.is_empty() && memory_barriers.is_empty() {
+            return;
+        }
+        let info = vk::DependencyInfo::default().image_memory_barriers(&self.image_barriers).memory_barriers(memory_barriers);
+        // SAFETY: `cmd` is recording outside a rendering scope; every barrier names a live image
+        // of this device with a range inside it.
+        unsafe { ctx.device.cmd_pipeline_barrier2(cmd, &info) };
+    }
+}
+
+fn color_range() -> vk::ImageSubresourceRange {
+    vk::ImageSubresourceRange { aspect_mask: vk::ImageAspectFlags::COLOR, base_mip_level: 0, level_count: 1, base_array_layer: 0, layer_count: 1 }
+}
+
+fn image_barrier(
+    dep: Dep,
+    old: vk::ImageLayout,
+    new: vk::ImageLayout,
+    image: vk::Image,
+    range: vk::ImageSubresourceRange,
+) -> vk::ImageMemoryBarrier2<'static> {
+    vk::ImageMemoryBarrier2::default()
+        .src_stage_mask(if dep.src_stages.is_empty() { vk::PipelineStageFlags2::NONE } else { dep.src_stages })
+        .src_access_mask(dep.src_access)
+        .dst_stage_mask(if dep.dst_stages.is_empty() { vk::PipelineStageFlags2::ALL_COMMANDS } else { dep.dst_stages })
+        .dst_access_mask(dep.dst_access)
+        .old_layout(old)
+        .new_layout(new)
+        .image(image)
+        .subresource_range(range)
+}
+
+/// One frame being recorded: the command buffer, the graph, the frame's timer and the state
+/// every pass shares (pipeline layout, bindless set, push constants).
+pub struct Frame<'a> {
+    /// The device.
+    pub ctx: &'a GpuContext,
+    /// The command buffer being recorded.
+    pub cmd: vk::CommandBuffer,
+    /// The graph.
+    pub graph: &'a mut FrameGraph,
+    /// This frame's GPU timer.
+    pub timer: &'a mut GpuTimer,
+    /// The layout shared by all pipelines.
+    pub layout: vk::PipelineLayout,
+    /// The bindless set.
+    pub bindless: vk::DescriptorSet,
+    /// Push constants for scene passes.
+    pub push: ScenePush,
+    /// Staging, graveyard and timeline values for the frame's uploads and allocations.
+    pub upload: Upload<'a>,
+}
+
+impl<'a> Frame<'a> {
+    /// Declares a use of `image` outside any pass (handing a swapchain image to presentation):
+    /// records only the barrier it needs.
+    pub fn hand_over(&mut self, image: ImageId, use_: ImageUse) {
+        self.graph.decls.clear();
+        self.graph.decls.push(Decl::Image(ImageRef::Id(image), use_));
+        self.graph.emit_barriers(self.ctx, self.cmd, PassKind::Transfer);
+    }
+
+    /// Starts declaring a pass.
+    pub fn pass(&mut self, name: &'static str, kind: PassKind) -> PassBuilder<'_, 'a> {
+        self.graph.decls.clear();
+        PassBuilder { frame: self, name, kind, error: None }
+    }
+}
+
+/// A pass being declared; [`PassBuilder::record`] records it.
+#[must_use = "a declared pass does nothing until it is recorded"]
+pub struct PassBuilder<'f, 'a> {
+    frame: &'f mut Frame<'a>,
+    name: &'static str,
+    kind: PassKind,
+    error: Option<RenderError>,
+}
+
+impl PassBuilder<'_, '_> {
+    /// Declares a use of an image (a tracked image or a target).
+    pub fn image(mut self, image: impl Into<ImageRef>, use_: ImageUse) -> Self {
+        match self.frame.graph.resolve(self.frame.ctx, image.into()) {
+            Ok(id) => self.frame.graph.decls.push(Decl::Image(ImageRef::Id(id), use_)),
+            Err(e) => self.error = self.error.or(Some(e)),
+        }
+        self
+    }
+
+    /// Declares a colour attachment (in declaration order: location 0, 1, …).
+    pub fn color(self, image: impl Into<ImageRef>, load: Load) -> Self {
+        self.image(image, ImageUse::Color(load))
+    }
+
+    /// Declares that the pass's shaders sample `image`.
+    pub fn sample(self, image: impl Into<ImageRef>) -> Self {
+        self.image(image, ImageUse::Sampled)
+    }
+
+    /// Declares that the pass reads `resource` as `use_`.
+    pub fn read(self, resource: ResourceId, use_: BufferUse) -> Self {
+        self.frame.graph.decls.push(Decl::Resource(resource, use_, false));
+        self
+    }
+
+    /// Declares that the pass writes `resource` as `use_`.
+    pub fn write(self, resource: ResourceId, use_: BufferUse) -> Self {
+        self.frame.graph.decls.push(Decl::Resource(resource, use_, true));
+        self
+    }
+
+    /// Applies `declare` when `condition` holds (an optional declaration in a chain).
+    pub fn when(self, condition: bool, declare: impl FnOnce(Self) -> Self) -> Self {
+        if condition { declare(self) } else { self }
+    }
+
+    /// Declares that the pass's copies fill new images belonging to `resource` (textures): they
+    /// are moved into TRANSFER_DST before the pass, and made sampleable for the first pass that
+    /// reads `resource` afterwards.
+    pub fn upload_images(self, resource: ResourceId, images: impl IntoIterator<Item = (vk::Image, vk::ImageSubresourceRange)>) -> Self {
+        self.frame.graph.resources[resource.0 as usize].fresh_images.extend(images);
+        self.write(resource, BufferUse::Transfer)
+    }
+
+    /// Records the pass: the derived barriers, the timer, the rendering scope of its attachments
+    /// (if any), then `body`.
+    pub fn record<R>(self, body: impl FnOnce(&mut PassContext) -> R) -> Result<R, RenderError> {
+        if let Some(e) = self.error {
+            return Err(e);
+        }
+        let f = self.frame;
+        let (ctx, cmd) = (f.ctx, f.cmd);
+        // The pass's time includes its barriers (the wait for what it depends on).
+        f.timer.begin(ctx, cmd, self.name);
+        f.graph.emit_barriers(ctx, cmd, self.kind);
+        let graph = &mut *f.graph;
+        let mut extent = graph.extent;
+        let mut depth = None;
+        graph.colors.clear();
+        for decl in &graph.decls {
+            let Decl::Image(ImageRef::Id(id), use_) = *decl else { continue };
+            if !use_.is_attachment() {
+                continue;
+            }
+            let e = &graph.images[id.0 as usize];
+            extent = e.extent;
+            let layout = use_.access(self.kind, e.depth).layout;
+            let info = attachment(e.view, layout, use_);
+            if e.depth { depth = Some(info) } else { graph.colors.push(info) }
+        }
+        let rendering = depth.is_some() || !graph.colors.is_empty();
+        let mut p = PassContext { ctx, cmd, layout: f.layout, bindless: f.bindless, push: f.push, extent };
+        if rendering {
+            p.begin_rendering(&graph.colors, depth.as_ref());
+        }
+        let result = body(&mut p);
+        if rendering {
+            p.end_rendering();
+        }
+        f.timer.end(ctx, cmd);
+        Ok(result)
+    }
+
+    /// The name this pass is timed under.
+    pub fn name(&self) -> &'static str {
+        self.name
+    }
+}
+
+fn attachment(view: vk::ImageView, layout: vk::ImageLayout, use_: ImageUse) -> vk::RenderingAttachmentInfo<'static> {
+    let (load_op, clear) = match use_ {
+        ImageUse::Color(Load::Clear(c)) => (vk::AttachmentLoadOp::CLEAR, vk::ClearValue { color: vk::ClearColorValue { float32: c } }),
+        ImageUse::DepthWrite(Load::ClearDepth(d)) | ImageUse::Color(Load::ClearDepth(d)) => {
+            (vk::AttachmentLoadOp::CLEAR, vk::ClearValue { depth_stencil: vk::ClearDepthStencilValue { depth: d, stencil: 0 } })
+        }
+        ImageUse::DepthWrite(Load::Clear(c)) => {
+            (vk::AttachmentLoadOp::CLEAR, vk::ClearValue { depth_stencil: vk::ClearDepthStencilValue { depth: c[0], stencil: 0 } })
+        }
+        ImageUse::Color(Load::Discard) | ImageUse::DepthWrite(Load::Discard) => (vk::AttachmentLoadOp::DONT_CARE, vk::ClearValue::default()),
+        _ => (vk::AttachmentLoadOp::LOAD, vk::ClearValue::default()),
+    };
+    vk::RenderingAttachmentInfo::default()
+        .image_view(view)
+        .image_layout(layout)
+        .load_op(load_op)
+        .store_op(vk::AttachmentStoreOp::STORE)
+        .clear_value(clear)
+}
+
+impl FrameGraph {
+    /// Destroys every target the graph owns; the GPU must be idle.
+    pub fn destroy(mut self, ctx: &GpuContext) {
+        self.destroy_retired(ctx);
+        for e in self.images {
+            if let Some(image) = e.owned {
+                image.destroy(ctx);
+            }
+        }
+    }
+
+    /// Names of the tracked resources (for debugging).
+    pub fn resource_names(&self) -> impl Iterator<Item = &'static str> + '_ {
+        self.images.iter().map(|e| e.name).chain(self.resources.iter().map(|e| e.name))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vk::{AccessFlags2 as A, PipelineStageFlags2 as S};
+
+    #[test]
+    fn a_read_waits_for_the_last_write_once_per_stage() {
+        let mut t = Track::default();
+        assert!(t.depend(S::COPY, A::TRANSFER_WRITE, true, false).is_none(), "a first write waits for nothing");
+        let d = t.depend(S::FRAGMENT_SHADER, A::SHADER_STORAGE_READ, false, false).expect("read after write");
+        assert_eq!((d.src_stages, d.src_access), (S::COPY, A::TRANSFER_WRITE));
+        assert!(t.depend(S::FRAGMENT_SHADER, A::SHADER_STORAGE_READ, false, false).is_none(), "already visible");
+        let d = t.depend(S::COMPUTE_SHADER, A::SHADER_STORAGE_READ, false, false).expect("a new stage");
+        assert_eq!(d.dst_stages, S::COMPUTE_SHADER);
+    }
+
+    #[test]
+    fn a_write_waits_for_every_read_since_the_last_write() {
+        let mut t = Track::default();
+        t.depend(S::COPY, A::TRANSFER_WRITE, true, false);
+        t.depend(S::FRAGMENT_SHADER, A::SHADER_STORAGE_READ, false, false);
+        t.depend(S::COMPUTE_SHADER, A::SHADER_STORAGE_READ, false, false);
+        let d = t.depend(S::COPY, A::TRANSFER_WRITE, true, false).expect("write after read");
+        assert_eq!(d.src_stages, S::COPY | S::FRAGMENT_SHADER | S::COMPUTE_SHADER);
+        assert_eq!(d.src_access, A::TRANSFER_WRITE);
+    }
+
+    #[test]
+    fn a_layout_transition_is_ordered_like_a_write() {
+        let mut t = Track::default();
+        assert!(t.depend(S::FRAGMENT_SHADER, A::SHADER_SAMPLED_READ, false, true).is_some(), "a transition always needs a barrier");
+        assert!(t.depend(S::FRAGMENT_SHADER, A::SHADER_SAMPLED_READ, false, false).is_none());
+        let d = t.depend(S::COMPUTE_SHADER, A::SHADER_SAMPLED_READ, false, false).expect("chained on the transition");
+        assert_eq!(d.src_stages, S::FRAGMENT_SHADER);
+    }
+}

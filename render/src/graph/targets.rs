@@ -1,0 +1,128 @@
+//! The render targets, described once (the frame graph creates them).
+//!
+//! The HDR colour target holds linear radiance (RGBA16F) and is what image tests compare against
+//! CPU references; the display target holds the tone-mapped sRGB image that becomes the
+//! screenshot. Depth is D32 with reverse-Z (cleared to 0, tested GREATER / EQUAL).
+
+use ash::vk;
+
+/// HDR colour format.
+pub const HDR_FORMAT: vk::Format = vk::Format::R16G16B16A16_SFLOAT;
+/// Depth format.
+pub const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
+/// Display (tone-mapped) format.
+pub const DISPLAY_FORMAT: vk::Format = vk::Format::R8G8B8A8_SRGB;
+/// G-buffer formats; shaders/gbuffer.frag says why each.
+pub const GBUFFER_ALBEDO_FORMAT: vk::Format = vk::Format::R8G8B8A8_SRGB;
+/// Shading normal × 0.5 + 0.5.
+pub const GBUFFER_NORMAL_FORMAT: vk::Format = vk::Format::A2B10G10R10_UNORM_PACK32;
+/// Roughness, metallic.
+pub const GBUFFER_MATERIAL_FORMAT: vk::Format = vk::Format::R8G8_UNORM;
+/// Decal receiver layers (low 8 bits).
+pub const GBUFFER_LAYERS_FORMAT: vk::Format = vk::Format::R8_UINT;
+/// Visibility buffer: instance slot, triangle index.
+pub const VISIBILITY_FORMAT: vk::Format = vk::Format::R32G32_UINT;
+
+pub use crate::layout::{
+    BINDING_DEPTH, BINDING_GBUFFER_ALBEDO, BINDING_GBUFFER_LAYERS, BINDING_GBUFFER_MATERIAL, BINDING_GBUFFER_NORMAL, BINDING_HDR,
+    BINDING_VISIBILITY,
+};
+
+/// Where a target is bound for sampling: its descriptor binding in set 0 (`BINDING_*`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Bind {
+    /// A colour target, sampled in SHADER_READ_ONLY_OPTIMAL.
+    Color(u32),
+    /// A depth target, sampled in DEPTH_READ_ONLY_OPTIMAL (so it can be a read-only depth
+    /// attachment of the same pass).
+    Depth(u32),
+}
+
+/// A render target, described once; the frame graph creates it at the view's size on first use,
+/// keeps it across frames and recreates it after a resize.
+#[derive(Debug)]
+pub struct TargetDesc {
+    /// Debug name.
+    pub name: &'static str,
+    /// Texel format.
+    pub format: vk::Format,
+    /// How it is used.
+    pub usage: vk::ImageUsageFlags,
+    /// Where shaders find it, if they sample it.
+    pub bind: Option<Bind>,
+}
+
+use vk::ImageUsageFlags as U;
+
+const ATTACHMENT_SAMPLED: vk::ImageUsageFlags =
+    vk::ImageUsageFlags::from_raw(U::COLOR_ATTACHMENT.as_raw() | U::SAMPLED.as_raw() | U::TRANSFER_SRC.as_raw());
+
+/// Linear radiance.
+pub static HDR: TargetDesc = TargetDesc { name: "hdr", format: HDR_FORMAT, usage: ATTACHMENT_SAMPLED, bind: Some(Bind::Color(BINDING_HDR)) };
+/// Reverse-Z depth.
+pub static DEPTH: TargetDesc = TargetDesc {
+    name: "depth",
+    format: DEPTH_FORMAT,
+    usage: vk::ImageUsageFlags::from_raw(U::DEPTH_STENCIL_ATTACHMENT.as_raw() | U::SAMPLED.as_raw() | U::TRANSFER_SRC.as_raw()),
+    bind: Some(Bind::Depth(BINDING_DEPTH)),
+};
+/// Tone-mapped sRGB output (headless; a window presents the swapchain image instead).
+pub static DISPLAY: TargetDesc = TargetDesc {
+    name: "display",
+    format: DISPLAY_FORMAT,
+    usage: vk::ImageUsageFlags::from_raw(U::COLOR_ATTACHMENT.as_raw() | U::TRANSFER_SRC.as_raw()),
+    bind: None,
+};
+/// G-buffer albedo and occlusion.
+pub static GBUFFER_ALBEDO: TargetDesc =
+    TargetDesc { name: "gbuffer albedo", format: GBUFFER_ALBEDO_FORMAT, usage: ATTACHMENT_SAMPLED, bind: Some(Bind::Color(BINDING_GBUFFER_ALBEDO)) };
+/// G-buffer shading normal.
+pub static GBUFFER_NORMAL: TargetDesc =
+    TargetDesc { name: "gbuffer normal", format: GBUFFER_NORMAL_FORMAT, usage: ATTACHMENT_SAMPLED, bind: Some(Bind::Color(BINDING_GBUFFER_NORMAL)) };
+/// G-buffer roughness and metallic.
+pub static GBUFFER_MATERIAL: TargetDesc = TargetDesc {
+    name: "gbuffer material",
+    format: GBUFFER_MATERIAL_FORMAT,
+    usage: ATTACHMENT_SAMPLED,
+    bind: Some(Bind::Color(BINDING_GBUFFER_MATERIAL)),
+};
+/// G-buffer decal receiver layers.
+pub static GBUFFER_LAYERS: TargetDesc =
+    TargetDesc { name: "gbuffer layers", format: GBUFFER_LAYERS_FORMAT, usage: ATTACHMENT_SAMPLED, bind: Some(Bind::Color(BINDING_GBUFFER_LAYERS)) };
+/// The visibility buffer's instance and triangle ids.
+pub static VISIBILITY: TargetDesc =
+    TargetDesc { name: "visibility", format: VISIBILITY_FORMAT, usage: ATTACHMENT_SAMPLED, bind: Some(Bind::Color(BINDING_VISIBILITY)) };
+
+/// Converts an IEEE half float to f32.
+pub fn f16_to_f32(h: u16) -> f32 {
+    let sign = ((h >> 15) & 1) as u32;
+    let exp = ((h >> 10) & 0x1f) as u32;
+    let mant = (h & 0x3ff) as u32;
+    let bits = match (exp, mant) {
+        (0, 0) => sign << 31,
+        (0, m) => {
+            // Subnormal: renormalise.
+            let shift = m.leading_zeros() - 21;
+            let m = (m << shift) & 0x3ff;
+            (sign << 31) | ((127 - 15 + 1 - shift) << 23) | (m << 13)
+        }
+        (0x1f, m) => (sign << 31) | (0xff << 23) | (m << 13),
+        (e, m) => (sign << 31) | ((e + 127 - 15) << 23) | (m << 13),
+    };
+    f32::from_bits(bits)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::f16_to_f32;
+
+    #[test]
+    fn half_floats_decode() {
+        assert_eq!(f16_to_f32(0x3c00), 1.0);
+        assert_eq!(f16_to_f32(0xc000), -2.0);
+        assert_eq!(f16_to_f32(0x3555), 0.333_251_95);
+        assert_eq!(f16_to_f32(0x0001), 5.960_464_5e-8);
+        assert!(f16_to_f32(0x7e00).is_nan());
+        assert_eq!(f16_to_f32(0x7c00), f32::INFINITY);
+    }
+}

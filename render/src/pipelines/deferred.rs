@@ -1,0 +1,174 @@
+//! Deferred shading (seed 000 §2.6, §5.1.2): a geometry pass writes material attributes into the
+//! G-buffer, optional deferred decals (§3.2, §5.1.2.1) alpha-blend into it, and one full-screen
+//! lighting pass applies ray-query decals (when they are the method) and every light.
+//!
+//! Decal normals: the seed transformed deferred decals' normals with the decal's
+//! inverse-transpose and notes that this is wrong when the decal is oriented unlike the surface.
+//! Instead of storing a compressed tangent frame in the G-buffer to fix that, we build the frame
+//! the decal's normal map is read in from the decal's own axes projected onto the surface normal
+//! (`shaders/include/decals.glsl`), which is right for any orientation and needs only the normal
+//! the G-buffer already holds: the fix costs no G-buffer bytes. (Ray-query decals in the lighting
+//! pass use the normal-mapped G-buffer normal; deferred decals, which cannot read the normal
+//! target while blending into it, use the geometric normal reconstructed from depth.)
+//!
+//! The G-buffer's formats and the reasons for them are in `shaders/gbuffer.frag` (11 bytes a
+//! pixel beside depth and the HDR target). Deferred
+//! decals are drawn in channel-then-weight order as runs of instanced boxes; each run shares the
+//! decal material's set of attributes, which selects one of 16 pipelines whose write masks touch
+//! only those attributes.
+
+use ash::vk;
+
+use crate::RenderError;
+use crate::gpu::device::{GpuContext, Tier};
+use crate::gpu::pipeline::{Blend, GraphicsDesc, create_graphics};
+use crate::gpu::shaders;
+use crate::graph::targets::{
+    DEPTH, DEPTH_FORMAT, GBUFFER_ALBEDO, GBUFFER_ALBEDO_FORMAT, GBUFFER_LAYERS, GBUFFER_LAYERS_FORMAT, GBUFFER_MATERIAL,
+    GBUFFER_MATERIAL_FORMAT, GBUFFER_NORMAL, GBUFFER_NORMAL_FORMAT, HDR, HDR_FORMAT,
+};
+use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind, ResourceId};
+use crate::scene::gpu::GpuScene;
+use crate::decals::DecalRun;
+use crate::scene::{DECAL_ALBEDO, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, DrawItem};
+
+/// Pipelines of the deferred renderer.
+pub struct DeferredPasses {
+    gbuffer_opaque: vk::Pipeline,
+    gbuffer_mask: vk::Pipeline,
+    lighting: vk::Pipeline,
+    /// Indexed by `DECAL_*` flags (0..16).
+    decals: Vec<vk::Pipeline>,
+}
+
+const GBUFFER_FORMATS: [vk::Format; 5] =
+    [GBUFFER_ALBEDO_FORMAT, GBUFFER_NORMAL_FORMAT, GBUFFER_MATERIAL_FORMAT, GBUFFER_LAYERS_FORMAT, HDR_FORMAT];
+
+impl DeferredPasses {
+    /// Creates the pipelines.
+    pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
+        let geometry = GraphicsDesc::mesh("gbuffer", Some(shaders::GBUFFER_FRAG), &GBUFFER_FORMATS);
+        let hdr = [HDR_FORMAT];
+        let lighting_fs =
+            if ctx.tier == Tier::RayQuery { shaders::DEFERRED_LIGHTING_FRAG_RAY_QUERY_DECALS } else { shaders::DEFERRED_LIGHTING_FRAG };
+        let mut lighting = GraphicsDesc::fullscreen("deferred lighting", lighting_fs, &hdr);
+        lighting.blend = Blend::Additive;
+        let decal_formats = [GBUFFER_ALBEDO_FORMAT, GBUFFER_NORMAL_FORMAT, GBUFFER_MATERIAL_FORMAT];
+        let mut decals = Vec::with_capacity(16);
+        for flags in 0..16u32 {
+            use vk::ColorComponentFlags as C;
+            let rgb = C::R | C::G | C::B;
+            let masks = [
+                if flags & DECAL_ALBEDO != 0 { rgb } else { C::empty() },
+                if flags & DECAL_NORMAL != 0 { rgb } else { C::empty() },
+                (if flags & DECAL_ROUGHNESS != 0 { C::R } else { C::empty() })
+                    | (if flags & DECAL_METALLIC != 0 { C::G } else { C::empty() }),
+            ];
+            decals.push(create_graphics(
+                ctx,
+                layout,
+                &GraphicsDesc {
+                    name: "deferred decals",
+                    vertex: shaders::DECAL_BOX_VERT,
+                    fragment: Some(shaders::DEFERRED_DECAL_FRAG),
+                    mesh_vertices: false,
+                    color_formats: &decal_formats,
+                    // Front faces tested against the scene's depth (read-only): boxes hidden
+                    // behind other geometry cost nothing. Boxes the camera is inside are drawn
+                    // inside-out at the near plane instead (shaders/decal_box.vert).
+                    depth_format: Some(DEPTH_FORMAT),
+                    depth_compare: Some(vk::CompareOp::GREATER_OR_EQUAL),
+                    depth_write: false,
+                    topology: vk::PrimitiveTopology::TRIANGLE_LIST,
+                    blend: Blend::Alpha,
+                    write_masks: &masks,
+                },
+            )?);
+        }
+        Ok(Self {
+            gbuffer_opaque: create_graphics(ctx, layout, &geometry)?,
+            gbuffer_mask: create_graphics(ctx, layout, &GraphicsDesc { fragment: Some(shaders::GBUFFER_FRAG_ALPHA_MASK), ..geometry })?,
+            lighting: create_graphics(ctx, layout, &lighting)?,
+            decals,
+        })
+    }
+
+    /// Geometry pass: depth and every attribute, emitted radiance into the HDR target.
+    pub fn geometry(&self, f: &mut Frame, scene: &GpuScene, draws: &[Option<DrawItem>], clear: [f32; 4]) -> Result<(), RenderError> {
+        f.pass("gbuffer", PassKind::Graphics)
+            .image(&DEPTH, ImageUse::DepthWrite(Load::ClearDepth(0.0)))
+            .color(&GBUFFER_ALBEDO, Load::Clear([0.0; 4]))
+            .color(&GBUFFER_NORMAL, Load::Clear([0.5, 0.5, 1.0, 1.0]))
+            .color(&GBUFFER_MATERIAL, Load::Clear([0.0; 4]))
+            .color(&GBUFFER_LAYERS, Load::Clear([0.0; 4]))
+            .color(&HDR, Load::Clear(clear))
+            .read(scene.res.tables, BufferUse::Storage)
+            .read(scene.res.meshes, BufferUse::Vertices)
+            .read(scene.res.textures, BufferUse::SampledImages)
+            .record(|p| {
+                let push = p.push;
+                p.bind_graphics(self.gbuffer_opaque, &push);
+                p.draw_meshes(scene, draws, |d| !d.alpha_mask);
+                p.bind_graphics(self.gbuffer_mask, &push);
+                p.draw_meshes(scene, draws, |d| d.alpha_mask);
+            })
+    }
+
+    /// Deferred decals: the boxes of `runs`, blended into the G-buffer.
+    pub fn decals(&self, f: &mut Frame, scene: &GpuScene, runs: &[DecalRun]) -> Result<(), RenderError> {
+        if runs.is_empty() {
+            return Ok(());
+        }
+        f.pass("deferred_decals", PassKind::Graphics)
+            .image(&DEPTH, ImageUse::DepthTestSampled)
+            .sample(&GBUFFER_LAYERS)
+            .color(&GBUFFER_ALBEDO, Load::Keep)
+            .color(&GBUFFER_NORMAL, Load::Keep)
+            .color(&GBUFFER_MATERIAL, Load::Keep)
+            .read(scene.res.tables, BufferUse::Storage)
+            .read(scene.res.textures, BufferUse::SampledImages)
+            .record(|p| {
+                let push = p.push;
+                for run in runs {
+                    p.bind_graphics(self.decals[(run.flags & 15) as usize], &push);
+                    // SAFETY: `cmd` is recording inside the rendering scope with the pipeline
+                    // bound; the draw order table holds `first + count` entries.
+                    unsafe {
+                        p.ctx.device.cmd_set_cull_mode(p.cmd, vk::CullModeFlags::BACK);
+                        p.ctx.device.cmd_draw(p.cmd, 36, run.count, 0, run.first);
+                    }
+                }
+            })
+    }
+
+    /// Lighting: one full-screen pass over the G-buffer, added to the emitted radiance;
+    /// ray-query decals from `decals` (the decal TLAS) when it is given.
+    pub fn lighting(&self, f: &mut Frame, scene: &GpuScene, decals: Option<ResourceId>) -> Result<(), RenderError> {
+        let pass = f
+            .pass("lighting", PassKind::Graphics)
+            .sample(&DEPTH)
+            .sample(&GBUFFER_ALBEDO)
+            .sample(&GBUFFER_NORMAL)
+            .sample(&GBUFFER_MATERIAL)
+            .sample(&GBUFFER_LAYERS)
+            .color(&HDR, Load::Keep)
+            .read(scene.res.tables, BufferUse::Storage)
+            .read(scene.res.textures, BufferUse::SampledImages);
+        let pass = match decals {
+            Some(tlas) => pass.read(tlas, BufferUse::Accel),
+            None => pass,
+        };
+        pass.record(|p| {
+            let push = p.push;
+            p.fullscreen(self.lighting, &push);
+        })
+    }
+
+    /// Destroys the pipelines; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        for p in [self.gbuffer_opaque, self.gbuffer_mask, self.lighting].into_iter().chain(self.decals) {
+            // SAFETY: the GPU is idle.
+            unsafe { ctx.device.destroy_pipeline(p, None) };
+        }
+    }
+}

@@ -1,0 +1,33 @@
+//! Getting the frame to the eye: tone mapping into the display image (the offscreen display
+//! target or a swapchain image), the egui overlay on top, and the window swapchain.
+
+pub mod overlay;
+pub mod tonemap;
+pub mod window;
+
+use crate::RenderError;
+use crate::graph::{Frame, ImageRef, Load, PassKind};
+use crate::scene::gpu::GpuScene;
+use overlay::{Overlay, OverlayFrame};
+use tonemap::Tonemap;
+
+/// The end of a frame: where it goes and what is drawn over it.
+pub struct Present<'a> {
+    /// The tone mapper for the display image's format.
+    pub tonemap: &'a Tonemap,
+    /// The display image.
+    pub target: ImageRef,
+    /// The egui overlay and this frame's primitives, in a window.
+    pub overlay: Option<(&'a mut Overlay, &'a OverlayFrame)>,
+}
+
+impl Present<'_> {
+    /// Tone maps the HDR target into the display image, then draws the overlay over it.
+    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene) -> Result<(), RenderError> {
+        self.tonemap.record(f, scene, self.target)?;
+        if let Some((egui, frame)) = &mut self.overlay {
+            f.pass("overlay", PassKind::Graphics).color(self.target, Load::Keep).record(|p| egui.record(p.cmd, p.extent, frame))??;
+        }
+        Ok(())
+    }
+}
