@@ -1,15 +1,28 @@
 //! Shared helpers for the integration tests.
 
+#![forbid(unsafe_code)]
+
 use std::path::PathBuf;
 
 use engine::prelude::*;
 use plugins::{GpuRenderer, RenderPlugin, RenderSettings};
 use render::{Renderer, RendererSettings};
 
-/// The third-party glTF models beside the project (`../shared/assets/gltf`), if present.
-pub fn shared_gltf_dir() -> Option<PathBuf> {
+/// The third-party glTF models beside the project (`../shared/assets/gltf` from the workspace
+/// root). CI always has them, so their absence fails the calling test instead of skipping it.
+///
+/// # Panics
+///
+/// When the directory does not exist, with a message naming the expected path.
+pub fn shared_gltf_dir() -> PathBuf {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets/gltf");
-    dir.is_dir().then_some(dir)
+    assert!(
+        dir.is_dir(),
+        "the shared glTF models are missing at {}: they live beside the project in ../shared/assets/gltf \
+         (CI always has them; tests that need them fail rather than skip without them)",
+        dir.display()
+    );
+    dir
 }
 
 /// An app with the render plugin but no GPU: extraction runs, nothing is drawn.

@@ -5,6 +5,8 @@
 //! differ from the clear colour) and luma variance above stated floors; and a frame in which
 //! nothing changed uploads nothing.
 
+#![forbid(unsafe_code)]
+
 use sandbox::headless::{HeadlessOptions, SceneSource, run};
 use tests::{image_stats, shared_gltf_dir};
 
@@ -44,20 +46,12 @@ fn default_courtyard_renders() {
 
 #[test]
 fn damaged_helmet_renders() {
-    let Some(dir) = shared_gltf_dir() else {
-        eprintln!("skipping: ../shared/assets/gltf not found");
-        return;
-    };
-    check_scene(SceneSource::Gltf(dir.join("DamagedHelmet/DamagedHelmet.glb")), 0.12);
+    check_scene(SceneSource::Gltf(shared_gltf_dir().join("DamagedHelmet/DamagedHelmet.glb")), 0.12);
 }
 
 #[test]
 fn suzanne_renders() {
-    let Some(dir) = shared_gltf_dir() else {
-        eprintln!("skipping: ../shared/assets/gltf not found");
-        return;
-    };
-    check_scene(SceneSource::Gltf(dir.join("Suzanne/Suzanne.gltf")), 0.12);
+    check_scene(SceneSource::Gltf(shared_gltf_dir().join("Suzanne/Suzanne.gltf")), 0.12);
 }
 
 #[test]
