@@ -1,8 +1,13 @@
-//! A lit quad through the whole forward pipeline, built from plain data (no ECS).
+//! A lit quad through the whole forward pipeline, built from plain data (no ECS): the device is
+//! described truthfully, the frame has the requested size, the quad is lit where the camera looks
+//! at it, the sky around it is the clear colour, and a frame in which nothing changed uploads
+//! nothing.
+
+#![forbid(unsafe_code)]
 
 use glam::{Mat4, Vec2, Vec3};
 use render::scene::{DrawItem, GpuCamera, GpuInstance, GpuLight, GpuMaterial, GpuVertex, MeshData, SceneMirror};
-use render::{FrameSettings, Renderer, RendererSettings};
+use render::{FrameSettings, Renderer, RendererSettings, Tier};
 
 fn quad() -> MeshData {
     let v = |x: f32, z: f32| GpuVertex { position: [x, 0.0, z], normal: [0.0, 1.0, 0.0], uv: [x, z], tangent: [1.0, 0.0, 0.0, 1.0] };
@@ -14,6 +19,15 @@ fn lit_quad_renders_and_quiet_frames_upload_nothing() {
     let (w, h) = (64, 48);
     let mut r = Renderer::new(&RendererSettings::default(), w, h).expect("renderer");
     assert!(r.validation_enabled(), "tests run with the validation layer");
+    assert!(!r.device_name().trim().is_empty(), "the device has a name");
+    let tier = r.tier();
+    assert!(
+        [Tier::NoRayTracing, Tier::RayTracingPipeline, Tier::RayQuery].contains(&tier) && Tier::from_name(tier.name()) == Some(tier),
+        "the tier in use is a known tier: {tier:?}"
+    );
+    assert_eq!(tier, r.capabilities().best_tier(), "without a cap the device's best tier is used");
+    assert_eq!(r.size(), (w, h), "the renderer has the requested size");
+
     let mut m = SceneMirror::new();
     let mesh = m.add_mesh(quad());
     let mat = m.materials.insert(GpuMaterial::default());
@@ -36,18 +50,33 @@ fn lit_quad_renders_and_quiet_frames_upload_nothing() {
         inv_viewport_size: Vec2::new(1.0 / w as f32, 1.0 / h as f32),
         ..Default::default()
     });
-    let first = r.render(&mut m, &FrameSettings::default()).expect("frame");
-    assert!(first.counters.bytes_uploaded > 0);
+    let settings = FrameSettings::default();
+    let first = r.render(&mut m, &settings).expect("frame");
+    assert_eq!(first.frame, 0, "frames are numbered from 0");
+    assert!(first.counters.bytes_uploaded > 0, "the first frame uploads the scene");
+    assert_eq!((first.counters.instances, first.counters.lights), (1, 1), "one quad and one light: {:?}", first.counters);
     m.begin_frame();
-    let quiet = r.render(&mut m, &FrameSettings::default()).expect("frame");
-    assert_eq!(quiet.counters.bytes_uploaded, 0);
+    let quiet = r.render(&mut m, &settings).expect("frame");
+    assert_eq!(quiet.frame, 1);
+    assert_eq!(quiet.counters.bytes_uploaded, 0, "a frame with no change uploads nothing");
+    assert_eq!(quiet.counters.records_written, 0, "a frame with no change writes no record");
+
     let hdr = r.read_hdr().expect("readback");
-    let errors = r.take_validation_errors();
-    assert!(errors.is_empty(), "validation errors: {errors:#?}");
-    let centre = hdr[(h / 2 * w + w / 2) as usize];
-    assert!(centre[0] > 0.01, "centre pixel is lit: {centre:?}");
+    let depth = r.read_depth().expect("depth readback");
+    assert_eq!(hdr.len(), (w * h) as usize, "the HDR frame is {w}x{h}");
+    assert_eq!(depth.len(), (w * h) as usize, "the depth frame is {w}x{h}");
+    assert!(hdr.iter().flatten().all(|v| v.is_finite()), "no NaN or infinity in the HDR target");
+    // The camera looks at the quad's centre; the top rows look past its far edge (about 20 m
+    // away at the top corners, the quad ends at 4 m) into the clear colour.
+    let centre_index = (h / 2 * w + w / 2) as usize;
+    let centre = hdr[centre_index];
+    assert!(centre[..3].iter().all(|&c| c > 0.01), "centre pixel is lit: {centre:?}");
+    assert!(depth[centre_index] > 0.0, "geometry covers the centre (reverse-Z depth {})", depth[centre_index]);
     let corner = hdr[0];
+    let clear = settings.clear_color;
+    assert!(corner[..3].iter().zip(&clear).all(|(c, k)| (c - k).abs() < 1e-3), "corner pixel {corner:?} is the clear colour {clear:?}");
+    assert_eq!(depth[0], 0.0, "nothing covers the corner (reverse-Z far plane)");
     let errors = r.take_validation_errors();
     assert!(errors.is_empty(), "validation errors: {errors:#?}");
-    eprintln!("centre {centre:?} corner {corner:?} device {}", r.device_name());
+    eprintln!("centre {centre:?} corner {corner:?} device {} tier {}", r.device_name(), tier.name());
 }

@@ -12,6 +12,8 @@
 //!   interpolated from the ray hit rather than by the rasteriser.
 //! - depth: bit-identical (every pipeline's depth comes from the same invariant vertex shader).
 
+#![forbid(unsafe_code)]
+
 use engine::prelude::*;
 use plugins::decal::{Decal, DecalMaterial};
 use plugins::{RenderSettings, RenderStats};
@@ -68,7 +70,18 @@ fn all_pipelines_render_the_same_scene_alike_and_the_same_depth() {
     let mut app = courtyard_app();
     let (forward, forward_depth) = render_with(&mut app, PipelineKind::Forward, DecalMethod::RayQuery, DebugView::Lit);
     let covered = |i: usize| forward_depth[i] > 0.0;
-    assert!(forward_depth.iter().filter(|d| **d > 0.0).count() > (SIZE.0 * SIZE.1 / 2) as usize);
+    let pixels = (SIZE.0 * SIZE.1) as usize;
+    let covered_count = forward_depth.iter().filter(|d| **d > 0.0).count();
+    assert!(covered_count > pixels / 2, "geometry covers more than half the image: {covered_count} of {pixels} pixels");
+    // The sky check below compares only pixels no geometry covers; without any (a camera buried
+    // in a wall or looking at the floor) it would pass vacuously.
+    let sky_count = pixels - covered_count;
+    eprintln!("sky: {sky_count} of {pixels} pixels");
+    assert!(
+        sky_count >= pixels / 20,
+        "the courtyard camera must see some sky for the clear-colour check to mean anything: \
+         only {sky_count} of {pixels} pixels are uncovered (is the camera broken?)"
+    );
     for pipeline in [PipelineKind::Deferred, PipelineKind::VisBuffer] {
         let (image, depth) = render_with(&mut app, pipeline, DecalMethod::RayQuery, DebugView::Lit);
         assert_no_validation_errors(&mut app);
