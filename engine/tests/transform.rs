@@ -1,5 +1,7 @@
 //! Headless tests of transform propagation through the app's `PostUpdate`.
 
+#![forbid(unsafe_code)]
+
 use std::time::Duration;
 
 use engine::prelude::*;

@@ -7,6 +7,8 @@
 //!
 //! Run: `cargo bench -p plugins --bench extraction`
 
+#![forbid(unsafe_code)]
+
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
 use engine::prelude::*;
 use plugins::decal::{Decal, DecalMaterial};

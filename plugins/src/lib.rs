@@ -16,6 +16,8 @@
 //! app.update(); // extract, upload what changed, record, submit
 //! ```
 
+#![forbid(unsafe_code)]
+
 pub mod decal;
 pub mod extract;
 

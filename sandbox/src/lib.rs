@@ -1,5 +1,7 @@
 //! The sandbox game: the reference example of the public API.
 
+#![forbid(unsafe_code)]
+
 pub mod bench;
 pub mod decal_textures;
 pub mod game;

@@ -1,6 +1,8 @@
 //! `sandbox`: the reference game. This build plays headless: it renders a scene offscreen and
 //! writes a screenshot and per-frame statistics.
 
+#![forbid(unsafe_code)]
+
 use std::path::PathBuf;
 
 use anyhow::{Result, bail};

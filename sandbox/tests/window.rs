@@ -3,6 +3,8 @@
 //! cleanly (a validation error makes it exit with an error). Without a display the same command
 //! says so and plays headless, writing a screenshot.
 
+#![forbid(unsafe_code)]
+
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};

@@ -7,6 +7,8 @@
 //! read back and compared per pixel. Pixels within one pixel footprint of any box edge are
 //! skipped: there the GPU's interpolated position and our exact one may fall on different sides.
 
+#![forbid(unsafe_code)]
+
 use engine::prelude::*;
 use plugins::decal::{AngleFade, Decal, DecalLifetime, DecalMaterial, DecalReceiver};
 use plugins::{MirrorSlots, RenderMirror, RenderSettings, RenderStats};
