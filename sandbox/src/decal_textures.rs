@@ -18,7 +18,14 @@
 //! slopes do not depend on the texture resolution.
 //!
 //! [`write_pngs`] writes level 0 of every image as PNG; the copies committed under
-//! `assets/decals/` are checked against the generator by the unit tests.
+//! `assets/decals/` are checked against the generator byte for byte by the unit tests. After
+//! changing the generator, regenerate them with the `gen_decal_textures` tool
+//! (`sandbox/src/bin/gen_decal_textures.rs`):
+//!
+//! ```sh
+//! cargo run -p sandbox --bin gen_decal_textures            # writes assets/decals/*.png
+//! cargo run -p sandbox --bin gen_decal_textures -- out/dir  # or into another directory
+//! ```
 
 use std::f32::consts::{PI, TAU};
 use std::path::{Path, PathBuf};
@@ -789,9 +796,8 @@ mod tests {
         for set in all() {
             for (file, image) in png_files(&set) {
                 let path = dir.join(&file);
-                let bytes = std::fs::read(&path).unwrap_or_else(|e| {
-                    panic!("{}: {e}; regenerate with `cargo test -p sandbox --lib -- --ignored write_decal_pngs`", path.display())
-                });
+                let bytes = std::fs::read(&path)
+                    .unwrap_or_else(|e| panic!("{}: {e}; regenerate with `cargo run -p sandbox --bin gen_decal_textures`", path.display()));
                 total += bytes.len() as u64;
                 count += 1;
                 let decoded = ::image::load_from_memory(&bytes).unwrap().into_rgba8();
@@ -803,12 +809,21 @@ mod tests {
         assert!(total < 600 * 1024, "decal PNGs take {total} bytes");
     }
 
-    /// Regenerates `assets/decals/*.png`: `cargo test -p sandbox --lib -- --ignored write_decal_pngs`.
     #[test]
-    #[ignore = "writes into the source tree"]
-    fn write_decal_pngs() {
-        let written = write_pngs(&assets_dir()).unwrap();
-        assert_eq!(written.len(), 10);
+    fn write_pngs_writes_every_file_as_the_generator_makes_it() {
+        // What the `gen_decal_textures` tool does, into a scratch directory.
+        let dir = std::env::temp_dir().join(format!("decal-pngs-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let written = write_pngs(&dir).unwrap();
+        let sets = all();
+        let expected: Vec<_> = sets.iter().flat_map(png_files).collect();
+        assert_eq!(written.len(), expected.len());
+        for (path, (file, image)) in written.iter().zip(&expected) {
+            assert_eq!(path, &dir.join(file));
+            let decoded = ::image::open(path).unwrap().into_rgba8();
+            assert!(decoded.as_raw() == &image.mips[0], "{file} differs from the generator");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
