@@ -243,10 +243,18 @@ impl Renderer {
                     &vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family).flags(vk::CommandPoolCreateFlags::TRANSIENT),
                     None,
                 )?;
-                let cmd = d.allocate_command_buffers(&vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1))?[0];
+                let cmd =
+                    d.allocate_command_buffers(&vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1))?[0];
                 (pool, cmd)
             };
-            frames.push(FrameSlot { pool, cmd, staging: StagingRing::new(ctx, 64 * 1024)?, timer: GpuTimer::new(ctx)?, value: 0, frame: 0 });
+            frames.push(FrameSlot {
+                pool,
+                cmd,
+                staging: StagingRing::new(ctx, 64 * 1024)?,
+                timer: GpuTimer::new(ctx)?,
+                value: 0,
+                frame: 0,
+            });
         }
         Ok(Resources {
             frames,
@@ -431,18 +439,25 @@ impl Renderer {
             d.end_command_buffer(cmd)?;
             let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
             // Fixed-size arrays, sliced: a steady-state frame allocates nothing.
-            let timeline =
-                vk::SemaphoreSubmitInfo::default().semaphore(res.timeline).value(frame_value).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS);
+            let timeline = vk::SemaphoreSubmitInfo::default()
+                .semaphore(res.timeline)
+                .value(frame_value)
+                .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS);
             let (waits, signals, n) = match &acquired {
                 Some(image) => (
                     [vk::SemaphoreSubmitInfo::default().semaphore(image.wait).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)],
-                    [timeline, vk::SemaphoreSubmitInfo::default().semaphore(image.signal).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)],
+                    [
+                        timeline,
+                        vk::SemaphoreSubmitInfo::default().semaphore(image.signal).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS),
+                    ],
                     1,
                 ),
                 None => ([vk::SemaphoreSubmitInfo::default()], [timeline, vk::SemaphoreSubmitInfo::default()], 0),
             };
-            let submit =
-                vk::SubmitInfo2::default().command_buffer_infos(&cmds).wait_semaphore_infos(&waits[..n]).signal_semaphore_infos(&signals[..1 + n]);
+            let submit = vk::SubmitInfo2::default()
+                .command_buffer_infos(&cmds)
+                .wait_semaphore_infos(&waits[..n])
+                .signal_semaphore_infos(&signals[..1 + n]);
             d.queue_submit2(ctx.queue, &[submit], vk::Fence::null())?;
         }
         if let (Some((surface, _)), Some(image)) = (&mut window, &acquired) {

@@ -57,7 +57,13 @@ impl DeferredDecalOrder {
     pub fn follow(&mut self, mirror: &SceneMirror, scene: &mut GpuScene, in_use: bool) {
         let changed = mirror.decals.records.dirty_count() > 0 || mirror.decal_materials.dirty_count() > 0;
         if in_use && (changed || !self.valid) {
-            plan_deferred_decals(mirror.decals.records.records(), mirror.decal_materials.records(), &mut self.keys, &mut self.slots, &mut self.runs);
+            plan_deferred_decals(
+                mirror.decals.records.records(),
+                mirror.decal_materials.records(),
+                &mut self.keys,
+                &mut self.slots,
+                &mut self.runs,
+            );
             scene.set_decal_order(&self.slots);
             self.valid = true;
         } else if changed {

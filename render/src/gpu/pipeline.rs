@@ -5,8 +5,8 @@ use ash::vk;
 
 use crate::RenderError;
 use crate::gpu::device::GpuContext;
-use crate::scene::GpuVertex;
 use crate::gpu::shaders;
+use crate::scene::GpuVertex;
 
 /// Push constants shared by every pass (defined with the GLSL block in [`crate::layout`]).
 pub use crate::layout::ScenePush;

@@ -86,7 +86,13 @@ impl CopyList {
     }
 
     /// Adds a copy from `src` into a new image (all of `range`) through `regions`.
-    pub fn image_copy(&mut self, src: vk::Buffer, image: vk::Image, range: vk::ImageSubresourceRange, regions: impl IntoIterator<Item = vk::BufferImageCopy>) {
+    pub fn image_copy(
+        &mut self,
+        src: vk::Buffer,
+        image: vk::Image,
+        range: vk::ImageSubresourceRange,
+        regions: impl IntoIterator<Item = vk::BufferImageCopy>,
+    ) {
         self.image_regions.extend(regions);
         self.images.push((src, image, range, self.image_regions.len()));
     }

@@ -98,9 +98,13 @@ impl ImageUse {
         use vk::{AccessFlags2 as A, ImageLayout as L, PipelineStageFlags2 as S};
         let tests = S::EARLY_FRAGMENT_TESTS | S::LATE_FRAGMENT_TESTS;
         let (stages, access, layout, writes, discard) = match self {
-            ImageUse::Color(load) => {
-                (S::COLOR_ATTACHMENT_OUTPUT, A::COLOR_ATTACHMENT_WRITE | A::COLOR_ATTACHMENT_READ, L::COLOR_ATTACHMENT_OPTIMAL, true, load.discards())
-            }
+            ImageUse::Color(load) => (
+                S::COLOR_ATTACHMENT_OUTPUT,
+                A::COLOR_ATTACHMENT_WRITE | A::COLOR_ATTACHMENT_READ,
+                L::COLOR_ATTACHMENT_OPTIMAL,
+                true,
+                load.discards(),
+            ),
             ImageUse::DepthWrite(load) => (
                 tests,
                 A::DEPTH_STENCIL_ATTACHMENT_WRITE | A::DEPTH_STENCIL_ATTACHMENT_READ,
@@ -109,13 +113,9 @@ impl ImageUse {
                 load.discards(),
             ),
             ImageUse::DepthTest => (tests, A::DEPTH_STENCIL_ATTACHMENT_READ, L::DEPTH_READ_ONLY_OPTIMAL, false, false),
-            ImageUse::DepthTestSampled => (
-                tests | kind.stages(),
-                A::DEPTH_STENCIL_ATTACHMENT_READ | A::SHADER_SAMPLED_READ,
-                L::DEPTH_READ_ONLY_OPTIMAL,
-                false,
-                false,
-            ),
+            ImageUse::DepthTestSampled => {
+                (tests | kind.stages(), A::DEPTH_STENCIL_ATTACHMENT_READ | A::SHADER_SAMPLED_READ, L::DEPTH_READ_ONLY_OPTIMAL, false, false)
+            }
             ImageUse::Sampled => (
                 kind.stages(),
                 A::SHADER_SAMPLED_READ,

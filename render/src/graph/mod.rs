@@ -40,8 +40,8 @@ use crate::gpu::pipeline::ScenePush;
 use crate::gpu::timestamps::GpuTimer;
 use crate::gpu::upload::Upload;
 
-pub use access::{BufferUse, ImageUse, Load, PassKind};
 use access::ImageAccess;
+pub use access::{BufferUse, ImageUse, Load, PassKind};
 pub use pass::PassContext;
 pub use targets::{Bind, TargetDesc};
 
@@ -85,7 +85,11 @@ impl Track {
             })
         };
         if writes {
-            *self = Track { write: Some((stages, access)), visible: vk::PipelineStageFlags2::empty(), readers: vk::PipelineStageFlags2::empty() };
+            *self = Track {
+                write: Some((stages, access)),
+                visible: vk::PipelineStageFlags2::empty(),
+                readers: vk::PipelineStageFlags2::empty(),
+            };
         } else if transition {
             // The transition happens before `stages`; later readers chain on it.
             *self = Track { write: Some((stages, vk::AccessFlags2::NONE)), visible: stages, readers: stages };
@@ -119,7 +123,6 @@ impl Default for ImageState {
 }
 
 struct ImageEntry {
-    name: &'static str,
     /// Set for targets the graph creates; `None` for imported images.
     desc: Option<&'static TargetDesc>,
     owned: Option<Image>,
@@ -132,7 +135,6 @@ struct ImageEntry {
 }
 
 struct ResourceEntry {
-    name: &'static str,
     track: Track,
     /// New images the next pass that writes this resource fills by copies (see
     /// [`PassBuilder::upload_images`]): they are moved from UNDEFINED to TRANSFER_DST first.
@@ -207,15 +209,16 @@ impl FrameGraph {
 
     /// Registers a logical buffer or acceleration-structure resource.
     pub fn resource(&mut self, name: &'static str) -> ResourceId {
-        self.resources.push(ResourceEntry { name, track: Track::default(), fresh_images: Vec::new(), pending_images: Vec::new() });
+        self.resources.push(ResourceEntry { track: Track::default(), fresh_images: Vec::new(), pending_images: Vec::new() });
+        tracing::debug!(resource = name, id = self.resources.len() - 1, "frame graph resource");
         ResourceId((self.resources.len() - 1) as u16)
     }
 
     /// Registers an image the graph does not own (a swapchain image); its view, extent and state
     /// are set each frame with [`FrameGraph::import`].
     pub fn external_image(&mut self, name: &'static str) -> ImageId {
+        tracing::debug!(image = name, id = self.images.len(), "frame graph external image");
         self.images.push(ImageEntry {
-            name,
             desc: None,
             owned: None,
             raw: vk::Image::null(),
@@ -249,7 +252,6 @@ impl FrameGraph {
             return Ok(ImageId(i as u16));
         }
         self.images.push(ImageEntry {
-            name: desc.name,
             desc: Some(desc),
             owned: None,
             raw: vk::Image::null(),
@@ -266,7 +268,8 @@ impl FrameGraph {
 
     fn create_target(&mut self, ctx: &GpuContext, i: usize) -> Result<(), RenderError> {
         let desc = self.images[i].desc.expect("targets have a description");
-        let image = Image::new(ctx, &ImageDesc { name: desc.name, format: desc.format, extent: self.extent, mip_levels: 1, usage: desc.usage })?;
+        let image =
+            Image::new(ctx, &ImageDesc { name: desc.name, format: desc.format, extent: self.extent, mip_levels: 1, usage: desc.usage })?;
         let e = &mut self.images[i];
         (e.raw, e.view, e.extent, e.range) = (image.raw, image.view, image.extent, image.full_range());
         e.depth = image.aspect.contains(vk::ImageAspectFlags::DEPTH);
@@ -279,7 +282,7 @@ impl FrameGraph {
     }
 
     /// A target's image if it has been created (for readback).
-    pub fn existing_target(&self, desc: &'static TargetDesc) -> Option<ImageId> {
+    fn existing_target(&self, desc: &'static TargetDesc) -> Option<ImageId> {
         self.images.iter().position(|e| e.owned.is_some() && e.desc.is_some_and(|d| std::ptr::eq(d, desc))).map(|i| ImageId(i as u16))
     }
 
@@ -306,15 +309,11 @@ impl FrameGraph {
         }
     }
 
-    /// The view of a tracked image.
-    pub fn view(&self, id: ImageId) -> vk::ImageView {
-        self.images[id.0 as usize].view
-    }
-
     /// Copies a whole single-mip target into host memory and returns its bytes (tightly
     /// packed). Waits for the GPU; for screenshots and tests, never per frame.
     pub fn read_back(&mut self, ctx: &GpuContext, desc: &'static TargetDesc, bytes_per_pixel: u64) -> Result<Vec<u8>, RenderError> {
-        let id = self.existing_target(desc).ok_or_else(|| RenderError::Other(format!("nothing has been rendered into `{}` yet", desc.name)))?;
+        let id =
+            self.existing_target(desc).ok_or_else(|| RenderError::Other(format!("nothing has been rendered into `{}` yet", desc.name)))?;
         let e = &self.images[id.0 as usize];
         let (raw, extent, aspect) = (e.raw, e.extent, e.range.aspect_mask);
         let size = extent.width as u64 * extent.height as u64 * bytes_per_pixel;
@@ -379,7 +378,8 @@ impl FrameGraph {
                     // Images uploaded into this resource become sampleable for their first reader.
                     if !write && !e.pending_images.is_empty() {
                         let (ws, wa) = e.track.write.unwrap_or_default();
-                        let dep = Dep { src_stages: ws, src_access: wa, dst_stages: stages, dst_access: vk::AccessFlags2::SHADER_SAMPLED_READ };
+                        let dep =
+                            Dep { src_stages: ws, src_access: wa, dst_stages: stages, dst_access: vk::AccessFlags2::SHADER_SAMPLED_READ };
                         for (raw, range) in e.pending_images.drain(..) {
                             let layout = vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL;
                             self.image_barriers.push(image_barrier(dep, vk::ImageLayout::TRANSFER_DST_OPTIMAL, layout, raw, range));
@@ -391,7 +391,12 @@ impl FrameGraph {
                     // New images this pass fills start in TRANSFER_DST (their old contents are
                     // undefined); the pass's first reader makes them sampleable (above).
                     if write {
-                        let dep = Dep { src_stages: vk::PipelineStageFlags2::NONE, src_access: vk::AccessFlags2::NONE, dst_stages: stages, dst_access: access };
+                        let dep = Dep {
+                            src_stages: vk::PipelineStageFlags2::NONE,
+                            src_access: vk::AccessFlags2::NONE,
+                            dst_stages: stages,
+                            dst_access: access,
+                        };
                         for (raw, range) in e.fresh_images.drain(..) {
                             let layout = vk::ImageLayout::TRANSFER_DST_OPTIMAL;
                             self.image_barriers.push(image_barrier(dep, vk::ImageLayout::UNDEFINED, layout, raw, range));
@@ -420,7 +425,13 @@ impl FrameGraph {
 }
 
 fn color_range() -> vk::ImageSubresourceRange {
-    vk::ImageSubresourceRange { aspect_mask: vk::ImageAspectFlags::COLOR, base_mip_level: 0, level_count: 1, base_array_layer: 0, layer_count: 1 }
+    vk::ImageSubresourceRange {
+        aspect_mask: vk::ImageAspectFlags::COLOR,
+        base_mip_level: 0,
+        level_count: 1,
+        base_array_layer: 0,
+        layer_count: 1,
+    }
 }
 
 fn image_barrier(
@@ -570,11 +581,6 @@ impl PassBuilder<'_, '_> {
         f.timer.end(ctx, cmd);
         Ok(result)
     }
-
-    /// The name this pass is timed under.
-    pub fn name(&self) -> &'static str {
-        self.name
-    }
 }
 
 fn attachment(view: vk::ImageView, layout: vk::ImageLayout, use_: ImageUse) -> vk::RenderingAttachmentInfo<'static> {
@@ -586,7 +592,9 @@ fn attachment(view: vk::ImageView, layout: vk::ImageLayout, use_: ImageUse) -> v
         ImageUse::DepthWrite(Load::Clear(c)) => {
             (vk::AttachmentLoadOp::CLEAR, vk::ClearValue { depth_stencil: vk::ClearDepthStencilValue { depth: c[0], stencil: 0 } })
         }
-        ImageUse::Color(Load::Discard) | ImageUse::DepthWrite(Load::Discard) => (vk::AttachmentLoadOp::DONT_CARE, vk::ClearValue::default()),
+        ImageUse::Color(Load::Discard) | ImageUse::DepthWrite(Load::Discard) => {
+            (vk::AttachmentLoadOp::DONT_CARE, vk::ClearValue::default())
+        }
         _ => (vk::AttachmentLoadOp::LOAD, vk::ClearValue::default()),
     };
     vk::RenderingAttachmentInfo::default()
@@ -606,11 +614,6 @@ impl FrameGraph {
                 image.destroy(ctx);
             }
         }
-    }
-
-    /// Names of the tracked resources (for debugging).
-    pub fn resource_names(&self) -> impl Iterator<Item = &'static str> + '_ {
-        self.images.iter().map(|e| e.name).chain(self.resources.iter().map(|e| e.name))
     }
 }
 

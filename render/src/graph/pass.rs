@@ -5,9 +5,9 @@
 use ash::vk;
 
 use crate::gpu::device::GpuContext;
-use crate::scene::gpu::GpuScene;
 use crate::gpu::pipeline::ScenePush;
 use crate::scene::DrawItem;
+use crate::scene::gpu::GpuScene;
 
 /// What a pass's body records with: the device, the command buffer, the shared pipeline layout
 /// with its push constants, and the render area of the pass's attachments.
@@ -49,10 +49,12 @@ impl PassContext<'_> {
         if let Some(depth) = depth {
             info = info.depth_attachment(depth);
         }
-        // SAFETY (both blocks): `cmd` is recording; every pipeline has viewport, scissor and cull
-        // mode dynamic, and this sets all three before any draw.
+        // SAFETY: `cmd` is recording outside a rendering scope; the attachments' views are live
+        // and in the layouts the graph's barriers just put them in.
         unsafe { self.ctx.device.cmd_begin_rendering(self.cmd, &info) };
         crate::gpu::pipeline::set_viewport(self.ctx, self.cmd, extent);
+        // SAFETY: every pipeline has viewport, scissor and cull mode dynamic; this sets the last
+        // of the three before any draw.
         unsafe { self.ctx.device.cmd_set_cull_mode(self.cmd, vk::CullModeFlags::NONE) };
     }
 

@@ -58,7 +58,8 @@ const ATTACHMENT_SAMPLED: vk::ImageUsageFlags =
     vk::ImageUsageFlags::from_raw(U::COLOR_ATTACHMENT.as_raw() | U::SAMPLED.as_raw() | U::TRANSFER_SRC.as_raw());
 
 /// Linear radiance.
-pub static HDR: TargetDesc = TargetDesc { name: "hdr", format: HDR_FORMAT, usage: ATTACHMENT_SAMPLED, bind: Some(Bind::Color(BINDING_HDR)) };
+pub static HDR: TargetDesc =
+    TargetDesc { name: "hdr", format: HDR_FORMAT, usage: ATTACHMENT_SAMPLED, bind: Some(Bind::Color(BINDING_HDR)) };
 /// Reverse-Z depth.
 pub static DEPTH: TargetDesc = TargetDesc {
     name: "depth",
@@ -74,11 +75,19 @@ pub static DISPLAY: TargetDesc = TargetDesc {
     bind: None,
 };
 /// G-buffer albedo and occlusion.
-pub static GBUFFER_ALBEDO: TargetDesc =
-    TargetDesc { name: "gbuffer albedo", format: GBUFFER_ALBEDO_FORMAT, usage: ATTACHMENT_SAMPLED, bind: Some(Bind::Color(BINDING_GBUFFER_ALBEDO)) };
+pub static GBUFFER_ALBEDO: TargetDesc = TargetDesc {
+    name: "gbuffer albedo",
+    format: GBUFFER_ALBEDO_FORMAT,
+    usage: ATTACHMENT_SAMPLED,
+    bind: Some(Bind::Color(BINDING_GBUFFER_ALBEDO)),
+};
 /// G-buffer shading normal.
-pub static GBUFFER_NORMAL: TargetDesc =
-    TargetDesc { name: "gbuffer normal", format: GBUFFER_NORMAL_FORMAT, usage: ATTACHMENT_SAMPLED, bind: Some(Bind::Color(BINDING_GBUFFER_NORMAL)) };
+pub static GBUFFER_NORMAL: TargetDesc = TargetDesc {
+    name: "gbuffer normal",
+    format: GBUFFER_NORMAL_FORMAT,
+    usage: ATTACHMENT_SAMPLED,
+    bind: Some(Bind::Color(BINDING_GBUFFER_NORMAL)),
+};
 /// G-buffer roughness and metallic.
 pub static GBUFFER_MATERIAL: TargetDesc = TargetDesc {
     name: "gbuffer material",
@@ -87,8 +96,12 @@ pub static GBUFFER_MATERIAL: TargetDesc = TargetDesc {
     bind: Some(Bind::Color(BINDING_GBUFFER_MATERIAL)),
 };
 /// G-buffer decal receiver layers.
-pub static GBUFFER_LAYERS: TargetDesc =
-    TargetDesc { name: "gbuffer layers", format: GBUFFER_LAYERS_FORMAT, usage: ATTACHMENT_SAMPLED, bind: Some(Bind::Color(BINDING_GBUFFER_LAYERS)) };
+pub static GBUFFER_LAYERS: TargetDesc = TargetDesc {
+    name: "gbuffer layers",
+    format: GBUFFER_LAYERS_FORMAT,
+    usage: ATTACHMENT_SAMPLED,
+    bind: Some(Bind::Color(BINDING_GBUFFER_LAYERS)),
+};
 /// The visibility buffer's instance and triangle ids.
 pub static VISIBILITY: TargetDesc =
     TargetDesc { name: "visibility", format: VISIBILITY_FORMAT, usage: ATTACHMENT_SAMPLED, bind: Some(Bind::Color(BINDING_VISIBILITY)) };

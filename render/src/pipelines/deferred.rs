@@ -20,6 +20,7 @@
 use ash::vk;
 
 use crate::RenderError;
+use crate::decals::DecalRun;
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::pipeline::{Blend, GraphicsDesc, create_graphics};
 use crate::gpu::shaders;
@@ -29,7 +30,6 @@ use crate::graph::targets::{
 };
 use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind, ResourceId};
 use crate::scene::gpu::GpuScene;
-use crate::decals::DecalRun;
 use crate::scene::{DECAL_ALBEDO, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, DrawItem};
 
 /// Pipelines of the deferred renderer.

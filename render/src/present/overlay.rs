@@ -7,8 +7,8 @@ use ash::vk;
 use egui_ash_renderer::{DynamicRendering, Options, RenderMode, Renderer as EguiRenderer};
 
 use crate::RenderError;
-use crate::gpu::device::GpuContext;
 use crate::gpu::FRAMES_IN_FLIGHT;
+use crate::gpu::device::GpuContext;
 
 /// One frame of egui output.
 pub struct OverlayFrame {

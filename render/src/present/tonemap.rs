@@ -33,14 +33,12 @@ impl Tonemap {
     /// Reads the HDR target, writes `display`: the offscreen display target or a swapchain
     /// image.
     pub fn record(&self, f: &mut Frame, scene: &GpuScene, display: impl Into<ImageRef>) -> Result<(), RenderError> {
-        f.pass("tonemap", PassKind::Graphics)
-            .sample(&HDR)
-            .read(scene.res.tables, BufferUse::Storage)
-            .color(display, Load::Discard)
-            .record(|p| {
+        f.pass("tonemap", PassKind::Graphics).sample(&HDR).read(scene.res.tables, BufferUse::Storage).color(display, Load::Discard).record(
+            |p| {
                 let push = p.push;
                 p.fullscreen(self.pipeline, &push);
-            })
+            },
+        )
     }
 
     /// Destroys the pipeline; the GPU must be idle.

@@ -12,8 +12,8 @@ use ash::{khr, vk};
 use raw_window_handle::{RawDisplayHandle, RawWindowHandle};
 
 use crate::RenderError;
-use crate::gpu::device::GpuContext;
 use crate::gpu::FRAMES_IN_FLIGHT;
+use crate::gpu::device::GpuContext;
 use crate::graph::ImageState;
 
 /// The instance extensions a surface on `display` needs.

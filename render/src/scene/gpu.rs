@@ -14,12 +14,11 @@ use gpu_allocator::MemoryLocation;
 use crate::RenderError;
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::memory::{Buffer, Image, ImageDesc, Retired};
-use crate::scene::{
-    GpuAabb, GpuCamera, GpuMeshInfo, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
-    TextureData,
-};
 use crate::gpu::upload::{CopyList, Upload};
 use crate::graph::{Bind, BufferUse, Frame, FrameGraph, PassKind, ResourceId};
+use crate::scene::{
+    GpuAabb, GpuCamera, GpuMeshInfo, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE, TextureData,
+};
 
 /// Bindless array size.
 pub const MAX_TEXTURES: u32 = 4096;
