@@ -29,8 +29,7 @@ use engine::image::Image;
 use engine::time::Time;
 use glam::{Mat4, Vec2, Vec4};
 use render::scene::{
-    DECAL_ALBEDO, DECAL_CHANNELS, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, GpuDecal, GpuDecalMaterial, TEXTURE_FLAT_NORMAL,
-    TEXTURE_WHITE,
+    DECAL_ALBEDO, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, DecalDesc, GpuDecalMaterial, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
 };
 
 /// What a decal does to the surfaces it covers. Every attribute is optional, so a decal can
@@ -205,29 +204,17 @@ pub fn update_decal_lifetimes(mut commands: Commands, time: Res<Time>, mut decal
     }
 }
 
-/// The decal's GPU record (its `world_to_decal` is filled in by the table from the transform).
-pub(crate) fn gpu_decal(decal: &Decal, material: u32) -> GpuDecal {
-    let corners = decal.uv.corners();
-    let (fade_scale, fade_offset) = match decal.angle_fade {
-        Some(fade) => {
-            let (cos_start, cos_end) = (fade.start.cos(), fade.end.cos());
-            let scale = 1.0 / (cos_start - cos_end).max(1e-4);
-            (scale, -cos_end * scale)
-        }
-        None => (0.0, 1.0),
-    };
-    GpuDecal {
-        world_to_decal: Mat4::IDENTITY,
-        uv01: [corners[0].x, corners[0].y, corners[1].x, corners[1].y],
-        uv23: [corners[2].x, corners[2].y, corners[3].x, corners[3].y],
+/// The decal as the renderer takes it, placed by `decal_to_world`.
+pub(crate) fn decal_desc(decal: &Decal, decal_to_world: Mat4, material: u32) -> DecalDesc {
+    DecalDesc {
+        decal_to_world,
         material,
-        channel: (decal.channel as u32).min(DECAL_CHANNELS - 1),
-        weight: decal.weight.max(1e-4),
+        uv_corners: decal.uv.corners(),
+        channel: decal.channel as u32,
+        weight: decal.weight,
         receivers: decal.receivers,
-        opacity: decal.opacity.clamp(0.0, 1.0),
-        fade_scale,
-        fade_offset,
-        pad: 0,
+        opacity: decal.opacity,
+        angle_fade: decal.angle_fade.map(|f| (f.start, f.end)),
     }
 }
 

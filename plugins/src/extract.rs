@@ -21,7 +21,7 @@ use render::scene::{
 };
 use std::collections::HashMap;
 
-use crate::decal::{DEFAULT_RECEIVER_LAYERS, Decal, DecalMaterial, DecalReceiver, gpu_decal, gpu_decal_material};
+use crate::decal::{DEFAULT_RECEIVER_LAYERS, Decal, DecalMaterial, DecalReceiver, decal_desc, gpu_decal_material};
 use crate::{RenderMirror, RenderSettings};
 
 /// Where each asset and entity lives in the mirror.
@@ -403,7 +403,7 @@ pub fn extract_decals(
             }
             continue;
         };
-        let slot = mirror.decals.write(slots.decals.get(&entity).copied(), global.compute_matrix(), gpu_decal(decal, material));
+        let slot = mirror.decals.write(slots.decals.get(&entity).copied(), &decal_desc(decal, global.compute_matrix(), material));
         mirror.counters.records_written += 1;
         slots.decals.insert(entity, slot);
     }

@@ -15,6 +15,7 @@
 //! | [`pipelines`] | forward, deferred and visibility-buffer frames |
 //! | [`present`] | tone mapping, overlay, window swapchain |
 //! | [`renderer`] | frames in flight, submit |
+//! | [`settings`] | per-frame settings: pipeline, decal method, debug view |
 
 pub mod decals;
 pub mod error;
@@ -25,6 +26,7 @@ pub mod pipelines;
 pub mod present;
 pub mod renderer;
 pub mod scene;
+pub mod settings;
 
 pub use error::RenderError;
 pub use gpu::device::{Capabilities, DeviceSettings, Tier};

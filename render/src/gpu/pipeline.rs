@@ -6,7 +6,7 @@ use ash::vk;
 use crate::RenderError;
 use crate::gpu::device::GpuContext;
 use crate::gpu::shaders;
-use crate::scene::GpuVertex;
+use crate::layout::GpuVertex;
 
 /// Push constants shared by every pass (defined with the GLSL block in [`crate::layout`]).
 pub use crate::layout::ScenePush;
@@ -61,16 +61,16 @@ pub enum Blend {
 }
 
 impl<'a> GraphicsDesc<'a> {
-    /// A pass that draws the scene's meshes through `mesh.vert` with reverse-Z depth (tested
-    /// GREATER and written), so every such pass produces the same depth.
-    pub fn mesh(name: &'a str, fragment: Option<&'a [u8]>, color_formats: &'a [vk::Format]) -> Self {
+    /// A pass that draws the scene's meshes through `mesh.vert` with reverse-Z depth of
+    /// `depth_format` (tested GREATER and written), so every such pass produces the same depth.
+    pub fn mesh(name: &'a str, fragment: Option<&'a [u8]>, color_formats: &'a [vk::Format], depth_format: vk::Format) -> Self {
         Self {
             name,
             vertex: shaders::MESH_VERT,
             fragment,
             mesh_vertices: true,
             color_formats,
-            depth_format: Some(crate::graph::targets::DEPTH_FORMAT),
+            depth_format: Some(depth_format),
             depth_compare: Some(vk::CompareOp::GREATER),
             depth_write: true,
             topology: vk::PrimitiveTopology::TRIANGLE_LIST,

@@ -1,13 +1,11 @@
 //! What a pass's body gets: the device, the command buffer being recorded, the shared pipeline
 //! layout with its push constants and the render area; plus the helpers passes share (binding,
-//! mesh draws, full-screen triangles).
+//! full-screen triangles).
 
 use ash::vk;
 
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::ScenePush;
-use crate::scene::DrawItem;
-use crate::scene::gpu::GpuScene;
 
 /// What a pass's body records with: the device, the command buffer, the shared pipeline layout
 /// with its push constants, and the render area of the pass's attachments.
@@ -69,32 +67,5 @@ impl PassContext<'_> {
     pub(crate) fn end_rendering(&self) {
         // SAFETY: matches begin_rendering.
         unsafe { self.ctx.device.cmd_end_rendering(self.cmd) };
-    }
-
-    /// Draws every instance whose draw item passes `filter`; the instance slot is passed as
-    /// `firstInstance`, so shaders find their record at `gl_InstanceIndex`.
-    pub fn draw_meshes(&self, scene: &GpuScene, draws: &[Option<DrawItem>], filter: impl Fn(&DrawItem) -> bool) {
-        let d = &self.ctx.device;
-        let mut bound_mesh = None;
-        let mut cull = Some(vk::CullModeFlags::NONE); // begin_rendering's default
-        for (slot, draw) in draws.iter().enumerate() {
-            let Some(draw) = draw.filter(|d| filter(d)) else { continue };
-            let Some(mesh) = scene.mesh(draw.mesh) else { continue };
-            // SAFETY: `cmd` is recording inside a rendering scope with a mesh pipeline bound;
-            // the mesh buffer is live until the frame completes (deferred destruction).
-            unsafe {
-                if bound_mesh != Some(draw.mesh) {
-                    d.cmd_bind_vertex_buffers(self.cmd, 0, &[mesh.buffer.raw], &[0]);
-                    d.cmd_bind_index_buffer(self.cmd, mesh.buffer.raw, mesh.index_offset, vk::IndexType::UINT32);
-                    bound_mesh = Some(draw.mesh);
-                }
-                let mode = if draw.double_sided { vk::CullModeFlags::NONE } else { vk::CullModeFlags::BACK };
-                if cull != Some(mode) {
-                    d.cmd_set_cull_mode(self.cmd, mode);
-                    cull = Some(mode);
-                }
-                d.cmd_draw_indexed(self.cmd, mesh.index_count, 1, 0, 0, slot as u32);
-            }
-        }
     }
 }

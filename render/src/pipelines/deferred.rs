@@ -47,7 +47,7 @@ const GBUFFER_FORMATS: [vk::Format; 5] =
 impl DeferredPasses {
     /// Creates the pipelines.
     pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
-        let geometry = GraphicsDesc::mesh("gbuffer", Some(shaders::GBUFFER_FRAG), &GBUFFER_FORMATS);
+        let geometry = GraphicsDesc::mesh("gbuffer", Some(shaders::GBUFFER_FRAG), &GBUFFER_FORMATS, DEPTH_FORMAT);
         let hdr = [HDR_FORMAT];
         let lighting_fs =
             if ctx.tier == Tier::RayQuery { shaders::DEFERRED_LIGHTING_FRAG_RAY_QUERY_DECALS } else { shaders::DEFERRED_LIGHTING_FRAG };
@@ -108,9 +108,9 @@ impl DeferredPasses {
             .record(|p| {
                 let push = p.push;
                 p.bind_graphics(self.gbuffer_opaque, &push);
-                p.draw_meshes(scene, draws, |d| !d.alpha_mask);
+                scene.draw_meshes(p, draws, |d| !d.alpha_mask);
                 p.bind_graphics(self.gbuffer_mask, &push);
-                p.draw_meshes(scene, draws, |d| d.alpha_mask);
+                scene.draw_meshes(p, draws, |d| d.alpha_mask);
             })
     }
 

@@ -9,7 +9,7 @@ use crate::RenderError;
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::pipeline::{GraphicsDesc, create_graphics};
 use crate::gpu::shaders;
-use crate::graph::targets::{DEPTH, HDR, HDR_FORMAT};
+use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT};
 use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind, ResourceId};
 use crate::scene::DrawItem;
 use crate::scene::gpu::GpuScene;
@@ -24,7 +24,7 @@ pub struct ForwardPasses {
 impl ForwardPasses {
     /// Creates the pipelines.
     pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
-        let prepass = GraphicsDesc::mesh("prepass", None, &[]);
+        let prepass = GraphicsDesc::mesh("prepass", None, &[], DEPTH_FORMAT);
         Ok(Self {
             prepass_opaque: create_graphics(ctx, layout, &prepass)?,
             prepass_mask: create_graphics(ctx, layout, &GraphicsDesc { fragment: Some(shaders::PREPASS_MASK_FRAG), ..prepass })?,
@@ -55,9 +55,9 @@ impl ForwardPasses {
             .record(|p| {
                 let push = p.push;
                 p.bind_graphics(self.prepass_opaque, &push);
-                p.draw_meshes(scene, draws, |d| !d.alpha_mask);
+                scene.draw_meshes(p, draws, |d| !d.alpha_mask);
                 p.bind_graphics(self.prepass_mask, &push);
-                p.draw_meshes(scene, draws, |d| d.alpha_mask);
+                scene.draw_meshes(p, draws, |d| d.alpha_mask);
             })
     }
 
@@ -85,7 +85,7 @@ impl ForwardPasses {
         pass.record(|p| {
             let push = p.push;
             p.bind_graphics(self.shade, &push);
-            p.draw_meshes(scene, draws, |_| true);
+            scene.draw_meshes(p, draws, |_| true);
         })
     }
 

@@ -12,9 +12,9 @@ use crate::decals::{DecalFrame, Decals};
 use crate::gpu::pipeline::ScenePush;
 use crate::graph::Frame;
 use crate::present::Present;
-use crate::renderer::FrameSettings;
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
+use crate::settings::FrameSettings;
 
 /// The renderer's parts a frame function draws with.
 pub struct FrameParts<'a> {

@@ -10,7 +10,7 @@ use crate::RenderError;
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::pipeline::{GraphicsDesc, create_graphics};
 use crate::gpu::shaders;
-use crate::graph::targets::{DEPTH, HDR, HDR_FORMAT, VISIBILITY, VISIBILITY_FORMAT};
+use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT, VISIBILITY, VISIBILITY_FORMAT};
 use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind, ResourceId};
 use crate::scene::DrawItem;
 use crate::scene::gpu::GpuScene;
@@ -26,7 +26,7 @@ impl VisBufferPasses {
     /// Creates the pipelines.
     pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
         let formats = [VISIBILITY_FORMAT];
-        let ids = GraphicsDesc::mesh("visibility", Some(shaders::VISBUFFER_FRAG), &formats);
+        let ids = GraphicsDesc::mesh("visibility", Some(shaders::VISBUFFER_FRAG), &formats, DEPTH_FORMAT);
         let hdr = [HDR_FORMAT];
         let shade_fs =
             if ctx.tier == Tier::RayQuery { shaders::VISBUFFER_SHADE_FRAG_RAY_QUERY_DECALS } else { shaders::VISBUFFER_SHADE_FRAG };
@@ -48,9 +48,9 @@ impl VisBufferPasses {
             .record(|p| {
                 let push = p.push;
                 p.bind_graphics(self.ids_opaque, &push);
-                p.draw_meshes(scene, draws, |d| !d.alpha_mask);
+                scene.draw_meshes(p, draws, |d| !d.alpha_mask);
                 p.bind_graphics(self.ids_mask, &push);
-                p.draw_meshes(scene, draws, |d| d.alpha_mask);
+                scene.draw_meshes(p, draws, |d| d.alpha_mask);
             })
     }
 

@@ -15,9 +15,10 @@ use crate::RenderError;
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::memory::{Buffer, Image, ImageDesc, Retired};
 use crate::gpu::upload::{CopyList, Upload};
-use crate::graph::{Bind, BufferUse, Frame, FrameGraph, PassKind, ResourceId};
+use crate::graph::{Bind, BufferUse, Frame, FrameGraph, PassContext, PassKind, ResourceId};
 use crate::scene::{
-    GpuAabb, GpuCamera, GpuMeshInfo, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE, TextureData,
+    DrawItem, GpuAabb, GpuCamera, GpuMeshInfo, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
+    TextureData,
 };
 
 /// Bindless array size.
@@ -617,6 +618,33 @@ impl GpuScene {
         self.decal_order_cpu.clear();
         self.decal_order_cpu.extend_from_slice(order);
         self.decal_order_dirty = true;
+    }
+
+    /// Draws every instance whose draw item passes `filter`; the instance slot is passed as
+    /// `firstInstance`, so shaders find their record at `gl_InstanceIndex`.
+    pub fn draw_meshes(&self, p: &PassContext, draws: &[Option<DrawItem>], filter: impl Fn(&DrawItem) -> bool) {
+        let (d, cmd) = (&p.ctx.device, p.cmd);
+        let mut bound_mesh = None;
+        let mut cull = Some(vk::CullModeFlags::NONE); // the rendering scope's default
+        for (slot, draw) in draws.iter().enumerate() {
+            let Some(draw) = draw.filter(|d| filter(d)) else { continue };
+            let Some(mesh) = self.mesh(draw.mesh) else { continue };
+            // SAFETY: `cmd` is recording inside a rendering scope with a mesh pipeline bound;
+            // the mesh buffer is live until the frame completes (deferred destruction).
+            unsafe {
+                if bound_mesh != Some(draw.mesh) {
+                    d.cmd_bind_vertex_buffers(cmd, 0, &[mesh.buffer.raw], &[0]);
+                    d.cmd_bind_index_buffer(cmd, mesh.buffer.raw, mesh.index_offset, vk::IndexType::UINT32);
+                    bound_mesh = Some(draw.mesh);
+                }
+                let mode = if draw.double_sided { vk::CullModeFlags::NONE } else { vk::CullModeFlags::BACK };
+                if cull != Some(mode) {
+                    d.cmd_set_cull_mode(cmd, mode);
+                    cull = Some(mode);
+                }
+                d.cmd_draw_indexed(cmd, mesh.index_count, 1, 0, 0, slot as u32);
+            }
+        }
     }
 
     /// The mesh for `id`, once uploaded.

@@ -9,7 +9,7 @@
 pub mod gpu;
 
 use bytemuck::{Pod, Zeroable};
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec2, Vec3};
 
 pub use crate::layout::{
     DECAL_ALBEDO, DECAL_CHANNELS, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuDecal, GpuDecalMaterial,
@@ -129,6 +129,57 @@ impl GpuAabb {
     }
 }
 
+/// A decal as the renderer takes it: plain data, no ECS types. Its GPU record and its box are
+/// built from this in one place ([`DecalDesc::record`], [`DecalTable::write`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DecalDesc {
+    /// Decal space (the unit box `[-0.5, 0.5]³`, projecting along −Z) to world.
+    pub decal_to_world: Mat4,
+    /// Slot in the decal material table.
+    pub material: u32,
+    /// UVs at the box corners (−x,−y), (+x,−y), (+x,+y), (−x,+y).
+    pub uv_corners: [Vec2; 4],
+    /// Blending channel; clamped to `0..DECAL_CHANNELS`.
+    pub channel: u32,
+    /// Weight within the channel (at least 1e-4).
+    pub weight: f32,
+    /// Receiver layers the decal lands on.
+    pub receivers: u32,
+    /// Overall opacity, clamped to 0..=1.
+    pub opacity: f32,
+    /// Angle fade: full strength up to the first angle (radians) between the surface normal and
+    /// the projection axis, nothing from the second on; `None` disables it.
+    pub angle_fade: Option<(f32, f32)>,
+}
+
+impl DecalDesc {
+    /// The GPU record.
+    pub fn record(&self) -> GpuDecal {
+        let c = self.uv_corners;
+        let (fade_scale, fade_offset) = match self.angle_fade {
+            Some((start, end)) => {
+                let (cos_start, cos_end) = (start.cos(), end.cos());
+                let scale = 1.0 / (cos_start - cos_end).max(1e-4);
+                (scale, -cos_end * scale)
+            }
+            None => (0.0, 1.0),
+        };
+        GpuDecal {
+            world_to_decal: self.decal_to_world.inverse(),
+            uv01: [c[0].x, c[0].y, c[1].x, c[1].y],
+            uv23: [c[2].x, c[2].y, c[3].x, c[3].y],
+            material: self.material,
+            channel: self.channel.min(DECAL_CHANNELS - 1),
+            weight: self.weight.max(1e-4),
+            receivers: self.receivers,
+            opacity: self.opacity.clamp(0.0, 1.0),
+            fade_scale,
+            fade_offset,
+            pad: 0,
+        }
+    }
+}
+
 /// Decal records and their boxes, in the same stable slots: the BLAS primitive index of a box
 /// is the index of its record.
 #[derive(Default)]
@@ -140,10 +191,10 @@ pub struct DecalTable {
 }
 
 impl DecalTable {
-    /// Writes a decal placed by `decal_to_world` into `slot` (or a new slot).
-    pub fn write(&mut self, slot: Option<u32>, decal_to_world: Mat4, mut record: GpuDecal) -> u32 {
-        record.world_to_decal = decal_to_world.inverse();
-        let aabb = GpuAabb::of_unit_box(decal_to_world);
+    /// Writes `decal` into `slot` (or a new slot): its record and its box.
+    pub fn write(&mut self, slot: Option<u32>, decal: &DecalDesc) -> u32 {
+        let record = decal.record();
+        let aabb = GpuAabb::of_unit_box(decal.decal_to_world);
         match slot {
             Some(slot) => {
                 self.records.write(slot, record);
