@@ -10,7 +10,7 @@ use std::time::Instant;
 use ash::vk;
 
 use crate::RenderError;
-use crate::decals::Decals;
+use crate::decals::{DecalChoice, Decals};
 use crate::gpu::device::{DeviceSettings, GpuContext, Tier};
 use crate::gpu::memory::Graveyard;
 use crate::gpu::pipeline::{ScenePush, create_layout};
@@ -53,7 +53,8 @@ pub struct FinishedFrame {
 pub struct FrameReport {
     /// This frame's number, from 0.
     pub frame: u64,
-    /// The decal method used (after [`DecalMethod::effective`]).
+    /// The decal method applied (after [`DecalMethod::effective`]): what the frame shows, not
+    /// what was asked for.
     pub decal_method: DecalMethod,
     /// Work done for this frame (uploads, records, acceleration structures, live counts).
     pub counters: FrameCounters,
@@ -90,6 +91,8 @@ struct Resources {
     window_tonemap: Option<Tonemap>,
     overlay: Option<(Overlay, vk::Format)>,
     graveyard: Graveyard,
+    /// Decal-method fallbacks already logged (one bit per request and pipeline).
+    warned_fallbacks: u16,
 }
 
 /// The renderer. It owns the device; create one per window or offscreen view.
@@ -153,6 +156,7 @@ impl Renderer {
             window_tonemap: None,
             overlay: None,
             graveyard: Graveyard::default(),
+            warned_fallbacks: 0,
         })
     }
 
@@ -254,6 +258,7 @@ impl Renderer {
             },
             None => None,
         };
+        let decal_choice = DecalChoice { requested: settings.decal_method, applied: res.decal_method(ctx, settings) };
         let slot = &mut res.frames[slot_index];
         let finished = slot.timer.collect(ctx).map(|gpu| FinishedFrame { frame: slot.frame, gpu });
         // SAFETY: the semaphore is live.
@@ -297,6 +302,7 @@ impl Renderer {
             deferred: &res.deferred,
             visbuffer: &res.visbuffer,
             present: Present { tonemap, target, overlay },
+            decal_choice,
         };
         match settings.pipeline {
             PipelineKind::Forward => forward_frame(&mut f, &mut parts, mirror, settings)?,
@@ -314,7 +320,7 @@ impl Renderer {
         mirror.counters.instances = mirror.instances.len() as u64;
         mirror.counters.lights = mirror.lights.len() as u64;
         mirror.counters.decals = mirror.decals.len() as u64;
-        let decal_method = settings.decal_method.effective(settings.pipeline);
+        let decal_method = decal_choice.applied;
 
         // SAFETY: recording is complete; the submit signals the timeline with this frame's value.
         unsafe {
@@ -399,6 +405,24 @@ fn check_size(width: u32, height: u32) -> Result<(), RenderError> {
 }
 
 impl Resources {
+    /// The decal method applied this frame; a request the device cannot run is logged once per
+    /// request and pipeline, naming the tier and the method used instead.
+    fn decal_method(&mut self, ctx: &GpuContext, settings: &FrameSettings) -> DecalMethod {
+        let applied = settings.decal_method.effective(settings.pipeline, ctx.tier);
+        let key = 1u16 << (settings.decal_method as u16 * 3 + settings.pipeline as u16);
+        if applied != settings.decal_method && applied != DecalMethod::RayQuery && self.warned_fallbacks & key == 0 {
+            self.warned_fallbacks |= key;
+            tracing::warn!(
+                requested = settings.decal_method.name(),
+                pipeline = settings.pipeline.name(),
+                tier = ctx.tier.name(),
+                applied = applied.name(),
+                "this device cannot apply the requested decal method in this pipeline"
+            );
+        }
+        applied
+    }
+
     /// Prepares the window's overlay and acquires its next image: `None` when nothing can be
     /// drawn this frame (minimised, swapchain rebuilt). Overlay textures are applied first, so
     /// they are not lost when no image can be drawn.
@@ -450,6 +474,7 @@ impl Drop for Renderer {
             window_tonemap,
             overlay,
             mut graveyard,
+            warned_fallbacks: _,
         } = res;
         if let Some(t) = window_tonemap {
             t.destroy(ctx);

@@ -1,6 +1,8 @@
 //! What a frame can be asked for: the pipeline, the decal method, the debug view. Plain
 //! settings that may change from one frame to the next.
 
+use crate::gpu::device::Tier;
+
 /// Which renderer draws the frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum PipelineKind {
@@ -39,14 +41,18 @@ pub enum DecalMethod {
     #[default]
     RayQuery,
     /// Rasterised decal boxes blended into the G-buffer (deferred pipeline only; other
-    /// pipelines fall back to ray-query decals). Needs no ray tracing at all.
+    /// pipelines fall back to ray-query decals where the device has ray queries). Needs no ray
+    /// tracing at all.
     DeferredDecals,
     /// No decals.
     Off,
+    /// Reported, never requested: the requested method cannot run on this device and pipeline
+    /// and no other can, so no decal is applied (`none` in `--stats`).
+    Unavailable,
 }
 
 impl DecalMethod {
-    /// Every method.
+    /// Every method that can be requested.
     pub const ALL: [DecalMethod; 3] = [DecalMethod::RayQuery, DecalMethod::DeferredDecals, DecalMethod::Off];
 
     /// The name used in `--stats` and on the command line.
@@ -55,6 +61,7 @@ impl DecalMethod {
             DecalMethod::RayQuery => "ray_query",
             DecalMethod::DeferredDecals => "deferred",
             DecalMethod::Off => "off",
+            DecalMethod::Unavailable => "none",
         }
     }
 
@@ -63,13 +70,20 @@ impl DecalMethod {
         Self::ALL.into_iter().find(|m| m.name() == name)
     }
 
-    /// The method actually used with `pipeline`: deferred decals exist only in the deferred
-    /// pipeline.
-    pub fn effective(self, pipeline: PipelineKind) -> DecalMethod {
-        match (self, pipeline) {
-            (DecalMethod::DeferredDecals, PipelineKind::Deferred) => DecalMethod::DeferredDecals,
-            (DecalMethod::DeferredDecals, _) => DecalMethod::RayQuery,
-            (m, _) => m,
+    /// The method actually applied with `pipeline` on a device of `tier`: the requested one
+    /// when it can run, else the best one that can (ray-query decals need the ray-query tier,
+    /// deferred decals the deferred pipeline), else [`DecalMethod::Unavailable`]. Never
+    /// nothing when something can run.
+    pub fn effective(self, pipeline: PipelineKind, tier: Tier) -> DecalMethod {
+        let ray_query = tier == Tier::RayQuery;
+        let deferred = pipeline == PipelineKind::Deferred;
+        match self {
+            DecalMethod::Off => DecalMethod::Off,
+            DecalMethod::RayQuery | DecalMethod::Unavailable if ray_query => DecalMethod::RayQuery,
+            DecalMethod::DeferredDecals if deferred => DecalMethod::DeferredDecals,
+            _ if deferred => DecalMethod::DeferredDecals,
+            _ if ray_query => DecalMethod::RayQuery,
+            _ => DecalMethod::Unavailable,
         }
     }
 }
@@ -117,5 +131,29 @@ impl Default for FrameSettings {
             debug_view: DebugView::Lit,
             show_decal_boxes: false,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_applied_decal_method_is_the_best_one_the_device_can_run() {
+        use DecalMethod::*;
+        use PipelineKind::*;
+        let rq = Tier::RayQuery;
+        let rtp = Tier::RayTracingPipeline;
+        let none = Tier::NoRayTracing;
+        assert_eq!(RayQuery.effective(Forward, rq), RayQuery);
+        assert_eq!(DeferredDecals.effective(Deferred, rq), DeferredDecals);
+        assert_eq!(DeferredDecals.effective(Forward, rq), RayQuery, "deferred decals exist only in the deferred pipeline");
+        assert_eq!(RayQuery.effective(Deferred, rtp), DeferredDecals, "no ray queries: deferred decals, not nothing");
+        assert_eq!(RayQuery.effective(Deferred, none), DeferredDecals);
+        assert_eq!(RayQuery.effective(Forward, rtp), Unavailable, "no method runs in forward without ray queries yet");
+        assert_eq!(DeferredDecals.effective(VisBuffer, none), Unavailable);
+        assert_eq!(Off.effective(Forward, rq), Off);
+        assert_eq!(Unavailable.name(), "none");
+        assert!(!DecalMethod::ALL.contains(&Unavailable), "reported, never requested");
     }
 }

@@ -112,6 +112,10 @@ impl OverlayUi {
     fn counts(&self, ui: &mut egui::Ui, world: &World) {
         let c = world.resource::<RenderStats>().last;
         ui.label(format!("instances {}   lights {}   decals {}", c.instances, c.lights, c.decals));
+        // What the GPU applied, which may differ from the request (a device without ray queries).
+        if let Some(last) = self.history.back() {
+            ui.label(format!("decals applied: {}", last.decal_method.name()));
+        }
         ui.label(format!(
             "this frame: BLAS builds {}, refits {}, TLAS builds {}, {} bytes uploaded",
             c.blas_builds, c.blas_updates, c.tlas_builds, c.bytes_uploaded

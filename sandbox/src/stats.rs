@@ -1,7 +1,8 @@
 //! The `--stats` file: one JSON object per frame.
 //!
 //! Keys (stable; later features add keys, none change meaning): `frame`, `pipeline`,
-//! `decal_method`, `tier`,
+//! `decal_method` (the method applied, which may differ from the one asked for: `none` when the
+//! device can run no decal method in this pipeline), `tier`,
 //! `device`, `size` `[w, h]`, `gpu_ms` (one key per pass plus `total`), `cpu_ms` (`extract`,
 //! `record`), and `counters` (`bytes_uploaded`, `records_written`, `blas_builds`,
 //! `blas_updates`, `tlas_builds`, `instances`, `lights`, `decals`).

@@ -71,6 +71,39 @@ fn a_setting_forces_a_lower_capability_tier() {
 }
 
 #[test]
+fn statistics_report_the_decal_method_actually_applied_on_every_tier() {
+    use render::{DecalMethod, PipelineKind, Tier};
+    for tier in [Tier::RayQuery, Tier::RayTracingPipeline, Tier::NoRayTracing] {
+        for pipeline in PipelineKind::ALL {
+            let opts = HeadlessOptions {
+                frames: 1,
+                size: (32, 24),
+                max_tier: tier,
+                pipeline,
+                decal_method: DecalMethod::RayQuery,
+                decals: 20,
+                ..Default::default()
+            };
+            let summary = run(&opts).expect("renders at a forced tier");
+            assert!(summary.validation_errors.is_empty(), "{:#?}", summary.validation_errors);
+            let actual = Tier::from_name(summary.frames[0]["tier"].as_str().unwrap()).expect("a known tier");
+            // Ray-query decals need the ray-query tier; without it the deferred pipeline falls
+            // back to deferred decals, and the others (for now) apply none, and say so.
+            let expected = match (actual, pipeline) {
+                (Tier::RayQuery, _) => "ray_query",
+                (_, PipelineKind::Deferred) => "deferred",
+                _ => "none",
+            };
+            let reported = &summary.frames[0]["decal_method"];
+            assert_eq!(reported, expected, "{} on tier {}", pipeline.name(), actual.name());
+            if expected == "deferred" {
+                assert!(summary.frames[0]["gpu_ms"]["deferred_decals"].is_number(), "the fallback draws: {}", summary.frames[0]);
+            }
+        }
+    }
+}
+
+#[test]
 fn a_benchmark_scene_runs_every_pipeline_and_decal_method_in_one_run() {
     let opts = HeadlessOptions {
         frames: 2,

@@ -10,7 +10,7 @@ pub mod deferred;
 use ash::vk;
 
 use crate::RenderError;
-use crate::gpu::device::{GpuContext, Tier};
+use crate::gpu::device::GpuContext;
 use crate::graph::{Frame, FrameGraph, ResourceId};
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
@@ -27,6 +27,15 @@ pub struct Decals {
     pub boxes: DecalBoxes,
     /// Deferred decals' draw order.
     pub order: DeferredDecalOrder,
+}
+
+/// The decal method asked for and the one applied (see [`DecalMethod::effective`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DecalChoice {
+    /// What the frame's settings asked for.
+    pub requested: DecalMethod,
+    /// What this device and pipeline apply.
+    pub applied: DecalMethod,
 }
 
 /// What this frame does with decals, once the acceleration structures are up to date.
@@ -50,9 +59,8 @@ impl Decals {
 
     /// Keeps the deferred decals' draw order in step with this frame's decal changes. Call
     /// before the scene's upload (which consumes the change marks and uploads the order).
-    pub fn follow_changes(&mut self, mirror: &SceneMirror, scene: &mut GpuScene, s: &FrameSettings) {
-        let method = s.decal_method.effective(s.pipeline);
-        self.order.follow(mirror, scene, method == DecalMethod::DeferredDecals);
+    pub fn follow_changes(&mut self, mirror: &SceneMirror, scene: &mut GpuScene, choice: DecalChoice) {
+        self.order.follow(mirror, scene, choice.applied == DecalMethod::DeferredDecals);
     }
 
     /// Brings the acceleration structures up to date (`boxes_changed` boxes were uploaded this
@@ -62,18 +70,21 @@ impl Decals {
         f: &mut Frame,
         scene: &GpuScene,
         mirror: &mut SceneMirror,
-        s: &FrameSettings,
+        choice: DecalChoice,
         boxes_changed: u32,
     ) -> Result<DecalFrame, RenderError> {
-        let method = s.decal_method.effective(s.pipeline);
+        let method = choice.applied;
         let input = DecalBoxInput {
             tables: scene.res.tables,
             address: scene.decal_aabbs.address(),
             count: if mirror.decals.records.slot_count() == 0 { 0 } else { scene.decal_aabbs.capacity() },
             changed: boxes_changed,
         };
-        self.accel.build(f, input, method == DecalMethod::RayQuery, &mut mirror.counters)?;
-        let shaded = method == DecalMethod::RayQuery && f.ctx.tier == Tier::RayQuery && !mirror.decals.is_empty();
+        // The structures follow the decals whenever ray-traced decals are asked for and the
+        // device has acceleration structures (the ray-tracing-pipeline tier builds them too:
+        // they are what a ray-generation decal pass traces).
+        self.accel.build(f, input, choice.requested == DecalMethod::RayQuery, &mut mirror.counters)?;
+        let shaded = method == DecalMethod::RayQuery && !mirror.decals.is_empty();
         Ok(DecalFrame {
             method,
             tlas: if shaded { self.accel.tlas() } else { None },

@@ -8,7 +8,7 @@ pub mod forward;
 pub mod visbuffer;
 
 use crate::RenderError;
-use crate::decals::{DecalFrame, Decals};
+use crate::decals::{DecalChoice, DecalFrame, Decals};
 use crate::gpu::pipeline::ScenePush;
 use crate::graph::Frame;
 use crate::present::Present;
@@ -30,13 +30,15 @@ pub struct FrameParts<'a> {
     pub visbuffer: &'a visbuffer::VisBufferPasses,
     /// Tone mapping and overlay into the frame's display image.
     pub present: Present<'a>,
+    /// The decal method asked for and the one this device and pipeline apply.
+    pub decal_choice: DecalChoice,
 }
 
 /// Forward: depth prepass, then shading with depth EQUAL (ray-query decals included).
 pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<(), RenderError> {
-    r.decals.follow_changes(mirror, r.scene, s);
+    r.decals.follow_changes(mirror, r.scene, r.decal_choice);
     let boxes_changed = r.scene.upload(f, mirror)?;
-    let decals = r.decals.build_accel(f, r.scene, mirror, s, boxes_changed)?;
+    let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, boxes_changed)?;
     f.push = scene_push(r.scene, mirror, s, &decals);
     r.forward.prepass(f, r.scene, &mirror.draws)?;
     r.forward.shade(f, r.scene, &mirror.draws, s.clear_color, decals.tlas)?;
@@ -47,9 +49,9 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
 /// Deferred: G-buffer, deferred decals (when they are the method), full-screen lighting
 /// (ray-query decals included when they are).
 pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<(), RenderError> {
-    r.decals.follow_changes(mirror, r.scene, s);
+    r.decals.follow_changes(mirror, r.scene, r.decal_choice);
     let boxes_changed = r.scene.upload(f, mirror)?;
-    let decals = r.decals.build_accel(f, r.scene, mirror, s, boxes_changed)?;
+    let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, boxes_changed)?;
     f.push = scene_push(r.scene, mirror, s, &decals);
     r.deferred.geometry(f, r.scene, &mirror.draws, s.clear_color)?;
     r.deferred.decals(f, r.scene, r.decals.deferred_runs(&decals))?;
@@ -60,9 +62,9 @@ pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirro
 
 /// Visibility buffer: ids and depth, then one full-screen pass that rebuilds and shades.
 pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<(), RenderError> {
-    r.decals.follow_changes(mirror, r.scene, s);
+    r.decals.follow_changes(mirror, r.scene, r.decal_choice);
     let boxes_changed = r.scene.upload(f, mirror)?;
-    let decals = r.decals.build_accel(f, r.scene, mirror, s, boxes_changed)?;
+    let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, boxes_changed)?;
     f.push = scene_push(r.scene, mirror, s, &decals);
     r.visbuffer.visibility(f, r.scene, &mirror.draws)?;
     r.visbuffer.shade(f, r.scene, s.clear_color, decals.tlas)?;
