@@ -524,6 +524,14 @@ impl PassBuilder<'_, '_> {
         self
     }
 
+    /// Declares reads of every `(resource, use)` of `reads` (an `Option` reads one or none).
+    pub fn reads(mut self, reads: impl IntoIterator<Item = (ResourceId, BufferUse)>) -> Self {
+        for (resource, use_) in reads {
+            self = self.read(resource, use_);
+        }
+        self
+    }
+
     /// Declares that the pass writes `resource` as `use_`.
     pub fn write(self, resource: ResourceId, use_: BufferUse) -> Self {
         self.frame.graph.decls.push(Decl::Resource(resource, use_, true));

@@ -102,9 +102,7 @@ impl DeferredPasses {
             .color(&GBUFFER_MATERIAL, Load::Clear([0.0; 4]))
             .color(&GBUFFER_LAYERS, Load::Clear([0.0; 4]))
             .color(&HDR, Load::Clear(clear))
-            .read(scene.res.tables, BufferUse::Storage)
-            .read(scene.res.meshes, BufferUse::Vertices)
-            .read(scene.res.textures, BufferUse::SampledImages)
+            .reads(scene.res.drawn())
             .record(|p| {
                 let push = p.push;
                 p.bind_graphics(self.gbuffer_opaque, &push);
@@ -125,8 +123,7 @@ impl DeferredPasses {
             .color(&GBUFFER_ALBEDO, Load::Keep)
             .color(&GBUFFER_NORMAL, Load::Keep)
             .color(&GBUFFER_MATERIAL, Load::Keep)
-            .read(scene.res.tables, BufferUse::Storage)
-            .read(scene.res.textures, BufferUse::SampledImages)
+            .reads(scene.res.shaded())
             .record(|p| {
                 let push = p.push;
                 for run in runs {
@@ -144,24 +141,19 @@ impl DeferredPasses {
     /// Lighting: one full-screen pass over the G-buffer, added to the emitted radiance;
     /// ray-query decals from `decals` (the decal TLAS) when it is given.
     pub fn lighting(&self, f: &mut Frame, scene: &GpuScene, decals: Option<ResourceId>) -> Result<(), RenderError> {
-        let pass = f
-            .pass("lighting", PassKind::Graphics)
+        f.pass("lighting", PassKind::Graphics)
             .sample(&DEPTH)
             .sample(&GBUFFER_ALBEDO)
             .sample(&GBUFFER_NORMAL)
             .sample(&GBUFFER_MATERIAL)
             .sample(&GBUFFER_LAYERS)
             .color(&HDR, Load::Keep)
-            .read(scene.res.tables, BufferUse::Storage)
-            .read(scene.res.textures, BufferUse::SampledImages);
-        let pass = match decals {
-            Some(tlas) => pass.read(tlas, BufferUse::Accel),
-            None => pass,
-        };
-        pass.record(|p| {
-            let push = p.push;
-            p.fullscreen(self.lighting, &push);
-        })
+            .reads(scene.res.shaded())
+            .reads(decals.map(|tlas| (tlas, BufferUse::Accel)))
+            .record(|p| {
+                let push = p.push;
+                p.fullscreen(self.lighting, &push);
+            })
     }
 
     /// Destroys the pipelines; the GPU must be idle.

@@ -47,18 +47,15 @@ impl ForwardPasses {
 
     /// Depth prepass: writes reverse-Z depth for every instance; masked materials discard.
     pub fn prepass(&self, f: &mut Frame, scene: &GpuScene, draws: &[Option<DrawItem>]) -> Result<(), RenderError> {
-        f.pass("prepass", PassKind::Graphics)
-            .image(&DEPTH, ImageUse::DepthWrite(Load::ClearDepth(0.0)))
-            .read(scene.res.tables, BufferUse::Storage)
-            .read(scene.res.meshes, BufferUse::Vertices)
-            .read(scene.res.textures, BufferUse::SampledImages)
-            .record(|p| {
+        f.pass("prepass", PassKind::Graphics).image(&DEPTH, ImageUse::DepthWrite(Load::ClearDepth(0.0))).reads(scene.res.drawn()).record(
+            |p| {
                 let push = p.push;
                 p.bind_graphics(self.prepass_opaque, &push);
                 scene.draw_meshes(p, draws, |d| !d.alpha_mask);
                 p.bind_graphics(self.prepass_mask, &push);
                 scene.draw_meshes(p, draws, |d| d.alpha_mask);
-            })
+            },
+        )
     }
 
     /// Shading: every visible pixel once, lit by every light, into the HDR target; ray-query
@@ -71,22 +68,16 @@ impl ForwardPasses {
         clear: [f32; 4],
         decals: Option<ResourceId>,
     ) -> Result<(), RenderError> {
-        let pass = f
-            .pass("forward", PassKind::Graphics)
+        f.pass("forward", PassKind::Graphics)
             .image(&DEPTH, ImageUse::DepthTest)
             .color(&HDR, Load::Clear(clear))
-            .read(scene.res.tables, BufferUse::Storage)
-            .read(scene.res.meshes, BufferUse::Vertices)
-            .read(scene.res.textures, BufferUse::SampledImages);
-        let pass = match decals {
-            Some(tlas) => pass.read(tlas, BufferUse::Accel),
-            None => pass,
-        };
-        pass.record(|p| {
-            let push = p.push;
-            p.bind_graphics(self.shade, &push);
-            scene.draw_meshes(p, draws, |_| true);
-        })
+            .reads(scene.res.drawn())
+            .reads(decals.map(|tlas| (tlas, BufferUse::Accel)))
+            .record(|p| {
+                let push = p.push;
+                p.bind_graphics(self.shade, &push);
+                scene.draw_meshes(p, draws, |_| true);
+            })
     }
 
     /// Destroys the pipelines; the GPU must be idle.

@@ -42,9 +42,7 @@ impl VisBufferPasses {
         f.pass("visibility", PassKind::Graphics)
             .image(&DEPTH, ImageUse::DepthWrite(Load::ClearDepth(0.0)))
             .color(&VISIBILITY, Load::Clear([0.0; 4]))
-            .read(scene.res.tables, BufferUse::Storage)
-            .read(scene.res.meshes, BufferUse::Vertices)
-            .read(scene.res.textures, BufferUse::SampledImages)
+            .reads(scene.res.drawn())
             .record(|p| {
                 let push = p.push;
                 p.bind_graphics(self.ids_opaque, &push);
@@ -57,22 +55,17 @@ impl VisBufferPasses {
     /// Rebuilds and shades every covered pixel into the HDR target; ray-query decals from
     /// `decals` (the decal TLAS) when it is given.
     pub fn shade(&self, f: &mut Frame, scene: &GpuScene, clear: [f32; 4], decals: Option<ResourceId>) -> Result<(), RenderError> {
-        let pass = f
-            .pass("visbuffer_shade", PassKind::Graphics)
+        f.pass("visbuffer_shade", PassKind::Graphics)
             .sample(&DEPTH)
             .sample(&VISIBILITY)
             .color(&HDR, Load::Clear(clear))
-            .read(scene.res.tables, BufferUse::Storage)
+            .reads(scene.res.shaded())
             .read(scene.res.meshes, BufferUse::Storage)
-            .read(scene.res.textures, BufferUse::SampledImages);
-        let pass = match decals {
-            Some(tlas) => pass.read(tlas, BufferUse::Accel),
-            None => pass,
-        };
-        pass.record(|p| {
-            let push = p.push;
-            p.fullscreen(self.shade, &push);
-        })
+            .reads(decals.map(|tlas| (tlas, BufferUse::Accel)))
+            .record(|p| {
+                let push = p.push;
+                p.fullscreen(self.shade, &push);
+            })
     }
 
     /// Destroys the pipelines; the GPU must be idle.

@@ -201,6 +201,19 @@ pub struct SceneResources {
     pub textures: ResourceId,
 }
 
+impl SceneResources {
+    /// What a pass that draws the scene's meshes reads: the records, the vertices and indices,
+    /// and the material textures.
+    pub fn drawn(&self) -> [(ResourceId, BufferUse); 3] {
+        [(self.tables, BufferUse::Storage), (self.meshes, BufferUse::Vertices), (self.textures, BufferUse::SampledImages)]
+    }
+
+    /// What a pass that shades without drawing meshes reads: the records and the textures.
+    pub fn shaded(&self) -> [(ResourceId, BufferUse); 2] {
+        [(self.tables, BufferUse::Storage), (self.textures, BufferUse::SampledImages)]
+    }
+}
+
 /// Geometry on the GPU: vertices followed by indices in one buffer.
 pub struct GpuMesh {
     /// The buffer.
