@@ -17,7 +17,7 @@ use crate::gpu::pipeline::{ScenePush, create_layout};
 use crate::gpu::timestamps::{GpuTimer, PassTimes};
 use crate::gpu::upload::{StagingRing, Upload};
 use crate::graph::targets::{DEPTH, DISPLAY, DISPLAY_FORMAT, HDR, f16_to_f32};
-use crate::graph::{Frame, FrameGraph, ImageId, ImageRef, ImageUse};
+use crate::graph::{ACQUIRE_WAIT_STAGE, Frame, FrameGraph, ImageId, ImageRef, ImageUse};
 use crate::pipelines::deferred::DeferredPasses;
 use crate::pipelines::forward::ForwardPasses;
 use crate::pipelines::visbuffer::VisBufferPasses;
@@ -333,7 +333,7 @@ impl Renderer {
                 .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS);
             let (waits, signals, n) = match &acquired {
                 Some(image) => (
-                    [vk::SemaphoreSubmitInfo::default().semaphore(image.wait).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)],
+                    [vk::SemaphoreSubmitInfo::default().semaphore(image.wait).stage_mask(ACQUIRE_WAIT_STAGE)],
                     [
                         timeline,
                         vk::SemaphoreSubmitInfo::default().semaphore(image.signal).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS),

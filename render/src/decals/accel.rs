@@ -159,9 +159,10 @@ impl DecalAccel {
         }
     }
 
-    /// The TLAS as a graph resource, for passes that trace it; `None` before the first build.
-    pub fn tlas(&self) -> Option<ResourceId> {
-        self.tlas.as_ref().map(|_| self.res.tlas)
+    /// What a pass that traces the decals reads: the TLAS and the BLAS its instance points at
+    /// (traversal reads both); `None` before the first build.
+    pub fn traced(&self) -> Option<[ResourceId; 2]> {
+        self.tlas.as_ref().map(|_| [self.res.tlas, self.res.blas])
     }
 
     /// Device address of the TLAS (0 before the first build).

@@ -43,8 +43,9 @@ pub struct DecalChoice {
 pub struct DecalFrame {
     /// The method applied (after [`DecalMethod::effective`]).
     pub method: DecalMethod,
-    /// The TLAS the shading passes trace, when ray-query decals are shaded this frame.
-    pub tlas: Option<ResourceId>,
+    /// The acceleration structures the shading passes trace (TLAS and BLAS), when ray-query
+    /// decals are shaded this frame.
+    pub traced: Option<[ResourceId; 2]>,
     /// Its device address (0 without).
     pub tlas_address: vk::DeviceAddress,
     /// Live decals the shading passes enumerate (0 skips the decal loop).
@@ -87,7 +88,7 @@ impl Decals {
         let shaded = method == DecalMethod::RayQuery && !mirror.decals.is_empty();
         Ok(DecalFrame {
             method,
-            tlas: if shaded { self.accel.tlas() } else { None },
+            traced: if shaded { self.accel.traced() } else { None },
             tlas_address: if shaded { self.accel.tlas_address() } else { 0 },
             count: if shaded { mirror.decals.len() as u32 } else { 0 },
         })

@@ -3,7 +3,7 @@
 //! A declaration says *what* a pass does with a resource (samples it, writes it as a colour
 //! attachment, builds it); the pass's [`PassKind`] says *where* (which shader stages). Together
 //! they give the synchronization2 stage, access and image layout the graph derives barriers
-//! from. Nothing else in the renderer names a stage or an access mask.
+//! from. No pass names a stage or an access mask.
 
 use ash::vk;
 

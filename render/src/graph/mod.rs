@@ -15,7 +15,8 @@
 //!   write waits for the last write and every read since (write-after-read), and an image whose
 //!   layout must change is transitioned. One `vkCmdPipelineBarrier2` per pass carries them all.
 //!   State persists across frames: with one queue, frame N+1's first use waits for frame N's
-//!   last by the same rule.
+//!   last by the same rule. (An imported swapchain image instead waits for its acquire
+//!   semaphore, at [`ACQUIRE_WAIT_STAGE`].)
 //!
 //! **Why immediate, not compiled.** Kajiya and Frostbite collect the whole frame first, then cull
 //! unused passes, alias transient memory and reorder. Our frames are short fixed sequences (one
@@ -25,7 +26,14 @@
 //! declarations are the interface, so a compiled graph could replace this one without touching
 //! a pass.
 //!
-//! Nothing outside this module calls `vkCmdPipelineBarrier2`.
+//! Nothing outside this module calls `vkCmdPipelineBarrier2`. One barrier here is not derived
+//! from a declaration: a readback's host-read barrier. The frame's semaphores are stated by the
+//! renderer's submit.
+//!
+//! Known limits: a track remembers which stages have seen the last write, not which kinds of
+//! access, so a second read in the same stage by another kind of access (a storage read after a
+//! sampled one) would get no barrier; no pass does that today. A frame that fails part-way is not
+//! submitted, but the state it recorded stays: such an error is fatal to the renderer.
 
 pub mod access;
 pub mod pass;
@@ -44,6 +52,11 @@ use access::ImageAccess;
 pub use access::{BufferUse, ImageUse, Load, PassKind};
 pub use pass::PassContext;
 pub use targets::{Bind, TargetDesc};
+
+/// The stage at which a frame's submit waits for an imported image (the swapchain acquire): the
+/// first pass that writes one is a colour-attachment pass. Work before it (uploads, acceleration
+/// structures) does not wait for the acquire.
+pub const ACQUIRE_WAIT_STAGE: vk::PipelineStageFlags2 = vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT;
 
 /// An image the graph tracks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -231,10 +244,13 @@ impl FrameGraph {
         ImageId((self.images.len() - 1) as u16)
     }
 
-    /// Points an external image at `raw`/`view` for this frame, in `state`.
+    /// Points an external image at `raw`/`view` for this frame, in the layout of `state`. The
+    /// image comes from a semaphore wait (a swapchain acquire) at [`ACQUIRE_WAIT_STAGE`], so its
+    /// first use this frame is ordered after that stage: the barrier chains on the wait.
     pub fn import(&mut self, id: ImageId, raw: vk::Image, view: vk::ImageView, extent: vk::Extent2D, state: ImageState) {
         let e = &mut self.images[id.0 as usize];
-        (e.raw, e.view, e.extent, e.state) = (raw, view, extent, state);
+        let acquired = Track { write: Some((ACQUIRE_WAIT_STAGE, vk::AccessFlags2::NONE)), ..Track::default() };
+        (e.raw, e.view, e.extent, e.state) = (raw, view, extent, ImageState { layout: state.layout, track: acquired });
     }
 
     /// The state an external image was left in (to hand to the next [`FrameGraph::import`]).
@@ -330,6 +346,14 @@ impl FrameGraph {
             // SAFETY: `cmd` is recording; the barrier above put the image in TRANSFER_SRC layout
             // and the buffer holds the whole image.
             unsafe { ctx.device.cmd_copy_image_to_buffer(cmd, raw, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, buffer.raw, &[region]) };
+            // The host reads the buffer after the fence: make the copy visible to it.
+            let host = [vk::MemoryBarrier2::default()
+                .src_stage_mask(vk::PipelineStageFlags2::COPY)
+                .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+                .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+                .dst_access_mask(vk::AccessFlags2::HOST_READ)];
+            // SAFETY: `cmd` is recording outside a rendering scope.
+            unsafe { ctx.device.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&host)) };
         });
         let bytes = result.map(|_| buffer.mapped()[..size as usize].to_vec());
         buffer.destroy(ctx);
@@ -375,15 +399,17 @@ impl FrameGraph {
                 Decl::Resource(id, use_, write) => {
                     let e = &mut self.resources[id.0 as usize];
                     let (stages, access) = use_.access(kind, write);
-                    // Images uploaded into this resource become sampleable for their first reader.
-                    if !write && !e.pending_images.is_empty() {
+                    // Images uploaded into this resource become sampleable for their first sampler;
+                    // the transition then counts as the resource's last write, so later readers in
+                    // other stages chain on it.
+                    if use_ == BufferUse::SampledImages && !e.pending_images.is_empty() {
                         let (ws, wa) = e.track.write.unwrap_or_default();
-                        let dep =
-                            Dep { src_stages: ws, src_access: wa, dst_stages: stages, dst_access: vk::AccessFlags2::SHADER_SAMPLED_READ };
+                        let dep = Dep { src_stages: ws, src_access: wa, dst_stages: stages, dst_access: access };
                         for (raw, range) in e.pending_images.drain(..) {
                             let layout = vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL;
                             self.image_barriers.push(image_barrier(dep, vk::ImageLayout::TRANSFER_DST_OPTIMAL, layout, raw, range));
                         }
+                        e.track = Track { write: Some((stages, vk::AccessFlags2::NONE)), visible: stages, readers: stages };
                     }
                     if let Some(dep) = e.track.depend(stages, access, write, false) {
                         merge(dep);
@@ -605,12 +631,14 @@ fn attachment(view: vk::ImageView, layout: vk::ImageLayout, use_: ImageUse) -> v
         }
         _ => (vk::AttachmentLoadOp::LOAD, vk::ClearValue::default()),
     };
-    vk::RenderingAttachmentInfo::default()
-        .image_view(view)
-        .image_layout(layout)
-        .load_op(load_op)
-        .store_op(vk::AttachmentStoreOp::STORE)
-        .clear_value(clear)
+    // A read-only attachment is not stored: STORE would count as a write the graph does not
+    // track (the store happens at the late fragment tests).
+    let store_op = if matches!(use_, ImageUse::DepthTest | ImageUse::DepthTestSampled) {
+        vk::AttachmentStoreOp::NONE
+    } else {
+        vk::AttachmentStoreOp::STORE
+    };
+    vk::RenderingAttachmentInfo::default().image_view(view).image_layout(layout).load_op(load_op).store_op(store_op).clear_value(clear)
 }
 
 impl FrameGraph {

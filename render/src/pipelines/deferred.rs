@@ -139,8 +139,8 @@ impl DeferredPasses {
     }
 
     /// Lighting: one full-screen pass over the G-buffer, added to the emitted radiance;
-    /// ray-query decals from `decals` (the decal TLAS) when it is given.
-    pub fn lighting(&self, f: &mut Frame, scene: &GpuScene, decals: Option<ResourceId>) -> Result<(), RenderError> {
+    /// ray-query decals from `decals` (the decal TLAS and BLAS) when given.
+    pub fn lighting(&self, f: &mut Frame, scene: &GpuScene, decals: Option<[ResourceId; 2]>) -> Result<(), RenderError> {
         f.pass("lighting", PassKind::Graphics)
             .sample(&DEPTH)
             .sample(&GBUFFER_ALBEDO)
@@ -149,7 +149,7 @@ impl DeferredPasses {
             .sample(&GBUFFER_LAYERS)
             .color(&HDR, Load::Keep)
             .reads(scene.res.shaded())
-            .reads(decals.map(|tlas| (tlas, BufferUse::Accel)))
+            .reads(decals.into_iter().flatten().map(|a| (a, BufferUse::Accel)))
             .record(|p| {
                 let push = p.push;
                 p.fullscreen(self.lighting, &push);

@@ -59,20 +59,20 @@ impl ForwardPasses {
     }
 
     /// Shading: every visible pixel once, lit by every light, into the HDR target; ray-query
-    /// decals from `decals` (the decal TLAS) when it is given.
+    /// decals from `decals` (the decal TLAS and BLAS) when given.
     pub fn shade(
         &self,
         f: &mut Frame,
         scene: &GpuScene,
         draws: &[Option<DrawItem>],
         clear: [f32; 4],
-        decals: Option<ResourceId>,
+        decals: Option<[ResourceId; 2]>,
     ) -> Result<(), RenderError> {
         f.pass("forward", PassKind::Graphics)
             .image(&DEPTH, ImageUse::DepthTest)
             .color(&HDR, Load::Clear(clear))
             .reads(scene.res.drawn())
-            .reads(decals.map(|tlas| (tlas, BufferUse::Accel)))
+            .reads(decals.into_iter().flatten().map(|a| (a, BufferUse::Accel)))
             .record(|p| {
                 let push = p.push;
                 p.bind_graphics(self.shade, &push);

@@ -41,7 +41,7 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
     let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, boxes_changed)?;
     f.push = scene_push(r.scene, mirror, s, &decals);
     r.forward.prepass(f, r.scene, &mirror.draws)?;
-    r.forward.shade(f, r.scene, &mirror.draws, s.clear_color, decals.tlas)?;
+    r.forward.shade(f, r.scene, &mirror.draws, s.clear_color, decals.traced)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)
 }
@@ -55,7 +55,7 @@ pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirro
     f.push = scene_push(r.scene, mirror, s, &decals);
     r.deferred.geometry(f, r.scene, &mirror.draws, s.clear_color)?;
     r.deferred.decals(f, r.scene, r.decals.deferred_runs(&decals))?;
-    r.deferred.lighting(f, r.scene, decals.tlas)?;
+    r.deferred.lighting(f, r.scene, decals.traced)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)
 }
@@ -67,7 +67,7 @@ pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirr
     let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, boxes_changed)?;
     f.push = scene_push(r.scene, mirror, s, &decals);
     r.visbuffer.visibility(f, r.scene, &mirror.draws)?;
-    r.visbuffer.shade(f, r.scene, s.clear_color, decals.tlas)?;
+    r.visbuffer.shade(f, r.scene, s.clear_color, decals.traced)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)
 }

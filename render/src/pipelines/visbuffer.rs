@@ -53,15 +53,15 @@ impl VisBufferPasses {
     }
 
     /// Rebuilds and shades every covered pixel into the HDR target; ray-query decals from
-    /// `decals` (the decal TLAS) when it is given.
-    pub fn shade(&self, f: &mut Frame, scene: &GpuScene, clear: [f32; 4], decals: Option<ResourceId>) -> Result<(), RenderError> {
+    /// `decals` (the decal TLAS and BLAS) when given.
+    pub fn shade(&self, f: &mut Frame, scene: &GpuScene, clear: [f32; 4], decals: Option<[ResourceId; 2]>) -> Result<(), RenderError> {
         f.pass("visbuffer_shade", PassKind::Graphics)
             .sample(&DEPTH)
             .sample(&VISIBILITY)
             .color(&HDR, Load::Clear(clear))
             .reads(scene.res.shaded())
             .read(scene.res.meshes, BufferUse::Storage)
-            .reads(decals.map(|tlas| (tlas, BufferUse::Accel)))
+            .reads(decals.into_iter().flatten().map(|a| (a, BufferUse::Accel)))
             .record(|p| {
                 let push = p.push;
                 p.fullscreen(self.shade, &push);
