@@ -8,14 +8,37 @@
 //!
 //! Supported: metallic-roughness materials (base colour, normal, metallic-roughness, occlusion
 //! and emissive textures, `KHR_materials_emissive_strength`, alpha mask/blend, double-sided),
-//! `KHR_lights_punctual`, perspective cameras (`zfar` ignored: the projection is infinite
-//! reverse-Z), node hierarchies with TRS or matrix transforms, triangle lists/strips/fans.
+//! `KHR_lights_punctual`, `KHR_mesh_quantization`, `KHR_texture_transform`, perspective cameras
+//! (`zfar` ignored: the projection is infinite reverse-Z), node hierarchies with TRS or matrix
+//! transforms, triangle lists/strips/fans. A document that *requires* any other extension (e.g.
+//! `KHR_draco_mesh_compression`) is refused with [`GltfError::UnsupportedExtension`] naming it.
+//!
 //! Accessors are read by this module (with bounds checks, strides and sparse substitution);
 //! only the component types below are accepted, anything else is an error naming the mesh and
 //! attribute: `POSITION`/`NORMAL` float VEC3, `TEXCOORD_0` float or normalised u8/u16 VEC2,
-//! `TANGENT` float VEC4, indices u8/u16/u32 scalars (or none: `0..n`). Missing normals are
-//! computed smooth, missing UVs are zero, missing tangents are generated (MikkTSpace). Samplers
-//! and texture coordinate sets other than 0 are ignored with a warning.
+//! `TANGENT` float VEC4, indices u8/u16/u32 scalars (or none: `0..n`). When the document uses
+//! `KHR_mesh_quantization` (`extensionsUsed` or `extensionsRequired`), its types are accepted too: `POSITION` and
+//! `TEXCOORD_0` as i8/u8/i16/u16, normalised (mapped to [-1, 1] or [0, 1]) or not (plain
+//! integers, scaled by the node transform or the texture transform), `NORMAL`/`TANGENT` as
+//! normalised i8/i16 (normals are renormalised after decoding). Missing normals are computed
+//! smooth, missing UVs are zero, missing tangents are generated (MikkTSpace). Samplers and
+//! texture coordinate sets other than 0 are ignored with a warning.
+//!
+//! `KHR_texture_transform` (offset, rotation, scale, `texCoord` override) is baked into each
+//! primitive's `TEXCOORD_0`, since a material has one UV set for all its textures: when every
+//! texture of the material has the same transform it is exact; otherwise the base colour's
+//! transform (or the first textured slot's) is baked and one warning names the material.
+//!
+//! **Textures that cannot be loaded** (the file is missing or unreadable, or the bytes do not
+//! decode) do not fail the model by default: the model loads and one warning per material and
+//! file names both. A missing base-colour texture becomes [`Image::missing_texture`], a
+//! magenta/black checker (still multiplied by the base colour factor), because a wrong albedo is
+//! what a viewer must notice; a missing normal, metallic-roughness, occlusion or emissive map is
+//! simply dropped, so the material behaves as if it had no such texture (flat normals, the
+//! factors alone, no occlusion, the emissive factor alone): a checker there would shade as
+//! garbage normals or random roughness, which hides the cause rather than showing it.
+//! [`LoadOptions::strict_textures`] restores the refusal with the original error. Missing
+//! buffers, malformed documents and unresolvable URIs are always errors.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -122,6 +145,16 @@ pub enum GltfError {
         mesh: String,
         /// The validation error.
         source: MeshError,
+    },
+    /// The document requires an extension this loader does not implement.
+    #[error("glTF file {path} requires extension {extension}, which is not supported (supported: {supported})")]
+    UnsupportedExtension {
+        /// The file (`<memory>` for [`load_slice`]).
+        path: PathBuf,
+        /// The extension's name, e.g. `KHR_draco_mesh_compression`.
+        extension: String,
+        /// The extensions this loader implements, comma-separated.
+        supported: String,
     },
     /// An image could not be read or decoded.
     #[error("image {uri_or_index}: {source}")]
@@ -258,25 +291,85 @@ pub struct GltfScene {
     pub roots: Vec<usize>,
 }
 
-/// Loads a `.gltf` or `.glb` file, resolving relative URIs against its directory.
+/// Extensions a document may require.
+const SUPPORTED_EXTENSIONS: &[&str] =
+    &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_mesh_quantization", "KHR_texture_transform"];
+
+/// How forgiving loading is.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Refuse the model when a texture image is missing or undecodable (the pre-forgiving
+    /// behaviour, with the same error). Off by default: such a texture is replaced (see the
+    /// module docs) and a warning names the file and the material.
+    pub strict_textures: bool,
+}
+
+impl LoadOptions {
+    /// Every texture must load.
+    pub const STRICT: LoadOptions = LoadOptions { strict_textures: true };
+}
+
+/// Loads a `.gltf` or `.glb` file, resolving relative URIs against its directory, with the
+/// default [`LoadOptions`] (missing or broken textures are replaced with a warning).
 pub fn load(path: &Path) -> Result<GltfScene, GltfError> {
+    load_with(path, &LoadOptions::default())
+}
+
+/// [`load`] with explicit options.
+pub fn load_with(path: &Path, options: &LoadOptions) -> Result<GltfScene, GltfError> {
     let bytes = std::fs::read(path).map_err(|source| GltfError::Io { path: path.to_owned(), source })?;
     let base = path.parent().unwrap_or(Path::new(""));
     let name = path.file_stem().map_or_else(|| "glTF scene".to_owned(), |s| s.to_string_lossy().into_owned());
-    load_impl(&bytes, Some(base), path, name)
+    load_impl(&bytes, Some(base), path, name, options)
 }
 
 /// Loads glTF or GLB bytes; relative URIs resolve against `base_dir` (without one, only
-/// embedded and `data:` resources are allowed).
+/// embedded and `data:` resources are allowed). Default [`LoadOptions`].
 pub fn load_slice(bytes: &[u8], base_dir: Option<&Path>) -> Result<GltfScene, GltfError> {
-    load_impl(bytes, base_dir, Path::new("<memory>"), "glTF scene".to_owned())
+    load_slice_with(bytes, base_dir, &LoadOptions::default())
 }
 
-fn load_impl(bytes: &[u8], base: Option<&Path>, file: &Path, name: String) -> Result<GltfScene, GltfError> {
-    let Gltf { document, blob } = Gltf::from_slice(bytes).map_err(|source| GltfError::Parse { path: file.to_owned(), source })?;
+/// [`load_slice`] with explicit options.
+pub fn load_slice_with(bytes: &[u8], base_dir: Option<&Path>, options: &LoadOptions) -> Result<GltfScene, GltfError> {
+    load_impl(bytes, base_dir, Path::new("<memory>"), "glTF scene".to_owned(), options)
+}
+
+/// Parses the container and JSON, refuses required extensions this loader does not implement
+/// (by name), then runs the gltf crate's validation minus its own verdict on required
+/// extensions (it does not know `KHR_mesh_quantization`, which this module decodes).
+fn parse(bytes: &[u8], file: &Path) -> Result<Gltf, GltfError> {
+    use ::gltf::json::validation::{Error as ValidationError, Validate};
+    let parse_error = |source| GltfError::Parse { path: file.to_owned(), source };
+    let gltf = Gltf::from_slice_without_validation(bytes).map_err(parse_error)?;
+    if let Some(extension) = gltf.document.extensions_required().find(|e| !SUPPORTED_EXTENSIONS.contains(e)) {
+        return Err(GltfError::UnsupportedExtension {
+            path: file.to_owned(),
+            extension: extension.to_owned(),
+            supported: SUPPORTED_EXTENSIONS.join(", "),
+        });
+    }
+    let root = gltf.document.as_json();
+    let mut errors = Vec::new();
+    root.validate(root, ::gltf::json::Path::new, &mut |path, error| {
+        let path = path();
+        if !(error == ValidationError::Unsupported && path.as_str().starts_with("extensionsRequired")) {
+            errors.push((path, error));
+        }
+    });
+    if errors.is_empty() { Ok(gltf) } else { Err(parse_error(::gltf::Error::Validation(errors))) }
+}
+
+fn load_impl(bytes: &[u8], base: Option<&Path>, file: &Path, name: String, options: &LoadOptions) -> Result<GltfScene, GltfError> {
+    let Gltf { document, blob } = parse(bytes, file)?;
+    let quantized = document.extensions_used().chain(document.extensions_required()).any(|e| e == "KHR_mesh_quantization");
     let buffers = load_buffers(&document, blob, base)?;
-    let mut images = ImageLoader { buffers: &buffers, base, images: Vec::new(), slots: HashMap::new() };
-    let mut materials = document.materials().map(|m| load_material(&m, &mut images)).collect::<Result<Vec<_>, _>>()?;
+    let mut images = ImageLoader { buffers: &buffers, base, images: Vec::new(), slots: HashMap::new(), placeholder: None };
+    let (mut materials, uv_transforms): (Vec<_>, Vec<_>) = document
+        .materials()
+        .map(|m| load_material(&m, &document, &mut images, options))
+        .collect::<Result<Vec<_>, _>>()?
+        .into_iter()
+        .unzip();
     let mut default_material = None;
     let mut meshes = Vec::with_capacity(document.meshes().len());
     for mesh in document.meshes() {
@@ -286,7 +379,8 @@ fn load_impl(bytes: &[u8], base: Option<&Path>, file: &Path, name: String) -> Re
                 Some(name) => format!("'{name}' (#{}) primitive {}", mesh.index(), primitive.index()),
                 None => format!("#{} primitive {}", mesh.index(), primitive.index()),
             };
-            let converted = load_primitive(&primitive, &buffers, &label)?;
+            let uv_transform = primitive.material().index().and_then(|i| uv_transforms.get(i).copied().flatten());
+            let converted = load_primitive(&primitive, &buffers, &label, quantized, uv_transform)?;
             let material = match primitive.material().index() {
                 Some(index) => index,
                 None => *default_material.get_or_insert_with(|| {
@@ -470,9 +564,18 @@ struct ImageLoader<'a> {
     base: Option<&'a Path>,
     images: Vec<Image>,
     slots: HashMap<(usize, ColorSpace), usize>,
+    /// The slot of [`Image::missing_texture`], once a base colour texture needed it.
+    placeholder: Option<usize>,
 }
 
 impl ImageLoader<'_> {
+    fn placeholder(&mut self) -> usize {
+        *self.placeholder.get_or_insert_with(|| {
+            self.images.push(Image::missing_texture());
+            self.images.len() - 1
+        })
+    }
+
     fn get(&mut self, info: &::gltf::Texture<'_>, tex_coord: u32, cs: ColorSpace) -> Result<usize, GltfError> {
         if tex_coord != 0 {
             warn!(texture = info.index(), tex_coord, "only TEXCOORD_0 is supported; using it");
@@ -487,11 +590,7 @@ impl ImageLoader<'_> {
             ColorSpace::Srgb => ColorSpace::Linear,
             ColorSpace::Linear => ColorSpace::Srgb,
         };
-        let describe = || match (source.source(), source.name()) {
-            (::gltf::image::Source::Uri { uri, .. }, _) => short_uri(uri),
-            (_, Some(name)) => format!("#{index} '{name}'"),
-            (_, None) => format!("#{index}"),
-        };
+        let describe = || describe_image(&source);
         let image = if let Some(&slot) = self.slots.get(&(index, other)) {
             let decoded = &self.images[slot];
             Image::from_rgba8(decoded.width, decoded.height, decoded.mips[0].clone(), cs)
@@ -515,6 +614,15 @@ impl ImageLoader<'_> {
     }
 }
 
+/// An image's URI, or its index and name when embedded.
+fn describe_image(image: &::gltf::Image<'_>) -> String {
+    match (image.source(), image.name()) {
+        (::gltf::image::Source::Uri { uri, .. }, _) => short_uri(uri),
+        (_, Some(name)) => format!("#{} '{name}'", image.index()),
+        (_, None) => format!("#{}", image.index()),
+    }
+}
+
 /// The bytes of a buffer view, if they lie inside its buffer.
 fn view_bytes<'b>(view: &::gltf::buffer::View<'_>, buffers: &'b [Vec<u8>]) -> Option<&'b [u8]> {
     let buffer = buffers.get(view.buffer().index())?;
@@ -522,19 +630,151 @@ fn view_bytes<'b>(view: &::gltf::buffer::View<'_>, buffers: &'b [Vec<u8>]) -> Op
     buffer.get(view.offset()..end)
 }
 
-fn load_material(m: &::gltf::Material<'_>, images: &mut ImageLoader<'_>) -> Result<GltfMaterial, GltfError> {
-    let pbr = m.pbr_metallic_roughness();
-    let mut tex = |info: Option<(::gltf::Texture<'_>, u32)>, cs| -> Result<Option<usize>, GltfError> {
-        info.map(|(texture, set)| images.get(&texture, set, cs)).transpose()
+/// A `KHR_texture_transform`: `uv' = T(offset) · R(rotation) · S(scale) · uv`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct UvTransform {
+    offset: [f32; 2],
+    rotation: f32,
+    scale: [f32; 2],
+}
+
+impl UvTransform {
+    const IDENTITY: UvTransform = UvTransform { offset: [0.0; 2], rotation: 0.0, scale: [1.0; 2] };
+
+    /// The transform and its `texCoord` override.
+    fn from_json(json: &::gltf::json::extensions::texture::TextureTransform) -> (UvTransform, Option<u32>) {
+        (UvTransform { offset: json.offset.0, rotation: json.rotation.0, scale: json.scale.0 }, json.tex_coord)
+    }
+
+    /// The extension's matrix: rotation is counter-clockwise in UV space whose V points down,
+    /// i.e. `[cos sin; -sin cos]`.
+    fn apply(&self, uv: [f32; 2]) -> [f32; 2] {
+        let (sin, cos) = self.rotation.sin_cos();
+        let (x, y) = (uv[0] * self.scale[0], uv[1] * self.scale[1]);
+        [cos * x + sin * y + self.offset[0], -sin * x + cos * y + self.offset[1]]
+    }
+}
+
+/// One texture reference of a material, before its image is loaded.
+struct TextureSlot<'a> {
+    slot: &'static str,
+    texture: ::gltf::Texture<'a>,
+    tex_coord: u32,
+    transform: Option<UvTransform>,
+    color_space: ColorSpace,
+}
+
+impl<'a> TextureSlot<'a> {
+    /// `transform` is the parsed extension and its `texCoord` override.
+    fn new(
+        slot: &'static str,
+        texture: ::gltf::Texture<'a>,
+        tex_coord: u32,
+        transform: Option<(UvTransform, Option<u32>)>,
+        color_space: ColorSpace,
+    ) -> Self {
+        let tex_coord = transform.and_then(|(_, set)| set).unwrap_or(tex_coord);
+        TextureSlot { slot, texture, tex_coord, transform: transform.map(|(t, _)| t), color_space }
+    }
+
+    fn from_info(slot: &'static str, info: Option<::gltf::texture::Info<'a>>, color_space: ColorSpace) -> Option<Self> {
+        info.map(|i| {
+            let transform = i
+                .texture_transform()
+                .map(|t| (UvTransform { offset: t.offset(), rotation: t.rotation(), scale: t.scale() }, t.tex_coord()));
+            TextureSlot::new(slot, i.texture(), i.tex_coord(), transform, color_space)
+        })
+    }
+}
+
+/// Whether a texture error may be replaced by a placeholder (the image's bytes are missing,
+/// unreadable or undecodable) rather than refused (bad URIs, views outside their buffer).
+fn is_forgivable(error: &GltfError) -> bool {
+    matches!(error, GltfError::MissingFile { .. } | GltfError::Io { .. } | GltfError::Image { .. })
+}
+
+fn load_material(
+    m: &::gltf::Material<'_>,
+    document: &Document,
+    images: &mut ImageLoader<'_>,
+    options: &LoadOptions,
+) -> Result<(GltfMaterial, Option<UvTransform>), GltfError> {
+    let label = match (m.name(), m.index()) {
+        (Some(name), Some(index)) => format!("'{name}' (#{index})"),
+        (None, Some(index)) => format!("#{index}"),
+        (Some(name), None) => format!("'{name}'"),
+        (None, None) => "default".to_owned(),
     };
-    let base_color_texture = tex(pbr.base_color_texture().map(|i| (i.texture(), i.tex_coord())), ColorSpace::Srgb)?;
-    let metallic_roughness_texture = tex(pbr.metallic_roughness_texture().map(|i| (i.texture(), i.tex_coord())), ColorSpace::Linear)?;
+    // The gltf crate parses KHR_texture_transform on texture infos only; on the normal and
+    // occlusion textures it stays among the unparsed extensions.
+    let json = m.index().and_then(|i| document.as_json().materials.get(i));
+    let parse_transform = |value: Option<&::gltf::json::Value>| {
+        value.and_then(|v| match ::gltf::json::deserialize::from_value(v.clone()) {
+            Ok(transform) => Some(UvTransform::from_json(&transform)),
+            Err(error) => {
+                warn!(material = %label, %error, "malformed KHR_texture_transform ignored");
+                None
+            }
+        })
+    };
+    let normal_ext = json.and_then(|j| j.normal_texture.as_ref()).and_then(|t| t.extensions.as_ref());
+    let normal_transform = parse_transform(normal_ext.and_then(|e| e.others.get("KHR_texture_transform")));
+    let occlusion_ext = json.and_then(|j| j.occlusion_texture.as_ref()).and_then(|t| t.extensions.as_ref());
+    let occlusion_transform = parse_transform(occlusion_ext.and_then(|e| e.others.get("KHR_texture_transform")));
+
+    let pbr = m.pbr_metallic_roughness();
     let normal = m.normal_texture();
-    let normal_texture = tex(normal.as_ref().map(|i| (i.texture(), i.tex_coord())), ColorSpace::Linear)?;
     let occlusion = m.occlusion_texture();
-    let occlusion_texture = tex(occlusion.as_ref().map(|i| (i.texture(), i.tex_coord())), ColorSpace::Linear)?;
-    let emissive_texture = tex(m.emissive_texture().map(|i| (i.texture(), i.tex_coord())), ColorSpace::Srgb)?;
-    Ok(GltfMaterial {
+    let slots: [Option<TextureSlot<'_>>; 5] = [
+        TextureSlot::from_info("base colour", pbr.base_color_texture(), ColorSpace::Srgb),
+        TextureSlot::from_info("metallic-roughness", pbr.metallic_roughness_texture(), ColorSpace::Linear),
+        normal.as_ref().map(|n| TextureSlot::new("normal", n.texture(), n.tex_coord(), normal_transform, ColorSpace::Linear)),
+        occlusion.as_ref().map(|o| TextureSlot::new("occlusion", o.texture(), o.tex_coord(), occlusion_transform, ColorSpace::Linear)),
+        TextureSlot::from_info("emissive", m.emissive_texture(), ColorSpace::Srgb),
+    ];
+
+    // One UV set serves every texture: bake the shared transform, or the first slot's (base
+    // colour first) with one warning when they disagree.
+    let transforms: Vec<UvTransform> = slots.iter().flatten().map(|s| s.transform.unwrap_or(UvTransform::IDENTITY)).collect();
+    let uv_transform = transforms.first().copied().filter(|t| *t != UvTransform::IDENTITY);
+    if transforms.windows(2).any(|w| w[0] != w[1]) {
+        warn!(
+            material = %label,
+            "the material's textures use different KHR_texture_transforms; only one UV set exists, so the {} texture's is applied to all",
+            slots.iter().flatten().next().map_or("", |s| s.slot)
+        );
+    }
+
+    // Load each image; forgivable failures are gathered per file for one warning each.
+    let mut failures: Vec<(String, String, Vec<&'static str>)> = Vec::new();
+    let mut loaded = [None; 5];
+    for (out, slot) in loaded.iter_mut().zip(&slots) {
+        let Some(slot) = slot else { continue };
+        match images.get(&slot.texture, slot.tex_coord, slot.color_space) {
+            Ok(index) => *out = Some(index),
+            Err(error) if !options.strict_textures && is_forgivable(&error) => {
+                let file = describe_image(&slot.texture.source());
+                match failures.iter_mut().find(|(f, _, _)| *f == file) {
+                    Some((_, _, slots)) => slots.push(slot.slot),
+                    None => failures.push((file, error.to_string(), vec![slot.slot])),
+                }
+                if slot.slot == "base colour" {
+                    *out = Some(images.placeholder());
+                }
+            }
+            Err(error) => return Err(error),
+        }
+    }
+    for (file, error, slots) in failures {
+        let replacement = if slots.contains(&"base colour") {
+            "the base colour uses a magenta/black checker, other textures from it are left out"
+        } else {
+            "the material is drawn as if it had no such texture"
+        };
+        warn!(file = %file, material = %label, textures = %slots.join(", "), %error, "glTF texture could not be loaded; {replacement}");
+    }
+    let [base_color_texture, metallic_roughness_texture, normal_texture, occlusion_texture, emissive_texture] = loaded;
+    let material = GltfMaterial {
         name: m.name().map(str::to_owned),
         base_color: Vec4::from(pbr.base_color_factor()),
         base_color_texture,
@@ -553,7 +793,8 @@ fn load_material(m: &::gltf::Material<'_>, images: &mut ImageLoader<'_>) -> Resu
             ::gltf::material::AlphaMode::Blend => AlphaMode::Blend,
         },
         double_sided: m.double_sided(),
-    })
+    };
+    Ok((material, uv_transform))
 }
 
 fn describe_accessor(accessor: &Accessor<'_>) -> String {
@@ -679,7 +920,20 @@ fn is_float(data_type: DataType, normalized: bool) -> bool {
     data_type == DataType::F32 && !normalized
 }
 
-fn load_primitive(primitive: &::gltf::Primitive<'_>, buffers: &[Vec<u8>], mesh: &str) -> Result<Mesh, GltfError> {
+/// Small integer component types (`KHR_mesh_quantization`).
+fn is_small_int(data_type: DataType) -> bool {
+    matches!(data_type, DataType::I8 | DataType::U8 | DataType::I16 | DataType::U16)
+}
+
+/// `quantized`: the document uses `KHR_mesh_quantization`, so its attribute types are accepted.
+/// `uv_transform`: the material's `KHR_texture_transform`, baked into `TEXCOORD_0`.
+fn load_primitive(
+    primitive: &::gltf::Primitive<'_>,
+    buffers: &[Vec<u8>],
+    mesh: &str,
+    quantized: bool,
+    uv_transform: Option<UvTransform>,
+) -> Result<Mesh, GltfError> {
     let mode = primitive.mode();
     if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
         return Err(GltfError::UnsupportedPrimitiveMode { mesh: mesh.to_owned(), mode: format!("{mode:?}") });
@@ -687,7 +941,11 @@ fn load_primitive(primitive: &::gltf::Primitive<'_>, buffers: &[Vec<u8>], mesh: 
     let attribute = |semantic: ::gltf::Semantic| primitive.get(&semantic);
     let position_accessor = attribute(::gltf::Semantic::Positions)
         .ok_or_else(|| GltfError::MissingAttribute { mesh: mesh.to_owned(), attribute: "POSITION".into() })?;
-    let positions: Vec<[f32; 3]> = read_attribute(&position_accessor, buffers, mesh, "POSITION", is_float)?;
+    let position_ok = |t, norm| is_float(t, norm) || (quantized && is_small_int(t));
+    // Signed normalised only: unit vectors need negative components.
+    let direction_ok = |t, norm| is_float(t, norm) || (quantized && norm && matches!(t, DataType::I8 | DataType::I16));
+    let uv_ok = |t, norm| is_float(t, norm) || (norm && matches!(t, DataType::U8 | DataType::U16)) || (quantized && is_small_int(t));
+    let positions: Vec<[f32; 3]> = read_attribute(&position_accessor, buffers, mesh, "POSITION", position_ok)?;
     let n = positions.len();
     let same_count = |name: &str, len: usize| {
         if len == n {
@@ -700,16 +958,20 @@ fn load_primitive(primitive: &::gltf::Primitive<'_>, buffers: &[Vec<u8>], mesh: 
             })
         }
     };
-    let normals = attribute(::gltf::Semantic::Normals).map(|a| read_attribute::<3>(&a, buffers, mesh, "NORMAL", is_float)).transpose()?;
-    let uvs = attribute(::gltf::Semantic::TexCoords(0))
+    let normals = attribute(::gltf::Semantic::Normals)
         .map(|a| {
-            read_attribute::<2>(&a, buffers, mesh, "TEXCOORD_0", |t, norm| {
-                is_float(t, norm) || (norm && matches!(t, DataType::U8 | DataType::U16))
+            let normals = read_attribute::<3>(&a, buffers, mesh, "NORMAL", direction_ok)?;
+            // Quantised normals are only approximately unit length.
+            Ok(if a.data_type() == DataType::F32 {
+                normals
+            } else {
+                normals.into_iter().map(|n| Vec3::from(n).normalize_or(Vec3::Y).into()).collect()
             })
         })
         .transpose()?;
+    let uvs = attribute(::gltf::Semantic::TexCoords(0)).map(|a| read_attribute::<2>(&a, buffers, mesh, "TEXCOORD_0", uv_ok)).transpose()?;
     let tangents =
-        attribute(::gltf::Semantic::Tangents).map(|a| read_attribute::<4>(&a, buffers, mesh, "TANGENT", is_float)).transpose()?;
+        attribute(::gltf::Semantic::Tangents).map(|a| read_attribute::<4>(&a, buffers, mesh, "TANGENT", direction_ok)).transpose()?;
     let raw_indices: Vec<u32> = match primitive.indices() {
         Some(accessor) => {
             if accessor.dimensions() != Dimensions::Scalar
@@ -748,7 +1010,10 @@ fn load_primitive(primitive: &::gltf::Primitive<'_>, buffers: &[Vec<u8>], mesh: 
         same_count("TANGENT", tangents.len())?;
     }
     let normals = normals.unwrap_or_else(|| smooth_normals(&positions, &indices));
-    let uvs = uvs.unwrap_or_else(|| vec![[0.0; 2]; n]);
+    let mut uvs = uvs.unwrap_or_else(|| vec![[0.0; 2]; n]);
+    if let Some(transform) = uv_transform {
+        uvs.iter_mut().for_each(|uv| *uv = transform.apply(*uv));
+    }
     let result = match tangents {
         Some(tangents) => Mesh::from_parts(positions, normals, uvs, tangents, indices).map(|mut mesh| {
             mesh.orthonormalize_tangents();

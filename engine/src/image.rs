@@ -107,6 +107,20 @@ impl Image {
         Image { width: 1, height: 1, color_space, mips: vec![rgba.to_vec()] }
     }
 
+    /// The stand-in for a colour texture that could not be loaded: a 16×16 sRGB checker of 4×4
+    /// magenta and black cells (with mips), impossible to mistake for intended content.
+    pub fn missing_texture() -> Image {
+        const SIZE: u32 = 16;
+        const CELL: u32 = 4;
+        let data = (0..SIZE * SIZE)
+            .flat_map(|i| {
+                let (x, y) = (i % SIZE, i / SIZE);
+                if (x / CELL + y / CELL).is_multiple_of(2) { [255, 0, 255, 255] } else { [0, 0, 0, 255] }
+            })
+            .collect();
+        Image::from_rgba8(SIZE, SIZE, data, ColorSpace::Srgb).expect("the checker's size matches its data")
+    }
+
     /// Number of mip levels (level 0 included).
     pub fn mip_count(&self) -> u32 {
         self.mips.len() as u32

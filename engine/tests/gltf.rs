@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 
-use engine::gltf::{self, GltfError};
+use engine::gltf::{self, GltfError, LoadOptions};
 use engine::prelude::*;
 
 /// A fresh directory under the system temp dir for one test.
@@ -215,7 +215,8 @@ fn missing_image_is_reported_by_path() {
     let dir = temp_dir("missing-image");
     let path = write_scene(&dir, &scene_json("tri.bin", "VEC3", 4), true);
     std::fs::remove_file(dir.join("checker.png")).unwrap();
-    let error = gltf::load(&path).unwrap_err();
+    // Strict: the refusal textures got before loading became forgiving (see below).
+    let error = gltf::load_with(&path, &LoadOptions::STRICT).unwrap_err();
     assert!(matches!(&error, GltfError::MissingFile { path } if path.ends_with("checker.png")), "{error:?}");
 }
 
@@ -304,4 +305,226 @@ fn suzanne_loads() {
             assert!(dot.abs() < 1e-2 && t.iter().all(|v| v.is_finite()));
         }
     }
+}
+
+/// The `tracing` warnings emitted on this thread while `f` runs, each as its fields and message.
+fn warnings_during<T>(f: impl FnOnce() -> T) -> (T, Vec<String>) {
+    use std::sync::{Arc, Mutex};
+    use tracing::field::{Field, Visit};
+    use tracing::span::{Attributes, Id, Record};
+    use tracing::{Event, Level, Metadata};
+
+    struct Collect(Arc<Mutex<Vec<String>>>);
+    struct Fields<'a>(&'a mut String);
+    impl Visit for Fields<'_> {
+        fn record_debug(&mut self, field: &Field, value: &dyn std::fmt::Debug) {
+            self.0.push_str(&format!("{}={value:?} ", field.name()));
+        }
+    }
+    impl tracing::Subscriber for Collect {
+        fn enabled(&self, _: &Metadata<'_>) -> bool {
+            true
+        }
+        fn new_span(&self, _: &Attributes<'_>) -> Id {
+            Id::from_u64(1)
+        }
+        fn record(&self, _: &Id, _: &Record<'_>) {}
+        fn record_follows_from(&self, _: &Id, _: &Id) {}
+        fn event(&self, event: &Event<'_>) {
+            if *event.metadata().level() == Level::WARN {
+                let mut text = String::new();
+                event.record(&mut Fields(&mut text));
+                self.0.lock().unwrap().push(text);
+            }
+        }
+        fn enter(&self, _: &Id) {}
+        fn exit(&self, _: &Id) {}
+    }
+    let warnings = Arc::new(Mutex::new(Vec::new()));
+    let result = tracing::subscriber::with_default(Collect(warnings.clone()), f);
+    let warnings = warnings.lock().unwrap().clone();
+    (result, warnings)
+}
+
+/// The material "Red" of [`scene_json`] uses `checker.png` for its base colour (texture 0) and
+/// its occlusion and emissive maps (texture 1): when the image cannot be loaded, the model still
+/// loads with the magenta checker as base colour and no occlusion or emissive map, and one
+/// warning names the file and the material.
+fn assert_forgiven(path: &Path, what: &str) {
+    let (scene, warnings) = warnings_during(|| gltf::load(path));
+    let scene = scene.unwrap_or_else(|e| panic!("{what}: the model must load: {e}"));
+    assert_eq!(scene.triangle_count(), 2);
+    let red = &scene.materials[0];
+    assert_eq!(red.name.as_deref(), Some("Red"));
+    let base = red.base_color_texture.expect("the base colour texture is replaced, not dropped");
+    assert_eq!(scene.images[base], Image::missing_texture(), "{what}");
+    assert_eq!((red.occlusion_texture, red.emissive_texture), (None, None), "{what}: other maps act as absent");
+    assert_eq!(scene.images.len(), 1, "{what}: only the placeholder");
+    assert_eq!(warnings.len(), 1, "{what}: exactly one warning: {warnings:#?}");
+    assert!(warnings[0].contains("checker.png") && warnings[0].contains("Red"), "{what}: {}", warnings[0]);
+    // The placeholder really is magenta and black.
+    let checker = Image::missing_texture();
+    assert_eq!(checker.color_space, ColorSpace::Srgb);
+    let texels: Vec<&[u8]> = checker.mips[0].chunks(4).collect();
+    assert!(texels.contains(&&[255, 0, 255, 255][..]) && texels.contains(&&[0, 0, 0, 255][..]));
+    assert!(texels.iter().all(|t| *t == [255, 0, 255, 255] || *t == [0, 0, 0, 255]));
+}
+
+#[test]
+fn missing_texture_is_a_placeholder_unless_strict() {
+    let dir = temp_dir("missing-texture");
+    let path = write_scene(&dir, &scene_json("tri.bin", "VEC3", 4), true);
+    std::fs::remove_file(dir.join("checker.png")).unwrap();
+    assert_forgiven(&path, "missing file");
+    let error = gltf::load_with(&path, &LoadOptions::STRICT).unwrap_err();
+    let expected = dir.join("checker.png");
+    assert!(matches!(&error, GltfError::MissingFile { path } if *path == expected), "{error:?}");
+    assert_eq!(error.to_string(), format!("file referenced by the glTF document is missing: {}", expected.display()));
+}
+
+#[test]
+fn undecodable_texture_is_a_placeholder_unless_strict() {
+    let dir = temp_dir("garbage-texture");
+    let path = write_scene(&dir, &scene_json("tri.bin", "VEC3", 4), true);
+    std::fs::write(dir.join("checker.png"), b"this is not a PNG at all, just bytes").unwrap();
+    assert_forgiven(&path, "garbage bytes");
+    let error = gltf::load_with(&path, &LoadOptions::STRICT).unwrap_err();
+    assert!(matches!(&error, GltfError::Image { uri_or_index, .. } if uri_or_index == "checker.png"), "{error:?}");
+}
+
+/// Three vertices: i16 VEC3 positions (unnormalised, stride 8), i8 normalised VEC3 normals
+/// (stride 4) and u16 normalised VEC2 texture coordinates, unindexed.
+fn quantized_json(dir: &Path, extensions: &str) -> PathBuf {
+    let positions: [[i16; 3]; 3] = [[-300, 0, 7], [1200, -5, 0], [0, 32767, -32768]];
+    let normals: [[i8; 3]; 3] = [[0, 0, 127], [0, 90, -90], [-128, 0, 0]];
+    let uvs: [[u16; 2]; 3] = [[0, 0], [65535, 32768], [13107, 65535]];
+    let mut bin = Vec::new();
+    for p in positions {
+        bin.extend(p.iter().flat_map(|v| v.to_le_bytes()));
+        bin.extend([0, 0]);
+    }
+    for n in normals {
+        bin.extend(n.iter().map(|&v| v as u8));
+        bin.push(0);
+    }
+    bin.extend(uvs.iter().flatten().flat_map(|v| v.to_le_bytes()));
+    assert_eq!(bin.len(), 48);
+    std::fs::write(dir.join("quantized.bin"), &bin).unwrap();
+    let json = format!(
+        r#"{{"asset": {{"version": "2.0"}}, {extensions}
+  "buffers": [{{"uri": "quantized.bin", "byteLength": 48}}],
+  "bufferViews": [
+    {{"buffer": 0, "byteOffset": 0, "byteLength": 24, "byteStride": 8, "target": 34962}},
+    {{"buffer": 0, "byteOffset": 24, "byteLength": 12, "byteStride": 4, "target": 34962}},
+    {{"buffer": 0, "byteOffset": 36, "byteLength": 12, "target": 34962}}
+  ],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5122, "count": 3, "type": "VEC3", "min": [-300, -5, -32768], "max": [1200, 32767, 7]}},
+    {{"bufferView": 1, "componentType": 5120, "normalized": true, "count": 3, "type": "VEC3"}},
+    {{"bufferView": 2, "componentType": 5123, "normalized": true, "count": 3, "type": "VEC2"}}
+  ],
+  "meshes": [{{"name": "Quantized", "primitives": [{{"attributes": {{"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}}}}]}}],
+  "nodes": [{{"mesh": 0, "scale": [0.001, 0.001, 0.001]}}], "scenes": [{{"nodes": [0]}}], "scene": 0}}"#
+    );
+    let path = dir.join("quantized.gltf");
+    std::fs::write(&path, json).unwrap();
+    path
+}
+
+fn assert_close<const N: usize>(found: &[[f32; N]], expected: &[[f32; N]], what: &str) {
+    assert_eq!(found.len(), expected.len(), "{what}");
+    for (f, e) in found.iter().zip(expected) {
+        assert!(f.iter().zip(e).all(|(a, b)| (a - b).abs() < 1e-5), "{what}: found {found:?}, expected {expected:?}");
+    }
+}
+
+#[test]
+fn quantized_mesh_decodes() {
+    let dir = temp_dir("quantized");
+    let required = r#""extensionsUsed": ["KHR_mesh_quantization"], "extensionsRequired": ["KHR_mesh_quantization"],"#;
+    let scene = gltf::load(&quantized_json(&dir, required)).unwrap();
+    let mesh = &scene.meshes[0][0].0;
+    // Unnormalised positions are the plain integers (the node's scale makes them metres).
+    assert_eq!(mesh.positions, vec![[-300.0, 0.0, 7.0], [1200.0, -5.0, 0.0], [0.0, 32767.0, -32768.0]]);
+    assert_eq!(scene.nodes[0].transform.scale, Vec3::splat(0.001));
+    // Normalised i8 normals map to [-1, 1] (-128 clamps to -1) and are renormalised.
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    assert_close(&mesh.normals, &[[0.0, 0.0, 1.0], [0.0, h, -h], [-1.0, 0.0, 0.0]], "normals");
+    // Normalised u16 texture coordinates map to [0, 1].
+    assert_close(&mesh.uvs, &[[0.0, 0.0], [1.0, 32768.0 / 65535.0], [0.2, 1.0]], "uvs");
+
+    // The same types without the extension declared are not glTF: refused, naming the attribute.
+    let error = gltf::load(&quantized_json(&dir, "")).unwrap_err();
+    assert!(
+        matches!(&error, GltfError::UnsupportedAttribute { mesh, attribute, .. } if mesh.contains("Quantized") && attribute == "POSITION"),
+        "{error:?}"
+    );
+}
+
+#[test]
+fn required_unsupported_extension_is_named() {
+    let dir = temp_dir("draco");
+    let json = scene_json("tri.bin", "VEC3", 4).replace(
+        r#""extensionsUsed": ["#,
+        r#""extensionsRequired": ["KHR_draco_mesh_compression"], "extensionsUsed": ["KHR_draco_mesh_compression", "#,
+    );
+    let path = write_scene(&dir, &json, true);
+    let error = gltf::load(&path).unwrap_err();
+    assert!(
+        matches!(&error, GltfError::UnsupportedExtension { extension, path: p, .. } if extension == "KHR_draco_mesh_compression" && *p == path),
+        "{error:?}"
+    );
+    let message = error.to_string();
+    assert!(message.contains("KHR_draco_mesh_compression") && message.contains("scene.gltf"), "{message}");
+    // Merely used (not required), it is ignored.
+    let used_only = json.replace(r#""extensionsRequired": ["KHR_draco_mesh_compression"], "#, "");
+    assert_eq!(gltf::load(&write_scene(&dir, &used_only, true)).unwrap().triangle_count(), 2);
+}
+
+/// Two meshes sharing one triangle with float UVs (0,0), (1,0), (0,1). Material 0 gives its base
+/// colour and normal textures the same transform; material 1 transforms only its normal map.
+fn texture_transform_json() -> String {
+    let transform = r#"{"KHR_texture_transform": {"offset": [0.5, 0.25], "rotation": 1.5707963267948966, "scale": [2, 3]}}"#;
+    format!(
+        r#"{{"asset": {{"version": "2.0"}}, "extensionsUsed": ["KHR_texture_transform"],
+  "buffers": [{{"uri": "uv.bin", "byteLength": 60}}],
+  "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 36}}, {{"buffer": 0, "byteOffset": 36, "byteLength": 24}}],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}},
+    {{"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"}}
+  ],
+  "images": [{{"uri": "checker.png"}}],
+  "textures": [{{"source": 0}}],
+  "materials": [
+    {{"name": "Same", "pbrMetallicRoughness": {{"baseColorTexture": {{"index": 0, "extensions": {transform}}}}},
+     "normalTexture": {{"index": 0, "extensions": {transform}}}}},
+    {{"name": "Mixed", "pbrMetallicRoughness": {{"baseColorTexture": {{"index": 0}}}},
+     "normalTexture": {{"index": 0, "extensions": {transform}}}}}
+  ],
+  "meshes": [
+    {{"primitives": [{{"attributes": {{"POSITION": 0, "TEXCOORD_0": 1}}, "material": 0}}]}},
+    {{"primitives": [{{"attributes": {{"POSITION": 0, "TEXCOORD_0": 1}}, "material": 1}}]}}
+  ],
+  "nodes": [{{"mesh": 0}}, {{"mesh": 1}}], "scenes": [{{"nodes": [0, 1]}}], "scene": 0}}"#
+    )
+}
+
+#[test]
+fn texture_transform_is_baked_into_uvs() {
+    let dir = temp_dir("texture-transform");
+    let positions: [f32; 9] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+    let uvs: [f32; 6] = [0.0, 0.0, 1.0, 0.0, 0.0, 1.0];
+    let bin: Vec<u8> = positions.iter().chain(&uvs).flat_map(|v| v.to_le_bytes()).collect();
+    std::fs::write(dir.join("uv.bin"), bin).unwrap();
+    write_png(&dir.join("checker.png"));
+    let path = dir.join("transform.gltf");
+    std::fs::write(&path, texture_transform_json()).unwrap();
+    let (scene, warnings) = warnings_during(|| gltf::load(&path));
+    let scene = scene.unwrap();
+    // uv' = offset + R(π/2)·(scale·uv) with R = [cos sin; −sin cos]: (u, v) → (0.5 + 3v, 0.25 − 2u).
+    assert_close(&scene.meshes[0][0].0.uvs, &[[0.5, 0.25], [0.5, -1.75], [3.5, 0.25]], "shared transform baked");
+    // Disagreeing transforms: the base colour's (none) wins, with one warning naming the material.
+    assert_close(&scene.meshes[1][0].0.uvs, &[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], "base colour transform kept");
+    assert_eq!(warnings.len(), 1, "{warnings:#?}");
+    assert!(warnings[0].contains("Mixed") && warnings[0].contains("KHR_texture_transform"), "{}", warnings[0]);
 }
