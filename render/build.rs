@@ -21,7 +21,10 @@ mod layout;
 const STAGES: &[&str] = &["vert", "frag", "comp", "rgen", "rint", "rahit", "rchit", "rmiss"];
 
 fn main() {
-    let shader_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shaders");
+    // Read at run time (cargo sets it for build scripts), not baked in when the script is
+    // compiled: a build script reused from another checkout must still read this one.
+    let manifest_dir = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
+    let shader_dir = manifest_dir.join("../shaders");
     let out_dir = PathBuf::from(std::env::var("OUT_DIR").expect("cargo sets OUT_DIR"));
     println!("cargo:rerun-if-changed={}", shader_dir.display());
     println!("cargo:rerun-if-changed={}", shader_dir.join("include").display());
