@@ -618,19 +618,22 @@ impl PassBuilder<'_, '_> {
 }
 
 fn attachment(view: vk::ImageView, layout: vk::ImageLayout, use_: ImageUse) -> vk::RenderingAttachmentInfo<'static> {
-    let (load_op, clear) = match use_ {
-        ImageUse::Color(Load::Clear(c)) => (vk::AttachmentLoadOp::CLEAR, vk::ClearValue { color: vk::ClearColorValue { float32: c } }),
-        ImageUse::DepthWrite(Load::ClearDepth(d)) | ImageUse::Color(Load::ClearDepth(d)) => {
+    let load = match use_ {
+        ImageUse::Color(load) | ImageUse::DepthWrite(load) => load,
+        _ => Load::Keep,
+    };
+    let (load_op, clear) = match load {
+        Load::Keep => (vk::AttachmentLoadOp::LOAD, vk::ClearValue::default()),
+        Load::Discard => (vk::AttachmentLoadOp::DONT_CARE, vk::ClearValue::default()),
+        Load::Clear(c) => (vk::AttachmentLoadOp::CLEAR, vk::ClearValue { color: vk::ClearColorValue { float32: c } }),
+        Load::ClearDepth(d) => {
             (vk::AttachmentLoadOp::CLEAR, vk::ClearValue { depth_stencil: vk::ClearDepthStencilValue { depth: d, stencil: 0 } })
         }
-        ImageUse::DepthWrite(Load::Clear(c)) => {
-            (vk::AttachmentLoadOp::CLEAR, vk::ClearValue { depth_stencil: vk::ClearDepthStencilValue { depth: c[0], stencil: 0 } })
-        }
-        ImageUse::Color(Load::Discard) | ImageUse::DepthWrite(Load::Discard) => {
-            (vk::AttachmentLoadOp::DONT_CARE, vk::ClearValue::default())
-        }
-        _ => (vk::AttachmentLoadOp::LOAD, vk::ClearValue::default()),
     };
+    debug_assert!(
+        !matches!(use_, ImageUse::Color(Load::ClearDepth(_)) | ImageUse::DepthWrite(Load::Clear(_))),
+        "a colour attachment clears with Load::Clear, a depth attachment with Load::ClearDepth"
+    );
     // A read-only attachment is not stored: STORE would count as a write the graph does not
     // track (the store happens at the late fragment tests).
     let store_op = if matches!(use_, ImageUse::DepthTest | ImageUse::DepthTestSampled) {
