@@ -1,4 +1,4 @@
-// variants: RAY_QUERY_DECALS
+// variants: RAY_QUERY_DECALS DECAL_BUFFER
 #version 460
 // Deferred shading, lighting pass (seed 000 §5.1.2): one full-screen pass reads the G-buffer,
 // applies ray-query decals to the attributes, lights them, and adds the result to the emitted

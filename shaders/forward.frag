@@ -1,4 +1,4 @@
-// variants: RAY_QUERY_DECALS
+// variants: RAY_QUERY_DECALS DECAL_BUFFER
 #version 460
 // Forward shading pass (depth test EQUAL against the prepass): the material through the
 // bindless array, normal mapping, then shade_surface (ray-query decals and every light).

@@ -468,6 +468,19 @@ layout! {
     pub const BINDING_GBUFFER_LAYERS: u32 = 6;
     /// Binding of the visibility buffer's ids (`visibility_ids`, unsigned integer).
     pub const BINDING_VISIBILITY: u32 = 7;
+    /// Binding of the decal buffer's albedo (`decal_albedo`, storage image RGBA16F): the
+    /// premultiplied decal albedo (rgb) and the weight left to the surface's own (a). The decal
+    /// pass writes the decal buffer; shading applies `value = decal + value × remaining`.
+    pub const BINDING_DECAL_ALBEDO: u32 = 8;
+    /// Binding of the decal buffer's normal (`decal_normal`, RGBA16F): decal normal (xyz) and
+    /// the weight left to the surface normal (w).
+    pub const BINDING_DECAL_NORMAL: u32 = 9;
+    /// Binding of the decal buffer's roughness/metallic (`decal_spec`, RGBA16F): decal roughness
+    /// and metallic (xy), the weights left to the surface's (zw).
+    pub const BINDING_DECAL_SPEC: u32 = 10;
+    /// Binding of the decal buffer's count of decals tested per pixel (`decal_tested`, R32UI;
+    /// the debug views read it).
+    pub const BINDING_DECAL_TESTED: u32 = 11;
     /// Number of bindless slots the renderer reserves for itself (built-ins and render targets;
     /// scene textures start here).
     pub const RESERVED_TEXTURES: u32 = 16;

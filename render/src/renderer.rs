@@ -92,7 +92,7 @@ struct Resources {
     overlay: Option<(Overlay, vk::Format)>,
     graveyard: Graveyard,
     /// Decal-method fallbacks already logged (one bit per request and pipeline).
-    warned_fallbacks: u16,
+    warned_fallbacks: u32,
 }
 
 /// The renderer. It owns the device; create one per window or offscreen view.
@@ -173,6 +173,11 @@ impl Renderer {
     /// The capability tier in use.
     pub fn tier(&self) -> Tier {
         self.ctx.tier
+    }
+
+    /// What the device offers decals (which [`DecalMethod`]s it can run).
+    pub fn decal_support(&self) -> crate::settings::DecalSupport {
+        self.ctx.decal_support()
     }
 
     /// The render size.
@@ -408,9 +413,9 @@ impl Resources {
     /// The decal method applied this frame; a request the device cannot run is logged once per
     /// request and pipeline, naming the tier and the method used instead.
     fn decal_method(&mut self, ctx: &GpuContext, settings: &FrameSettings) -> DecalMethod {
-        let applied = settings.decal_method.effective(settings.pipeline, ctx.tier);
-        let key = 1u16 << (settings.decal_method as u16 * 3 + settings.pipeline as u16);
-        if applied != settings.decal_method && applied != DecalMethod::RayQuery && self.warned_fallbacks & key == 0 {
+        let applied = settings.decal_method.effective(settings.pipeline, ctx.decal_support());
+        let key = 1u32 << (settings.decal_method as u32 * PipelineKind::ALL.len() as u32 + settings.pipeline as u32);
+        if applied != settings.decal_method && self.warned_fallbacks & key == 0 {
             self.warned_fallbacks |= key;
             tracing::warn!(
                 requested = settings.decal_method.name(),

@@ -37,11 +37,16 @@ impl PipelineKind {
 /// How decals are applied.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum DecalMethod {
-    /// Ray-query decals in the shading pass (needs the ray query tier).
+    /// Ray-query decals in the shading pass (needs ray queries).
     #[default]
     RayQuery,
-    /// Rasterised decal boxes blended into the G-buffer (deferred pipeline only; other
-    /// pipelines fall back to ray-query decals where the device has ray queries). Needs no ray
+    /// A compute pass with ray queries writes the decal buffer the shading passes apply (needs
+    /// ray queries): the ray-query tier's counterpart of [`DecalMethod::RayPipeline`].
+    RayQueryCompute,
+    /// A ray-tracing-pipeline pass writes the decal buffer the shading passes apply (needs
+    /// acceleration structures and ray-tracing pipelines, no ray queries).
+    RayPipeline,
+    /// Rasterised decal boxes blended into the G-buffer (deferred pipeline only). Needs no ray
     /// tracing at all.
     DeferredDecals,
     /// No decals.
@@ -51,14 +56,34 @@ pub enum DecalMethod {
     Unavailable,
 }
 
+/// What a device offers decals (from its capability tier and extensions).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct DecalSupport {
+    /// Ray queries (the ray-query tier).
+    pub ray_query: bool,
+    /// Acceleration structures and ray-tracing pipelines.
+    pub ray_pipeline: bool,
+}
+
+impl DecalSupport {
+    /// What a device of `tier` offers when it has every extension of its tier (a ray-query
+    /// device may lack ray-tracing pipelines; [`crate::Renderer`] reports the device's own).
+    pub fn of_tier(tier: Tier) -> Self {
+        Self { ray_query: tier == Tier::RayQuery, ray_pipeline: tier >= Tier::RayTracingPipeline }
+    }
+}
+
 impl DecalMethod {
     /// Every method that can be requested.
-    pub const ALL: [DecalMethod; 3] = [DecalMethod::RayQuery, DecalMethod::DeferredDecals, DecalMethod::Off];
+    pub const ALL: [DecalMethod; 5] =
+        [DecalMethod::RayQuery, DecalMethod::RayQueryCompute, DecalMethod::RayPipeline, DecalMethod::DeferredDecals, DecalMethod::Off];
 
     /// The name used in `--stats` and on the command line.
     pub fn name(self) -> &'static str {
         match self {
             DecalMethod::RayQuery => "ray_query",
+            DecalMethod::RayQueryCompute => "ray_query_compute",
+            DecalMethod::RayPipeline => "ray_pipeline",
             DecalMethod::DeferredDecals => "deferred",
             DecalMethod::Off => "off",
             DecalMethod::Unavailable => "none",
@@ -70,21 +95,39 @@ impl DecalMethod {
         Self::ALL.into_iter().find(|m| m.name() == name)
     }
 
-    /// The method actually applied with `pipeline` on a device of `tier`: the requested one
-    /// when it can run, else the best one that can (ray-query decals need the ray-query tier,
-    /// deferred decals the deferred pipeline), else [`DecalMethod::Unavailable`]. Never
-    /// nothing when something can run.
-    pub fn effective(self, pipeline: PipelineKind, tier: Tier) -> DecalMethod {
-        let ray_query = tier == Tier::RayQuery;
-        let deferred = pipeline == PipelineKind::Deferred;
+    /// Whether the method traces the decal acceleration structures.
+    pub fn traces(self) -> bool {
+        matches!(self, DecalMethod::RayQuery | DecalMethod::RayQueryCompute | DecalMethod::RayPipeline)
+    }
+
+    /// Whether a decal pass writes the decal buffer that the shading passes apply.
+    pub fn uses_decal_buffer(self) -> bool {
+        matches!(self, DecalMethod::RayQueryCompute | DecalMethod::RayPipeline)
+    }
+
+    /// Whether this method can run with `pipeline` on a device offering `support`.
+    pub fn runs(self, pipeline: PipelineKind, support: DecalSupport) -> bool {
         match self {
-            DecalMethod::Off => DecalMethod::Off,
-            DecalMethod::RayQuery | DecalMethod::Unavailable if ray_query => DecalMethod::RayQuery,
-            DecalMethod::DeferredDecals if deferred => DecalMethod::DeferredDecals,
-            _ if deferred => DecalMethod::DeferredDecals,
-            _ if ray_query => DecalMethod::RayQuery,
-            _ => DecalMethod::Unavailable,
+            DecalMethod::RayQuery | DecalMethod::RayQueryCompute => support.ray_query,
+            DecalMethod::RayPipeline => support.ray_pipeline,
+            DecalMethod::DeferredDecals => pipeline == PipelineKind::Deferred,
+            DecalMethod::Off => true,
+            DecalMethod::Unavailable => false,
         }
+    }
+
+    /// The method actually applied with `pipeline` on a device offering `support`: the
+    /// requested one when it can run, else the best one that can (ray queries in the shading
+    /// pass, then the ray-tracing-pipeline decal pass, then deferred decals in the deferred
+    /// pipeline), else [`DecalMethod::Unavailable`]. Never nothing when something can run.
+    pub fn effective(self, pipeline: PipelineKind, support: DecalSupport) -> DecalMethod {
+        if self.runs(pipeline, support) {
+            return self;
+        }
+        [DecalMethod::RayQuery, DecalMethod::RayPipeline, DecalMethod::DeferredDecals]
+            .into_iter()
+            .find(|m| m.runs(pipeline, support))
+            .unwrap_or(DecalMethod::Unavailable)
     }
 }
 
@@ -142,18 +185,30 @@ mod tests {
     fn the_applied_decal_method_is_the_best_one_the_device_can_run() {
         use DecalMethod::*;
         use PipelineKind::*;
-        let rq = Tier::RayQuery;
-        let rtp = Tier::RayTracingPipeline;
-        let none = Tier::NoRayTracing;
-        assert_eq!(RayQuery.effective(Forward, rq), RayQuery);
+        let rq = DecalSupport::of_tier(Tier::RayQuery);
+        let rtp = DecalSupport::of_tier(Tier::RayTracingPipeline);
+        let none = DecalSupport::of_tier(Tier::NoRayTracing);
+        let rq_only = DecalSupport { ray_query: true, ray_pipeline: false };
+        for p in PipelineKind::ALL {
+            assert_eq!(RayQuery.effective(p, rq), RayQuery);
+            assert_eq!(RayQueryCompute.effective(p, rq), RayQueryCompute);
+            assert_eq!(RayPipeline.effective(p, rq), RayPipeline, "a ray-query device with ray-tracing pipelines runs both");
+            assert_eq!(RayPipeline.effective(p, rq_only), RayQuery, "the best method this device has");
+            assert_eq!(RayQuery.effective(p, rtp), RayPipeline, "no ray queries: the ray-tracing-pipeline pass, not nothing");
+            assert_eq!(RayQueryCompute.effective(p, rtp), RayPipeline);
+            assert_eq!(RayPipeline.effective(p, rtp), RayPipeline);
+            assert_eq!(Off.effective(p, rq), Off);
+        }
         assert_eq!(DeferredDecals.effective(Deferred, rq), DeferredDecals);
         assert_eq!(DeferredDecals.effective(Forward, rq), RayQuery, "deferred decals exist only in the deferred pipeline");
-        assert_eq!(RayQuery.effective(Deferred, rtp), DeferredDecals, "no ray queries: deferred decals, not nothing");
-        assert_eq!(RayQuery.effective(Deferred, none), DeferredDecals);
-        assert_eq!(RayQuery.effective(Forward, rtp), Unavailable, "no method runs in forward without ray queries yet");
+        assert_eq!(DeferredDecals.effective(Forward, rtp), RayPipeline);
+        assert_eq!(RayQuery.effective(Deferred, none), DeferredDecals, "no ray tracing: deferred decals where they exist");
+        assert_eq!(RayPipeline.effective(Forward, none), Unavailable, "no method runs in forward without ray tracing yet");
         assert_eq!(DeferredDecals.effective(VisBuffer, none), Unavailable);
-        assert_eq!(Off.effective(Forward, rq), Off);
         assert_eq!(Unavailable.name(), "none");
         assert!(!DecalMethod::ALL.contains(&Unavailable), "reported, never requested");
+        for m in DecalMethod::ALL {
+            assert_eq!(DecalMethod::from_name(m.name()), Some(m));
+        }
     }
 }

@@ -74,17 +74,30 @@ pub struct HeadlessOptions {
     pub compare: bool,
 }
 
-/// The pipeline and decal-method pairs `--compare` runs, in order: every pipeline with ray-query
-/// decals and without decals, and the deferred pipeline with deferred decals.
-pub const COMPARE_SET: [(PipelineKind, DecalMethod); 7] = [
+/// The pipeline and decal-method pairs `--compare` runs, in order (those the device can run; see
+/// [`compare_set`]): every pipeline without decals and with each ray-traced method, and the
+/// deferred pipeline with deferred decals.
+pub const COMPARE_SET: [(PipelineKind, DecalMethod); 13] = [
     (PipelineKind::Forward, DecalMethod::Off),
     (PipelineKind::Forward, DecalMethod::RayQuery),
+    (PipelineKind::Forward, DecalMethod::RayQueryCompute),
+    (PipelineKind::Forward, DecalMethod::RayPipeline),
     (PipelineKind::Deferred, DecalMethod::Off),
     (PipelineKind::Deferred, DecalMethod::RayQuery),
+    (PipelineKind::Deferred, DecalMethod::RayQueryCompute),
+    (PipelineKind::Deferred, DecalMethod::RayPipeline),
     (PipelineKind::Deferred, DecalMethod::DeferredDecals),
     (PipelineKind::VisBuffer, DecalMethod::Off),
     (PipelineKind::VisBuffer, DecalMethod::RayQuery),
+    (PipelineKind::VisBuffer, DecalMethod::RayQueryCompute),
+    (PipelineKind::VisBuffer, DecalMethod::RayPipeline),
 ];
+
+/// The pairs of [`COMPARE_SET`] a device offering `support` runs as asked (a method it cannot run
+/// would fall back to another, measuring that one twice).
+pub fn compare_set(support: render::DecalSupport) -> Vec<(PipelineKind, DecalMethod)> {
+    COMPARE_SET.into_iter().filter(|&(p, m)| m.effective(p, support) == m).collect()
+}
 
 impl Default for HeadlessOptions {
     fn default() -> Self {
@@ -184,7 +197,7 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
         Some(p) => Some(std::io::BufWriter::new(create(p)?)),
         None => None,
     };
-    let combos: &[(PipelineKind, DecalMethod)] = if opts.compare { &COMPARE_SET } else { &[] };
+    let combos = if opts.compare { compare_set(app.world.resource::<GpuRenderer>().0.decal_support()) } else { Vec::new() };
     let total = opts.frames as usize * combos.len().max(1);
     let mut frames = Vec::with_capacity(total);
     for i in 0..total {

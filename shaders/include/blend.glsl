@@ -52,17 +52,45 @@ void blend_metallic(inout DecalBlend b, uint c, float value, float a, float w) {
     b.weight[c].w += a * w;
 }
 
-// Composites the channels over the surface attributes, channel 0 first.
-void blend_resolve(DecalBlend b, inout vec3 albedo, inout vec3 n, inout float roughness, inout float metallic) {
+// The channels composited in order (channel 0 first) collapse into one affine map per
+// attribute, `value = decal + value × remaining` (the seed's final step): a channel maps v to
+// A_c + v·R_c with A_c = sum/wsum·(1 − vis) and R_c = vis, and the composition of affine maps
+// is affine. The decal buffer stores exactly this, so passes that apply decals later (the
+// shading passes reading a decal pass's output) get the same result as blend_resolve.
+struct DecalComposite {
+    vec4 albedo;   // rgb: decal albedo, a: weight remaining to the surface's albedo
+    vec4 normal;   // xyz: decal normal, w: remaining
+    vec4 spec;     // xy: decal roughness and metallic, zw: remaining
+};
+
+DecalComposite blend_collapse(DecalBlend b) {
+    DecalComposite o;
+    o.albedo = vec4(0.0, 0.0, 0.0, 1.0);
+    o.normal = vec4(0.0, 0.0, 0.0, 1.0);
+    o.spec = vec4(0.0, 0.0, 1.0, 1.0);
     for (uint c = 0u; c < DECAL_CHANNELS; ++c) {
         vec4 w = b.weight[c];
-        if (w.x > 0.0) albedo = b.albedo[c].rgb / w.x * (1.0 - b.albedo[c].a) + albedo * b.albedo[c].a;
-        if (w.y > 0.0) n = b.normal[c].xyz / w.y * (1.0 - b.normal[c].w) + n * b.normal[c].w;
-        if (w.z > 0.0) roughness = b.spec[c].x / w.z * (1.0 - b.spec[c].z) + roughness * b.spec[c].z;
-        if (w.w > 0.0) metallic = b.spec[c].y / w.w * (1.0 - b.spec[c].w) + metallic * b.spec[c].w;
+        if (w.x > 0.0) o.albedo = vec4(b.albedo[c].rgb / w.x * (1.0 - b.albedo[c].a) + o.albedo.rgb * b.albedo[c].a, o.albedo.a * b.albedo[c].a);
+        if (w.y > 0.0) o.normal = vec4(b.normal[c].xyz / w.y * (1.0 - b.normal[c].w) + o.normal.xyz * b.normal[c].w, o.normal.w * b.normal[c].w);
+        if (w.z > 0.0) { o.spec.x = b.spec[c].x / w.z * (1.0 - b.spec[c].z) + o.spec.x * b.spec[c].z; o.spec.z *= b.spec[c].z; }
+        if (w.w > 0.0) { o.spec.y = b.spec[c].y / w.w * (1.0 - b.spec[c].w) + o.spec.y * b.spec[c].w; o.spec.w *= b.spec[c].w; }
     }
+    return o;
+}
+
+// Applies a collapsed composite to the surface attributes (then renormalises the normal).
+void blend_apply(DecalComposite o, inout vec3 albedo, inout vec3 n, inout float roughness, inout float metallic) {
+    albedo = o.albedo.rgb + albedo * o.albedo.a;
+    n = o.normal.xyz + n * o.normal.w;
+    roughness = o.spec.x + roughness * o.spec.z;
+    metallic = o.spec.y + metallic * o.spec.w;
     float len2 = dot(n, n);
     n = len2 > 1e-12 ? n * inversesqrt(len2) : n;
+}
+
+// Composites the channels over the surface attributes, channel 0 first.
+void blend_resolve(DecalBlend b, inout vec3 albedo, inout vec3 n, inout float roughness, inout float metallic) {
+    blend_apply(blend_collapse(b), albedo, n, roughness, metallic);
 }
 
 #endif

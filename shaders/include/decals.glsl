@@ -30,24 +30,28 @@ struct DecalSurface {
     uint layers;           // receiver layers of the instance
 };
 
-// Tests one decal against the surface and accumulates it into its channel (Listing 4.2).
-void apply_decal(inout DecalBlend b, uint index, DecalSurface s) {
-    GpuDecal d = DecalsRef(scene.decals).decals[index];
-    if ((d.receivers & s.layers) == 0u) return;
-    vec3 local = (d.world_to_decal * vec4(s.position, 1.0)).xyz;
-    if (any(greaterThan(abs(local), vec3(0.5)))) return;   // outside the oriented box
-
+// The texture-free part of a decal's test (§4.1.3): the exact oriented-box test of `position`
+// and the angle fade by the surface's geometric normal. False when the decal does not apply;
+// else its local position and fade. (The ray-tracing pipeline's intersection shader runs this.)
+bool decal_locate(GpuDecal d, vec3 position, vec3 geometric_normal, out vec3 local, out float fade) {
+    local = (d.world_to_decal * vec4(position, 1.0)).xyz;
+    fade = 0.0;
+    if (any(greaterThan(abs(local), vec3(0.5)))) return false;   // outside the oriented box
     // Angle fade: the gradient of decal-space z is the projection axis (pointing back at the
     // projector); surfaces facing it have cos = 1.
+    vec3 grad_z = vec3(d.world_to_decal[0][2], d.world_to_decal[1][2], d.world_to_decal[2][2]);
+    float cos_angle = dot(geometric_normal, normalize(grad_z));
+    fade = clamp(cos_angle * d.fade_scale + d.fade_offset, 0.0, 1.0);
+    return fade > 0.0;
+}
+
+// Samples a located decal's textures and accumulates it into its channel (Listing 4.2).
+// (The ray-tracing pipeline's any-hit shader runs this.)
+void decal_accumulate(inout DecalBlend b, GpuDecal d, vec3 local, float fade, DecalSurface s) {
+    // Bilinear UVs over the four corners, and their derivatives along decal x and y.
     mat3 to_local = mat3(d.world_to_decal);
     vec3 grad_x = vec3(d.world_to_decal[0][0], d.world_to_decal[1][0], d.world_to_decal[2][0]);
     vec3 grad_y = vec3(d.world_to_decal[0][1], d.world_to_decal[1][1], d.world_to_decal[2][1]);
-    vec3 grad_z = vec3(d.world_to_decal[0][2], d.world_to_decal[1][2], d.world_to_decal[2][2]);
-    float cos_angle = dot(s.geometric_normal, normalize(grad_z));
-    float fade = clamp(cos_angle * d.fade_scale + d.fade_offset, 0.0, 1.0);
-    if (fade <= 0.0) return;
-
-    // Bilinear UVs over the four corners, and their derivatives along decal x and y.
     vec2 st = local.xy + 0.5;
     vec2 c0 = d.uv01.xy, c1 = d.uv01.zw, c2 = d.uv23.xy, c3 = d.uv23.zw;
     vec2 uv = mix(mix(c0, c1, st.x), mix(c3, c2, st.x), st.y);
@@ -81,6 +85,15 @@ void apply_decal(inout DecalBlend b, uint index, DecalSurface s) {
         if ((m.flags & DECAL_ROUGHNESS) != 0u) blend_roughness(b, c, m.roughness * mr.y, a, w);
         if ((m.flags & DECAL_METALLIC) != 0u) blend_metallic(b, c, m.metallic * mr.x, a, w);
     }
+}
+
+// Tests one decal against the surface and accumulates it into its channel.
+void apply_decal(inout DecalBlend b, uint index, DecalSurface s) {
+    GpuDecal d = DecalsRef(scene.decals).decals[index];
+    if ((d.receivers & s.layers) == 0u) return;
+    vec3 local;
+    float fade;
+    if (decal_locate(d, s.position, s.geometric_normal, local, fade)) decal_accumulate(b, d, local, fade, s);
 }
 
 #ifdef RAY_QUERY_DECALS

@@ -1,6 +1,7 @@
 // Shading shared by every pipeline: given a surface's attributes (from the forward pass's
-// varyings, the G-buffer, or the visibility buffer's reconstruction), apply ray-query decals
-// (RAY_QUERY_DECALS variants, when the frame enables them), answer the debug views, and light it.
+// varyings, the G-buffer, or the visibility buffer's reconstruction), apply decals, answer the
+// debug views, and light it. Decals come from in-shader ray queries (RAY_QUERY_DECALS variants)
+// or from the decal buffer a decal pass wrote (DECAL_BUFFER variants), when the frame has any.
 #ifndef SHADING_GLSL
 #define SHADING_GLSL
 
@@ -8,6 +9,9 @@
 #include "lighting.glsl"
 #include "decals.glsl"
 #include "heatmap.glsl"
+#ifdef DECAL_BUFFER
+#include "decal_buffer.glsl"
+#endif
 
 struct SurfaceInputs {
     vec3 position;
@@ -39,6 +43,9 @@ vec4 shade_surface(SurfaceInputs s) {
         decals_tested = gather_decals(blend, surface);
         blend_resolve(blend, s.albedo, s.normal, s.roughness, s.metallic);
     }
+#endif
+#ifdef DECAL_BUFFER
+    if (scene.decal_count > 0u) decals_tested = decal_buffer_apply(ivec2(gl_FragCoord.xy), s.albedo, s.normal, s.roughness, s.metallic);
 #endif
     if (scene.debug_view == DEBUG_ALBEDO) return vec4(s.albedo, 1.0);
     if (scene.debug_view == DEBUG_NORMAL) return vec4(s.normal * 0.5 + 0.5, 1.0);

@@ -35,13 +35,7 @@ pub fn ecs_app() -> App {
 
 /// An app that renders offscreen at `w`×`h` on the default device with validation on.
 pub fn gpu_app(w: u32, h: u32, settings: RenderSettings) -> App {
-    let mut app = App::new();
-    app.world.resource_mut::<Time>().set_fixed_step(Some(std::time::Duration::from_millis(16)));
-    app.add_plugins(RenderPlugin::new(RenderSettings { size: (w, h), ..settings }));
-    let renderer = Renderer::new(&RendererSettings::default(), w, h).expect("a Vulkan device (run scripts/setup.sh)");
-    assert!(renderer.validation_enabled(), "GPU tests need the validation layer");
-    app.insert_resource(GpuRenderer(renderer));
-    app
+    gpu_app_at(w, h, settings, render::Tier::RayQuery)
 }
 
 /// The renderer of a GPU app.
@@ -156,4 +150,16 @@ pub fn error_stats(a: &[[f32; 4]], b: &[[f32; 4]], mask: impl Fn(usize) -> bool)
     let mean = errors.iter().sum::<f32>() / errors.len() as f32;
     let p99 = errors[((errors.len() - 1) as f32 * 0.99) as usize];
     (mean, p99)
+}
+
+/// [`gpu_app`] on a device whose capability tier is capped at `tier`.
+pub fn gpu_app_at(w: u32, h: u32, settings: RenderSettings, tier: render::Tier) -> App {
+    let mut app = App::new();
+    app.world.resource_mut::<Time>().set_fixed_step(Some(std::time::Duration::from_millis(16)));
+    app.add_plugins(RenderPlugin::new(RenderSettings { size: (w, h), ..settings }));
+    let device = render::DeviceSettings { max_tier: tier, ..Default::default() };
+    let renderer = Renderer::new(&RendererSettings { device }, w, h).expect("a Vulkan device (run scripts/setup.sh)");
+    assert!(renderer.validation_enabled(), "GPU tests need the validation layer");
+    app.insert_resource(GpuRenderer(renderer));
+    app
 }

@@ -1,6 +1,9 @@
-//! Ray-query decals on lavapipe: the blending equations against a CPU reference, containment at
-//! the box's faces and corners, receiver masks, angle and lifetime fades, and ECS sequences whose
-//! images *and* work counters are both checked.
+//! Ray-traced decals on lavapipe: the blending equations against a CPU reference, containment at
+//! the box's faces and corners, receiver masks, angle and lifetime fades, normal maps, and ECS
+//! sequences whose images *and* work counters are both checked. Every GPU test runs in each of
+//! [`CONFIGS`]: in-shader ray queries (the ray-query tier, forward), and the
+//! ray-tracing-pipeline decal pass with the tier forced down to `ray_tracing_pipeline` (no ray
+//! queries at all) in the forward, deferred and visibility-buffer pipelines.
 //!
 //! Scenes are a horizontal plane seen from straight above ([`TopDownView`]); the shading pass's
 //! debug views write the post-decal albedo and roughness/metallic into the HDR target, which is
@@ -12,10 +15,36 @@
 use engine::prelude::*;
 use plugins::decal::{AngleFade, Decal, DecalLifetime, DecalMaterial, DecalReceiver};
 use plugins::{MirrorSlots, RenderMirror, RenderSettings, RenderStats};
-use render::DebugView;
-use tests::{TopDownView, assert_no_validation_errors, gpu_app, renderer};
+use render::{DebugView, DecalMethod, PipelineKind, Tier};
+use tests::{TopDownView, assert_no_validation_errors, gpu_app_at, renderer};
 
-const SURFACE_ALBEDO: Vec3 = Vec3::new(0.5, 0.5, 0.5);
+/// A device tier, pipeline and decal method every decal test runs with.
+#[derive(Clone, Copy, Debug)]
+struct Config {
+    tier: Tier,
+    pipeline: PipelineKind,
+    method: DecalMethod,
+}
+
+const CONFIGS: [Config; 4] = [
+    Config { tier: Tier::RayQuery, pipeline: PipelineKind::Forward, method: DecalMethod::RayQuery },
+    Config { tier: Tier::RayTracingPipeline, pipeline: PipelineKind::Forward, method: DecalMethod::RayPipeline },
+    Config { tier: Tier::RayTracingPipeline, pipeline: PipelineKind::Deferred, method: DecalMethod::RayPipeline },
+    Config { tier: Tier::RayTracingPipeline, pipeline: PipelineKind::VisBuffer, method: DecalMethod::RayPipeline },
+];
+
+/// An offscreen app of `size` rendering with `c`, its decal method checked to be the one applied.
+fn config_app(c: Config, size: (u32, u32), debug_view: DebugView) -> App {
+    let settings = RenderSettings { debug_view, pipeline: c.pipeline, decal_method: c.method, ..Default::default() };
+    let mut app = gpu_app_at(size.0, size.1, settings, c.tier);
+    assert_eq!(renderer(&mut app).tier(), c.tier, "lavapipe offers every tier");
+    app
+}
+
+/// The plane's albedo: sRGB 188/255, which the deferred pipeline's 8-bit sRGB G-buffer holds
+/// exactly, so every pipeline sees the same surface (as 0.8 = 204/255 is exact in its 8-bit
+/// roughness).
+const SURFACE_ALBEDO: Vec3 = Vec3::splat(0.502_886_4);
 const SURFACE_ROUGHNESS: f32 = 0.8;
 const SURFACE_METALLIC: f32 = 0.0;
 
@@ -107,8 +136,8 @@ impl Lcg {
 
 const SIZE: (u32, u32) = (128, 96);
 
-fn plane_app() -> (App, TopDownView) {
-    let mut app = gpu_app(SIZE.0, SIZE.1, RenderSettings { debug_view: DebugView::Albedo, ..Default::default() });
+fn plane_app(c: Config) -> (App, TopDownView) {
+    let mut app = config_app(c, SIZE, DebugView::Albedo);
     let mesh = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(12.0, 12.0, 1, 1.0));
     let material = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(
         SURFACE_ALBEDO.extend(1.0),
@@ -149,58 +178,64 @@ fn read_views(app: &mut App) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
 
 #[test]
 fn random_overlapping_stacks_match_the_cpu_blending_reference() {
-    for seed in [1u64, 2, 3] {
-        let (mut app, view) = plane_app();
-        let mut rng = Lcg(seed);
-        let decals: Vec<RefDecal> = (0..12)
-            .map(|_| {
-                let t = downward(
-                    Vec3::new(rng.range(-1.0, 1.0), 0.0, rng.range(-0.8, 0.8)),
-                    Vec2::new(rng.range(1.5, 3.0), rng.range(1.5, 3.0)),
-                    1.0,
-                    rng.range(0.0, std::f32::consts::TAU),
-                );
-                let has_albedo = rng.next() < 0.8;
-                RefDecal {
-                    to_world: t.compute_matrix(),
-                    channel: (rng.next() * 4.0) as usize % 4,
-                    weight: rng.range(0.3, 3.0),
-                    albedo: has_albedo.then(|| Vec3::new(rng.next(), rng.next(), rng.next())),
-                    alpha: rng.range(0.2, 1.0),
-                    roughness: (rng.next() < 0.5).then(|| rng.next()),
-                    metallic: (rng.next() < 0.4).then(|| rng.next()),
-                }
-            })
-            .collect();
-        for d in &decals {
-            spawn_ref_decal(&mut app, d);
-        }
-        let (albedo, rm) = read_views(&mut app);
-        assert_no_validation_errors(&mut app);
+    for c in CONFIGS {
+        eprintln!("{c:?}");
+        for seed in [1u64, 2, 3] {
+            let (mut app, view) = plane_app(c);
+            let mut rng = Lcg(seed);
+            let decals: Vec<RefDecal> = (0..12)
+                .map(|_| {
+                    let t = downward(
+                        Vec3::new(rng.range(-1.0, 1.0), 0.0, rng.range(-0.8, 0.8)),
+                        Vec2::new(rng.range(1.5, 3.0), rng.range(1.5, 3.0)),
+                        1.0,
+                        rng.range(0.0, std::f32::consts::TAU),
+                    );
+                    let has_albedo = rng.next() < 0.8;
+                    RefDecal {
+                        to_world: t.compute_matrix(),
+                        channel: (rng.next() * 4.0) as usize % 4,
+                        weight: rng.range(0.3, 3.0),
+                        albedo: has_albedo.then(|| Vec3::new(rng.next(), rng.next(), rng.next())),
+                        alpha: rng.range(0.2, 1.0),
+                        roughness: (rng.next() < 0.5).then(|| rng.next()),
+                        metallic: (rng.next() < 0.4).then(|| rng.next()),
+                    }
+                })
+                .collect();
+            for d in &decals {
+                spawn_ref_decal(&mut app, d);
+            }
+            let (albedo, rm) = read_views(&mut app);
+            assert_no_validation_errors(&mut app);
 
-        let pixel_world = 2.0 * view.transform.translation.y * (view.camera.fov_y * 0.5).tan() / SIZE.1 as f32;
-        let (mut checked, mut covered, mut worst) = (0, 0, 0.0f32);
-        for py in 0..SIZE.1 {
-            for px in 0..SIZE.0 {
-                let Some(p) = view.ground_point(px, py, 0.0) else { continue };
-                if distance_to_any_face(p, &decals) < pixel_world {
-                    continue;
-                }
-                let (ea, er, em) = reference(p, &decals);
-                let i = (py * SIZE.0 + px) as usize;
-                let got_a = Vec3::from_slice(&albedo[i][..3]);
-                let (got_r, got_m) = (rm[i][0], rm[i][1]);
-                let err = (got_a - ea).abs().max_element().max((got_r - er).abs()).max((got_m - em).abs());
-                worst = worst.max(err);
-                assert!(err <= 1.5e-3, "seed {seed} pixel ({px},{py}) at {p}: gpu albedo {got_a} r {got_r} m {got_m}, cpu {ea} {er} {em}");
-                checked += 1;
-                if ea != SURFACE_ALBEDO || er != SURFACE_ROUGHNESS || em != SURFACE_METALLIC {
-                    covered += 1;
+            let pixel_world = 2.0 * view.transform.translation.y * (view.camera.fov_y * 0.5).tan() / SIZE.1 as f32;
+            let (mut checked, mut covered, mut worst) = (0, 0, 0.0f32);
+            for py in 0..SIZE.1 {
+                for px in 0..SIZE.0 {
+                    let Some(p) = view.ground_point(px, py, 0.0) else { continue };
+                    if distance_to_any_face(p, &decals) < pixel_world {
+                        continue;
+                    }
+                    let (ea, er, em) = reference(p, &decals);
+                    let i = (py * SIZE.0 + px) as usize;
+                    let got_a = Vec3::from_slice(&albedo[i][..3]);
+                    let (got_r, got_m) = (rm[i][0], rm[i][1]);
+                    let err = (got_a - ea).abs().max_element().max((got_r - er).abs()).max((got_m - em).abs());
+                    worst = worst.max(err);
+                    assert!(
+                        err <= 1.5e-3,
+                        "seed {seed} pixel ({px},{py}) at {p}: gpu albedo {got_a} r {got_r} m {got_m}, cpu {ea} {er} {em}"
+                    );
+                    checked += 1;
+                    if ea != SURFACE_ALBEDO || er != SURFACE_ROUGHNESS || em != SURFACE_METALLIC {
+                        covered += 1;
+                    }
                 }
             }
+            assert!(covered > 1500, "seed {seed}: most checked pixels lie under decals ({covered} of {checked})");
+            eprintln!("seed {seed}: {checked} pixels ({covered} under decals), worst abs error {worst:.5}");
         }
-        assert!(covered > 1500, "seed {seed}: most checked pixels lie under decals ({covered} of {checked})");
-        eprintln!("seed {seed}: {checked} pixels ({covered} under decals), worst abs error {worst:.5}");
     }
 }
 
@@ -233,32 +268,35 @@ fn red_material(app: &mut App) -> Handle<DecalMaterial> {
 
 #[test]
 fn containment_follows_the_oriented_box_at_faces_and_corners() {
-    let (mut app, view) = plane_app();
-    let material = red_material(&mut app);
-    let transform = downward(Vec3::new(0.3, 0.0, -0.2), Vec2::new(2.0, 1.2), 1.0, 0.5);
-    let to_decal = transform.compute_matrix().inverse();
-    app.world.spawn((Decal::new(material), transform));
-    let pixel = 2.0 * 4.0 * (view.camera.fov_y * 0.5).tan() / SIZE.1 as f32;
-    let margin = 0.75 * pixel;
-    let (hits, misses) = check_single_decal(&mut app, &view, |p| {
-        let local = to_decal.transform_point3(p);
-        // Distance outside (>0) or inside (<0) the box's x/y extent, in world units.
-        let dx = (local.x.abs() - 0.5) * 2.0;
-        let dy = (local.y.abs() - 0.5) * 1.2;
-        let d = dx.max(dy);
-        (d.abs() > margin).then_some(d < 0.0)
-    });
-    assert!(hits > 400 && misses > 400, "both sides checked: {hits} inside, {misses} outside");
+    for c in CONFIGS {
+        eprintln!("{c:?}");
+        let (mut app, view) = plane_app(c);
+        let material = red_material(&mut app);
+        let transform = downward(Vec3::new(0.3, 0.0, -0.2), Vec2::new(2.0, 1.2), 1.0, 0.5);
+        let to_decal = transform.compute_matrix().inverse();
+        app.world.spawn((Decal::new(material), transform));
+        let pixel = 2.0 * 4.0 * (view.camera.fov_y * 0.5).tan() / SIZE.1 as f32;
+        let margin = 0.75 * pixel;
+        let (hits, misses) = check_single_decal(&mut app, &view, |p| {
+            let local = to_decal.transform_point3(p);
+            // Distance outside (>0) or inside (<0) the box's x/y extent, in world units.
+            let dx = (local.x.abs() - 0.5) * 2.0;
+            let dy = (local.y.abs() - 0.5) * 1.2;
+            let d = dx.max(dy);
+            (d.abs() > margin).then_some(d < 0.0)
+        });
+        assert!(hits > 400 && misses > 400, "both sides checked: {hits} inside, {misses} outside");
 
-    // Corners: points just inside each corner show the decal, points just outside do not.
-    let (albedo, _) = read_views(&mut app);
-    let m = transform.compute_matrix();
-    for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-        for (scale, expected) in [(0.42, true), (0.58, false)] {
-            let p = m.transform_point3(Vec3::new(sx * scale, sy * scale, 0.0));
-            let (px, py) = pixel_of(&view, p);
-            let got = Vec3::from_slice(&albedo[(py * SIZE.0 + px) as usize][..3]);
-            assert_eq!(got.x > 0.9 && got.y < 0.1, expected, "corner ({sx},{sy}) at scale {scale}: {got}");
+        // Corners: points just inside each corner show the decal, points just outside do not.
+        let (albedo, _) = read_views(&mut app);
+        let m = transform.compute_matrix();
+        for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+            for (scale, expected) in [(0.42, true), (0.58, false)] {
+                let p = m.transform_point3(Vec3::new(sx * scale, sy * scale, 0.0));
+                let (px, py) = pixel_of(&view, p);
+                let got = Vec3::from_slice(&albedo[(py * SIZE.0 + px) as usize][..3]);
+                assert_eq!(got.x > 0.9 && got.y < 0.1, expected, "corner ({sx},{sy}) at scale {scale}: {got}");
+            }
         }
     }
 }
@@ -281,68 +319,78 @@ fn pixel_of(view: &TopDownView, p: Vec3) -> (u32, u32) {
 
 #[test]
 fn the_projection_depth_bounds_the_decal() {
-    // The box spans y in [0.1, 1.1]: the plane at y = 0 lies below its bottom face.
-    let (mut app, view) = plane_app();
-    let material = red_material(&mut app);
-    app.world.spawn((Decal::new(material), downward(Vec3::new(0.0, 0.6, 0.0), Vec2::splat(2.0), 1.0, 0.0)));
-    let (hits, misses) = check_single_decal(&mut app, &view, |_| Some(false));
-    assert_eq!(hits, 0);
-    assert!(misses > 5000);
-    // Lowered so the plane is 0.05 inside the bottom face: now it shows.
-    let decal = app.world.query_filtered::<Entity, With<Decal>>().single(&app.world).unwrap();
-    app.world.get_mut::<Transform>(decal).unwrap().translation.y = 0.45;
-    let (hits, _) =
-        check_single_decal(&mut app, &view, |p| (p.x.abs().max(p.z.abs()) - 1.0).abs().gt(&0.06).then_some(p.x.abs().max(p.z.abs()) < 1.0));
-    assert!(hits > 500);
+    for c in CONFIGS {
+        eprintln!("{c:?}");
+        // The box spans y in [0.1, 1.1]: the plane at y = 0 lies below its bottom face.
+        let (mut app, view) = plane_app(c);
+        let material = red_material(&mut app);
+        app.world.spawn((Decal::new(material), downward(Vec3::new(0.0, 0.6, 0.0), Vec2::splat(2.0), 1.0, 0.0)));
+        let (hits, misses) = check_single_decal(&mut app, &view, |_| Some(false));
+        assert_eq!(hits, 0);
+        assert!(misses > 5000);
+        // Lowered so the plane is 0.05 inside the bottom face: now it shows.
+        let decal = app.world.query_filtered::<Entity, With<Decal>>().single(&app.world).unwrap();
+        app.world.get_mut::<Transform>(decal).unwrap().translation.y = 0.45;
+        let (hits, _) = check_single_decal(&mut app, &view, |p| {
+            (p.x.abs().max(p.z.abs()) - 1.0).abs().gt(&0.06).then_some(p.x.abs().max(p.z.abs()) < 1.0)
+        });
+        assert!(hits > 500);
+    }
 }
 
 #[test]
 fn receiver_masks_keep_decals_off_other_layers() {
-    let (mut app, view) = plane_app();
-    // A second, raised plane on the right half that only receives layer 2.
-    let mesh = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(3.0, 6.0, 1, 1.0));
-    let material = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(
-        SURFACE_ALBEDO.extend(1.0),
-        SURFACE_METALLIC,
-        SURFACE_ROUGHNESS,
-    ));
-    app.world.spawn((MeshInstance { mesh, material }, Transform::from_xyz(1.5, 0.05, 0.0), DecalReceiver(2)));
-    let red = red_material(&mut app);
-    let mut decal = Decal::new(red);
-    decal.receivers = 1; // the ground's default layer only
-    app.world.spawn((decal, downward(Vec3::ZERO, Vec2::splat(2.4), 1.0, 0.0)));
-    let (hits, misses) = check_single_decal(&mut app, &view, |p| {
-        let inside = p.x.abs() < 1.2 && p.z.abs() < 1.2;
-        let near_edge = (p.x.abs() - 1.2).abs() < 0.06 || (p.z.abs() - 1.2).abs() < 0.06 || p.x.abs() < 0.06;
-        // Right of x = 0 the raised plane (layer 2) covers the ground.
-        (!near_edge).then_some(inside && p.x < 0.0)
-    });
-    assert!(hits > 300 && misses > 300, "{hits} {misses}");
+    for c in CONFIGS {
+        eprintln!("{c:?}");
+        let (mut app, view) = plane_app(c);
+        // A second, raised plane on the right half that only receives layer 2.
+        let mesh = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(3.0, 6.0, 1, 1.0));
+        let material = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(
+            SURFACE_ALBEDO.extend(1.0),
+            SURFACE_METALLIC,
+            SURFACE_ROUGHNESS,
+        ));
+        app.world.spawn((MeshInstance { mesh, material }, Transform::from_xyz(1.5, 0.05, 0.0), DecalReceiver(2)));
+        let red = red_material(&mut app);
+        let mut decal = Decal::new(red);
+        decal.receivers = 1; // the ground's default layer only
+        app.world.spawn((decal, downward(Vec3::ZERO, Vec2::splat(2.4), 1.0, 0.0)));
+        let (hits, misses) = check_single_decal(&mut app, &view, |p| {
+            let inside = p.x.abs() < 1.2 && p.z.abs() < 1.2;
+            let near_edge = (p.x.abs() - 1.2).abs() < 0.06 || (p.z.abs() - 1.2).abs() < 0.06 || p.x.abs() < 0.06;
+            // Right of x = 0 the raised plane (layer 2) covers the ground.
+            (!near_edge).then_some(inside && p.x < 0.0)
+        });
+        assert!(hits > 300 && misses > 300, "{hits} {misses}");
+    }
 }
 
 #[test]
 fn angle_fade_follows_the_angle_between_surface_and_projection_axis() {
-    for (tilt_deg, expected_alpha) in [(20.0f32, 1.0f32), (45.0, 0.5), (70.0, 0.0)] {
-        let (mut app, view) = plane_app();
-        let material = red_material(&mut app);
-        let mut decal = Decal::new(material);
-        // Fade linear in cos θ between 30° and 60°: at 45° halfway in cos.
-        decal.angle_fade = Some(AngleFade { start: 30f32.to_radians(), end: 60f32.to_radians() });
-        let tilt = Quat::from_rotation_z(tilt_deg.to_radians());
-        let t = Transform::from_translation(Vec3::ZERO)
-            .with_rotation(tilt * Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2))
-            .with_scale(Vec3::new(1.5, 1.5, 1.5));
-        app.world.spawn((decal, t));
-        let (albedo, _) = read_views(&mut app);
-        assert_no_validation_errors(&mut app);
-        let cos = tilt_deg.to_radians().cos();
-        let (c30, c60) = (30f32.to_radians().cos(), 60f32.to_radians().cos());
-        let alpha = ((cos - c60) / (c30 - c60)).clamp(0.0, 1.0);
-        assert!((alpha - expected_alpha).abs() < 0.2, "test setup: {alpha}");
-        let (px, py) = pixel_of(&view, Vec3::ZERO);
-        let got = Vec3::from_slice(&albedo[(py * SIZE.0 + px) as usize][..3]);
-        let expected = Vec3::new(1.0, 0.0, 0.0) * alpha + SURFACE_ALBEDO * (1.0 - alpha);
-        assert!((got - expected).abs().max_element() < 2e-3, "tilt {tilt_deg}°: got {got}, expected {expected}");
+    for c in CONFIGS {
+        eprintln!("{c:?}");
+        for (tilt_deg, expected_alpha) in [(20.0f32, 1.0f32), (45.0, 0.5), (70.0, 0.0)] {
+            let (mut app, view) = plane_app(c);
+            let material = red_material(&mut app);
+            let mut decal = Decal::new(material);
+            // Fade linear in cos θ between 30° and 60°: at 45° halfway in cos.
+            decal.angle_fade = Some(AngleFade { start: 30f32.to_radians(), end: 60f32.to_radians() });
+            let tilt = Quat::from_rotation_z(tilt_deg.to_radians());
+            let t = Transform::from_translation(Vec3::ZERO)
+                .with_rotation(tilt * Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2))
+                .with_scale(Vec3::new(1.5, 1.5, 1.5));
+            app.world.spawn((decal, t));
+            let (albedo, _) = read_views(&mut app);
+            assert_no_validation_errors(&mut app);
+            let cos = tilt_deg.to_radians().cos();
+            let (c30, c60) = (30f32.to_radians().cos(), 60f32.to_radians().cos());
+            let alpha = ((cos - c60) / (c30 - c60)).clamp(0.0, 1.0);
+            assert!((alpha - expected_alpha).abs() < 0.2, "test setup: {alpha}");
+            let (px, py) = pixel_of(&view, Vec3::ZERO);
+            let got = Vec3::from_slice(&albedo[(py * SIZE.0 + px) as usize][..3]);
+            let expected = Vec3::new(1.0, 0.0, 0.0) * alpha + SURFACE_ALBEDO * (1.0 - alpha);
+            assert!((got - expected).abs().max_element() < 2e-3, "tilt {tilt_deg}°: got {got}, expected {expected}");
+        }
     }
 }
 
@@ -360,79 +408,86 @@ fn shows_red_at(app: &mut App, view: &TopDownView, p: Vec3) -> bool {
 
 #[test]
 fn ecs_sequences_give_the_expected_image_and_the_expected_work() {
-    let (mut app, view) = plane_app();
-    let red = red_material(&mut app);
-    let record_bytes = (std::mem::size_of::<render::scene::GpuDecal>() + std::mem::size_of::<render::scene::GpuAabb>()) as u64;
+    for c in CONFIGS {
+        eprintln!("{c:?}");
+        let (mut app, view) = plane_app(c);
+        let red = red_material(&mut app);
+        let record_bytes = (std::mem::size_of::<render::scene::GpuDecal>() + std::mem::size_of::<render::scene::GpuAabb>()) as u64;
 
-    // Spawn 10 decals in a row, plus one riding on a parent.
-    let decals: Vec<Entity> = (0..10)
-        .map(|i| {
-            app.world.spawn((Decal::new(red), downward(Vec3::new(-1.8 + i as f32 * 0.4, 0.0, -1.0), Vec2::splat(0.25), 1.0, 0.0))).id()
-        })
-        .collect();
-    let parent = app.world.spawn(Transform::from_xyz(0.0, 0.0, 1.0)).id();
-    app.world.spawn((Decal::new(red), downward(Vec3::ZERO, Vec2::splat(0.3), 1.0, 0.0), ChildOf(parent)));
-    app.update();
-    let c = counters(&app);
-    assert_eq!((c.blas_builds, c.blas_updates, c.tlas_builds, c.decals), (1, 0, 1, 11), "first frame builds: {c:?}");
-    assert!(shows_red_at(&mut app, &view, Vec3::new(-1.8, 0.0, -1.0)));
-    assert!(shows_red_at(&mut app, &view, Vec3::new(0.0, 0.0, 1.0)), "the child decal sits under its parent");
+        // Spawn 10 decals in a row, plus one riding on a parent.
+        let decals: Vec<Entity> = (0..10)
+            .map(|i| {
+                app.world.spawn((Decal::new(red), downward(Vec3::new(-1.8 + i as f32 * 0.4, 0.0, -1.0), Vec2::splat(0.25), 1.0, 0.0))).id()
+            })
+            .collect();
+        let parent = app.world.spawn(Transform::from_xyz(0.0, 0.0, 1.0)).id();
+        app.world.spawn((Decal::new(red), downward(Vec3::ZERO, Vec2::splat(0.3), 1.0, 0.0), ChildOf(parent)));
+        app.update();
+        let c = counters(&app);
+        assert_eq!((c.blas_builds, c.blas_updates, c.tlas_builds, c.decals), (1, 0, 1, 11), "first frame builds: {c:?}");
+        assert!(shows_red_at(&mut app, &view, Vec3::new(-1.8, 0.0, -1.0)));
+        assert!(shows_red_at(&mut app, &view, Vec3::new(0.0, 0.0, 1.0)), "the child decal sits under its parent");
 
-    // Nothing changes: no bytes, no acceleration-structure work.
-    app.update();
-    let c = counters(&app);
-    assert_eq!((c.bytes_uploaded, c.records_written, c.blas_builds, c.blas_updates, c.tlas_builds), (0, 0, 0, 0, 0), "{c:?}");
+        // Nothing changes: no bytes, no acceleration-structure work.
+        app.update();
+        let c = counters(&app);
+        assert_eq!((c.bytes_uploaded, c.records_written, c.blas_builds, c.blas_updates, c.tlas_builds), (0, 0, 0, 0, 0), "{c:?}");
 
-    // Move one decal: one record and one box uploaded, a refit, a TLAS build; the image follows.
-    app.world.get_mut::<Transform>(decals[0]).unwrap().translation = Vec3::new(-1.8, 0.0, 0.3);
-    app.update();
-    let c = counters(&app);
-    assert_eq!((c.records_written, c.bytes_uploaded, c.blas_builds, c.blas_updates, c.tlas_builds), (1, record_bytes, 0, 1, 1), "{c:?}");
-    assert!(shows_red_at(&mut app, &view, Vec3::new(-1.8, 0.0, 0.3)));
-    assert!(!shows_red_at(&mut app, &view, Vec3::new(-1.8, 0.0, -1.0)), "the old place is clear");
+        // Move one decal: one record and one box uploaded, a refit, a TLAS build; the image follows.
+        app.world.get_mut::<Transform>(decals[0]).unwrap().translation = Vec3::new(-1.8, 0.0, 0.3);
+        app.update();
+        let c = counters(&app);
+        assert_eq!(
+            (c.records_written, c.bytes_uploaded, c.blas_builds, c.blas_updates, c.tlas_builds),
+            (1, record_bytes, 0, 1, 1),
+            "{c:?}"
+        );
+        assert!(shows_red_at(&mut app, &view, Vec3::new(-1.8, 0.0, 0.3)));
+        assert!(!shows_red_at(&mut app, &view, Vec3::new(-1.8, 0.0, -1.0)), "the old place is clear");
 
-    // Move the parent: its child decal follows, by refit.
-    app.world.get_mut::<Transform>(parent).unwrap().translation = Vec3::new(1.2, 0.0, 1.0);
-    app.update();
-    let c = counters(&app);
-    assert_eq!((c.records_written, c.blas_updates, c.blas_builds), (1, 1, 0), "{c:?}");
-    assert!(shows_red_at(&mut app, &view, Vec3::new(1.2, 0.0, 1.0)));
-    assert!(!shows_red_at(&mut app, &view, Vec3::new(0.0, 0.0, 1.0)));
+        // Move the parent: its child decal follows, by refit.
+        app.world.get_mut::<Transform>(parent).unwrap().translation = Vec3::new(1.2, 0.0, 1.0);
+        app.update();
+        let c = counters(&app);
+        assert_eq!((c.records_written, c.blas_updates, c.blas_builds), (1, 1, 0), "{c:?}");
+        assert!(shows_red_at(&mut app, &view, Vec3::new(1.2, 0.0, 1.0)));
+        assert!(!shows_red_at(&mut app, &view, Vec3::new(0.0, 0.0, 1.0)));
 
-    // Despawn two: their slots empty by refit, the image clears.
-    let freed: Vec<u32> = decals[3..5].iter().map(|&e| app.world.resource::<MirrorSlots>().decal(e).unwrap()).collect();
-    app.world.despawn(decals[3]);
-    app.world.despawn(decals[4]);
-    app.update();
-    let c = counters(&app);
-    assert_eq!((c.decals, c.blas_updates, c.blas_builds), (9, 1, 0), "{c:?}");
-    assert!(!shows_red_at(&mut app, &view, Vec3::new(-1.8 + 3.0 * 0.4, 0.0, -1.0)));
+        // Despawn two: their slots empty by refit, the image clears.
+        let freed: Vec<u32> = decals[3..5].iter().map(|&e| app.world.resource::<MirrorSlots>().decal(e).unwrap()).collect();
+        app.world.despawn(decals[3]);
+        app.world.despawn(decals[4]);
+        app.update();
+        let c = counters(&app);
+        assert_eq!((c.decals, c.blas_updates, c.blas_builds), (9, 1, 0), "{c:?}");
+        assert!(!shows_red_at(&mut app, &view, Vec3::new(-1.8 + 3.0 * 0.4, 0.0, -1.0)));
 
-    // Respawn into the freed slots: still a refit, not a build.
-    let respawned: Vec<Entity> = (0..2)
-        .map(|i| app.world.spawn((Decal::new(red), downward(Vec3::new(-1.0 + i as f32, 0.0, 0.0), Vec2::splat(0.3), 1.0, 0.0))).id())
-        .collect();
-    app.update();
-    let c = counters(&app);
-    let mut reused: Vec<u32> = respawned.iter().map(|&e| app.world.resource::<MirrorSlots>().decal(e).unwrap()).collect();
-    reused.sort();
-    let mut freed_sorted = freed.clone();
-    freed_sorted.sort();
-    assert_eq!(reused, freed_sorted, "new decals take the freed slots");
-    assert_eq!((c.decals, c.blas_updates, c.blas_builds), (11, 1, 0), "{c:?}");
-    assert!(shows_red_at(&mut app, &view, Vec3::new(0.0, 0.0, 0.0)));
+        // Respawn into the freed slots: still a refit, not a build.
+        let respawned: Vec<Entity> = (0..2)
+            .map(|i| app.world.spawn((Decal::new(red), downward(Vec3::new(-1.0 + i as f32, 0.0, 0.0), Vec2::splat(0.3), 1.0, 0.0))).id())
+            .collect();
+        app.update();
+        let c = counters(&app);
+        let mut reused: Vec<u32> = respawned.iter().map(|&e| app.world.resource::<MirrorSlots>().decal(e).unwrap()).collect();
+        reused.sort();
+        let mut freed_sorted = freed.clone();
+        freed_sorted.sort();
+        assert_eq!(reused, freed_sorted, "new decals take the freed slots");
+        assert_eq!((c.decals, c.blas_updates, c.blas_builds), (11, 1, 0), "{c:?}");
+        assert!(shows_red_at(&mut app, &view, Vec3::new(0.0, 0.0, 0.0)));
 
-    // Growing past the capacity (64) rebuilds, once.
-    for i in 0..60 {
-        app.world.spawn((Decal::new(red), downward(Vec3::new(-2.0 + (i % 10) as f32 * 0.1, 0.0, 1.6), Vec2::splat(0.05), 1.0, 0.0)));
+        // Growing past the capacity (64) rebuilds, once.
+        for i in 0..60 {
+            app.world.spawn((Decal::new(red), downward(Vec3::new(-2.0 + (i % 10) as f32 * 0.1, 0.0, 1.6), Vec2::splat(0.05), 1.0, 0.0)));
+        }
+        app.update();
+        let c = counters(&app);
+        assert_eq!((c.decals, c.blas_builds, c.blas_updates, c.tlas_builds), (71, 1, 0, 1), "{c:?}");
+        app.update();
+        let c = counters(&app);
+        assert_eq!((c.blas_builds, c.blas_updates, c.tlas_builds, c.bytes_uploaded), (0, 0, 0, 0), "{c:?}");
+        assert_no_validation_errors(&mut app);
     }
-    app.update();
-    let c = counters(&app);
-    assert_eq!((c.decals, c.blas_builds, c.blas_updates, c.tlas_builds), (71, 1, 0, 1), "{c:?}");
-    app.update();
-    let c = counters(&app);
-    assert_eq!((c.blas_builds, c.blas_updates, c.tlas_builds, c.bytes_uploaded), (0, 0, 0, 0), "{c:?}");
-    assert_no_validation_errors(&mut app);
 }
 
 #[test]
@@ -468,99 +523,108 @@ fn lifetimes_fade_decals_out_and_despawn_them_on_time() {
 
 #[test]
 fn ten_thousand_decals_render_without_validation_errors() {
-    let mut app = gpu_app(64, 48, RenderSettings { debug_view: DebugView::Albedo, ..Default::default() });
-    let view = TopDownView::new(4.0, (64, 48));
-    view.spawn(&mut app.world);
-    let mesh = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(12.0, 12.0, 1, 1.0));
-    let material = app.world.resource_mut::<Assets<Material>>().add(Material::default());
-    app.world.spawn((MeshInstance { mesh, material }, Transform::default()));
-    let red = red_material(&mut app);
-    let mut rng = Lcg(7);
-    let batch: Vec<_> = (0..10_000)
-        .map(|_| {
-            (
-                Decal::new(red),
-                downward(
-                    Vec3::new(rng.range(-3.0, 3.0), 0.0, rng.range(-2.0, 2.0)),
-                    Vec2::splat(rng.range(0.05, 0.2)),
-                    0.5,
-                    rng.range(0.0, 6.3),
-                ),
-            )
-        })
-        .collect();
-    app.world.spawn_batch(batch);
-    app.update();
-    app.update();
-    let c = counters(&app);
-    assert_eq!(c.decals, 10_000);
-    let albedo = renderer(&mut app).read_hdr().unwrap();
-    let red = albedo.iter().filter(|p| p[0] > 0.9 && p[1] < 0.1).count();
-    assert!(red > albedo.len() / 4, "decals cover much of the plane: {red} of {} pixels", albedo.len());
-    assert_no_validation_errors(&mut app);
+    for c in CONFIGS {
+        eprintln!("{c:?}");
+        let mut app = config_app(c, (64, 48), DebugView::Albedo);
+        let view = TopDownView::new(4.0, (64, 48));
+        view.spawn(&mut app.world);
+        let mesh = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(12.0, 12.0, 1, 1.0));
+        let material = app.world.resource_mut::<Assets<Material>>().add(Material::default());
+        app.world.spawn((MeshInstance { mesh, material }, Transform::default()));
+        let red = red_material(&mut app);
+        let mut rng = Lcg(7);
+        let batch: Vec<_> = (0..10_000)
+            .map(|_| {
+                (
+                    Decal::new(red),
+                    downward(
+                        Vec3::new(rng.range(-3.0, 3.0), 0.0, rng.range(-2.0, 2.0)),
+                        Vec2::splat(rng.range(0.05, 0.2)),
+                        0.5,
+                        rng.range(0.0, 6.3),
+                    ),
+                )
+            })
+            .collect();
+        app.world.spawn_batch(batch);
+        app.update();
+        app.update();
+        let c = counters(&app);
+        assert_eq!(c.decals, 10_000);
+        let albedo = renderer(&mut app).read_hdr().unwrap();
+        let red = albedo.iter().filter(|p| p[0] > 0.9 && p[1] < 0.1).count();
+        assert!(red > albedo.len() / 4, "decals cover much of the plane: {red} of {} pixels", albedo.len());
+        assert_no_validation_errors(&mut app);
+    }
 }
 
 #[test]
 fn debug_views_show_boxes_and_count_the_decals_tested_per_pixel() {
-    let (mut app, view) = plane_app();
-    let red = red_material(&mut app);
-    // Three boxes that overlap at the origin; the rotated one's AABB is larger than its box.
-    for (x, yaw) in [(-0.3f32, 0.0f32), (0.3, 0.0), (0.0, 0.7)] {
-        app.world.spawn((Decal::new(red), downward(Vec3::new(x, 0.0, 0.0), Vec2::splat(1.0), 1.0, yaw)));
-    }
-    app.world.resource_mut::<RenderSettings>().debug_view = DebugView::DecalCount;
-    app.update();
-    let counts = renderer(&mut app).read_hdr().unwrap();
-    let at = |p: Vec3| {
-        let (px, py) = pixel_of(&view, p);
-        counts[(py * SIZE.0 + px) as usize][0]
-    };
-    assert_eq!(at(Vec3::ZERO), 3.0, "all three AABBs hold the origin");
-    assert_eq!(at(Vec3::new(1.9, 0.0, 1.5)), 0.0, "nothing far away");
-    assert_eq!(at(Vec3::new(-0.75, 0.0, 0.0)), 1.0, "only the left box");
+    for c in CONFIGS {
+        eprintln!("{c:?}");
+        let (mut app, view) = plane_app(c);
+        let red = red_material(&mut app);
+        // Three boxes that overlap at the origin; the rotated one's AABB is larger than its box.
+        for (x, yaw) in [(-0.3f32, 0.0f32), (0.3, 0.0), (0.0, 0.7)] {
+            app.world.spawn((Decal::new(red), downward(Vec3::new(x, 0.0, 0.0), Vec2::splat(1.0), 1.0, yaw)));
+        }
+        app.world.resource_mut::<RenderSettings>().debug_view = DebugView::DecalCount;
+        app.update();
+        let counts = renderer(&mut app).read_hdr().unwrap();
+        let at = |p: Vec3| {
+            let (px, py) = pixel_of(&view, p);
+            counts[(py * SIZE.0 + px) as usize][0]
+        };
+        assert_eq!(at(Vec3::ZERO), 3.0, "all three AABBs hold the origin");
+        assert_eq!(at(Vec3::new(1.9, 0.0, 1.5)), 0.0, "nothing far away");
+        assert_eq!(at(Vec3::new(-0.75, 0.0, 0.0)), 1.0, "only the left box");
 
-    let mut settings = app.world.resource_mut::<RenderSettings>();
-    settings.debug_view = DebugView::Albedo;
-    settings.show_decal_boxes = true;
-    app.update();
-    let hdr = renderer(&mut app).read_hdr().unwrap();
-    let green = hdr.iter().filter(|p| p[1] > 0.9 && p[0] < 0.2 && p[2] < 0.3).count();
-    let yellow = hdr.iter().filter(|p| p[0] > 0.9 && p[1] > 0.8 && p[2] < 0.2).count();
-    assert!(green > 100, "oriented boxes drawn: {green} pixels");
-    assert!(yellow > 50, "AABBs drawn: {yellow} pixels");
-    assert_no_validation_errors(&mut app);
+        let mut settings = app.world.resource_mut::<RenderSettings>();
+        settings.debug_view = DebugView::Albedo;
+        settings.show_decal_boxes = true;
+        app.update();
+        let hdr = renderer(&mut app).read_hdr().unwrap();
+        let green = hdr.iter().filter(|p| p[1] > 0.9 && p[0] < 0.2 && p[2] < 0.3).count();
+        let yellow = hdr.iter().filter(|p| p[0] > 0.9 && p[1] > 0.8 && p[2] < 0.2).count();
+        assert!(green > 100, "oriented boxes drawn: {green} pixels");
+        assert!(yellow > 50, "AABBs drawn: {yellow} pixels");
+        assert_no_validation_errors(&mut app);
+    }
 }
 
 #[test]
 fn decal_normal_maps_rotate_with_the_decal() {
-    // A constant tangent-space normal tilted towards +X (decal space): (0.6, 0, 0.8).
-    let texel = [((0.6f32 * 0.5 + 0.5) * 255.0).round() as u8, 128, ((0.8f32 * 0.5 + 0.5) * 255.0).round() as u8, 255];
-    let ts = Vec3::new(texel[0] as f32, texel[1] as f32, texel[2] as f32) / 255.0 * 2.0 - 1.0;
-    for yaw in [0.0f32, std::f32::consts::FRAC_PI_2, 2.3] {
-        let (mut app, view) = plane_app();
-        let image = Image::from_rgba8(4, 4, texel.repeat(16), ColorSpace::Linear).unwrap();
-        let image = app.world.resource_mut::<Assets<Image>>().add(image);
-        let material = app.world.resource_mut::<Assets<DecalMaterial>>().add(DecalMaterial {
-            base_color: None,
-            normal_texture: Some(image),
-            ..Default::default()
-        });
-        app.world.spawn((Decal::new(material), downward(Vec3::ZERO, Vec2::splat(1.5), 1.0, yaw)));
-        app.world.resource_mut::<RenderSettings>().debug_view = DebugView::Normal;
-        app.update();
-        let hdr = renderer(&mut app).read_hdr().unwrap();
-        assert_no_validation_errors(&mut app);
-        let (px, py) = pixel_of(&view, Vec3::ZERO);
-        let got = Vec3::from_slice(&hdr[(py * SIZE.0 + px) as usize][..3]) * 2.0 - 1.0;
-        // Decal x in world is the yawed +X; decal y (image up) the yawed −Z; the surface normal +Y.
-        let t = Quat::from_rotation_y(yaw) * Vec3::X;
-        let b = Quat::from_rotation_y(yaw) * Vec3::NEG_Z;
-        let expected = (t * ts.x + b * ts.y + Vec3::Y * ts.z).normalize();
-        assert!((got - expected).length() < 4e-3, "yaw {yaw}: normal {got}, expected {expected}");
-        // Outside the decal the plane's own normal remains.
-        let (px, py) = pixel_of(&view, Vec3::new(1.9, 0.0, 1.4));
-        let plain = Vec3::from_slice(&hdr[(py * SIZE.0 + px) as usize][..3]) * 2.0 - 1.0;
-        assert!((plain - Vec3::Y).length() < 2e-3, "{plain}");
+    for c in CONFIGS {
+        eprintln!("{c:?}");
+        // A constant tangent-space normal tilted towards +X (decal space): (0.6, 0, 0.8).
+        let texel = [((0.6f32 * 0.5 + 0.5) * 255.0).round() as u8, 128, ((0.8f32 * 0.5 + 0.5) * 255.0).round() as u8, 255];
+        let ts = Vec3::new(texel[0] as f32, texel[1] as f32, texel[2] as f32) / 255.0 * 2.0 - 1.0;
+        for yaw in [0.0f32, std::f32::consts::FRAC_PI_2, 2.3] {
+            let (mut app, view) = plane_app(c);
+            let image = Image::from_rgba8(4, 4, texel.repeat(16), ColorSpace::Linear).unwrap();
+            let image = app.world.resource_mut::<Assets<Image>>().add(image);
+            let material = app.world.resource_mut::<Assets<DecalMaterial>>().add(DecalMaterial {
+                base_color: None,
+                normal_texture: Some(image),
+                ..Default::default()
+            });
+            app.world.spawn((Decal::new(material), downward(Vec3::ZERO, Vec2::splat(1.5), 1.0, yaw)));
+            app.world.resource_mut::<RenderSettings>().debug_view = DebugView::Normal;
+            app.update();
+            let hdr = renderer(&mut app).read_hdr().unwrap();
+            assert_no_validation_errors(&mut app);
+            let (px, py) = pixel_of(&view, Vec3::ZERO);
+            let got = Vec3::from_slice(&hdr[(py * SIZE.0 + px) as usize][..3]) * 2.0 - 1.0;
+            // Decal x in world is the yawed +X; decal y (image up) the yawed −Z; the surface normal +Y.
+            let t = Quat::from_rotation_y(yaw) * Vec3::X;
+            let b = Quat::from_rotation_y(yaw) * Vec3::NEG_Z;
+            let expected = (t * ts.x + b * ts.y + Vec3::Y * ts.z).normalize();
+            assert!((got - expected).length() < 4e-3, "yaw {yaw}: normal {got}, expected {expected}");
+            // Outside the decal the plane's own normal remains.
+            let (px, py) = pixel_of(&view, Vec3::new(1.9, 0.0, 1.4));
+            let plain = Vec3::from_slice(&hdr[(py * SIZE.0 + px) as usize][..3]) * 2.0 - 1.0;
+            assert!((plain - Vec3::Y).length() < 2e-3, "{plain}");
+        }
     }
 }
 
@@ -583,28 +647,31 @@ struct BulletHole(Handle<DecalMaterial>);
 
 #[test]
 fn a_gameplay_system_spawns_a_bullet_hole_that_shows_in_the_same_frame() {
-    let (mut app, view) = plane_app();
-    let set = sandbox::decal_textures::bullet_hole();
-    let material = {
-        let mut images = app.world.resource_mut::<Assets<Image>>();
-        sandbox::decal_textures::decal_material(&set, &mut images)
-    };
-    let material = app.world.resource_mut::<Assets<DecalMaterial>>().add(material);
-    app.insert_resource(BulletHole(material)).insert_resource(ShotAt::default());
-    app.add_systems(Update, shoot);
-    app.update();
-    let before = renderer(&mut app).read_hdr().unwrap();
+    for c in CONFIGS {
+        eprintln!("{c:?}");
+        let (mut app, view) = plane_app(c);
+        let set = sandbox::decal_textures::bullet_hole();
+        let material = {
+            let mut images = app.world.resource_mut::<Assets<Image>>();
+            sandbox::decal_textures::decal_material(&set, &mut images)
+        };
+        let material = app.world.resource_mut::<Assets<DecalMaterial>>().add(material);
+        app.insert_resource(BulletHole(material)).insert_resource(ShotAt::default());
+        app.add_systems(Update, shoot);
+        app.update();
+        let before = renderer(&mut app).read_hdr().unwrap();
 
-    let target = Vec3::new(0.8, 0.0, -0.5);
-    app.world.resource_mut::<ShotAt>().0 = Some(target);
-    app.update();
-    let after = renderer(&mut app).read_hdr().unwrap();
-    assert_no_validation_errors(&mut app);
-    assert_eq!(app.world.resource::<RenderStats>().last.decals, 1);
-    let (px, py) = pixel_of(&view, target);
-    let i = (py * SIZE.0 + px) as usize;
-    let darkening = Vec3::from_slice(&before[i][..3]).length() - Vec3::from_slice(&after[i][..3]).length();
-    assert!(darkening > 0.2, "the burnt centre of the hole darkens the albedo: before {:?} after {:?}", before[i], after[i]);
-    let (fx, fy) = pixel_of(&view, target + Vec3::new(1.0, 0.0, 0.0));
-    assert_eq!(before[(fy * SIZE.0 + fx) as usize], after[(fy * SIZE.0 + fx) as usize], "1 m away nothing changed");
+        let target = Vec3::new(0.8, 0.0, -0.5);
+        app.world.resource_mut::<ShotAt>().0 = Some(target);
+        app.update();
+        let after = renderer(&mut app).read_hdr().unwrap();
+        assert_no_validation_errors(&mut app);
+        assert_eq!(app.world.resource::<RenderStats>().last.decals, 1);
+        let (px, py) = pixel_of(&view, target);
+        let i = (py * SIZE.0 + px) as usize;
+        let darkening = Vec3::from_slice(&before[i][..3]).length() - Vec3::from_slice(&after[i][..3]).length();
+        assert!(darkening > 0.2, "the burnt centre of the hole darkens the albedo: before {:?} after {:?}", before[i], after[i]);
+        let (fx, fy) = pixel_of(&view, target + Vec3::new(1.0, 0.0, 0.0));
+        assert_eq!(before[(fy * SIZE.0 + fx) as usize], after[(fy * SIZE.0 + fx) as usize], "1 m away nothing changed");
+    }
 }

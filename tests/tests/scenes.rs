@@ -87,17 +87,25 @@ fn statistics_report_the_decal_method_actually_applied_on_every_tier() {
             let summary = run(&opts).expect("renders at a forced tier");
             assert!(summary.validation_errors.is_empty(), "{:#?}", summary.validation_errors);
             let actual = Tier::from_name(summary.frames[0]["tier"].as_str().unwrap()).expect("a known tier");
-            // Ray-query decals need the ray-query tier; without it the deferred pipeline falls
-            // back to deferred decals, and the others (for now) apply none, and say so.
+            // Ray-query decals need the ray-query tier; without it the ray-tracing-pipeline decal
+            // pass runs (lavapipe has ray-tracing pipelines); without ray tracing the deferred
+            // pipeline falls back to deferred decals, and the others (for now) apply none, and
+            // say so.
             let expected = match (actual, pipeline) {
                 (Tier::RayQuery, _) => "ray_query",
+                (Tier::RayTracingPipeline, _) => "ray_pipeline",
                 (_, PipelineKind::Deferred) => "deferred",
                 _ => "none",
             };
             let reported = &summary.frames[0]["decal_method"];
             assert_eq!(reported, expected, "{} on tier {}", pipeline.name(), actual.name());
-            if expected == "deferred" {
-                assert!(summary.frames[0]["gpu_ms"]["deferred_decals"].is_number(), "the fallback draws: {}", summary.frames[0]);
+            let pass = match expected {
+                "deferred" => Some("deferred_decals"),
+                "ray_pipeline" => Some("decal_pass_ray_pipeline"),
+                _ => None,
+            };
+            if let Some(pass) = pass {
+                assert!(summary.frames[0]["gpu_ms"][pass].is_number(), "the fallback draws ({pass}): {}", summary.frames[0]);
             }
         }
     }
@@ -114,8 +122,10 @@ fn a_benchmark_scene_runs_every_pipeline_and_decal_method_in_one_run() {
     };
     let summary = run(&opts).expect("the comparison runs");
     assert!(summary.validation_errors.is_empty(), "{:#?}", summary.validation_errors);
-    assert_eq!(summary.frames.len(), 2 * sandbox::headless::COMPARE_SET.len());
-    for (i, (pipeline, method)) in sandbox::headless::COMPARE_SET.iter().enumerate() {
+    let set = sandbox::headless::compare_set(summary.app.world.resource::<plugins::GpuRenderer>().0.decal_support());
+    assert_eq!(set.len(), sandbox::headless::COMPARE_SET.len(), "lavapipe runs every method");
+    assert_eq!(summary.frames.len(), 2 * set.len());
+    for (i, (pipeline, method)) in set.iter().enumerate() {
         for frame in &summary.frames[i * 2..i * 2 + 2] {
             assert_eq!(frame["pipeline"], pipeline.name());
             assert_eq!(frame["decal_method"], method.name());
@@ -128,6 +138,14 @@ fn a_benchmark_scene_runs_every_pipeline_and_decal_method_in_one_run() {
                 assert!(frame["gpu_ms"][pass].as_f64().is_some_and(|ms| ms > 0.0), "{pass} timed: {frame}");
             }
             assert_eq!(frame["gpu_ms"]["deferred_decals"].is_number(), *method == render::DecalMethod::DeferredDecals, "{frame}");
+            let decal_pass = match method {
+                render::DecalMethod::RayPipeline => Some("decal_pass_ray_pipeline"),
+                render::DecalMethod::RayQueryCompute => Some("decal_pass_ray_query"),
+                _ => None,
+            };
+            if let Some(pass) = decal_pass {
+                assert!(frame["gpu_ms"][pass].as_f64().is_some_and(|ms| ms > 0.0), "{pass} timed: {frame}");
+            }
             assert_eq!(frame["counters"]["decals"], 6);
         }
     }

@@ -1,9 +1,11 @@
 //! Decals (seed 000) on the renderer's side: the acceleration structures over decal boxes that
-//! ray-traced decals enumerate (`accel`), the draw order of deferred decals (`deferred`), and
-//! the debug view of decal boxes (`debug`). The decal records themselves live in the scene's
+//! ray-traced decals enumerate (`accel`), the decal pass that writes the decal buffer from them
+//! (`buffer`), the draw order of deferred decals (`deferred`), and the debug view of decal boxes
+//! (`debug`). The decal records themselves live in the scene's
 //! tables ([`crate::scene::DecalTable`]) and the shading math in `shaders/include/decals.glsl`.
 
 pub mod accel;
+pub mod buffer;
 pub mod debug;
 pub mod deferred;
 
@@ -16,6 +18,7 @@ use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
 use crate::settings::{DecalMethod, FrameSettings};
 use accel::{DecalAccel, DecalBoxInput};
+pub use buffer::{DecalPasses, DecalSurfaceSource, declare_decal_reads};
 use debug::DecalBoxes;
 pub use deferred::{DecalRun, DeferredDecalOrder, plan_deferred_decals};
 
@@ -23,6 +26,8 @@ pub use deferred::{DecalRun, DeferredDecalOrder, plan_deferred_decals};
 pub struct Decals {
     /// The BLAS and TLAS over decal boxes.
     pub accel: DecalAccel,
+    /// The decal passes (ray-tracing pipeline, ray-query compute) that write the decal buffer.
+    pub passes: DecalPasses,
     /// The box-drawing debug pass.
     pub boxes: DecalBoxes,
     /// Deferred decals' draw order.
@@ -43,8 +48,8 @@ pub struct DecalChoice {
 pub struct DecalFrame {
     /// The method applied (after [`DecalMethod::effective`]).
     pub method: DecalMethod,
-    /// The acceleration structures the shading passes trace (TLAS and BLAS), when ray-query
-    /// decals are shaded this frame.
+    /// The acceleration structures traced this frame (TLAS and BLAS), when a ray-traced method
+    /// is applied and there are decals.
     pub traced: Option<[ResourceId; 2]>,
     /// Its device address (0 without).
     pub tlas_address: vk::DeviceAddress,
@@ -52,10 +57,22 @@ pub struct DecalFrame {
     pub count: u32,
 }
 
+impl DecalFrame {
+    /// Whether a decal pass writes the decal buffer this frame (the shading passes apply it).
+    pub fn buffered(&self) -> bool {
+        self.method.uses_decal_buffer() && self.traced.is_some()
+    }
+}
+
 impl Decals {
     /// Creates the decal passes and registers their graph resources.
     pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
-        Ok(Self { accel: DecalAccel::new(ctx, graph), boxes: DecalBoxes::new(ctx, layout)?, order: DeferredDecalOrder::default() })
+        Ok(Self {
+            accel: DecalAccel::new(ctx, graph),
+            passes: DecalPasses::new(ctx, layout)?,
+            boxes: DecalBoxes::new(ctx, layout)?,
+            order: DeferredDecalOrder::default(),
+        })
     }
 
     /// Keeps the deferred decals' draw order in step with this frame's decal changes. Call
@@ -81,17 +98,21 @@ impl Decals {
             count: if mirror.decals.records.slot_count() == 0 { 0 } else { scene.decal_aabbs.capacity() },
             changed: boxes_changed,
         };
-        // The structures follow the decals whenever ray-traced decals are asked for and the
-        // device has acceleration structures (the ray-tracing-pipeline tier builds them too:
-        // they are what a ray-generation decal pass traces).
-        self.accel.build(f, input, choice.requested == DecalMethod::RayQuery, &mut mirror.counters)?;
-        let shaded = method == DecalMethod::RayQuery && !mirror.decals.is_empty();
+        // The structures follow the decals whenever a ray-traced method is applied (changes made
+        // meanwhile wait for the next frame that traces them).
+        self.accel.build(f, input, method.traces(), &mut mirror.counters)?;
+        let shaded = method.traces() && !mirror.decals.is_empty() && self.accel.traced().is_some();
         Ok(DecalFrame {
             method,
             traced: if shaded { self.accel.traced() } else { None },
             tlas_address: if shaded { self.accel.tlas_address() } else { 0 },
             count: if shaded { mirror.decals.len() as u32 } else { 0 },
         })
+    }
+
+    /// Writes the decal buffer when this frame's method is a decal pass (see [`buffer`]).
+    pub fn decal_pass(&self, f: &mut Frame, scene: &GpuScene, frame: &DecalFrame, source: DecalSurfaceSource) -> Result<(), RenderError> {
+        self.passes.record(f, scene, frame, source)
     }
 
     /// The deferred decals to draw this frame (none unless they are the method).
@@ -110,6 +131,7 @@ impl Decals {
     /// Destroys everything; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
         self.accel.destroy(ctx);
+        self.passes.destroy(ctx);
         self.boxes.destroy(ctx);
     }
 }

@@ -281,6 +281,7 @@ impl GpuContext {
             .descriptor_binding_partially_bound(true)
             .descriptor_binding_variable_descriptor_count(true)
             .descriptor_binding_sampled_image_update_after_bind(true)
+            .descriptor_binding_storage_image_update_after_bind(true)
             .descriptor_binding_update_unused_while_pending(true)
             .shader_sampled_image_array_non_uniform_indexing(true)
             .timeline_semaphore(true)
@@ -346,6 +347,15 @@ impl GpuContext {
             debug_utils,
             limits: props.limits,
         })
+    }
+
+    /// What this device offers decals: ray queries (the ray-query tier) and ray-tracing
+    /// pipelines (enabled at either ray-tracing tier when the device has them).
+    pub fn decal_support(&self) -> crate::settings::DecalSupport {
+        crate::settings::DecalSupport {
+            ray_query: self.tier == Tier::RayQuery,
+            ray_pipeline: self.ray_tracing.as_ref().is_some_and(|rt| rt.ray_tracing_pipeline.is_some()),
+        }
     }
 
     /// Locks the memory allocator.
@@ -443,6 +453,7 @@ fn pick_physical_device(instance: &ash::Instance) -> Result<(vk::PhysicalDevice,
             ("runtimeDescriptorArray", f12.runtime_descriptor_array),
             ("descriptorBindingPartiallyBound", f12.descriptor_binding_partially_bound),
             ("descriptorBindingSampledImageUpdateAfterBind", f12.descriptor_binding_sampled_image_update_after_bind),
+            ("descriptorBindingStorageImageUpdateAfterBind", f12.descriptor_binding_storage_image_update_after_bind),
             ("shaderSampledImageArrayNonUniformIndexing", f12.shader_sampled_image_array_non_uniform_indexing),
             ("samplerAnisotropy", base.sampler_anisotropy),
             ("shaderInt64", base.shader_int64),

@@ -212,3 +212,172 @@ pub fn set_viewport(ctx: &GpuContext, cmd: vk::CommandBuffer, extent: vk::Extent
         ctx.device.cmd_set_scissor(cmd, 0, &[vk::Rect2D { offset: vk::Offset2D::default(), extent }]);
     }
 }
+
+/// Creates a compute pipeline from `spirv` with the shared layout.
+pub fn create_compute(ctx: &GpuContext, layout: vk::PipelineLayout, name: &str, spirv: &[u8]) -> Result<vk::Pipeline, RenderError> {
+    let module = shaders::module(ctx, spirv)?;
+    let stage = vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
+    let info = vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout);
+    // SAFETY: the create info points at locals; the module may be destroyed once the pipeline
+    // exists (or failed).
+    let result = unsafe { ctx.device.create_compute_pipelines(vk::PipelineCache::null(), &[info], None) };
+    // SAFETY: as above.
+    unsafe { ctx.device.destroy_shader_module(module, None) };
+    let pipeline = result.map_err(|(_, e)| RenderError::Vulkan(e))?[0];
+    tracing::debug!(name, "compute pipeline created");
+    Ok(pipeline)
+}
+
+/// The shaders of a ray-tracing pipeline for procedural geometry: ray-generation shaders (one
+/// shader-binding-table record each, chosen per dispatch), one miss shader and one hit group of
+/// an intersection and an any-hit shader (no closest hit).
+pub struct RayTracingDesc<'a> {
+    /// Debug name.
+    pub name: &'a str,
+    /// Ray-generation shaders' SPIR-V.
+    pub raygen: &'a [&'a [u8]],
+    /// Miss shader SPIR-V.
+    pub miss: &'a [u8],
+    /// Intersection shader SPIR-V.
+    pub intersection: &'a [u8],
+    /// Any-hit shader SPIR-V.
+    pub any_hit: &'a [u8],
+}
+
+/// A ray-tracing pipeline and its shader binding table (written once, at creation).
+pub struct RayTracingPipeline {
+    /// The pipeline (shared layout).
+    pub pipeline: vk::Pipeline,
+    sbt: crate::gpu::memory::Buffer,
+    raygen: Vec<vk::StridedDeviceAddressRegionKHR>,
+    miss: vk::StridedDeviceAddressRegionKHR,
+    hit: vk::StridedDeviceAddressRegionKHR,
+}
+
+impl RayTracingPipeline {
+    /// Creates the pipeline (recursion depth 1) and its shader binding table: each record at a
+    /// multiple of the device's base alignment, in the order raygen…, miss, hit group.
+    pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout, desc: &RayTracingDesc) -> Result<Self, RenderError> {
+        let rt = ctx.ray_tracing.as_ref().and_then(|rt| rt.ray_tracing_pipeline.as_ref());
+        let rt = rt.ok_or_else(|| RenderError::Other(format!("{}: this device has no ray-tracing pipelines", desc.name)))?;
+        let mut props = vk::PhysicalDeviceRayTracingPipelinePropertiesKHR::default();
+        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut props);
+        // SAFETY: a valid physical device and a chain of locals.
+        unsafe { ctx.instance.get_physical_device_properties2(ctx.physical, &mut props2) };
+
+        use vk::ShaderStageFlags as S;
+        let mut stages_spirv: Vec<(S, &[u8])> = desc.raygen.iter().map(|s| (S::RAYGEN_KHR, *s)).collect();
+        stages_spirv.extend([(S::MISS_KHR, desc.miss), (S::INTERSECTION_KHR, desc.intersection), (S::ANY_HIT_KHR, desc.any_hit)]);
+        let mut modules = Vec::with_capacity(stages_spirv.len());
+        for (_, spirv) in &stages_spirv {
+            match shaders::module(ctx, spirv) {
+                Ok(m) => modules.push(m),
+                Err(e) => {
+                    // SAFETY: the modules made so far are unused.
+                    modules.iter().for_each(|&m| unsafe { ctx.device.destroy_shader_module(m, None) });
+                    return Err(e);
+                }
+            }
+        }
+        let stages: Vec<_> = stages_spirv
+            .iter()
+            .zip(&modules)
+            .map(|((stage, _), &module)| vk::PipelineShaderStageCreateInfo::default().stage(*stage).module(module).name(c"main"))
+            .collect();
+        let general = |i: usize| {
+            vk::RayTracingShaderGroupCreateInfoKHR::default()
+                .ty(vk::RayTracingShaderGroupTypeKHR::GENERAL)
+                .general_shader(i as u32)
+                .closest_hit_shader(vk::SHADER_UNUSED_KHR)
+                .any_hit_shader(vk::SHADER_UNUSED_KHR)
+                .intersection_shader(vk::SHADER_UNUSED_KHR)
+        };
+        let n = desc.raygen.len();
+        let mut groups: Vec<_> = (0..=n).map(general).collect();
+        groups.push(
+            vk::RayTracingShaderGroupCreateInfoKHR::default()
+                .ty(vk::RayTracingShaderGroupTypeKHR::PROCEDURAL_HIT_GROUP)
+                .general_shader(vk::SHADER_UNUSED_KHR)
+                .closest_hit_shader(vk::SHADER_UNUSED_KHR)
+                .intersection_shader(n as u32 + 1)
+                .any_hit_shader(n as u32 + 2),
+        );
+        let info = vk::RayTracingPipelineCreateInfoKHR::default()
+            .stages(&stages)
+            .groups(&groups)
+            .max_pipeline_ray_recursion_depth(1)
+            .layout(layout);
+        // SAFETY: the create info points at locals; modules may be destroyed afterwards.
+        let result = unsafe { rt.create_ray_tracing_pipelines(vk::DeferredOperationKHR::null(), vk::PipelineCache::null(), &[info], None) };
+        // SAFETY: the modules are no longer needed once the pipeline exists (or failed).
+        modules.iter().for_each(|&m| unsafe { ctx.device.destroy_shader_module(m, None) });
+        let pipeline = result.map_err(|(_, e)| RenderError::Vulkan(e))?[0];
+
+        let handle_size = props.shader_group_handle_size as usize;
+        let group_count = groups.len();
+        // SAFETY: the pipeline was created with `group_count` groups.
+        let handles = match unsafe { rt.get_ray_tracing_shader_group_handles(pipeline, 0, group_count as u32, handle_size * group_count) } {
+            Ok(h) => h,
+            Err(e) => {
+                // SAFETY: the pipeline is unused.
+                unsafe { ctx.device.destroy_pipeline(pipeline, None) };
+                return Err(e.into());
+            }
+        };
+        let record = (handle_size as u64).next_multiple_of(props.shader_group_handle_alignment as u64);
+        let base = (props.shader_group_base_alignment as u64).max(record);
+        let stride = record.next_multiple_of(base);
+        let sbt = crate::gpu::memory::Buffer::new(
+            ctx,
+            desc.name,
+            stride * group_count as u64 + base,
+            vk::BufferUsageFlags::SHADER_BINDING_TABLE_KHR | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+            gpu_allocator::MemoryLocation::CpuToGpu,
+        );
+        let mut sbt = match sbt {
+            Ok(b) => b,
+            Err(e) => {
+                // SAFETY: the pipeline is unused.
+                unsafe { ctx.device.destroy_pipeline(pipeline, None) };
+                return Err(e);
+            }
+        };
+        // The buffer's address may be less aligned than the table needs: start at the first
+        // aligned address inside it.
+        let start = sbt.address.next_multiple_of(base) - sbt.address;
+        let bytes = sbt.mapped();
+        for (g, handle) in handles.chunks_exact(handle_size).enumerate() {
+            let at = (start + g as u64 * stride) as usize;
+            bytes[at..at + handle_size].copy_from_slice(handle);
+        }
+        let region =
+            |g: usize| vk::StridedDeviceAddressRegionKHR { device_address: sbt.address + start + g as u64 * stride, stride, size: stride };
+        Ok(Self { pipeline, raygen: (0..n).map(region).collect(), miss: region(n), hit: region(n + 1), sbt })
+    }
+
+    /// Dispatches `extent` rays from ray-generation shader `raygen` (the pipeline must be bound).
+    pub fn trace(&self, ctx: &GpuContext, cmd: vk::CommandBuffer, raygen: usize, extent: vk::Extent2D) {
+        let rt = ctx.ray_tracing.as_ref().and_then(|rt| rt.ray_tracing_pipeline.as_ref()).expect("created with ray-tracing pipelines");
+        // SAFETY: `cmd` is recording outside a rendering scope with this pipeline bound; the
+        // table's regions lie inside its live buffer.
+        unsafe {
+            rt.cmd_trace_rays(
+                cmd,
+                &self.raygen[raygen],
+                &self.miss,
+                &self.hit,
+                &vk::StridedDeviceAddressRegionKHR::default(),
+                extent.width,
+                extent.height,
+                1,
+            )
+        };
+    }
+
+    /// Destroys the pipeline and its table; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        // SAFETY: the GPU is idle.
+        unsafe { ctx.device.destroy_pipeline(self.pipeline, None) };
+        self.sbt.destroy(ctx);
+    }
+}

@@ -33,6 +33,16 @@ spirv! {
     VISBUFFER_SHADE_FRAG = "visbuffer_shade.frag";
     VISBUFFER_SHADE_FRAG_RAY_QUERY_DECALS = "visbuffer_shade.frag.RAY_QUERY_DECALS";
     FLAT_COLOR_FRAG = "flat_color.frag";
+    FORWARD_FRAG_DECAL_BUFFER = "forward.frag.DECAL_BUFFER";
+    DEFERRED_LIGHTING_FRAG_DECAL_BUFFER = "deferred_lighting.frag.DECAL_BUFFER";
+    VISBUFFER_SHADE_FRAG_DECAL_BUFFER = "visbuffer_shade.frag.DECAL_BUFFER";
+    DECAL_PASS_RGEN = "decal_pass.rgen";
+    DECAL_PASS_RGEN_VISIBILITY = "decal_pass.rgen.DECAL_SURFACE_VISIBILITY";
+    DECAL_PASS_RMISS = "decal_pass.rmiss";
+    DECAL_PASS_RINT = "decal_pass.rint";
+    DECAL_PASS_RAHIT = "decal_pass.rahit";
+    DECAL_PASS_COMP = "decal_pass.comp";
+    DECAL_PASS_COMP_VISIBILITY = "decal_pass.comp.DECAL_SURFACE_VISIBILITY";
 }
 
 /// Creates a shader module from SPIR-V bytes.

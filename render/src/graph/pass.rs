@@ -27,11 +27,16 @@ pub struct PassContext<'a> {
 impl PassContext<'_> {
     /// Binds a graphics pipeline with the bindless set and push constants.
     pub fn bind_graphics(&self, pipeline: vk::Pipeline, push: &ScenePush) {
+        self.bind(vk::PipelineBindPoint::GRAPHICS, pipeline, push);
+    }
+
+    /// Binds a pipeline at `point` with the bindless set and push constants.
+    pub fn bind(&self, point: vk::PipelineBindPoint, pipeline: vk::Pipeline, push: &ScenePush) {
         let d = &self.ctx.device;
         // SAFETY: `cmd` is recording; pipeline, layout and set are live and compatible.
         unsafe {
-            d.cmd_bind_pipeline(self.cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
-            d.cmd_bind_descriptor_sets(self.cmd, vk::PipelineBindPoint::GRAPHICS, self.layout, 0, &[self.bindless], &[]);
+            d.cmd_bind_pipeline(self.cmd, point, pipeline);
+            d.cmd_bind_descriptor_sets(self.cmd, point, self.layout, 0, &[self.bindless], &[]);
             d.cmd_push_constants(self.cmd, self.layout, vk::ShaderStageFlags::ALL, 0, bytemuck::bytes_of(push));
         }
     }

@@ -23,9 +23,14 @@ pub const GBUFFER_LAYERS_FORMAT: vk::Format = vk::Format::R8_UINT;
 /// Visibility buffer: instance slot, triangle index.
 pub const VISIBILITY_FORMAT: vk::Format = vk::Format::R32G32_UINT;
 
+/// Decal buffer formats (`BINDING_DECAL_*` say what each holds).
+pub const DECAL_BUFFER_FORMAT: vk::Format = vk::Format::R16G16B16A16_SFLOAT;
+/// Decals tested per pixel.
+pub const DECAL_TESTED_FORMAT: vk::Format = vk::Format::R32_UINT;
+
 pub use crate::layout::{
-    BINDING_DEPTH, BINDING_GBUFFER_ALBEDO, BINDING_GBUFFER_LAYERS, BINDING_GBUFFER_MATERIAL, BINDING_GBUFFER_NORMAL, BINDING_HDR,
-    BINDING_VISIBILITY,
+    BINDING_DECAL_ALBEDO, BINDING_DECAL_NORMAL, BINDING_DECAL_SPEC, BINDING_DECAL_TESTED, BINDING_DEPTH, BINDING_GBUFFER_ALBEDO,
+    BINDING_GBUFFER_LAYERS, BINDING_GBUFFER_MATERIAL, BINDING_GBUFFER_NORMAL, BINDING_HDR, BINDING_VISIBILITY,
 };
 
 /// Where a target is bound for sampling: its descriptor binding in set 0 (`BINDING_*`).
@@ -36,6 +41,15 @@ pub enum Bind {
     /// A depth target, sampled in DEPTH_READ_ONLY_OPTIMAL (so it can be a read-only depth
     /// attachment of the same pass).
     Depth(u32),
+    /// A storage image, read and written in GENERAL.
+    Storage(u32),
+}
+
+impl Bind {
+    /// Whether the binding is a storage image.
+    pub fn is_storage(self) -> bool {
+        matches!(self, Bind::Storage(_))
+    }
 }
 
 /// A render target, described once; the frame graph creates it at the view's size on first use,
@@ -105,6 +119,23 @@ pub static GBUFFER_LAYERS: TargetDesc = TargetDesc {
 /// The visibility buffer's instance and triangle ids.
 pub static VISIBILITY: TargetDesc =
     TargetDesc { name: "visibility", format: VISIBILITY_FORMAT, usage: ATTACHMENT_SAMPLED, bind: Some(Bind::Color(BINDING_VISIBILITY)) };
+
+const STORAGE: vk::ImageUsageFlags = vk::ImageUsageFlags::from_raw(U::STORAGE.as_raw() | U::TRANSFER_SRC.as_raw());
+
+/// Decal buffer: premultiplied decal albedo and the surface albedo's remaining weight.
+pub static DECAL_ALBEDO: TargetDesc =
+    TargetDesc { name: "decal albedo", format: DECAL_BUFFER_FORMAT, usage: STORAGE, bind: Some(Bind::Storage(BINDING_DECAL_ALBEDO)) };
+/// Decal buffer: decal normal and the surface normal's remaining weight.
+pub static DECAL_NORMAL: TargetDesc =
+    TargetDesc { name: "decal normal", format: DECAL_BUFFER_FORMAT, usage: STORAGE, bind: Some(Bind::Storage(BINDING_DECAL_NORMAL)) };
+/// Decal buffer: decal roughness and metallic and the surface's remaining weights.
+pub static DECAL_SPEC: TargetDesc =
+    TargetDesc { name: "decal spec", format: DECAL_BUFFER_FORMAT, usage: STORAGE, bind: Some(Bind::Storage(BINDING_DECAL_SPEC)) };
+/// Decal buffer: decals tested per pixel (debug views).
+pub static DECAL_TESTED: TargetDesc =
+    TargetDesc { name: "decal tested", format: DECAL_TESTED_FORMAT, usage: STORAGE, bind: Some(Bind::Storage(BINDING_DECAL_TESTED)) };
+/// The decal buffer's images, in binding order.
+pub static DECAL_BUFFER: [&TargetDesc; 4] = [&DECAL_ALBEDO, &DECAL_NORMAL, &DECAL_SPEC, &DECAL_TESTED];
 
 /// Converts an IEEE half float to f32.
 pub fn f16_to_f32(h: u16) -> f32 {

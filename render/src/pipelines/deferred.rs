@@ -20,15 +20,16 @@
 use ash::vk;
 
 use crate::RenderError;
-use crate::decals::DecalRun;
-use crate::gpu::device::{GpuContext, Tier};
+use crate::decals::{DecalFrame, DecalRun, declare_decal_reads};
+use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::{Blend, GraphicsDesc, create_graphics};
 use crate::gpu::shaders;
 use crate::graph::targets::{
     DEPTH, DEPTH_FORMAT, GBUFFER_ALBEDO, GBUFFER_ALBEDO_FORMAT, GBUFFER_LAYERS, GBUFFER_LAYERS_FORMAT, GBUFFER_MATERIAL,
     GBUFFER_MATERIAL_FORMAT, GBUFFER_NORMAL, GBUFFER_NORMAL_FORMAT, HDR, HDR_FORMAT,
 };
-use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind, ResourceId};
+use crate::graph::{Frame, ImageUse, Load, PassKind};
+use crate::pipelines::ShadeVariants;
 use crate::scene::gpu::GpuScene;
 use crate::scene::{DECAL_ALBEDO, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, DrawItem};
 
@@ -36,7 +37,7 @@ use crate::scene::{DECAL_ALBEDO, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, 
 pub struct DeferredPasses {
     gbuffer_opaque: vk::Pipeline,
     gbuffer_mask: vk::Pipeline,
-    lighting: vk::Pipeline,
+    lighting: ShadeVariants,
     /// Indexed by `DECAL_*` flags (0..16).
     decals: Vec<vk::Pipeline>,
 }
@@ -49,10 +50,6 @@ impl DeferredPasses {
     pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
         let geometry = GraphicsDesc::mesh("gbuffer", Some(shaders::GBUFFER_FRAG), &GBUFFER_FORMATS, DEPTH_FORMAT);
         let hdr = [HDR_FORMAT];
-        let lighting_fs =
-            if ctx.tier == Tier::RayQuery { shaders::DEFERRED_LIGHTING_FRAG_RAY_QUERY_DECALS } else { shaders::DEFERRED_LIGHTING_FRAG };
-        let mut lighting = GraphicsDesc::fullscreen("deferred lighting", lighting_fs, &hdr);
-        lighting.blend = Blend::Additive;
         let decal_formats = [GBUFFER_ALBEDO_FORMAT, GBUFFER_NORMAL_FORMAT, GBUFFER_MATERIAL_FORMAT];
         let mut decals = Vec::with_capacity(16);
         for flags in 0..16u32 {
@@ -88,7 +85,21 @@ impl DeferredPasses {
         Ok(Self {
             gbuffer_opaque: create_graphics(ctx, layout, &geometry)?,
             gbuffer_mask: create_graphics(ctx, layout, &GraphicsDesc { fragment: Some(shaders::GBUFFER_FRAG_ALPHA_MASK), ..geometry })?,
-            lighting: create_graphics(ctx, layout, &lighting)?,
+            lighting: ShadeVariants::new(
+                ctx,
+                [
+                    shaders::DEFERRED_LIGHTING_FRAG,
+                    shaders::DEFERRED_LIGHTING_FRAG_RAY_QUERY_DECALS,
+                    shaders::DEFERRED_LIGHTING_FRAG_DECAL_BUFFER,
+                ],
+                |fragment| {
+                    create_graphics(
+                        ctx,
+                        layout,
+                        &GraphicsDesc { blend: Blend::Additive, ..GraphicsDesc::fullscreen("deferred lighting", fragment, &hdr) },
+                    )
+                },
+            )?,
             decals,
         })
     }
@@ -138,29 +149,30 @@ impl DeferredPasses {
             })
     }
 
-    /// Lighting: one full-screen pass over the G-buffer, added to the emitted radiance;
-    /// ray-query decals from `decals` (the decal TLAS and BLAS) when given.
-    pub fn lighting(&self, f: &mut Frame, scene: &GpuScene, decals: Option<[ResourceId; 2]>) -> Result<(), RenderError> {
-        f.pass("lighting", PassKind::Graphics)
+    /// Lighting: one full-screen pass over the G-buffer, added to the emitted radiance, with
+    /// this frame's `decals` (in-shader ray queries or the decal buffer).
+    pub fn lighting(&self, f: &mut Frame, scene: &GpuScene, decals: &DecalFrame) -> Result<(), RenderError> {
+        let pass = f
+            .pass("lighting", PassKind::Graphics)
             .sample(&DEPTH)
             .sample(&GBUFFER_ALBEDO)
             .sample(&GBUFFER_NORMAL)
             .sample(&GBUFFER_MATERIAL)
             .sample(&GBUFFER_LAYERS)
             .color(&HDR, Load::Keep)
-            .reads(scene.res.shaded())
-            .reads(decals.into_iter().flatten().map(|a| (a, BufferUse::Accel)))
-            .record(|p| {
-                let push = p.push;
-                p.fullscreen(self.lighting, &push);
-            })
+            .reads(scene.res.shaded());
+        declare_decal_reads(pass, decals).record(|p| {
+            let push = p.push;
+            p.fullscreen(self.lighting.pick(decals), &push);
+        })
     }
 
     /// Destroys the pipelines; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for p in [self.gbuffer_opaque, self.gbuffer_mask, self.lighting].into_iter().chain(self.decals) {
+        for p in [self.gbuffer_opaque, self.gbuffer_mask].into_iter().chain(self.decals) {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }
+        self.lighting.destroy(ctx);
     }
 }

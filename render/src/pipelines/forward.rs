@@ -1,16 +1,19 @@
 //! The forward pipeline: a reverse-Z depth prepass (seed 001 §4.1; alpha test only for masked
 //! materials) and a shading pass that tests depth EQUAL, so each pixel is shaded once: decals
-//! found by a zero-length ray query (seed 000 §4.2.2) are blended into the surface attributes,
-//! then every light is applied with the Frostbite BRDF of seed 000 §2.3.
+//! (found by a zero-length ray query in the shader, seed 000 §4.2.2, or read from the decal
+//! buffer a decal pass wrote, [`crate::decals::buffer`]) are blended into the surface
+//! attributes, then every light is applied with the Frostbite BRDF of seed 000 §2.3.
 
 use ash::vk;
 
 use crate::RenderError;
-use crate::gpu::device::{GpuContext, Tier};
+use crate::decals::{DecalFrame, declare_decal_reads};
+use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::{GraphicsDesc, create_graphics};
 use crate::gpu::shaders;
 use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT};
-use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind, ResourceId};
+use crate::graph::{Frame, ImageUse, Load, PassKind};
+use crate::pipelines::ShadeVariants;
 use crate::scene::DrawItem;
 use crate::scene::gpu::GpuScene;
 
@@ -18,7 +21,7 @@ use crate::scene::gpu::GpuScene;
 pub struct ForwardPasses {
     prepass_opaque: vk::Pipeline,
     prepass_mask: vk::Pipeline,
-    shade: vk::Pipeline,
+    shade: ShadeVariants,
 }
 
 impl ForwardPasses {
@@ -28,18 +31,19 @@ impl ForwardPasses {
         Ok(Self {
             prepass_opaque: create_graphics(ctx, layout, &prepass)?,
             prepass_mask: create_graphics(ctx, layout, &GraphicsDesc { fragment: Some(shaders::PREPASS_MASK_FRAG), ..prepass })?,
-            shade: create_graphics(
+            shade: ShadeVariants::new(
                 ctx,
-                layout,
-                &GraphicsDesc {
-                    name: "forward",
-                    // Ray-query decals need the ray query tier; SPIR-V using ray queries cannot
-                    // even be loaded on other devices.
-                    fragment: Some(if ctx.tier == Tier::RayQuery { shaders::FORWARD_FRAG_RAY_QUERY_DECALS } else { shaders::FORWARD_FRAG }),
-                    color_formats: &[HDR_FORMAT],
-                    depth_compare: Some(vk::CompareOp::EQUAL),
-                    depth_write: false,
-                    ..prepass
+                [shaders::FORWARD_FRAG, shaders::FORWARD_FRAG_RAY_QUERY_DECALS, shaders::FORWARD_FRAG_DECAL_BUFFER],
+                |fragment| {
+                    let desc = GraphicsDesc {
+                        name: "forward",
+                        fragment: Some(fragment),
+                        color_formats: &[HDR_FORMAT],
+                        depth_compare: Some(vk::CompareOp::EQUAL),
+                        depth_write: false,
+                        ..prepass
+                    };
+                    create_graphics(ctx, layout, &desc)
                 },
             )?,
         })
@@ -58,33 +62,34 @@ impl ForwardPasses {
         )
     }
 
-    /// Shading: every visible pixel once, lit by every light, into the HDR target; ray-query
-    /// decals from `decals` (the decal TLAS and BLAS) when given.
+    /// Shading: every visible pixel once, lit by every light, into the HDR target, with this
+    /// frame's `decals`.
     pub fn shade(
         &self,
         f: &mut Frame,
         scene: &GpuScene,
         draws: &[Option<DrawItem>],
         clear: [f32; 4],
-        decals: Option<[ResourceId; 2]>,
+        decals: &DecalFrame,
     ) -> Result<(), RenderError> {
-        f.pass("forward", PassKind::Graphics)
+        let pass = f
+            .pass("forward", PassKind::Graphics)
             .image(&DEPTH, ImageUse::DepthTest)
             .color(&HDR, Load::Clear(clear))
-            .reads(scene.res.drawn())
-            .reads(decals.into_iter().flatten().map(|a| (a, BufferUse::Accel)))
-            .record(|p| {
-                let push = p.push;
-                p.bind_graphics(self.shade, &push);
-                scene.draw_meshes(p, draws, |_| true);
-            })
+            .reads(scene.res.drawn());
+        declare_decal_reads(pass, decals).record(|p| {
+            let push = p.push;
+            p.bind_graphics(self.shade.pick(decals), &push);
+            scene.draw_meshes(p, draws, |_| true);
+        })
     }
 
     /// Destroys the pipelines; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for p in [self.prepass_opaque, self.prepass_mask, self.shade] {
+        for p in [self.prepass_opaque, self.prepass_mask] {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }
+        self.shade.destroy(ctx);
     }
 }

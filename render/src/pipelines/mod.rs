@@ -7,8 +7,11 @@ pub mod deferred;
 pub mod forward;
 pub mod visbuffer;
 
+use ash::vk;
+
 use crate::RenderError;
-use crate::decals::{DecalChoice, DecalFrame, Decals};
+use crate::decals::{DecalChoice, DecalFrame, DecalSurfaceSource, Decals};
+use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::pipeline::ScenePush;
 use crate::graph::Frame;
 use crate::present::Present;
@@ -34,20 +37,26 @@ pub struct FrameParts<'a> {
     pub decal_choice: DecalChoice,
 }
 
-/// Forward: depth prepass, then shading with depth EQUAL (ray-query decals included).
+/// Forward: depth prepass (the visibility pass, which also writes ids, when a decal pass
+/// follows), the decal pass, then shading with depth EQUAL.
 pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<(), RenderError> {
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
     let boxes_changed = r.scene.upload(f, mirror)?;
     let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, boxes_changed)?;
     f.push = scene_push(r.scene, mirror, s, &decals);
-    r.forward.prepass(f, r.scene, &mirror.draws)?;
-    r.forward.shade(f, r.scene, &mirror.draws, s.clear_color, decals.traced)?;
+    if decals.buffered() {
+        r.visbuffer.visibility(f, "prepass", r.scene, &mirror.draws)?;
+    } else {
+        r.forward.prepass(f, r.scene, &mirror.draws)?;
+    }
+    r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
+    r.forward.shade(f, r.scene, &mirror.draws, s.clear_color, &decals)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)
 }
 
-/// Deferred: G-buffer, deferred decals (when they are the method), full-screen lighting
-/// (ray-query decals included when they are).
+/// Deferred: G-buffer, deferred decals or the decal pass (whichever is the method), full-screen
+/// lighting (in-shader ray-query decals included when they are the method).
 pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<(), RenderError> {
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
     let boxes_changed = r.scene.upload(f, mirror)?;
@@ -55,21 +64,65 @@ pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirro
     f.push = scene_push(r.scene, mirror, s, &decals);
     r.deferred.geometry(f, r.scene, &mirror.draws, s.clear_color)?;
     r.deferred.decals(f, r.scene, r.decals.deferred_runs(&decals))?;
-    r.deferred.lighting(f, r.scene, decals.traced)?;
+    r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::GBuffer)?;
+    r.deferred.lighting(f, r.scene, &decals)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)
 }
 
-/// Visibility buffer: ids and depth, then one full-screen pass that rebuilds and shades.
+/// Visibility buffer: ids and depth, the decal pass, then one full-screen pass that rebuilds and
+/// shades.
 pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<(), RenderError> {
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
     let boxes_changed = r.scene.upload(f, mirror)?;
     let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, boxes_changed)?;
     f.push = scene_push(r.scene, mirror, s, &decals);
-    r.visbuffer.visibility(f, r.scene, &mirror.draws)?;
-    r.visbuffer.shade(f, r.scene, s.clear_color, decals.traced)?;
+    r.visbuffer.visibility(f, "visibility", r.scene, &mirror.draws)?;
+    r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
+    r.visbuffer.shade(f, r.scene, s.clear_color, &decals)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)
+}
+
+/// A shading pass's pipeline in each way it can apply decals: none, in-shader ray queries (on the
+/// ray-query tier only: SPIR-V with ray queries cannot even be loaded elsewhere), or the decal
+/// buffer a decal pass wrote.
+pub struct ShadeVariants {
+    plain: vk::Pipeline,
+    ray_query: Option<vk::Pipeline>,
+    decal_buffer: vk::Pipeline,
+}
+
+impl ShadeVariants {
+    /// Creates the variants with `create` from the fragment shaders `[plain, ray query, decal buffer]`.
+    pub fn new(
+        ctx: &GpuContext,
+        [plain, ray_query, decal_buffer]: [&[u8]; 3],
+        create: impl Fn(&[u8]) -> Result<vk::Pipeline, RenderError>,
+    ) -> Result<Self, RenderError> {
+        Ok(Self {
+            plain: create(plain)?,
+            ray_query: if ctx.tier == Tier::RayQuery { Some(create(ray_query)?) } else { None },
+            decal_buffer: create(decal_buffer)?,
+        })
+    }
+
+    /// The variant that applies this frame's decals.
+    pub fn pick(&self, decals: &DecalFrame) -> vk::Pipeline {
+        match self.ray_query {
+            _ if decals.buffered() => self.decal_buffer,
+            Some(rq) if decals.traced.is_some() && decals.method == crate::settings::DecalMethod::RayQuery => rq,
+            _ => self.plain,
+        }
+    }
+
+    /// Destroys the pipelines; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        for p in [self.plain, self.decal_buffer].into_iter().chain(self.ray_query) {
+            // SAFETY: the GPU is idle.
+            unsafe { ctx.device.destroy_pipeline(p, None) };
+        }
+    }
 }
 
 /// The push constants every scene pass of the frame shares.

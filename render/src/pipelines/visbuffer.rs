@@ -7,11 +7,13 @@
 use ash::vk;
 
 use crate::RenderError;
-use crate::gpu::device::{GpuContext, Tier};
+use crate::decals::{DecalFrame, declare_decal_reads};
+use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::{GraphicsDesc, create_graphics};
 use crate::gpu::shaders;
 use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT, VISIBILITY, VISIBILITY_FORMAT};
-use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind, ResourceId};
+use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind};
+use crate::pipelines::ShadeVariants;
 use crate::scene::DrawItem;
 use crate::scene::gpu::GpuScene;
 
@@ -19,7 +21,7 @@ use crate::scene::gpu::GpuScene;
 pub struct VisBufferPasses {
     ids_opaque: vk::Pipeline,
     ids_mask: vk::Pipeline,
-    shade: vk::Pipeline,
+    shade: ShadeVariants,
 }
 
 impl VisBufferPasses {
@@ -28,18 +30,21 @@ impl VisBufferPasses {
         let formats = [VISIBILITY_FORMAT];
         let ids = GraphicsDesc::mesh("visibility", Some(shaders::VISBUFFER_FRAG), &formats, DEPTH_FORMAT);
         let hdr = [HDR_FORMAT];
-        let shade_fs =
-            if ctx.tier == Tier::RayQuery { shaders::VISBUFFER_SHADE_FRAG_RAY_QUERY_DECALS } else { shaders::VISBUFFER_SHADE_FRAG };
         Ok(Self {
             ids_opaque: create_graphics(ctx, layout, &ids)?,
             ids_mask: create_graphics(ctx, layout, &GraphicsDesc { fragment: Some(shaders::VISBUFFER_FRAG_ALPHA_MASK), ..ids })?,
-            shade: create_graphics(ctx, layout, &GraphicsDesc::fullscreen("visibility shading", shade_fs, &hdr))?,
+            shade: ShadeVariants::new(
+                ctx,
+                [shaders::VISBUFFER_SHADE_FRAG, shaders::VISBUFFER_SHADE_FRAG_RAY_QUERY_DECALS, shaders::VISBUFFER_SHADE_FRAG_DECAL_BUFFER],
+                |fragment| create_graphics(ctx, layout, &GraphicsDesc::fullscreen("visibility shading", fragment, &hdr)),
+            )?,
         })
     }
 
-    /// Writes depth and the instance/triangle ids.
-    pub fn visibility(&self, f: &mut Frame, scene: &GpuScene, draws: &[Option<DrawItem>]) -> Result<(), RenderError> {
-        f.pass("visibility", PassKind::Graphics)
+    /// Writes depth and the instance/triangle ids, as the pass `name` (the forward pipeline's
+    /// prepass is this pass when a decal pass needs the ids).
+    pub fn visibility(&self, f: &mut Frame, name: &'static str, scene: &GpuScene, draws: &[Option<DrawItem>]) -> Result<(), RenderError> {
+        f.pass(name, PassKind::Graphics)
             .image(&DEPTH, ImageUse::DepthWrite(Load::ClearDepth(0.0)))
             .color(&VISIBILITY, Load::Clear([0.0; 4]))
             .reads(scene.res.drawn())
@@ -52,27 +57,27 @@ impl VisBufferPasses {
             })
     }
 
-    /// Rebuilds and shades every covered pixel into the HDR target; ray-query decals from
-    /// `decals` (the decal TLAS and BLAS) when given.
-    pub fn shade(&self, f: &mut Frame, scene: &GpuScene, clear: [f32; 4], decals: Option<[ResourceId; 2]>) -> Result<(), RenderError> {
-        f.pass("visbuffer_shade", PassKind::Graphics)
+    /// Rebuilds and shades every covered pixel into the HDR target, with this frame's `decals`.
+    pub fn shade(&self, f: &mut Frame, scene: &GpuScene, clear: [f32; 4], decals: &DecalFrame) -> Result<(), RenderError> {
+        let pass = f
+            .pass("visbuffer_shade", PassKind::Graphics)
             .sample(&DEPTH)
             .sample(&VISIBILITY)
             .color(&HDR, Load::Clear(clear))
             .reads(scene.res.shaded())
-            .read(scene.res.meshes, BufferUse::Storage)
-            .reads(decals.into_iter().flatten().map(|a| (a, BufferUse::Accel)))
-            .record(|p| {
-                let push = p.push;
-                p.fullscreen(self.shade, &push);
-            })
+            .read(scene.res.meshes, BufferUse::Storage);
+        declare_decal_reads(pass, decals).record(|p| {
+            let push = p.push;
+            p.fullscreen(self.shade.pick(decals), &push);
+        })
     }
 
     /// Destroys the pipelines; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for p in [self.ids_opaque, self.ids_mask, self.shade] {
+        for p in [self.ids_opaque, self.ids_mask] {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }
+        self.shade.destroy(ctx);
     }
 }

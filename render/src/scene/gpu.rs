@@ -23,8 +23,12 @@ use crate::scene::{
 
 /// Bindless array size.
 pub const MAX_TEXTURES: u32 = 4096;
-/// Descriptor bindings after the texture array, one per render target (`BINDING_*`).
+/// Descriptor bindings after the texture array, one per sampled render target (`BINDING_*`).
 pub const TARGET_BINDINGS: u32 = crate::layout::BINDING_VISIBILITY;
+/// Storage-image bindings after those: the decal buffer (`BINDING_DECAL_*`).
+pub const STORAGE_BINDINGS: u32 = crate::layout::BINDING_DECAL_TESTED - TARGET_BINDINGS;
+const _: () = assert!(crate::layout::BINDING_DECAL_ALBEDO == TARGET_BINDINGS + 1, "storage bindings follow the sampled targets");
+const BINDINGS: usize = 1 + (TARGET_BINDINGS + STORAGE_BINDINGS) as usize;
 
 /// A device-local array of records that grows geometrically.
 pub struct GpuTable {
@@ -271,6 +275,11 @@ pub struct GpuScene {
     mesh_usage: vk::BufferUsageFlags,
 }
 
+/// The descriptor type of a binding of set 0.
+fn descriptor_type(binding: u32) -> vk::DescriptorType {
+    if binding > TARGET_BINDINGS { vk::DescriptorType::STORAGE_IMAGE } else { vk::DescriptorType::COMBINED_IMAGE_SAMPLER }
+}
+
 impl GpuScene {
     /// Creates empty tables, the bindless set and the built-in textures.
     pub fn new(ctx: &GpuContext, graph: &mut FrameGraph) -> Result<Self, RenderError> {
@@ -279,13 +288,14 @@ impl GpuScene {
             | vk::DescriptorBindingFlags::UPDATE_AFTER_BIND
             | vk::DescriptorBindingFlags::UPDATE_UNUSED_WHILE_PENDING;
         // Binding 0: the material and decal textures. Bindings 1..=7: one render target each
-        // (`BINDING_*`), so shaders statically use only the targets they sample.
-        let binding_flags = [bindless; 1 + TARGET_BINDINGS as usize];
+        // (`BINDING_*`), so shaders statically use only the targets they sample; 8..=11: the
+        // decal buffer's storage images.
+        let binding_flags = [bindless; BINDINGS];
         let mut flags_info = vk::DescriptorSetLayoutBindingFlagsCreateInfo::default().binding_flags(&binding_flags);
-        let bindings: [vk::DescriptorSetLayoutBinding; 1 + TARGET_BINDINGS as usize] = std::array::from_fn(|i| {
+        let bindings: [vk::DescriptorSetLayoutBinding; BINDINGS] = std::array::from_fn(|i| {
             vk::DescriptorSetLayoutBinding::default()
                 .binding(i as u32)
-                .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                .descriptor_type(descriptor_type(i as u32))
                 .descriptor_count(if i == 0 { MAX_TEXTURES } else { 1 })
                 .stage_flags(vk::ShaderStageFlags::ALL)
         });
@@ -298,10 +308,10 @@ impl GpuScene {
                     .push_next(&mut flags_info),
                 None,
             )?;
-            let sizes = [vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-                descriptor_count: MAX_TEXTURES + TARGET_BINDINGS,
-            }];
+            let sizes = [
+                vk::DescriptorPoolSize { ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER, descriptor_count: MAX_TEXTURES + TARGET_BINDINGS },
+                vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_IMAGE, descriptor_count: STORAGE_BINDINGS },
+            ];
             let pool = d.create_descriptor_pool(
                 &vk::DescriptorPoolCreateInfo::default()
                     .max_sets(1)
@@ -399,8 +409,10 @@ impl GpuScene {
         let (binding, layout) = match bind {
             Bind::Color(binding) => (binding, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL),
             Bind::Depth(binding) => (binding, vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL),
+            Bind::Storage(binding) => (binding, vk::ImageLayout::GENERAL),
         };
-        self.write_descriptor_at(ctx, binding, 0, view, self.clamp_sampler, layout);
+        let sampler = if bind.is_storage() { vk::Sampler::null() } else { self.clamp_sampler };
+        self.write_descriptor_at(ctx, binding, 0, view, sampler, layout);
     }
 
     fn write_descriptor(&self, ctx: &GpuContext, slot: u32, view: vk::ImageView, sampler: vk::Sampler) {
@@ -421,7 +433,7 @@ impl GpuScene {
             .dst_set(self.set)
             .dst_binding(binding)
             .dst_array_element(slot)
-            .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+            .descriptor_type(descriptor_type(binding))
             .image_info(&info);
         // SAFETY: the slot is not used by any pending command buffer (fresh, recycled after
         // completion, or a target rewritten after a wait for idle); the binding is

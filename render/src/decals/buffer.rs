@@ -1,0 +1,157 @@
+//! The decal pass and its decal buffer (seed 000 §4.2.2 and §4.3.1, moved out of the shading
+//! passes): one pass per frame enumerates the decals at every pixel with a zero-length ray,
+//! blends them per channel with weighted OIT, composites the channels in order and writes, per
+//! attribute, the decal contribution and the weight remaining to the surface's own value
+//! (`shaders/include/decal_buffer.glsl`). The shading passes of every pipeline then apply
+//! `value = decal + value × remaining`, which is exactly the seed's final blending step, since
+//! compositing channels one after another is an affine map of the surface value.
+//!
+//! Two formulations write the same buffer:
+//! - **ray-tracing pipeline** (`shaders/decal_pass.r*`), for devices with ray-tracing pipelines
+//!   but no ray queries (the lent NVIDIA GPUs): a ray-generation shader traces the ray; an
+//!   intersection shader runs the exact oriented-box test and the angle fade on each AABB the
+//!   ray's origin lies in; an any-hit shader tests the receiver layers, samples the decal and
+//!   adds it to the payload's per-channel sums, then ignores the hit so traversal continues.
+//!   Weighted blended OIT is order-independent *within* a channel (sums and products commute),
+//!   and channels are kept apart in the payload and composited in channel order at the end, so
+//!   the arbitrary order of any-hit invocations gives what the ray-query loop gives
+//!   (tests/tests/decals.rs checks this against a CPU reference and against a shuffled spawn
+//!   order). Intersection shaders have no payload, so the two things they need from the pixel
+//!   travel with the ray: its origin is the surface point, and its direction (free for a ray of
+//!   length zero) is the geometric normal the fade needs; the receiver layers, which need the
+//!   payload, are tested in the any-hit shader.
+//! - **ray queries in compute** (`shaders/decal_pass.comp`), the ray-query tier's counterpart,
+//!   so the two can be compared on one device (lavapipe has both).
+//!
+//! Each pass reads the surface as its pipeline left it (`shaders/include/decal_surface.glsl`):
+//! the G-buffer in the deferred pipeline, the visibility ids in the visibility-buffer pipeline,
+//! and in the forward pipeline the same ids, written by the depth prepass when a decal pass
+//! follows (the prepass becomes the visibility pass: the depth is the same, plus 8 bytes a pixel
+//! and no texture fetch; see that include for the normal this gives the decals).
+
+use ash::vk;
+
+use crate::RenderError;
+use crate::decals::DecalFrame;
+use crate::gpu::device::GpuContext;
+use crate::gpu::pipeline::{RayTracingDesc, RayTracingPipeline, create_compute};
+use crate::gpu::shaders;
+use crate::graph::targets::{DECAL_BUFFER, DEPTH, GBUFFER_LAYERS, GBUFFER_NORMAL, VISIBILITY};
+use crate::graph::{BufferUse, Frame, ImageUse, PassBuilder, PassKind};
+use crate::scene::gpu::GpuScene;
+use crate::settings::DecalMethod;
+
+/// Where a decal pass finds the surface at each pixel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DecalSurfaceSource {
+    /// The G-buffer's normal and receiver layers (deferred pipeline).
+    GBuffer,
+    /// The visibility pass's instance and triangle ids (forward and visibility buffer).
+    Visibility,
+}
+
+/// The decal passes this device can run.
+pub struct DecalPasses {
+    /// Ray-generation shader 0 reads the G-buffer, 1 the visibility ids.
+    ray_pipeline: Option<RayTracingPipeline>,
+    /// Ray-query compute: [G-buffer, visibility ids].
+    ray_query: Option<[vk::Pipeline; 2]>,
+}
+
+impl DecalPasses {
+    /// Creates the passes the device supports (none without ray tracing).
+    pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
+        let support = ctx.decal_support();
+        let ray_pipeline = if support.ray_pipeline {
+            Some(RayTracingPipeline::new(
+                ctx,
+                layout,
+                &RayTracingDesc {
+                    name: "decal pass (ray-tracing pipeline)",
+                    raygen: &[shaders::DECAL_PASS_RGEN, shaders::DECAL_PASS_RGEN_VISIBILITY],
+                    miss: shaders::DECAL_PASS_RMISS,
+                    intersection: shaders::DECAL_PASS_RINT,
+                    any_hit: shaders::DECAL_PASS_RAHIT,
+                },
+            )?)
+        } else {
+            None
+        };
+        let ray_query = if support.ray_query {
+            let gbuffer = create_compute(ctx, layout, "decal pass (ray query)", shaders::DECAL_PASS_COMP)?;
+            match create_compute(ctx, layout, "decal pass (ray query, visibility)", shaders::DECAL_PASS_COMP_VISIBILITY) {
+                Ok(visibility) => Some([gbuffer, visibility]),
+                Err(e) => {
+                    // SAFETY: the pipeline is unused.
+                    unsafe { ctx.device.destroy_pipeline(gbuffer, None) };
+                    return Err(e);
+                }
+            }
+        } else {
+            None
+        };
+        Ok(Self { ray_pipeline, ray_query })
+    }
+
+    /// Writes the decal buffer for this frame's decals, when the frame's method is a decal pass
+    /// and there are decals; otherwise records nothing (the shading passes then read no buffer).
+    pub fn record(&self, f: &mut Frame, scene: &GpuScene, frame: &DecalFrame, source: DecalSurfaceSource) -> Result<(), RenderError> {
+        let Some(traced) = frame.traced.filter(|_| frame.buffered()) else { return Ok(()) };
+        let extent = f.graph.extent();
+        let variant = source as usize;
+        let (name, kind) = match frame.method {
+            DecalMethod::RayPipeline => ("decal_pass_ray_pipeline", PassKind::RayTracing),
+            _ => ("decal_pass_ray_query", PassKind::Compute),
+        };
+        let mut pass = f.pass(name, kind).sample(&DEPTH).reads(scene.res.shaded()).reads(traced.map(|a| (a, BufferUse::Accel)));
+        pass = match source {
+            DecalSurfaceSource::GBuffer => pass.sample(&GBUFFER_NORMAL).sample(&GBUFFER_LAYERS),
+            DecalSurfaceSource::Visibility => pass.sample(&VISIBILITY).read(scene.res.meshes, BufferUse::Storage),
+        };
+        for target in DECAL_BUFFER {
+            pass = pass.image(target, ImageUse::StorageWrite);
+        }
+        match frame.method {
+            DecalMethod::RayPipeline => {
+                let rt = self.ray_pipeline.as_ref().ok_or_else(|| unsupported(frame.method))?;
+                pass.record(|p| {
+                    p.bind(vk::PipelineBindPoint::RAY_TRACING_KHR, rt.pipeline, &p.push);
+                    rt.trace(p.ctx, p.cmd, variant, extent);
+                })
+            }
+            _ => {
+                let pipelines = self.ray_query.ok_or_else(|| unsupported(frame.method))?;
+                pass.record(|p| {
+                    p.bind(vk::PipelineBindPoint::COMPUTE, pipelines[variant], &p.push);
+                    // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
+                    unsafe { p.ctx.device.cmd_dispatch(p.cmd, extent.width.div_ceil(8), extent.height.div_ceil(8), 1) };
+                })
+            }
+        }
+    }
+
+    /// Destroys the pipelines; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        if let Some(rt) = self.ray_pipeline {
+            rt.destroy(ctx);
+        }
+        for p in self.ray_query.into_iter().flatten() {
+            // SAFETY: the GPU is idle.
+            unsafe { ctx.device.destroy_pipeline(p, None) };
+        }
+    }
+}
+
+/// Declares what a shading pass reads to apply this frame's decals: the decal buffer when a
+/// decal pass wrote it, the acceleration structures when it traces ray queries itself.
+pub fn declare_decal_reads<'f, 'a>(pass: PassBuilder<'f, 'a>, frame: &DecalFrame) -> PassBuilder<'f, 'a> {
+    if frame.buffered() {
+        DECAL_BUFFER.iter().fold(pass, |pass, &target| pass.image(target, ImageUse::StorageRead))
+    } else {
+        pass.reads(frame.traced.into_iter().flatten().map(|a| (a, BufferUse::Accel)))
+    }
+}
+
+fn unsupported(method: DecalMethod) -> RenderError {
+    RenderError::Other(format!("the decal method {} was applied without its pipeline", method.name()))
+}
