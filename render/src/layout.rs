@@ -504,6 +504,8 @@ layout! {
     pub const DECAL_METALLIC: u32 = 8;
     /// Number of decal blending channels (`GpuDecal::channel` is below this).
     pub const DECAL_CHANNELS: u32 = 4;
+    /// `GpuAabb::slot` of a box that belongs to no decal (the padding of a BLAS build).
+    pub const NO_DECAL: u32 = 0xFFFF_FFFF;
 
     /// Debug view (`ScenePush::debug_view`, `DebugView`): the lit image.
     pub const DEBUG_LIT: u32 = 0;
@@ -666,13 +668,20 @@ layout! {
         pub pad: f32,
     }
 
-    /// An axis-aligned box as acceleration-structure builds read it (`VkAabbPositionsKHR`).
+    /// A decal's axis-aligned box as acceleration-structure builds read it (`VkAabbPositionsKHR`
+    /// at the start of a 32-byte stride), and the decal record it belongs to. The boxes of live
+    /// decals are kept dense (a despawn moves the last box into the hole), so the decal BLAS is
+    /// built over exactly the live boxes and its primitive index maps to a record through `slot`.
     #[layout(scalar)]
     pub struct GpuAabb {
         /// Minimum corner.
         pub min: [f32; 3],
         /// Maximum corner.
         pub max: [f32; 3],
+        /// Slot of the decal record in the decal table (`NO_DECAL` for padding boxes).
+        pub slot: u32,
+        /// Padding to the 8-byte multiple a build's AABB stride must be.
+        pub pad: u32,
     }
 
     /// Where a mesh's vertices and indices live (the visibility buffer fetches them).

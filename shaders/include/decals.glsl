@@ -19,6 +19,12 @@
 // GpuDecal, GpuDecalMaterial and the DECAL_* flags are in layout.glsl (render/src/layout.rs).
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer DecalsRef { GpuDecal decals[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer DecalMaterialsRef { GpuDecalMaterial decal_materials[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer DecalBoxesRef { GpuAabb boxes[]; };
+
+// The decal record of a BLAS primitive (the box table is dense; NO_DECAL for padding boxes).
+uint decal_of_box(uint primitive) {
+    return DecalBoxesRef(scene.decal_aabbs).boxes[primitive].slot;
+}
 
 // The surface as decals see it.
 struct DecalSurface {
@@ -89,6 +95,7 @@ void decal_accumulate(inout DecalBlend b, GpuDecal d, vec3 local, float fade, De
 
 // Tests one decal against the surface and accumulates it into its channel.
 void apply_decal(inout DecalBlend b, uint index, DecalSurface s) {
+    if (index == NO_DECAL) return;
     GpuDecal d = DecalsRef(scene.decals).decals[index];
     if ((d.receivers & s.layers) == 0u) return;
     vec3 local;
@@ -110,7 +117,7 @@ uint gather_decals(inout DecalBlend b, DecalSurface s) {
     uint tested = 0u;
     while (rayQueryProceedEXT(query)) {
         tested += 1u;
-        apply_decal(b, uint(rayQueryGetIntersectionPrimitiveIndexEXT(query, false)), s);
+        apply_decal(b, decal_of_box(uint(rayQueryGetIntersectionPrimitiveIndexEXT(query, false))), s);
     }
     return tested;
 }

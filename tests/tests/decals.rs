@@ -239,6 +239,57 @@ fn random_overlapping_stacks_match_the_cpu_blending_reference() {
     }
 }
 
+#[test]
+fn the_order_of_overlapping_decals_within_a_channel_does_not_change_the_image() {
+    // Eight translucent decals overlapping at the origin, in one channel with different weights,
+    // spawned in one order and then in the reverse and a shuffled order (other slots, so other
+    // primitive indices: the ray-tracing pipeline invokes any-hit shaders in another order, and
+    // the ray query reports candidates in another).
+    let mut rng = Lcg(11);
+    let decals: Vec<RefDecal> = (0..8)
+        .map(|i| RefDecal {
+            to_world: downward(Vec3::new(rng.range(-0.3, 0.3), 0.0, rng.range(-0.3, 0.3)), Vec2::splat(2.0), 1.0, i as f32)
+                .compute_matrix(),
+            channel: 1,
+            weight: rng.range(0.3, 3.0),
+            albedo: Some(Vec3::new(rng.next(), rng.next(), rng.next())),
+            alpha: rng.range(0.3, 0.8),
+            roughness: Some(rng.next()),
+            metallic: None,
+        })
+        .collect();
+    let orders: [Vec<usize>; 3] = [(0..8).collect(), (0..8).rev().collect(), vec![3, 6, 0, 5, 2, 7, 1, 4]];
+    for c in CONFIGS {
+        eprintln!("{c:?}");
+        let mut images = Vec::new();
+        for order in &orders {
+            let (mut app, _) = plane_app(c);
+            for &i in order {
+                spawn_ref_decal(&mut app, &decals[i]);
+            }
+            let (albedo, rm) = read_views(&mut app);
+            assert_no_validation_errors(&mut app);
+            images.push((albedo, rm));
+        }
+        let (first_albedo, first_rm) = &images[0];
+        for (albedo, rm) in &images[1..] {
+            let diff = |a: &[[f32; 4]], b: &[[f32; 4]]| {
+                a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |k| (x[k] - y[k]).abs())).fold(0.0f32, f32::max)
+            };
+            let (da, dr) = (diff(first_albedo, albedo), diff(first_rm, rm));
+            assert!(da <= 1e-3 && dr <= 1e-3, "{c:?}: another order changes the image by {da} (albedo), {dr} (roughness)");
+        }
+        // Not vacuous: at the origin all eight blend into something none of them is alone.
+        let (app, view) = plane_app(c);
+        drop(app);
+        let (px, py) = pixel_of(&view, Vec3::ZERO);
+        let got = Vec3::from_slice(&first_albedo[(py * SIZE.0 + px) as usize][..3]);
+        let (expected, _, _) = reference(Vec3::ZERO, &decals);
+        assert!((got - expected).abs().max_element() < 2e-3, "{c:?}: {got} vs the CPU reference {expected}");
+        assert!(decals.iter().all(|d| (d.albedo.unwrap() - got).abs().max_element() > 0.02), "a blend, not one decal on top");
+    }
+}
+
 /// One opaque red decal; returns whether each checked pixel shows it, compared with whether its
 /// centre lies inside `inside(p)` (pixels within `margin` world units of the boundary skipped).
 fn check_single_decal(app: &mut App, view: &TopDownView, inside: impl Fn(Vec3) -> Option<bool>) -> (usize, usize) {

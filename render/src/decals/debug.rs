@@ -38,9 +38,10 @@ impl DecalBoxes {
         Ok(Self { pipeline: create_graphics(ctx, layout, &desc)? })
     }
 
-    /// Draws the boxes of decal slots `0..slots` over the HDR target.
-    pub fn record(&self, f: &mut Frame, scene: &GpuScene, slots: u32) -> Result<(), RenderError> {
-        if slots == 0 {
+    /// Draws the boxes of the `live` decals (the first `live` entries of the dense box table) over
+    /// the HDR target.
+    pub fn record(&self, f: &mut Frame, scene: &GpuScene, live: u32) -> Result<(), RenderError> {
+        if live == 0 {
             return Ok(());
         }
         f.pass("decal_boxes", PassKind::Graphics).color(&HDR, Load::Keep).read(scene.res.tables, BufferUse::Storage).record(|p| {
@@ -48,8 +49,8 @@ impl DecalBoxes {
                 let push = ScenePush { texture_index: mode, ..p.push };
                 p.bind_graphics(self.pipeline, &push);
                 // SAFETY: `cmd` is recording inside the rendering scope with the pipeline bound;
-                // the decal tables hold at least `slots` records.
-                unsafe { p.ctx.device.cmd_draw(p.cmd, 24, slots, 0, 0) };
+                // the box table holds at least `live` boxes.
+                unsafe { p.ctx.device.cmd_draw(p.cmd, 24, live, 0, 0) };
             }
         })
     }

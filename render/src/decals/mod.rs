@@ -95,7 +95,8 @@ impl Decals {
         let input = DecalBoxInput {
             tables: scene.res.tables,
             address: scene.decal_aabbs.address(),
-            count: if mirror.decals.records.slot_count() == 0 { 0 } else { scene.decal_aabbs.capacity() },
+            live: mirror.decals.len() as u32,
+            capacity: scene.decal_aabbs.capacity(),
             changed: boxes_changed,
         };
         // The structures follow the decals whenever a ray-traced method is applied (changes made
@@ -125,7 +126,7 @@ impl Decals {
         if !s.show_decal_boxes {
             return Ok(());
         }
-        self.boxes.record(f, scene, mirror.decals.records.slot_count())
+        self.boxes.record(f, scene, mirror.decals.len() as u32)
     }
 
     /// Destroys everything; the GPU must be idle.

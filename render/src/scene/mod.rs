@@ -13,7 +13,7 @@ use glam::{Mat4, Vec2, Vec3};
 
 pub use crate::layout::{
     DECAL_ALBEDO, DECAL_CHANNELS, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuDecal, GpuDecalMaterial,
-    GpuInstance, GpuLight, GpuMaterial, GpuMeshInfo, GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_DOUBLE_SIDED, RESERVED_TEXTURES,
+    GpuInstance, GpuLight, GpuMaterial, GpuMeshInfo, GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_DOUBLE_SIDED, NO_DECAL, RESERVED_TEXTURES,
     TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
 };
 
@@ -95,9 +95,9 @@ impl GpuLight {
 }
 
 impl GpuAabb {
-    /// A zero-size box at `p`.
+    /// A zero-size box at `p` that belongs to no decal.
     pub fn point(p: Vec3) -> Self {
-        Self { min: p.to_array(), max: p.to_array() }
+        Self { min: p.to_array(), max: p.to_array(), slot: NO_DECAL, pad: 0 }
     }
 
     /// The zero-size box at this box's centre.
@@ -105,11 +105,11 @@ impl GpuAabb {
         Self::point((Vec3::from(self.min) + Vec3::from(self.max)) * 0.5)
     }
 
-    /// Boxes for never-used slots `first..first + count` of the decal BLAS: distinct points 1 mm
-    /// apart on a line through the centroid of `live` (zero-size, so no query ever lands on
-    /// them, and near the decals, so a slot's first refit does not stretch the tree across the
-    /// world). Coincident padding boxes made NVIDIA's BLAS builds 2.5–3.5× slower (see
-    /// docs/BENCHMARKS.md).
+    /// Boxes for never-used entries `first..first + count` of the decal box table (the padding
+    /// of a BLAS build): distinct points 1 mm apart on a line through the centroid of `live`
+    /// (zero-size, so no query ever lands on them, and near the decals, so an entry's first
+    /// refit does not stretch the tree across the world). Coincident padding boxes made
+    /// NVIDIA's BLAS builds 2.5–3.5× slower (see docs/BENCHMARKS.md).
     pub fn parking(live: &[GpuAabb], first: u32, count: u32) -> impl Iterator<Item = GpuAabb> {
         let centroid = if live.is_empty() {
             Vec3::ZERO
@@ -119,13 +119,14 @@ impl GpuAabb {
         (first..first + count).map(move |i| Self::point(centroid + Vec3::new(i as f32 * 1e-3, 0.0, 0.0)))
     }
 
-    /// The AABB of the box `[-0.5, 0.5]³` transformed by `decal_to_world`.
-    pub fn of_unit_box(decal_to_world: Mat4) -> Self {
+    /// The AABB of the box `[-0.5, 0.5]³` transformed by `decal_to_world`, for the record in
+    /// `slot`.
+    pub fn of_unit_box(decal_to_world: Mat4, slot: u32) -> Self {
         let centre = decal_to_world.w_axis.truncate();
         let half =
             (decal_to_world.x_axis.truncate().abs() + decal_to_world.y_axis.truncate().abs() + decal_to_world.z_axis.truncate().abs())
                 * 0.5;
-        Self { min: (centre - half).to_array(), max: (centre + half).to_array() }
+        Self { min: (centre - half).to_array(), max: (centre + half).to_array(), slot, pad: 0 }
     }
 }
 
@@ -180,43 +181,56 @@ impl DecalDesc {
     }
 }
 
-/// Decal records and their boxes, in the same stable slots: the BLAS primitive index of a box
-/// is the index of its record.
+/// Decal records in stable slots, and their boxes kept dense: box *i* (BLAS primitive *i*) holds
+/// the slot of its record, and the first [`DecalTable::len`] boxes are exactly the live decals'.
+/// A despawn moves the last box into the freed place (two box uploads), so the BLAS is built
+/// over the live boxes only, never over the holes that gameplay leaves in the record slots.
 #[derive(Default)]
 pub struct DecalTable {
     /// Shading records.
     pub records: SlotTable<GpuDecal>,
-    /// Boxes for the acceleration structure.
+    /// Boxes for the acceleration structure, dense: entries `0..len()` are live.
     pub aabbs: SlotTable<GpuAabb>,
+    /// The box of each record slot.
+    box_of: Vec<u32>,
 }
 
 impl DecalTable {
     /// Writes `decal` into `slot` (or a new slot): its record and its box.
     pub fn write(&mut self, slot: Option<u32>, decal: &DecalDesc) -> u32 {
         let record = decal.record();
-        let aabb = GpuAabb::of_unit_box(decal.decal_to_world);
         match slot {
             Some(slot) => {
                 self.records.write(slot, record);
-                self.aabbs.write(slot, aabb);
+                self.aabbs.write(self.box_of[slot as usize], GpuAabb::of_unit_box(decal.decal_to_world, slot));
                 slot
             }
             None => {
                 let slot = self.records.insert(record);
-                let aabb_slot = self.aabbs.insert(aabb);
-                debug_assert_eq!(slot, aabb_slot, "records and boxes share slots");
+                let aabb = self.aabbs.insert(GpuAabb::of_unit_box(decal.decal_to_world, slot));
+                debug_assert_eq!(aabb as usize, self.records.len() - 1, "boxes stay dense");
+                if self.box_of.len() <= slot as usize {
+                    self.box_of.resize(slot as usize + 1, NO_DECAL);
+                }
+                self.box_of[slot as usize] = aabb;
                 slot
             }
         }
     }
 
-    /// Frees a slot: the record is zeroed (never applies) and the box collapses to its centre,
-    /// so the BLAS keeps its primitive count (a refit, not a build) and free boxes stay distinct
-    /// and where they were (see `render::decals` on why coincident boxes are avoided).
+    /// Frees a slot: the record is zeroed (never applies); the last box moves into the freed
+    /// box's place and the last place keeps a zero-size box that belongs to no decal, at its old
+    /// centre (distinct from the others: see `render::decals::accel` on why).
     pub fn remove(&mut self, slot: u32) {
-        if let Some(aabb) = self.aabbs.get(slot).copied() {
-            self.aabbs.release_with(slot, aabb.collapsed());
+        let Some(&index) = self.box_of.get(slot as usize).filter(|_| self.records.get(slot).is_some()) else { return };
+        let last = self.records.len() as u32 - 1;
+        let moved = *self.aabbs.get(last).expect("boxes are dense");
+        if index != last {
+            self.aabbs.write(index, moved);
+            self.box_of[moved.slot as usize] = index;
         }
+        self.aabbs.release_with(last, moved.collapsed());
+        self.box_of[slot as usize] = NO_DECAL;
         self.records.remove(slot);
     }
 
@@ -626,13 +640,54 @@ mod tests {
     }
 
     #[test]
+    fn decal_boxes_stay_dense_and_point_at_their_records() {
+        let desc = |x: f32| DecalDesc {
+            decal_to_world: Mat4::from_translation(Vec3::new(x, 0.0, 0.0)),
+            material: 0,
+            uv_corners: [Vec2::ZERO; 4],
+            channel: 0,
+            weight: 1.0,
+            receivers: 1,
+            opacity: 1.0,
+            angle_fade: None,
+        };
+        let mut t = DecalTable::default();
+        let slots: Vec<u32> = (0..5).map(|i| t.write(None, &desc(i as f32))).collect();
+        t.aabbs.take_dirty(|_, _| {});
+        t.remove(slots[1]);
+        let mut dirty = Vec::new();
+        t.aabbs.take_dirty(|s, _| dirty.extend_from_slice(s));
+        assert_eq!(dirty, vec![1, 4], "the last box moves into the hole: two box uploads");
+        t.remove(slots[4]);
+        let check = |t: &DecalTable| {
+            for i in 0..t.len() as u32 {
+                let b = t.aabbs.get(i).expect("the first len() boxes are live");
+                let centre = (b.min[0] + b.max[0]) * 0.5;
+                assert!(t.records.get(b.slot).is_some(), "box {i} points at a live record");
+                assert_eq!(centre, b.slot as f32, "box {i} is its record's box");
+            }
+            assert_eq!(t.aabbs.len(), t.len());
+        };
+        check(&t);
+        assert_eq!(t.aabbs.get(3), None, "the tail is free");
+        assert_eq!(t.aabbs.records()[3].slot, NO_DECAL, "and its box belongs to no decal");
+        let again = t.write(None, &desc(4.0));
+        check(&t);
+        t.write(Some(again), &desc(again as f32));
+        check(&t);
+        t.remove(slots[0]);
+        t.remove(slots[0]);
+        check(&t);
+    }
+
+    #[test]
     fn decal_boxes_bound_their_oriented_box() {
         let m = Mat4::from_scale_rotation_translation(
             Vec3::new(2.0, 1.0, 0.5),
             glam::Quat::from_rotation_y(0.7) * glam::Quat::from_rotation_x(0.3),
             Vec3::new(1.0, 2.0, 3.0),
         );
-        let aabb = GpuAabb::of_unit_box(m);
+        let aabb = GpuAabb::of_unit_box(m, 0);
         for i in 0..8 {
             let c =
                 Vec3::new(if i & 1 == 0 { -0.5 } else { 0.5 }, if i & 2 == 0 { -0.5 } else { 0.5 }, if i & 4 == 0 { -0.5 } else { 0.5 });
