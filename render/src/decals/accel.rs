@@ -12,8 +12,8 @@
 //! costs (padding under 1/8). Our first version built over the table's power-of-two capacity
 //! with every free slot parked: at 100,000 decals (131,072 built) an H100 took 1.33 ms per build
 //! against 0.49 ms for a standalone build of the same boxes (docs/BENCHMARKS.md). Padding
-//! boxes are distinct points 1 mm apart near the decals: parking them all on one point made
-//! NVIDIA's builds 2.5–3.5× slower.
+//! boxes are zero-size points at decal centres ([`crate::scene::GpuAabb::parking`]): where they
+//! lie matters to NVIDIA's builder far more than how many there are.
 //!
 //! Rebuild policy ([`plan_blas_work`]): a full build when the live count leaves the built range
 //! (grows past it, or falls more than two granules below it), and when the boxes refitted since

@@ -106,17 +106,18 @@ impl GpuAabb {
     }
 
     /// Boxes for never-used entries `first..first + count` of the decal box table (the padding
-    /// of a BLAS build): distinct points 1 mm apart on a line through the centroid of `live`
-    /// (zero-size, so no query ever lands on them, and near the decals, so an entry's first
-    /// refit does not stretch the tree across the world). Coincident padding boxes made
-    /// NVIDIA's BLAS builds 2.5–3.5× slower (see docs/BENCHMARKS.md).
-    pub fn parking(live: &[GpuAabb], first: u32, count: u32) -> impl Iterator<Item = GpuAabb> {
-        let centroid = if live.is_empty() {
-            Vec3::ZERO
-        } else {
-            live.iter().map(|b| (Vec3::from(b.min) + Vec3::from(b.max)) * 0.5).sum::<Vec3>() / live.len() as f32
-        };
-        (first..first + count).map(move |i| Self::point(centroid + Vec3::new(i as f32 * 1e-3, 0.0, 0.0)))
+    /// of a BLAS build): zero-size points, so no query ever lands on them, at the centres of the
+    /// boxes in `boxes`, taken in turn, so the padding is spread like the decals themselves.
+    /// How padding is placed decides what a build costs on NVIDIA's builder: parking it all on
+    /// one point made builds 2.5–3.5× slower, and on a line of points 1 mm apart near the
+    /// decals' centroid (our second version) 6 % of padding still doubled a build of 100,000
+    /// boxes (docs/BENCHMARKS.md). (A despawn leaves the same kind of point: the moved box's
+    /// centre.)
+    pub fn parking(boxes: &[GpuAabb], first: u32, count: u32) -> impl Iterator<Item = GpuAabb> {
+        (0..count).map(move |i| match boxes.len() {
+            0 => Self::point(Vec3::new((first + i) as f32 * 1e-3, 0.0, 0.0)),
+            n => boxes[i as usize % n].collapsed(),
+        })
     }
 
     /// The AABB of the box `[-0.5, 0.5]³` transformed by `decal_to_world`, for the record in
