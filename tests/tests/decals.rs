@@ -679,6 +679,46 @@ fn decal_normal_maps_rotate_with_the_decal() {
     }
 }
 
+#[test]
+fn decal_textures_are_sampled_at_the_mip_level_their_footprint_needs() {
+    // A 64×64 texture whose levels are told apart by colour: level 0 red, 1 green, 2 blue, the
+    // rest white. Seen from above, a decal S metres wide maps 64 × (pixel size) / S texels to a
+    // pixel, so sizes giving 1, 2 and 4 texels a pixel must sample levels 0, 1 and 2: the
+    // footprint is analytic (from depth in the decal pass, from quad derivatives in the forward
+    // shader), never the finest level everywhere.
+    let level_colors: [[u8; 4]; 3] = [[255, 0, 0, 255], [0, 255, 0, 255], [0, 0, 255, 255]];
+    let mips: Vec<Vec<u8>> = (0..7u32)
+        .map(|level| {
+            let texels = ((64 >> level) * (64 >> level)) as usize;
+            level_colors.get(level as usize).copied().unwrap_or([255; 4]).repeat(texels)
+        })
+        .collect();
+    let image = Image { width: 64, height: 64, color_space: ColorSpace::Linear, mips };
+    for c in CONFIGS {
+        eprintln!("{c:?}");
+        let (mut app, view) = plane_app(c);
+        let pixel_world = 2.0 * view.transform.translation.y * (view.camera.fov_y * 0.5).tan() / SIZE.1 as f32;
+        let texture = app.world.resource_mut::<Assets<Image>>().add(image.clone());
+        let material = app.world.resource_mut::<Assets<DecalMaterial>>().add(DecalMaterial {
+            base_color_texture: Some(texture),
+            base_color: Some(Vec4::ONE),
+            ..Default::default()
+        });
+        let centres = [Vec3::new(-1.3, 0.0, 0.0), Vec3::new(0.2, 0.0, 0.0), Vec3::new(1.4, 0.0, 0.0)];
+        for (level, centre) in centres.iter().enumerate() {
+            let size = 64.0 * pixel_world / (1u32 << level) as f32;
+            app.world.spawn((Decal::new(material.clone()), downward(*centre, Vec2::splat(size), 1.0, 0.0)));
+        }
+        let (albedo, _) = read_views(&mut app);
+        assert_no_validation_errors(&mut app);
+        for (level, centre) in centres.iter().enumerate() {
+            let (px, py) = pixel_of(&view, *centre);
+            let got = Vec3::from_slice(&albedo[(py * SIZE.0 + px) as usize][..3]);
+            assert!(got[level] > 0.7 && (0..3).all(|k| k == level || got[k] < 0.3), "{c:?}: a decal at level {level} shows {got}");
+        }
+    }
+}
+
 /// Where the game wants a bullet hole: a gameplay event a system reads.
 #[derive(Resource, Default)]
 struct ShotAt(Option<Vec3>);
