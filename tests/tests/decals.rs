@@ -707,7 +707,7 @@ fn decal_textures_are_sampled_at_the_mip_level_their_footprint_needs() {
         let centres = [Vec3::new(-1.3, 0.0, 0.0), Vec3::new(0.2, 0.0, 0.0), Vec3::new(1.4, 0.0, 0.0)];
         for (level, centre) in centres.iter().enumerate() {
             let size = 64.0 * pixel_world / (1u32 << level) as f32;
-            app.world.spawn((Decal::new(material.clone()), downward(*centre, Vec2::splat(size), 1.0, 0.0)));
+            app.world.spawn((Decal::new(material), downward(*centre, Vec2::splat(size), 1.0, 0.0)));
         }
         let (albedo, _) = read_views(&mut app);
         assert_no_validation_errors(&mut app);
