@@ -506,6 +506,18 @@ layout! {
     pub const DECAL_CHANNELS: u32 = 4;
     /// `GpuAabb::slot` of a box that belongs to no decal (the padding of a BLAS build).
     pub const NO_DECAL: u32 = 0xFFFF_FFFF;
+    /// Clustered decals: the side of a cluster's screen tile, in pixels.
+    pub const DECAL_CLUSTER_TILE: u32 = 32;
+    /// Clustered decals: depth slices (exponential in view distance, `DECAL_CLUSTER_NEAR_MM` to
+    /// `DECAL_CLUSTER_FAR_M`; nearer points fall in the first, farther in the last).
+    pub const DECAL_CLUSTER_SLICES: u32 = 32;
+    /// Clustered decals: the near bound of the depth slices, in millimetres.
+    pub const DECAL_CLUSTER_NEAR_MM: u32 = 100;
+    /// Clustered decals: the far bound of the depth slices, in metres.
+    pub const DECAL_CLUSTER_FAR_M: u32 = 1000;
+    /// Clustered decals: 32-bit words of statistics at the start of the cluster buffer (see
+    /// `shaders/include/clusters.glsl`).
+    pub const DECAL_CLUSTER_HEADER: u32 = 16;
 
     /// Debug view (`ScenePush::debug_view`, `DebugView`): the lit image.
     pub const DEBUG_LIT: u32 = 0;
@@ -748,6 +760,12 @@ layout! {
         pub debug_view: u32,
         /// Live decals (0 skips the decal loop).
         pub decal_count: u32,
+        /// Address of the decal cluster buffer (clustered decals; `shaders/include/clusters.glsl`).
+        pub decal_clusters: u64,
+        /// Cluster entries the decal cluster buffer has room for.
+        pub decal_cluster_capacity: u32,
+        /// Screen tiles of the decal clusters: x in the low 16 bits, y in the high.
+        pub decal_cluster_tiles: u32,
     }
 }
 

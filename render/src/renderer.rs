@@ -33,10 +33,19 @@ pub use crate::settings::{DebugView, DecalMethod, FrameSettings, PipelineKind};
 pub use crate::gpu::FRAMES_IN_FLIGHT;
 
 /// How to create a [`Renderer`].
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct RendererSettings {
     /// Device creation.
     pub device: DeviceSettings,
+    /// Entries the clustered decals' buffer starts with room for (it grows when a frame needs
+    /// more; see [`crate::decals::clustered`]).
+    pub decal_cluster_capacity: u32,
+}
+
+impl Default for RendererSettings {
+    fn default() -> Self {
+        Self { device: DeviceSettings::default(), decal_cluster_capacity: crate::decals::clustered::INITIAL_CAPACITY }
+    }
 }
 
 /// GPU times of a frame that has finished executing.
@@ -107,11 +116,11 @@ impl Renderer {
     pub fn new(settings: &RendererSettings, width: u32, height: u32) -> Result<Self, RenderError> {
         check_size(width, height)?;
         let ctx = GpuContext::new(&settings.device)?;
-        let res = Self::create_resources(&ctx, vk::Extent2D { width, height })?;
+        let res = Self::create_resources(&ctx, vk::Extent2D { width, height }, settings)?;
         Ok(Self { res: std::mem::ManuallyDrop::new(res), frame_number: 0, ctx })
     }
 
-    fn create_resources(ctx: &GpuContext, extent: vk::Extent2D) -> Result<Resources, RenderError> {
+    fn create_resources(ctx: &GpuContext, extent: vk::Extent2D, settings: &RendererSettings) -> Result<Resources, RenderError> {
         let d = &ctx.device;
         let mut graph = FrameGraph::new(extent);
         let swapchain_image = graph.external_image("swapchain image");
@@ -148,7 +157,7 @@ impl Renderer {
             forward: ForwardPasses::new(ctx, layout)?,
             deferred: DeferredPasses::new(ctx, layout)?,
             visbuffer: VisBufferPasses::new(ctx, layout)?,
-            decals: Decals::new(ctx, &mut graph, layout)?,
+            decals: Decals::new(ctx, &mut graph, layout, settings.decal_cluster_capacity)?,
             tonemap: Tonemap::new(ctx, layout, DISPLAY_FORMAT)?,
             graph,
             swapchain_image,

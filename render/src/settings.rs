@@ -46,6 +46,11 @@ pub enum DecalMethod {
     /// A ray-tracing-pipeline pass writes the decal buffer the shading passes apply (needs
     /// acceleration structures and ray-tracing pipelines, no ray queries).
     RayPipeline,
+    /// Clustered decals: compute passes bin the decals into view clusters and a decal pass walks
+    /// each pixel's cluster list, writing the decal buffer the shading passes apply. Needs no ray
+    /// tracing: runs on every device, and is the choice where there are no acceleration
+    /// structures.
+    Clustered,
     /// Rasterised decal boxes blended into the G-buffer (deferred pipeline only). Needs no ray
     /// tracing at all.
     DeferredDecals,
@@ -75,8 +80,14 @@ impl DecalSupport {
 
 impl DecalMethod {
     /// Every method that can be requested.
-    pub const ALL: [DecalMethod; 5] =
-        [DecalMethod::RayQuery, DecalMethod::RayQueryCompute, DecalMethod::RayPipeline, DecalMethod::DeferredDecals, DecalMethod::Off];
+    pub const ALL: [DecalMethod; 6] = [
+        DecalMethod::RayQuery,
+        DecalMethod::RayQueryCompute,
+        DecalMethod::RayPipeline,
+        DecalMethod::Clustered,
+        DecalMethod::DeferredDecals,
+        DecalMethod::Off,
+    ];
 
     /// The name used in `--stats` and on the command line.
     pub fn name(self) -> &'static str {
@@ -84,6 +95,7 @@ impl DecalMethod {
             DecalMethod::RayQuery => "ray_query",
             DecalMethod::RayQueryCompute => "ray_query_compute",
             DecalMethod::RayPipeline => "ray_pipeline",
+            DecalMethod::Clustered => "clustered",
             DecalMethod::DeferredDecals => "deferred",
             DecalMethod::Off => "off",
             DecalMethod::Unavailable => "none",
@@ -102,7 +114,7 @@ impl DecalMethod {
 
     /// Whether a decal pass writes the decal buffer that the shading passes apply.
     pub fn uses_decal_buffer(self) -> bool {
-        matches!(self, DecalMethod::RayQueryCompute | DecalMethod::RayPipeline)
+        matches!(self, DecalMethod::RayQueryCompute | DecalMethod::RayPipeline | DecalMethod::Clustered)
     }
 
     /// Whether this method can run with `pipeline` on a device offering `support`.
@@ -111,20 +123,21 @@ impl DecalMethod {
             DecalMethod::RayQuery | DecalMethod::RayQueryCompute => support.ray_query,
             DecalMethod::RayPipeline => support.ray_pipeline,
             DecalMethod::DeferredDecals => pipeline == PipelineKind::Deferred,
-            DecalMethod::Off => true,
+            DecalMethod::Clustered | DecalMethod::Off => true,
             DecalMethod::Unavailable => false,
         }
     }
 
     /// The method actually applied with `pipeline` on a device offering `support`: the
     /// requested one when it can run, else the best one that can (ray queries in the shading
-    /// pass, then the ray-tracing-pipeline decal pass, then deferred decals in the deferred
-    /// pipeline), else [`DecalMethod::Unavailable`]. Never nothing when something can run.
+    /// pass, then the ray-tracing-pipeline decal pass, then clustered decals, which run
+    /// everywhere), so never nothing ([`DecalMethod::Unavailable`] remains for a device that
+    /// could run none).
     pub fn effective(self, pipeline: PipelineKind, support: DecalSupport) -> DecalMethod {
         if self.runs(pipeline, support) {
             return self;
         }
-        [DecalMethod::RayQuery, DecalMethod::RayPipeline, DecalMethod::DeferredDecals]
+        [DecalMethod::RayQuery, DecalMethod::RayPipeline, DecalMethod::Clustered]
             .into_iter()
             .find(|m| m.runs(pipeline, support))
             .unwrap_or(DecalMethod::Unavailable)
@@ -202,9 +215,13 @@ mod tests {
         assert_eq!(DeferredDecals.effective(Deferred, rq), DeferredDecals);
         assert_eq!(DeferredDecals.effective(Forward, rq), RayQuery, "deferred decals exist only in the deferred pipeline");
         assert_eq!(DeferredDecals.effective(Forward, rtp), RayPipeline);
-        assert_eq!(RayQuery.effective(Deferred, none), DeferredDecals, "no ray tracing: deferred decals where they exist");
-        assert_eq!(RayPipeline.effective(Forward, none), Unavailable, "no method runs in forward without ray tracing yet");
-        assert_eq!(DeferredDecals.effective(VisBuffer, none), Unavailable);
+        assert_eq!(RayQuery.effective(Deferred, none), Clustered, "no acceleration structures: clustered decals");
+        assert_eq!(RayPipeline.effective(Forward, none), Clustered, "in every pipeline");
+        assert_eq!(DeferredDecals.effective(VisBuffer, none), Clustered);
+        assert_eq!(DeferredDecals.effective(Deferred, none), DeferredDecals, "deferred decals need no ray tracing");
+        for p in PipelineKind::ALL {
+            assert_eq!(Clustered.effective(p, none), Clustered, "clustered decals run everywhere");
+        }
         assert_eq!(Unavailable.name(), "none");
         assert!(!DecalMethod::ALL.contains(&Unavailable), "reported, never requested");
         for m in DecalMethod::ALL {

@@ -75,22 +75,25 @@ pub struct HeadlessOptions {
 }
 
 /// The pipeline and decal-method pairs `--compare` runs, in order (those the device can run; see
-/// [`compare_set`]): every pipeline without decals and with each ray-traced method, and the
-/// deferred pipeline with deferred decals.
-pub const COMPARE_SET: [(PipelineKind, DecalMethod); 13] = [
+/// [`compare_set`]): every pipeline without decals, with each ray-traced method and with
+/// clustered decals, and the deferred pipeline with deferred decals.
+pub const COMPARE_SET: [(PipelineKind, DecalMethod); 16] = [
     (PipelineKind::Forward, DecalMethod::Off),
     (PipelineKind::Forward, DecalMethod::RayQuery),
     (PipelineKind::Forward, DecalMethod::RayQueryCompute),
     (PipelineKind::Forward, DecalMethod::RayPipeline),
+    (PipelineKind::Forward, DecalMethod::Clustered),
     (PipelineKind::Deferred, DecalMethod::Off),
     (PipelineKind::Deferred, DecalMethod::RayQuery),
     (PipelineKind::Deferred, DecalMethod::RayQueryCompute),
     (PipelineKind::Deferred, DecalMethod::RayPipeline),
+    (PipelineKind::Deferred, DecalMethod::Clustered),
     (PipelineKind::Deferred, DecalMethod::DeferredDecals),
     (PipelineKind::VisBuffer, DecalMethod::Off),
     (PipelineKind::VisBuffer, DecalMethod::RayQuery),
     (PipelineKind::VisBuffer, DecalMethod::RayQueryCompute),
     (PipelineKind::VisBuffer, DecalMethod::RayPipeline),
+    (PipelineKind::VisBuffer, DecalMethod::Clustered),
 ];
 
 /// The pairs of [`COMPARE_SET`] a device offering `support` runs as asked (a method it cannot run
@@ -135,7 +138,7 @@ pub struct RunSummary {
 
 /// Builds an app with the render plugin and a GPU renderer, and loads the scene into it.
 pub fn build_app(opts: &HeadlessOptions) -> Result<App> {
-    let settings = RendererSettings { device: DeviceSettings { max_tier: opts.max_tier, ..Default::default() } };
+    let settings = RendererSettings { device: DeviceSettings { max_tier: opts.max_tier, ..Default::default() }, ..Default::default() };
     build_app_with(opts, &settings)
 }
 

@@ -102,7 +102,7 @@ fn parse_pipeline(s: &str) -> Result<PipelineKind, String> {
 
 fn parse_decal_method(s: &str) -> Result<DecalMethod, String> {
     DecalMethod::from_name(s)
-        .ok_or_else(|| format!("unknown decal method {s:?} (ray_query, ray_query_compute, ray_pipeline, deferred, off)"))
+        .ok_or_else(|| format!("unknown decal method {s:?} (ray_query, ray_query_compute, ray_pipeline, clustered, deferred, off)"))
 }
 
 fn parse_tier(s: &str) -> Result<Tier, String> {

@@ -5,7 +5,13 @@
 //! device can run no decal method in this pipeline), `tier`,
 //! `device`, `size` `[w, h]`, `gpu_ms` (one key per pass plus `total`), `cpu_ms` (`extract`,
 //! `record`), and `counters` (`bytes_uploaded`, `records_written`, `blas_builds`,
-//! `blas_updates`, `tlas_builds`, `instances`, `lights`, `decals`).
+//! `blas_updates`, `tlas_builds`, `instances`, `lights`, `decals`), and, in frames that applied
+//! clustered decals, `clusters`: `clusters`, `capacity`, `grows` (this frame's), and what the GPU
+//! measured in frame `measured_frame` (the one that last used this frame slot; absent until one
+//! has): `entries` (needed), `dropped` (entries that did not fit), `clusters_used`,
+//! `max_per_cluster`, `mean_per_cluster` (entries over used clusters), `pixels`, and per pixel
+//! `mean_tested`, `max_tested` (list entries walked) and `mean_applied`, `max_applied` (decals
+//! whose box held the pixel).
 
 use plugins::FrameStats;
 use serde_json::{Map, Value, json};
@@ -18,7 +24,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
     }
     gpu.insert("total".into(), json!(round(stats.gpu.total_ms)));
     let c = &stats.counters;
-    json!({
+    let mut value = json!({
         "frame": stats.frame,
         "pipeline": stats.pipeline.name(),
         "decal_method": stats.decal_method.name(),
@@ -37,7 +43,35 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
             "lights": c.lights,
             "decals": c.decals,
         },
-    })
+    });
+    if stats.decal_method == render::DecalMethod::Clustered {
+        value["clusters"] = clusters_json(&c.clusters);
+    }
+    value
+}
+
+fn clusters_json(k: &render::scene::DecalClusterStats) -> Value {
+    let mut v = json!({ "clusters": k.clusters, "capacity": k.capacity, "grows": k.grows });
+    if k.measured_frame != u64::MAX {
+        let mean = |sum: u64, n: u64| if n == 0 { 0.0 } else { (sum as f64 / n as f64 * 100.0).round() / 100.0 };
+        let measured = json!({
+            "measured_frame": k.measured_frame,
+            "entries": k.entries,
+            "dropped": k.dropped,
+            "clusters_used": k.clusters_used,
+            "max_per_cluster": k.max_per_cluster,
+            "mean_per_cluster": mean(k.entries, k.clusters_used),
+            "pixels": k.pixels,
+            "mean_tested": mean(k.tested, k.pixels),
+            "max_tested": k.max_tested,
+            "mean_applied": mean(k.applied, k.pixels),
+            "max_applied": k.max_applied,
+        });
+        for (key, value) in measured.as_object().expect("an object") {
+            v[key] = value.clone();
+        }
+    }
+    v
 }
 
 fn round(ms: f32) -> f64 {

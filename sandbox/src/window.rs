@@ -78,6 +78,7 @@ impl WindowedGame {
                 surface_extensions: render::window::required_extensions(display)?,
                 ..Default::default()
             },
+            ..Default::default()
         };
         let size = window.inner_size();
         let mut app = build_app_with(&self.opts.base, &settings)?;

@@ -93,14 +93,17 @@ void decal_accumulate(inout DecalBlend b, GpuDecal d, vec3 local, float fade, De
     }
 }
 
-// Tests one decal against the surface and accumulates it into its channel.
-void apply_decal(inout DecalBlend b, uint index, DecalSurface s) {
-    if (index == NO_DECAL) return;
+// Tests one decal against the surface and accumulates it into its channel; true when it
+// applied (its receivers match, its box holds the point and its fade leaves something).
+bool apply_decal(inout DecalBlend b, uint index, DecalSurface s) {
+    if (index == NO_DECAL) return false;
     GpuDecal d = DecalsRef(scene.decals).decals[index];
-    if ((d.receivers & s.layers) == 0u) return;
+    if ((d.receivers & s.layers) == 0u) return false;
     vec3 local;
     float fade;
-    if (decal_locate(d, s.position, s.geometric_normal, local, fade)) decal_accumulate(b, d, local, fade, s);
+    if (!decal_locate(d, s.position, s.geometric_normal, local, fade)) return false;
+    decal_accumulate(b, d, local, fade, s);
+    return true;
 }
 
 #ifdef RAY_QUERY_DECALS

@@ -154,11 +154,16 @@ pub fn error_stats(a: &[[f32; 4]], b: &[[f32; 4]], mask: impl Fn(usize) -> bool)
 
 /// [`gpu_app`] on a device whose capability tier is capped at `tier`.
 pub fn gpu_app_at(w: u32, h: u32, settings: RenderSettings, tier: render::Tier) -> App {
+    let device = render::DeviceSettings { max_tier: tier, ..Default::default() };
+    gpu_app_with(w, h, settings, &RendererSettings { device, ..Default::default() })
+}
+
+/// [`gpu_app`] with a renderer created from `renderer_settings`.
+pub fn gpu_app_with(w: u32, h: u32, settings: RenderSettings, renderer_settings: &RendererSettings) -> App {
     let mut app = App::new();
     app.world.resource_mut::<Time>().set_fixed_step(Some(std::time::Duration::from_millis(16)));
     app.add_plugins(RenderPlugin::new(RenderSettings { size: (w, h), ..settings }));
-    let device = render::DeviceSettings { max_tier: tier, ..Default::default() };
-    let renderer = Renderer::new(&RendererSettings { device }, w, h).expect("a Vulkan device (run scripts/setup.sh)");
+    let renderer = Renderer::new(renderer_settings, w, h).expect("a Vulkan device (run scripts/setup.sh)");
     assert!(renderer.validation_enabled(), "GPU tests need the validation layer");
     app.insert_resource(GpuRenderer(renderer));
     app

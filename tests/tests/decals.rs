@@ -1,9 +1,10 @@
 //! Ray-traced decals on lavapipe: the blending equations against a CPU reference, containment at
 //! the box's faces and corners, receiver masks, angle and lifetime fades, normal maps, and ECS
 //! sequences whose images *and* work counters are both checked. Every GPU test runs in each of
-//! [`CONFIGS`]: in-shader ray queries (the ray-query tier, forward), and the
-//! ray-tracing-pipeline decal pass with the tier forced down to `ray_tracing_pipeline` (no ray
-//! queries at all) in the forward, deferred and visibility-buffer pipelines.
+//! [`CONFIGS`]: in-shader ray queries (the ray-query tier, forward); the ray-tracing-pipeline
+//! decal pass with the tier forced down to `ray_tracing_pipeline` (no ray queries at all); and
+//! clustered decals with the tier forced down to `none` (no acceleration structures at all);
+//! each in the forward, deferred and visibility-buffer pipelines.
 //!
 //! Scenes are a horizontal plane seen from straight above ([`TopDownView`]); the shading pass's
 //! debug views write the post-decal albedo and roughness/metallic into the HDR target, which is
@@ -26,11 +27,14 @@ struct Config {
     method: DecalMethod,
 }
 
-const CONFIGS: [Config; 4] = [
+const CONFIGS: [Config; 7] = [
     Config { tier: Tier::RayQuery, pipeline: PipelineKind::Forward, method: DecalMethod::RayQuery },
     Config { tier: Tier::RayTracingPipeline, pipeline: PipelineKind::Forward, method: DecalMethod::RayPipeline },
     Config { tier: Tier::RayTracingPipeline, pipeline: PipelineKind::Deferred, method: DecalMethod::RayPipeline },
     Config { tier: Tier::RayTracingPipeline, pipeline: PipelineKind::VisBuffer, method: DecalMethod::RayPipeline },
+    Config { tier: Tier::NoRayTracing, pipeline: PipelineKind::Forward, method: DecalMethod::Clustered },
+    Config { tier: Tier::NoRayTracing, pipeline: PipelineKind::Deferred, method: DecalMethod::Clustered },
+    Config { tier: Tier::NoRayTracing, pipeline: PipelineKind::VisBuffer, method: DecalMethod::Clustered },
 ];
 
 /// An offscreen app of `size` rendering with `c`, its decal method checked to be the one applied.
@@ -459,10 +463,13 @@ fn shows_red_at(app: &mut App, view: &TopDownView, p: Vec3) -> bool {
 
 #[test]
 fn ecs_sequences_give_the_expected_image_and_the_expected_work() {
-    for c in CONFIGS {
-        eprintln!("{c:?}");
-        let (mut app, view) = plane_app(c);
+    for config in CONFIGS {
+        eprintln!("{config:?}");
+        let (mut app, view) = plane_app(config);
         let red = red_material(&mut app);
+        // Acceleration-structure work happens only for ray-traced methods; clustered decals
+        // bin the same uploaded boxes on the GPU and build nothing.
+        let k = config.method.traces() as u64;
         let record_bytes = (std::mem::size_of::<render::scene::GpuDecal>() + std::mem::size_of::<render::scene::GpuAabb>()) as u64;
 
         // Spawn 10 decals in a row, plus one riding on a parent.
@@ -475,7 +482,7 @@ fn ecs_sequences_give_the_expected_image_and_the_expected_work() {
         app.world.spawn((Decal::new(red), downward(Vec3::ZERO, Vec2::splat(0.3), 1.0, 0.0), ChildOf(parent)));
         app.update();
         let c = counters(&app);
-        assert_eq!((c.blas_builds, c.blas_updates, c.tlas_builds, c.decals), (1, 0, 1, 11), "first frame builds: {c:?}");
+        assert_eq!((c.blas_builds, c.blas_updates, c.tlas_builds, c.decals), (k, 0, k, 11), "first frame builds: {c:?}");
         assert!(shows_red_at(&mut app, &view, Vec3::new(-1.8, 0.0, -1.0)));
         assert!(shows_red_at(&mut app, &view, Vec3::new(0.0, 0.0, 1.0)), "the child decal sits under its parent");
 
@@ -490,7 +497,7 @@ fn ecs_sequences_give_the_expected_image_and_the_expected_work() {
         let c = counters(&app);
         assert_eq!(
             (c.records_written, c.bytes_uploaded, c.blas_builds, c.blas_updates, c.tlas_builds),
-            (1, record_bytes, 0, 1, 1),
+            (1, record_bytes, 0, k, k),
             "{c:?}"
         );
         assert!(shows_red_at(&mut app, &view, Vec3::new(-1.8, 0.0, 0.3)));
@@ -500,7 +507,7 @@ fn ecs_sequences_give_the_expected_image_and_the_expected_work() {
         app.world.get_mut::<Transform>(parent).unwrap().translation = Vec3::new(1.2, 0.0, 1.0);
         app.update();
         let c = counters(&app);
-        assert_eq!((c.records_written, c.blas_updates, c.blas_builds), (1, 1, 0), "{c:?}");
+        assert_eq!((c.records_written, c.blas_updates, c.blas_builds), (1, k, 0), "{c:?}");
         assert!(shows_red_at(&mut app, &view, Vec3::new(1.2, 0.0, 1.0)));
         assert!(!shows_red_at(&mut app, &view, Vec3::new(0.0, 0.0, 1.0)));
 
@@ -510,7 +517,7 @@ fn ecs_sequences_give_the_expected_image_and_the_expected_work() {
         app.world.despawn(decals[4]);
         app.update();
         let c = counters(&app);
-        assert_eq!((c.decals, c.blas_updates, c.blas_builds), (9, 1, 0), "{c:?}");
+        assert_eq!((c.decals, c.blas_updates, c.blas_builds), (9, k, 0), "{c:?}");
         assert!(!shows_red_at(&mut app, &view, Vec3::new(-1.8 + 3.0 * 0.4, 0.0, -1.0)));
 
         // Respawn into the freed slots: still a refit, not a build.
@@ -524,16 +531,16 @@ fn ecs_sequences_give_the_expected_image_and_the_expected_work() {
         let mut freed_sorted = freed.clone();
         freed_sorted.sort();
         assert_eq!(reused, freed_sorted, "new decals take the freed slots");
-        assert_eq!((c.decals, c.blas_updates, c.blas_builds), (11, 1, 0), "{c:?}");
+        assert_eq!((c.decals, c.blas_updates, c.blas_builds), (11, k, 0), "{c:?}");
         assert!(shows_red_at(&mut app, &view, Vec3::new(0.0, 0.0, 0.0)));
 
-        // Growing past the capacity (64) rebuilds, once.
+        // Growing past the built range (64 boxes) rebuilds, once.
         for i in 0..60 {
             app.world.spawn((Decal::new(red), downward(Vec3::new(-2.0 + (i % 10) as f32 * 0.1, 0.0, 1.6), Vec2::splat(0.05), 1.0, 0.0)));
         }
         app.update();
         let c = counters(&app);
-        assert_eq!((c.decals, c.blas_builds, c.blas_updates, c.tlas_builds), (71, 1, 0, 1), "{c:?}");
+        assert_eq!((c.decals, c.blas_builds, c.blas_updates, c.tlas_builds), (71, k, 0, k), "{c:?}");
         app.update();
         let c = counters(&app);
         assert_eq!((c.blas_builds, c.blas_updates, c.tlas_builds, c.bytes_uploaded), (0, 0, 0, 0), "{c:?}");
@@ -628,7 +635,14 @@ fn debug_views_show_boxes_and_count_the_decals_tested_per_pixel() {
         };
         assert_eq!(at(Vec3::ZERO), 3.0, "all three AABBs hold the origin");
         assert_eq!(at(Vec3::new(1.9, 0.0, 1.5)), 0.0, "nothing far away");
-        assert_eq!(at(Vec3::new(-0.75, 0.0, 0.0)), 1.0, "only the left box");
+        if c.method == DecalMethod::Clustered {
+            // Clustered decals test every decal of the pixel's cluster (a 32-pixel tile, here
+            // about 1.2 m of ground, × a depth slice): all three boxes' AABBs touch the
+            // origin's cluster.
+            assert_eq!(at(Vec3::new(-0.75, 0.0, 0.0)), 3.0, "the cluster's list");
+        } else {
+            assert_eq!(at(Vec3::new(-0.75, 0.0, 0.0)), 1.0, "only the left box");
+        }
 
         let mut settings = app.world.resource_mut::<RenderSettings>();
         settings.debug_view = DebugView::Albedo;

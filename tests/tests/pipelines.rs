@@ -13,8 +13,9 @@
 //! - depth: bit-identical (every pipeline's depth comes from the same invariant vertex shader).
 //! - ray-traced decal methods on one pipeline, albedo and roughness/metallic views (and normals in
 //!   the deferred pipeline): the two decal passes (ray-tracing pipeline, ray-query compute) write
-//!   the same decal buffer from the same inputs: max difference ≤ 0.002 (measured: 0, the images
-//!   are identical). In-shader ray queries against the ray-tracing-pipeline pass: mean ≤ 0.002
+//!   the same decal buffer from the same inputs, and so do clustered decals (the same decal
+//!   evaluation over the pixel's cluster list instead of the boxes a ray found): max difference
+//!   ≤ 0.002 (measured: 0, the images are identical). In-shader ray queries against the ray-tracing-pipeline pass: mean ≤ 0.002
 //!   and 99th percentile ≤ 0.012, the bounds used between pipelines (measured: mean ≤ 0.00006,
 //!   99th percentile ≤ 0.0013): the decal pass takes texture gradients from neighbouring depths
 //!   where the forward shader has the rasteriser's quad derivatives, and the buffer holds fp16.
@@ -138,8 +139,8 @@ fn alpha_masked_holes_stay_open_in_every_pipeline() {
 #[test]
 fn ray_traced_decal_methods_give_the_same_image_in_every_pipeline() {
     // The courtyard's 300 textured, normal-mapped decals, in each pipeline: in-shader ray queries,
-    // the ray-query compute decal pass and the ray-tracing-pipeline decal pass (lavapipe offers
-    // all three on the ray-query tier).
+    // the ray-query compute decal pass, the ray-tracing-pipeline decal pass (lavapipe offers all
+    // three on the ray-query tier) and clustered decals (which need no ray tracing).
     // The normal view too in the deferred pipeline, where every method builds decal normals on
     // the same G-buffer normal (the forward and visibility-buffer decal passes build them on the
     // vertex normal: shaders/include/decal_surface.glsl).
@@ -153,12 +154,21 @@ fn ray_traced_decal_methods_give_the_same_image_in_every_pipeline() {
             let (in_shader, depth) = render_with(&mut app, pipeline, DecalMethod::RayQuery, view);
             let (compute, _) = render_with(&mut app, pipeline, DecalMethod::RayQueryCompute, view);
             let (ray_pipeline, _) = render_with(&mut app, pipeline, DecalMethod::RayPipeline, view);
+            let (clustered, _) = render_with(&mut app, pipeline, DecalMethod::Clustered, view);
             assert_no_validation_errors(&mut app);
             let covered = |i: usize| depth[i] > 0.0;
-            let max = compute.iter().zip(&ray_pipeline).flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs())).fold(0.0f32, f32::max);
+            let max_diff = |x: &[[f32; 4]], y: &[[f32; 4]]| {
+                x.iter().zip(y).flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs())).fold(0.0f32, f32::max)
+            };
+            let max = max_diff(&compute, &ray_pipeline);
+            let max_clustered = max_diff(&clustered, &ray_pipeline);
             let (mean, p99) = error_stats(&ray_pipeline, &in_shader, covered);
-            eprintln!("{pipeline:?} {view:?}: compute vs ray pipeline max {max:.5}; ray pipeline vs in-shader mean {mean:.5} p99 {p99:.5}");
-            assert!(max <= 0.002, "{pipeline:?} {view:?}: the two decal passes differ by {max}");
+            eprintln!(
+                "{pipeline:?} {view:?}: compute vs ray pipeline max {max:.5}; clustered vs ray pipeline max {max_clustered:.5}; \
+                 ray pipeline vs in-shader mean {mean:.5} p99 {p99:.5}"
+            );
+            assert!(max <= 0.002, "{pipeline:?} {view:?}: the two ray-traced decal passes differ by {max}");
+            assert!(max_clustered <= 0.002, "{pipeline:?} {view:?}: clustered and ray-traced decal passes differ by {max_clustered}");
             assert!(mean <= 0.002 && p99 <= 0.012, "{pipeline:?} {view:?}: ray pipeline vs in-shader ray queries: mean {mean}, p99 {p99}");
             let (plain, _) = render_with(&mut app, pipeline, DecalMethod::Off, view);
             let decaled = (0..plain.len()).filter(|&i| (0..3).any(|c| (plain[i][c] - ray_pipeline[i][c]).abs() > 0.02)).count();

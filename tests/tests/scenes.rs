@@ -88,19 +88,17 @@ fn statistics_report_the_decal_method_actually_applied_on_every_tier() {
             assert!(summary.validation_errors.is_empty(), "{:#?}", summary.validation_errors);
             let actual = Tier::from_name(summary.frames[0]["tier"].as_str().unwrap()).expect("a known tier");
             // Ray-query decals need the ray-query tier; without it the ray-tracing-pipeline decal
-            // pass runs (lavapipe has ray-tracing pipelines); without ray tracing the deferred
-            // pipeline falls back to deferred decals, and the others (for now) apply none, and
-            // say so.
-            let expected = match (actual, pipeline) {
-                (Tier::RayQuery, _) => "ray_query",
-                (Tier::RayTracingPipeline, _) => "ray_pipeline",
-                (_, PipelineKind::Deferred) => "deferred",
-                _ => "none",
+            // pass runs (lavapipe has ray-tracing pipelines); without ray tracing, clustered
+            // decals, in every pipeline.
+            let expected = match actual {
+                Tier::RayQuery => "ray_query",
+                Tier::RayTracingPipeline => "ray_pipeline",
+                Tier::NoRayTracing => "clustered",
             };
             let reported = &summary.frames[0]["decal_method"];
             assert_eq!(reported, expected, "{} on tier {}", pipeline.name(), actual.name());
             let pass = match expected {
-                "deferred" => Some("deferred_decals"),
+                "clustered" => Some("decal_pass_clustered"),
                 "ray_pipeline" => Some("decal_pass_ray_pipeline"),
                 _ => None,
             };
@@ -141,6 +139,7 @@ fn a_benchmark_scene_runs_every_pipeline_and_decal_method_in_one_run() {
             let decal_pass = match method {
                 render::DecalMethod::RayPipeline => Some("decal_pass_ray_pipeline"),
                 render::DecalMethod::RayQueryCompute => Some("decal_pass_ray_query"),
+                render::DecalMethod::Clustered => Some("decal_pass_clustered"),
                 _ => None,
             };
             if let Some(pass) = decal_pass {

@@ -6,7 +6,8 @@
 //! `value = decal + value × remaining`, which is exactly the seed's final blending step, since
 //! compositing channels one after another is an affine map of the surface value.
 //!
-//! Two formulations write the same buffer:
+//! Three passes write the same buffer: the two ray-traced ones here, and clustered decals
+//! ([`super::clustered`]), which need no ray tracing at all. The ray-traced formulations:
 //! - **ray-tracing pipeline** (`shaders/decal_pass.r*`), for devices with ray-tracing pipelines
 //!   but no ray queries (the lent NVIDIA GPUs): a ray-generation shader traces the ray; an
 //!   intersection shader runs the exact oriented-box test and the angle fade on each AABB the
@@ -103,14 +104,7 @@ impl DecalPasses {
             DecalMethod::RayPipeline => ("decal_pass_ray_pipeline", PassKind::RayTracing),
             _ => ("decal_pass_ray_query", PassKind::Compute),
         };
-        let mut pass = f.pass(name, kind).sample(&DEPTH).reads(scene.res.shaded()).reads(traced.map(|a| (a, BufferUse::Accel)));
-        pass = match source {
-            DecalSurfaceSource::GBuffer => pass.sample(&GBUFFER_NORMAL).sample(&GBUFFER_LAYERS),
-            DecalSurfaceSource::Visibility => pass.sample(&VISIBILITY).read(scene.res.meshes, BufferUse::Storage),
-        };
-        for target in DECAL_BUFFER {
-            pass = pass.image(target, ImageUse::StorageWrite);
-        }
+        let pass = declare_decal_surface(f.pass(name, kind), scene, source).reads(traced.map(|a| (a, BufferUse::Accel)));
         match frame.method {
             DecalMethod::RayPipeline => {
                 let rt = self.ray_pipeline.as_ref().ok_or_else(|| unsupported(frame.method))?;
@@ -140,6 +134,18 @@ impl DecalPasses {
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }
     }
+}
+
+/// Declares what every decal pass reads and writes: the surface from `source` (depth, and the
+/// G-buffer or the visibility ids with the meshes), the decal records and textures, and the decal
+/// buffer it writes.
+pub fn declare_decal_surface<'f, 'a>(pass: PassBuilder<'f, 'a>, scene: &GpuScene, source: DecalSurfaceSource) -> PassBuilder<'f, 'a> {
+    let pass = pass.sample(&DEPTH).reads(scene.res.shaded());
+    let pass = match source {
+        DecalSurfaceSource::GBuffer => pass.sample(&GBUFFER_NORMAL).sample(&GBUFFER_LAYERS),
+        DecalSurfaceSource::Visibility => pass.sample(&VISIBILITY).read(scene.res.meshes, BufferUse::Storage),
+    };
+    DECAL_BUFFER.iter().fold(pass, |pass, &target| pass.image(target, ImageUse::StorageWrite))
 }
 
 /// Declares what a shading pass reads to apply this frame's decals: the decal buffer when a

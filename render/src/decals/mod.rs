@@ -6,6 +6,7 @@
 
 pub mod accel;
 pub mod buffer;
+pub mod clustered;
 pub mod debug;
 pub mod deferred;
 
@@ -19,6 +20,7 @@ use crate::scene::gpu::GpuScene;
 use crate::settings::{DecalMethod, FrameSettings};
 use accel::{DecalAccel, DecalBoxInput};
 pub use buffer::{DecalPasses, DecalSurfaceSource, declare_decal_reads};
+use clustered::{ClusterFrame, DecalClusters};
 use debug::DecalBoxes;
 pub use deferred::{DecalRun, DeferredDecalOrder, plan_deferred_decals};
 
@@ -28,6 +30,8 @@ pub struct Decals {
     pub accel: DecalAccel,
     /// The decal passes (ray-tracing pipeline, ray-query compute) that write the decal buffer.
     pub passes: DecalPasses,
+    /// Clustered decals: the binning passes, the cluster buffer and their decal pass.
+    pub clusters: DecalClusters,
     /// The box-drawing debug pass.
     pub boxes: DecalBoxes,
     /// Deferred decals' draw order.
@@ -55,21 +59,25 @@ pub struct DecalFrame {
     pub tlas_address: vk::DeviceAddress,
     /// Live decals the shading passes enumerate (0 skips the decal loop).
     pub count: u32,
+    /// The cluster buffer, when clustered decals are applied this frame.
+    pub clusters: Option<ClusterFrame>,
 }
 
 impl DecalFrame {
     /// Whether a decal pass writes the decal buffer this frame (the shading passes apply it).
     pub fn buffered(&self) -> bool {
-        self.method.uses_decal_buffer() && self.traced.is_some()
+        self.method.uses_decal_buffer() && (self.traced.is_some() || self.clusters.is_some())
     }
 }
 
 impl Decals {
-    /// Creates the decal passes and registers their graph resources.
-    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
+    /// Creates the decal passes and registers their graph resources; the clustered decals'
+    /// buffer starts with room for `cluster_capacity` entries.
+    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout, cluster_capacity: u32) -> Result<Self, RenderError> {
         Ok(Self {
             accel: DecalAccel::new(ctx, graph),
             passes: DecalPasses::new(ctx, layout)?,
+            clusters: DecalClusters::new(ctx, graph, layout, cluster_capacity)?,
             boxes: DecalBoxes::new(ctx, layout)?,
             order: DeferredDecalOrder::default(),
         })
@@ -81,8 +89,8 @@ impl Decals {
         self.order.follow(mirror, scene, choice.applied == DecalMethod::DeferredDecals);
     }
 
-    /// Brings the acceleration structures up to date (`boxes_changed` boxes were uploaded this
-    /// frame) and says what the shading passes apply.
+    /// Brings the acceleration structures (or the cluster buffer) up to date (`boxes_changed`
+    /// boxes were uploaded this frame) and says what the shading passes apply.
     pub fn build_accel(
         &mut self,
         f: &mut Frame,
@@ -103,16 +111,29 @@ impl Decals {
         // meanwhile wait for the next frame that traces them).
         self.accel.build(f, input, method.traces(), &mut mirror.counters)?;
         let shaded = method.traces() && !mirror.decals.is_empty() && self.accel.traced().is_some();
+        let clustered = method == DecalMethod::Clustered && !mirror.decals.is_empty();
+        let clusters = if clustered { Some(self.clusters.prepare(f, &mut mirror.counters.clusters)?) } else { None };
         Ok(DecalFrame {
             method,
             traced: if shaded { self.accel.traced() } else { None },
             tlas_address: if shaded { self.accel.tlas_address() } else { 0 },
-            count: if shaded { mirror.decals.len() as u32 } else { 0 },
+            count: if shaded || clustered { mirror.decals.len() as u32 } else { 0 },
+            clusters,
         })
     }
 
-    /// Writes the decal buffer when this frame's method is a decal pass (see [`buffer`]).
-    pub fn decal_pass(&self, f: &mut Frame, scene: &GpuScene, frame: &DecalFrame, source: DecalSurfaceSource) -> Result<(), RenderError> {
+    /// Writes the decal buffer when this frame's method is a decal pass ([`buffer`], or
+    /// [`clustered`] with its binning passes).
+    pub fn decal_pass(
+        &mut self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        frame: &DecalFrame,
+        source: DecalSurfaceSource,
+    ) -> Result<(), RenderError> {
+        if frame.clusters.is_some() {
+            return self.clusters.record(f, scene, frame.count, source);
+        }
         self.passes.record(f, scene, frame, source)
     }
 
@@ -133,6 +154,7 @@ impl Decals {
     pub fn destroy(self, ctx: &GpuContext) {
         self.accel.destroy(ctx);
         self.passes.destroy(ctx);
+        self.clusters.destroy(ctx);
         self.boxes.destroy(ctx);
     }
 }

@@ -43,6 +43,11 @@ spirv! {
     DECAL_PASS_RAHIT = "decal_pass.rahit";
     DECAL_PASS_COMP = "decal_pass.comp";
     DECAL_PASS_COMP_VISIBILITY = "decal_pass.comp.DECAL_SURFACE_VISIBILITY";
+    DECAL_CLUSTERS_COMP = "decal_clusters.comp";
+    DECAL_CLUSTERS_COMP_FILL = "decal_clusters.comp.FILL";
+    DECAL_CLUSTER_SCAN_COMP = "decal_cluster_scan.comp";
+    DECAL_PASS_CLUSTERED_COMP = "decal_pass_clustered.comp";
+    DECAL_PASS_CLUSTERED_COMP_VISIBILITY = "decal_pass_clustered.comp.DECAL_SURFACE_VISIBILITY";
 }
 
 /// Creates a shader module from SPIR-V bytes.

@@ -157,6 +157,8 @@ pub enum BufferUse {
     /// An acceleration structure (or its build scratch): built or updated in an
     /// [`PassKind::AccelBuild`] pass, traced by shaders in any other.
     Accel,
+    /// Read by the host once the frame has finished (statistics read back).
+    HostRead,
 }
 
 impl BufferUse {
@@ -179,6 +181,7 @@ impl BufferUse {
                 (S::ACCELERATION_STRUCTURE_BUILD_KHR, A::ACCELERATION_STRUCTURE_READ_KHR | A::ACCELERATION_STRUCTURE_WRITE_KHR)
             }
             (BufferUse::Accel, false) => (kind.stages(), A::ACCELERATION_STRUCTURE_READ_KHR),
+            (BufferUse::HostRead, _) => (S::HOST, A::HOST_READ),
         }
     }
 }

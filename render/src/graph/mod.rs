@@ -27,7 +27,8 @@
 //! a pass.
 //!
 //! Nothing outside this module calls `vkCmdPipelineBarrier2`. One barrier here is not derived
-//! from a declaration: a readback's host-read barrier. The frame's semaphores are stated by the
+//! from a declaration: an image readback's host-read barrier (buffers read back every frame
+//! declare theirs, [`BufferUse::HostRead`]). The frame's semaphores are stated by the
 //! renderer's submit.
 //!
 //! Known limits: a track remembers which stages have seen the last write, not which kinds of
@@ -505,6 +506,14 @@ impl<'a> Frame<'a> {
     pub fn hand_over(&mut self, image: ImageId, use_: ImageUse) {
         self.graph.decls.clear();
         self.graph.decls.push(Decl::Image(ImageRef::Id(image), use_));
+        self.graph.emit_barriers(self.ctx, self.cmd, PassKind::Transfer);
+    }
+
+    /// Declares a use of `resource` outside any pass (handing a readback buffer to the host):
+    /// records only the barrier it needs.
+    pub fn hand_over_buffer(&mut self, resource: ResourceId, use_: BufferUse) {
+        self.graph.decls.clear();
+        self.graph.decls.push(Decl::Resource(resource, use_, false));
         self.graph.emit_barriers(self.ctx, self.cmd, PassKind::Transfer);
     }
 

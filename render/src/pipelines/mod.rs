@@ -142,5 +142,8 @@ fn scene_push(scene: &GpuScene, mirror: &SceneMirror, s: &FrameSettings, decals:
         texture_index: 0,
         debug_view: s.debug_view as u32,
         decal_count: decals.count,
+        decal_clusters: decals.clusters.map_or(0, |c| c.address),
+        decal_cluster_capacity: decals.clusters.map_or(0, |c| c.capacity),
+        decal_cluster_tiles: decals.clusters.map_or(0, |c| c.tiles),
     }
 }

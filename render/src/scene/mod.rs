@@ -303,6 +303,42 @@ pub struct FrameCounters {
     pub lights: u64,
     /// Live decals.
     pub decals: u64,
+    /// Clustered decals, as measured on the GPU (all zero unless clustered decals ran).
+    pub clusters: DecalClusterStats,
+}
+
+/// What clustered decals measured on the GPU. The GPU writes these into the cluster buffer and
+/// the CPU reads them once that frame has finished, so a frame reports the statistics of the
+/// frame that last used its frame slot (two frames earlier), beside the capacity and growth of
+/// its own.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DecalClusterStats {
+    /// Frame whose GPU figures these are (`u64::MAX` before any).
+    pub measured_frame: u64,
+    /// Clusters (screen tiles × depth slices).
+    pub clusters: u64,
+    /// Clusters holding at least one decal.
+    pub clusters_used: u64,
+    /// Entries the clusters needed (decal references over every list).
+    pub entries: u64,
+    /// Entries the cluster buffer has room for this frame.
+    pub capacity: u64,
+    /// Entries that did not fit (their decals were missing from those clusters that frame).
+    pub dropped: u64,
+    /// Times the cluster buffer grew, since the renderer started.
+    pub grows: u64,
+    /// Most decals in one cluster.
+    pub max_per_cluster: u64,
+    /// Shaded pixels the decal pass visited.
+    pub pixels: u64,
+    /// Decals tested over those pixels (list entries walked).
+    pub tested: u64,
+    /// Most decals tested at one pixel.
+    pub max_tested: u64,
+    /// Decals applied over those pixels (their box held the pixel).
+    pub applied: u64,
+    /// Most decals applied at one pixel.
+    pub max_applied: u64,
 }
 
 /// Records in stable slots with a free list, plus the set of slots written since the last drain.

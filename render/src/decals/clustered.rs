@@ -1,0 +1,230 @@
+//! Clustered decals (seed 000 §3.3.2.1, DOOM 2016's clustered shading, which §6 names as the
+//! comparison the seed did not make): decals with no ray tracing at all. Each frame, compute
+//! passes bin the live decals' boxes into view clusters, and a decal pass walks each pixel's
+//! cluster list and writes the same decal buffer as the ray-traced decal passes
+//! ([`super::buffer`]), so every pipeline's shading applies it unchanged. The layout of the
+//! cluster buffer, the binning and the statistics are in `shaders/include/clusters.glsl`.
+//!
+//! - **Layout**: screen tiles of 32×32 pixels × 32 depth slices, exponential in view distance
+//!   from 0.1 m to 1 km (`DECAL_CLUSTER_*` in `render/src/layout.rs`): 65,280 clusters at
+//!   1920×1080. The engines game programmers use cap their decals low (Bevy 1,024, Godot 512 by
+//!   default) because each cluster holds a bit mask or a fixed list; here the lists are packed
+//!   back to back after a prefix sum (count, scan, fill), so no decal count is capped and no
+//!   cluster has a budget of its own: the buffer has room for a total number of entries.
+//! - **Overflow** never drops decals silently: entries that do not fit are counted
+//!   ([`DecalClusterStats::dropped`]), and when the CPU reads the needed total back (two frames
+//!   later, when that frame's slot comes round again) it grows the buffer to a quarter more than
+//!   that, rounded to a power of two ([`DecalClusterStats::grows`]).
+//! - **CPU work** is none per frame: the binning reads the decal boxes the GPU already holds
+//!   (kept by change detection for the acceleration structures), and the camera, so the lists
+//!   follow the view without any upload.
+//! - **Order**: the per-channel weighted blending is order-independent within a channel, so the
+//!   order of a cluster's list (whatever the atomics gave) does not matter, as for the ray-traced
+//!   methods.
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use crate::RenderError;
+use crate::decals::buffer::DecalSurfaceSource;
+use crate::gpu::FRAMES_IN_FLIGHT;
+use crate::gpu::device::GpuContext;
+use crate::gpu::memory::{Buffer, Retired};
+use crate::gpu::pipeline::create_compute;
+use crate::gpu::shaders;
+use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
+use crate::layout::{DECAL_CLUSTER_HEADER, DECAL_CLUSTER_SLICES, DECAL_CLUSTER_TILE};
+use crate::scene::DecalClusterStats;
+use crate::scene::gpu::GpuScene;
+
+/// Entries the cluster buffer starts with room for, unless the renderer's settings say
+/// otherwise.
+pub const INITIAL_CAPACITY: u32 = 1 << 16;
+
+/// The cluster buffer this frame: where it is and what it holds room for (push constants).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ClusterFrame {
+    /// Device address of the cluster buffer.
+    pub address: vk::DeviceAddress,
+    /// Entries it has room for.
+    pub capacity: u32,
+    /// Screen tiles: x in the low 16 bits, y in the high.
+    pub tiles: u32,
+}
+
+/// The clustered-decal pipelines, the cluster buffer and the statistics read back from it.
+pub struct DecalClusters {
+    count: vk::Pipeline,
+    scan: vk::Pipeline,
+    fill: vk::Pipeline,
+    /// Decal pass: [G-buffer, visibility ids].
+    pass: [vk::Pipeline; 2],
+    buffer: Option<Buffer>,
+    capacity: u32,
+    initial_capacity: u32,
+    clusters: u32,
+    /// One host-visible copy of the statistics per frame slot, and the frame that wrote it.
+    readback: Vec<(Buffer, Option<u64>)>,
+    grows: u64,
+    latest: DecalClusterStats,
+    res: ResourceId,
+    readback_res: ResourceId,
+}
+
+impl DecalClusters {
+    /// Creates the pipelines and the readback buffers; the cluster buffer waits for first use,
+    /// when it gets room for `initial_capacity` entries.
+    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout, initial_capacity: u32) -> Result<Self, RenderError> {
+        let mut readback = Vec::with_capacity(FRAMES_IN_FLIGHT);
+        for _ in 0..FRAMES_IN_FLIGHT {
+            let size = DECAL_CLUSTER_HEADER as u64 * 4;
+            readback.push((
+                Buffer::new(ctx, "decal cluster statistics", size, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?,
+                None,
+            ));
+        }
+        Ok(Self {
+            count: create_compute(ctx, layout, "decal clusters (count)", shaders::DECAL_CLUSTERS_COMP)?,
+            scan: create_compute(ctx, layout, "decal clusters (scan)", shaders::DECAL_CLUSTER_SCAN_COMP)?,
+            fill: create_compute(ctx, layout, "decal clusters (fill)", shaders::DECAL_CLUSTERS_COMP_FILL)?,
+            pass: [
+                create_compute(ctx, layout, "decal pass (clustered)", shaders::DECAL_PASS_CLUSTERED_COMP)?,
+                create_compute(ctx, layout, "decal pass (clustered, visibility)", shaders::DECAL_PASS_CLUSTERED_COMP_VISIBILITY)?,
+            ],
+            buffer: None,
+            capacity: 0,
+            initial_capacity: initial_capacity.max(1),
+            clusters: 0,
+            readback,
+            grows: 0,
+            latest: DecalClusterStats { measured_frame: u64::MAX, ..Default::default() },
+            res: graph.resource("decal clusters"),
+            readback_res: graph.resource("decal cluster statistics"),
+        })
+    }
+
+    /// Reads back the statistics of the frame that last used this frame's slot, grows the
+    /// cluster buffer when that frame needed more room (or the view's cluster count changed),
+    /// and says where the buffer is. Call before the frame's push constants are set.
+    pub fn prepare(&mut self, f: &mut Frame, stats: &mut DecalClusterStats) -> Result<ClusterFrame, RenderError> {
+        let ctx = f.ctx;
+        let extent = f.graph.extent();
+        let tiles = (extent.width.div_ceil(DECAL_CLUSTER_TILE), extent.height.div_ceil(DECAL_CLUSTER_TILE));
+        let clusters = tiles.0 * tiles.1 * DECAL_CLUSTER_SLICES;
+        let slot = (f.upload.frame_value % FRAMES_IN_FLIGHT as u64) as usize;
+        let (readback, written_by) = &mut self.readback[slot];
+        if let Some(frame) = written_by.take().filter(|&v| v <= f.upload.completed) {
+            let words: &[u32] = bytemuck::cast_slice(&readback.mapped()[..DECAL_CLUSTER_HEADER as usize * 4]);
+            let wide = |lo: usize| words[lo] as u64 | (words[lo + 1] as u64) << 32;
+            self.latest = DecalClusterStats {
+                measured_frame: frame,
+                clusters: self.clusters as u64,
+                clusters_used: words[3] as u64,
+                entries: words[0] as u64,
+                capacity: self.capacity as u64,
+                dropped: words[1] as u64,
+                grows: self.grows,
+                max_per_cluster: words[2] as u64,
+                pixels: words[7] as u64,
+                tested: wide(4),
+                max_tested: words[6] as u64,
+                applied: wide(8),
+                max_applied: words[10] as u64,
+            };
+        }
+        let needed = self.latest.entries.min(u32::MAX as u64 / 2) as u32;
+        let mut capacity = self.capacity.max(self.initial_capacity);
+        if needed > capacity {
+            capacity = (needed + needed / 4).next_power_of_two();
+        }
+        if self.buffer.is_none() || capacity != self.capacity || clusters != self.clusters {
+            if self.buffer.is_some() && capacity != self.capacity {
+                self.grows += 1;
+            }
+            let size = (DECAL_CLUSTER_HEADER as u64 + 3 * clusters as u64 + capacity as u64) * 4;
+            let buffer = Buffer::new(
+                ctx,
+                "decal clusters",
+                size,
+                vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::TRANSFER_DST
+                    | vk::BufferUsageFlags::TRANSFER_SRC
+                    | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+                MemoryLocation::GpuOnly,
+            )?;
+            if let Some(old) = self.buffer.replace(buffer) {
+                f.upload.graveyard.bury(f.upload.frame_value, Retired::Buffer(old));
+            }
+            (self.capacity, self.clusters) = (capacity, clusters);
+        }
+        *stats = DecalClusterStats { clusters: clusters as u64, capacity: capacity as u64, grows: self.grows, ..self.latest };
+        let address = self.buffer.as_ref().expect("allocated above").address;
+        Ok(ClusterFrame { address, capacity, tiles: tiles.0 | tiles.1 << 16 })
+    }
+
+    /// Bins `live` decal boxes into the clusters, runs the decal pass over the surface `source`
+    /// (writing the decal buffer, declared by the caller's `declare`), and copies the statistics
+    /// for the CPU. The push constants must hold [`DecalClusters::prepare`]'s result.
+    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, live: u32, source: DecalSurfaceSource) -> Result<(), RenderError> {
+        let Some(buffer) = self.buffer.as_ref() else { return Ok(()) };
+        let (raw, res, clusters) = (buffer.raw, self.res, self.clusters);
+        let prefix = (DECAL_CLUSTER_HEADER as u64 + 3 * clusters as u64) * 4;
+        f.pass("decal_clusters_clear", PassKind::Transfer).write(res, BufferUse::Transfer).record(|p| {
+            // SAFETY: `cmd` is recording outside a rendering scope; the range lies in the buffer.
+            unsafe { p.ctx.device.cmd_fill_buffer(p.cmd, raw, 0, prefix, 0) };
+        })?;
+        let groups = live.div_ceil(64);
+        let bin = |f: &mut Frame, name: &'static str, pipeline: vk::Pipeline| {
+            f.pass(name, PassKind::Compute).read(scene.res.tables, BufferUse::Storage).write(res, BufferUse::Storage).record(|p| {
+                p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
+                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
+                unsafe { p.ctx.device.cmd_dispatch(p.cmd, groups, 1, 1) };
+            })
+        };
+        bin(f, "decal_clusters_count", self.count)?;
+        f.pass("decal_clusters_scan", PassKind::Compute).read(scene.res.tables, BufferUse::Storage).write(res, BufferUse::Storage).record(
+            |p| {
+                p.bind(vk::PipelineBindPoint::COMPUTE, self.scan, &p.push);
+                // SAFETY: as above.
+                unsafe { p.ctx.device.cmd_dispatch(p.cmd, 1, 1, 1) };
+            },
+        )?;
+        bin(f, "decal_clusters_fill", self.fill)?;
+
+        let extent = f.graph.extent();
+        let pipeline = self.pass[source as usize];
+        let pass = super::buffer::declare_decal_surface(f.pass("decal_pass_clustered", PassKind::Compute), scene, source)
+            .write(res, BufferUse::Storage);
+        pass.record(|p| {
+            p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
+            // SAFETY: as above.
+            unsafe { p.ctx.device.cmd_dispatch(p.cmd, extent.width.div_ceil(8), extent.height.div_ceil(8), 1) };
+        })?;
+
+        let slot = (f.upload.frame_value % FRAMES_IN_FLIGHT as u64) as usize;
+        let (readback, written_by) = &mut self.readback[slot];
+        let target = readback.raw;
+        f.pass("decal_clusters_statistics", PassKind::Transfer)
+            .read(res, BufferUse::Transfer)
+            .write(self.readback_res, BufferUse::Transfer)
+            .record(|p| {
+                let region = vk::BufferCopy { src_offset: 0, dst_offset: 0, size: DECAL_CLUSTER_HEADER as u64 * 4 };
+                // SAFETY: `cmd` is recording outside a rendering scope; both ranges lie in their buffers.
+                unsafe { p.ctx.device.cmd_copy_buffer(p.cmd, raw, target, &[region]) };
+            })?;
+        f.hand_over_buffer(self.readback_res, BufferUse::HostRead);
+        *written_by = Some(f.upload.frame_value);
+        Ok(())
+    }
+
+    /// Destroys everything; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        for p in [self.count, self.scan, self.fill].into_iter().chain(self.pass) {
+            // SAFETY: the GPU is idle.
+            unsafe { ctx.device.destroy_pipeline(p, None) };
+        }
+        for b in self.buffer.into_iter().chain(self.readback.into_iter().map(|(b, _)| b)) {
+            b.destroy(ctx);
+        }
+    }
+}

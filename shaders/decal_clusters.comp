@@ -1,0 +1,68 @@
+// variants: FILL
+#version 460
+// Clustered decals, binning (include/clusters.glsl): one thread per live decal box. The box's
+// eight corners, seen from the camera, give the screen tiles and depth slices it may touch;
+// boxes wholly behind the camera or off screen touch none. Without FILL the pass counts the
+// decals of each cluster; with FILL (after the prefix sum) it writes their record slots.
+#include "scene.glsl"
+#include "decals.glsl"
+#include "clusters.glsl"
+
+layout(local_size_x = 64) in;
+
+void main() {
+    uint box = gl_GlobalInvocationID.x;
+    if (box >= scene.decal_count) return;
+    GpuAabb b = DecalBoxesRef(scene.decal_aabbs).boxes[box];
+    if (b.slot == NO_DECAL) return;
+    GpuCamera cam = scene.camera.camera;
+    vec3 lo = vec3(b.min[0], b.min[1], b.min[2]);
+    vec3 hi = vec3(b.max[0], b.max[1], b.max[2]);
+    float zmin = 1e30, zmax = -1e30;
+    vec2 smin = vec2(1e30), smax = vec2(-1e30);
+    bool behind = false;   // some corner at or behind the camera plane: the whole screen
+    for (uint i = 0u; i < 8u; ++i) {
+        vec3 c = mix(lo, hi, vec3(i & 1u, (i >> 1) & 1u, (i >> 2) & 1u));
+        float z = view_distance(c);
+        zmin = min(zmin, z);
+        zmax = max(zmax, z);
+        vec4 clip = cam.view_proj * vec4(c, 1.0);
+        if (clip.w <= 1e-6) {
+            behind = true;
+            continue;
+        }
+        // Pixels, row 0 at NDC y = +1 (the viewport is flipped).
+        vec2 ndc = clip.xy / clip.w;
+        vec2 px = vec2(ndc.x + 1.0, 1.0 - ndc.y) * 0.5 * cam.viewport_size;
+        smin = min(smin, px);
+        smax = max(smax, px);
+    }
+    if (zmax <= 0.0) return;   // wholly behind the camera
+    if (behind) {
+        smin = vec2(0.0);
+        smax = cam.viewport_size;
+    }
+    if (any(greaterThanEqual(smin, cam.viewport_size)) || any(lessThan(smax, vec2(0.0)))) return;   // off screen
+    uvec2 tiles = cluster_tiles();
+    uvec2 t0 = uvec2(clamp(smin, vec2(0.0), cam.viewport_size - 1.0)) / DECAL_CLUSTER_TILE;
+    uvec2 t1 = min(uvec2(clamp(smax, vec2(0.0), cam.viewport_size - 1.0)) / DECAL_CLUSTER_TILE, tiles - 1u);
+    uint s0 = cluster_slice(zmin), s1 = cluster_slice(zmax);
+    ClusterWordsRef w = cluster_words();
+    for (uint s = s0; s <= s1; ++s) {
+        for (uint y = t0.y; y <= t1.y; ++y) {
+            for (uint x = t0.x; x <= t1.x; ++x) {
+                uint c = cluster_index(uvec2(x, y), s);
+#ifdef FILL
+                uint at = w.words[offsets_at() + c] + atomicAdd(w.words[cursors_at() + c], 1u);
+                if (at < scene.decal_cluster_capacity) {
+                    w.words[entries_at() + at] = b.slot;
+                } else {
+                    atomicAdd(w.words[STAT_DROPPED], 1u);
+                }
+#else
+                atomicAdd(w.words[counts_at() + c], 1u);
+#endif
+            }
+        }
+    }
+}

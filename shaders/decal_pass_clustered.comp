@@ -1,0 +1,56 @@
+// variants: DECAL_SURFACE_VISIBILITY
+#version 460
+// The decal pass of clustered decals (no ray tracing at all): each pixel walks the decal list of
+// its cluster (include/clusters.glsl) with the same test, texture sampling and per-channel
+// weighted-OIT blending as the ray-traced passes (apply_decal in decals.glsl: the sums are
+// order-independent within a channel, so list order does not matter), and writes the same
+// decal buffer. It also sums, per workgroup then once into the cluster buffer's header, the
+// decals tested and applied at each pixel, for the statistics.
+#include "decal_surface.glsl"
+#include "decal_buffer.glsl"
+#include "clusters.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+shared uint group_tested, group_applied, group_pixels, group_tested_max, group_applied_max;
+
+void main() {
+    if (gl_LocalInvocationIndex == 0u) {
+        group_tested = 0u;
+        group_applied = 0u;
+        group_pixels = 0u;
+        group_tested_max = 0u;
+        group_applied_max = 0u;
+    }
+    barrier();
+    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+    DecalSurface s;
+    if (all(lessThan(px, ivec2(scene.camera.camera.viewport_size))) && decal_surface_at(px, s)) {
+        uint c = cluster_index(uvec2(px) / DECAL_CLUSTER_TILE, cluster_slice(view_distance(s.position)));
+        ClusterWordsRef w = cluster_words();
+        uint first = w.words[offsets_at() + c];
+        uint count = w.words[counts_at() + c];
+        uint end = min(first + count, scene.decal_cluster_capacity);
+        DecalBlend b;
+        blend_init(b);
+        uint applied = 0u;
+        for (uint i = first; i < end; ++i) {
+            applied += apply_decal(b, w.words[entries_at() + i], s) ? 1u : 0u;
+        }
+        uint tested = end > first ? end - first : 0u;
+        decal_buffer_store(px, b, tested);
+        atomicAdd(group_tested, tested);
+        atomicAdd(group_applied, applied);
+        atomicAdd(group_pixels, 1u);
+        atomicMax(group_tested_max, tested);
+        atomicMax(group_applied_max, applied);
+    }
+    barrier();
+    if (gl_LocalInvocationIndex == 0u && group_pixels > 0u) {
+        add64(STAT_TESTED_LO, group_tested);
+        add64(STAT_APPLIED_LO, group_applied);
+        atomicAdd(cluster_words().words[STAT_PIXELS], group_pixels);
+        atomicMax(cluster_words().words[STAT_TESTED_MAX], group_tested_max);
+        atomicMax(cluster_words().words[STAT_APPLIED_MAX], group_applied_max);
+    }
+}
