@@ -24,6 +24,13 @@ def summarise(path):
             for name, ms in r["gpu_ms"].items():
                 passes.setdefault(name, []).append(ms)
         cells = " ".join(f"{n}={statistics.median(v):.3f}" for n, v in passes.items())
+        # Clustered decals: the medians of what the GPU measured (entries per cluster, decals
+        # tested and applied per pixel), where the frames carry them.
+        measured = [r["clusters"] for r in rows if "clusters" in r and "entries" in r["clusters"]]
+        if measured:
+            keys = ["entries", "dropped", "clusters_used", "mean_per_cluster", "max_per_cluster", "mean_tested", "max_tested",
+                    "mean_applied", "max_applied", "capacity", "grows"]
+            cells += " " + " ".join(f"{k}={statistics.median(m[k] for m in measured):g}" for k in keys)
         print(f"{path} {pipeline}/{method} frames={len(rows)} {cells}")
 
 

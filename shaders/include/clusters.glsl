@@ -1,6 +1,7 @@
 // Clustered decals (seed 000 §3.3.2.1: DOOM 2016's clustered shading, which the seed names as
 // the comparison it did not make, §6): view clusters are screen tiles of DECAL_CLUSTER_TILE
-// pixels × DECAL_CLUSTER_SLICES depth slices, exponential in view distance. Each frame compute
+// pixels × DECAL_CLUSTER_SLICES depth slices, exponential in view distance (render/src/decals/
+// clustered.rs says how the sizes were chosen). Each frame compute
 // passes bin every live decal's box into the clusters it touches (count, prefix sum, fill), and
 // the decal pass walks the list of the pixel's cluster. One buffer holds it all (32-bit words):
 //   [0, DECAL_CLUSTER_HEADER)   statistics (below), read back by the CPU

@@ -5,9 +5,12 @@
 //! ([`super::buffer`]), so every pipeline's shading applies it unchanged. The layout of the
 //! cluster buffer, the binning and the statistics are in `shaders/include/clusters.glsl`.
 //!
-//! - **Layout**: screen tiles of 32×32 pixels × 32 depth slices, exponential in view distance
-//!   from 0.1 m to 1 km (`DECAL_CLUSTER_*` in `render/src/layout.rs`): 65,280 clusters at
-//!   1920×1080. The engines game programmers use cap their decals low (Bevy 1,024, Godot 512 by
+//! - **Layout**: screen tiles of 32×32 pixels × 16 depth slices, exponential in view distance
+//!   from 0.1 m to 1 km (`DECAL_CLUSTER_*` in `render/src/layout.rs`): 32,640 clusters at
+//!   1920×1080. Chosen by measuring tiles of 16, 32 and 64 pixels and 16, 32 and 64 slices on
+//!   an H200 in two of the seed's scenes (docs/BENCHMARKS.md): finer clusters shorten the lists
+//!   each pixel walks but cost more binning (each decal lands in more clusters) and a longer
+//!   prefix sum; 32 × 16 was fastest over both scenes. The engines game programmers use cap their decals low (Bevy 1,024, Godot 512 by
 //!   default) because each cluster holds a bit mask or a fixed list; here the lists are packed
 //!   back to back after a prefix sum (count, scan, fill), so no decal count is capped and no
 //!   cluster has a budget of its own: the buffer has room for a total number of entries.
@@ -33,7 +36,7 @@ use crate::gpu::memory::{Buffer, Retired};
 use crate::gpu::pipeline::create_compute;
 use crate::gpu::shaders;
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
-use crate::layout::{DECAL_CLUSTER_HEADER, DECAL_CLUSTER_SLICES, DECAL_CLUSTER_TILE};
+use crate::layout::{DECAL_BIN_ROW, DECAL_CLUSTER_HEADER, DECAL_CLUSTER_SLICES, DECAL_CLUSTER_TILE};
 use crate::scene::DecalClusterStats;
 use crate::scene::gpu::GpuScene;
 
@@ -173,12 +176,14 @@ impl DecalClusters {
             // SAFETY: `cmd` is recording outside a rendering scope; the range lies in the buffer.
             unsafe { p.ctx.device.cmd_fill_buffer(p.cmd, raw, 0, prefix, 0) };
         })?;
-        let groups = live.div_ceil(64);
+        // Eight boxes a workgroup (eight lanes each), in rows of DECAL_BIN_ROW workgroups.
+        let groups = live.div_ceil(8);
+        let (columns, rows) = (groups.min(DECAL_BIN_ROW), groups.div_ceil(DECAL_BIN_ROW));
         let bin = |f: &mut Frame, name: &'static str, pipeline: vk::Pipeline| {
             f.pass(name, PassKind::Compute).read(scene.res.tables, BufferUse::Storage).write(res, BufferUse::Storage).record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
                 // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, groups, 1, 1) };
+                unsafe { p.ctx.device.cmd_dispatch(p.cmd, columns, rows, 1) };
             })
         };
         bin(f, "decal_clusters_count", self.count)?;
