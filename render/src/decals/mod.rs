@@ -1,7 +1,7 @@
 //! Decals (seed 000) on the renderer's side: the acceleration structures over decal boxes that
-//! ray-traced decals enumerate (`accel`), the decal pass that writes the decal buffer from them
-//! (`buffer`), the draw order of deferred decals (`deferred`), and the debug view of decal boxes
-//! (`debug`). The decal records themselves live in the scene's
+//! ray-traced decals enumerate (`accel`), the decal passes that write the decal buffer from them
+//! (`buffer`), clustered decals, which write it with no ray tracing (`clustered`), the draw
+//! order of deferred decals (`deferred`), and the debug view of decal boxes (`debug`). The decal records themselves live in the scene's
 //! tables ([`crate::scene::DecalTable`]) and the shading math in `shaders/include/decals.glsl`.
 
 pub mod accel;
