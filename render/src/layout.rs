@@ -771,6 +771,8 @@ layout! {
     }
 }
 
+const _: () = assert!(std::mem::size_of::<ScenePush>() <= 128, "push constants within the 128 bytes every device offers");
+
 const _: () = {
     let slots = [TEXTURE_WHITE, TEXTURE_FLAT_NORMAL];
     let mut i = 0;
@@ -798,6 +800,6 @@ mod tests {
         assert_eq!(GpuLight::LAYOUT.size, 64);
         assert_eq!(offsets(&GpuVertex::LAYOUT), [0, 12, 24, 32]);
         assert_eq!(offsets(&GpuMaterial::LAYOUT)[..3], [0, 16, 28]);
-        assert_eq!(offsets(&ScenePush::LAYOUT)[10..], [80, 84, 88, 92]);
+        assert_eq!(offsets(&ScenePush::LAYOUT)[10..], [80, 84, 88, 92, 96, 104, 108]);
     }
 }

@@ -163,6 +163,11 @@ fn ray_traced_decal_methods_give_the_same_image_in_every_pipeline() {
             let max = max_diff(&compute, &ray_pipeline);
             let max_clustered = max_diff(&clustered, &ray_pipeline);
             let (mean, p99) = error_stats(&ray_pipeline, &in_shader, covered);
+            let (clustered_mean, clustered_p99) = error_stats(&clustered, &in_shader, covered);
+            assert!(
+                clustered_mean <= 0.002 && clustered_p99 <= 0.012,
+                "{pipeline:?} {view:?}: clustered vs in-shader ray queries: mean {clustered_mean}, p99 {clustered_p99}"
+            );
             eprintln!(
                 "{pipeline:?} {view:?}: compute vs ray pipeline max {max:.5}; clustered vs ray pipeline max {max_clustered:.5}; \
                  ray pipeline vs in-shader mean {mean:.5} p99 {p99:.5}"

@@ -17,7 +17,10 @@
 //! - **Overflow** never drops decals silently: entries that do not fit are counted
 //!   ([`DecalClusterStats::dropped`]), and when the CPU reads the needed total back (two frames
 //!   later, when that frame's slot comes round again) it grows the buffer to a quarter more than
-//!   that, rounded to a power of two ([`DecalClusterStats::grows`]).
+//!   that, rounded to a power of two ([`DecalClusterStats::grows`]). Two frames is the soonest
+//!   without making the CPU wait for the GPU; in between, the overflowing frames lack those
+//!   entries and say so. The buffer does not shrink when decals go away (the reliability issue
+//!   asks tables to return memory; this one should join them).
 //! - **CPU work** is none per frame: the binning reads the decal boxes the GPU already holds
 //!   (kept by change detection for the acceleration structures), and the camera, so the lists
 //!   follow the view without any upload.
