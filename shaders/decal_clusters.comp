@@ -24,6 +24,9 @@ void main() {
     GpuCamera cam = scene.camera.camera;
     vec3 lo = vec3(b.min[0], b.min[1], b.min[2]);
     vec3 hi = vec3(b.max[0], b.max[1], b.max[2]);
+    // A box of a decal whose transform is not finite lands nowhere (as the acceleration
+    // structures treat a NaN box as inactive); its garbage extent must not become a loop bound.
+    if (any(isnan(lo)) || any(isnan(hi)) || any(isinf(lo)) || any(isinf(hi))) return;
     float zmin = 1e30, zmax = -1e30;
     vec2 smin = vec2(1e30), smax = vec2(-1e30);
     bool behind = false;   // some corner at or behind the camera plane: the whole screen

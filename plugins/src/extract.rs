@@ -384,12 +384,14 @@ pub fn extract_decals(
     live: Query<(), With<Decal>>,
     mut mirror: ResMut<RenderMirror>,
     mut slots: ResMut<MirrorSlots>,
+    mut invalid: Local<std::collections::HashSet<Entity>>,
 ) {
     let mirror = &mut mirror.0;
     for entity in removed.read() {
         if live.contains(entity) {
             continue;
         }
+        invalid.remove(&entity);
         if let Some(slot) = slots.decals.remove(&entity) {
             mirror.decals.remove(slot);
             mirror.counters.records_written += 1;
@@ -403,7 +405,15 @@ pub fn extract_decals(
             }
             continue;
         };
-        let slot = mirror.decals.write(slots.decals.get(&entity).copied(), &decal_desc(decal, global.compute_matrix(), material));
+        let desc = decal_desc(decal, global.compute_matrix(), material);
+        // An invalid transform is drawn nowhere (render::scene::DecalDesc::is_valid); say so once
+        // per entity, not every time it changes.
+        if desc.is_valid() {
+            invalid.remove(&entity);
+        } else if invalid.insert(entity) {
+            tracing::warn!(?entity, "decal transform is not finite or not invertible; the decal is not drawn until it is");
+        }
+        let slot = mirror.decals.write(slots.decals.get(&entity).copied(), &desc);
         mirror.counters.records_written += 1;
         slots.decals.insert(entity, slot);
     }

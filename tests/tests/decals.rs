@@ -580,6 +580,41 @@ fn lifetimes_fade_decals_out_and_despawn_them_on_time() {
 }
 
 #[test]
+fn decals_with_non_finite_or_singular_transforms_land_nowhere_and_the_rest_still_show() {
+    for c in CONFIGS {
+        eprintln!("{c:?}");
+        let (mut app, view) = plane_app(c);
+        let red = red_material(&mut app);
+        let bad = [
+            Transform::from_xyz(f32::NAN, 0.0, 0.0),
+            Transform::from_xyz(0.0, 0.0, 0.0).with_scale(Vec3::new(f32::INFINITY, 1.0, 1.0)),
+            Transform::from_xyz(0.5, 0.0, 0.5).with_scale(Vec3::ZERO),
+            downward(Vec3::new(-0.5, 0.0, 0.5), Vec2::new(1.0, 0.0), 1.0, 0.0),
+        ];
+        for t in bad {
+            app.world.spawn((Decal::new(red), t));
+        }
+        let good = app.world.spawn((Decal::new(red), downward(Vec3::new(1.2, 0.0, -0.6), Vec2::splat(0.6), 1.0, 0.0))).id();
+        app.update();
+        let albedo = renderer(&mut app).read_hdr().unwrap();
+        assert_no_validation_errors(&mut app);
+        assert_eq!(counters(&app).decals, 5, "invalid decals keep their slots");
+        assert!(albedo.iter().all(|p| p.iter().all(|v| v.is_finite())), "{c:?}: no pixel is NaN or infinite");
+        assert!(shows_red_at(&mut app, &view, Vec3::new(1.2, 0.0, -0.6)), "{c:?}: the valid decal shows");
+        assert!(!shows_red_at(&mut app, &view, Vec3::new(0.5, 0.0, 0.5)), "{c:?}: a zero-scale decal shows nowhere");
+        assert!(!shows_red_at(&mut app, &view, Vec3::new(-0.5, 0.0, 0.5)), "{c:?}: a flat decal shows nowhere");
+        // A decal that becomes valid shows, and one that becomes invalid vanishes.
+        app.world.get_mut::<Transform>(good).unwrap().scale = Vec3::ZERO;
+        app.update();
+        assert!(!shows_red_at(&mut app, &view, Vec3::new(1.2, 0.0, -0.6)), "{c:?}: the decal became singular");
+        *app.world.get_mut::<Transform>(good).unwrap() = downward(Vec3::new(1.2, 0.0, -0.6), Vec2::splat(0.6), 1.0, 0.0);
+        app.update();
+        assert!(shows_red_at(&mut app, &view, Vec3::new(1.2, 0.0, -0.6)), "{c:?}: and valid again");
+        assert_no_validation_errors(&mut app);
+    }
+}
+
+#[test]
 fn ten_thousand_decals_render_without_validation_errors() {
     for c in CONFIGS {
         eprintln!("{c:?}");

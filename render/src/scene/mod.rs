@@ -120,6 +120,16 @@ impl GpuAabb {
         })
     }
 
+    /// The box a decal's record in `slot` is found by: its unit box's AABB, or a point where it
+    /// stands when its transform is invalid ([`DecalDesc::is_valid`]).
+    pub fn of_decal(decal: &DecalDesc, slot: u32) -> Self {
+        if decal.is_valid() {
+            return Self::of_unit_box(decal.decal_to_world, slot);
+        }
+        let at = decal.decal_to_world.w_axis.truncate();
+        Self { slot, ..Self::point(if at.is_finite() { at } else { Vec3::ZERO }) }
+    }
+
     /// The AABB of the box `[-0.5, 0.5]³` transformed by `decal_to_world`, for the record in
     /// `slot`.
     pub fn of_unit_box(decal_to_world: Mat4, slot: u32) -> Self {
@@ -155,8 +165,20 @@ pub struct DecalDesc {
 }
 
 impl DecalDesc {
+    /// Whether the decal's transform is finite and invertible. An invalid decal keeps its slot
+    /// but lands nowhere (its record has no receiver layers, its box is a point), so a NaN or a
+    /// zero scale from gameplay can neither corrupt the image nor stall the GPU's binning.
+    pub fn is_valid(&self) -> bool {
+        let m = self.decal_to_world;
+        let det = m.determinant();
+        m.is_finite() && det.is_finite() && det.abs() > 1e-12 && m.inverse().is_finite()
+    }
+
     /// The GPU record.
     pub fn record(&self) -> GpuDecal {
+        if !self.is_valid() {
+            return GpuDecal { receivers: 0, weight: 1.0, ..GpuDecal::zeroed() };
+        }
         let c = self.uv_corners;
         let (fade_scale, fade_offset) = match self.angle_fade {
             Some((start, end)) => {
@@ -174,7 +196,7 @@ impl DecalDesc {
             channel: self.channel.min(DECAL_CHANNELS - 1),
             weight: self.weight.max(1e-4),
             receivers: self.receivers,
-            opacity: self.opacity.clamp(0.0, 1.0),
+            opacity: if self.opacity.is_nan() { 0.0 } else { self.opacity.clamp(0.0, 1.0) },
             fade_scale,
             fade_offset,
             pad: 0,
@@ -203,12 +225,12 @@ impl DecalTable {
         match slot {
             Some(slot) => {
                 self.records.write(slot, record);
-                self.aabbs.write(self.box_of[slot as usize], GpuAabb::of_unit_box(decal.decal_to_world, slot));
+                self.aabbs.write(self.box_of[slot as usize], GpuAabb::of_decal(decal, slot));
                 slot
             }
             None => {
                 let slot = self.records.insert(record);
-                let aabb = self.aabbs.insert(GpuAabb::of_unit_box(decal.decal_to_world, slot));
+                let aabb = self.aabbs.insert(GpuAabb::of_decal(decal, slot));
                 debug_assert_eq!(aabb as usize, self.records.len() - 1, "boxes stay dense");
                 if self.box_of.len() <= slot as usize {
                     self.box_of.resize(slot as usize + 1, NO_DECAL);
@@ -715,6 +737,41 @@ mod tests {
         t.remove(slots[0]);
         t.remove(slots[0]);
         check(&t);
+    }
+
+    #[test]
+    fn invalid_decal_transforms_give_records_that_never_apply() {
+        let desc = |m: Mat4| DecalDesc {
+            decal_to_world: m,
+            material: 0,
+            uv_corners: [Vec2::ZERO; 4],
+            channel: 0,
+            weight: f32::NAN,
+            receivers: 1,
+            opacity: f32::NAN,
+            angle_fade: None,
+        };
+        let good = desc(Mat4::from_scale(Vec3::splat(2.0)));
+        assert!(good.is_valid());
+        assert_eq!(
+            (good.record().receivers, good.record().opacity, good.record().weight),
+            (1, 0.0, 1e-4),
+            "NaN opacity and weight are sanitised"
+        );
+        for m in [
+            Mat4::from_translation(Vec3::new(f32::NAN, 0.0, 0.0)),
+            Mat4::from_scale(Vec3::new(f32::INFINITY, 1.0, 1.0)),
+            Mat4::from_scale(Vec3::new(1.0, 0.0, 1.0)),
+        ] {
+            let d = desc(m);
+            assert!(!d.is_valid(), "{m:?}");
+            let r = d.record();
+            assert_eq!(r.receivers, 0, "never applies");
+            assert!(bytemuck::cast_slice::<GpuDecal, f32>(&[r]).iter().all(|v| v.is_finite()), "no NaN reaches the GPU");
+            let b = GpuAabb::of_decal(&d, 7);
+            assert_eq!(b.slot, 7);
+            assert!(b.min.iter().chain(&b.max).all(|v| v.is_finite()) && b.min == b.max, "a finite point box: {b:?}");
+        }
     }
 
     #[test]
