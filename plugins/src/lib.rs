@@ -49,6 +49,8 @@ pub struct RenderSettings {
     pub debug_view: DebugView,
     /// Draw decal boxes over the image.
     pub show_decal_boxes: bool,
+    /// Light culling and shadows.
+    pub lights: render::LightSettings,
 }
 
 impl Default for RenderSettings {
@@ -61,6 +63,7 @@ impl Default for RenderSettings {
             clear_color: [0.35, 0.45, 0.6, 1.0],
             debug_view: DebugView::Lit,
             show_decal_boxes: false,
+            lights: render::LightSettings::default(),
         }
     }
 }
@@ -92,6 +95,12 @@ pub struct FrameStats {
     pub pipeline: PipelineKind,
     /// The decal method it used.
     pub decal_method: DecalMethod,
+    /// The light method it used.
+    pub light_method: render::LightMethod,
+    /// How its shadows were made.
+    pub shadows: render::ShadowMethod,
+    /// The light settings it was drawn with.
+    pub lights: render::LightSettings,
     /// Render size.
     pub size: (u32, u32),
     /// Per-pass GPU milliseconds.
@@ -222,6 +231,7 @@ fn render_frame(
         clear_color: settings.clear_color,
         debug_view: settings.debug_view,
         show_decal_boxes: settings.show_decal_boxes,
+        lights: settings.lights,
     };
     let result = match window {
         Some(mut window) => {
@@ -239,6 +249,9 @@ fn render_frame(
                 frame: report.frame,
                 pipeline: settings.pipeline,
                 decal_method: report.decal_method,
+                light_method: report.light_method,
+                shadows: report.shadows,
+                lights: settings.lights,
                 size: renderer.0.size(),
                 gpu: PassTimes::default(),
                 cpu_extract_ms: extract_ms,

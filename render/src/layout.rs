@@ -521,6 +521,37 @@ layout! {
     /// `shaders/include/clusters.glsl`).
     pub const DECAL_CLUSTER_HEADER: u32 = 16;
 
+    /// Light assignment (`GpuLighting::mode`): every pixel loops over every light.
+    pub const LIGHTS_ALL: u32 = 0;
+    /// Light assignment: tiled light culling's per-tile lists (seed 001 §4.2).
+    pub const LIGHTS_TILED: u32 = 1;
+    /// Light assignment: lights found by a zero-length ray against their boxes (seed 000 §5.2.5).
+    pub const LIGHTS_RAY_QUERY: u32 = 2;
+    /// `GpuLighting::flags`: light culling also tests point lights against the tile's AABB.
+    pub const LIGHT_CULL_AABB: u32 = 1;
+    /// `GpuLighting::flags`: no shadow ray towards a light the reconstructed normal faces away
+    /// from (seed 001 §4.3).
+    pub const SHADOW_RAY_CULLING: u32 = 2;
+    /// `GpuLighting::flags`: normals from depth by the improved 5-tap method (seed 001 §4.3.1)
+    /// instead of the naive 3-tap one.
+    pub const SHADOW_NORMALS_IMPROVED: u32 = 4;
+    /// `GpuLighting::flags`: the shadow pass traced this frame (shading reads its bits).
+    pub const SHADOWS_TRACED: u32 = 8;
+    /// `GpuLighting::flags`: the shadow pass also writes the shadow debug image.
+    pub const SHADOW_DEBUG: u32 = 16;
+    /// Light tiles: 32-bit words of statistics at the start of the light tile buffer (see
+    /// `shaders/include/light_tiles.glsl`).
+    pub const LIGHT_TILE_HEADER: u32 = 16;
+    /// Light tiles: a tile's count with this bit set overflowed the list (its pixels loop over
+    /// every light, unshadowed, until the buffer grows).
+    pub const LIGHT_TILE_OVERFLOW: u32 = 0x8000_0000;
+    /// Light tiles: lights whose culling results fit in the culling pass's shared memory (more
+    /// are tested twice).
+    pub const LIGHT_CULL_SHARED_LIGHTS: u32 = 32768;
+    /// Binding of the shadow debug image (`shadow_debug`, storage RGBA16F): the reconstructed
+    /// normal × 0.5 + 0.5 (rgb) and the shadow rays traced (a).
+    pub const BINDING_SHADOW_DEBUG: u32 = 12;
+
     /// Debug view (`ScenePush::debug_view`, `DebugView`): the lit image.
     pub const DEBUG_LIT: u32 = 0;
     /// Debug view: decals tested per pixel, as a heat map.
@@ -533,6 +564,17 @@ layout! {
     pub const DEBUG_ROUGHNESS_METALLIC: u32 = 4;
     /// Debug view: decals tested per pixel as a raw count in R (for tests).
     pub const DEBUG_DECAL_COUNT: u32 = 5;
+    /// Debug view: lights in the pixel's list (its tile's, or every light) as a heat map.
+    pub const DEBUG_LIGHT_HEATMAP: u32 = 6;
+    /// Debug view: shadow rays traced at the pixel, as a heat map.
+    pub const DEBUG_SHADOW_RAYS: u32 = 7;
+    /// Debug view: the normal the shadow pass reconstructed from depth (left half) next to the
+    /// shading normal (right half), encoded n × 0.5 + 0.5.
+    pub const DEBUG_DEPTH_NORMALS: u32 = 8;
+    /// Debug view: lights in the pixel's list as a raw count in R (for tests).
+    pub const DEBUG_LIGHT_COUNT: u32 = 9;
+    /// Debug view: the shadow pass's visibility of the first light as R (for tests).
+    pub const DEBUG_SHADOW_FIRST: u32 = 10;
 
     /// The camera as the shaders see it.
     #[layout(std430)]
@@ -572,8 +614,8 @@ layout! {
         pub decal_layers: u32,
         /// The instance's mesh (its index in the renderer's mesh table; set by the mirror).
         pub mesh: u32,
-        /// Padding to 16 bytes.
-        pub pad: u32,
+        /// 1 for a live instance, 0 for a free slot (the scene TLAS leaves free slots inactive).
+        pub live: u32,
     }
 
     /// A metallic-roughness material.
@@ -626,8 +668,12 @@ layout! {
         pub spot_scale: f32,
         /// −cos outer × `spot_scale`.
         pub spot_offset: f32,
+        /// Cosine of the spot cone's outer half-angle (light culling's cone test).
+        pub cone_cos: f32,
+        /// Sine of the spot cone's outer half-angle.
+        pub cone_sin: f32,
         /// Padding to 16 bytes.
-        pub pad: [u32; 3],
+        pub pad: u32,
     }
 
     /// One decal projector (seed 000 §4.1, "reduced form for shading"). The decal's box is
@@ -698,6 +744,66 @@ layout! {
         pub pad: u32,
     }
 
+    /// How this frame assigns lights to pixels and where the light-culling and shadow buffers
+    /// are (uploaded only when it changes).
+    #[layout(std430)]
+    #[derive(Default)]
+    pub struct GpuLighting {
+        /// Address of the light tile buffer: statistics, the grid and the index list
+        /// (`shaders/include/light_tiles.glsl`).
+        pub light_tiles: u64,
+        /// Address of the tiles' view-space frusta (`GpuTileFrustum` per tile).
+        pub tile_frusta: u64,
+        /// Address of the shadow visibility words.
+        pub shadow_bits: u64,
+        /// Address of the scene TLAS (0 without).
+        pub scene_tlas: u64,
+        /// Address of the ray-query lights' TLAS (0 without).
+        pub light_tlas: u64,
+        /// Address of the scene BLAS of each mesh (u64 per mesh, 0 for none).
+        pub scene_blas_table: u64,
+        /// Address of the scene TLAS's instance records (written by the scene instance pass).
+        pub scene_instances: u64,
+        /// A `LIGHTS_*` value.
+        pub mode: u32,
+        /// Tile side in pixels (8, 16 or 32).
+        pub tile_size: u32,
+        /// Tiles across.
+        pub tiles_x: u32,
+        /// Tiles down.
+        pub tiles_y: u32,
+        /// Entries the light index list has room for.
+        pub list_capacity: u32,
+        /// Rows of shadow words there is room for (a row is one word per pixel of a tile, for
+        /// 32 list entries).
+        pub shadow_rows: u32,
+        /// `LIGHT_CULL_AABB`, `SHADOW_*` flags.
+        pub flags: u32,
+        /// Instance slots the scene TLAS is built over.
+        pub instance_count: u32,
+        /// Entries of the scene BLAS table.
+        pub blas_count: u32,
+        /// Padding to a multiple of 8 bytes.
+        pub pad: u32,
+    }
+
+    /// A light tile's frustum in view space: four side planes through the eye, with inward
+    /// normals (xyz) and offsets (w, zero through the eye), and the tile's extent on the plane
+    /// one metre in front of the eye.
+    #[layout(std430)]
+    pub struct GpuTileFrustum {
+        /// Left side plane.
+        pub left: Vec4,
+        /// Right side plane.
+        pub right: Vec4,
+        /// Top side plane.
+        pub top: Vec4,
+        /// Bottom side plane.
+        pub bottom: Vec4,
+        /// View-space x min, x max, y min, y max of the tile at one metre.
+        pub extent: Vec4,
+    }
+
     /// Where a mesh's vertices and indices live (the visibility buffer fetches them).
     #[layout(std430)]
     #[derive(Default)]
@@ -729,6 +835,8 @@ layout! {
     buffer_reference MaterialsRef;
     /// The light table (block in scene.glsl).
     buffer_reference LightsRef;
+    /// The lighting record (block in scene.glsl).
+    buffer_reference LightingRef;
 
     /// Push constants shared by every pass.
     #[layout(push_constant, instance = scene)]
@@ -768,6 +876,8 @@ layout! {
         pub decal_cluster_capacity: u32,
         /// Screen tiles of the decal clusters: x in the low 16 bits, y in the high.
         pub decal_cluster_tiles: u32,
+        /// Address of the lighting record.
+        pub lighting: u64 as LightingRef,
     }
 }
 
@@ -796,10 +906,10 @@ mod tests {
         // vec3 + float share 16 bytes; a vec3 after a float starts at the next 16 under std430,
         // right after it under scalar; uint arrays align to 4.
         let offsets = |s: &Struct| s.fields.iter().map(|f| f.offset).collect::<Vec<_>>();
-        assert_eq!(offsets(&GpuLight::LAYOUT), [0, 12, 16, 28, 32, 44, 48, 52]);
+        assert_eq!(offsets(&GpuLight::LAYOUT), [0, 12, 16, 28, 32, 44, 48, 52, 56, 60]);
         assert_eq!(GpuLight::LAYOUT.size, 64);
         assert_eq!(offsets(&GpuVertex::LAYOUT), [0, 12, 24, 32]);
         assert_eq!(offsets(&GpuMaterial::LAYOUT)[..3], [0, 16, 28]);
-        assert_eq!(offsets(&ScenePush::LAYOUT)[10..], [80, 84, 88, 92, 96, 104, 108]);
+        assert_eq!(offsets(&ScenePush::LAYOUT)[10..], [80, 84, 88, 92, 96, 104, 108, 112]);
     }
 }

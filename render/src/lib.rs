@@ -12,7 +12,9 @@
 //! | [`layout`] | the records, push constants and constants Rust and GLSL share, described once |
 //! | [`scene`] | the scene mirror (plain data) and its GPU tables |
 //! | [`decals`] | decal acceleration structures, deferred decals, decal debug views |
-//! | [`pipelines`] | forward, deferred and visibility-buffer frames |
+//! | [`lights`] | tiled light culling and the lighting record |
+//! | [`shadows`] | the scene's acceleration structures and ray-traced shadows |
+//! | [`pipelines`] | forward, Forward+, deferred and visibility-buffer frames |
 //! | [`present`] | tone mapping, overlay, window swapchain |
 //! | [`renderer`] | frames in flight, submit |
 //! | [`settings`] | per-frame settings: pipeline, decal method, debug view |
@@ -22,11 +24,13 @@ pub mod error;
 pub mod gpu;
 pub mod graph;
 pub mod layout;
+pub mod lights;
 pub mod pipelines;
 pub mod present;
 pub mod renderer;
 pub mod scene;
 pub mod settings;
+pub mod shadows;
 
 pub use error::RenderError;
 pub use gpu::device::{Capabilities, DeviceSettings, Tier};
@@ -34,4 +38,4 @@ pub use gpu::timestamps::PassTimes;
 pub use present::{overlay, window};
 pub use renderer::{DebugView, DecalMethod, FinishedFrame, FrameReport, FrameSettings, PipelineKind, Renderer, RendererSettings};
 pub use scene::{FrameCounters, SceneMirror};
-pub use settings::DecalSupport;
+pub use settings::{DecalSupport, DepthNormals, LightMethod, LightSettings, ShadowMethod};

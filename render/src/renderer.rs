@@ -18,17 +18,18 @@ use crate::gpu::timestamps::{GpuTimer, PassTimes};
 use crate::gpu::upload::{StagingRing, Upload};
 use crate::graph::targets::{DEPTH, DISPLAY, DISPLAY_FORMAT, HDR, f16_to_f32};
 use crate::graph::{ACQUIRE_WAIT_STAGE, Frame, FrameGraph, ImageId, ImageRef, ImageUse};
+use crate::lights::Lighting;
 use crate::pipelines::deferred::DeferredPasses;
 use crate::pipelines::forward::ForwardPasses;
 use crate::pipelines::visbuffer::VisBufferPasses;
-use crate::pipelines::{FrameParts, deferred_frame, forward_frame, visbuffer_frame};
+use crate::pipelines::{FrameParts, deferred_frame, forward_frame, forward_plus_frame, visbuffer_frame};
 use crate::present::Present;
 use crate::present::overlay::{Overlay, OverlayFrame};
 use crate::present::tonemap::Tonemap;
 use crate::present::window::{AcquiredImage, WindowSurface};
 use crate::scene::gpu::GpuScene;
 use crate::scene::{FrameCounters, SceneMirror};
-pub use crate::settings::{DebugView, DecalMethod, FrameSettings, PipelineKind};
+pub use crate::settings::{DebugView, DecalMethod, FrameSettings, LightMethod, PipelineKind, ShadowMethod};
 
 pub use crate::gpu::FRAMES_IN_FLIGHT;
 
@@ -65,6 +66,10 @@ pub struct FrameReport {
     /// The decal method applied (after [`DecalMethod::effective`]): what the frame shows, not
     /// what was asked for.
     pub decal_method: DecalMethod,
+    /// The light method applied (after [`LightMethod::effective`]).
+    pub light_method: LightMethod,
+    /// How the frame's shadows were made (`None` when none were traced).
+    pub shadows: ShadowMethod,
     /// Work done for this frame (uploads, records, acceleration structures, live counts).
     pub counters: FrameCounters,
     /// CPU time spent uploading and recording, in milliseconds (not counting the wait for the
@@ -96,6 +101,7 @@ struct Resources {
     deferred: DeferredPasses,
     visbuffer: VisBufferPasses,
     decals: Decals,
+    lighting: Lighting,
     tonemap: Tonemap,
     window_tonemap: Option<Tonemap>,
     overlay: Option<(Overlay, vk::Format)>,
@@ -158,6 +164,7 @@ impl Renderer {
             deferred: DeferredPasses::new(ctx, layout)?,
             visbuffer: VisBufferPasses::new(ctx, layout)?,
             decals: Decals::new(ctx, &mut graph, layout, settings.decal_cluster_capacity)?,
+            lighting: Lighting::new(ctx, &mut graph, layout)?,
             tonemap: Tonemap::new(ctx, layout, DISPLAY_FORMAT)?,
             graph,
             swapchain_image,
@@ -312,17 +319,19 @@ impl Renderer {
         let mut parts = FrameParts {
             scene: &mut res.scene,
             decals: &mut res.decals,
+            lighting: &mut res.lighting,
             forward: &res.forward,
             deferred: &res.deferred,
             visbuffer: &res.visbuffer,
             present: Present { tonemap, target, overlay },
             decal_choice,
         };
-        match settings.pipeline {
+        let lights = match settings.pipeline {
             PipelineKind::Forward => forward_frame(&mut f, &mut parts, mirror, settings)?,
+            PipelineKind::ForwardPlus => forward_plus_frame(&mut f, &mut parts, mirror, settings)?,
             PipelineKind::Deferred => deferred_frame(&mut f, &mut parts, mirror, settings)?,
             PipelineKind::VisBuffer => visbuffer_frame(&mut f, &mut parts, mirror, settings)?,
-        }
+        };
         if let (Some((surface, _)), Some(image)) = (&mut window, &acquired) {
             f.hand_over(res.swapchain_image, ImageUse::Present);
             surface.states[image.index as usize] = res.graph.state(res.swapchain_image);
@@ -369,7 +378,15 @@ impl Renderer {
         slot.value = frame_value;
         slot.frame = frame;
         self.frame_number += 1;
-        Ok(Some(FrameReport { frame, decal_method, counters: mirror.counters, record_ms: start.elapsed().as_secs_f32() * 1e3, finished }))
+        Ok(Some(FrameReport {
+            frame,
+            decal_method,
+            light_method: lights.method,
+            shadows: lights.shadows,
+            counters: mirror.counters,
+            record_ms: start.elapsed().as_secs_f32() * 1e3,
+            finished,
+        }))
     }
 
     /// Waits for the GPU and returns the timings of every frame not yet reported, oldest first.
@@ -399,6 +416,14 @@ impl Renderer {
         self.ctx.wait_idle();
         let bytes = self.res.graph.read_back(&self.ctx, &DEPTH, 4)?;
         Ok(bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect())
+    }
+
+    /// The light grid and index list of the last frame with tiled lights (waits for the GPU);
+    /// `None` before any.
+    pub fn read_light_tiles(&mut self) -> Result<Option<crate::lights::tiles::LightTileLists>, RenderError> {
+        self.ctx.wait_idle();
+        let res = &mut *self.res;
+        res.lighting.tiles.read_back(&self.ctx, &mut res.graph)
     }
 
     /// Resizes the targets (waits for the GPU); they are created at the new size when next used.
@@ -484,6 +509,7 @@ impl Drop for Renderer {
             deferred,
             visbuffer,
             decals,
+            lighting,
             tonemap,
             window_tonemap,
             overlay,
@@ -504,6 +530,7 @@ impl Drop for Renderer {
         }
         graveyard.clear(ctx);
         decals.destroy(ctx);
+        lighting.destroy(ctx);
         forward.destroy(ctx);
         deferred.destroy(ctx);
         visbuffer.destroy(ctx);

@@ -13,11 +13,14 @@ pub enum PipelineKind {
     Deferred,
     /// Visibility-buffer deferred texturing.
     VisBuffer,
+    /// Forward+ (seed 001): depth prepass, tiled light culling, ray-traced shadows, then forward
+    /// shading over each tile's lights (the light method is always tiled).
+    ForwardPlus,
 }
 
 impl PipelineKind {
     /// Every pipeline.
-    pub const ALL: [PipelineKind; 3] = [PipelineKind::Forward, PipelineKind::Deferred, PipelineKind::VisBuffer];
+    pub const ALL: [PipelineKind; 4] = [PipelineKind::Forward, PipelineKind::Deferred, PipelineKind::VisBuffer, PipelineKind::ForwardPlus];
 
     /// The name used in `--stats` and on the command line.
     pub fn name(self) -> &'static str {
@@ -25,6 +28,7 @@ impl PipelineKind {
             PipelineKind::Forward => "forward",
             PipelineKind::Deferred => "deferred",
             PipelineKind::VisBuffer => "visbuffer",
+            PipelineKind::ForwardPlus => "forward_plus",
         }
     }
 
@@ -144,6 +148,113 @@ impl DecalMethod {
     }
 }
 
+/// How lights are assigned to pixels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum LightMethod {
+    /// Every pixel loops over every light.
+    All,
+    /// Tiled light culling (seed 001 §4.2): each pixel loops over its tile's lights.
+    #[default]
+    Tiled,
+}
+
+impl LightMethod {
+    /// Every method.
+    pub const ALL: [LightMethod; 2] = [LightMethod::All, LightMethod::Tiled];
+
+    /// The name used in `--stats` and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            LightMethod::All => "all",
+            LightMethod::Tiled => "tiled",
+        }
+    }
+
+    /// Parses [`LightMethod::name`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+
+    /// The method applied with `pipeline`: Forward+ is always tiled.
+    pub fn effective(self, pipeline: PipelineKind) -> LightMethod {
+        if pipeline == PipelineKind::ForwardPlus { LightMethod::Tiled } else { self }
+    }
+}
+
+/// How the shadow pass reconstructs normals from depth (seed 001 §4.3.1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum DepthNormals {
+    /// Three taps: the next pixel across and down.
+    Naive,
+    /// Five taps per axis, choosing the side on the pixel's surface.
+    #[default]
+    Improved,
+}
+
+/// How shadows were made in a frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum ShadowMethod {
+    /// Shadow rays from a compute pass with ray queries.
+    RayQuery,
+    /// Shadow rays from a ray-tracing pipeline.
+    RayPipeline,
+    /// No shadows (turned off, or a device without ray tracing until shadow maps exist).
+    #[default]
+    None,
+}
+
+impl ShadowMethod {
+    /// The name used in `--stats`.
+    pub fn name(self) -> &'static str {
+        match self {
+            ShadowMethod::RayQuery => "ray_query",
+            ShadowMethod::RayPipeline => "ray_pipeline",
+            ShadowMethod::None => "none",
+        }
+    }
+}
+
+/// Light culling and shadows, per frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LightSettings {
+    /// How lights are assigned to pixels (see [`LightMethod::effective`]).
+    pub method: LightMethod,
+    /// Light tile side in pixels: 8, 16 or 32 (other values are rounded to the nearest).
+    pub tile_size: u32,
+    /// Light culling also tests lights against each tile's AABB (seed 001 §4.2.2).
+    pub cull_aabb: bool,
+    /// Trace shadow rays (on devices with acceleration structures).
+    pub shadows: bool,
+    /// No shadow ray towards lights the reconstructed normal faces away from.
+    pub shadow_ray_culling: bool,
+    /// How the shadow pass reconstructs normals.
+    pub normals: DepthNormals,
+}
+
+impl Default for LightSettings {
+    fn default() -> Self {
+        Self {
+            method: LightMethod::Tiled,
+            tile_size: 16,
+            cull_aabb: true,
+            shadows: true,
+            shadow_ray_culling: true,
+            normals: DepthNormals::Improved,
+        }
+    }
+}
+
+impl LightSettings {
+    /// The tile size used: 8, 16 or 32.
+    pub fn tile(&self) -> u32 {
+        match self.tile_size {
+            0..=11 => 8,
+            12..=23 => 16,
+            _ => 32,
+        }
+    }
+}
+
 /// What the shading pass writes: the lit image, or one of the inputs to lighting.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 #[repr(u32)]
@@ -161,6 +272,25 @@ pub enum DebugView {
     RoughnessMetallic = crate::layout::DEBUG_ROUGHNESS_METALLIC,
     /// Decals tested per pixel as a raw count in R (for tests).
     DecalCount = crate::layout::DEBUG_DECAL_COUNT,
+    /// Lights in each pixel's list (its tile's after culling) as a heat map (seed 001 Fig. 5.2).
+    LightHeatmap = crate::layout::DEBUG_LIGHT_HEATMAP,
+    /// Shadow rays traced per pixel as a heat map.
+    ShadowRays = crate::layout::DEBUG_SHADOW_RAYS,
+    /// The normals the shadow pass reconstructed from depth (left half) next to the shading
+    /// normals (right half).
+    DepthNormals = crate::layout::DEBUG_DEPTH_NORMALS,
+    /// Lights in each pixel's list as a raw count in R (for tests).
+    LightCount = crate::layout::DEBUG_LIGHT_COUNT,
+    /// The shadow bit of the first light of each pixel's list in R, the list's length in G,
+    /// whether shadows were read in B (for tests).
+    ShadowFirst = crate::layout::DEBUG_SHADOW_FIRST,
+}
+
+impl DebugView {
+    /// Whether the view shows what the shadow pass wrote to its debug image.
+    pub fn reads_shadow_debug(self) -> bool {
+        matches!(self, DebugView::ShadowRays | DebugView::DepthNormals)
+    }
 }
 
 /// Per-frame choices that may change from one frame to the next.
@@ -176,6 +306,8 @@ pub struct FrameSettings {
     pub debug_view: DebugView,
     /// Draw every decal's box (oriented, green) and AABB (yellow) over the image.
     pub show_decal_boxes: bool,
+    /// Light culling and shadows.
+    pub lights: LightSettings,
 }
 
 impl Default for FrameSettings {
@@ -186,6 +318,7 @@ impl Default for FrameSettings {
             clear_color: [0.0, 0.0, 0.0, 1.0],
             debug_view: DebugView::Lit,
             show_decal_boxes: false,
+            lights: LightSettings::default(),
         }
     }
 }

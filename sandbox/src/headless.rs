@@ -19,7 +19,9 @@ use engine::transform::{GlobalTransform, Transform};
 use glam::Vec3;
 use plugins::decal::DecalMaterial;
 use plugins::{GpuRenderer, RenderPlugin, RenderSettings, RenderStats, finish_frames};
-use render::{DebugView, DecalMethod, DeviceSettings, PipelineKind, Renderer, RendererSettings, Tier};
+use render::{
+    DebugView, DecalMethod, DepthNormals, DeviceSettings, LightMethod, LightSettings, PipelineKind, Renderer, RendererSettings, Tier,
+};
 
 use crate::scene;
 
@@ -72,7 +74,39 @@ pub struct HeadlessOptions {
     pub bench_scene: Option<crate::bench::BenchScene>,
     /// Run `frames` frames with every pipeline and decal method in turn (see [`COMPARE_SET`]).
     pub compare: bool,
+    /// Run `frames` frames with each light configuration of [`LIGHT_COMPARE_SET`] in turn.
+    pub compare_lights: bool,
+    /// Light culling and shadows.
+    pub lights: LightSettings,
 }
+
+/// The light configurations `--compare-lights` runs, in order, named after the rows of seed 001's
+/// Table 5.1 (8×8 tiles, as the seed measured them) and then Table 5.2's tile sizes with every
+/// optimisation; each runs in the Forward+ pipeline, or in forward when light culling is off.
+pub const LIGHT_COMPARE_SET: [(&str, LightSettings); 9] = {
+    const fn lights(
+        method: LightMethod,
+        tile_size: u32,
+        cull_aabb: bool,
+        shadow_ray_culling: bool,
+        normals: DepthNormals,
+    ) -> LightSettings {
+        LightSettings { method, tile_size, cull_aabb, shadows: true, shadow_ray_culling, normals }
+    }
+    use DepthNormals::{Improved, Naive};
+    use LightMethod::{All, Tiled};
+    [
+        ("no optimisations", lights(All, 8, false, false, Naive)),
+        ("light culling", lights(Tiled, 8, false, false, Naive)),
+        ("light culling + AABB", lights(Tiled, 8, true, false, Naive)),
+        ("light culling + AABB + shadow ray culling", lights(Tiled, 8, true, true, Naive)),
+        ("light culling + AABB + improved shadow ray culling", lights(Tiled, 8, true, true, Improved)),
+        ("improved shadow ray culling", lights(All, 8, false, true, Improved)),
+        ("tiles 8x8", lights(Tiled, 8, true, true, Improved)),
+        ("tiles 16x16", lights(Tiled, 16, true, true, Improved)),
+        ("tiles 32x32", lights(Tiled, 32, true, true, Improved)),
+    ]
+};
 
 /// The pipeline and decal-method pairs `--compare` runs, in order (those the device can run; see
 /// [`compare_set`]): every pipeline without decals, with each ray-traced method and with
@@ -120,6 +154,8 @@ impl Default for HeadlessOptions {
             move_decals_percent: 0.0,
             bench_scene: None,
             compare: false,
+            compare_lights: false,
+            lights: LightSettings::default(),
         }
     }
 }
@@ -156,6 +192,7 @@ pub fn build_app_with(opts: &HeadlessOptions, renderer_settings: &RendererSettin
         decal_method: opts.decal_method,
         debug_view: opts.debug_view,
         show_decal_boxes: opts.show_decal_boxes,
+        lights: opts.lights,
         ..Default::default()
     }));
     match opts.bench_scene {
@@ -200,14 +237,25 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
         Some(p) => Some(std::io::BufWriter::new(create(p)?)),
         None => None,
     };
-    let combos = if opts.compare { compare_set(app.world.resource::<GpuRenderer>().0.decal_support()) } else { Vec::new() };
+    let mut combos: Vec<(PipelineKind, DecalMethod, LightSettings)> = Vec::new();
+    if opts.compare {
+        let set = compare_set(app.world.resource::<GpuRenderer>().0.decal_support());
+        combos.extend(set.into_iter().map(|(p, m)| (p, m, opts.lights)));
+    }
+    if opts.compare_lights {
+        combos.extend(LIGHT_COMPARE_SET.iter().map(|&(_, l)| {
+            let pipeline = if l.method == LightMethod::Tiled { PipelineKind::ForwardPlus } else { PipelineKind::Forward };
+            (pipeline, opts.decal_method, l)
+        }));
+    }
     let total = opts.frames as usize * combos.len().max(1);
     let mut frames = Vec::with_capacity(total);
     for i in 0..total {
-        if let Some(&(pipeline, method)) = combos.get(i / opts.frames as usize) {
+        if let Some(&(pipeline, method, lights)) = combos.get(i / opts.frames as usize) {
             let mut settings = app.world.resource_mut::<plugins::RenderSettings>();
             settings.pipeline = pipeline;
             settings.decal_method = method;
+            settings.lights = lights;
         }
         app.update();
         if let Some(e) = app.world.resource::<RenderStats>().last_error.clone() {

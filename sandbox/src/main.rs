@@ -34,7 +34,7 @@ struct Cli {
     /// Write one JSON object per frame here.
     #[arg(long)]
     stats: Option<PathBuf>,
-    /// Pipeline: forward, deferred or visbuffer.
+    /// Pipeline: forward, forward_plus, deferred or visbuffer.
     #[arg(long, default_value = "forward", value_parser = parse_pipeline)]
     pipeline: PipelineKind,
     /// Decal method: ray_query, deferred (deferred pipeline only) or off.
@@ -49,7 +49,8 @@ struct Cli {
     /// Seed for --decals.
     #[arg(long, default_value_t = 1)]
     decal_seed: u64,
-    /// What to show: lit, decal-heatmap, albedo, normal, roughness-metallic.
+    /// What to show: lit, decal-heatmap, albedo, normal, roughness-metallic, light-heatmap,
+    /// shadow-rays, depth-normals.
     #[arg(long, default_value = "lit", value_parser = parse_debug_view)]
     debug_view: DebugView,
     /// Draw every decal's box and AABB.
@@ -61,9 +62,31 @@ struct Cli {
     /// A benchmark scene instead of --scene: few-blended-decals, decals-and-lights, many-decals.
     #[arg(long)]
     bench_scene: Option<String>,
-    /// Run --frames frames with each pipeline and decal method in turn (7 combinations).
+    /// Run --frames frames with each pipeline and decal method in turn.
     #[arg(long)]
     compare: bool,
+    /// Run --frames frames with each light-culling and shadow configuration of seed 001's
+    /// Tables 5.1 and 5.2 in turn.
+    #[arg(long)]
+    compare_lights: bool,
+    /// Light assignment: all (every pixel loops over every light) or tiled (light culling).
+    #[arg(long, default_value = "tiled", value_parser = parse_light_method)]
+    lights: render::LightMethod,
+    /// Light tile size in pixels: 8, 16 or 32.
+    #[arg(long, default_value_t = 16)]
+    tile_size: u32,
+    /// No ray-traced shadows.
+    #[arg(long)]
+    no_shadows: bool,
+    /// Light culling without the tile AABB test.
+    #[arg(long)]
+    no_light_aabb: bool,
+    /// Trace shadow rays even towards lights the surface faces away from.
+    #[arg(long)]
+    no_shadow_ray_culling: bool,
+    /// Normals from depth for the shadow pass: naive or improved.
+    #[arg(long, default_value = "improved", value_parser = parse_depth_normals)]
+    depth_normals: render::DepthNormals,
     /// Headless: play this script (see sandbox::game::script) with the game's systems.
     #[arg(long)]
     script: Option<PathBuf>,
@@ -82,7 +105,14 @@ fn parse_debug_view(s: &str) -> Result<DebugView, String> {
         "albedo" => DebugView::Albedo,
         "normal" => DebugView::Normal,
         "roughness-metallic" => DebugView::RoughnessMetallic,
-        _ => return Err(format!("unknown view {s:?} (lit, decal-heatmap, albedo, normal, roughness-metallic)")),
+        "light-heatmap" => DebugView::LightHeatmap,
+        "shadow-rays" => DebugView::ShadowRays,
+        "depth-normals" => DebugView::DepthNormals,
+        _ => {
+            return Err(format!(
+                "unknown view {s:?} (lit, decal-heatmap, albedo, normal, roughness-metallic, light-heatmap, shadow-rays, depth-normals)"
+            ));
+        }
     })
 }
 
@@ -97,7 +127,19 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 }
 
 fn parse_pipeline(s: &str) -> Result<PipelineKind, String> {
-    PipelineKind::from_name(s).ok_or_else(|| format!("unknown pipeline {s:?} (forward, deferred, visbuffer)"))
+    PipelineKind::from_name(s).ok_or_else(|| format!("unknown pipeline {s:?} (forward, forward_plus, deferred, visbuffer)"))
+}
+
+fn parse_light_method(s: &str) -> Result<render::LightMethod, String> {
+    render::LightMethod::from_name(s).ok_or_else(|| format!("unknown light method {s:?} (all, tiled)"))
+}
+
+fn parse_depth_normals(s: &str) -> Result<render::DepthNormals, String> {
+    match s {
+        "naive" => Ok(render::DepthNormals::Naive),
+        "improved" => Ok(render::DepthNormals::Improved),
+        _ => Err(format!("unknown normal reconstruction {s:?} (naive, improved)")),
+    }
 }
 
 fn parse_decal_method(s: &str) -> Result<DecalMethod, String> {
@@ -136,6 +178,15 @@ fn main() -> Result<()> {
         move_decals_percent: cli.move_decals,
         bench_scene: cli.bench_scene.as_deref().map(sandbox::bench::BenchScene::parse).transpose()?,
         compare: cli.compare,
+        compare_lights: cli.compare_lights,
+        lights: render::LightSettings {
+            method: cli.lights,
+            tile_size: cli.tile_size,
+            cull_aabb: !cli.no_light_aabb,
+            shadows: !cli.no_shadows,
+            shadow_ray_culling: !cli.no_shadow_ray_culling,
+            normals: cli.depth_normals,
+        },
     };
     if windowed {
         let window_opts = sandbox::window::WindowOptions { base: opts, exit_after: cli.exit_after, resize_to: cli.resize_to };

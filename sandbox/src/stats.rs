@@ -12,6 +12,14 @@
 //! `max_per_cluster`, `mean_per_cluster` (entries over used clusters), `pixels`, and per pixel
 //! `mean_tested`, `max_tested` (list entries walked) and `mean_applied`, `max_applied` (decals
 //! whose box held the pixel).
+//!
+//! Lights: `light_method` (applied: `all` or `tiled`), `shadows` (`ray_query`, `ray_pipeline`, or
+//! `none` where no shadow was traced, as on devices without ray tracing), `lights` (the settings:
+//! `tile_size`, `aabb`, `shadow_ray_culling`, `normals`), the counters `scene_blas_builds`,
+//! `scene_blas_compactions`, `scene_tlas_builds`, `scene_tlas_updates`, and, in frames with tiled
+//! lights, `light_tiles`: `tiles`, `tile_size`, `capacity`, `grows`, and what the GPU measured in
+//! `measured_frame`: `entries`, `overflowed`, `max_per_tile`, `tiles_used`, `mean_per_tile`
+//! (entries over used tiles).
 
 use plugins::FrameStats;
 use serde_json::{Map, Value, json};
@@ -28,6 +36,14 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
         "frame": stats.frame,
         "pipeline": stats.pipeline.name(),
         "decal_method": stats.decal_method.name(),
+        "light_method": stats.light_method.name(),
+        "shadows": stats.shadows.name(),
+        "lights": {
+            "tile_size": stats.lights.tile(),
+            "aabb": stats.lights.cull_aabb,
+            "shadow_ray_culling": stats.lights.shadow_ray_culling,
+            "normals": match stats.lights.normals { render::DepthNormals::Naive => "naive", render::DepthNormals::Improved => "improved" },
+        },
         "tier": tier,
         "device": device,
         "size": [stats.size.0, stats.size.1],
@@ -39,6 +55,10 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
             "blas_builds": c.blas_builds,
             "blas_updates": c.blas_updates,
             "tlas_builds": c.tlas_builds,
+            "scene_blas_builds": c.scene_blas_builds,
+            "scene_blas_compactions": c.scene_blas_compactions,
+            "scene_tlas_builds": c.scene_tlas_builds,
+            "scene_tlas_updates": c.scene_tlas_updates,
             "instances": c.instances,
             "lights": c.lights,
             "decals": c.decals,
@@ -47,7 +67,23 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
     if stats.decal_method == render::DecalMethod::Clustered {
         value["clusters"] = clusters_json(&c.clusters);
     }
+    if stats.light_method == render::LightMethod::Tiled {
+        value["light_tiles"] = light_tiles_json(&c.light_tiles);
+    }
     value
+}
+
+fn light_tiles_json(t: &render::lights::tiles::LightTileStats) -> Value {
+    let mut v = json!({ "tiles": t.tiles, "tile_size": t.tile_size, "capacity": t.capacity, "grows": t.grows });
+    if t.measured_frame != u64::MAX {
+        v["measured_frame"] = json!(t.measured_frame);
+        v["entries"] = json!(t.entries);
+        v["overflowed"] = json!(t.overflowed);
+        v["max_per_tile"] = json!(t.max_per_tile);
+        v["tiles_used"] = json!(t.tiles_used);
+        v["mean_per_tile"] = json!(if t.tiles_used == 0 { 0.0 } else { (t.entries as f64 / t.tiles_used as f64 * 100.0).round() / 100.0 });
+    }
+    v
 }
 
 fn clusters_json(k: &render::scene::DecalClusterStats) -> Value {

@@ -21,6 +21,7 @@ layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Ca
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer InstancesRef { GpuInstance instances[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer MaterialsRef { GpuMaterial materials[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer LightsRef { GpuLight lights[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer LightingRef { GpuLighting lighting; };
 
 layout(set = 0, binding = 0) uniform sampler2D textures[];
 // Render targets, one binding each (BINDING_* in layout.glsl): a shader statically uses only

@@ -2,6 +2,9 @@
 // varyings, the G-buffer, or the visibility buffer's reconstruction), apply decals, answer the
 // debug views, and light it. Decals come from in-shader ray queries (RAY_QUERY_DECALS variants)
 // or from the decal buffer a decal pass wrote (DECAL_BUFFER variants), when the frame has any.
+// Lights come from the pixel's list (its tile's after light culling, or every light; see
+// light_tiles.glsl), each weighted by the shadow pass's bit when shadows were traced (the
+// visibility term V of seed 001 eq. 4.4).
 #ifndef SHADING_GLSL
 #define SHADING_GLSL
 
@@ -9,6 +12,9 @@
 #include "lighting.glsl"
 #include "decals.glsl"
 #include "heatmap.glsl"
+#include "light_tiles.glsl"
+
+layout(set = 0, binding = BINDING_SHADOW_DEBUG, rgba16f) uniform readonly image2D shadow_debug_in;
 #ifdef DECAL_BUFFER
 #include "decal_buffer.glsl"
 #endif
@@ -53,12 +59,31 @@ vec4 shade_surface(SurfaceInputs s) {
     if (scene.debug_view == DEBUG_DECAL_COUNT) return vec4(float(decals_tested), 0.0, 0.0, 1.0);
     if (scene.debug_view == DEBUG_DECAL_HEATMAP) return vec4(heatmap(float(decals_tested) / 16.0), 1.0);
 
+    ivec2 px = ivec2(gl_FragCoord.xy);
+    LightList list = light_list(px);
+    bool shadowed = list.rows != NO_SHADOW_ROWS;
+    ShadowWordsRef shadow_words = ShadowWordsRef(scene.lighting.lighting.shadow_bits);
+    if (scene.debug_view == DEBUG_LIGHT_COUNT) return vec4(float(list.count), 0.0, 0.0, 1.0);
+    if (scene.debug_view == DEBUG_LIGHT_HEATMAP) return vec4(heatmap(float(list.count) / 32.0), 1.0);
+    if (scene.debug_view == DEBUG_SHADOW_FIRST) {
+        float visible = shadowed && list.count > 0u ? float(shadow_words.words[shadow_word_at(list, 0u, px)] & 1u) : 1.0;
+        return vec4(visible, float(list.count), float(shadowed), 1.0);
+    }
+    if (scene.debug_view == DEBUG_SHADOW_RAYS) return vec4(heatmap(imageLoad(shadow_debug_in, px).a / 16.0), 1.0);
+    if (scene.debug_view == DEBUG_DEPTH_NORMALS) {
+        bool reconstructed = float(px.x) < scene.camera.camera.viewport_size.x * 0.5;
+        return vec4(reconstructed ? imageLoad(shadow_debug_in, px).rgb : s.normal * 0.5 + 0.5, 1.0);
+    }
+
     GpuCamera cam = scene.camera.camera;
     vec3 v = normalize(cam.position - s.position);
     SurfaceBrdf brdf = surface_brdf(s.albedo, s.metallic, s.roughness);
     vec3 color = s.emissive + cam.ambient * (brdf.diffuse_color + brdf.f0) * s.occlusion;
-    for (uint i = 0u; i < scene.light_count; ++i) {
-        GpuLight light = scene.lights.lights[i];
+    uint word = 0xFFFFFFFFu;
+    for (uint j = 0u; j < list.count; ++j) {
+        if (shadowed && j % 32u == 0u) word = shadow_words.words[shadow_word_at(list, j, px)];
+        if ((word & (1u << (j % 32u))) == 0u) continue;
+        GpuLight light = scene.lights.lights[light_slot(list, j)];
         if (light.kind == LIGHT_NONE) continue;
         color += shade_light(light, brdf, s.position, s.normal, v);
     }

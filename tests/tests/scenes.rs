@@ -128,9 +128,9 @@ fn a_benchmark_scene_runs_every_pipeline_and_decal_method_in_one_run() {
             assert_eq!(frame["pipeline"], pipeline.name());
             assert_eq!(frame["decal_method"], method.name());
             let passes: &[&str] = match pipeline {
-                render::PipelineKind::Forward => &["prepass", "forward"],
-                render::PipelineKind::Deferred => &["gbuffer", "lighting"],
-                render::PipelineKind::VisBuffer => &["visibility", "visbuffer_shade"],
+                render::PipelineKind::Forward | render::PipelineKind::ForwardPlus => &["prepass", "light_cull", "forward"],
+                render::PipelineKind::Deferred => &["gbuffer", "light_cull", "lighting"],
+                render::PipelineKind::VisBuffer => &["visibility", "light_cull", "visbuffer_shade"],
             };
             for pass in passes {
                 assert!(frame["gpu_ms"][pass].as_f64().is_some_and(|ms| ms > 0.0), "{pass} timed: {frame}");

@@ -27,6 +27,7 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use crate::RenderError;
+use crate::gpu::accel::{AccelStruct, Scratch, build_sizes, instance_bytes, single_instance};
 use crate::gpu::device::GpuContext;
 use crate::gpu::memory::{Buffer, Graveyard, Retired};
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
@@ -45,50 +46,6 @@ pub fn build_granule(live: u32) -> u32 {
 /// `live` rounded up to its granule.
 pub fn build_count(live: u32, capacity: u32) -> u32 {
     live.next_multiple_of(build_granule(live)).min(capacity)
-}
-
-/// An acceleration structure and its storage.
-struct AccelStruct {
-    raw: vk::AccelerationStructureKHR,
-    buffer: Buffer,
-    address: vk::DeviceAddress,
-}
-
-impl AccelStruct {
-    fn new(ctx: &GpuContext, ty: vk::AccelerationStructureTypeKHR, size: u64, name: &str) -> Result<Self, RenderError> {
-        let rt = ctx.ray_tracing.as_ref().ok_or_else(|| RenderError::Other("acceleration structures need the ray tracing tier".into()))?;
-        let buffer = Buffer::new(
-            ctx,
-            name,
-            size,
-            vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
-            MemoryLocation::GpuOnly,
-        )?;
-        let info = vk::AccelerationStructureCreateInfoKHR::default().buffer(buffer.raw).size(size).ty(ty);
-        // SAFETY: the buffer is live, bound, and large enough (size from the build-size query).
-        let raw = match unsafe { rt.acceleration_structure.create_acceleration_structure(&info, None) } {
-            Ok(raw) => raw,
-            Err(e) => {
-                buffer.destroy(ctx);
-                return Err(e.into());
-            }
-        };
-        // SAFETY: `raw` was just created on this device.
-        let address = unsafe {
-            rt.acceleration_structure.get_acceleration_structure_device_address(
-                &vk::AccelerationStructureDeviceAddressInfoKHR::default().acceleration_structure(raw),
-            )
-        };
-        Ok(Self { raw, buffer, address })
-    }
-
-    fn destroy(self, ctx: &GpuContext) {
-        if let Some(rt) = &ctx.ray_tracing {
-            // SAFETY: the caller guarantees the GPU no longer uses it.
-            unsafe { rt.acceleration_structure.destroy_acceleration_structure(self.raw, None) };
-        }
-        self.buffer.destroy(ctx);
-    }
 }
 
 /// What happened to the BLAS this frame.
@@ -119,12 +76,11 @@ pub struct DecalAccel {
     blas: Option<AccelStruct>,
     tlas: Option<AccelStruct>,
     instances: Option<Buffer>,
-    scratch: Option<Buffer>,
+    scratch: Scratch,
     /// Boxes the last build covered.
     built: Option<u32>,
     refitted_since_build: u64,
     pending_changes: u32,
-    scratch_alignment: u64,
     res: AccelResources,
 }
 
@@ -156,21 +112,14 @@ pub struct DecalBoxInput {
 impl DecalAccel {
     /// Empty; nothing is allocated until the first decal appears.
     pub fn new(ctx: &GpuContext, graph: &mut FrameGraph) -> Self {
-        let mut as_props = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
-        if ctx.ray_tracing.is_some() {
-            let mut props = vk::PhysicalDeviceProperties2::default().push_next(&mut as_props);
-            // SAFETY: a valid physical device and a chain of locals.
-            unsafe { ctx.instance.get_physical_device_properties2(ctx.physical, &mut props) };
-        }
         Self {
             blas: None,
             tlas: None,
             instances: None,
-            scratch: None,
+            scratch: Scratch::new(ctx, "decal scratch"),
             built: None,
             refitted_since_build: 0,
             pending_changes: 0,
-            scratch_alignment: (as_props.min_acceleration_structure_scratch_offset_alignment as u64).max(1),
             res: AccelResources {
                 blas: graph.resource("decal blas"),
                 tlas: graph.resource("decal tlas"),
@@ -225,19 +174,7 @@ impl DecalAccel {
             })
             .flags(vk::GeometryFlagsKHR::OPAQUE)];
         let blas_flags = vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE | vk::BuildAccelerationStructureFlagsKHR::ALLOW_UPDATE;
-        let mut blas_sizes = vk::AccelerationStructureBuildSizesInfoKHR::default();
-        // SAFETY: a size query with a geometry description of locals.
-        unsafe {
-            asx.get_acceleration_structure_build_sizes(
-                vk::AccelerationStructureBuildTypeKHR::DEVICE,
-                &vk::AccelerationStructureBuildGeometryInfoKHR::default()
-                    .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
-                    .flags(blas_flags)
-                    .geometries(&geometry),
-                &[count],
-                &mut blas_sizes,
-            )
-        };
+        let blas_sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, blas_flags, &geometry, &[count]);
         let tlas_geometry_for = |address: vk::DeviceAddress| {
             [vk::AccelerationStructureGeometryKHR::default().geometry_type(vk::GeometryTypeKHR::INSTANCES).geometry(
                 vk::AccelerationStructureGeometryDataKHR {
@@ -247,20 +184,7 @@ impl DecalAccel {
             )]
         };
         let tlas_flags = vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE;
-        let mut tlas_sizes = vk::AccelerationStructureBuildSizesInfoKHR::default();
-        let probe = tlas_geometry_for(0);
-        // SAFETY: as above.
-        unsafe {
-            asx.get_acceleration_structure_build_sizes(
-                vk::AccelerationStructureBuildTypeKHR::DEVICE,
-                &vk::AccelerationStructureBuildGeometryInfoKHR::default()
-                    .ty(vk::AccelerationStructureTypeKHR::TOP_LEVEL)
-                    .flags(tlas_flags)
-                    .geometries(&probe),
-                &[1],
-                &mut tlas_sizes,
-            )
-        };
+        let tlas_sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::TOP_LEVEL, tlas_flags, &tlas_geometry_for(0), &[1]);
 
         // (Re)allocate for a larger count. The old structures may still be read by a frame in
         // flight, so they go to the graveyard.
@@ -272,7 +196,7 @@ impl DecalAccel {
                 "decal blas",
             )?;
             if let Some(old) = self.blas.replace(blas) {
-                graveyard.bury(frame_value, Retired::AccelerationStructure(old.raw, old.buffer));
+                old.bury(graveyard, frame_value);
             }
             self.write_instance(ctx, graveyard, frame_value)?;
         }
@@ -284,21 +208,8 @@ impl DecalAccel {
                 "decal tlas",
             )?);
         }
-        let scratch_need =
-            blas_sizes.build_scratch_size.max(blas_sizes.update_scratch_size).max(tlas_sizes.build_scratch_size) + self.scratch_alignment;
-        if self.scratch.as_ref().is_none_or(|s| s.size < scratch_need) {
-            let scratch = Buffer::new(
-                ctx,
-                "decal scratch",
-                scratch_need.next_power_of_two(),
-                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
-                MemoryLocation::GpuOnly,
-            )?;
-            if let Some(old) = self.scratch.replace(scratch) {
-                graveyard.bury(frame_value, Retired::Buffer(old));
-            }
-        }
-        let scratch_address = self.scratch.as_ref().expect("allocated above").address.next_multiple_of(self.scratch_alignment);
+        let scratch_need = blas_sizes.build_scratch_size.max(blas_sizes.update_scratch_size).max(tlas_sizes.build_scratch_size);
+        let scratch_address = self.scratch.ensure(ctx, graveyard, frame_value, scratch_need)?;
         let blas = self.blas.as_ref().expect("built above");
         let tlas = self.tlas.as_ref().expect("created above");
 
@@ -357,15 +268,7 @@ impl DecalAccel {
 
     fn write_instance(&mut self, ctx: &GpuContext, graveyard: &mut Graveyard, frame_value: u64) -> Result<(), RenderError> {
         let blas = self.blas.as_ref().expect("called after the BLAS exists");
-        let instance = vk::AccelerationStructureInstanceKHR {
-            transform: vk::TransformMatrixKHR { matrix: [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0] },
-            instance_custom_index_and_mask: vk::Packed24_8::new(0, 0xff),
-            instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(
-                0,
-                vk::GeometryInstanceFlagsKHR::FORCE_OPAQUE.as_raw() as u8,
-            ),
-            acceleration_structure_reference: vk::AccelerationStructureReferenceKHR { device_handle: blas.address },
-        };
+        let instance = single_instance(blas.address);
         // A new buffer rather than rewriting one a frame in flight may be reading.
         let mut buffer = Buffer::new(
             ctx,
@@ -374,14 +277,7 @@ impl DecalAccel {
             vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
             MemoryLocation::CpuToGpu,
         )?;
-        // SAFETY: AccelerationStructureInstanceKHR is a plain #[repr(C)] struct of 64 bytes
-        // with no padding; viewing it as bytes is sound.
-        let bytes = unsafe {
-            std::slice::from_raw_parts(
-                (&instance as *const vk::AccelerationStructureInstanceKHR).cast::<u8>(),
-                std::mem::size_of_val(&instance),
-            )
-        };
+        let bytes = instance_bytes(&instance);
         buffer.mapped()[..bytes.len()].copy_from_slice(bytes);
         if let Some(old) = self.instances.replace(buffer) {
             graveyard.bury(frame_value, Retired::Buffer(old));
@@ -394,9 +290,10 @@ impl DecalAccel {
         for a in [self.blas, self.tlas].into_iter().flatten() {
             a.destroy(ctx);
         }
-        for b in [self.instances, self.scratch].into_iter().flatten() {
+        if let Some(b) = self.instances {
             b.destroy(ctx);
         }
+        self.scratch.destroy(ctx);
     }
 }
 

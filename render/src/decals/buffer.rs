@@ -71,7 +71,7 @@ impl DecalPasses {
                     name: "decal pass (ray-tracing pipeline)",
                     raygen: &[shaders::DECAL_PASS_RGEN, shaders::DECAL_PASS_RGEN_VISIBILITY],
                     miss: shaders::DECAL_PASS_RMISS,
-                    intersection: shaders::DECAL_PASS_RINT,
+                    intersection: Some(shaders::DECAL_PASS_RINT),
                     any_hit: shaders::DECAL_PASS_RAHIT,
                 },
             )?)

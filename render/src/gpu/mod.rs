@@ -1,6 +1,7 @@
 //! The Vulkan core every pass builds on: the device and its capability tiers, memory and
 //! deferred destruction, staging uploads, timestamps, SPIR-V and pipeline creation.
 
+pub mod accel;
 pub mod device;
 pub mod memory;
 pub mod pipeline;

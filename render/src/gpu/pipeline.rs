@@ -228,9 +228,9 @@ pub fn create_compute(ctx: &GpuContext, layout: vk::PipelineLayout, name: &str, 
     Ok(pipeline)
 }
 
-/// The shaders of a ray-tracing pipeline for procedural geometry: ray-generation shaders (one
-/// shader-binding-table record each, chosen per dispatch), one miss shader and one hit group of
-/// an intersection and an any-hit shader (no closest hit).
+/// The shaders of a ray-tracing pipeline: ray-generation shaders (one shader-binding-table record
+/// each, chosen per dispatch), one miss shader and one hit group with an any-hit shader and no
+/// closest hit: for procedural geometry (with an intersection shader) or for triangles.
 pub struct RayTracingDesc<'a> {
     /// Debug name.
     pub name: &'a str,
@@ -238,8 +238,8 @@ pub struct RayTracingDesc<'a> {
     pub raygen: &'a [&'a [u8]],
     /// Miss shader SPIR-V.
     pub miss: &'a [u8],
-    /// Intersection shader SPIR-V.
-    pub intersection: &'a [u8],
+    /// Intersection shader SPIR-V for procedural geometry; `None` for a triangle hit group.
+    pub intersection: Option<&'a [u8]>,
     /// Any-hit shader SPIR-V.
     pub any_hit: &'a [u8],
 }
@@ -267,7 +267,8 @@ impl RayTracingPipeline {
 
         use vk::ShaderStageFlags as S;
         let mut stages_spirv: Vec<(S, &[u8])> = desc.raygen.iter().map(|s| (S::RAYGEN_KHR, *s)).collect();
-        stages_spirv.extend([(S::MISS_KHR, desc.miss), (S::INTERSECTION_KHR, desc.intersection), (S::ANY_HIT_KHR, desc.any_hit)]);
+        stages_spirv.extend([(S::MISS_KHR, desc.miss), (S::ANY_HIT_KHR, desc.any_hit)]);
+        stages_spirv.extend(desc.intersection.map(|i| (S::INTERSECTION_KHR, i)));
         let mut modules = Vec::with_capacity(stages_spirv.len());
         for (_, spirv) in &stages_spirv {
             match shaders::module(ctx, spirv) {
@@ -294,13 +295,17 @@ impl RayTracingPipeline {
         };
         let n = desc.raygen.len();
         let mut groups: Vec<_> = (0..=n).map(general).collect();
+        let (ty, intersection) = match desc.intersection {
+            Some(_) => (vk::RayTracingShaderGroupTypeKHR::PROCEDURAL_HIT_GROUP, n as u32 + 2),
+            None => (vk::RayTracingShaderGroupTypeKHR::TRIANGLES_HIT_GROUP, vk::SHADER_UNUSED_KHR),
+        };
         groups.push(
             vk::RayTracingShaderGroupCreateInfoKHR::default()
-                .ty(vk::RayTracingShaderGroupTypeKHR::PROCEDURAL_HIT_GROUP)
+                .ty(ty)
                 .general_shader(vk::SHADER_UNUSED_KHR)
                 .closest_hit_shader(vk::SHADER_UNUSED_KHR)
-                .intersection_shader(n as u32 + 1)
-                .any_hit_shader(n as u32 + 2),
+                .intersection_shader(intersection)
+                .any_hit_shader(n as u32 + 1),
         );
         let info = vk::RayTracingPipelineCreateInfoKHR::default()
             .stages(&stages)

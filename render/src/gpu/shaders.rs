@@ -48,6 +48,13 @@ spirv! {
     DECAL_CLUSTER_SCAN_COMP = "decal_cluster_scan.comp";
     DECAL_PASS_CLUSTERED_COMP = "decal_pass_clustered.comp";
     DECAL_PASS_CLUSTERED_COMP_VISIBILITY = "decal_pass_clustered.comp.DECAL_SURFACE_VISIBILITY";
+    LIGHT_TILE_FRUSTA_COMP = "light_tile_frusta.comp";
+    LIGHT_CULL_COMP = "light_cull.comp";
+    SHADOWS_COMP = "shadows.comp";
+    SHADOWS_RGEN = "shadows.rgen";
+    SHADOWS_RMISS = "shadows.rmiss";
+    SHADOWS_RAHIT = "shadows.rahit";
+    SCENE_INSTANCES_COMP = "scene_instances.comp";
 }
 
 /// Creates a shader module from SPIR-V bytes.

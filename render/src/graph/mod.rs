@@ -361,6 +361,31 @@ impl FrameGraph {
         bytes
     }
 
+    /// Copies the first `size` bytes of `src`, tracked as `resource`, to the host (waits for the
+    /// GPU). For tests and tools: it submits and waits on its own.
+    pub fn read_back_buffer(&mut self, ctx: &GpuContext, resource: ResourceId, src: vk::Buffer, size: u64) -> Result<Vec<u8>, RenderError> {
+        let mut buffer =
+            Buffer::new(ctx, "readback", size.max(4), vk::BufferUsageFlags::TRANSFER_DST, gpu_allocator::MemoryLocation::GpuToCpu)?;
+        let result = ctx.run_once(|cmd| {
+            self.decls.clear();
+            self.decls.push(Decl::Resource(resource, BufferUse::Transfer, false));
+            self.emit_barriers(ctx, cmd, PassKind::Transfer);
+            // SAFETY: `cmd` is recording; the barrier above made the buffer's last write visible
+            // to copies, and both buffers hold `size` bytes.
+            unsafe { ctx.device.cmd_copy_buffer(cmd, src, buffer.raw, &[vk::BufferCopy { src_offset: 0, dst_offset: 0, size }]) };
+            let host = [vk::MemoryBarrier2::default()
+                .src_stage_mask(vk::PipelineStageFlags2::COPY)
+                .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+                .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+                .dst_access_mask(vk::AccessFlags2::HOST_READ)];
+            // SAFETY: `cmd` is recording outside a rendering scope.
+            unsafe { ctx.device.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&host)) };
+        });
+        let bytes = result.map(|_| buffer.mapped()[..size as usize].to_vec());
+        buffer.destroy(ctx);
+        bytes
+    }
+
     /// Resolves a declaration's image (creating a target on first use).
     fn resolve(&mut self, ctx: &GpuContext, image: ImageRef) -> Result<ImageId, RenderError> {
         match image {

@@ -30,7 +30,7 @@ pub const DECAL_TESTED_FORMAT: vk::Format = vk::Format::R32_UINT;
 
 pub use crate::layout::{
     BINDING_DECAL_ALBEDO, BINDING_DECAL_NORMAL, BINDING_DECAL_SPEC, BINDING_DECAL_TESTED, BINDING_DEPTH, BINDING_GBUFFER_ALBEDO,
-    BINDING_GBUFFER_LAYERS, BINDING_GBUFFER_MATERIAL, BINDING_GBUFFER_NORMAL, BINDING_HDR, BINDING_VISIBILITY,
+    BINDING_GBUFFER_LAYERS, BINDING_GBUFFER_MATERIAL, BINDING_GBUFFER_NORMAL, BINDING_HDR, BINDING_SHADOW_DEBUG, BINDING_VISIBILITY,
 };
 
 /// Where a target is bound for sampling: its descriptor binding in set 0 (`BINDING_*`).
@@ -134,6 +134,9 @@ pub static DECAL_SPEC: TargetDesc =
 /// Decal buffer: decals tested per pixel (debug views).
 pub static DECAL_TESTED: TargetDesc =
     TargetDesc { name: "decal tested", format: DECAL_TESTED_FORMAT, usage: STORAGE, bind: Some(Bind::Storage(BINDING_DECAL_TESTED)) };
+/// The shadow pass's debug image: reconstructed normals and shadow rays per pixel.
+pub static SHADOW_DEBUG: TargetDesc =
+    TargetDesc { name: "shadow debug", format: DECAL_BUFFER_FORMAT, usage: STORAGE, bind: Some(Bind::Storage(BINDING_SHADOW_DEBUG)) };
 /// The decal buffer's images, in binding order.
 pub static DECAL_BUFFER: [&TargetDesc; 4] = [&DECAL_ALBEDO, &DECAL_NORMAL, &DECAL_SPEC, &DECAL_TESTED];
 

@@ -29,6 +29,7 @@ use crate::graph::targets::{
     GBUFFER_MATERIAL_FORMAT, GBUFFER_NORMAL, GBUFFER_NORMAL_FORMAT, HDR, HDR_FORMAT,
 };
 use crate::graph::{Frame, ImageUse, Load, PassKind};
+use crate::lights::{LightFrame, declare_light_reads};
 use crate::pipelines::ShadeVariants;
 use crate::scene::gpu::GpuScene;
 use crate::scene::{DECAL_ALBEDO, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, DrawItem};
@@ -151,7 +152,7 @@ impl DeferredPasses {
 
     /// Lighting: one full-screen pass over the G-buffer, added to the emitted radiance, with
     /// this frame's `decals` (in-shader ray queries or the decal buffer).
-    pub fn lighting(&self, f: &mut Frame, scene: &GpuScene, decals: &DecalFrame) -> Result<(), RenderError> {
+    pub fn lighting(&self, f: &mut Frame, scene: &GpuScene, decals: &DecalFrame, lights: &LightFrame) -> Result<(), RenderError> {
         let pass = f
             .pass("lighting", PassKind::Graphics)
             .sample(&DEPTH)
@@ -161,7 +162,7 @@ impl DeferredPasses {
             .sample(&GBUFFER_LAYERS)
             .color(&HDR, Load::Keep)
             .reads(scene.res.shaded());
-        declare_decal_reads(pass, decals).record(|p| {
+        declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| {
             let push = p.push;
             p.fullscreen(self.lighting.pick(decals), &push);
         })

@@ -13,6 +13,7 @@ use crate::gpu::pipeline::{GraphicsDesc, create_graphics};
 use crate::gpu::shaders;
 use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT};
 use crate::graph::{Frame, ImageUse, Load, PassKind};
+use crate::lights::{LightFrame, declare_light_reads};
 use crate::pipelines::ShadeVariants;
 use crate::scene::DrawItem;
 use crate::scene::gpu::GpuScene;
@@ -71,13 +72,14 @@ impl ForwardPasses {
         draws: &[Option<DrawItem>],
         clear: [f32; 4],
         decals: &DecalFrame,
+        lights: &LightFrame,
     ) -> Result<(), RenderError> {
         let pass = f
             .pass("forward", PassKind::Graphics)
             .image(&DEPTH, ImageUse::DepthTest)
             .color(&HDR, Load::Clear(clear))
             .reads(scene.res.drawn());
-        declare_decal_reads(pass, decals).record(|p| {
+        declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| {
             let push = p.push;
             p.bind_graphics(self.shade.pick(decals), &push);
             scene.draw_meshes(p, draws, |_| true);

@@ -1,6 +1,7 @@
 //! The pipelines, one function each, reading as the whole frame from top to bottom: upload what
-//! changed, acceleration-structure work, the pipeline's passes, debug overlays, tone mapping and
-//! the egui overlay. Every pass is declared on the frame graph ([`crate::graph`]), which derives
+//! changed, acceleration-structure work, the pipeline's passes (light culling and shadows once
+//! depth exists), debug overlays, tone mapping and the egui overlay. Each returns what it did
+//! with lights, for the frame's report. Every pass is declared on the frame graph ([`crate::graph`]), which derives
 //! the barriers between them.
 
 pub mod deferred;
@@ -14,6 +15,7 @@ use crate::decals::{DecalChoice, DecalFrame, DecalSurfaceSource, Decals};
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::pipeline::ScenePush;
 use crate::graph::Frame;
+use crate::lights::{LightFrame, Lighting};
 use crate::present::Present;
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
@@ -25,6 +27,8 @@ pub struct FrameParts<'a> {
     pub scene: &'a mut GpuScene,
     /// Decal acceleration structures, deferred-decal order, debug boxes.
     pub decals: &'a mut Decals,
+    /// Light culling, the scene's acceleration structures, shadows.
+    pub lighting: &'a mut Lighting,
     /// Forward passes.
     pub forward: &'a forward::ForwardPasses,
     /// Deferred passes.
@@ -37,51 +41,74 @@ pub struct FrameParts<'a> {
     pub decal_choice: DecalChoice,
 }
 
-/// Forward: depth prepass (the visibility pass, which also writes ids, when a decal pass
-/// follows), the decal pass, then shading with depth EQUAL.
-pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<(), RenderError> {
+/// What every frame does before its passes: follow the decals' and lights' changes, upload what
+/// changed, bring the acceleration structures up to date, and set the push constants.
+fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<(DecalFrame, LightFrame), RenderError> {
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
+    let lights = r.lighting.prepare(f, r.scene, mirror, s)?;
     let boxes_changed = r.scene.upload(f, mirror)?;
     let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, boxes_changed)?;
     f.push = scene_push(r.scene, mirror, s, &decals);
+    r.lighting.build(f, r.scene, mirror, &lights)?;
+    Ok((decals, lights))
+}
+
+/// Forward: depth prepass (the visibility pass, which also writes ids, when a decal pass
+/// follows), light culling and shadows when asked for, the decal pass, then shading with depth
+/// EQUAL.
+pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
+    let (decals, lights) = begin(f, r, mirror, s)?;
     if decals.buffered() {
         r.visbuffer.visibility(f, "prepass", r.scene, &mirror.draws)?;
     } else {
         r.forward.prepass(f, r.scene, &mirror.draws)?;
     }
+    r.lighting.record(f, r.scene, &lights)?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
-    r.forward.shade(f, r.scene, &mirror.draws, s.clear_color, &decals)?;
+    r.forward.shade(f, r.scene, &mirror.draws, s.clear_color, &decals, &lights)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
-    r.present.record(f, r.scene)
+    r.present.record(f, r.scene)?;
+    Ok(lights)
 }
 
-/// Deferred: G-buffer, deferred decals or the decal pass (whichever is the method), full-screen
-/// lighting (in-shader ray-query decals included when they are the method).
-pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<(), RenderError> {
-    r.decals.follow_changes(mirror, r.scene, r.decal_choice);
-    let boxes_changed = r.scene.upload(f, mirror)?;
-    let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, boxes_changed)?;
-    f.push = scene_push(r.scene, mirror, s, &decals);
+/// Forward+ (seed 001 §4, Fig. 4.1): reverse-Z depth prepass, tiled light culling, ray-traced
+/// shadows, then forward shading with depth EQUAL over each tile's lights. It is the forward
+/// frame with the light method fixed to tiled ([`crate::settings::LightMethod::effective`]).
+pub fn forward_plus_frame(
+    f: &mut Frame,
+    r: &mut FrameParts,
+    mirror: &mut SceneMirror,
+    s: &FrameSettings,
+) -> Result<LightFrame, RenderError> {
+    forward_frame(f, r, mirror, s)
+}
+
+/// Deferred: G-buffer, light culling and shadows, deferred decals or the decal pass (whichever
+/// is the method), full-screen lighting (in-shader ray-query decals included when they are the
+/// method).
+pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
+    let (decals, lights) = begin(f, r, mirror, s)?;
     r.deferred.geometry(f, r.scene, &mirror.draws, s.clear_color)?;
+    r.lighting.record(f, r.scene, &lights)?;
     r.deferred.decals(f, r.scene, r.decals.deferred_runs(&decals))?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::GBuffer)?;
-    r.deferred.lighting(f, r.scene, &decals)?;
+    r.deferred.lighting(f, r.scene, &decals, &lights)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
-    r.present.record(f, r.scene)
+    r.present.record(f, r.scene)?;
+    Ok(lights)
 }
 
-/// Visibility buffer: ids and depth, the decal pass, then one full-screen pass that rebuilds and
-/// shades.
-pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<(), RenderError> {
-    r.decals.follow_changes(mirror, r.scene, r.decal_choice);
-    let boxes_changed = r.scene.upload(f, mirror)?;
-    let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, boxes_changed)?;
-    f.push = scene_push(r.scene, mirror, s, &decals);
+/// Visibility buffer: ids and depth, light culling and shadows, the decal pass, then one
+/// full-screen pass that rebuilds and shades.
+pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
+    let (decals, lights) = begin(f, r, mirror, s)?;
     r.visbuffer.visibility(f, "visibility", r.scene, &mirror.draws)?;
+    r.lighting.record(f, r.scene, &lights)?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
-    r.visbuffer.shade(f, r.scene, s.clear_color, &decals)?;
+    r.visbuffer.shade(f, r.scene, s.clear_color, &decals, &lights)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
-    r.present.record(f, r.scene)
+    r.present.record(f, r.scene)?;
+    Ok(lights)
 }
 
 /// A shading pass's pipeline in each way it can apply decals: none, in-shader ray queries (on the
@@ -145,5 +172,6 @@ fn scene_push(scene: &GpuScene, mirror: &SceneMirror, s: &FrameSettings, decals:
         decal_clusters: decals.clusters.map_or(0, |c| c.address),
         decal_cluster_capacity: decals.clusters.map_or(0, |c| c.capacity),
         decal_cluster_tiles: decals.clusters.map_or(0, |c| c.tiles),
+        lighting: scene.lighting.address(),
     }
 }

@@ -13,6 +13,7 @@ use crate::gpu::pipeline::{GraphicsDesc, create_graphics};
 use crate::gpu::shaders;
 use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT, VISIBILITY, VISIBILITY_FORMAT};
 use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind};
+use crate::lights::{LightFrame, declare_light_reads};
 use crate::pipelines::ShadeVariants;
 use crate::scene::DrawItem;
 use crate::scene::gpu::GpuScene;
@@ -58,7 +59,14 @@ impl VisBufferPasses {
     }
 
     /// Rebuilds and shades every covered pixel into the HDR target, with this frame's `decals`.
-    pub fn shade(&self, f: &mut Frame, scene: &GpuScene, clear: [f32; 4], decals: &DecalFrame) -> Result<(), RenderError> {
+    pub fn shade(
+        &self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        clear: [f32; 4],
+        decals: &DecalFrame,
+        lights: &LightFrame,
+    ) -> Result<(), RenderError> {
         let pass = f
             .pass("visbuffer_shade", PassKind::Graphics)
             .sample(&DEPTH)
@@ -66,7 +74,7 @@ impl VisBufferPasses {
             .color(&HDR, Load::Clear(clear))
             .reads(scene.res.shaded())
             .read(scene.res.meshes, BufferUse::Storage);
-        declare_decal_reads(pass, decals).record(|p| {
+        declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| {
             let push = p.push;
             p.fullscreen(self.shade.pick(decals), &push);
         })

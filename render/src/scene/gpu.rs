@@ -16,6 +16,7 @@ use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::memory::{Buffer, Image, ImageDesc, Retired};
 use crate::gpu::upload::{CopyList, Upload};
 use crate::graph::{Bind, BufferUse, Frame, FrameGraph, PassContext, PassKind, ResourceId};
+use crate::layout::GpuLighting;
 use crate::scene::{
     DrawItem, GpuAabb, GpuCamera, GpuMeshInfo, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
     TextureData,
@@ -25,8 +26,9 @@ use crate::scene::{
 pub const MAX_TEXTURES: u32 = 4096;
 /// Descriptor bindings after the texture array, one per sampled render target (`BINDING_*`).
 pub const TARGET_BINDINGS: u32 = crate::layout::BINDING_VISIBILITY;
-/// Storage-image bindings after those: the decal buffer (`BINDING_DECAL_*`).
-pub const STORAGE_BINDINGS: u32 = crate::layout::BINDING_DECAL_TESTED - TARGET_BINDINGS;
+/// Storage-image bindings after those: the decal buffer (`BINDING_DECAL_*`) and the shadow
+/// debug image.
+pub const STORAGE_BINDINGS: u32 = crate::layout::BINDING_SHADOW_DEBUG - TARGET_BINDINGS;
 const _: () = assert!(crate::layout::BINDING_DECAL_ALBEDO == TARGET_BINDINGS + 1, "storage bindings follow the sampled targets");
 const BINDINGS: usize = 1 + (TARGET_BINDINGS + STORAGE_BINDINGS) as usize;
 
@@ -240,6 +242,10 @@ pub struct GpuScene {
     pub lights: GpuTable,
     /// The camera record.
     pub camera: GpuTable,
+    /// The lighting record.
+    pub lighting: GpuTable,
+    lighting_cpu: GpuLighting,
+    lighting_dirty: bool,
     /// Decal records.
     pub decals: GpuTable,
     /// Decal boxes (acceleration-structure build input), over the whole capacity.
@@ -289,7 +295,7 @@ impl GpuScene {
             | vk::DescriptorBindingFlags::UPDATE_UNUSED_WHILE_PENDING;
         // Binding 0: the material and decal textures. Bindings 1..=7: one render target each
         // (`BINDING_*`), so shaders statically use only the targets they sample; 8..=11: the
-        // decal buffer's storage images.
+        // decal buffer's storage images; 12: the shadow debug image.
         let binding_flags = [bindless; BINDINGS];
         let mut flags_info = vk::DescriptorSetLayoutBindingFlagsCreateInfo::default().binding_flags(&binding_flags);
         let bindings: [vk::DescriptorSetLayoutBinding; BINDINGS] = std::array::from_fn(|i| {
@@ -359,6 +365,9 @@ impl GpuScene {
             materials: GpuTable::new::<crate::scene::GpuMaterial>(ctx, "materials", 64)?,
             lights: GpuTable::new::<crate::scene::GpuLight>(ctx, "lights", 16)?,
             camera: GpuTable::new::<GpuCamera>(ctx, "camera", 1)?,
+            lighting: GpuTable::new::<GpuLighting>(ctx, "lighting", 1)?,
+            lighting_cpu: GpuLighting::default(),
+            lighting_dirty: true,
             decals: GpuTable::new::<crate::scene::GpuDecal>(ctx, "decals", 64)?,
             decal_aabbs: GpuTable::with_usage::<crate::scene::GpuAabb>(
                 ctx,
@@ -528,7 +537,7 @@ impl GpuScene {
             }
         }
 
-        if mirror.is_clean() && !self.decal_order_dirty && self.builtins.is_empty() {
+        if mirror.is_clean() && !self.decal_order_dirty && !self.lighting_dirty && self.builtins.is_empty() {
             return Ok(0);
         }
         let camera_dirty = mirror.take_camera_dirty();
@@ -542,7 +551,8 @@ impl GpuScene {
             + 2 * (4 * self.decal_order_cpu.len()) as u64
             + 64
             + std::mem::size_of::<GpuCamera>() as u64
-            + 64;
+            + std::mem::size_of::<GpuLighting>() as u64
+            + 96;
         up.staging.reserve(up.ctx, up.graveyard, up.frame_value, need)?;
 
         let mut copies = std::mem::take(&mut self.copies);
@@ -580,6 +590,12 @@ impl GpuScene {
             let bytes = bytemuck::bytes_of(mirror.camera());
             let src = up.staging.push(bytes);
             copies.buffer_copy(up.staging.buffer(), self.camera.buffer()).push(src, 0, bytes.len() as u64);
+            up.bytes += bytes.len() as u64;
+        }
+        if std::mem::take(&mut self.lighting_dirty) {
+            let bytes = bytemuck::bytes_of(&self.lighting_cpu);
+            let src = up.staging.push(bytes);
+            copies.buffer_copy(up.staging.buffer(), self.lighting.buffer()).push(src, 0, bytes.len() as u64);
             up.bytes += bytes.len() as u64;
         }
         mirror.counters.bytes_uploaded += std::mem::take(&mut up.bytes);
@@ -638,6 +654,19 @@ impl GpuScene {
         Ok(())
     }
 
+    /// Sets the lighting record; it is uploaded with the next sync only when it differs.
+    pub fn set_lighting(&mut self, lighting: GpuLighting) {
+        if lighting != self.lighting_cpu {
+            self.lighting_cpu = lighting;
+            self.lighting_dirty = true;
+        }
+    }
+
+    /// The lighting record as last set.
+    pub fn lighting_record(&self) -> &GpuLighting {
+        &self.lighting_cpu
+    }
+
     /// Sets the deferred decals' draw order (uploaded with the next sync).
     pub fn set_decal_order(&mut self, order: &[u32]) {
         self.decal_order_cpu.clear();
@@ -684,6 +713,7 @@ impl GpuScene {
             self.materials,
             self.lights,
             self.camera,
+            self.lighting,
             self.decals,
             self.decal_aabbs,
             self.decal_materials,

@@ -21,7 +21,7 @@ impl GpuInstance {
     /// The record for an instance placed by `model`, shaded with the material in `material`,
     /// receiving decals on `decal_layers`.
     pub fn new(model: Mat4, material: u32, decal_layers: u32) -> Self {
-        Self { model, normal_model: model.inverse().transpose(), material, decal_layers, mesh: 0, pad: 0 }
+        Self { model, normal_model: model.inverse().transpose(), material, decal_layers, mesh: 0, live: 1 }
     }
 }
 
@@ -70,6 +70,7 @@ impl GpuLight {
     pub fn spot(position: Vec3, direction: Vec3, color: Vec3, range: f32, inner: f32, outer: f32) -> Self {
         let (cos_inner, cos_outer) = (inner.cos(), outer.cos());
         let spot_scale = 1.0 / (cos_inner - cos_outer).max(1e-4);
+        let cone = outer.clamp(0.0, std::f32::consts::PI);
         Self {
             position,
             range,
@@ -78,6 +79,8 @@ impl GpuLight {
             direction: direction.normalize_or(Vec3::NEG_Z),
             spot_scale,
             spot_offset: -cos_outer * spot_scale,
+            cone_cos: cone.cos(),
+            cone_sin: cone.sin(),
             ..Self::zeroed()
         }
     }
@@ -319,6 +322,14 @@ pub struct FrameCounters {
     pub blas_updates: u64,
     /// Top-level acceleration structure builds.
     pub tlas_builds: u64,
+    /// Scene BLAS builds (one per mesh loaded).
+    pub scene_blas_builds: u64,
+    /// Scene BLAS compactions (one per mesh, a few frames after its build).
+    pub scene_blas_compactions: u64,
+    /// Scene TLAS builds (instances added or removed, meshes or materials changed).
+    pub scene_tlas_builds: u64,
+    /// Scene TLAS updates (only transforms changed).
+    pub scene_tlas_updates: u64,
     /// Live mesh instances.
     pub instances: u64,
     /// Live lights.
@@ -327,6 +338,8 @@ pub struct FrameCounters {
     pub decals: u64,
     /// Clustered decals, as measured on the GPU (all zero unless clustered decals ran).
     pub clusters: DecalClusterStats,
+    /// Tiled light culling, as measured on the GPU (all zero unless lights were tiled).
+    pub light_tiles: crate::lights::tiles::LightTileStats,
 }
 
 /// What clustered decals measured on the GPU. The GPU writes these into the cluster buffer and
@@ -508,6 +521,9 @@ pub struct SceneMirror {
     free_textures: Vec<u32>,
     /// This frame's counters; extraction adds `records_written`, the renderer the rest.
     pub counters: FrameCounters,
+    /// Set when an instance was added or removed or changed its mesh or material (not only its
+    /// transform): the scene TLAS is then rebuilt rather than updated.
+    instances_rearranged: bool,
 }
 
 impl Default for GpuCamera {
@@ -527,10 +543,16 @@ impl SceneMirror {
         record.mesh = draw.mesh.0;
         let slot = match slot {
             Some(slot) => {
+                let same_material = self.instances.get(slot).is_some_and(|old| old.material == record.material);
+                let same_draw = self.draws.get(slot as usize) == Some(&Some(draw));
+                self.instances_rearranged |= !(same_material && same_draw);
                 self.instances.write(slot, record);
                 slot
             }
-            None => self.instances.insert(record),
+            None => {
+                self.instances_rearranged = true;
+                self.instances.insert(record)
+            }
         };
         if self.draws.len() <= slot as usize {
             self.draws.resize(slot as usize + 1, None);
@@ -542,6 +564,7 @@ impl SceneMirror {
 
     /// Frees an instance slot.
     pub fn remove_instance(&mut self, slot: u32) {
+        self.instances_rearranged = true;
         self.instances.remove(slot);
         if let Some(d) = self.draws.get_mut(slot as usize) {
             *d = None;
@@ -559,6 +582,12 @@ impl SceneMirror {
             }
             None => table.insert(record),
         }
+    }
+
+    /// Returns whether instances were added, removed or given another mesh or material since
+    /// the last call (not just moved), clearing the flag.
+    pub fn take_instances_rearranged(&mut self) -> bool {
+        std::mem::take(&mut self.instances_rearranged)
     }
 
     /// The camera record.
@@ -634,6 +663,7 @@ impl SceneMirror {
         self.decals.aabbs.take_dirty(|_, _| {});
         self.decal_materials.take_dirty(|_, _| {});
         self.camera_dirty = false;
+        self.instances_rearranged = false;
         self.pending_meshes.clear();
         self.pending_textures.clear();
     }

@@ -1,0 +1,179 @@
+//! Lights on the renderer's side: which lights each pixel loops over (every light, or its tile's
+//! after tiled light culling, [`tiles`]), and their ray-traced shadows ([`crate::shadows`]). The
+//! light records themselves live in the scene's tables, kept by change detection, and the
+//! shading math in `shaders/include/lighting.glsl` and `shading.glsl`.
+//!
+//! Each frame function calls, in order: [`Lighting::prepare`] before the scene's upload (it sizes
+//! the buffers and writes the lighting record the shaders find them through), [`Lighting::build`]
+//! after it (the scene's acceleration structures), and [`Lighting::record`] once the frame's
+//! depth exists (culling, then the shadow pass). The shading passes then declare
+//! [`declare_light_reads`].
+
+pub mod tiles;
+
+use ash::vk;
+
+use crate::RenderError;
+use crate::gpu::device::GpuContext;
+use crate::graph::targets::SHADOW_DEBUG;
+use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassBuilder, ResourceId};
+use crate::layout::{
+    GpuLighting, LIGHT_CULL_AABB, LIGHTS_ALL, LIGHTS_TILED, SHADOW_DEBUG as SHADOW_DEBUG_FLAG, SHADOW_NORMALS_IMPROVED, SHADOW_RAY_CULLING,
+    SHADOWS_TRACED,
+};
+use crate::scene::SceneMirror;
+use crate::scene::gpu::GpuScene;
+use crate::settings::{DepthNormals, FrameSettings, LightMethod, ShadowMethod};
+use crate::shadows::accel::{SceneAccel, SceneAccelFrame};
+use crate::shadows::{ShadowInputs, ShadowPass};
+use tiles::{LightTiles, TileFrame, TileRequest};
+
+/// The renderer's lighting state: light culling, the scene's acceleration structures and the
+/// shadow pass.
+pub struct Lighting {
+    /// Tiled light culling and the shadow words.
+    pub tiles: LightTiles,
+    /// The scene's BLASes and TLAS (devices with acceleration structures).
+    pub accel: Option<SceneAccel>,
+    /// The shadow passes.
+    pub shadows: ShadowPass,
+}
+
+/// What this frame does with lights.
+#[derive(Clone, Copy, Debug)]
+pub struct LightFrame {
+    /// The light method applied.
+    pub method: LightMethod,
+    /// How shadows are made this frame.
+    pub shadows: ShadowMethod,
+    /// The light tile buffer, when lights are tiled.
+    pub light_tiles: Option<ResourceId>,
+    /// The shadow words, when shadows are traced.
+    pub shadow_bits: Option<ResourceId>,
+    /// Whether the shadow pass writes (and shading reads) the shadow debug image.
+    pub debug: bool,
+    tiles: TileFrame,
+    accel: SceneAccelFrame,
+}
+
+impl Lighting {
+    /// Creates the passes.
+    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
+        Ok(Self {
+            tiles: LightTiles::new(ctx, graph, layout)?,
+            accel: SceneAccel::new(ctx, graph, layout)?,
+            shadows: ShadowPass::new(ctx, layout)?,
+        })
+    }
+
+    /// Sizes this frame's buffers, follows the scene's changes into its acceleration structures
+    /// (before the upload consumes the change marks), and sets the lighting record.
+    pub fn prepare(
+        &mut self,
+        f: &mut Frame,
+        scene: &mut GpuScene,
+        mirror: &mut SceneMirror,
+        s: &FrameSettings,
+    ) -> Result<LightFrame, RenderError> {
+        let l = &s.lights;
+        let method = l.method.effective(s.pipeline);
+        let accel = match self.accel.as_mut() {
+            Some(a) => a.prepare(f, mirror)?,
+            None => SceneAccelFrame::default(),
+        };
+        let traced = if l.shadows && accel.tlas_address != 0 { self.shadows.method() } else { ShadowMethod::None };
+        let light_slots = mirror.lights.slot_count();
+        let mut stats = mirror.counters.light_tiles;
+        let request =
+            TileRequest { method, tile_size: l.tile(), light_slots, proj: mirror.camera().proj, shadows: traced != ShadowMethod::None };
+        let tiles = self.tiles.prepare(f, &request, &mut stats)?;
+        mirror.counters.light_tiles = stats;
+        let shadows = if tiles.shadows { traced } else { ShadowMethod::None };
+        let debug = shadows != ShadowMethod::None && s.debug_view.reads_shadow_debug();
+        let mut flags = 0;
+        for (on, flag) in [
+            (l.cull_aabb, LIGHT_CULL_AABB),
+            (l.shadow_ray_culling, SHADOW_RAY_CULLING),
+            (l.normals == DepthNormals::Improved, SHADOW_NORMALS_IMPROVED),
+            (shadows != ShadowMethod::None, SHADOWS_TRACED),
+            (debug, SHADOW_DEBUG_FLAG),
+        ] {
+            if on {
+                flags |= flag;
+            }
+        }
+        scene.set_lighting(GpuLighting {
+            light_tiles: tiles.light_tiles,
+            tile_frusta: tiles.tile_frusta,
+            shadow_bits: tiles.shadow_bits,
+            scene_tlas: accel.tlas_address,
+            light_tlas: 0,
+            scene_blas_table: accel.blas_table,
+            scene_instances: accel.instances,
+            mode: if method == LightMethod::Tiled { LIGHTS_TILED } else { LIGHTS_ALL },
+            tile_size: tiles.tile_size,
+            tiles_x: tiles.tiles.0,
+            tiles_y: tiles.tiles.1,
+            list_capacity: tiles.list_capacity,
+            shadow_rows: tiles.shadow_rows,
+            flags,
+            instance_count: mirror.instances.slot_count(),
+            blas_count: accel.blas_count,
+            pad: 0,
+        });
+        let res = self.tiles.resources();
+        Ok(LightFrame {
+            method,
+            shadows,
+            light_tiles: (method == LightMethod::Tiled).then_some(res.tiles),
+            shadow_bits: (shadows != ShadowMethod::None).then_some(res.shadow),
+            debug,
+            tiles,
+            accel,
+        })
+    }
+
+    /// Records the scene's acceleration-structure work (after the scene's upload).
+    pub fn build(&mut self, f: &mut Frame, scene: &GpuScene, mirror: &mut SceneMirror, frame: &LightFrame) -> Result<(), RenderError> {
+        match self.accel.as_mut() {
+            Some(a) => a.record(f, scene, &frame.accel, &mut mirror.counters),
+            None => Ok(()),
+        }
+    }
+
+    /// Culls the lights into tiles and traces the shadows; needs this frame's depth.
+    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, frame: &LightFrame) -> Result<(), RenderError> {
+        self.tiles.cull(f, scene, &frame.tiles)?;
+        if let (Some(accel), Some(shadow_bits)) = (self.accel.as_ref(), frame.shadow_bits) {
+            if frame.accel.tlas_address == 0 {
+                return Ok(()); // no instance yet: nothing to trace against
+            }
+            let inputs = ShadowInputs {
+                method: frame.shadows,
+                traced: accel.traced(),
+                light_tiles: frame.light_tiles,
+                shadow_bits,
+                debug: frame.debug,
+            };
+            self.shadows.record(f, scene, &inputs)?;
+        }
+        Ok(())
+    }
+
+    /// Destroys everything; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        self.tiles.destroy(ctx);
+        if let Some(a) = self.accel {
+            a.destroy(ctx);
+        }
+        self.shadows.destroy(ctx);
+    }
+}
+
+/// Declares what a shading pass reads to light this frame: the light tile buffer when lights
+/// are tiled, the shadow words when shadows were traced, the shadow debug image in its views.
+pub fn declare_light_reads<'f, 'a>(pass: PassBuilder<'f, 'a>, frame: &LightFrame) -> PassBuilder<'f, 'a> {
+    pass.reads(frame.light_tiles.map(|t| (t, BufferUse::Storage)))
+        .reads(frame.shadow_bits.map(|t| (t, BufferUse::Storage)))
+        .when(frame.debug, |p| p.image(&SHADOW_DEBUG, ImageUse::StorageRead))
+}

@@ -1,0 +1,402 @@
+//! Tiled light culling (seed 001 §4.2) in compute, for every pipeline: the screen is cut into
+//! square tiles (8, 16 or 32 pixels, per frame); a first pass computes each tile's side planes
+//! in view space (`shaders/light_tile_frusta.comp`), only when the projection, the view size or
+//! the tile size changed; a second pass, one workgroup per tile, bounds the tile's depth from the
+//! reverse-Z prepass depth and tests every light against the tile's volume
+//! (`shaders/light_cull.comp`), writing the light grid (offset, count per tile) and the light
+//! index list the shading passes and the shadow pass read (`shaders/include/light_tiles.glsl`).
+//!
+//! - **No CPU work per frame**: the culling reads the light records that change detection
+//!   already keeps on the GPU, and the camera.
+//! - **No light is dropped**: the seed capped a tile at 32 lights (one `u32` of visibility bits
+//!   per pixel). Here the list is packed (one atomic per tile reserves its range) and the shadow
+//!   bits come in rows of 32 entries, so a tile holds any number. When a frame needs more list
+//!   entries or shadow rows than the buffers hold, the tiles that do not fit loop over every
+//!   light without shadows that frame (correct lighting, no light missing), the overflow is
+//!   counted ([`LightTileStats::overflowed`]), and when the CPU reads the needed totals back
+//!   (two frames later, with no wait) the buffers grow to a quarter more than that.
+//! - **Every light** ([`LightMethod::All`]) needs no culling; the shadow rows then hold every
+//!   light for every tile, which is affordable up to [`MAX_ALL_LIGHT_SHADOW_BYTES`].
+
+use ash::vk;
+use glam::Mat4;
+use gpu_allocator::MemoryLocation;
+
+use crate::RenderError;
+use crate::gpu::FRAMES_IN_FLIGHT;
+use crate::gpu::device::GpuContext;
+use crate::gpu::memory::{Buffer, Retired};
+use crate::gpu::pipeline::create_compute;
+use crate::gpu::shaders;
+use crate::graph::targets::DEPTH;
+use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
+use crate::layout::{GpuTileFrustum, LIGHT_TILE_HEADER};
+use crate::scene::gpu::GpuScene;
+use crate::settings::LightMethod;
+
+/// Most bytes of shadow words when every pixel loops over every light (a row per 32 lights for
+/// every tile); with more lights, shadows need light culling.
+pub const MAX_ALL_LIGHT_SHADOW_BYTES: u64 = 256 << 20;
+
+/// What light culling measured on the GPU, read back two frames later (like
+/// [`crate::scene::DecalClusterStats`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LightTileStats {
+    /// Frame whose GPU figures these are (`u64::MAX` before any).
+    pub measured_frame: u64,
+    /// Tiles this frame.
+    pub tiles: u64,
+    /// Tile side in pixels this frame.
+    pub tile_size: u64,
+    /// List entries the tiles needed.
+    pub entries: u64,
+    /// List entries the buffer has room for this frame.
+    pub capacity: u64,
+    /// Tiles that did not fit (looped over every light, unshadowed, that frame).
+    pub overflowed: u64,
+    /// Most lights in one tile.
+    pub max_per_tile: u64,
+    /// Tiles holding any light.
+    pub tiles_used: u64,
+    /// Times the buffers grew, since the renderer started.
+    pub grows: u64,
+}
+
+/// What a frame asks of light culling.
+#[derive(Clone, Copy, Debug)]
+pub struct TileRequest {
+    /// The light method applied.
+    pub method: LightMethod,
+    /// Tile side in pixels.
+    pub tile_size: u32,
+    /// Light slots (the light table's high-water mark).
+    pub light_slots: u32,
+    /// The camera's projection (the tile frusta follow it).
+    pub proj: Mat4,
+    /// Whether shadow words are needed.
+    pub shadows: bool,
+}
+
+/// The light grid and index list as the GPU wrote them (for tests and tools).
+#[derive(Clone, Debug)]
+pub struct LightTileLists {
+    /// Tile side in pixels.
+    pub tile_size: u32,
+    /// Tiles across and down.
+    pub tiles: (u32, u32),
+    /// Per tile: list offset, count (`LIGHT_TILE_OVERFLOW` set when it did not fit), first
+    /// shadow row.
+    pub grid: Vec<[u32; 3]>,
+    /// The light index list.
+    pub list: Vec<u32>,
+}
+
+impl LightTileLists {
+    /// The light slots of the tile holding pixel (`x`, `y`); `None` when that tile overflowed
+    /// (its pixels looped over every light).
+    pub fn lights_at(&self, x: u32, y: u32) -> Option<&[u32]> {
+        let tile = (y / self.tile_size) * self.tiles.0 + x / self.tile_size;
+        let [offset, count, _] = self.grid[tile as usize];
+        if count & crate::layout::LIGHT_TILE_OVERFLOW != 0 {
+            return None;
+        }
+        self.list.get(offset as usize..(offset + count) as usize)
+    }
+}
+
+/// Where this frame's light-culling data is.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TileFrame {
+    /// The light tile buffer (0 unless tiled).
+    pub light_tiles: vk::DeviceAddress,
+    /// The tiles' frusta (0 unless tiled).
+    pub tile_frusta: vk::DeviceAddress,
+    /// The shadow words (0 without shadows).
+    pub shadow_bits: vk::DeviceAddress,
+    /// Tile side in pixels.
+    pub tile_size: u32,
+    /// Tiles across and down.
+    pub tiles: (u32, u32),
+    /// List entries there is room for.
+    pub list_capacity: u32,
+    /// Shadow rows there is room for.
+    pub shadow_rows: u32,
+    /// Whether shadow words exist this frame.
+    pub shadows: bool,
+    rebuild_frusta: bool,
+    tiled: bool,
+}
+
+/// The culling passes, the tile buffers and the statistics read back from them.
+pub struct LightTiles {
+    frusta_pipeline: vk::Pipeline,
+    cull_pipeline: vk::Pipeline,
+    frusta: Option<Buffer>,
+    /// Projection, view size and tile size the frusta were computed for.
+    frusta_key: Option<([u32; 16], u32, u32, u32)>,
+    tiles: Option<Buffer>,
+    tiles_for: (u32, u32, u32),
+    list_capacity: u32,
+    shadow: Option<Buffer>,
+    shadow_rows: u32,
+    shadow_row_words: u32,
+    readback: Vec<(Buffer, Option<u64>)>,
+    latest: LightTileStats,
+    grows: u64,
+    warned_all_shadows: bool,
+    res: TileResources,
+}
+
+/// The graph resources of light culling.
+#[derive(Clone, Copy, Debug)]
+pub struct TileResources {
+    /// The tiles' frusta.
+    pub frusta: ResourceId,
+    /// The light tile buffer (statistics, grid, list).
+    pub tiles: ResourceId,
+    /// The shadow words.
+    pub shadow: ResourceId,
+    readback: ResourceId,
+}
+
+impl LightTiles {
+    /// Creates the passes and the readback buffers; the tile buffers wait for first use.
+    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
+        let mut readback = Vec::with_capacity(FRAMES_IN_FLIGHT);
+        for _ in 0..FRAMES_IN_FLIGHT {
+            let size = LIGHT_TILE_HEADER as u64 * 4;
+            readback.push((
+                Buffer::new(ctx, "light tile statistics", size, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?,
+                None,
+            ));
+        }
+        Ok(Self {
+            frusta_pipeline: create_compute(ctx, layout, "light tile frusta", shaders::LIGHT_TILE_FRUSTA_COMP)?,
+            cull_pipeline: create_compute(ctx, layout, "light culling", shaders::LIGHT_CULL_COMP)?,
+            frusta: None,
+            frusta_key: None,
+            tiles: None,
+            tiles_for: (0, 0, 0),
+            list_capacity: 0,
+            shadow: None,
+            shadow_rows: 0,
+            shadow_row_words: 0,
+            readback,
+            latest: LightTileStats { measured_frame: u64::MAX, ..Default::default() },
+            grows: 0,
+            warned_all_shadows: false,
+            res: TileResources {
+                frusta: graph.resource("light tile frusta"),
+                tiles: graph.resource("light tiles"),
+                shadow: graph.resource("shadow bits"),
+                readback: graph.resource("light tile statistics"),
+            },
+        })
+    }
+
+    /// The graph resources.
+    pub fn resources(&self) -> TileResources {
+        self.res
+    }
+
+    /// Reads back the statistics of the frame that last used this frame's slot, sizes the
+    /// buffers for the `request`, and says where everything is. Call before the scene's upload (the
+    /// lighting record carries the addresses).
+    pub fn prepare(&mut self, f: &mut Frame, request: &TileRequest, stats: &mut LightTileStats) -> Result<TileFrame, RenderError> {
+        let TileRequest { method, tile_size, light_slots, proj, shadows } = *request;
+        let ctx = f.ctx;
+        let extent = f.graph.extent();
+        let tiles = (extent.width.div_ceil(tile_size), extent.height.div_ceil(tile_size));
+        let tile_count = tiles.0 * tiles.1;
+        let tile_pixels = tile_size * tile_size;
+        let slot = (f.upload.frame_value % FRAMES_IN_FLIGHT as u64) as usize;
+        let (readback, written_by) = &mut self.readback[slot];
+        let mut rows_needed = 0u64;
+        if let Some(frame) = written_by.take().filter(|&v| v <= f.upload.completed) {
+            let words: &[u32] = bytemuck::cast_slice(&readback.mapped()[..LIGHT_TILE_HEADER as usize * 4]);
+            rows_needed = words[1] as u64;
+            self.latest = LightTileStats {
+                measured_frame: frame,
+                tiles: self.tiles_for.0 as u64 * self.tiles_for.1 as u64,
+                tile_size: self.tiles_for.2 as u64,
+                entries: words[0] as u64,
+                capacity: self.list_capacity as u64,
+                overflowed: words[2] as u64,
+                max_per_tile: words[3] as u64,
+                tiles_used: words[4] as u64,
+                grows: self.grows,
+            };
+        }
+        let (graveyard, frame_value) = (&mut *f.upload.graveyard, f.upload.frame_value);
+        let tiled = method == LightMethod::Tiled;
+        let mut frame = TileFrame { tile_size, tiles, tiled, ..Default::default() };
+
+        if tiled {
+            // The list: room for what the last measured frame needed, and at first for eight
+            // lights a tile (or every light, when there are fewer).
+            let floor = tile_count.saturating_mul(light_slots.min(8)).max(1024);
+            let needed = self.latest.entries.min(u32::MAX as u64 / 2) as u32;
+            let mut capacity = self.list_capacity.max(floor);
+            if needed > capacity {
+                capacity = (needed + needed / 4).next_power_of_two();
+            }
+            if self.tiles.is_none() || capacity != self.list_capacity || self.tiles_for != (tiles.0, tiles.1, tile_size) {
+                if self.tiles.is_some() && capacity != self.list_capacity {
+                    self.grows += 1;
+                }
+                let size = (LIGHT_TILE_HEADER as u64 + 3 * tile_count as u64 + capacity as u64) * 4;
+                let usage = vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::TRANSFER_DST
+                    | vk::BufferUsageFlags::TRANSFER_SRC
+                    | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+                let buffer = Buffer::new(ctx, "light tiles", size, usage, MemoryLocation::GpuOnly)?;
+                if let Some(old) = self.tiles.replace(buffer) {
+                    graveyard.bury(frame_value, Retired::Buffer(old));
+                }
+                let frusta = Buffer::new(
+                    ctx,
+                    "light tile frusta",
+                    tile_count as u64 * std::mem::size_of::<GpuTileFrustum>() as u64,
+                    vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+                    MemoryLocation::GpuOnly,
+                )?;
+                if let Some(old) = self.frusta.replace(frusta) {
+                    graveyard.bury(frame_value, Retired::Buffer(old));
+                    self.frusta_key = None;
+                }
+                self.list_capacity = capacity;
+                self.tiles_for = (tiles.0, tiles.1, tile_size);
+            }
+            let key = (proj.to_cols_array().map(f32::to_bits), extent.width, extent.height, tile_size);
+            frame.rebuild_frusta = self.frusta_key != Some(key);
+            self.frusta_key = Some(key);
+            frame.light_tiles = self.tiles.as_ref().map_or(0, |b| b.address);
+            frame.tile_frusta = self.frusta.as_ref().map_or(0, |b| b.address);
+            frame.list_capacity = self.list_capacity;
+        }
+
+        if shadows {
+            let rows = if tiled {
+                // A row per 32 entries of each tile's list: at first one per tile, then what the
+                // last measured frame needed.
+                let floor = tile_count.max(64);
+                let needed = rows_needed.min(u32::MAX as u64 / 2) as u32;
+                if needed > self.shadow_rows.max(floor) { (needed + needed / 4).next_power_of_two() } else { self.shadow_rows.max(floor) }
+            } else {
+                tile_count * light_slots.div_ceil(32).max(1)
+            };
+            let bytes = rows as u64 * tile_pixels as u64 * 4;
+            if !tiled && bytes > MAX_ALL_LIGHT_SHADOW_BYTES {
+                if !self.warned_all_shadows {
+                    self.warned_all_shadows = true;
+                    tracing::warn!(
+                        lights = light_slots,
+                        "too many lights for shadows without light culling: no shadows (use tiled lights)"
+                    );
+                }
+            } else {
+                if self.shadow.is_none() || rows > self.shadow_rows || tile_pixels != self.shadow_row_words {
+                    let buffer = Buffer::new(
+                        ctx,
+                        "shadow bits",
+                        bytes.max(4),
+                        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+                        MemoryLocation::GpuOnly,
+                    )?;
+                    if let Some(old) = self.shadow.replace(buffer) {
+                        graveyard.bury(frame_value, Retired::Buffer(old));
+                        self.grows += 1;
+                    }
+                    (self.shadow_rows, self.shadow_row_words) = (rows, tile_pixels);
+                }
+                frame.shadows = true;
+                frame.shadow_bits = self.shadow.as_ref().map_or(0, |b| b.address);
+                frame.shadow_rows = self.shadow_rows;
+            }
+        }
+        *stats = LightTileStats {
+            tiles: tile_count as u64,
+            tile_size: tile_size as u64,
+            capacity: frame.list_capacity as u64,
+            grows: self.grows,
+            ..self.latest
+        };
+        Ok(frame)
+    }
+
+    /// Culls the lights into the tiles (when tiled): the frusta when they changed, the grid and
+    /// list from the depth, and a copy of the statistics for the CPU. Needs this frame's depth.
+    pub fn cull(&mut self, f: &mut Frame, scene: &GpuScene, frame: &TileFrame) -> Result<(), RenderError> {
+        if !frame.tiled {
+            return Ok(());
+        }
+        let (Some(tiles), Some(_)) = (self.tiles.as_ref(), self.frusta.as_ref()) else { return Ok(()) };
+        let res = self.res;
+        let tile_count = frame.tiles.0 * frame.tiles.1;
+        if frame.rebuild_frusta {
+            let pipeline = self.frusta_pipeline;
+            f.pass("light_tile_frusta", PassKind::Compute)
+                .read(scene.res.tables, BufferUse::Storage)
+                .write(res.frusta, BufferUse::Storage)
+                .record(|p| {
+                    p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
+                    // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
+                    unsafe { p.ctx.device.cmd_dispatch(p.cmd, tile_count.div_ceil(64), 1, 1) };
+                })?;
+        }
+        let raw = tiles.raw;
+        f.pass("light_tiles_clear", PassKind::Transfer).write(res.tiles, BufferUse::Transfer).record(|p| {
+            // SAFETY: `cmd` is recording outside a rendering scope; the range lies in the buffer.
+            unsafe { p.ctx.device.cmd_fill_buffer(p.cmd, raw, 0, LIGHT_TILE_HEADER as u64 * 4, 0) };
+        })?;
+        let pipeline = self.cull_pipeline;
+        f.pass("light_cull", PassKind::Compute)
+            .sample(&DEPTH)
+            .read(scene.res.tables, BufferUse::Storage)
+            .read(res.frusta, BufferUse::Storage)
+            .write(res.tiles, BufferUse::Storage)
+            .record(|p| {
+                p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
+                // SAFETY: as above.
+                unsafe { p.ctx.device.cmd_dispatch(p.cmd, frame.tiles.0, frame.tiles.1, 1) };
+            })?;
+        let slot = (f.upload.frame_value % FRAMES_IN_FLIGHT as u64) as usize;
+        let (readback, written_by) = &mut self.readback[slot];
+        let target = readback.raw;
+        f.pass("light_tiles_statistics", PassKind::Transfer)
+            .read(res.tiles, BufferUse::Transfer)
+            .write(res.readback, BufferUse::Transfer)
+            .record(|p| {
+                let region = vk::BufferCopy { src_offset: 0, dst_offset: 0, size: LIGHT_TILE_HEADER as u64 * 4 };
+                // SAFETY: `cmd` is recording outside a rendering scope; both ranges lie in their buffers.
+                unsafe { p.ctx.device.cmd_copy_buffer(p.cmd, raw, target, &[region]) };
+            })?;
+        f.hand_over_buffer(res.readback, BufferUse::HostRead);
+        *written_by = Some(f.upload.frame_value);
+        Ok(())
+    }
+
+    /// The light grid and list the last culling wrote (waits for the GPU); `None` before any.
+    pub fn read_back(&self, ctx: &GpuContext, graph: &mut FrameGraph) -> Result<Option<LightTileLists>, RenderError> {
+        let Some(buffer) = self.tiles.as_ref() else { return Ok(None) };
+        let (tx, ty, tile_size) = self.tiles_for;
+        let size = (LIGHT_TILE_HEADER as u64 + 3 * (tx * ty) as u64 + self.list_capacity as u64) * 4;
+        let bytes = graph.read_back_buffer(ctx, self.res.tiles, buffer.raw, size)?;
+        let words: &[u32] = bytemuck::cast_slice(&bytes);
+        let grid_start = LIGHT_TILE_HEADER as usize;
+        let list_start = grid_start + 3 * (tx * ty) as usize;
+        let grid = words[grid_start..list_start].chunks_exact(3).map(|g| [g[0], g[1], g[2]]).collect();
+        Ok(Some(LightTileLists { tile_size, tiles: (tx, ty), grid, list: words[list_start..].to_vec() }))
+    }
+
+    /// Destroys everything; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        for p in [self.frusta_pipeline, self.cull_pipeline] {
+            // SAFETY: the GPU is idle.
+            unsafe { ctx.device.destroy_pipeline(p, None) };
+        }
+        for b in [self.frusta, self.tiles, self.shadow].into_iter().flatten().chain(self.readback.into_iter().map(|(b, _)| b)) {
+            b.destroy(ctx);
+        }
+    }
+}

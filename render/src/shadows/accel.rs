@@ -1,0 +1,508 @@
+//! The scene's acceleration structures, which shadow rays are traced against (seed 001 §4.3
+//! built them once for a static glTF scene; here change detection keeps them): a triangle BLAS
+//! per mesh and one TLAS over the mesh instances.
+//!
+//! - **BLAS per mesh**, built (`PREFER_FAST_TRACE | ALLOW_COMPACTION`) in the frame that uploads
+//!   the mesh, then compacted: the build writes its compacted size into a query, and when that
+//!   frame has finished (two frames later, with no wait) a copy into a structure of that size
+//!   replaces it. A dropped mesh's BLAS goes to the graveyard.
+//! - **TLAS** over every instance slot: instance *i* is slot *i*, its custom index the slot (so
+//!   any-hit shaders find the instance record, its mesh and material), free slots and meshes
+//!   without a BLAS are inactive (a null BLAS reference). The instance records are written on
+//!   the GPU (`shaders/scene_instances.comp`) from the instance table the scene already uploads,
+//!   so the CPU writes nothing per instance. It is *updated* when only transforms changed and
+//!   rebuilt when instances were added or removed or changed mesh or material, when a BLAS
+//!   changed (built, compacted, dropped), or when the updates since the last build add up to the
+//!   instance count (updates keep the tree's topology and it degrades as things move).
+//! - **Alpha-masked materials**: opaque instances get `FORCE_OPAQUE`, masked ones
+//!   `FORCE_NO_OPAQUE`, so shadow rays run the mask test (`shaders/include/alpha_mask.glsl`) on
+//!   exactly the geometry that needs it, and foliage casts foliage-shaped shadows.
+//!
+//! A frame with no change records no acceleration-structure work (`scene_blas_builds`,
+//! `scene_tlas_builds` and `scene_tlas_updates` in the counters say what each frame did).
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use crate::RenderError;
+use crate::gpu::accel::{AccelStruct, Scratch, build_sizes};
+use crate::gpu::device::GpuContext;
+use crate::gpu::memory::{Buffer, Retired};
+use crate::gpu::pipeline::create_compute;
+use crate::gpu::shaders;
+use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
+use crate::scene::gpu::GpuScene;
+use crate::scene::{FrameCounters, GpuVertex, MeshId, SceneMirror};
+
+/// Compacted-size queries that can be pending at once (more new meshes in flight stay
+/// uncompacted).
+const QUERIES: u32 = 256;
+
+struct MeshBlas {
+    accel: AccelStruct,
+    /// The query its compacted size goes to, until it is compacted.
+    query: Option<u32>,
+    /// Frame value whose completion makes the query's result available.
+    built_in: u64,
+    /// Built this frame; the build is recorded after the upload.
+    needs_build: bool,
+    /// A compacted copy made this frame from the structure in the graveyard: (source, dest).
+    compact_from: Option<vk::AccelerationStructureKHR>,
+    primitives: u32,
+}
+
+/// What the scene's structures need this frame, worked out before the upload.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SceneAccelFrame {
+    /// The TLAS's device address (0 without one).
+    pub tlas_address: vk::DeviceAddress,
+    /// The BLAS address table (u64 per mesh) the instance pass reads.
+    pub blas_table: vk::DeviceAddress,
+    /// The TLAS instance records the instance pass writes.
+    pub instances: vk::DeviceAddress,
+    /// Entries of the BLAS table.
+    pub blas_count: u32,
+    work: TlasWork,
+    instance_count: u32,
+}
+
+/// What happens to the TLAS this frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TlasWork {
+    /// Nothing changed.
+    #[default]
+    None,
+    /// Only transforms changed: update in place.
+    Update,
+    /// Instances, meshes or materials changed: full build.
+    Build,
+}
+
+/// Chooses the TLAS work: a build when the `instance_count` differs from the `built` one, when
+/// the instances were `rearranged`, or when updates since the last build reach the instance
+/// count; an update when only transforms `moved` instances; else nothing.
+pub fn plan_tlas_work(built: Option<u32>, instance_count: u32, rearranged: bool, moved: u32, updated_since_build: u64) -> TlasWork {
+    match built {
+        _ if instance_count == 0 => TlasWork::None,
+        None => TlasWork::Build,
+        Some(b) if b != instance_count || rearranged => TlasWork::Build,
+        _ if moved == 0 => TlasWork::None,
+        _ if updated_since_build + moved as u64 >= instance_count as u64 => TlasWork::Build,
+        _ => TlasWork::Update,
+    }
+}
+
+/// The scene's BLASes and TLAS.
+pub struct SceneAccel {
+    blas: Vec<Option<MeshBlas>>,
+    blas_table: Option<Buffer>,
+    blas_table_dirty: bool,
+    tlas: Option<AccelStruct>,
+    tlas_capacity: u32,
+    instances: Option<Buffer>,
+    built: Option<u32>,
+    updated_since_build: u64,
+    pending_rearranged: bool,
+    pending_moved: u32,
+    queries: vk::QueryPool,
+    free_queries: Vec<u32>,
+    scratch: Scratch,
+    instance_pass: vk::Pipeline,
+    res: SceneAccelResources,
+}
+
+/// The frame-graph resources of the scene's structures.
+#[derive(Clone, Copy, Debug)]
+pub struct SceneAccelResources {
+    /// Every mesh's BLAS.
+    pub blas: ResourceId,
+    /// The TLAS.
+    pub tlas: ResourceId,
+    /// The TLAS instance records.
+    pub instances: ResourceId,
+    scratch: ResourceId,
+}
+
+impl SceneAccel {
+    /// Creates the instance pass and the query pool (on devices with acceleration structures;
+    /// `None` elsewhere).
+    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout) -> Result<Option<Self>, RenderError> {
+        if ctx.ray_tracing.is_none() {
+            return Ok(None);
+        }
+        let info =
+            vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR).query_count(QUERIES);
+        // SAFETY: valid create info; destroyed in `destroy`.
+        let queries = unsafe { ctx.device.create_query_pool(&info, None) }?;
+        let instance_pass = match create_compute(ctx, layout, "scene instances", shaders::SCENE_INSTANCES_COMP) {
+            Ok(p) => p,
+            Err(e) => {
+                // SAFETY: unused.
+                unsafe { ctx.device.destroy_query_pool(queries, None) };
+                return Err(e);
+            }
+        };
+        Ok(Some(Self {
+            blas: Vec::new(),
+            blas_table: None,
+            blas_table_dirty: false,
+            tlas: None,
+            tlas_capacity: 0,
+            instances: None,
+            built: None,
+            updated_since_build: 0,
+            pending_rearranged: false,
+            pending_moved: 0,
+            queries,
+            free_queries: (0..QUERIES).rev().collect(),
+            scratch: Scratch::new(ctx, "scene as scratch"),
+            instance_pass,
+            res: SceneAccelResources {
+                blas: graph.resource("scene blas"),
+                tlas: graph.resource("scene tlas"),
+                instances: graph.resource("scene tlas instances"),
+                scratch: graph.resource("scene as scratch"),
+            },
+        }))
+    }
+
+    /// The graph resources a pass that traces the scene reads: the TLAS and every BLAS.
+    pub fn traced(&self) -> [ResourceId; 2] {
+        [self.res.tlas, self.res.blas]
+    }
+
+    /// Follows this frame's changes in `mirror` before the scene's upload (which consumes the
+    /// change marks): frees dropped meshes' BLASes, creates the new meshes' (their builds are
+    /// recorded by [`SceneAccel::record`]), compacts BLASes whose size query has come back, and
+    /// makes room for the instances. Returns the addresses the lighting record needs.
+    pub fn prepare(&mut self, f: &mut Frame, mirror: &mut SceneMirror) -> Result<SceneAccelFrame, RenderError> {
+        let ctx = f.ctx;
+        let (frame_value, completed) = (f.upload.frame_value, f.upload.completed);
+        let graveyard = &mut *f.upload.graveyard;
+        for &id in &mirror.released_meshes {
+            if let Some(old) = self.blas.get_mut(id.0 as usize).and_then(Option::take) {
+                self.free_queries.extend(old.query);
+                old.accel.bury(graveyard, frame_value);
+                self.blas_table_dirty = true;
+            }
+        }
+        for (id, data) in &mirror.pending_meshes {
+            let slot = id.0 as usize;
+            if self.blas.len() <= slot {
+                self.blas.resize_with(slot + 1, || None);
+            }
+            if let Some(old) = self.blas[slot].take() {
+                self.free_queries.extend(old.query);
+                old.accel.bury(graveyard, frame_value);
+            }
+            self.blas_table_dirty = true;
+            let primitives = (data.indices.len() / 3) as u32;
+            if primitives == 0 || data.vertices.is_empty() {
+                continue; // nothing to hit: the instance stays inactive
+            }
+            let geometry = [triangles(0, 0, data.vertices.len() as u32)];
+            let sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, BLAS_FLAGS, &geometry, &[primitives]);
+            let accel =
+                AccelStruct::new(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, sizes.acceleration_structure_size, "mesh blas")?;
+            self.blas[slot] = Some(MeshBlas {
+                accel,
+                query: self.free_queries.pop(),
+                built_in: frame_value,
+                needs_build: true,
+                compact_from: None,
+                primitives,
+            });
+        }
+        // Compactions whose sizes are known: the copies are recorded this frame.
+        for (slot, entry) in self.blas.iter_mut().enumerate() {
+            let Some(b) = entry else { continue };
+            let Some(query) = b.query.filter(|_| b.built_in <= completed && !b.needs_build) else { continue };
+            let mut size = [0u64];
+            // SAFETY: the query was written by a frame that has completed.
+            let got = unsafe { ctx.device.get_query_pool_results(self.queries, query, &mut size, vk::QueryResultFlags::TYPE_64) };
+            self.free_queries.push(query);
+            b.query = None;
+            if got.is_err() || size[0] == 0 || size[0] >= b.accel.buffer.size {
+                continue;
+            }
+            let compact = AccelStruct::new(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, size[0], "mesh blas (compacted)")?;
+            let old = std::mem::replace(&mut b.accel, compact);
+            b.compact_from = Some(old.raw);
+            old.bury(graveyard, frame_value);
+            self.blas_table_dirty = true;
+            tracing::trace!(mesh = slot, bytes = size[0], "mesh blas compacted");
+        }
+        if std::mem::take(&mut self.blas_table_dirty) {
+            let table: Vec<u64> = self.blas.iter().map(|b| b.as_ref().map_or(0, |b| b.accel.address)).collect();
+            let bytes: &[u8] = bytemuck::cast_slice(&table);
+            let mut buffer = Buffer::new(
+                ctx,
+                "scene blas table",
+                (bytes.len() as u64).max(8),
+                vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+                MemoryLocation::CpuToGpu,
+            )?;
+            buffer.mapped()[..bytes.len()].copy_from_slice(bytes);
+            if let Some(old) = self.blas_table.replace(buffer) {
+                graveyard.bury(frame_value, Retired::Buffer(old));
+            }
+            self.pending_rearranged = true;
+        }
+
+        // The instances: what changed, and room for them.
+        self.pending_rearranged |= mirror.take_instances_rearranged() || mirror.materials.dirty_count() > 0;
+        self.pending_moved += mirror.instances.dirty_count() as u32;
+        let count = mirror.instances.slot_count();
+        let work = plan_tlas_work(self.built, count, self.pending_rearranged, self.pending_moved, self.updated_since_build);
+        if count > self.tlas_capacity {
+            let capacity = count.next_power_of_two().max(64);
+            let geometry = [tlas_geometry(0)];
+            let sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::TOP_LEVEL, TLAS_FLAGS, &geometry, &[capacity]);
+            let tlas = AccelStruct::new(ctx, vk::AccelerationStructureTypeKHR::TOP_LEVEL, sizes.acceleration_structure_size, "scene tlas")?;
+            if let Some(old) = self.tlas.replace(tlas) {
+                old.bury(graveyard, frame_value);
+            }
+            let instances = Buffer::new(
+                ctx,
+                "scene tlas instances",
+                capacity as u64 * std::mem::size_of::<vk::AccelerationStructureInstanceKHR>() as u64,
+                vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
+                    | vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR,
+                MemoryLocation::GpuOnly,
+            )?;
+            if let Some(old) = self.instances.replace(instances) {
+                graveyard.bury(frame_value, Retired::Buffer(old));
+            }
+            self.tlas_capacity = capacity;
+            self.built = None; // a new structure: the next work is a build
+        }
+        let work = if self.built.is_none() && count > 0 { TlasWork::Build } else { work };
+        Ok(SceneAccelFrame {
+            tlas_address: if self.built.is_some() || work == TlasWork::Build { self.tlas.as_ref().map_or(0, |t| t.address) } else { 0 },
+            blas_table: self.blas_table.as_ref().map_or(0, |b| b.address),
+            instances: self.instances.as_ref().map_or(0, |b| b.address),
+            blas_count: self.blas.len() as u32,
+            work,
+            instance_count: count,
+        })
+    }
+
+    /// Records this frame's work after the upload: new meshes' BLAS builds and their size
+    /// queries, compaction copies, the instance records and the TLAS build or update.
+    pub fn record(
+        &mut self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        frame: &SceneAccelFrame,
+        counters: &mut FrameCounters,
+    ) -> Result<(), RenderError> {
+        let ctx = f.ctx;
+        let Some(rt) = ctx.ray_tracing.as_ref() else { return Ok(()) };
+        let asx = &rt.acceleration_structure;
+        let (graveyard, frame_value) = (&mut *f.upload.graveyard, f.upload.frame_value);
+
+        // New BLASes, each with its own piece of scratch.
+        let mut builds: Vec<(usize, u64)> = Vec::new();
+        let mut scratch_need = 0u64;
+        for (slot, b) in self.blas.iter().enumerate() {
+            let Some(b) = b.as_ref().filter(|b| b.needs_build) else { continue };
+            let Some(mesh) = scene.mesh(MeshId(slot as u32)) else { continue };
+            let geometry = [triangles(mesh.buffer.address, mesh.buffer.address + mesh.index_offset, mesh.vertex_count)];
+            let sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, BLAS_FLAGS, &geometry, &[b.primitives]);
+            builds.push((slot, scratch_need));
+            scratch_need += sizes.build_scratch_size.next_multiple_of(256);
+        }
+        let tlas_sizes =
+            build_sizes(ctx, vk::AccelerationStructureTypeKHR::TOP_LEVEL, TLAS_FLAGS, &[tlas_geometry(0)], &[frame.instance_count.max(1)]);
+        let scratch_need = scratch_need.max(tlas_sizes.build_scratch_size).max(tlas_sizes.update_scratch_size);
+        let scratch = if builds.is_empty() && frame.work == TlasWork::None {
+            0
+        } else {
+            self.scratch.ensure(ctx, graveyard, frame_value, scratch_need)?
+        };
+        let res = self.res;
+        if !builds.is_empty() {
+            let (blas, queries) = (&self.blas, self.queries);
+            f.pass("scene_blas_build", PassKind::AccelBuild)
+                .read(scene.res.meshes, BufferUse::BuildInput)
+                .write(res.blas, BufferUse::Accel)
+                .write(res.scratch, BufferUse::Accel)
+                .record(|p| {
+                    for &(slot, offset) in &builds {
+                        let b = blas[slot].as_ref().expect("listed above");
+                        let mesh = scene.mesh(MeshId(slot as u32)).expect("listed above");
+                        let geometry = [triangles(mesh.buffer.address, mesh.buffer.address + mesh.index_offset, mesh.vertex_count)];
+                        let info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+                            .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
+                            .flags(BLAS_FLAGS)
+                            .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
+                            .dst_acceleration_structure(b.accel.raw)
+                            .geometries(&geometry)
+                            .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch + offset });
+                        let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(b.primitives)];
+                        // SAFETY: `cmd` is recording; the mesh buffer was uploaded earlier this
+                        // frame (declared); each build has its own scratch range.
+                        unsafe { asx.cmd_build_acceleration_structures(p.cmd, &[info], &[&ranges[..]]) };
+                    }
+                })?;
+            f.pass("scene_blas_query", PassKind::AccelBuild).read(res.blas, BufferUse::Accel).record(|p| {
+                for &(slot, _) in &builds {
+                    let b = blas[slot].as_ref().expect("listed above");
+                    let Some(query) = b.query else { continue };
+                    // SAFETY: `cmd` is recording outside a rendering scope; the BLAS was built
+                    // above (the declaration orders the build before this read).
+                    unsafe {
+                        p.ctx.device.cmd_reset_query_pool(p.cmd, queries, query, 1);
+                        asx.cmd_write_acceleration_structures_properties(
+                            p.cmd,
+                            &[b.accel.raw],
+                            vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR,
+                            queries,
+                            query,
+                        );
+                    }
+                }
+            })?;
+            counters.scene_blas_builds += builds.len() as u64;
+        }
+        for &(slot, _) in &builds {
+            let b = self.blas[slot].as_mut().expect("listed above");
+            b.needs_build = false;
+            b.built_in = frame_value;
+        }
+        let compactions: Vec<(vk::AccelerationStructureKHR, vk::AccelerationStructureKHR)> =
+            self.blas.iter_mut().flatten().filter_map(|b| b.compact_from.take().map(|src| (src, b.accel.raw))).collect();
+        if !compactions.is_empty() {
+            f.pass("scene_blas_compact", PassKind::AccelBuild).write(res.blas, BufferUse::Accel).record(|p| {
+                for &(src, dst) in &compactions {
+                    let info = vk::CopyAccelerationStructureInfoKHR::default()
+                        .src(src)
+                        .dst(dst)
+                        .mode(vk::CopyAccelerationStructureModeKHR::COMPACT);
+                    // SAFETY: `cmd` is recording; the source is alive until this frame completes
+                    // (in the graveyard) and was built by a completed frame.
+                    unsafe { asx.cmd_copy_acceleration_structure(p.cmd, &info) };
+                }
+            })?;
+            counters.scene_blas_compactions += compactions.len() as u64;
+        }
+
+        if frame.work == TlasWork::None {
+            return Ok(());
+        }
+        let (tlas, count) = (self.tlas.as_ref().expect("allocated in prepare"), frame.instance_count);
+        let pipeline = self.instance_pass;
+        f.pass("scene_instances", PassKind::Compute)
+            .read(scene.res.tables, BufferUse::Storage)
+            .write(res.instances, BufferUse::Storage)
+            .record(|p| {
+                p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
+                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
+                unsafe { p.ctx.device.cmd_dispatch(p.cmd, count.div_ceil(64), 1, 1) };
+            })?;
+        let update = frame.work == TlasWork::Update;
+        let instances = frame.instances;
+        f.pass(if update { "scene_tlas_update" } else { "scene_tlas_build" }, PassKind::AccelBuild)
+            .read(res.instances, BufferUse::BuildInput)
+            .read(res.blas, BufferUse::Accel)
+            .write(res.tlas, BufferUse::Accel)
+            .write(res.scratch, BufferUse::Accel)
+            .record(|p| {
+                let geometry = [tlas_geometry(instances)];
+                let mut info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+                    .ty(vk::AccelerationStructureTypeKHR::TOP_LEVEL)
+                    .flags(TLAS_FLAGS)
+                    .mode(if update { vk::BuildAccelerationStructureModeKHR::UPDATE } else { vk::BuildAccelerationStructureModeKHR::BUILD })
+                    .dst_acceleration_structure(tlas.raw)
+                    .geometries(&geometry)
+                    .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch });
+                if update {
+                    info = info.src_acceleration_structure(tlas.raw);
+                }
+                let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
+                // SAFETY: `cmd` is recording; the instance records were written by the pass above
+                // (declared); the TLAS was sized for at least `count` instances.
+                unsafe { asx.cmd_build_acceleration_structures(p.cmd, &[info], &[&ranges[..]]) };
+            })?;
+        if update {
+            counters.scene_tlas_updates += 1;
+            self.updated_since_build += self.pending_moved as u64;
+        } else {
+            counters.scene_tlas_builds += 1;
+            self.updated_since_build = 0;
+            self.built = Some(count);
+        }
+        self.pending_moved = 0;
+        self.pending_rearranged = false;
+        Ok(())
+    }
+
+    /// Destroys everything; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        for b in self.blas.into_iter().flatten() {
+            b.accel.destroy(ctx);
+        }
+        if let Some(t) = self.tlas {
+            t.destroy(ctx);
+        }
+        for b in [self.blas_table, self.instances].into_iter().flatten() {
+            b.destroy(ctx);
+        }
+        self.scratch.destroy(ctx);
+        // SAFETY: the GPU is idle.
+        unsafe {
+            ctx.device.destroy_query_pool(self.queries, None);
+            ctx.device.destroy_pipeline(self.instance_pass, None);
+        }
+    }
+}
+
+const BLAS_FLAGS: vk::BuildAccelerationStructureFlagsKHR = vk::BuildAccelerationStructureFlagsKHR::from_raw(
+    vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE.as_raw() | vk::BuildAccelerationStructureFlagsKHR::ALLOW_COMPACTION.as_raw(),
+);
+const TLAS_FLAGS: vk::BuildAccelerationStructureFlagsKHR = vk::BuildAccelerationStructureFlagsKHR::from_raw(
+    vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE.as_raw() | vk::BuildAccelerationStructureFlagsKHR::ALLOW_UPDATE.as_raw(),
+);
+
+/// A mesh's triangles as a BLAS geometry: positions at the start of each [`GpuVertex`], 32-bit
+/// indices. Not opaque: each instance's flags decide (masked materials run the any-hit test).
+fn triangles(vertices: vk::DeviceAddress, indices: vk::DeviceAddress, vertex_count: u32) -> vk::AccelerationStructureGeometryKHR<'static> {
+    vk::AccelerationStructureGeometryKHR::default()
+        .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
+        .geometry(vk::AccelerationStructureGeometryDataKHR {
+            triangles: vk::AccelerationStructureGeometryTrianglesDataKHR::default()
+                .vertex_format(vk::Format::R32G32B32_SFLOAT)
+                .vertex_data(vk::DeviceOrHostAddressConstKHR { device_address: vertices })
+                .vertex_stride(std::mem::size_of::<GpuVertex>() as u64)
+                .max_vertex(vertex_count.saturating_sub(1))
+                .index_type(vk::IndexType::UINT32)
+                .index_data(vk::DeviceOrHostAddressConstKHR { device_address: indices }),
+        })
+        .flags(vk::GeometryFlagsKHR::NO_DUPLICATE_ANY_HIT_INVOCATION)
+}
+
+fn tlas_geometry(instances: vk::DeviceAddress) -> vk::AccelerationStructureGeometryKHR<'static> {
+    vk::AccelerationStructureGeometryKHR::default().geometry_type(vk::GeometryTypeKHR::INSTANCES).geometry(
+        vk::AccelerationStructureGeometryDataKHR {
+            instances: vk::AccelerationStructureGeometryInstancesDataKHR::default()
+                .data(vk::DeviceOrHostAddressConstKHR { device_address: instances }),
+        },
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tlas_policy() {
+        assert_eq!(plan_tlas_work(None, 0, false, 0, 0), TlasWork::None, "nothing to build over");
+        assert_eq!(plan_tlas_work(None, 5, false, 0, 0), TlasWork::Build, "first use builds");
+        assert_eq!(plan_tlas_work(Some(5), 5, false, 0, 0), TlasWork::None, "a still scene does nothing");
+        assert_eq!(plan_tlas_work(Some(5), 5, false, 1, 0), TlasWork::Update, "a move updates");
+        assert_eq!(plan_tlas_work(Some(5), 6, false, 1, 0), TlasWork::Build, "a spawn rebuilds");
+        assert_eq!(plan_tlas_work(Some(5), 5, true, 1, 0), TlasWork::Build, "a new mesh or material rebuilds");
+        assert_eq!(plan_tlas_work(Some(5), 5, false, 1, 4), TlasWork::Build, "updates degrade the tree: rebuild");
+    }
+}

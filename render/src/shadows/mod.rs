@@ -1,0 +1,165 @@
+//! Ray-traced hard shadows (seed 001 §4.3) for point, spot and directional lights, as one pass
+//! that serves every pipeline because it works from depth alone: per pixel, the world position
+//! and the normal come from depth (naive 3-tap or improved 5-tap reconstruction, §4.3.1), and a
+//! shadow ray goes towards each light of the pixel's list that can reach it, unless shadow-ray
+//! culling finds the normal facing away. The result is a visibility bit per pixel and list entry
+//! (`shaders/include/shadow_pass.glsl`, `light_tiles.glsl`), which shading reads in every
+//! pipeline.
+//!
+//! - **Ray-query tier**: a compute pass with ray queries (`shaders/shadows.comp`), as the seed
+//!   wrote it.
+//! - **Ray-tracing-pipeline tier** (the lent GPUs, which have no ray queries): a ray-generation
+//!   pass (`shaders/shadows.rgen`) whose rays skip closest-hit shaders, end at the first hit, and
+//!   mark themselves unblocked in the miss shader.
+//! - **Alpha-masked materials** are non-opaque instances in the scene TLAS ([`accel`]); their
+//!   candidate hits run the mask test (`shaders/include/alpha_mask.glsl`) in the ray-query loop
+//!   or the any-hit shader.
+//! - **No ray tracing**: no shadows (`"shadows":"none"` in `--stats`) until the shadow maps of
+//!   the transparency work exist.
+
+pub mod accel;
+
+use ash::vk;
+
+use crate::RenderError;
+use crate::gpu::device::{GpuContext, Tier};
+use crate::gpu::pipeline::{RayTracingDesc, RayTracingPipeline, create_compute};
+use crate::gpu::shaders;
+use crate::graph::targets::{DEPTH, SHADOW_DEBUG};
+use crate::graph::{BufferUse, Frame, ImageUse, PassKind, ResourceId};
+use crate::scene::gpu::GpuScene;
+use crate::settings::ShadowMethod;
+
+/// The shadow passes this device can run.
+pub struct ShadowPass {
+    ray_query: Option<vk::Pipeline>,
+    ray_pipeline: Option<RayTracingPipeline>,
+}
+
+/// What the shadow pass reads and writes this frame.
+#[derive(Clone, Copy, Debug)]
+pub struct ShadowInputs {
+    /// How the rays are traced.
+    pub method: ShadowMethod,
+    /// The scene TLAS and BLASes.
+    pub traced: [ResourceId; 2],
+    /// The light tile buffer, when lights are tiled.
+    pub light_tiles: Option<ResourceId>,
+    /// The shadow words it writes.
+    pub shadow_bits: ResourceId,
+    /// Whether it also writes the shadow debug image.
+    pub debug: bool,
+}
+
+impl ShadowPass {
+    /// Creates the passes the device supports.
+    pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
+        let ray_query = if ctx.tier == Tier::RayQuery {
+            Some(create_compute(ctx, layout, "shadows (ray query)", shaders::SHADOWS_COMP)?)
+        } else {
+            None
+        };
+        let ray_pipeline = if ctx.decal_support().ray_pipeline {
+            match RayTracingPipeline::new(
+                ctx,
+                layout,
+                &RayTracingDesc {
+                    name: "shadows (ray-tracing pipeline)",
+                    raygen: &[shaders::SHADOWS_RGEN],
+                    miss: shaders::SHADOWS_RMISS,
+                    intersection: None,
+                    any_hit: shaders::SHADOWS_RAHIT,
+                },
+            ) {
+                Ok(p) => Some(p),
+                Err(e) => {
+                    if let Some(p) = ray_query {
+                        // SAFETY: unused.
+                        unsafe { ctx.device.destroy_pipeline(p, None) };
+                    }
+                    return Err(e);
+                }
+            }
+        } else {
+            None
+        };
+        Ok(Self { ray_query, ray_pipeline })
+    }
+
+    /// How shadows are traced on this device: ray queries where it has them, else the
+    /// ray-tracing pipeline, else none.
+    pub fn method(&self) -> ShadowMethod {
+        if self.ray_query.is_some() {
+            ShadowMethod::RayQuery
+        } else if self.ray_pipeline.is_some() {
+            ShadowMethod::RayPipeline
+        } else {
+            ShadowMethod::None
+        }
+    }
+
+    /// Whether this device can trace shadows with `method`.
+    pub fn supports(&self, method: ShadowMethod) -> bool {
+        match method {
+            ShadowMethod::RayQuery => self.ray_query.is_some(),
+            ShadowMethod::RayPipeline => self.ray_pipeline.is_some(),
+            ShadowMethod::None => true,
+        }
+    }
+
+    /// Traces this frame's shadow rays into the shadow words. Needs this frame's depth and, when
+    /// lights are tiled, the culled lists.
+    pub fn record(&self, f: &mut Frame, scene: &GpuScene, inputs: &ShadowInputs) -> Result<(), RenderError> {
+        if inputs.method == ShadowMethod::None {
+            return Ok(());
+        }
+        if !self.supports(inputs.method) {
+            return Err(unsupported(inputs.method));
+        }
+        let extent = f.graph.extent();
+        let kind = if inputs.method == ShadowMethod::RayPipeline { PassKind::RayTracing } else { PassKind::Compute };
+        let name = if kind == PassKind::RayTracing { "shadows_ray_pipeline" } else { "shadows_ray_query" };
+        let pass = f
+            .pass(name, kind)
+            .sample(&DEPTH)
+            .reads(scene.res.shaded())
+            .read(scene.res.meshes, BufferUse::Storage)
+            .reads(inputs.traced.map(|a| (a, BufferUse::Accel)))
+            .reads(inputs.light_tiles.map(|t| (t, BufferUse::Storage)))
+            .write(inputs.shadow_bits, BufferUse::Storage)
+            .when(inputs.debug, |p| p.image(&SHADOW_DEBUG, ImageUse::StorageWrite));
+        match inputs.method {
+            ShadowMethod::RayPipeline => {
+                let rt = self.ray_pipeline.as_ref().ok_or_else(|| unsupported(inputs.method))?;
+                pass.record(|p| {
+                    p.bind(vk::PipelineBindPoint::RAY_TRACING_KHR, rt.pipeline, &p.push);
+                    rt.trace(p.ctx, p.cmd, 0, extent);
+                })
+            }
+            ShadowMethod::RayQuery => {
+                let pipeline = self.ray_query.ok_or_else(|| unsupported(inputs.method))?;
+                pass.record(|p| {
+                    p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
+                    // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
+                    unsafe { p.ctx.device.cmd_dispatch(p.cmd, extent.width.div_ceil(8), extent.height.div_ceil(8), 1) };
+                })
+            }
+            ShadowMethod::None => Ok(()),
+        }
+    }
+
+    /// Destroys the pipelines; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        if let Some(p) = self.ray_query {
+            // SAFETY: the GPU is idle.
+            unsafe { ctx.device.destroy_pipeline(p, None) };
+        }
+        if let Some(rt) = self.ray_pipeline {
+            rt.destroy(ctx);
+        }
+    }
+}
+
+fn unsupported(method: ShadowMethod) -> RenderError {
+    RenderError::Other(format!("shadows by {} were asked for without their pipeline", method.name()))
+}

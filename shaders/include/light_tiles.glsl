@@ -1,0 +1,102 @@
+// Tiled light culling (seed 001 §4.2) and the shadow bits (§4.3), as every pass that reads them
+// sees them. The light tile buffer (32-bit words, GpuLighting::light_tiles):
+//   [0, LIGHT_TILE_HEADER)   statistics (below), read back by the CPU
+//   grid[tiles] × 3          per tile: offset into the list, count, first shadow row
+//   list[list_capacity]      light slots, tile after tile (the seed's light index list)
+// A tile's count with LIGHT_TILE_OVERFLOW set did not fit the list: its pixels loop over every
+// light, unshadowed, until the renderer grows the buffer (two frames later); a tile whose first
+// shadow row is NO_SHADOW_ROWS got list entries but no shadow words. Both are counted.
+//
+// Shadow words (GpuLighting::shadow_bits): a row is one 32-bit word per pixel of a tile, for 32
+// entries of its list; bit k of the word of pixel p in row r + j/32 says whether list entry
+// j = 32·(j/32) + k reaches p unblocked. With every light (LIGHTS_ALL) tile t has the rows
+// t·⌈lights/32⌉ onwards. The seed stored one 32-bit word per pixel and so capped a tile at 32
+// lights; rows lift the cap.
+#ifndef LIGHT_TILES_GLSL
+#define LIGHT_TILES_GLSL
+
+#include "scene.glsl"
+
+layout(buffer_reference, std430, buffer_reference_align = 4) buffer LightTileWordsRef { uint words[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer TileFrustaRef { GpuTileFrustum frusta[]; };
+layout(buffer_reference, std430, buffer_reference_align = 4) buffer ShadowWordsRef { uint words[]; };
+
+const uint LSTAT_ENTRIES = 0u;      // list entries the tiles needed
+const uint LSTAT_ROWS = 1u;         // shadow rows the tiles needed
+const uint LSTAT_OVERFLOWED = 2u;   // tiles whose list or shadow rows did not fit
+const uint LSTAT_MAX = 3u;          // most lights in one tile
+const uint LSTAT_TILES_USED = 4u;   // tiles holding any light
+const uint NO_SHADOW_ROWS = 0xFFFFFFFFu;
+
+uint tile_pixels() {
+    uint ts = scene.lighting.lighting.tile_size;
+    return ts * ts;
+}
+
+uint tile_of(ivec2 px) {
+    uvec2 t = uvec2(px) / scene.lighting.lighting.tile_size;
+    return t.y * scene.lighting.lighting.tiles_x + t.x;
+}
+
+uint pixel_in_tile(ivec2 px) {
+    uint ts = scene.lighting.lighting.tile_size;
+    uvec2 p = uvec2(px) % ts;
+    return p.y * ts + p.x;
+}
+
+uint grid_at(uint tile) { return LIGHT_TILE_HEADER + 3u * tile; }
+uint list_at() {
+    GpuLighting l = scene.lighting.lighting;
+    return LIGHT_TILE_HEADER + 3u * l.tiles_x * l.tiles_y;
+}
+
+LightTileWordsRef light_tile_words() { return LightTileWordsRef(scene.lighting.lighting.light_tiles); }
+
+// The lights a pixel loops over: list entries [0, count), through the tile's list when
+// `indexed`, else light slots 0..count; `rows` is the first shadow row (NO_SHADOW_ROWS: none).
+struct LightList {
+    uint offset;
+    uint count;
+    bool indexed;
+    uint rows;
+};
+
+LightList light_list(ivec2 px) {
+    GpuLighting l = scene.lighting.lighting;
+    LightList r;
+    uint tile = tile_of(px);
+    bool traced = (l.flags & SHADOWS_TRACED) != 0u;
+    if (l.mode == LIGHTS_TILED) {
+        uint g = grid_at(tile);
+        LightTileWordsRef w = light_tile_words();
+        uint count = w.words[g + 1u];
+        if ((count & LIGHT_TILE_OVERFLOW) != 0u) {
+            r.offset = 0u;
+            r.count = scene.light_count;
+            r.indexed = false;
+            r.rows = NO_SHADOW_ROWS;
+        } else {
+            r.offset = w.words[g];
+            r.count = count;
+            r.indexed = true;
+            r.rows = traced ? w.words[g + 2u] : NO_SHADOW_ROWS;
+        }
+    } else {
+        r.offset = 0u;
+        r.count = scene.light_count;
+        r.indexed = false;
+        r.rows = traced ? tile * ((scene.light_count + 31u) / 32u) : NO_SHADOW_ROWS;
+    }
+    return r;
+}
+
+uint light_slot(LightList list, uint j) {
+    return list.indexed ? light_tile_words().words[list_at() + list.offset + j] : j;
+}
+
+// Index of the shadow word holding entry j (and the 31 after it in its row) for pixel `px`.
+uint shadow_word_at(LightList list, uint j, ivec2 px) {
+    return (list.rows + j / 32u) * tile_pixels() + pixel_in_tile(px);
+}
+
+#endif
