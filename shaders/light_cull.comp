@@ -143,10 +143,13 @@ void main() {
         if (count > 0u) {
             offset = atomicAdd(w.words[LSTAT_ENTRIES], count);
             fits = offset + count <= l.list_capacity;
-            uint row_count = (count + 31u) / 32u;
-            uint row = atomicAdd(w.words[LSTAT_ROWS], row_count);
-            if (row + row_count <= l.shadow_rows) rows = row;
-            if (!fits || rows == NO_SHADOW_ROWS) atomicAdd(w.words[LSTAT_OVERFLOWED], 1u);
+            bool shadows = (l.flags & SHADOWS_TRACED) != 0u;
+            if (shadows) {
+                uint row_count = (count + 31u) / 32u;
+                uint row = atomicAdd(w.words[LSTAT_ROWS], row_count);
+                if (row + row_count <= l.shadow_rows) rows = row;
+            }
+            if (!fits || (shadows && rows == NO_SHADOW_ROWS)) atomicAdd(w.words[LSTAT_OVERFLOWED], 1u);
             atomicMax(w.words[LSTAT_MAX], count);
             atomicAdd(w.words[LSTAT_TILES_USED], 1u);
         }

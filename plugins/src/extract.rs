@@ -38,6 +38,13 @@ pub struct MirrorSlots {
     pub default_material: u32,
 }
 
+impl MirrorSlots {
+    /// The light-table slot of a light entity, once extracted.
+    pub fn light_slot(&self, entity: Entity) -> Option<u32> {
+        self.lights.get(&entity).copied()
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 struct DrawFlags {
     alpha_mask: bool,

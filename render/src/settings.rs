@@ -328,6 +328,24 @@ mod tests {
     use super::*;
 
     #[test]
+    fn light_settings_round_to_the_tile_sizes_and_forward_plus_is_always_tiled() {
+        let tile = |tile_size| LightSettings { tile_size, ..Default::default() }.tile();
+        assert_eq!(
+            [tile(0), tile(8), tile(11), tile(12), tile(16), tile(23), tile(24), tile(32), tile(1000)],
+            [8, 8, 8, 16, 16, 16, 32, 32, 32]
+        );
+        for p in PipelineKind::ALL {
+            let expected = if p == PipelineKind::ForwardPlus { LightMethod::Tiled } else { LightMethod::All };
+            assert_eq!(LightMethod::All.effective(p), expected);
+            assert_eq!(LightMethod::Tiled.effective(p), LightMethod::Tiled);
+            assert_eq!(PipelineKind::from_name(p.name()), Some(p));
+        }
+        for m in LightMethod::ALL {
+            assert_eq!(LightMethod::from_name(m.name()), Some(m));
+        }
+    }
+
+    #[test]
     fn the_applied_decal_method_is_the_best_one_the_device_can_run() {
         use DecalMethod::*;
         use PipelineKind::*;

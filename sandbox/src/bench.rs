@@ -7,6 +7,12 @@
 //! | `few-blended-decals` | §5.2.2: Sun Temple, 6 large decals in two groups (weights 1, 100, 1000), 3 lights | two groups of sigil, leaves and puddle (weights 1, 100, 1000; the left group's puddle in channel 1), 4 m wide, filling a downward view; the courtyard's 5 lights |
 //! | `decals-and-lights` | §5.2.3: Bistro, 100 puddle decals, 28 lights | 100 puddles (cubical boxes, 1.5–3 m) on the ground, 28 point and spot lights |
 //! | `many-decals` | §5.2.4: Emerald Square, 100,000 leaf decals on the ground, 1 light | 100,000 leaf decals (0.2–0.6 m) on the ground, the sun alone |
+//! | `ten-point-lights` | seed 001 §5: Sponza, ten point lights of varied intensity, colour and range, a fixed central camera | the courtyard with its lights replaced by ten point lights (5–60 cd, ranges from eq. 4.1 or 6–14 m) around the fountain, the courtyard's camera |
+//! | `many-lights` | seed 000 §5.2.5: Emerald Square, 28,587 small point lights, no decals | 28,587 small point lights (0.05–0.4 cd, eq. 4.1 ranges of 1.6–4.5 m) over the courtyard's ground and walls, the sun |
+//!
+//! The courtyard stands in for the seeds' scenes (Sponza, Emerald Square, Bistro), which are not
+//! among the models this project may use; the counts and kinds of lights and decals are the
+//! seeds'.
 
 use anyhow::{Result, bail};
 use bevy_ecs::prelude::*;
@@ -30,6 +36,10 @@ pub enum BenchScene {
     DecalsAndLights,
     /// Seed 000 §5.2.4.
     ManyDecals,
+    /// Seed 001 §5 (Tables 5.1 and 5.2).
+    TenPointLights,
+    /// Seed 000 §5.2.5.
+    ManyLights,
 }
 
 impl BenchScene {
@@ -39,7 +49,9 @@ impl BenchScene {
             "few-blended-decals" => BenchScene::FewBlendedDecals,
             "decals-and-lights" => BenchScene::DecalsAndLights,
             "many-decals" => BenchScene::ManyDecals,
-            _ => bail!("unknown bench scene {name:?} (few-blended-decals, decals-and-lights, many-decals)"),
+            "ten-point-lights" => BenchScene::TenPointLights,
+            "many-lights" => BenchScene::ManyLights,
+            _ => bail!("unknown bench scene {name:?} (few-blended-decals, decals-and-lights, many-decals, ten-point-lights, many-lights)"),
         })
     }
 }
@@ -119,11 +131,56 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
                 })
                 .collect();
             world.spawn_batch(batch);
-            let lights: Vec<Entity> = world.query_filtered::<Entity, Or<(With<PointLight>, With<SpotLight>)>>().iter(world).collect();
-            for e in lights {
+            despawn_local_lights(world);
+        }
+        BenchScene::TenPointLights => {
+            despawn_local_lights(world);
+            let sun: Vec<Entity> = world.query_filtered::<Entity, With<DirectionalLight>>().iter(world).collect();
+            for e in sun {
                 world.despawn(e);
             }
+            for i in 0..10 {
+                let angle = i as f32 / 10.0 * std::f32::consts::TAU + 0.3;
+                let radius = if i % 2 == 0 { 6.0 } else { 11.0 };
+                let colour = Vec3::new(1.0, 0.6 + 0.4 * rng.next_f32(), 0.4 + 0.6 * rng.next_f32());
+                let intensity = rng.range_f32(5.0, 60.0);
+                let range = if i % 3 == 0 { Some(rng.range_f32(6.0, 14.0)) } else { None };
+                world.spawn((
+                    PointLight { color: colour, intensity, range },
+                    Transform::from_xyz(angle.cos() * radius, rng.range_f32(0.8, 3.5), angle.sin() * radius),
+                ));
+            }
         }
+        BenchScene::ManyLights => {
+            despawn_local_lights(world);
+            let batch: Vec<_> = (0..MANY_LIGHTS)
+                .map(|i| {
+                    let colour = Vec3::new(rng.range_f32(0.3, 1.0), rng.range_f32(0.3, 1.0), rng.range_f32(0.3, 1.0));
+                    let light = PointLight { color: colour, intensity: rng.range_f32(0.05, 0.4), range: None };
+                    // Two in three over the ground, the rest along the walls.
+                    let at = if i % 3 != 2 {
+                        Vec3::new(rng.range_f32(-21.0, 21.0), rng.range_f32(0.2, 1.5), rng.range_f32(-21.0, 21.0))
+                    } else {
+                        let along = rng.range_f32(-21.0, 21.0);
+                        let side = if rng.next_f32() < 0.5 { -21.5 } else { 21.5 };
+                        let y = rng.range_f32(0.5, 5.5);
+                        if i % 2 == 0 { Vec3::new(along, y, side) } else { Vec3::new(side, y, along) }
+                    };
+                    (light, Transform::from_translation(at))
+                })
+                .collect();
+            world.spawn_batch(batch);
+        }
+    }
+}
+
+/// Point lights in seed 000 §5.2.5's many-lights scene.
+pub const MANY_LIGHTS: usize = 28_587;
+
+fn despawn_local_lights(world: &mut World) {
+    let lights: Vec<Entity> = world.query_filtered::<Entity, Or<(With<PointLight>, With<SpotLight>)>>().iter(world).collect();
+    for e in lights {
+        world.despawn(e);
     }
 }
 
@@ -133,9 +190,13 @@ mod tests {
 
     #[test]
     fn scenes_have_the_seed_scenarios_counts() {
-        for (scene, decals, lights) in
-            [(BenchScene::FewBlendedDecals, 6, 5), (BenchScene::DecalsAndLights, 100, 28), (BenchScene::ManyDecals, 100_000, 1)]
-        {
+        for (scene, decals, lights) in [
+            (BenchScene::FewBlendedDecals, 6, 5),
+            (BenchScene::DecalsAndLights, 100, 28),
+            (BenchScene::ManyDecals, 100_000, 1),
+            (BenchScene::TenPointLights, 0, 10),
+            (BenchScene::ManyLights, 0, MANY_LIGHTS + 1),
+        ] {
             let mut app = engine::app::App::new();
             app.add_plugins(plugins::RenderPlugin::new(Default::default()));
             spawn_bench_scene(&mut app.world, scene);

@@ -222,6 +222,8 @@ impl SceneAccel {
             let got = unsafe { ctx.device.get_query_pool_results(self.queries, query, &mut size, vk::QueryResultFlags::TYPE_64) };
             self.free_queries.push(query);
             b.query = None;
+            // Copy only when it saves memory (lavapipe reports the built size; NVIDIA's drivers
+            // report less).
             if got.is_err() || size[0] == 0 || size[0] >= b.accel.buffer.size {
                 continue;
             }

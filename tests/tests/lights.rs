@@ -1,0 +1,540 @@
+//! Tiled light culling, ray-traced shadows and the scene's acceleration structures (seed 001
+//! §4.2, §4.3) on lavapipe, against CPU references.
+//!
+//! - Tile lists are conservative: every light that reaches a pixel (within its range and, for a
+//!   spot, its cone) is in the list of the pixel's tile, for tiles of 8, 16 and 32 pixels.
+//! - A box floating over a plane, lit by a point, a spot and a directional light in turn, casts
+//!   a shadow whose outline matches the analytic projection: every pixel that disagrees with
+//!   the CPU's ray-box test has a neighbour on the other side of the analytic outline (the
+//!   outline is within one pixel), on the ray-query tier (compute) and the ray-tracing-pipeline
+//!   tier (ray generation).
+//! - An alpha-masked lattice casts a lattice-shaped shadow (the same rule, two pixels, as the
+//!   shadow edge also follows the mask texture's bilinear filtering).
+//! - The improved (5-tap) normals from depth are closer to the true normals than the naive
+//!   (3-tap) ones on a scene with depth discontinuities.
+//! - A tile holding 100 lights keeps them all, and lights them like every-light shading.
+//! - A still scene does no acceleration-structure work; a moving instance updates the TLAS; a
+//!   new one rebuilds it.
+//!
+//! Measured on lavapipe (128×96): no pixel off the outline for any light on either tier, nor for
+//! the lattice; 4.1, 6.7 and 12.1 lights listed per pixel of 48 for tiles of 8, 16 and 32;
+//! normals from depth off by 0.039 rad on average (naive) against 0.0051 (improved); the two
+//! tiers' images identical.
+
+#![forbid(unsafe_code)]
+
+use engine::prelude::*;
+use plugins::{MirrorSlots, RenderSettings, RenderStats};
+use render::{DebugView, DecalMethod, DepthNormals, LightMethod, LightSettings, PipelineKind, Tier};
+use tests::{TopDownView, assert_no_validation_errors, error_stats, gpu_app, gpu_app_at, renderer};
+
+const SIZE: (u32, u32) = (128, 96);
+
+fn settings(lights: LightSettings) -> RenderSettings {
+    RenderSettings { decal_method: DecalMethod::Off, ambient: Vec3::ZERO, lights, ..Default::default() }
+}
+
+fn render(app: &mut App, view: DebugView) -> (Vec<[f32; 4]>, Vec<f32>) {
+    app.world.resource_mut::<RenderSettings>().debug_view = view;
+    app.update();
+    assert_no_validation_errors(app);
+    let r = renderer(app);
+    (r.read_hdr().unwrap(), r.read_depth().unwrap())
+}
+
+fn material(app: &mut App, m: Material) -> Handle<Material> {
+    app.world.resource_mut::<Assets<Material>>().add(m)
+}
+
+fn mesh(app: &mut App, m: Mesh) -> Handle<Mesh> {
+    app.world.resource_mut::<Assets<Mesh>>().add(m)
+}
+
+/// The world position under each pixel from its depth, as the camera of `app` sees it.
+fn world_positions(view: &Transform, camera: &Camera, size: (u32, u32), depth: &[f32]) -> Vec<Option<Vec3>> {
+    let inv = (camera.projection(size.0 as f32 / size.1 as f32) * view.compute_matrix().inverse()).inverse();
+    depth
+        .iter()
+        .enumerate()
+        .map(|(i, &d)| {
+            let (x, y) = ((i as u32 % size.0) as f32, (i as u32 / size.0) as f32);
+            let ndc = Vec3::new((x + 0.5) / size.0 as f32 * 2.0 - 1.0, 1.0 - (y + 0.5) / size.1 as f32 * 2.0, d);
+            (d > 0.0).then(|| inv.project_point3(ndc))
+        })
+        .collect()
+}
+
+/// Where a ray from `o` along `d` (unit) enters the box `[lo, hi]`, if it does within `t_max`.
+fn ray_box(o: Vec3, d: Vec3, lo: Vec3, hi: Vec3, t_max: f32) -> Option<f32> {
+    let inv = d.recip();
+    let (t0, t1) = ((lo - o) * inv, (hi - o) * inv);
+    let near = t0.min(t1).max_element().max(0.0);
+    let far = t0.max(t1).min_element().min(t_max);
+    (near <= far).then_some(near)
+}
+
+/// Checks a shadow mask against the analytic `expected` one: pixels `tested` where they
+/// disagree must lie within `reach` pixels of a pixel whose expected value differs.
+fn assert_outline_within(got: &[Option<bool>], expected: &[Option<bool>], reach: i32, what: &str) {
+    let (w, h) = (SIZE.0 as i32, SIZE.1 as i32);
+    let (mut tested, mut shadowed, mut lit, mut off) = (0, 0, 0, Vec::new());
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let (Some(g), Some(e)) = (got[i], expected[i]) else { continue };
+            tested += 1;
+            if e {
+                lit += 1
+            } else {
+                shadowed += 1
+            }
+            if g == e {
+                continue;
+            }
+            let near_outline = (-reach..=reach).any(|dy| {
+                (-reach..=reach).any(|dx| {
+                    let (nx, ny) = (x + dx, y + dy);
+                    nx >= 0 && ny >= 0 && nx < w && ny < h && expected[(ny * w + nx) as usize].is_some_and(|n| n != e)
+                })
+            });
+            if !near_outline {
+                off.push((x, y, g, e));
+            }
+        }
+    }
+    eprintln!("{what}: {tested} pixels, {shadowed} in shadow, {lit} lit, {} off the outline", off.len());
+    if !off.is_empty() {
+        // got/expected per pixel: '.' lit/lit, '#' shadow/shadow, '+' lit/shadow, 'x' shadow/lit.
+        for y in 0..h {
+            let row: String = (0..w)
+                .map(|x| match (got[(y * w + x) as usize], expected[(y * w + x) as usize]) {
+                    (Some(true), Some(true)) => '.',
+                    (Some(false), Some(false)) => '#',
+                    (Some(true), Some(false)) => '+',
+                    (Some(false), Some(true)) => 'x',
+                    _ => ' ',
+                })
+                .collect();
+            eprintln!("{row}");
+        }
+    }
+    assert!(shadowed > 100 && lit > 100, "{what}: the shadow must be a real part of the image ({shadowed} shadowed, {lit} lit)");
+    assert!(off.is_empty(), "{what}: pixels wrong away from the outline (x, y, got, expected): {:?}", &off[..off.len().min(20)]);
+}
+
+/// The visibility bit of each pixel's first light (`DebugView::ShadowFirst`), where the pixel
+/// has a list with a light in it.
+fn shadow_bits(hdr: &[[f32; 4]]) -> Vec<Option<bool>> {
+    hdr.iter().map(|p| (p[1] >= 1.0 && p[2] > 0.5).then_some(p[0] > 0.5)).collect()
+}
+
+#[test]
+fn a_floating_box_casts_its_analytic_shadow_from_every_kind_of_light_on_both_ray_tracing_tiers() {
+    let (lo, hi) = (Vec3::new(-0.5, 0.4, -0.5), Vec3::new(0.5, 1.4, 0.5));
+    let lights: [(&str, Box<dyn Fn(&mut World) -> Entity>, Vec3); 3] = [
+        (
+            "point",
+            Box::new(|w: &mut World| {
+                w.spawn((PointLight { intensity: 40.0, range: Some(30.0), ..Default::default() }, Transform::from_xyz(0.7, 3.2, 0.4))).id()
+            }),
+            Vec3::new(0.7, 3.2, 0.4),
+        ),
+        (
+            "spot",
+            Box::new(|w: &mut World| {
+                w.spawn((
+                    SpotLight { intensity: 60.0, range: Some(30.0), inner_angle: 1.0, outer_angle: 1.2, ..Default::default() },
+                    Transform::from_xyz(-0.6, 3.5, -0.3).looking_at(Vec3::new(-0.6, 0.0, -0.3), Vec3::Z),
+                ))
+                .id()
+            }),
+            Vec3::new(-0.6, 3.5, -0.3),
+        ),
+        (
+            "directional",
+            Box::new(|w: &mut World| {
+                w.spawn((
+                    DirectionalLight { illuminance: 3.0, ..Default::default() },
+                    Transform::default().looking_at(Vec3::new(0.35, -1.0, 0.2), Vec3::Z),
+                ))
+                .id()
+            }),
+            Vec3::ZERO,
+        ),
+    ];
+    let view = TopDownView::new(6.0, SIZE);
+    for tier in [Tier::RayQuery, Tier::RayTracingPipeline] {
+        let mut app = gpu_app_at(SIZE.0, SIZE.1, settings(LightSettings::default()), tier);
+        let ground = mesh(&mut app, shapes::plane(10.0, 10.0, 1, 1.0));
+        let cube = mesh(&mut app, shapes::cuboid(hi - lo, 1.0));
+        let grey = material(&mut app, Material::from_color(Vec4::new(0.6, 0.6, 0.6, 1.0), 0.0, 0.8));
+        app.world.spawn((MeshInstance { mesh: ground, material: grey.clone() }, Transform::default()));
+        app.world.spawn((MeshInstance { mesh: cube, material: grey }, Transform::from_translation((lo + hi) * 0.5)));
+        view.spawn(&mut app.world);
+        for (name, spawn, at) in &lights {
+            let light = spawn(&mut app.world);
+            let direction = app.world.get::<Transform>(light).unwrap().forward();
+            let (hdr, depth) = render(&mut app, DebugView::ShadowFirst);
+            let positions = world_positions(&view.transform, &view.camera, SIZE, &depth);
+            let expected: Vec<Option<bool>> = positions
+                .iter()
+                .map(|p| {
+                    let p = (*p)?;
+                    if p.y.abs() > 1e-3 {
+                        return None; // the box itself
+                    }
+                    let (to, t_max) = if *name == "directional" { (-direction, 1e3) } else { ((*at - p).normalize(), at.distance(p)) };
+                    if *name == "spot" && to.dot(-direction) < 1.2f32.cos() + 0.02 {
+                        return None; // outside (or at the rim of) the cone: no light to shadow
+                    }
+                    Some(ray_box(p, to, lo, hi, t_max).is_none())
+                })
+                .collect();
+            assert_outline_within(&shadow_bits(&hdr), &expected, 1, &format!("{tier:?}, {name} light"));
+            app.world.despawn(light);
+        }
+    }
+}
+
+#[test]
+fn an_alpha_masked_lattice_casts_a_lattice_shaped_shadow() {
+    for tier in [Tier::RayQuery, Tier::RayTracingPipeline] {
+        let mut app = gpu_app_at(SIZE.0, SIZE.1, settings(LightSettings::default()), tier);
+        let ground = mesh(&mut app, shapes::plane(10.0, 10.0, 1, 1.0));
+        let grey = material(&mut app, Material::from_color(Vec4::new(0.6, 0.6, 0.6, 1.0), 0.0, 0.8));
+        app.world.spawn((MeshInstance { mesh: ground, material: grey }, Transform::default()));
+        // A 4×4 checker of opaque and transparent texels on a 2 m square, 1.5 m up.
+        let texels: Vec<u8> = (0..16).flat_map(|i| if (i % 4 + i / 4) % 2 == 0 { [200, 200, 200, 255] } else { [0, 0, 0, 0] }).collect();
+        let image = app.world.resource_mut::<Assets<Image>>().add(Image::from_rgba8(4, 4, texels, ColorSpace::Linear).unwrap());
+        let lattice = material(
+            &mut app,
+            Material { base_color_texture: Some(image), alpha_mode: AlphaMode::Mask(0.5), double_sided: true, ..Default::default() },
+        );
+        let plane = mesh(&mut app, shapes::plane(2.0, 2.0, 1, 1.0));
+        app.world.spawn((MeshInstance { mesh: plane, material: lattice }, Transform::from_xyz(0.0, 1.5, 0.0)));
+        let direction = Vec3::new(0.6, -1.0, 0.0).normalize();
+        app.world.spawn((DirectionalLight { illuminance: 3.0, ..Default::default() }, Transform::default().looking_at(direction, Vec3::Z)));
+        let view = TopDownView::new(6.0, SIZE);
+        view.spawn(&mut app.world);
+        let (hdr, depth) = render(&mut app, DebugView::ShadowFirst);
+        let positions = world_positions(&view.transform, &view.camera, SIZE, &depth);
+        let expected: Vec<Option<bool>> = positions
+            .iter()
+            .map(|p| {
+                let p = (*p)?;
+                if p.y.abs() > 1e-3 {
+                    return None; // the lattice itself
+                }
+                // Where the way to the light crosses the lattice's plane, and the texel there.
+                // The plane's UVs are metres from its corner (`shapes::plane`, uv_scale 1): the
+                // 4×4 texture repeats every metre.
+                let q = p - direction * ((1.5 - p.y) / -direction.y);
+                let (u, v) = (q.x + 1.0, q.z + 1.0);
+                if !(0.0..2.0).contains(&u) || !(0.0..2.0).contains(&v) {
+                    return Some(true);
+                }
+                let (tx, ty) = ((u * 4.0) as u32 % 4, (v * 4.0) as u32 % 4);
+                Some((tx + ty) % 2 == 1)
+            })
+            .collect();
+        let lattice_lit = expected.iter().flatten().filter(|&&lit| lit).count();
+        assert!(lattice_lit > 0);
+        assert_outline_within(&shadow_bits(&hdr), &expected, 2, &format!("{tier:?}, lattice"));
+    }
+}
+
+/// A ground plane with boxes standing on it and floating in front of each other, seen from an
+/// angle: plenty of depth discontinuities.
+fn boxes_scene(app: &mut App) -> (Transform, Camera) {
+    let ground = mesh(app, shapes::plane(12.0, 12.0, 1, 1.0));
+    let grey = material(app, Material::from_color(Vec4::new(0.6, 0.6, 0.6, 1.0), 0.0, 0.8));
+    app.world.spawn((MeshInstance { mesh: ground, material: grey.clone() }, Transform::default()));
+    let cube = mesh(app, shapes::cuboid(Vec3::splat(0.8), 1.0));
+    for (i, at) in [
+        Vec3::new(-1.5, 0.4, 0.0),
+        Vec3::new(0.0, 1.2, 1.0),
+        Vec3::new(1.4, 0.4, -0.8),
+        Vec3::new(0.3, 0.4, -2.0),
+        Vec3::new(-0.8, 2.0, 2.2),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        app.world.spawn((
+            MeshInstance { mesh: cube.clone(), material: grey.clone() },
+            Transform::from_translation(at).with_rotation(Quat::from_rotation_y(i as f32 * 0.5)),
+        ));
+    }
+    let camera = Camera::default();
+    let view = Transform::from_xyz(3.0, 4.0, 6.0).looking_at(Vec3::new(0.0, 0.5, 0.0), Vec3::Y);
+    app.world.spawn((camera, view));
+    (view, camera)
+}
+
+#[test]
+fn tile_lists_hold_every_light_that_reaches_their_pixels_at_every_tile_size() {
+    let mut app = gpu_app(SIZE.0, SIZE.1, settings(LightSettings::default()));
+    let (view, camera) = boxes_scene(&mut app);
+    let mut rng = 7u64;
+    let mut next = move || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        (rng % 10_000) as f32 / 10_000.0
+    };
+    let mut lights = Vec::new();
+    for i in 0..48 {
+        let at = Vec3::new(next() * 12.0 - 6.0, next() * 3.0, next() * 12.0 - 6.0);
+        let range = 0.5 + next() * 3.0;
+        let e = if i % 3 == 0 {
+            let target = at + Vec3::new(next() - 0.5, -1.0, next() - 0.5);
+            let outer = 0.3 + next() * 0.8;
+            app.world
+                .spawn((
+                    SpotLight { intensity: 5.0, range: Some(range), inner_angle: outer * 0.5, outer_angle: outer, ..Default::default() },
+                    Transform::from_translation(at).looking_at(target, Vec3::Y),
+                ))
+                .id()
+        } else {
+            app.world.spawn((PointLight { intensity: 5.0, range: Some(range), ..Default::default() }, Transform::from_translation(at))).id()
+        };
+        lights.push(e);
+    }
+    for tile in [8, 16, 32] {
+        app.world.resource_mut::<RenderSettings>().lights.tile_size = tile;
+        let (_, depth) = render(&mut app, DebugView::Lit);
+        let lists = renderer(&mut app).read_light_tiles().unwrap().expect("lights were culled");
+        assert_eq!(lists.tile_size, tile);
+        let positions = world_positions(&view, &camera, SIZE, &depth);
+        let slots = app.world.resource::<MirrorSlots>();
+        let reach: Vec<(u32, Vec3, f32, Option<(Vec3, f32)>)> = lights
+            .iter()
+            .map(|&e| {
+                let t = app.world.get::<GlobalTransform>(e).unwrap();
+                let slot = slots.light_slot(e).expect("extracted");
+                let cone = app.world.get::<SpotLight>(e).map(|s| (t.forward(), s.outer_angle.cos()));
+                let range = app
+                    .world
+                    .get::<PointLight>(e)
+                    .and_then(|p| p.range)
+                    .or_else(|| app.world.get::<SpotLight>(e).and_then(|s| s.range))
+                    .unwrap();
+                (slot, t.translation(), range, cone)
+            })
+            .collect();
+        let (mut checked, mut listed) = (0usize, 0usize);
+        for (i, p) in positions.iter().enumerate() {
+            let Some(p) = p else { continue };
+            let (x, y) = (i as u32 % SIZE.0, i as u32 / SIZE.0);
+            let list = lists.lights_at(x, y).expect("no tile overflows with 48 lights");
+            listed += list.len();
+            for &(slot, at, range, cone) in &reach {
+                let d = *p - at;
+                let reaches = d.length() < range * 0.999 && cone.is_none_or(|(dir, cos_outer)| d.normalize().dot(dir) > cos_outer + 1e-3);
+                if reaches {
+                    checked += 1;
+                    assert!(
+                        list.contains(&slot),
+                        "tile {tile}: light {slot} reaches pixel ({x}, {y}) but is not in its tile's list {list:?}"
+                    );
+                }
+            }
+        }
+        let covered = positions.iter().flatten().count();
+        eprintln!(
+            "tiles of {tile}: {checked} (pixel, light) pairs checked, {:.2} lights listed per pixel of 48",
+            listed as f32 / covered as f32
+        );
+        assert!(checked > 1000, "the scene must light plenty of pixels ({checked})");
+        assert!((listed as f32) < covered as f32 * 24.0, "culling removes most lights from most tiles");
+    }
+}
+
+#[test]
+fn a_tile_holding_a_hundred_lights_keeps_them_all() {
+    let mut app = gpu_app(SIZE.0, SIZE.1, settings(LightSettings { shadows: false, ..Default::default() }));
+    let ground = mesh(&mut app, shapes::plane(10.0, 10.0, 1, 1.0));
+    let grey = material(&mut app, Material::from_color(Vec4::new(0.6, 0.6, 0.6, 1.0), 0.0, 0.8));
+    app.world.spawn((MeshInstance { mesh: ground, material: grey }, Transform::default()));
+    let view = TopDownView::new(6.0, SIZE);
+    view.spawn(&mut app.world);
+    for i in 0..100 {
+        let a = i as f32 * 0.7;
+        let colour = Vec3::new(1.0, (i % 7) as f32 / 7.0, (i % 3) as f32 / 3.0);
+        app.world.spawn((
+            PointLight { color: colour, intensity: 0.05, range: Some(1.0) },
+            Transform::from_xyz(a.cos() * 0.05, 0.3, a.sin() * 0.05),
+        ));
+    }
+    let (count, _) = render(&mut app, DebugView::LightCount);
+    let (cx, cy) = (SIZE.0 / 2, SIZE.1 / 2);
+    assert_eq!(count[(cy * SIZE.0 + cx) as usize][0], 100.0, "the centre pixel's list holds every light");
+    let lists = renderer(&mut app).read_light_tiles().unwrap().unwrap();
+    assert_eq!(lists.lights_at(cx, cy).unwrap().len(), 100);
+    let (tiled, depth) = render(&mut app, DebugView::Lit);
+    app.world.resource_mut::<RenderSettings>().lights.method = LightMethod::All;
+    let (all, _) = render(&mut app, DebugView::Lit);
+    let (mean, p99) = error_stats(&tiled, &all, |i| depth[i] > 0.0);
+    let peak = tiled[(cy * SIZE.0 + cx) as usize][0];
+    eprintln!("tiled vs every light: mean {mean}, p99 {p99}, centre radiance {peak}");
+    assert!(peak > 0.05, "the lights light the plane");
+    assert!(mean < 1e-5 && p99 < 1e-4, "tiled shading is every-light shading where no light is missing: mean {mean}, p99 {p99}");
+}
+
+#[test]
+fn improved_normals_from_depth_are_closer_to_the_true_normals_than_naive_ones() {
+    let mut app = gpu_app(SIZE.0, SIZE.1, settings(LightSettings::default()));
+    boxes_scene(&mut app);
+    app.world.spawn((DirectionalLight::default(), Transform::default().looking_at(Vec3::new(0.3, -1.0, 0.2), Vec3::Z)));
+    let (truth, depth) = render(&mut app, DebugView::Normal);
+    let mut errors = Vec::new();
+    for normals in [DepthNormals::Naive, DepthNormals::Improved] {
+        app.world.resource_mut::<RenderSettings>().lights.normals = normals;
+        let (rebuilt, _) = render(&mut app, DebugView::DepthNormals);
+        // The left half of the view shows the reconstructed normals.
+        let (mut sum, mut n, mut wrong) = (0.0f64, 0usize, 0usize);
+        for (i, (a, b)) in rebuilt.iter().zip(&truth).enumerate() {
+            if depth[i] <= 0.0 || (i as u32 % SIZE.0) >= SIZE.0 / 2 {
+                continue;
+            }
+            let decode = |p: &[f32; 4]| Vec3::new(p[0], p[1], p[2]) * 2.0 - 1.0;
+            let angle = decode(a).normalize().dot(decode(b).normalize()).clamp(-1.0, 1.0).acos();
+            sum += angle as f64;
+            n += 1;
+            if angle > 0.2 {
+                wrong += 1;
+            }
+        }
+        let mean = sum / n as f64;
+        eprintln!("{normals:?}: mean angular error {:.4} rad over {n} pixels, {wrong} off by more than 0.2 rad", mean);
+        errors.push((mean, wrong));
+    }
+    let [(naive, naive_wrong), (improved, improved_wrong)] = errors[..] else { unreachable!() };
+    assert!(
+        improved < naive && improved_wrong < naive_wrong,
+        "improved ({improved}, {improved_wrong}) beats naive ({naive}, {naive_wrong})"
+    );
+}
+
+#[test]
+fn the_ray_query_and_ray_pipeline_tiers_shade_the_same_shadows() {
+    let mut images = Vec::new();
+    for tier in [Tier::RayQuery, Tier::RayTracingPipeline] {
+        let mut app = gpu_app_at(160, 120, RenderSettings { decal_method: DecalMethod::Off, ..Default::default() }, tier);
+        sandbox::scene::spawn_courtyard(&mut app.world);
+        app.world.resource_mut::<RenderSettings>().pipeline = PipelineKind::ForwardPlus;
+        app.update();
+        app.update();
+        assert_no_validation_errors(&mut app);
+        let stats = app.world.resource::<RenderStats>().last;
+        assert!(stats.scene_blas_builds + stats.scene_tlas_builds == 0 || stats.instances > 0);
+        let r = renderer(&mut app);
+        images.push((r.read_hdr().unwrap(), r.read_depth().unwrap()));
+    }
+    let (mean, p99) = error_stats(&images[0].0, &images[1].0, |i| images[0].1[i] > 0.0);
+    eprintln!("ray query vs ray pipeline: mean {mean}, p99 {p99}");
+    assert!(mean <= 1e-4 && p99 <= 1e-3, "the two tiers trace the same rays: mean {mean}, p99 {p99}");
+}
+
+#[test]
+fn the_courtyard_shows_shadows_from_every_light_in_every_pipeline() {
+    let mut app = gpu_app(160, 120, RenderSettings { decal_method: DecalMethod::Off, ..Default::default() });
+    sandbox::scene::spawn_courtyard(&mut app.world);
+    let lit = |app: &mut App, pipeline: PipelineKind, shadows: bool| {
+        {
+            let mut s = app.world.resource_mut::<RenderSettings>();
+            s.pipeline = pipeline;
+            s.lights.shadows = shadows;
+        }
+        render(app, DebugView::Lit)
+    };
+    let (reference, depth) = lit(&mut app, PipelineKind::Forward, true);
+    for pipeline in PipelineKind::ALL {
+        let (with, _) = lit(&mut app, pipeline, true);
+        let (without, _) = lit(&mut app, pipeline, false);
+        let darker = with.iter().zip(&without).filter(|(a, b)| (0..3).any(|c| a[c] < b[c] - 1e-3)).count();
+        let brighter = with.iter().zip(&without).filter(|(a, b)| (0..3).any(|c| a[c] > b[c] + 1e-3)).count();
+        eprintln!("{pipeline:?}: {darker} pixels darkened by shadows, {brighter} brightened");
+        assert!(darker > 500, "{pipeline:?}: shadows darken part of the courtyard");
+        assert_eq!(brighter, 0, "{pipeline:?}: a shadow only ever takes light away");
+        let (mean, p99) = error_stats(&with, &reference, |i| depth[i] > 0.0);
+        assert!(mean <= 0.002 && p99 <= 0.012, "{pipeline:?} vs forward, shadowed: mean {mean}, p99 {p99}");
+    }
+    // Each light on its own casts a shadow.
+    let lights: Vec<Entity> =
+        app.world.query_filtered::<Entity, Or<(With<PointLight>, With<SpotLight>, With<DirectionalLight>)>>().iter(&app.world).collect();
+    assert!(lights.len() >= 3);
+    let stash: Vec<(Entity, Option<PointLight>, Option<SpotLight>, Option<DirectionalLight>)> = lights
+        .iter()
+        .map(|&e| {
+            (
+                e,
+                app.world.get::<PointLight>(e).copied(),
+                app.world.get::<SpotLight>(e).copied(),
+                app.world.get::<DirectionalLight>(e).copied(),
+            )
+        })
+        .collect();
+    for e in &lights {
+        let mut entity = app.world.entity_mut(*e);
+        entity.remove::<PointLight>();
+        entity.remove::<SpotLight>();
+        entity.remove::<DirectionalLight>();
+    }
+    for (e, point, spot, sun) in stash {
+        let mut entity = app.world.entity_mut(e);
+        if let Some(l) = point {
+            entity.insert(l);
+        }
+        if let Some(l) = spot {
+            entity.insert(l);
+        }
+        if let Some(l) = sun {
+            entity.insert(l);
+        }
+        let (with, _) = lit(&mut app, PipelineKind::ForwardPlus, true);
+        let (without, _) = lit(&mut app, PipelineKind::ForwardPlus, false);
+        let darker = with.iter().zip(&without).filter(|(a, b)| (0..3).any(|c| a[c] < b[c] - 1e-4)).count();
+        eprintln!("light {e:?} alone: {darker} pixels in its shadow");
+        assert!(darker > 0, "light {e:?} casts a shadow");
+        let mut entity = app.world.entity_mut(e);
+        entity.remove::<PointLight>();
+        entity.remove::<SpotLight>();
+        entity.remove::<DirectionalLight>();
+    }
+}
+
+#[test]
+fn a_still_scene_does_no_acceleration_structure_work_and_a_moving_instance_updates_the_tlas() {
+    let mut app = gpu_app(64, 48, settings(LightSettings::default()));
+    let (_, _) = boxes_scene(&mut app);
+    app.world.spawn((PointLight::default(), Transform::from_xyz(0.0, 3.0, 0.0)));
+    let counters = |app: &mut App| {
+        app.update();
+        assert_no_validation_errors(app);
+        let c = app.world.resource::<RenderStats>().last;
+        (c.scene_blas_builds, c.scene_blas_compactions, c.scene_tlas_builds, c.scene_tlas_updates)
+    };
+    assert_eq!(counters(&mut app), (2, 0, 1, 0), "the first frame builds each mesh's BLAS and the TLAS");
+    // Compacted copies replace the BLASes once the build's frame has finished, where that saves
+    // memory (not on lavapipe, which reports the built size), and the TLAS is rebuilt over them.
+    let mut compacted = 0;
+    for _ in 0..4 {
+        let (b, c, t, u) = counters(&mut app);
+        compacted += c;
+        assert_eq!((b, u), (0, 0));
+        assert_eq!(t, c.min(1), "a rebuild exactly when BLASes were compacted");
+    }
+    assert!(compacted <= 2, "each BLAS is compacted at most once");
+    assert_eq!(counters(&mut app), (0, 0, 0, 0), "a still scene does no acceleration-structure work");
+    let cube = app.world.query_filtered::<Entity, With<MeshInstance>>().iter(&app.world).nth(1).unwrap();
+    app.world.get_mut::<Transform>(cube).unwrap().translation.x += 0.5;
+    assert_eq!(counters(&mut app), (0, 0, 0, 1), "a moved instance updates the TLAS");
+    assert_eq!(counters(&mut app), (0, 0, 0, 0));
+    let mesh_handle = app.world.get::<MeshInstance>(cube).unwrap().clone();
+    app.world.spawn((mesh_handle, Transform::from_xyz(2.0, 0.4, 2.0)));
+    assert_eq!(counters(&mut app), (0, 0, 1, 0), "a new instance of a loaded mesh rebuilds the TLAS and builds no BLAS");
+    app.world.despawn(cube);
+    assert_eq!(counters(&mut app), (0, 0, 1, 0), "so does a despawn");
+    assert_eq!(counters(&mut app), (0, 0, 0, 0));
+}
