@@ -50,6 +50,14 @@ fn mesh(app: &mut App, m: Mesh) -> Handle<Mesh> {
     app.world.resource_mut::<Assets<Mesh>>().add(m)
 }
 
+/// A grey ground plane of `size` metres at y = 0; returns its material.
+fn ground(app: &mut App, size: f32) -> Handle<Material> {
+    let plane = mesh(app, shapes::plane(size, size, 1, 1.0));
+    let grey = material(app, Material::from_color(Vec4::new(0.6, 0.6, 0.6, 1.0), 0.0, 0.8));
+    app.world.spawn((MeshInstance { mesh: plane, material: grey }, Transform::default()));
+    grey
+}
+
 /// The world position under each pixel from its depth, as the camera of `app` sees it.
 fn world_positions(view: &Transform, camera: &Camera, size: (u32, u32), depth: &[f32]) -> Vec<Option<Vec3>> {
     let inv = (camera.projection(size.0 as f32 / size.1 as f32) * view.compute_matrix().inverse()).inverse();
@@ -131,7 +139,8 @@ fn shadow_bits(hdr: &[[f32; 4]]) -> Vec<Option<bool>> {
 #[test]
 fn a_floating_box_casts_its_analytic_shadow_from_every_kind_of_light_on_both_ray_tracing_tiers() {
     let (lo, hi) = (Vec3::new(-0.5, 0.4, -0.5), Vec3::new(0.5, 1.4, 0.5));
-    let lights: [(&str, Box<dyn Fn(&mut World) -> Entity>, Vec3); 3] = [
+    type SpawnLight = Box<dyn Fn(&mut World) -> Entity>;
+    let lights: [(&str, SpawnLight, Vec3); 3] = [
         (
             "point",
             Box::new(|w: &mut World| {
@@ -165,10 +174,8 @@ fn a_floating_box_casts_its_analytic_shadow_from_every_kind_of_light_on_both_ray
     let view = TopDownView::new(6.0, SIZE);
     for tier in [Tier::RayQuery, Tier::RayTracingPipeline] {
         let mut app = gpu_app_at(SIZE.0, SIZE.1, settings(LightSettings::default()), tier);
-        let ground = mesh(&mut app, shapes::plane(10.0, 10.0, 1, 1.0));
+        let grey = ground(&mut app, 10.0);
         let cube = mesh(&mut app, shapes::cuboid(hi - lo, 1.0));
-        let grey = material(&mut app, Material::from_color(Vec4::new(0.6, 0.6, 0.6, 1.0), 0.0, 0.8));
-        app.world.spawn((MeshInstance { mesh: ground, material: grey.clone() }, Transform::default()));
         app.world.spawn((MeshInstance { mesh: cube, material: grey }, Transform::from_translation((lo + hi) * 0.5)));
         view.spawn(&mut app.world);
         for (name, spawn, at) in &lights {
@@ -200,9 +207,7 @@ fn a_floating_box_casts_its_analytic_shadow_from_every_kind_of_light_on_both_ray
 fn an_alpha_masked_lattice_casts_a_lattice_shaped_shadow() {
     for tier in [Tier::RayQuery, Tier::RayTracingPipeline] {
         let mut app = gpu_app_at(SIZE.0, SIZE.1, settings(LightSettings::default()), tier);
-        let ground = mesh(&mut app, shapes::plane(10.0, 10.0, 1, 1.0));
-        let grey = material(&mut app, Material::from_color(Vec4::new(0.6, 0.6, 0.6, 1.0), 0.0, 0.8));
-        app.world.spawn((MeshInstance { mesh: ground, material: grey }, Transform::default()));
+        ground(&mut app, 10.0);
         // A 4×4 checker of opaque and transparent texels on a 2 m square, 1.5 m up.
         let texels: Vec<u8> = (0..16).flat_map(|i| if (i % 4 + i / 4) % 2 == 0 { [200, 200, 200, 255] } else { [0, 0, 0, 0] }).collect();
         let image = app.world.resource_mut::<Assets<Image>>().add(Image::from_rgba8(4, 4, texels, ColorSpace::Linear).unwrap());
@@ -246,9 +251,7 @@ fn an_alpha_masked_lattice_casts_a_lattice_shaped_shadow() {
 /// A ground plane with boxes standing on it and floating in front of each other, seen from an
 /// angle: plenty of depth discontinuities.
 fn boxes_scene(app: &mut App) -> (Transform, Camera) {
-    let ground = mesh(app, shapes::plane(12.0, 12.0, 1, 1.0));
-    let grey = material(app, Material::from_color(Vec4::new(0.6, 0.6, 0.6, 1.0), 0.0, 0.8));
-    app.world.spawn((MeshInstance { mesh: ground, material: grey.clone() }, Transform::default()));
+    let grey = ground(app, 12.0);
     let cube = mesh(app, shapes::cuboid(Vec3::splat(0.8), 1.0));
     for (i, at) in [
         Vec3::new(-1.5, 0.4, 0.0),
@@ -261,7 +264,7 @@ fn boxes_scene(app: &mut App) -> (Transform, Camera) {
     .enumerate()
     {
         app.world.spawn((
-            MeshInstance { mesh: cube.clone(), material: grey.clone() },
+            MeshInstance { mesh: cube, material: grey },
             Transform::from_translation(at).with_rotation(Quat::from_rotation_y(i as f32 * 0.5)),
         ));
     }
@@ -307,7 +310,9 @@ fn tile_lists_hold_every_light_that_reaches_their_pixels_at_every_tile_size() {
         assert_eq!(lists.tile_size, tile);
         let positions = world_positions(&view, &camera, SIZE, &depth);
         let slots = app.world.resource::<MirrorSlots>();
-        let reach: Vec<(u32, Vec3, f32, Option<(Vec3, f32)>)> = lights
+        // (slot, position, range, spot axis and cos outer)
+        type Reach = (u32, Vec3, f32, Option<(Vec3, f32)>);
+        let reach: Vec<Reach> = lights
             .iter()
             .map(|&e| {
                 let t = app.world.get::<GlobalTransform>(e).unwrap();
@@ -353,9 +358,7 @@ fn tile_lists_hold_every_light_that_reaches_their_pixels_at_every_tile_size() {
 #[test]
 fn a_tile_holding_a_hundred_lights_keeps_them_all() {
     let mut app = gpu_app(SIZE.0, SIZE.1, settings(LightSettings { shadows: false, ..Default::default() }));
-    let ground = mesh(&mut app, shapes::plane(10.0, 10.0, 1, 1.0));
-    let grey = material(&mut app, Material::from_color(Vec4::new(0.6, 0.6, 0.6, 1.0), 0.0, 0.8));
-    app.world.spawn((MeshInstance { mesh: ground, material: grey }, Transform::default()));
+    ground(&mut app, 10.0);
     let view = TopDownView::new(6.0, SIZE);
     view.spawn(&mut app.world);
     for i in 0..100 {
@@ -464,7 +467,8 @@ fn the_courtyard_shows_shadows_from_every_light_in_every_pipeline() {
     let lights: Vec<Entity> =
         app.world.query_filtered::<Entity, Or<(With<PointLight>, With<SpotLight>, With<DirectionalLight>)>>().iter(&app.world).collect();
     assert!(lights.len() >= 3);
-    let stash: Vec<(Entity, Option<PointLight>, Option<SpotLight>, Option<DirectionalLight>)> = lights
+    type Stashed = (Entity, Option<PointLight>, Option<SpotLight>, Option<DirectionalLight>);
+    let stash: Vec<Stashed> = lights
         .iter()
         .map(|&e| {
             (
@@ -531,7 +535,7 @@ fn a_still_scene_does_no_acceleration_structure_work_and_a_moving_instance_updat
     app.world.get_mut::<Transform>(cube).unwrap().translation.x += 0.5;
     assert_eq!(counters(&mut app), (0, 0, 0, 1), "a moved instance updates the TLAS");
     assert_eq!(counters(&mut app), (0, 0, 0, 0));
-    let mesh_handle = app.world.get::<MeshInstance>(cube).unwrap().clone();
+    let mesh_handle = *app.world.get::<MeshInstance>(cube).unwrap();
     app.world.spawn((mesh_handle, Transform::from_xyz(2.0, 0.4, 2.0)));
     assert_eq!(counters(&mut app), (0, 0, 1, 0), "a new instance of a loaded mesh rebuilds the TLAS and builds no BLAS");
     app.world.despawn(cube);

@@ -347,14 +347,7 @@ impl FrameGraph {
             // SAFETY: `cmd` is recording; the barrier above put the image in TRANSFER_SRC layout
             // and the buffer holds the whole image.
             unsafe { ctx.device.cmd_copy_image_to_buffer(cmd, raw, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, buffer.raw, &[region]) };
-            // The host reads the buffer after the fence: make the copy visible to it.
-            let host = [vk::MemoryBarrier2::default()
-                .src_stage_mask(vk::PipelineStageFlags2::COPY)
-                .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-                .dst_stage_mask(vk::PipelineStageFlags2::HOST)
-                .dst_access_mask(vk::AccessFlags2::HOST_READ)];
-            // SAFETY: `cmd` is recording outside a rendering scope.
-            unsafe { ctx.device.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&host)) };
+            copy_visible_to_host(ctx, cmd);
         });
         let bytes = result.map(|_| buffer.mapped()[..size as usize].to_vec());
         buffer.destroy(ctx);
@@ -373,13 +366,7 @@ impl FrameGraph {
             // SAFETY: `cmd` is recording; the barrier above made the buffer's last write visible
             // to copies, and both buffers hold `size` bytes.
             unsafe { ctx.device.cmd_copy_buffer(cmd, src, buffer.raw, &[vk::BufferCopy { src_offset: 0, dst_offset: 0, size }]) };
-            let host = [vk::MemoryBarrier2::default()
-                .src_stage_mask(vk::PipelineStageFlags2::COPY)
-                .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-                .dst_stage_mask(vk::PipelineStageFlags2::HOST)
-                .dst_access_mask(vk::AccessFlags2::HOST_READ)];
-            // SAFETY: `cmd` is recording outside a rendering scope.
-            unsafe { ctx.device.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&host)) };
+            copy_visible_to_host(ctx, cmd);
         });
         let bytes = result.map(|_| buffer.mapped()[..size as usize].to_vec());
         buffer.destroy(ctx);
@@ -688,6 +675,18 @@ impl FrameGraph {
             }
         }
     }
+}
+
+/// Makes a readback copy visible to the host, which reads it after the fence (the one barrier
+/// the graph places without a declaration).
+fn copy_visible_to_host(ctx: &GpuContext, cmd: vk::CommandBuffer) {
+    let host = [vk::MemoryBarrier2::default()
+        .src_stage_mask(vk::PipelineStageFlags2::COPY)
+        .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+        .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+        .dst_access_mask(vk::AccessFlags2::HOST_READ)];
+    // SAFETY: `cmd` is recording outside a rendering scope.
+    unsafe { ctx.device.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&host)) };
 }
 
 #[cfg(test)]
