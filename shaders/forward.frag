@@ -31,5 +31,5 @@ void main() {
     s.occlusion = ms.occlusion;
     s.emissive = ms.emissive;
     s.decal_layers = scene.instances.instances[v_instance].decal_layers;
-    out_color = shade_surface(s);
+    out_color = shade_surface(s, ivec2(gl_FragCoord.xy));
 }

@@ -51,6 +51,9 @@ pub struct RenderSettings {
     pub show_decal_boxes: bool,
     /// Light culling and shadows.
     pub lights: render::LightSettings,
+    /// Deferred lighting and visibility-buffer shading in compute (false: full-screen fragment
+    /// passes).
+    pub compute_shading: bool,
 }
 
 impl Default for RenderSettings {
@@ -64,6 +67,7 @@ impl Default for RenderSettings {
             debug_view: DebugView::Lit,
             show_decal_boxes: false,
             lights: render::LightSettings::default(),
+            compute_shading: true,
         }
     }
 }
@@ -232,6 +236,7 @@ fn render_frame(
         debug_view: settings.debug_view,
         show_decal_boxes: settings.show_decal_boxes,
         lights: settings.lights,
+        compute_shading: settings.compute_shading,
     };
     let result = match window {
         Some(mut window) => {

@@ -551,6 +551,9 @@ layout! {
     /// Binding of the shadow debug image (`shadow_debug`, storage RGBA16F): the reconstructed
     /// normal × 0.5 + 0.5 (rgb) and the shadow rays traced (a).
     pub const BINDING_SHADOW_DEBUG: u32 = 12;
+    /// Binding of the HDR target as a storage image (`hdr_image`, RGBA16F), for the lighting
+    /// passes that run in compute.
+    pub const BINDING_HDR_STORAGE: u32 = 13;
 
     /// Debug view (`ScenePush::debug_view`, `DebugView`): the lit image.
     pub const DEBUG_LIT: u32 = 0;

@@ -308,6 +308,9 @@ pub struct FrameSettings {
     pub show_decal_boxes: bool,
     /// Light culling and shadows.
     pub lights: LightSettings,
+    /// Deferred lighting and visibility-buffer shading run as compute passes (false: as
+    /// full-screen fragment passes, for comparison).
+    pub compute_shading: bool,
 }
 
 impl Default for FrameSettings {
@@ -319,6 +322,7 @@ impl Default for FrameSettings {
             debug_view: DebugView::Lit,
             show_decal_boxes: false,
             lights: LightSettings::default(),
+            compute_shading: true,
         }
     }
 }

@@ -78,6 +78,8 @@ pub struct HeadlessOptions {
     pub compare_lights: bool,
     /// Light culling and shadows.
     pub lights: LightSettings,
+    /// Deferred lighting and visibility-buffer shading in compute.
+    pub compute_shading: bool,
 }
 
 /// The light configurations `--compare-lights` runs, in order, named after the rows of seed 001's
@@ -156,6 +158,7 @@ impl Default for HeadlessOptions {
             compare: false,
             compare_lights: false,
             lights: LightSettings::default(),
+            compute_shading: true,
         }
     }
 }
@@ -193,6 +196,7 @@ pub fn build_app_with(opts: &HeadlessOptions, renderer_settings: &RendererSettin
         debug_view: opts.debug_view,
         show_decal_boxes: opts.show_decal_boxes,
         lights: opts.lights,
+        compute_shading: opts.compute_shading,
         ..Default::default()
     }));
     match opts.bench_scene {

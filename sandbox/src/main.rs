@@ -84,6 +84,10 @@ struct Cli {
     /// Trace shadow rays even towards lights the surface faces away from.
     #[arg(long)]
     no_shadow_ray_culling: bool,
+    /// Deferred lighting and visibility-buffer shading as full-screen fragment passes instead of
+    /// compute.
+    #[arg(long)]
+    fragment_shading: bool,
     /// Normals from depth for the shadow pass: naive or improved.
     #[arg(long, default_value = "improved", value_parser = parse_depth_normals)]
     depth_normals: render::DepthNormals,
@@ -179,6 +183,7 @@ fn main() -> Result<()> {
         bench_scene: cli.bench_scene.as_deref().map(sandbox::bench::BenchScene::parse).transpose()?,
         compare: cli.compare,
         compare_lights: cli.compare_lights,
+        compute_shading: !cli.fragment_shading,
         lights: render::LightSettings {
             method: cli.lights,
             tile_size: cli.tile_size,

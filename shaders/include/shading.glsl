@@ -33,7 +33,8 @@ struct SurfaceInputs {
     uint decal_layers;
 };
 
-vec4 shade_surface(SurfaceInputs s) {
+// `px` is the pixel being shaded (its tile's lights, its shadow bits, its decal buffer texel).
+vec4 shade_surface(SurfaceInputs s, ivec2 px) {
     uint decals_tested = 0u;
 #ifdef RAY_QUERY_DECALS
     if (scene.decal_count > 0u) {
@@ -51,7 +52,7 @@ vec4 shade_surface(SurfaceInputs s) {
     }
 #endif
 #ifdef DECAL_BUFFER
-    if (scene.decal_count > 0u) decals_tested = decal_buffer_apply(ivec2(gl_FragCoord.xy), s.albedo, s.normal, s.roughness, s.metallic);
+    if (scene.decal_count > 0u) decals_tested = decal_buffer_apply(px, s.albedo, s.normal, s.roughness, s.metallic);
 #endif
     if (scene.debug_view == DEBUG_ALBEDO) return vec4(s.albedo, 1.0);
     if (scene.debug_view == DEBUG_NORMAL) return vec4(s.normal * 0.5 + 0.5, 1.0);
@@ -59,7 +60,6 @@ vec4 shade_surface(SurfaceInputs s) {
     if (scene.debug_view == DEBUG_DECAL_COUNT) return vec4(float(decals_tested), 0.0, 0.0, 1.0);
     if (scene.debug_view == DEBUG_DECAL_HEATMAP) return vec4(heatmap(float(decals_tested) / 16.0), 1.0);
 
-    ivec2 px = ivec2(gl_FragCoord.xy);
     LightList list = light_list(px);
     bool shadowed = list.rows != NO_SHADOW_ROWS;
     ShadowWordsRef shadow_words = ShadowWordsRef(scene.lighting.lighting.shadow_bits);

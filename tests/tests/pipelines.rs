@@ -90,7 +90,7 @@ fn all_pipelines_render_the_same_scene_alike_and_the_same_depth() {
         "the courtyard camera must see some sky for the clear-colour check to mean anything: \
          only {sky_count} of {pixels} pixels are uncovered (is the camera broken?)"
     );
-    for pipeline in [PipelineKind::Deferred, PipelineKind::VisBuffer] {
+    for pipeline in [PipelineKind::Deferred, PipelineKind::VisBuffer, PipelineKind::ForwardPlus] {
         let (image, depth) = render_with(&mut app, pipeline, DecalMethod::RayQuery, DebugView::Lit);
         assert_no_validation_errors(&mut app);
         assert!(depth == forward_depth, "{pipeline:?}: depth is bit-identical to forward");
@@ -102,6 +102,23 @@ fn all_pipelines_render_the_same_scene_alike_and_the_same_depth() {
         assert!(sky_mean < 1e-4, "the sky is the clear colour in every pipeline");
     }
     assert_eq!(app.world.resource::<RenderStats>().last.decals, 300);
+}
+
+#[test]
+fn lighting_in_compute_and_in_full_screen_fragment_passes_gives_the_same_image() {
+    let mut app = courtyard_app();
+    for pipeline in [PipelineKind::Deferred, PipelineKind::VisBuffer] {
+        for method in [DecalMethod::RayQuery, DecalMethod::RayPipeline] {
+            let mut images = Vec::new();
+            for compute in [true, false] {
+                app.world.resource_mut::<RenderSettings>().compute_shading = compute;
+                let (image, _) = render_with(&mut app, pipeline, method, DebugView::Lit);
+                assert_no_validation_errors(&mut app);
+                images.push(image);
+            }
+            assert!(images[0] == images[1], "{pipeline:?}, {method:?}: compute and fragment shading agree to the bit");
+        }
+    }
 }
 
 #[test]

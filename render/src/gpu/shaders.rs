@@ -55,6 +55,12 @@ spirv! {
     SHADOWS_RMISS = "shadows.rmiss";
     SHADOWS_RAHIT = "shadows.rahit";
     SCENE_INSTANCES_COMP = "scene_instances.comp";
+    DEFERRED_LIGHTING_COMP = "deferred_lighting.comp";
+    DEFERRED_LIGHTING_COMP_RAY_QUERY_DECALS = "deferred_lighting.comp.RAY_QUERY_DECALS";
+    DEFERRED_LIGHTING_COMP_DECAL_BUFFER = "deferred_lighting.comp.DECAL_BUFFER";
+    VISBUFFER_SHADE_COMP = "visbuffer_shade.comp";
+    VISBUFFER_SHADE_COMP_RAY_QUERY_DECALS = "visbuffer_shade.comp.RAY_QUERY_DECALS";
+    VISBUFFER_SHADE_COMP_DECAL_BUFFER = "visbuffer_shade.comp.DECAL_BUFFER";
 }
 
 /// Creates a shader module from SPIR-V bytes.

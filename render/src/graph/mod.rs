@@ -291,6 +291,9 @@ impl FrameGraph {
         (e.raw, e.view, e.extent, e.range) = (image.raw, image.view, image.extent, image.full_range());
         e.depth = image.aspect.contains(vk::ImageAspectFlags::DEPTH);
         e.state = ImageState::default();
+        if let Some(binding) = desc.storage {
+            self.new_bindings.push((Bind::Storage(binding), image.view));
+        }
         if let Some(bind) = desc.bind {
             self.new_bindings.push((bind, image.view));
         }

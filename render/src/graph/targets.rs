@@ -30,7 +30,8 @@ pub const DECAL_TESTED_FORMAT: vk::Format = vk::Format::R32_UINT;
 
 pub use crate::layout::{
     BINDING_DECAL_ALBEDO, BINDING_DECAL_NORMAL, BINDING_DECAL_SPEC, BINDING_DECAL_TESTED, BINDING_DEPTH, BINDING_GBUFFER_ALBEDO,
-    BINDING_GBUFFER_LAYERS, BINDING_GBUFFER_MATERIAL, BINDING_GBUFFER_NORMAL, BINDING_HDR, BINDING_SHADOW_DEBUG, BINDING_VISIBILITY,
+    BINDING_GBUFFER_LAYERS, BINDING_GBUFFER_MATERIAL, BINDING_GBUFFER_NORMAL, BINDING_HDR, BINDING_HDR_STORAGE, BINDING_SHADOW_DEBUG,
+    BINDING_VISIBILITY,
 };
 
 /// Where a target is bound for sampling: its descriptor binding in set 0 (`BINDING_*`).
@@ -64,6 +65,9 @@ pub struct TargetDesc {
     pub usage: vk::ImageUsageFlags,
     /// Where shaders find it, if they sample it.
     pub bind: Option<Bind>,
+    /// A second binding as a storage image (`BINDING_*_STORAGE`), for compute passes that write
+    /// a target other passes sample or draw into.
+    pub storage: Option<u32>,
 }
 
 use vk::ImageUsageFlags as U;
@@ -71,15 +75,21 @@ use vk::ImageUsageFlags as U;
 const ATTACHMENT_SAMPLED: vk::ImageUsageFlags =
     vk::ImageUsageFlags::from_raw(U::COLOR_ATTACHMENT.as_raw() | U::SAMPLED.as_raw() | U::TRANSFER_SRC.as_raw());
 
-/// Linear radiance.
-pub static HDR: TargetDesc =
-    TargetDesc { name: "hdr", format: HDR_FORMAT, usage: ATTACHMENT_SAMPLED, bind: Some(Bind::Color(BINDING_HDR)) };
+/// Linear radiance (also a storage image, for lighting in compute).
+pub static HDR: TargetDesc = TargetDesc {
+    name: "hdr",
+    format: HDR_FORMAT,
+    usage: vk::ImageUsageFlags::from_raw(ATTACHMENT_SAMPLED.as_raw() | U::STORAGE.as_raw()),
+    bind: Some(Bind::Color(BINDING_HDR)),
+    storage: Some(BINDING_HDR_STORAGE),
+};
 /// Reverse-Z depth.
 pub static DEPTH: TargetDesc = TargetDesc {
     name: "depth",
     format: DEPTH_FORMAT,
     usage: vk::ImageUsageFlags::from_raw(U::DEPTH_STENCIL_ATTACHMENT.as_raw() | U::SAMPLED.as_raw() | U::TRANSFER_SRC.as_raw()),
     bind: Some(Bind::Depth(BINDING_DEPTH)),
+    storage: None,
 };
 /// Tone-mapped sRGB output (headless; a window presents the swapchain image instead).
 pub static DISPLAY: TargetDesc = TargetDesc {
@@ -87,6 +97,7 @@ pub static DISPLAY: TargetDesc = TargetDesc {
     format: DISPLAY_FORMAT,
     usage: vk::ImageUsageFlags::from_raw(U::COLOR_ATTACHMENT.as_raw() | U::TRANSFER_SRC.as_raw()),
     bind: None,
+    storage: None,
 };
 /// G-buffer albedo and occlusion.
 pub static GBUFFER_ALBEDO: TargetDesc = TargetDesc {
@@ -94,6 +105,7 @@ pub static GBUFFER_ALBEDO: TargetDesc = TargetDesc {
     format: GBUFFER_ALBEDO_FORMAT,
     usage: ATTACHMENT_SAMPLED,
     bind: Some(Bind::Color(BINDING_GBUFFER_ALBEDO)),
+    storage: None,
 };
 /// G-buffer shading normal.
 pub static GBUFFER_NORMAL: TargetDesc = TargetDesc {
@@ -101,6 +113,7 @@ pub static GBUFFER_NORMAL: TargetDesc = TargetDesc {
     format: GBUFFER_NORMAL_FORMAT,
     usage: ATTACHMENT_SAMPLED,
     bind: Some(Bind::Color(BINDING_GBUFFER_NORMAL)),
+    storage: None,
 };
 /// G-buffer roughness and metallic.
 pub static GBUFFER_MATERIAL: TargetDesc = TargetDesc {
@@ -108,6 +121,7 @@ pub static GBUFFER_MATERIAL: TargetDesc = TargetDesc {
     format: GBUFFER_MATERIAL_FORMAT,
     usage: ATTACHMENT_SAMPLED,
     bind: Some(Bind::Color(BINDING_GBUFFER_MATERIAL)),
+    storage: None,
 };
 /// G-buffer decal receiver layers.
 pub static GBUFFER_LAYERS: TargetDesc = TargetDesc {
@@ -115,28 +129,59 @@ pub static GBUFFER_LAYERS: TargetDesc = TargetDesc {
     format: GBUFFER_LAYERS_FORMAT,
     usage: ATTACHMENT_SAMPLED,
     bind: Some(Bind::Color(BINDING_GBUFFER_LAYERS)),
+    storage: None,
 };
 /// The visibility buffer's instance and triangle ids.
-pub static VISIBILITY: TargetDesc =
-    TargetDesc { name: "visibility", format: VISIBILITY_FORMAT, usage: ATTACHMENT_SAMPLED, bind: Some(Bind::Color(BINDING_VISIBILITY)) };
+pub static VISIBILITY: TargetDesc = TargetDesc {
+    name: "visibility",
+    format: VISIBILITY_FORMAT,
+    usage: ATTACHMENT_SAMPLED,
+    bind: Some(Bind::Color(BINDING_VISIBILITY)),
+    storage: None,
+};
 
 const STORAGE: vk::ImageUsageFlags = vk::ImageUsageFlags::from_raw(U::STORAGE.as_raw() | U::TRANSFER_SRC.as_raw());
 
 /// Decal buffer: premultiplied decal albedo and the surface albedo's remaining weight.
-pub static DECAL_ALBEDO: TargetDesc =
-    TargetDesc { name: "decal albedo", format: DECAL_BUFFER_FORMAT, usage: STORAGE, bind: Some(Bind::Storage(BINDING_DECAL_ALBEDO)) };
+pub static DECAL_ALBEDO: TargetDesc = TargetDesc {
+    name: "decal albedo",
+    format: DECAL_BUFFER_FORMAT,
+    usage: STORAGE,
+    bind: Some(Bind::Storage(BINDING_DECAL_ALBEDO)),
+    storage: None,
+};
 /// Decal buffer: decal normal and the surface normal's remaining weight.
-pub static DECAL_NORMAL: TargetDesc =
-    TargetDesc { name: "decal normal", format: DECAL_BUFFER_FORMAT, usage: STORAGE, bind: Some(Bind::Storage(BINDING_DECAL_NORMAL)) };
+pub static DECAL_NORMAL: TargetDesc = TargetDesc {
+    name: "decal normal",
+    format: DECAL_BUFFER_FORMAT,
+    usage: STORAGE,
+    bind: Some(Bind::Storage(BINDING_DECAL_NORMAL)),
+    storage: None,
+};
 /// Decal buffer: decal roughness and metallic and the surface's remaining weights.
-pub static DECAL_SPEC: TargetDesc =
-    TargetDesc { name: "decal spec", format: DECAL_BUFFER_FORMAT, usage: STORAGE, bind: Some(Bind::Storage(BINDING_DECAL_SPEC)) };
+pub static DECAL_SPEC: TargetDesc = TargetDesc {
+    name: "decal spec",
+    format: DECAL_BUFFER_FORMAT,
+    usage: STORAGE,
+    bind: Some(Bind::Storage(BINDING_DECAL_SPEC)),
+    storage: None,
+};
 /// Decal buffer: decals tested per pixel (debug views).
-pub static DECAL_TESTED: TargetDesc =
-    TargetDesc { name: "decal tested", format: DECAL_TESTED_FORMAT, usage: STORAGE, bind: Some(Bind::Storage(BINDING_DECAL_TESTED)) };
+pub static DECAL_TESTED: TargetDesc = TargetDesc {
+    name: "decal tested",
+    format: DECAL_TESTED_FORMAT,
+    usage: STORAGE,
+    bind: Some(Bind::Storage(BINDING_DECAL_TESTED)),
+    storage: None,
+};
 /// The shadow pass's debug image: reconstructed normals and shadow rays per pixel.
-pub static SHADOW_DEBUG: TargetDesc =
-    TargetDesc { name: "shadow debug", format: DECAL_BUFFER_FORMAT, usage: STORAGE, bind: Some(Bind::Storage(BINDING_SHADOW_DEBUG)) };
+pub static SHADOW_DEBUG: TargetDesc = TargetDesc {
+    name: "shadow debug",
+    format: DECAL_BUFFER_FORMAT,
+    usage: STORAGE,
+    bind: Some(Bind::Storage(BINDING_SHADOW_DEBUG)),
+    storage: None,
+};
 /// The decal buffer's images, in binding order.
 pub static DECAL_BUFFER: [&TargetDesc; 4] = [&DECAL_ALBEDO, &DECAL_NORMAL, &DECAL_SPEC, &DECAL_TESTED];
 

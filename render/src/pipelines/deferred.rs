@@ -22,7 +22,7 @@ use ash::vk;
 use crate::RenderError;
 use crate::decals::{DecalFrame, DecalRun, declare_decal_reads};
 use crate::gpu::device::GpuContext;
-use crate::gpu::pipeline::{Blend, GraphicsDesc, create_graphics};
+use crate::gpu::pipeline::{Blend, GraphicsDesc, create_compute, create_graphics};
 use crate::gpu::shaders;
 use crate::graph::targets::{
     DEPTH, DEPTH_FORMAT, GBUFFER_ALBEDO, GBUFFER_ALBEDO_FORMAT, GBUFFER_LAYERS, GBUFFER_LAYERS_FORMAT, GBUFFER_MATERIAL,
@@ -39,6 +39,7 @@ pub struct DeferredPasses {
     gbuffer_opaque: vk::Pipeline,
     gbuffer_mask: vk::Pipeline,
     lighting: ShadeVariants,
+    lighting_compute: ShadeVariants,
     /// Indexed by `DECAL_*` flags (0..16).
     decals: Vec<vk::Pipeline>,
 }
@@ -101,6 +102,15 @@ impl DeferredPasses {
                     )
                 },
             )?,
+            lighting_compute: ShadeVariants::new(
+                ctx,
+                [
+                    shaders::DEFERRED_LIGHTING_COMP,
+                    shaders::DEFERRED_LIGHTING_COMP_RAY_QUERY_DECALS,
+                    shaders::DEFERRED_LIGHTING_COMP_DECAL_BUFFER,
+                ],
+                |spirv| create_compute(ctx, layout, "deferred lighting (compute)", spirv),
+            )?,
             decals,
         })
     }
@@ -150,21 +160,37 @@ impl DeferredPasses {
             })
     }
 
-    /// Lighting: one full-screen pass over the G-buffer, added to the emitted radiance, with
-    /// this frame's `decals` (in-shader ray queries or the decal buffer).
-    pub fn lighting(&self, f: &mut Frame, scene: &GpuScene, decals: &DecalFrame, lights: &LightFrame) -> Result<(), RenderError> {
+    /// Lighting: one pass over the G-buffer, added to the emitted radiance, with this frame's
+    /// `decals` (in-shader ray queries or the decal buffer) and `lights`: a compute pass adding
+    /// through a storage image when `compute`, else a full-screen fragment pass blending
+    /// additively.
+    pub fn lighting(
+        &self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        decals: &DecalFrame,
+        lights: &LightFrame,
+        compute: bool,
+    ) -> Result<(), RenderError> {
+        let kind = if compute { PassKind::Compute } else { PassKind::Graphics };
         let pass = f
-            .pass("lighting", PassKind::Graphics)
+            .pass("lighting", kind)
             .sample(&DEPTH)
             .sample(&GBUFFER_ALBEDO)
             .sample(&GBUFFER_NORMAL)
             .sample(&GBUFFER_MATERIAL)
             .sample(&GBUFFER_LAYERS)
-            .color(&HDR, Load::Keep)
             .reads(scene.res.shaded());
+        let pass = if compute { pass.image(&HDR, ImageUse::StorageWrite) } else { pass.color(&HDR, Load::Keep) };
         declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| {
             let push = p.push;
-            p.fullscreen(self.lighting.pick(decals), &push);
+            if compute {
+                p.bind(vk::PipelineBindPoint::COMPUTE, self.lighting_compute.pick(decals), &push);
+                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
+                unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
+            } else {
+                p.fullscreen(self.lighting.pick(decals), &push);
+            }
         })
     }
 
@@ -175,5 +201,6 @@ impl DeferredPasses {
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }
         self.lighting.destroy(ctx);
+        self.lighting_compute.destroy(ctx);
     }
 }

@@ -84,28 +84,28 @@ pub fn forward_plus_frame(
 }
 
 /// Deferred: G-buffer, light culling and shadows, deferred decals or the decal pass (whichever
-/// is the method), full-screen lighting (in-shader ray-query decals included when they are the
-/// method).
+/// is the method), then lighting in compute (or a full-screen fragment pass; in-shader
+/// ray-query decals included when they are the method).
 pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let (decals, lights) = begin(f, r, mirror, s)?;
     r.deferred.geometry(f, r.scene, &mirror.draws, s.clear_color)?;
     r.lighting.record(f, r.scene, &lights)?;
     r.deferred.decals(f, r.scene, r.decals.deferred_runs(&decals))?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::GBuffer)?;
-    r.deferred.lighting(f, r.scene, &decals, &lights)?;
+    r.deferred.lighting(f, r.scene, &decals, &lights, s.compute_shading)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)?;
     Ok(lights)
 }
 
-/// Visibility buffer: ids and depth, light culling and shadows, the decal pass, then one
-/// full-screen pass that rebuilds and shades.
+/// Visibility buffer: ids and depth, light culling and shadows, the decal pass, then one pass
+/// (compute, or full-screen fragment) that rebuilds and shades.
 pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let (decals, lights) = begin(f, r, mirror, s)?;
     r.visbuffer.visibility(f, "visibility", r.scene, &mirror.draws)?;
     r.lighting.record(f, r.scene, &lights)?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
-    r.visbuffer.shade(f, r.scene, s.clear_color, &decals, &lights)?;
+    r.visbuffer.shade(f, r.scene, s.clear_color, &decals, &lights, s.compute_shading)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)?;
     Ok(lights)

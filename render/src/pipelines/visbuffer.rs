@@ -9,7 +9,7 @@ use ash::vk;
 use crate::RenderError;
 use crate::decals::{DecalFrame, declare_decal_reads};
 use crate::gpu::device::GpuContext;
-use crate::gpu::pipeline::{GraphicsDesc, create_graphics};
+use crate::gpu::pipeline::{GraphicsDesc, create_compute, create_graphics};
 use crate::gpu::shaders;
 use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT, VISIBILITY, VISIBILITY_FORMAT};
 use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind};
@@ -23,6 +23,7 @@ pub struct VisBufferPasses {
     ids_opaque: vk::Pipeline,
     ids_mask: vk::Pipeline,
     shade: ShadeVariants,
+    shade_compute: ShadeVariants,
 }
 
 impl VisBufferPasses {
@@ -38,6 +39,11 @@ impl VisBufferPasses {
                 ctx,
                 [shaders::VISBUFFER_SHADE_FRAG, shaders::VISBUFFER_SHADE_FRAG_RAY_QUERY_DECALS, shaders::VISBUFFER_SHADE_FRAG_DECAL_BUFFER],
                 |fragment| create_graphics(ctx, layout, &GraphicsDesc::fullscreen("visibility shading", fragment, &hdr)),
+            )?,
+            shade_compute: ShadeVariants::new(
+                ctx,
+                [shaders::VISBUFFER_SHADE_COMP, shaders::VISBUFFER_SHADE_COMP_RAY_QUERY_DECALS, shaders::VISBUFFER_SHADE_COMP_DECAL_BUFFER],
+                |spirv| create_compute(ctx, layout, "visibility shading (compute)", spirv),
             )?,
         })
     }
@@ -58,7 +64,9 @@ impl VisBufferPasses {
             })
     }
 
-    /// Rebuilds and shades every covered pixel into the HDR target, with this frame's `decals`.
+    /// Rebuilds and shades every covered pixel into the HDR target, with this frame's `decals`
+    /// and `lights`: when `compute`, a pass that clears the target to `clear` and a compute pass
+    /// storing the covered pixels; else one full-screen fragment pass.
     pub fn shade(
         &self,
         f: &mut Frame,
@@ -66,17 +74,28 @@ impl VisBufferPasses {
         clear: [f32; 4],
         decals: &DecalFrame,
         lights: &LightFrame,
+        compute: bool,
     ) -> Result<(), RenderError> {
+        if compute {
+            f.pass("hdr_clear", PassKind::Graphics).color(&HDR, Load::Clear(clear)).record(|_| {})?;
+        }
+        let kind = if compute { PassKind::Compute } else { PassKind::Graphics };
         let pass = f
-            .pass("visbuffer_shade", PassKind::Graphics)
+            .pass("visbuffer_shade", kind)
             .sample(&DEPTH)
             .sample(&VISIBILITY)
-            .color(&HDR, Load::Clear(clear))
             .reads(scene.res.shaded())
             .read(scene.res.meshes, BufferUse::Storage);
+        let pass = if compute { pass.image(&HDR, ImageUse::StorageWrite) } else { pass.color(&HDR, Load::Clear(clear)) };
         declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| {
             let push = p.push;
-            p.fullscreen(self.shade.pick(decals), &push);
+            if compute {
+                p.bind(vk::PipelineBindPoint::COMPUTE, self.shade_compute.pick(decals), &push);
+                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
+                unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
+            } else {
+                p.fullscreen(self.shade.pick(decals), &push);
+            }
         })
     }
 
@@ -87,5 +106,6 @@ impl VisBufferPasses {
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }
         self.shade.destroy(ctx);
+        self.shade_compute.destroy(ctx);
     }
 }

@@ -26,9 +26,9 @@ use crate::scene::{
 pub const MAX_TEXTURES: u32 = 4096;
 /// Descriptor bindings after the texture array, one per sampled render target (`BINDING_*`).
 pub const TARGET_BINDINGS: u32 = crate::layout::BINDING_VISIBILITY;
-/// Storage-image bindings after those: the decal buffer (`BINDING_DECAL_*`) and the shadow
-/// debug image.
-pub const STORAGE_BINDINGS: u32 = crate::layout::BINDING_SHADOW_DEBUG - TARGET_BINDINGS;
+/// Storage-image bindings after those: the decal buffer (`BINDING_DECAL_*`), the shadow debug
+/// image and the HDR target.
+pub const STORAGE_BINDINGS: u32 = crate::layout::BINDING_HDR_STORAGE - TARGET_BINDINGS;
 const _: () = assert!(crate::layout::BINDING_DECAL_ALBEDO == TARGET_BINDINGS + 1, "storage bindings follow the sampled targets");
 const BINDINGS: usize = 1 + (TARGET_BINDINGS + STORAGE_BINDINGS) as usize;
 
@@ -295,7 +295,8 @@ impl GpuScene {
             | vk::DescriptorBindingFlags::UPDATE_UNUSED_WHILE_PENDING;
         // Binding 0: the material and decal textures. Bindings 1..=7: one render target each
         // (`BINDING_*`), so shaders statically use only the targets they sample; 8..=11: the
-        // decal buffer's storage images; 12: the shadow debug image.
+        // decal buffer's storage images; 12: the shadow debug image; 13: the HDR target as a
+        // storage image.
         let binding_flags = [bindless; BINDINGS];
         let mut flags_info = vk::DescriptorSetLayoutBindingFlagsCreateInfo::default().binding_flags(&binding_flags);
         let bindings: [vk::DescriptorSetLayoutBinding; BINDINGS] = std::array::from_fn(|i| {

@@ -1,0 +1,32 @@
+// The visibility buffer's surface at a pixel: the ids' triangle intersected by the camera ray
+// (visibility.glsl, with analytic derivatives) and its material sampled, for the shading pass
+// (visbuffer_shade.frag and .comp): false for sky.
+#ifndef VISBUFFER_SURFACE_GLSL
+#define VISBUFFER_SURFACE_GLSL
+
+#include "scene.glsl"
+#include "visibility.glsl"
+#include "material.glsl"
+#include "shading.glsl"
+
+bool visbuffer_surface(ivec2 px, out SurfaceInputs s) {
+    float depth = texelFetch(depth_target, px, 0).r;
+    if (depth <= 0.0) return false; // sky: the clear colour stays
+    VisibleSurface v = visible_surface(px, texelFetch(visibility_ids, px, 0).rg);
+    GpuMaterial m = v.material;
+    MaterialSample ms = sample_material(m, v.uv, v.duvdx, v.duvdy);
+    s.position = v.position;
+    s.dpdx = v.dpdx;
+    s.dpdy = v.dpdy;
+    s.geometric_normal = v.geometric_normal;
+    s.normal = perturb_normal(v.geometric_normal, v.tangent, ms.tangent_normal, m.normal_scale);
+    s.albedo = ms.base.rgb;
+    s.roughness = ms.roughness;
+    s.metallic = ms.metallic;
+    s.occlusion = ms.occlusion;
+    s.emissive = ms.emissive;
+    s.decal_layers = v.instance.decal_layers;
+    return true;
+}
+
+#endif

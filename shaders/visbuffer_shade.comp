@@ -1,0 +1,17 @@
+// variants: RAY_QUERY_DECALS DECAL_BUFFER
+#version 460
+// Visibility-buffer shading in compute (visbuffer_shade.frag is the fragment version): the same
+// surface and shading, stored through a storage image into the HDR target, which a transfer
+// cleared to the clear colour (sky stays).
+#include "visbuffer_surface.glsl"
+
+layout(set = 0, binding = BINDING_HDR_STORAGE, rgba16f) uniform writeonly image2D hdr_image;
+layout(local_size_x = 8, local_size_y = 8) in;
+
+void main() {
+    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(px, ivec2(scene.camera.camera.viewport_size)))) return;
+    SurfaceInputs s;
+    if (!visbuffer_surface(px, s)) return;
+    imageStore(hdr_image, px, shade_surface(s, px));
+}
