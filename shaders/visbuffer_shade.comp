@@ -1,8 +1,8 @@
 // variants: RAY_QUERY_DECALS DECAL_BUFFER
 #version 460
 // Visibility-buffer shading in compute (visbuffer_shade.frag is the fragment version): the same
-// surface and shading, stored through a storage image into the HDR target, which a transfer
-// cleared to the clear colour (sky stays).
+// surface and shading, stored through a storage image into the HDR target; pixels no geometry
+// covers get the clear colour.
 #include "visbuffer_surface.glsl"
 
 layout(set = 0, binding = BINDING_HDR_STORAGE, rgba16f) uniform writeonly image2D hdr_image;
@@ -12,6 +12,9 @@ void main() {
     ivec2 px = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(px, ivec2(scene.camera.camera.viewport_size)))) return;
     SurfaceInputs s;
-    if (!visbuffer_surface(px, s)) return;
+    if (!visbuffer_surface(px, s)) {
+        imageStore(hdr_image, px, scene.lighting.lighting.clear_color);
+        return;
+    }
     imageStore(hdr_image, px, shade_surface(s, px));
 }

@@ -786,8 +786,10 @@ layout! {
         pub instance_count: u32,
         /// Entries of the scene BLAS table.
         pub blas_count: u32,
-        /// Padding to a multiple of 8 bytes.
+        /// Padding to 16 bytes before `clear_color`.
         pub pad: u32,
+        /// Radiance where no geometry is drawn (compute shading writes it to sky pixels).
+        pub clear_color: Vec4,
     }
 
     /// A light tile's frustum in view space: four side planes through the eye, with inward

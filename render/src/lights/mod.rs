@@ -120,6 +120,7 @@ impl Lighting {
             instance_count: mirror.instances.slot_count(),
             blas_count: accel.blas_count,
             pad: 0,
+            clear_color: s.clear_color.into(),
         });
         let res = self.tiles.resources();
         Ok(LightFrame {
