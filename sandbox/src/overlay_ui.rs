@@ -114,11 +114,22 @@ impl OverlayUi {
         ui.label(format!("instances {}   lights {}   decals {}", c.instances, c.lights, c.decals));
         // What the GPU applied, which may differ from the request (a device without ray queries).
         if let Some(last) = self.history.back() {
-            ui.label(format!("decals applied: {}", last.decal_method.name()));
+            ui.label(format!(
+                "decals applied: {}   lights: {}   shadows: {}",
+                last.decal_method.name(),
+                last.light_method.name(),
+                last.shadows.name()
+            ));
         }
         ui.label(format!(
-            "this frame: BLAS builds {}, refits {}, TLAS builds {}, {} bytes uploaded",
-            c.blas_builds, c.blas_updates, c.tlas_builds, c.bytes_uploaded
+            "this frame: decal BLAS builds {}, refits {}, TLAS builds {}; scene BLAS builds {}, TLAS builds {}, updates {}; {} bytes uploaded",
+            c.blas_builds,
+            c.blas_updates,
+            c.tlas_builds,
+            c.scene_blas_builds,
+            c.scene_tlas_builds,
+            c.scene_tlas_updates,
+            c.bytes_uploaded
         ));
     }
 
@@ -140,6 +151,9 @@ impl OverlayUi {
             (DebugView::Albedo, "albedo"),
             (DebugView::Normal, "normal"),
             (DebugView::RoughnessMetallic, "roughness/metallic"),
+            (DebugView::LightHeatmap, "lights per tile"),
+            (DebugView::ShadowRays, "shadow rays"),
+            (DebugView::DepthNormals, "normals from depth"),
         ];
         let current = views.iter().find(|(v, _)| *v == settings.debug_view).map_or("lit", |(_, n)| n);
         egui::ComboBox::from_label("view").selected_text(current).show_ui(ui, |ui| {
@@ -148,6 +162,20 @@ impl OverlayUi {
             }
         });
         ui.checkbox(&mut settings.show_decal_boxes, "decal boxes");
+        ui.horizontal(|ui| {
+            for m in render::LightMethod::ALL {
+                ui.selectable_value(&mut settings.lights.method, m, m.name());
+            }
+            for t in [8, 16, 32] {
+                ui.selectable_value(&mut settings.lights.tile_size, t, format!("{t}px"));
+            }
+        });
+        ui.horizontal(|ui| {
+            ui.checkbox(&mut settings.lights.shadows, "shadows");
+            ui.checkbox(&mut settings.lights.shadow_ray_culling, "shadow-ray culling");
+            ui.checkbox(&mut settings.lights.cull_aabb, "tile AABB");
+            ui.checkbox(&mut settings.compute_shading, "compute shading");
+        });
         ui.add(egui::Slider::new(&mut self.spawn_count, 1..=5000).text("spawn count").logarithmic(true));
         ui.horizontal(|ui| {
             if ui.button("spawn decals").clicked() {

@@ -2,7 +2,9 @@
 //! and triangle ids (alpha-tested for masked materials, which the seed's renderer got wrong),
 //! then one full-screen pass rebuilds each pixel's surface by intersecting its camera ray with
 //! its triangle, with analytic attribute derivatives for texture filtering (the fix for the
-//! seed's 2×2-quad derivative bug; see `shaders/visbuffer_shade.frag`), and shades it.
+//! seed's 2×2-quad derivative bug; see `shaders/include/visibility.glsl`), and shades it. That
+//! pass runs in compute by default (see [`super::deferred`] on why), or as a full-screen fragment
+//! pass.
 
 use ash::vk;
 
