@@ -184,7 +184,9 @@ void main() {
         uint bit = 1u << (lane % 32u);
         if (i < light_count && (word & bit) != 0u) {
             uint before = (lane < 32u ? 0u : bitCount(word0)) + bitCount(word & (bit - 1u));
-            w.words[at + before] = i;
+            // Retested lights (past the shared-memory cache) could in principle round the other
+            // way than when they were counted: never write past the tile's reserved range.
+            if (at + before < list_at() + s_offset + count) w.words[at + before] = i;
         }
         at += bitCount(word0) + bitCount(word1);
     }

@@ -1,8 +1,8 @@
 #version 460
 // The scene TLAS's instance records, written on the GPU from the instance table the renderer
 // already keeps (render/src/shadows/accel.rs): instance i is slot i, its custom index the slot,
-// its BLAS its mesh's (none for a free slot, a mesh without one, or a non-finite transform:
-// such an instance is inactive), opaque unless its material is alpha-masked.
+// its BLAS its mesh's (none for a free slot or a mesh without one: such an instance is
+// inactive), opaque unless its material is alpha-masked.
 #include "scene.glsl"
 
 layout(local_size_x = 64) in;
@@ -30,12 +30,21 @@ void main() {
     o.rows[0] = vec4(m[0][0], m[1][0], m[2][0], m[3][0]);
     o.rows[1] = vec4(m[0][1], m[1][1], m[2][1], m[3][1]);
     o.rows[2] = vec4(m[0][2], m[1][2], m[2][2], m[3][2]);
+    uint64_t blas = 0ul;
+    if (inst.live != 0u && inst.mesh < l.blas_count) blas = BlasTableRef(l.scene_blas_table).blas[inst.mesh];
+    // A non-finite transform must not reach the builder, and the instance must not turn inactive
+    // either (an update may not change an instance between active and inactive, and a transform
+    // alone changes by update): it keeps its BLAS with a zero transform and a zero mask, so no
+    // ray finds it.
     bool finite = true;
     for (int r = 0; r < 3; ++r) finite = finite && !any(isnan(o.rows[r])) && !any(isinf(o.rows[r]));
-    uint64_t blas = 0ul;
-    if (inst.live != 0u && inst.mesh < l.blas_count && finite) blas = BlasTableRef(l.scene_blas_table).blas[inst.mesh];
+    if (!finite) {
+        o.rows[0] = vec4(0.0);
+        o.rows[1] = vec4(0.0);
+        o.rows[2] = vec4(0.0);
+    }
     bool masked = (scene.materials.materials[inst.material].flags & MATERIAL_ALPHA_MASK) != 0u;
-    o.custom_index_and_mask = (i & 0xFFFFFFu) | (0xFFu << 24);
+    o.custom_index_and_mask = (i & 0xFFFFFFu) | ((finite ? 0xFFu : 0u) << 24);
     o.sbt_offset_and_flags = (TRIANGLE_FACING_CULL_DISABLE | (masked ? FORCE_NO_OPAQUE : FORCE_OPAQUE)) << 24;
     o.blas = blas;
     AsInstancesRef(l.scene_instances).instances[i] = o;

@@ -69,10 +69,14 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
         float visible = shadowed && list.count > 0u ? float(shadow_words.words[shadow_word_at(list, 0u, px)] & 1u) : 1.0;
         return vec4(visible, float(list.count), float(shadowed), 1.0);
     }
-    if (scene.debug_view == DEBUG_SHADOW_RAYS) return vec4(heatmap(imageLoad(shadow_debug_in, px).a / 16.0), 1.0);
+    // The shadow pass's debug image exists only when it ran with its debug output; without it
+    // these views show black (no rays, no normals).
+    bool shadow_debug = (scene.lighting.lighting.flags & SHADOW_DEBUG) != 0u;
+    if (scene.debug_view == DEBUG_SHADOW_RAYS) return vec4(shadow_debug ? heatmap(imageLoad(shadow_debug_in, px).a / 16.0) : vec3(0.0), 1.0);
     if (scene.debug_view == DEBUG_DEPTH_NORMALS) {
         bool reconstructed = float(px.x) < scene.camera.camera.viewport_size.x * 0.5;
-        return vec4(reconstructed ? imageLoad(shadow_debug_in, px).rgb : s.normal * 0.5 + 0.5, 1.0);
+        vec3 rebuilt = shadow_debug ? imageLoad(shadow_debug_in, px).rgb : vec3(0.0);
+        return vec4(reconstructed ? rebuilt : s.normal * 0.5 + 0.5, 1.0);
     }
 
     GpuCamera cam = scene.camera.camera;

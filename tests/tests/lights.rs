@@ -130,10 +130,15 @@ fn assert_outline_within(got: &[Option<bool>], expected: &[Option<bool>], reach:
     assert!(off.is_empty(), "{what}: pixels wrong away from the outline (x, y, got, expected): {:?}", &off[..off.len().min(20)]);
 }
 
-/// The visibility bit of each pixel's first light (`DebugView::ShadowFirst`), where the pixel
-/// has a list with a light in it.
-fn shadow_bits(hdr: &[[f32; 4]]) -> Vec<Option<bool>> {
-    hdr.iter().map(|p| (p[1] >= 1.0 && p[2] > 0.5).then_some(p[0] > 0.5)).collect()
+/// Renders `DebugView::ShadowFirst` and returns, per pixel, the visibility bit of its first
+/// light (where its list has a light) and `expect` of the ground point the pixel sees (pixels on
+/// anything above the ground get `None`).
+fn ground_shadows(app: &mut App, view: &TopDownView, expect: impl Fn(Vec3) -> Option<bool>) -> (Vec<Option<bool>>, Vec<Option<bool>>) {
+    let (hdr, depth) = render(app, DebugView::ShadowFirst);
+    let got = hdr.iter().map(|p| (p[1] >= 1.0 && p[2] > 0.5).then_some(p[0] > 0.5)).collect();
+    let positions = world_positions(&view.transform, &view.camera, SIZE, &depth);
+    let expected = positions.iter().map(|p| p.filter(|p| p.y.abs() <= 1e-3).and_then(&expect)).collect();
+    (got, expected)
 }
 
 #[test]
@@ -181,23 +186,14 @@ fn a_floating_box_casts_its_analytic_shadow_from_every_kind_of_light_on_both_ray
         for (name, spawn, at) in &lights {
             let light = spawn(&mut app.world);
             let direction = app.world.get::<Transform>(light).unwrap().forward();
-            let (hdr, depth) = render(&mut app, DebugView::ShadowFirst);
-            let positions = world_positions(&view.transform, &view.camera, SIZE, &depth);
-            let expected: Vec<Option<bool>> = positions
-                .iter()
-                .map(|p| {
-                    let p = (*p)?;
-                    if p.y.abs() > 1e-3 {
-                        return None; // the box itself
-                    }
-                    let (to, t_max) = if *name == "directional" { (-direction, 1e3) } else { ((*at - p).normalize(), at.distance(p)) };
-                    if *name == "spot" && to.dot(-direction) < 1.2f32.cos() + 0.02 {
-                        return None; // outside (or at the rim of) the cone: no light to shadow
-                    }
-                    Some(ray_box(p, to, lo, hi, t_max).is_none())
-                })
-                .collect();
-            assert_outline_within(&shadow_bits(&hdr), &expected, 1, &format!("{tier:?}, {name} light"));
+            let (got, expected) = ground_shadows(&mut app, &view, |p| {
+                let (to, t_max) = if *name == "directional" { (-direction, 1e3) } else { ((*at - p).normalize(), at.distance(p)) };
+                if *name == "spot" && to.dot(-direction) < 1.2f32.cos() + 0.02 {
+                    return None; // outside (or at the rim of) the cone: no light to shadow
+                }
+                Some(ray_box(p, to, lo, hi, t_max).is_none())
+            });
+            assert_outline_within(&got, &expected, 1, &format!("{tier:?}, {name} light"));
             app.world.despawn(light);
         }
     }
@@ -221,30 +217,21 @@ fn an_alpha_masked_lattice_casts_a_lattice_shaped_shadow() {
         app.world.spawn((DirectionalLight { illuminance: 3.0, ..Default::default() }, Transform::default().looking_at(direction, Vec3::Z)));
         let view = TopDownView::new(6.0, SIZE);
         view.spawn(&mut app.world);
-        let (hdr, depth) = render(&mut app, DebugView::ShadowFirst);
-        let positions = world_positions(&view.transform, &view.camera, SIZE, &depth);
-        let expected: Vec<Option<bool>> = positions
-            .iter()
-            .map(|p| {
-                let p = (*p)?;
-                if p.y.abs() > 1e-3 {
-                    return None; // the lattice itself
-                }
-                // Where the way to the light crosses the lattice's plane, and the texel there.
-                // The plane's UVs are metres from its corner (`shapes::plane`, uv_scale 1): the
-                // 4×4 texture repeats every metre.
-                let q = p - direction * ((1.5 - p.y) / -direction.y);
-                let (u, v) = (q.x + 1.0, q.z + 1.0);
-                if !(0.0..2.0).contains(&u) || !(0.0..2.0).contains(&v) {
-                    return Some(true);
-                }
-                let (tx, ty) = ((u * 4.0) as u32 % 4, (v * 4.0) as u32 % 4);
-                Some((tx + ty) % 2 == 1)
-            })
-            .collect();
+        let (got, expected) = ground_shadows(&mut app, &view, |p| {
+            // Where the way to the light crosses the lattice's plane, and the texel there.
+            // The plane's UVs are metres from its corner (`shapes::plane`, uv_scale 1): the
+            // 4×4 texture repeats every metre.
+            let q = p - direction * ((1.5 - p.y) / -direction.y);
+            let (u, v) = (q.x + 1.0, q.z + 1.0);
+            if !(0.0..2.0).contains(&u) || !(0.0..2.0).contains(&v) {
+                return Some(true);
+            }
+            let (tx, ty) = ((u * 4.0) as u32 % 4, (v * 4.0) as u32 % 4);
+            Some((tx + ty) % 2 == 1)
+        });
         let lattice_lit = expected.iter().flatten().filter(|&&lit| lit).count();
         assert!(lattice_lit > 0);
-        assert_outline_within(&shadow_bits(&hdr), &expected, 2, &format!("{tier:?}, lattice"));
+        assert_outline_within(&got, &expected, 2, &format!("{tier:?}, lattice"));
     }
 }
 
@@ -412,6 +399,12 @@ fn improved_normals_from_depth_are_closer_to_the_true_normals_than_naive_ones() 
         eprintln!("{normals:?}: mean angular error {:.4} rad over {n} pixels, {wrong} off by more than 0.2 rad", mean);
         errors.push((mean, wrong));
     }
+    // Without the shadow pass there is no reconstructed normal to show: the view says so (black)
+    // rather than reading an image nobody wrote.
+    app.world.resource_mut::<RenderSettings>().lights.shadows = false;
+    let (off, _) = render(&mut app, DebugView::DepthNormals);
+    let left_covered = |i: usize| depth[i] > 0.0 && (i as u32 % SIZE.0) < SIZE.0 / 2;
+    assert!(off.iter().enumerate().all(|(i, p)| !left_covered(i) || p[..3] == [0.0; 3]), "black without shadows");
     let [(naive, naive_wrong), (improved, improved_wrong)] = errors[..] else { unreachable!() };
     assert!(
         improved < naive && improved_wrong < naive_wrong,
@@ -535,6 +528,13 @@ fn a_still_scene_does_no_acceleration_structure_work_and_a_moving_instance_updat
     app.world.get_mut::<Transform>(cube).unwrap().translation.x += 0.5;
     assert_eq!(counters(&mut app), (0, 0, 0, 1), "a moved instance updates the TLAS");
     assert_eq!(counters(&mut app), (0, 0, 0, 0));
+    // A transform gone non-finite (and back) is still an update: the instance stays active with
+    // a zero mask, since an update may not turn an instance inactive.
+    let before = app.world.get::<Transform>(cube).unwrap().translation;
+    app.world.get_mut::<Transform>(cube).unwrap().translation.x = f32::NAN;
+    assert_eq!(counters(&mut app).3, 1, "a non-finite transform updates the TLAS");
+    app.world.get_mut::<Transform>(cube).unwrap().translation = before;
+    assert_eq!(counters(&mut app).3, 1);
     let mesh_handle = *app.world.get::<MeshInstance>(cube).unwrap();
     app.world.spawn((mesh_handle, Transform::from_xyz(2.0, 0.4, 2.0)));
     assert_eq!(counters(&mut app), (0, 0, 1, 0), "a new instance of a loaded mesh rebuilds the TLAS and builds no BLAS");

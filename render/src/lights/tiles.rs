@@ -279,9 +279,11 @@ impl LightTiles {
             let rows = if tiled {
                 // A row per 32 entries of each tile's list: at first one per tile, then what the
                 // last measured frame needed.
+                // Rows measured at another tile size say nothing about this one.
                 let floor = tile_count.max(64);
-                let needed = rows_needed.min(u32::MAX as u64 / 2) as u32;
-                if needed > self.shadow_rows.max(floor) { (needed + needed / 4).next_power_of_two() } else { self.shadow_rows.max(floor) }
+                let kept = if tile_pixels == self.shadow_row_words { self.shadow_rows.max(floor) } else { floor };
+                let needed = if tile_pixels == self.shadow_row_words { rows_needed.min(u32::MAX as u64 / 2) as u32 } else { 0 };
+                if needed > kept { (needed + needed / 4).next_power_of_two() } else { kept }
             } else {
                 tile_count * light_slots.div_ceil(32).max(1)
             };
@@ -296,6 +298,7 @@ impl LightTiles {
                 }
             } else {
                 if self.shadow.is_none() || rows > self.shadow_rows || tile_pixels != self.shadow_row_words {
+                    // (A smaller buffer after a tile-size change: `rows` came from the floor.)
                     let buffer = Buffer::new(
                         ctx,
                         "shadow bits",
