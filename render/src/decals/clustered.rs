@@ -33,11 +33,11 @@ use gpu_allocator::MemoryLocation;
 
 use crate::RenderError;
 use crate::decals::buffer::DecalSurfaceSource;
-use crate::gpu::FRAMES_IN_FLIGHT;
 use crate::gpu::device::GpuContext;
 use crate::gpu::memory::{Buffer, Retired};
 use crate::gpu::pipeline::create_compute;
 use crate::gpu::shaders;
+use crate::graph::readback::StatsReadback;
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::{DECAL_BIN_ROW, DECAL_CLUSTER_HEADER, DECAL_CLUSTER_SLICES, DECAL_CLUSTER_TILE};
 use crate::scene::DecalClusterStats;
@@ -69,26 +69,18 @@ pub struct DecalClusters {
     capacity: u32,
     initial_capacity: u32,
     clusters: u32,
-    /// One host-visible copy of the statistics per frame slot, and the frame that wrote it.
-    readback: Vec<(Buffer, Option<u64>)>,
+    /// The statistics, read back two frames later.
+    readback: StatsReadback,
     grows: u64,
     latest: DecalClusterStats,
     res: ResourceId,
-    readback_res: ResourceId,
 }
 
 impl DecalClusters {
     /// Creates the pipelines and the readback buffers; the cluster buffer waits for first use,
     /// when it gets room for `initial_capacity` entries.
     pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout, initial_capacity: u32) -> Result<Self, RenderError> {
-        let mut readback = Vec::with_capacity(FRAMES_IN_FLIGHT);
-        for _ in 0..FRAMES_IN_FLIGHT {
-            let size = DECAL_CLUSTER_HEADER as u64 * 4;
-            readback.push((
-                Buffer::new(ctx, "decal cluster statistics", size, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?,
-                None,
-            ));
-        }
+        let readback = StatsReadback::new(ctx, graph, "decal cluster statistics", DECAL_CLUSTER_HEADER as u64 * 4)?;
         Ok(Self {
             count: create_compute(ctx, layout, "decal clusters (count)", shaders::DECAL_CLUSTERS_COMP)?,
             scan: create_compute(ctx, layout, "decal clusters (scan)", shaders::DECAL_CLUSTER_SCAN_COMP)?,
@@ -105,7 +97,6 @@ impl DecalClusters {
             grows: 0,
             latest: DecalClusterStats { measured_frame: u64::MAX, ..Default::default() },
             res: graph.resource("decal clusters"),
-            readback_res: graph.resource("decal cluster statistics"),
         })
     }
 
@@ -117,10 +108,7 @@ impl DecalClusters {
         let extent = f.graph.extent();
         let tiles = (extent.width.div_ceil(DECAL_CLUSTER_TILE), extent.height.div_ceil(DECAL_CLUSTER_TILE));
         let clusters = tiles.0 * tiles.1 * DECAL_CLUSTER_SLICES;
-        let slot = (f.upload.frame_value % FRAMES_IN_FLIGHT as u64) as usize;
-        let (readback, written_by) = &mut self.readback[slot];
-        if let Some(frame) = written_by.take().filter(|&v| v <= f.upload.completed) {
-            let words: &[u32] = bytemuck::cast_slice(&readback.mapped()[..DECAL_CLUSTER_HEADER as usize * 4]);
+        if let Some((frame, words)) = self.readback.take(f) {
             let wide = |lo: usize| words[lo] as u64 | (words[lo + 1] as u64) << 32;
             self.latest = DecalClusterStats {
                 measured_frame: frame,
@@ -209,20 +197,7 @@ impl DecalClusters {
             unsafe { p.ctx.device.cmd_dispatch(p.cmd, extent.width.div_ceil(8), extent.height.div_ceil(8), 1) };
         })?;
 
-        let slot = (f.upload.frame_value % FRAMES_IN_FLIGHT as u64) as usize;
-        let (readback, written_by) = &mut self.readback[slot];
-        let target = readback.raw;
-        f.pass("decal_clusters_statistics", PassKind::Transfer)
-            .read(res, BufferUse::Transfer)
-            .write(self.readback_res, BufferUse::Transfer)
-            .record(|p| {
-                let region = vk::BufferCopy { src_offset: 0, dst_offset: 0, size: DECAL_CLUSTER_HEADER as u64 * 4 };
-                // SAFETY: `cmd` is recording outside a rendering scope; both ranges lie in their buffers.
-                unsafe { p.ctx.device.cmd_copy_buffer(p.cmd, raw, target, &[region]) };
-            })?;
-        f.hand_over_buffer(self.readback_res, BufferUse::HostRead);
-        *written_by = Some(f.upload.frame_value);
-        Ok(())
+        self.readback.record(f, "decal_clusters_statistics", res, raw)
     }
 
     /// Destroys everything; the GPU must be idle.
@@ -231,8 +206,9 @@ impl DecalClusters {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }
-        for b in self.buffer.into_iter().chain(self.readback.into_iter().map(|(b, _)| b)) {
+        if let Some(b) = self.buffer {
             b.destroy(ctx);
         }
+        self.readback.destroy(ctx);
     }
 }

@@ -38,6 +38,7 @@
 
 pub mod access;
 pub mod pass;
+pub mod readback;
 pub mod targets;
 
 use ash::vk;

@@ -23,11 +23,11 @@ use glam::Mat4;
 use gpu_allocator::MemoryLocation;
 
 use crate::RenderError;
-use crate::gpu::FRAMES_IN_FLIGHT;
 use crate::gpu::device::GpuContext;
 use crate::gpu::memory::{Buffer, Retired};
 use crate::gpu::pipeline::create_compute;
 use crate::gpu::shaders;
+use crate::graph::readback::StatsReadback;
 use crate::graph::targets::DEPTH;
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::{GpuTileFrustum, LIGHT_TILE_HEADER};
@@ -140,7 +140,7 @@ pub struct LightTiles {
     shadow: Option<Buffer>,
     shadow_rows: u32,
     shadow_row_words: u32,
-    readback: Vec<(Buffer, Option<u64>)>,
+    readback: StatsReadback,
     latest: LightTileStats,
     grows: u64,
     warned_all_shadows: bool,
@@ -156,20 +156,12 @@ pub struct TileResources {
     pub tiles: ResourceId,
     /// The shadow words.
     pub shadow: ResourceId,
-    readback: ResourceId,
 }
 
 impl LightTiles {
     /// Creates the passes and the readback buffers; the tile buffers wait for first use.
     pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
-        let mut readback = Vec::with_capacity(FRAMES_IN_FLIGHT);
-        for _ in 0..FRAMES_IN_FLIGHT {
-            let size = LIGHT_TILE_HEADER as u64 * 4;
-            readback.push((
-                Buffer::new(ctx, "light tile statistics", size, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?,
-                None,
-            ));
-        }
+        let readback = StatsReadback::new(ctx, graph, "light tile statistics", LIGHT_TILE_HEADER as u64 * 4)?;
         Ok(Self {
             frusta_pipeline: create_compute(ctx, layout, "light tile frusta", shaders::LIGHT_TILE_FRUSTA_COMP)?,
             cull_pipeline: create_compute(ctx, layout, "light culling", shaders::LIGHT_CULL_COMP)?,
@@ -189,7 +181,6 @@ impl LightTiles {
                 frusta: graph.resource("light tile frusta"),
                 tiles: graph.resource("light tiles"),
                 shadow: graph.resource("shadow bits"),
-                readback: graph.resource("light tile statistics"),
             },
         })
     }
@@ -209,11 +200,8 @@ impl LightTiles {
         let tiles = (extent.width.div_ceil(tile_size), extent.height.div_ceil(tile_size));
         let tile_count = tiles.0 * tiles.1;
         let tile_pixels = tile_size * tile_size;
-        let slot = (f.upload.frame_value % FRAMES_IN_FLIGHT as u64) as usize;
-        let (readback, written_by) = &mut self.readback[slot];
         let mut rows_needed = 0u64;
-        if let Some(frame) = written_by.take().filter(|&v| v <= f.upload.completed) {
-            let words: &[u32] = bytemuck::cast_slice(&readback.mapped()[..LIGHT_TILE_HEADER as usize * 4]);
+        if let Some((frame, words)) = self.readback.take(f) {
             rows_needed = words[1] as u64;
             self.latest = LightTileStats {
                 measured_frame: frame,
@@ -363,20 +351,7 @@ impl LightTiles {
                 // SAFETY: as above.
                 unsafe { p.ctx.device.cmd_dispatch(p.cmd, frame.tiles.0, frame.tiles.1, 1) };
             })?;
-        let slot = (f.upload.frame_value % FRAMES_IN_FLIGHT as u64) as usize;
-        let (readback, written_by) = &mut self.readback[slot];
-        let target = readback.raw;
-        f.pass("light_tiles_statistics", PassKind::Transfer)
-            .read(res.tiles, BufferUse::Transfer)
-            .write(res.readback, BufferUse::Transfer)
-            .record(|p| {
-                let region = vk::BufferCopy { src_offset: 0, dst_offset: 0, size: LIGHT_TILE_HEADER as u64 * 4 };
-                // SAFETY: `cmd` is recording outside a rendering scope; both ranges lie in their buffers.
-                unsafe { p.ctx.device.cmd_copy_buffer(p.cmd, raw, target, &[region]) };
-            })?;
-        f.hand_over_buffer(res.readback, BufferUse::HostRead);
-        *written_by = Some(f.upload.frame_value);
-        Ok(())
+        self.readback.record(f, "light_tiles_statistics", res.tiles, raw)
     }
 
     /// The light grid and list the last culling wrote (waits for the GPU); `None` before any.
@@ -398,8 +373,9 @@ impl LightTiles {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }
-        for b in [self.frusta, self.tiles, self.shadow].into_iter().flatten().chain(self.readback.into_iter().map(|(b, _)| b)) {
+        for b in [self.frusta, self.tiles, self.shadow].into_iter().flatten() {
             b.destroy(ctx);
         }
+        self.readback.destroy(ctx);
     }
 }
