@@ -4,7 +4,8 @@
 //!
 //! A stage whose first line is `// variants: NAME [NAME…]` is also compiled once per NAME with
 //! `-DNAME`, into `<file>.<NAME>.spv` (e.g. the forward shader with and without ray-query
-//! decals, since SPIR-V that uses ray queries cannot even be loaded on devices without them).
+//! decals, since SPIR-V that uses ray queries cannot even be loaded on devices without them). A
+//! NAME joining defines with `+` (`A+B`) is compiled with each of them.
 //!
 //! First it writes `$OUT_DIR/layout.glsl` from `src/layout.rs` (the Rust/GLSL records and
 //! constants, compiled here as a module so its layout assertions run before the crate does) and
@@ -62,7 +63,7 @@ fn main() {
     for (src, define, out) in &jobs {
         let mut command = Command::new(&glslc);
         command.arg("--target-env=vulkan1.3").arg("-O").arg("-I").arg(shader_dir.join("include")).arg("-I").arg(&out_dir);
-        if let Some(define) = define {
+        for define in define.iter().flat_map(|d| d.split('+')) {
             command.arg(format!("-D{define}"));
         }
         let result = command.arg(src).arg("-o").arg(out).output();

@@ -1,9 +1,17 @@
-// variants: RAY_QUERY_DECALS DECAL_BUFFER
+// variants: RAY_QUERY_DECALS DECAL_BUFFER RAY_QUERY_LIGHTS RAY_QUERY_LIGHTS+RAY_QUERY_DECALS RAY_QUERY_LIGHTS+DECAL_BUFFER
 #version 460
-// Deferred shading, lighting pass in compute (deferred_lighting.frag is the fragment version):
-// the same surface and shading, added to the emitted radiance in the HDR target through a
-// storage image. Full-screen fragment passes are slow on some GPUs (docs/BENCHMARKS.md).
+// Deferred shading, lighting pass in compute (deferred_lighting.frag is the fragment version,
+// deferred_lighting.rgen the ray-generation one for ray-query lights without ray queries): the
+// same surface and shading, added to the emitted radiance in the HDR target through a storage
+// image. Full-screen fragment passes are slow on some GPUs (docs/BENCHMARKS.md). The
+// RAY_QUERY_LIGHTS variants find the lights with ray queries (ray_query_lights.glsl).
+#ifdef RAY_QUERY_LIGHTS
+#define ENUMERATED_LIGHTS
+#endif
 #include "deferred_surface.glsl"
+#ifdef RAY_QUERY_LIGHTS
+#include "ray_query_lights.glsl"
+#endif
 
 layout(set = 0, binding = BINDING_HDR_STORAGE, rgba16f) uniform image2D hdr_image;
 layout(local_size_x = 8, local_size_y = 8) in;

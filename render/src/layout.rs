@@ -741,7 +741,7 @@ layout! {
         pub min: [f32; 3],
         /// Maximum corner.
         pub max: [f32; 3],
-        /// Slot of the decal record in the decal table (`NO_DECAL` for padding boxes).
+        /// Slot of the record the box belongs to: the decal in the decal table, or the light (`NO_DECAL` for padding boxes).
         pub slot: u32,
         /// Padding to the 8-byte multiple a build's AABB stride must be.
         pub pad: u32,
@@ -761,8 +761,13 @@ layout! {
         pub shadow_bits: u64,
         /// Address of the scene TLAS (0 without).
         pub scene_tlas: u64,
-        /// Address of the ray-query lights' TLAS (0 without).
+        /// Address of the ray-query lights' TLAS (0 unless lights are found by ray queries).
         pub light_tlas: u64,
+        /// Address of the ray-query lights' boxes (`GpuAabb` per light slot, box i for slot i).
+        pub light_boxes: u64,
+        /// Address of the lights no box can hold (directional lights, unbounded ranges), which
+        /// every pixel loops over with ray-query lights: a count, then light slots.
+        pub unbounded_lights: u64,
         /// Address of the scene BLAS of each mesh (u64 per mesh, 0 for none).
         pub scene_blas_table: u64,
         /// Address of the scene TLAS's instance records (written by the scene instance pass).
@@ -786,8 +791,8 @@ layout! {
         pub instance_count: u32,
         /// Entries of the scene BLAS table.
         pub blas_count: u32,
-        /// Padding to 16 bytes before `clear_color`.
-        pub pad: u32,
+        /// Boxes the light box pass writes (the light BLAS's build count).
+        pub light_box_count: u32,
         /// Radiance where no geometry is drawn (compute shading writes it to sky pixels).
         pub clear_color: Vec4,
     }

@@ -192,8 +192,8 @@ impl Renderer {
     }
 
     /// What the device offers decals (which [`DecalMethod`]s it can run).
-    pub fn decal_support(&self) -> crate::settings::DecalSupport {
-        self.ctx.decal_support()
+    pub fn ray_support(&self) -> crate::settings::RaySupport {
+        self.ctx.ray_support()
     }
 
     /// The render size.
@@ -447,7 +447,7 @@ impl Resources {
     /// The decal method applied this frame; a request the device cannot run is logged once per
     /// request and pipeline, naming the tier and the method used instead.
     fn decal_method(&mut self, ctx: &GpuContext, settings: &FrameSettings) -> DecalMethod {
-        let applied = settings.decal_method.effective(settings.pipeline, ctx.decal_support());
+        let applied = settings.decal_method.effective(settings.pipeline, ctx.ray_support());
         let key = 1u32 << (settings.decal_method as u32 * PipelineKind::ALL.len() as u32 + settings.pipeline as u32);
         if applied != settings.decal_method && self.warned_fallbacks & key == 0 {
             self.warned_fallbacks |= key;

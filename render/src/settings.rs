@@ -65,16 +65,17 @@ pub enum DecalMethod {
     Unavailable,
 }
 
-/// What a device offers decals (from its capability tier and extensions).
+/// What a device offers the methods that trace rays (decals, ray-query lights), from its
+/// capability tier and extensions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub struct DecalSupport {
+pub struct RaySupport {
     /// Ray queries (the ray-query tier).
     pub ray_query: bool,
     /// Acceleration structures and ray-tracing pipelines.
     pub ray_pipeline: bool,
 }
 
-impl DecalSupport {
+impl RaySupport {
     /// What a device of `tier` offers when it has every extension of its tier (a ray-query
     /// device may lack ray-tracing pipelines; [`crate::Renderer`] reports the device's own).
     pub fn of_tier(tier: Tier) -> Self {
@@ -122,7 +123,7 @@ impl DecalMethod {
     }
 
     /// Whether this method can run with `pipeline` on a device offering `support`.
-    pub fn runs(self, pipeline: PipelineKind, support: DecalSupport) -> bool {
+    pub fn runs(self, pipeline: PipelineKind, support: RaySupport) -> bool {
         match self {
             DecalMethod::RayQuery | DecalMethod::RayQueryCompute => support.ray_query,
             DecalMethod::RayPipeline => support.ray_pipeline,
@@ -137,7 +138,7 @@ impl DecalMethod {
     /// pass, then the ray-tracing-pipeline decal pass, then clustered decals, which run
     /// everywhere), so never nothing ([`DecalMethod::Unavailable`] remains for a device that
     /// could run none).
-    pub fn effective(self, pipeline: PipelineKind, support: DecalSupport) -> DecalMethod {
+    pub fn effective(self, pipeline: PipelineKind, support: RaySupport) -> DecalMethod {
         if self.runs(pipeline, support) {
             return self;
         }
@@ -156,17 +157,22 @@ pub enum LightMethod {
     /// Tiled light culling (seed 001 §4.2): each pixel loops over its tile's lights.
     #[default]
     Tiled,
+    /// Ray-query lights (seed 000 §5.2.5, §6.1): each pixel finds the lights whose boxes hold
+    /// it with a zero-length ray through the lights' own acceleration structure. Deferred and
+    /// visibility-buffer lighting only, on devices with acceleration structures.
+    RayQuery,
 }
 
 impl LightMethod {
     /// Every method.
-    pub const ALL: [LightMethod; 2] = [LightMethod::All, LightMethod::Tiled];
+    pub const ALL: [LightMethod; 3] = [LightMethod::All, LightMethod::Tiled, LightMethod::RayQuery];
 
     /// The name used in `--stats` and on the command line.
     pub fn name(self) -> &'static str {
         match self {
             LightMethod::All => "all",
             LightMethod::Tiled => "tiled",
+            LightMethod::RayQuery => "ray_query",
         }
     }
 
@@ -175,9 +181,20 @@ impl LightMethod {
         Self::ALL.into_iter().find(|m| m.name() == name)
     }
 
-    /// The method applied with `pipeline`: Forward+ is always tiled.
-    pub fn effective(self, pipeline: PipelineKind) -> LightMethod {
-        if pipeline == PipelineKind::ForwardPlus { LightMethod::Tiled } else { self }
+    /// The method applied with `pipeline` on a device offering `support`: Forward+ is always
+    /// tiled, and ray-query lights, which live in the deferred and visibility-buffer lighting
+    /// passes and need acceleration structures, fall back to tiled culling elsewhere.
+    pub fn effective(self, pipeline: PipelineKind, support: RaySupport) -> LightMethod {
+        match self {
+            _ if pipeline == PipelineKind::ForwardPlus => LightMethod::Tiled,
+            LightMethod::RayQuery
+                if !matches!(pipeline, PipelineKind::Deferred | PipelineKind::VisBuffer)
+                    || !(support.ray_query || support.ray_pipeline) =>
+            {
+                LightMethod::Tiled
+            }
+            m => m,
+        }
     }
 }
 
@@ -338,10 +355,17 @@ mod tests {
             [tile(0), tile(8), tile(11), tile(12), tile(16), tile(23), tile(24), tile(32), tile(1000)],
             [8, 8, 8, 16, 16, 16, 32, 32, 32]
         );
+        let (rq, rtp, none) = (RaySupport::of_tier(Tier::RayQuery), RaySupport::of_tier(Tier::RayTracingPipeline), RaySupport::default());
         for p in PipelineKind::ALL {
             let expected = if p == PipelineKind::ForwardPlus { LightMethod::Tiled } else { LightMethod::All };
-            assert_eq!(LightMethod::All.effective(p), expected);
-            assert_eq!(LightMethod::Tiled.effective(p), LightMethod::Tiled);
+            assert_eq!(LightMethod::All.effective(p, rq), expected);
+            assert_eq!(LightMethod::Tiled.effective(p, rq), LightMethod::Tiled);
+            let deferred = matches!(p, PipelineKind::Deferred | PipelineKind::VisBuffer);
+            for support in [rq, rtp] {
+                let expected = if deferred { LightMethod::RayQuery } else { LightMethod::Tiled };
+                assert_eq!(LightMethod::RayQuery.effective(p, support), expected, "{p:?}");
+            }
+            assert_eq!(LightMethod::RayQuery.effective(p, none), LightMethod::Tiled, "no acceleration structures: tiled");
             assert_eq!(PipelineKind::from_name(p.name()), Some(p));
         }
         for m in LightMethod::ALL {
@@ -353,10 +377,10 @@ mod tests {
     fn the_applied_decal_method_is_the_best_one_the_device_can_run() {
         use DecalMethod::*;
         use PipelineKind::*;
-        let rq = DecalSupport::of_tier(Tier::RayQuery);
-        let rtp = DecalSupport::of_tier(Tier::RayTracingPipeline);
-        let none = DecalSupport::of_tier(Tier::NoRayTracing);
-        let rq_only = DecalSupport { ray_query: true, ray_pipeline: false };
+        let rq = RaySupport::of_tier(Tier::RayQuery);
+        let rtp = RaySupport::of_tier(Tier::RayTracingPipeline);
+        let none = RaySupport::of_tier(Tier::NoRayTracing);
+        let rq_only = RaySupport { ray_query: true, ray_pipeline: false };
         for p in PipelineKind::ALL {
             assert_eq!(RayQuery.effective(p, rq), RayQuery);
             assert_eq!(RayQueryCompute.effective(p, rq), RayQueryCompute);

@@ -74,6 +74,8 @@ pub struct HeadlessOptions {
     pub bench_scene: Option<crate::bench::BenchScene>,
     /// Run `frames` frames with every pipeline and decal method in turn (see [`COMPARE_SET`]).
     pub compare: bool,
+    /// Run `frames` frames with every light method in turn, in `pipeline`.
+    pub compare_light_methods: bool,
     /// Run `frames` frames with each light configuration of [`LIGHT_COMPARE_SET`] in turn.
     pub compare_lights: bool,
     /// Light culling and shadows.
@@ -134,7 +136,7 @@ pub const COMPARE_SET: [(PipelineKind, DecalMethod); 16] = [
 
 /// The pairs of [`COMPARE_SET`] a device offering `support` runs as asked (a method it cannot run
 /// would fall back to another, measuring that one twice).
-pub fn compare_set(support: render::DecalSupport) -> Vec<(PipelineKind, DecalMethod)> {
+pub fn compare_set(support: render::RaySupport) -> Vec<(PipelineKind, DecalMethod)> {
     COMPARE_SET.into_iter().filter(|&(p, m)| m.effective(p, support) == m).collect()
 }
 
@@ -157,6 +159,7 @@ impl Default for HeadlessOptions {
             bench_scene: None,
             compare: false,
             compare_lights: false,
+            compare_light_methods: false,
             lights: LightSettings::default(),
             compute_shading: true,
         }
@@ -243,7 +246,7 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
     };
     let mut combos: Vec<(PipelineKind, DecalMethod, LightSettings)> = Vec::new();
     if opts.compare {
-        let set = compare_set(app.world.resource::<GpuRenderer>().0.decal_support());
+        let set = compare_set(app.world.resource::<GpuRenderer>().0.ray_support());
         combos.extend(set.into_iter().map(|(p, m)| (p, m, opts.lights)));
     }
     if opts.compare_lights {
@@ -251,6 +254,9 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
             let pipeline = if l.method == LightMethod::Tiled { PipelineKind::ForwardPlus } else { PipelineKind::Forward };
             (pipeline, opts.decal_method, l)
         }));
+    }
+    if opts.compare_light_methods {
+        combos.extend(LightMethod::ALL.map(|method| (opts.pipeline, opts.decal_method, LightSettings { method, ..opts.lights })));
     }
     let total = opts.frames as usize * combos.len().max(1);
     let mut frames = Vec::with_capacity(total);

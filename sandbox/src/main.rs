@@ -69,7 +69,13 @@ struct Cli {
     /// Tables 5.1 and 5.2 in turn.
     #[arg(long)]
     compare_lights: bool,
-    /// Light assignment: all (every pixel loops over every light) or tiled (light culling).
+    /// Run --frames frames with each light method (all, tiled, ray_query) in turn, in --pipeline
+    /// with the other light settings as given.
+    #[arg(long)]
+    compare_light_methods: bool,
+    /// Light assignment: all (every pixel loops over every light), tiled (light culling) or
+    /// ray_query (lights found by a zero-length ray through their boxes; deferred and visbuffer
+    /// on devices with ray tracing, tiled elsewhere).
     #[arg(long, default_value = "tiled", value_parser = parse_light_method)]
     lights: render::LightMethod,
     /// Light tile size in pixels: 8, 16 or 32.
@@ -135,7 +141,7 @@ fn parse_pipeline(s: &str) -> Result<PipelineKind, String> {
 }
 
 fn parse_light_method(s: &str) -> Result<render::LightMethod, String> {
-    render::LightMethod::from_name(s).ok_or_else(|| format!("unknown light method {s:?} (all, tiled)"))
+    render::LightMethod::from_name(s).ok_or_else(|| format!("unknown light method {s:?} (all, tiled, ray_query)"))
 }
 
 fn parse_depth_normals(s: &str) -> Result<render::DepthNormals, String> {
@@ -183,6 +189,7 @@ fn main() -> Result<()> {
         bench_scene: cli.bench_scene.as_deref().map(sandbox::bench::BenchScene::parse).transpose()?,
         compare: cli.compare,
         compare_lights: cli.compare_lights,
+        compare_light_methods: cli.compare_light_methods,
         compute_shading: !cli.fragment_shading,
         lights: render::LightSettings {
             method: cli.lights,

@@ -122,13 +122,15 @@ impl OverlayUi {
             ));
         }
         ui.label(format!(
-            "this frame: decal BLAS builds {}, refits {}, TLAS builds {}; scene BLAS builds {}, TLAS builds {}, updates {}; {} bytes uploaded",
+            "this frame: decal BLAS builds {}, refits {}, TLAS builds {}; scene BLAS builds {}, TLAS builds {}, updates {}; light BLAS builds {}, refits {}; {} bytes uploaded",
             c.blas_builds,
             c.blas_updates,
             c.tlas_builds,
             c.scene_blas_builds,
             c.scene_tlas_builds,
             c.scene_tlas_updates,
+            c.light_blas_builds,
+            c.light_blas_updates,
             c.bytes_uploaded
         ));
     }

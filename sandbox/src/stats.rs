@@ -13,10 +13,11 @@
 //! `mean_tested`, `max_tested` (list entries walked) and `mean_applied`, `max_applied` (decals
 //! whose box held the pixel).
 //!
-//! Lights: `light_method` (applied: `all` or `tiled`), `shadows` (`ray_query`, `ray_pipeline`, or
+//! Lights: `light_method` (applied: `all`, `tiled` or `ray_query`), `shadows` (`ray_query`, `ray_pipeline`, or
 //! `none` where no shadow was traced, as on devices without ray tracing), `lights` (the settings:
 //! `tile_size`, `aabb`, `shadow_ray_culling`, `normals`), the counters `scene_blas_builds`,
-//! `scene_blas_compactions`, `scene_tlas_builds`, `scene_tlas_updates`, and, in frames with tiled
+//! `scene_blas_compactions`, `scene_tlas_builds`, `scene_tlas_updates`, `light_blas_builds`,
+//! `light_blas_updates`, and, in frames with tiled
 //! lights, `light_tiles`: `tiles`, `tile_size`, `capacity`, `grows`, and what the GPU measured in
 //! `measured_frame`: `entries`, `overflowed`, `max_per_tile`, `tiles_used`, `mean_per_tile`
 //! (entries over used tiles).
@@ -59,6 +60,8 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
             "scene_blas_compactions": c.scene_blas_compactions,
             "scene_tlas_builds": c.scene_tlas_builds,
             "scene_tlas_updates": c.scene_tlas_updates,
+            "light_blas_builds": c.light_blas_builds,
+            "light_blas_updates": c.light_blas_updates,
             "instances": c.instances,
             "lights": c.lights,
             "decals": c.decals,

@@ -23,12 +23,14 @@ float depth_at(ivec2 px) {
     return texelFetch(depth_target, clamp(px, ivec2(0), size - 1), 0).r;
 }
 
-// World position of the pixel one step along `dir`, preferring the side on the same surface.
+// World position of the pixel one step along `dir`, preferring the side on the same surface;
+// a side past the image's edge or on the sky is never used.
 vec3 neighbour_difference(ivec2 px, float depth, vec3 p, ivec2 dir) {
-    float d_plus = depth_at(px + dir);
-    float d_minus = depth_at(px - dir);
-    bool use_plus = abs(d_plus - depth) <= abs(d_minus - depth);
-    if (use_plus && d_plus > 0.0) return world_from_depth(vec2(px + dir), d_plus) - p;
+    ivec2 size = ivec2(scene.camera.camera.viewport_size);
+    float d_plus = all(lessThan(px + dir, size)) ? depth_at(px + dir) : 0.0;
+    float d_minus = all(greaterThanEqual(px - dir, ivec2(0))) ? depth_at(px - dir) : 0.0;
+    bool use_plus = d_plus > 0.0 && (d_minus <= 0.0 || abs(d_plus - depth) <= abs(d_minus - depth));
+    if (use_plus) return world_from_depth(vec2(px + dir), d_plus) - p;
     if (d_minus > 0.0) return p - world_from_depth(vec2(px - dir), d_minus);
     return vec3(0.0);
 }

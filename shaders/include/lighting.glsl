@@ -34,4 +34,30 @@ vec3 shade_light(GpuLight light, SurfaceBrdf s, vec3 p, vec3 n, vec3 v) {
     return brdf_cos(s, n, v, l) * light.color * attenuation;
 }
 
+// The direction to `light` from `p` and the ray's length; false when the light cannot reach p.
+bool shadow_ray_towards(GpuLight light, vec3 p, out vec3 dir, out float tmax) {
+    dir = vec3(0.0);
+    tmax = 0.0;
+    if (light.kind == LIGHT_NONE) return false;
+    if (light.kind == LIGHT_DIRECTIONAL) {
+        dir = -light.direction;
+        tmax = 1000.0;
+        return true;
+    }
+    vec3 to = light.position - p;
+    float d2 = dot(to, to);
+    if (!(d2 < light.range * light.range) || d2 < 1e-12) return false;
+    float d = sqrt(d2);
+    dir = to / d;
+    tmax = d;
+    return light.kind != LIGHT_SPOT || dot(light.direction, -dir) * light.spot_scale + light.spot_offset > 0.0;
+}
+
+// A shadow ray's origin for surface point `p` with normal `n` (facing the camera): lifted along
+// n by 0.1 % of its distance to the camera, so that depth quantisation cannot put it under its
+// own surface.
+vec3 shadow_origin(vec3 p, vec3 n) {
+    return p + n * (1e-3 * length(scene.camera.camera.position - p));
+}
+
 #endif

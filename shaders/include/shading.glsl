@@ -4,7 +4,9 @@
 // or from the decal buffer a decal pass wrote (DECAL_BUFFER variants), when the frame has any.
 // Lights come from the pixel's list (its tile's after light culling, or every light; see
 // light_tiles.glsl), each weighted by the shadow pass's bit when shadows were traced (the
-// visibility term V of seed 001 eq. 4.4).
+// visibility term V of seed 001 eq. 4.4). With ray-query lights (ENUMERATED_LIGHTS: the
+// including shader defines `enumerated_lights`, ray_query_lights.glsl or
+// ray_pipeline_lights.glsl) the lights come from a zero-length ray instead of a list.
 #ifndef SHADING_GLSL
 #define SHADING_GLSL
 
@@ -33,6 +35,11 @@ struct SurfaceInputs {
     uint decal_layers;
 };
 
+#ifdef ENUMERATED_LIGHTS
+// The radiance of every light reaching the surface, and how many were found.
+vec3 enumerated_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found);
+#endif
+
 // `px` is the pixel being shaded (its tile's lights, its shadow bits, its decal buffer texel).
 vec4 shade_surface(SurfaceInputs s, ivec2 px) {
     uint decals_tested = 0u;
@@ -60,6 +67,22 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
     if (scene.debug_view == DEBUG_DECAL_COUNT) return vec4(float(decals_tested), 0.0, 0.0, 1.0);
     if (scene.debug_view == DEBUG_DECAL_HEATMAP) return vec4(heatmap(float(decals_tested) / 16.0), 1.0);
 
+    GpuCamera cam = scene.camera.camera;
+    vec3 v = normalize(cam.position - s.position);
+    SurfaceBrdf brdf = surface_brdf(s.albedo, s.metallic, s.roughness);
+    vec3 color = s.emissive + cam.ambient * (brdf.diffuse_color + brdf.f0) * s.occlusion;
+#ifdef ENUMERATED_LIGHTS
+    uint found;
+    color += enumerated_lights(brdf, s, v, found);
+    if (scene.debug_view == DEBUG_LIGHT_COUNT) return vec4(float(found), 0.0, 0.0, 1.0);
+    if (scene.debug_view == DEBUG_LIGHT_HEATMAP) return vec4(heatmap(float(found) / 32.0), 1.0);
+    // No shadow pass ran: its views show black.
+    if (scene.debug_view == DEBUG_SHADOW_FIRST || scene.debug_view == DEBUG_SHADOW_RAYS) return vec4(0.0, 0.0, 0.0, 1.0);
+    if (scene.debug_view == DEBUG_DEPTH_NORMALS) {
+        bool reconstructed = float(px.x) < scene.camera.camera.viewport_size.x * 0.5;
+        return vec4(reconstructed ? vec3(0.0) : s.normal * 0.5 + 0.5, 1.0);
+    }
+#else
     LightList list = light_list(px);
     bool shadowed = list.rows != NO_SHADOW_ROWS;
     ShadowWordsRef shadow_words = ShadowWordsRef(scene.lighting.lighting.shadow_bits);
@@ -79,10 +102,6 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
         return vec4(reconstructed ? rebuilt : s.normal * 0.5 + 0.5, 1.0);
     }
 
-    GpuCamera cam = scene.camera.camera;
-    vec3 v = normalize(cam.position - s.position);
-    SurfaceBrdf brdf = surface_brdf(s.albedo, s.metallic, s.roughness);
-    vec3 color = s.emissive + cam.ambient * (brdf.diffuse_color + brdf.f0) * s.occlusion;
     uint word = 0xFFFFFFFFu;
     for (uint j = 0u; j < list.count; ++j) {
         if (shadowed && j % 32u == 0u) word = shadow_words.words[shadow_word_at(list, j, px)];
@@ -91,6 +110,7 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
         if (light.kind == LIGHT_NONE) continue;
         color += shade_light(light, brdf, s.position, s.normal, v);
     }
+#endif
     return vec4(color, 1.0);
 }
 

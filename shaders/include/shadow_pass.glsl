@@ -15,6 +15,7 @@
 #define SHADOW_PASS_GLSL
 
 #include "scene.glsl"
+#include "lighting.glsl"
 #include "depth_normals.glsl"
 #include "light_tiles.glsl"
 
@@ -22,28 +23,8 @@ layout(set = 0, binding = BINDING_SHADOW_DEBUG, rgba16f) uniform writeonly image
 
 bool shadow_ray_unblocked(vec3 origin, vec3 dir, float tmin, float tmax);
 
-// The direction to `light` from `p` and the ray's length; false when the light cannot reach p.
-bool shadow_ray_towards(GpuLight light, vec3 p, out vec3 dir, out float tmax) {
-    dir = vec3(0.0);
-    tmax = 0.0;
-    if (light.kind == LIGHT_NONE) return false;
-    if (light.kind == LIGHT_DIRECTIONAL) {
-        dir = -light.direction;
-        tmax = 1000.0;
-        return true;
-    }
-    vec3 to = light.position - p;
-    float d2 = dot(to, to);
-    if (!(d2 < light.range * light.range) || d2 < 1e-12) return false;
-    float d = sqrt(d2);
-    dir = to / d;
-    tmax = d;
-    return light.kind != LIGHT_SPOT || dot(light.direction, -dir) * light.spot_scale + light.spot_offset > 0.0;
-}
-
 void shadow_pixel(ivec2 px) {
     GpuLighting l = scene.lighting.lighting;
-    GpuCamera cam = scene.camera.camera;
     if (!pixel_inside(px)) return;
     float depth = texelFetch(depth_target, px, 0).r;
     if (depth <= 0.0) return;
@@ -54,7 +35,7 @@ void shadow_pixel(ivec2 px) {
     uint rays = 0u;
     if (list.rows != NO_SHADOW_ROWS) {
         bool cull = (l.flags & SHADOW_RAY_CULLING) != 0u;
-        vec3 origin = p + n * (1e-3 * length(cam.position - p));
+        vec3 origin = shadow_origin(p, n);
         ShadowWordsRef words = ShadowWordsRef(l.shadow_bits);
         for (uint base = 0u; base < list.count; base += 32u) {
             uint word = 0u;

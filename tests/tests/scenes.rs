@@ -120,7 +120,7 @@ fn a_benchmark_scene_runs_every_pipeline_and_decal_method_in_one_run() {
     };
     let summary = run(&opts).expect("the comparison runs");
     assert!(summary.validation_errors.is_empty(), "{:#?}", summary.validation_errors);
-    let set = sandbox::headless::compare_set(summary.app.world.resource::<plugins::GpuRenderer>().0.decal_support());
+    let set = sandbox::headless::compare_set(summary.app.world.resource::<plugins::GpuRenderer>().0.ray_support());
     assert_eq!(set.len(), sandbox::headless::COMPARE_SET.len(), "lavapipe runs every method");
     assert_eq!(summary.frames.len(), 2 * set.len());
     for (i, (pipeline, method)) in set.iter().enumerate() {

@@ -62,7 +62,7 @@ pub struct DecalPasses {
 impl DecalPasses {
     /// Creates the passes the device supports (none without ray tracing).
     pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
-        let support = ctx.decal_support();
+        let support = ctx.ray_support();
         let ray_pipeline = if support.ray_pipeline {
             Some(RayTracingPipeline::new(
                 ctx,

@@ -1,6 +1,8 @@
 //! Acceleration structures and their scratch memory, shared by the decal structures
 //! (`crate::decals::accel`), the scene's (`crate::shadows::accel`) and the lights'
-//! (`crate::lights::ray_query`).
+//! (`crate::lights::ray_query`); and [`AabbAccel`], the one-BLAS-of-boxes structure the decals
+//! and the ray-query lights both enumerate with a zero-length ray, with its rebuild policy
+//! ([`plan_blas_work`]).
 
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -8,6 +10,8 @@ use gpu_allocator::MemoryLocation;
 use crate::RenderError;
 use crate::gpu::device::GpuContext;
 use crate::gpu::memory::{Buffer, Graveyard, Retired};
+use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
+use crate::layout::GpuAabb;
 
 /// An acceleration structure and its storage.
 pub struct AccelStruct {
@@ -151,5 +155,328 @@ pub fn instance_bytes(instance: &vk::AccelerationStructureInstanceKHR) -> &[u8] 
     // padding; viewing it as bytes is sound.
     unsafe {
         std::slice::from_raw_parts((instance as *const vk::AccelerationStructureInstanceKHR).cast::<u8>(), std::mem::size_of_val(instance))
+    }
+}
+
+/// Fraction of the built boxes that may be refitted before a box BLAS is rebuilt.
+pub const REBUILD_AFTER_REFIT_FRACTION: f32 = 0.25;
+
+/// The step the built primitive count of a box BLAS moves in for `live` boxes: 1/16 of its
+/// power of two, at least 64.
+pub fn build_granule(live: u32) -> u32 {
+    (live.next_power_of_two() / 16).max(64)
+}
+
+/// How many boxes a build over `live` boxes covers (the box table holds at least `capacity`):
+/// `live` rounded up to its granule.
+pub fn build_count(live: u32, capacity: u32) -> u32 {
+    live.next_multiple_of(build_granule(live)).min(capacity)
+}
+
+/// What happens to a box BLAS in a frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BlasWork {
+    /// Nothing changed.
+    None,
+    /// Boxes moved, appeared or vanished within the built range: refit.
+    Update,
+    /// The live count left the built range, or refits degraded the tree: full build.
+    Build,
+}
+
+/// Chooses the BLAS work for a frame with `live` boxes of which `changed` were rewritten, when
+/// the last build covered `built` boxes (the rebuild policy, as a pure function): a build when
+/// the live count leaves the built range (grows past it, or falls more than two granules below
+/// it), and when the boxes refitted since the last build add up to
+/// [`REBUILD_AFTER_REFIT_FRACTION`] of the built count (a refit keeps the tree's topology, so as
+/// boxes move away from where they were built its nodes grow and overlap, and traversal slows).
+pub fn plan_blas_work(built: Option<u32>, live: u32, changed: u32, refitted_since_build: u64) -> BlasWork {
+    match built {
+        None => BlasWork::Build,
+        Some(b) if live > b || live + 2 * build_granule(live) < b => BlasWork::Build,
+        _ if changed == 0 => BlasWork::None,
+        Some(b) if (refitted_since_build + changed as u64) as f32 > b as f32 * REBUILD_AFTER_REFIT_FRACTION => BlasWork::Build,
+        _ => BlasWork::Update,
+    }
+}
+
+/// One BLAS of AABB geometry ([`GpuAabb`] boxes, stride 32) and a TLAS holding one instance of
+/// it: what a zero-length ray enumerates decals or lights in. Built with `PREFER_FAST_TRACE |
+/// ALLOW_UPDATE`; the TLAS (one instance: microseconds) is rebuilt whenever the BLAS changed.
+pub struct AabbAccel {
+    blas: Option<AccelStruct>,
+    tlas: Option<AccelStruct>,
+    instances: Option<Buffer>,
+    scratch: Scratch,
+    built: Option<u32>,
+    refitted_since_build: u64,
+    res: AabbAccelResources,
+    names: AabbAccelNames,
+}
+
+/// Debug names of an [`AabbAccel`]'s parts and passes.
+#[derive(Clone, Copy, Debug)]
+pub struct AabbAccelNames {
+    /// The BLAS (also its buffer's name).
+    pub blas: &'static str,
+    /// The TLAS.
+    pub tlas: &'static str,
+    /// The scratch buffer.
+    pub scratch: &'static str,
+    /// The BLAS build pass.
+    pub build_pass: &'static str,
+    /// The BLAS refit pass.
+    pub update_pass: &'static str,
+    /// The TLAS build pass.
+    pub tlas_pass: &'static str,
+}
+
+/// The frame-graph resources of an [`AabbAccel`].
+#[derive(Clone, Copy, Debug)]
+struct AabbAccelResources {
+    blas: ResourceId,
+    tlas: ResourceId,
+    scratch: ResourceId,
+}
+
+/// A frame's planned work on an [`AabbAccel`] ([`AabbAccel::prepare`]).
+#[derive(Clone, Copy, Debug)]
+pub struct AabbPlan {
+    /// Build, refit or nothing.
+    pub work: BlasWork,
+    /// Boxes the build or refit covers (the box buffer must hold them valid).
+    pub count: u32,
+    scratch: vk::DeviceAddress,
+}
+
+/// The boxes a build or refit of an [`AabbAccel`] reads.
+#[derive(Clone, Copy, Debug)]
+pub struct AabbInput {
+    /// The graph resource holding the boxes.
+    pub boxes: ResourceId,
+    /// Device address of box 0.
+    pub address: vk::DeviceAddress,
+    /// Boxes in use (a build covers them rounded up to [`build_granule`]).
+    pub live: u32,
+    /// Boxes the buffer holds; those past `live` up to the build's count must be valid boxes
+    /// that belong to nothing (zero-size points).
+    pub capacity: u32,
+    /// Boxes rewritten since the structure was last brought up to date.
+    pub changed: u32,
+}
+
+impl AabbAccel {
+    /// Empty; nothing is allocated until the first build.
+    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, names: AabbAccelNames) -> Self {
+        Self {
+            blas: None,
+            tlas: None,
+            instances: None,
+            scratch: Scratch::new(ctx, names.scratch),
+            built: None,
+            refitted_since_build: 0,
+            res: AabbAccelResources { blas: graph.resource(names.blas), tlas: graph.resource(names.tlas), scratch: graph.resource(names.scratch) },
+            names,
+        }
+    }
+
+    /// What a pass that traces the boxes reads: the TLAS and the BLAS its instance points at
+    /// (traversal reads both); `None` before the first build.
+    pub fn traced(&self) -> Option<[ResourceId; 2]> {
+        self.tlas.as_ref().map(|_| [self.res.tlas, self.res.blas])
+    }
+
+    /// Device address of the TLAS (0 before the first build).
+    pub fn tlas_address(&self) -> vk::DeviceAddress {
+        self.tlas.as_ref().map_or(0, |t| t.address)
+    }
+
+    /// Plans the frame's work for `input` and makes room for it: a larger BLAS for a build that
+    /// needs one (the old one waits in the graveyard for the frames that read it), the TLAS on
+    /// first use, scratch. After this the TLAS address is final for the frame.
+    pub fn prepare(&mut self, f: &mut Frame, input: &AabbInput) -> Result<AabbPlan, RenderError> {
+        let work = plan_blas_work(self.built, input.live, input.changed, self.refitted_since_build);
+        let count = match (work, self.built) {
+            // A refit covers what the last build covered (an update cannot change the count).
+            (BlasWork::Update, Some(built)) => built,
+            _ => build_count(input.live, input.capacity),
+        };
+        if work == BlasWork::None {
+            return Ok(AabbPlan { work, count, scratch: 0 });
+        }
+        let ctx = f.ctx;
+        let (graveyard, frame_value) = (&mut *f.upload.graveyard, f.upload.frame_value);
+        let geometry = aabb_geometry(input.address);
+        let blas_sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, BOX_BLAS_FLAGS, &geometry, &[count]);
+        let tlas_sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::TOP_LEVEL, BOX_TLAS_FLAGS, &one_instance_geometry(0), &[1]);
+        if work == BlasWork::Build && self.blas.as_ref().is_none_or(|b| b.buffer.size < blas_sizes.acceleration_structure_size) {
+            let blas =
+                AccelStruct::new(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, blas_sizes.acceleration_structure_size, self.names.blas)?;
+            let instance = Self::instance_buffer(ctx, blas.address, self.names.tlas)?;
+            if let Some(old) = self.blas.replace(blas) {
+                old.bury(graveyard, frame_value);
+            }
+            if let Some(old) = self.instances.replace(instance) {
+                graveyard.bury(frame_value, Retired::Buffer(old));
+            }
+        }
+        if self.tlas.is_none() {
+            self.tlas = Some(AccelStruct::new(
+                ctx,
+                vk::AccelerationStructureTypeKHR::TOP_LEVEL,
+                tlas_sizes.acceleration_structure_size,
+                self.names.tlas,
+            )?);
+        }
+        let scratch_need = blas_sizes.build_scratch_size.max(blas_sizes.update_scratch_size).max(tlas_sizes.build_scratch_size);
+        let scratch = self.scratch.ensure(ctx, graveyard, frame_value, scratch_need)?;
+        Ok(AabbPlan { work, count, scratch })
+    }
+
+    /// Records the planned work over the boxes of `input` (which must hold `plan.count` valid
+    /// boxes by then): the BLAS build or refit pass, then the TLAS build pass.
+    pub fn record(&mut self, f: &mut Frame, input: &AabbInput, plan: &AabbPlan) -> Result<(), RenderError> {
+        if plan.work == BlasWork::None {
+            return Ok(());
+        }
+        let rt = f.ctx.ray_tracing.as_ref().ok_or_else(|| RenderError::Other(format!("{}: no acceleration structures", self.names.blas)))?;
+        let asx = &rt.acceleration_structure;
+        let (Some(blas), Some(tlas), Some(instances)) = (self.blas.as_ref(), self.tlas.as_ref(), self.instances.as_ref()) else {
+            return Err(RenderError::Other(format!("{}: recorded without prepare", self.names.blas)));
+        };
+        let (count, scratch_address, instances) = (plan.count, plan.scratch, instances.address);
+        let update = plan.work == BlasWork::Update;
+        let (res, names) = (self.res, self.names);
+        f.pass(if update { names.update_pass } else { names.build_pass }, PassKind::AccelBuild)
+            .read(input.boxes, BufferUse::BuildInput)
+            .write(res.blas, BufferUse::Accel)
+            .write(res.scratch, BufferUse::Accel)
+            .record(|p| {
+                let geometry = aabb_geometry(input.address);
+                let mut info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+                    .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
+                    .flags(BOX_BLAS_FLAGS)
+                    .mode(if update { vk::BuildAccelerationStructureModeKHR::UPDATE } else { vk::BuildAccelerationStructureModeKHR::BUILD })
+                    .dst_acceleration_structure(blas.raw)
+                    .geometries(&geometry)
+                    .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch_address });
+                if update {
+                    info = info.src_acceleration_structure(blas.raw);
+                }
+                let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
+                // SAFETY: `cmd` is recording; the box buffer holds at least `count` boxes, made
+                // visible to builds by the pass's declaration; scratch was sized in `prepare`.
+                unsafe { asx.cmd_build_acceleration_structures(p.cmd, &[info], &[&ranges[..]]) };
+            })?;
+        f.pass(names.tlas_pass, PassKind::AccelBuild)
+            .read(res.blas, BufferUse::Accel)
+            .write(res.tlas, BufferUse::Accel)
+            .write(res.scratch, BufferUse::Accel)
+            .record(|p| {
+                let geometry = one_instance_geometry(instances);
+                let info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+                    .ty(vk::AccelerationStructureTypeKHR::TOP_LEVEL)
+                    .flags(BOX_TLAS_FLAGS)
+                    .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
+                    .dst_acceleration_structure(tlas.raw)
+                    .geometries(&geometry)
+                    .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch_address });
+                let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(1)];
+                // SAFETY: as above; the instance buffer is host-written before submission.
+                unsafe { asx.cmd_build_acceleration_structures(p.cmd, &[info], &[&ranges[..]]) };
+            })?;
+        if update {
+            self.refitted_since_build += input.changed as u64;
+        } else {
+            self.refitted_since_build = 0;
+            self.built = Some(count);
+        }
+        Ok(())
+    }
+
+    /// A new host-written buffer holding the one instance of `blas` (new rather than rewritten:
+    /// a frame in flight may be reading the old one).
+    fn instance_buffer(ctx: &GpuContext, blas: vk::DeviceAddress, name: &str) -> Result<Buffer, RenderError> {
+        let instance = single_instance(blas);
+        let mut buffer = Buffer::new(
+            ctx,
+            name,
+            std::mem::size_of::<vk::AccelerationStructureInstanceKHR>() as u64,
+            vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+            MemoryLocation::CpuToGpu,
+        )?;
+        let bytes = instance_bytes(&instance);
+        buffer.mapped()[..bytes.len()].copy_from_slice(bytes);
+        Ok(buffer)
+    }
+
+    /// Destroys everything; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        for a in [self.blas, self.tlas].into_iter().flatten() {
+            a.destroy(ctx);
+        }
+        if let Some(b) = self.instances {
+            b.destroy(ctx);
+        }
+        self.scratch.destroy(ctx);
+    }
+}
+
+/// Flags of box BLAS builds.
+const BOX_BLAS_FLAGS: vk::BuildAccelerationStructureFlagsKHR =
+    vk::BuildAccelerationStructureFlagsKHR::from_raw(
+        vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE.as_raw() | vk::BuildAccelerationStructureFlagsKHR::ALLOW_UPDATE.as_raw(),
+    );
+/// Flags of the one-instance TLAS builds.
+const BOX_TLAS_FLAGS: vk::BuildAccelerationStructureFlagsKHR = vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE;
+
+/// The geometry of a build over [`GpuAabb`] boxes from `address`.
+fn aabb_geometry(address: vk::DeviceAddress) -> [vk::AccelerationStructureGeometryKHR<'static>; 1] {
+    [vk::AccelerationStructureGeometryKHR::default()
+        .geometry_type(vk::GeometryTypeKHR::AABBS)
+        .geometry(vk::AccelerationStructureGeometryDataKHR {
+            aabbs: vk::AccelerationStructureGeometryAabbsDataKHR::default()
+                .data(vk::DeviceOrHostAddressConstKHR { device_address: address })
+                .stride(std::mem::size_of::<GpuAabb>() as u64),
+        })
+        .flags(vk::GeometryFlagsKHR::OPAQUE)]
+}
+
+/// The geometry of a TLAS build over one instance record at `address`.
+fn one_instance_geometry(address: vk::DeviceAddress) -> [vk::AccelerationStructureGeometryKHR<'static>; 1] {
+    [vk::AccelerationStructureGeometryKHR::default().geometry_type(vk::GeometryTypeKHR::INSTANCES).geometry(
+        vk::AccelerationStructureGeometryDataKHR {
+            instances: vk::AccelerationStructureGeometryInstancesDataKHR::default()
+                .data(vk::DeviceOrHostAddressConstKHR { device_address: address }),
+        },
+    )]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rebuild_policy() {
+        assert_eq!(plan_blas_work(None, 50, 0, 0), BlasWork::Build, "first use builds");
+        assert_eq!(plan_blas_work(Some(64), 50, 0, 10), BlasWork::None, "no change, no work");
+        assert_eq!(plan_blas_work(Some(64), 50, 3, 0), BlasWork::Update, "moves refit");
+        assert_eq!(plan_blas_work(Some(64), 64, 1, 0), BlasWork::Update, "a spawn into the padding refits");
+        assert_eq!(plan_blas_work(Some(64), 65, 1, 0), BlasWork::Build, "growing past the built range rebuilds");
+        assert_eq!(plan_blas_work(Some(64), 60, 8, 8), BlasWork::Update, "16 of 64 refitted: still a refit");
+        assert_eq!(plan_blas_work(Some(64), 60, 9, 8), BlasWork::Build, "beyond a quarter: rebuild");
+        assert_eq!(plan_blas_work(Some(4096), 3900, 1, 0), BlasWork::Update, "a despawn within the range refits");
+        assert_eq!(plan_blas_work(Some(4096), 3000, 1, 0), BlasWork::Build, "far below the range: rebuild smaller");
+    }
+
+    #[test]
+    fn builds_cover_the_live_boxes_and_little_more() {
+        for live in [1, 63, 64, 65, 1000, 10_000, 100_000, 1_000_000] {
+            let count = build_count(live, u32::MAX);
+            assert!(count >= live && count - live < build_granule(live), "{live} live: {count} built");
+            assert!(live < 1024 || count as f32 <= live as f32 * 1.125, "{live} live: {count} built, over 1/8 padding");
+            assert_eq!(plan_blas_work(Some(count), live, 1, 0), BlasWork::Update, "{live}: a build's own count refits");
+        }
+        assert_eq!(build_count(100_000, 100_352), 100_352, "never past the table");
     }
 }

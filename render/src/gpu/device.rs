@@ -351,8 +351,8 @@ impl GpuContext {
 
     /// What this device offers decals: ray queries (the ray-query tier) and ray-tracing
     /// pipelines (enabled at either ray-tracing tier when the device has them).
-    pub fn decal_support(&self) -> crate::settings::DecalSupport {
-        crate::settings::DecalSupport {
+    pub fn ray_support(&self) -> crate::settings::RaySupport {
+        crate::settings::RaySupport {
             ray_query: self.tier == Tier::RayQuery,
             ray_pipeline: self.ray_tracing.as_ref().is_some_and(|rt| rt.ray_tracing_pipeline.is_some()),
         }

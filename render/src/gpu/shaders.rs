@@ -61,6 +61,20 @@ spirv! {
     VISBUFFER_SHADE_COMP = "visbuffer_shade.comp";
     VISBUFFER_SHADE_COMP_RAY_QUERY_DECALS = "visbuffer_shade.comp.RAY_QUERY_DECALS";
     VISBUFFER_SHADE_COMP_DECAL_BUFFER = "visbuffer_shade.comp.DECAL_BUFFER";
+    DEFERRED_LIGHTING_COMP_RAY_QUERY_LIGHTS = "deferred_lighting.comp.RAY_QUERY_LIGHTS";
+    DEFERRED_LIGHTING_COMP_RAY_QUERY_LIGHTS_RAY_QUERY_DECALS = "deferred_lighting.comp.RAY_QUERY_LIGHTS+RAY_QUERY_DECALS";
+    DEFERRED_LIGHTING_COMP_RAY_QUERY_LIGHTS_DECAL_BUFFER = "deferred_lighting.comp.RAY_QUERY_LIGHTS+DECAL_BUFFER";
+    VISBUFFER_SHADE_COMP_RAY_QUERY_LIGHTS = "visbuffer_shade.comp.RAY_QUERY_LIGHTS";
+    VISBUFFER_SHADE_COMP_RAY_QUERY_LIGHTS_RAY_QUERY_DECALS = "visbuffer_shade.comp.RAY_QUERY_LIGHTS+RAY_QUERY_DECALS";
+    VISBUFFER_SHADE_COMP_RAY_QUERY_LIGHTS_DECAL_BUFFER = "visbuffer_shade.comp.RAY_QUERY_LIGHTS+DECAL_BUFFER";
+    DEFERRED_LIGHTING_RGEN = "deferred_lighting.rgen";
+    DEFERRED_LIGHTING_RGEN_DECAL_BUFFER = "deferred_lighting.rgen.DECAL_BUFFER";
+    VISBUFFER_SHADE_RGEN = "visbuffer_shade.rgen";
+    VISBUFFER_SHADE_RGEN_DECAL_BUFFER = "visbuffer_shade.rgen.DECAL_BUFFER";
+    LIGHT_RAYS_RINT = "light_rays.rint";
+    LIGHT_RAYS_RAHIT = "light_rays.rahit";
+    LIGHT_RAYS_RMISS = "light_rays.rmiss";
+    LIGHT_BOXES_COMP = "light_boxes.comp";
 }
 
 /// Creates a shader module from SPIR-V bytes.

@@ -1,14 +1,16 @@
-//! Lights on the renderer's side: which lights each pixel loops over (every light, or its tile's
-//! after tiled light culling, [`tiles`]), and their ray-traced shadows ([`crate::shadows`]). The
+//! Lights on the renderer's side: which lights each pixel loops over (every light, its tile's
+//! after tiled light culling, [`tiles`], or those a zero-length ray finds, [`ray_query`]), and
+//! their ray-traced shadows ([`crate::shadows`]). The
 //! light records themselves live in the scene's tables, kept by change detection, and the
 //! shading math in `shaders/include/lighting.glsl` and `shading.glsl`.
 //!
 //! Each frame function calls, in order: [`Lighting::prepare`] before the scene's upload (it sizes
 //! the buffers and writes the lighting record the shaders find them through), [`Lighting::build`]
-//! after it (the scene's acceleration structures), and [`Lighting::record`] once the frame's
+//! after it (the scene's and the ray-query lights' acceleration structures), and [`Lighting::record`] once the frame's
 //! depth exists (culling, then the shadow pass). The shading passes then declare
 //! [`declare_light_reads`].
 
+pub mod ray_query;
 pub mod tiles;
 
 use ash::vk;
@@ -18,7 +20,7 @@ use crate::gpu::device::GpuContext;
 use crate::graph::targets::SHADOW_DEBUG;
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassBuilder, ResourceId};
 use crate::layout::{
-    GpuLighting, LIGHT_CULL_AABB, LIGHTS_ALL, LIGHTS_TILED, SHADOW_DEBUG as SHADOW_DEBUG_FLAG, SHADOW_NORMALS_IMPROVED, SHADOW_RAY_CULLING,
+    GpuLighting, LIGHT_CULL_AABB, LIGHTS_ALL, LIGHTS_RAY_QUERY, LIGHTS_TILED, SHADOW_DEBUG as SHADOW_DEBUG_FLAG, SHADOW_NORMALS_IMPROVED, SHADOW_RAY_CULLING,
     SHADOWS_TRACED,
 };
 use crate::scene::SceneMirror;
@@ -26,6 +28,7 @@ use crate::scene::gpu::GpuScene;
 use crate::settings::{DepthNormals, FrameSettings, LightMethod, ShadowMethod};
 use crate::shadows::accel::{SceneAccel, SceneAccelFrame};
 use crate::shadows::{ShadowInputs, ShadowPass};
+use ray_query::{RayQueryLightFrame, RayQueryLights};
 use tiles::{LightTiles, TileFrame, TileRequest};
 
 /// The renderer's lighting state: light culling, the scene's acceleration structures and the
@@ -37,6 +40,8 @@ pub struct Lighting {
     pub accel: Option<SceneAccel>,
     /// The shadow passes.
     pub shadows: ShadowPass,
+    /// Ray-query lights' boxes and structures (devices with acceleration structures).
+    pub ray_query: Option<RayQueryLights>,
 }
 
 /// What this frame does with lights.
@@ -52,8 +57,14 @@ pub struct LightFrame {
     pub shadow_bits: Option<ResourceId>,
     /// Whether the shadow pass writes (and shading reads) the shadow debug image.
     pub debug: bool,
+    /// With ray-query lights: the lights' TLAS, BLAS and box buffer (its unbounded-light list).
+    pub light_accel: Option<[ResourceId; 3]>,
+    /// When shading traces shadow rays itself (ray-query lights on the ray-query tier): the
+    /// scene's TLAS, BLAS and meshes (alpha-masked hits read their texture coordinates).
+    pub inline_shadows: Option<[ResourceId; 3]>,
     tiles: TileFrame,
     accel: SceneAccelFrame,
+    ray_query: RayQueryLightFrame,
 }
 
 impl Lighting {
@@ -63,6 +74,7 @@ impl Lighting {
             tiles: LightTiles::new(ctx, graph, layout)?,
             accel: SceneAccel::new(ctx, graph, layout)?,
             shadows: ShadowPass::new(ctx, layout)?,
+            ray_query: RayQueryLights::new(ctx, graph, layout)?,
         })
     }
 
@@ -76,20 +88,39 @@ impl Lighting {
         s: &FrameSettings,
     ) -> Result<LightFrame, RenderError> {
         let l = &s.lights;
-        let method = l.method.effective(s.pipeline);
+        let method = match l.method.effective(s.pipeline, f.ctx.ray_support()) {
+            LightMethod::RayQuery if self.ray_query.is_none() => LightMethod::Tiled,
+            m => m,
+        };
+        let enumerated = method == LightMethod::RayQuery;
         let accel = match self.accel.as_mut() {
             Some(a) => a.prepare(f, mirror)?,
             None => SceneAccelFrame::default(),
         };
+        let ray_query = match self.ray_query.as_mut() {
+            Some(r) => r.prepare(f, mirror, enumerated)?,
+            None => RayQueryLightFrame::default(),
+        };
         let traced = if l.shadows && accel.tlas_address != 0 { self.shadows.method() } else { ShadowMethod::None };
         let light_slots = mirror.lights.slot_count();
         let mut stats = mirror.counters.light_tiles;
-        let request =
-            TileRequest { method, tile_size: l.tile(), light_slots, proj: mirror.camera().proj, shadows: traced != ShadowMethod::None };
+        let request = TileRequest {
+            method,
+            tile_size: l.tile(),
+            light_slots,
+            proj: mirror.camera().proj,
+            shadows: traced != ShadowMethod::None && !enumerated,
+        };
         let tiles = self.tiles.prepare(f, &request, &mut stats)?;
         mirror.counters.light_tiles = stats;
-        let shadows = if tiles.shadows { traced } else { ShadowMethod::None };
-        let debug = shadows != ShadowMethod::None && s.debug_view.reads_shadow_debug();
+        // Ray-query lights trace their shadow rays while shading, with ray queries only.
+        let shadows = match traced {
+            ShadowMethod::RayQuery if enumerated => ShadowMethod::RayQuery,
+            _ if enumerated => ShadowMethod::None,
+            t if tiles.shadows => t,
+            _ => ShadowMethod::None,
+        };
+        let debug = shadows != ShadowMethod::None && !enumerated && s.debug_view.reads_shadow_debug();
         let mut flags = 0;
         for (on, flag) in [
             (l.cull_aabb, LIGHT_CULL_AABB),
@@ -107,10 +138,16 @@ impl Lighting {
             tile_frusta: tiles.tile_frusta,
             shadow_bits: tiles.shadow_bits,
             scene_tlas: accel.tlas_address,
-            light_tlas: 0,
+            light_tlas: ray_query.tlas,
+            light_boxes: ray_query.boxes,
+            unbounded_lights: ray_query.unbounded,
             scene_blas_table: accel.blas_table,
             scene_instances: accel.instances,
-            mode: if method == LightMethod::Tiled { LIGHTS_TILED } else { LIGHTS_ALL },
+            mode: match method {
+                LightMethod::All => LIGHTS_ALL,
+                LightMethod::Tiled => LIGHTS_TILED,
+                LightMethod::RayQuery => LIGHTS_RAY_QUERY,
+            },
             tile_size: tiles.tile_size,
             tiles_x: tiles.tiles.0,
             tiles_y: tiles.tiles.1,
@@ -119,27 +156,42 @@ impl Lighting {
             flags,
             instance_count: mirror.instances.slot_count(),
             blas_count: accel.blas_count,
-            pad: 0,
+            light_box_count: ray_query.box_count,
             clear_color: s.clear_color.into(),
         });
         let res = self.tiles.resources();
+        let inline_shadows = match self.accel.as_ref() {
+            Some(a) if enumerated && shadows != ShadowMethod::None => {
+                let [tlas, blas] = a.traced();
+                Some([tlas, blas, scene.res.meshes])
+            }
+            _ => None,
+        };
+        let light_accel = if enumerated && ray_query.tlas != 0 { self.ray_query.as_ref().and_then(|r| r.reads()) } else { None };
         Ok(LightFrame {
             method,
             shadows,
             light_tiles: (method == LightMethod::Tiled).then_some(res.tiles),
-            shadow_bits: (shadows != ShadowMethod::None).then_some(res.shadow),
+            shadow_bits: (shadows != ShadowMethod::None && !enumerated).then_some(res.shadow),
             debug,
+            light_accel,
+            inline_shadows,
             tiles,
             accel,
+            ray_query,
         })
     }
 
-    /// Records the scene's acceleration-structure work (after the scene's upload).
+    /// Records the scene's and the ray-query lights' acceleration-structure work (after the
+    /// scene's upload).
     pub fn build(&mut self, f: &mut Frame, scene: &GpuScene, mirror: &mut SceneMirror, frame: &LightFrame) -> Result<(), RenderError> {
-        match self.accel.as_mut() {
-            Some(a) => a.record(f, scene, &frame.accel, &mut mirror.counters),
-            None => Ok(()),
+        if let Some(a) = self.accel.as_mut() {
+            a.record(f, scene, &frame.accel, &mut mirror.counters)?;
         }
+        if let Some(r) = self.ray_query.as_mut() {
+            r.record(f, scene, &frame.ray_query, &mut mirror.counters)?;
+        }
+        Ok(())
     }
 
     /// Culls the lights into tiles and traces the shadows; needs this frame's depth.
@@ -168,13 +220,23 @@ impl Lighting {
             a.destroy(ctx);
         }
         self.shadows.destroy(ctx);
+        if let Some(r) = self.ray_query {
+            r.destroy(ctx);
+        }
     }
 }
 
 /// Declares what a shading pass reads to light this frame: the light tile buffer when lights
-/// are tiled, the shadow words when shadows were traced, the shadow debug image in its views.
+/// are tiled, the shadow words when shadows were traced, the shadow debug image in its views;
+/// with ray-query lights their structures and list, and the scene's when it traces shadows.
 pub fn declare_light_reads<'f, 'a>(pass: PassBuilder<'f, 'a>, frame: &LightFrame) -> PassBuilder<'f, 'a> {
+    let accel = |ids: Option<[ResourceId; 3]>| ids.into_iter().flat_map(|[a, b, _]| [(a, BufferUse::Accel), (b, BufferUse::Accel)]);
+    let storage = |ids: Option<[ResourceId; 3]>| ids.map(|[_, _, c]| (c, BufferUse::Storage));
     pass.reads(frame.light_tiles.map(|t| (t, BufferUse::Storage)))
         .reads(frame.shadow_bits.map(|t| (t, BufferUse::Storage)))
+        .reads(accel(frame.light_accel))
+        .reads(storage(frame.light_accel))
+        .reads(accel(frame.inline_shadows))
+        .reads(storage(frame.inline_shadows))
         .when(frame.debug, |p| p.image(&SHADOW_DEBUG, ImageUse::StorageRead))
 }

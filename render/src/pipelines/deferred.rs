@@ -33,7 +33,8 @@ use crate::graph::targets::{
 };
 use crate::graph::{Frame, ImageUse, Load, PassKind};
 use crate::lights::{LightFrame, declare_light_reads};
-use crate::pipelines::ShadeVariants;
+use crate::pipelines::{RayLightShading, ShadeVariants};
+use crate::settings::LightMethod;
 use crate::scene::gpu::GpuScene;
 use crate::scene::{DECAL_ALBEDO, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, DrawItem};
 
@@ -43,6 +44,8 @@ pub struct DeferredPasses {
     gbuffer_mask: vk::Pipeline,
     lighting: ShadeVariants,
     lighting_compute: ShadeVariants,
+    /// With ray-query lights.
+    lighting_rays: RayLightShading,
     /// Indexed by `DECAL_*` flags (0..16).
     decals: Vec<vk::Pipeline>,
 }
@@ -114,6 +117,17 @@ impl DeferredPasses {
                 ],
                 |spirv| create_compute(ctx, layout, "deferred lighting (compute)", spirv),
             )?,
+            lighting_rays: RayLightShading::new(
+                ctx,
+                layout,
+                "deferred lighting (ray-query lights)",
+                [
+                    shaders::DEFERRED_LIGHTING_COMP_RAY_QUERY_LIGHTS,
+                    shaders::DEFERRED_LIGHTING_COMP_RAY_QUERY_LIGHTS_RAY_QUERY_DECALS,
+                    shaders::DEFERRED_LIGHTING_COMP_RAY_QUERY_LIGHTS_DECAL_BUFFER,
+                ],
+                [shaders::DEFERRED_LIGHTING_RGEN, shaders::DEFERRED_LIGHTING_RGEN_DECAL_BUFFER],
+            )?,
             decals,
         })
     }
@@ -166,7 +180,8 @@ impl DeferredPasses {
     /// Lighting: one pass over the G-buffer, added to the emitted radiance, with this frame's
     /// `decals` (in-shader ray queries or the decal buffer) and `lights`: a compute pass adding
     /// through a storage image when `compute`, else a full-screen fragment pass blending
-    /// additively.
+    /// additively. Ray-query lights always add through the storage image, from a compute pass
+    /// with ray queries or a ray-generation pass ([`RayLightShading`]).
     pub fn lighting(
         &self,
         f: &mut Frame,
@@ -175,7 +190,8 @@ impl DeferredPasses {
         lights: &LightFrame,
         compute: bool,
     ) -> Result<(), RenderError> {
-        let kind = if compute { PassKind::Compute } else { PassKind::Graphics };
+        let rays = if lights.method == LightMethod::RayQuery { self.lighting_rays.kind() } else { None };
+        let kind = rays.unwrap_or(if compute { PassKind::Compute } else { PassKind::Graphics });
         let pass = f
             .pass("lighting", kind)
             .sample(&DEPTH)
@@ -184,10 +200,12 @@ impl DeferredPasses {
             .sample(&GBUFFER_MATERIAL)
             .sample(&GBUFFER_LAYERS)
             .reads(scene.res.shaded());
-        let pass = if compute { pass.image(&HDR, ImageUse::StorageWrite) } else { pass.color(&HDR, Load::Keep) };
+        let pass = if kind == PassKind::Graphics { pass.color(&HDR, Load::Keep) } else { pass.image(&HDR, ImageUse::StorageWrite) };
         declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| {
             let push = p.push;
-            if compute {
+            if rays.is_some() {
+                self.lighting_rays.run(p, decals);
+            } else if compute {
                 p.bind(vk::PipelineBindPoint::COMPUTE, self.lighting_compute.pick(decals), &push);
                 // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
                 unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
@@ -205,5 +223,6 @@ impl DeferredPasses {
         }
         self.lighting.destroy(ctx);
         self.lighting_compute.destroy(ctx);
+        self.lighting_rays.destroy(ctx);
     }
 }

@@ -13,8 +13,10 @@ use ash::vk;
 use crate::RenderError;
 use crate::decals::{DecalChoice, DecalFrame, DecalSurfaceSource, Decals};
 use crate::gpu::device::{GpuContext, Tier};
-use crate::gpu::pipeline::ScenePush;
-use crate::graph::Frame;
+use crate::gpu::pipeline::{RayTracingDesc, RayTracingPipeline, ScenePush};
+use crate::gpu::shaders;
+use crate::graph::pass::PassContext;
+use crate::graph::{Frame, PassKind};
 use crate::lights::{LightFrame, Lighting};
 use crate::present::Present;
 use crate::scene::SceneMirror;
@@ -148,6 +150,75 @@ impl ShadeVariants {
         for p in [self.plain, self.decal_buffer].into_iter().chain(self.ray_query) {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
+        }
+    }
+}
+
+/// A lighting pass with ray-query lights (`crate::lights::ray_query`): on the ray-query tier
+/// the compute variants whose lights come from ray queries, in each way they apply decals; on
+/// the ray-tracing-pipeline tier a ray-generation pipeline (`[plain, decal buffer]`) whose
+/// lights come from a traced zero-length ray, shaded in its any-hit shader.
+pub struct RayLightShading {
+    compute: Option<ShadeVariants>,
+    rays: Option<RayTracingPipeline>,
+}
+
+impl RayLightShading {
+    /// Creates what this device can run: the compute shaders `[plain, ray-query decals, decal
+    /// buffer]` with ray queries, else the ray-generation shaders `raygen` with ray-tracing
+    /// pipelines, else nothing.
+    pub fn new(
+        ctx: &GpuContext,
+        layout: vk::PipelineLayout,
+        name: &str,
+        compute: [&[u8]; 3],
+        raygen: [&[u8]; 2],
+    ) -> Result<Self, RenderError> {
+        if ctx.tier == Tier::RayQuery {
+            let compute = ShadeVariants::new(ctx, compute, |spirv| crate::gpu::pipeline::create_compute(ctx, layout, name, spirv))?;
+            return Ok(Self { compute: Some(compute), rays: None });
+        }
+        if !ctx.ray_support().ray_pipeline {
+            return Ok(Self { compute: None, rays: None });
+        }
+        let desc = RayTracingDesc {
+            name,
+            raygen: &raygen,
+            miss: shaders::LIGHT_RAYS_RMISS,
+            intersection: Some(shaders::LIGHT_RAYS_RINT),
+            any_hit: shaders::LIGHT_RAYS_RAHIT,
+        };
+        Ok(Self { compute: None, rays: Some(RayTracingPipeline::new(ctx, layout, &desc)?) })
+    }
+
+    /// The kind of pass it records, `None` on a device that has neither.
+    pub fn kind(&self) -> Option<PassKind> {
+        match (&self.compute, &self.rays) {
+            (Some(_), _) => Some(PassKind::Compute),
+            (None, Some(_)) => Some(PassKind::RayTracing),
+            (None, None) => None,
+        }
+    }
+
+    /// Binds the variant for `decals` and shades every pixel of the pass.
+    pub fn run(&self, p: &PassContext, decals: &DecalFrame) {
+        if let Some(compute) = &self.compute {
+            p.bind(vk::PipelineBindPoint::COMPUTE, compute.pick(decals), &p.push);
+            // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
+            unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
+        } else if let Some(rays) = &self.rays {
+            p.bind(vk::PipelineBindPoint::RAY_TRACING_KHR, rays.pipeline, &p.push);
+            rays.trace(p.ctx, p.cmd, usize::from(decals.buffered()), p.extent);
+        }
+    }
+
+    /// Destroys the pipelines; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        if let Some(c) = self.compute {
+            c.destroy(ctx);
+        }
+        if let Some(r) = self.rays {
+            r.destroy(ctx);
         }
     }
 }

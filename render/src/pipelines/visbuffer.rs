@@ -16,7 +16,8 @@ use crate::gpu::shaders;
 use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT, VISIBILITY, VISIBILITY_FORMAT};
 use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind};
 use crate::lights::{LightFrame, declare_light_reads};
-use crate::pipelines::ShadeVariants;
+use crate::pipelines::{RayLightShading, ShadeVariants};
+use crate::settings::LightMethod;
 use crate::scene::DrawItem;
 use crate::scene::gpu::GpuScene;
 
@@ -26,6 +27,8 @@ pub struct VisBufferPasses {
     ids_mask: vk::Pipeline,
     shade: ShadeVariants,
     shade_compute: ShadeVariants,
+    /// With ray-query lights.
+    shade_rays: RayLightShading,
 }
 
 impl VisBufferPasses {
@@ -46,6 +49,17 @@ impl VisBufferPasses {
                 ctx,
                 [shaders::VISBUFFER_SHADE_COMP, shaders::VISBUFFER_SHADE_COMP_RAY_QUERY_DECALS, shaders::VISBUFFER_SHADE_COMP_DECAL_BUFFER],
                 |spirv| create_compute(ctx, layout, "visibility shading (compute)", spirv),
+            )?,
+            shade_rays: RayLightShading::new(
+                ctx,
+                layout,
+                "visibility shading (ray-query lights)",
+                [
+                    shaders::VISBUFFER_SHADE_COMP_RAY_QUERY_LIGHTS,
+                    shaders::VISBUFFER_SHADE_COMP_RAY_QUERY_LIGHTS_RAY_QUERY_DECALS,
+                    shaders::VISBUFFER_SHADE_COMP_RAY_QUERY_LIGHTS_DECAL_BUFFER,
+                ],
+                [shaders::VISBUFFER_SHADE_RGEN, shaders::VISBUFFER_SHADE_RGEN_DECAL_BUFFER],
             )?,
         })
     }
@@ -70,6 +84,8 @@ impl VisBufferPasses {
     /// and `lights`: when `compute`, a compute pass that stores every pixel (the clear colour,
     /// from the lighting record, where no geometry is: a clearing render pass alone cost 0.3 ms
     /// at 1080p on the lent H100); else one full-screen fragment pass clearing to `clear`.
+    /// Ray-query lights always store through the storage image, from a compute pass with ray
+    /// queries or a ray-generation pass ([`RayLightShading`]).
     pub fn shade(
         &self,
         f: &mut Frame,
@@ -79,17 +95,20 @@ impl VisBufferPasses {
         lights: &LightFrame,
         compute: bool,
     ) -> Result<(), RenderError> {
-        let kind = if compute { PassKind::Compute } else { PassKind::Graphics };
+        let rays = if lights.method == LightMethod::RayQuery { self.shade_rays.kind() } else { None };
+        let kind = rays.unwrap_or(if compute { PassKind::Compute } else { PassKind::Graphics });
         let pass = f
             .pass("visbuffer_shade", kind)
             .sample(&DEPTH)
             .sample(&VISIBILITY)
             .reads(scene.res.shaded())
             .read(scene.res.meshes, BufferUse::Storage);
-        let pass = if compute { pass.image(&HDR, ImageUse::StorageWrite) } else { pass.color(&HDR, Load::Clear(clear)) };
+        let pass = if kind == PassKind::Graphics { pass.color(&HDR, Load::Clear(clear)) } else { pass.image(&HDR, ImageUse::StorageWrite) };
         declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| {
             let push = p.push;
-            if compute {
+            if rays.is_some() {
+                self.shade_rays.run(p, decals);
+            } else if compute {
                 p.bind(vk::PipelineBindPoint::COMPUTE, self.shade_compute.pick(decals), &push);
                 // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
                 unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
@@ -107,5 +126,6 @@ impl VisBufferPasses {
         }
         self.shade.destroy(ctx);
         self.shade_compute.destroy(ctx);
+        self.shade_rays.destroy(ctx);
     }
 }

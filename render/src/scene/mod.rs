@@ -330,6 +330,10 @@ pub struct FrameCounters {
     pub scene_tlas_builds: u64,
     /// Scene TLAS updates (only transforms changed).
     pub scene_tlas_updates: u64,
+    /// Ray-query lights' BLAS builds (the light slots left the built range, or refits degraded it).
+    pub light_blas_builds: u64,
+    /// Ray-query lights' BLAS refits (lights changed within the built range).
+    pub light_blas_updates: u64,
     /// Live mesh instances.
     pub instances: u64,
     /// Live lights.

@@ -59,7 +59,7 @@ impl ShadowPass {
         } else {
             None
         };
-        let ray_pipeline = if ctx.decal_support().ray_pipeline {
+        let ray_pipeline = if ctx.ray_support().ray_pipeline {
             match RayTracingPipeline::new(
                 ctx,
                 layout,

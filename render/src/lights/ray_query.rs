@@ -1,0 +1,175 @@
+//! Ray-query lights (seed 000 §5.2.5, §6.1): the third way to assign lights to pixels, beside
+//! every light and tiled culling. Every light with a finite range gets an axis-aligned box
+//! around its reach in the lights' own acceleration structure (one BLAS of boxes, one TLAS:
+//! [`AabbAccel`], shared with the decals), and the lighting pass finds a pixel's lights with a
+//! zero-length ray from its surface point, as the decals are found. Lights no box can hold
+//! (directional lights, unbounded ranges) are listed apart and every pixel loops over them.
+//!
+//! - **Boxes on the GPU.** `shaders/light_boxes.comp` writes box *i* for light slot *i* from the
+//!   light table change detection already keeps, and the list of unbounded lights, in frames
+//!   where a light changed; the BLAS is then refitted, or rebuilt by the shared policy
+//!   ([`crate::gpu::accel::plan_blas_work`]) when the slot count leaves the built range. A frame
+//!   with no light change does no light-structure work (`light_blas_builds`,
+//!   `light_blas_updates` in `--stats`). Changes made while the method is not in use wait for
+//!   the next frame that uses it.
+//! - **No box seams.** The seed cut each light off at its box and saw box-shaped artifacts
+//!   around every light (§5.2.5, §6.1). Our lights' contribution reaches zero at their range
+//!   (`shaders/include/lighting.glsl`), and the box holds the range sphere (for a spot light
+//!   narrower than a hemisphere, the part of it inside the cone), so the box never cuts a light:
+//!   the image matches tiled culling's.
+//! - **Shading.** On the ray-query tier the deferred and visibility-buffer lighting compute
+//!   passes run the query and trace each found light's shadow ray inline
+//!   (`shaders/include/ray_query_lights.glsl`). On the ray-tracing-pipeline tier (the lent GPUs)
+//!   the lighting pass is a ray-generation shader whose any-hit shader shades each light found
+//!   (`shaders/include/ray_pipeline_lights.glsl`); an any-hit shader cannot trace, so those lights
+//!   are unshadowed there and `--stats` says `"shadows":"none"`.
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use crate::RenderError;
+use crate::gpu::accel::{AabbAccel, AabbAccelNames, AabbInput, AabbPlan, BlasWork, build_count};
+use crate::gpu::device::GpuContext;
+use crate::gpu::memory::{Buffer, Retired};
+use crate::gpu::pipeline::create_compute;
+use crate::gpu::shaders;
+use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
+use crate::layout::GpuAabb;
+use crate::scene::gpu::GpuScene;
+use crate::scene::{FrameCounters, SceneMirror};
+
+const BOX_BYTES: u64 = std::mem::size_of::<GpuAabb>() as u64;
+
+/// The lights' boxes, their acceleration structures and the pass that writes the boxes.
+pub struct RayQueryLights {
+    /// Boxes (`capacity` of them), then the unbounded lights' count and slots.
+    buffer: Option<Buffer>,
+    capacity: u32,
+    box_pass: vk::Pipeline,
+    accel: AabbAccel,
+    /// Light records changed since the structures were last brought up to date.
+    pending_changes: u32,
+    boxes: ResourceId,
+}
+
+/// What ray-query lights do this frame.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RayQueryLightFrame {
+    /// Device address of the lights' TLAS (0 when there is none: no lights, or not in use).
+    pub tlas: vk::DeviceAddress,
+    /// Device address of box 0.
+    pub boxes: vk::DeviceAddress,
+    /// Device address of the unbounded lights' list.
+    pub unbounded: vk::DeviceAddress,
+    /// Boxes the box pass writes and the BLAS covers.
+    pub box_count: u32,
+    work: Option<(AabbInput, AabbPlan)>,
+}
+
+impl RayQueryLights {
+    /// Creates the box pass; `None` on a device without acceleration structures.
+    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout) -> Result<Option<Self>, RenderError> {
+        if ctx.ray_tracing.is_none() {
+            return Ok(None);
+        }
+        let names = AabbAccelNames {
+            blas: "light blas",
+            tlas: "light tlas",
+            scratch: "light as scratch",
+            build_pass: "light_blas_build",
+            update_pass: "light_blas_update",
+            tlas_pass: "light_tlas_build",
+        };
+        Ok(Some(Self {
+            buffer: None,
+            capacity: 0,
+            box_pass: create_compute(ctx, layout, "light boxes", shaders::LIGHT_BOXES_COMP)?,
+            accel: AabbAccel::new(ctx, graph, names),
+            pending_changes: 0,
+            boxes: graph.resource("light boxes"),
+        }))
+    }
+
+    /// Follows the lights' changes (before the scene's upload consumes their marks) and, when
+    /// the method is `in_use`, plans this frame's structure work and makes room for it.
+    pub fn prepare(&mut self, f: &mut Frame, mirror: &SceneMirror, in_use: bool) -> Result<RayQueryLightFrame, RenderError> {
+        self.pending_changes = self.pending_changes.saturating_add(mirror.lights.dirty_count() as u32);
+        let slots = mirror.lights.slot_count();
+        if !in_use || slots == 0 {
+            return Ok(RayQueryLightFrame::default());
+        }
+        let need = build_count(slots, u32::MAX);
+        if need > self.capacity {
+            // Room for the build and some growth; the boxes are all rewritten by the next build,
+            // which a larger count forces.
+            let capacity = need.next_power_of_two();
+            let size = capacity as u64 * BOX_BYTES + 4 * (capacity as u64 + 1);
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST
+                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
+                | vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR;
+            let buffer = Buffer::new(f.ctx, "light boxes", size, usage, MemoryLocation::GpuOnly)?;
+            if let Some(old) = self.buffer.replace(buffer) {
+                f.upload.graveyard.bury(f.upload.frame_value, Retired::Buffer(old));
+            }
+            self.capacity = capacity;
+        }
+        let address = self.buffer.as_ref().expect("allocated above").address;
+        let input = AabbInput { boxes: self.boxes, address, live: slots, capacity: self.capacity, changed: self.pending_changes };
+        let plan = self.accel.prepare(f, &input)?;
+        self.pending_changes = 0;
+        Ok(RayQueryLightFrame {
+            tlas: self.accel.tlas_address(),
+            boxes: address,
+            unbounded: address + self.capacity as u64 * BOX_BYTES,
+            box_count: plan.count,
+            work: Some((input, plan)),
+        })
+    }
+
+    /// Writes the boxes and brings the structures up to date (after the scene's upload): the
+    /// passes `light_unbounded_clear`, `light_boxes`, then the BLAS and TLAS builds.
+    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, frame: &RayQueryLightFrame, counters: &mut FrameCounters) -> Result<(), RenderError> {
+        let Some((input, plan)) = frame.work else { return Ok(()) };
+        if plan.work == BlasWork::None {
+            return Ok(());
+        }
+        let Some(buffer) = self.buffer.as_ref() else { return Ok(()) };
+        let (raw, list_offset) = (buffer.raw, self.capacity as u64 * BOX_BYTES);
+        f.pass("light_unbounded_clear", PassKind::Transfer).write(self.boxes, BufferUse::Transfer).record(|p| {
+            // SAFETY: `cmd` is recording outside a rendering scope; the count word lies in the buffer.
+            unsafe { p.ctx.device.cmd_fill_buffer(p.cmd, raw, list_offset, 4, 0) };
+        })?;
+        let (pipeline, count) = (self.box_pass, plan.count);
+        f.pass("light_boxes", PassKind::Compute).read(scene.res.tables, BufferUse::Storage).write(self.boxes, BufferUse::Storage).record(
+            |p| {
+                p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
+                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
+                unsafe { p.ctx.device.cmd_dispatch(p.cmd, count.div_ceil(64), 1, 1) };
+            },
+        )?;
+        self.accel.record(f, &input, &plan)?;
+        match plan.work {
+            BlasWork::Build => counters.light_blas_builds += 1,
+            BlasWork::Update => counters.light_blas_updates += 1,
+            BlasWork::None => {}
+        }
+        Ok(())
+    }
+
+    /// What the lighting pass reads: the TLAS and BLAS, and the boxes' buffer (for the unbounded
+    /// lights' list).
+    pub fn reads(&self) -> Option<[ResourceId; 3]> {
+        self.accel.traced().map(|[tlas, blas]| [tlas, blas, self.boxes])
+    }
+
+    /// Destroys everything; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        self.accel.destroy(ctx);
+        if let Some(b) = self.buffer {
+            b.destroy(ctx);
+        }
+        // SAFETY: the GPU is idle.
+        unsafe { ctx.device.destroy_pipeline(self.box_pass, None) };
+    }
+}

@@ -1,0 +1,50 @@
+// Ray-query lights on the ray-tracing-pipeline tier (the lent GPUs have no ray queries): the
+// lighting pass is a ray-generation shader (deferred_lighting.rgen, visbuffer_shade.rgen) that
+// sends one zero-length ray per pixel against the lights' TLAS (light_boxes.glsl). The
+// intersection shader (light_rays.rint) runs the exact range test on each box holding the
+// ray's origin; the any-hit shader (light_rays.rahit) adds the light's radiance to the payload
+// and ignores the hit, so traversal goes on to every other light there. Radiance adds up in any
+// order, so the arbitrary order of any-hit invocations changes nothing but rounding. An any-hit
+// shader cannot trace a ray, so these lights cast no shadows on this tier (reported as
+// "shadows":"none"); tiled lights have them.
+#ifndef RAY_PIPELINE_LIGHTS_GLSL
+#define RAY_PIPELINE_LIGHTS_GLSL
+
+#include "lighting.glsl"
+#include "light_boxes.glsl"
+
+// The surface travels with the ray (its position is the ray's origin); the radiance and the
+// number of lights found come back.
+struct LightPayload {
+    SurfaceBrdf brdf;
+    vec3 normal;
+    vec3 view;
+    vec3 color;
+    uint found;
+};
+
+#ifdef LIGHT_RAYGEN
+layout(location = 0) rayPayloadEXT LightPayload light_payload;
+
+vec3 enumerated_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found) {
+    GpuLighting l = scene.lighting.lighting;
+    found = 0u;
+    if (l.light_tlas == 0ul) return vec3(0.0);
+    light_payload.brdf = brdf;
+    light_payload.normal = s.normal;
+    light_payload.view = v;
+    light_payload.color = vec3(0.0);
+    light_payload.found = 0u;
+    UnboundedLightsRef unbounded = UnboundedLightsRef(l.unbounded_lights);
+    uint unbounded_count = unbounded.count;
+    for (uint k = 0u; k < unbounded_count; ++k) {
+        light_payload.color += shade_light(scene.lights.lights[unbounded.slots[k]], brdf, s.position, s.normal, v);
+    }
+    traceRayEXT(accelerationStructureEXT(l.light_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF, 0, 0, 0,
+                s.position, 0.0, vec3(1.0, 0.0, 0.0), 0.0, 0);
+    found = unbounded_count + light_payload.found;
+    return light_payload.color;
+}
+#endif
+
+#endif
