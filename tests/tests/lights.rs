@@ -542,3 +542,111 @@ fn a_still_scene_does_no_acceleration_structure_work_and_a_moving_instance_updat
     assert_eq!(counters(&mut app), (0, 0, 1, 0), "so does a despawn");
     assert_eq!(counters(&mut app), (0, 0, 0, 0));
 }
+
+/// Lights of every kind over the boxes scene for the ray-query lights tests: 48 small point
+/// lights, spot lights with a narrow, a wide and a past-hemisphere cone, a directional light and
+/// a point light of unbounded range (the last two on the unbounded list).
+fn light_mix(app: &mut App) {
+    for i in 0..48 {
+        let at = Vec3::new((i % 8) as f32 * 1.4 - 5.0, 0.3 + (i % 4) as f32 * 0.4, (i / 8) as f32 * 1.4 - 4.0);
+        let color = Vec3::new(1.0, 0.4 + 0.1 * (i % 6) as f32, 0.3 + 0.2 * (i % 3) as f32);
+        app.world.spawn((PointLight { color, intensity: 2.0, range: Some(1.2 + 0.6 * (i % 3) as f32) }, Transform::from_translation(at)));
+    }
+    for (at, outer) in [(Vec3::new(-2.0, 3.0, 1.0), 0.25), (Vec3::new(2.0, 2.5, -1.0), 1.0), (Vec3::new(0.0, 1.5, 3.0), 1.9)] {
+        let spot = SpotLight { intensity: 20.0, range: Some(6.0), inner_angle: outer * 0.5, outer_angle: outer, ..Default::default() };
+        app.world.spawn((spot, Transform::from_translation(at).looking_at(Vec3::new(0.5, 0.0, 0.0), Vec3::Z)));
+    }
+    let sun = Transform::default().looking_at(Vec3::new(-0.4, -1.0, -0.3), Vec3::Y);
+    app.world.spawn((DirectionalLight { illuminance: 0.5, ..Default::default() }, sun));
+    app.world.spawn((PointLight { intensity: 0.5, range: Some(f32::INFINITY), ..Default::default() }, Transform::from_xyz(0.0, 6.0, 0.0)));
+}
+
+#[test]
+fn ray_query_lights_light_the_scene_as_tiled_culling_does_on_both_ray_tracing_tiers() {
+    for tier in [Tier::RayQuery, Tier::RayTracingPipeline] {
+        // Shadows where ray-query lights trace them (the ray-query tier); none on the other, for
+        // both methods, so that the images compare.
+        let shadows = tier == Tier::RayQuery;
+        let mut app = gpu_app_at(SIZE.0, SIZE.1, settings(LightSettings { shadows, ..Default::default() }), tier);
+        boxes_scene(&mut app);
+        light_mix(&mut app);
+        for pipeline in [PipelineKind::Deferred, PipelineKind::VisBuffer] {
+            let mut image = |method| {
+                let mut s = app.world.resource_mut::<RenderSettings>();
+                s.pipeline = pipeline;
+                s.lights.method = method;
+                render(&mut app, DebugView::Lit)
+            };
+            let (tiled, depth) = image(LightMethod::Tiled);
+            let (ray_query, _) = image(LightMethod::RayQuery);
+            let lit = tiled.iter().filter(|p| p[0] + p[1] + p[2] > 0.05).count();
+            assert!(lit > SIZE.0 as usize * SIZE.1 as usize / 2, "{tier:?} {pipeline:?}: the lights light the scene ({lit} pixels)");
+            let (mean, p99) = error_stats(&tiled, &ray_query, |i| depth[i] > 0.0);
+            eprintln!("{tier:?} {pipeline:?}: ray-query lights vs tiled: mean {mean}, p99 {p99}");
+            // Without shadows only the order of the sum differs; with them, the shadow rays
+            // start from the geometric normal rather than one rebuilt from depth, which moves
+            // shadow edges at depth discontinuities by a pixel (the pipeline tests' tolerance).
+            let (max_mean, max_p99) = if shadows { (0.002, 0.012) } else { (1e-4, 1e-3) };
+            assert!(mean <= max_mean && p99 <= max_p99, "{tier:?} {pipeline:?}: mean {mean}, p99 {p99}");
+        }
+        app.update();
+        app.update();
+        let stats = app.world.resource::<RenderStats>();
+        let applied = stats.completed.iter().rev().find(|s| s.light_method == LightMethod::RayQuery).expect("ray-query lights ran");
+        let expected = if shadows { render::ShadowMethod::RayQuery } else { render::ShadowMethod::None };
+        assert_eq!(applied.shadows, expected, "{tier:?}: shadows are reported as traced");
+    }
+}
+
+#[test]
+fn ray_query_lights_find_exactly_the_lights_in_range_and_rebuild_only_on_change() {
+    let mut app = gpu_app(SIZE.0, SIZE.1, settings(LightSettings { method: LightMethod::RayQuery, shadows: false, ..Default::default() }));
+    app.world.resource_mut::<RenderSettings>().pipeline = PipelineKind::Deferred;
+    let (view, camera) = boxes_scene(&mut app);
+    let mut points = Vec::new();
+    for i in 0..40 {
+        let at = Vec3::new((i % 8) as f32 * 1.3 - 4.5, 0.2 + (i % 3) as f32 * 0.5, (i / 8) as f32 * 1.6 - 3.5);
+        let range = 1.0 + 0.5 * (i % 4) as f32;
+        points.push((at, range));
+        app.world.spawn((PointLight { range: Some(range), ..Default::default() }, Transform::from_translation(at)));
+    }
+    app.world.spawn((DirectionalLight::default(), Transform::default().looking_at(Vec3::NEG_Y, Vec3::Z)));
+    let counters = |app: &mut App| {
+        app.update();
+        assert_no_validation_errors(app);
+        let c = app.world.resource::<RenderStats>().last;
+        (c.light_blas_builds, c.light_blas_updates)
+    };
+    assert_eq!(counters(&mut app), (1, 0), "the first frame builds the light BLAS");
+    assert_eq!(counters(&mut app), (0, 0), "a still scene does no light-structure work");
+
+    // Each pixel finds the directional light and exactly the point lights whose range holds it
+    // (pixels within 1 mm of a range are skipped).
+    let (count, depth) = render(&mut app, DebugView::LightCount);
+    let world = world_positions(&view, &camera, SIZE, &depth);
+    let mut checked = 0;
+    for (i, p) in world.iter().enumerate() {
+        let Some(p) = p else { continue };
+        if points.iter().any(|&(at, r)| ((at - *p).length() - r).abs() < 1e-3) {
+            continue;
+        }
+        let expected = 1 + points.iter().filter(|&&(at, r)| (at - *p).length() < r).count();
+        assert_eq!(count[i][0] as usize, expected, "pixel {i} at {p}");
+        checked += 1;
+    }
+    assert!(checked > 5000, "{checked} pixels checked");
+
+    let light = app.world.query_filtered::<Entity, With<PointLight>>().iter(&app.world).next().unwrap();
+    app.world.get_mut::<Transform>(light).unwrap().translation.y += 0.3;
+    assert_eq!(counters(&mut app), (0, 1), "a moved light refits the BLAS");
+    app.world.resource_mut::<RenderSettings>().lights.method = LightMethod::Tiled;
+    app.world.get_mut::<Transform>(light).unwrap().translation.y += 0.3;
+    assert_eq!(counters(&mut app), (0, 0), "changes wait while ray-query lights are not in use");
+    app.world.resource_mut::<RenderSettings>().lights.method = LightMethod::RayQuery;
+    assert_eq!(counters(&mut app), (0, 1), "and are applied when they are again");
+    for i in 0..100 {
+        app.world.spawn((PointLight::default(), Transform::from_xyz(i as f32 * 0.1, 0.5, 0.0)));
+    }
+    assert_eq!(counters(&mut app), (1, 0), "lights past the built range rebuild");
+    assert_eq!(counters(&mut app), (0, 0));
+}

@@ -275,7 +275,11 @@ impl AabbAccel {
             scratch: Scratch::new(ctx, names.scratch),
             built: None,
             refitted_since_build: 0,
-            res: AabbAccelResources { blas: graph.resource(names.blas), tlas: graph.resource(names.tlas), scratch: graph.resource(names.scratch) },
+            res: AabbAccelResources {
+                blas: graph.resource(names.blas),
+                tlas: graph.resource(names.tlas),
+                scratch: graph.resource(names.scratch),
+            },
             names,
         }
     }
@@ -310,8 +314,12 @@ impl AabbAccel {
         let blas_sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, BOX_BLAS_FLAGS, &geometry, &[count]);
         let tlas_sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::TOP_LEVEL, BOX_TLAS_FLAGS, &one_instance_geometry(0), &[1]);
         if work == BlasWork::Build && self.blas.as_ref().is_none_or(|b| b.buffer.size < blas_sizes.acceleration_structure_size) {
-            let blas =
-                AccelStruct::new(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, blas_sizes.acceleration_structure_size, self.names.blas)?;
+            let blas = AccelStruct::new(
+                ctx,
+                vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+                blas_sizes.acceleration_structure_size,
+                self.names.blas,
+            )?;
             let instance = Self::instance_buffer(ctx, blas.address, self.names.tlas)?;
             if let Some(old) = self.blas.replace(blas) {
                 old.bury(graveyard, frame_value);
@@ -339,7 +347,8 @@ impl AabbAccel {
         if plan.work == BlasWork::None {
             return Ok(());
         }
-        let rt = f.ctx.ray_tracing.as_ref().ok_or_else(|| RenderError::Other(format!("{}: no acceleration structures", self.names.blas)))?;
+        let rt =
+            f.ctx.ray_tracing.as_ref().ok_or_else(|| RenderError::Other(format!("{}: no acceleration structures", self.names.blas)))?;
         let asx = &rt.acceleration_structure;
         let (Some(blas), Some(tlas), Some(instances)) = (self.blas.as_ref(), self.tlas.as_ref(), self.instances.as_ref()) else {
             return Err(RenderError::Other(format!("{}: recorded without prepare", self.names.blas)));
@@ -423,10 +432,9 @@ impl AabbAccel {
 }
 
 /// Flags of box BLAS builds.
-const BOX_BLAS_FLAGS: vk::BuildAccelerationStructureFlagsKHR =
-    vk::BuildAccelerationStructureFlagsKHR::from_raw(
-        vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE.as_raw() | vk::BuildAccelerationStructureFlagsKHR::ALLOW_UPDATE.as_raw(),
-    );
+const BOX_BLAS_FLAGS: vk::BuildAccelerationStructureFlagsKHR = vk::BuildAccelerationStructureFlagsKHR::from_raw(
+    vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE.as_raw() | vk::BuildAccelerationStructureFlagsKHR::ALLOW_UPDATE.as_raw(),
+);
 /// Flags of the one-instance TLAS builds.
 const BOX_TLAS_FLAGS: vk::BuildAccelerationStructureFlagsKHR = vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE;
 

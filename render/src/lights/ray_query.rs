@@ -129,7 +129,13 @@ impl RayQueryLights {
 
     /// Writes the boxes and brings the structures up to date (after the scene's upload): the
     /// passes `light_unbounded_clear`, `light_boxes`, then the BLAS and TLAS builds.
-    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, frame: &RayQueryLightFrame, counters: &mut FrameCounters) -> Result<(), RenderError> {
+    pub fn record(
+        &mut self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        frame: &RayQueryLightFrame,
+        counters: &mut FrameCounters,
+    ) -> Result<(), RenderError> {
         let Some((input, plan)) = frame.work else { return Ok(()) };
         if plan.work == BlasWork::None {
             return Ok(());

@@ -34,9 +34,9 @@ use crate::graph::targets::{
 use crate::graph::{Frame, ImageUse, Load, PassKind};
 use crate::lights::{LightFrame, declare_light_reads};
 use crate::pipelines::{RayLightShading, ShadeVariants};
-use crate::settings::LightMethod;
 use crate::scene::gpu::GpuScene;
 use crate::scene::{DECAL_ALBEDO, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, DrawItem};
+use crate::settings::LightMethod;
 
 /// Pipelines of the deferred renderer.
 pub struct DeferredPasses {

@@ -17,9 +17,9 @@ use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT, VISIBILITY, VI
 use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind};
 use crate::lights::{LightFrame, declare_light_reads};
 use crate::pipelines::{RayLightShading, ShadeVariants};
-use crate::settings::LightMethod;
 use crate::scene::DrawItem;
 use crate::scene::gpu::GpuScene;
+use crate::settings::LightMethod;
 
 /// Pipelines of the visibility-buffer renderer.
 pub struct VisBufferPasses {
