@@ -90,6 +90,27 @@ pub fn build_sizes(
     sizes
 }
 
+/// The description of a build of `dst` of type `ty` over `geometries` (a refit in place when
+/// `update`), with scratch memory at `scratch`.
+pub fn build_info<'a>(
+    ty: vk::AccelerationStructureTypeKHR,
+    flags: vk::BuildAccelerationStructureFlagsKHR,
+    dst: vk::AccelerationStructureKHR,
+    update: bool,
+    geometries: &'a [vk::AccelerationStructureGeometryKHR<'a>],
+    scratch: vk::DeviceAddress,
+) -> vk::AccelerationStructureBuildGeometryInfoKHR<'a> {
+    let mode = if update { vk::BuildAccelerationStructureModeKHR::UPDATE } else { vk::BuildAccelerationStructureModeKHR::BUILD };
+    let info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+        .ty(ty)
+        .flags(flags)
+        .mode(mode)
+        .dst_acceleration_structure(dst)
+        .geometries(geometries)
+        .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch });
+    if update { info.src_acceleration_structure(dst) } else { info }
+}
+
 /// Scratch memory for builds, grown to the largest need and aligned as the device asks.
 pub struct Scratch {
     buffer: Option<Buffer>,
@@ -362,16 +383,14 @@ impl AabbAccel {
             .write(res.scratch, BufferUse::Accel)
             .record(|p| {
                 let geometry = aabb_geometry(input.address);
-                let mut info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
-                    .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
-                    .flags(BOX_BLAS_FLAGS)
-                    .mode(if update { vk::BuildAccelerationStructureModeKHR::UPDATE } else { vk::BuildAccelerationStructureModeKHR::BUILD })
-                    .dst_acceleration_structure(blas.raw)
-                    .geometries(&geometry)
-                    .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch_address });
-                if update {
-                    info = info.src_acceleration_structure(blas.raw);
-                }
+                let info = build_info(
+                    vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+                    BOX_BLAS_FLAGS,
+                    blas.raw,
+                    update,
+                    &geometry,
+                    scratch_address,
+                );
                 let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
                 // SAFETY: `cmd` is recording; the box buffer holds at least `count` boxes, made
                 // visible to builds by the pass's declaration; scratch was sized in `prepare`.
@@ -383,13 +402,8 @@ impl AabbAccel {
             .write(res.scratch, BufferUse::Accel)
             .record(|p| {
                 let geometry = one_instance_geometry(instances);
-                let info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
-                    .ty(vk::AccelerationStructureTypeKHR::TOP_LEVEL)
-                    .flags(BOX_TLAS_FLAGS)
-                    .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
-                    .dst_acceleration_structure(tlas.raw)
-                    .geometries(&geometry)
-                    .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch_address });
+                let info =
+                    build_info(vk::AccelerationStructureTypeKHR::TOP_LEVEL, BOX_TLAS_FLAGS, tlas.raw, false, &geometry, scratch_address);
                 let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(1)];
                 // SAFETY: as above; the instance buffer is host-written before submission.
                 unsafe { asx.cmd_build_acceleration_structures(p.cmd, &[info], &[&ranges[..]]) };
@@ -450,14 +464,19 @@ fn aabb_geometry(address: vk::DeviceAddress) -> [vk::AccelerationStructureGeomet
         .flags(vk::GeometryFlagsKHR::OPAQUE)]
 }
 
-/// The geometry of a TLAS build over one instance record at `address`.
-fn one_instance_geometry(address: vk::DeviceAddress) -> [vk::AccelerationStructureGeometryKHR<'static>; 1] {
-    [vk::AccelerationStructureGeometryKHR::default().geometry_type(vk::GeometryTypeKHR::INSTANCES).geometry(
+/// The geometry of a TLAS build over the instance records at `address`.
+pub fn instances_geometry(address: vk::DeviceAddress) -> vk::AccelerationStructureGeometryKHR<'static> {
+    vk::AccelerationStructureGeometryKHR::default().geometry_type(vk::GeometryTypeKHR::INSTANCES).geometry(
         vk::AccelerationStructureGeometryDataKHR {
             instances: vk::AccelerationStructureGeometryInstancesDataKHR::default()
                 .data(vk::DeviceOrHostAddressConstKHR { device_address: address }),
         },
-    )]
+    )
+}
+
+/// The geometry of a TLAS build over one instance record at `address`.
+fn one_instance_geometry(address: vk::DeviceAddress) -> [vk::AccelerationStructureGeometryKHR<'static>; 1] {
+    [instances_geometry(address)]
 }
 
 #[cfg(test)]

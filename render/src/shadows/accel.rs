@@ -25,7 +25,7 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use crate::RenderError;
-use crate::gpu::accel::{AccelStruct, Scratch, build_sizes};
+use crate::gpu::accel::{AccelStruct, Scratch, build_info, build_sizes, instances_geometry};
 use crate::gpu::device::GpuContext;
 use crate::gpu::memory::{Buffer, Retired};
 use crate::gpu::pipeline::create_compute;
@@ -258,7 +258,7 @@ impl SceneAccel {
         let work = plan_tlas_work(self.built, count, self.pending_rearranged, self.pending_moved, self.updated_since_build);
         if count > self.tlas_capacity {
             let capacity = count.next_power_of_two().max(64);
-            let geometry = [tlas_geometry(0)];
+            let geometry = [instances_geometry(0)];
             let sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::TOP_LEVEL, TLAS_FLAGS, &geometry, &[capacity]);
             let tlas = AccelStruct::new(ctx, vk::AccelerationStructureTypeKHR::TOP_LEVEL, sizes.acceleration_structure_size, "scene tlas")?;
             if let Some(old) = self.tlas.replace(tlas) {
@@ -315,8 +315,13 @@ impl SceneAccel {
             builds.push((slot, scratch_need));
             scratch_need += sizes.build_scratch_size.next_multiple_of(256);
         }
-        let tlas_sizes =
-            build_sizes(ctx, vk::AccelerationStructureTypeKHR::TOP_LEVEL, TLAS_FLAGS, &[tlas_geometry(0)], &[frame.instance_count.max(1)]);
+        let tlas_sizes = build_sizes(
+            ctx,
+            vk::AccelerationStructureTypeKHR::TOP_LEVEL,
+            TLAS_FLAGS,
+            &[instances_geometry(0)],
+            &[frame.instance_count.max(1)],
+        );
         let scratch_need = scratch_need.max(tlas_sizes.build_scratch_size).max(tlas_sizes.update_scratch_size);
         let scratch = if builds.is_empty() && frame.work == TlasWork::None {
             0
@@ -335,13 +340,14 @@ impl SceneAccel {
                         let b = blas[slot].as_ref().expect("listed above");
                         let mesh = scene.mesh(MeshId(slot as u32)).expect("listed above");
                         let geometry = [triangles(mesh.buffer.address, mesh.buffer.address + mesh.index_offset, mesh.vertex_count)];
-                        let info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
-                            .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
-                            .flags(BLAS_FLAGS)
-                            .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
-                            .dst_acceleration_structure(b.accel.raw)
-                            .geometries(&geometry)
-                            .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch + offset });
+                        let info = build_info(
+                            vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+                            BLAS_FLAGS,
+                            b.accel.raw,
+                            false,
+                            &geometry,
+                            scratch + offset,
+                        );
                         let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(b.primitives)];
                         // SAFETY: `cmd` is recording; the mesh buffer was uploaded earlier this
                         // frame (declared); each build has its own scratch range.
@@ -411,17 +417,8 @@ impl SceneAccel {
             .write(res.tlas, BufferUse::Accel)
             .write(res.scratch, BufferUse::Accel)
             .record(|p| {
-                let geometry = [tlas_geometry(instances)];
-                let mut info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
-                    .ty(vk::AccelerationStructureTypeKHR::TOP_LEVEL)
-                    .flags(TLAS_FLAGS)
-                    .mode(if update { vk::BuildAccelerationStructureModeKHR::UPDATE } else { vk::BuildAccelerationStructureModeKHR::BUILD })
-                    .dst_acceleration_structure(tlas.raw)
-                    .geometries(&geometry)
-                    .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch });
-                if update {
-                    info = info.src_acceleration_structure(tlas.raw);
-                }
+                let geometry = [instances_geometry(instances)];
+                let info = build_info(vk::AccelerationStructureTypeKHR::TOP_LEVEL, TLAS_FLAGS, tlas.raw, update, &geometry, scratch);
                 let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
                 // SAFETY: `cmd` is recording; the instance records were written by the pass above
                 // (declared); the TLAS was sized for at least `count` instances.
@@ -482,15 +479,6 @@ fn triangles(vertices: vk::DeviceAddress, indices: vk::DeviceAddress, vertex_cou
                 .index_data(vk::DeviceOrHostAddressConstKHR { device_address: indices }),
         })
         .flags(vk::GeometryFlagsKHR::NO_DUPLICATE_ANY_HIT_INVOCATION)
-}
-
-fn tlas_geometry(instances: vk::DeviceAddress) -> vk::AccelerationStructureGeometryKHR<'static> {
-    vk::AccelerationStructureGeometryKHR::default().geometry_type(vk::GeometryTypeKHR::INSTANCES).geometry(
-        vk::AccelerationStructureGeometryDataKHR {
-            instances: vk::AccelerationStructureGeometryInstancesDataKHR::default()
-                .data(vk::DeviceOrHostAddressConstKHR { device_address: instances }),
-        },
-    )
 }
 
 #[cfg(test)]
