@@ -1,9 +1,11 @@
 //! The application shell: a [`World`], five named schedules run in a fixed order each frame,
 //! and [`Plugin`]s that register systems and resources.
 //!
-//! The shell is deliberately smaller than `bevy_app`: there is no runner, no sub-apps and no
-//! extraction world. The game loop (windowed or headless) lives in the sandbox and calls
-//! [`App::update`] once per frame. Schedules live in the world's [`Schedules`] resource, so
+//! The shell is deliberately smaller than `bevy_app`: there are no sub-apps and no extraction
+//! world. [`App::run`] hands the app to its runner, which calls [`App::update`] once per frame:
+//! a plugin may set one ([`App::set_runner`]; the window plugin in `plugins` owns the event
+//! loop), and without one `run` updates until a system inserts [`AppExit`]. Tests and tools may
+//! also call `update` themselves. Schedules live in the world's [`Schedules`] resource, so
 //! systems may also run them with `World::run_schedule`.
 //!
 //! This module names no feature plugin, so dependencies point one way: feature modules (such as
@@ -41,6 +43,27 @@ pub struct PostUpdate;
 #[derive(ScheduleLabel, Clone, Debug, PartialEq, Eq, Hash)]
 pub struct Render;
 
+/// Insert this resource (from any system) to end [`App::run`] after the current frame;
+/// [`AppExit::Error`] makes `run` return the error.
+#[derive(Resource, Clone, Debug, Default, PartialEq, Eq)]
+pub enum AppExit {
+    /// The app is done.
+    #[default]
+    Success,
+    /// The app cannot go on (no GPU, a rendering error): why.
+    Error(String),
+}
+
+/// An error a runner reports.
+pub type BoxError = Box<dyn std::error::Error + Send + Sync>;
+
+/// What a runner returns: `Err` when the app could not run to its end (no display, no GPU, a
+/// rendering error).
+pub type RunResult = Result<(), BoxError>;
+
+/// A runner: owns the app and drives its frames until it exits.
+pub type Runner = Box<dyn FnOnce(App) -> RunResult>;
+
 /// A unit of app configuration: registers systems, resources and other plugins.
 pub trait Plugin {
     /// Configures `app`.
@@ -52,6 +75,7 @@ pub struct App {
     /// The ECS world holding every entity, component, resource and schedule.
     pub world: World,
     started: bool,
+    runner: Option<Runner>,
 }
 
 impl App {
@@ -65,7 +89,7 @@ impl App {
         world.insert_resource(Assets::<Mesh>::default());
         world.insert_resource(Assets::<Material>::default());
         world.insert_resource(Assets::<Image>::default());
-        let mut app = App { world, started: false };
+        let mut app = App { world, started: false, runner: None };
         app.schedule_mut(Startup);
         app.schedule_mut(PreUpdate);
         app.schedule_mut(Update);
@@ -97,6 +121,39 @@ impl App {
         self.world.get_resource_or_init::<Schedules>().into_inner().entry(label)
     }
 
+    /// Sets what [`App::run`] does (the last call wins).
+    pub fn set_runner(&mut self, runner: impl FnOnce(App) -> RunResult + 'static) -> &mut Self {
+        self.runner = Some(Box::new(runner));
+        self
+    }
+
+    /// Runs the app to its end with its runner; without one, updates frame after frame until a
+    /// system inserts [`AppExit`].
+    pub fn run(mut self) -> RunResult {
+        match self.runner.take() {
+            Some(runner) => runner(self),
+            None => {
+                while !self.exit_requested() {
+                    self.update();
+                }
+                self.exit_result()
+            }
+        }
+    }
+
+    /// Whether a system asked the app to exit ([`AppExit`]).
+    pub fn exit_requested(&self) -> bool {
+        self.world.contains_resource::<AppExit>()
+    }
+
+    /// What a runner returns once the app exits: the error of an [`AppExit::Error`], else `Ok`.
+    pub fn exit_result(&self) -> RunResult {
+        match self.world.get_resource::<AppExit>() {
+            Some(AppExit::Error(e)) => Err(e.clone().into()),
+            _ => Ok(()),
+        }
+    }
+
     /// Runs one frame: [`Startup`] on the first call only, then advances [`Time`] and runs
     /// [`PreUpdate`], [`Update`], [`PostUpdate`] and [`Render`], and finally clears the change
     /// trackers so that the next frame's `Changed`/`Added` filters see only its own changes.
@@ -104,17 +161,17 @@ impl App {
         if !self.started {
             self.started = true;
             debug!("running Startup schedule");
-            self.run(Startup);
+            self.run_schedule(Startup);
         }
         self.world.resource_mut::<Time>().advance();
-        self.run(PreUpdate);
-        self.run(Update);
-        self.run(PostUpdate);
-        self.run(Render);
+        self.run_schedule(PreUpdate);
+        self.run_schedule(Update);
+        self.run_schedule(PostUpdate);
+        self.run_schedule(Render);
         self.world.clear_trackers();
     }
 
-    fn run(&mut self, label: impl ScheduleLabel) {
+    fn run_schedule(&mut self, label: impl ScheduleLabel) {
         // A schedule removed by a user is simply skipped.
         let _ = self.world.try_run_schedule(label);
     }

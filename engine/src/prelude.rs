@@ -1,13 +1,17 @@
-//! The engine prelude: the types a game uses every day, plus `bevy_ecs::prelude::*` and the
-//! common `glam` types, so that `use engine::prelude::*;` is enough for most systems.
+//! The engine prelude: the types a game uses every day, plus `bevy_ecs::prelude::*` (and the
+//! `bevy_ecs` crate itself, which the ECS derives name) and the common `glam` types, so that
+//! `use engine::prelude::*;` is enough for most systems and components.
 //!
 //! Note that [`Name`] here is the engine's [`crate::scene::Name`], which shadows
 //! `bevy_ecs::prelude::Name`.
 
+// The crate itself, so that `#[derive(Component)]` and `#[derive(Resource)]`, which expand to
+// `bevy_ecs::…` paths, compile in a game that depends only on `engine`.
+pub use bevy_ecs;
 pub use bevy_ecs::prelude::*;
 pub use glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3, Vec3A, Vec4};
 
-pub use crate::app::{App, Plugin, PostUpdate, PreUpdate, Render, Startup, Update};
+pub use crate::app::{App, AppExit, Plugin, PostUpdate, PreUpdate, Render, Startup, Update};
 pub use crate::asset::{AssetEvent, Assets, Handle};
 pub use crate::camera::Camera;
 pub use crate::defaults::DefaultPlugins;

@@ -1,31 +1,40 @@
-//! The bridge between the ECS and the renderer.
+//! The bridge between the ECS and the renderer, and the plugins a game starts from.
 //!
-//! [`RenderPlugin`] adds the extraction systems (change detection into the [`RenderMirror`]) and
-//! the frame system that hands the mirror to the GPU [`render::Renderer`] when one is present
-//! as [`GpuRenderer`]. Without a `GpuRenderer` everything but the GPU work still runs, which is
-//! how the headless ECS tests check extraction.
+//! - [`RenderPlugin`] adds the extraction systems (change detection into the [`RenderMirror`])
+//!   and the frame system that hands the mirror to the GPU [`render::Renderer`] when one is
+//!   present as [`GpuRenderer`]. Without a `GpuRenderer` everything but the GPU work still runs,
+//!   which is how headless ECS tests check extraction.
+//! - [`GpuPlugin`] creates that renderer: offscreen before the first frame, or, with the
+//!   [`window::WindowPlugin`], for the window once it is open. Without a suitable Vulkan device
+//!   the app exits with an error that says so ([`engine::app::AppExit::Error`]).
+//! - [`window::WindowPlugin`] opens a winit window and runs the app's event loop
+//!   (`app.run()`); [`overlay::OverlayPlugin`] draws the egui debug overlay on it.
+//!
+//! Quick start, headless (a window needs only `WindowPlugin` added, see [`window`]):
 //!
 //! ```no_run
 //! use engine::prelude::*;
-//! use plugins::{GpuRenderer, RenderPlugin, RenderSettings};
+//! use plugins::{GpuPlugin, RenderPlugin, RenderSettings};
 //!
 //! let mut app = App::new();
 //! app.add_plugins(RenderPlugin::new(RenderSettings { size: (320, 240), ..Default::default() }));
-//! let renderer = render::Renderer::new(&Default::default(), 320, 240).expect("a Vulkan device");
-//! app.insert_resource(GpuRenderer(renderer));
-//! app.update(); // extract, upload what changed, record, submit
+//! app.add_plugins(GpuPlugin::default());
+//! app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 1.5, 4.0).looking_at(Vec3::ZERO, Vec3::Y)));
+//! app.update(); // creates the renderer, then: extract, upload what changed, record, submit
 //! ```
 
 #![forbid(unsafe_code)]
 
 pub mod decal;
 pub mod extract;
+pub mod overlay;
+pub mod window;
 
 use std::collections::VecDeque;
 use std::time::Instant;
 
 use bevy_ecs::prelude::*;
-use engine::app::{App, Plugin, Render};
+use engine::app::{App, AppExit, Plugin, Render};
 use glam::Vec3;
 use render::scene::GpuMaterial;
 use render::{DebugView, DecalMethod, FrameCounters, FrameSettings, PassTimes, PipelineKind, Renderer, SceneMirror};
@@ -70,6 +79,57 @@ impl Default for RenderSettings {
             compute_shading: true,
         }
     }
+}
+
+/// How [`GpuPlugin`] (or the window runner) creates the renderer.
+#[derive(Resource, Clone, Debug, Default)]
+pub struct RendererConfig(pub render::RendererSettings);
+
+/// Present while a window runner will create the renderer for its window, so that
+/// [`GpuPlugin`] does not create an offscreen one first.
+#[derive(Resource, Clone, Copy, Debug, Default)]
+pub struct RendererFromWindow;
+
+/// Creates the GPU renderer ([`GpuRenderer`]) before the first frame: offscreen at
+/// [`RenderSettings::size`], unless a window runner creates it for its window
+/// ([`RendererFromWindow`]). A device that cannot be opened (no Vulkan, no suitable GPU) ends the
+/// app with [`AppExit::Error`] naming the problem, kept also in [`RenderStats::last_error`].
+/// Add it after [`RenderPlugin`].
+#[derive(Clone, Debug, Default)]
+pub struct GpuPlugin {
+    /// Device and renderer settings.
+    pub settings: render::RendererSettings,
+}
+
+impl Plugin for GpuPlugin {
+    fn build(&self, app: &mut App) {
+        app.insert_resource(RendererConfig(self.settings.clone()));
+        app.add_systems(Render, start_offscreen_renderer.before(RenderSystems::Extract));
+    }
+}
+
+fn start_offscreen_renderer(world: &mut World) {
+    if world.contains_resource::<GpuRenderer>() || world.contains_resource::<RendererFromWindow>() || world.contains_resource::<AppExit>() {
+        return;
+    }
+    if let Err(e) = start_renderer(world, Vec::new()) {
+        let message = format!("could not start the renderer: {e}");
+        tracing::error!("{message}");
+        world.resource_mut::<RenderStats>().last_error = Some(message.clone());
+        world.insert_resource(AppExit::Error(message));
+    }
+}
+
+/// Creates the renderer from [`RendererConfig`] (defaults when absent) at
+/// [`RenderSettings::size`], with the instance extensions a window surface needs, and inserts it
+/// as [`GpuRenderer`].
+pub fn start_renderer(world: &mut World, surface_extensions: Vec<&'static std::ffi::CStr>) -> Result<(), render::RenderError> {
+    let mut settings = world.get_resource::<RendererConfig>().map(|c| c.0.clone()).unwrap_or_default();
+    settings.device.surface_extensions = surface_extensions;
+    let (w, h) = world.get_resource::<RenderSettings>().map_or((1280, 720), |s| s.size);
+    let renderer = Renderer::new(&settings, w.max(1), h.max(1))?;
+    world.insert_resource(GpuRenderer(renderer));
+    Ok(())
 }
 
 /// The CPU copy of the GPU scene that extraction writes.

@@ -184,8 +184,18 @@ pub fn build_app(opts: &HeadlessOptions) -> Result<App> {
     build_app_with(opts, &settings)
 }
 
-/// [`build_app`] with explicit renderer settings (a window adds its surface extensions).
+/// [`build_app`] with explicit renderer settings.
 pub fn build_app_with(opts: &HeadlessOptions, renderer_settings: &RendererSettings) -> Result<App> {
+    let mut app = build_scene_app(opts)?;
+    let (w, h) = opts.size;
+    let renderer = Renderer::new(renderer_settings, w, h).context("could not start the renderer")?;
+    app.insert_resource(GpuRenderer(renderer));
+    Ok(app)
+}
+
+/// The app of [`build_app`] without its renderer (a window runner creates it for the window):
+/// the render plugin with the options' settings, the scene, scattered and jittered decals.
+pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
     let (w, h) = opts.size;
     if opts.frames == 0 {
         bail!("--frames must be at least 1");
@@ -217,8 +227,6 @@ pub fn build_app_with(opts: &HeadlessOptions, renderer_settings: &RendererSettin
         app.insert_resource(DecalJitter { percent: opts.move_decals_percent, cursor: 0 });
         app.add_systems(engine::app::Update, jitter_decals);
     }
-    let renderer = Renderer::new(renderer_settings, w, h).context("could not start the renderer")?;
-    app.insert_resource(GpuRenderer(renderer));
     Ok(app)
 }
 

@@ -6,7 +6,6 @@ pub mod bench;
 pub mod decal_textures;
 pub mod game;
 pub mod headless;
-pub mod overlay_ui;
 pub mod scatter;
 pub mod scene;
 pub mod stats;

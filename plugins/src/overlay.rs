@@ -1,49 +1,72 @@
-//! The egui overlay: frame time and per-pass GPU times (with a graph of the last seconds), what
-//! the scene holds and what the GPU built this frame, and controls for the pipeline, the decal
-//! method, the debug views and spawning or clearing decals and lights.
+//! The egui debug overlay ([`OverlayPlugin`]) the window runner draws: frame time and per-pass GPU
+//! times (with a graph of the last seconds), what the scene holds and what the GPU built this
+//! frame, and controls for the pipeline, the decal and light methods, shadows and the debug
+//! views. F1 hides it. A game adds its own controls and drawings with an [`OverlayExtension`].
 
 use std::collections::VecDeque;
 
 use bevy_ecs::prelude::*;
-use engine::asset::Assets;
-use engine::image::Image;
-use engine::light::PointLight;
-use engine::transform::Transform;
-use glam::Vec3;
-use plugins::decal::{Decal, DecalMaterial};
-use plugins::{FrameStats, RenderSettings, RenderStats};
+use engine::app::{App, Plugin};
 use render::{DebugView, DecalMethod, PipelineKind};
+
+use crate::{FrameStats, RenderSettings, RenderStats};
 
 /// Frames kept for the graph (about five seconds at 60 Hz).
 const HISTORY: usize = 300;
 
-/// Marks lights spawned from the overlay (so "clear lights" leaves the scene's own alone).
-#[derive(Component)]
-pub struct OverlayLight;
+/// A game's additions to the debug overlay.
+pub trait OverlayExtension: Send + Sync + 'static {
+    /// Draws on the screen every frame, whether the overlay window is shown or not (a
+    /// crosshair, say).
+    fn paint(&mut self, _ctx: &egui::Context, _world: &mut World) {}
+    /// Adds controls at the end of the overlay window.
+    fn controls(&mut self, _ui: &mut egui::Ui, _world: &mut World) {}
+}
+
+/// Draws the debug overlay over the window ([`crate::window::WindowPlugin`]; headless apps have
+/// nothing to draw it on).
+#[derive(Default)]
+pub struct OverlayPlugin {
+    extensions: std::sync::Mutex<Vec<Box<dyn OverlayExtension>>>,
+}
+
+impl OverlayPlugin {
+    /// The overlay with `extension`'s drawings and controls added.
+    pub fn with(self, extension: impl OverlayExtension) -> Self {
+        self.extensions.lock().expect("not poisoned").push(Box::new(extension));
+        self
+    }
+}
+
+impl Plugin for OverlayPlugin {
+    fn build(&self, app: &mut App) {
+        let extensions = std::mem::take(&mut *self.extensions.lock().expect("not poisoned"));
+        app.insert_resource(DebugOverlay { extensions, ..Default::default() });
+    }
+}
 
 /// State of the overlay between frames.
-pub struct OverlayUi {
-    /// Whether the overlay is drawn (a key toggles it).
+#[derive(Resource)]
+pub struct DebugOverlay {
+    /// Whether the overlay window is drawn (F1 toggles it).
     pub visible: bool,
     history: VecDeque<FrameStats>,
     frame_ms: VecDeque<f32>,
-    spawn_count: usize,
-    seed: u64,
+    extensions: Vec<Box<dyn OverlayExtension>>,
 }
 
-impl Default for OverlayUi {
+impl Default for DebugOverlay {
     fn default() -> Self {
         Self {
             visible: true,
             history: VecDeque::with_capacity(HISTORY),
             frame_ms: VecDeque::with_capacity(HISTORY),
-            spawn_count: 100,
-            seed: 1,
+            extensions: Vec::new(),
         }
     }
 }
 
-impl OverlayUi {
+impl DebugOverlay {
     /// Records the CPU frame time and drains finished frames' statistics from the world.
     pub fn observe(&mut self, world: &mut World, frame_ms: f32) {
         if self.frame_ms.len() == HISTORY {
@@ -59,13 +82,10 @@ impl OverlayUi {
         }
     }
 
-    /// Draws the overlay and applies what the user changed. The crosshair is always drawn.
+    /// Draws the overlay and applies what the user changed; the extensions' drawings always.
     pub fn show(&mut self, ctx: &egui::Context, world: &mut World) {
-        let centre = ctx.content_rect().center();
-        let painter = ctx.layer_painter(egui::LayerId::new(egui::Order::Foreground, egui::Id::new("crosshair")));
-        for (a, b) in [((-8.0, 0.0), (-3.0, 0.0)), ((3.0, 0.0), (8.0, 0.0)), ((0.0, -8.0), (0.0, -3.0)), ((0.0, 3.0), (0.0, 8.0))] {
-            painter
-                .line_segment([centre + egui::vec2(a.0, a.1), centre + egui::vec2(b.0, b.1)], egui::Stroke::new(2.0, egui::Color32::WHITE));
+        for e in &mut self.extensions {
+            e.paint(ctx, world);
         }
         if !self.visible {
             return;
@@ -76,6 +96,9 @@ impl OverlayUi {
             self.counts(ui, world);
             ui.separator();
             self.controls(ui, world);
+            for e in &mut self.extensions {
+                e.controls(ui, world);
+            }
             ui.small("F1 hides this overlay");
         });
     }
@@ -178,46 +201,5 @@ impl OverlayUi {
             ui.checkbox(&mut settings.lights.cull_aabb, "tile AABB");
             ui.checkbox(&mut settings.compute_shading, "compute shading");
         });
-        ui.add(egui::Slider::new(&mut self.spawn_count, 1..=5000).text("spawn count").logarithmic(true));
-        ui.horizontal(|ui| {
-            if ui.button("spawn decals").clicked() {
-                self.spawn_decals(world);
-            }
-            if ui.button("clear decals").clicked() {
-                let decals: Vec<Entity> = world.query_filtered::<Entity, With<Decal>>().iter(world).collect();
-                for e in decals {
-                    world.despawn(e);
-                }
-            }
-        });
-        ui.horizontal(|ui| {
-            if ui.button("spawn lights").clicked() {
-                self.spawn_lights(world);
-            }
-            if ui.button("clear lights").clicked() {
-                let lights: Vec<Entity> = world.query_filtered::<Entity, With<OverlayLight>>().iter(world).collect();
-                for e in lights {
-                    world.despawn(e);
-                }
-            }
-        });
-    }
-
-    fn spawn_decals(&mut self, world: &mut World) {
-        let materials = world.resource_scope(|world, mut materials: Mut<Assets<DecalMaterial>>| {
-            crate::decal_textures::add_builtin_materials(&mut world.resource_mut::<Assets<Image>>(), &mut materials)
-        });
-        self.seed += 1;
-        crate::scatter::scatter_decals(world, self.spawn_count, self.seed, &materials);
-    }
-
-    fn spawn_lights(&mut self, world: &mut World) {
-        self.seed += 1;
-        let mut rng = crate::scatter::SplitMix64::new(self.seed);
-        for _ in 0..self.spawn_count.min(256) {
-            let colour = Vec3::new(rng.range_f32(0.2, 1.0), rng.range_f32(0.2, 1.0), rng.range_f32(0.2, 1.0));
-            let at = Vec3::new(rng.range_f32(-20.0, 20.0), rng.range_f32(0.5, 4.0), rng.range_f32(-20.0, 20.0));
-            world.spawn((PointLight { color: colour, intensity: 10.0, range: None }, Transform::from_translation(at), OverlayLight));
-        }
     }
 }
