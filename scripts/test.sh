@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The test command: installs what is missing (scripts/setup.sh), then runs the gates in order,
 # failing fast: formatting (cargo fmt --check), lints (clippy on every target, warnings are
-# errors), then every test with the Vulkan validation layer on. GPU tests run on Mesa lavapipe
-# when there is no GPU. Extra arguments go to `cargo test`.
+# errors), then every test with the Vulkan validation layer on, then every example run headless
+# (scripts/examples.sh). GPU tests run on Mesa lavapipe when there is no GPU. Extra arguments go
+# to `cargo test`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
@@ -27,3 +28,4 @@ done
 gate format cargo fmt --all --check
 gate clippy cargo clippy --workspace --all-targets --locked -- -D warnings
 gate test cargo test --workspace --locked "$@"
+gate examples bash scripts/examples.sh

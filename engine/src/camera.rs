@@ -6,9 +6,9 @@
 //! renderer flips Y (negative viewport height) to match Vulkan's downward framebuffer Y.
 
 use bevy_ecs::prelude::*;
-use glam::Mat4;
+use glam::{Mat4, Vec2, Vec3};
 
-use crate::transform::Transform;
+use crate::transform::{GlobalTransform, Transform};
 
 /// A perspective camera; its view is the inverse of its entity's `GlobalTransform`.
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
@@ -39,12 +39,43 @@ impl Camera {
         let near = if self.near.is_finite() && self.near > 0.0 { self.near } else { 0.05 };
         Mat4::perspective_infinite_reverse_rh(fov, aspect, near)
     }
+
+    /// The world-space ray through pixel position `cursor` (origin top-left, in pixels) of a
+    /// `viewport` of this camera placed by `transform`: its origin on the near plane and its unit
+    /// direction. `None` for a degenerate viewport or transform. What a click aims at.
+    pub fn ray(&self, transform: &GlobalTransform, cursor: Vec2, viewport: Vec2) -> Option<(Vec3, Vec3)> {
+        if !(viewport.x > 0.0 && viewport.y > 0.0) {
+            return None;
+        }
+        let view_proj = self.projection(viewport.x / viewport.y) * transform.compute_matrix().inverse();
+        let inverse = view_proj.inverse();
+        let ndc = Vec2::new(cursor.x / viewport.x * 2.0 - 1.0, 1.0 - cursor.y / viewport.y * 2.0);
+        let near = inverse.project_point3(ndc.extend(1.0));
+        let far = inverse.project_point3(ndc.extend(0.5));
+        let direction = (far - near).try_normalize()?;
+        near.is_finite().then_some((near, direction))
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use glam::{Vec3, Vec4};
+
+    #[test]
+    fn the_ray_through_the_centre_is_the_view_direction() {
+        let camera = Camera::default();
+        let at = Transform::from_xyz(1.0, 2.0, 3.0).looking_at(Vec3::new(1.0, 0.0, 0.0), Vec3::Y);
+        let global = GlobalTransform(at.compute_affine());
+        let (origin, dir) = camera.ray(&global, Vec2::new(320.0, 240.0), Vec2::new(640.0, 480.0)).unwrap();
+        assert!((dir - at.forward()).length() < 1e-4, "{dir}");
+        assert!((origin - at.translation).length() < 0.1);
+        // The top-left pixel's ray points up and to the left of the view direction.
+        let (_, corner) = camera.ray(&global, Vec2::ZERO, Vec2::new(640.0, 480.0)).unwrap();
+        let right = at.forward().cross(Vec3::Y).normalize();
+        assert!(corner.dot(right) < 0.0 && corner.y > dir.y);
+        assert!(camera.ray(&global, Vec2::ZERO, Vec2::ZERO).is_none());
+    }
 
     #[test]
     fn reverse_z_depth() {

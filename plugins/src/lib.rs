@@ -28,6 +28,7 @@
 pub mod decal;
 pub mod extract;
 pub mod overlay;
+pub mod run;
 pub mod window;
 
 use std::collections::VecDeque;

@@ -7,15 +7,11 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use bevy_ecs::world::World;
-use engine::app::{App, PostUpdate};
+use engine::app::App;
 use engine::asset::Assets;
-use engine::camera::Camera;
 use engine::image::Image;
-use engine::light::{DirectionalLight, PointLight, SpotLight};
-use engine::mesh::Mesh;
-use engine::scene::MeshInstance;
 use engine::time::Time;
-use engine::transform::{GlobalTransform, Transform};
+use engine::transform::Transform;
 use glam::Vec3;
 use plugins::decal::DecalMaterial;
 use plugins::{GpuRenderer, RenderPlugin, RenderSettings, RenderStats, finish_frames};
@@ -315,55 +311,14 @@ fn create(path: &Path) -> Result<std::fs::File> {
     std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))
 }
 
-/// Gives a loaded model what it needs to be seen: when it has no camera, one looking at its
-/// bounds from the front-right and above; when it has no light, a sun, a fill light and a
-/// brighter ambient term.
+/// Frames a loaded model ([`engine::scene::frame_scene`]: a camera whose near plane follows the
+/// model's size, and lights when it brings none); without image-based lighting metals would be
+/// black, so a brighter ambient stands in when the lights were added.
 pub fn frame_scene(world: &mut World) {
-    let _ = world.try_run_schedule(PostUpdate); // propagate transforms so bounds are in world space
-    let mut lo = Vec3::splat(f32::INFINITY);
-    let mut hi = Vec3::splat(f32::NEG_INFINITY);
-    let mut query = world.query::<(&MeshInstance, &GlobalTransform)>();
-    let meshes = world.resource::<Assets<Mesh>>();
-    for (inst, global) in query.iter(world) {
-        let Some(mesh) = meshes.get(inst.mesh) else { continue };
-        let (a, b) = mesh.aabb();
-        for i in 0..8 {
-            let corner =
-                Vec3::new(if i & 1 == 0 { a.x } else { b.x }, if i & 2 == 0 { a.y } else { b.y }, if i & 4 == 0 { a.z } else { b.z });
-            let p = global.transform_point(corner);
-            lo = lo.min(p);
-            hi = hi.max(p);
-        }
-    }
-    if !lo.is_finite() {
-        lo = Vec3::splat(-1.0);
-        hi = Vec3::splat(1.0);
-    }
-    let centre = (lo + hi) * 0.5;
-    let radius = ((hi - lo).length() * 0.5).max(0.01);
-    let has_camera = world.query::<&Camera>().iter(world).any(|c| c.active);
-    if !has_camera {
-        let camera = Camera::default();
-        let distance = radius / (camera.fov_y * 0.5).sin() * 0.85;
-        let eye = centre + Vec3::new(0.45, 0.35, 1.0).normalize() * distance;
-        world.spawn((camera, Transform::from_translation(eye).looking_at(centre, Vec3::Y)));
-    }
-    let has_light = world.query::<&PointLight>().iter(world).next().is_some()
-        || world.query::<&SpotLight>().iter(world).next().is_some()
-        || world.query::<&DirectionalLight>().iter(world).next().is_some();
-    if !has_light {
-        // Without image-based lighting metals would be black; a brighter ambient stands in.
-        if let Some(mut settings) = world.get_resource_mut::<plugins::RenderSettings>() {
-            settings.ambient = Vec3::splat(0.35);
-        }
-        world.spawn((
-            DirectionalLight { color: Vec3::new(1.0, 0.96, 0.9), illuminance: 3.0 },
-            Transform::from_translation(centre).looking_at(centre + Vec3::new(-0.4, -1.0, -0.6), Vec3::Y),
-        ));
-        world.spawn((
-            PointLight { color: Vec3::new(0.6, 0.7, 1.0), intensity: 4.0 * radius * radius, range: None },
-            Transform::from_translation(centre + Vec3::new(-1.2, 0.6, 1.2) * radius),
-        ));
+    if engine::scene::frame_scene(world).lights_spawned
+        && let Some(mut settings) = world.get_resource_mut::<plugins::RenderSettings>()
+    {
+        settings.ambient = Vec3::splat(0.35);
     }
 }
 
