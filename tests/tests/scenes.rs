@@ -149,3 +149,32 @@ fn a_benchmark_scene_runs_every_pipeline_and_decal_method_in_one_run() {
         }
     }
 }
+
+/// Suzanne scaled to 2 cm (a BoomBox-sized model) and to 200 m (a Sponza-sized level) is framed
+/// alike by `engine::scene::frame_scene`: the camera's near plane follows the model's size, so
+/// the tiny one is not clipped away, and the model fills a similar share of the image.
+#[test]
+fn models_of_any_scale_are_framed_alike() {
+    use engine::prelude::*;
+    let (mut coverages, mut radii) = (Vec::new(), Vec::new());
+    for scale in [0.01, 1.0, 100.0] {
+        let mut app = tests::gpu_app(128, 96, plugins::RenderSettings::default());
+        let root = engine::gltf::load(&shared_gltf_dir().join("Suzanne/Suzanne.gltf")).expect("Suzanne loads").spawn(&mut app.world);
+        app.world.get_mut::<Transform>(root).expect("the scene root has a transform").scale = Vec3::splat(scale);
+        let framed = engine::scene::frame_scene(&mut app.world);
+        assert!(framed.camera_spawned, "{scale}: {framed:?}");
+        radii.push(framed.radius / scale);
+        let near = app.world.query::<&Camera>().iter(&app.world).next().expect("a camera").near;
+        assert!(near <= framed.radius * 0.011, "{scale}: near plane {near} for a radius of {}", framed.radius);
+        app.update();
+        tests::assert_no_validation_errors(&mut app);
+        let pixels = tests::renderer(&mut app).read_display().expect("readback");
+        let stats = image_stats(&pixels, CLEAR_DISPLAY_COLOR);
+        eprintln!("scale {scale}: {stats:?}");
+        coverages.push(stats.coverage);
+    }
+    assert!(radii.iter().all(|r| (r / radii[1] - 1.0).abs() < 1e-3), "the bounds scale with the model: {radii:?}");
+    for (scale, coverage) in [0.01, 1.0, 100.0].iter().zip(&coverages) {
+        assert!(*coverage > 0.1 && (coverage - coverages[1]).abs() < 0.05, "scale {scale}: coverage {coverage} vs {}", coverages[1]);
+    }
+}
