@@ -2,8 +2,9 @@
 # The test command: installs what is missing (scripts/setup.sh), then runs the gates in order,
 # failing fast: formatting (cargo fmt --check), lints (clippy on every target, warnings are
 # errors), then every test with the Vulkan validation layer on, then every example run headless
-# (scripts/examples.sh). GPU tests run on Mesa lavapipe when there is no GPU. Extra arguments go
-# to `cargo test`.
+# (scripts/examples.sh), then the docs (cargo doc, warnings are errors; every public item is
+# documented: the workspace lints warn on a missing doc and clippy runs with -D warnings). GPU
+# tests run on Mesa lavapipe when there is no GPU. Extra arguments go to `cargo test`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
@@ -29,3 +30,4 @@ gate format cargo fmt --all --check
 gate clippy cargo clippy --workspace --all-targets --locked -- -D warnings
 gate test cargo test --workspace --locked "$@"
 gate examples bash scripts/examples.sh
+gate docs env RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --workspace --locked

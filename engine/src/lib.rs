@@ -5,6 +5,29 @@
 //!
 //! Nothing in this crate knows about Vulkan: the `plugins` crate extracts the data defined here
 //! (meshes, materials, images, transforms, lights) into the `render` crate's plain records.
+//!
+//! Quick start (ECS only; add `plugins::RenderPlugin` and `plugins::GpuPlugin` to draw):
+//!
+//! ```
+//! use engine::prelude::*;
+//!
+//! #[derive(Component)]
+//! struct Bob(f32);
+//!
+//! fn bob(time: Res<Time>, mut q: Query<(&Bob, &mut Transform)>) {
+//!     for (bob, mut t) in &mut q {
+//!         t.translation.y = bob.0 * time.elapsed_secs().sin();
+//!     }
+//! }
+//!
+//! let mut app = App::new();
+//! let cube = app.world.resource_mut::<Assets<Mesh>>().add(shapes::cuboid(Vec3::ONE, 1.0));
+//! let red = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec4::new(1.0, 0.0, 0.0, 1.0), 0.0, 0.5));
+//! app.world.spawn((MeshInstance { mesh: cube, material: red }, Transform::default(), Bob(0.5)));
+//! app.add_systems(Update, bob);
+//! app.update(); // Startup, then PreUpdate, Update, PostUpdate (transform propagation), Render
+//! assert_eq!(app.world.query::<&GlobalTransform>().iter(&app.world).count(), 1);
+//! ```
 
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]

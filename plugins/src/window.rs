@@ -3,7 +3,9 @@
 //! needs), presents through a Vulkan swapchain that survives resizes, minimising and out-of-date
 //! swapchains, feeds keys, mouse buttons, cursor and mouse motion into [`engine::input::Input`],
 //! draws the [`crate::overlay`] when its plugin is added, and exits cleanly: the swapchain goes
-//! before the device, the device before the window. A system ends the run by inserting
+//! before the device, the device before the window. The title shows the pipeline, the capability
+//! tier and the frame time; F12 writes the next frame (without the overlay) to
+//! `screenshot-<frame>.png` in the working directory. A system ends the run by inserting
 //! [`engine::app::AppExit`]; closing the window (or Escape, unless the cursor is grabbed) ends it too.
 //!
 //! ```no_run
@@ -88,7 +90,9 @@ struct Running {
     app: App,
     egui: Option<(egui::Context, egui_winit::State)>,
     last_frame: Instant,
+    last_title: Instant,
     cursor_grabbed: bool,
+    screenshot_requested: bool,
     window: Arc<Window>,
 }
 
@@ -125,7 +129,8 @@ impl WindowRunner {
                 egui_winit::State::new(ctx.clone(), egui::ViewportId::ROOT, &window, Some(window.scale_factor() as f32), None, None);
             (ctx, state)
         });
-        Ok(Running { app, egui, last_frame: Instant::now(), cursor_grabbed: false, window })
+        let now = Instant::now();
+        Ok(Running { app, egui, last_frame: now, last_title: now, cursor_grabbed: false, screenshot_requested: false, window })
     }
 
     fn frame(&mut self, event_loop: &ActiveEventLoop) {
@@ -148,7 +153,22 @@ impl WindowRunner {
             });
         }
 
+        // A screenshot frame is drawn offscreen (without the window target), then read back.
+        let window_target = if std::mem::take(&mut r.screenshot_requested) { r.app.world.remove_resource::<WindowTarget>() } else { None };
         r.app.update();
+        if let Some(target) = window_target {
+            match save_screenshot(&mut r.app) {
+                Ok(path) => tracing::info!("screenshot: {}", path.display()),
+                Err(e) => tracing::warn!("no screenshot: {e}"),
+            }
+            r.app.world.insert_resource(target);
+        }
+        if now.duration_since(r.last_title).as_secs_f32() > 0.5 {
+            r.last_title = now;
+            let settings = r.app.world.get_resource::<RenderSettings>().map(|s| s.pipeline.name()).unwrap_or("?");
+            let tier = r.app.world.get_resource::<GpuRenderer>().map_or("?", |g| g.0.tier().name());
+            r.window.set_title(&format!("{} | {settings} | {tier} | {frame_ms:.1} ms", self.config.title));
+        }
         // Events that arrive from now on belong to the next frame (engine::input's contract).
         if let Some(mut input) = r.app.world.get_resource_mut::<Input>() {
             input.begin_frame();
@@ -247,6 +267,7 @@ impl ApplicationHandler for WindowRunner {
                                 overlay.visible = !overlay.visible;
                             }
                         }
+                        PhysicalKey::Code(KeyCode::F12) => r.screenshot_requested = true,
                         PhysicalKey::Code(KeyCode::Escape) if r.cursor_grabbed => Self::set_cursor_grab(r, false),
                         PhysicalKey::Code(KeyCode::Escape) => event_loop.exit(),
                         _ => {}
@@ -315,6 +336,17 @@ impl ApplicationHandler for WindowRunner {
     fn exiting(&mut self, _event_loop: &ActiveEventLoop) {
         self.shut_down();
     }
+}
+
+/// Writes the frame just drawn offscreen to `screenshot-<frame>.png` in the working directory.
+fn save_screenshot(app: &mut App) -> Result<std::path::PathBuf, BoxError> {
+    crate::finish_frames(&mut app.world);
+    let (w, h) = app.world.resource::<RenderSettings>().size;
+    let frame = app.world.resource::<engine::time::Time>().frame();
+    let pixels = app.world.resource_mut::<GpuRenderer>().0.read_display()?;
+    let path = std::path::PathBuf::from(format!("screenshot-{frame}.png"));
+    image::save_buffer(&path, &pixels, w, h, image::ExtendedColorType::Rgba8)?;
+    Ok(path)
 }
 
 /// The engine's key for a physical key, if the engine has one.

@@ -5,6 +5,19 @@
 //! in stable slots that extraction keeps up to date, plus per-frame [`renderer::FrameSettings`].
 //! `plugins` bridges the ECS to it.
 //!
+//! Quick start without the ECS (games use `plugins::GpuPlugin`, which does this for them):
+//!
+//! ```no_run
+//! use render::{FrameSettings, Renderer, RendererSettings, SceneMirror};
+//!
+//! let mut renderer = Renderer::new(&RendererSettings::default(), 640, 480)?;
+//! let mut mirror = SceneMirror::new(); // fill its tables: meshes, instances, lights, camera, decals
+//! let report = renderer.render(&mut mirror, &FrameSettings::default())?; // upload what changed, record, submit
+//! println!("frame {}: {} bytes uploaded", report.frame, report.counters.bytes_uploaded);
+//! let rgba = renderer.read_display()?; // the tone-mapped image
+//! # Ok::<(), render::RenderError>(())
+//! ```
+//!
 //! | module | holds |
 //! | --- | --- |
 //! | [`gpu`] | the Vulkan core: device, memory, uploads, timestamps, shaders, pipeline creation |
