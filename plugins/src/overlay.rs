@@ -52,6 +52,8 @@ pub struct DebugOverlay {
     pub visible: bool,
     history: VecDeque<FrameStats>,
     frame_ms: VecDeque<f32>,
+    /// The first frame not yet taken into `history`.
+    next_frame: u64,
     extensions: Vec<Box<dyn OverlayExtension>>,
 }
 
@@ -61,24 +63,28 @@ impl Default for DebugOverlay {
             visible: true,
             history: VecDeque::with_capacity(HISTORY),
             frame_ms: VecDeque::with_capacity(HISTORY),
+            next_frame: 0,
             extensions: Vec::new(),
         }
     }
 }
 
 impl DebugOverlay {
-    /// Records the CPU frame time and drains finished frames' statistics from the world.
+    /// Records the CPU frame time and copies the statistics of frames finished since the last
+    /// call (leaving them in [`RenderStats::completed`] for other readers, such as a stats file).
     pub fn observe(&mut self, world: &mut World, frame_ms: f32) {
         if self.frame_ms.len() == HISTORY {
             self.frame_ms.pop_front();
         }
         self.frame_ms.push_back(frame_ms);
-        let mut stats = world.resource_mut::<RenderStats>();
-        while let Some(s) = stats.completed.pop_front() {
+        let stats = world.resource::<RenderStats>();
+        let next = self.next_frame;
+        for s in stats.completed.iter().filter(|s| s.frame >= next) {
             if self.history.len() == HISTORY {
                 self.history.pop_front();
             }
-            self.history.push_back(s);
+            self.history.push_back(*s);
+            self.next_frame = s.frame + 1;
         }
     }
 

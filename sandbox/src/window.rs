@@ -4,7 +4,7 @@
 //! lights.
 
 use anyhow::{Context, Result, anyhow};
-use bevy_ecs::prelude::{Component, Entity, Mut, With, World};
+use bevy_ecs::prelude::{Component, Entity, IntoScheduleConfigs, Mut, Res, ResMut, Resource, With, World};
 use engine::asset::Assets;
 use engine::image::Image;
 use engine::light::PointLight;
@@ -47,7 +47,34 @@ pub fn run_windowed(opts: WindowOptions) -> Result<()> {
         resize_to: opts.resize_to,
     });
     app.add_plugins(OverlayPlugin::default().with(SandboxOverlay { spawn_count: 100, seed: 1 }));
+    if let Some(path) = &opts.base.stats {
+        let file = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
+        app.insert_resource(StatsFile { out: std::io::BufWriter::new(file), next_frame: 0 });
+        app.add_systems(engine::app::Render, write_stats.after(plugins::RenderSystems::Render));
+    }
     app.run().map_err(|e| anyhow!("{e}"))
+}
+
+/// `--stats` in windowed play: one JSON line per finished frame, as headless runs write them.
+#[derive(Resource)]
+struct StatsFile {
+    out: std::io::BufWriter<std::fs::File>,
+    /// The first frame not yet written.
+    next_frame: u64,
+}
+
+fn write_stats(mut file: ResMut<StatsFile>, stats: Res<plugins::RenderStats>, renderer: Option<Res<plugins::GpuRenderer>>) {
+    use std::io::Write;
+    let Some(renderer) = renderer else { return };
+    let (tier, device) = (renderer.0.tier().name(), renderer.0.device_name());
+    let file = &mut *file;
+    let next = file.next_frame;
+    for s in stats.completed.iter().filter(|s| s.frame >= next) {
+        if let Err(e) = writeln!(file.out, "{}", crate::stats::frame_json(s, tier, device)) {
+            tracing::warn!("writing the stats file: {e}");
+        }
+        file.next_frame = s.frame + 1;
+    }
 }
 
 /// Marks lights spawned from the overlay (so "clear lights" leaves the scene's own alone).

@@ -82,8 +82,10 @@ fn near(p: [u8; 3], q: [u8; 3], tolerance: i32) -> bool {
 #[test]
 fn windowed_sandbox_shows_scene_and_overlay_survives_a_resize_and_exits_cleanly() {
     let x = start_xvfb();
+    let stats = std::env::temp_dir().join(format!("window_stats_{}.jsonl", std::process::id()));
     let mut sandbox = Command::new(env!("CARGO_BIN_EXE_sandbox"))
-        .args(["--size", "640x400", "--exit-after", "150", "--resize-to", "560x340"])
+        .args(["--size", "640x400", "--exit-after", "150", "--resize-to", "560x340", "--stats"])
+        .arg(&stats)
         .env("DISPLAY", &x.display)
         .env_remove("WAYLAND_DISPLAY")
         .env("RENDER_VALIDATION", "1")
@@ -123,6 +125,16 @@ fn windowed_sandbox_shows_scene_and_overlay_survives_a_resize_and_exits_cleanly(
     assert!(!stderr.contains("Validation Error"), "{stderr}");
     assert!(sky > 20_000, "the scene (its sky) is visible in the window: {sky} pixels");
     assert!(panel > 20_000, "the egui overlay is visible: {panel} pixels");
+    // --stats works in a window too: a JSON line per finished frame, frames in order, and the
+    // window's title carries the pipeline and tier (not checked here: Xvfb has no window manager
+    // to show it).
+    let lines: Vec<serde_json::Value> =
+        std::fs::read_to_string(&stats).expect("the stats file").lines().map(|l| serde_json::from_str(l).expect("JSON")).collect();
+    let _ = std::fs::remove_file(&stats);
+    assert!(lines.len() > 100, "most of the 150 frames are in the stats file: {}", lines.len());
+    let frames: Vec<u64> = lines.iter().map(|l| l["frame"].as_u64().expect("a frame number")).collect();
+    assert!(frames.windows(2).all(|w| w[0] < w[1]), "in order, each once");
+    assert!(lines.iter().any(|l| l["size"] == serde_json::json!([560, 340])), "the resize shows in the stats");
 }
 
 #[test]
