@@ -3,6 +3,7 @@
 #![forbid(unsafe_code)]
 
 pub mod bench;
+pub mod charts;
 pub mod decal_textures;
 pub mod game;
 pub mod headless;

@@ -62,7 +62,8 @@ struct Cli {
     /// A benchmark scene instead of --scene: few-blended-decals, decals-and-lights, many-decals.
     #[arg(long)]
     bench_scene: Option<String>,
-    /// Run --frames frames with each pipeline and decal method in turn.
+    /// Run --frames frames with each pipeline and decal method in turn (with --stats, also a CSV
+    /// and an SVG chart of each run's per-pass medians beside the stats file).
     #[arg(long)]
     compare: bool,
     /// Run --frames frames with each light-culling and shadow configuration of seed 001's
@@ -224,6 +225,10 @@ fn main() -> Result<()> {
         return Ok(());
     }
     let summary = run(&opts)?;
+    if let (true, Some(stats)) = (cli.compare || cli.compare_lights || cli.compare_light_methods, &cli.stats) {
+        let (csv, svg) = sandbox::charts::write(stats, &sandbox::charts::run_medians(&summary.frames))?;
+        println!("per-pass medians: {} and {}", csv.display(), svg.display());
+    }
     report(&summary.app, &summary.frames, &screenshot, &cli.stats, &summary.validation_errors)
 }
 
