@@ -1,5 +1,5 @@
-//! Bullet holes: click to shoot the floor; each hole fades out after a few seconds. A second
-//! decal rides on a moving crate (parented to it), so it follows the crate.
+//! Bullet holes: click to shoot whatever the cursor is on (the floor, the moving crate); each hole
+//! fades out after a few seconds. A decal on the crate's lid rides with it (parented to it).
 //!
 //! `cargo run --example decals`; with `-- --headless` the gun fires by itself every few frames.
 
@@ -7,14 +7,16 @@ use engine::app::BoxError;
 use engine::image::ColorSpace;
 use engine::prelude::*;
 use plugins::decal::{Decal, DecalLifetime, DecalMaterial};
+use plugins::raycast::{RaycastPlugin, SceneRaycaster};
 use plugins::run::RunPlugin;
 use plugins::{GpuPlugin, RenderPlugin, RenderSettings};
 
-/// The bullet-hole material, and whether to fire by ourselves (headless runs).
+/// The bullet-hole material, whether to fire by ourselves (headless runs), and frames so far.
 #[derive(Resource)]
 struct Gun {
     hole: Handle<DecalMaterial>,
     auto_fire: bool,
+    frames: u32,
 }
 
 /// Marks the crate that slides back and forth.
@@ -27,6 +29,7 @@ fn main() -> Result<(), BoxError> {
     app.add_plugins(RenderPlugin::new(RenderSettings::default()));
     app.add_plugins(GpuPlugin::default());
     app.add_plugins(engine::input::InputPlugin); // the window feeds mouse and keys into `Input`
+    app.add_plugins(RaycastPlugin); // ray casts against the scene's triangles, kept up to date
     let auto_fire = run.is_headless();
     app.add_plugins(run);
 
@@ -52,25 +55,28 @@ fn main() -> Result<(), BoxError> {
     // On the crate's top face, projecting down into it; as its child it moves with it.
     let on_top = Transform::from_xyz(0.0, 0.45, 0.0).looking_at(Vec3::new(0.0, -1.0, 0.0), Vec3::Z).with_scale(Vec3::new(0.5, 0.5, 0.2));
     world.spawn((Decal::new(hole), on_top, ChildOf(crate_entity)));
-    world.insert_resource(Gun { hole, auto_fire });
+    world.insert_resource(Gun { hole, auto_fire, frames: 0 });
 
     app.add_systems(Update, (shoot, slide));
     app.run()
 }
 
-/// On a click (or every 8th frame when firing by itself), a bullet hole where the aimed ray meets
-/// the floor (the plane y = 0), living 5 s and fading over the last 2.
+/// On a click (or every 8th frame when firing by itself), a bullet hole where the aimed ray hits
+/// the scene, projecting into the surface, living 5 s and fading over the last 2. A hole on the
+/// crate becomes its child, so it moves with it.
 fn shoot(
     mut commands: Commands,
-    gun: Res<Gun>,
+    mut gun: ResMut<Gun>,
     input: Res<Input>,
-    time: Res<Time>,
     settings: Res<RenderSettings>,
+    scene: Res<SceneRaycaster>,
     cameras: Query<(&Camera, &GlobalTransform)>,
+    crates: Query<&GlobalTransform, With<Slide>>,
 ) {
     let viewport = Vec2::new(settings.size.0 as f32, settings.size.1 as f32);
-    let aim = if gun.auto_fire && time.frame().is_multiple_of(8) {
-        let t = time.frame() as f32 * 0.37;
+    gun.frames += 1;
+    let aim = if gun.auto_fire && gun.frames.is_multiple_of(8) {
+        let t = gun.frames as f32 * 0.37;
         Some(viewport * Vec2::new(0.5 + 0.3 * t.sin(), 0.6 + 0.2 * t.cos()))
     } else if input.button_just_pressed(MouseButton::Left) {
         input.cursor
@@ -78,13 +84,16 @@ fn shoot(
         None
     };
     let (Some(cursor), Ok((camera, at))) = (aim, cameras.single()) else { return };
-    let Some((origin, dir)) = camera.ray(at, cursor, viewport) else { return };
-    if dir.y >= 0.0 {
-        return; // aimed at the sky
+    let Some(hit) = camera.ray(at, cursor, viewport).and_then(|(origin, dir)| scene.cast(origin, dir, 100.0)) else { return };
+    let up = if hit.normal.y.abs() > 0.9 { Vec3::Z } else { Vec3::Y };
+    let mut hole = Transform::from_translation(hit.point).looking_at(hit.point - hit.normal, up).with_scale(Vec3::new(0.3, 0.3, 0.2));
+    let mut decal = commands.spawn((Decal::new(gun.hole), DecalLifetime::new(5.0, 2.0)));
+    if let Ok(on) = crates.get(hit.entity) {
+        // In the crate's space, so that it rides along.
+        hole = Transform::from_matrix(on.compute_matrix().inverse() * hole.compute_matrix());
+        decal.insert(ChildOf(hit.entity));
     }
-    let hit = origin - dir * (origin.y / dir.y);
-    let transform = Transform::from_translation(hit).looking_at(hit + Vec3::NEG_Y, Vec3::Z).with_scale(Vec3::new(0.3, 0.3, 0.2));
-    commands.spawn((Decal::new(gun.hole), transform, DecalLifetime::new(5.0, 2.0)));
+    decal.insert(hole);
 }
 
 /// Slides the crate back and forth along x.

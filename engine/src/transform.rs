@@ -57,6 +57,13 @@ impl Transform {
         Transform { scale, ..Self::IDENTITY }
     }
 
+    /// The translation, rotation and scale of `matrix` (which should have no shear; for
+    /// re-expressing a transform in a parent's space, `parent⁻¹ · child`).
+    pub fn from_matrix(matrix: Mat4) -> Self {
+        let (scale, rotation, translation) = matrix.to_scale_rotation_translation();
+        Transform { translation, rotation, scale }
+    }
+
     /// This transform with its translation replaced.
     pub fn with_translation(mut self, translation: Vec3) -> Self {
         self.translation = translation;

@@ -28,6 +28,7 @@
 pub mod decal;
 pub mod extract;
 pub mod overlay;
+pub mod raycast;
 pub mod run;
 pub mod window;
 

@@ -21,8 +21,8 @@ use plugins::decal::{Decal, DecalLifetime, DecalUv};
 
 use super::decal_cap::{GameDecal, SpawnOrder};
 use super::player::{Player, PlayerController, PlayerMotion};
-use super::raycast::SceneRaycaster;
 use super::{GAME_DECAL_RECEIVERS, GameAssets, GameSettings, GameStats, surface_rotation};
+use plugins::raycast::SceneRaycaster;
 
 /// Which foot a print belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]

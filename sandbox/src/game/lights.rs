@@ -16,10 +16,10 @@ use plugins::RenderSettings;
 
 use super::decal_cap::{GameLight, SpawnOrder};
 use super::player::Player;
-use super::raycast::SceneRaycaster;
 use super::shooting::{Crosshair, render_aspect, screen_ray};
 use super::{GameRng, GameSettings, GameStats};
 use crate::scatter::SplitMix64;
+use plugins::raycast::SceneRaycaster;
 
 /// A fully saturated-ish, full-brightness colour of random hue (linear RGB, max component 1).
 pub fn vivid_colour(rng: &mut SplitMix64) -> Vec3 {

@@ -4,7 +4,6 @@
 //!
 //! | module | what it does |
 //! | --- | --- |
-//! | [`raycast`] | CPU ray casts against the scene's triangles through a BVH ([`SceneRaycaster`]) |
 //! | [`player`] | the first-person controller: mouse look, WASD, floor following, wall sliding |
 //! | [`footprints`] | alternating left/right footprint decals that fade out |
 //! | [`shooting`] | left click: a bullet-hole decal where the crosshair ray hits |
@@ -44,19 +43,18 @@ pub mod lights;
 mod markers;
 pub mod play;
 pub mod player;
-pub mod raycast;
 pub mod script;
 pub mod shooting;
 
 use anyhow::{Result, anyhow, bail};
 use bevy_ecs::prelude::*;
 use bevy_ecs::system::RunSystemOnce;
-use engine::app::{App, Plugin, PostUpdate, PreUpdate, Update};
+use engine::app::{App, Plugin, PreUpdate, Update};
 use engine::asset::{Assets, Handle};
 use engine::camera::Camera;
 use engine::image::Image;
 use engine::input::InputPlugin;
-use engine::transform::{GlobalTransform, Transform, TransformSystems, propagate_transforms};
+use engine::transform::{GlobalTransform, Transform, propagate_transforms};
 use glam::{Mat3, Quat, Vec3};
 use plugins::decal::{ALL_RECEIVERS, DecalMaterial};
 use serde::Serialize;
@@ -66,7 +64,7 @@ use crate::scatter::SplitMix64;
 pub use decal_cap::{DecalCap, GameDecal, GameLight, LightCap, SpawnOrder};
 pub use footprints::{Foot, Footprint, FootprintTrail};
 pub use player::{Player, PlayerController, PlayerMotion};
-pub use raycast::{Hit, SceneRaycaster};
+pub use plugins::raycast::{Hit, RaycastIgnore, SceneRaycaster};
 pub use script::{Script, ScriptError, ScriptPlayer};
 pub use shooting::{BulletHole, Crosshair};
 
@@ -212,7 +210,7 @@ impl Plugin for GamePlugin {
         world.init_resource::<SpawnOrder<GameLight>>();
         world.init_resource::<Crosshair>();
         world.init_resource::<GameStats>();
-        world.init_resource::<SceneRaycaster>();
+        app.add_plugins(plugins::raycast::RaycastPlugin);
 
         app.schedule_mut(Update)
             .configure_sets((GameSystems::Move, GameSystems::Act, GameSystems::Recycle).chain())
@@ -224,7 +222,6 @@ impl Plugin for GamePlugin {
         app.add_systems(Update, player::move_player.in_set(GameSystems::Move));
         app.add_systems(Update, (footprints::lay_footprints, shooting::shoot, lights::drop_light).chain().in_set(GameSystems::Act));
         app.add_systems(Update, (decal_cap::enforce_decal_cap, decal_cap::enforce_light_cap).chain().in_set(GameSystems::Recycle));
-        app.add_systems(PostUpdate, raycast::rebuild_raycaster.after(TransformSystems::Propagate));
     }
 }
 
@@ -253,6 +250,7 @@ pub fn setup_game(world: &mut World, camera: Entity) -> Result<()> {
     // A root from now on: its Transform is in world space, which the controller relies on.
     world.entity_mut(camera).remove::<ChildOf>().insert((
         Player,
+        RaycastIgnore, // the player never shoots or stands on itself
         controller,
         PlayerMotion::default(),
         FootprintTrail::default(),
@@ -260,7 +258,7 @@ pub fn setup_game(world: &mut World, camera: Entity) -> Result<()> {
         GlobalTransform::from(transform),
     ));
     GameAssets::init(world);
-    // Built after `Player` is inserted, so that meshes under the camera are left out.
+    // Built after `RaycastIgnore` is inserted, so that meshes under the camera are left out.
     let raycaster = SceneRaycaster::build(world);
     world.insert_resource(raycaster);
     let feet = global.translation() - Vec3::Y * controller.eye_height;

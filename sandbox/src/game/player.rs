@@ -25,7 +25,7 @@ use engine::time::Time;
 use engine::transform::Transform;
 use glam::{EulerRot, Quat, Vec3};
 
-use super::raycast::{Hit, SceneRaycaster};
+use plugins::raycast::{Hit, SceneRaycaster};
 
 pub use super::markers::Player;
 

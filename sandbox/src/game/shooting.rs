@@ -24,8 +24,8 @@ use plugins::decal::Decal;
 
 use super::decal_cap::{GameDecal, SpawnOrder};
 use super::player::Player;
-use super::raycast::{Hit, SceneRaycaster};
 use super::{GAME_DECAL_RECEIVERS, GameAssets, GameRng, GameSettings, GameStats};
+use plugins::raycast::{Hit, SceneRaycaster};
 
 /// Where the player aims, in normalised screen coordinates: (0, 0) is the top-left corner,
 /// (1, 1) the bottom-right. The centre by default; scripts move it for a shot.

@@ -9,32 +9,61 @@
 //! the boundary as arrays, so this module also builds if obvhs resolves to a newer glam.
 //!
 //! Solid means: every entity with a `MeshInstance` and a `GlobalTransform` whose mesh is in
-//! `Assets<Mesh>`, except the [`Player`] and its descendants (the player never shoots or stands
-//! on itself) and meshes with `DecalReceiver(0)` (pure decoration that takes no decals, such as
-//! a skybox or a glass pane, is not solid for the game either).
+//! `Assets<Mesh>`, except entities marked [`RaycastIgnore`] and their descendants (a player's own
+//! body, which it never shoots or stands on) and meshes with `DecalReceiver(0)` (pure decoration
+//! that takes no decals, such as a skybox or a glass pane, is not solid for a game either).
 //!
-//! The raycaster is a snapshot. [`rebuild_raycaster`] (in `PostUpdate`, after transform
-//! propagation) rebuilds it when a solid instance was added, removed, moved or changed its mesh
-//! or receiver layers; for the static courtyard that is once. Edits of a mesh asset in place are
-//! not tracked: call [`SceneRaycaster::mark_stale`] after them.
+//! The raycaster is a snapshot. [`RaycastPlugin`] adds it as a resource and [`rebuild_raycaster`]
+//! (in `PostUpdate`, after transform propagation), which rebuilds it when a solid instance was
+//! added, removed, moved or changed its mesh or receiver layers; for a static level that is once.
+//! Edits of a mesh asset in place are not tracked: call [`SceneRaycaster::mark_stale`] after
+//! them.
+//!
+//! ```
+//! use engine::prelude::*;
+//! use plugins::raycast::{RaycastPlugin, SceneRaycaster};
+//!
+//! let mut app = App::new();
+//! app.add_plugins(RaycastPlugin);
+//! let floor = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(10.0, 10.0, 1, 1.0));
+//! let material = app.world.resource_mut::<Assets<Material>>().add(Material::default());
+//! app.world.spawn((MeshInstance { mesh: floor, material }, Transform::default()));
+//! app.update();
+//! let hit = app.world.resource::<SceneRaycaster>().cast(Vec3::new(1.0, 5.0, 2.0), Vec3::NEG_Y, f32::INFINITY).unwrap();
+//! assert_eq!((hit.point, hit.normal), (Vec3::new(1.0, 0.0, 2.0), Vec3::Y));
+//! ```
 
 use std::time::Duration;
 
 use bevy_ecs::change_detection::Tick;
 use bevy_ecs::prelude::*;
 use bevy_ecs::system::{RunSystemOnce, SystemChangeTick};
+use engine::app::{App, Plugin, PostUpdate};
 use engine::asset::Assets;
 use engine::mesh::Mesh;
 use engine::scene::MeshInstance;
-use engine::transform::{GlobalTransform, propagate_transforms};
+use engine::transform::{GlobalTransform, TransformSystems, propagate_transforms};
 use glam::{Affine3A, Vec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::ray::{Ray, RayHit};
-use plugins::decal::DecalReceiver;
 
-use super::markers::Player;
+use crate::decal::DecalReceiver;
+
+/// Ray casts pass through this entity and its descendants (a player's own body).
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RaycastIgnore;
+
+/// Adds the [`SceneRaycaster`] resource and keeps it up to date ([`rebuild_raycaster`]).
+pub struct RaycastPlugin;
+
+impl Plugin for RaycastPlugin {
+    fn build(&self, app: &mut App) {
+        app.world.init_resource::<SceneRaycaster>();
+        app.add_systems(PostUpdate, rebuild_raycaster.after(TransformSystems::Propagate));
+    }
+}
 
 /// The nearest intersection of a ray with the scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -207,14 +236,14 @@ impl SceneRaycaster {
 type Instances<'w, 's> =
     Query<'w, 's, (Entity, Ref<'static, MeshInstance>, Ref<'static, GlobalTransform>, Option<Ref<'static, DecalReceiver>>)>;
 
-/// Whether `entity` is the player or one of its descendants.
-fn belongs_to_player(entity: Entity, players: &Query<Ref<Player>>, parents: &Query<&ChildOf>) -> bool {
+/// Whether `entity` or one of its ancestors is marked [`RaycastIgnore`].
+fn is_ignored(entity: Entity, ignored: &Query<Ref<RaycastIgnore>>, parents: &Query<&ChildOf>) -> bool {
     // Hierarchies deeper than this are not expected; stopping keeps a corrupt (cyclic) one
     // from hanging the game.
     const MAX_DEPTH: usize = 256;
     let mut current = entity;
     for _ in 0..MAX_DEPTH {
-        if players.contains(current) {
+        if ignored.contains(current) {
             return true;
         }
         match parents.get(current) {
@@ -226,9 +255,9 @@ fn belongs_to_player(entity: Entity, players: &Query<Ref<Player>>, parents: &Que
 }
 
 /// Builds a raycaster over the solid instances (see the module docs).
-fn gather(instances: &Instances, players: &Query<Ref<Player>>, parents: &Query<&ChildOf>, meshes: &Assets<Mesh>) -> SceneRaycaster {
+fn gather(instances: &Instances, ignored: &Query<Ref<RaycastIgnore>>, parents: &Query<&ChildOf>, meshes: &Assets<Mesh>) -> SceneRaycaster {
     SceneRaycaster::from_meshes(instances.iter().filter_map(|(entity, instance, global, receiver)| {
-        let solid = receiver.is_none_or(|r| r.0 != 0) && !belongs_to_player(entity, players, parents);
+        let solid = receiver.is_none_or(|r| r.0 != 0) && !is_ignored(entity, ignored, parents);
         let mesh = meshes.get(instance.mesh).filter(|_| solid)?;
         Some((entity, mesh, global.affine()))
     }))
@@ -237,47 +266,47 @@ fn gather(instances: &Instances, players: &Query<Ref<Player>>, parents: &Query<&
 /// [`gather`] as a one-shot system for [`SceneRaycaster::build`].
 fn collect_solids(
     instances: Instances,
-    players: Query<Ref<Player>>,
+    ignored: Query<Ref<RaycastIgnore>>,
     parents: Query<&ChildOf>,
     meshes: Res<Assets<Mesh>>,
 ) -> SceneRaycaster {
-    gather(&instances, &players, &parents, &meshes)
+    gather(&instances, &ignored, &parents, &meshes)
 }
 
 /// Rebuilds the [`SceneRaycaster`] when the solid geometry changed since it was built: a mesh
-/// instance added, removed or moved, its mesh handle or receiver layers changed, or a player
-/// added or removed (changes to the player's own meshes are ignored). Runs in `PostUpdate`
+/// instance added, removed or moved, its mesh handle or receiver layers changed, or a
+/// [`RaycastIgnore`] added or removed (changes to ignored meshes are ignored). Runs in `PostUpdate`
 /// after transform propagation, so the next frame's `Update` casts against the current scene.
 #[allow(clippy::too_many_arguments)]
 pub fn rebuild_raycaster(
     mut raycaster: ResMut<SceneRaycaster>,
     instances: Instances,
-    players: Query<Ref<Player>>,
+    ignored: Query<Ref<RaycastIgnore>>,
     parents: Query<&ChildOf>,
     meshes: Option<Res<Assets<Mesh>>>,
     mut removed_instances: RemovedComponents<MeshInstance>,
     mut removed_receivers: RemovedComponents<DecalReceiver>,
-    mut removed_players: RemovedComponents<Player>,
+    mut removed_ignored: RemovedComponents<RaycastIgnore>,
     ticks: SystemChangeTick,
 ) {
     // Drain every reader each frame, whether or not a rebuild follows.
-    let removed = removed_instances.read().count() + removed_receivers.read().count() + removed_players.read().count() > 0;
+    let removed = removed_instances.read().count() + removed_receivers.read().count() + removed_ignored.read().count() > 0;
     let Some(meshes) = meshes else { return };
     let stale = match raycaster.built {
         None => true,
         Some(built) => {
             removed
-                || players.iter().any(|player| player.is_added_after(built))
+                || ignored.iter().any(|i| i.is_added_after(built))
                 || instances.iter().any(|(entity, instance, global, receiver)| {
                     let changed = instance.is_changed_after(built)
                         || global.is_changed_after(built)
                         || receiver.is_some_and(|r| r.is_changed_after(built));
-                    changed && !belongs_to_player(entity, &players, &parents)
+                    changed && !is_ignored(entity, &ignored, &parents)
                 })
         }
     };
     if stale {
-        *raycaster = gather(&instances, &players, &parents, &meshes);
+        *raycaster = gather(&instances, &ignored, &parents, &meshes);
         raycaster.built = Some(ticks.this_run());
         tracing::debug!(triangles = raycaster.triangle_count(), instances = raycaster.instance_count(), "rebuilt the scene raycaster");
     }
@@ -324,10 +353,10 @@ mod tests {
     }
 
     #[test]
-    fn player_and_non_receivers_are_not_solid() {
+    fn ignored_entities_and_non_receivers_are_not_solid() {
         let mut app = App::new();
         let ground = spawn_mesh(&mut app.world, shapes::plane(10.0, 10.0, 1, 1.0), Transform::IDENTITY);
-        let player = app.world.spawn((Player, Transform::from_xyz(0.0, 1.0, 0.0))).id();
+        let player = app.world.spawn((RaycastIgnore, Transform::from_xyz(0.0, 1.0, 0.0))).id();
         let body = spawn_mesh(&mut app.world, shapes::cuboid(Vec3::splat(0.5), 1.0), Transform::IDENTITY);
         app.world.entity_mut(body).insert(ChildOf(player));
         let glass = spawn_mesh(&mut app.world, shapes::plane(10.0, 10.0, 1, 1.0), Transform::from_xyz(0.0, 3.0, 0.0));
@@ -344,7 +373,7 @@ mod tests {
         app.world.init_resource::<SceneRaycaster>();
         app.add_systems(engine::app::PostUpdate, rebuild_raycaster.after(engine::transform::TransformSystems::Propagate));
         let cube = spawn_mesh(&mut app.world, shapes::cuboid(Vec3::ONE, 1.0), Transform::IDENTITY);
-        let player = app.world.spawn((Player, Transform::IDENTITY)).id();
+        let player = app.world.spawn((RaycastIgnore, Transform::IDENTITY)).id();
         let body = spawn_mesh(&mut app.world, shapes::cuboid(Vec3::ONE, 1.0), Transform::IDENTITY);
         app.world.entity_mut(body).insert(ChildOf(player));
         let hit_x =
