@@ -1,6 +1,8 @@
 //! Runnable examples of the plugin as a game uses it, each one file in this folder:
 //!
 //! - `minimal`: a mesh, a light and a camera in a window;
+//! - `shoot`: a glTF model, lit and framed, and a click shoots a fading bullet hole into it, in
+//!   under 30 lines of its own code;
 //! - `decals`: click to shoot bullet holes that fade out; a decal riding on a moving crate;
 //! - `lights`: hundreds of moving coloured lights;
 //! - `gltf_viewer`: any glTF or GLB, framed at any scale, with orbit controls;

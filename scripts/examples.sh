@@ -17,5 +17,9 @@ for example in minimal decals lights; do
 done
 echo "examples.sh: gltf_viewer"
 cargo run -q --locked -p examples --example gltf_viewer -- "$model" --headless --frames 4 --size 160x120
+echo "examples.sh: shoot (two clicks on the model: two bullet holes)"
+out=$(cargo run -q --locked -p examples --example shoot -- "$model" --headless --frames 8 --size 160x120 --click 80,60 --click 70,50)
+echo "$out"
+grep -q ", 2 decals" <<<"$out" || { echo "examples.sh: shoot did not leave two bullet holes" >&2; exit 1; }
 echo "examples.sh: headless_test"
 cargo run -q --locked -p examples --example headless_test

@@ -70,6 +70,26 @@ pub trait Plugin {
     fn build(&self, app: &mut App);
 }
 
+macro_rules! plugin_tuples {
+    ($($name:ident),+) => {
+        /// Several plugins at once, built in order: `app.add_plugins((A, B, C))`.
+        impl<$($name: Plugin),+> Plugin for ($($name,)+) {
+            #[allow(non_snake_case)]
+            fn build(&self, app: &mut App) {
+                let ($($name,)+) = self;
+                $($name.build(app);)+
+            }
+        }
+    };
+}
+plugin_tuples!(A, B);
+plugin_tuples!(A, B, C);
+plugin_tuples!(A, B, C, D);
+plugin_tuples!(A, B, C, D, E);
+plugin_tuples!(A, B, C, D, E, F);
+plugin_tuples!(A, B, C, D, E, F, G);
+plugin_tuples!(A, B, C, D, E, F, G, H);
+
 /// The application: a [`World`] plus the frame schedules stored in it.
 pub struct App {
     /// The ECS world holding every entity, component, resource and schedule.

@@ -67,6 +67,13 @@ pub struct RenderSettings {
     pub compute_shading: bool,
 }
 
+impl RenderSettings {
+    /// The render size as a vector (what [`engine::camera::Camera::ray`] takes as its viewport).
+    pub fn viewport(&self) -> glam::Vec2 {
+        glam::Vec2::new(self.size.0 as f32, self.size.1 as f32)
+    }
+}
+
 impl Default for RenderSettings {
     fn default() -> Self {
         Self {

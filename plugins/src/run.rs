@@ -4,12 +4,14 @@
 //! - [`HeadlessPlugin`]: `app.run()` renders a number of frames offscreen, optionally writes the
 //!   last one as a PNG, and fails on a rendering error or a Vulkan validation error.
 //! - [`RunPlugin::from_args`]: a window ([`crate::window::WindowPlugin`]) unless the command line
-//!   says `--headless` or no display is reachable; `--frames N`, `--size WxH` and
-//!   `--screenshot PATH` set the headless run.
+//!   says `--headless` or no display is reachable; `--frames N`, `--size WxH`,
+//!   `--screenshot PATH` and `--click X,Y` (a left click at that pixel, repeatable) set the
+//!   headless run.
 
 use std::path::PathBuf;
 
 use engine::app::{App, Plugin, RunResult};
+use engine::input::{Input, MouseButton};
 
 use crate::window::{WindowPlugin, display_available};
 use crate::{GpuRenderer, RenderSettings, RenderStats, finish_frames};
@@ -25,11 +27,14 @@ pub struct HeadlessPlugin {
     pub screenshot: Option<PathBuf>,
     /// Render at this size instead of [`RenderSettings::size`].
     pub size: Option<(u32, u32)>,
+    /// Left clicks at these pixels, one every other frame from frame 2, fed into
+    /// [`engine::input::Input`] as a window would (scripted play for demos and smoke tests).
+    pub clicks: Vec<glam::Vec2>,
 }
 
 impl Default for HeadlessPlugin {
     fn default() -> Self {
-        Self { frames: 60, screenshot: None, size: None }
+        Self { frames: 60, screenshot: None, size: None, clicks: Vec::new() }
     }
 }
 
@@ -45,8 +50,19 @@ impl HeadlessPlugin {
         if let (Some(size), Some(mut settings)) = (self.size, app.world.get_resource_mut::<RenderSettings>()) {
             settings.size = size;
         }
-        for _ in 0..self.frames {
+        for frame in 0..self.frames {
+            let click = frame.checked_sub(2).filter(|f| f % 2 == 0).and_then(|f| self.clicks.get(f as usize / 2));
+            if let Some(mut input) = app.world.get_resource_mut::<Input>() {
+                input.release_button(MouseButton::Left);
+                if let Some(&at) = click {
+                    input.set_cursor(Some(at));
+                    input.press_button(MouseButton::Left);
+                }
+            }
             app.update();
+            if let Some(mut input) = app.world.get_resource_mut::<Input>() {
+                input.begin_frame(); // what follows belongs to the next frame, as in a window
+            }
             if let Some(e) = app.world.get_resource::<RenderStats>().and_then(|s| s.last_error.clone()) {
                 return Err(format!("rendering failed: {e}").into());
             }
@@ -69,6 +85,8 @@ impl HeadlessPlugin {
         if let Some(first) = errors.first() {
             return Err(format!("{} Vulkan validation errors, first: {first}", errors.len()).into());
         }
+        let c = app.world.resource::<RenderStats>().last;
+        println!("headless: {} frames, {} instances, {} lights, {} decals", self.frames, c.instances, c.lights, c.decals);
         Ok(())
     }
 }
@@ -100,6 +118,11 @@ impl RunPlugin {
             frames: value("--frames").and_then(|f| f.parse().ok()).unwrap_or(60),
             screenshot: value("--screenshot").map(PathBuf::from),
             size: value("--size").and_then(|s| s.split_once('x')).and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?))),
+            clicks: args
+                .windows(2)
+                .filter(|w| w[0] == "--click")
+                .filter_map(|w| w[1].split_once(',').and_then(|(x, y)| Some(glam::Vec2::new(x.parse().ok()?, y.parse().ok()?))))
+                .collect(),
         })
     }
 
@@ -131,10 +154,10 @@ mod tests {
         assert!(matches!(parse(&[], true), RunPlugin::Window(w) if w.title == "t"));
         assert!(parse(&["--headless"], true).is_headless());
         assert!(parse(&[], false).is_headless(), "no display: headless");
-        let RunPlugin::Headless(h) = parse(&["--headless", "--frames", "7", "--screenshot", "a.png", "--size", "64x48"], true) else {
-            panic!()
-        };
+        let args = ["--headless", "--frames", "7", "--screenshot", "a.png", "--size", "64x48", "--click", "3,4", "--click", "5,6"];
+        let RunPlugin::Headless(h) = parse(&args, true) else { panic!() };
         assert_eq!((h.frames, h.screenshot, h.size), (7, Some(PathBuf::from("a.png")), Some((64, 48))));
+        assert_eq!(h.clicks, [glam::Vec2::new(3.0, 4.0), glam::Vec2::new(5.0, 6.0)]);
         let RunPlugin::Headless(h) = parse(&["--frames", "x"], false) else { panic!() };
         assert_eq!(h.frames, 60, "a bad count keeps the default");
     }
