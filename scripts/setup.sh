@@ -7,7 +7,7 @@
 #   - the GLSL compiler glslc,
 #   - Mesa lavapipe 25 from bookworm-backports when no GPU Vulkan driver is installed
 #     (lavapipe in bookworm itself is too old for ray queries),
-#   - Xvfb, xauth and x11-apps (xwd), for the windowed tests.
+#   - Xvfb, xauth, x11-apps (xwd), x11-utils (xwininfo) and xdotool, for the windowed tests.
 # On any other system it prints what to install instead.
 set -euo pipefail
 
@@ -39,7 +39,7 @@ if [ "$(id -u)" != 0 ]; then
 fi
 export DEBIAN_FRONTEND=noninteractive
 
-for p in libvulkan1 libvulkan-dev vulkan-validationlayers glslc xvfb xauth x11-apps; do
+for p in libvulkan1 libvulkan-dev vulkan-validationlayers glslc xvfb xauth x11-apps x11-utils xdotool; do
   have_pkg "$p" || need_pkgs+=("$p")
 done
 

@@ -138,7 +138,10 @@ impl WindowRunner {
         let now = Instant::now();
         let frame_ms = now.duration_since(r.last_frame).as_secs_f32() * 1e3;
         r.last_frame = now;
-        if let Some((ctx, state)) = &mut r.egui {
+        // A screenshot frame is drawn offscreen (without the window target, so without the
+        // overlay, whose textures only the window's pass would apply), then read back.
+        let screenshot = std::mem::take(&mut r.screenshot_requested);
+        if let (Some((ctx, state)), false) = (&mut r.egui, screenshot) {
             let input = state.take_egui_input(&r.window);
             let output = r.app.world.resource_scope(|world, mut overlay: Mut<DebugOverlay>| {
                 overlay.observe(world, frame_ms);
@@ -153,8 +156,7 @@ impl WindowRunner {
             });
         }
 
-        // A screenshot frame is drawn offscreen (without the window target), then read back.
-        let window_target = if std::mem::take(&mut r.screenshot_requested) { r.app.world.remove_resource::<WindowTarget>() } else { None };
+        let window_target = if screenshot { r.app.world.remove_resource::<WindowTarget>() } else { None };
         r.app.update();
         if let Some(target) = window_target {
             match save_screenshot(&mut r.app) {

@@ -83,7 +83,11 @@ fn near(p: [u8; 3], q: [u8; 3], tolerance: i32) -> bool {
 fn windowed_sandbox_shows_scene_and_overlay_survives_a_resize_and_exits_cleanly() {
     let x = start_xvfb();
     let stats = std::env::temp_dir().join(format!("window_stats_{}.jsonl", std::process::id()));
+    // F12 screenshots land in the working directory: a fresh one.
+    let workdir = std::env::temp_dir().join(format!("window_cwd_{}", std::process::id()));
+    std::fs::create_dir_all(&workdir).expect("a working directory");
     let mut sandbox = Command::new(env!("CARGO_BIN_EXE_sandbox"))
+        .current_dir(&workdir)
         .args(["--size", "640x400", "--exit-after", "150", "--resize-to", "560x340", "--stats"])
         .arg(&stats)
         .env("DISPLAY", &x.display)
@@ -96,6 +100,7 @@ fn windowed_sandbox_shows_scene_and_overlay_survives_a_resize_and_exits_cleanly(
 
     // Poll the screen until the window shows the courtyard's sky and the overlay's panel.
     let (mut sky, mut panel) = (0usize, 0usize);
+    let (mut title, mut pressed_f12) = (String::new(), false);
     let start = Instant::now();
     while start.elapsed() < Duration::from_secs(90) {
         if let Ok(Some(_)) = sandbox.try_wait() {
@@ -110,10 +115,29 @@ fn windowed_sandbox_shows_scene_and_overlay_survives_a_resize_and_exits_cleanly(
                     .collect()
             };
             let window = region(&pixels);
-            sky = window.iter().filter(|p| near(**p, [151, 171, 197], 12)).count();
+            // The most seen in any screenshot (the window shrinks halfway through).
+            sky = sky.max(window.iter().filter(|p| near(**p, [151, 171, 197], 12)).count());
             // egui's dark theme fills windows with (20, 20, 20) once blended to sRGB.
-            panel = window.iter().filter(|p| near(**p, [20, 20, 20], 4)).count();
-            if sky > 20_000 && panel > 20_000 {
+            panel = panel.max(window.iter().filter(|p| near(**p, [20, 20, 20], 4)).count());
+            if sky > 20_000 && panel > 20_000 && !pressed_f12 {
+                // F12, to the window given the focus (there is no window manager to give it),
+                // writes a screenshot.
+                let key = Command::new("xdotool")
+                    .args(["search", "--name", "ecs-decals sandbox", "windowfocus", "--sync", "key", "F12"])
+                    .env("DISPLAY", &x.display)
+                    .status();
+                pressed_f12 = key.expect("xdotool runs").success();
+            }
+            let tree = Command::new("xwininfo").args(["-root", "-tree", "-display", &x.display]).output().expect("xwininfo runs");
+            if let Some(line) = String::from_utf8_lossy(&tree.stdout).lines().find(|l| l.contains("ecs-decals sandbox |")) {
+                title = line.to_string();
+            }
+            let shot_written = std::fs::read_dir(&workdir)
+                .into_iter()
+                .flatten()
+                .flatten()
+                .any(|e| e.file_name().to_string_lossy().starts_with("screenshot-"));
+            if pressed_f12 && shot_written && !title.is_empty() {
                 break;
             }
         }
@@ -125,6 +149,15 @@ fn windowed_sandbox_shows_scene_and_overlay_survives_a_resize_and_exits_cleanly(
     assert!(!stderr.contains("Validation Error"), "{stderr}");
     assert!(sky > 20_000, "the scene (its sky) is visible in the window: {sky} pixels");
     assert!(panel > 20_000, "the egui overlay is visible: {panel} pixels");
+    assert!(title.contains("ecs-decals sandbox | forward | ") && title.contains(" ms"), "the title says what runs: {title:?}");
+    let shots: Vec<_> = std::fs::read_dir(&workdir).expect("the working directory").flatten().map(|e| e.path()).collect();
+    let shot = shots.iter().find(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("screenshot-"))).unwrap_or_else(|| {
+        let said: Vec<&str> = stderr.lines().filter(|l| l.contains("screenshot")).collect();
+        panic!("F12 wrote no screenshot; pressed: {pressed_f12}; the sandbox said {said:?}")
+    });
+    let png = image::open(shot).expect("a PNG");
+    let _ = std::fs::remove_dir_all(&workdir);
+    assert!(png.width() >= 560 && png.height() >= 340, "the window's size: {}x{}", png.width(), png.height());
     // --stats works in a window too: a JSON line per finished frame, frames in order, and the
     // window's title carries the pipeline and tier (not checked here: Xvfb has no window manager
     // to show it).
