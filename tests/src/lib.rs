@@ -1,4 +1,17 @@
-//! Shared helpers for the integration tests.
+//! Shared helpers for the integration tests in `tests/tests/` (run with `cargo test -p tests`):
+//! apps with or without a GPU renderer at a chosen size and tier, validation checks, image
+//! statistics and error measures, the shared glTF models.
+//!
+//! ```no_run
+//! use engine::prelude::*;
+//!
+//! let mut app = tests::gpu_app(128, 96, plugins::RenderSettings::default());
+//! app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 1.0, 3.0)));
+//! app.update();
+//! tests::assert_no_validation_errors(&mut app);
+//! let hdr = tests::renderer(&mut app).read_hdr().unwrap();
+//! assert_eq!(hdr.len(), 128 * 96);
+//! ```
 
 #![forbid(unsafe_code)]
 
