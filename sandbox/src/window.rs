@@ -105,10 +105,7 @@ impl OverlayExtension for SandboxOverlay {
                 self.spawn_decals(world);
             }
             if ui.button("clear decals").clicked() {
-                let decals: Vec<Entity> = world.query_filtered::<Entity, With<Decal>>().iter(world).collect();
-                for e in decals {
-                    world.despawn(e);
-                }
+                despawn_all::<Decal>(world);
             }
         });
         ui.horizontal(|ui| {
@@ -116,12 +113,17 @@ impl OverlayExtension for SandboxOverlay {
                 self.spawn_lights(world);
             }
             if ui.button("clear lights").clicked() {
-                let lights: Vec<Entity> = world.query_filtered::<Entity, With<OverlayLight>>().iter(world).collect();
-                for e in lights {
-                    world.despawn(e);
-                }
+                despawn_all::<OverlayLight>(world);
             }
         });
+    }
+}
+
+/// Despawns every entity with a `C`.
+fn despawn_all<C: Component>(world: &mut World) {
+    let entities: Vec<Entity> = world.query_filtered::<Entity, With<C>>().iter(world).collect();
+    for e in entities {
+        world.despawn(e);
     }
 }
 
