@@ -73,7 +73,7 @@ fn shoot(
     cameras: Query<(&Camera, &GlobalTransform)>,
     crates: Query<&GlobalTransform, With<Slide>>,
 ) {
-    let viewport = Vec2::new(settings.size.0 as f32, settings.size.1 as f32);
+    let viewport = settings.viewport();
     gun.frames += 1;
     let aim = if gun.auto_fire && gun.frames.is_multiple_of(8) {
         let t = gun.frames as f32 * 0.37;

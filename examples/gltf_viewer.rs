@@ -47,9 +47,12 @@ fn main() -> Result<(), BoxError> {
     for camera in cameras {
         app.world.entity_mut(camera).remove::<Camera>();
     }
+    // The orbit starts where frame_scene put the camera.
     let framed = engine::scene::frame_scene(&mut app.world);
-    let distance = framed.radius / (Camera::default().fov_y * 0.5).sin() * 0.85;
-    app.world.insert_resource(Orbit { centre: framed.centre, distance, yaw: 0.42, pitch: 0.33, cursor: None });
+    let eye = app.world.query_filtered::<&Transform, With<Camera>>().iter(&app.world).next().map_or(Vec3::Z, |t| t.translation);
+    let offset = eye - framed.centre;
+    let (distance, yaw, pitch) = (offset.length(), offset.x.atan2(offset.z), (offset.y / offset.length()).asin());
+    app.world.insert_resource(Orbit { centre: framed.centre, distance, yaw, pitch, cursor: None });
 
     app.add_systems(Update, (orbit, switch_pipeline));
     app.run()

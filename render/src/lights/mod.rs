@@ -88,10 +88,7 @@ impl Lighting {
         s: &FrameSettings,
     ) -> Result<LightFrame, RenderError> {
         let l = &s.lights;
-        let method = match l.method.effective(s.pipeline, f.ctx.ray_support()) {
-            LightMethod::RayQuery if self.ray_query.is_none() => LightMethod::Tiled,
-            m => m,
-        };
+        let method = l.method.effective(s.pipeline, f.ctx.ray_support());
         let enumerated = method == LightMethod::RayQuery;
         let accel = match self.accel.as_mut() {
             Some(a) => a.prepare(f, mirror)?,
