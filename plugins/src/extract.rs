@@ -16,12 +16,13 @@ use engine::scene::MeshInstance;
 use engine::transform::GlobalTransform;
 use glam::{Mat4, Vec2, Vec3};
 use render::scene::{
-    DrawItem, GpuCamera, GpuInstance, GpuLight, GpuMaterial, GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_DOUBLE_SIDED, MeshData, MeshId,
-    SceneMirror, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE, TextureData,
+    DrawItem, GpuCamera, GpuInstance, GpuMaterial, MATERIAL_ALPHA_MASK, MATERIAL_DOUBLE_SIDED, MeshId, SceneMirror, TEXTURE_FLAT_NORMAL,
+    TEXTURE_WHITE, TextureData,
 };
 use std::collections::HashMap;
 
 use crate::decal::{DEFAULT_RECEIVER_LAYERS, Decal, DecalMaterial, DecalReceiver, decal_desc, gpu_decal_material};
+use crate::validate::{self, WarnOnce};
 use crate::{RenderMirror, RenderSettings};
 
 /// Where each asset and entity lives in the mirror.
@@ -83,19 +84,6 @@ impl MirrorSlots {
     }
 }
 
-/// Converts an engine mesh into interleaved vertices.
-pub fn mesh_data(mesh: &Mesh) -> MeshData {
-    let vertices = (0..mesh.positions.len())
-        .map(|i| GpuVertex {
-            position: mesh.positions[i],
-            normal: mesh.normals.get(i).copied().unwrap_or([0.0, 1.0, 0.0]),
-            uv: mesh.uvs.get(i).copied().unwrap_or([0.0, 0.0]),
-            tangent: mesh.tangents.get(i).copied().unwrap_or([1.0, 0.0, 0.0, 1.0]),
-        })
-        .collect();
-    MeshData { vertices, indices: mesh.indices.clone() }
-}
-
 fn texture_data(image: &Image) -> TextureData {
     TextureData { width: image.width, height: image.height, srgb: image.color_space == ColorSpace::Srgb, mips: image.mips.clone() }
 }
@@ -107,6 +95,7 @@ pub fn extract_images(
     mut slots: ResMut<MirrorSlots>,
     mut materials: ResMut<Assets<Material>>,
     mut decal_materials: ResMut<Assets<DecalMaterial>>,
+    mut warned: Local<WarnOnce<Handle<Image>>>,
 ) {
     let images = &mut *images;
     let mut replaced = Vec::new();
@@ -116,7 +105,13 @@ pub fn extract_images(
             mirror.0.remove_texture(old);
             replaced.push(handle);
         }
-        if let (AssetEvent::Added(_) | AssetEvent::Modified(_), Some(image)) = (&event, images.get(handle)) {
+        let Some(image) = images.get(handle).filter(|_| matches!(event, AssetEvent::Added(_) | AssetEvent::Modified(_))) else {
+            warned.forget(handle);
+            continue;
+        };
+        let problem = validate::image_problem(image);
+        warned.report(handle, "image", problem.as_deref(), "not uploaded; materials sample their fallback texture");
+        if problem.is_none() {
             let slot = mirror.0.add_texture(texture_data(image));
             slots.textures.insert(handle, slot);
         }
@@ -229,17 +224,31 @@ pub fn extract_materials(
     }
 }
 
-/// Uploads added meshes, replaces modified ones, frees removed ones.
-pub fn extract_meshes(mut meshes: ResMut<Assets<Mesh>>, mut mirror: ResMut<RenderMirror>, mut slots: ResMut<MirrorSlots>) {
+/// Uploads added meshes, replaces modified ones, frees removed ones. Broken mesh data is
+/// repaired or refused by [`validate::mesh_data`], with one warning per mesh.
+pub fn extract_meshes(
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut mirror: ResMut<RenderMirror>,
+    mut slots: ResMut<MirrorSlots>,
+    mut warned: Local<WarnOnce<Handle<Mesh>>>,
+) {
     let events: Vec<_> = meshes.drain_events().collect();
     for event in events {
         let handle = event.handle();
         if let Some(old) = slots.meshes.remove(&handle) {
             mirror.0.remove_mesh(old);
         }
-        if let (AssetEvent::Added(_) | AssetEvent::Modified(_), Some(mesh)) = (&event, meshes.get(handle)) {
-            let id = mirror.0.add_mesh(mesh_data(mesh));
-            slots.meshes.insert(handle, id);
+        let Some(mesh) = meshes.get(handle).filter(|_| matches!(event, AssetEvent::Added(_) | AssetEvent::Modified(_))) else {
+            warned.forget(handle);
+            continue;
+        };
+        match validate::mesh_data(mesh) {
+            Ok((data, repaired)) => {
+                warned.report(handle, "mesh", repaired.as_deref(), "repaired; the rest is drawn");
+                let id = mirror.0.add_mesh(data);
+                slots.meshes.insert(handle, id);
+            }
+            Err(problem) => warned.report(handle, "mesh", Some(&problem), "not drawn"),
         }
     }
 }
@@ -256,6 +265,7 @@ pub fn extract_instances(
     mut mirror: ResMut<RenderMirror>,
     mut slots: ResMut<MirrorSlots>,
     live: Query<(), With<MeshInstance>>,
+    mut warned: Local<WarnOnce<Entity>>,
 ) {
     let mirror = &mut mirror.0;
     // An instance that lost its DecalReceiver falls back to the default layers.
@@ -264,13 +274,20 @@ pub fn extract_instances(
         if live.contains(entity) {
             continue; // removed and re-added in the same frame: handled as a change below
         }
+        warned.forget(entity);
         if let Some(slot) = slots.instances.remove(&entity) {
             mirror.remove_instance(slot);
         }
     }
     for (entity, inst, global, receiver) in changed.iter().chain(lost_receiver) {
-        let Some(&mesh) = slots.meshes.get(&inst.mesh) else {
-            tracing::warn!(?entity, "mesh instance refers to a mesh that is not loaded; not drawn");
+        let world = global.compute_matrix();
+        let mesh = slots.meshes.get(&inst.mesh).copied();
+        let problem = match mesh {
+            None => Some("refers to a mesh that is not loaded (or has nothing to draw)"),
+            Some(_) => validate::placement_problem(world),
+        };
+        warned.report(entity, "mesh instance", problem, "not drawn until it is fixed");
+        let Some(mesh) = mesh.filter(|_| problem.is_none()) else {
             if let Some(slot) = slots.instances.remove(&entity) {
                 mirror.remove_instance(slot);
             }
@@ -278,7 +295,7 @@ pub fn extract_instances(
         };
         let (material, flags) = slots.materials.get(&inst.material).copied().unwrap_or((slots.default_material, DrawFlags::default()));
         let layers = receiver.map_or(DEFAULT_RECEIVER_LAYERS, |r| r.0);
-        let record = GpuInstance::new(global.compute_matrix(), material, layers);
+        let record = GpuInstance::new(world, material, layers);
         let draw = DrawItem { mesh, alpha_mask: flags.alpha_mask, double_sided: flags.double_sided };
         let slot = mirror.set_instance(slots.instances.get(&entity).copied(), record, draw);
         slots.instances.insert(entity, slot);
@@ -297,28 +314,36 @@ pub fn extract_lights(
     live: Query<(), Or<(With<PointLight>, With<SpotLight>, With<DirectionalLight>)>>,
     mut mirror: ResMut<RenderMirror>,
     mut slots: ResMut<MirrorSlots>,
+    mut warned: Local<WarnOnce<Entity>>,
 ) {
     let mirror = &mut mirror.0;
     for entity in removed_point.read().chain(removed_spot.read()).chain(removed_dir.read()) {
         if live.contains(entity) {
             continue;
         }
+        warned.forget(entity);
         if let Some(slot) = slots.lights.remove(&entity) {
             mirror.lights.remove(slot);
             mirror.counters.records_written += 1;
         }
     }
     for (entity, global, point, spot, dir) in &changed {
-        let position = global.translation();
-        let direction = global.forward();
-        let record = if let Some(l) = spot {
-            GpuLight::spot(position, direction, l.color * l.intensity, l.effective_range(), l.inner_angle, l.outer_angle)
-        } else if let Some(l) = point {
-            GpuLight::point(position, l.color * l.intensity, l.effective_range())
-        } else if let Some(l) = dir {
-            GpuLight::directional(direction, l.color * l.illuminance)
-        } else {
-            continue;
+        if point.is_none() && spot.is_none() && dir.is_none() {
+            continue; // a moved entity that is not a light
+        }
+        let record = match validate::light_record(global.compute_matrix(), point, spot, dir) {
+            Ok((record, clamped)) => {
+                warned.report(entity, "light", clamped, "drawn clamped");
+                record
+            }
+            Err(problem) => {
+                warned.report(entity, "light", Some(problem), "not drawn until it is fixed");
+                if let Some(slot) = slots.lights.remove(&entity) {
+                    mirror.lights.remove(slot);
+                    mirror.counters.records_written += 1;
+                }
+                continue;
+            }
         };
         let slot = SceneMirror::write(&mut mirror.counters, &mut mirror.lights, slots.lights.get(&entity).copied(), record);
         slots.lights.insert(entity, slot);
@@ -326,16 +351,40 @@ pub fn extract_lights(
 }
 
 /// Builds the camera record from the first active camera. The mirror ignores an identical
-/// record, so a still camera uploads nothing.
-pub fn extract_camera(cameras: Query<(&Camera, &GlobalTransform)>, settings: Res<RenderSettings>, mut mirror: ResMut<RenderMirror>) {
-    let Some((camera, global)) = cameras.iter().find(|(c, _)| c.active) else {
+/// record, so a still camera uploads nothing. A camera whose transform is not finite or not
+/// invertible keeps the last good view (one warning); a field of view outside (0, π) or a
+/// non-positive near plane is replaced by a default in [`Camera::projection`] (one warning).
+pub fn extract_camera(
+    cameras: Query<(Entity, &Camera, &GlobalTransform)>,
+    settings: Res<RenderSettings>,
+    mut mirror: ResMut<RenderMirror>,
+    mut warned: Local<WarnOnce<(Entity, bool)>>,
+) {
+    let Some((entity, camera, global)) = cameras.iter().find(|(_, c, _)| c.active) else {
         return;
     };
+    let world = global.compute_matrix();
+    let placement = validate::placement_problem(world);
+    warned.report((entity, false), "camera", placement, "the last good view is kept");
+    let lens_ok = camera.fov_y.is_finite()
+        && camera.fov_y > 0.0
+        && camera.fov_y < std::f32::consts::PI
+        && camera.near.is_finite()
+        && camera.near > 0.0
+        && camera.exposure.is_finite()
+        && camera.exposure >= 0.0;
+    let lens = (!lens_ok).then_some("has a field of view outside (0, π), a non-positive near plane or a bad exposure");
+    warned.report((entity, true), "camera", lens, "they are clamped or replaced by defaults");
+    if placement.is_some() {
+        return;
+    }
+    let exposure = if camera.exposure.is_finite() && camera.exposure >= 0.0 { camera.exposure } else { 1.0 };
     let (w, h) = settings.size;
-    let view = global.compute_matrix().inverse();
+    let (w, h) = (w.max(1), h.max(1));
+    let view = world.inverse();
     let proj = camera.projection(w as f32 / h.max(1) as f32);
     let view_proj = proj * view;
-    mirror.0.set_camera(camera_record(view, proj, view_proj, global.translation(), camera.exposure, (w, h), settings.ambient));
+    mirror.0.set_camera(camera_record(view, proj, view_proj, global.translation(), exposure, (w, h), settings.ambient));
 }
 
 fn camera_record(view: Mat4, proj: Mat4, view_proj: Mat4, position: Vec3, exposure: f32, (w, h): (u32, u32), ambient: Vec3) -> GpuCamera {
@@ -391,14 +440,14 @@ pub fn extract_decals(
     live: Query<(), With<Decal>>,
     mut mirror: ResMut<RenderMirror>,
     mut slots: ResMut<MirrorSlots>,
-    mut invalid: Local<std::collections::HashSet<Entity>>,
+    mut warned: Local<WarnOnce<Entity>>,
 ) {
     let mirror = &mut mirror.0;
     for entity in removed.read() {
         if live.contains(entity) {
             continue;
         }
-        invalid.remove(&entity);
+        warned.forget(entity);
         if let Some(slot) = slots.decals.remove(&entity) {
             mirror.decals.remove(slot);
             mirror.counters.records_written += 1;
@@ -406,20 +455,26 @@ pub fn extract_decals(
     }
     for (entity, decal, global) in &changed {
         let Some(&material) = slots.decal_materials.get(&decal.material) else {
-            tracing::warn!(?entity, "decal refers to a decal material that does not exist; not drawn");
+            warned.report(entity, "decal", Some("refers to a decal material that does not exist"), "not drawn");
             if let Some(slot) = slots.decals.remove(&entity) {
                 mirror.decals.remove(slot);
+                mirror.counters.records_written += 1;
             }
             continue;
         };
-        let desc = decal_desc(decal, global.compute_matrix(), material);
-        // An invalid transform is drawn nowhere (render::scene::DecalDesc::is_valid); say so once
-        // per entity, not every time it changes.
-        if desc.is_valid() {
-            invalid.remove(&entity);
-        } else if invalid.insert(entity) {
-            tracing::warn!(?entity, "decal transform is not finite or not invertible; the decal is not drawn until it is");
+        let mut desc = decal_desc(decal, global.compute_matrix(), material);
+        // An invalid decal keeps its slot but lands nowhere (render::scene::DecalDesc::is_valid
+        // for its transform, no receiver layers for bad parameters); said once per entity.
+        let problem =
+            validate::decal_problem(decal).or((!desc.is_valid()).then_some("has a transform that is not finite or not invertible"));
+        if problem.is_some() {
+            desc.receivers = 0;
+            desc.weight = 1.0;
+            desc.opacity = 0.0;
+            desc.uv_corners = [glam::Vec2::ZERO; 4];
+            desc.angle_fade = None;
         }
+        warned.report(entity, "decal", problem, "not drawn until it is fixed");
         let slot = mirror.decals.write(slots.decals.get(&entity).copied(), &desc);
         mirror.counters.records_written += 1;
         slots.decals.insert(entity, slot);

@@ -30,6 +30,7 @@ pub mod extract;
 pub mod overlay;
 pub mod raycast;
 pub mod run;
+pub mod validate;
 pub mod window;
 
 use std::collections::VecDeque;
@@ -294,10 +295,25 @@ fn render_frame(
     mut mirror: ResMut<RenderMirror>,
     settings: Res<RenderSettings>,
     mut stats: ResMut<RenderStats>,
+    mut bad_size: Local<Option<(u32, u32)>>,
 ) {
     let Some(mut renderer) = renderer else {
         return;
     };
+    // Offscreen, the render target follows RenderSettings::size (a window follows its surface).
+    // A size the renderer refuses (zero, or past the device's limit) renders nothing and is
+    // reported once; the scene's changes wait in the mirror for a valid size.
+    if window.is_none() && settings.size != renderer.0.size() {
+        let (w, h) = settings.size;
+        if let Err(e) = renderer.0.resize(w, h) {
+            if *bad_size != Some(settings.size) {
+                tracing::warn!("render size {w}x{h} refused ({e}); nothing is rendered until the size is valid");
+                *bad_size = Some(settings.size);
+            }
+            return;
+        }
+        *bad_size = None;
+    }
     let frame_settings = FrameSettings {
         pipeline: settings.pipeline,
         decal_method: settings.decal_method,

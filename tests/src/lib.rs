@@ -181,3 +181,71 @@ pub fn gpu_app_with(w: u32, h: u32, settings: RenderSettings, renderer_settings:
     app.insert_resource(GpuRenderer(renderer));
     app
 }
+
+/// One warning captured by [`WarningLog`]: its message and its `key` field (the entity or asset
+/// the warning names, as `Debug` prints it), if any.
+#[derive(Clone, Debug, Default)]
+pub struct Warning {
+    /// The formatted message.
+    pub message: String,
+    /// The `key` field, `Debug`-formatted.
+    pub key: Option<String>,
+}
+
+/// Captures the warnings an app logs while it is alive: a thread-local `tracing` subscriber, so
+/// tests running in parallel do not see each other's warnings, with the app's schedules made
+/// single-threaded so that its systems log on this thread.
+pub struct WarningLog {
+    warnings: std::sync::Arc<std::sync::Mutex<Vec<Warning>>>,
+    _guard: tracing::subscriber::DefaultGuard,
+}
+
+struct CaptureLayer(std::sync::Arc<std::sync::Mutex<Vec<Warning>>>);
+
+impl tracing::field::Visit for Warning {
+    fn record_debug(&mut self, field: &tracing::field::Field, value: &dyn std::fmt::Debug) {
+        match field.name() {
+            "message" => self.message = format!("{value:?}"),
+            "key" => self.key = Some(format!("{value:?}")),
+            name => self.message.push_str(&format!(" {name}={value:?}")),
+        }
+    }
+}
+
+impl<S: tracing::Subscriber> tracing_subscriber::Layer<S> for CaptureLayer {
+    fn on_event(&self, event: &tracing::Event<'_>, _: tracing_subscriber::layer::Context<'_, S>) {
+        if *event.metadata().level() == tracing::Level::WARN {
+            let mut warning = Warning::default();
+            event.record(&mut warning);
+            self.0.lock().unwrap().push(warning);
+        }
+    }
+}
+
+impl WarningLog {
+    /// Starts capturing the warnings of `app` (and of anything else on this thread).
+    pub fn capture(app: &mut App) -> Self {
+        use bevy_ecs::schedule::SingleThreadedExecutor;
+        use engine::app::{PostUpdate, PreUpdate, Render, Startup, Update};
+        use tracing_subscriber::layer::SubscriberExt;
+        app.schedule_mut(Startup).set_executor(SingleThreadedExecutor::new());
+        app.schedule_mut(PreUpdate).set_executor(SingleThreadedExecutor::new());
+        app.schedule_mut(Update).set_executor(SingleThreadedExecutor::new());
+        app.schedule_mut(PostUpdate).set_executor(SingleThreadedExecutor::new());
+        app.schedule_mut(Render).set_executor(SingleThreadedExecutor::new());
+        let warnings = std::sync::Arc::default();
+        let subscriber = tracing_subscriber::registry().with(CaptureLayer(std::sync::Arc::clone(&warnings)));
+        Self { warnings, _guard: tracing::subscriber::set_default(subscriber) }
+    }
+
+    /// Every warning so far.
+    pub fn warnings(&self) -> Vec<Warning> {
+        self.warnings.lock().unwrap().clone()
+    }
+
+    /// The warnings whose `key` is `key` (compared as `Debug` prints it).
+    pub fn about(&self, key: impl std::fmt::Debug) -> Vec<Warning> {
+        let key = format!("{key:?}");
+        self.warnings().into_iter().filter(|w| w.key.as_deref() == Some(key.as_str())).collect()
+    }
+}

@@ -1,0 +1,322 @@
+//! Hostile input at the boundary between gameplay and the renderer.
+//!
+//! Gameplay code (or a file, or a physics engine gone wrong) can hand us NaN transforms, negative
+//! intensities, meshes whose indices point past their vertices, or a camera with no field of
+//! view. None of that may reach the GPU: a NaN in a light record turns every pixel it touches
+//! into NaN, an out-of-range index reads another mesh's vertices (or faults), and a NaN box in an
+//! acceleration structure makes traversal undefined. Extraction runs every record through this
+//! module first:
+//!
+//! - data that cannot be drawn meaningfully is **skipped** (the entity keeps no slot, so the
+//!   rest of the scene renders as if it were absent);
+//! - data that is merely out of range where a nearby value is clearly meant (a spot cone wider
+//!   than a half-turn, an inner angle past the outer one, a mesh index count that is not a
+//!   multiple of three) is **clamped** or trimmed;
+//! - either way one warning names the entity or asset and the problem, once: [`WarnOnce`]
+//!   remembers who was warned until the data becomes valid again or the entity goes away, so a
+//!   NaN that persists for an hour of play logs one line, not one per frame.
+
+use std::collections::HashSet;
+use std::hash::Hash;
+
+use engine::image::{Image, MAX_IMAGE_DIMENSION};
+use engine::light::{DirectionalLight, PointLight, SpotLight};
+use engine::mesh::Mesh;
+use glam::{Mat4, Vec3};
+use render::scene::{DECAL_CHANNELS, GpuLight, GpuVertex, MeshData};
+
+use crate::decal::Decal;
+
+/// Remembers which keys (entities or asset handles) have been warned about, so each problem is
+/// logged once per key rather than once per frame.
+pub struct WarnOnce<K>(HashSet<K>);
+
+impl<K> Default for WarnOnce<K> {
+    fn default() -> Self {
+        Self(HashSet::new())
+    }
+}
+
+impl<K: Eq + Hash + Copy + std::fmt::Debug> WarnOnce<K> {
+    /// Records the outcome of checking `key`: a problem is logged (with `what`, e.g. "light",
+    /// and the consequence) unless `key` was already warned about; `None` forgets the key, so a
+    /// later relapse warns again.
+    pub fn report(&mut self, key: K, what: &str, problem: Option<&str>, consequence: &str) {
+        match problem {
+            Some(problem) if self.0.insert(key) => {
+                tracing::warn!(?key, "{what} {problem}; {consequence}");
+            }
+            Some(_) => {}
+            None => {
+                self.0.remove(&key);
+            }
+        }
+    }
+
+    /// Forgets `key` (it was despawned or dropped).
+    pub fn forget(&mut self, key: K) {
+        self.0.remove(&key);
+    }
+
+    /// Number of keys currently warned about.
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    /// True when no key is currently warned about.
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+}
+
+/// Spot cones are kept within `(0, π]`; wider makes no sense and zero divides by zero.
+const MIN_SPOT_ANGLE: f32 = 1e-4;
+
+fn finite_non_negative(v: Vec3) -> bool {
+    v.is_finite() && v.min_element() >= 0.0
+}
+
+/// Checks a light's parameters and world placement and builds its GPU record. Returns the
+/// record, or why the light cannot be drawn. A spot light whose angles are merely out of range
+/// is clamped: the second value then says so (warned once by the caller).
+pub fn light_record(
+    world: Mat4,
+    point: Option<&PointLight>,
+    spot: Option<&SpotLight>,
+    dir: Option<&DirectionalLight>,
+) -> Result<(GpuLight, Option<&'static str>), &'static str> {
+    if !world.is_finite() {
+        return Err("has a non-finite transform");
+    }
+    let position = world.w_axis.truncate();
+    let direction = world.transform_vector3(Vec3::NEG_Z);
+    let direction_ok = direction.length_squared() > 1e-12 && direction.is_finite();
+    let range_of = |range: Option<f32>, intensity: f32| match range {
+        Some(r) if r.is_nan() || r <= 0.0 => Err("has a zero, negative or NaN range"),
+        _ => Ok(if let Some(r) = range { r } else { engine::light::range_from_intensity(intensity) }),
+    };
+    let intensity_ok = |i: f32| i.is_finite() && i >= 0.0;
+    if let Some(l) = spot {
+        if !intensity_ok(l.intensity) || !finite_non_negative(l.color) {
+            return Err("has a NaN, infinite or negative intensity or colour");
+        }
+        if !direction_ok {
+            return Err("has no direction (zero or degenerate rotation)");
+        }
+        if l.inner_angle.is_nan() || l.outer_angle.is_nan() {
+            return Err("has a NaN cone angle");
+        }
+        let range = range_of(l.range, l.intensity)?;
+        let outer = l.outer_angle.clamp(MIN_SPOT_ANGLE, std::f32::consts::PI);
+        let inner = l.inner_angle.clamp(0.0, outer);
+        let clamped =
+            (outer != l.outer_angle || inner != l.inner_angle).then_some("has cone angles out of range (0 ≤ inner ≤ outer ≤ π); clamped");
+        let record = GpuLight::spot(position, direction, l.color * l.intensity, range, inner, outer);
+        Ok((record, clamped))
+    } else if let Some(l) = point {
+        if !intensity_ok(l.intensity) || !finite_non_negative(l.color) {
+            return Err("has a NaN, infinite or negative intensity or colour");
+        }
+        let range = range_of(l.range, l.intensity)?;
+        Ok((GpuLight::point(position, l.color * l.intensity, range), None))
+    } else if let Some(l) = dir {
+        if !intensity_ok(l.illuminance) || !finite_non_negative(l.color) {
+            return Err("has a NaN, infinite or negative illuminance or colour");
+        }
+        if !direction_ok {
+            return Err("has no direction (zero or degenerate rotation)");
+        }
+        Ok((GpuLight::directional(direction, l.color * l.illuminance), None))
+    } else {
+        Err("has no light component")
+    }
+}
+
+/// Why an image asset cannot become a texture, if it cannot: a zero size, a size past
+/// [`engine::image::MAX_IMAGE_DIMENSION`], no levels, more levels than its size has, or a level
+/// whose byte count does not match its size. (Images decoded by the engine are always valid;
+/// this guards images built field by field.)
+pub fn image_problem(image: &Image) -> Option<String> {
+    let (w, h) = (image.width, image.height);
+    if w == 0 || h == 0 || w > MAX_IMAGE_DIMENSION || h > MAX_IMAGE_DIMENSION {
+        return Some(format!("has size {w}x{h}, outside 1..={MAX_IMAGE_DIMENSION}"));
+    }
+    if image.mips.is_empty() || image.mips.len() as u32 > image.mip_count() {
+        return Some(format!("has {} mip levels where a {w}x{h} image has 1..={}", image.mips.len(), image.mip_count()));
+    }
+    for (level, data) in image.mips.iter().enumerate() {
+        let (lw, lh) = image.mip_size(level as u32);
+        let expected = lw as usize * lh as usize * 4;
+        if data.len() != expected {
+            return Some(format!("has {} bytes in mip level {level} where {lw}x{lh} RGBA8 needs {expected}", data.len()));
+        }
+    }
+    None
+}
+
+/// Why a decal's parameters cannot be drawn, if they cannot: a NaN, infinite, zero or negative
+/// weight, a channel past the last one, a NaN opacity, non-finite UVs or fade angles. (Its
+/// transform is checked by `render::scene::DecalDesc::is_valid`.)
+pub fn decal_problem(decal: &Decal) -> Option<&'static str> {
+    if !(decal.weight.is_finite() && decal.weight > 0.0) {
+        Some("has a weight that is NaN, infinite, zero or negative")
+    } else if u32::from(decal.channel) >= DECAL_CHANNELS {
+        Some("has a blending channel out of range (0..=3)")
+    } else if decal.opacity.is_nan() {
+        Some("has a NaN opacity")
+    } else if !decal.uv.corners().iter().all(|c| c.is_finite()) {
+        Some("has non-finite texture coordinates")
+    } else if decal.angle_fade.is_some_and(|f| !(f.start.is_finite() && f.end.is_finite())) {
+        Some("has non-finite angle-fade angles")
+    } else {
+        None
+    }
+}
+
+/// Whether a mesh instance's or camera's world matrix can be drawn from: finite and invertible.
+pub fn placement_problem(world: Mat4) -> Option<&'static str> {
+    let det = world.determinant();
+    if !world.is_finite() {
+        Some("has a non-finite transform")
+    } else if !det.is_finite() || det.abs() < 1e-18 {
+        Some("has a singular transform (zero scale or rotation)")
+    } else {
+        None
+    }
+}
+
+/// Converts an engine mesh into GPU vertices and indices, repairing what can be repaired:
+/// non-finite normals, UVs and tangents become defaults, triangles that reference a missing or
+/// non-finite vertex are dropped, a trailing partial triangle is dropped. Returns the data and a
+/// description of what was repaired, or an error when no triangle is left to draw.
+pub fn mesh_data(mesh: &Mesh) -> Result<(MeshData, Option<String>), String> {
+    let n = mesh.positions.len();
+    if u32::try_from(n).is_err() {
+        return Err(format!("has {n} vertices, more than u32 indices can address"));
+    }
+    let mut repaired = Vec::new();
+    let mut bad_attributes = 0usize;
+    let vertices: Vec<GpuVertex> = (0..n)
+        .map(|i| {
+            let mut ok = true;
+            let mut pick = |v: Option<&[f32; 3]>, default: [f32; 3], unit: bool| match v {
+                Some(&v) if Vec3::from(v).is_finite() && (!unit || Vec3::from(v).length_squared() > 1e-12) => v,
+                Some(_) => {
+                    ok = false;
+                    default
+                }
+                None => default,
+            };
+            let normal = pick(mesh.normals.get(i), [0.0, 1.0, 0.0], true);
+            let uv = match mesh.uvs.get(i) {
+                Some(uv) if uv.iter().all(|c| c.is_finite()) => *uv,
+                Some(_) => {
+                    ok = false;
+                    [0.0, 0.0]
+                }
+                None => [0.0, 0.0],
+            };
+            let tangent = match mesh.tangents.get(i) {
+                Some(t) if t.iter().all(|c| c.is_finite()) && Vec3::new(t[0], t[1], t[2]).length_squared() > 1e-12 => *t,
+                Some(_) => {
+                    ok = false;
+                    [1.0, 0.0, 0.0, 1.0]
+                }
+                None => [1.0, 0.0, 0.0, 1.0],
+            };
+            bad_attributes += usize::from(!ok);
+            GpuVertex { position: mesh.positions[i], normal, uv, tangent }
+        })
+        .collect();
+    if bad_attributes > 0 {
+        repaired.push(format!("{bad_attributes} vertices with non-finite or zero normals, UVs or tangents (set to defaults)"));
+    }
+    let whole = mesh.indices.len() / 3 * 3;
+    if whole != mesh.indices.len() {
+        repaired.push(format!("an index count of {} that is not a multiple of 3 (the last partial triangle dropped)", mesh.indices.len()));
+    }
+    let usable = |i: u32| (i as usize) < n && Vec3::from(mesh.positions[i as usize]).is_finite();
+    let mut indices = Vec::with_capacity(whole);
+    let mut dropped = 0usize;
+    for tri in mesh.indices[..whole].chunks_exact(3) {
+        if tri.iter().all(|&i| usable(i)) {
+            indices.extend_from_slice(tri);
+        } else {
+            dropped += 1;
+        }
+    }
+    if dropped > 0 {
+        repaired.push(format!("{dropped} triangles with an index out of range (of {n} vertices) or a non-finite position (dropped)"));
+    }
+    if indices.is_empty() {
+        let why = if mesh.indices.is_empty() || n == 0 {
+            "is empty".to_owned()
+        } else {
+            format!("has no drawable triangle: {}", repaired.join(", "))
+        };
+        return Err(why);
+    }
+    Ok((MeshData { vertices, indices }, (!repaired.is_empty()).then(|| format!("had {}", repaired.join(", ")))))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tri_mesh(positions: Vec<[f32; 3]>, indices: Vec<u32>) -> Mesh {
+        let n = positions.len();
+        Mesh { positions, normals: vec![[0.0, 0.0, 1.0]; n], uvs: vec![[0.0; 2]; n], tangents: vec![[1.0, 0.0, 0.0, 1.0]; n], indices }
+    }
+
+    #[test]
+    fn meshes_keep_their_good_triangles() {
+        let good = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let mut positions = good.to_vec();
+        positions.push([f32::NAN, 0.0, 0.0]);
+        // One good triangle, one through the NaN vertex, one out of range, one degenerate
+        // (kept: it rasterises to nothing), and a partial triangle.
+        let mesh = tri_mesh(positions, vec![0, 1, 2, 0, 1, 3, 0, 1, 9, 0, 0, 0, 1, 2]);
+        let (data, repaired) = mesh_data(&mesh).expect("the good triangles remain");
+        assert_eq!(data.indices, vec![0, 1, 2, 0, 0, 0]);
+        let repaired = repaired.expect("repairs are reported");
+        assert!(repaired.contains("2 triangles") && repaired.contains("multiple of 3"), "{repaired}");
+        assert!(mesh_data(&tri_mesh(good.to_vec(), vec![0, 1, 2])).unwrap().1.is_none());
+    }
+
+    #[test]
+    fn meshes_with_nothing_to_draw_are_errors() {
+        assert_eq!(mesh_data(&Mesh::default()).unwrap_err(), "is empty");
+        let err = mesh_data(&tri_mesh(vec![[0.0; 3]; 3], vec![0, 1, 7])).unwrap_err();
+        assert!(err.contains("no drawable triangle"), "{err}");
+    }
+
+    #[test]
+    fn lights_are_checked_and_spot_cones_clamped() {
+        let at = Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0));
+        let point = |intensity, range| PointLight { intensity, range, ..Default::default() };
+        assert!(light_record(at, Some(&point(10.0, None)), None, None).is_ok());
+        assert!(light_record(at, Some(&point(10.0, Some(f32::INFINITY))), None, None).is_ok(), "an unbounded light is valid");
+        for bad in [point(f32::NAN, None), point(-1.0, None), point(f32::INFINITY, None), point(1.0, Some(0.0)), point(1.0, Some(f32::NAN))]
+        {
+            assert!(light_record(at, Some(&bad), None, None).is_err(), "{bad:?}");
+        }
+        let nan_at = Mat4::from_translation(Vec3::splat(f32::NAN));
+        assert!(light_record(nan_at, Some(&point(1.0, None)), None, None).is_err());
+        let spot = SpotLight { inner_angle: 2.0, outer_angle: 7.0, ..Default::default() };
+        let (record, clamped) = light_record(at, None, Some(&spot), None).unwrap();
+        assert!(clamped.is_some() && record.cone_cos.is_finite() && record.spot_scale.is_finite());
+        let flat = Mat4::from_scale(Vec3::ZERO);
+        let dir = DirectionalLight::default();
+        assert!(light_record(flat, None, None, Some(&dir)).is_err(), "a zero rotation has no direction");
+    }
+
+    #[test]
+    fn warnings_are_given_once_until_the_problem_goes_away() {
+        let mut once = WarnOnce::<u32>::default();
+        once.report(1, "light", Some("is bad"), "skipped");
+        once.report(1, "light", Some("is bad"), "skipped");
+        assert_eq!(once.len(), 1);
+        once.report(1, "light", None, "");
+        assert!(once.is_empty());
+    }
+}
