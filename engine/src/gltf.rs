@@ -39,6 +39,22 @@
 //! garbage normals or random roughness, which hides the cause rather than showing it.
 //! [`LoadOptions::strict_textures`] restores the refusal with the original error. Missing
 //! buffers, malformed documents and unresolvable URIs are always errors.
+//!
+//! **Hostile files.** Loading never panics, and allocates in proportion to the bytes actually
+//! present, never to a count the file merely declares: every accessor's offset, stride and count
+//! are checked (with overflow-checked arithmetic) against its buffer view, and every view
+//! against its buffer, before anything is read; an accessor without a buffer view (all zeros
+//! plus sparse values) may declare at most [`MAX_UNBACKED_COMPONENTS`]; images decode under
+//! the limits of [`crate::image`]. Any such problem is an error naming the file, the mesh and
+//! primitive, and the attribute. **An index at or past the primitive's vertex count refuses the
+//! file** with [`GltfError::Mesh`] (naming the mesh, the primitive, the position in the index
+//! accessor, the index and the vertex count) rather than dropping the bad triangles: such a
+//! file is corrupt, and a model with holes in it would hide that. A node hierarchy that is not
+//! the forest glTF requires is repaired, with one warning for each kind of repair: a node that
+//! is the child of several nodes keeps its first parent (lowest index), and a cycle is cut
+//! above one of its nodes, which becomes a root; [`GltfNode::parent`] and
+//! [`GltfNode::children`] then describe the same trees. Nothing walks the hierarchy
+//! recursively, so a chain of any depth loads and spawns without overflowing the stack.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -97,7 +113,7 @@ pub enum GltfError {
     /// A buffer is missing or shorter than the document declares.
     #[error("buffer {buffer}: {reason}")]
     BadBuffer {
-        /// The buffer's index and URI.
+        /// The buffer's index and URI, and the glTF file.
         buffer: String,
         /// Why.
         reason: String,
@@ -105,7 +121,7 @@ pub enum GltfError {
     /// An attribute has a type this engine does not accept.
     #[error("mesh {mesh}: attribute {attribute} is {found}, which is not supported")]
     UnsupportedAttribute {
-        /// The mesh name (or index) and primitive.
+        /// The mesh name (or index), the primitive and the glTF file.
         mesh: String,
         /// The attribute (`POSITION`, `NORMAL`, `TEXCOORD_0`, `TANGENT`, `indices`).
         attribute: String,
@@ -115,7 +131,7 @@ pub enum GltfError {
     /// The primitive is not made of triangles.
     #[error("mesh {mesh}: primitive mode {mode} is not supported (triangles only)")]
     UnsupportedPrimitiveMode {
-        /// The mesh name (or index) and primitive.
+        /// The mesh name (or index), the primitive and the glTF file.
         mesh: String,
         /// The glTF mode, e.g. `Lines`.
         mode: String,
@@ -123,7 +139,7 @@ pub enum GltfError {
     /// A required attribute is absent.
     #[error("mesh {mesh}: required attribute {attribute} is missing")]
     MissingAttribute {
-        /// The mesh name (or index) and primitive.
+        /// The mesh name (or index), the primitive and the glTF file.
         mesh: String,
         /// The attribute.
         attribute: String,
@@ -131,7 +147,7 @@ pub enum GltfError {
     /// An accessor's data lies outside its buffer, or counts disagree.
     #[error("mesh {mesh}: attribute {attribute}: {reason}")]
     BadAccessor {
-        /// The mesh name (or index) and primitive.
+        /// The mesh name (or index), the primitive and the glTF file.
         mesh: String,
         /// The attribute.
         attribute: String,
@@ -141,7 +157,7 @@ pub enum GltfError {
     /// The assembled mesh failed validation (e.g. an index out of range).
     #[error("mesh {mesh}: {source}")]
     Mesh {
-        /// The mesh name (or index) and primitive.
+        /// The mesh name (or index), the primitive and the glTF file.
         mesh: String,
         /// The validation error.
         source: MeshError,
@@ -159,7 +175,7 @@ pub enum GltfError {
     /// An image could not be read or decoded.
     #[error("image {uri_or_index}: {source}")]
     Image {
-        /// The image's URI, or its index and name when embedded.
+        /// The image's URI, or its index and name and the glTF file when embedded.
         uri_or_index: String,
         /// The decoding error.
         source: ImageError,
@@ -262,9 +278,9 @@ pub struct GltfNode {
     pub name: Option<String>,
     /// Local transform (a matrix is decomposed into TRS).
     pub transform: Transform,
-    /// Parent node index.
+    /// Parent node index (the nodes form a forest: see the module docs for the repairs).
     pub parent: Option<usize>,
-    /// Child node indices.
+    /// Child node indices: exactly the nodes whose `parent` is this one.
     pub children: Vec<usize>,
     /// Index into [`GltfScene::meshes`].
     pub mesh: Option<usize>,
@@ -340,6 +356,15 @@ pub fn load_slice_with(bytes: &[u8], base_dir: Option<&Path>, options: &LoadOpti
 fn parse(bytes: &[u8], file: &Path) -> Result<Gltf, GltfError> {
     use ::gltf::json::validation::{Error as ValidationError, Validate};
     let parse_error = |source| GltfError::Parse { path: file.to_owned(), source };
+    // The gltf crate computes `length - 12` from the GLB header unchecked, which overflows (a
+    // panic in debug builds) when the header declares less than its own 12 bytes.
+    if let Some(length) = bytes.strip_prefix(b"glTF").and_then(|rest| rest.get(4..8)).map(|l| u32::from_le_bytes([l[0], l[1], l[2], l[3]]))
+        && length < 12
+    {
+        let reason = format!("the GLB header declares a total length of {length} bytes, less than the header's own 12");
+        let io = std::io::Error::new(std::io::ErrorKind::InvalidData, reason);
+        return Err(parse_error(::gltf::Error::Binary(::gltf::binary::Error::Io(io))));
+    }
     let gltf = Gltf::from_slice_without_validation(bytes).map_err(parse_error)?;
     if let Some(extension) = gltf.document.extensions_required().find(|e| !SUPPORTED_EXTENSIONS.contains(e)) {
         return Err(GltfError::UnsupportedExtension {
@@ -350,20 +375,34 @@ fn parse(bytes: &[u8], file: &Path) -> Result<Gltf, GltfError> {
     }
     let root = gltf.document.as_json();
     let mut errors = Vec::new();
-    root.validate(root, ::gltf::json::Path::new, &mut |path, error| {
-        let path = path();
-        if !(error == ValidationError::Unsupported && path.as_str().starts_with("extensionsRequired")) {
-            errors.push((path, error));
+    // gltf-json's primitive validation reads the POSITION accessor by index without a bounds
+    // check (a panic when the index is out of range), so that index is checked first, and the
+    // crate's validation runs only when it is in range everywhere.
+    let positions = ::gltf::json::validation::Checked::Valid(::gltf::json::mesh::Semantic::Positions);
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if primitive.attributes.get(&positions).is_some_and(|index| index.value() >= root.accessors.len()) {
+                let path = ::gltf::json::Path::new().field("meshes").index(m).field("primitives").index(p);
+                errors.push((path.field("attributes").key("POSITION"), ValidationError::IndexOutOfBounds));
+            }
         }
-    });
+    }
+    if errors.is_empty() {
+        root.validate(root, ::gltf::json::Path::new, &mut |path, error| {
+            let path = path();
+            if !(error == ValidationError::Unsupported && path.as_str().starts_with("extensionsRequired")) {
+                errors.push((path, error));
+            }
+        });
+    }
     if errors.is_empty() { Ok(gltf) } else { Err(parse_error(::gltf::Error::Validation(errors))) }
 }
 
 fn load_impl(bytes: &[u8], base: Option<&Path>, file: &Path, name: String, options: &LoadOptions) -> Result<GltfScene, GltfError> {
     let Gltf { document, blob } = parse(bytes, file)?;
     let quantized = document.extensions_used().chain(document.extensions_required()).any(|e| e == "KHR_mesh_quantization");
-    let buffers = load_buffers(&document, blob, base)?;
-    let mut images = ImageLoader { buffers: &buffers, base, images: Vec::new(), slots: HashMap::new(), placeholder: None };
+    let buffers = load_buffers(&document, blob, base, file)?;
+    let mut images = ImageLoader { buffers: &buffers, base, file, images: Vec::new(), slots: HashMap::new(), placeholder: None };
     let (mut materials, uv_transforms): (Vec<_>, Vec<_>) = document
         .materials()
         .map(|m| load_material(&m, &document, &mut images, options))
@@ -376,8 +415,8 @@ fn load_impl(bytes: &[u8], base: Option<&Path>, file: &Path, name: String, optio
         let mut primitives = Vec::new();
         for primitive in mesh.primitives() {
             let label = match mesh.name() {
-                Some(name) => format!("'{name}' (#{}) primitive {}", mesh.index(), primitive.index()),
-                None => format!("#{} primitive {}", mesh.index(), primitive.index()),
+                Some(name) => format!("'{name}' (#{}) primitive {} in {}", mesh.index(), primitive.index(), file.display()),
+                None => format!("#{} primitive {} in {}", mesh.index(), primitive.index(), file.display()),
             };
             let uv_transform = primitive.material().index().and_then(|i| uv_transforms.get(i).copied().flatten());
             let converted = load_primitive(&primitive, &buffers, &label, quantized, uv_transform)?;
@@ -533,19 +572,21 @@ fn read_uri(uri: &str, base: Option<&Path>) -> Result<Vec<u8>, GltfError> {
     })
 }
 
-fn load_buffers(document: &Document, mut blob: Option<Vec<u8>>, base: Option<&Path>) -> Result<Vec<Vec<u8>>, GltfError> {
+fn load_buffers(document: &Document, mut blob: Option<Vec<u8>>, base: Option<&Path>, file: &Path) -> Result<Vec<Vec<u8>>, GltfError> {
     document
         .buffers()
         .map(|buffer| {
             let (data, what) = match buffer.source() {
                 ::gltf::buffer::Source::Bin => (
                     blob.take().ok_or_else(|| GltfError::BadBuffer {
-                        buffer: format!("#{} (GLB BIN chunk)", buffer.index()),
+                        buffer: format!("#{} (GLB BIN chunk) of {}", buffer.index(), file.display()),
                         reason: "the file has no BIN chunk".into(),
                     })?,
-                    format!("#{} (GLB BIN chunk)", buffer.index()),
+                    format!("#{} (GLB BIN chunk) of {}", buffer.index(), file.display()),
                 ),
-                ::gltf::buffer::Source::Uri(uri) => (read_uri(uri, base)?, format!("#{} ({})", buffer.index(), short_uri(uri))),
+                ::gltf::buffer::Source::Uri(uri) => {
+                    (read_uri(uri, base)?, format!("#{} ({}) of {}", buffer.index(), short_uri(uri), file.display()))
+                }
             };
             if data.len() < buffer.length() {
                 return Err(GltfError::BadBuffer {
@@ -562,6 +603,8 @@ fn load_buffers(document: &Document, mut blob: Option<Vec<u8>>, base: Option<&Pa
 struct ImageLoader<'a> {
     buffers: &'a [Vec<u8>],
     base: Option<&'a Path>,
+    /// The glTF file, for messages about embedded images.
+    file: &'a Path,
     images: Vec<Image>,
     slots: HashMap<(usize, ColorSpace), usize>,
     /// The slot of [`Image::missing_texture`], once a base colour texture needed it.
@@ -590,7 +633,7 @@ impl ImageLoader<'_> {
             ColorSpace::Srgb => ColorSpace::Linear,
             ColorSpace::Linear => ColorSpace::Srgb,
         };
-        let describe = || describe_image(&source);
+        let describe = || describe_image(&source, self.file);
         let image = if let Some(&slot) = self.slots.get(&(index, other)) {
             let decoded = &self.images[slot];
             Image::from_rgba8(decoded.width, decoded.height, decoded.mips[0].clone(), cs)
@@ -599,7 +642,7 @@ impl ImageLoader<'_> {
                 ::gltf::image::Source::Uri { uri, .. } => read_uri(uri, self.base)?,
                 ::gltf::image::Source::View { view, .. } => view_bytes(&view, self.buffers)
                     .ok_or_else(|| GltfError::BadBuffer {
-                        buffer: format!("#{}", view.buffer().index()),
+                        buffer: format!("#{} of {}", view.buffer().index(), self.file.display()),
                         reason: format!("view {} of image {} lies outside the buffer", view.index(), describe()),
                     })?
                     .to_vec(),
@@ -614,12 +657,12 @@ impl ImageLoader<'_> {
     }
 }
 
-/// An image's URI, or its index and name when embedded.
-fn describe_image(image: &::gltf::Image<'_>) -> String {
+/// An image's URI, or its index and name in `file` when embedded.
+fn describe_image(image: &::gltf::Image<'_>, file: &Path) -> String {
     match (image.source(), image.name()) {
         (::gltf::image::Source::Uri { uri, .. }, _) => short_uri(uri),
-        (_, Some(name)) => format!("#{} '{name}'", image.index()),
-        (_, None) => format!("#{}", image.index()),
+        (_, Some(name)) => format!("#{} '{name}' in {}", image.index(), file.display()),
+        (_, None) => format!("#{} in {}", image.index(), file.display()),
     }
 }
 
@@ -753,7 +796,7 @@ fn load_material(
         match images.get(&slot.texture, slot.tex_coord, slot.color_space) {
             Ok(index) => *out = Some(index),
             Err(error) if !options.strict_textures && is_forgivable(&error) => {
-                let file = describe_image(&slot.texture.source());
+                let file = describe_image(&slot.texture.source(), images.file);
                 match failures.iter_mut().find(|(f, _, _)| *f == file) {
                     Some((_, _, slots)) => slots.push(slot.slot),
                     None => failures.push((file, error.to_string(), vec![slot.slot])),
@@ -822,8 +865,11 @@ fn decode_component(data_type: DataType, normalized: bool, b: &[u8]) -> f64 {
     if normalized && !matches!(data_type, DataType::F32 | DataType::U32) { (value / max).max(-1.0) } else { value }
 }
 
-/// Upper bound on the elements of an accessor without a buffer view (sparse-only).
-const MAX_UNBACKED_ELEMENTS: usize = 1 << 26;
+/// Most components (elements × components per element) an accessor without a buffer view may
+/// declare: such an accessor is all zeros (plus sparse substitutions), so its memory is not
+/// bounded by any bytes in the file. 2²² components is 32 MiB as decoded, about 1.4 million
+/// `VEC3` elements; a larger declared count is a [`GltfError::BadAccessor`].
+pub const MAX_UNBACKED_COMPONENTS: usize = 1 << 22;
 
 /// Reads an accessor into `count × components` values, honouring offsets, strides and sparse
 /// substitution, with every range checked against its buffer.
@@ -859,10 +905,13 @@ fn read_accessor(accessor: &Accessor<'_>, buffers: &[Vec<u8>], mesh: &str, attri
             out.extend((0..comps).map(|c| decode_component(data_type, normalized, &bytes[start + c * csize..])));
         }
     } else {
-        if count > MAX_UNBACKED_ELEMENTS {
-            return Err(fail(format!("{count} elements without a buffer view")));
-        }
-        out = vec![0.0; count * comps];
+        let components = count.checked_mul(comps).filter(|&n| n <= MAX_UNBACKED_COMPONENTS);
+        let Some(components) = components else {
+            return Err(fail(format!(
+                "{count} elements of {comps} components without a buffer view exceed the limit of {MAX_UNBACKED_COMPONENTS} components"
+            )));
+        };
+        out = vec![0.0; components];
     }
     if let Some(sparse) = accessor.sparse() {
         let indices = sparse.indices();
@@ -988,6 +1037,11 @@ fn load_primitive(
         }
         None => (0..n as u32).collect(),
     };
+    // Out-of-range indices refuse the primitive (and so the file), naming the mesh, the
+    // position in the index accessor and the vertex count, before any per-vertex work.
+    if let Some((at, &index)) = raw_indices.iter().enumerate().find(|&(_, &i)| i as usize >= n) {
+        return Err(GltfError::Mesh { mesh: mesh.to_owned(), source: MeshError::IndexOutOfRange { at, index, vertices: n } });
+    }
     let indices = match mode {
         Mode::TriangleStrip => (0..raw_indices.len().saturating_sub(2))
             .flat_map(|i| {
@@ -1071,13 +1125,354 @@ fn load_nodes(document: &Document) -> Vec<GltfNode> {
             }
         })
         .collect();
-    for parent in 0..nodes.len() {
-        for child in nodes[parent].children.clone() {
-            match nodes[child].parent {
-                None => nodes[child].parent = Some(parent),
-                Some(first) => warn!(child, first, parent, "glTF node has two parents; keeping the first"),
+    make_forest(&mut nodes);
+    nodes
+}
+
+/// Repairs a node graph that is not a forest, as glTF requires, so that `parent` and
+/// `children` describe the same trees and walking either terminates: a node listed as the
+/// child of several nodes keeps its first parent (lowest index), and a cycle of parents is cut
+/// above one of its nodes, which becomes a root. One warning for each kind of repair. Iterative
+/// and linear in the number of nodes and child references, so arbitrarily deep or cyclic
+/// hierarchies neither overflow the stack nor loop.
+fn make_forest(nodes: &mut [GltfNode]) {
+    let count = nodes.len();
+    let mut extra_parents = Vec::new();
+    for parent in 0..count {
+        let mut children = std::mem::take(&mut nodes[parent].children);
+        children.retain(|&child| match nodes.get(child).map(|c| c.parent) {
+            Some(None) => {
+                nodes[child].parent = Some(parent);
+                true
+            }
+            Some(Some(_)) => {
+                extra_parents.push((child, parent));
+                false
+            }
+            None => false,
+        });
+        nodes[parent].children = children;
+    }
+    if let Some(&(child, parent)) = extra_parents.first() {
+        warn!(
+            repairs = extra_parents.len(),
+            first_child = child,
+            kept_parent = nodes[child].parent,
+            dropped_parent = parent,
+            "glTF nodes listed as children of more than one node; each keeps its first parent"
+        );
+    }
+    // Follow parent links from every node; meeting a node of the current walk again is a cycle.
+    #[derive(Clone, Copy, PartialEq)]
+    enum State {
+        Unvisited,
+        OnPath,
+        Done,
+    }
+    let mut state = vec![State::Unvisited; count];
+    let mut path = Vec::new();
+    let mut cut = Vec::new();
+    for start in 0..count {
+        let mut current = Some(start);
+        while let Some(node) = current.filter(|&n| state[n] == State::Unvisited) {
+            state[node] = State::OnPath;
+            path.push(node);
+            current = nodes[node].parent;
+        }
+        if let Some(node) = current.filter(|&n| state[n] == State::OnPath) {
+            if let Some(parent) = nodes[node].parent.take() {
+                nodes[parent].children.retain(|&c| c != node);
+            }
+            cut.push(node);
+        }
+        for node in path.drain(..) {
+            state[node] = State::Done;
+        }
+    }
+    if !cut.is_empty() {
+        warn!(cycles = cut.len(), first_root = cut[0], "glTF node hierarchy has cycles; each is cut above one node, which becomes a root");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ::gltf::json::Value;
+
+    /// A GLB container of `json` and `bin` (each padded to 4 bytes).
+    fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
+        let mut json = json.as_bytes().to_vec();
+        json.resize(json.len().next_multiple_of(4), b' ');
+        let mut bin = bin.to_vec();
+        bin.resize(bin.len().next_multiple_of(4), 0);
+        let total = 12 + 8 + json.len() + if bin.is_empty() { 0 } else { 8 + bin.len() };
+        let mut out = b"glTF".to_vec();
+        out.extend(2u32.to_le_bytes());
+        out.extend((total as u32).to_le_bytes());
+        out.extend((json.len() as u32).to_le_bytes());
+        out.extend(b"JSON");
+        out.extend(json);
+        if !bin.is_empty() {
+            out.extend((bin.len() as u32).to_le_bytes());
+            out.extend(b"BIN\0");
+            out.extend(bin);
+        }
+        out
+    }
+
+    /// One triangle: three float positions (36 bytes) and u16 indices 0, 1, 2 (6 bytes, padded).
+    fn triangle_bin(indices: [u16; 3]) -> Vec<u8> {
+        let positions: [f32; 9] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+        let mut bin: Vec<u8> = positions.iter().flat_map(|f| f.to_le_bytes()).collect();
+        bin.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
+        bin.extend([0, 0]);
+        bin
+    }
+
+    fn triangle_json() -> Value {
+        ::gltf::json::deserialize::from_str(
+            r#"{"asset":{"version":"2.0"},
+              "buffers":[{"byteLength":44}],
+              "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":6}],
+              "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+                           {"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}],
+              "meshes":[{"name":"Tri","primitives":[{"attributes":{"POSITION":0},"indices":1}]}],
+              "nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}],"scene":0}"#,
+        )
+        .unwrap()
+    }
+
+    /// Loads the triangle after `mutate` changed its JSON, with `bin` as its BIN chunk.
+    fn load_mutated(bin: &[u8], mutate: impl FnOnce(&mut Value)) -> Result<GltfScene, GltfError> {
+        let mut json = triangle_json();
+        mutate(&mut json);
+        load_slice(&glb(&::gltf::json::serialize::to_string(&json).unwrap(), bin), None)
+    }
+
+    #[test]
+    fn the_test_triangle_loads() {
+        let scene = load_mutated(&triangle_bin([0, 1, 2]), |_| {}).unwrap();
+        assert_eq!(scene.triangle_count(), 1);
+    }
+
+    /// Asserts a `BadAccessor` error for `attribute` whose reason contains `reason`.
+    fn assert_bad_accessor(result: Result<GltfScene, GltfError>, attribute: &str, reason: &str) {
+        let error = result.unwrap_err();
+        let message = error.to_string();
+        assert!(
+            matches!(&error, GltfError::BadAccessor { attribute: a, .. } if a == attribute),
+            "expected a bad {attribute} accessor: {message}"
+        );
+        assert!(message.contains("'Tri' (#0) primitive 0 in <memory>") && message.contains(reason), "{message}");
+    }
+
+    #[test]
+    fn bogus_accessor_ranges_are_errors_naming_mesh_and_attribute() {
+        let bin = triangle_bin([0, 1, 2]);
+        for count in [4u64, 1 << 31, u64::MAX >> 1] {
+            assert_bad_accessor(load_mutated(&bin, |j| j["accessors"][0]["count"] = count.into()), "POSITION", "exceed buffer view 0");
+            assert_bad_accessor(load_mutated(&bin, |j| j["accessors"][1]["count"] = count.into()), "indices", "exceed buffer view 1");
+        }
+        for offset in [4u64, 1 << 40, u64::MAX >> 1] {
+            assert_bad_accessor(load_mutated(&bin, |j| j["accessors"][0]["byteOffset"] = offset.into()), "POSITION", "offset");
+        }
+        // A stride wider than the view holds for three elements, and one narrower than an element.
+        assert_bad_accessor(load_mutated(&bin, |j| j["bufferViews"][0]["byteStride"] = 252.into()), "POSITION", "stride 252");
+        assert_bad_accessor(
+            load_mutated(&bin, |j| j["bufferViews"][0]["byteStride"] = 8.into()),
+            "POSITION",
+            "smaller than the element size 12",
+        );
+        // Views outside their buffer: past its end, or at an offset that overflows.
+        assert_bad_accessor(load_mutated(&bin, |j| j["bufferViews"][1]["byteOffset"] = 40.into()), "indices", "lies outside its buffer");
+        assert_bad_accessor(
+            load_mutated(&bin, |j| j["bufferViews"][0]["byteOffset"] = (u64::MAX >> 1).into()),
+            "POSITION",
+            "lies outside its buffer",
+        );
+        assert_bad_accessor(
+            load_mutated(&bin, |j| j["bufferViews"][1]["byteLength"] = (1u64 << 40).into()),
+            "indices",
+            "lies outside its buffer",
+        );
+        // The index view is too short for its three indices.
+        assert_bad_accessor(load_mutated(&bin, |j| j["bufferViews"][1]["byteLength"] = 4.into()), "indices", "exceed buffer view 1");
+        // A buffer declared longer than the BIN chunk.
+        let error = load_mutated(&bin, |j| j["buffers"][0]["byteLength"] = (1u64 << 40).into()).unwrap_err();
+        assert!(matches!(error, GltfError::BadBuffer { .. }), "{error}");
+        assert!(error.to_string().contains("GLB BIN chunk) of <memory>"), "{error}");
+    }
+
+    /// Makes POSITION a sparse accessor without a buffer view: zeros, with element 0 replaced
+    /// by the first position (also zero).
+    fn unbacked(json: &mut Value) {
+        let accessor = json["accessors"][0].as_object_mut().unwrap();
+        accessor.remove("bufferView");
+        accessor.insert(
+            "sparse".into(),
+            ::gltf::json::deserialize::from_str(r#"{"count":1,"indices":{"bufferView":1,"componentType":5123},"values":{"bufferView":0}}"#)
+                .unwrap(),
+        );
+    }
+
+    #[test]
+    fn huge_counts_without_a_buffer_view_are_refused_before_allocating() {
+        let bin = triangle_bin([0, 1, 2]);
+        for count in [1u64 << 31, u64::MAX >> 1, (MAX_UNBACKED_COMPONENTS / 3 + 1) as u64] {
+            let result = load_mutated(&bin, |j| {
+                unbacked(j);
+                j["accessors"][0]["count"] = count.into();
+            });
+            assert_bad_accessor(result, "POSITION", "without a buffer view exceed the limit");
+        }
+        // A small unbacked accessor is legal: all zeros.
+        let scene = load_mutated(&bin, unbacked).unwrap();
+        assert_eq!(scene.meshes[0][0].0.positions, vec![[0.0, 0.0, 0.0], [0.0; 3], [0.0; 3]]);
+    }
+
+    #[test]
+    fn out_of_range_indices_refuse_the_file_naming_the_mesh() {
+        for (indices, at, index) in [([0, 1, 3], 2, 3), ([65535, 0, 1], 0, 65535)] {
+            let error = load_mutated(&triangle_bin(indices), |_| {}).unwrap_err();
+            let message = error.to_string();
+            assert!(
+                matches!(&error, GltfError::Mesh { source: MeshError::IndexOutOfRange { at: a, index: i, vertices: 3 }, .. } if (*a, *i) == (at, index)),
+                "{message}"
+            );
+            assert!(message.contains("'Tri' (#0) primitive 0 in <memory>") && message.contains("out of range for 3 vertices"), "{message}");
+        }
+    }
+
+    #[test]
+    fn glb_headers_declaring_less_than_themselves_are_parse_errors() {
+        let mut bytes = glb(&::gltf::json::serialize::to_string(&triangle_json()).unwrap(), &triangle_bin([0, 1, 2]));
+        for length in [0u32, 11] {
+            bytes[8..12].copy_from_slice(&length.to_le_bytes());
+            let error = load_slice(&bytes, None).unwrap_err();
+            assert!(matches!(error, GltfError::Parse { .. }), "{error}");
+            assert!(error.to_string().contains(&format!("declares a total length of {length} bytes")), "{error}");
+            // Every shorter prefix is an error too, never a panic.
+            for len in 0..24 {
+                assert!(load_slice(&bytes[..len], None).is_err());
             }
         }
     }
-    nodes
+
+    #[test]
+    fn attributes_naming_missing_accessors_are_parse_errors() {
+        // gltf-json's own validation would index past the accessors for POSITION.
+        let bin = triangle_bin([0, 1, 2]);
+        for (attribute, index) in [("POSITION", 2u64), ("POSITION", u32::MAX as u64), ("NORMAL", 7)] {
+            let error = load_mutated(&bin, |j| j["meshes"][0]["primitives"][0]["attributes"][attribute] = index.into()).unwrap_err();
+            assert!(matches!(error, GltfError::Parse { .. }), "{error}");
+            let message = error.to_string();
+            assert!(message.contains(&format!("meshes[0].primitives[0].attributes[\"{attribute}\"]")), "{message}");
+        }
+        let error = load_mutated(&bin, |j| j["accessors"] = Value::Array(Vec::new())).unwrap_err();
+        assert!(matches!(error, GltfError::Parse { .. }), "{error}");
+    }
+
+    /// Nodes 0..count, each with `children(i)`, the scene's roots `roots` (no scene if `None`).
+    fn nodes_json(count: usize, children: impl Fn(usize) -> Vec<usize>, roots: Option<&[usize]>) -> Vec<u8> {
+        let nodes: Vec<String> = (0..count)
+            .map(|i| {
+                let c = children(i);
+                if c.is_empty() { "{}".to_owned() } else { format!(r#"{{"children":{c:?}}}"#) }
+            })
+            .collect();
+        let scenes = roots.map_or(String::new(), |r| format!(r#","scenes":[{{"nodes":{r:?}}}],"scene":0"#));
+        format!(r#"{{"asset":{{"version":"2.0"}},"nodes":[{}]{scenes}}}"#, nodes.join(",")).into_bytes()
+    }
+
+    /// `parent` and `children` agree, and walking up from every node ends at a root.
+    fn assert_forest(scene: &GltfScene) {
+        for (i, node) in scene.nodes.iter().enumerate() {
+            for &child in &node.children {
+                assert_eq!(scene.nodes[child].parent, Some(i), "child {child} of {i}");
+            }
+            if let Some(parent) = node.parent {
+                assert!(scene.nodes[parent].children.contains(&i), "{i} is among its parent {parent}'s children");
+            }
+            let mut up = node.parent;
+            for _ in 0..scene.nodes.len() {
+                up = up.and_then(|p| scene.nodes[p].parent);
+            }
+            assert_eq!(up, None, "walking up from {i} ends");
+        }
+    }
+
+    /// Spawns the scene and counts the spawned node entities (those with a `Transform` other
+    /// than the root's).
+    fn spawned_nodes(scene: GltfScene) -> usize {
+        let mut world = World::new();
+        scene.spawn(&mut world);
+        world.query::<&Transform>().iter(&world).count() - 1
+    }
+
+    #[test]
+    fn cyclic_hierarchies_are_cut_into_trees() {
+        // 0 → 1 → 2 → 0, 3 → 3, and 4 → 5 → 4 with no scene (so no parentless node there).
+        let cycle = |i: usize| match i {
+            0 => vec![1],
+            1 => vec![2],
+            2 => vec![0],
+            3 => vec![3],
+            4 => vec![5],
+            5 => vec![4],
+            _ => vec![],
+        };
+        let scene = load_slice(&nodes_json(6, cycle, Some(&[0, 3])), None).unwrap();
+        assert_forest(&scene);
+        assert_eq!(scene.nodes[0].parent, None, "the walk from 0 cuts the edge above 0");
+        assert_eq!((scene.nodes[1].parent, scene.nodes[2].parent), (Some(0), Some(1)));
+        assert_eq!((scene.nodes[3].parent, &scene.nodes[3].children), (None, &vec![]));
+        assert_eq!(spawned_nodes(scene), 4, "nodes 0 to 3, each once");
+
+        let scene = load_slice(&nodes_json(6, cycle, None), None).unwrap();
+        assert_forest(&scene);
+        assert_eq!(scene.roots, vec![0, 3, 4], "each cut cycle has a root");
+        assert_eq!(spawned_nodes(scene), 6);
+    }
+
+    #[test]
+    fn nodes_with_several_parents_keep_the_first() {
+        // 0 → [2, 2], 1 → [2, 3], 3 → [0]: 2 keeps parent 0; 3 → 0 → 2.
+        let children = |i: usize| match i {
+            0 => vec![2, 2],
+            1 => vec![2, 3],
+            3 => vec![0],
+            _ => vec![],
+        };
+        let scene = load_slice(&nodes_json(4, children, Some(&[1])), None).unwrap();
+        assert_forest(&scene);
+        assert_eq!(scene.nodes[0].children, vec![2]);
+        assert_eq!(scene.nodes[1].children, vec![3]);
+        assert_eq!(scene.nodes[0].parent, Some(3));
+        assert_eq!(spawned_nodes(scene), 4);
+    }
+
+    #[test]
+    fn a_hundred_thousand_nested_nodes_load_and_spawn() {
+        const DEPTH: usize = 100_000;
+        let chain = |i: usize| if i + 1 < DEPTH { vec![i + 1] } else { vec![] };
+        let scene = load_slice(&nodes_json(DEPTH, chain, Some(&[0])), None).unwrap();
+        assert_eq!(scene.nodes[DEPTH - 1].parent, Some(DEPTH - 2));
+        assert_eq!(scene.roots, vec![0]);
+        assert_forest_chain(&scene);
+        assert_eq!(spawned_nodes(scene), DEPTH);
+        // The same chain closed into a cycle, without a scene.
+        let ring = |i: usize| vec![(i + 1) % DEPTH];
+        let scene = load_slice(&nodes_json(DEPTH, ring, None), None).unwrap();
+        assert_eq!(scene.roots, vec![0]);
+        assert_eq!(spawned_nodes(scene), DEPTH);
+    }
+
+    /// [`assert_forest`] in linear time, for long chains.
+    fn assert_forest_chain(scene: &GltfScene) {
+        let roots = scene.nodes.iter().filter(|n| n.parent.is_none()).count();
+        assert_eq!(roots, 1);
+        for (i, node) in scene.nodes.iter().enumerate() {
+            assert!(node.children.iter().all(|&c| scene.nodes[c].parent == Some(i)));
+        }
+    }
 }
