@@ -150,7 +150,7 @@ impl Renderer {
             frames.push(FrameSlot {
                 pool,
                 cmd,
-                staging: StagingRing::new(ctx, 64 * 1024)?,
+                staging: StagingRing::new(ctx, crate::gpu::upload::STAGING_FLOOR)?,
                 timer: GpuTimer::new(ctx)?,
                 value: 0,
                 frame: 0,
@@ -215,6 +215,20 @@ impl Renderer {
     /// Bytes of GPU memory allocated through the allocator (for leak checks).
     pub fn gpu_memory_in_use(&self) -> u64 {
         self.ctx.allocator().generate_report().total_allocated_bytes
+    }
+
+    /// Bytes of GPU memory allocated through the allocator, summed by allocation name, largest
+    /// first (to say what [`Renderer::gpu_memory_in_use`] is made of).
+    pub fn gpu_memory_by_name(&self) -> Vec<(String, u64)> {
+        let mut by_name: Vec<(String, u64)> = Vec::new();
+        for a in self.ctx.allocator().generate_report().allocations {
+            match by_name.iter_mut().find(|(name, _)| *name == a.name) {
+                Some((_, bytes)) => *bytes += a.size,
+                None => by_name.push((a.name, a.size)),
+            }
+        }
+        by_name.sort_by(|a, b| b.1.cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+        by_name
     }
 
     /// Uploads what changed in `mirror` and records and submits one frame (offscreen).
@@ -314,8 +328,19 @@ impl Renderer {
             layout: res.layout,
             bindless: res.scene.set,
             push: ScenePush::default(),
-            upload: Upload { ctx, staging: &mut slot.staging, graveyard: &mut res.graveyard, frame_value, completed, bytes: 0 },
+            upload: Upload {
+                ctx,
+                staging: &mut slot.staging,
+                graveyard: &mut res.graveyard,
+                frame_value,
+                completed,
+                bytes: 0,
+                shrinks: 0,
+                bytes_released: 0,
+            },
         };
+        // Free slots at the ends of the tables go before anything reads a slot count.
+        mirror.trim();
         let mut parts = FrameParts {
             scene: &mut res.scene,
             decals: &mut res.decals,
@@ -332,6 +357,8 @@ impl Renderer {
             PipelineKind::Deferred => deferred_frame(&mut f, &mut parts, mirror, settings)?,
             PipelineKind::VisBuffer => visbuffer_frame(&mut f, &mut parts, mirror, settings)?,
         };
+        mirror.counters.buffer_shrinks += f.upload.shrinks;
+        mirror.counters.bytes_released += f.upload.bytes_released;
         if let (Some((surface, _)), Some(image)) = (&mut window, &acquired) {
             f.hand_over(res.swapchain_image, ImageUse::Present);
             surface.states[image.index as usize] = res.graph.state(res.swapchain_image);

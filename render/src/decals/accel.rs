@@ -18,7 +18,11 @@
 //! The structure itself and its rebuild policy are shared with the ray-query lights
 //! ([`crate::gpu::accel::AabbAccel`], [`crate::gpu::accel::plan_blas_work`]): a full build when
 //! the live count leaves the built range or refits have degraded the tree, a refit otherwise. A
-//! frame with no decal change does no acceleration-structure work.
+//! frame with no decal change does no acceleration-structure work. Memory follows the decals
+//! (see [`crate::gpu::accel`]): after a second (60 frames) with no decal to trace, or without a
+//! ray-traced method, the structures and their scratch are released; after a second of live
+//! decals needing a quarter of the BLAS storage or less, the BLAS is rebuilt into storage of its
+//! own size.
 
 use ash::vk;
 
@@ -87,6 +91,7 @@ impl DecalAccel {
         // Changes made while ray-traced decals are not in use are applied when they are again.
         self.pending_changes += input.changed;
         if input.live == 0 || !in_use {
+            self.accel.idle(&mut f.upload);
             return Ok(());
         }
         let boxes = AabbInput {

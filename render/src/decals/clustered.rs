@@ -19,8 +19,10 @@
 //!   later, when that frame's slot comes round again) it grows the buffer to a quarter more than
 //!   that, rounded to a power of two ([`DecalClusterStats::grows`]). Two frames is the soonest
 //!   without making the CPU wait for the GPU; in between, the overflowing frames lack those
-//!   entries and say so. The buffer does not shrink when decals go away (the reliability issue
-//!   asks tables to return memory; this one should join them).
+//!   entries and say so. When decals go away the buffer follows ([`DecalClusterStats::shrinks`],
+//!   [`crate::gpu::upload::Shrink`]): once the need (with that quarter) has stayed at or below a
+//!   quarter of the room for a second (60 frames), it shrinks to the need's power of two, never
+//!   below the initial room; after a second without clustered decals to bin, it is released.
 //! - **CPU work** is none per frame: the binning reads the decal boxes the GPU already holds
 //!   (kept by change detection for the acceleration structures), and the camera, so the lists
 //!   follow the view without any upload.
@@ -37,6 +39,7 @@ use crate::gpu::device::GpuContext;
 use crate::gpu::memory::{Buffer, Retired};
 use crate::gpu::pipeline::create_compute;
 use crate::gpu::shaders;
+use crate::gpu::upload::{Shrink, Upload};
 use crate::graph::readback::StatsReadback;
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::{DECAL_BIN_ROW, DECAL_CLUSTER_HEADER, DECAL_CLUSTER_SLICES, DECAL_CLUSTER_TILE};
@@ -72,6 +75,8 @@ pub struct DecalClusters {
     /// The statistics, read back two frames later.
     readback: StatsReadback,
     grows: u64,
+    shrinks: u64,
+    shrink: Shrink,
     latest: DecalClusterStats,
     res: ResourceId,
 }
@@ -95,6 +100,8 @@ impl DecalClusters {
             clusters: 0,
             readback,
             grows: 0,
+            shrinks: 0,
+            shrink: Shrink::default(),
             latest: DecalClusterStats { measured_frame: u64::MAX, ..Default::default() },
             res: graph.resource("decal clusters"),
         })
@@ -118,6 +125,7 @@ impl DecalClusters {
                 capacity: self.capacity as u64,
                 dropped: words[1] as u64,
                 grows: self.grows,
+                shrinks: self.shrinks,
                 max_per_cluster: words[2] as u64,
                 pixels: words[7] as u64,
                 tested: wide(4),
@@ -128,13 +136,13 @@ impl DecalClusters {
         }
         let needed = self.latest.entries.min(u32::MAX as u64 / 2) as u32;
         let mut capacity = self.capacity.max(self.initial_capacity);
+        let smaller = self.shrink.check(self.capacity as u64, (needed + needed / 4) as u64, self.initial_capacity as u64);
         if needed > capacity {
             capacity = (needed + needed / 4).next_power_of_two();
+        } else if let Some(smaller) = smaller {
+            capacity = smaller as u32;
         }
         if self.buffer.is_none() || capacity != self.capacity || clusters != self.clusters {
-            if self.buffer.is_some() && capacity != self.capacity {
-                self.grows += 1;
-            }
             let size = (DECAL_CLUSTER_HEADER as u64 + 3 * clusters as u64 + capacity as u64) * 4;
             let buffer = Buffer::new(
                 ctx,
@@ -147,13 +155,43 @@ impl DecalClusters {
                 MemoryLocation::GpuOnly,
             )?;
             if let Some(old) = self.buffer.replace(buffer) {
-                f.upload.graveyard.bury(f.upload.frame_value, Retired::Buffer(old));
+                if capacity < self.capacity {
+                    self.shrinks += 1;
+                    f.upload.bury_shrunk(old, size);
+                } else {
+                    if capacity > self.capacity {
+                        self.grows += 1;
+                    }
+                    f.upload.graveyard.bury(f.upload.frame_value, Retired::Buffer(old));
+                }
             }
             (self.capacity, self.clusters) = (capacity, clusters);
+            self.shrink.reset();
         }
-        *stats = DecalClusterStats { clusters: clusters as u64, capacity: capacity as u64, grows: self.grows, ..self.latest };
+        *stats = DecalClusterStats {
+            clusters: clusters as u64,
+            capacity: capacity as u64,
+            grows: self.grows,
+            shrinks: self.shrinks,
+            ..self.latest
+        };
         let address = self.buffer.as_ref().expect("allocated above").address;
         Ok(ClusterFrame { address, capacity, tiles: tiles.0 | tiles.1 << 16 })
+    }
+
+    /// A frame without clustered decals (another method, or no decal): after
+    /// [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] of them in a row the cluster buffer is
+    /// released, and the next frame that bins decals starts again from the initial room.
+    pub fn idle(&mut self, up: &mut Upload) {
+        if self.buffer.is_none() || !self.shrink.unused() {
+            return;
+        }
+        if let Some(old) = self.buffer.take() {
+            up.bury_shrunk(old, 0);
+        }
+        (self.capacity, self.clusters) = (0, 0);
+        self.latest.entries = 0;
+        self.shrinks += 1;
     }
 
     /// Bins `live` decal boxes into the clusters, runs the decal pass over the surface `source`

@@ -48,14 +48,20 @@ pub struct DeferredDecalOrder {
     /// Runs of the current order.
     pub runs: Vec<DecalRun>,
     valid: bool,
+    /// The decal slot count last seen.
+    seen_slots: u32,
 }
 
 impl DeferredDecalOrder {
     /// Follows this frame's decal changes: rebuilds the order (and hands it to `scene` for upload)
-    /// when deferred decals are `in_use` and anything changed since it was built; otherwise only
-    /// notes that it is stale. Call before the scene's upload, which consumes the change marks.
+    /// when deferred decals are `in_use` and anything changed since it was built; otherwise drops
+    /// it as stale (an empty order for the scene, so its table can shrink). Call before the
+    /// scene's upload, which consumes the change marks.
     pub fn follow(&mut self, mirror: &SceneMirror, scene: &mut GpuScene, in_use: bool) {
-        let changed = mirror.decals.records.dirty_count() > 0 || mirror.decal_materials.dirty_count() > 0;
+        // (A trim drops the dirty marks of the slots it removes; the slot count says it happened.)
+        let slots = mirror.decals.records.slot_count();
+        let trimmed = std::mem::replace(&mut self.seen_slots, slots) != slots;
+        let changed = mirror.decals.records.dirty_count() > 0 || mirror.decal_materials.dirty_count() > 0 || trimmed;
         if in_use && (changed || !self.valid) {
             plan_deferred_decals(
                 mirror.decals.records.records(),
@@ -66,8 +72,13 @@ impl DeferredDecalOrder {
             );
             scene.set_decal_order(&self.slots);
             self.valid = true;
-        } else if changed {
+        } else if changed && self.valid {
+            // Stale, and rebuilt before it is used again: let it go now, so that its table can
+            // shrink when decals go away.
             self.valid = false;
+            self.slots.clear();
+            self.runs.clear();
+            scene.set_decal_order(&self.slots);
         }
     }
 }

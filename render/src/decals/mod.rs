@@ -112,7 +112,12 @@ impl Decals {
         self.accel.build(f, input, method.traces(), &mut mirror.counters)?;
         let shaded = method.traces() && !mirror.decals.is_empty() && self.accel.traced().is_some();
         let clustered = method == DecalMethod::Clustered && !mirror.decals.is_empty();
-        let clusters = if clustered { Some(self.clusters.prepare(f, &mut mirror.counters.clusters)?) } else { None };
+        let clusters = if clustered {
+            Some(self.clusters.prepare(f, &mut mirror.counters.clusters)?)
+        } else {
+            self.clusters.idle(&mut f.upload);
+            None
+        };
         Ok(DecalFrame {
             method,
             traced: if shaded { self.accel.traced() } else { None },

@@ -3,6 +3,15 @@
 //! (`crate::lights::ray_query`); and [`AabbAccel`], the one-BLAS-of-boxes structure the decals
 //! and the ray-query lights both enumerate with a zero-length ray, with its rebuild policy
 //! ([`plan_blas_work`]).
+//!
+//! **Memory.** An [`AabbAccel`]'s BLAS storage grows when a build needs more. It is rebuilt
+//! into storage of its own size when the boxes a build would cover have stayed at or below a
+//! quarter of what the storage was sized for through a second of frames that used it (60:
+//! [`Shrink`]), its scratch following. When it has not been brought up to date for that many
+//! frames (no boxes, or the method that traces them not in use), the BLAS, the TLAS, the
+//! instance record and the scratch are all released, the next use building them anew. A BLAS is
+//! also rebuilt, never refitted, when the box table no longer holds the boxes it was built over
+//! (the table shrank below them).
 
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -10,6 +19,7 @@ use gpu_allocator::MemoryLocation;
 use crate::RenderError;
 use crate::gpu::device::GpuContext;
 use crate::gpu::memory::{Buffer, Graveyard, Retired};
+use crate::gpu::upload::{Shrink, Upload};
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::GpuAabb;
 
@@ -135,18 +145,43 @@ impl Scratch {
     pub fn ensure(&mut self, ctx: &GpuContext, graveyard: &mut Graveyard, frame_value: u64, size: u64) -> Result<u64, RenderError> {
         let need = size + self.alignment;
         if self.buffer.as_ref().is_none_or(|s| s.size < need) {
-            let scratch = Buffer::new(
-                ctx,
-                self.name,
-                need.next_power_of_two(),
-                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
-                MemoryLocation::GpuOnly,
-            )?;
+            let scratch = Self::create(ctx, self.name, need.next_power_of_two())?;
             if let Some(old) = self.buffer.replace(scratch) {
                 graveyard.bury(frame_value, Retired::Buffer(old));
             }
         }
         Ok(self.buffer.as_ref().expect("allocated above").address.next_multiple_of(self.alignment))
+    }
+
+    /// Replaces the buffer by one for `size` bytes when that needs at most a quarter of it (its
+    /// owner has shrunk); the old one waits in the graveyard.
+    pub fn shrink_to(&mut self, up: &mut Upload, size: u64) -> Result<(), RenderError> {
+        let need = (size + self.alignment).next_power_of_two();
+        if self.buffer.as_ref().is_none_or(|b| need > b.size / 4) {
+            return Ok(());
+        }
+        let scratch = Self::create(up.ctx, self.name, need)?;
+        if let Some(old) = self.buffer.replace(scratch) {
+            up.bury_shrunk(old, need);
+        }
+        Ok(())
+    }
+
+    /// Lets the buffer go (into the graveyard); the next [`Scratch::ensure`] allocates anew.
+    pub fn release(&mut self, up: &mut Upload) {
+        if let Some(old) = self.buffer.take() {
+            up.bury_shrunk(old, 0);
+        }
+    }
+
+    fn create(ctx: &GpuContext, name: &str, size: u64) -> Result<Buffer, RenderError> {
+        Buffer::new(
+            ctx,
+            name,
+            size,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+            MemoryLocation::GpuOnly,
+        )
     }
 
     /// Destroys the buffer; the GPU must be idle.
@@ -231,6 +266,10 @@ pub struct AabbAccel {
     scratch: Scratch,
     built: Option<u32>,
     refitted_since_build: u64,
+    /// Boxes the BLAS storage was sized for.
+    sized_for: u32,
+    /// When the storage holds far more than the builds need, or nothing uses it.
+    shrink: Shrink,
     res: AabbAccelResources,
     names: AabbAccelNames,
 }
@@ -296,6 +335,8 @@ impl AabbAccel {
             scratch: Scratch::new(ctx, names.scratch),
             built: None,
             refitted_since_build: 0,
+            sized_for: 0,
+            shrink: Shrink::default(),
             res: AabbAccelResources {
                 blas: graph.resource(names.blas),
                 tlas: graph.resource(names.tlas),
@@ -317,36 +358,50 @@ impl AabbAccel {
     }
 
     /// Plans the frame's work for `input` and makes room for it: a larger BLAS for a build that
-    /// needs one (the old one waits in the graveyard for the frames that read it), the TLAS on
-    /// first use, scratch. After this the TLAS address is final for the frame.
+    /// needs one, or a smaller one when the storage has long been four times what builds need
+    /// (the old one waits in the graveyard for the frames that read it), the TLAS on first use,
+    /// scratch. After this the TLAS address is final for the frame.
     pub fn prepare(&mut self, f: &mut Frame, input: &AabbInput) -> Result<AabbPlan, RenderError> {
-        let work = plan_blas_work(self.built, input.live, input.changed, self.refitted_since_build);
+        let need = build_count(input.live, input.capacity);
+        let shrink = self.blas.is_some() && self.shrink.check(self.sized_for as u64, need as u64, 0).is_some();
+        let mut work = plan_blas_work(self.built, input.live, input.changed, self.refitted_since_build);
+        // A refit covers what the last build covered, which the box table must still hold.
+        if shrink || self.built.is_some_and(|built| built > input.capacity) {
+            work = BlasWork::Build;
+        }
         let count = match (work, self.built) {
             // A refit covers what the last build covered (an update cannot change the count).
             (BlasWork::Update, Some(built)) => built,
-            _ => build_count(input.live, input.capacity),
+            _ => need,
         };
         if work == BlasWork::None {
             return Ok(AabbPlan { work, count, scratch: 0 });
         }
         let ctx = f.ctx;
-        let (graveyard, frame_value) = (&mut *f.upload.graveyard, f.upload.frame_value);
+        let up = &mut f.upload;
         let geometry = aabb_geometry(input.address);
         let blas_sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, BOX_BLAS_FLAGS, &geometry, &[count]);
         let tlas_sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::TOP_LEVEL, BOX_TLAS_FLAGS, &one_instance_geometry(0), &[1]);
-        if work == BlasWork::Build && self.blas.as_ref().is_none_or(|b| b.buffer.size < blas_sizes.acceleration_structure_size) {
-            let blas = AccelStruct::new(
-                ctx,
-                vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
-                blas_sizes.acceleration_structure_size,
-                self.names.blas,
-            )?;
+        let scratch_need = blas_sizes.build_scratch_size.max(blas_sizes.update_scratch_size).max(tlas_sizes.build_scratch_size);
+        if work == BlasWork::Build && (shrink || self.blas.as_ref().is_none_or(|b| b.buffer.size < blas_sizes.acceleration_structure_size))
+        {
+            let size = blas_sizes.acceleration_structure_size;
+            let blas = AccelStruct::new(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, size, self.names.blas)?;
             let instance = Self::instance_buffer(ctx, blas.address, self.names.tlas)?;
             if let Some(old) = self.blas.replace(blas) {
-                old.bury(graveyard, frame_value);
+                if shrink {
+                    tracing::debug!(blas = self.names.blas, from = self.sized_for, to = count, "box BLAS shrinks");
+                    up.count_shrink(old.buffer.size, size);
+                }
+                old.bury(up.graveyard, up.frame_value);
             }
             if let Some(old) = self.instances.replace(instance) {
-                graveyard.bury(frame_value, Retired::Buffer(old));
+                up.graveyard.bury(up.frame_value, Retired::Buffer(old));
+            }
+            self.sized_for = count;
+            self.shrink.reset();
+            if shrink {
+                self.scratch.shrink_to(up, scratch_need)?;
             }
         }
         if self.tlas.is_none() {
@@ -357,9 +412,39 @@ impl AabbAccel {
                 self.names.tlas,
             )?);
         }
-        let scratch_need = blas_sizes.build_scratch_size.max(blas_sizes.update_scratch_size).max(tlas_sizes.build_scratch_size);
-        let scratch = self.scratch.ensure(ctx, graveyard, frame_value, scratch_need)?;
+        let scratch = self.scratch.ensure(ctx, up.graveyard, up.frame_value, scratch_need)?;
         Ok(AabbPlan { work, count, scratch })
+    }
+
+    /// A frame that does not bring the structure up to date (nothing to trace, or the method
+    /// that traces it not in use). After [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] of them in
+    /// a row, everything is released (into the graveyard); the next [`AabbAccel::prepare`]
+    /// builds anew.
+    pub fn idle(&mut self, up: &mut Upload) {
+        if self.blas.is_none() && self.tlas.is_none() {
+            return;
+        }
+        if !self.shrink.unused() {
+            return;
+        }
+        tracing::debug!(blas = self.names.blas, "unused box structures released");
+        for a in [self.blas.take(), self.tlas.take()].into_iter().flatten() {
+            up.count_shrink(a.buffer.size, 0);
+            a.bury(up.graveyard, up.frame_value);
+        }
+        if let Some(old) = self.instances.take() {
+            up.graveyard.bury(up.frame_value, Retired::Buffer(old));
+        }
+        self.scratch.release(up);
+        self.forget();
+        self.sized_for = 0;
+    }
+
+    /// Forgets the last build, so the next work is a full build (for owners that replaced the
+    /// boxes' buffer).
+    pub fn forget(&mut self) {
+        self.built = None;
+        self.refitted_since_build = 0;
     }
 
     /// Records the planned work over the boxes of `input` (which must hold `plan.count` valid

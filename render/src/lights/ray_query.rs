@@ -12,6 +12,10 @@
 //!   with no light change does no light-structure work (`light_blas_builds`,
 //!   `light_blas_updates` in `--stats`). Changes made while the method is not in use wait for
 //!   the next frame that uses it.
+//! - **Memory** follows the light slots: when the boxes the BLAS covers have needed a quarter of
+//!   the box buffer or less for a second (60 frames), the buffer is replaced by one of their
+//!   power of two and everything rebuilt; after a second without ray-query lights (or without
+//!   lights) the buffer and the structures are released ([`crate::gpu::upload::Shrink`]).
 //! - **No box seams.** The seed cut each light off at its box and saw box-shaped artifacts
 //!   around every light (§5.2.5, §6.1). Our lights' contribution reaches zero at their range
 //!   (`shaders/include/lighting.glsl`), and the box holds the range sphere (for a spot light
@@ -33,6 +37,7 @@ use crate::gpu::device::GpuContext;
 use crate::gpu::memory::{Buffer, Retired};
 use crate::gpu::pipeline::create_compute;
 use crate::gpu::shaders;
+use crate::gpu::upload::{Shrink, Upload};
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::GpuAabb;
 use crate::scene::gpu::GpuScene;
@@ -49,6 +54,10 @@ pub struct RayQueryLights {
     accel: AabbAccel,
     /// Light records changed since the structures were last brought up to date.
     pending_changes: u32,
+    /// The light slot count last seen.
+    seen_slots: u32,
+    /// When the box buffer is far larger than the lights need, or unused.
+    shrink: Shrink,
     boxes: ResourceId,
 }
 
@@ -86,6 +95,8 @@ impl RayQueryLights {
             box_pass: create_compute(ctx, layout, "light boxes", shaders::LIGHT_BOXES_COMP)?,
             accel: AabbAccel::new(ctx, graph, names),
             pending_changes: 0,
+            seen_slots: 0,
+            shrink: Shrink::default(),
             boxes: graph.resource("light boxes"),
         }))
     }
@@ -93,26 +104,31 @@ impl RayQueryLights {
     /// Follows the lights' changes (before the scene's upload consumes their marks) and, when
     /// the method is `in_use`, plans this frame's structure work and makes room for it.
     pub fn prepare(&mut self, f: &mut Frame, mirror: &SceneMirror, in_use: bool) -> Result<RayQueryLightFrame, RenderError> {
-        self.pending_changes = self.pending_changes.saturating_add(mirror.lights.dirty_count() as u32);
         let slots = mirror.lights.slot_count();
+        // A slot count that moved (lights appended, or free slots trimmed off the end) changes
+        // which boxes are padding even where no record changed.
+        let moved = slots.abs_diff(std::mem::replace(&mut self.seen_slots, slots));
+        self.pending_changes = self.pending_changes.saturating_add(mirror.lights.dirty_count() as u32).saturating_add(moved);
         if !in_use || slots == 0 {
+            self.idle(&mut f.upload);
             return Ok(RayQueryLightFrame::default());
         }
         let need = build_count(slots, u32::MAX);
-        if need > self.capacity {
+        let smaller = self.shrink.check(self.capacity as u64, need as u64, 0).map(|c| c as u32);
+        if need > self.capacity || smaller.is_some() {
             // Room for the build and some growth; the boxes are all rewritten by the next build,
-            // which a larger count forces.
-            let capacity = need.next_power_of_two();
-            let size = capacity as u64 * BOX_BYTES + 4 * (capacity as u64 + 1);
-            let usage = vk::BufferUsageFlags::STORAGE_BUFFER
-                | vk::BufferUsageFlags::TRANSFER_DST
-                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
-                | vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR;
-            let buffer = Buffer::new(f.ctx, "light boxes", size, usage, MemoryLocation::GpuOnly)?;
+            // which a new buffer forces.
+            let capacity = smaller.unwrap_or(need.next_power_of_two());
+            let buffer = Buffer::new(f.ctx, "light boxes", Self::size(capacity), Self::USAGE, MemoryLocation::GpuOnly)?;
             if let Some(old) = self.buffer.replace(buffer) {
-                f.upload.graveyard.bury(f.upload.frame_value, Retired::Buffer(old));
+                match smaller {
+                    Some(_) => f.upload.bury_shrunk(old, Self::size(capacity)),
+                    None => f.upload.graveyard.bury(f.upload.frame_value, Retired::Buffer(old)),
+                }
             }
             self.capacity = capacity;
+            self.shrink.reset();
+            self.accel.forget();
         }
         let address = self.buffer.as_ref().expect("allocated above").address;
         let input = AabbInput { boxes: self.boxes, address, live: slots, capacity: self.capacity, changed: self.pending_changes };
@@ -126,6 +142,31 @@ impl RayQueryLights {
             work: Some((input, plan)),
         })
     }
+
+    /// A frame without ray-query lights: after [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] of
+    /// them in a row the boxes and the structures are released.
+    fn idle(&mut self, up: &mut Upload) {
+        self.accel.idle(up);
+        if self.buffer.is_some() && self.shrink.unused() {
+            if let Some(old) = self.buffer.take() {
+                up.bury_shrunk(old, 0);
+            }
+            self.capacity = 0;
+        }
+    }
+
+    /// Bytes of a box buffer for `capacity` boxes: the boxes, then the unbounded lights' count
+    /// and slots.
+    fn size(capacity: u32) -> u64 {
+        capacity as u64 * BOX_BYTES + 4 * (capacity as u64 + 1)
+    }
+
+    const USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
+        vk::BufferUsageFlags::STORAGE_BUFFER.as_raw()
+            | vk::BufferUsageFlags::TRANSFER_DST.as_raw()
+            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS.as_raw()
+            | vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR.as_raw(),
+    );
 
     /// Writes the boxes and brings the structures up to date (after the scene's upload): the
     /// passes `light_unbounded_clear`, `light_boxes`, then the BLAS and TLAS builds.

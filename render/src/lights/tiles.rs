@@ -14,7 +14,11 @@
 //!   entries or shadow rows than the buffers hold, the tiles that do not fit loop over every
 //!   light without shadows that frame (correct lighting, no light missing), the overflow is
 //!   counted ([`LightTileStats::overflowed`]), and when the CPU reads the needed totals back
-//!   (two frames later, with no wait) the buffers grow to a quarter more than that.
+//!   (two frames later, with no wait) the buffers grow to a quarter more than that. When the
+//!   need (with that quarter) has stayed at or below a quarter of a buffer for a second (60
+//!   frames), the buffer shrinks to its power of two, never below the floors (eight entries a
+//!   tile, a shadow row a tile); after a second without tiled lights, or without shadows, the
+//!   list or the shadow words are released ([`crate::gpu::upload::Shrink`]).
 //! - **Every light** ([`LightMethod::All`]) needs no culling; the shadow rows then hold every
 //!   light for every tile, which is affordable up to [`MAX_ALL_LIGHT_SHADOW_BYTES`].
 
@@ -27,6 +31,7 @@ use crate::gpu::device::GpuContext;
 use crate::gpu::memory::{Buffer, Retired};
 use crate::gpu::pipeline::create_compute;
 use crate::gpu::shaders;
+use crate::gpu::upload::Shrink;
 use crate::graph::readback::StatsReadback;
 use crate::graph::targets::DEPTH;
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
@@ -60,6 +65,8 @@ pub struct LightTileStats {
     pub tiles_used: u64,
     /// Times the buffers grew, since the renderer started.
     pub grows: u64,
+    /// Times the buffers shrank or were released (unused), since the renderer started.
+    pub shrinks: u64,
 }
 
 /// What a frame asks of light culling.
@@ -142,7 +149,12 @@ pub struct LightTiles {
     shadow_row_words: u32,
     readback: StatsReadback,
     latest: LightTileStats,
+    /// Shadow rows the last measured frame needed.
+    rows_needed: u64,
     grows: u64,
+    shrinks: u64,
+    list_shrink: Shrink,
+    shadow_shrink: Shrink,
     warned_all_shadows: bool,
     res: TileResources,
 }
@@ -175,7 +187,11 @@ impl LightTiles {
             shadow_row_words: 0,
             readback,
             latest: LightTileStats { measured_frame: u64::MAX, ..Default::default() },
+            rows_needed: 0,
             grows: 0,
+            shrinks: 0,
+            list_shrink: Shrink::default(),
+            shadow_shrink: Shrink::default(),
             warned_all_shadows: false,
             res: TileResources {
                 frusta: graph.resource("light tile frusta"),
@@ -200,9 +216,8 @@ impl LightTiles {
         let tiles = (extent.width.div_ceil(tile_size), extent.height.div_ceil(tile_size));
         let tile_count = tiles.0 * tiles.1;
         let tile_pixels = tile_size * tile_size;
-        let mut rows_needed = 0u64;
         if let Some((frame, words)) = self.readback.take(f) {
-            rows_needed = words[1] as u64;
+            self.rows_needed = words[1] as u64;
             self.latest = LightTileStats {
                 measured_frame: frame,
                 tiles: self.tiles_for.0 as u64 * self.tiles_for.1 as u64,
@@ -213,9 +228,10 @@ impl LightTiles {
                 max_per_tile: words[3] as u64,
                 tiles_used: words[4] as u64,
                 grows: self.grows,
+                shrinks: self.shrinks,
             };
         }
-        let (graveyard, frame_value) = (&mut *f.upload.graveyard, f.upload.frame_value);
+        let frame_value = f.upload.frame_value;
         let tiled = method == LightMethod::Tiled;
         let mut frame = TileFrame { tile_size, tiles, tiled, ..Default::default() };
 
@@ -225,13 +241,13 @@ impl LightTiles {
             let floor = tile_count.saturating_mul(light_slots.min(8)).max(1024);
             let needed = self.latest.entries.min(u32::MAX as u64 / 2) as u32;
             let mut capacity = self.list_capacity.max(floor);
+            let smaller = self.list_shrink.check(self.list_capacity as u64, (needed + needed / 4) as u64, floor as u64);
             if needed > capacity {
                 capacity = (needed + needed / 4).next_power_of_two();
+            } else if let Some(smaller) = smaller {
+                capacity = smaller as u32;
             }
             if self.tiles.is_none() || capacity != self.list_capacity || self.tiles_for != (tiles.0, tiles.1, tile_size) {
-                if self.tiles.is_some() && capacity != self.list_capacity {
-                    self.grows += 1;
-                }
                 let size = (LIGHT_TILE_HEADER as u64 + 3 * tile_count as u64 + capacity as u64) * 4;
                 let usage = vk::BufferUsageFlags::STORAGE_BUFFER
                     | vk::BufferUsageFlags::TRANSFER_DST
@@ -239,7 +255,15 @@ impl LightTiles {
                     | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
                 let buffer = Buffer::new(ctx, "light tiles", size, usage, MemoryLocation::GpuOnly)?;
                 if let Some(old) = self.tiles.replace(buffer) {
-                    graveyard.bury(frame_value, Retired::Buffer(old));
+                    if capacity < self.list_capacity {
+                        self.shrinks += 1;
+                        f.upload.bury_shrunk(old, size);
+                    } else {
+                        if capacity > self.list_capacity {
+                            self.grows += 1;
+                        }
+                        f.upload.graveyard.bury(frame_value, Retired::Buffer(old));
+                    }
                 }
                 let frusta = Buffer::new(
                     ctx,
@@ -249,10 +273,11 @@ impl LightTiles {
                     MemoryLocation::GpuOnly,
                 )?;
                 if let Some(old) = self.frusta.replace(frusta) {
-                    graveyard.bury(frame_value, Retired::Buffer(old));
+                    f.upload.graveyard.bury(frame_value, Retired::Buffer(old));
                     self.frusta_key = None;
                 }
                 self.list_capacity = capacity;
+                self.list_shrink.reset();
                 self.tiles_for = (tiles.0, tiles.1, tile_size);
             }
             let key = (proj.to_cols_array().map(f32::to_bits), extent.width, extent.height, tile_size);
@@ -261,19 +286,36 @@ impl LightTiles {
             frame.light_tiles = self.tiles.as_ref().map_or(0, |b| b.address);
             frame.tile_frusta = self.frusta.as_ref().map_or(0, |b| b.address);
             frame.list_capacity = self.list_capacity;
+        } else if self.tiles.is_some() && self.list_shrink.unused() {
+            // A second without tiled lights: the list and the frusta go.
+            for old in [self.tiles.take(), self.frusta.take()].into_iter().flatten() {
+                f.upload.bury_shrunk(old, 0);
+            }
+            (self.list_capacity, self.frusta_key, self.tiles_for) = (0, None, (0, 0, 0));
+            self.shrinks += 1;
         }
 
+        let mut shadow_used = false;
         if shadows {
-            let rows = if tiled {
+            let same_size = tile_pixels == self.shadow_row_words;
+            // `rows`: what a new or grown buffer gets; `need`: what this frame needs at the least.
+            let (rows, need) = if tiled {
                 // A row per 32 entries of each tile's list: at first one per tile, then what the
                 // last measured frame needed.
                 // Rows measured at another tile size say nothing about this one.
                 let floor = tile_count.max(64);
-                let kept = if tile_pixels == self.shadow_row_words { self.shadow_rows.max(floor) } else { floor };
-                let needed = if tile_pixels == self.shadow_row_words { rows_needed.min(u32::MAX as u64 / 2) as u32 } else { 0 };
-                if needed > kept { (needed + needed / 4).next_power_of_two() } else { kept }
+                let kept = if same_size { self.shadow_rows.max(floor) } else { floor };
+                let needed = if same_size { self.rows_needed.min(u32::MAX as u64 / 2) as u32 } else { 0 };
+                (if needed > kept { (needed + needed / 4).next_power_of_two() } else { kept }, floor.max(needed + needed / 4))
             } else {
-                tile_count * light_slots.div_ceil(32).max(1)
+                let rows = tile_count * light_slots.div_ceil(32).max(1);
+                (rows, rows)
+            };
+            let smaller = self.shadow_shrink.check(self.shadow_rows as u64, need as u64, 0);
+            let rows = if self.shadow.is_none() || !same_size || rows > self.shadow_rows {
+                rows
+            } else {
+                smaller.map_or(self.shadow_rows, |r| r as u32)
             };
             let bytes = rows as u64 * tile_pixels as u64 * 4;
             if !tiled && bytes > MAX_ALL_LIGHT_SHADOW_BYTES {
@@ -285,7 +327,8 @@ impl LightTiles {
                     );
                 }
             } else {
-                if self.shadow.is_none() || rows > self.shadow_rows || tile_pixels != self.shadow_row_words {
+                shadow_used = true;
+                if self.shadow.is_none() || rows != self.shadow_rows || !same_size {
                     // (A smaller buffer after a tile-size change: `rows` came from the floor.)
                     let buffer = Buffer::new(
                         ctx,
@@ -295,21 +338,36 @@ impl LightTiles {
                         MemoryLocation::GpuOnly,
                     )?;
                     if let Some(old) = self.shadow.replace(buffer) {
-                        graveyard.bury(frame_value, Retired::Buffer(old));
-                        self.grows += 1;
+                        if bytes < old.size {
+                            self.shrinks += 1;
+                            f.upload.bury_shrunk(old, bytes);
+                        } else {
+                            self.grows += 1;
+                            f.upload.graveyard.bury(frame_value, Retired::Buffer(old));
+                        }
                     }
                     (self.shadow_rows, self.shadow_row_words) = (rows, tile_pixels);
+                    self.shadow_shrink.reset();
                 }
                 frame.shadows = true;
                 frame.shadow_bits = self.shadow.as_ref().map_or(0, |b| b.address);
                 frame.shadow_rows = self.shadow_rows;
             }
         }
+        if !shadow_used && self.shadow.is_some() && self.shadow_shrink.unused() {
+            // A second without shadow words: they go.
+            if let Some(old) = self.shadow.take() {
+                f.upload.bury_shrunk(old, 0);
+            }
+            (self.shadow_rows, self.shadow_row_words) = (0, 0);
+            self.shrinks += 1;
+        }
         *stats = LightTileStats {
             tiles: tile_count as u64,
             tile_size: tile_size as u64,
             capacity: frame.list_capacity as u64,
             grows: self.grows,
+            shrinks: self.shrinks,
             ..self.latest
         };
         Ok(frame)

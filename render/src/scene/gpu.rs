@@ -6,6 +6,19 @@
 //! update-after-bind array of combined image samplers (set 0, binding 0), indexed by the slots the
 //! mirror hands out. A freed slot returns to the mirror only after the GPU has finished every
 //! frame that could sample it, so a descriptor is never rewritten under a pending frame.
+//!
+//! **Giving memory back.** The mirror's tables take the lowest free slot and are trimmed at the
+//! start of every frame ([`SceneMirror::trim`]), so their slot counts fall when the highest
+//! records go; a table whose slot count has stayed at or below a quarter of its capacity for
+//! [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] frames is replaced by one with room for the
+//! count's power of two (through the graveyard, like a grow) and every record is uploaded again
+//! ([`crate::gpu::upload::Shrink`]). Never below the table's initial capacity, its floor: 64
+//! instances, materials, decals, decal boxes, meshes and decal-order entries, 16 lights and
+//! decal materials, one camera and one lighting record (about 20 KiB in all). Kept as they are:
+//! the bindless texture array (its textures are freed with their assets), the samplers and the
+//! descriptor set. The decal boxes past the slot count are padding a BLAS build may read, so the
+//! places a trim drops are re-parked ([`SlotTable::trimmed_tail`]). The mirror's CPU vectors keep
+//! their capacity.
 
 use ash::vk;
 use bytemuck::Pod;
@@ -14,7 +27,7 @@ use gpu_allocator::MemoryLocation;
 use crate::RenderError;
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::memory::{Buffer, Image, ImageDesc, Retired};
-use crate::gpu::upload::{CopyList, Upload};
+use crate::gpu::upload::{CopyList, Shrink, StagingRing, Upload};
 use crate::graph::{Bind, BufferUse, Frame, FrameGraph, PassContext, PassKind, ResourceId};
 use crate::layout::GpuLighting;
 use crate::scene::{
@@ -32,16 +45,22 @@ pub const STORAGE_BINDINGS: u32 = crate::layout::BINDING_HDR_STORAGE - TARGET_BI
 const _: () = assert!(crate::layout::BINDING_DECAL_ALBEDO == TARGET_BINDINGS + 1, "storage bindings follow the sampled targets");
 const BINDINGS: usize = 1 + (TARGET_BINDINGS + STORAGE_BINDINGS) as usize;
 
-/// A device-local array of records that grows geometrically.
+/// A device-local array of records that grows geometrically and shrinks by the
+/// [`Shrink`] rule, never below its initial capacity.
 pub struct GpuTable {
     name: &'static str,
     buffer: Buffer,
     capacity: u32,
+    /// The initial capacity, which it never shrinks below.
+    floor: u32,
     stride: u64,
     extra_usage: vk::BufferUsageFlags,
-    /// Fill the slots past the mirror's high-water mark when the buffer is (re)created, for
-    /// readers that consume the whole capacity (the decal BLAS build).
+    /// Fill the slots past the mirror's high-water mark when the buffer is (re)created, and
+    /// those a trim drops, for readers that go past it (the decal BLAS build).
     fill_tail: bool,
+    shrink: Shrink,
+    /// The capacity this frame replaces the buffer with ([`GpuTable::plan`]).
+    planned: Option<u32>,
 }
 
 impl GpuTable {
@@ -58,7 +77,7 @@ impl GpuTable {
     ) -> Result<Self, RenderError> {
         let stride = std::mem::size_of::<T>() as u64;
         let buffer = Self::create(ctx, name, stride * capacity as u64, extra_usage)?;
-        Ok(Self { name, buffer, capacity, stride, extra_usage, fill_tail })
+        Ok(Self { name, buffer, capacity, floor: capacity, stride, extra_usage, fill_tail, shrink: Shrink::default(), planned: None })
     }
 
     fn create(ctx: &GpuContext, name: &str, size: u64, extra_usage: vk::BufferUsageFlags) -> Result<Buffer, RenderError> {
@@ -89,29 +108,52 @@ impl GpuTable {
         self.buffer.raw
     }
 
-    /// Makes room for `slots` records. Returns true when the buffer was replaced, in which case
-    /// every record must be uploaded again.
-    fn ensure(&mut self, up: &mut Upload, slots: u32) -> Result<bool, RenderError> {
-        if slots <= self.capacity {
-            return Ok(false);
+    /// Decides, once a frame, whether the buffer is replaced this frame for `slots` records:
+    /// grown (geometrically) when they do not fit, shrunk by the [`Shrink`] rule. Returns
+    /// true when it will be (every record must then be uploaded again).
+    fn plan(&mut self, slots: u32) -> bool {
+        let smaller = self.shrink.check(self.capacity as u64, slots as u64, self.floor as u64);
+        self.planned =
+            if slots > self.capacity { Some(slots.next_power_of_two().max(self.capacity * 2)) } else { smaller.map(|c| c as u32) };
+        self.planned.is_some()
+    }
+
+    /// Replaces the buffer as planned (the old one waits in the graveyard for the frames that
+    /// use it). Returns true when it did, in which case every record must be uploaded again.
+    fn apply(&mut self, up: &mut Upload) -> Result<bool, RenderError> {
+        let Some(capacity) = self.planned.take() else { return Ok(false) };
+        let size = self.stride * capacity as u64;
+        let old = std::mem::replace(&mut self.buffer, Self::create(up.ctx, self.name, size, self.extra_usage)?);
+        if capacity < self.capacity {
+            tracing::debug!(table = self.name, from = self.capacity, to = capacity, "table shrinks");
+            up.bury_shrunk(old, size);
+        } else {
+            up.graveyard.bury(up.frame_value, Retired::Buffer(old));
         }
-        let capacity = slots.next_power_of_two().max(self.capacity * 2);
-        let old = std::mem::replace(&mut self.buffer, Self::create(up.ctx, self.name, self.stride * capacity as u64, self.extra_usage)?);
-        up.graveyard.bury(up.frame_value, Retired::Buffer(old));
+        self.shrink.reset();
         self.capacity = capacity;
         Ok(true)
     }
+
+    /// The capacity the buffer has once this frame's plan is applied.
+    fn planned_capacity(&self) -> u32 {
+        self.planned.unwrap_or(self.capacity)
+    }
 }
 
-/// Makes records for never-used slots `first..first + count` from the live records.
-type TailFn<T> = fn(&[T], u32, u32) -> Box<dyn Iterator<Item = T> + '_>;
+/// Fills `out` with records for unused slots from `first` on, made from the live records.
+type TailFn<T> = fn(&[T], u32, &mut [T]);
 
-fn decal_parking(live: &[GpuAabb], first: u32, count: u32) -> Box<dyn Iterator<Item = GpuAabb> + '_> {
-    Box::new(GpuAabb::parking(live, first, count))
+fn decal_parking(live: &[GpuAabb], first: u32, out: &mut [GpuAabb]) {
+    for (slot, parked) in out.iter_mut().zip(GpuAabb::parking(live, first, u32::MAX)) {
+        *slot = parked;
+    }
 }
 
-/// Copies the dirty records of `table` (or all of them after a regrow) through the staging ring
-/// into `gpu`. Contiguous dirty slots become one copy region.
+/// Copies the dirty records of `table` (or all of them after the buffer was replaced) through
+/// the staging ring into `gpu`. Contiguous dirty slots become one copy region. With a `tail`,
+/// the slots past the table's count are filled with its records when the buffer is replaced,
+/// and those a trim dropped are filled again.
 fn upload_table<T: Pod>(
     up: &mut Upload,
     copies: &mut CopyList,
@@ -119,31 +161,36 @@ fn upload_table<T: Pod>(
     gpu: &mut GpuTable,
     tail: Option<TailFn<T>>,
 ) -> Result<(), RenderError> {
-    let regrown = gpu.ensure(up, table.slot_count())?;
-    if !regrown && table.dirty_count() == 0 {
+    let replaced = gpu.apply(up)?;
+    let capacity = gpu.capacity;
+    let trimmed = table.trimmed_tail();
+    let refill = match tail {
+        Some(_) if !replaced => trimmed.start.min(capacity)..trimmed.end.min(capacity),
+        _ => 0..0,
+    };
+    if !replaced && table.dirty_count() == 0 && refill.is_empty() {
         return Ok(());
     }
     let stride = gpu.stride;
-    let capacity = gpu.capacity;
     let mut copy = copies.buffer_copy(up.staging.buffer(), gpu.buffer());
     let staging = &mut *up.staging;
     table.take_dirty(|dirty, records| {
-        if regrown {
+        // Records `tail` makes for slots `range`, written straight into the staging ring.
+        let mut park = |range: std::ops::Range<u32>| {
+            let Some(tail) = tail.filter(|_| !range.is_empty()) else { return };
+            let len = (range.end - range.start) as u64 * stride;
+            let src = staging.push_with(len as usize, |dst| tail(records, range.start, bytemuck::cast_slice_mut(dst)));
+            copy.push(src, range.start as u64 * stride, len);
+        };
+        if replaced {
+            park(records.len() as u32..capacity);
             let bytes = bytemuck::cast_slice(records);
             if !bytes.is_empty() {
                 copy.push(staging.push(bytes), 0, bytes.len() as u64);
             }
-            if let Some(tail) = tail {
-                // Only when the table grows (geometrically), so this allocation is rare.
-                let first = records.len() as u32;
-                let parked: Vec<T> = tail(records, first, capacity - first).collect();
-                let bytes: &[u8] = bytemuck::cast_slice(&parked);
-                if !bytes.is_empty() {
-                    copy.push(staging.push(bytes), first as u64 * stride, bytes.len() as u64);
-                }
-            }
             return;
         }
+        park(refill.clone());
         let mut i = 0;
         while i < dirty.len() {
             let first = dirty[i];
@@ -172,10 +219,11 @@ impl<T: Pod> DirtyTable for SlotTable<T> {
     }
 }
 
-/// Uploads a whole array into `gpu` (growing it as needed). For small tables that change
-/// rarely (the mesh table, the deferred decal order).
+/// Uploads a whole array into `gpu` (replaced first when planned: [`GpuTable::plan`] with the
+/// array's length). For small tables that change rarely (the mesh table, the deferred decal
+/// order).
 fn upload_array(up: &mut Upload, copies: &mut CopyList, gpu: &mut GpuTable, bytes: &[u8]) -> Result<(), RenderError> {
-    gpu.ensure(up, (bytes.len() as u64).div_ceil(gpu.stride) as u32)?;
+    gpu.apply(up)?;
     if !bytes.is_empty() {
         let src = up.staging.push(bytes);
         copies.buffer_copy(up.staging_buffer(), gpu.buffer()).push(src, 0, bytes.len() as u64);
@@ -184,14 +232,17 @@ fn upload_array(up: &mut Upload, copies: &mut CopyList, gpu: &mut GpuTable, byte
     Ok(())
 }
 
-/// Bytes the dirty records of `table` need in the staging ring (worst case: all of them).
+/// Bytes the dirty records of `table` need in the staging ring (worst case: all of them), after
+/// the frame's [`GpuTable::plan`].
 fn staging_need<T: Pod>(table: &SlotTable<T>, gpu: &GpuTable) -> u64 {
     let stride = std::mem::size_of::<T>() as u64;
-    if table.slot_count() > gpu.capacity {
-        // The whole new capacity (records plus any tail), in one piece per slot at worst.
-        table.slot_count().next_power_of_two().max(gpu.capacity * 2) as u64 * (stride + 16) + 16
+    if gpu.planned.is_some() {
+        // The whole new capacity (records plus any tail), in two pieces.
+        gpu.planned_capacity() as u64 * stride + 48
     } else {
-        table.dirty_count() as u64 * (stride + 16)
+        // Contiguous slots share a piece; a trimmed tail to re-park is one more.
+        let trimmed = if gpu.fill_tail { table.trimmed_tail() } else { 0..0 };
+        table.dirty_count() as u64 * (stride + 16) + (trimmed.end - trimmed.start) as u64 * stride + 16
     }
 }
 
@@ -538,7 +589,37 @@ impl GpuScene {
             }
         }
 
-        if mirror.is_clean() && !self.decal_order_dirty && !self.lighting_dirty && self.builtins.is_empty() {
+        // Once a frame, whether or not anything changed: the tables (and below, the ring) grow
+        // or shrink.
+        let mut replaced = false;
+        let tables: [(&mut GpuTable, u32); 6] = [
+            (&mut self.instances, mirror.instances.slot_count()),
+            (&mut self.materials, mirror.materials.slot_count()),
+            (&mut self.lights, mirror.lights.slot_count()),
+            (&mut self.decals, mirror.decals.records.slot_count()),
+            (&mut self.decal_aabbs, mirror.decals.aabbs.slot_count()),
+            (&mut self.decal_materials, mirror.decal_materials.slot_count()),
+        ];
+        for (gpu, slots) in tables {
+            replaced |= gpu.plan(slots);
+        }
+        let meshes = mirror.pending_meshes.iter().map(|(id, _)| id.0 as usize + 1).fold(self.mesh_info.len(), usize::max);
+        if self.mesh_table.plan(meshes as u32) {
+            self.mesh_info_dirty = true;
+        }
+        if self.decal_order.plan(self.decal_order_cpu.len() as u32) {
+            self.decal_order_dirty = true;
+        }
+        let trimmed_boxes = !mirror.decals.aabbs.trimmed_tail().is_empty();
+        if mirror.is_clean()
+            && !replaced
+            && !trimmed_boxes
+            && !self.mesh_info_dirty
+            && !self.decal_order_dirty
+            && !self.lighting_dirty
+            && self.builtins.is_empty()
+        {
+            StagingRing::fit(up, 0)?;
             return Ok(0);
         }
         let camera_dirty = mirror.take_camera_dirty();
@@ -549,12 +630,12 @@ impl GpuScene {
             + staging_need(&mirror.decals.aabbs, &self.decal_aabbs)
             + staging_need(&mirror.decal_materials, &self.decal_materials)
             + 2 * (std::mem::size_of::<GpuMeshInfo>() * (self.mesh_info.len() + mirror.pending_meshes.len())) as u64
-            + 2 * (4 * self.decal_order_cpu.len()) as u64
+            + if self.decal_order_dirty { 2 * (4 * self.decal_order_cpu.len()) as u64 } else { 0 }
             + 64
             + std::mem::size_of::<GpuCamera>() as u64
             + std::mem::size_of::<GpuLighting>() as u64
             + 96;
-        up.staging.reserve(up.ctx, up.graveyard, up.frame_value, need)?;
+        StagingRing::fit(up, need)?;
 
         let mut copies = std::mem::take(&mut self.copies);
         copies.clear();
@@ -568,7 +649,10 @@ impl GpuScene {
         for (slot, data) in std::mem::take(&mut mirror.pending_textures) {
             self.prepare_texture(up, &mut copies, slot, &data)?;
         }
-        let decal_boxes_changed = mirror.decals.aabbs.dirty_count() as u32;
+        // Boxes rewritten, counting the places a trim dropped (re-parked below), as a refit
+        // must pick those up too.
+        let trimmed = mirror.decals.aabbs.trimmed_tail();
+        let decal_boxes_changed = mirror.decals.aabbs.dirty_count() as u32 + (trimmed.end - trimmed.start);
         let tables: [(&mut dyn DirtyTable, &mut GpuTable); 5] = [
             (&mut mirror.instances, &mut self.instances),
             (&mut mirror.materials, &mut self.materials),

@@ -8,6 +8,9 @@
 
 pub mod gpu;
 
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec2, Vec3};
 
@@ -260,6 +263,14 @@ impl DecalTable {
         self.records.remove(slot);
     }
 
+    /// Drops the free record slots and box places at the ends of their tables
+    /// ([`SlotTable::trim`]): the boxes, being dense, end at [`DecalTable::len`].
+    pub fn trim(&mut self) {
+        self.records.trim();
+        self.aabbs.trim();
+        self.box_of.truncate(self.records.slot_count() as usize);
+    }
+
     /// Live decals.
     pub fn len(&self) -> usize {
         self.records.len()
@@ -334,6 +345,14 @@ pub struct FrameCounters {
     pub light_blas_builds: u64,
     /// Ray-query lights' BLAS refits (lights changed within the built range).
     pub light_blas_updates: u64,
+    /// GPU buffers and acceleration structures replaced by smaller ones, or released after going
+    /// unused, this frame (record tables, decal and light structures and their scratch, light
+    /// boxes, decal clusters, light tiles, the scene TLAS, staging rings: see
+    /// [`crate::gpu::upload::Shrink`]).
+    pub buffer_shrinks: u64,
+    /// Bytes of GPU memory those shrinks hand back (freed once the GPU has finished the frames
+    /// that used the old buffers).
+    pub bytes_released: u64,
     /// Live mesh instances.
     pub instances: u64,
     /// Live lights.
@@ -366,6 +385,8 @@ pub struct DecalClusterStats {
     pub dropped: u64,
     /// Times the cluster buffer grew, since the renderer started.
     pub grows: u64,
+    /// Times the cluster buffer shrank or was released (unused), since the renderer started.
+    pub shrinks: u64,
     /// Most decals in one cluster.
     pub max_per_cluster: u64,
     /// Shaded pixels the decal pass visited.
@@ -382,30 +403,47 @@ pub struct DecalClusterStats {
 
 /// Records in stable slots with a free list, plus the set of slots written since the last drain.
 ///
-/// `alloc` reuses the lowest freed slot first (a binary heap would be overkill: the free list is
-/// a stack, which keeps recently freed, cache-warm slots in use). A slot is dirty from `write`
-/// or `free` until [`SlotTable::take_dirty`] hands it to the uploader.
+/// [`SlotTable::insert`] takes the *lowest* free slot (a min-heap of free slots), so under churn
+/// live records drift towards the low slots and the high ones empty; [`SlotTable::trim`] then
+/// drops the free slots at the end, and the table's slot count (the high-water mark the GPU
+/// buffer must hold, and that passes loop over) falls with what is live, where a stack of freed
+/// slots would keep it at its peak forever. A live record never moves: extraction keys entities
+/// by slot. A slot is dirty from `write` or a release until [`SlotTable::take_dirty`] hands it
+/// to the uploader, or until a trim drops it (the slot no longer exists; the uploader re-parks
+/// what the GPU holds past the new count where a table needs that, see
+/// [`SlotTable::trimmed_tail`]).
 #[derive(Clone, Debug)]
 pub struct SlotTable<T: Pod> {
     records: Vec<T>,
     live: Vec<bool>,
-    free: Vec<u32>,
+    /// Free slots below `records.len()`, lowest first.
+    free: BinaryHeap<Reverse<u32>>,
     dirty: Vec<u32>,
     is_dirty: Vec<bool>,
     live_count: usize,
+    /// The slot count at the last drain: what the GPU buffer was last brought up to.
+    synced: u32,
 }
 
 impl<T: Pod> Default for SlotTable<T> {
     fn default() -> Self {
-        Self { records: Vec::new(), live: Vec::new(), free: Vec::new(), dirty: Vec::new(), is_dirty: Vec::new(), live_count: 0 }
+        Self {
+            records: Vec::new(),
+            live: Vec::new(),
+            free: BinaryHeap::new(),
+            dirty: Vec::new(),
+            is_dirty: Vec::new(),
+            live_count: 0,
+            synced: 0,
+        }
     }
 }
 
 impl<T: Pod> SlotTable<T> {
-    /// Takes a free slot (or appends one) and writes `record` into it.
+    /// Takes the lowest free slot (or appends one) and writes `record` into it.
     pub fn insert(&mut self, record: T) -> u32 {
         let slot = match self.free.pop() {
-            Some(slot) => slot,
+            Some(Reverse(slot)) => slot,
             None => {
                 self.records.push(T::zeroed());
                 self.live.push(false);
@@ -413,6 +451,7 @@ impl<T: Pod> SlotTable<T> {
                 (self.records.len() - 1) as u32
             }
         };
+        debug_assert!(!self.live[slot as usize], "the free list holds only free slots");
         self.live[slot as usize] = true;
         self.live_count += 1;
         self.write(slot, record);
@@ -442,7 +481,31 @@ impl<T: Pod> SlotTable<T> {
         self.live_count -= 1;
         self.records[i] = parked;
         self.mark_dirty(slot);
-        self.free.push(slot);
+        self.free.push(Reverse(slot));
+    }
+
+    /// Drops the free slots at the end of the table, so [`SlotTable::slot_count`] is one past
+    /// the highest live slot (0 when none is live). Their pending uploads are dropped with them;
+    /// live slots and their records are untouched. The renderer calls this once a frame, before
+    /// anything reads the slot count; until then a released slot keeps its parked record.
+    pub fn trim(&mut self) {
+        let count = self.live.iter().rposition(|&live| live).map_or(0, |last| last + 1);
+        if count == self.records.len() {
+            return;
+        }
+        self.records.truncate(count);
+        self.live.truncate(count);
+        self.is_dirty.truncate(count);
+        self.dirty.retain(|&slot| (slot as usize) < count);
+        self.free.retain(|&Reverse(slot)| (slot as usize) < count);
+    }
+
+    /// Slots the GPU buffer was last brought up to that a trim has dropped since: from the slot
+    /// count to the count at the last drain (empty when nothing was trimmed). The GPU still holds
+    /// whatever was last uploaded there; a table whose readers go past the slot count (the decal
+    /// boxes a BLAS build pads with) re-parks them.
+    pub fn trimmed_tail(&self) -> std::ops::Range<u32> {
+        self.slot_count()..self.synced.max(self.slot_count())
     }
 
     fn mark_dirty(&mut self, slot: u32) {
@@ -463,7 +526,8 @@ impl<T: Pod> SlotTable<T> {
         &self.records
     }
 
-    /// Number of slots ever allocated (the GPU buffer must hold this many).
+    /// One past the highest slot in use since the last [`SlotTable::trim`] (the GPU buffer must
+    /// hold this many; passes loop over them).
     pub fn slot_count(&self) -> u32 {
         self.records.len() as u32
     }
@@ -491,6 +555,7 @@ impl<T: Pod> SlotTable<T> {
             self.is_dirty[slot as usize] = false;
         }
         self.dirty.clear();
+        self.synced = self.slot_count();
     }
 }
 
@@ -657,9 +722,22 @@ impl SceneMirror {
         self.counters = FrameCounters::default();
     }
 
-    /// Forgets every pending upload, as if an uploader had copied it all (for uploaders other
-    /// than the GPU renderer, and for tests without a GPU).
+    /// Drops the free slots at the end of every table ([`SlotTable::trim`]) and the draws past
+    /// the instances'. The renderer calls this at the start of each frame, so slot counts (and
+    /// the GPU tables and passes that follow them) fall when the highest records go away.
+    pub fn trim(&mut self) {
+        self.instances.trim();
+        self.draws.truncate(self.instances.slot_count() as usize);
+        self.materials.trim();
+        self.lights.trim();
+        self.decals.trim();
+        self.decal_materials.trim();
+    }
+
+    /// Forgets every pending upload, as if an uploader had trimmed the tables and copied it all
+    /// (for uploaders other than the GPU renderer, and for tests without a GPU).
     pub fn clear_dirty(&mut self) {
+        self.trim();
         self.instances.take_dirty(|_, _| {});
         self.materials.take_dirty(|_, _| {});
         self.lights.take_dirty(|_, _| {});
@@ -702,6 +780,107 @@ mod tests {
         assert_eq!(t.get(c), Some(&3), "other slots keep their place");
         assert_eq!(t.insert(4), b, "a freed slot is reused");
         assert_eq!(t.len(), 3);
+    }
+
+    #[test]
+    fn new_records_take_the_lowest_free_slot_and_a_trim_drops_the_free_tail() {
+        let mut t = SlotTable::<u32>::default();
+        for i in 0..8 {
+            t.insert(i);
+        }
+        t.take_dirty(|_, _| {});
+        for slot in [5, 2, 6] {
+            t.remove(slot);
+        }
+        assert_eq!(t.insert(100), 2, "the lowest free slot, not the last freed");
+        assert_eq!(t.insert(101), 5);
+        t.remove(7);
+        assert_eq!(t.slot_count(), 8, "until a trim, a released slot keeps its parked record");
+        t.trim();
+        assert_eq!(t.slot_count(), 6, "slots 6 and 7 are free at the end: dropped");
+        assert_eq!(t.records().len(), 6, "the GPU buffer holds slot_count() records");
+        assert_eq!(t.trimmed_tail(), 6..8, "the GPU still holds what was uploaded to slots 6 and 7");
+        assert_eq!((t.get(0), t.get(4), t.get(5)), (Some(&0), Some(&4), Some(&101)), "live records stay where they are");
+        let mut dirty = Vec::new();
+        t.take_dirty(|slots, records| dirty.extend(slots.iter().map(|&s| (s, records[s as usize]))));
+        assert_eq!(dirty, vec![(2, 100), (5, 101)], "the dropped slots' releases are not uploaded out of bounds");
+        assert_eq!(t.trimmed_tail(), 6..6, "a drain brings the GPU up to the new count");
+        assert_eq!(t.insert(200), 6, "past the end again: appended");
+        assert_eq!(t.len(), 7);
+        for slot in 0..7 {
+            t.remove(slot);
+        }
+        t.trim();
+        assert_eq!((t.slot_count(), t.len(), t.dirty_count()), (0, 0, 0), "an emptied table has no slots");
+        assert_eq!(t.insert(300), 0);
+    }
+
+    #[test]
+    fn under_churn_live_records_move_to_low_slots_and_the_slot_count_follows_them() {
+        // Records live for a while and die oldest first (decals with a lifetime): 100 at once,
+        // then 10. New records take the lowest free slots, so once the old ones have died the
+        // 10 live records sit in slots 0..10 and a trim brings the slot count down to 10. (A
+        // stack of freed slots hands a new record the slot the oldest just left, wherever it
+        // is, and the count stays near 100.)
+        let mut t = SlotTable::<u32>::default();
+        let mut alive = std::collections::VecDeque::new();
+        for i in 0..100 {
+            alive.push_back(t.insert(i));
+        }
+        for round in 0..300u32 {
+            let population = if round < 100 { 100 } else { 10 };
+            while alive.len() >= population {
+                t.remove(alive.pop_front().expect("not empty"));
+            }
+            alive.push_back(t.insert(round));
+            t.trim();
+            t.take_dirty(|_, _| {});
+        }
+        assert_eq!(t.len(), 10);
+        assert_eq!(t.slot_count(), 10, "the live records are in the lowest slots");
+        let mut slots: Vec<u32> = alive.iter().copied().collect();
+        slots.sort_unstable();
+        assert_eq!(slots, (0..10).collect::<Vec<u32>>());
+    }
+
+    #[test]
+    fn a_trimmed_decal_table_keeps_its_boxes_dense() {
+        let desc = |x: f32| DecalDesc {
+            decal_to_world: Mat4::from_translation(Vec3::new(x, 0.0, 0.0)),
+            material: 0,
+            uv_corners: [Vec2::ZERO; 4],
+            channel: 0,
+            weight: 1.0,
+            receivers: 1,
+            opacity: 1.0,
+            angle_fade: None,
+        };
+        let mut t = DecalTable::default();
+        let slots: Vec<u32> = (0..6).map(|i| t.write(None, &desc(i as f32))).collect();
+        t.records.take_dirty(|_, _| {});
+        t.aabbs.take_dirty(|_, _| {});
+        t.remove(slots[0]);
+        t.remove(slots[5]);
+        t.remove(slots[4]);
+        t.trim();
+        assert_eq!(t.records.slot_count(), 4, "record slots 4 and 5 are free at the end; 0 is a hole");
+        assert_eq!(t.aabbs.slot_count(), 3, "the boxes end at the live count");
+        assert_eq!(t.aabbs.trimmed_tail(), 3..6, "box places 3..6 are re-parked on the GPU");
+        for i in 0..3 {
+            let b = t.aabbs.get(i).expect("dense");
+            assert_eq!((b.min[0] + b.max[0]) * 0.5, b.slot as f32, "box {i} is its record's");
+        }
+        let again = t.write(None, &desc(0.0));
+        assert_eq!(again, 0, "the hole is reused first");
+        t.write(Some(again), &desc(0.0));
+        let next = t.write(None, &desc(4.0));
+        assert_eq!(next, 4);
+        assert_eq!((t.len(), t.aabbs.slot_count()), (5, 5));
+        for slot in [0, 1, 2, 3, 4] {
+            t.remove(slot);
+        }
+        t.trim();
+        assert_eq!((t.records.slot_count(), t.aabbs.slot_count(), t.len()), (0, 0, 0));
     }
 
     #[test]
@@ -764,7 +943,8 @@ mod tests {
         check(&t);
         assert_eq!(t.aabbs.get(3), None, "the tail is free");
         assert_eq!(t.aabbs.records()[3].slot, NO_DECAL, "and its box belongs to no decal");
-        let again = t.write(None, &desc(4.0));
+        let again = t.write(None, &desc(1.0));
+        assert_eq!(again, slots[1], "the lowest free record slot");
         check(&t);
         t.write(Some(again), &desc(again as f32));
         check(&t);

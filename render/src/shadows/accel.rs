@@ -20,6 +20,13 @@
 //!
 //! A frame with no change records no acceleration-structure work (`scene_blas_builds`,
 //! `scene_tlas_builds` and `scene_tlas_updates` in the counters say what each frame did).
+//!
+//! **Memory.** The TLAS and its instance records follow the instance table's slot count, which
+//! falls when the highest instances go ([`crate::scene::SceneMirror::trim`]): grown to the
+//! count's power of two when it passes the room, shrunk to it (never below 64 instances) when
+//! it has stayed at or below a quarter of the room for a second (60 frames,
+//! [`crate::gpu::upload::Shrink`]), and rebuilt then, the scratch following. With no instance
+//! there is no TLAS to trace (nothing casts a shadow). A mesh's BLAS goes with its mesh.
 
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -30,6 +37,7 @@ use crate::gpu::device::GpuContext;
 use crate::gpu::memory::{Buffer, Retired};
 use crate::gpu::pipeline::create_compute;
 use crate::gpu::shaders;
+use crate::gpu::upload::Shrink;
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::scene::gpu::GpuScene;
 use crate::scene::{FrameCounters, GpuVertex, MeshId, SceneMirror};
@@ -107,9 +115,16 @@ pub struct SceneAccel {
     queries: vk::QueryPool,
     free_queries: Vec<u32>,
     scratch: Scratch,
+    /// The TLAS shrank: the scratch follows at the next build.
+    shrink_scratch: bool,
+    /// When the TLAS has room for far more instances than there are.
+    tlas_shrink: Shrink,
     instance_pass: vk::Pipeline,
     res: SceneAccelResources,
 }
+
+/// Instances the TLAS has room for at the least.
+const TLAS_FLOOR: u32 = 64;
 
 /// The frame-graph resources of the scene's structures.
 #[derive(Clone, Copy, Debug)]
@@ -156,6 +171,8 @@ impl SceneAccel {
             queries,
             free_queries: (0..QUERIES).rev().collect(),
             scratch: Scratch::new(ctx, "scene as scratch"),
+            shrink_scratch: false,
+            tlas_shrink: Shrink::default(),
             instance_pass,
             res: SceneAccelResources {
                 blas: graph.resource("scene blas"),
@@ -251,17 +268,26 @@ impl SceneAccel {
             self.pending_rearranged = true;
         }
 
-        // The instances: what changed, and room for them.
+        // The instances: what changed, and room for them (`shrunk`: old and new sizes of what a
+        // shrink replaces).
+        let mut shrunk = [(0u64, 0u64); 2];
         self.pending_rearranged |= mirror.take_instances_rearranged() || mirror.materials.dirty_count() > 0;
         self.pending_moved += mirror.instances.dirty_count() as u32;
         let count = mirror.instances.slot_count();
+        if count == 0 {
+            // Nothing to trace (the TLAS may name BLASes that are gone): no TLAS until there is.
+            self.built = None;
+        }
         let work = plan_tlas_work(self.built, count, self.pending_rearranged, self.pending_moved, self.updated_since_build);
-        if count > self.tlas_capacity {
-            let capacity = count.next_power_of_two().max(64);
+        let smaller = self.tlas_shrink.check(self.tlas_capacity as u64, count as u64, TLAS_FLOOR as u64).map(|c| c as u32);
+        if count > self.tlas_capacity || smaller.is_some() {
+            let capacity = smaller.unwrap_or(count.next_power_of_two().max(TLAS_FLOOR));
             let geometry = [instances_geometry(0)];
             let sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::TOP_LEVEL, TLAS_FLAGS, &geometry, &[capacity]);
             let tlas = AccelStruct::new(ctx, vk::AccelerationStructureTypeKHR::TOP_LEVEL, sizes.acceleration_structure_size, "scene tlas")?;
+            let tlas_bytes = tlas.buffer.size;
             if let Some(old) = self.tlas.replace(tlas) {
+                shrunk[0] = (old.buffer.size, tlas_bytes);
                 old.bury(graveyard, frame_value);
             }
             let instances = Buffer::new(
@@ -273,11 +299,20 @@ impl SceneAccel {
                     | vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR,
                 MemoryLocation::GpuOnly,
             )?;
+            let instance_bytes = instances.size;
             if let Some(old) = self.instances.replace(instances) {
+                shrunk[1] = (old.size, instance_bytes);
                 graveyard.bury(frame_value, Retired::Buffer(old));
             }
             self.tlas_capacity = capacity;
             self.built = None; // a new structure: the next work is a build
+            self.tlas_shrink.reset();
+            self.shrink_scratch |= smaller.is_some();
+        }
+        if smaller.is_some() {
+            for (old, new) in shrunk {
+                f.upload.count_shrink(old, new);
+            }
         }
         let work = if self.built.is_none() && count > 0 { TlasWork::Build } else { work };
         Ok(SceneAccelFrame {
@@ -302,7 +337,7 @@ impl SceneAccel {
         let ctx = f.ctx;
         let Some(rt) = ctx.ray_tracing.as_ref() else { return Ok(()) };
         let asx = &rt.acceleration_structure;
-        let (graveyard, frame_value) = (&mut *f.upload.graveyard, f.upload.frame_value);
+        let frame_value = f.upload.frame_value;
 
         // New BLASes, each with its own piece of scratch.
         let mut builds: Vec<(usize, u64)> = Vec::new();
@@ -326,7 +361,10 @@ impl SceneAccel {
         let scratch = if builds.is_empty() && frame.work == TlasWork::None {
             0
         } else {
-            self.scratch.ensure(ctx, graveyard, frame_value, scratch_need)?
+            if std::mem::take(&mut self.shrink_scratch) {
+                self.scratch.shrink_to(&mut f.upload, scratch_need)?;
+            }
+            self.scratch.ensure(ctx, f.upload.graveyard, frame_value, scratch_need)?
         };
         let res = self.res;
         if !builds.is_empty() {
