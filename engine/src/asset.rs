@@ -217,6 +217,13 @@ impl<T: Send + Sync + 'static> Assets<T> {
         })
     }
 
+    /// Records [`AssetEvent::Modified`] for every live asset, so that consumers process them all
+    /// again (e.g. a renderer that was replaced and must upload everything).
+    pub fn touch_all(&mut self) {
+        let handles: Vec<_> = self.iter().map(|(h, _)| h).collect();
+        self.events.extend(handles.into_iter().map(AssetEvent::Modified));
+    }
+
     /// Events recorded since the last drain, oldest first. Meant for a single consumer.
     pub fn drain_events(&mut self) -> std::vec::Drain<'_, AssetEvent<T>> {
         self.events.drain(..)

@@ -19,11 +19,11 @@ use render::scene::{
     DrawItem, GpuCamera, GpuInstance, GpuMaterial, MATERIAL_ALPHA_MASK, MATERIAL_DOUBLE_SIDED, MeshId, SceneMirror, TEXTURE_FLAT_NORMAL,
     TEXTURE_WHITE, TextureData,
 };
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use crate::decal::{DEFAULT_RECEIVER_LAYERS, Decal, DecalMaterial, DecalReceiver, decal_desc, gpu_decal_material};
 use crate::validate::{self, WarnOnce};
-use crate::{RenderMirror, RenderSettings};
+use crate::{RenderMirror, RenderSettings, RenderStats};
 
 /// Where each asset and entity lives in the mirror.
 #[derive(Resource, Default)]
@@ -44,6 +44,58 @@ impl MirrorSlots {
     pub fn light_slot(&self, entity: Entity) -> Option<u32> {
         self.lights.get(&entity).copied()
     }
+}
+
+/// Entities that found their table at its [`crate::SceneLimits`] limit and wait for room.
+#[derive(Default)]
+pub struct Waiting {
+    entities: HashSet<Entity>,
+    warned: bool,
+}
+
+impl Waiting {
+    /// Whether `entity`, which has no slot yet, may take one in a table of `live` records:
+    /// otherwise it waits (one warning when the table first fills up).
+    fn admit(&mut self, entity: Entity, live: usize, limit: u32, what: &str) -> bool {
+        if live < limit as usize {
+            self.forget(entity);
+            return true;
+        }
+        self.entities.insert(entity);
+        if !self.warned {
+            self.warned = true;
+            tracing::warn!(
+                "the {what} limit of {limit} is reached: further {what}s are not drawn until others are despawned (RenderSettings::limits)"
+            );
+        }
+        false
+    }
+
+    /// `entity` no longer waits (despawned, admitted, or no longer drawable).
+    fn forget(&mut self, entity: Entity) {
+        self.entities.remove(&entity);
+        if self.entities.is_empty() {
+            self.warned = false;
+        }
+    }
+
+    /// Up to as many waiting entities as there is room for in a table of `live` records.
+    fn retry(&self, live: usize, limit: u32) -> Vec<Entity> {
+        let room = (limit as usize).saturating_sub(live);
+        if room == 0 { Vec::new() } else { self.entities.iter().copied().take(room).collect() }
+    }
+
+    /// Number of entities waiting.
+    fn len(&self) -> u64 {
+        self.entities.len() as u64
+    }
+}
+
+/// The bookkeeping of an entity-extracting system: who was warned about, who waits for room.
+#[derive(Default)]
+pub struct EntityChecks {
+    warned: WarnOnce<Entity>,
+    waiting: Waiting,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
@@ -260,14 +312,15 @@ type ChangedInstance = Or<(Changed<MeshInstance>, Changed<GlobalTransform>, Chan
 pub fn extract_instances(
     changed: Query<(Entity, &MeshInstance, &GlobalTransform, Option<&DecalReceiver>), ChangedInstance>,
     all: Query<(Entity, &MeshInstance, &GlobalTransform, Option<&DecalReceiver>)>,
-    mut removed: RemovedComponents<MeshInstance>,
-    mut removed_receivers: RemovedComponents<DecalReceiver>,
-    mut mirror: ResMut<RenderMirror>,
-    mut slots: ResMut<MirrorSlots>,
+    (mut removed, mut removed_receivers): (RemovedComponents<MeshInstance>, RemovedComponents<DecalReceiver>),
+    (mut mirror, mut slots): (ResMut<RenderMirror>, ResMut<MirrorSlots>),
     live: Query<(), With<MeshInstance>>,
-    mut warned: Local<WarnOnce<Entity>>,
+    mut checks: Local<EntityChecks>,
+    (settings, mut stats): (Res<RenderSettings>, ResMut<RenderStats>),
 ) {
+    let EntityChecks { warned, waiting } = &mut *checks;
     let mirror = &mut mirror.0;
+    let limit = settings.limits.clamped().instances;
     // An instance that lost its DecalReceiver falls back to the default layers.
     let lost_receiver = removed_receivers.read().filter_map(|e| all.get(e).ok());
     for entity in removed.read() {
@@ -275,11 +328,13 @@ pub fn extract_instances(
             continue; // removed and re-added in the same frame: handled as a change below
         }
         warned.forget(entity);
+        waiting.forget(entity);
         if let Some(slot) = slots.instances.remove(&entity) {
             mirror.remove_instance(slot);
         }
     }
-    for (entity, inst, global, receiver) in changed.iter().chain(lost_receiver) {
+    let retry = waiting.retry(mirror.instances.len(), limit);
+    for (entity, inst, global, receiver) in changed.iter().chain(lost_receiver).chain(retry.iter().filter_map(|&e| all.get(e).ok())) {
         let world = global.compute_matrix();
         let mesh = slots.meshes.get(&inst.mesh).copied();
         let problem = match mesh {
@@ -288,11 +343,15 @@ pub fn extract_instances(
         };
         warned.report(entity, "mesh instance", problem, "not drawn until it is fixed");
         let Some(mesh) = mesh.filter(|_| problem.is_none()) else {
+            waiting.forget(entity);
             if let Some(slot) = slots.instances.remove(&entity) {
                 mirror.remove_instance(slot);
             }
             continue;
         };
+        if !slots.instances.contains_key(&entity) && !waiting.admit(entity, mirror.instances.len(), limit, "mesh instance") {
+            continue;
+        }
         let (material, flags) = slots.materials.get(&inst.material).copied().unwrap_or((slots.default_material, DrawFlags::default()));
         let layers = receiver.map_or(DEFAULT_RECEIVER_LAYERS, |r| r.0);
         let record = GpuInstance::new(world, material, layers);
@@ -300,6 +359,7 @@ pub fn extract_instances(
         let slot = mirror.set_instance(slots.instances.get(&entity).copied(), record, draw);
         slots.instances.insert(entity, slot);
     }
+    stats.over_limit.instances = waiting.len();
 }
 
 type ChangedLight = Or<(Changed<GlobalTransform>, Changed<PointLight>, Changed<SpotLight>, Changed<DirectionalLight>)>;
@@ -308,26 +368,33 @@ type ChangedLight = Or<(Changed<GlobalTransform>, Changed<PointLight>, Changed<S
 #[allow(clippy::type_complexity)]
 pub fn extract_lights(
     changed: Query<(Entity, &GlobalTransform, Option<&PointLight>, Option<&SpotLight>, Option<&DirectionalLight>), ChangedLight>,
-    mut removed_point: RemovedComponents<PointLight>,
-    mut removed_spot: RemovedComponents<SpotLight>,
-    mut removed_dir: RemovedComponents<DirectionalLight>,
+    all: Query<(Entity, &GlobalTransform, Option<&PointLight>, Option<&SpotLight>, Option<&DirectionalLight>)>,
+    (mut removed_point, mut removed_spot, mut removed_dir): (
+        RemovedComponents<PointLight>,
+        RemovedComponents<SpotLight>,
+        RemovedComponents<DirectionalLight>,
+    ),
     live: Query<(), Or<(With<PointLight>, With<SpotLight>, With<DirectionalLight>)>>,
-    mut mirror: ResMut<RenderMirror>,
-    mut slots: ResMut<MirrorSlots>,
-    mut warned: Local<WarnOnce<Entity>>,
+    (mut mirror, mut slots): (ResMut<RenderMirror>, ResMut<MirrorSlots>),
+    mut checks: Local<EntityChecks>,
+    (settings, mut stats): (Res<RenderSettings>, ResMut<RenderStats>),
 ) {
+    let EntityChecks { warned, waiting } = &mut *checks;
     let mirror = &mut mirror.0;
+    let limit = settings.limits.clamped().lights;
     for entity in removed_point.read().chain(removed_spot.read()).chain(removed_dir.read()) {
         if live.contains(entity) {
             continue;
         }
         warned.forget(entity);
+        waiting.forget(entity);
         if let Some(slot) = slots.lights.remove(&entity) {
             mirror.lights.remove(slot);
             mirror.counters.records_written += 1;
         }
     }
-    for (entity, global, point, spot, dir) in &changed {
+    let retry = waiting.retry(mirror.lights.len(), limit);
+    for (entity, global, point, spot, dir) in changed.iter().chain(retry.iter().filter_map(|&e| all.get(e).ok())) {
         if point.is_none() && spot.is_none() && dir.is_none() {
             continue; // a moved entity that is not a light
         }
@@ -338,6 +405,7 @@ pub fn extract_lights(
             }
             Err(problem) => {
                 warned.report(entity, "light", Some(problem), "not drawn until it is fixed");
+                waiting.forget(entity);
                 if let Some(slot) = slots.lights.remove(&entity) {
                     mirror.lights.remove(slot);
                     mirror.counters.records_written += 1;
@@ -345,9 +413,13 @@ pub fn extract_lights(
                 continue;
             }
         };
+        if !slots.lights.contains_key(&entity) && !waiting.admit(entity, mirror.lights.len(), limit, "light") {
+            continue;
+        }
         let slot = SceneMirror::write(&mut mirror.counters, &mut mirror.lights, slots.lights.get(&entity).copied(), record);
         slots.lights.insert(entity, slot);
     }
+    stats.over_limit.lights = waiting.len();
 }
 
 /// Builds the camera record from the first active camera. The mirror ignores an identical
@@ -436,26 +508,32 @@ type ChangedDecal = Or<(Changed<Decal>, Changed<GlobalTransform>)>;
 /// stable slots, with their boxes; frees despawned ones. Unchanged decals cost nothing.
 pub fn extract_decals(
     changed: Query<(Entity, &Decal, &GlobalTransform), ChangedDecal>,
+    all: Query<(Entity, &Decal, &GlobalTransform)>,
     mut removed: RemovedComponents<Decal>,
     live: Query<(), With<Decal>>,
-    mut mirror: ResMut<RenderMirror>,
-    mut slots: ResMut<MirrorSlots>,
-    mut warned: Local<WarnOnce<Entity>>,
+    (mut mirror, mut slots): (ResMut<RenderMirror>, ResMut<MirrorSlots>),
+    mut checks: Local<EntityChecks>,
+    (settings, mut stats): (Res<RenderSettings>, ResMut<RenderStats>),
 ) {
+    let EntityChecks { warned, waiting } = &mut *checks;
     let mirror = &mut mirror.0;
+    let limit = settings.limits.clamped().decals;
     for entity in removed.read() {
         if live.contains(entity) {
             continue;
         }
         warned.forget(entity);
+        waiting.forget(entity);
         if let Some(slot) = slots.decals.remove(&entity) {
             mirror.decals.remove(slot);
             mirror.counters.records_written += 1;
         }
     }
-    for (entity, decal, global) in &changed {
+    let retry = waiting.retry(mirror.decals.len(), limit);
+    for (entity, decal, global) in changed.iter().chain(retry.iter().filter_map(|&e| all.get(e).ok())) {
         let Some(&material) = slots.decal_materials.get(&decal.material) else {
             warned.report(entity, "decal", Some("refers to a decal material that does not exist"), "not drawn");
+            waiting.forget(entity);
             if let Some(slot) = slots.decals.remove(&entity) {
                 mirror.decals.remove(slot);
                 mirror.counters.records_written += 1;
@@ -475,8 +553,12 @@ pub fn extract_decals(
             desc.angle_fade = None;
         }
         warned.report(entity, "decal", problem, "not drawn until it is fixed");
+        if !slots.decals.contains_key(&entity) && !waiting.admit(entity, mirror.decals.len(), limit, "decal") {
+            continue;
+        }
         let slot = mirror.decals.write(slots.decals.get(&entity).copied(), &desc);
         mirror.counters.records_written += 1;
         slots.decals.insert(entity, slot);
     }
+    stats.over_limit.decals = waiting.len();
 }

@@ -66,6 +66,49 @@ pub struct RenderSettings {
     /// Deferred lighting and visibility-buffer shading in compute (false: full-screen fragment
     /// passes).
     pub compute_shading: bool,
+    /// How many mesh instances, lights and decals the scene tables hold at most.
+    pub limits: SceneLimits,
+}
+
+/// How many mesh instances, lights and decals the renderer's tables hold. An entity that would
+/// pass its limit is not drawn: it waits, and gets a slot as soon as others are despawned, in
+/// the order it arrived. Reaching a limit logs one warning (again only after everything fitted
+/// in between); [`RenderStats::over_limit`] counts the entities waiting.
+///
+/// The defaults are [`SceneLimits::MAX`]: instances are capped at 2²⁴ because a ray-tracing
+/// instance's custom index, which carries its slot, has 24 bits; lights and decals at 2²⁰ (a
+/// million), where their tables, boxes and acceleration structures take about 200 and
+/// 300 MiB of GPU memory. Lower limits bound memory on smaller GPUs; higher ones are clamped
+/// to `MAX`. Memory that runs out before a limit is reached ends the app with an error naming
+/// the frame and the allocation ([`render::RenderError::OutOfMemory`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SceneLimits {
+    /// Mesh instances.
+    pub instances: u32,
+    /// Point, spot and directional lights together.
+    pub lights: u32,
+    /// Decals.
+    pub decals: u32,
+}
+
+impl SceneLimits {
+    /// The largest limits (and the defaults).
+    pub const MAX: SceneLimits = SceneLimits { instances: 1 << 24, lights: 1 << 20, decals: 1 << 20 };
+
+    /// These limits, each at most [`SceneLimits::MAX`]'s.
+    pub fn clamped(self) -> SceneLimits {
+        SceneLimits {
+            instances: self.instances.min(Self::MAX.instances),
+            lights: self.lights.min(Self::MAX.lights),
+            decals: self.decals.min(Self::MAX.decals),
+        }
+    }
+}
+
+impl Default for SceneLimits {
+    fn default() -> Self {
+        Self::MAX
+    }
 }
 
 impl RenderSettings {
@@ -87,6 +130,7 @@ impl Default for RenderSettings {
             show_decal_boxes: false,
             lights: render::LightSettings::default(),
             compute_shading: true,
+            limits: SceneLimits::MAX,
         }
     }
 }
@@ -142,6 +186,45 @@ pub fn start_renderer(world: &mut World, surface_extensions: Vec<&'static std::f
     Ok(())
 }
 
+/// Replaces the offscreen renderer with one made from `settings` (another tier, another device,
+/// validation on or off) and re-extracts the whole scene into it: the mirror starts empty and
+/// every asset and every mirrored component is marked changed, so the next frame uploads
+/// everything, as a first frame does. The old renderer is dropped first (it waits for its GPU
+/// work). On error the app has no renderer; [`RenderStats::last_error`] holds the reason.
+pub fn restart_renderer(world: &mut World, settings: render::RendererSettings) -> Result<(), render::RenderError> {
+    drop(world.remove_resource::<GpuRenderer>());
+    world.insert_resource(RendererConfig(settings));
+    let (mirror, slots) = fresh_mirror();
+    world.insert_resource(mirror);
+    world.insert_resource(slots);
+    fn touch_assets<T: Send + Sync + 'static>(world: &mut World) {
+        if let Some(mut assets) = world.get_resource_mut::<engine::asset::Assets<T>>() {
+            assets.touch_all();
+        }
+    }
+    fn touch<C: Component<Mutability = bevy_ecs::component::Mutable>>(world: &mut World) {
+        for mut c in world.query::<&mut C>().iter_mut(world) {
+            c.set_changed();
+        }
+    }
+    touch_assets::<engine::image::Image>(world);
+    touch_assets::<engine::material::Material>(world);
+    touch_assets::<engine::mesh::Mesh>(world);
+    touch_assets::<decal::DecalMaterial>(world);
+    touch::<engine::scene::MeshInstance>(world);
+    touch::<engine::light::PointLight>(world);
+    touch::<engine::light::SpotLight>(world);
+    touch::<engine::light::DirectionalLight>(world);
+    touch::<decal::Decal>(world);
+    // The new renderer numbers its frames from 0 again: frames of the old one will never finish.
+    world.resource_mut::<RenderStats>().pending.clear();
+    let started = start_renderer(world, Vec::new());
+    if let Err(e) = &started {
+        world.resource_mut::<RenderStats>().last_error = Some(format!("could not restart the renderer: {e}"));
+    }
+    started
+}
+
 /// The CPU copy of the GPU scene that extraction writes.
 #[derive(Resource)]
 pub struct RenderMirror(pub SceneMirror);
@@ -187,6 +270,17 @@ pub struct FrameStats {
     pub counters: FrameCounters,
 }
 
+/// How many entities of each kind wait for room (see [`SceneLimits`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct OverLimitCounts {
+    /// Mesh instances.
+    pub instances: u64,
+    /// Lights.
+    pub lights: u64,
+    /// Decals.
+    pub decals: u64,
+}
+
 /// Counters of the last frame and a queue of finished frames' statistics.
 #[derive(Resource, Default)]
 pub struct RenderStats {
@@ -199,6 +293,8 @@ pub struct RenderStats {
     pub completed: VecDeque<FrameStats>,
     /// The last error the renderer reported, if any.
     pub last_error: Option<String>,
+    /// Entities waiting for room because their table is at its [`SceneLimits`] limit.
+    pub over_limit: OverLimitCounts,
     extract_started: Option<Instant>,
     extract_ms: f32,
 }
@@ -206,6 +302,8 @@ pub struct RenderStats {
 impl RenderStats {
     /// Completed frames kept when nobody drains them.
     pub const MAX_COMPLETED: usize = 256;
+    /// The most frames kept waiting for their GPU times (far more than are ever in flight).
+    pub const MAX_PENDING: usize = 16;
 
     fn complete(&mut self, frame: u64, gpu: PassTimes) {
         while let Some(front) = self.pending.front() {
@@ -245,14 +343,17 @@ impl RenderPlugin {
     }
 }
 
+/// An empty mirror holding only the default material, and its slot maps.
+fn fresh_mirror() -> (RenderMirror, MirrorSlots) {
+    let mut mirror = SceneMirror::new();
+    let default_material = mirror.materials.insert(GpuMaterial::default());
+    (RenderMirror(mirror), MirrorSlots::new(default_material))
+}
+
 impl Plugin for RenderPlugin {
     fn build(&self, app: &mut App) {
-        let mut mirror = SceneMirror::new();
-        let default_material = mirror.materials.insert(GpuMaterial::default());
-        app.insert_resource(self.settings.clone())
-            .insert_resource(RenderMirror(mirror))
-            .insert_resource(MirrorSlots::new(default_material))
-            .insert_resource(RenderStats::default());
+        let (mirror, slots) = fresh_mirror();
+        app.insert_resource(self.settings.clone()).insert_resource(mirror).insert_resource(slots).insert_resource(RenderStats::default());
         app.schedule_mut(Render).configure_sets((RenderSystems::Extract, RenderSystems::Render).chain());
         app.add_systems(
             Render,
@@ -290,14 +391,14 @@ fn end_extract(mut stats: ResMut<RenderStats>, mirror: Res<RenderMirror>) {
 /// Hands the mirror to the renderer: uploads what changed, records and submits the frame.
 fn render_frame(
     renderer: Option<ResMut<GpuRenderer>>,
-    window: Option<ResMut<WindowTarget>>,
-    overlay: Option<ResMut<OverlayInput>>,
+    (window, overlay): (Option<ResMut<WindowTarget>>, Option<ResMut<OverlayInput>>),
     mut mirror: ResMut<RenderMirror>,
     settings: Res<RenderSettings>,
     mut stats: ResMut<RenderStats>,
-    mut bad_size: Local<Option<(u32, u32)>>,
+    (mut bad_size, mut failed): (Local<Option<(u32, u32)>>, Local<bool>),
+    mut commands: Commands,
 ) {
-    let Some(mut renderer) = renderer else {
+    let Some(mut renderer) = renderer.filter(|_| !*failed) else {
         return;
     };
     // Offscreen, the render target follows RenderSettings::size (a window follows its surface).
@@ -351,10 +452,22 @@ fn render_frame(
             if let Some(done) = report.finished {
                 stats.complete(done.frame, done.gpu);
             }
+            // Frames whose timings never come (their renderer was replaced, or they were read
+            // by `Renderer::finish` directly) must not pile up.
+            while stats.pending.len() > RenderStats::MAX_PENDING {
+                stats.pending.pop_front();
+            }
         }
         Err(e) => {
-            tracing::error!("frame failed: {e}");
+            // A fatal error (device lost, memory exhausted) ends the app: the failed frame left
+            // work half-recorded, so no later frame is drawn. Any other error is reported and
+            // the next frame tries again.
+            tracing::error!("rendering failed: {e}");
             stats.last_error = Some(e.to_string());
+            if e.is_fatal() {
+                *failed = true;
+                commands.insert_resource(AppExit::Error(format!("rendering failed: {e}")));
+            }
         }
     }
 }

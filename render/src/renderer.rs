@@ -284,10 +284,14 @@ impl Renderer {
             let semaphores = [res.timeline];
             let values = [slot.value];
             // SAFETY: waiting on a live semaphore for a value a submitted batch will signal.
-            unsafe { d.wait_semaphores(&vk::SemaphoreWaitInfo::default().semaphores(&semaphores).values(&values), u64::MAX) }?;
+            unsafe { d.wait_semaphores(&vk::SemaphoreWaitInfo::default().semaphores(&semaphores).values(&values), u64::MAX) }
+                .map_err(|e| RenderError::from(e).in_frame(frame, "waiting for the GPU to free a frame slot"))?;
         }
         let acquired = match &mut window {
-            Some((surface, overlay)) => match res.acquire(ctx, surface, overlay.as_deref_mut(), slot_index)? {
+            Some((surface, overlay)) => match res
+                .acquire(ctx, surface, overlay.as_deref_mut(), slot_index)
+                .map_err(|e| e.in_frame(frame, "acquiring the swapchain image"))?
+            {
                 Some(image) => Some(image),
                 None => return Ok(None),
             },
@@ -297,7 +301,8 @@ impl Renderer {
         let slot = &mut res.frames[slot_index];
         let finished = slot.timer.collect(ctx).map(|gpu| FinishedFrame { frame: slot.frame, gpu });
         // SAFETY: the semaphore is live.
-        let completed = unsafe { d.get_semaphore_counter_value(res.timeline) }?;
+        let completed = unsafe { d.get_semaphore_counter_value(res.timeline) }
+            .map_err(|e| RenderError::from(e).in_frame(frame, "reading the GPU's progress"))?;
         // CPU time is measured from here: waiting for the GPU is not recording.
         let start = Instant::now();
         res.graveyard.collect(ctx, completed);
@@ -305,8 +310,14 @@ impl Renderer {
         let frame_value = frame + 1;
         // SAFETY: the slot's previous submission has completed, so its pool may be reset.
         unsafe {
-            d.reset_command_pool(slot.pool, vk::CommandPoolResetFlags::empty())?;
-            d.begin_command_buffer(slot.cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))?;
+            d.reset_command_pool(slot.pool, vk::CommandPoolResetFlags::empty())
+                .and_then(|()| {
+                    d.begin_command_buffer(
+                        slot.cmd,
+                        &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+                    )
+                })
+                .map_err(|e| RenderError::from(e).in_frame(frame, "beginning the command buffer"))?;
         }
         let cmd = slot.cmd;
 
@@ -352,11 +363,12 @@ impl Renderer {
             decal_choice,
         };
         let lights = match settings.pipeline {
-            PipelineKind::Forward => forward_frame(&mut f, &mut parts, mirror, settings)?,
-            PipelineKind::ForwardPlus => forward_plus_frame(&mut f, &mut parts, mirror, settings)?,
-            PipelineKind::Deferred => deferred_frame(&mut f, &mut parts, mirror, settings)?,
-            PipelineKind::VisBuffer => visbuffer_frame(&mut f, &mut parts, mirror, settings)?,
-        };
+            PipelineKind::Forward => forward_frame(&mut f, &mut parts, mirror, settings),
+            PipelineKind::ForwardPlus => forward_plus_frame(&mut f, &mut parts, mirror, settings),
+            PipelineKind::Deferred => deferred_frame(&mut f, &mut parts, mirror, settings),
+            PipelineKind::VisBuffer => visbuffer_frame(&mut f, &mut parts, mirror, settings),
+        }
+        .map_err(|e| e.in_frame(frame, "uploading the scene and recording the frame's passes"))?;
         mirror.counters.buffer_shrinks += f.upload.shrinks;
         mirror.counters.bytes_released += f.upload.bytes_released;
         if let (Some((surface, _)), Some(image)) = (&mut window, &acquired) {
@@ -373,7 +385,7 @@ impl Renderer {
         let decal_method = decal_choice.applied;
 
         // SAFETY: recording is complete; the submit signals the timeline with this frame's value.
-        unsafe {
+        let submitted: Result<(), vk::Result> = unsafe {
             d.end_command_buffer(cmd)?;
             let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
             // Fixed-size arrays, sliced: a steady-state frame allocates nothing.
@@ -396,10 +408,11 @@ impl Renderer {
                 .command_buffer_infos(&cmds)
                 .wait_semaphore_infos(&waits[..n])
                 .signal_semaphore_infos(&signals[..1 + n]);
-            d.queue_submit2(ctx.queue, &[submit], vk::Fence::null())?;
-        }
+            d.queue_submit2(ctx.queue, &[submit], vk::Fence::null())
+        };
+        submitted.map_err(|e| RenderError::from(e).in_frame(frame, "submitting the frame"))?;
         if let (Some((surface, _)), Some(image)) = (&mut window, &acquired) {
-            surface.present(ctx, image)?;
+            surface.present(ctx, image).map_err(|e| e.in_frame(frame, "presenting the frame"))?;
         }
         let slot = &mut res.frames[slot_index];
         slot.value = frame_value;

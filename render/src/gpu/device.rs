@@ -13,7 +13,7 @@ use std::mem::ManuallyDrop;
 use std::sync::{Arc, Mutex};
 
 use ash::{ext, khr, vk};
-use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, Allocator, AllocatorCreateDesc};
 
 use crate::RenderError;
 
@@ -79,6 +79,11 @@ pub struct DeviceSettings {
     /// Instance extensions a window surface needs (empty when headless); see
     /// [`crate::present::window::required_extensions`].
     pub surface_extensions: Vec<&'static CStr>,
+    /// Most bytes of GPU memory the renderer may allocate; an allocation that would pass it fails
+    /// with [`RenderError::OutOfMemory`], as if the device had run out. `None` (the default):
+    /// only the device limits. For sharing a GPU with other work, and for testing the
+    /// out-of-memory path.
+    pub memory_budget: Option<u64>,
 }
 
 impl Default for DeviceSettings {
@@ -88,7 +93,7 @@ impl Default for DeviceSettings {
             Ok(_) => true,
             Err(_) => cfg!(debug_assertions),
         };
-        Self { validation, max_tier: Tier::RayQuery, surface_extensions: Vec::new() }
+        Self { validation, max_tier: Tier::RayQuery, surface_extensions: Vec::new(), memory_budget: None }
     }
 }
 
@@ -177,6 +182,8 @@ pub struct GpuContext {
     debug_utils: Option<(ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     /// Device limits.
     pub limits: vk::PhysicalDeviceLimits,
+    /// [`DeviceSettings::memory_budget`].
+    pub memory_budget: Option<u64>,
 }
 
 impl GpuContext {
@@ -346,6 +353,7 @@ impl GpuContext {
             validation_enabled: validation,
             debug_utils,
             limits: props.limits,
+            memory_budget: settings.memory_budget,
         })
     }
 
@@ -361,6 +369,28 @@ impl GpuContext {
     /// Locks the memory allocator.
     pub fn allocator(&self) -> std::sync::MutexGuard<'_, Allocator> {
         self.allocator.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Allocates memory through the allocator, within [`GpuContext::memory_budget`]. Running out
+    /// (of the budget or of the device) is [`RenderError::OutOfMemory`] naming the allocation.
+    pub fn allocate(&self, desc: &AllocationCreateDesc<'_>) -> Result<Allocation, RenderError> {
+        let mut allocator = self.allocator();
+        let out_of_memory = |allocator: &Allocator, budget| RenderError::OutOfMemory {
+            what: desc.name.to_owned(),
+            requested: desc.requirements.size,
+            in_use: allocator.generate_report().total_allocated_bytes,
+            budget,
+        };
+        if let Some(budget) = self.memory_budget {
+            let in_use = allocator.generate_report().total_allocated_bytes;
+            if in_use.saturating_add(desc.requirements.size) > budget {
+                return Err(out_of_memory(&allocator, Some(budget)));
+            }
+        }
+        allocator.allocate(desc).map_err(|e| match e {
+            gpu_allocator::AllocationError::OutOfMemory => out_of_memory(&allocator, self.memory_budget),
+            other => RenderError::Allocation(other),
+        })
     }
 
     /// Waits until the GPU is idle. Used before teardown, resizes and screenshots.

@@ -37,7 +37,7 @@ impl Buffer {
         let raw = unsafe { d.create_buffer(&vk::BufferCreateInfo::default().size(size).usage(usage), None) }?;
         // SAFETY: `raw` is a live buffer of this device.
         let requirements = unsafe { d.get_buffer_memory_requirements(raw) };
-        let allocation = ctx.allocator().allocate(&AllocationCreateDesc {
+        let allocation = ctx.allocate(&AllocationCreateDesc {
             name,
             requirements,
             location,
@@ -49,7 +49,7 @@ impl Buffer {
             Err(e) => {
                 // SAFETY: the buffer was never used.
                 unsafe { d.destroy_buffer(raw, None) };
-                return Err(e.into());
+                return Err(e);
             }
         };
         // SAFETY: the allocation satisfies the buffer's requirements and is not bound elsewhere.
@@ -131,7 +131,7 @@ impl Image {
         let raw = unsafe { d.create_image(&info, None) }?;
         // SAFETY: `raw` is a live image of this device.
         let requirements = unsafe { d.get_image_memory_requirements(raw) };
-        let allocation = ctx.allocator().allocate(&AllocationCreateDesc {
+        let allocation = ctx.allocate(&AllocationCreateDesc {
             name: desc.name,
             requirements,
             location: MemoryLocation::GpuOnly,
@@ -143,7 +143,7 @@ impl Image {
             Err(e) => {
                 // SAFETY: never used.
                 unsafe { d.destroy_image(raw, None) };
-                return Err(e.into());
+                return Err(e);
             }
         };
         // SAFETY: the allocation satisfies the image's requirements.
