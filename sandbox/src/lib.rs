@@ -23,5 +23,6 @@ pub mod game;
 pub mod headless;
 pub mod scatter;
 pub mod scene;
+pub mod soak;
 pub mod stats;
 pub mod window;

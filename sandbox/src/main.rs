@@ -6,6 +6,10 @@
 use std::path::PathBuf;
 
 use anyhow::{Result, bail};
+
+/// Counts the engine's heap for the soak's memory check.
+#[global_allocator]
+static ALLOCATOR: cap::Cap<std::alloc::System> = cap::Cap::new(std::alloc::System, usize::MAX);
 use clap::Parser;
 use render::{DebugView, DecalMethod, PipelineKind, Tier};
 use sandbox::game::play::run_scripted;
@@ -107,6 +111,20 @@ struct Cli {
     /// Windowed: resize the window to WIDTHxHEIGHT halfway through --exit-after (tests).
     #[arg(long, value_parser = parse_size)]
     resize_to: Option<(u32, u32)>,
+    /// Soak: --frames frames of random gameplay, switches, resizes and tier changes under
+    /// validation (see sandbox::soak), split into --soak-cycles cycles; prints a JSON report and
+    /// fails when the soak does. Uses --seed and --size (default 48x32 here).
+    #[arg(long)]
+    soak: bool,
+    /// Soak: cycles, each on a random tier and ending with everything despawned.
+    #[arg(long, default_value_t = 4)]
+    soak_cycles: u32,
+    /// Soak: without the validation layer (only to measure the layer's own cost).
+    #[arg(long)]
+    soak_without_validation: bool,
+    /// Soak: the seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
 }
 
 fn parse_debug_view(s: &str) -> Result<DebugView, String> {
@@ -168,6 +186,24 @@ fn main() -> Result<()> {
         .with_writer(std::io::stderr)
         .init();
     let cli = Cli::parse();
+    if cli.soak {
+        let size = if std::env::args().any(|a| a.starts_with("--size")) { cli.size } else { (48, 32) };
+        let mut config =
+            sandbox::soak::SoakConfig { seed: cli.seed, frames: cli.frames, cycles: cli.soak_cycles, size, ..Default::default() };
+        config.heap_bytes = Some(|| ALLOCATOR.allocated() as u64);
+        config.validation = !cli.soak_without_validation;
+        if std::env::args().any(|a| a.starts_with("--tier")) {
+            config.tiers = vec![cli.tier];
+        }
+        let report = sandbox::soak::run(&config)?;
+        println!("{}", serde_json::to_string_pretty(&report)?);
+        let failures = report.failures();
+        if !failures.is_empty() {
+            bail!("the soak failed:\n{}", failures.join("\n"));
+        }
+        println!("soak passed: {} frames in {:.0} s", report.frames_rendered, report.seconds);
+        return Ok(());
+    }
     let windowed = !cli.headless && sandbox::window::display_available();
     if !cli.headless && !windowed {
         eprintln!("sandbox: no display available (neither DISPLAY nor WAYLAND_DISPLAY is set); playing a short scene headless instead");
