@@ -325,6 +325,29 @@ impl LoadOptions {
     pub const STRICT: LoadOptions = LoadOptions { strict_textures: true };
 }
 
+/// Packs a glTF JSON document and its binary chunk into a GLB container (version 2), padding
+/// each chunk to 4 bytes; an empty `bin` writes no binary chunk. For tools and tests that build
+/// or rewrite models in memory.
+pub fn glb_container(json: &[u8], bin: &[u8]) -> Vec<u8> {
+    let mut json = json.to_vec();
+    json.resize(json.len().next_multiple_of(4), b' ');
+    let mut bin = bin.to_vec();
+    bin.resize(bin.len().next_multiple_of(4), 0);
+    let total = 12 + 8 + json.len() + if bin.is_empty() { 0 } else { 8 + bin.len() };
+    let mut out = b"glTF".to_vec();
+    out.extend(2u32.to_le_bytes());
+    out.extend((total as u32).to_le_bytes());
+    out.extend((json.len() as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(json);
+    if !bin.is_empty() {
+        out.extend((bin.len() as u32).to_le_bytes());
+        out.extend(b"BIN\0");
+        out.extend(bin);
+    }
+    out
+}
+
 /// Loads a `.gltf` or `.glb` file, resolving relative URIs against its directory, with the
 /// default [`LoadOptions`] (missing or broken textures are replaced with a warning).
 pub fn load(path: &Path) -> Result<GltfScene, GltfError> {
@@ -1199,25 +1222,8 @@ mod tests {
     use super::*;
     use ::gltf::json::Value;
 
-    /// A GLB container of `json` and `bin` (each padded to 4 bytes).
     fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
-        let mut json = json.as_bytes().to_vec();
-        json.resize(json.len().next_multiple_of(4), b' ');
-        let mut bin = bin.to_vec();
-        bin.resize(bin.len().next_multiple_of(4), 0);
-        let total = 12 + 8 + json.len() + if bin.is_empty() { 0 } else { 8 + bin.len() };
-        let mut out = b"glTF".to_vec();
-        out.extend(2u32.to_le_bytes());
-        out.extend((total as u32).to_le_bytes());
-        out.extend((json.len() as u32).to_le_bytes());
-        out.extend(b"JSON");
-        out.extend(json);
-        if !bin.is_empty() {
-            out.extend((bin.len() as u32).to_le_bytes());
-            out.extend(b"BIN\0");
-            out.extend(bin);
-        }
-        out
+        super::glb_container(json.as_bytes(), bin)
     }
 
     /// One triangle: three float positions (36 bytes) and u16 indices 0, 1, 2 (6 bytes, padded).

@@ -191,7 +191,8 @@ pub fn update_decal_lifetimes(mut commands: Commands, time: Res<Time>, mut decal
     for (entity, mut life, mut decal) in &mut decals {
         life.remaining -= dt;
         if life.remaining <= 0.0 {
-            commands.entity(entity).despawn();
+            // Silently, as the decal may be leaving this frame anyway with the entity it rides on.
+            commands.entity(entity).try_despawn();
             continue;
         }
         if life.remaining < life.fade_out {

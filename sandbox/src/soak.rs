@@ -248,6 +248,17 @@ impl SoakGameplay {
         self.rng.next_u64() % n.max(1)
     }
 
+    /// Takes a random handle out of a pool that holds more than two, counting the removal.
+    fn take_one<T>(&mut self, pool: impl Fn(&mut Self) -> &mut Vec<T>) -> Option<T> {
+        let len = pool(self).len() as u64;
+        if len <= 2 {
+            return None;
+        }
+        let i = self.below(len) as usize;
+        self.counts.assets_removed += 1;
+        Some(pool(self).swap_remove(i))
+    }
+
     fn point(&mut self, half: f32, y: (f32, f32)) -> Vec3 {
         Vec3::new(self.rng.range_f32(-half, half), self.rng.range_f32(y.0, y.1), self.rng.range_f32(-half, half))
     }
@@ -319,25 +330,25 @@ pub fn soak_gameplay(
         }));
         s.counts.assets_added += 1;
     }
-    if s.chance(0.01) && s.meshes.len() > 2 {
-        let i = s.below(s.meshes.len() as u64) as usize;
-        meshes.remove(s.meshes.swap_remove(i));
-        s.counts.assets_removed += 1;
+    if s.chance(0.01)
+        && let Some(h) = s.take_one(|s| &mut s.meshes)
+    {
+        meshes.remove(h);
     }
-    if s.chance(0.01) && s.textures.len() > 2 {
-        let i = s.below(s.textures.len() as u64) as usize;
-        images.remove(s.textures.swap_remove(i));
-        s.counts.assets_removed += 1;
+    if s.chance(0.01)
+        && let Some(h) = s.take_one(|s| &mut s.textures)
+    {
+        images.remove(h);
     }
-    if s.chance(0.01) && s.materials.len() > 2 {
-        let i = s.below(s.materials.len() as u64) as usize;
-        materials.remove(s.materials.swap_remove(i));
-        s.counts.assets_removed += 1;
+    if s.chance(0.01)
+        && let Some(h) = s.take_one(|s| &mut s.materials)
+    {
+        materials.remove(h);
     }
-    if s.chance(0.01) && s.decal_materials.len() > 2 {
-        let i = s.below(s.decal_materials.len() as u64) as usize;
-        decal_materials.remove(s.decal_materials.swap_remove(i));
-        s.counts.assets_removed += 1;
+    if s.chance(0.01)
+        && let Some(h) = s.take_one(|s| &mut s.decal_materials)
+    {
+        decal_materials.remove(h);
     }
 
     // Despawns first, remembered so that nothing is attached to an entity leaving this frame.

@@ -35,7 +35,7 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use bevy_ecs::world::World;
-use engine::gltf::{GltfError, GltfScene};
+use engine::gltf::{GltfError, GltfScene, glb_container as glb};
 use engine::image::{ColorSpace, Image};
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
@@ -56,27 +56,6 @@ fn read(path: &Path) -> Vec<u8> {
 
 // ---------------------------------------------------------------------------------------------
 // The models.
-
-/// A GLB of `json` and `bin`.
-fn glb(json: &[u8], bin: &[u8]) -> Vec<u8> {
-    let mut json = json.to_vec();
-    json.resize(json.len().next_multiple_of(4), b' ');
-    let mut bin = bin.to_vec();
-    bin.resize(bin.len().next_multiple_of(4), 0);
-    let total = 12 + 8 + json.len() + if bin.is_empty() { 0 } else { 8 + bin.len() };
-    let mut out = b"glTF".to_vec();
-    out.extend(2u32.to_le_bytes());
-    out.extend((total as u32).to_le_bytes());
-    out.extend((json.len() as u32).to_le_bytes());
-    out.extend(b"JSON");
-    out.extend(json);
-    if !bin.is_empty() {
-        out.extend((bin.len() as u32).to_le_bytes());
-        out.extend(b"BIN\0");
-        out.extend(bin);
-    }
-    out
-}
 
 /// The JSON and BIN chunks of a GLB.
 fn split_glb(bytes: &[u8]) -> (Vec<u8>, Vec<u8>) {

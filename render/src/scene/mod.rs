@@ -843,9 +843,9 @@ mod tests {
         assert_eq!(slots, (0..10).collect::<Vec<u32>>());
     }
 
-    #[test]
-    fn a_trimmed_decal_table_keeps_its_boxes_dense() {
-        let desc = |x: f32| DecalDesc {
+    /// A unit decal at `x` on the X axis.
+    fn desc(x: f32) -> DecalDesc {
+        DecalDesc {
             decal_to_world: Mat4::from_translation(Vec3::new(x, 0.0, 0.0)),
             material: 0,
             uv_corners: [Vec2::ZERO; 4],
@@ -854,7 +854,11 @@ mod tests {
             receivers: 1,
             opacity: 1.0,
             angle_fade: None,
-        };
+        }
+    }
+
+    #[test]
+    fn a_trimmed_decal_table_keeps_its_boxes_dense() {
         let mut t = DecalTable::default();
         let slots: Vec<u32> = (0..6).map(|i| t.write(None, &desc(i as f32))).collect();
         t.records.take_dirty(|_, _| {});
@@ -913,16 +917,6 @@ mod tests {
 
     #[test]
     fn decal_boxes_stay_dense_and_point_at_their_records() {
-        let desc = |x: f32| DecalDesc {
-            decal_to_world: Mat4::from_translation(Vec3::new(x, 0.0, 0.0)),
-            material: 0,
-            uv_corners: [Vec2::ZERO; 4],
-            channel: 0,
-            weight: 1.0,
-            receivers: 1,
-            opacity: 1.0,
-            angle_fade: None,
-        };
         let mut t = DecalTable::default();
         let slots: Vec<u32> = (0..5).map(|i| t.write(None, &desc(i as f32))).collect();
         t.aabbs.take_dirty(|_, _| {});
