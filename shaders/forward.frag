@@ -1,7 +1,12 @@
-// variants: RAY_QUERY_DECALS DECAL_BUFFER
+// variants: RAY_QUERY_DECALS DECAL_BUFFER TRANSPARENT TRANSPARENT+RAY_QUERY_DECALS
 #version 460
 // Forward shading pass (depth test EQUAL against the prepass): the material through the
 // bindless array, normal mapping, then shade_surface (ray-query decals and every light).
+// TRANSPARENT variants shade blended surfaces in the transparency pass (depth test GREATER,
+// no depth write, back to front; crate::transparency): the same shading with the material's
+// opacity as alpha, blended over what is behind (glTF's "over" operator); the opaque surface's
+// decal buffer and shadow bits are not theirs, so only in-shader ray-query decals apply and the
+// lights are unshadowed.
 #include "scene.glsl"
 #include "mesh_io.glsl"
 #include "material.glsl"
@@ -32,4 +37,7 @@ void main() {
     s.emissive = ms.emissive;
     s.decal_layers = scene.instances.instances[v_instance].decal_layers;
     out_color = shade_surface(s, ivec2(gl_FragCoord.xy));
+#ifdef TRANSPARENT
+    out_color.a = clamp(ms.base.a, 0.0, 1.0);
+#endif
 }

@@ -1,8 +1,10 @@
+// variants: TRANSPARENT
 #version 460
 // Tiled light culling, second pass (seed 001 §4.2): one workgroup per tile.
 // 1. The tile's depth range from the reverse-Z prepass depth (shared atomics on the float bits,
 //    which order like the floats for depths ≥ 0; the largest depth is the nearest). Sky pixels
-//    (depth 0) do not count; a tile of sky gets no lights.
+//    (depth 0) do not count; a tile of sky gets no lights. The TRANSPARENT variant also counts
+//    the nearest transparent surface's depth where it is in front (crate::transparency).
 // 2. Each light is tested against the tile's volume, a light per thread round-robin: point
 //    lights as spheres against the four side planes and the near and far planes (Ericson's
 //    sphere-plane test); spot lights also as cones (the hull of the tip and the base disc, whose
@@ -98,6 +100,16 @@ void main() {
         ivec2 px = ivec2(origin + uvec2(i % ts, i / ts));
         if (any(greaterThanEqual(px, size))) continue;
         float d = texelFetch(depth_target, px, 0).r;
+#ifdef TRANSPARENT
+        // Glass in front of the opaque surface (or of the sky) is shaded too: its depth is one
+        // more sample of the tile's range (reverse-Z, nearer is larger). Glass behind the
+        // opaque surface is hidden and does not count.
+        float t = texelFetch(transparent_depth, px, 0).r;
+        if (t > d) {
+            atomicMin(s_depth_min, floatBitsToUint(t));
+            atomicMax(s_depth_max, floatBitsToUint(t));
+        }
+#endif
         if (d > 0.0) {
             atomicMin(s_depth_min, floatBitsToUint(d));
             atomicMax(s_depth_max, floatBitsToUint(d));

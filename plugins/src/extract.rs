@@ -16,8 +16,8 @@ use engine::scene::MeshInstance;
 use engine::transform::GlobalTransform;
 use glam::{Mat4, Vec2, Vec3};
 use render::scene::{
-    DrawItem, GpuCamera, GpuInstance, GpuMaterial, MATERIAL_ALPHA_MASK, MATERIAL_DOUBLE_SIDED, MeshId, SceneMirror, TEXTURE_FLAT_NORMAL,
-    TEXTURE_WHITE, TextureData,
+    DrawItem, GpuCamera, GpuInstance, GpuMaterial, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, MeshId, SceneMirror,
+    TEXTURE_FLAT_NORMAL, TEXTURE_WHITE, TextureData,
 };
 use std::collections::{HashMap, HashSet};
 
@@ -102,6 +102,7 @@ pub struct EntityChecks {
 struct DrawFlags {
     alpha_mask: bool,
     double_sided: bool,
+    transparent: bool,
 }
 
 impl MirrorSlots {
@@ -199,14 +200,16 @@ pub fn extract_images(
 fn gpu_material(m: &Material, slots: &MirrorSlots) -> (GpuMaterial, DrawFlags) {
     let tex = |h: Option<Handle<Image>>, fallback: u32| h.and_then(|h| slots.textures.get(&h).copied()).unwrap_or(fallback);
     let (alpha_mask, cutoff) = match m.alpha_mode {
-        AlphaMode::Opaque => (false, 0.0),
+        AlphaMode::Opaque | AlphaMode::Blend => (false, 0.0),
         AlphaMode::Mask(c) => (true, c),
-        // Blended materials are alpha-tested at 0.5 until a transparency pass exists.
-        AlphaMode::Blend => (true, 0.5),
     };
+    let transparent = m.alpha_mode == AlphaMode::Blend;
     let mut flags = 0;
     if alpha_mask {
         flags |= MATERIAL_ALPHA_MASK;
+    }
+    if transparent {
+        flags |= MATERIAL_BLEND;
     }
     if m.double_sided {
         flags |= MATERIAL_DOUBLE_SIDED;
@@ -229,7 +232,7 @@ fn gpu_material(m: &Material, slots: &MirrorSlots) -> (GpuMaterial, DrawFlags) {
         flags,
         pad: [0; 2],
     };
-    (gpu, DrawFlags { alpha_mask, double_sided: m.double_sided })
+    (gpu, DrawFlags { alpha_mask, double_sided: m.double_sided, transparent })
 }
 
 /// Writes added and modified materials into their slots; frees removed ones.
@@ -271,6 +274,7 @@ pub fn extract_materials(
             {
                 draw.alpha_mask = flags.alpha_mask;
                 draw.double_sided = flags.double_sided;
+                draw.transparent = flags.transparent;
             }
         }
     }
@@ -355,7 +359,7 @@ pub fn extract_instances(
         let (material, flags) = slots.materials.get(&inst.material).copied().unwrap_or((slots.default_material, DrawFlags::default()));
         let layers = receiver.map_or(DEFAULT_RECEIVER_LAYERS, |r| r.0);
         let record = GpuInstance::new(world, material, layers);
-        let draw = DrawItem { mesh, alpha_mask: flags.alpha_mask, double_sided: flags.double_sided };
+        let draw = DrawItem { mesh, alpha_mask: flags.alpha_mask, double_sided: flags.double_sided, transparent: flags.transparent };
         let slot = mirror.set_instance(slots.instances.get(&entity).copied(), record, draw);
         slots.instances.insert(entity, slot);
     }

@@ -445,6 +445,10 @@ layout! {
     pub const MATERIAL_ALPHA_MASK: u32 = 1;
     /// Material flag: both faces are drawn and lit.
     pub const MATERIAL_DOUBLE_SIDED: u32 = 2;
+    /// Material flag: blended transparency (glTF `BLEND`): `base_color.a` (times the texture's
+    /// alpha) is the opacity. Drawn by the transparency passes only; the scene TLAS gives such
+    /// instances no ray mask yet, so they cast no ray-traced shadow.
+    pub const MATERIAL_BLEND: u32 = 4;
 
     /// Bindless slot of the built-in 1×1 white texture (a material without a texture samples this).
     pub const TEXTURE_WHITE: u32 = 0;
@@ -468,19 +472,23 @@ layout! {
     pub const BINDING_GBUFFER_LAYERS: u32 = 6;
     /// Binding of the visibility buffer's ids (`visibility_ids`, unsigned integer).
     pub const BINDING_VISIBILITY: u32 = 7;
+    /// Binding of the transparent depth (`transparent_depth`, reverse-Z D32): the nearest
+    /// transparent surface per pixel, written by the transparency depth pass; light culling
+    /// widens each tile's depth range to hold it, so the lists light the glass too.
+    pub const BINDING_TRANSPARENT_DEPTH: u32 = 8;
     /// Binding of the decal buffer's albedo (`decal_albedo`, storage image RGBA16F): the
     /// premultiplied decal albedo (rgb) and the weight left to the surface's own (a). The decal
     /// pass writes the decal buffer; shading applies `value = decal + value × remaining`.
-    pub const BINDING_DECAL_ALBEDO: u32 = 8;
+    pub const BINDING_DECAL_ALBEDO: u32 = 9;
     /// Binding of the decal buffer's normal (`decal_normal`, RGBA16F): decal normal (xyz) and
     /// the weight left to the surface normal (w).
-    pub const BINDING_DECAL_NORMAL: u32 = 9;
+    pub const BINDING_DECAL_NORMAL: u32 = 10;
     /// Binding of the decal buffer's roughness/metallic (`decal_spec`, RGBA16F): decal roughness
     /// and metallic (xy), the weights left to the surface's (zw).
-    pub const BINDING_DECAL_SPEC: u32 = 10;
+    pub const BINDING_DECAL_SPEC: u32 = 11;
     /// Binding of the decal buffer's count of decals tested per pixel (`decal_tested`, R32UI;
     /// the debug views read it).
-    pub const BINDING_DECAL_TESTED: u32 = 11;
+    pub const BINDING_DECAL_TESTED: u32 = 12;
     /// Number of bindless slots the renderer reserves for itself (built-ins and render targets;
     /// scene textures start here).
     pub const RESERVED_TEXTURES: u32 = 16;
@@ -550,10 +558,10 @@ layout! {
     pub const LIGHT_CULL_SHARED_LIGHTS: u32 = 32768;
     /// Binding of the shadow debug image (`shadow_debug`, storage RGBA16F): the reconstructed
     /// normal × 0.5 + 0.5 (rgb) and the shadow rays traced (a).
-    pub const BINDING_SHADOW_DEBUG: u32 = 12;
+    pub const BINDING_SHADOW_DEBUG: u32 = 13;
     /// Binding of the HDR target as a storage image (`hdr_image`, RGBA16F), for the lighting
     /// passes that run in compute.
-    pub const BINDING_HDR_STORAGE: u32 = 13;
+    pub const BINDING_HDR_STORAGE: u32 = 14;
 
     /// Debug view (`ScenePush::debug_view`, `DebugView`): the lit image.
     pub const DEBUG_LIT: u32 = 0;

@@ -44,6 +44,7 @@ pub mod renderer;
 pub mod scene;
 pub mod settings;
 pub mod shadows;
+pub mod transparency;
 
 pub use error::RenderError;
 pub use gpu::device::{Capabilities, DeviceSettings, Tier};

@@ -30,6 +30,7 @@ use crate::present::window::{AcquiredImage, WindowSurface};
 use crate::scene::gpu::GpuScene;
 use crate::scene::{FrameCounters, SceneMirror};
 pub use crate::settings::{DebugView, DecalMethod, FrameSettings, LightMethod, PipelineKind, ShadowMethod};
+use crate::transparency::TransparencyPasses;
 
 pub use crate::gpu::FRAMES_IN_FLIGHT;
 
@@ -100,6 +101,7 @@ struct Resources {
     forward: ForwardPasses,
     deferred: DeferredPasses,
     visbuffer: VisBufferPasses,
+    transparency: TransparencyPasses,
     decals: Decals,
     lighting: Lighting,
     tonemap: Tonemap,
@@ -163,6 +165,7 @@ impl Renderer {
             forward: ForwardPasses::new(ctx, layout)?,
             deferred: DeferredPasses::new(ctx, layout)?,
             visbuffer: VisBufferPasses::new(ctx, layout)?,
+            transparency: TransparencyPasses::new(ctx, layout)?,
             decals: Decals::new(ctx, &mut graph, layout, settings.decal_cluster_capacity)?,
             lighting: Lighting::new(ctx, &mut graph, layout)?,
             tonemap: Tonemap::new(ctx, layout, DISPLAY_FORMAT)?,
@@ -359,6 +362,7 @@ impl Renderer {
             forward: &res.forward,
             deferred: &res.deferred,
             visbuffer: &res.visbuffer,
+            transparency: &res.transparency,
             present: Present { tonemap, target, overlay },
             decal_choice,
         };
@@ -548,6 +552,7 @@ impl Drop for Renderer {
             forward,
             deferred,
             visbuffer,
+            transparency,
             decals,
             lighting,
             tonemap,
@@ -574,6 +579,7 @@ impl Drop for Renderer {
         forward.destroy(ctx);
         deferred.destroy(ctx);
         visbuffer.destroy(ctx);
+        transparency.destroy(ctx);
         tonemap.destroy(ctx);
         graph.destroy(ctx);
         scene.destroy(ctx);

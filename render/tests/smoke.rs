@@ -34,7 +34,7 @@ fn lit_quad_renders_and_quiet_frames_upload_nothing() {
     m.set_instance(
         None,
         GpuInstance::new(Mat4::from_scale(Vec3::splat(4.0)), mat, 1),
-        DrawItem { mesh, alpha_mask: false, double_sided: false },
+        DrawItem { mesh, alpha_mask: false, double_sided: false, transparent: false },
     );
     m.lights.insert(GpuLight::point(Vec3::new(0.0, 1.0, 0.0), Vec3::splat(5.0), 10.0));
     let view = Mat4::look_at_rh(Vec3::new(0.0, 2.0, 3.0), Vec3::ZERO, Vec3::Y);

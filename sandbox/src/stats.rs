@@ -5,7 +5,7 @@
 //! device can run no decal method in this pipeline), `tier`,
 //! `device`, `size` `[w, h]`, `gpu_ms` (one key per pass plus `total`), `cpu_ms` (`extract`,
 //! `record`), and `counters` (`bytes_uploaded`, `records_written`, `blas_builds`,
-//! `blas_updates`, `tlas_builds`, `instances`, `lights`, `decals`), and, in frames that applied
+//! `blas_updates`, `tlas_builds`, `instances`, `lights`, `decals`, `transparent`: blended instances drawn), and, in frames that applied
 //! clustered decals, `clusters`: `clusters`, `capacity`, `grows` (this frame's), and what the GPU
 //! measured in frame `measured_frame` (the one that last used this frame slot; absent until one
 //! has): `entries` (needed), `dropped` (entries that did not fit), `clusters_used`,
@@ -65,6 +65,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
             "instances": c.instances,
             "lights": c.lights,
             "decals": c.decals,
+            "transparent": c.transparent,
         },
     });
     if stats.decal_method == render::DecalMethod::Clustered {

@@ -33,6 +33,7 @@ layout(set = 0, binding = BINDING_GBUFFER_NORMAL) uniform sampler2D gbuffer_norm
 layout(set = 0, binding = BINDING_GBUFFER_MATERIAL) uniform sampler2D gbuffer_material;
 layout(set = 0, binding = BINDING_GBUFFER_LAYERS) uniform usampler2D gbuffer_layers;
 layout(set = 0, binding = BINDING_VISIBILITY) uniform usampler2D visibility_ids;
+layout(set = 0, binding = BINDING_TRANSPARENT_DEPTH) uniform sampler2D transparent_depth;
 
 vec4 sample_texture(uint index, vec2 uv) {
     return texture(textures[nonuniformEXT(index)], uv);

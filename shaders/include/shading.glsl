@@ -84,7 +84,11 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
     }
 #else
     LightList list = light_list(px);
+#ifdef TRANSPARENT
+    bool shadowed = false;   // the shadow bits belong to the opaque surface behind
+#else
     bool shadowed = list.rows != NO_SHADOW_ROWS;
+#endif
     ShadowWordsRef shadow_words = ShadowWordsRef(scene.lighting.lighting.shadow_bits);
     if (scene.debug_view == DEBUG_LIGHT_COUNT) return vec4(float(list.count), 0.0, 0.0, 1.0);
     if (scene.debug_view == DEBUG_LIGHT_HEATMAP) return vec4(heatmap(float(list.count) / 32.0), 1.0);

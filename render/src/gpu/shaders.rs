@@ -34,6 +34,8 @@ spirv! {
     VISBUFFER_SHADE_FRAG_RAY_QUERY_DECALS = "visbuffer_shade.frag.RAY_QUERY_DECALS";
     FLAT_COLOR_FRAG = "flat_color.frag";
     FORWARD_FRAG_DECAL_BUFFER = "forward.frag.DECAL_BUFFER";
+    FORWARD_FRAG_TRANSPARENT = "forward.frag.TRANSPARENT";
+    FORWARD_FRAG_TRANSPARENT_RAY_QUERY_DECALS = "forward.frag.TRANSPARENT+RAY_QUERY_DECALS";
     DEFERRED_LIGHTING_FRAG_DECAL_BUFFER = "deferred_lighting.frag.DECAL_BUFFER";
     VISBUFFER_SHADE_FRAG_DECAL_BUFFER = "visbuffer_shade.frag.DECAL_BUFFER";
     DECAL_PASS_RGEN = "decal_pass.rgen";
@@ -50,6 +52,7 @@ spirv! {
     DECAL_PASS_CLUSTERED_COMP_VISIBILITY = "decal_pass_clustered.comp.DECAL_SURFACE_VISIBILITY";
     LIGHT_TILE_FRUSTA_COMP = "light_tile_frusta.comp";
     LIGHT_CULL_COMP = "light_cull.comp";
+    LIGHT_CULL_COMP_TRANSPARENT = "light_cull.comp.TRANSPARENT";
     SHADOWS_COMP = "shadows.comp";
     SHADOWS_RGEN = "shadows.rgen";
     SHADOWS_RMISS = "shadows.rmiss";

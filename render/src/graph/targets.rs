@@ -31,7 +31,7 @@ pub const DECAL_TESTED_FORMAT: vk::Format = vk::Format::R32_UINT;
 pub use crate::layout::{
     BINDING_DECAL_ALBEDO, BINDING_DECAL_NORMAL, BINDING_DECAL_SPEC, BINDING_DECAL_TESTED, BINDING_DEPTH, BINDING_GBUFFER_ALBEDO,
     BINDING_GBUFFER_LAYERS, BINDING_GBUFFER_MATERIAL, BINDING_GBUFFER_NORMAL, BINDING_HDR, BINDING_HDR_STORAGE, BINDING_SHADOW_DEBUG,
-    BINDING_VISIBILITY,
+    BINDING_TRANSPARENT_DEPTH, BINDING_VISIBILITY,
 };
 
 /// Where a target is bound for sampling: its descriptor binding in set 0 (`BINDING_*`).
@@ -89,6 +89,15 @@ pub static DEPTH: TargetDesc = TargetDesc {
     format: DEPTH_FORMAT,
     usage: vk::ImageUsageFlags::from_raw(U::DEPTH_STENCIL_ATTACHMENT.as_raw() | U::SAMPLED.as_raw() | U::TRANSFER_SRC.as_raw()),
     bind: Some(Bind::Depth(BINDING_DEPTH)),
+    storage: None,
+};
+/// Reverse-Z depth of the nearest transparent surface (the transparency depth pass writes it;
+/// light culling samples it).
+pub static TRANSPARENT_DEPTH: TargetDesc = TargetDesc {
+    name: "transparent depth",
+    format: DEPTH_FORMAT,
+    usage: vk::ImageUsageFlags::from_raw(U::DEPTH_STENCIL_ATTACHMENT.as_raw() | U::SAMPLED.as_raw()),
+    bind: Some(Bind::Depth(BINDING_TRANSPARENT_DEPTH)),
     storage: None,
 };
 /// Tone-mapped sRGB output (headless; a window presents the swapchain image instead).

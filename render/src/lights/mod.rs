@@ -67,6 +67,14 @@ pub struct LightFrame {
     ray_query: RayQueryLightFrame,
 }
 
+impl LightFrame {
+    /// Whether light culling reads the transparent depth this frame (lights are tiled and
+    /// blended instances are drawn), so the transparency depth pass must run before it.
+    pub fn culls_transparent_depth(&self) -> bool {
+        self.tiles.transparent
+    }
+}
+
 impl Lighting {
     /// Creates the passes.
     pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
@@ -107,6 +115,7 @@ impl Lighting {
             light_slots,
             proj: mirror.camera().proj,
             shadows: traced != ShadowMethod::None && !enumerated,
+            transparent: !mirror.transparent_order().is_empty(),
         };
         let tiles = self.tiles.prepare(f, &request, &mut stats)?;
         mirror.counters.light_tiles = stats;

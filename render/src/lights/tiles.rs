@@ -33,7 +33,7 @@ use crate::gpu::pipeline::create_compute;
 use crate::gpu::shaders;
 use crate::gpu::upload::Shrink;
 use crate::graph::readback::StatsReadback;
-use crate::graph::targets::DEPTH;
+use crate::graph::targets::{DEPTH, TRANSPARENT_DEPTH};
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::{GpuTileFrustum, LIGHT_TILE_HEADER};
 use crate::scene::gpu::GpuScene;
@@ -82,6 +82,9 @@ pub struct TileRequest {
     pub proj: Mat4,
     /// Whether shadow words are needed.
     pub shadows: bool,
+    /// Whether transparent surfaces are drawn this frame: culling then also reads their depth
+    /// (`TRANSPARENT_DEPTH`), so the lists light the glass in front of the opaque surfaces.
+    pub transparent: bool,
 }
 
 /// The light grid and index list as the GPU wrote them (for tests and tools).
@@ -130,6 +133,8 @@ pub struct TileFrame {
     pub shadow_rows: u32,
     /// Whether shadow words exist this frame.
     pub shadows: bool,
+    /// Whether culling reads the transparent depth too.
+    pub transparent: bool,
     rebuild_frusta: bool,
     tiled: bool,
 }
@@ -138,6 +143,8 @@ pub struct TileFrame {
 pub struct LightTiles {
     frusta_pipeline: vk::Pipeline,
     cull_pipeline: vk::Pipeline,
+    /// Culling that also widens tiles by the transparent depth.
+    cull_transparent_pipeline: vk::Pipeline,
     frusta: Option<Buffer>,
     /// Projection, view size and tile size the frusta were computed for.
     frusta_key: Option<([u32; 16], u32, u32, u32)>,
@@ -177,6 +184,7 @@ impl LightTiles {
         Ok(Self {
             frusta_pipeline: create_compute(ctx, layout, "light tile frusta", shaders::LIGHT_TILE_FRUSTA_COMP)?,
             cull_pipeline: create_compute(ctx, layout, "light culling", shaders::LIGHT_CULL_COMP)?,
+            cull_transparent_pipeline: create_compute(ctx, layout, "light culling (transparency)", shaders::LIGHT_CULL_COMP_TRANSPARENT)?,
             frusta: None,
             frusta_key: None,
             tiles: None,
@@ -210,7 +218,7 @@ impl LightTiles {
     /// buffers for the `request`, and says where everything is. Call before the scene's upload (the
     /// lighting record carries the addresses).
     pub fn prepare(&mut self, f: &mut Frame, request: &TileRequest, stats: &mut LightTileStats) -> Result<TileFrame, RenderError> {
-        let TileRequest { method, tile_size, light_slots, proj, shadows } = *request;
+        let TileRequest { method, tile_size, light_slots, proj, shadows, transparent } = *request;
         let ctx = f.ctx;
         let extent = f.graph.extent();
         let tiles = (extent.width.div_ceil(tile_size), extent.height.div_ceil(tile_size));
@@ -233,7 +241,7 @@ impl LightTiles {
         }
         let frame_value = f.upload.frame_value;
         let tiled = method == LightMethod::Tiled;
-        let mut frame = TileFrame { tile_size, tiles, tiled, ..Default::default() };
+        let mut frame = TileFrame { tile_size, tiles, tiled, transparent: transparent && tiled, ..Default::default() };
 
         if tiled {
             // The list: room for what the last measured frame needed, and at first for eight
@@ -398,17 +406,16 @@ impl LightTiles {
             // SAFETY: `cmd` is recording outside a rendering scope; the range lies in the buffer.
             unsafe { p.ctx.device.cmd_fill_buffer(p.cmd, raw, 0, LIGHT_TILE_HEADER as u64 * 4, 0) };
         })?;
-        let pipeline = self.cull_pipeline;
-        f.pass("light_cull", PassKind::Compute)
-            .sample(&DEPTH)
-            .read(scene.res.tables, BufferUse::Storage)
-            .read(res.frusta, BufferUse::Storage)
-            .write(res.tiles, BufferUse::Storage)
-            .record(|p| {
+        let pipeline = if frame.transparent { self.cull_transparent_pipeline } else { self.cull_pipeline };
+        let pass = f.pass("light_cull", PassKind::Compute).sample(&DEPTH);
+        let pass = if frame.transparent { pass.sample(&TRANSPARENT_DEPTH) } else { pass };
+        pass.read(scene.res.tables, BufferUse::Storage).read(res.frusta, BufferUse::Storage).write(res.tiles, BufferUse::Storage).record(
+            |p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
                 // SAFETY: as above.
                 unsafe { p.ctx.device.cmd_dispatch(p.cmd, frame.tiles.0, frame.tiles.1, 1) };
-            })?;
+            },
+        )?;
         self.readback.record(f, "light_tiles_statistics", res.tiles, raw)
     }
 
@@ -427,7 +434,7 @@ impl LightTiles {
 
     /// Destroys everything; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for p in [self.frusta_pipeline, self.cull_pipeline] {
+        for p in [self.frusta_pipeline, self.cull_pipeline, self.cull_transparent_pipeline] {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }

@@ -145,9 +145,9 @@ impl DeferredPasses {
             .record(|p| {
                 let push = p.push;
                 p.bind_graphics(self.gbuffer_opaque, &push);
-                scene.draw_meshes(p, draws, |d| !d.alpha_mask);
+                scene.draw_meshes(p, draws, DrawItem::is_opaque);
                 p.bind_graphics(self.gbuffer_mask, &push);
-                scene.draw_meshes(p, draws, |d| d.alpha_mask);
+                scene.draw_meshes(p, draws, DrawItem::is_masked);
             })
     }
 

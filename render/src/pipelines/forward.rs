@@ -56,9 +56,9 @@ impl ForwardPasses {
             |p| {
                 let push = p.push;
                 p.bind_graphics(self.prepass_opaque, &push);
-                scene.draw_meshes(p, draws, |d| !d.alpha_mask);
+                scene.draw_meshes(p, draws, DrawItem::is_opaque);
                 p.bind_graphics(self.prepass_mask, &push);
-                scene.draw_meshes(p, draws, |d| d.alpha_mask);
+                scene.draw_meshes(p, draws, DrawItem::is_masked);
             },
         )
     }
@@ -82,7 +82,7 @@ impl ForwardPasses {
         declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| {
             let push = p.push;
             p.bind_graphics(self.shade.pick(decals), &push);
-            scene.draw_meshes(p, draws, |_| true);
+            scene.draw_meshes(p, draws, |d| !d.transparent);
         })
     }
 

@@ -22,6 +22,7 @@ use crate::present::Present;
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
 use crate::settings::FrameSettings;
+use crate::transparency::TransparencyPasses;
 
 /// The renderer's parts a frame function draws with.
 pub struct FrameParts<'a> {
@@ -37,6 +38,8 @@ pub struct FrameParts<'a> {
     pub deferred: &'a deferred::DeferredPasses,
     /// Visibility-buffer passes.
     pub visbuffer: &'a visbuffer::VisBufferPasses,
+    /// Blended transparency, drawn over every pipeline's opaque shading.
+    pub transparency: &'a TransparencyPasses,
     /// Tone mapping and overlay into the frame's display image.
     pub present: Present<'a>,
     /// The decal method asked for and the one this device and pipeline apply.
@@ -46,6 +49,7 @@ pub struct FrameParts<'a> {
 /// What every frame does before its passes: follow the decals' and lights' changes, upload what
 /// changed, bring the acceleration structures up to date, and set the push constants.
 fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<(DecalFrame, LightFrame), RenderError> {
+    mirror.sort_transparent(mirror.camera().position);
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
     let lights = r.lighting.prepare(f, r.scene, mirror, s)?;
     let boxes_changed = r.scene.upload(f, mirror)?;
@@ -56,8 +60,8 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
 }
 
 /// Forward: depth prepass (the visibility pass, which also writes ids, when a decal pass
-/// follows), light culling and shadows when asked for, the decal pass, then shading with depth
-/// EQUAL.
+/// follows), light culling and shadows when asked for, the decal pass, shading with depth
+/// EQUAL, then the blended surfaces back to front.
 pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let (decals, lights) = begin(f, r, mirror, s)?;
     if decals.buffered() {
@@ -65,9 +69,11 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
     } else {
         r.forward.prepass(f, r.scene, &mirror.draws)?;
     }
+    transparent_depth(f, r, mirror, &lights)?;
     r.lighting.record(f, r.scene, &lights)?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
     r.forward.shade(f, r.scene, &mirror.draws, s.clear_color, &decals, &lights)?;
+    r.transparency.shade(f, r.scene, &mirror.draws, mirror.transparent_order(), &decals, &lights)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)?;
     Ok(lights)
@@ -86,31 +92,44 @@ pub fn forward_plus_frame(
 }
 
 /// Deferred: G-buffer, light culling and shadows, deferred decals or the decal pass (whichever
-/// is the method), then lighting in compute (or a full-screen fragment pass; in-shader
-/// ray-query decals included when they are the method).
+/// is the method), lighting in compute (or a full-screen fragment pass; in-shader ray-query
+/// decals included when they are the method), then the blended surfaces in a forward pass.
 pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let (decals, lights) = begin(f, r, mirror, s)?;
     r.deferred.geometry(f, r.scene, &mirror.draws, s.clear_color)?;
+    transparent_depth(f, r, mirror, &lights)?;
     r.lighting.record(f, r.scene, &lights)?;
     r.deferred.decals(f, r.scene, r.decals.deferred_runs(&decals))?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::GBuffer)?;
     r.deferred.lighting(f, r.scene, &decals, &lights, s.compute_shading)?;
+    r.transparency.shade(f, r.scene, &mirror.draws, mirror.transparent_order(), &decals, &lights)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)?;
     Ok(lights)
 }
 
-/// Visibility buffer: ids and depth, light culling and shadows, the decal pass, then one pass
-/// (compute, or full-screen fragment) that rebuilds and shades.
+/// Visibility buffer: ids and depth, light culling and shadows, the decal pass, one pass
+/// (compute, or full-screen fragment) that rebuilds and shades, then the blended surfaces in a
+/// forward pass.
 pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let (decals, lights) = begin(f, r, mirror, s)?;
     r.visbuffer.visibility(f, "visibility", r.scene, &mirror.draws)?;
+    transparent_depth(f, r, mirror, &lights)?;
     r.lighting.record(f, r.scene, &lights)?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
     r.visbuffer.shade(f, r.scene, s.clear_color, &decals, &lights, s.compute_shading)?;
+    r.transparency.shade(f, r.scene, &mirror.draws, mirror.transparent_order(), &decals, &lights)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)?;
     Ok(lights)
+}
+
+/// The transparent depth, when light culling reads it this frame (before culling).
+fn transparent_depth(f: &mut Frame, r: &FrameParts, mirror: &SceneMirror, lights: &LightFrame) -> Result<(), RenderError> {
+    if !lights.culls_transparent_depth() {
+        return Ok(());
+    }
+    r.transparency.depth(f, r.scene, &mirror.draws, mirror.transparent_order())
 }
 
 /// A shading pass's pipeline in each way it can apply decals: none, in-shader ray queries (on the

@@ -74,9 +74,9 @@ impl VisBufferPasses {
             .record(|p| {
                 let push = p.push;
                 p.bind_graphics(self.ids_opaque, &push);
-                scene.draw_meshes(p, draws, |d| !d.alpha_mask);
+                scene.draw_meshes(p, draws, DrawItem::is_opaque);
                 p.bind_graphics(self.ids_mask, &push);
-                scene.draw_meshes(p, draws, |d| d.alpha_mask);
+                scene.draw_meshes(p, draws, DrawItem::is_masked);
             })
     }
 

@@ -38,7 +38,7 @@ use crate::scene::{
 /// Bindless array size.
 pub const MAX_TEXTURES: u32 = 4096;
 /// Descriptor bindings after the texture array, one per sampled render target (`BINDING_*`).
-pub const TARGET_BINDINGS: u32 = crate::layout::BINDING_VISIBILITY;
+pub const TARGET_BINDINGS: u32 = crate::layout::BINDING_TRANSPARENT_DEPTH;
 /// Storage-image bindings after those: the decal buffer (`BINDING_DECAL_*`), the shadow debug
 /// image and the HDR target.
 pub const STORAGE_BINDINGS: u32 = crate::layout::BINDING_HDR_STORAGE - TARGET_BINDINGS;
@@ -762,11 +762,18 @@ impl GpuScene {
     /// Draws every instance whose draw item passes `filter`; the instance slot is passed as
     /// `firstInstance`, so shaders find their record at `gl_InstanceIndex`.
     pub fn draw_meshes(&self, p: &PassContext, draws: &[Option<DrawItem>], filter: impl Fn(&DrawItem) -> bool) {
+        let slots = draws.iter().enumerate().filter(|(_, d)| d.is_some_and(|d| filter(&d))).map(|(slot, _)| slot as u32);
+        self.draw_slots(p, draws, slots);
+    }
+
+    /// Draws the instances in `slots`, in that order (the transparency passes' back-to-front
+    /// order), like [`GpuScene::draw_meshes`].
+    pub fn draw_slots(&self, p: &PassContext, draws: &[Option<DrawItem>], slots: impl IntoIterator<Item = u32>) {
         let (d, cmd) = (&p.ctx.device, p.cmd);
         let mut bound_mesh = None;
         let mut cull = Some(vk::CullModeFlags::NONE); // the rendering scope's default
-        for (slot, draw) in draws.iter().enumerate() {
-            let Some(draw) = draw.filter(|d| filter(d)) else { continue };
+        for slot in slots {
+            let Some(Some(draw)) = draws.get(slot as usize) else { continue };
             let Some(mesh) = self.mesh(draw.mesh) else { continue };
             // SAFETY: `cmd` is recording inside a rendering scope with a mesh pipeline bound;
             // the mesh buffer is live until the frame completes (deferred destruction).
@@ -781,7 +788,7 @@ impl GpuScene {
                     d.cmd_set_cull_mode(cmd, mode);
                     cull = Some(mode);
                 }
-                d.cmd_draw_indexed(cmd, mesh.index_count, 1, 0, 0, slot as u32);
+                d.cmd_draw_indexed(cmd, mesh.index_count, 1, 0, 0, slot);
             }
         }
     }

@@ -16,8 +16,8 @@ use glam::{Mat4, Vec2, Vec3};
 
 pub use crate::layout::{
     DECAL_ALBEDO, DECAL_CHANNELS, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuDecal, GpuDecalMaterial,
-    GpuInstance, GpuLight, GpuMaterial, GpuMeshInfo, GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_DOUBLE_SIDED, NO_DECAL, RESERVED_TEXTURES,
-    TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
+    GpuInstance, GpuLight, GpuMaterial, GpuMeshInfo, GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, NO_DECAL,
+    RESERVED_TEXTURES, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
 };
 
 impl GpuInstance {
@@ -317,6 +317,20 @@ pub struct DrawItem {
     pub alpha_mask: bool,
     /// Drawn without back-face culling.
     pub double_sided: bool,
+    /// Blended ([`MATERIAL_BLEND`]): drawn by the transparency passes, never by the opaque ones.
+    pub transparent: bool,
+}
+
+impl DrawItem {
+    /// Drawn by the opaque passes without an alpha test.
+    pub fn is_opaque(&self) -> bool {
+        !self.alpha_mask && !self.transparent
+    }
+
+    /// Drawn by the opaque passes with an alpha test.
+    pub fn is_masked(&self) -> bool {
+        self.alpha_mask && !self.transparent
+    }
 }
 
 /// Work counters for one frame. Tests, `--stats` and the overlay read these; keys never change
@@ -359,6 +373,8 @@ pub struct FrameCounters {
     pub lights: u64,
     /// Live decals.
     pub decals: u64,
+    /// Blended (transparent) instances drawn back to front this frame.
+    pub transparent: u64,
     /// Clustered decals, as measured on the GPU (all zero unless clustered decals ran).
     pub clusters: DecalClusterStats,
     /// Tiled light culling, as measured on the GPU (all zero unless lights were tiled).
@@ -593,6 +609,12 @@ pub struct SceneMirror {
     /// Set when an instance was added or removed or changed its mesh or material (not only its
     /// transform): the scene TLAS is then rebuilt rather than updated.
     instances_rearranged: bool,
+    /// Object-space centre of each mesh's bounds, by mesh id (sorts transparent instances).
+    mesh_centers: Vec<Vec3>,
+    /// This frame's transparent instances as (distance from the eye, slot), and their slots back
+    /// to front: kept so that sorting every frame allocates nothing once they have grown.
+    transparent_keys: Vec<(f32, u32)>,
+    transparent_order: Vec<u32>,
 }
 
 impl Default for GpuCamera {
@@ -684,8 +706,46 @@ impl SceneMirror {
             self.next_mesh += 1;
             self.next_mesh - 1
         }));
+        let (lo, hi) = data.vertices.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), v| {
+            let p = Vec3::from(v.position);
+            (lo.min(p), hi.max(p))
+        });
+        let center = if lo.cmple(hi).all() { (lo + hi) * 0.5 } else { Vec3::ZERO };
+        if self.mesh_centers.len() <= id.0 as usize {
+            self.mesh_centers.resize(id.0 as usize + 1, Vec3::ZERO);
+        }
+        self.mesh_centers[id.0 as usize] = center;
         self.pending_meshes.push((id, data));
         id
+    }
+
+    /// The transparent instances' slots, back to front as seen from `eye`: ordered by the
+    /// distance to the centre of each instance's mesh bounds (farthest first, ties by slot), the
+    /// order the transparency passes blend them in. Sorting per instance, not per triangle, is
+    /// exact for separate convex pieces of glass; intersecting or nested glass blends in
+    /// instance order (see `crate::transparency`).
+    pub fn sort_transparent(&mut self, eye: Vec3) -> &[u32] {
+        self.transparent_keys.clear();
+        for (slot, draw) in self.draws.iter().enumerate() {
+            let (Some(draw), Some(record)) = (draw, self.instances.get(slot as u32)) else { continue };
+            if !draw.transparent {
+                continue;
+            }
+            let center = self.mesh_centers.get(draw.mesh.0 as usize).copied().unwrap_or(Vec3::ZERO);
+            let distance = record.model.transform_point3(center).distance_squared(eye);
+            // A non-finite distance (a broken transform, skipped by extraction anyway) sorts last.
+            self.transparent_keys.push((if distance.is_finite() { distance } else { 0.0 }, slot as u32));
+        }
+        self.transparent_keys.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        self.transparent_order.clear();
+        self.transparent_order.extend(self.transparent_keys.iter().map(|&(_, slot)| slot));
+        self.counters.transparent = self.transparent_order.len() as u64;
+        &self.transparent_order
+    }
+
+    /// The order [`SceneMirror::sort_transparent`] last computed.
+    pub fn transparent_order(&self) -> &[u32] {
+        &self.transparent_order
     }
 
     /// Frees a mesh; the id is reused after the GPU has finished with it.

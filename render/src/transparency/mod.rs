@@ -1,0 +1,129 @@
+//! Blended transparency (glTF `BLEND` materials: glass, visors, windows), seed 002
+//! (`002_9638fcf4f713d316.txt`) §2.4 and §2.4.2: "opaque objects rendered using deferred
+//! techniques, followed by a forward renderer which draws transparent objects over the scene
+//! already illuminated", the way every pipeline here draws them.
+//!
+//! - **Opaque passes skip blended surfaces** ([`crate::scene::DrawItem::transparent`]): the depth
+//!   prepass, the G-buffer and the visibility buffer hold the opaque scene only, so everything
+//!   that reads them (light culling, shadows, decals, lighting) sees the surfaces behind the
+//!   glass.
+//! - **A transparency depth pass** writes the nearest transparent surface's depth into its own
+//!   target, before light culling; culling widens each tile's depth range by it
+//!   (`shaders/light_cull.comp`, variant `TRANSPARENT`), so the tile lists also hold the lights
+//!   that reach only the glass in front of the opaque surfaces. Without that a light between
+//!   a window and the wall behind it would light the wall but never the window.
+//! - **A transparency pass** then draws the blended instances back to front
+//!   ([`crate::scene::SceneMirror::sort_transparent`], one sort per frame by the distance to
+//!   each instance's bounds centre), depth tested against the opaque depth and not writing it,
+//!   with the forward shader's `TRANSPARENT` variant: the same material sampling and lighting
+//!   over the same tile lists, alpha = the material's opacity, blended by Porter and Duff's
+//!   "over" (seed 002 eq. 2.3, glTF's definition of `BLEND`): `C = α·Cs + (1 − α)·Cd`. Back
+//!   faces are culled unless the material is double-sided, as for opaque surfaces.
+//!
+//! What the glass does not get yet: the shadow pass's bits and the decal buffer belong to the
+//! opaque surface behind it, so the glass is lit unshadowed, and decals land on it only with
+//! in-shader ray-query decals (the ray-query tier); glass casts no ray-traced shadow (its TLAS
+//! instances have no ray mask: a binary shadow would make it an opaque occluder). Intersecting
+//! or nested pieces of glass blend in instance order, not per pixel. A frame without blended
+//! instances records neither pass and culls as before.
+
+use ash::vk;
+
+use crate::RenderError;
+use crate::decals::DecalFrame;
+use crate::gpu::device::{GpuContext, Tier};
+use crate::gpu::pipeline::{Blend, GraphicsDesc, create_graphics};
+use crate::gpu::shaders;
+use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT, TRANSPARENT_DEPTH};
+use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind};
+use crate::lights::{LightFrame, declare_light_reads};
+use crate::scene::DrawItem;
+use crate::scene::gpu::GpuScene;
+use crate::settings::DecalMethod;
+
+/// The transparency passes' pipelines.
+pub struct TransparencyPasses {
+    depth: vk::Pipeline,
+    shade: vk::Pipeline,
+    /// With in-shader ray-query decals (ray-query tier only).
+    shade_ray_query: Option<vk::Pipeline>,
+}
+
+impl TransparencyPasses {
+    /// Creates the pipelines.
+    pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
+        let depth = GraphicsDesc::mesh("transparent depth", None, &[], DEPTH_FORMAT);
+        let shade = |fragment| {
+            let desc = GraphicsDesc {
+                name: "transparency",
+                fragment: Some(fragment),
+                color_formats: &[HDR_FORMAT],
+                depth_write: false,
+                blend: Blend::Alpha,
+                ..depth
+            };
+            create_graphics(ctx, layout, &desc)
+        };
+        Ok(Self {
+            depth: create_graphics(ctx, layout, &depth)?,
+            shade: shade(shaders::FORWARD_FRAG_TRANSPARENT)?,
+            shade_ray_query: if ctx.tier == Tier::RayQuery {
+                Some(shade(shaders::FORWARD_FRAG_TRANSPARENT_RAY_QUERY_DECALS)?)
+            } else {
+                None
+            },
+        })
+    }
+
+    /// The transparency depth pass: the nearest depth of the instances in `order` (the frame's
+    /// blended instances), for light culling. Records nothing when `order` is empty.
+    pub fn depth(&self, f: &mut Frame, scene: &GpuScene, draws: &[Option<DrawItem>], order: &[u32]) -> Result<(), RenderError> {
+        if order.is_empty() {
+            return Ok(());
+        }
+        f.pass("transparent_depth", PassKind::Graphics)
+            .image(&TRANSPARENT_DEPTH, ImageUse::DepthWrite(Load::ClearDepth(0.0)))
+            .reads(scene.res.drawn())
+            .record(|p| {
+                let push = p.push;
+                p.bind_graphics(self.depth, &push);
+                scene.draw_slots(p, draws, order.iter().copied());
+            })
+    }
+
+    /// The transparency pass: the instances in `order`, back to front, shaded and blended over
+    /// the HDR target the pipeline's opaque shading wrote. Records nothing when `order` is empty.
+    pub fn shade(
+        &self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        draws: &[Option<DrawItem>],
+        order: &[u32],
+        decals: &DecalFrame,
+        lights: &LightFrame,
+    ) -> Result<(), RenderError> {
+        if order.is_empty() {
+            return Ok(());
+        }
+        let ray_query = self.shade_ray_query.filter(|_| decals.method == DecalMethod::RayQuery && decals.traced.is_some());
+        let pass =
+            f.pass("transparency", PassKind::Graphics).image(&DEPTH, ImageUse::DepthTest).color(&HDR, Load::Keep).reads(scene.res.drawn());
+        let pass = match ray_query {
+            Some(_) => pass.reads(decals.traced.into_iter().flatten().map(|a| (a, BufferUse::Accel))),
+            None => pass,
+        };
+        declare_light_reads(pass, lights).record(|p| {
+            let push = p.push;
+            p.bind_graphics(ray_query.unwrap_or(self.shade), &push);
+            scene.draw_slots(p, draws, order.iter().copied());
+        })
+    }
+
+    /// Destroys the pipelines; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        for p in [self.depth, self.shade].into_iter().chain(self.shade_ray_query) {
+            // SAFETY: the GPU is idle.
+            unsafe { ctx.device.destroy_pipeline(p, None) };
+        }
+    }
+}
