@@ -1,15 +1,20 @@
-// variants: ALPHA_MASK
+// variants: ALPHA_MASK INTERLACED_GLASS
 #version 460
 // Deferred shading, geometry pass (seed 000 §2.6): material attributes into the G-buffer.
 //   albedo    RGBA8_SRGB      albedo, occlusion      (sRGB keeps dark albedo precise in 8 bits)
 //   normal    A2B10G10R10     shading normal × 0.5 + 0.5 (10 bits a component, and linear, so
 //                             deferred decals can alpha-blend into it; an octahedral encoding
 //                             would be tighter but cannot be blended)
-//   material  RG8_UNORM       roughness, metallic
+//   material  RGBA8_UNORM     roughness, metallic, opacity (1 for opaque surfaces and the
+//                             sky), refraction (over 0..REFRACTION_MAX_MM millimetres)
 //   layers    R8_UINT         decal receiver layers (the low 8 bits: the deferred pipelines
 //                             support 8 layers)
 //   hdr       RGBA16F         emitted radiance (the lighting pass adds to it)
 // The geometric normal that decals fade by is reconstructed from depth, so it costs no storage.
+// INTERLACED_GLASS: blended surfaces (seed 002 §2.4.2, §3.1), drawn after the opaque ones with the
+// same depth test and writes, land on odd rows only; even rows keep the opaque surface behind.
+// The nearest blended surface wins an odd row, and the composition pass
+// (transparency_compose.comp) blends it over the even rows' opaque samples after lighting.
 #include "scene.glsl"
 #include "mesh_io.glsl"
 #include "material.glsl"
@@ -26,12 +31,20 @@ void main() {
 #ifdef ALPHA_MASK
     if (ms.base.a < m.alpha_cutoff) discard;
 #endif
+#ifdef INTERLACED_GLASS
+    if ((int(gl_FragCoord.y) & 1) == 0) discard;
+    float opacity = clamp(ms.base.a, 0.0, 1.0);
+    float refraction = clamp(m.refraction / (float(REFRACTION_MAX_MM) * 1e-3), 0.0, 1.0);
+#else
+    float opacity = 1.0;
+    float refraction = 0.0;
+#endif
     vec3 geometric_n = safe_normalize(v_normal, vec3(0.0, 1.0, 0.0));
     if ((m.flags & MATERIAL_DOUBLE_SIDED) != 0u && !gl_FrontFacing) geometric_n = -geometric_n;
     vec3 n = perturb_normal(geometric_n, v_tangent, ms.tangent_normal, m.normal_scale);
     gb_albedo = vec4(ms.base.rgb, ms.occlusion);
     gb_normal = vec4(n * 0.5 + 0.5, 1.0);
-    gb_material = vec4(ms.roughness, ms.metallic, 0.0, 1.0);
+    gb_material = vec4(ms.roughness, ms.metallic, opacity, refraction);
     gb_layers = scene.instances.instances[v_instance].decal_layers & 0xFFu;
     out_emissive = vec4(scene.debug_view == DEBUG_LIT ? ms.emissive : vec3(0.0), 1.0);
 }

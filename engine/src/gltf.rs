@@ -7,7 +7,9 @@
 //! file is therefore rejected with a [`GltfError`] before anything was spawned.
 //!
 //! Supported: metallic-roughness materials (base colour, normal, metallic-roughness, occlusion
-//! and emissive textures, `KHR_materials_emissive_strength`, alpha mask/blend, double-sided),
+//! and emissive textures, `KHR_materials_emissive_strength`, alpha mask/blend, double-sided,
+//! `KHR_materials_ior` and `KHR_materials_volume`'s thickness for the refraction of blended
+//! materials),
 //! `KHR_lights_punctual`, `KHR_mesh_quantization`, `KHR_texture_transform`, perspective cameras
 //! (`zfar` ignored: the projection is infinite reverse-Z), node hierarchies with TRS or matrix
 //! transforms, triangle lists/strips/fans. A document that *requires* any other extension (e.g.
@@ -213,6 +215,10 @@ pub struct GltfMaterial {
     pub alpha_mode: AlphaMode,
     /// Whether back faces are rendered.
     pub double_sided: bool,
+    /// `KHR_materials_ior` (1.5 without it).
+    pub ior: f32,
+    /// `KHR_materials_volume`'s thickness factor (0, a thin wall, without it).
+    pub thickness: f32,
 }
 
 impl Default for GltfMaterial {
@@ -233,6 +239,8 @@ impl Default for GltfMaterial {
             emissive_texture: None,
             alpha_mode: m.alpha_mode,
             double_sided: m.double_sided,
+            ior: m.ior,
+            thickness: m.thickness,
         }
     }
 }
@@ -256,6 +264,8 @@ impl GltfMaterial {
             emissive_texture: tex(self.emissive_texture),
             alpha_mode: self.alpha_mode,
             double_sided: self.double_sided,
+            ior: self.ior,
+            thickness: self.thickness,
         }
     }
 }
@@ -308,8 +318,14 @@ pub struct GltfScene {
 }
 
 /// Extensions a document may require.
-const SUPPORTED_EXTENSIONS: &[&str] =
-    &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_mesh_quantization", "KHR_texture_transform"];
+const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_volume",
+    "KHR_mesh_quantization",
+    "KHR_texture_transform",
+];
 
 /// How forgiving loading is.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -859,6 +875,8 @@ fn load_material(
             ::gltf::material::AlphaMode::Blend => AlphaMode::Blend,
         },
         double_sided: m.double_sided(),
+        ior: m.ior().unwrap_or(1.5),
+        thickness: m.volume().map_or(0.0, |v| v.thickness_factor()),
     };
     Ok((material, uv_transform))
 }

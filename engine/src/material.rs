@@ -50,6 +50,12 @@ pub struct Material {
     pub alpha_mode: AlphaMode,
     /// Whether back faces are rendered (and lit with the flipped normal).
     pub double_sided: bool,
+    /// Index of refraction (`KHR_materials_ior`; 1.5, glTF's default, for glass and plastics).
+    pub ior: f32,
+    /// Thickness of the volume under a blended surface in metres (`KHR_materials_volume`'s
+    /// `thicknessFactor`; 0, glTF's default, is a thin wall). Blended surfaces displace the
+    /// background seen through them by [`Material::refraction`].
+    pub thickness: f32,
 }
 
 impl Default for Material {
@@ -68,6 +74,8 @@ impl Default for Material {
             emissive_texture: None,
             alpha_mode: AlphaMode::Opaque,
             double_sided: false,
+            ior: 1.5,
+            thickness: 0.0,
         }
     }
 }
@@ -76,5 +84,14 @@ impl Material {
     /// An untextured material with the given linear base colour, metallic and roughness.
     pub fn from_color(base_color: Vec4, metallic: f32, roughness: f32) -> Self {
         Material { base_color, metallic, roughness, ..Default::default() }
+    }
+
+    /// How far a blended surface displaces the background seen through it, in metres at the
+    /// surface: `thickness × (1 − 1/ior)`, the lateral shift of a ray crossing a slab of that
+    /// thickness at a grazing angle. Thin walls (thickness 0, glTF's default) and an ior of 1
+    /// do not refract; non-finite or negative inputs give 0. The renderer holds up to 0.25 m.
+    pub fn refraction(&self) -> f32 {
+        let r = self.thickness * (1.0 - 1.0 / self.ior);
+        if r.is_finite() && r > 0.0 { r } else { 0.0 }
     }
 }

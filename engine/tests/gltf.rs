@@ -528,3 +528,22 @@ fn texture_transform_is_baked_into_uvs() {
     assert_eq!(warnings.len(), 1, "{warnings:#?}");
     assert!(warnings[0].contains("Mixed") && warnings[0].contains("KHR_texture_transform"), "{}", warnings[0]);
 }
+
+#[test]
+fn blended_glass_reads_its_ior_and_volume_thickness() {
+    let dir = temp_dir("glass");
+    let json = scene_json("tri.bin", "VEC3", 4).replace(r#""alphaMode": "MASK", "alphaCutoff": 0.3"#, r#""alphaMode": "BLEND""#).replace(
+        r#""extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}}"#,
+        r#""extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0},
+                          "KHR_materials_ior": {"ior": 1.33}, "KHR_materials_volume": {"thicknessFactor": 0.04}}"#,
+    );
+    assert!(json.contains(r#""thicknessFactor": 0.04"#) && json.contains("BLEND"), "the document was edited");
+    let scene = gltf::load(&write_scene(&dir, &json, true)).unwrap();
+    let glass = scene.materials[0].to_material(&[]);
+    assert_eq!(glass.alpha_mode, AlphaMode::Blend);
+    assert_eq!((glass.ior, glass.thickness), (1.33, 0.04));
+    assert!((glass.refraction() - 0.04 * (1.0 - 1.0 / 1.33)).abs() < 1e-7);
+    // Without the extensions: glTF's defaults, a thin wall, which does not refract.
+    let plain = scene.materials[1].to_material(&[]);
+    assert_eq!((plain.ior, plain.thickness, plain.refraction()), (1.5, 0.0, 0.0));
+}

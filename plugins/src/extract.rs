@@ -230,7 +230,8 @@ fn gpu_material(m: &Material, slots: &MirrorSlots) -> (GpuMaterial, DrawFlags) {
         occlusion_tex: tex(m.occlusion_texture, TEXTURE_WHITE),
         emissive_tex: tex(m.emissive_texture, TEXTURE_WHITE),
         flags,
-        pad: [0; 2],
+        refraction: if transparent { m.refraction() } else { 0.0 },
+        pad: 0,
     };
     (gpu, DrawFlags { alpha_mask, double_sided: m.double_sided, transparent })
 }
@@ -357,7 +358,8 @@ pub fn extract_instances(
             continue;
         }
         let (material, flags) = slots.materials.get(&inst.material).copied().unwrap_or((slots.default_material, DrawFlags::default()));
-        let layers = receiver.map_or(DEFAULT_RECEIVER_LAYERS, |r| r.0);
+        // Decals land on glass only when a DecalReceiver says so.
+        let layers = receiver.map_or(if flags.transparent { 0 } else { DEFAULT_RECEIVER_LAYERS }, |r| r.0);
         let record = GpuInstance::new(world, material, layers);
         let draw = DrawItem { mesh, alpha_mask: flags.alpha_mask, double_sided: flags.double_sided, transparent: flags.transparent };
         let slot = mirror.set_instance(slots.instances.get(&entity).copied(), record, draw);

@@ -66,6 +66,12 @@ pub struct RenderSettings {
     /// Deferred lighting and visibility-buffer shading in compute (false: full-screen fragment
     /// passes).
     pub compute_shading: bool,
+    /// How blended (glass) surfaces are drawn: interlaced into the deferred G-buffer (the
+    /// default, deferred pipeline only) or forward over the opaque image.
+    pub transparency: render::TransparencyMethod,
+    /// Interlaced glass refracts the background by its material's refraction (false: straight
+    /// through).
+    pub refraction: bool,
     /// How many mesh instances, lights and decals the scene tables hold at most.
     pub limits: SceneLimits,
 }
@@ -130,6 +136,8 @@ impl Default for RenderSettings {
             show_decal_boxes: false,
             lights: render::LightSettings::default(),
             compute_shading: true,
+            transparency: render::TransparencyMethod::Interlaced,
+            refraction: true,
             limits: SceneLimits::MAX,
         }
     }
@@ -256,6 +264,10 @@ pub struct FrameStats {
     pub light_method: render::LightMethod,
     /// How its shadows were made.
     pub shadows: render::ShadowMethod,
+    /// How its blended surfaces were drawn (the method applied).
+    pub transparency: render::TransparencyMethod,
+    /// Whether interlaced glass refracted.
+    pub refraction: bool,
     /// The light settings it was drawn with.
     pub lights: render::LightSettings,
     /// Render size.
@@ -423,6 +435,8 @@ fn render_frame(
         show_decal_boxes: settings.show_decal_boxes,
         lights: settings.lights,
         compute_shading: settings.compute_shading,
+        transparency: settings.transparency,
+        refraction: settings.refraction,
     };
     let result = match window {
         Some(mut window) => {
@@ -442,6 +456,8 @@ fn render_frame(
                 decal_method: report.decal_method,
                 light_method: report.light_method,
                 shadows: report.shadows,
+                transparency: settings.transparency.effective(settings.pipeline),
+                refraction: settings.refraction,
                 lights: settings.lights,
                 size: renderer.0.size(),
                 gpu: PassTimes::default(),

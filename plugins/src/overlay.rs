@@ -207,5 +207,11 @@ impl DebugOverlay {
             ui.checkbox(&mut settings.lights.cull_aabb, "tile AABB");
             ui.checkbox(&mut settings.compute_shading, "compute shading");
         });
+        ui.horizontal(|ui| {
+            for m in render::TransparencyMethod::ALL {
+                ui.selectable_value(&mut settings.transparency, m, m.name());
+            }
+            ui.checkbox(&mut settings.refraction, "refraction");
+        });
     }
 }

@@ -445,6 +445,9 @@ layout! {
     pub const MATERIAL_ALPHA_MASK: u32 = 1;
     /// Material flag: both faces are drawn and lit.
     pub const MATERIAL_DOUBLE_SIDED: u32 = 2;
+    /// Blended surfaces: the largest refraction displacement the G-buffer holds, in millimetres
+    /// (`GpuMaterial::refraction` is stored over 8 bits of this range, 1 mm a step).
+    pub const REFRACTION_MAX_MM: u32 = 250;
     /// Material flag: blended transparency (glTF `BLEND`): `base_color.a` (times the texture's
     /// alpha) is the opacity. Drawn by the transparency passes only; the scene TLAS gives such
     /// instances no ray mask yet, so they cast no ray-traced shadow.
@@ -476,19 +479,22 @@ layout! {
     /// transparent surface per pixel, written by the transparency depth pass; light culling
     /// widens each tile's depth range to hold it, so the lists light the glass too.
     pub const BINDING_TRANSPARENT_DEPTH: u32 = 8;
+    /// Binding of the lit image the interlaced-transparency composition reads
+    /// (`transparency_source`, RGBA16F: a copy of the HDR target after lighting).
+    pub const BINDING_TRANSPARENCY_SOURCE: u32 = 9;
     /// Binding of the decal buffer's albedo (`decal_albedo`, storage image RGBA16F): the
     /// premultiplied decal albedo (rgb) and the weight left to the surface's own (a). The decal
     /// pass writes the decal buffer; shading applies `value = decal + value × remaining`.
-    pub const BINDING_DECAL_ALBEDO: u32 = 9;
+    pub const BINDING_DECAL_ALBEDO: u32 = 10;
     /// Binding of the decal buffer's normal (`decal_normal`, RGBA16F): decal normal (xyz) and
     /// the weight left to the surface normal (w).
-    pub const BINDING_DECAL_NORMAL: u32 = 10;
+    pub const BINDING_DECAL_NORMAL: u32 = 11;
     /// Binding of the decal buffer's roughness/metallic (`decal_spec`, RGBA16F): decal roughness
     /// and metallic (xy), the weights left to the surface's (zw).
-    pub const BINDING_DECAL_SPEC: u32 = 11;
+    pub const BINDING_DECAL_SPEC: u32 = 12;
     /// Binding of the decal buffer's count of decals tested per pixel (`decal_tested`, R32UI;
     /// the debug views read it).
-    pub const BINDING_DECAL_TESTED: u32 = 12;
+    pub const BINDING_DECAL_TESTED: u32 = 13;
     /// Number of bindless slots the renderer reserves for itself (built-ins and render targets;
     /// scene textures start here).
     pub const RESERVED_TEXTURES: u32 = 16;
@@ -547,6 +553,12 @@ layout! {
     pub const SHADOWS_TRACED: u32 = 8;
     /// `GpuLighting::flags`: the shadow pass also writes the shadow debug image.
     pub const SHADOW_DEBUG: u32 = 16;
+    /// `GpuLighting::flags`: the deferred G-buffer interlaces transparency (odd rows hold the
+    /// nearest blended surface where there is one), so passes that rebuild surfaces from depth
+    /// step two rows to stay on one surface (`row_step` in `shaders/include/depth.glsl`).
+    pub const INTERLACED: u32 = 32;
+    /// `GpuLighting::flags`: the interlaced composition refracts (`FrameSettings::refraction`).
+    pub const REFRACTION: u32 = 64;
     /// Light tiles: 32-bit words of statistics at the start of the light tile buffer (see
     /// `shaders/include/light_tiles.glsl`).
     pub const LIGHT_TILE_HEADER: u32 = 16;
@@ -558,10 +570,10 @@ layout! {
     pub const LIGHT_CULL_SHARED_LIGHTS: u32 = 32768;
     /// Binding of the shadow debug image (`shadow_debug`, storage RGBA16F): the reconstructed
     /// normal × 0.5 + 0.5 (rgb) and the shadow rays traced (a).
-    pub const BINDING_SHADOW_DEBUG: u32 = 13;
+    pub const BINDING_SHADOW_DEBUG: u32 = 14;
     /// Binding of the HDR target as a storage image (`hdr_image`, RGBA16F), for the lighting
     /// passes that run in compute.
-    pub const BINDING_HDR_STORAGE: u32 = 14;
+    pub const BINDING_HDR_STORAGE: u32 = 15;
 
     /// Debug view (`ScenePush::debug_view`, `DebugView`): the lit image.
     pub const DEBUG_LIT: u32 = 0;
@@ -658,8 +670,11 @@ layout! {
         pub emissive_tex: u32,
         /// `MATERIAL_*` flags.
         pub flags: u32,
+        /// Blended surfaces: how far the background seen through them is displaced, in metres
+        /// at the surface (`thickness × (1 − 1/ior)`; 0 for thin surfaces).
+        pub refraction: f32,
         /// Padding to 16 bytes.
-        pub pad: [u32; 2],
+        pub pad: u32,
     }
 
     /// One punctual light.

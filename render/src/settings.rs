@@ -149,6 +149,52 @@ impl DecalMethod {
     }
 }
 
+/// How blended (transparent) surfaces are drawn (`crate::transparency`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum TransparencyMethod {
+    /// Seed 002's method in the deferred pipeline (§2.4.2, §3.1): the nearest blended surface
+    /// goes into the G-buffer on odd rows, is lit with everything else, and a composition pass
+    /// blends it over the opaque rows. Other pipelines draw blended surfaces forward.
+    #[default]
+    Interlaced,
+    /// The seed's interlacing as published, for comparison: each pair of rows gets one blended
+    /// colour (half the vertical resolution over glass), no depth checks, no refraction.
+    InterlacedPairs,
+    /// A forward pass over the opaque image, back to front, in every pipeline.
+    Forward,
+}
+
+impl TransparencyMethod {
+    /// Every method.
+    pub const ALL: [TransparencyMethod; 3] =
+        [TransparencyMethod::Interlaced, TransparencyMethod::InterlacedPairs, TransparencyMethod::Forward];
+
+    /// The name used in `--stats` and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            TransparencyMethod::Interlaced => "interlaced",
+            TransparencyMethod::InterlacedPairs => "interlaced_pairs",
+            TransparencyMethod::Forward => "forward",
+        }
+    }
+
+    /// Parses [`TransparencyMethod::name`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+
+    /// The method applied with `pipeline`: interlacing lives in the deferred pipeline's
+    /// G-buffer, so every other pipeline draws blended surfaces forward.
+    pub fn effective(self, pipeline: PipelineKind) -> TransparencyMethod {
+        if pipeline == PipelineKind::Deferred { self } else { TransparencyMethod::Forward }
+    }
+
+    /// Whether the G-buffer holds the blended surfaces on odd rows.
+    pub fn interlaces(self) -> bool {
+        self != TransparencyMethod::Forward
+    }
+}
+
 /// How lights are assigned to pixels.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum LightMethod {
@@ -328,6 +374,11 @@ pub struct FrameSettings {
     /// Deferred lighting and visibility-buffer shading run as compute passes (false: as
     /// full-screen fragment passes, for comparison).
     pub compute_shading: bool,
+    /// How blended surfaces are drawn (see [`TransparencyMethod::effective`]).
+    pub transparency: TransparencyMethod,
+    /// Interlaced transparency displaces the background by the materials' refraction (false:
+    /// straight through, for comparison).
+    pub refraction: bool,
 }
 
 impl Default for FrameSettings {
@@ -340,6 +391,8 @@ impl Default for FrameSettings {
             show_decal_boxes: false,
             lights: LightSettings::default(),
             compute_shading: true,
+            transparency: TransparencyMethod::Interlaced,
+            refraction: true,
         }
     }
 }

@@ -9,6 +9,7 @@
 //! | `many-decals` | §5.2.4: Emerald Square, 100,000 leaf decals on the ground, 1 light | 100,000 leaf decals (0.2–0.6 m) on the ground, the sun alone |
 //! | `ten-point-lights` | seed 001 §5: Sponza, ten point lights of varied intensity, colour and range, a fixed central camera | the courtyard with its lights replaced by ten point lights (5–60 cd, ranges from eq. 4.1 or 6–14 m) around the fountain, the courtyard's camera |
 //! | `many-lights` | seed 000 §5.2.5: Emerald Square, 28,587 small point lights, no decals | 28,587 small point lights (0.05–0.4 cd, eq. 4.1 ranges of 1.6–4.5 m) over the courtyard's ground and walls, the sun |
+//! | `transparency` | seed 002 §4.2: one scene of about 60,000 polygons (38,812 opaque, 20,832 transparent), 2 to 64 spot lights | not the courtyard (48,340 opaque triangles on its own) but a stone floor and a field of opaque balls (38,812 opaque triangles in all, + less than one ball), a row of glass balls (refracting, 35 % opaque) and three glass panes in front of them (20,832 transparent triangles, + less than one ball), [`TRANSPARENCY_LIGHTS`] spot lights ([`set_spot_lights`] changes the count) and no other light |
 //!
 //! The courtyard stands in for the seeds' scenes (Sponza, Emerald Square, Bistro), which are not
 //! among the models this project may use; the counts and kinds of lights and decals are the
@@ -40,6 +41,8 @@ pub enum BenchScene {
     TenPointLights,
     /// Seed 000 §5.2.5.
     ManyLights,
+    /// Seed 002 §4.2.
+    Transparency,
 }
 
 impl BenchScene {
@@ -51,7 +54,10 @@ impl BenchScene {
             "many-decals" => BenchScene::ManyDecals,
             "ten-point-lights" => BenchScene::TenPointLights,
             "many-lights" => BenchScene::ManyLights,
-            _ => bail!("unknown bench scene {name:?} (few-blended-decals, decals-and-lights, many-decals, ten-point-lights, many-lights)"),
+            "transparency" => BenchScene::Transparency,
+            _ => bail!(
+                "unknown bench scene {name:?} (few-blended-decals, decals-and-lights, many-decals, ten-point-lights, many-lights, transparency)"
+            ),
         })
     }
 }
@@ -82,6 +88,10 @@ fn ground_decal(
 
 /// Spawns `scene` into `world` (which has the render plugin).
 pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
+    if scene == BenchScene::Transparency {
+        spawn_transparency_scene(world);
+        return;
+    }
     let info = spawn_courtyard(world);
     let mut rng = SplitMix64::new(5);
     match scene {
@@ -171,7 +181,102 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
                 .collect();
             world.spawn_batch(batch);
         }
+        BenchScene::Transparency => unreachable!("spawned above"),
     }
+}
+
+/// Seed 002 §4.2's polygon counts: opaque and transparent triangles.
+pub const TRANSPARENCY_TRIANGLES: (usize, usize) = (38_812, 20_832);
+/// Spot lights the transparency scene starts with.
+pub const TRANSPARENCY_LIGHTS: usize = 32;
+
+/// A spot light of the transparency scene (what [`set_spot_lights`] adds and removes).
+#[derive(Component)]
+pub struct BenchSpot;
+
+fn spawn_transparency_scene(world: &mut World) {
+    use engine::material::{AlphaMode, Material};
+    use engine::mesh::{Mesh, shapes};
+    use engine::scene::MeshInstance;
+
+    // Its own scene: the courtyard alone has more opaque triangles than the seed's whole scene.
+    let ground = shapes::plane(40.0, 40.0, 8, 8.0);
+    let courtyard = ground.triangle_count();
+    let ball = shapes::uv_sphere(0.45, 32, 16);
+    let glass_ball = shapes::uv_sphere(0.8, 48, 24);
+    let pane = shapes::cuboid(Vec3::new(3.0, 2.2, 0.04), 1.0);
+    let (opaque_balls, glass_balls) = {
+        let (opaque, transparent) = TRANSPARENCY_TRIANGLES;
+        let panes = 3 * pane.triangle_count();
+        (
+            opaque.saturating_sub(courtyard).div_ceil(ball.triangle_count()),
+            transparent.saturating_sub(panes).div_ceil(glass_ball.triangle_count()),
+        )
+    };
+    let (ground, ball, glass_ball, pane) = {
+        let mut meshes = world.resource_mut::<Assets<Mesh>>();
+        (meshes.add(ground), meshes.add(ball), meshes.add(glass_ball), meshes.add(pane))
+    };
+    let mut materials = world.resource_mut::<Assets<Material>>();
+    let colours: Vec<_> = [Vec3::new(0.8, 0.3, 0.2), Vec3::new(0.2, 0.6, 0.3), Vec3::new(0.25, 0.35, 0.8), Vec3::new(0.8, 0.75, 0.6)]
+        .into_iter()
+        .map(|c| materials.add(Material::from_color(c.extend(1.0), 0.0, 0.5)))
+        .collect();
+    let glass = |tint: Vec3, alpha: f32, thickness: f32| Material {
+        alpha_mode: AlphaMode::Blend,
+        thickness,
+        ..Material::from_color(tint.extend(alpha), 0.0, 0.1)
+    };
+    let stone = materials.add(Material::from_color(Vec3::splat(0.55).extend(1.0), 0.0, 0.8));
+    let ball_glass = materials.add(glass(Vec3::new(0.6, 0.8, 0.9), 0.35, 0.4));
+    let pane_glass = materials.add(glass(Vec3::new(0.7, 0.9, 0.8), 0.25, 0.05));
+    // A field of balls behind, glass balls in a row and panes nearer the camera.
+    let columns = 12;
+    let opaque: Vec<_> = (0..opaque_balls)
+        .map(|i| {
+            let (col, row) = ((i % columns) as f32, (i / columns) as f32);
+            let at = Vec3::new(-7.7 + col * 1.4, 0.45, -4.0 + row * 1.4);
+            (MeshInstance { mesh: ball, material: colours[i % colours.len()] }, Transform::from_translation(at))
+        })
+        .collect();
+    let transparent: Vec<_> = (0..glass_balls)
+        .map(|i| {
+            let at = Vec3::new(-7.2 + (i % 10) as f32 * 1.6, 0.8 + 1.7 * (i / 10) as f32, 5.0);
+            (MeshInstance { mesh: glass_ball, material: ball_glass }, Transform::from_translation(at))
+        })
+        .chain((0..3).map(|i| {
+            let at = Vec3::new(-3.5 + 3.5 * i as f32, 1.1, 8.5);
+            (
+                MeshInstance { mesh: pane, material: pane_glass },
+                Transform::from_translation(at).with_rotation(Quat::from_rotation_y(0.2 * (i as f32 - 1.0))),
+            )
+        }))
+        .collect();
+    world.spawn_batch(opaque);
+    world.spawn_batch(transparent);
+    world.spawn((MeshInstance { mesh: ground, material: stone }, Transform::default()));
+    world.spawn((engine::camera::Camera::default(), Transform::from_xyz(0.0, 3.5, 14.0).looking_at(Vec3::new(0.0, 0.6, 0.0), Vec3::Y)));
+    set_spot_lights(world, TRANSPARENCY_LIGHTS);
+}
+
+/// Replaces the transparency scene's spot lights by `count` new ones, over the field of balls
+/// and pointing down at it (the seed's lights were all spot lights).
+pub fn set_spot_lights(world: &mut World, count: usize) {
+    let old: Vec<Entity> = world.query_filtered::<Entity, With<BenchSpot>>().iter(world).collect();
+    for e in old {
+        world.despawn(e);
+    }
+    let mut rng = SplitMix64::new(11);
+    let batch: Vec<_> = (0..count)
+        .map(|_| {
+            let at = Vec3::new(rng.range_f32(-10.0, 10.0), rng.range_f32(4.0, 6.0), rng.range_f32(-6.0, 9.0));
+            let target = at + Vec3::new(rng.range_f32(-3.0, 3.0), -at.y, rng.range_f32(-3.0, 3.0));
+            let colour = Vec3::new(rng.range_f32(0.6, 1.0), rng.range_f32(0.6, 1.0), rng.range_f32(0.6, 1.0));
+            let light = SpotLight { color: colour, intensity: 60.0, range: Some(14.0), inner_angle: 0.3, outer_angle: 0.6 };
+            (light, Transform::from_translation(at).looking_at(target, Vec3::Z), BenchSpot)
+        })
+        .collect();
+    world.spawn_batch(batch);
 }
 
 /// Point lights in seed 000 §5.2.5's many-lights scene.
@@ -207,5 +312,36 @@ mod tests {
             assert_eq!((d, l), (decals, lights), "{scene:?}");
         }
         assert!(BenchScene::parse("nope").is_err());
+    }
+
+    #[test]
+    fn transparency_scene_has_the_seeds_polygon_counts_and_only_spot_lights() {
+        use engine::material::{AlphaMode, Material};
+        use engine::mesh::Mesh;
+        use engine::scene::MeshInstance;
+        let mut app = engine::app::App::new();
+        app.add_plugins(plugins::RenderPlugin::new(Default::default()));
+        spawn_bench_scene(&mut app.world, BenchScene::Transparency);
+        let world = &mut app.world;
+        let (mut opaque, mut transparent) = (0, 0);
+        let instances: Vec<MeshInstance> = world.query::<&MeshInstance>().iter(world).copied().collect();
+        for i in instances {
+            let triangles = world.resource::<Assets<Mesh>>().get(i.mesh).unwrap().triangle_count();
+            match world.resource::<Assets<Material>>().get(i.material).unwrap().alpha_mode {
+                AlphaMode::Blend => transparent += triangles,
+                _ => opaque += triangles,
+            }
+        }
+        let (o, t) = TRANSPARENCY_TRIANGLES;
+        // Whole balls: at most one ball's triangles over the seed's counts.
+        assert!(
+            opaque >= o && opaque < o + 1_000 && transparent >= t && transparent < t + 2_300,
+            "{opaque} opaque, {transparent} transparent"
+        );
+        let spots = world.query::<&SpotLight>().iter(world).count();
+        let others = world.query::<&PointLight>().iter(world).count() + world.query::<&DirectionalLight>().iter(world).count();
+        assert_eq!((spots, others), (TRANSPARENCY_LIGHTS, 0));
+        set_spot_lights(world, 4);
+        assert_eq!(world.query::<&SpotLight>().iter(world).count(), 4);
     }
 }

@@ -16,7 +16,7 @@ use serde_json::Value;
 /// One run's label and the median milliseconds of each pass (and `total`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunMedians {
-    /// `pipeline/decal_method lights=… shadows=…` plus the light settings that vary.
+    /// `pipeline/decal_method lights=… light_count=… shadows=…` plus the light and transparency settings.
     pub label: String,
     /// Pass name to median GPU milliseconds, `total` included.
     pub passes: BTreeMap<String, f64>,
@@ -27,15 +27,18 @@ pub fn run_medians(frames: &[Value]) -> Vec<RunMedians> {
     let key = |f: &Value| {
         let lights = &f["lights"];
         format!(
-            "{}/{} lights={} shadows={} tile={} aabb={} ray_culling={} normals={}",
+            "{}/{} lights={} light_count={} shadows={} tile={} aabb={} ray_culling={} normals={} transparency={} refraction={}",
             f["pipeline"].as_str().unwrap_or("?"),
             f["decal_method"].as_str().unwrap_or("?"),
             f["light_method"].as_str().unwrap_or("?"),
+            f["counters"]["lights"],
             f["shadows"].as_str().unwrap_or("?"),
             lights["tile_size"],
             lights["aabb"],
             lights["shadow_ray_culling"],
             lights["normals"].as_str().unwrap_or("?"),
+            f["transparency"].as_str().unwrap_or("?"),
+            f["refraction"],
         )
     };
     let mut runs: Vec<(String, Vec<&Value>)> = Vec::new();

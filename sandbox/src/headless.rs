@@ -74,10 +74,15 @@ pub struct HeadlessOptions {
     pub compare_light_methods: bool,
     /// Run `frames` frames with each light configuration of [`LIGHT_COMPARE_SET`] in turn.
     pub compare_lights: bool,
+    /// Run `frames` frames with each run of [`transparency_compare_set`] in turn (seed 002's
+    /// Tables 4.2, 4.4 and 4.5; the transparency bench scene).
+    pub compare_transparency: bool,
     /// Light culling and shadows.
     pub lights: LightSettings,
     /// Deferred lighting and visibility-buffer shading in compute.
     pub compute_shading: bool,
+    /// How blended surfaces are drawn.
+    pub transparency: render::TransparencyMethod,
 }
 
 /// The light configurations `--compare-lights` runs, in order, named after the rows of seed 001's
@@ -107,6 +112,62 @@ pub const LIGHT_COMPARE_SET: [(&str, LightSettings); 9] = {
         ("tiles 32x32", lights(Tiled, 32, true, true, Improved)),
     ]
 };
+
+/// One run of a comparison: what the frames are drawn with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Run {
+    /// The pipeline.
+    pub pipeline: PipelineKind,
+    /// The decal method asked for.
+    pub decal_method: DecalMethod,
+    /// Light culling and shadows.
+    pub lights: LightSettings,
+    /// How blended surfaces are drawn.
+    pub transparency: render::TransparencyMethod,
+    /// Whether interlaced glass refracts.
+    pub refraction: bool,
+    /// The transparency scene's spot-light count (`None`: the scene's lights as they are).
+    pub spot_lights: Option<usize>,
+}
+
+/// Light counts of seed 002's Tables 4.2–4.5.
+pub const TRANSPARENCY_LIGHT_COUNTS: [usize; 7] = [0, 2, 4, 8, 16, 32, 64];
+
+/// The runs `--compare-transparency` makes, from `base`: for each light count of
+/// [`TRANSPARENCY_LIGHT_COUNTS`], interlaced deferred with and without refraction and no
+/// shadows (Table 4.2), then without shadows and with them (Tables 4.5 and 4.4) deferred with a
+/// forward transparency pass and the forward pipeline, and interlaced deferred with shadows.
+pub fn transparency_compare_set(base: Run) -> Vec<Run> {
+    use render::TransparencyMethod::{Forward, Interlaced};
+    let mut runs = Vec::new();
+    for count in TRANSPARENCY_LIGHT_COUNTS {
+        let run = |pipeline, transparency, refraction, shadows| Run {
+            pipeline,
+            transparency,
+            refraction,
+            spot_lights: Some(count),
+            lights: LightSettings { shadows, ..base.lights },
+            ..base
+        };
+        if runs.is_empty() {
+            // Warm-up (clocks, first builds): the first run twice, which the summaries read as
+            // one run and skip the start of.
+            runs.push(run(PipelineKind::Deferred, Interlaced, false, false));
+        }
+        runs.push(run(PipelineKind::Deferred, Interlaced, false, false));
+        // Also Table 4.5's interlaced column.
+        runs.push(run(PipelineKind::Deferred, Interlaced, true, false));
+        if count == 0 {
+            continue;
+        }
+        runs.push(run(PipelineKind::Deferred, Forward, true, false));
+        runs.push(run(PipelineKind::Forward, Forward, true, false));
+        runs.push(run(PipelineKind::Deferred, Interlaced, true, true));
+        runs.push(run(PipelineKind::Deferred, Forward, true, true));
+        runs.push(run(PipelineKind::Forward, Forward, true, true));
+    }
+    runs
+}
 
 /// The pipeline and decal-method pairs `--compare` runs, in order (those the device can run; see
 /// [`compare_set`]): every pipeline without decals, with each ray-traced method and with
@@ -155,9 +216,11 @@ impl Default for HeadlessOptions {
             bench_scene: None,
             compare: false,
             compare_lights: false,
+            compare_transparency: false,
             compare_light_methods: false,
             lights: LightSettings::default(),
             compute_shading: true,
+            transparency: render::TransparencyMethod::Interlaced,
         }
     }
 }
@@ -206,6 +269,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         show_decal_boxes: opts.show_decal_boxes,
         lights: opts.lights,
         compute_shading: opts.compute_shading,
+        transparency: opts.transparency,
         ..Default::default()
     }));
     match opts.bench_scene {
@@ -248,28 +312,45 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
         Some(p) => Some(std::io::BufWriter::new(create(p)?)),
         None => None,
     };
-    let mut combos: Vec<(PipelineKind, DecalMethod, LightSettings)> = Vec::new();
+    let base = Run {
+        pipeline: opts.pipeline,
+        decal_method: opts.decal_method,
+        lights: opts.lights,
+        transparency: opts.transparency,
+        refraction: true,
+        spot_lights: None,
+    };
+    let mut combos: Vec<Run> = Vec::new();
     if opts.compare {
         let set = compare_set(app.world.resource::<GpuRenderer>().0.ray_support());
-        combos.extend(set.into_iter().map(|(p, m)| (p, m, opts.lights)));
+        combos.extend(set.into_iter().map(|(pipeline, decal_method)| Run { pipeline, decal_method, ..base }));
     }
     if opts.compare_lights {
-        combos.extend(LIGHT_COMPARE_SET.iter().map(|&(_, l)| {
-            let pipeline = if l.method == LightMethod::Tiled { PipelineKind::ForwardPlus } else { PipelineKind::Forward };
-            (pipeline, opts.decal_method, l)
+        combos.extend(LIGHT_COMPARE_SET.iter().map(|&(_, lights)| {
+            let pipeline = if lights.method == LightMethod::Tiled { PipelineKind::ForwardPlus } else { PipelineKind::Forward };
+            Run { pipeline, lights, ..base }
         }));
     }
     if opts.compare_light_methods {
-        combos.extend(LightMethod::ALL.map(|method| (opts.pipeline, opts.decal_method, LightSettings { method, ..opts.lights })));
+        combos.extend(LightMethod::ALL.map(|method| Run { lights: LightSettings { method, ..opts.lights }, ..base }));
+    }
+    if opts.compare_transparency {
+        combos.extend(transparency_compare_set(base));
     }
     let total = opts.frames as usize * combos.len().max(1);
     let mut frames = Vec::with_capacity(total);
     for i in 0..total {
-        if let Some(&(pipeline, method, lights)) = combos.get(i / opts.frames as usize) {
+        if let Some(run) = combos.get(i / opts.frames as usize) {
             let mut settings = app.world.resource_mut::<plugins::RenderSettings>();
-            settings.pipeline = pipeline;
-            settings.decal_method = method;
-            settings.lights = lights;
+            settings.pipeline = run.pipeline;
+            settings.decal_method = run.decal_method;
+            settings.lights = run.lights;
+            settings.transparency = run.transparency;
+            settings.refraction = run.refraction;
+            let spot_lights = app.world.query_filtered::<(), bevy_ecs::query::With<crate::bench::BenchSpot>>().iter(&app.world).count();
+            if let Some(count) = run.spot_lights.filter(|&c| c != spot_lights) {
+                crate::bench::set_spot_lights(&mut app.world, count);
+            }
         }
         app.update();
         if let Some(e) = app.world.resource::<RenderStats>().last_error.clone() {

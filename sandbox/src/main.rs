@@ -78,6 +78,12 @@ struct Cli {
     /// with the other light settings as given.
     #[arg(long)]
     compare_light_methods: bool,
+    /// Run `--frames` frames with each transparency configuration of seed 002's Tables 4.2,
+    /// 4.4 and 4.5 in turn (0–64 spot lights; interlaced deferred with and without refraction,
+    /// with and without shadows against deferred with a forward transparency pass and the
+    /// forward pipeline), meant for `--bench-scene transparency`.
+    #[arg(long)]
+    compare_transparency: bool,
     /// Light assignment: all (every pixel loops over every light), tiled (light culling) or
     /// ray_query (lights found by a zero-length ray through their boxes; deferred and visbuffer
     /// on devices with ray tracing, tiled elsewhere).
@@ -99,6 +105,10 @@ struct Cli {
     /// compute.
     #[arg(long)]
     fragment_shading: bool,
+    /// Blended (glass) surfaces: interlaced into the deferred G-buffer (seed 002; deferred
+    /// only, other pipelines draw them forward) or forward over the opaque image.
+    #[arg(long, default_value = "interlaced", value_parser = parse_transparency)]
+    transparency: render::TransparencyMethod,
     /// Normals from depth for the shadow pass: naive or improved.
     #[arg(long, default_value = "improved", value_parser = parse_depth_normals)]
     depth_normals: render::DepthNormals,
@@ -157,6 +167,11 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 
 fn parse_pipeline(s: &str) -> Result<PipelineKind, String> {
     PipelineKind::from_name(s).ok_or_else(|| format!("unknown pipeline {s:?} (forward, forward_plus, deferred, visbuffer)"))
+}
+
+fn parse_transparency(s: &str) -> Result<render::TransparencyMethod, String> {
+    render::TransparencyMethod::from_name(s)
+        .ok_or_else(|| format!("unknown transparency method {s:?} (interlaced, interlaced_pairs, forward)"))
 }
 
 fn parse_light_method(s: &str) -> Result<render::LightMethod, String> {
@@ -227,7 +242,9 @@ fn main() -> Result<()> {
         compare: cli.compare,
         compare_lights: cli.compare_lights,
         compare_light_methods: cli.compare_light_methods,
+        compare_transparency: cli.compare_transparency,
         compute_shading: !cli.fragment_shading,
+        transparency: cli.transparency,
         lights: render::LightSettings {
             method: cli.lights,
             tile_size: cli.tile_size,
@@ -261,7 +278,7 @@ fn main() -> Result<()> {
         return Ok(());
     }
     let summary = run(&opts)?;
-    if let (true, Some(stats)) = (cli.compare || cli.compare_lights || cli.compare_light_methods, &cli.stats) {
+    if let (true, Some(stats)) = (cli.compare || cli.compare_lights || cli.compare_light_methods || cli.compare_transparency, &cli.stats) {
         let (csv, svg) = sandbox::charts::write(stats, &sandbox::charts::run_medians(&summary.frames))?;
         println!("per-pass medians: {} and {}", csv.display(), svg.display());
     }

@@ -5,9 +5,10 @@
 //! Gameplay is an ordinary system ([`soak_gameplay`]) driven by a seeded generator, so a run is
 //! deterministic: each frame it spawns, moves, reparents and despawns decals (some with a
 //! lifetime, some riding on meshes), point, spot and directional lights and mesh instances, and
-//! now and then adds or removes meshes, materials, textures and decal materials, including ones
-//! still in use. Between frames the driver ([`run`]) switches the pipeline, decal method, light
-//! method and debug view and resizes the target (down to 1×1). The run is split into cycles;
+//! now and then adds or removes meshes, materials (a third of them blended glass, some
+//! refracting), textures and decal materials, including ones still in use. Between frames the
+//! driver ([`run`]) switches the pipeline, decal method, light method, transparency method and
+//! debug view and resizes the target (down to 1×1). The run is split into cycles;
 //! each cycle starts a new renderer on a randomly chosen capability tier
 //! ([`plugins::restart_renderer`], which re-extracts the scene), and ends with everything the
 //! cycle spawned despawned.
@@ -38,7 +39,7 @@ use engine::image::{ColorSpace, Image};
 use engine::prelude::*;
 use plugins::decal::{Decal, DecalLifetime, DecalMaterial};
 use plugins::{GpuRenderer, RenderPlugin, RenderSettings, RenderStats, restart_renderer};
-use render::{DebugView, DecalMethod, LightMethod, PipelineKind, RendererSettings, Tier};
+use render::{DebugView, DecalMethod, LightMethod, PipelineKind, RendererSettings, Tier, TransparencyMethod};
 use serde::Serialize;
 
 use crate::scatter::SplitMix64;
@@ -174,6 +175,8 @@ pub struct SwitchCounts {
     pub decal_method: u64,
     /// Light method changes.
     pub light_method: u64,
+    /// Transparency method changes.
+    pub transparency: u64,
     /// Debug view changes.
     pub debug_view: u64,
     /// Render size changes.
@@ -314,7 +317,14 @@ pub fn soak_gameplay(
     if s.chance(0.03) || s.materials.is_empty() {
         let color = Vec4::new(s.rng.next_f32(), s.rng.next_f32(), s.rng.next_f32(), 1.0);
         let texture = if s.chance(0.5) { SoakGameplay::pick(&mut s.rng, &s.textures) } else { None };
-        let material = Material { base_color_texture: texture, ..Material::from_color(color, s.rng.next_f32(), s.rng.range_f32(0.1, 1.0)) };
+        let mut material =
+            Material { base_color_texture: texture, ..Material::from_color(color, s.rng.next_f32(), s.rng.range_f32(0.1, 1.0)) };
+        // A third are glass: drawn by the transparency passes, refracting now and then.
+        if s.chance(0.33) {
+            material.alpha_mode = AlphaMode::Blend;
+            material.base_color.w = s.rng.range_f32(0.1, 0.9);
+            material.thickness = if s.chance(0.5) { s.rng.range_f32(0.0, 0.5) } else { 0.0 };
+        }
         s.materials.push(materials.add(material));
         s.counts.assets_added += 1;
     }
@@ -566,6 +576,10 @@ pub fn run(config: &SoakConfig) -> Result<SoakReport> {
             if rng.next_u64().is_multiple_of(43) {
                 settings.lights.method = LightMethod::ALL[(rng.next_u64() % 3) as usize];
                 report.switches.light_method += 1;
+            }
+            if rng.next_u64().is_multiple_of(53) {
+                settings.transparency = TransparencyMethod::ALL[(rng.next_u64() % TransparencyMethod::ALL.len() as u64) as usize];
+                report.switches.transparency += 1;
             }
             if rng.next_u64().is_multiple_of(47) {
                 settings.debug_view = DEBUG_VIEWS[(rng.next_u64() % DEBUG_VIEWS.len() as u64) as usize];

@@ -13,6 +13,9 @@
 //! `mean_tested`, `max_tested` (list entries walked) and `mean_applied`, `max_applied` (decals
 //! whose box held the pixel).
 //!
+//! Transparency: `transparency` (the method applied: `interlaced`, `interlaced_pairs` or
+//! `forward`) and `refraction` (whether interlaced glass refracts).
+//!
 //! Lights: `light_method` (applied: `all`, `tiled` or `ray_query`), `shadows` (`ray_query`, `ray_pipeline`, or
 //! `none` where no shadow was traced, as on devices without ray tracing), `lights` (the settings:
 //! `tile_size`, `aabb`, `shadow_ray_culling`, `normals`), the counters `scene_blas_builds`,
@@ -39,6 +42,8 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
         "decal_method": stats.decal_method.name(),
         "light_method": stats.light_method.name(),
         "shadows": stats.shadows.name(),
+        "transparency": stats.transparency.name(),
+        "refraction": stats.refraction,
         "lights": {
             "tile_size": stats.lights.tile(),
             "aabb": stats.lights.cull_aabb,

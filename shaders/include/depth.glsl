@@ -18,6 +18,12 @@ vec3 world_from_depth(vec2 px, float depth) {
     return w.xyz / w.w;
 }
 
+// Rows between vertically neighbouring samples of one surface: 2 when the deferred G-buffer
+// interlaces transparency (odd rows may hold glass, even rows what is behind it), else 1.
+int row_step() {
+    return (scene.lighting.lighting.flags & INTERLACED) != 0u ? 2 : 1;
+}
+
 float depth_at(ivec2 px) {
     ivec2 size = ivec2(scene.camera.camera.viewport_size);
     return texelFetch(depth_target, clamp(px, ivec2(0), size - 1), 0).r;
@@ -37,7 +43,8 @@ vec3 neighbour_difference(ivec2 px, float depth, vec3 p, ivec2 dir) {
 
 void world_derivatives(ivec2 px, float depth, vec3 p, out vec3 dpdx, out vec3 dpdy) {
     dpdx = neighbour_difference(px, depth, p, ivec2(1, 0));
-    dpdy = neighbour_difference(px, depth, p, ivec2(0, 1));
+    int rows = row_step();
+    dpdy = neighbour_difference(px, depth, p, ivec2(0, rows)) / float(rows);
 }
 
 #endif

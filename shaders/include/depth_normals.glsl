@@ -31,7 +31,7 @@ vec3 naive_difference(ivec2 px, vec3 p, ivec2 step) {
 
 vec3 normal_from_depth_naive(ivec2 px, float depth, vec3 p) {
     vec3 dx = naive_difference(px, p, ivec2(1, 0));
-    vec3 dy = naive_difference(px, p, ivec2(0, 1));
+    vec3 dy = naive_difference(px, p, ivec2(0, row_step()));
     return facing_camera(safe_normalize(cross(dy, dx), vec3(0.0, 1.0, 0.0)), p);
 }
 
@@ -54,7 +54,7 @@ vec3 improved_difference(ivec2 px, float c, vec3 p, ivec2 step) {
 
 vec3 normal_from_depth_improved(ivec2 px, float depth, vec3 p) {
     vec3 dx = improved_difference(px, depth, p, ivec2(1, 0));
-    vec3 dy = improved_difference(px, depth, p, ivec2(0, 1));
+    vec3 dy = improved_difference(px, depth, p, ivec2(0, row_step()));
     return facing_camera(safe_normalize(cross(dy, dx), vec3(0.0, 1.0, 0.0)), p);
 }
 

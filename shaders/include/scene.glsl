@@ -34,6 +34,7 @@ layout(set = 0, binding = BINDING_GBUFFER_MATERIAL) uniform sampler2D gbuffer_ma
 layout(set = 0, binding = BINDING_GBUFFER_LAYERS) uniform usampler2D gbuffer_layers;
 layout(set = 0, binding = BINDING_VISIBILITY) uniform usampler2D visibility_ids;
 layout(set = 0, binding = BINDING_TRANSPARENT_DEPTH) uniform sampler2D transparent_depth;
+layout(set = 0, binding = BINDING_TRANSPARENCY_SOURCE) uniform sampler2D transparency_source;
 
 vec4 sample_texture(uint index, vec2 uv) {
     return texture(textures[nonuniformEXT(index)], uv);

@@ -24,6 +24,9 @@ spirv! {
     DECAL_BOXES_VERT = "decal_boxes.vert";
     GBUFFER_FRAG = "gbuffer.frag";
     GBUFFER_FRAG_ALPHA_MASK = "gbuffer.frag.ALPHA_MASK";
+    GBUFFER_FRAG_INTERLACED = "gbuffer.frag.INTERLACED_GLASS";
+    TRANSPARENCY_COMPOSE_COMP = "transparency_compose.comp";
+    TRANSPARENCY_COMPOSE_COMP_SEED_PAIRS = "transparency_compose.comp.SEED_PAIRS";
     DEFERRED_LIGHTING_FRAG = "deferred_lighting.frag";
     DEFERRED_LIGHTING_FRAG_RAY_QUERY_DECALS = "deferred_lighting.frag.RAY_QUERY_DECALS";
     DECAL_BOX_VERT = "decal_box.vert";

@@ -255,6 +255,11 @@ impl FrameGraph {
         (e.raw, e.view, e.extent, e.state) = (raw, view, extent, ImageState { layout: state.layout, track: acquired });
     }
 
+    /// The Vulkan image behind `id` (for passes that copy between targets).
+    pub fn raw(&self, id: ImageId) -> vk::Image {
+        self.images[id.0 as usize].raw
+    }
+
     /// The state an external image was left in (to hand to the next [`FrameGraph::import`]).
     pub fn state(&self, id: ImageId) -> ImageState {
         self.images[id.0 as usize].state

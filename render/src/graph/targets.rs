@@ -16,8 +16,8 @@ pub const DISPLAY_FORMAT: vk::Format = vk::Format::R8G8B8A8_SRGB;
 pub const GBUFFER_ALBEDO_FORMAT: vk::Format = vk::Format::R8G8B8A8_SRGB;
 /// Shading normal × 0.5 + 0.5.
 pub const GBUFFER_NORMAL_FORMAT: vk::Format = vk::Format::A2B10G10R10_UNORM_PACK32;
-/// Roughness, metallic.
-pub const GBUFFER_MATERIAL_FORMAT: vk::Format = vk::Format::R8G8_UNORM;
+/// Roughness, metallic, opacity, refraction (shaders/gbuffer.frag).
+pub const GBUFFER_MATERIAL_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
 /// Decal receiver layers (low 8 bits).
 pub const GBUFFER_LAYERS_FORMAT: vk::Format = vk::Format::R8_UINT;
 /// Visibility buffer: instance slot, triangle index.
@@ -31,7 +31,7 @@ pub const DECAL_TESTED_FORMAT: vk::Format = vk::Format::R32_UINT;
 pub use crate::layout::{
     BINDING_DECAL_ALBEDO, BINDING_DECAL_NORMAL, BINDING_DECAL_SPEC, BINDING_DECAL_TESTED, BINDING_DEPTH, BINDING_GBUFFER_ALBEDO,
     BINDING_GBUFFER_LAYERS, BINDING_GBUFFER_MATERIAL, BINDING_GBUFFER_NORMAL, BINDING_HDR, BINDING_HDR_STORAGE, BINDING_SHADOW_DEBUG,
-    BINDING_TRANSPARENT_DEPTH, BINDING_VISIBILITY,
+    BINDING_TRANSPARENCY_SOURCE, BINDING_TRANSPARENT_DEPTH, BINDING_VISIBILITY,
 };
 
 /// Where a target is bound for sampling: its descriptor binding in set 0 (`BINDING_*`).
@@ -98,6 +98,14 @@ pub static TRANSPARENT_DEPTH: TargetDesc = TargetDesc {
     format: DEPTH_FORMAT,
     usage: vk::ImageUsageFlags::from_raw(U::DEPTH_STENCIL_ATTACHMENT.as_raw() | U::SAMPLED.as_raw()),
     bind: Some(Bind::Depth(BINDING_TRANSPARENT_DEPTH)),
+    storage: None,
+};
+/// A copy of the lit HDR image that interlaced transparency composes from.
+pub static TRANSPARENCY_SOURCE: TargetDesc = TargetDesc {
+    name: "transparency source",
+    format: HDR_FORMAT,
+    usage: vk::ImageUsageFlags::from_raw(U::TRANSFER_DST.as_raw() | U::SAMPLED.as_raw()),
+    bind: Some(Bind::Color(BINDING_TRANSPARENCY_SOURCE)),
     storage: None,
 };
 /// Tone-mapped sRGB output (headless; a window presents the swapchain image instead).

@@ -20,12 +20,12 @@ use crate::gpu::device::GpuContext;
 use crate::graph::targets::SHADOW_DEBUG;
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassBuilder, ResourceId};
 use crate::layout::{
-    GpuLighting, LIGHT_CULL_AABB, LIGHTS_ALL, LIGHTS_RAY_QUERY, LIGHTS_TILED, SHADOW_DEBUG as SHADOW_DEBUG_FLAG, SHADOW_NORMALS_IMPROVED,
-    SHADOW_RAY_CULLING, SHADOWS_TRACED,
+    GpuLighting, INTERLACED, LIGHT_CULL_AABB, LIGHTS_ALL, LIGHTS_RAY_QUERY, LIGHTS_TILED, REFRACTION, SHADOW_DEBUG as SHADOW_DEBUG_FLAG,
+    SHADOW_NORMALS_IMPROVED, SHADOW_RAY_CULLING, SHADOWS_TRACED,
 };
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
-use crate::settings::{DepthNormals, FrameSettings, LightMethod, ShadowMethod};
+use crate::settings::{DepthNormals, FrameSettings, LightMethod, ShadowMethod, TransparencyMethod};
 use crate::shadows::accel::{SceneAccel, SceneAccelFrame};
 use crate::shadows::{ShadowInputs, ShadowPass};
 use ray_query::{RayQueryLightFrame, RayQueryLights};
@@ -62,6 +62,7 @@ pub struct LightFrame {
     /// When shading traces shadow rays itself (ray-query lights on the ray-query tier): the
     /// scene's TLAS, BLAS and meshes (alpha-masked hits read their texture coordinates).
     pub inline_shadows: Option<[ResourceId; 3]>,
+    interlaced: bool,
     tiles: TileFrame,
     accel: SceneAccelFrame,
     ray_query: RayQueryLightFrame,
@@ -72,6 +73,13 @@ impl LightFrame {
     /// blended instances are drawn), so the transparency depth pass must run before it.
     pub fn culls_transparent_depth(&self) -> bool {
         self.tiles.transparent
+    }
+
+    /// Whether the deferred G-buffer interlaces blended surfaces this frame (the deferred
+    /// pipeline, interlaced transparency and blended instances to draw): passes that rebuild
+    /// surfaces from depth then step two rows.
+    pub fn interlaced(&self) -> bool {
+        self.interlaced
     }
 }
 
@@ -115,7 +123,7 @@ impl Lighting {
             light_slots,
             proj: mirror.camera().proj,
             shadows: traced != ShadowMethod::None && !enumerated,
-            transparent: !mirror.transparent_order().is_empty(),
+            transparent: !mirror.transparent_order().is_empty() && s.transparency.effective(s.pipeline) == TransparencyMethod::Forward,
         };
         let tiles = self.tiles.prepare(f, &request, &mut stats)?;
         mirror.counters.light_tiles = stats;
@@ -127,6 +135,7 @@ impl Lighting {
             _ => ShadowMethod::None,
         };
         let debug = shadows != ShadowMethod::None && !enumerated && s.debug_view.reads_shadow_debug();
+        let interlaced = !mirror.transparent_order().is_empty() && s.transparency.effective(s.pipeline).interlaces();
         let mut flags = 0;
         for (on, flag) in [
             (l.cull_aabb, LIGHT_CULL_AABB),
@@ -134,6 +143,8 @@ impl Lighting {
             (l.normals == DepthNormals::Improved, SHADOW_NORMALS_IMPROVED),
             (shadows != ShadowMethod::None, SHADOWS_TRACED),
             (debug, SHADOW_DEBUG_FLAG),
+            (interlaced, INTERLACED),
+            (s.refraction, REFRACTION),
         ] {
             if on {
                 flags |= flag;
@@ -182,6 +193,7 @@ impl Lighting {
             debug,
             light_accel,
             inline_shadows,
+            interlaced,
             tiles,
             accel,
             ray_query,

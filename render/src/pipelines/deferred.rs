@@ -42,6 +42,8 @@ use crate::settings::LightMethod;
 pub struct DeferredPasses {
     gbuffer_opaque: vk::Pipeline,
     gbuffer_mask: vk::Pipeline,
+    /// Blended surfaces on odd rows (`crate::transparency::interlaced`).
+    gbuffer_interlaced: vk::Pipeline,
     lighting: ShadeVariants,
     lighting_compute: ShadeVariants,
     /// With ray-query lights.
@@ -93,6 +95,11 @@ impl DeferredPasses {
         Ok(Self {
             gbuffer_opaque: create_graphics(ctx, layout, &geometry)?,
             gbuffer_mask: create_graphics(ctx, layout, &GraphicsDesc { fragment: Some(shaders::GBUFFER_FRAG_ALPHA_MASK), ..geometry })?,
+            gbuffer_interlaced: create_graphics(
+                ctx,
+                layout,
+                &GraphicsDesc { fragment: Some(shaders::GBUFFER_FRAG_INTERLACED), ..geometry },
+            )?,
             lighting: ShadeVariants::new(
                 ctx,
                 [
@@ -132,13 +139,21 @@ impl DeferredPasses {
         })
     }
 
-    /// Geometry pass: depth and every attribute, emitted radiance into the HDR target.
-    pub fn geometry(&self, f: &mut Frame, scene: &GpuScene, draws: &[Option<DrawItem>], clear: [f32; 4]) -> Result<(), RenderError> {
+    /// Geometry pass: depth and every attribute, emitted radiance into the HDR target; then the
+    /// blended instances in `interlaced` on odd rows (empty unless transparency is interlaced).
+    pub fn geometry(
+        &self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        draws: &[Option<DrawItem>],
+        interlaced: &[u32],
+        clear: [f32; 4],
+    ) -> Result<(), RenderError> {
         f.pass("gbuffer", PassKind::Graphics)
             .image(&DEPTH, ImageUse::DepthWrite(Load::ClearDepth(0.0)))
             .color(&GBUFFER_ALBEDO, Load::Clear([0.0; 4]))
             .color(&GBUFFER_NORMAL, Load::Clear([0.5, 0.5, 1.0, 1.0]))
-            .color(&GBUFFER_MATERIAL, Load::Clear([0.0; 4]))
+            .color(&GBUFFER_MATERIAL, Load::Clear([0.0, 0.0, 1.0, 0.0]))
             .color(&GBUFFER_LAYERS, Load::Clear([0.0; 4]))
             .color(&HDR, Load::Clear(clear))
             .reads(scene.res.drawn())
@@ -148,6 +163,10 @@ impl DeferredPasses {
                 scene.draw_meshes(p, draws, DrawItem::is_opaque);
                 p.bind_graphics(self.gbuffer_mask, &push);
                 scene.draw_meshes(p, draws, DrawItem::is_masked);
+                if !interlaced.is_empty() {
+                    p.bind_graphics(self.gbuffer_interlaced, &push);
+                    scene.draw_slots(p, draws, interlaced.iter().copied());
+                }
             })
     }
 
@@ -217,7 +236,7 @@ impl DeferredPasses {
 
     /// Destroys the pipelines; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for p in [self.gbuffer_opaque, self.gbuffer_mask].into_iter().chain(self.decals) {
+        for p in [self.gbuffer_opaque, self.gbuffer_mask, self.gbuffer_interlaced].into_iter().chain(self.decals) {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }

@@ -91,18 +91,25 @@ pub fn forward_plus_frame(
     forward_frame(f, r, mirror, s)
 }
 
-/// Deferred: G-buffer, light culling and shadows, deferred decals or the decal pass (whichever
-/// is the method), lighting in compute (or a full-screen fragment pass; in-shader ray-query
-/// decals included when they are the method), then the blended surfaces in a forward pass.
+/// Deferred: G-buffer (with the blended surfaces on odd rows when transparency is interlaced),
+/// light culling and shadows, deferred decals or the decal pass (whichever is the method),
+/// lighting in compute (or a full-screen fragment pass; in-shader ray-query decals included
+/// when they are the method), then the interlaced composition or a forward transparency pass.
 pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let (decals, lights) = begin(f, r, mirror, s)?;
-    r.deferred.geometry(f, r.scene, &mirror.draws, s.clear_color)?;
+    let interlaced = lights.interlaced();
+    let in_gbuffer = if interlaced { mirror.transparent_order() } else { &[] };
+    r.deferred.geometry(f, r.scene, &mirror.draws, in_gbuffer, s.clear_color)?;
     transparent_depth(f, r, mirror, &lights)?;
     r.lighting.record(f, r.scene, &lights)?;
     r.deferred.decals(f, r.scene, r.decals.deferred_runs(&decals))?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::GBuffer)?;
     r.deferred.lighting(f, r.scene, &decals, &lights, s.compute_shading)?;
-    r.transparency.shade(f, r.scene, &mirror.draws, mirror.transparent_order(), &decals, &lights)?;
+    if interlaced {
+        r.transparency.interlaced.compose(f, r.scene, s.transparency)?;
+    } else {
+        r.transparency.shade(f, r.scene, &mirror.draws, mirror.transparent_order(), &decals, &lights)?;
+    }
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)?;
     Ok(lights)

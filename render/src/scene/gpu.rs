@@ -38,7 +38,7 @@ use crate::scene::{
 /// Bindless array size.
 pub const MAX_TEXTURES: u32 = 4096;
 /// Descriptor bindings after the texture array, one per sampled render target (`BINDING_*`).
-pub const TARGET_BINDINGS: u32 = crate::layout::BINDING_TRANSPARENT_DEPTH;
+pub const TARGET_BINDINGS: u32 = crate::layout::BINDING_TRANSPARENCY_SOURCE;
 /// Storage-image bindings after those: the decal buffer (`BINDING_DECAL_*`), the shadow debug
 /// image and the HDR target.
 pub const STORAGE_BINDINGS: u32 = crate::layout::BINDING_HDR_STORAGE - TARGET_BINDINGS;

@@ -44,7 +44,8 @@ impl Default for GpuMaterial {
             occlusion_tex: TEXTURE_WHITE,
             emissive_tex: TEXTURE_WHITE,
             flags: 0,
-            pad: [0; 2],
+            refraction: 0.0,
+            pad: 0,
         }
     }
 }

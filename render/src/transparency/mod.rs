@@ -1,8 +1,15 @@
 //! Blended transparency (glTF `BLEND` materials: glass, visors, windows), seed 002
-//! (`002_9638fcf4f713d316.txt`) §2.4 and §2.4.2: "opaque objects rendered using deferred
-//! techniques, followed by a forward renderer which draws transparent objects over the scene
-//! already illuminated", the way every pipeline here draws them.
+//! (`002_9638fcf4f713d316.txt`). Two ways, chosen by [`crate::settings::TransparencyMethod`]:
 //!
+//! - **Interlaced** ([`interlaced`], the deferred pipeline's default; §2.4.2, §3.1, §3.3): the
+//!   nearest blended surface goes into the G-buffer on odd rows and is lit, shadowed and
+//!   decalled like every other surface; a composition pass blends it over the opaque rows, with
+//!   refraction checked by depth.
+//! - **Forward** (this module; every other pipeline, and deferred on request): §2.4.2's "opaque
+//!   objects rendered using deferred techniques, followed by a forward renderer which draws
+//!   transparent objects over the scene already illuminated".
+//!
+//! The forward way:
 //! - **Opaque passes skip blended surfaces** ([`crate::scene::DrawItem::transparent`]): the depth
 //!   prepass, the G-buffer and the visibility buffer hold the opaque scene only, so everything
 //!   that reads them (light culling, shadows, decals, lighting) sees the surfaces behind the
@@ -18,14 +25,19 @@
 //!   with the forward shader's `TRANSPARENT` variant: the same material sampling and lighting
 //!   over the same tile lists, alpha = the material's opacity, blended by Porter and Duff's
 //!   "over" (seed 002 eq. 2.3, glTF's definition of `BLEND`): `C = α·Cs + (1 − α)·Cd`. Back
-//!   faces are culled unless the material is double-sided, as for opaque surfaces.
+//!   faces are culled unless the material is double-sided, as for opaque surfaces. Every layer
+//!   of glass is blended, where interlacing keeps the nearest.
 //!
-//! What the glass does not get yet: the shadow pass's bits and the decal buffer belong to the
-//! opaque surface behind it, so the glass is lit unshadowed, and decals land on it only with
-//! in-shader ray-query decals (the ray-query tier); glass casts no ray-traced shadow (its TLAS
-//! instances have no ray mask: a binary shadow would make it an opaque occluder). Intersecting
-//! or nested pieces of glass blend in instance order, not per pixel. A frame without blended
-//! instances records neither pass and culls as before.
+//! What the forward way does not give the glass: the shadow pass's bits and the decal buffer
+//! belong to the opaque surface behind it, so the glass is lit unshadowed, and decals land on it
+//! only with in-shader ray-query decals (the ray-query tier). In both ways glass casts no
+//! ray-traced shadow yet (its TLAS instances have no ray mask: a binary shadow would make it an
+//! opaque occluder), decals land on it only when a `DecalReceiver` says so (extraction gives
+//! blended instances no receiver layers by default), and intersecting or nested pieces of glass
+//! sort by instance, not per pixel. A frame without blended instances records none of these
+//! passes and culls as before.
+
+pub mod interlaced;
 
 use ash::vk;
 
@@ -40,6 +52,7 @@ use crate::lights::{LightFrame, declare_light_reads};
 use crate::scene::DrawItem;
 use crate::scene::gpu::GpuScene;
 use crate::settings::DecalMethod;
+use interlaced::Interlaced;
 
 /// The transparency passes' pipelines.
 pub struct TransparencyPasses {
@@ -47,6 +60,8 @@ pub struct TransparencyPasses {
     shade: vk::Pipeline,
     /// With in-shader ray-query decals (ray-query tier only).
     shade_ray_query: Option<vk::Pipeline>,
+    /// The deferred pipeline's interlaced composition.
+    pub interlaced: Interlaced,
 }
 
 impl TransparencyPasses {
@@ -72,6 +87,7 @@ impl TransparencyPasses {
             } else {
                 None
             },
+            interlaced: Interlaced::new(ctx, layout)?,
         })
     }
 
@@ -125,5 +141,6 @@ impl TransparencyPasses {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }
+        self.interlaced.destroy(ctx);
     }
 }

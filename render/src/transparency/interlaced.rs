@@ -1,0 +1,110 @@
+//! Interlaced single-layer transparency in the deferred pipeline (seed 002
+//! `002_9638fcf4f713d316.txt` §2.4.2, §3.1, eq. 3.3; refraction with a depth check, §3.3).
+//!
+//! The G-buffer pass draws the blended instances after the opaque ones with the `INTERLACED`
+//! variant of `shaders/gbuffer.frag`: on odd rows only, with the same depth test and writes,
+//! their opacity and refraction in the material target's B and A. So on odd rows the nearest
+//! glass replaces the opaque surface behind it in depth and in every attribute, and everything
+//! downstream treats it as a surface: light culling's depth ranges hold it, the shadow pass
+//! traces its shadows, decals land on it when its receiver layers say so, and the one lighting
+//! pass lights it (the point of the method: glass costs no second lighting path). Passes that
+//! rebuild surfaces from depth step two rows while the frame interlaces (`INTERLACED`, `row_step`
+//! in `shaders/include/depth.glsl`), so their vertical neighbours lie on the same layer.
+//!
+//! After lighting, [`Interlaced::compose`] copies the lit image and `shaders/transparency_compose.comp`
+//! rewrites every pixel as `α·T + (1 − α)·O`. Where the seed blends each pair of rows into one
+//! colour (halving vertical resolution over glass), each pixel here keeps its own sample for
+//! the layer its row holds and interpolates only the other layer from the rows above and below,
+//! checked by depth: glass is never blended over an opaque surface in front of it, and a
+//! refracted background sample in front of the glass is rejected.
+
+use ash::vk;
+
+use crate::RenderError;
+use crate::gpu::device::GpuContext;
+use crate::gpu::pipeline::create_compute;
+use crate::gpu::shaders;
+use crate::graph::targets::{DEPTH, GBUFFER_MATERIAL, GBUFFER_NORMAL, HDR, TRANSPARENCY_SOURCE};
+use crate::graph::{BufferUse, Frame, ImageUse, PassKind};
+use crate::scene::gpu::GpuScene;
+use crate::settings::TransparencyMethod;
+
+/// The composition pass's pipeline.
+pub struct Interlaced {
+    compose: vk::Pipeline,
+    /// The seed's pairwise composition ([`TransparencyMethod::InterlacedPairs`]).
+    compose_pairs: vk::Pipeline,
+}
+
+impl Interlaced {
+    /// Creates the pipeline.
+    pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
+        Ok(Self {
+            compose: create_compute(ctx, layout, "transparency composition", shaders::TRANSPARENCY_COMPOSE_COMP)?,
+            compose_pairs: create_compute(
+                ctx,
+                layout,
+                "transparency composition (seed pairs)",
+                shaders::TRANSPARENCY_COMPOSE_COMP_SEED_PAIRS,
+            )?,
+        })
+    }
+
+    /// Copies the lit HDR image and composes the interlaced glass over the opaque rows into the
+    /// HDR target. Runs after the lighting pass of a frame whose G-buffer interlaced glass.
+    /// `method` picks this module's composition or the seed's pairs.
+    pub fn compose(&self, f: &mut Frame, scene: &GpuScene, method: TransparencyMethod) -> Result<(), RenderError> {
+        let (hdr, source) = (f.graph.target(f.ctx, &HDR)?, f.graph.target(f.ctx, &TRANSPARENCY_SOURCE)?);
+        let (hdr, source) = (f.graph.raw(hdr), f.graph.raw(source));
+        f.pass("transparency_copy", PassKind::Transfer)
+            .image(&HDR, ImageUse::TransferSrc)
+            .image(&TRANSPARENCY_SOURCE, ImageUse::TransferDst)
+            .record(|p| {
+                let layers = vk::ImageSubresourceLayers {
+                    aspect_mask: vk::ImageAspectFlags::COLOR,
+                    mip_level: 0,
+                    base_array_layer: 0,
+                    layer_count: 1,
+                };
+                let region = vk::ImageCopy {
+                    src_subresource: layers,
+                    dst_subresource: layers,
+                    extent: vk::Extent3D { width: p.extent.width, height: p.extent.height, depth: 1 },
+                    ..Default::default()
+                };
+                // SAFETY: `cmd` is recording outside a rendering scope; the graph put both images
+                // (same size and format) in the transfer layouts this names.
+                unsafe {
+                    p.ctx.device.cmd_copy_image(
+                        p.cmd,
+                        hdr,
+                        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                        source,
+                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                        &[region],
+                    )
+                };
+            })?;
+        let pipeline = if method == TransparencyMethod::InterlacedPairs { self.compose_pairs } else { self.compose };
+        f.pass("transparency_compose", PassKind::Compute)
+            .sample(&TRANSPARENCY_SOURCE)
+            .sample(&DEPTH)
+            .sample(&GBUFFER_MATERIAL)
+            .sample(&GBUFFER_NORMAL)
+            .image(&HDR, ImageUse::StorageWrite)
+            .read(scene.res.tables, BufferUse::Storage)
+            .record(|p| {
+                p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
+                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
+                unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
+            })
+    }
+
+    /// Destroys the pipeline; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        for p in [self.compose, self.compose_pairs] {
+            // SAFETY: the GPU is idle.
+            unsafe { ctx.device.destroy_pipeline(p, None) };
+        }
+    }
+}
