@@ -242,6 +242,7 @@ pub fn extract_materials(
     mut mirror: ResMut<RenderMirror>,
     mut slots: ResMut<MirrorSlots>,
     instances: Query<(Entity, &MeshInstance)>,
+    mut warned: Local<WarnOnce<Handle<Material>>>,
 ) {
     let mut changed_flags = Vec::new();
     let events: Vec<_> = materials.drain_events().collect();
@@ -250,7 +251,9 @@ pub fn extract_materials(
         let handle = event.handle();
         match (&event, materials.get(handle)) {
             (AssetEvent::Added(_) | AssetEvent::Modified(_), Some(material)) => {
-                let (gpu, flags) = gpu_material(material, &slots);
+                let (material, problem) = validate::material(material);
+                warned.report(handle, "material", problem, "repaired (defaults for non-finite values, the rest clamped); drawn");
+                let (gpu, flags) = gpu_material(&material, &slots);
                 let old = slots.materials.get(&handle).copied();
                 let slot = SceneMirror::write(&mut mirror.counters, &mut mirror.materials, old.map(|(s, _)| s), gpu);
                 slots.materials.insert(handle, (slot, flags));
@@ -259,6 +262,7 @@ pub fn extract_materials(
                 }
             }
             _ => {
+                warned.forget(handle);
                 if let Some((slot, _)) = slots.materials.remove(&handle) {
                     mirror.materials.remove(slot);
                     mirror.counters.records_written += 1;

@@ -21,6 +21,7 @@ use std::hash::Hash;
 
 use engine::image::{Image, MAX_IMAGE_DIMENSION};
 use engine::light::{DirectionalLight, PointLight, SpotLight};
+use engine::material::Material;
 use engine::mesh::Mesh;
 use glam::{Mat4, Vec3};
 use render::scene::{DECAL_CHANNELS, GpuLight, GpuVertex, MeshData};
@@ -152,6 +153,35 @@ pub fn image_problem(image: &Image) -> Option<String> {
         }
     }
     None
+}
+
+/// A material with every factor drawable, and what was repaired: non-finite colour, alpha,
+/// metallic, roughness, normal scale, occlusion strength, emission, ior or thickness become the
+/// defaults (emission 0), and alpha, metallic, roughness and occlusion strength are clamped to
+/// [0, 1] (a NaN alpha would make every pixel behind blended glass NaN).
+pub fn material(m: &Material) -> (Material, Option<&'static str>) {
+    let d = Material::default();
+    let mut out = m.clone();
+    let mut repaired = false;
+    let mut fix = |value: &mut f32, default: f32, range: Option<(f32, f32)>| {
+        let fixed = if !value.is_finite() { default } else { range.map_or(*value, |(lo, hi)| value.clamp(lo, hi)) };
+        repaired |= fixed != *value;
+        *value = fixed;
+    };
+    for (c, default) in out.base_color.as_mut().iter_mut().zip(d.base_color.to_array()) {
+        fix(c, default, None);
+    }
+    fix(&mut out.base_color.w, d.base_color.w, Some((0.0, 1.0)));
+    fix(&mut out.metallic, d.metallic, Some((0.0, 1.0)));
+    fix(&mut out.roughness, d.roughness, Some((0.0, 1.0)));
+    fix(&mut out.occlusion_strength, d.occlusion_strength, Some((0.0, 1.0)));
+    fix(&mut out.normal_scale, d.normal_scale, None);
+    for c in out.emissive.as_mut() {
+        fix(c, 0.0, None);
+    }
+    fix(&mut out.ior, d.ior, None);
+    fix(&mut out.thickness, d.thickness, None);
+    (out, repaired.then_some("has non-finite or out-of-range factors"))
 }
 
 /// Why a decal's parameters cannot be drawn, if they cannot: a NaN, infinite, zero or negative
@@ -318,5 +348,33 @@ mod tests {
         assert_eq!(once.len(), 1);
         once.report(1, "light", None, "");
         assert!(once.is_empty());
+    }
+
+    #[test]
+    fn materials_with_non_finite_or_out_of_range_factors_are_repaired_once_and_valid_ones_kept() {
+        use glam::Vec4;
+        let glass = Material {
+            alpha_mode: engine::material::AlphaMode::Blend,
+            thickness: 0.1,
+            ..Material::from_color(Vec4::new(0.9, 0.1, 0.1, 0.4), 0.0, 0.3)
+        };
+        let (same, problem) = material(&glass);
+        assert_eq!((same, problem), (glass.clone(), None));
+        let bad = Material {
+            base_color: Vec4::new(f32::NAN, 0.5, f32::INFINITY, f32::NAN),
+            metallic: 2.0,
+            roughness: -1.0,
+            emissive: Vec3::new(f32::NAN, 1.0, 0.0),
+            ior: f32::NAN,
+            thickness: f32::INFINITY,
+            ..glass.clone()
+        };
+        let (fixed, problem) = material(&bad);
+        assert!(problem.is_some());
+        assert_eq!(fixed.base_color, Vec4::new(1.0, 0.5, 1.0, 1.0));
+        assert_eq!((fixed.metallic, fixed.roughness), (1.0, 0.0));
+        assert_eq!(fixed.emissive, Vec3::new(0.0, 1.0, 0.0));
+        assert_eq!((fixed.ior, fixed.thickness, fixed.refraction()), (1.5, 0.0, 0.0));
+        assert_eq!(material(&fixed).1, None, "a repaired material is valid");
     }
 }
