@@ -489,8 +489,24 @@ fn frame(app: &mut App, report: &mut SoakReport) -> Result<()> {
     let Some(mut renderer) = app.world.get_resource_mut::<GpuRenderer>() else {
         bail!("no renderer");
     };
-    if renderer.0.read_hdr()?.iter().flatten().any(|c| !c.is_finite()) {
+    let hdr = renderer.0.read_hdr()?;
+    let bad = hdr.iter().filter(|p| p.iter().any(|c| !c.is_finite())).count();
+    if bad > 0 {
         report.non_finite_frames += 1;
+        let tier = renderer.0.tier().name();
+        let s = app.world.resource::<RenderSettings>();
+        tracing::error!(
+            frame = report.frames_rendered,
+            pixels = bad,
+            tier,
+            pipeline = s.pipeline.name(),
+            decals = s.decal_method.name(),
+            lights = s.lights.method.name(),
+            transparency = s.transparency.name(),
+            view = ?s.debug_view,
+            size = ?s.size,
+            "non-finite pixels"
+        );
     }
     Ok(())
 }

@@ -98,7 +98,13 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
     }
     // The shadow pass's debug image exists only when it ran with its debug output; without it
     // these views show black (no rays, no normals).
+#ifdef TRANSPARENT
+    // The shadow pass's debug image belongs to the opaque surface behind, and holds nothing
+    // where that is the sky.
+    bool shadow_debug = false;
+#else
     bool shadow_debug = (scene.lighting.lighting.flags & SHADOW_DEBUG) != 0u;
+#endif
     if (scene.debug_view == DEBUG_SHADOW_RAYS) return vec4(shadow_debug ? heatmap(imageLoad(shadow_debug_in, px).a / 16.0) : vec3(0.0), 1.0);
     if (scene.debug_view == DEBUG_DEPTH_NORMALS) {
         bool reconstructed = float(px.x) < scene.camera.camera.viewport_size.x * 0.5;
