@@ -275,11 +275,12 @@ pub fn extract_materials(
         for (entity, inst) in &instances {
             if changed_flags.contains(&inst.material)
                 && let (Some(&slot), Some(&(_, flags))) = (slots.instances.get(&entity), slots.materials.get(&inst.material))
-                && let Some(Some(draw)) = mirror.draws.get_mut(slot as usize)
             {
-                draw.alpha_mask = flags.alpha_mask;
-                draw.double_sided = flags.double_sided;
-                draw.transparent = flags.transparent;
+                mirror.update_draw(slot, |draw| {
+                    draw.alpha_mask = flags.alpha_mask;
+                    draw.double_sided = flags.double_sided;
+                    draw.transparent = flags.transparent;
+                });
             }
         }
     }

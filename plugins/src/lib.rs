@@ -266,7 +266,7 @@ pub struct FrameStats {
     pub shadows: render::ShadowMethod,
     /// How its blended surfaces were drawn (the method applied).
     pub transparency: render::TransparencyMethod,
-    /// Whether interlaced glass refracted.
+    /// Whether glass refracted (only interlaced transparency refracts).
     pub refraction: bool,
     /// The light settings it was drawn with.
     pub lights: render::LightSettings,
@@ -457,7 +457,7 @@ fn render_frame(
                 light_method: report.light_method,
                 shadows: report.shadows,
                 transparency: settings.transparency.effective(settings.pipeline),
-                refraction: settings.refraction,
+                refraction: settings.refraction && settings.transparency.effective(settings.pipeline).interlaces(),
                 lights: settings.lights,
                 size: renderer.0.size(),
                 gpu: PassTimes::default(),

@@ -85,6 +85,14 @@ fn scene() -> Scene {
     Scene { app, red, blue, red_material, blue_material }
 }
 
+/// The pixels of `view` that see the plane y = `height` within `half` of the origin in x and z.
+fn pixels_seeing_square(view: &TopDownView, height: f32, half: f32) -> Vec<usize> {
+    (0..SIZE.0 * SIZE.1)
+        .filter(|&i| view.ground_point(i % SIZE.0, i / SIZE.0, height).is_some_and(|p| p.x.abs() < half && p.z.abs() < half))
+        .map(|i| i as usize)
+        .collect()
+}
+
 fn render(app: &mut App, pipeline: PipelineKind) -> (Vec<[f32; 4]>, Vec<f32>) {
     app.world.resource_mut::<RenderSettings>().pipeline = pipeline;
     app.update();
@@ -310,10 +318,7 @@ fn decals_land_on_glass_only_when_its_receiver_layers_say_so() {
         .add(DecalMaterial { base_color: Some(Vec4::new(0.0, 1.0, 0.0, 1.0)), ..Default::default() });
     // Pixels that see the pane well inside the decal's 1 m square footprint.
     let view = TopDownView::new(10.0, SIZE);
-    let footprint: Vec<usize> = (0..SIZE.0 * SIZE.1)
-        .filter(|&i| view.ground_point(i % SIZE.0, i / SIZE.0, 1.5).is_some_and(|p| p.x.abs() < 0.4 && p.z.abs() < 0.4))
-        .map(|i| i as usize)
-        .collect();
+    let footprint = pixels_seeing_square(&view, 1.5, 0.4);
     assert!(footprint.len() > 50, "the footprint is in view ({} pixels)", footprint.len());
     let green_change = |image: &[[f32; 4]], plain: &[[f32; 4]]| {
         footprint.iter().map(|&i| (image[i][1] - plain[i][1]).abs()).sum::<f32>() / footprint.len() as f32
@@ -393,10 +398,7 @@ fn two_quads_glb(variant: &str) -> Vec<u8> {
 fn a_gltf_glass_pane_blends_in_every_pipeline_and_tier() {
     let view = TopDownView::new(5.0, SIZE);
     // Pixels that see the pane well inside its edges.
-    let inside: Vec<usize> = (0..SIZE.0 * SIZE.1)
-        .filter(|&i| view.ground_point(i % SIZE.0, i / SIZE.0, 1.0).is_some_and(|p| p.x.abs() < 0.85 && p.z.abs() < 0.85))
-        .map(|i| i as usize)
-        .collect();
+    let inside = pixels_seeing_square(&view, 1.0, 0.85);
     assert!(inside.len() > 300, "the pane is in view ({} pixels)", inside.len());
     for tier in [Tier::RayQuery, Tier::RayTracingPipeline, Tier::NoRayTracing] {
         let settings = RenderSettings { decal_method: DecalMethod::Off, ambient: Vec3::splat(0.05), ..Default::default() };

@@ -9,7 +9,7 @@
 pub mod gpu;
 
 use std::cmp::Reverse;
-use std::collections::BinaryHeap;
+use std::collections::{BTreeSet, BinaryHeap};
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec2, Vec3};
@@ -612,6 +612,9 @@ pub struct SceneMirror {
     instances_rearranged: bool,
     /// Object-space centre of each mesh's bounds, by mesh id (sorts transparent instances).
     mesh_centers: Vec<Vec3>,
+    /// Slots of the transparent instances, kept as draws change, so the per-frame sort visits
+    /// the glass only.
+    transparent: BTreeSet<u32>,
     /// This frame's transparent instances as (distance from the eye, slot), and their slots back
     /// to front: kept so that sorting every frame allocates nothing once they have grown.
     transparent_keys: Vec<(f32, u32)>,
@@ -650,8 +653,27 @@ impl SceneMirror {
             self.draws.resize(slot as usize + 1, None);
         }
         self.draws[slot as usize] = Some(draw);
+        self.note_transparency(slot, draw.transparent);
         self.counters.records_written += 1;
         slot
+    }
+
+    /// Changes the draw item of a live instance slot in place (its material's alpha mode or
+    /// sidedness changed); nothing is uploaded.
+    pub fn update_draw(&mut self, slot: u32, update: impl FnOnce(&mut DrawItem)) {
+        if let Some(Some(draw)) = self.draws.get_mut(slot as usize) {
+            update(draw);
+            let transparent = draw.transparent;
+            self.note_transparency(slot, transparent);
+        }
+    }
+
+    fn note_transparency(&mut self, slot: u32, transparent: bool) {
+        if transparent {
+            self.transparent.insert(slot);
+        } else {
+            self.transparent.remove(&slot);
+        }
     }
 
     /// Frees an instance slot.
@@ -661,6 +683,7 @@ impl SceneMirror {
         if let Some(d) = self.draws.get_mut(slot as usize) {
             *d = None;
         }
+        self.transparent.remove(&slot);
         self.counters.records_written += 1;
     }
 
@@ -727,15 +750,12 @@ impl SceneMirror {
     /// instance order (see `crate::transparency`).
     pub fn sort_transparent(&mut self, eye: Vec3) -> &[u32] {
         self.transparent_keys.clear();
-        for (slot, draw) in self.draws.iter().enumerate() {
-            let (Some(draw), Some(record)) = (draw, self.instances.get(slot as u32)) else { continue };
-            if !draw.transparent {
-                continue;
-            }
+        for &slot in &self.transparent {
+            let (Some(Some(draw)), Some(record)) = (self.draws.get(slot as usize), self.instances.get(slot)) else { continue };
             let center = self.mesh_centers.get(draw.mesh.0 as usize).copied().unwrap_or(Vec3::ZERO);
             let distance = record.model.transform_point3(center).distance_squared(eye);
             // A non-finite distance (a broken transform, skipped by extraction anyway) sorts last.
-            self.transparent_keys.push((if distance.is_finite() { distance } else { 0.0 }, slot as u32));
+            self.transparent_keys.push((if distance.is_finite() { distance } else { 0.0 }, slot));
         }
         self.transparent_keys.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
         self.transparent_order.clear();
@@ -962,6 +982,30 @@ mod tests {
         t.take_dirty(|slots, records| seen.extend(slots.iter().map(|&s| (s, records[s as usize]))));
         assert_eq!(seen, vec![(1, 10), (3, 31)]);
         assert_eq!(t.dirty_count(), 0);
+    }
+
+    #[test]
+    fn transparent_instances_sort_back_to_front_and_follow_draw_changes() {
+        let mut m = SceneMirror::default();
+        let mesh = m.add_mesh(MeshData {
+            vertices: vec![GpuVertex { position: [1.0, 0.0, 0.0], normal: [0.0; 3], uv: [0.0; 2], tangent: [0.0; 4] }],
+            indices: vec![0, 0, 0],
+        });
+        let at = |z: f32| GpuInstance::new(Mat4::from_translation(Vec3::new(0.0, 0.0, z)), 0, 1);
+        let glass = DrawItem { mesh, alpha_mask: false, double_sided: false, transparent: true };
+        let near = m.set_instance(None, at(-1.0), glass);
+        let opaque = m.set_instance(None, at(-2.0), DrawItem { transparent: false, ..glass });
+        let far = m.set_instance(None, at(-5.0), glass);
+        assert_eq!(m.sort_transparent(Vec3::ZERO), &[far, near]);
+        assert_eq!(m.counters.transparent, 2);
+        m.update_draw(opaque, |d| d.transparent = true);
+        assert_eq!(m.sort_transparent(Vec3::ZERO), &[far, opaque, near]);
+        m.update_draw(far, |d| d.transparent = false);
+        m.remove_instance(near);
+        assert_eq!(m.sort_transparent(Vec3::ZERO), &[opaque]);
+        // From behind, the order turns round.
+        m.update_draw(far, |d| d.transparent = true);
+        assert_eq!(m.sort_transparent(Vec3::new(0.0, 0.0, -10.0)), &[opaque, far]);
     }
 
     #[test]
