@@ -2,7 +2,8 @@
 // The scene TLAS's instance records, written on the GPU from the instance table the renderer
 // already keeps (render/src/shadows/accel.rs): instance i is slot i, its custom index the slot,
 // its BLAS its mesh's (none for a free slot or a mesh without one: such an instance is
-// inactive), opaque unless its material is alpha-masked, invisible to rays when it is blended.
+// inactive), opaque unless its material is alpha-masked or blended (their hits run the any-hit
+// test: the mask, or glass filtering the light, shaders/include/alpha_mask.glsl).
 #include "scene.glsl"
 
 layout(local_size_x = 64) in;
@@ -44,12 +45,9 @@ void main() {
         o.rows[2] = vec4(0.0);
     }
     uint flags = scene.materials.materials[inst.material].flags;
-    bool masked = (flags & MATERIAL_ALPHA_MASK) != 0u;
-    // Blended (transparent) instances stay in the structure but no ray sees them: a binary
-    // shadow would draw glass as an opaque occluder.
-    bool seen = finite && (flags & MATERIAL_BLEND) == 0u;
-    o.custom_index_and_mask = (i & 0xFFFFFFu) | ((seen ? 0xFFu : 0u) << 24);
-    o.sbt_offset_and_flags = (TRIANGLE_FACING_CULL_DISABLE | (masked ? FORCE_NO_OPAQUE : FORCE_OPAQUE)) << 24;
+    bool tested = (flags & (MATERIAL_ALPHA_MASK | MATERIAL_BLEND)) != 0u;
+    o.custom_index_and_mask = (i & 0xFFFFFFu) | ((finite ? 0xFFu : 0u) << 24);
+    o.sbt_offset_and_flags = (TRIANGLE_FACING_CULL_DISABLE | (tested ? FORCE_NO_OPAQUE : FORCE_OPAQUE)) << 24;
     o.blas = blas;
     AsInstancesRef(l.scene_instances).instances[i] = o;
 }

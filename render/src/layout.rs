@@ -449,8 +449,8 @@ layout! {
     /// (`GpuMaterial::refraction` is stored over 8 bits of this range, 1 mm a step).
     pub const REFRACTION_MAX_MM: u32 = 250;
     /// Material flag: blended transparency (glTF `BLEND`): `base_color.a` (times the texture's
-    /// alpha) is the opacity. Drawn by the transparency passes only; the scene TLAS gives such
-    /// instances no ray mask yet, so they cast no ray-traced shadow.
+    /// alpha) is the opacity. Drawn by the transparency passes only; shadow rays that cross such
+    /// a surface carry on, filtered by its colour × (1 − opacity) (`COLOURED_SHADOWS`).
     pub const MATERIAL_BLEND: u32 = 4;
 
     /// Bindless slot of the built-in 1×1 white texture (a material without a texture samples this).
@@ -559,6 +559,13 @@ layout! {
     pub const INTERLACED: u32 = 32;
     /// `GpuLighting::flags`: the interlaced composition refracts (`FrameSettings::refraction`).
     pub const REFRACTION: u32 = 64;
+    /// `GpuLighting::flags`: blended surfaces filter the light that crosses them (coloured
+    /// shadows, `LightSettings::coloured_shadows`); without it they block it like opaque ones.
+    pub const COLOURED_SHADOWS: u32 = 128;
+    /// Coloured shadows: per pixel, how many lights keep the colour their light crossed glass
+    /// with (`GpuLighting::shadow_tints`); a pixel's further tinted lights are lit or shadowed
+    /// by the tint's luminance.
+    pub const SHADOW_TINT_SLOTS: u32 = 2;
     /// Light tiles: 32-bit words of statistics at the start of the light tile buffer (see
     /// `shaders/include/light_tiles.glsl`).
     pub const LIGHT_TILE_HEADER: u32 = 16;
@@ -795,6 +802,10 @@ layout! {
         pub scene_blas_table: u64,
         /// Address of the scene TLAS's instance records (written by the scene instance pass).
         pub scene_instances: u64,
+        /// Address of the shadow tints (0 without): `SHADOW_TINT_SLOTS` words per pixel, row
+        /// after row, each the transmittance (RGB8) and 1 + the list entry it belongs to (top
+        /// 8 bits; 0 for an empty slot) (`shaders/include/light_tiles.glsl`).
+        pub shadow_tints: u64,
         /// A `LIGHTS_*` value.
         pub mode: u32,
         /// Tile side in pixels (8, 16 or 32).
@@ -816,6 +827,8 @@ layout! {
         pub blas_count: u32,
         /// Boxes the light box pass writes (the light BLAS's build count).
         pub light_box_count: u32,
+        /// Padding to 16 bytes.
+        pub pad: [u32; 2],
         /// Radiance where no geometry is drawn (compute shading writes it to sky pixels).
         pub clear_color: Vec4,
     }

@@ -292,6 +292,10 @@ pub struct LightSettings {
     pub shadow_ray_culling: bool,
     /// How the shadow pass reconstructs normals.
     pub normals: DepthNormals,
+    /// Blended surfaces cast coloured shadows: light that crosses glass is filtered by its
+    /// colour × (1 − opacity) (seed 002 §3.2.1). False: glass blocks light like an opaque
+    /// surface (the cheaper shadows of seed 002 Table 4.3).
+    pub coloured_shadows: bool,
 }
 
 impl Default for LightSettings {
@@ -303,6 +307,7 @@ impl Default for LightSettings {
             shadows: true,
             shadow_ray_culling: true,
             normals: DepthNormals::Improved,
+            coloured_shadows: true,
         }
     }
 }

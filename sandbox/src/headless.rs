@@ -96,7 +96,7 @@ pub const LIGHT_COMPARE_SET: [(&str, LightSettings); 9] = {
         shadow_ray_culling: bool,
         normals: DepthNormals,
     ) -> LightSettings {
-        LightSettings { method, tile_size, cull_aabb, shadows: true, shadow_ray_culling, normals }
+        LightSettings { method, tile_size, cull_aabb, shadows: true, shadow_ray_culling, normals, coloured_shadows: true }
     }
     use DepthNormals::{Improved, Naive};
     use LightMethod::{All, Tiled};

@@ -12,6 +12,11 @@
 // j = 32·(j/32) + k reaches p unblocked. With every light (LIGHTS_ALL) tile t has the rows
 // t·⌈lights/32⌉ onwards. The seed stored one 32-bit word per pixel and so capped a tile at 32
 // lights; rows lift the cap.
+//
+// Shadow tints (GpuLighting::shadow_tints, coloured shadows with glass in the scene): per pixel,
+// SHADOW_TINT_SLOTS words, each the RGB8 transmittance of one set bit's light and, in the top 8
+// bits, 1 + its list entry (0: empty). A lit entry with no slot is lit untinted; the shadow pass
+// gives a pixel's further tinted entries (and entries past 254) the bit of the tint's luminance.
 #ifndef LIGHT_TILES_GLSL
 #define LIGHT_TILES_GLSL
 
@@ -20,6 +25,7 @@
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer LightTileWordsRef { uint words[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer TileFrustaRef { GpuTileFrustum frusta[]; };
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer ShadowWordsRef { uint words[]; };
+layout(buffer_reference, std430, buffer_reference_align = 4) buffer ShadowTintsRef { uint words[]; };
 
 const uint LSTAT_ENTRIES = 0u;      // list entries the tiles needed
 const uint LSTAT_ROWS = 1u;         // shadow rows the tiles needed
@@ -97,6 +103,19 @@ uint light_slot(LightList list, uint j) {
 // Index of the shadow word holding entry j (and the 31 after it in its row) for pixel `px`.
 uint shadow_word_at(LightList list, uint j, ivec2 px) {
     return (list.rows + j / 32u) * tile_pixels() + pixel_in_tile(px);
+}
+
+// Index of pixel `px`'s first shadow tint word.
+uint shadow_tint_at(ivec2 px) {
+    return (uint(px.y) * uint(scene.camera.camera.viewport_size.x) + uint(px.x)) * SHADOW_TINT_SLOTS;
+}
+
+// The tint of list entry j at a pixel whose tint words are `tints` (white when it has none).
+vec3 shadow_tint(uint tints[SHADOW_TINT_SLOTS], uint j) {
+    for (uint s = 0u; s < SHADOW_TINT_SLOTS; ++s) {
+        if ((tints[s] >> 24) == j + 1u) return unpackUnorm4x8(tints[s]).rgb;
+    }
+    return vec3(1.0);
 }
 
 #endif

@@ -12,7 +12,8 @@
 #include "light_boxes.glsl"
 #include "shadow_ray_query.glsl"
 
-// One light's radiance at the surface, zero when its shadow ray is blocked or culled.
+// One light's radiance at the surface, zero when its shadow ray is blocked or culled, filtered
+// by the glass it crossed.
 vec3 lit_by(GpuLight light, SurfaceBrdf brdf, SurfaceInputs s, vec3 v, vec3 facing, bool shadows, bool cull) {
     vec3 c = shade_light(light, brdf, s.position, s.normal, v);
     if (!shadows || all(equal(c, vec3(0.0)))) return c;
@@ -20,7 +21,7 @@ vec3 lit_by(GpuLight light, SurfaceBrdf brdf, SurfaceInputs s, vec3 v, vec3 faci
     float tmax;
     if (!shadow_ray_towards(light, s.position, dir, tmax)) return vec3(0.0);
     if (cull && dot(facing, dir) <= 0.0) return vec3(0.0);
-    return shadow_ray_unblocked(shadow_origin(s.position, facing), dir, 1e-3, tmax) ? c : vec3(0.0);
+    return c * shadow_ray_transmittance(shadow_origin(s.position, facing), dir, 1e-3, tmax);
 }
 
 vec3 enumerated_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found) {

@@ -112,13 +112,17 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
         return vec4(reconstructed ? rebuilt : s.normal * 0.5 + 0.5, 1.0);
     }
 
+    uint tints[SHADOW_TINT_SLOTS];
+    bool tinted = shadowed && scene.lighting.lighting.shadow_tints != 0ul;
+    ShadowTintsRef tint_words = ShadowTintsRef(scene.lighting.lighting.shadow_tints);
+    for (uint t = 0u; t < SHADOW_TINT_SLOTS; ++t) tints[t] = tinted ? tint_words.words[shadow_tint_at(px) + t] : 0u;
     uint word = 0xFFFFFFFFu;
     for (uint j = 0u; j < list.count; ++j) {
         if (shadowed && j % 32u == 0u) word = shadow_words.words[shadow_word_at(list, j, px)];
         if ((word & (1u << (j % 32u))) == 0u) continue;
         GpuLight light = scene.lights.lights[light_slot(list, j)];
         if (light.kind == LIGHT_NONE) continue;
-        color += shade_light(light, brdf, s.position, s.normal, v);
+        color += shadow_tint(tints, j) * shade_light(light, brdf, s.position, s.normal, v);
     }
 #endif
     return vec4(color, 1.0);

@@ -5,8 +5,11 @@
 // cone) or, with shadow-ray culling, the normal faces away from it. Bit k of a row's word is
 // set when entry 32·row + k reaches the pixel unblocked (light_tiles.glsl).
 //
-// The including shader defines how a ray is traced (ray query or traceRayEXT):
-//   bool shadow_ray_unblocked(vec3 origin, vec3 dir, float tmin, float tmax);
+// The including shader defines how a ray is traced (ray query or traceRayEXT), returning the
+// light that gets through (0: blocked; below 1 where it crossed glass):
+//   vec3 shadow_ray_transmittance(vec3 origin, vec3 dir, float tmin, float tmax);
+// A ray that crossed glass keeps its colour in one of the pixel's tint slots (light_tiles.glsl)
+// when there is one free; otherwise its bit says whether more than half the light got through.
 // Rays follow the seed: tmin 0.001, tmax the distance to the light (1000 for directional
 // lights), first hit ends the ray. The origin is lifted off the surface along the
 // reconstructed normal by 0.1 % of its distance to the camera, so that depth quantisation
@@ -21,7 +24,7 @@
 
 layout(set = 0, binding = BINDING_SHADOW_DEBUG, rgba16f) uniform writeonly image2D shadow_debug_out;
 
-bool shadow_ray_unblocked(vec3 origin, vec3 dir, float tmin, float tmax);
+vec3 shadow_ray_transmittance(vec3 origin, vec3 dir, float tmin, float tmax);
 
 void shadow_pixel(ivec2 px) {
     GpuLighting l = scene.lighting.lighting;
@@ -37,6 +40,9 @@ void shadow_pixel(ivec2 px) {
         bool cull = (l.flags & SHADOW_RAY_CULLING) != 0u;
         vec3 origin = shadow_origin(p, n);
         ShadowWordsRef words = ShadowWordsRef(l.shadow_bits);
+        uint tints[SHADOW_TINT_SLOTS];
+        for (uint s = 0u; s < SHADOW_TINT_SLOTS; ++s) tints[s] = 0u;
+        uint tinted = 0u;
         for (uint base = 0u; base < list.count; base += 32u) {
             uint word = 0u;
             uint here = min(32u, list.count - base);
@@ -47,9 +53,22 @@ void shadow_pixel(ivec2 px) {
                 if (!shadow_ray_towards(light, p, dir, tmax)) continue;
                 if (cull && dot(n, dir) <= 0.0) continue;
                 ++rays;
-                if (shadow_ray_unblocked(origin, dir, 1e-3, tmax)) word |= 1u << k;
+                vec3 t = shadow_ray_transmittance(origin, dir, 1e-3, tmax);
+                if (all(greaterThanEqual(t, vec3(1.0)))) {
+                    word |= 1u << k;
+                } else if (l.shadow_tints != 0ul && tinted < SHADOW_TINT_SLOTS && base + k < 255u) {
+                    word |= 1u << k;
+                    tints[tinted++] = (packUnorm4x8(vec4(t, 0.0)) & 0xFFFFFFu) | ((base + k + 1u) << 24);
+                } else if (dot(t, vec3(0.2126, 0.7152, 0.0722)) > 0.5) {
+                    word |= 1u << k;
+                }
             }
             words.words[shadow_word_at(list, base, px)] = word;
+        }
+        if (l.shadow_tints != 0ul) {
+            ShadowTintsRef out_tints = ShadowTintsRef(l.shadow_tints);
+            uint at = shadow_tint_at(px);
+            for (uint s = 0u; s < SHADOW_TINT_SLOTS; ++s) out_tints.words[at + s] = tints[s];
         }
     }
     if ((l.flags & SHADOW_DEBUG) != 0u) imageStore(shadow_debug_out, px, vec4(n * 0.5 + 0.5, float(rays)));

@@ -52,7 +52,10 @@ struct Scene {
 }
 
 fn scene() -> Scene {
-    let settings = RenderSettings { decal_method: DecalMethod::Off, transparency: TransparencyMethod::Forward, ..Default::default() };
+    // No shadows: the floor references are drawn without the panes, which would otherwise tint
+    // the floor's shadows (tested in `glass_casts_shadows_of_its_colour_from_every_light_kind`).
+    let mut settings = RenderSettings { decal_method: DecalMethod::Off, transparency: TransparencyMethod::Forward, ..Default::default() };
+    settings.lights.shadows = false;
     let mut app = gpu_app(SIZE.0, SIZE.1, settings);
     TopDownView::new(10.0, SIZE).spawn(&mut app.world);
     let (floor, pane, small) = {
@@ -401,7 +404,9 @@ fn a_gltf_glass_pane_blends_in_every_pipeline_and_tier() {
     let inside = pixels_seeing_square(&view, 1.0, 0.85);
     assert!(inside.len() > 300, "the pane is in view ({} pixels)", inside.len());
     for tier in [Tier::RayQuery, Tier::RayTracingPipeline, Tier::NoRayTracing] {
-        let settings = RenderSettings { decal_method: DecalMethod::Off, ambient: Vec3::splat(0.05), ..Default::default() };
+        // No shadows: the floor reference is drawn without the pane (see `scene`).
+        let mut settings = RenderSettings { decal_method: DecalMethod::Off, ambient: Vec3::splat(0.05), ..Default::default() };
+        settings.lights.shadows = false;
         let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, tier);
         view.spawn(&mut app.world);
         app.world.spawn((
@@ -435,6 +440,93 @@ fn a_gltf_glass_pane_blends_in_every_pipeline_and_tier() {
                 from_floor > 0.02 && from_pane > 0.02,
                 "{tier:?} {pipeline:?}: the glass is neither gone nor solid ({from_floor}, {from_pane})"
             );
+        }
+    }
+}
+
+/// Coloured shadows (seed 002 §3.2.1; issue item 4): a red pane (colour c = (0.9, 0.1, 0.1),
+/// opacity α = 0.4) 1.5 m over a white floor, lit from the side by a directional, a spot and a
+/// point light in turn, each throwing the pane's shadow clear of the pane in the top-down view.
+/// Three renders per light: without the pane (A), with it opaque (O), with it as glass (G). In
+/// the shadow's core the direct light that reaches the floor through glass must be c × (1 − α)
+/// of what reaches it without the pane: per channel, mean (G − O) / (A − O) within 0.03 of
+/// (0.54, 0.06, 0.06) (the tint is stored in 8 bits a channel, 0.004 a step); and with
+/// `coloured_shadows` off glass shadows like the opaque pane (mean |G − O| ≤ 0.002).
+#[test]
+fn glass_casts_shadows_of_its_colour_from_every_light_kind() {
+    const ALPHA: f32 = 0.4;
+    let color = Vec3::new(0.9, 0.1, 0.1);
+    let expected = color * (1.0 - ALPHA);
+    let view = TopDownView::new(6.0, SIZE);
+    // Floor pixels in the core of every light's shadow (centred on (1.5, 0, 0)).
+    let core: Vec<usize> = (0..SIZE.0 * SIZE.1)
+        .filter(|&i| view.ground_point(i % SIZE.0, i / SIZE.0, 0.0).is_some_and(|p| (p.x - 1.5).abs() < 0.3 && p.z.abs() < 0.3))
+        .map(|i| i as usize)
+        .collect();
+    assert!(core.len() > 30, "the shadow's core is in view ({} pixels)", core.len());
+    let side = Vec3::new(-1.5, 3.0, 0.0);
+    let target = Vec3::new(1.5, 0.0, 0.0);
+    let aim = Transform::from_translation(side).looking_at(target, Vec3::Z);
+    for tier in [Tier::RayQuery, Tier::RayTracingPipeline] {
+        let settings = RenderSettings { decal_method: DecalMethod::Off, ambient: Vec3::splat(0.05), ..Default::default() };
+        let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, tier);
+        view.spawn(&mut app.world);
+        let (floor, pane) = {
+            let mut meshes = app.world.resource_mut::<Assets<Mesh>>();
+            (meshes.add(shapes::plane(20.0, 20.0, 1, 1.0)), meshes.add(shapes::plane(1.0, 1.0, 1, 1.0)))
+        };
+        let (white, glass) = {
+            let mut materials = app.world.resource_mut::<Assets<Material>>();
+            (
+                materials.add(Material::from_color(Vec4::ONE, 0.0, 0.9)),
+                materials.add(Material { alpha_mode: AlphaMode::Blend, ..Material::from_color(color.extend(ALPHA), 0.0, 0.9) }),
+            )
+        };
+        app.world.spawn((MeshInstance { mesh: floor, material: white }, Transform::default()));
+        let pane = app.world.spawn((MeshInstance { mesh: pane, material: glass }, Transform::from_xyz(0.0, 1.5, 0.0))).id();
+        let mut hidden = None;
+        for kind in ["directional", "spot", "point"] {
+            let light = match kind {
+                "directional" => app.world.spawn((DirectionalLight { illuminance: 1.0, ..Default::default() }, aim)).id(),
+                "spot" => {
+                    app.world.spawn((SpotLight { intensity: 18.0, range: Some(50.0), outer_angle: 0.7, ..Default::default() }, aim)).id()
+                }
+                _ => app.world.spawn((PointLight { intensity: 18.0, range: Some(50.0), ..Default::default() }, aim)).id(),
+            };
+            for pipeline in [PipelineKind::ForwardPlus, PipelineKind::Deferred] {
+                app.world.resource_mut::<RenderSettings>().lights.coloured_shadows = true;
+                set_visible(&mut app, pane, false, &mut hidden);
+                let (lit, _) = render(&mut app, pipeline);
+                set_visible(&mut app, pane, true, &mut hidden);
+                set_alpha_mode(&mut app, glass, AlphaMode::Opaque);
+                let (opaque, _) = render(&mut app, pipeline);
+                set_alpha_mode(&mut app, glass, AlphaMode::Blend);
+                let (tinted, _) = render(&mut app, pipeline);
+                app.world.resource_mut::<RenderSettings>().lights.coloured_shadows = false;
+                let (blocked, _) = render(&mut app, pipeline);
+
+                let mut ratio = [0.0f32; 3];
+                for c in 0..3 {
+                    let direct: f32 = core.iter().map(|&i| lit[i][c] - opaque[i][c]).sum();
+                    assert!(direct > 0.1 * core.len() as f32, "{tier:?} {pipeline:?} {kind}: the pane shadows the core (channel {c})");
+                    ratio[c] = core.iter().map(|&i| tinted[i][c] - opaque[i][c]).sum::<f32>() / direct;
+                }
+                let like_opaque = core.iter().map(|&i| (0..3).map(|c| (blocked[i][c] - opaque[i][c]).abs()).sum::<f32>()).sum::<f32>()
+                    / (3 * core.len()) as f32;
+                eprintln!(
+                    "{tier:?} {pipeline:?} {kind}: light through glass {ratio:.3?} (expected {expected:.3}); opaque glass shadows {like_opaque:.5} off"
+                );
+                for c in 0..3 {
+                    assert!(
+                        (ratio[c] - expected[c]).abs() <= 0.03,
+                        "{tier:?} {pipeline:?} {kind}: channel {c}: {} against {}",
+                        ratio[c],
+                        expected[c]
+                    );
+                }
+                assert!(like_opaque <= 0.002, "{tier:?} {pipeline:?} {kind}: opaque glass shadows like the opaque pane ({like_opaque})");
+            }
+            app.world.despawn(light);
         }
     }
 }

@@ -20,8 +20,8 @@ use crate::gpu::device::GpuContext;
 use crate::graph::targets::SHADOW_DEBUG;
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassBuilder, ResourceId};
 use crate::layout::{
-    GpuLighting, INTERLACED, LIGHT_CULL_AABB, LIGHTS_ALL, LIGHTS_RAY_QUERY, LIGHTS_TILED, REFRACTION, SHADOW_DEBUG as SHADOW_DEBUG_FLAG,
-    SHADOW_NORMALS_IMPROVED, SHADOW_RAY_CULLING, SHADOWS_TRACED,
+    COLOURED_SHADOWS, GpuLighting, INTERLACED, LIGHT_CULL_AABB, LIGHTS_ALL, LIGHTS_RAY_QUERY, LIGHTS_TILED, REFRACTION,
+    SHADOW_DEBUG as SHADOW_DEBUG_FLAG, SHADOW_NORMALS_IMPROVED, SHADOW_RAY_CULLING, SHADOWS_TRACED,
 };
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
@@ -117,13 +117,15 @@ impl Lighting {
         let traced = if l.shadows && accel.tlas_address != 0 { self.shadows.method() } else { ShadowMethod::None };
         let light_slots = mirror.lights.slot_count();
         let mut stats = mirror.counters.light_tiles;
+        let glass = !mirror.transparent_order().is_empty();
         let request = TileRequest {
             method,
             tile_size: l.tile(),
             light_slots,
             proj: mirror.camera().proj,
             shadows: traced != ShadowMethod::None && !enumerated,
-            transparent: !mirror.transparent_order().is_empty() && s.transparency.effective(s.pipeline) == TransparencyMethod::Forward,
+            transparent: glass && s.transparency.effective(s.pipeline) == TransparencyMethod::Forward,
+            tints: glass && l.coloured_shadows,
         };
         let tiles = self.tiles.prepare(f, &request, &mut stats)?;
         mirror.counters.light_tiles = stats;
@@ -135,7 +137,7 @@ impl Lighting {
             _ => ShadowMethod::None,
         };
         let debug = shadows != ShadowMethod::None && !enumerated && s.debug_view.reads_shadow_debug();
-        let interlaced = !mirror.transparent_order().is_empty() && s.transparency.effective(s.pipeline).interlaces();
+        let interlaced = glass && s.transparency.effective(s.pipeline).interlaces();
         let mut flags = 0;
         for (on, flag) in [
             (l.cull_aabb, LIGHT_CULL_AABB),
@@ -145,6 +147,7 @@ impl Lighting {
             (debug, SHADOW_DEBUG_FLAG),
             (interlaced, INTERLACED),
             (s.refraction, REFRACTION),
+            (l.coloured_shadows, COLOURED_SHADOWS),
         ] {
             if on {
                 flags |= flag;
@@ -160,6 +163,7 @@ impl Lighting {
             unbounded_lights: ray_query.unbounded,
             scene_blas_table: accel.blas_table,
             scene_instances: accel.instances,
+            shadow_tints: tiles.shadow_tints,
             mode: match method {
                 LightMethod::All => LIGHTS_ALL,
                 LightMethod::Tiled => LIGHTS_TILED,
@@ -174,6 +178,7 @@ impl Lighting {
             instance_count: mirror.instances.slot_count(),
             blas_count: accel.blas_count,
             light_box_count: ray_query.box_count,
+            pad: [0; 2],
             clear_color: s.clear_color.into(),
         });
         let res = self.tiles.resources();

@@ -35,7 +35,7 @@ use crate::gpu::upload::Shrink;
 use crate::graph::readback::StatsReadback;
 use crate::graph::targets::{DEPTH, TRANSPARENT_DEPTH};
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
-use crate::layout::{GpuTileFrustum, LIGHT_TILE_HEADER};
+use crate::layout::{GpuTileFrustum, LIGHT_TILE_HEADER, SHADOW_TINT_SLOTS};
 use crate::scene::gpu::GpuScene;
 use crate::settings::LightMethod;
 
@@ -85,6 +85,9 @@ pub struct TileRequest {
     /// Whether transparent surfaces are drawn this frame: culling then also reads their depth
     /// (`TRANSPARENT_DEPTH`), so the lists light the glass in front of the opaque surfaces.
     pub transparent: bool,
+    /// Whether the shadow pass keeps the colours of light that crossed glass (coloured shadows
+    /// with blended instances in the scene): the shadow tints then exist beside the words.
+    pub tints: bool,
 }
 
 /// The light grid and index list as the GPU wrote them (for tests and tools).
@@ -123,6 +126,8 @@ pub struct TileFrame {
     pub tile_frusta: vk::DeviceAddress,
     /// The shadow words (0 without shadows).
     pub shadow_bits: vk::DeviceAddress,
+    /// The shadow tints (0 without coloured shadows).
+    pub shadow_tints: vk::DeviceAddress,
     /// Tile side in pixels.
     pub tile_size: u32,
     /// Tiles across and down.
@@ -154,6 +159,8 @@ pub struct LightTiles {
     shadow: Option<Buffer>,
     shadow_rows: u32,
     shadow_row_words: u32,
+    /// Coloured shadows' per-pixel tints, and the view size they were made for.
+    tints: Option<(Buffer, vk::Extent2D)>,
     readback: StatsReadback,
     latest: LightTileStats,
     /// Shadow rows the last measured frame needed.
@@ -193,6 +200,7 @@ impl LightTiles {
             shadow: None,
             shadow_rows: 0,
             shadow_row_words: 0,
+            tints: None,
             readback,
             latest: LightTileStats { measured_frame: u64::MAX, ..Default::default() },
             rows_needed: 0,
@@ -218,7 +226,7 @@ impl LightTiles {
     /// buffers for the `request`, and says where everything is. Call before the scene's upload (the
     /// lighting record carries the addresses).
     pub fn prepare(&mut self, f: &mut Frame, request: &TileRequest, stats: &mut LightTileStats) -> Result<TileFrame, RenderError> {
-        let TileRequest { method, tile_size, light_slots, proj, shadows, transparent } = *request;
+        let TileRequest { method, tile_size, light_slots, proj, shadows, transparent, tints } = *request;
         let ctx = f.ctx;
         let extent = f.graph.extent();
         let tiles = (extent.width.div_ceil(tile_size), extent.height.div_ceil(tile_size));
@@ -362,6 +370,23 @@ impl LightTiles {
                 frame.shadow_rows = self.shadow_rows;
             }
         }
+        if shadow_used && tints {
+            if self.tints.as_ref().is_none_or(|(_, e)| *e != extent) {
+                let bytes = extent.width as u64 * extent.height as u64 * SHADOW_TINT_SLOTS as u64 * 4;
+                let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+                let buffer = Buffer::new(ctx, "shadow tints", bytes.max(4), usage, MemoryLocation::GpuOnly)?;
+                if let Some((old, _)) = self.tints.replace((buffer, extent)) {
+                    f.upload.graveyard.bury(frame_value, Retired::Buffer(old));
+                }
+                self.grows += 1;
+            }
+            frame.shadow_tints = self.tints.as_ref().map_or(0, |(b, _)| b.address);
+        } else if let Some((old, _)) = self.tints.take() {
+            // No glass (or no coloured shadows) this frame: the tints go at once; they are as
+            // large as a G-buffer target and come back within a frame when needed.
+            f.upload.bury_shrunk(old, 0);
+            self.shrinks += 1;
+        }
         if !shadow_used && self.shadow.is_some() && self.shadow_shrink.unused() {
             // A second without shadow words: they go.
             if let Some(old) = self.shadow.take() {
@@ -438,7 +463,7 @@ impl LightTiles {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }
-        for b in [self.frusta, self.tiles, self.shadow].into_iter().flatten() {
+        for b in [self.frusta, self.tiles, self.shadow, self.tints.map(|(b, _)| b)].into_iter().flatten() {
             b.destroy(ctx);
         }
         self.readback.destroy(ctx);

@@ -14,9 +14,10 @@
 //!   rebuilt when instances were added or removed or changed mesh or material, when a BLAS
 //!   changed (built, compacted, dropped), or when the updates since the last build add up to the
 //!   instance count (updates keep the tree's topology and it degrades as things move).
-//! - **Alpha-masked materials**: opaque instances get `FORCE_OPAQUE`, masked ones
-//!   `FORCE_NO_OPAQUE`, so shadow rays run the mask test (`shaders/include/alpha_mask.glsl`) on
-//!   exactly the geometry that needs it, and foliage casts foliage-shaped shadows.
+//! - **Alpha-masked and blended materials**: opaque instances get `FORCE_OPAQUE`, masked and
+//!   blended ones `FORCE_NO_OPAQUE`, so shadow rays run the any-hit test
+//!   (`shaders/include/alpha_mask.glsl`) on exactly the geometry that needs it: foliage casts
+//!   foliage-shaped shadows, and glass filters the light that crosses it (coloured shadows).
 //!
 //! A frame with no change records no acceleration-structure work (`scene_blas_builds`,
 //! `scene_tlas_builds` and `scene_tlas_updates` in the counters say what each frame did).

@@ -14,6 +14,17 @@
 //! - **Alpha-masked materials** are non-opaque instances in the scene TLAS ([`accel`]); their
 //!   candidate hits run the mask test (`shaders/include/alpha_mask.glsl`) in the ray-query loop
 //!   or the any-hit shader.
+//! - **Coloured shadows** (seed 002 §3.2.1, issue item 4, on the ray-tracing tiers): blended
+//!   instances are non-opaque too, and a candidate hit on glass multiplies the light the ray
+//!   carries by the glass colour × (1 − opacity) and lets it go on, so point, spot and
+//!   directional lights alike throw coloured shadows (the seed had spot lights only), and panes
+//!   in a row multiply. A pixel keeps the colour of up to `SHADOW_TINT_SLOTS` (2) tinted lights
+//!   beside its shadow bits (`GpuLighting::shadow_tints`, 8 bytes a pixel, allocated only while
+//!   the scene holds glass); more are lit or shadowed by their tint's luminance. Why slots and
+//!   not a colour per light and pixel: the bits cost 1 bit per list entry, a colour 24, and at
+//!   1080p with 64 lights a tile that is 400 MB; a ray rarely crosses glass to more than two
+//!   lights. With `LightSettings::coloured_shadows` off glass blocks light like opaque surfaces
+//!   (the cheaper shadows of seed 002 Table 4.3).
 //! - **No ray tracing**: no shadows (`"shadows":"none"` in `--stats`) until the shadow maps of
 //!   the transparency work exist.
 
