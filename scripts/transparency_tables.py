@@ -1,10 +1,10 @@
 #!/usr/bin/env python3
-"""Seed 002's Tables 4.2, 4.4 and 4.5 from a `sandbox --compare-transparency --stats F.jsonl` run.
+"""Seed 002's Tables 4.2 to 4.5 from a `sandbox --compare-transparency --stats F.jsonl` run.
 
     python3 scripts/transparency_tables.py F.jsonl
 
 A run is a stretch of consecutive frames with one pipeline, transparency method, refraction
-setting, shadow method and light count. Each run's first 10 frames are warm-up (the first run,
+setting, shadow method, light count and glass shadows (coloured or opaque). Each run's first 10 frames are warm-up (the first run,
 twice as long, skips its whole first half); the median GPU frame time (`gpu_ms.total`) of its
 last 30 frames is the run's figure. Prints Markdown tables of
 milliseconds with the seed's ratios beside them.
@@ -19,7 +19,7 @@ def runs(path):
     for line in open(path):
         row = json.loads(line)
         key = (row["pipeline"], row.get("transparency", "?"), row.get("refraction", True), row.get("shadows", "none"),
-               row["counters"]["lights"])
+               row["counters"]["lights"], row["lights"].get("coloured_shadows", True))
         if not out or out[-1][0] != key:
             out.append((key, []))
         out[-1][1].append(row)
@@ -34,14 +34,13 @@ def runs(path):
 def main():
     m = runs(sys.argv[1])
     counts = sorted({k[4] for k in m})
-    shadowed = sorted({k[3] for k in m if k[3] != "none"})
-    traced = shadowed[0] if shadowed else None
+    traced = next(iter(sorted({k[3] for k in m if k[3] not in ("none", "maps")})), None)
 
     print("Table 4.2: interlaced deferred, no shadows, GPU ms per frame (seed: FPS)")
     print("| lights | no refraction | refraction | refraction cost |")
     print("| --- | --- | --- | --- |")
     for n in counts:
-        a, b = m.get(("deferred", "interlaced", False, "none", n)), m.get(("deferred", "interlaced", True, "none", n))
+        a, b = m.get(("deferred", "interlaced", False, "none", n, True)), m.get(("deferred", "interlaced", True, "none", n, True))
         if a and b:
             print(f"| {n} | {a:.3f} | {b:.3f} | {b - a:+.3f} ms ({(b / a - 1) * 100:+.1f} %) |")
 
@@ -53,11 +52,25 @@ def main():
         print("| lights | interlaced deferred | deferred + forward transparency | forward | forward / interlaced |")
         print("| --- | --- | --- | --- | --- |")
         for n in counts:
-            i = m.get(("deferred", "interlaced", True, shadows, n))
-            d = m.get(("deferred", "forward", True, shadows, n))
-            f = m.get(("forward", "forward", True, shadows, n))
+            i = m.get(("deferred", "interlaced", True, shadows, n, True))
+            d = m.get(("deferred", "forward", True, shadows, n, True))
+            f = m.get(("forward", "forward", True, shadows, n, True))
             if i and d and f:
                 print(f"| {n} | {i:.3f} | {d:.3f} | {f:.3f} | {f / i:.2f}x |")
+
+    print()
+    print("Table 4.3: interlaced deferred with refraction, glass casting opaque or coloured shadows, GPU ms per frame "
+          "(seed, shadow maps: coloured shadows cost 13 % at 2 lights to 34 % at 64)")
+    print(f"| lights | {traced} opaque | {traced} coloured | cost | maps opaque | maps coloured | cost |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for n in counts:
+        cells = []
+        for method in (traced, "maps"):
+            o = m.get(("deferred", "interlaced", True, method, n, False))
+            c = m.get(("deferred", "interlaced", True, method, n, True))
+            cells += [f"{o:.3f}", f"{c:.3f}", f"{c - o:+.3f} ms ({(c / o - 1) * 100:+.1f} %)"] if o and c else ["", "", ""]
+        if any(cells):
+            print(f"| {n} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":

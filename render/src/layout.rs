@@ -482,19 +482,26 @@ layout! {
     /// Binding of the lit image the interlaced-transparency composition reads
     /// (`transparency_source`, RGBA16F: a copy of the HDR target after lighting).
     pub const BINDING_TRANSPARENCY_SOURCE: u32 = 9;
+    /// Binding of the shadow-map atlas's depth (`shadow_map_depth`, reverse-Z D32): one tile
+    /// per shadow view (`shaders/include/shadow_maps.glsl`).
+    pub const BINDING_SHADOW_MAP_DEPTH: u32 = 10;
+    /// Binding of the shadow-map atlas's filter (`shadow_map_filter`, RGBA8): the colour and
+    /// opacity of the glass nearest the light on odd rows, (1, 1, 1, 1) where an opaque surface
+    /// is (seed 002 §3.2.1, Table 3.3).
+    pub const BINDING_SHADOW_MAP_FILTER: u32 = 11;
     /// Binding of the decal buffer's albedo (`decal_albedo`, storage image RGBA16F): the
     /// premultiplied decal albedo (rgb) and the weight left to the surface's own (a). The decal
     /// pass writes the decal buffer; shading applies `value = decal + value × remaining`.
-    pub const BINDING_DECAL_ALBEDO: u32 = 10;
+    pub const BINDING_DECAL_ALBEDO: u32 = 12;
     /// Binding of the decal buffer's normal (`decal_normal`, RGBA16F): decal normal (xyz) and
     /// the weight left to the surface normal (w).
-    pub const BINDING_DECAL_NORMAL: u32 = 11;
+    pub const BINDING_DECAL_NORMAL: u32 = 13;
     /// Binding of the decal buffer's roughness/metallic (`decal_spec`, RGBA16F): decal roughness
     /// and metallic (xy), the weights left to the surface's (zw).
-    pub const BINDING_DECAL_SPEC: u32 = 12;
+    pub const BINDING_DECAL_SPEC: u32 = 14;
     /// Binding of the decal buffer's count of decals tested per pixel (`decal_tested`, R32UI;
     /// the debug views read it).
-    pub const BINDING_DECAL_TESTED: u32 = 13;
+    pub const BINDING_DECAL_TESTED: u32 = 15;
     /// Number of bindless slots the renderer reserves for itself (built-ins and render targets;
     /// scene textures start here).
     pub const RESERVED_TEXTURES: u32 = 16;
@@ -577,10 +584,15 @@ layout! {
     pub const LIGHT_CULL_SHARED_LIGHTS: u32 = 32768;
     /// Binding of the shadow debug image (`shadow_debug`, storage RGBA16F): the reconstructed
     /// normal × 0.5 + 0.5 (rgb) and the shadow rays traced (a).
-    pub const BINDING_SHADOW_DEBUG: u32 = 14;
+    pub const BINDING_SHADOW_DEBUG: u32 = 16;
     /// Binding of the HDR target as a storage image (`hdr_image`, RGBA16F), for the lighting
     /// passes that run in compute.
-    pub const BINDING_HDR_STORAGE: u32 = 15;
+    pub const BINDING_HDR_STORAGE: u32 = 17;
+    /// Shadow maps: the first view of a light slot without a shadow map.
+    pub const NO_SHADOW_MAP: u32 = 0xFFFF_FFFF;
+    /// Shadow maps: 32-bit words before the slot table in the views buffer (the word offset
+    /// of the views, their count, padding).
+    pub const SHADOW_VIEWS_HEADER: u32 = 4;
 
     /// Debug view (`ScenePush::debug_view`, `DebugView`): the lit image.
     pub const DEBUG_LIT: u32 = 0;
@@ -827,10 +839,27 @@ layout! {
         pub blas_count: u32,
         /// Boxes the light box pass writes (the light BLAS's build count).
         pub light_box_count: u32,
-        /// Padding to 16 bytes.
-        pub pad: [u32; 2],
+        /// Shadow maps: a tile's side in texels.
+        pub shadow_map_tile: u32,
+        /// Shadow maps: tiles across the atlas.
+        pub shadow_map_columns: u32,
         /// Radiance where no geometry is drawn (compute shading writes it to sky pixels).
         pub clear_color: Vec4,
+    }
+
+    /// One shadow-map view (a tile of the atlas): a spot light's, one cube face of a point
+    /// light's, or a directional light's fitted to the camera's view.
+    #[layout(std430)]
+    pub struct GpuShadowView {
+        /// World to the light's clip space (reverse-Z).
+        pub view_proj: Mat4,
+        /// World size of one texel: at 1 m from the light (perspective), or anywhere
+        /// (orthographic).
+        pub texel: f32,
+        /// 1 for an orthographic (directional) view.
+        pub ortho: u32,
+        /// Padding to 16 bytes.
+        pub pad: [u32; 2],
     }
 
     /// A light tile's frustum in view space: four side planes through the eye, with inward
@@ -910,7 +939,8 @@ layout! {
         pub decal_order: u64,
         /// High-water mark of light slots; empty slots have kind `LIGHT_NONE`.
         pub light_count: u32,
-        /// A full-screen pass's input image (bindless slot).
+        /// A full-screen pass's input image (bindless slot); in the shadow-map pass, the view
+        /// being drawn.
         pub texture_index: u32,
         /// Debug visualisation selector (a `DEBUG_*` value).
         pub debug_view: u32,
@@ -924,6 +954,10 @@ layout! {
         pub decal_cluster_tiles: u32,
         /// Address of the lighting record.
         pub lighting: u64 as LightingRef,
+        /// Address of the shadow maps' views buffer: a header (`SHADOW_VIEWS_HEADER` words: the
+        /// word offset of the views, their count), each light slot's first view
+        /// (`NO_SHADOW_MAP`: none), then the `GpuShadowView`s (`shaders/include/shadow_maps.glsl`).
+        pub shadow_views: u64,
     }
 }
 
@@ -956,6 +990,6 @@ mod tests {
         assert_eq!(GpuLight::LAYOUT.size, 64);
         assert_eq!(offsets(&GpuVertex::LAYOUT), [0, 12, 24, 32]);
         assert_eq!(offsets(&GpuMaterial::LAYOUT)[..3], [0, 16, 28]);
-        assert_eq!(offsets(&ScenePush::LAYOUT)[10..], [80, 84, 88, 92, 96, 104, 108, 112]);
+        assert_eq!(offsets(&ScenePush::LAYOUT)[10..], [80, 84, 88, 92, 96, 104, 108, 112, 120]);
     }
 }

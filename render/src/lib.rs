@@ -52,4 +52,4 @@ pub use gpu::timestamps::PassTimes;
 pub use present::{overlay, window};
 pub use renderer::{DebugView, DecalMethod, FinishedFrame, FrameReport, FrameSettings, PipelineKind, Renderer, RendererSettings};
 pub use scene::{FrameCounters, SceneMirror};
-pub use settings::{DepthNormals, LightMethod, LightSettings, RaySupport, ShadowMethod, TransparencyMethod};
+pub use settings::{DepthNormals, LightMethod, LightSettings, RaySupport, ShadowMapBudget, ShadowMethod, TransparencyMethod};

@@ -42,11 +42,17 @@ pub struct RendererSettings {
     /// Entries the clustered decals' buffer starts with room for (it grows when a frame needs
     /// more; see [`crate::decals::clustered`]).
     pub decal_cluster_capacity: u32,
+    /// The shadow-map atlas.
+    pub shadow_maps: crate::settings::ShadowMapBudget,
 }
 
 impl Default for RendererSettings {
     fn default() -> Self {
-        Self { device: DeviceSettings::default(), decal_cluster_capacity: crate::decals::clustered::INITIAL_CAPACITY }
+        Self {
+            device: DeviceSettings::default(),
+            decal_cluster_capacity: crate::decals::clustered::INITIAL_CAPACITY,
+            shadow_maps: Default::default(),
+        }
     }
 }
 
@@ -167,7 +173,7 @@ impl Renderer {
             visbuffer: VisBufferPasses::new(ctx, layout)?,
             transparency: TransparencyPasses::new(ctx, layout)?,
             decals: Decals::new(ctx, &mut graph, layout, settings.decal_cluster_capacity)?,
-            lighting: Lighting::new(ctx, &mut graph, layout)?,
+            lighting: Lighting::new(ctx, &mut graph, layout, settings.shadow_maps)?,
             tonemap: Tonemap::new(ctx, layout, DISPLAY_FORMAT)?,
             graph,
             swapchain_image,

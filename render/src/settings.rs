@@ -261,7 +261,10 @@ pub enum ShadowMethod {
     RayQuery,
     /// Shadow rays from a ray-tracing pipeline.
     RayPipeline,
-    /// No shadows (turned off, or a device without ray tracing until shadow maps exist).
+    /// Shadow maps (devices without ray tracing, or asked for with
+    /// [`LightSettings::shadow_maps`]): [`crate::shadows::maps`].
+    Maps,
+    /// No shadows (turned off).
     #[default]
     None,
 }
@@ -272,6 +275,7 @@ impl ShadowMethod {
         match self {
             ShadowMethod::RayQuery => "ray_query",
             ShadowMethod::RayPipeline => "ray_pipeline",
+            ShadowMethod::Maps => "maps",
             ShadowMethod::None => "none",
         }
     }
@@ -286,8 +290,10 @@ pub struct LightSettings {
     pub tile_size: u32,
     /// Light culling also tests lights against each tile's AABB (seed 001 §4.2.2).
     pub cull_aabb: bool,
-    /// Trace shadow rays (on devices with acceleration structures).
+    /// Shadows: traced rays on devices with ray tracing, shadow maps on others.
     pub shadows: bool,
+    /// Shadow maps even where rays could be traced (to compare the two).
+    pub shadow_maps: bool,
     /// No shadow ray towards lights the reconstructed normal faces away from.
     pub shadow_ray_culling: bool,
     /// How the shadow pass reconstructs normals.
@@ -305,6 +311,7 @@ impl Default for LightSettings {
             tile_size: 16,
             cull_aabb: true,
             shadows: true,
+            shadow_maps: false,
             shadow_ray_culling: true,
             normals: DepthNormals::Improved,
             coloured_shadows: true,
@@ -358,6 +365,27 @@ impl DebugView {
     /// Whether the view shows what the shadow pass wrote to its debug image.
     pub fn reads_shadow_debug(self) -> bool {
         matches!(self, DebugView::ShadowRays | DebugView::DepthNormals)
+    }
+}
+
+/// The shadow-map atlas (fixed when the renderer is created; allocated on the first frame that
+/// uses shadow maps).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadowMapBudget {
+    /// A tile's side in texels (one view: a spot light, a cube face, a directional light).
+    pub tile: u32,
+    /// Tiles in the atlas. A spot or directional light takes one, a point light six; lights
+    /// past the budget (in slot order) are unshadowed and counted (`shadow_maps_missing`).
+    pub tiles: u32,
+    /// How far from the camera directional lights' maps reach, in metres (a map fitted to
+    /// the view up to this distance).
+    pub directional_distance: f32,
+}
+
+impl Default for ShadowMapBudget {
+    /// 1024² tiles (the seed's maps), 24 of them (5 bytes a texel: 126 MB).
+    fn default() -> Self {
+        Self { tile: 1024, tiles: 24, directional_distance: 60.0 }
     }
 }
 

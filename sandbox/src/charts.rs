@@ -27,7 +27,7 @@ pub fn run_medians(frames: &[Value]) -> Vec<RunMedians> {
     let key = |f: &Value| {
         let lights = &f["lights"];
         format!(
-            "{}/{} lights={} light_count={} shadows={} tile={} aabb={} ray_culling={} normals={} transparency={} refraction={}",
+            "{}/{} lights={} light_count={} shadows={} tile={} aabb={} ray_culling={} normals={} transparency={} refraction={} coloured={}",
             f["pipeline"].as_str().unwrap_or("?"),
             f["decal_method"].as_str().unwrap_or("?"),
             f["light_method"].as_str().unwrap_or("?"),
@@ -39,6 +39,7 @@ pub fn run_medians(frames: &[Value]) -> Vec<RunMedians> {
             lights["normals"].as_str().unwrap_or("?"),
             f["transparency"].as_str().unwrap_or("?"),
             f["refraction"],
+            lights["coloured_shadows"],
         )
     };
     let mut runs: Vec<(String, Vec<&Value>)> = Vec::new();

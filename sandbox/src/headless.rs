@@ -83,6 +83,8 @@ pub struct HeadlessOptions {
     pub compute_shading: bool,
     /// How blended surfaces are drawn.
     pub transparency: render::TransparencyMethod,
+    /// The shadow-map atlas.
+    pub shadow_maps: render::ShadowMapBudget,
 }
 
 /// The light configurations `--compare-lights` runs, in order, named after the rows of seed 001's
@@ -96,7 +98,16 @@ pub const LIGHT_COMPARE_SET: [(&str, LightSettings); 9] = {
         shadow_ray_culling: bool,
         normals: DepthNormals,
     ) -> LightSettings {
-        LightSettings { method, tile_size, cull_aabb, shadows: true, shadow_ray_culling, normals, coloured_shadows: true }
+        LightSettings {
+            method,
+            tile_size,
+            cull_aabb,
+            shadows: true,
+            shadow_ray_culling,
+            normals,
+            coloured_shadows: true,
+            shadow_maps: false,
+        }
     }
     use DepthNormals::{Improved, Naive};
     use LightMethod::{All, Tiled};
@@ -136,7 +147,9 @@ pub const TRANSPARENCY_LIGHT_COUNTS: [usize; 7] = [0, 2, 4, 8, 16, 32, 64];
 /// The runs `--compare-transparency` makes, from `base`: for each light count of
 /// [`TRANSPARENCY_LIGHT_COUNTS`], interlaced deferred with and without refraction and no
 /// shadows (Table 4.2), then without shadows and with them (Tables 4.5 and 4.4) deferred with a
-/// forward transparency pass and the forward pipeline, and interlaced deferred with shadows.
+/// forward transparency pass and the forward pipeline, and interlaced deferred with shadows;
+/// then interlaced deferred with glass casting opaque shadows, and with shadow maps, coloured
+/// and opaque (Table 4.3).
 pub fn transparency_compare_set(base: Run) -> Vec<Run> {
     use render::TransparencyMethod::{Forward, Interlaced};
     let mut runs = Vec::new();
@@ -165,6 +178,11 @@ pub fn transparency_compare_set(base: Run) -> Vec<Run> {
         runs.push(run(PipelineKind::Deferred, Interlaced, true, true));
         runs.push(run(PipelineKind::Deferred, Forward, true, true));
         runs.push(run(PipelineKind::Forward, Forward, true, true));
+        let interlaced = run(PipelineKind::Deferred, Interlaced, true, true);
+        let opaque = |maps| Run { lights: LightSettings { coloured_shadows: false, shadow_maps: maps, ..interlaced.lights }, ..interlaced };
+        runs.push(opaque(false));
+        runs.push(Run { lights: LightSettings { shadow_maps: true, ..interlaced.lights }, ..interlaced });
+        runs.push(opaque(true));
     }
     runs
 }
@@ -221,6 +239,7 @@ impl Default for HeadlessOptions {
             lights: LightSettings::default(),
             compute_shading: true,
             transparency: render::TransparencyMethod::Interlaced,
+            shadow_maps: render::ShadowMapBudget::default(),
         }
     }
 }
@@ -239,7 +258,11 @@ pub struct RunSummary {
 
 /// Builds an app with the render plugin and a GPU renderer, and loads the scene into it.
 pub fn build_app(opts: &HeadlessOptions) -> Result<App> {
-    let settings = RendererSettings { device: DeviceSettings { max_tier: opts.max_tier, ..Default::default() }, ..Default::default() };
+    let settings = RendererSettings {
+        device: DeviceSettings { max_tier: opts.max_tier, ..Default::default() },
+        shadow_maps: opts.shadow_maps,
+        ..Default::default()
+    };
     build_app_with(opts, &settings)
 }
 

@@ -101,6 +101,20 @@ struct Cli {
     /// Trace shadow rays even towards lights the surface faces away from.
     #[arg(long)]
     no_shadow_ray_culling: bool,
+    /// Shadow maps even on devices that trace shadow rays (devices without ray tracing always
+    /// use them).
+    #[arg(long)]
+    shadow_maps: bool,
+    /// Glass casts opaque shadows instead of coloured ones.
+    #[arg(long)]
+    opaque_glass_shadows: bool,
+    /// Shadow maps: a tile's side in texels.
+    #[arg(long, default_value_t = render::ShadowMapBudget::default().tile)]
+    shadow_map_size: u32,
+    /// Shadow maps: tiles in the atlas (a spot or directional light takes one, a point light
+    /// six; lights past it are unshadowed).
+    #[arg(long, default_value_t = render::ShadowMapBudget::default().tiles)]
+    shadow_map_tiles: u32,
     /// Deferred lighting and visibility-buffer shading as full-screen fragment passes instead of
     /// compute.
     #[arg(long)]
@@ -252,7 +266,10 @@ fn main() -> Result<()> {
             shadows: !cli.no_shadows,
             shadow_ray_culling: !cli.no_shadow_ray_culling,
             normals: cli.depth_normals,
+            coloured_shadows: !cli.opaque_glass_shadows,
+            shadow_maps: cli.shadow_maps,
         },
+        shadow_maps: render::ShadowMapBudget { tile: cli.shadow_map_size, tiles: cli.shadow_map_tiles, ..Default::default() },
     };
     if windowed {
         let window_opts = sandbox::window::WindowOptions { base: opts, exit_after: cli.exit_after, resize_to: cli.resize_to };

@@ -5,7 +5,9 @@
 //! device can run no decal method in this pipeline), `tier`,
 //! `device`, `size` `[w, h]`, `gpu_ms` (one key per pass plus `total`), `cpu_ms` (`extract`,
 //! `record`), and `counters` (`bytes_uploaded`, `records_written`, `blas_builds`,
-//! `blas_updates`, `tlas_builds`, `instances`, `lights`, `decals`, `transparent`: blended instances drawn), and, in frames that applied
+//! `blas_updates`, `tlas_builds`, `instances`, `lights`, `decals`, `transparent`: blended instances drawn,
+//! `shadow_map_views`: atlas tiles drawn, `shadow_maps_missing`: lights the atlas had no room
+//! for), and, in frames that applied
 //! clustered decals, `clusters`: `clusters`, `capacity`, `grows` (this frame's), and what the GPU
 //! measured in frame `measured_frame` (the one that last used this frame slot; absent until one
 //! has): `entries` (needed), `dropped` (entries that did not fit), `clusters_used`,
@@ -16,9 +18,9 @@
 //! Transparency: `transparency` (the method applied: `interlaced`, `interlaced_pairs` or
 //! `forward`) and `refraction` (whether interlaced glass refracts).
 //!
-//! Lights: `light_method` (applied: `all`, `tiled` or `ray_query`), `shadows` (`ray_query`, `ray_pipeline`, or
-//! `none` where no shadow was traced, as on devices without ray tracing), `lights` (the settings:
-//! `tile_size`, `aabb`, `shadow_ray_culling`, `normals`), the counters `scene_blas_builds`,
+//! Lights: `light_method` (applied: `all`, `tiled` or `ray_query`), `shadows` (`ray_query`, `ray_pipeline`, `maps`
+//! (devices without ray tracing, or `--shadow-maps`), or `none`), `lights` (the settings:
+//! `tile_size`, `aabb`, `shadow_ray_culling`, `normals`, `coloured_shadows`), the counters `scene_blas_builds`,
 //! `scene_blas_compactions`, `scene_tlas_builds`, `scene_tlas_updates`, `light_blas_builds`,
 //! `light_blas_updates`, and, in frames with tiled
 //! lights, `light_tiles`: `tiles`, `tile_size`, `capacity`, `grows`, and what the GPU measured in
@@ -49,6 +51,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
             "aabb": stats.lights.cull_aabb,
             "shadow_ray_culling": stats.lights.shadow_ray_culling,
             "normals": match stats.lights.normals { render::DepthNormals::Naive => "naive", render::DepthNormals::Improved => "improved" },
+            "coloured_shadows": stats.lights.coloured_shadows,
         },
         "tier": tier,
         "device": device,
@@ -71,6 +74,8 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
             "lights": c.lights,
             "decals": c.decals,
             "transparent": c.transparent,
+            "shadow_map_views": c.shadow_map_views,
+            "shadow_maps_missing": c.shadow_maps_missing,
         },
     });
     if stats.decal_method == render::DecalMethod::Clustered {

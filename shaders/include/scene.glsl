@@ -35,6 +35,8 @@ layout(set = 0, binding = BINDING_GBUFFER_LAYERS) uniform usampler2D gbuffer_lay
 layout(set = 0, binding = BINDING_VISIBILITY) uniform usampler2D visibility_ids;
 layout(set = 0, binding = BINDING_TRANSPARENT_DEPTH) uniform sampler2D transparent_depth;
 layout(set = 0, binding = BINDING_TRANSPARENCY_SOURCE) uniform sampler2D transparency_source;
+layout(set = 0, binding = BINDING_SHADOW_MAP_DEPTH) uniform sampler2D shadow_map_depth;
+layout(set = 0, binding = BINDING_SHADOW_MAP_FILTER) uniform sampler2D shadow_map_filter;
 
 vec4 sample_texture(uint index, vec2 uv) {
     return texture(textures[nonuniformEXT(index)], uv);

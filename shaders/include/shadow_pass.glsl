@@ -5,7 +5,8 @@
 // cone) or, with shadow-ray culling, the normal faces away from it. Bit k of a row's word is
 // set when entry 32·row + k reaches the pixel unblocked (light_tiles.glsl).
 //
-// The including shader defines how a ray is traced (ray query or traceRayEXT), returning the
+// With SHADOW_MAPS defined the light's shadow map answers instead (shadow_maps.glsl).
+// Otherwise the including shader defines how a ray is traced (ray query or traceRayEXT), returning the
 // light that gets through (0: blocked; below 1 where it crossed glass):
 //   vec3 shadow_ray_transmittance(vec3 origin, vec3 dir, float tmin, float tmax);
 // A ray that crossed glass keeps its colour in one of the pixel's tint slots (light_tiles.glsl)
@@ -24,7 +25,11 @@
 
 layout(set = 0, binding = BINDING_SHADOW_DEBUG, rgba16f) uniform writeonly image2D shadow_debug_out;
 
+#ifdef SHADOW_MAPS
+#include "shadow_maps.glsl"
+#else
 vec3 shadow_ray_transmittance(vec3 origin, vec3 dir, float tmin, float tmax);
+#endif
 
 void shadow_pixel(ivec2 px) {
     GpuLighting l = scene.lighting.lighting;
@@ -53,7 +58,11 @@ void shadow_pixel(ivec2 px) {
                 if (!shadow_ray_towards(light, p, dir, tmax)) continue;
                 if (cull && dot(n, dir) <= 0.0) continue;
                 ++rays;
+#ifdef SHADOW_MAPS
+                vec3 t = shadow_map_transmittance(light_slot(list, base + k), light, p, n, dir);
+#else
                 vec3 t = shadow_ray_transmittance(origin, dir, 1e-3, tmax);
+#endif
                 if (all(greaterThanEqual(t, vec3(1.0)))) {
                     word |= 1u << k;
                 } else if (l.shadow_tints != 0ul && tinted < SHADOW_TINT_SLOTS && base + k < 255u) {

@@ -168,8 +168,12 @@ pub fn error_stats(a: &[[f32; 4]], b: &[[f32; 4]], mask: impl Fn(usize) -> bool)
 /// [`gpu_app`] on a device whose capability tier is capped at `tier`.
 pub fn gpu_app_at(w: u32, h: u32, settings: RenderSettings, tier: render::Tier) -> App {
     let device = render::DeviceSettings { max_tier: tier, ..Default::default() };
-    gpu_app_with(w, h, settings, &RendererSettings { device, ..Default::default() })
+    gpu_app_with(w, h, settings, &RendererSettings { device, shadow_maps: TEST_SHADOW_MAPS, ..Default::default() })
 }
+
+/// Shadow maps of 256² texels, directional ones over the 12 m the test scenes span: enough for
+/// the small test images, and quick on lavapipe (the default is 1024² over 60 m).
+pub const TEST_SHADOW_MAPS: render::ShadowMapBudget = render::ShadowMapBudget { tile: 256, tiles: 24, directional_distance: 12.0 };
 
 /// [`gpu_app`] with a renderer created from `renderer_settings`.
 pub fn gpu_app_with(w: u32, h: u32, settings: RenderSettings, renderer_settings: &RendererSettings) -> App {

@@ -18,7 +18,8 @@ const SIZE: (u32, u32) = (128, 96);
 fn clustered_app(capacity: u32) -> (App, TopDownView, Handle<DecalMaterial>) {
     let device = render::DeviceSettings { max_tier: Tier::NoRayTracing, ..Default::default() };
     let settings = RenderSettings { debug_view: DebugView::Albedo, decal_method: DecalMethod::Clustered, ..Default::default() };
-    let mut app = gpu_app_with(SIZE.0, SIZE.1, settings, &RendererSettings { device, decal_cluster_capacity: capacity });
+    let mut app =
+        gpu_app_with(SIZE.0, SIZE.1, settings, &RendererSettings { device, decal_cluster_capacity: capacity, ..Default::default() });
     let mesh = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(12.0, 12.0, 1, 1.0));
     let material = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec4::new(0.5, 0.5, 0.5, 1.0), 0.0, 0.8));
     app.world.spawn((MeshInstance { mesh, material }, Transform::default()));

@@ -57,6 +57,9 @@ spirv! {
     LIGHT_CULL_COMP = "light_cull.comp";
     LIGHT_CULL_COMP_TRANSPARENT = "light_cull.comp.TRANSPARENT";
     SHADOWS_COMP = "shadows.comp";
+    SHADOWS_MAPPED_COMP = "shadows_mapped.comp";
+    SHADOW_MAP_VERT = "shadow_map.vert";
+    SHADOW_MAP_FRAG = "shadow_map.frag";
     SHADOWS_RGEN = "shadows.rgen";
     SHADOWS_RMISS = "shadows.rmiss";
     SHADOWS_RAHIT = "shadows.rahit";

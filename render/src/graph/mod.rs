@@ -140,6 +140,8 @@ impl Default for ImageState {
 struct ImageEntry {
     /// Set for targets the graph creates; `None` for imported images.
     desc: Option<&'static TargetDesc>,
+    /// A target of its own size, not the view's (kept across resizes).
+    fixed: Option<vk::Extent2D>,
     owned: Option<Image>,
     raw: vk::Image,
     view: vk::ImageView,
@@ -235,6 +237,7 @@ impl FrameGraph {
         tracing::debug!(image = name, id = self.images.len(), "frame graph external image");
         self.images.push(ImageEntry {
             desc: None,
+            fixed: None,
             owned: None,
             raw: vk::Image::null(),
             view: vk::ImageView::null(),
@@ -276,6 +279,7 @@ impl FrameGraph {
         }
         self.images.push(ImageEntry {
             desc: Some(desc),
+            fixed: None,
             owned: None,
             raw: vk::Image::null(),
             view: vk::ImageView::null(),
@@ -289,10 +293,33 @@ impl FrameGraph {
         Ok(ImageId(i as u16))
     }
 
+    /// The image of a target of its own size (a shadow-map atlas), created at `extent` on first
+    /// use and kept, whatever later calls ask, until the graph is destroyed: resizes of the view
+    /// leave it alone.
+    pub fn fixed_target(&mut self, ctx: &GpuContext, desc: &'static TargetDesc, extent: vk::Extent2D) -> Result<ImageId, RenderError> {
+        if let Some(i) = self.images.iter().position(|e| e.desc.is_some_and(|d| std::ptr::eq(d, desc))) {
+            return Ok(ImageId(i as u16));
+        }
+        self.images.push(ImageEntry {
+            desc: Some(desc),
+            fixed: Some(extent),
+            owned: None,
+            raw: vk::Image::null(),
+            view: vk::ImageView::null(),
+            extent,
+            range: color_range(),
+            depth: false,
+            state: ImageState::default(),
+        });
+        let i = self.images.len() - 1;
+        self.create_target(ctx, i)?;
+        Ok(ImageId(i as u16))
+    }
+
     fn create_target(&mut self, ctx: &GpuContext, i: usize) -> Result<(), RenderError> {
         let desc = self.images[i].desc.expect("targets have a description");
-        let image =
-            Image::new(ctx, &ImageDesc { name: desc.name, format: desc.format, extent: self.extent, mip_levels: 1, usage: desc.usage })?;
+        let extent = self.images[i].fixed.unwrap_or(self.extent);
+        let image = Image::new(ctx, &ImageDesc { name: desc.name, format: desc.format, extent, mip_levels: 1, usage: desc.usage })?;
         let e = &mut self.images[i];
         (e.raw, e.view, e.extent, e.range) = (image.raw, image.view, image.extent, image.full_range());
         e.depth = image.aspect.contains(vk::ImageAspectFlags::DEPTH);
@@ -321,7 +348,7 @@ impl FrameGraph {
     /// idle (call [`FrameGraph::destroy_retired`] after the wait).
     pub fn resize(&mut self, extent: vk::Extent2D) {
         self.extent = extent;
-        for e in &mut self.images {
+        for e in self.images.iter_mut().filter(|e| e.fixed.is_none()) {
             if let Some(image) = e.owned.take() {
                 self.retired.push(image);
             }
@@ -541,7 +568,7 @@ impl<'a> Frame<'a> {
     /// Starts declaring a pass.
     pub fn pass(&mut self, name: &'static str, kind: PassKind) -> PassBuilder<'_, 'a> {
         self.graph.decls.clear();
-        PassBuilder { frame: self, name, kind, error: None }
+        PassBuilder { frame: self, name, kind, error: None, area: None }
     }
 }
 
@@ -552,6 +579,7 @@ pub struct PassBuilder<'f, 'a> {
     name: &'static str,
     kind: PassKind,
     error: Option<RenderError>,
+    area: Option<vk::Extent2D>,
 }
 
 impl PassBuilder<'_, '_> {
@@ -594,6 +622,13 @@ impl PassBuilder<'_, '_> {
         self
     }
 
+    /// Renders (and clears) only `area`, from the attachments' top-left corner, instead of
+    /// their whole extent (a partly used atlas).
+    pub fn area(mut self, area: vk::Extent2D) -> Self {
+        self.area = Some(area);
+        self
+    }
+
     /// Applies `declare` when `condition` holds (an optional declaration in a chain).
     pub fn when(self, condition: bool, declare: impl FnOnce(Self) -> Self) -> Self {
         if condition { declare(self) } else { self }
@@ -633,6 +668,7 @@ impl PassBuilder<'_, '_> {
             let info = attachment(e.view, layout, use_);
             if e.depth { depth = Some(info) } else { graph.colors.push(info) }
         }
+        let extent = self.area.unwrap_or(extent);
         let rendering = depth.is_some() || !graph.colors.is_empty();
         let mut p = PassContext { ctx, cmd, layout: f.layout, bindless: f.bindless, push: f.push, extent };
         if rendering {

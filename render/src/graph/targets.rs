@@ -31,7 +31,7 @@ pub const DECAL_TESTED_FORMAT: vk::Format = vk::Format::R32_UINT;
 pub use crate::layout::{
     BINDING_DECAL_ALBEDO, BINDING_DECAL_NORMAL, BINDING_DECAL_SPEC, BINDING_DECAL_TESTED, BINDING_DEPTH, BINDING_GBUFFER_ALBEDO,
     BINDING_GBUFFER_LAYERS, BINDING_GBUFFER_MATERIAL, BINDING_GBUFFER_NORMAL, BINDING_HDR, BINDING_HDR_STORAGE, BINDING_SHADOW_DEBUG,
-    BINDING_TRANSPARENCY_SOURCE, BINDING_TRANSPARENT_DEPTH, BINDING_VISIBILITY,
+    BINDING_SHADOW_MAP_DEPTH, BINDING_SHADOW_MAP_FILTER, BINDING_TRANSPARENCY_SOURCE, BINDING_TRANSPARENT_DEPTH, BINDING_VISIBILITY,
 };
 
 /// Where a target is bound for sampling: its descriptor binding in set 0 (`BINDING_*`).
@@ -154,6 +154,27 @@ pub static VISIBILITY: TargetDesc = TargetDesc {
     format: VISIBILITY_FORMAT,
     usage: ATTACHMENT_SAMPLED,
     bind: Some(Bind::Color(BINDING_VISIBILITY)),
+    storage: None,
+};
+
+/// Format of the shadow-map atlas's filter (glass colour and opacity).
+pub const SHADOW_MAP_FILTER_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
+
+/// The shadow-map atlas's depth (reverse-Z), one tile per shadow view. Sized by
+/// [`crate::ShadowMapBudget`], not by the view: created with [`super::FrameGraph::fixed_target`].
+pub static SHADOW_MAP_DEPTH: TargetDesc = TargetDesc {
+    name: "shadow map depth",
+    format: DEPTH_FORMAT,
+    usage: vk::ImageUsageFlags::from_raw(U::DEPTH_STENCIL_ATTACHMENT.as_raw() | U::SAMPLED.as_raw()),
+    bind: Some(Bind::Depth(BINDING_SHADOW_MAP_DEPTH)),
+    storage: None,
+};
+/// The shadow-map atlas's filter: glass colour and opacity on odd rows (seed 002 Table 3.3).
+pub static SHADOW_MAP_FILTER: TargetDesc = TargetDesc {
+    name: "shadow map filter",
+    format: SHADOW_MAP_FILTER_FORMAT,
+    usage: vk::ImageUsageFlags::from_raw(U::COLOR_ATTACHMENT.as_raw() | U::SAMPLED.as_raw()),
+    bind: Some(Bind::Color(BINDING_SHADOW_MAP_FILTER)),
     storage: None,
 };
 

@@ -23,10 +23,11 @@ use crate::layout::{
     COLOURED_SHADOWS, GpuLighting, INTERLACED, LIGHT_CULL_AABB, LIGHTS_ALL, LIGHTS_RAY_QUERY, LIGHTS_TILED, REFRACTION,
     SHADOW_DEBUG as SHADOW_DEBUG_FLAG, SHADOW_NORMALS_IMPROVED, SHADOW_RAY_CULLING, SHADOWS_TRACED,
 };
-use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
-use crate::settings::{DepthNormals, FrameSettings, LightMethod, ShadowMethod, TransparencyMethod};
+use crate::scene::{DrawItem, SceneMirror};
+use crate::settings::{DepthNormals, FrameSettings, LightMethod, ShadowMapBudget, ShadowMethod, TransparencyMethod};
 use crate::shadows::accel::{SceneAccel, SceneAccelFrame};
+use crate::shadows::maps::ShadowMapPlan;
 use crate::shadows::{ShadowInputs, ShadowPass};
 use ray_query::{RayQueryLightFrame, RayQueryLights};
 use tiles::{LightTiles, TileFrame, TileRequest};
@@ -63,6 +64,7 @@ pub struct LightFrame {
     /// scene's TLAS, BLAS and meshes (alpha-masked hits read their texture coordinates).
     pub inline_shadows: Option<[ResourceId; 3]>,
     interlaced: bool,
+    shadow_maps: ShadowMapPlan,
     tiles: TileFrame,
     accel: SceneAccelFrame,
     ray_query: RayQueryLightFrame,
@@ -85,11 +87,16 @@ impl LightFrame {
 
 impl Lighting {
     /// Creates the passes.
-    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
+    pub fn new(
+        ctx: &GpuContext,
+        graph: &mut FrameGraph,
+        layout: vk::PipelineLayout,
+        shadow_maps: ShadowMapBudget,
+    ) -> Result<Self, RenderError> {
         Ok(Self {
             tiles: LightTiles::new(ctx, graph, layout)?,
             accel: SceneAccel::new(ctx, graph, layout)?,
-            shadows: ShadowPass::new(ctx, layout)?,
+            shadows: ShadowPass::new(ctx, layout, shadow_maps)?,
             ray_query: RayQueryLights::new(ctx, graph, layout)?,
         })
     }
@@ -114,7 +121,13 @@ impl Lighting {
             Some(r) => r.prepare(f, mirror, enumerated)?,
             None => RayQueryLightFrame::default(),
         };
-        let traced = if l.shadows && accel.tlas_address != 0 { self.shadows.method() } else { ShadowMethod::None };
+        let traced = match self.shadows.method() {
+            _ if !l.shadows => ShadowMethod::None,
+            ShadowMethod::Maps => ShadowMethod::Maps,
+            _ if l.shadow_maps => ShadowMethod::Maps,
+            _ if accel.tlas_address == 0 => ShadowMethod::None, // nothing to trace against yet
+            m => m,
+        };
         let light_slots = mirror.lights.slot_count();
         let mut stats = mirror.counters.light_tiles;
         let glass = !mirror.transparent_order().is_empty();
@@ -137,6 +150,13 @@ impl Lighting {
             _ => ShadowMethod::None,
         };
         let debug = shadows != ShadowMethod::None && !enumerated && s.debug_view.reads_shadow_debug();
+        let shadow_maps = if shadows == ShadowMethod::Maps {
+            self.shadows.maps.plan(scene, mirror.lights.records(), mirror.camera())
+        } else {
+            ShadowMapPlan::default()
+        };
+        mirror.counters.shadow_map_views = shadow_maps.views as u64;
+        mirror.counters.shadow_maps_missing = shadow_maps.missing as u64;
         let interlaced = glass && s.transparency.effective(s.pipeline).interlaces();
         let mut flags = 0;
         for (on, flag) in [
@@ -178,7 +198,8 @@ impl Lighting {
             instance_count: mirror.instances.slot_count(),
             blas_count: accel.blas_count,
             light_box_count: ray_query.box_count,
-            pad: [0; 2],
+            shadow_map_tile: self.shadows.maps.tile(),
+            shadow_map_columns: self.shadows.maps.columns(),
             clear_color: s.clear_color.into(),
         });
         let res = self.tiles.resources();
@@ -199,6 +220,7 @@ impl Lighting {
             light_accel,
             inline_shadows,
             interlaced,
+            shadow_maps,
             tiles,
             accel,
             ray_query,
@@ -217,23 +239,20 @@ impl Lighting {
         Ok(())
     }
 
-    /// Culls the lights into tiles and traces the shadows; needs this frame's depth.
-    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, frame: &LightFrame) -> Result<(), RenderError> {
+    /// Culls the lights into tiles and makes the shadows (tracing rays, or drawing `draws` into
+    /// shadow maps and reading them); needs this frame's depth.
+    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, draws: &[Option<DrawItem>], frame: &LightFrame) -> Result<(), RenderError> {
         self.tiles.cull(f, scene, &frame.tiles)?;
-        if let (Some(accel), Some(shadow_bits)) = (self.accel.as_ref(), frame.shadow_bits) {
-            if frame.accel.tlas_address == 0 {
-                return Ok(()); // no instance yet: nothing to trace against
-            }
-            let inputs = ShadowInputs {
-                method: frame.shadows,
-                traced: accel.traced(),
-                light_tiles: frame.light_tiles,
-                shadow_bits,
-                debug: frame.debug,
-            };
-            self.shadows.record(f, scene, &inputs)?;
-        }
-        Ok(())
+        let Some(shadow_bits) = frame.shadow_bits else { return Ok(()) };
+        let traced = match frame.shadows {
+            ShadowMethod::Maps => None,
+            _ => match self.accel.as_ref() {
+                Some(accel) if frame.accel.tlas_address != 0 => Some(accel.traced()),
+                _ => return Ok(()), // no instance yet: nothing to trace against
+            },
+        };
+        let inputs = ShadowInputs { method: frame.shadows, traced, light_tiles: frame.light_tiles, shadow_bits, debug: frame.debug };
+        self.shadows.record(f, scene, draws, frame.shadow_maps, &inputs)
     }
 
     /// Destroys everything; the GPU must be idle.

@@ -70,7 +70,7 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
         r.forward.prepass(f, r.scene, &mirror.draws)?;
     }
     transparent_depth(f, r, mirror, &lights)?;
-    r.lighting.record(f, r.scene, &lights)?;
+    r.lighting.record(f, r.scene, &mirror.draws, &lights)?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
     r.forward.shade(f, r.scene, &mirror.draws, s.clear_color, &decals, &lights)?;
     r.transparency.shade(f, r.scene, &mirror.draws, mirror.transparent_order(), &decals, &lights)?;
@@ -101,7 +101,7 @@ pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirro
     let in_gbuffer = if interlaced { mirror.transparent_order() } else { &[] };
     r.deferred.geometry(f, r.scene, &mirror.draws, in_gbuffer, s.clear_color)?;
     transparent_depth(f, r, mirror, &lights)?;
-    r.lighting.record(f, r.scene, &lights)?;
+    r.lighting.record(f, r.scene, &mirror.draws, &lights)?;
     r.deferred.decals(f, r.scene, r.decals.deferred_runs(&decals))?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::GBuffer)?;
     r.deferred.lighting(f, r.scene, &decals, &lights, s.compute_shading)?;
@@ -122,7 +122,7 @@ pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirr
     let (decals, lights) = begin(f, r, mirror, s)?;
     r.visbuffer.visibility(f, "visibility", r.scene, &mirror.draws)?;
     transparent_depth(f, r, mirror, &lights)?;
-    r.lighting.record(f, r.scene, &lights)?;
+    r.lighting.record(f, r.scene, &mirror.draws, &lights)?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
     r.visbuffer.shade(f, r.scene, s.clear_color, &decals, &lights, s.compute_shading)?;
     r.transparency.shade(f, r.scene, &mirror.draws, mirror.transparent_order(), &decals, &lights)?;
@@ -270,5 +270,6 @@ fn scene_push(scene: &GpuScene, mirror: &SceneMirror, s: &FrameSettings, decals:
         decal_cluster_capacity: decals.clusters.map_or(0, |c| c.capacity),
         decal_cluster_tiles: decals.clusters.map_or(0, |c| c.tiles),
         lighting: scene.lighting.address(),
+        shadow_views: scene.shadow_views.address(),
     }
 }

@@ -38,7 +38,7 @@ use crate::scene::{
 /// Bindless array size.
 pub const MAX_TEXTURES: u32 = 4096;
 /// Descriptor bindings after the texture array, one per sampled render target (`BINDING_*`).
-pub const TARGET_BINDINGS: u32 = crate::layout::BINDING_TRANSPARENCY_SOURCE;
+pub const TARGET_BINDINGS: u32 = crate::layout::BINDING_SHADOW_MAP_FILTER;
 /// Storage-image bindings after those: the decal buffer (`BINDING_DECAL_*`), the shadow debug
 /// image and the HDR target.
 pub const STORAGE_BINDINGS: u32 = crate::layout::BINDING_HDR_STORAGE - TARGET_BINDINGS;
@@ -232,6 +232,45 @@ fn upload_array(up: &mut Upload, copies: &mut CopyList, gpu: &mut GpuTable, byte
     Ok(())
 }
 
+/// An array of 32-bit words the CPU rewrites whole (a draw order, a list of views), uploaded
+/// with the next sync only when its contents changed.
+pub struct WordArray {
+    /// The GPU copy.
+    pub table: GpuTable,
+    cpu: Vec<u32>,
+    dirty: bool,
+}
+
+impl WordArray {
+    fn new(ctx: &GpuContext, name: &'static str) -> Result<Self, RenderError> {
+        Ok(Self { table: GpuTable::new::<u32>(ctx, name, 64)?, cpu: Vec::new(), dirty: false })
+    }
+
+    /// Replaces the words; they are uploaded with the next sync if they differ.
+    pub fn set(&mut self, words: &[u32]) {
+        if self.cpu != words {
+            self.cpu.clear();
+            self.cpu.extend_from_slice(words);
+            self.dirty = true;
+        }
+    }
+
+    /// The buffer's address.
+    pub fn address(&self) -> vk::DeviceAddress {
+        self.table.address()
+    }
+
+    fn plan(&mut self) {
+        if self.table.plan(self.cpu.len() as u32) {
+            self.dirty = true;
+        }
+    }
+
+    fn staging_need(&self) -> u64 {
+        if self.dirty { 2 * (4 * self.cpu.len()) as u64 } else { 0 }
+    }
+}
+
 /// Bytes the dirty records of `table` need in the staging ring (worst case: all of them), after
 /// the frame's [`GpuTable::plan`].
 fn staging_need<T: Pod>(table: &SlotTable<T>, gpu: &GpuTable) -> u64 {
@@ -308,9 +347,9 @@ pub struct GpuScene {
     mesh_info: Vec<GpuMeshInfo>,
     mesh_info_dirty: bool,
     /// Deferred decals' draw order (decal slots).
-    pub decal_order: GpuTable,
-    decal_order_cpu: Vec<u32>,
-    decal_order_dirty: bool,
+    pub decal_order: WordArray,
+    /// Shadow maps' views and the first view of each light slot (`shaders/include/shadow_maps.glsl`).
+    pub shadow_views: WordArray,
     /// Meshes by [`MeshId`].
     pub meshes: Vec<Option<GpuMesh>>,
     textures: Vec<Option<Image>>,
@@ -344,10 +383,10 @@ impl GpuScene {
         let bindless = vk::DescriptorBindingFlags::PARTIALLY_BOUND
             | vk::DescriptorBindingFlags::UPDATE_AFTER_BIND
             | vk::DescriptorBindingFlags::UPDATE_UNUSED_WHILE_PENDING;
-        // Binding 0: the material and decal textures. Bindings 1..=7: one render target each
-        // (`BINDING_*`), so shaders statically use only the targets they sample; 8..=11: the
-        // decal buffer's storage images; 12: the shadow debug image; 13: the HDR target as a
-        // storage image.
+        // Binding 0: the material and decal textures. Bindings 1..=TARGET_BINDINGS: one
+        // sampled render target each (`BINDING_*`), so shaders statically use only the targets
+        // they sample; then the storage images: the decal buffer's, the shadow debug image, the
+        // HDR target.
         let binding_flags = [bindless; BINDINGS];
         let mut flags_info = vk::DescriptorSetLayoutBindingFlagsCreateInfo::default().binding_flags(&binding_flags);
         let bindings: [vk::DescriptorSetLayoutBinding; BINDINGS] = std::array::from_fn(|i| {
@@ -436,9 +475,8 @@ impl GpuScene {
             mesh_table: GpuTable::new::<GpuMeshInfo>(ctx, "mesh table", 64)?,
             mesh_info: Vec::new(),
             mesh_info_dirty: false,
-            decal_order: GpuTable::new::<u32>(ctx, "decal order", 64)?,
-            decal_order_cpu: Vec::new(),
-            decal_order_dirty: false,
+            decal_order: WordArray::new(ctx, "decal order")?,
+            shadow_views: WordArray::new(ctx, "shadow map views")?,
             meshes: Vec::new(),
             textures: (0..RESERVED_TEXTURES).map(|_| None).collect(),
             set_layout,
@@ -607,15 +645,15 @@ impl GpuScene {
         if self.mesh_table.plan(meshes as u32) {
             self.mesh_info_dirty = true;
         }
-        if self.decal_order.plan(self.decal_order_cpu.len() as u32) {
-            self.decal_order_dirty = true;
-        }
+        self.decal_order.plan();
+        self.shadow_views.plan();
         let trimmed_boxes = !mirror.decals.aabbs.trimmed_tail().is_empty();
         if mirror.is_clean()
             && !replaced
             && !trimmed_boxes
             && !self.mesh_info_dirty
-            && !self.decal_order_dirty
+            && !self.decal_order.dirty
+            && !self.shadow_views.dirty
             && !self.lighting_dirty
             && self.builtins.is_empty()
         {
@@ -630,7 +668,8 @@ impl GpuScene {
             + staging_need(&mirror.decals.aabbs, &self.decal_aabbs)
             + staging_need(&mirror.decal_materials, &self.decal_materials)
             + 2 * (std::mem::size_of::<GpuMeshInfo>() * (self.mesh_info.len() + mirror.pending_meshes.len())) as u64
-            + if self.decal_order_dirty { 2 * (4 * self.decal_order_cpu.len()) as u64 } else { 0 }
+            + self.decal_order.staging_need()
+            + self.shadow_views.staging_need()
             + 64
             + std::mem::size_of::<GpuCamera>() as u64
             + std::mem::size_of::<GpuLighting>() as u64
@@ -668,8 +707,10 @@ impl GpuScene {
         if std::mem::take(&mut self.mesh_info_dirty) {
             upload_array(up, &mut copies, &mut self.mesh_table, bytemuck::cast_slice(&self.mesh_info))?;
         }
-        if std::mem::take(&mut self.decal_order_dirty) {
-            upload_array(up, &mut copies, &mut self.decal_order, bytemuck::cast_slice(&self.decal_order_cpu))?;
+        for words in [&mut self.decal_order, &mut self.shadow_views] {
+            if std::mem::take(&mut words.dirty) {
+                upload_array(up, &mut copies, &mut words.table, bytemuck::cast_slice(&words.cpu))?;
+            }
         }
         if camera_dirty {
             let bytes = bytemuck::bytes_of(mirror.camera());
@@ -752,11 +793,9 @@ impl GpuScene {
         &self.lighting_cpu
     }
 
-    /// Sets the deferred decals' draw order (uploaded with the next sync).
+    /// Sets the deferred decals' draw order (uploaded with the next sync when it changed).
     pub fn set_decal_order(&mut self, order: &[u32]) {
-        self.decal_order_cpu.clear();
-        self.decal_order_cpu.extend_from_slice(order);
-        self.decal_order_dirty = true;
+        self.decal_order.set(order);
     }
 
     /// Draws every instance whose draw item passes `filter`; the instance slot is passed as
@@ -769,6 +808,16 @@ impl GpuScene {
     /// Draws the instances in `slots`, in that order (the transparency passes' back-to-front
     /// order), like [`GpuScene::draw_meshes`].
     pub fn draw_slots(&self, p: &PassContext, draws: &[Option<DrawItem>], slots: impl IntoIterator<Item = u32>) {
+        self.draw(p, draws, slots, true);
+    }
+
+    /// Draws every instance with both faces, whatever its material says (shadow maps: rays hit
+    /// both sides of a surface, and so does the light).
+    pub fn draw_all_two_sided(&self, p: &PassContext, draws: &[Option<DrawItem>]) {
+        self.draw(p, draws, 0..draws.len() as u32, false);
+    }
+
+    fn draw(&self, p: &PassContext, draws: &[Option<DrawItem>], slots: impl IntoIterator<Item = u32>, cull_back_faces: bool) {
         let (d, cmd) = (&p.ctx.device, p.cmd);
         let mut bound_mesh = None;
         let mut cull = Some(vk::CullModeFlags::NONE); // the rendering scope's default
@@ -783,7 +832,7 @@ impl GpuScene {
                     d.cmd_bind_index_buffer(cmd, mesh.buffer.raw, mesh.index_offset, vk::IndexType::UINT32);
                     bound_mesh = Some(draw.mesh);
                 }
-                let mode = if draw.double_sided { vk::CullModeFlags::NONE } else { vk::CullModeFlags::BACK };
+                let mode = if draw.double_sided || !cull_back_faces { vk::CullModeFlags::NONE } else { vk::CullModeFlags::BACK };
                 if cull != Some(mode) {
                     d.cmd_set_cull_mode(cmd, mode);
                     cull = Some(mode);
@@ -810,7 +859,8 @@ impl GpuScene {
             self.decal_aabbs,
             self.decal_materials,
             self.mesh_table,
-            self.decal_order,
+            self.decal_order.table,
+            self.shadow_views.table,
         ] {
             t.buffer.destroy(ctx);
         }

@@ -376,6 +376,12 @@ pub struct FrameCounters {
     pub decals: u64,
     /// Blended (transparent) instances drawn back to front this frame.
     pub transparent: u64,
+    /// Shadow-map views drawn this frame (a spot or directional light's one, a point light's
+    /// six; zero unless shadows came from maps).
+    pub shadow_map_views: u64,
+    /// Lights left without a shadow map this frame because the atlas was full
+    /// (`RendererSettings::shadow_maps`).
+    pub shadow_maps_missing: u64,
     /// Clustered decals, as measured on the GPU (all zero unless clustered decals ran).
     pub clusters: DecalClusterStats,
     /// Tiled light culling, as measured on the GPU (all zero unless lights were tiled).

@@ -25,10 +25,11 @@
 //!   1080p with 64 lights a tile that is 400 MB; a ray rarely crosses glass to more than two
 //!   lights. With `LightSettings::coloured_shadows` off glass blocks light like opaque surfaces
 //!   (the cheaper shadows of seed 002 Table 4.3).
-//! - **No ray tracing**: no shadows (`"shadows":"none"` in `--stats`) until the shadow maps of
-//!   the transparency work exist.
+//! - **No ray tracing** (or asked for with `LightSettings::shadow_maps`): shadow maps
+//!   ([`maps`]) answer the same question per pixel and light, into the same bits and tints.
 
 pub mod accel;
+pub mod maps;
 
 use ash::vk;
 
@@ -38,13 +39,17 @@ use crate::gpu::pipeline::{RayTracingDesc, RayTracingPipeline, create_compute};
 use crate::gpu::shaders;
 use crate::graph::targets::{DEPTH, SHADOW_DEBUG};
 use crate::graph::{BufferUse, Frame, ImageUse, PassKind, ResourceId};
+use crate::scene::DrawItem;
 use crate::scene::gpu::GpuScene;
-use crate::settings::ShadowMethod;
+use crate::settings::{ShadowMapBudget, ShadowMethod};
+use maps::{ShadowMapPlan, ShadowMaps};
 
 /// The shadow passes this device can run.
 pub struct ShadowPass {
     ray_query: Option<vk::Pipeline>,
     ray_pipeline: Option<RayTracingPipeline>,
+    /// Shadow maps (every device).
+    pub maps: ShadowMaps,
 }
 
 /// What the shadow pass reads and writes this frame.
@@ -52,8 +57,8 @@ pub struct ShadowPass {
 pub struct ShadowInputs {
     /// How the rays are traced.
     pub method: ShadowMethod,
-    /// The scene TLAS and BLASes.
-    pub traced: [ResourceId; 2],
+    /// The scene TLAS and BLASes (rays only).
+    pub traced: Option<[ResourceId; 2]>,
     /// The light tile buffer, when lights are tiled.
     pub light_tiles: Option<ResourceId>,
     /// The shadow words it writes.
@@ -64,7 +69,8 @@ pub struct ShadowInputs {
 
 impl ShadowPass {
     /// Creates the passes the device supports.
-    pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
+    pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout, budget: ShadowMapBudget) -> Result<Self, RenderError> {
+        let maps = ShadowMaps::new(ctx, layout, budget)?;
         let ray_query = if ctx.tier == Tier::RayQuery {
             Some(create_compute(ctx, layout, "shadows (ray query)", shaders::SHADOWS_COMP)?)
         } else {
@@ -88,24 +94,25 @@ impl ShadowPass {
                         // SAFETY: unused.
                         unsafe { ctx.device.destroy_pipeline(p, None) };
                     }
+                    maps.destroy(ctx);
                     return Err(e);
                 }
             }
         } else {
             None
         };
-        Ok(Self { ray_query, ray_pipeline })
+        Ok(Self { ray_query, ray_pipeline, maps })
     }
 
-    /// How shadows are traced on this device: ray queries where it has them, else the
-    /// ray-tracing pipeline, else none.
+    /// How this device makes shadows by default: ray queries where it has them, else the
+    /// ray-tracing pipeline, else shadow maps.
     pub fn method(&self) -> ShadowMethod {
         if self.ray_query.is_some() {
             ShadowMethod::RayQuery
         } else if self.ray_pipeline.is_some() {
             ShadowMethod::RayPipeline
         } else {
-            ShadowMethod::None
+            ShadowMethod::Maps
         }
     }
 
@@ -114,15 +121,24 @@ impl ShadowPass {
         match method {
             ShadowMethod::RayQuery => self.ray_query.is_some(),
             ShadowMethod::RayPipeline => self.ray_pipeline.is_some(),
-            ShadowMethod::None => true,
+            ShadowMethod::Maps | ShadowMethod::None => true,
         }
     }
 
-    /// Traces this frame's shadow rays into the shadow words. Needs this frame's depth and, when
-    /// lights are tiled, the culled lists.
-    pub fn record(&self, f: &mut Frame, scene: &GpuScene, inputs: &ShadowInputs) -> Result<(), RenderError> {
-        if inputs.method == ShadowMethod::None {
-            return Ok(());
+    /// Traces this frame's shadow rays (or draws and reads its shadow maps, as `plan` says) into
+    /// the shadow words. Needs this frame's depth and, when lights are tiled, the culled lists.
+    pub fn record(
+        &self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        draws: &[Option<DrawItem>],
+        plan: ShadowMapPlan,
+        inputs: &ShadowInputs,
+    ) -> Result<(), RenderError> {
+        match inputs.method {
+            ShadowMethod::None => return Ok(()),
+            ShadowMethod::Maps => return self.maps.record(f, scene, draws, plan, inputs),
+            _ => {}
         }
         if !self.supports(inputs.method) {
             return Err(unsupported(inputs.method));
@@ -135,7 +151,7 @@ impl ShadowPass {
             .sample(&DEPTH)
             .reads(scene.res.shaded())
             .read(scene.res.meshes, BufferUse::Storage)
-            .reads(inputs.traced.map(|a| (a, BufferUse::Accel)))
+            .reads(inputs.traced.into_iter().flatten().map(|a| (a, BufferUse::Accel)))
             .reads(inputs.light_tiles.map(|t| (t, BufferUse::Storage)))
             .write(inputs.shadow_bits, BufferUse::Storage)
             .when(inputs.debug, |p| p.image(&SHADOW_DEBUG, ImageUse::StorageWrite));
@@ -155,7 +171,7 @@ impl ShadowPass {
                     unsafe { p.ctx.device.cmd_dispatch(p.cmd, extent.width.div_ceil(8), extent.height.div_ceil(8), 1) };
                 })
             }
-            ShadowMethod::None => Ok(()),
+            ShadowMethod::Maps | ShadowMethod::None => Ok(()),
         }
     }
 
@@ -168,6 +184,7 @@ impl ShadowPass {
         if let Some(rt) = self.ray_pipeline {
             rt.destroy(ctx);
         }
+        self.maps.destroy(ctx);
     }
 }
 
