@@ -53,8 +53,9 @@ def main():
         print("| --- | --- | --- | --- | --- |")
         for n in counts:
             i = m.get(("deferred", "interlaced", True, shadows, n, True))
-            d = m.get(("deferred", "forward", True, shadows, n, True))
-            f = m.get(("forward", "forward", True, shadows, n, True))
+            # Only interlaced glass refracts: the forward runs say refraction false.
+            d = m.get(("deferred", "forward", False, shadows, n, True))
+            f = m.get(("forward", "forward", False, shadows, n, True))
             if i and d and f:
                 print(f"| {n} | {i:.3f} | {d:.3f} | {f:.3f} | {f / i:.2f}x |")
 
