@@ -277,20 +277,7 @@ impl FrameGraph {
             self.create_target(ctx, i)?;
             return Ok(ImageId(i as u16));
         }
-        self.images.push(ImageEntry {
-            desc: Some(desc),
-            fixed: None,
-            owned: None,
-            raw: vk::Image::null(),
-            view: vk::ImageView::null(),
-            extent: self.extent,
-            range: color_range(),
-            depth: false,
-            state: ImageState::default(),
-        });
-        let i = self.images.len() - 1;
-        self.create_target(ctx, i)?;
-        Ok(ImageId(i as u16))
+        self.add_target(ctx, desc, None)
     }
 
     /// The image of a target of its own size (a shadow-map atlas), created at `extent` on first
@@ -300,13 +287,18 @@ impl FrameGraph {
         if let Some(i) = self.images.iter().position(|e| e.desc.is_some_and(|d| std::ptr::eq(d, desc))) {
             return Ok(ImageId(i as u16));
         }
+        self.add_target(ctx, desc, Some(extent))
+    }
+
+    /// Registers and creates a target, of the view's size or of `fixed`.
+    fn add_target(&mut self, ctx: &GpuContext, desc: &'static TargetDesc, fixed: Option<vk::Extent2D>) -> Result<ImageId, RenderError> {
         self.images.push(ImageEntry {
             desc: Some(desc),
-            fixed: Some(extent),
+            fixed,
             owned: None,
             raw: vk::Image::null(),
             view: vk::ImageView::null(),
-            extent,
+            extent: fixed.unwrap_or(self.extent),
             range: color_range(),
             depth: false,
             state: ImageState::default(),
