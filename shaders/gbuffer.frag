@@ -1,4 +1,4 @@
-// variants: ALPHA_MASK INTERLACED_GLASS
+// variants: ALPHA_MASK GLASS GLASS+INTERLACED_ROWS
 #version 460
 // Deferred shading, geometry pass (seed 000 §2.6): material attributes into the G-buffer.
 //   albedo    RGBA8_SRGB      albedo, occlusion      (sRGB keeps dark albedo precise in 8 bits)
@@ -11,10 +11,12 @@
 //                             support 8 layers)
 //   hdr       RGBA16F         emitted radiance (the lighting pass adds to it)
 // The geometric normal that decals fade by is reconstructed from depth, so it costs no storage.
-// INTERLACED_GLASS: blended surfaces (seed 002 §2.4.2, §3.1), drawn after the opaque ones with the
-// same depth test and writes, land on odd rows only; even rows keep the opaque surface behind.
-// The nearest blended surface wins an odd row, and the composition pass
-// (transparency_compose.comp) blends it over the even rows' opaque samples after lighting.
+// GLASS: blended surfaces, drawn after the opaque ones with the same depth test and writes, with
+// their opacity and refraction: the nearest surface of any kind wins each pixel (depth peeling's
+// second G-buffer, seed 002 §4.1.2; transparency_peeled.comp blends it after lighting).
+// GLASS+INTERLACED_ROWS: the same on odd rows only (seed 002 §2.4.2, §3.1); even rows keep the
+// opaque surface behind, and the composition pass (transparency_compose.comp) blends the
+// nearest blended surface of an odd row over the even rows' opaque samples after lighting.
 #include "scene.glsl"
 #include "mesh_io.glsl"
 #include "material.glsl"
@@ -31,8 +33,10 @@ void main() {
 #ifdef ALPHA_MASK
     if (ms.base.a < m.alpha_cutoff) discard;
 #endif
-#ifdef INTERLACED_GLASS
+#ifdef GLASS
+#ifdef INTERLACED_ROWS
     if ((int(gl_FragCoord.y) & 1) == 0) discard;
+#endif
     float opacity = clamp(ms.base.a, 0.0, 1.0);
     float refraction = clamp(m.refraction / (float(REFRACTION_MAX_MM) * 1e-3), 0.0, 1.0);
 #else

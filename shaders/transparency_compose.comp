@@ -17,14 +17,15 @@
 //   hold glass in front of this pixel and agree in depth, else the pair partner's (row + 1)
 //   when it holds glass in front of this pixel; glass behind this pixel's opaque surface (an
 //   object in front of the window) is never blended over it: the depth check.
-// Refraction (§3.3): O is looked up at an offset along the glass normal's screen-space
-// direction, `refraction` metres at the surface projected to pixels; a displaced sample whose
-// opaque surface lies in front of the glass is rejected and the undisplaced one used instead,
-// so nothing in front of the glass ever shows through it.
+// Refraction (§3.3, include/refraction.glsl): O is looked up at an offset along the glass
+// normal's screen-space direction; a displaced sample whose opaque surface lies in front of the
+// glass is rejected and the undisplaced one used instead, so nothing in front of the glass
+// ever shows through it.
 // SEED_PAIRS: the seed's own composition, for comparison (TransparencyMethod::InterlacedPairs):
 // both rows of a pair (2k, 2k+1) get α·T(2k+1) + (1 − α)·O(2k), without depth checks or
 // refraction.
 #include "scene.glsl"
+#include "refraction.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = BINDING_HDR_STORAGE, rgba16f) uniform writeonly image2D hdr_image;
@@ -106,15 +107,10 @@ void main() {
     float glass_depth = depth_of(at);
     vec3 background;
     if (!opaque_behind(px, glass_depth, background)) background = own;
-    float refraction = texelFetch(gbuffer_material, at, 0).a * float(REFRACTION_MAX_MM) * 1e-3;   // metres
-    if (refraction > 0.0 && (scene.lighting.lighting.flags & REFRACTION) != 0u) {
-        GpuCamera cam = scene.camera.camera;
-        vec3 n = texelFetch(gbuffer_normal, at, 0).xyz * 2.0 - 1.0;
-        vec3 nv = mat3(cam.view) * n;
-        float view_distance = cam.proj[3][2] / (glass_depth + cam.proj[2][2]);
-        float pixels = refraction * cam.proj[1][1] * 0.5 * cam.viewport_size.y / max(view_distance, 1e-4);
-        // Image rows grow downwards, view-space y upwards.
-        ivec2 q = px + ivec2(round(vec2(nv.x, -nv.y) * pixels));
+    vec3 n = texelFetch(gbuffer_normal, at, 0).xyz * 2.0 - 1.0;
+    ivec2 offset = refraction_offset(n, glass_depth, texelFetch(gbuffer_material, at, 0).a);
+    if (offset != ivec2(0)) {
+        ivec2 q = px + offset;
         vec3 displaced;
         // The depth check: a displaced sample in front of the glass (or off the image) is not
         // what the glass shows; the undisplaced background stays.

@@ -67,10 +67,11 @@ pub struct RenderSettings {
     /// passes).
     pub compute_shading: bool,
     /// How blended (glass) surfaces are drawn: interlaced into the deferred G-buffer (the
-    /// default, deferred pipeline only) or forward over the opaque image.
+    /// default, deferred pipeline only), forward over the opaque image, or depth-peeled into a
+    /// second G-buffer (deferred only; the full-resolution reference, at about twice the cost).
     pub transparency: render::TransparencyMethod,
-    /// Interlaced glass refracts the background by its material's refraction (false: straight
-    /// through).
+    /// Glass refracts the background by its material's refraction (false: straight through), in
+    /// interlaced and depth-peeled transparency.
     pub refraction: bool,
     /// How many mesh instances, lights and decals the scene tables hold at most.
     pub limits: SceneLimits,
@@ -266,7 +267,7 @@ pub struct FrameStats {
     pub shadows: render::ShadowMethod,
     /// How its blended surfaces were drawn (the method applied).
     pub transparency: render::TransparencyMethod,
-    /// Whether glass refracted (only interlaced transparency refracts).
+    /// Whether glass refracted (interlaced and depth-peeled transparency refract).
     pub refraction: bool,
     /// The light settings it was drawn with.
     pub lights: render::LightSettings,
@@ -457,7 +458,7 @@ fn render_frame(
                 light_method: report.light_method,
                 shadows: report.shadows,
                 transparency: settings.transparency.effective(settings.pipeline),
-                refraction: settings.refraction && settings.transparency.effective(settings.pipeline).interlaces(),
+                refraction: settings.refraction && settings.transparency.effective(settings.pipeline).refracts(),
                 lights: settings.lights,
                 size: renderer.0.size(),
                 gpu: PassTimes::default(),

@@ -162,12 +162,21 @@ pub enum TransparencyMethod {
     InterlacedPairs,
     /// A forward pass over the opaque image, back to front, in every pipeline.
     Forward,
+    /// Seed 002's full-resolution reference (§4.1.2, deferred pipeline): two G-buffers, the
+    /// nearest opaque surface and the nearest surface of any kind, each lit in full; a
+    /// composition pass blends the glass over the first with refraction (costs a second
+    /// G-buffer, culling, shadow and lighting pass).
+    DepthPeeling,
 }
 
 impl TransparencyMethod {
     /// Every method.
-    pub const ALL: [TransparencyMethod; 3] =
-        [TransparencyMethod::Interlaced, TransparencyMethod::InterlacedPairs, TransparencyMethod::Forward];
+    pub const ALL: [TransparencyMethod; 4] = [
+        TransparencyMethod::Interlaced,
+        TransparencyMethod::InterlacedPairs,
+        TransparencyMethod::Forward,
+        TransparencyMethod::DepthPeeling,
+    ];
 
     /// The name used in `--stats` and on the command line.
     pub fn name(self) -> &'static str {
@@ -175,6 +184,7 @@ impl TransparencyMethod {
             TransparencyMethod::Interlaced => "interlaced",
             TransparencyMethod::InterlacedPairs => "interlaced_pairs",
             TransparencyMethod::Forward => "forward",
+            TransparencyMethod::DepthPeeling => "depth_peeling",
         }
     }
 
@@ -183,15 +193,21 @@ impl TransparencyMethod {
         Self::ALL.into_iter().find(|m| m.name() == name)
     }
 
-    /// The method applied with `pipeline`: interlacing lives in the deferred pipeline's
-    /// G-buffer, so every other pipeline draws blended surfaces forward.
+    /// The method applied with `pipeline`: interlacing and depth peeling live in the deferred
+    /// pipeline's G-buffers, so every other pipeline draws blended surfaces forward.
     pub fn effective(self, pipeline: PipelineKind) -> TransparencyMethod {
         if pipeline == PipelineKind::Deferred { self } else { TransparencyMethod::Forward }
     }
 
     /// Whether the G-buffer holds the blended surfaces on odd rows.
     pub fn interlaces(self) -> bool {
-        self != TransparencyMethod::Forward
+        matches!(self, TransparencyMethod::Interlaced | TransparencyMethod::InterlacedPairs)
+    }
+
+    /// Whether blended surfaces refract the background: in the compositions of interlacing
+    /// (this crate's, not the seed's pairs) and depth peeling.
+    pub fn refracts(self) -> bool {
+        matches!(self, TransparencyMethod::Interlaced | TransparencyMethod::DepthPeeling)
     }
 }
 
@@ -409,8 +425,8 @@ pub struct FrameSettings {
     pub compute_shading: bool,
     /// How blended surfaces are drawn (see [`TransparencyMethod::effective`]).
     pub transparency: TransparencyMethod,
-    /// Interlaced transparency displaces the background by the materials' refraction (false:
-    /// straight through, for comparison).
+    /// Interlaced and depth-peeled transparency displace the background by the materials'
+    /// refraction (false: straight through, for comparison).
     pub refraction: bool,
 }
 

@@ -147,11 +147,12 @@ pub const TRANSPARENCY_LIGHT_COUNTS: [usize; 7] = [0, 2, 4, 8, 16, 32, 64];
 /// The runs `--compare-transparency` makes, from `base`: for each light count of
 /// [`TRANSPARENCY_LIGHT_COUNTS`], interlaced deferred with and without refraction and no
 /// shadows (Table 4.2), then without shadows and with them (Tables 4.5 and 4.4) deferred with a
-/// forward transparency pass and the forward pipeline, and interlaced deferred with shadows;
+/// forward transparency pass, the forward pipeline, depth-peeled deferred, and interlaced
+/// deferred with shadows;
 /// then interlaced deferred with glass casting opaque shadows, and with shadow maps, coloured
 /// and opaque (Table 4.3).
 pub fn transparency_compare_set(base: Run) -> Vec<Run> {
-    use render::TransparencyMethod::{Forward, Interlaced};
+    use render::TransparencyMethod::{DepthPeeling, Forward, Interlaced};
     let mut runs = Vec::new();
     for count in TRANSPARENCY_LIGHT_COUNTS {
         let run = |pipeline, transparency, refraction, shadows| Run {
@@ -175,9 +176,11 @@ pub fn transparency_compare_set(base: Run) -> Vec<Run> {
         }
         runs.push(run(PipelineKind::Deferred, Forward, true, false));
         runs.push(run(PipelineKind::Forward, Forward, true, false));
+        runs.push(run(PipelineKind::Deferred, DepthPeeling, true, false));
         runs.push(run(PipelineKind::Deferred, Interlaced, true, true));
         runs.push(run(PipelineKind::Deferred, Forward, true, true));
         runs.push(run(PipelineKind::Forward, Forward, true, true));
+        runs.push(run(PipelineKind::Deferred, DepthPeeling, true, true));
         let interlaced = run(PipelineKind::Deferred, Interlaced, true, true);
         let opaque = |maps| Run { lights: LightSettings { coloured_shadows: false, shadow_maps: maps, ..interlaced.lights }, ..interlaced };
         runs.push(opaque(false));

@@ -79,9 +79,10 @@ struct Cli {
     #[arg(long)]
     compare_light_methods: bool,
     /// Run `--frames` frames with each transparency configuration of seed 002's Tables 4.2,
-    /// 4.4 and 4.5 in turn (0–64 spot lights; interlaced deferred with and without refraction,
-    /// with and without shadows against deferred with a forward transparency pass and the
-    /// forward pipeline), meant for `--bench-scene transparency`.
+    /// 4.3, 4.4 and 4.5 in turn (0–64 spot lights; interlaced deferred with and without
+    /// refraction, with and without shadows against depth-peeled deferred, deferred with a
+    /// forward transparency pass and the forward pipeline; coloured and opaque glass shadows,
+    /// traced and mapped), meant for `--bench-scene transparency`.
     #[arg(long)]
     compare_transparency: bool,
     /// Light assignment: all (every pixel loops over every light), tiled (light culling) or
@@ -120,7 +121,9 @@ struct Cli {
     #[arg(long)]
     fragment_shading: bool,
     /// Blended (glass) surfaces: interlaced into the deferred G-buffer (seed 002; deferred
-    /// only, other pipelines draw them forward) or forward over the opaque image.
+    /// only, other pipelines draw them forward), interlaced_pairs (the seed's composition),
+    /// forward over the opaque image, or depth_peeling (deferred only: two G-buffers, the
+    /// full-resolution reference).
     #[arg(long, default_value = "interlaced", value_parser = parse_transparency)]
     transparency: render::TransparencyMethod,
     /// Normals from depth for the shadow pass: naive or improved.
@@ -185,7 +188,7 @@ fn parse_pipeline(s: &str) -> Result<PipelineKind, String> {
 
 fn parse_transparency(s: &str) -> Result<render::TransparencyMethod, String> {
     render::TransparencyMethod::from_name(s)
-        .ok_or_else(|| format!("unknown transparency method {s:?} (interlaced, interlaced_pairs, forward)"))
+        .ok_or_else(|| format!("unknown transparency method {s:?} (interlaced, interlaced_pairs, forward, depth_peeling)"))
 }
 
 fn parse_light_method(s: &str) -> Result<render::LightMethod, String> {

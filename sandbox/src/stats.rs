@@ -3,7 +3,8 @@
 //! Keys (stable; later features add keys, none change meaning): `frame`, `pipeline`,
 //! `decal_method` (the method applied, which may differ from the one asked for: `none` when the
 //! device can run no decal method in this pipeline), `tier`,
-//! `device`, `size` `[w, h]`, `gpu_ms` (one key per pass plus `total`), `cpu_ms` (`extract`,
+//! `device`, `size` `[w, h]`, `gpu_ms` (one key per pass, summed over the times it ran, plus
+//! `total`), `cpu_ms` (`extract`,
 //! `record`), and `counters` (`bytes_uploaded`, `records_written`, `blas_builds`,
 //! `blas_updates`, `tlas_builds`, `instances`, `lights`, `decals`, `transparent`: blended instances drawn,
 //! `shadow_map_views`: atlas tiles drawn, `shadow_maps_missing`: lights the atlas had no room
@@ -15,8 +16,9 @@
 //! `mean_tested`, `max_tested` (list entries walked) and `mean_applied`, `max_applied` (decals
 //! whose box held the pixel).
 //!
-//! Transparency: `transparency` (the method applied: `interlaced`, `interlaced_pairs` or
-//! `forward`) and `refraction` (whether interlaced glass refracts).
+//! Transparency: `transparency` (the method applied: `interlaced`, `interlaced_pairs`,
+//! `forward` or `depth_peeling`) and `refraction` (whether glass refracts: interlaced and
+//! depth-peeled glass do).
 //!
 //! Lights: `light_method` (applied: `all`, `tiled` or `ray_query`), `shadows` (`ray_query`, `ray_pipeline`, `maps`
 //! (devices without ray tracing, or `--shadow-maps`), or `none`), `lights` (the settings:
@@ -33,8 +35,10 @@ use serde_json::{Map, Value, json};
 /// One frame's statistics as a JSON object.
 pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
     let mut gpu = Map::new();
+    // A pass that runs more than once a frame (depth peeling's second layer) gets its sum.
     for (name, ms) in stats.gpu.iter() {
-        gpu.insert(name.to_string(), json!(round(ms)));
+        let sum = gpu.get(name).and_then(Value::as_f64).unwrap_or(0.0) as f32 + ms;
+        gpu.insert(name.to_string(), json!(round(sum)));
     }
     gpu.insert("total".into(), json!(round(stats.gpu.total_ms)));
     let c = &stats.counters;

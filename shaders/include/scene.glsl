@@ -37,6 +37,7 @@ layout(set = 0, binding = BINDING_TRANSPARENT_DEPTH) uniform sampler2D transpare
 layout(set = 0, binding = BINDING_TRANSPARENCY_SOURCE) uniform sampler2D transparency_source;
 layout(set = 0, binding = BINDING_SHADOW_MAP_DEPTH) uniform sampler2D shadow_map_depth;
 layout(set = 0, binding = BINDING_SHADOW_MAP_FILTER) uniform sampler2D shadow_map_filter;
+layout(set = 0, binding = BINDING_BACKGROUND_DEPTH) uniform sampler2D background_depth;
 
 vec4 sample_texture(uint index, vec2 uv) {
     return texture(textures[nonuniformEXT(index)], uv);

@@ -10,16 +10,18 @@
 //! in the slot after it, checks the back-to-front order: where both cover the floor the image must be
 //! `0.4·P_red + 0.6·(0.5·P_blue + 0.5·B)`.
 //!
-//! That runs the forward transparency pass in every pipeline. Interlaced transparency (the
-//! deferred default, seed 002 §2.4.2) is compared with it (the full-resolution single-layer
-//! result), over the red pane alone: inside the pane (two rows from its edges) the per-pixel
-//! largest channel error must have a mean ≤ 0.005 and a 99th percentile ≤ 0.04, and this
-//! crate's composition must be no worse than the seed's row pairs there and at the pane's
-//! edges; all four are printed. Measured (128×96, lavapipe): inside, mean 0.0030, p99 0.021,
-//! max 0.34 (the point light's specular highlight on the glass peaks on an even row, where the
-//! glass layer is interpolated from the odd rows around it: the method's half vertical
-//! resolution of the glass layer) against the seed's pairs' mean 0.0099, p99 0.105, max 0.43; at
-//! the edges mean 0.00087 against 0.00096.
+//! That runs the forward transparency pass in every pipeline. Depth peeling (seed 002 §4.1.2,
+//! two G-buffers lit in full) is the full-resolution reference: over the red pane alone it must
+//! equal the forward blend everywhere within 0.02 (measured: mean 0.0002, max 0.0098, the
+//! G-buffer's 8-bit albedo and roughness). Interlaced transparency (the deferred default,
+//! §2.4.2) is compared with it: inside the pane (two rows from its edges) the per-pixel largest
+//! channel error must have a mean ≤ 0.005 and a 99th percentile ≤ 0.04, at the pane's edges a
+//! mean ≤ 0.02, and this crate's composition must be no worse than the seed's row pairs inside
+//! and at the edges; all are printed. Measured (128×96, lavapipe): inside, mean 0.0016, p99
+//! 0.019, max 0.34 (the point light's specular highlight on the glass peaks on an even row,
+//! where the glass layer is interpolated from the odd rows around it: the method's half vertical
+//! resolution of the glass layer) against the seed's pairs' mean 0.0085, p99 0.106, max 0.43; at
+//! the edges (288 pixels) mean 0.00028, p99 0.0073, max 0.0081 against the pairs' mean 0.00037.
 //!
 //! A glTF file with a white floor quad and a 40 %-opaque red `BLEND` pane over it (the model
 //! the issue tried) renders the pane as that blend in every pipeline on every tier: mean error
@@ -181,7 +183,7 @@ fn errors(image: &[[f32; 4]], reference: &[[f32; 4]], pixels: &[usize]) -> (f32,
 }
 
 #[test]
-fn interlaced_transparency_matches_the_forward_blend_inside_the_glass() {
+fn interlaced_transparency_matches_depth_peeling_inside_the_glass() {
     let Scene { mut app, red, blue, red_material, .. } = scene();
     app.world.despawn(blue);
     // Coverage of the pane: where its opaque twin is in front of the floor.
@@ -194,16 +196,23 @@ fn interlaced_transparency_matches_the_forward_blend_inside_the_glass() {
     set_visible(&mut app, red, true, &mut hidden);
 
     let mut images = Vec::new();
-    for method in [TransparencyMethod::Forward, TransparencyMethod::Interlaced, TransparencyMethod::InterlacedPairs] {
+    let mut peeled_depth = Vec::new();
+    for method in
+        [TransparencyMethod::DepthPeeling, TransparencyMethod::Forward, TransparencyMethod::Interlaced, TransparencyMethod::InterlacedPairs]
+    {
         app.world.resource_mut::<RenderSettings>().transparency = method;
-        images.push(render(&mut app, PipelineKind::Deferred).0);
+        let (image, depth) = render(&mut app, PipelineKind::Deferred);
+        if method == TransparencyMethod::DepthPeeling {
+            peeled_depth = depth;
+        }
+        images.push(image);
     }
-    let [reference, interlaced, pairs] = &images[..] else { unreachable!() };
+    let [reference, forward, interlaced, pairs] = &images[..] else { unreachable!() };
 
     let (w, h) = (SIZE.0 as i32, SIZE.1 as i32);
     let covered =
         |x: i32, y: i32| x >= 0 && y >= 0 && x < w && y < h && pane_depth[(y * w + x) as usize] > floor_depth[(y * w + x) as usize];
-    let (mut inside, mut edge) = (Vec::new(), Vec::new());
+    let (mut inside, mut edge, mut everywhere) = (Vec::new(), Vec::new(), Vec::new());
     for y in 0..h {
         for x in 0..w {
             let near_pane = (-2..=2).any(|dy| covered(x, y + dy));
@@ -213,22 +222,33 @@ fn interlaced_transparency_matches_the_forward_blend_inside_the_glass() {
             } else if near_pane {
                 edge.push((y * w + x) as usize);
             }
+            everywhere.push((y * w + x) as usize);
         }
     }
     assert!(inside.len() > 500 && !edge.is_empty(), "the pane covers the view: {} inside, {} at edges", inside.len(), edge.len());
+    // The reference itself: the nearest layer's glass, lit at full resolution in the G-buffer,
+    // blended over the opaque layer, equals the forward blend everywhere.
+    let (peel_mean, _, peel_max) = errors(reference, forward, &everywhere);
+    // Measured max 0.0098: the G-buffer's 8-bit albedo and roughness against the forward
+    // shader's exact values, at the point light's highlight.
+    assert!(peel_max <= 0.02, "depth peeling against the forward blend: mean {peel_mean}, max {peel_max}");
+    assert!(inside.iter().all(|&i| peeled_depth[i] == pane_depth[i]), "depth peeling ends with the nearest layer's depth: the glass's");
+
     let (mean, p99, max) = errors(interlaced, reference, &inside);
     let (pair_mean, pair_p99, pair_max) = errors(pairs, reference, &inside);
-    let (edge_mean, _, edge_max) = errors(interlaced, reference, &edge);
+    let (edge_mean, edge_p99, edge_max) = errors(interlaced, reference, &edge);
     let (pair_edge_mean, _, pair_edge_max) = errors(pairs, reference, &edge);
+    eprintln!("depth peeling against the forward blend ({} px): mean {peel_mean:.5} max {peel_max:.5}", everywhere.len());
     eprintln!(
-        "inside the pane ({} px): interlaced mean {mean:.5} p99 {p99:.5} max {max:.5}; seed pairs mean {pair_mean:.5} p99 {pair_p99:.5} max {pair_max:.5}",
+        "inside the pane ({} px), against depth peeling: interlaced mean {mean:.5} p99 {p99:.5} max {max:.5}; seed pairs mean {pair_mean:.5} p99 {pair_p99:.5} max {pair_max:.5}",
         inside.len()
     );
     eprintln!(
-        "at its edges ({} px): interlaced mean {edge_mean:.5} max {edge_max:.5}; seed pairs mean {pair_edge_mean:.5} max {pair_edge_max:.5}",
+        "at its edges ({} px), against depth peeling: interlaced mean {edge_mean:.5} p99 {edge_p99:.5} max {edge_max:.5}; seed pairs mean {pair_edge_mean:.5} max {pair_edge_max:.5}",
         edge.len()
     );
-    assert!(mean <= 0.005 && p99 <= 0.04, "interlaced against the forward blend inside the pane: mean {mean}, p99 {p99}");
+    assert!(mean <= 0.005 && p99 <= 0.04, "interlaced against depth peeling inside the pane: mean {mean}, p99 {p99}");
+    assert!(edge_mean <= 0.02, "interlaced against depth peeling at the pane's edges: mean {edge_mean}");
     assert!(mean <= pair_mean && edge_mean <= pair_edge_mean, "interlacing here is no worse than the seed's pairs");
     // The glass is in the G-buffer: odd rows carry its depth.
     let depth = renderer(&mut app).read_depth().unwrap();
@@ -282,29 +302,34 @@ fn refraction_displaces_the_background_and_never_shows_what_is_in_front_of_the_g
         ))
         .id();
 
-    let (refracted, _) = render(&mut app, PipelineKind::Deferred);
-    app.world.resource_mut::<Assets<Material>>().get_mut(glass).unwrap().thickness = 0.0;
-    let (straight, _) = render(&mut app, PipelineKind::Deferred);
     let mut hidden = None;
-    set_visible(&mut app, pane, false, &mut hidden);
-    let (without_glass, _) = render(&mut app, PipelineKind::Deferred);
+    for method in [TransparencyMethod::Interlaced, TransparencyMethod::DepthPeeling] {
+        app.world.resource_mut::<RenderSettings>().transparency = method;
+        set_visible(&mut app, pane, true, &mut hidden);
+        app.world.resource_mut::<Assets<Material>>().get_mut(glass).unwrap().thickness = 0.75;
+        let (refracted, _) = render(&mut app, PipelineKind::Deferred);
+        app.world.resource_mut::<Assets<Material>>().get_mut(glass).unwrap().thickness = 0.0;
+        let (straight, _) = render(&mut app, PipelineKind::Deferred);
+        set_visible(&mut app, pane, false, &mut hidden);
+        let (without_glass, _) = render(&mut app, PipelineKind::Deferred);
 
-    // The green box's own pixels, and everything else.
-    let green_box = |i: usize| without_glass[i][1] > 2.0;
-    let box_pixels = (0..refracted.len()).filter(|&i| green_box(i)).count();
-    assert!(box_pixels > 50, "the green box is in view ({box_pixels} pixels)");
-    for (i, p) in refracted.iter().enumerate() {
-        assert!(
-            green_box(i) || p[1] < 1.0,
-            "pixel ({}, {}) shows the green box through the glass: {:?}",
-            i % SIZE.0 as usize,
-            i / SIZE.0 as usize,
-            &p[..3]
-        );
+        // The green box's own pixels, and everything else.
+        let green_box = |i: usize| without_glass[i][1] > 2.0;
+        let box_pixels = (0..refracted.len()).filter(|&i| green_box(i)).count();
+        assert!(box_pixels > 50, "the green box is in view ({box_pixels} pixels)");
+        for (i, p) in refracted.iter().enumerate() {
+            assert!(
+                green_box(i) || p[1] < 1.0,
+                "{method:?}: pixel ({}, {}) shows the green box through the glass: {:?}",
+                i % SIZE.0 as usize,
+                i / SIZE.0 as usize,
+                &p[..3]
+            );
+        }
+        let moved = refracted.iter().zip(&straight).filter(|(a, b)| (0..3).any(|c| (a[c] - b[c]).abs() > 0.05)).count();
+        eprintln!("{method:?}: refraction changed {moved} pixels; the green box covers {box_pixels}");
+        assert!(moved > 20, "{method:?}: refraction displaces the background: {moved} pixels changed");
     }
-    let moved = refracted.iter().zip(&straight).filter(|(a, b)| (0..3).any(|c| (a[c] - b[c]).abs() > 0.05)).count();
-    eprintln!("refraction changed {moved} pixels; the green box covers {box_pixels}");
-    assert!(moved > 20, "refraction displaces the background: {moved} pixels changed");
 }
 
 #[test]
@@ -452,7 +477,8 @@ fn a_gltf_glass_pane_blends_in_every_pipeline_and_tier() {
 /// the shadow's core the direct light that reaches the floor through glass must be c × (1 − α)
 /// of what reaches it without the pane: per channel, mean (G − O) / (A − O) within 0.03 of
 /// (0.54, 0.06, 0.06) (the tint is stored in 8 bits a channel, 0.004 a step); and with
-/// `coloured_shadows` off glass shadows like the opaque pane (mean |G − O| ≤ 0.002).
+/// `coloured_shadows` off glass shadows like the opaque pane (mean |G − O| ≤ 0.002). Depth
+/// peeling (deferred) gives the interlaced frame's shadow within 0.002 per channel.
 #[test]
 fn glass_casts_shadows_of_its_colour_from_every_light_kind() {
     const ALPHA: f32 = 0.4;
@@ -503,6 +529,16 @@ fn glass_casts_shadows_of_its_colour_from_every_light_kind() {
                 let (opaque, _) = render(&mut app, pipeline);
                 set_alpha_mode(&mut app, glass, AlphaMode::Blend);
                 let (tinted, _) = render(&mut app, pipeline);
+                if pipeline == PipelineKind::Deferred {
+                    // Depth peeling shades the floor it shows in its second layer, whose shadows
+                    // read the shadow maps the first layer's pass drew.
+                    app.world.resource_mut::<RenderSettings>().transparency = TransparencyMethod::DepthPeeling;
+                    let (peeled, _) = render(&mut app, pipeline);
+                    app.world.resource_mut::<RenderSettings>().transparency = TransparencyMethod::Interlaced;
+                    let worst = core.iter().flat_map(|&i| (0..3).map(move |c| (i, c))).map(|(i, c)| (peeled[i][c] - tinted[i][c]).abs());
+                    let worst = worst.fold(0.0, f32::max);
+                    assert!(worst <= 0.002, "{tier:?} {kind}: depth peeling's shadow differs from interlacing's by {worst}");
+                }
                 app.world.resource_mut::<RenderSettings>().lights.coloured_shadows = false;
                 let (blocked, _) = render(&mut app, pipeline);
 

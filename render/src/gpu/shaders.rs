@@ -24,9 +24,12 @@ spirv! {
     DECAL_BOXES_VERT = "decal_boxes.vert";
     GBUFFER_FRAG = "gbuffer.frag";
     GBUFFER_FRAG_ALPHA_MASK = "gbuffer.frag.ALPHA_MASK";
-    GBUFFER_FRAG_INTERLACED = "gbuffer.frag.INTERLACED_GLASS";
+    GBUFFER_FRAG_GLASS = "gbuffer.frag.GLASS";
+    GBUFFER_FRAG_INTERLACED = "gbuffer.frag.GLASS+INTERLACED_ROWS";
     TRANSPARENCY_COMPOSE_COMP = "transparency_compose.comp";
     TRANSPARENCY_COMPOSE_COMP_SEED_PAIRS = "transparency_compose.comp.SEED_PAIRS";
+    TRANSPARENCY_PEELED_COMP = "transparency_peeled.comp";
+    PEELING_KEEP_DEPTH_COMP = "peeling_keep_depth.comp";
     DEFERRED_LIGHTING_FRAG = "deferred_lighting.frag";
     DEFERRED_LIGHTING_FRAG_RAY_QUERY_DECALS = "deferred_lighting.frag.RAY_QUERY_DECALS";
     DECAL_BOX_VERT = "decal_box.vert";

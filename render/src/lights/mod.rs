@@ -242,6 +242,30 @@ impl Lighting {
     /// Culls the lights into tiles and makes the shadows (tracing rays, or drawing `draws` into
     /// shadow maps and reading them); needs this frame's depth.
     pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, draws: &[Option<DrawItem>], frame: &LightFrame) -> Result<(), RenderError> {
+        self.record_layer(f, scene, draws, frame, frame.shadow_maps)
+    }
+
+    /// [`Lighting::record`] again, over a second layer of depth written since (depth peeling,
+    /// `crate::transparency::peeling`): culls and shadows anew, reading the shadow maps the
+    /// first call drew instead of drawing them twice.
+    pub fn record_again(
+        &mut self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        draws: &[Option<DrawItem>],
+        frame: &LightFrame,
+    ) -> Result<(), RenderError> {
+        self.record_layer(f, scene, draws, frame, ShadowMapPlan { views: 0, ..frame.shadow_maps })
+    }
+
+    fn record_layer(
+        &mut self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        draws: &[Option<DrawItem>],
+        frame: &LightFrame,
+        maps: ShadowMapPlan,
+    ) -> Result<(), RenderError> {
         self.tiles.cull(f, scene, &frame.tiles)?;
         let Some(shadow_bits) = frame.shadow_bits else { return Ok(()) };
         let traced = match frame.shadows {
@@ -252,7 +276,7 @@ impl Lighting {
             },
         };
         let inputs = ShadowInputs { method: frame.shadows, traced, light_tiles: frame.light_tiles, shadow_bits, debug: frame.debug };
-        self.shadows.record(f, scene, draws, frame.shadow_maps, &inputs)
+        self.shadows.record(f, scene, draws, maps, &inputs)
     }
 
     /// Destroys everything; the GPU must be idle.

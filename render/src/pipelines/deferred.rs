@@ -44,12 +44,27 @@ pub struct DeferredPasses {
     gbuffer_mask: vk::Pipeline,
     /// Blended surfaces on odd rows (`crate::transparency::interlaced`).
     gbuffer_interlaced: vk::Pipeline,
+    /// Blended surfaces on every row (`crate::transparency::peeling`).
+    gbuffer_glass: vk::Pipeline,
     lighting: ShadeVariants,
     lighting_compute: ShadeVariants,
     /// With ray-query lights.
     lighting_rays: RayLightShading,
     /// Indexed by `DECAL_*` flags (0..16).
     decals: Vec<vk::Pipeline>,
+}
+
+/// The blended surfaces a G-buffer holds besides the opaque ones, and how.
+#[derive(Clone, Copy, Debug)]
+pub enum GBufferGlass<'a> {
+    /// None.
+    None,
+    /// These instances (slots) on odd rows: interlaced transparency
+    /// (`crate::transparency::interlaced`).
+    Interlaced(&'a [u32]),
+    /// These instances on every row, with their opacity: depth peeling's nearest layer
+    /// (`crate::transparency::peeling`).
+    Full(&'a [u32]),
 }
 
 const GBUFFER_FORMATS: [vk::Format; 5] =
@@ -100,6 +115,7 @@ impl DeferredPasses {
                 layout,
                 &GraphicsDesc { fragment: Some(shaders::GBUFFER_FRAG_INTERLACED), ..geometry },
             )?,
+            gbuffer_glass: create_graphics(ctx, layout, &GraphicsDesc { fragment: Some(shaders::GBUFFER_FRAG_GLASS), ..geometry })?,
             lighting: ShadeVariants::new(
                 ctx,
                 [
@@ -140,13 +156,13 @@ impl DeferredPasses {
     }
 
     /// Geometry pass: depth and every attribute, emitted radiance into the HDR target; then the
-    /// blended instances in `interlaced` on odd rows (empty unless transparency is interlaced).
+    /// blended instances `glass` names, with their opacity and refraction.
     pub fn geometry(
         &self,
         f: &mut Frame,
         scene: &GpuScene,
         draws: &[Option<DrawItem>],
-        interlaced: &[u32],
+        glass: GBufferGlass,
         clear: [f32; 4],
     ) -> Result<(), RenderError> {
         f.pass("gbuffer", PassKind::Graphics)
@@ -163,9 +179,14 @@ impl DeferredPasses {
                 scene.draw_meshes(p, draws, DrawItem::is_opaque);
                 p.bind_graphics(self.gbuffer_mask, &push);
                 scene.draw_meshes(p, draws, DrawItem::is_masked);
-                if !interlaced.is_empty() {
-                    p.bind_graphics(self.gbuffer_interlaced, &push);
-                    scene.draw_slots(p, draws, interlaced.iter().copied());
+                let (pipeline, order) = match glass {
+                    GBufferGlass::None => return,
+                    GBufferGlass::Interlaced(order) => (self.gbuffer_interlaced, order),
+                    GBufferGlass::Full(order) => (self.gbuffer_glass, order),
+                };
+                if !order.is_empty() {
+                    p.bind_graphics(pipeline, &push);
+                    scene.draw_slots(p, draws, order.iter().copied());
                 }
             })
     }
@@ -236,7 +257,7 @@ impl DeferredPasses {
 
     /// Destroys the pipelines; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for p in [self.gbuffer_opaque, self.gbuffer_mask, self.gbuffer_interlaced].into_iter().chain(self.decals) {
+        for p in [self.gbuffer_opaque, self.gbuffer_mask, self.gbuffer_interlaced, self.gbuffer_glass].into_iter().chain(self.decals) {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }

@@ -21,8 +21,9 @@ use crate::lights::{LightFrame, Lighting};
 use crate::present::Present;
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
-use crate::settings::FrameSettings;
+use crate::settings::{FrameSettings, TransparencyMethod};
 use crate::transparency::TransparencyPasses;
+use deferred::GBufferGlass;
 
 /// The renderer's parts a frame function draws with.
 pub struct FrameParts<'a> {
@@ -95,24 +96,52 @@ pub fn forward_plus_frame(
 /// light culling and shadows, deferred decals or the decal pass (whichever is the method),
 /// lighting in compute (or a full-screen fragment pass; in-shader ray-query decals included
 /// when they are the method), then the interlaced composition or a forward transparency pass.
+/// Depth peeling runs those layer passes twice, the opaque layer and then the nearest, and
+/// composes the two.
 pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let (decals, lights) = begin(f, r, mirror, s)?;
-    let interlaced = lights.interlaced();
-    let in_gbuffer = if interlaced { mirror.transparent_order() } else { &[] };
-    r.deferred.geometry(f, r.scene, &mirror.draws, in_gbuffer, s.clear_color)?;
-    transparent_depth(f, r, mirror, &lights)?;
-    r.lighting.record(f, r.scene, &mirror.draws, &lights)?;
-    r.deferred.decals(f, r.scene, r.decals.deferred_runs(&decals))?;
-    r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::GBuffer)?;
-    r.deferred.lighting(f, r.scene, &decals, &lights, s.compute_shading)?;
-    if interlaced {
+    let glass = mirror.transparent_order();
+    if s.transparency.effective(s.pipeline) == TransparencyMethod::DepthPeeling && !glass.is_empty() {
+        deferred_layer(f, r, mirror, GBufferGlass::None, s, &decals, &lights, false)?;
+        r.transparency.peeling.keep_background(f, r.scene)?;
+        deferred_layer(f, r, mirror, GBufferGlass::Full(glass), s, &decals, &lights, true)?;
+        r.transparency.peeling.compose(f, r.scene)?;
+    } else if lights.interlaced() {
+        deferred_layer(f, r, mirror, GBufferGlass::Interlaced(glass), s, &decals, &lights, false)?;
         r.transparency.interlaced.compose(f, r.scene, s.transparency)?;
     } else {
-        r.transparency.shade(f, r.scene, &mirror.draws, mirror.transparent_order(), &decals, &lights)?;
+        deferred_layer(f, r, mirror, GBufferGlass::None, s, &decals, &lights, false)?;
+        r.transparency.shade(f, r.scene, &mirror.draws, glass, &decals, &lights)?;
     }
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)?;
     Ok(lights)
+}
+
+/// The deferred pipeline's passes over one G-buffer: geometry (with `glass`), light culling
+/// and shadows (`again`: a second layer this frame, whose shadow maps are drawn), decals,
+/// lighting.
+#[allow(clippy::too_many_arguments)]
+fn deferred_layer(
+    f: &mut Frame,
+    r: &mut FrameParts,
+    mirror: &SceneMirror,
+    glass: GBufferGlass,
+    s: &FrameSettings,
+    decals: &DecalFrame,
+    lights: &LightFrame,
+    again: bool,
+) -> Result<(), RenderError> {
+    r.deferred.geometry(f, r.scene, &mirror.draws, glass, s.clear_color)?;
+    if again {
+        r.lighting.record_again(f, r.scene, &mirror.draws, lights)?;
+    } else {
+        transparent_depth(f, r, mirror, lights)?;
+        r.lighting.record(f, r.scene, &mirror.draws, lights)?;
+    }
+    r.deferred.decals(f, r.scene, r.decals.deferred_runs(decals))?;
+    r.decals.decal_pass(f, r.scene, decals, DecalSurfaceSource::GBuffer)?;
+    r.deferred.lighting(f, r.scene, decals, lights, s.compute_shading)
 }
 
 /// Visibility buffer: ids and depth, light culling and shadows, the decal pass, one pass

@@ -38,9 +38,9 @@ use crate::scene::{
 /// Bindless array size.
 pub const MAX_TEXTURES: u32 = 4096;
 /// Descriptor bindings after the texture array, one per sampled render target (`BINDING_*`).
-pub const TARGET_BINDINGS: u32 = crate::layout::BINDING_SHADOW_MAP_FILTER;
+pub const TARGET_BINDINGS: u32 = crate::layout::BINDING_BACKGROUND_DEPTH;
 /// Storage-image bindings after those: the decal buffer (`BINDING_DECAL_*`), the shadow debug
-/// image and the HDR target.
+/// image, depth peeling's background depth and the HDR target.
 pub const STORAGE_BINDINGS: u32 = crate::layout::BINDING_HDR_STORAGE - TARGET_BINDINGS;
 const _: () = assert!(crate::layout::BINDING_DECAL_ALBEDO == TARGET_BINDINGS + 1, "storage bindings follow the sampled targets");
 const BINDINGS: usize = 1 + (TARGET_BINDINGS + STORAGE_BINDINGS) as usize;

@@ -28,6 +28,7 @@ use crate::graph::targets::{DEPTH, GBUFFER_MATERIAL, GBUFFER_NORMAL, HDR, TRANSP
 use crate::graph::{BufferUse, Frame, ImageUse, PassKind};
 use crate::scene::gpu::GpuScene;
 use crate::settings::TransparencyMethod;
+use crate::transparency::copy_target;
 
 /// The composition pass's pipeline.
 pub struct Interlaced {
@@ -54,37 +55,7 @@ impl Interlaced {
     /// HDR target. Runs after the lighting pass of a frame whose G-buffer interlaced glass.
     /// `method` picks this module's composition or the seed's pairs.
     pub fn compose(&self, f: &mut Frame, scene: &GpuScene, method: TransparencyMethod) -> Result<(), RenderError> {
-        let (hdr, source) = (f.graph.target(f.ctx, &HDR)?, f.graph.target(f.ctx, &TRANSPARENCY_SOURCE)?);
-        let (hdr, source) = (f.graph.raw(hdr), f.graph.raw(source));
-        f.pass("transparency_copy", PassKind::Transfer)
-            .image(&HDR, ImageUse::TransferSrc)
-            .image(&TRANSPARENCY_SOURCE, ImageUse::TransferDst)
-            .record(|p| {
-                let layers = vk::ImageSubresourceLayers {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    mip_level: 0,
-                    base_array_layer: 0,
-                    layer_count: 1,
-                };
-                let region = vk::ImageCopy {
-                    src_subresource: layers,
-                    dst_subresource: layers,
-                    extent: vk::Extent3D { width: p.extent.width, height: p.extent.height, depth: 1 },
-                    ..Default::default()
-                };
-                // SAFETY: `cmd` is recording outside a rendering scope; the graph put both images
-                // (same size and format) in the transfer layouts this names.
-                unsafe {
-                    p.ctx.device.cmd_copy_image(
-                        p.cmd,
-                        hdr,
-                        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                        source,
-                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                        &[region],
-                    )
-                };
-            })?;
+        copy_target(f, "transparency_copy", &HDR, &TRANSPARENCY_SOURCE)?;
         let pipeline = if method == TransparencyMethod::InterlacedPairs { self.compose_pairs } else { self.compose };
         f.pass("transparency_compose", PassKind::Compute)
             .sample(&TRANSPARENCY_SOURCE)

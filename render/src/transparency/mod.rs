@@ -1,10 +1,12 @@
 //! Blended transparency (glTF `BLEND` materials: glass, visors, windows), seed 002
-//! (`002_9638fcf4f713d316.txt`). Two ways, chosen by [`crate::settings::TransparencyMethod`]:
+//! (`002_9638fcf4f713d316.txt`). Three ways, chosen by [`crate::settings::TransparencyMethod`]:
 //!
 //! - **Interlaced** ([`interlaced`], the deferred pipeline's default; §2.4.2, §3.1, §3.3): the
 //!   nearest blended surface goes into the G-buffer on odd rows and is lit, shadowed and
 //!   decalled like every other surface; a composition pass blends it over the opaque rows, with
 //!   refraction checked by depth.
+//! - **Depth peeling** ([`peeling`], deferred on request; §4.1.2): the full-resolution
+//!   reference, two G-buffers each lit in full and composed with the same refraction.
 //! - **Forward** (this module; every other pipeline, and deferred on request): §2.4.2's "opaque
 //!   objects rendered using deferred techniques, followed by a forward renderer which draws
 //!   transparent objects over the scene already illuminated".
@@ -30,14 +32,14 @@
 //!
 //! What the forward way does not give the glass: the shadow pass's bits and the decal buffer
 //! belong to the opaque surface behind it, so the glass is lit unshadowed, and decals land on it
-//! only with in-shader ray-query decals (the ray-query tier). In both ways glass casts no
-//! ray-traced shadow yet (its TLAS instances have no ray mask: a binary shadow would make it an
-//! opaque occluder), decals land on it only when a `DecalReceiver` says so (extraction gives
-//! blended instances no receiver layers by default), and intersecting or nested pieces of glass
-//! sort by instance, not per pixel. A frame without blended instances records none of these
-//! passes and culls as before.
+//! only with in-shader ray-query decals (the ray-query tier). In every way glass casts coloured
+//! shadows (`crate::shadows`), decals land on it only when a `DecalReceiver` says so
+//! (extraction gives blended instances no receiver layers by default), and intersecting or
+//! nested pieces of glass sort by instance, not per pixel. A frame without blended instances
+//! records none of these passes and culls as before.
 
 pub mod interlaced;
+pub mod peeling;
 
 use ash::vk;
 
@@ -47,12 +49,13 @@ use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::pipeline::{Blend, GraphicsDesc, create_graphics};
 use crate::gpu::shaders;
 use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT, TRANSPARENT_DEPTH};
-use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind};
+use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind, TargetDesc};
 use crate::lights::{LightFrame, declare_light_reads};
 use crate::scene::DrawItem;
 use crate::scene::gpu::GpuScene;
 use crate::settings::DecalMethod;
 use interlaced::Interlaced;
+use peeling::Peeling;
 
 /// The transparency passes' pipelines.
 pub struct TransparencyPasses {
@@ -62,6 +65,8 @@ pub struct TransparencyPasses {
     shade_ray_query: Option<vk::Pipeline>,
     /// The deferred pipeline's interlaced composition.
     pub interlaced: Interlaced,
+    /// The deferred pipeline's depth-peeling composition.
+    pub peeling: Peeling,
 }
 
 impl TransparencyPasses {
@@ -88,6 +93,7 @@ impl TransparencyPasses {
                 None
             },
             interlaced: Interlaced::new(ctx, layout)?,
+            peeling: Peeling::new(ctx, layout)?,
         })
     }
 
@@ -142,5 +148,35 @@ impl TransparencyPasses {
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }
         self.interlaced.destroy(ctx);
+        self.peeling.destroy(ctx);
     }
+}
+
+/// One transfer pass, `name`, copying the colour target `from` whole into `to` (same size and
+/// format).
+fn copy_target(f: &mut Frame, name: &'static str, from: &'static TargetDesc, to: &'static TargetDesc) -> Result<(), RenderError> {
+    let (src, dst) = (f.graph.target(f.ctx, from)?, f.graph.target(f.ctx, to)?);
+    let (src, dst) = (f.graph.raw(src), f.graph.raw(dst));
+    f.pass(name, PassKind::Transfer).image(from, ImageUse::TransferSrc).image(to, ImageUse::TransferDst).record(|p| {
+        let layers =
+            vk::ImageSubresourceLayers { aspect_mask: vk::ImageAspectFlags::COLOR, mip_level: 0, base_array_layer: 0, layer_count: 1 };
+        let region = vk::ImageCopy {
+            src_subresource: layers,
+            dst_subresource: layers,
+            extent: vk::Extent3D { width: p.extent.width, height: p.extent.height, depth: 1 },
+            ..Default::default()
+        };
+        // SAFETY: `cmd` is recording outside a rendering scope; the graph put both images (same
+        // size and format) in the transfer layouts this names.
+        unsafe {
+            p.ctx.device.cmd_copy_image(
+                p.cmd,
+                src,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                dst,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[region],
+            )
+        };
+    })
 }
