@@ -5,8 +5,9 @@
 // TRANSPARENT variants shade blended surfaces in the transparency pass (depth test GREATER,
 // no depth write, back to front; crate::transparency): the same shading with the material's
 // opacity as alpha, blended over what is behind (glTF's "over" operator); the opaque surface's
-// decal buffer and shadow bits are not theirs, so only in-shader ray-query decals apply and the
-// lights are unshadowed.
+// decal buffer is not theirs, so only in-shader ray-query decals apply; the nearest blended
+// surface at a pixel reads the shadow pass's glass layer (GLASS_SHADOWS), glass behind it is
+// lit unshadowed.
 #include "scene.glsl"
 #include "mesh_io.glsl"
 #include "material.glsl"

@@ -1,3 +1,4 @@
+// variants: GLASS_LAYER
 #version 460
 // The shadow pass from shadow maps (devices without ray tracing, or asked for): the same
 // per-pixel work and output as shadows.comp, each shadow ray replaced by a lookup in the

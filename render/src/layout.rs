@@ -573,6 +573,10 @@ layout! {
     /// `GpuLighting::flags`: blended surfaces filter the light that crosses them (coloured
     /// shadows, `LightSettings::coloured_shadows`); without it they block it like opaque ones.
     pub const COLOURED_SHADOWS: u32 = 128;
+    /// `GpuLighting::flags`: the shadow pass also ran over the transparent depth (its glass
+    /// layer, `GLASS_LAYER` in `shaders/include/shadow_pass.glsl`), so the forward transparency
+    /// pass shades the nearest blended surface with its own shadows.
+    pub const GLASS_SHADOWS: u32 = 256;
     /// Coloured shadows: per pixel, how many lights keep the colour their light crossed glass
     /// with (`GpuLighting::shadow_tints`); a pixel's further tinted lights are lit or shadowed
     /// by the tint's luminance.

@@ -13,6 +13,14 @@
 
 #include "depth.glsl"
 
+// The depth normals are rebuilt from: the depth target, or (GLASS_LAYER: the shadow pass over
+// the nearest blended surfaces, shadow_pass.glsl) the transparent depth.
+#ifdef GLASS_LAYER
+#define NORMALS_DEPTH transparent_depth
+#else
+#define NORMALS_DEPTH depth_target
+#endif
+
 bool pixel_inside(ivec2 px) {
     return all(greaterThanEqual(px, ivec2(0))) && all(lessThan(px, ivec2(scene.camera.camera.viewport_size)));
 }
@@ -24,7 +32,7 @@ vec3 facing_camera(vec3 n, vec3 p) {
 // World-space step to the next pixel along `step`, from the nearest neighbours only.
 vec3 naive_difference(ivec2 px, vec3 p, ivec2 step) {
     ivec2 q = pixel_inside(px + step) ? px + step : px - step;
-    float d = texelFetch(depth_target, q, 0).r;
+    float d = texelFetch(NORMALS_DEPTH, q, 0).r;
     if (d <= 0.0) return vec3(0.0);
     return (world_from_depth(vec2(q), d) - p) * float(q.x - px.x + q.y - px.y);
 }
@@ -36,7 +44,7 @@ vec3 normal_from_depth_naive(ivec2 px, float depth, vec3 p) {
 }
 
 float depth_or_sky(ivec2 px) {
-    return pixel_inside(px) ? texelFetch(depth_target, px, 0).r : 0.0;
+    return pixel_inside(px) ? texelFetch(NORMALS_DEPTH, px, 0).r : 0.0;
 }
 
 // World-space step to the next pixel along `step`, from the side on the centre's surface.

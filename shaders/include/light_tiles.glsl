@@ -105,6 +105,17 @@ uint shadow_word_at(LightList list, uint j, ivec2 px) {
     return (list.rows + j / 32u) * tile_pixels() + pixel_in_tile(px);
 }
 
+// The glass layer (GLASS_SHADOWS: forward transparency with shadows): a second set of shadow
+// words and tints after the first, for the nearest blended surface, written by the shadow
+// pass's GLASS_LAYER variant over the transparent depth. These are its offsets, in words.
+uint glass_layer_words() {
+    return scene.lighting.lighting.shadow_rows * tile_pixels();
+}
+uint glass_layer_tints() {
+    uvec2 size = uvec2(scene.camera.camera.viewport_size);
+    return size.x * size.y * SHADOW_TINT_SLOTS;
+}
+
 // Index of pixel `px`'s first shadow tint word.
 uint shadow_tint_at(ivec2 px) {
     return (uint(px.y) * uint(scene.camera.camera.viewport_size.x) + uint(px.x)) * SHADOW_TINT_SLOTS;

@@ -85,15 +85,22 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
 #else
     LightList list = light_list(px);
 #ifdef TRANSPARENT
-    bool shadowed = false;   // the shadow bits belong to the opaque surface behind
+    // A blended surface has shadows when it is the nearest one at its pixel: the shadow pass's
+    // glass layer ran over the transparent depth (GLASS_SHADOWS). Glass behind glass is lit
+    // unshadowed. (Same geometry, same vertex shader: the depths agree to rounding.)
+    bool glass_layer = list.rows != NO_SHADOW_ROWS && (scene.lighting.lighting.flags & GLASS_SHADOWS) != 0u;
+    float nearest_glass = glass_layer ? texelFetch(transparent_depth, px, 0).r : 0.0;
+    bool shadowed = glass_layer && abs(gl_FragCoord.z - nearest_glass) <= 1e-5 * nearest_glass;
+    uint layer_words = glass_layer_words(), layer_tints = glass_layer_tints();
 #else
     bool shadowed = list.rows != NO_SHADOW_ROWS;
+    uint layer_words = 0u, layer_tints = 0u;
 #endif
     ShadowWordsRef shadow_words = ShadowWordsRef(scene.lighting.lighting.shadow_bits);
     if (scene.debug_view == DEBUG_LIGHT_COUNT) return vec4(float(list.count), 0.0, 0.0, 1.0);
     if (scene.debug_view == DEBUG_LIGHT_HEATMAP) return vec4(heatmap(float(list.count) / 32.0), 1.0);
     if (scene.debug_view == DEBUG_SHADOW_FIRST) {
-        float visible = shadowed && list.count > 0u ? float(shadow_words.words[shadow_word_at(list, 0u, px)] & 1u) : 1.0;
+        float visible = shadowed && list.count > 0u ? float(shadow_words.words[layer_words + shadow_word_at(list, 0u, px)] & 1u) : 1.0;
         return vec4(visible, float(list.count), float(shadowed), 1.0);
     }
     // The shadow pass's debug image exists only when it ran with its debug output; without it
@@ -115,10 +122,10 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
     uint tints[SHADOW_TINT_SLOTS];
     bool tinted = shadowed && scene.lighting.lighting.shadow_tints != 0ul;
     ShadowTintsRef tint_words = ShadowTintsRef(scene.lighting.lighting.shadow_tints);
-    for (uint t = 0u; t < SHADOW_TINT_SLOTS; ++t) tints[t] = tinted ? tint_words.words[shadow_tint_at(px) + t] : 0u;
+    for (uint t = 0u; t < SHADOW_TINT_SLOTS; ++t) tints[t] = tinted ? tint_words.words[layer_tints + shadow_tint_at(px) + t] : 0u;
     uint word = 0xFFFFFFFFu;
     for (uint j = 0u; j < list.count; ++j) {
-        if (shadowed && j % 32u == 0u) word = shadow_words.words[shadow_word_at(list, j, px)];
+        if (shadowed && j % 32u == 0u) word = shadow_words.words[layer_words + shadow_word_at(list, j, px)];
         if ((word & (1u << (j % 32u))) == 0u) continue;
         GpuLight light = scene.lights.lights[light_slot(list, j)];
         if (light.kind == LIGHT_NONE) continue;

@@ -6,6 +6,9 @@
 // set when entry 32·row + k reaches the pixel unblocked (light_tiles.glsl).
 //
 // With SHADOW_MAPS defined the light's shadow map answers instead (shadow_maps.glsl).
+// GLASS_LAYER: the same over the transparent depth (the nearest blended surface drawn by the
+// forward transparency pass), into the glass layer's words and tints (light_tiles.glsl); it
+// writes no debug image.
 // Otherwise the including shader defines how a ray is traced (ray query or traceRayEXT), returning the
 // light that gets through (0: blocked; below 1 where it crossed glass):
 //   vec3 shadow_ray_transmittance(vec3 origin, vec3 dir, float tmin, float tmax);
@@ -34,8 +37,13 @@ vec3 shadow_ray_transmittance(vec3 origin, vec3 dir, float tmin, float tmax);
 void shadow_pixel(ivec2 px) {
     GpuLighting l = scene.lighting.lighting;
     if (!pixel_inside(px)) return;
-    float depth = texelFetch(depth_target, px, 0).r;
+    float depth = texelFetch(NORMALS_DEPTH, px, 0).r;
     if (depth <= 0.0) return;
+#ifdef GLASS_LAYER
+    uint layer_words = glass_layer_words(), layer_tints = glass_layer_tints();
+#else
+    uint layer_words = 0u, layer_tints = 0u;
+#endif
     vec3 p = world_from_depth(vec2(px), depth);
     vec3 n = (l.flags & SHADOW_NORMALS_IMPROVED) != 0u ? normal_from_depth_improved(px, depth, p)
                                                         : normal_from_depth_naive(px, depth, p);
@@ -72,15 +80,17 @@ void shadow_pixel(ivec2 px) {
                     word |= 1u << k;
                 }
             }
-            words.words[shadow_word_at(list, base, px)] = word;
+            words.words[layer_words + shadow_word_at(list, base, px)] = word;
         }
         if (l.shadow_tints != 0ul) {
             ShadowTintsRef out_tints = ShadowTintsRef(l.shadow_tints);
-            uint at = shadow_tint_at(px);
+            uint at = layer_tints + shadow_tint_at(px);
             for (uint s = 0u; s < SHADOW_TINT_SLOTS; ++s) out_tints.words[at + s] = tints[s];
         }
     }
+#ifndef GLASS_LAYER
     if ((l.flags & SHADOW_DEBUG) != 0u) imageStore(shadow_debug_out, px, vec4(n * 0.5 + 0.5, float(rays)));
+#endif
 }
 
 #endif

@@ -60,10 +60,13 @@ spirv! {
     LIGHT_CULL_COMP = "light_cull.comp";
     LIGHT_CULL_COMP_TRANSPARENT = "light_cull.comp.TRANSPARENT";
     SHADOWS_COMP = "shadows.comp";
+    SHADOWS_COMP_GLASS_LAYER = "shadows.comp.GLASS_LAYER";
     SHADOWS_MAPPED_COMP = "shadows_mapped.comp";
+    SHADOWS_MAPPED_COMP_GLASS_LAYER = "shadows_mapped.comp.GLASS_LAYER";
     SHADOW_MAP_VERT = "shadow_map.vert";
     SHADOW_MAP_FRAG = "shadow_map.frag";
     SHADOWS_RGEN = "shadows.rgen";
+    SHADOWS_RGEN_GLASS_LAYER = "shadows.rgen.GLASS_LAYER";
     SHADOWS_RMISS = "shadows.rmiss";
     SHADOWS_RAHIT = "shadows.rahit";
     SCENE_INSTANCES_COMP = "scene_instances.comp";

@@ -20,7 +20,7 @@ use crate::gpu::device::GpuContext;
 use crate::graph::targets::SHADOW_DEBUG;
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassBuilder, ResourceId};
 use crate::layout::{
-    COLOURED_SHADOWS, GpuLighting, INTERLACED, LIGHT_CULL_AABB, LIGHTS_ALL, LIGHTS_RAY_QUERY, LIGHTS_TILED, REFRACTION,
+    COLOURED_SHADOWS, GLASS_SHADOWS, GpuLighting, INTERLACED, LIGHT_CULL_AABB, LIGHTS_ALL, LIGHTS_RAY_QUERY, LIGHTS_TILED, REFRACTION,
     SHADOW_DEBUG as SHADOW_DEBUG_FLAG, SHADOW_NORMALS_IMPROVED, SHADOW_RAY_CULLING, SHADOWS_TRACED,
 };
 use crate::scene::gpu::GpuScene;
@@ -71,10 +71,17 @@ pub struct LightFrame {
 }
 
 impl LightFrame {
-    /// Whether light culling reads the transparent depth this frame (lights are tiled and
-    /// blended instances are drawn), so the transparency depth pass must run before it.
-    pub fn culls_transparent_depth(&self) -> bool {
-        self.tiles.transparent
+    /// Whether light culling or the shadow pass's glass layer reads the transparent depth this
+    /// frame (blended instances drawn by the forward transparency pass, with tiled lights or
+    /// shadows), so the transparency depth pass must run before them.
+    pub fn reads_transparent_depth(&self) -> bool {
+        self.tiles.transparent || self.glass_shadows()
+    }
+
+    /// Whether the forward transparency pass shades the nearest blended surface with its own
+    /// shadows: the shadow pass ran again over the transparent depth (its glass layer).
+    pub fn glass_shadows(&self) -> bool {
+        self.tiles.glass_layer && self.shadow_bits.is_some()
     }
 
     /// Whether the deferred G-buffer interlaces blended surfaces this frame (the deferred
@@ -168,6 +175,7 @@ impl Lighting {
             (interlaced, INTERLACED),
             (s.refraction, REFRACTION),
             (l.coloured_shadows, COLOURED_SHADOWS),
+            (tiles.glass_layer && shadows != ShadowMethod::None && !enumerated, GLASS_SHADOWS),
         ] {
             if on {
                 flags |= flag;
@@ -275,8 +283,15 @@ impl Lighting {
                 _ => return Ok(()), // no instance yet: nothing to trace against
             },
         };
-        let inputs = ShadowInputs { method: frame.shadows, traced, light_tiles: frame.light_tiles, shadow_bits, debug: frame.debug };
-        self.shadows.record(f, scene, draws, maps, &inputs)
+        let inputs =
+            ShadowInputs { method: frame.shadows, traced, light_tiles: frame.light_tiles, shadow_bits, debug: frame.debug, glass: false };
+        self.shadows.record(f, scene, draws, maps, &inputs)?;
+        if frame.glass_shadows() {
+            // The glass layer: the same over the transparent depth, reading the maps just drawn.
+            let glass = ShadowInputs { debug: false, glass: true, ..inputs };
+            self.shadows.record(f, scene, draws, ShadowMapPlan { views: 0, ..maps }, &glass)?;
+        }
+        Ok(())
     }
 
     /// Destroys everything; the GPU must be idle.

@@ -82,8 +82,10 @@ pub struct TileRequest {
     pub proj: Mat4,
     /// Whether shadow words are needed.
     pub shadows: bool,
-    /// Whether transparent surfaces are drawn this frame: culling then also reads their depth
-    /// (`TRANSPARENT_DEPTH`), so the lists light the glass in front of the opaque surfaces.
+    /// Whether transparent surfaces are drawn this frame by the forward transparency pass:
+    /// culling then also reads their depth (`TRANSPARENT_DEPTH`), so the lists light the glass
+    /// in front of the opaque surfaces, and with shadows the shadow words and tints get a second
+    /// layer for the nearest glass ([`TileFrame::glass_layer`]).
     pub transparent: bool,
     /// Whether the shadow pass keeps the colours of light that crossed glass (coloured shadows
     /// with blended instances in the scene): the shadow tints then exist beside the words.
@@ -140,6 +142,9 @@ pub struct TileFrame {
     pub shadows: bool,
     /// Whether culling reads the transparent depth too.
     pub transparent: bool,
+    /// Whether the shadow words and tints hold a second layer, for the nearest blended surface
+    /// (the shadow pass runs again over the transparent depth; `GLASS_SHADOWS`).
+    pub glass_layer: bool,
     rebuild_frusta: bool,
     tiled: bool,
 }
@@ -159,8 +164,10 @@ pub struct LightTiles {
     shadow: Option<Buffer>,
     shadow_rows: u32,
     shadow_row_words: u32,
-    /// Coloured shadows' per-pixel tints, and the view size they were made for.
-    tints: Option<(Buffer, vk::Extent2D)>,
+    /// Layers of shadow words: 2 with the glass layer.
+    shadow_layers: u32,
+    /// Coloured shadows' per-pixel tints, and the view size and layers they were made for.
+    tints: Option<(Buffer, vk::Extent2D, u32)>,
     readback: StatsReadback,
     latest: LightTileStats,
     /// Shadow rows the last measured frame needed.
@@ -200,6 +207,7 @@ impl LightTiles {
             shadow: None,
             shadow_rows: 0,
             shadow_row_words: 0,
+            shadow_layers: 0,
             tints: None,
             readback,
             latest: LightTileStats { measured_frame: u64::MAX, ..Default::default() },
@@ -312,6 +320,7 @@ impl LightTiles {
         }
 
         let mut shadow_used = false;
+        let layers = if transparent { 2 } else { 1 };
         if shadows {
             let same_size = tile_pixels == self.shadow_row_words;
             // `rows`: what a new or grown buffer gets; `need`: what this frame needs at the least.
@@ -333,7 +342,7 @@ impl LightTiles {
             } else {
                 smaller.map_or(self.shadow_rows, |r| r as u32)
             };
-            let bytes = rows as u64 * tile_pixels as u64 * 4;
+            let bytes = rows as u64 * tile_pixels as u64 * 4 * layers as u64;
             if !tiled && bytes > MAX_ALL_LIGHT_SHADOW_BYTES {
                 if !self.warned_all_shadows {
                     self.warned_all_shadows = true;
@@ -344,7 +353,7 @@ impl LightTiles {
                 }
             } else {
                 shadow_used = true;
-                if self.shadow.is_none() || rows != self.shadow_rows || !same_size {
+                if self.shadow.is_none() || rows != self.shadow_rows || !same_size || layers != self.shadow_layers {
                     // (A smaller buffer after a tile-size change: `rows` came from the floor.)
                     let buffer = Buffer::new(
                         ctx,
@@ -362,26 +371,27 @@ impl LightTiles {
                             f.upload.graveyard.bury(frame_value, Retired::Buffer(old));
                         }
                     }
-                    (self.shadow_rows, self.shadow_row_words) = (rows, tile_pixels);
+                    (self.shadow_rows, self.shadow_row_words, self.shadow_layers) = (rows, tile_pixels, layers);
                     self.shadow_shrink.reset();
                 }
                 frame.shadows = true;
                 frame.shadow_bits = self.shadow.as_ref().map_or(0, |b| b.address);
                 frame.shadow_rows = self.shadow_rows;
+                frame.glass_layer = layers == 2;
             }
         }
         if shadow_used && tints {
-            if self.tints.as_ref().is_none_or(|(_, e)| *e != extent) {
-                let bytes = extent.width as u64 * extent.height as u64 * SHADOW_TINT_SLOTS as u64 * 4;
+            if self.tints.as_ref().is_none_or(|(_, e, l)| (*e, *l) != (extent, layers)) {
+                let bytes = extent.width as u64 * extent.height as u64 * SHADOW_TINT_SLOTS as u64 * 4 * layers as u64;
                 let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
                 let buffer = Buffer::new(ctx, "shadow tints", bytes.max(4), usage, MemoryLocation::GpuOnly)?;
-                if let Some((old, _)) = self.tints.replace((buffer, extent)) {
+                if let Some((old, ..)) = self.tints.replace((buffer, extent, layers)) {
                     f.upload.graveyard.bury(frame_value, Retired::Buffer(old));
                 }
                 self.grows += 1;
             }
-            frame.shadow_tints = self.tints.as_ref().map_or(0, |(b, _)| b.address);
-        } else if let Some((old, _)) = self.tints.take() {
+            frame.shadow_tints = self.tints.as_ref().map_or(0, |(b, ..)| b.address);
+        } else if let Some((old, ..)) = self.tints.take() {
             // No glass (or no coloured shadows) this frame: the tints go at once; they are as
             // large as a G-buffer target and come back within a frame when needed.
             f.upload.bury_shrunk(old, 0);
@@ -392,7 +402,7 @@ impl LightTiles {
             if let Some(old) = self.shadow.take() {
                 f.upload.bury_shrunk(old, 0);
             }
-            (self.shadow_rows, self.shadow_row_words) = (0, 0);
+            (self.shadow_rows, self.shadow_row_words, self.shadow_layers) = (0, 0, 0);
             self.shrinks += 1;
         }
         *stats = LightTileStats {
@@ -463,7 +473,7 @@ impl LightTiles {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }
-        for b in [self.frusta, self.tiles, self.shadow, self.tints.map(|(b, _)| b)].into_iter().flatten() {
+        for b in [self.frusta, self.tiles, self.shadow, self.tints.map(|(b, ..)| b)].into_iter().flatten() {
             b.destroy(ctx);
         }
         self.readback.destroy(ctx);

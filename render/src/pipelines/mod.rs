@@ -160,9 +160,10 @@ pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirr
     Ok(lights)
 }
 
-/// The transparent depth, when light culling reads it this frame (before culling).
+/// The transparent depth, when light culling or the glass shadows read it this frame (before
+/// both).
 fn transparent_depth(f: &mut Frame, r: &FrameParts, mirror: &SceneMirror, lights: &LightFrame) -> Result<(), RenderError> {
-    if !lights.culls_transparent_depth() {
+    if !lights.reads_transparent_depth() {
         return Ok(());
     }
     r.transparency.depth(f, r.scene, &mirror.draws, mirror.transparent_order())

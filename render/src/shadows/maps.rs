@@ -36,7 +36,9 @@ use crate::RenderError;
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::{GraphicsDesc, create_compute, create_graphics};
 use crate::gpu::shaders;
-use crate::graph::targets::{DEPTH, DEPTH_FORMAT, SHADOW_DEBUG, SHADOW_MAP_DEPTH, SHADOW_MAP_FILTER, SHADOW_MAP_FILTER_FORMAT};
+use crate::graph::targets::{
+    DEPTH, DEPTH_FORMAT, SHADOW_DEBUG, SHADOW_MAP_DEPTH, SHADOW_MAP_FILTER, SHADOW_MAP_FILTER_FORMAT, TRANSPARENT_DEPTH,
+};
 use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind};
 use crate::layout::{GpuCamera, GpuLight, GpuShadowView, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, NO_SHADOW_MAP, SHADOW_VIEWS_HEADER};
 use crate::scene::DrawItem;
@@ -63,7 +65,8 @@ pub struct ShadowMapPlan {
 /// The shadow-map passes and the atlas's layout.
 pub struct ShadowMaps {
     raster: vk::Pipeline,
-    resolve: vk::Pipeline,
+    /// `[depth target, glass layer]` (`ShadowInputs::glass`).
+    resolve: [vk::Pipeline; 2],
     budget: ShadowMapBudget,
     columns: u32,
     rows: u32,
@@ -92,14 +95,22 @@ impl ShadowMaps {
             ..GraphicsDesc::mesh("shadow maps", Some(shaders::SHADOW_MAP_FRAG), &[SHADOW_MAP_FILTER_FORMAT], DEPTH_FORMAT)
         };
         let raster = create_graphics(ctx, layout, &desc)?;
-        let resolve = match create_compute(ctx, layout, "shadows (maps)", shaders::SHADOWS_MAPPED_COMP) {
-            Ok(p) => p,
-            Err(e) => {
-                // SAFETY: never used.
-                unsafe { ctx.device.destroy_pipeline(raster, None) };
-                return Err(e);
+        let mut made = vec![raster];
+        for (name, spirv) in
+            [("shadows (maps)", shaders::SHADOWS_MAPPED_COMP), ("glass shadows (maps)", shaders::SHADOWS_MAPPED_COMP_GLASS_LAYER)]
+        {
+            match create_compute(ctx, layout, name, spirv) {
+                Ok(p) => made.push(p),
+                Err(e) => {
+                    for p in made {
+                        // SAFETY: never used.
+                        unsafe { ctx.device.destroy_pipeline(p, None) };
+                    }
+                    return Err(e);
+                }
             }
-        };
+        }
+        let resolve = [made[1], made[2]];
         Ok(Self { raster, resolve, budget, columns, rows, words: Vec::new() })
     }
 
@@ -168,9 +179,9 @@ impl ShadowMaps {
                 })?;
         }
         let extent = f.graph.extent();
-        let resolve = self.resolve;
-        f.pass("shadows_maps", PassKind::Compute)
-            .sample(&DEPTH)
+        let resolve = self.resolve[usize::from(inputs.glass)];
+        f.pass(if inputs.glass { "glass_shadows_maps" } else { "shadows_maps" }, PassKind::Compute)
+            .sample(if inputs.glass { &TRANSPARENT_DEPTH } else { &DEPTH })
             .sample(&SHADOW_MAP_DEPTH)
             .sample(&SHADOW_MAP_FILTER)
             .reads(scene.res.shaded())
@@ -186,7 +197,7 @@ impl ShadowMaps {
 
     /// Destroys the pipelines; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for p in [self.raster, self.resolve] {
+        for p in [self.raster].into_iter().chain(self.resolve) {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }

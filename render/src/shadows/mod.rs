@@ -27,6 +27,11 @@
 //!   (the cheaper shadows of seed 002 Table 4.3).
 //! - **No ray tracing** (or asked for with `LightSettings::shadow_maps`): shadow maps
 //!   ([`maps`]) answer the same question per pixel and light, into the same bits and tints.
+//! - **The glass layer** ([`ShadowInputs::glass`]): where the forward transparency pass draws
+//!   glass, every method runs once more over the transparent depth (the nearest blended
+//!   surface), into a second layer of bits and tints (variant `GLASS_LAYER`), so the glass is
+//!   shaded with its own shadows. Glass in the deferred G-buffer (interlaced, depth peeling) is
+//!   in the depth target already.
 
 pub mod accel;
 pub mod maps;
@@ -37,7 +42,7 @@ use crate::RenderError;
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::pipeline::{RayTracingDesc, RayTracingPipeline, create_compute};
 use crate::gpu::shaders;
-use crate::graph::targets::{DEPTH, SHADOW_DEBUG};
+use crate::graph::targets::{DEPTH, SHADOW_DEBUG, TRANSPARENT_DEPTH};
 use crate::graph::{BufferUse, Frame, ImageUse, PassKind, ResourceId};
 use crate::scene::DrawItem;
 use crate::scene::gpu::GpuScene;
@@ -46,7 +51,9 @@ use maps::{ShadowMapPlan, ShadowMaps};
 
 /// The shadow passes this device can run.
 pub struct ShadowPass {
-    ray_query: Option<vk::Pipeline>,
+    /// `[depth target, glass layer]`.
+    ray_query: Option<[vk::Pipeline; 2]>,
+    /// Its ray-generation shaders are `[depth target, glass layer]`.
     ray_pipeline: Option<RayTracingPipeline>,
     /// Shadow maps (every device).
     pub maps: ShadowMaps,
@@ -65,6 +72,10 @@ pub struct ShadowInputs {
     pub shadow_bits: ResourceId,
     /// Whether it also writes the shadow debug image.
     pub debug: bool,
+    /// The glass layer: over the transparent depth (the nearest blended surface the forward
+    /// transparency pass draws) into the second layer of words and tints, instead of over the
+    /// depth target.
+    pub glass: bool,
 }
 
 impl ShadowPass {
@@ -72,7 +83,10 @@ impl ShadowPass {
     pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout, budget: ShadowMapBudget) -> Result<Self, RenderError> {
         let maps = ShadowMaps::new(ctx, layout, budget)?;
         let ray_query = if ctx.tier == Tier::RayQuery {
-            Some(create_compute(ctx, layout, "shadows (ray query)", shaders::SHADOWS_COMP)?)
+            Some([
+                create_compute(ctx, layout, "shadows (ray query)", shaders::SHADOWS_COMP)?,
+                create_compute(ctx, layout, "glass shadows (ray query)", shaders::SHADOWS_COMP_GLASS_LAYER)?,
+            ])
         } else {
             None
         };
@@ -82,7 +96,7 @@ impl ShadowPass {
                 layout,
                 &RayTracingDesc {
                     name: "shadows (ray-tracing pipeline)",
-                    raygen: &[shaders::SHADOWS_RGEN],
+                    raygen: &[shaders::SHADOWS_RGEN, shaders::SHADOWS_RGEN_GLASS_LAYER],
                     miss: shaders::SHADOWS_RMISS,
                     intersection: None,
                     any_hit: shaders::SHADOWS_RAHIT,
@@ -90,7 +104,7 @@ impl ShadowPass {
             ) {
                 Ok(p) => Some(p),
                 Err(e) => {
-                    if let Some(p) = ray_query {
+                    for p in ray_query.into_iter().flatten() {
                         // SAFETY: unused.
                         unsafe { ctx.device.destroy_pipeline(p, None) };
                     }
@@ -145,10 +159,16 @@ impl ShadowPass {
         }
         let extent = f.graph.extent();
         let kind = if inputs.method == ShadowMethod::RayPipeline { PassKind::RayTracing } else { PassKind::Compute };
-        let name = if kind == PassKind::RayTracing { "shadows_ray_pipeline" } else { "shadows_ray_query" };
+        let name = match (kind, inputs.glass) {
+            (PassKind::RayTracing, false) => "shadows_ray_pipeline",
+            (PassKind::RayTracing, true) => "glass_shadows_ray_pipeline",
+            (_, false) => "shadows_ray_query",
+            (_, true) => "glass_shadows_ray_query",
+        };
+        let layer = usize::from(inputs.glass);
         let pass = f
             .pass(name, kind)
-            .sample(&DEPTH)
+            .sample(if inputs.glass { &TRANSPARENT_DEPTH } else { &DEPTH })
             .reads(scene.res.shaded())
             .read(scene.res.meshes, BufferUse::Storage)
             .reads(inputs.traced.into_iter().flatten().map(|a| (a, BufferUse::Accel)))
@@ -160,11 +180,11 @@ impl ShadowPass {
                 let rt = self.ray_pipeline.as_ref().ok_or_else(|| unsupported(inputs.method))?;
                 pass.record(|p| {
                     p.bind(vk::PipelineBindPoint::RAY_TRACING_KHR, rt.pipeline, &p.push);
-                    rt.trace(p.ctx, p.cmd, 0, extent);
+                    rt.trace(p.ctx, p.cmd, layer, extent);
                 })
             }
             ShadowMethod::RayQuery => {
-                let pipeline = self.ray_query.ok_or_else(|| unsupported(inputs.method))?;
+                let pipeline = self.ray_query.ok_or_else(|| unsupported(inputs.method))?[layer];
                 pass.record(|p| {
                     p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
                     // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
@@ -177,7 +197,7 @@ impl ShadowPass {
 
     /// Destroys the pipelines; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        if let Some(p) = self.ray_query {
+        for p in self.ray_query.into_iter().flatten() {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }

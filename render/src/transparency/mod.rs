@@ -30,9 +30,15 @@
 //!   faces are culled unless the material is double-sided, as for opaque surfaces. Every layer
 //!   of glass is blended, where interlacing keeps the nearest.
 //!
-//! What the forward way does not give the glass: the shadow pass's bits and the decal buffer
-//! belong to the opaque surface behind it, so the glass is lit unshadowed, and decals land on it
-//! only with in-shader ray-query decals (the ray-query tier). In every way glass casts coloured
+//! - **Shadows on the glass**: with shadows the shadow pass runs a second time, over the
+//!   transparent depth, into a second layer of shadow words and tints (`ShadowInputs::glass`,
+//!   `GLASS_SHADOWS`), and the transparency pass shades the nearest blended surface at each pixel
+//!   with them: the same lights and shadows as the opaque surfaces. Glass behind that glass is lit
+//!   unshadowed (a layer per pixel, like interlacing's single layer).
+//!
+//! What the forward way does not give the glass: the decal buffer belongs to the opaque surface
+//! behind it, so decals land on it only with in-shader ray-query decals (the ray-query tier).
+//! In every way glass casts coloured
 //! shadows (`crate::shadows`), decals land on it only when a `DecalReceiver` says so
 //! (extraction gives blended instances no receiver layers by default), and intersecting or
 //! nested pieces of glass sort by instance, not per pixel. A frame without blended instances
@@ -128,8 +134,12 @@ impl TransparencyPasses {
             return Ok(());
         }
         let ray_query = self.shade_ray_query.filter(|_| decals.method == DecalMethod::RayQuery && decals.traced.is_some());
-        let pass =
-            f.pass("transparency", PassKind::Graphics).image(&DEPTH, ImageUse::DepthTest).color(&HDR, Load::Keep).reads(scene.res.drawn());
+        let pass = f
+            .pass("transparency", PassKind::Graphics)
+            .image(&DEPTH, ImageUse::DepthTest)
+            .color(&HDR, Load::Keep)
+            .reads(scene.res.drawn())
+            .when(lights.glass_shadows(), |p| p.sample(&TRANSPARENT_DEPTH));
         let pass = match ray_query {
             Some(_) => pass.reads(decals.traced.into_iter().flatten().map(|a| (a, BufferUse::Accel))),
             None => pass,
