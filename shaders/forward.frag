@@ -1,4 +1,4 @@
-// variants: RAY_QUERY_DECALS DECAL_BUFFER TRANSPARENT TRANSPARENT+RAY_QUERY_DECALS
+// variants: RAY_QUERY_DECALS DECAL_BUFFER TRANSPARENT TRANSPARENT+RAY_QUERY_DECALS TRANSPARENT+SHADOWED_GLASS TRANSPARENT+SHADOWED_GLASS+RAY_QUERY_DECALS
 #version 460
 // Forward shading pass (depth test EQUAL against the prepass): the material through the
 // bindless array, normal mapping, then shade_surface (ray-query decals and every light).
@@ -6,8 +6,8 @@
 // no depth write, back to front; crate::transparency): the same shading with the material's
 // opacity as alpha, blended over what is behind (glTF's "over" operator); the opaque surface's
 // decal buffer is not theirs, so only in-shader ray-query decals apply; the nearest blended
-// surface at a pixel reads the shadow pass's glass layer (GLASS_SHADOWS), glass behind it is
-// lit unshadowed.
+// surface at a pixel reads the shadow pass's glass layer in the SHADOWED_GLASS variants (frames
+// with GLASS_SHADOWS), glass behind it is lit unshadowed.
 #include "scene.glsl"
 #include "mesh_io.glsl"
 #include "material.glsl"

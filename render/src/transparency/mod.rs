@@ -66,9 +66,10 @@ use peeling::Peeling;
 /// The transparency passes' pipelines.
 pub struct TransparencyPasses {
     depth: vk::Pipeline,
-    shade: vk::Pipeline,
+    /// `[unshadowed, shadowed]`: the second reads the shadow pass's glass layer.
+    shade: [vk::Pipeline; 2],
     /// With in-shader ray-query decals (ray-query tier only).
-    shade_ray_query: Option<vk::Pipeline>,
+    shade_ray_query: Option<[vk::Pipeline; 2]>,
     /// The deferred pipeline's interlaced composition.
     pub interlaced: Interlaced,
     /// The deferred pipeline's depth-peeling composition.
@@ -92,9 +93,12 @@ impl TransparencyPasses {
         };
         Ok(Self {
             depth: create_graphics(ctx, layout, &depth)?,
-            shade: shade(shaders::FORWARD_FRAG_TRANSPARENT)?,
+            shade: [shade(shaders::FORWARD_FRAG_TRANSPARENT)?, shade(shaders::FORWARD_FRAG_SHADOWED_GLASS)?],
             shade_ray_query: if ctx.tier == Tier::RayQuery {
-                Some(shade(shaders::FORWARD_FRAG_TRANSPARENT_RAY_QUERY_DECALS)?)
+                Some([
+                    shade(shaders::FORWARD_FRAG_TRANSPARENT_RAY_QUERY_DECALS)?,
+                    shade(shaders::FORWARD_FRAG_SHADOWED_GLASS_RAY_QUERY_DECALS)?,
+                ])
             } else {
                 None
             },
@@ -133,7 +137,9 @@ impl TransparencyPasses {
         if order.is_empty() {
             return Ok(());
         }
-        let ray_query = self.shade_ray_query.filter(|_| decals.method == DecalMethod::RayQuery && decals.traced.is_some());
+        let shadowed = usize::from(lights.glass_shadows());
+        let ray_query =
+            self.shade_ray_query.filter(|_| decals.method == DecalMethod::RayQuery && decals.traced.is_some()).map(|p| p[shadowed]);
         let pass = f
             .pass("transparency", PassKind::Graphics)
             .image(&DEPTH, ImageUse::DepthTest)
@@ -146,14 +152,14 @@ impl TransparencyPasses {
         };
         declare_light_reads(pass, lights).record(|p| {
             let push = p.push;
-            p.bind_graphics(ray_query.unwrap_or(self.shade), &push);
+            p.bind_graphics(ray_query.unwrap_or(self.shade[shadowed]), &push);
             scene.draw_slots(p, draws, order.iter().copied());
         })
     }
 
     /// Destroys the pipelines; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for p in [self.depth, self.shade].into_iter().chain(self.shade_ray_query) {
+        for p in [self.depth].into_iter().chain(self.shade).chain(self.shade_ray_query.into_iter().flatten()) {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }
