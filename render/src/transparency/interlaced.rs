@@ -24,11 +24,11 @@ use crate::RenderError;
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::create_compute;
 use crate::gpu::shaders;
-use crate::graph::targets::{DEPTH, GBUFFER_MATERIAL, GBUFFER_NORMAL, HDR, TRANSPARENCY_SOURCE};
-use crate::graph::{BufferUse, Frame, ImageUse, PassKind};
+use crate::graph::Frame;
+use crate::graph::targets::{HDR, TRANSPARENCY_SOURCE};
 use crate::scene::gpu::GpuScene;
 use crate::settings::TransparencyMethod;
-use crate::transparency::copy_target;
+use crate::transparency::{composition, compute_pass, copy_target};
 
 /// The composition pass's pipeline.
 pub struct Interlaced {
@@ -57,18 +57,7 @@ impl Interlaced {
     pub fn compose(&self, f: &mut Frame, scene: &GpuScene, method: TransparencyMethod) -> Result<(), RenderError> {
         copy_target(f, "transparency_copy", &HDR, &TRANSPARENCY_SOURCE)?;
         let pipeline = if method == TransparencyMethod::InterlacedPairs { self.compose_pairs } else { self.compose };
-        f.pass("transparency_compose", PassKind::Compute)
-            .sample(&TRANSPARENCY_SOURCE)
-            .sample(&DEPTH)
-            .sample(&GBUFFER_MATERIAL)
-            .sample(&GBUFFER_NORMAL)
-            .image(&HDR, ImageUse::StorageWrite)
-            .read(scene.res.tables, BufferUse::Storage)
-            .record(|p| {
-                p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
-            })
+        compute_pass(f, "transparency_compose", pipeline, |pass| composition(pass, scene))
     }
 
     /// Destroys the pipeline; the GPU must be idle.

@@ -54,8 +54,10 @@ use crate::decals::DecalFrame;
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::pipeline::{Blend, GraphicsDesc, create_graphics};
 use crate::gpu::shaders;
-use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT, TRANSPARENT_DEPTH};
-use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind, TargetDesc};
+use crate::graph::targets::{
+    DEPTH, DEPTH_FORMAT, GBUFFER_MATERIAL, GBUFFER_NORMAL, HDR, HDR_FORMAT, TRANSPARENCY_SOURCE, TRANSPARENT_DEPTH,
+};
+use crate::graph::{BufferUse, Frame, ImageUse, Load, PassBuilder, PassKind, TargetDesc};
 use crate::lights::{LightFrame, declare_light_reads};
 use crate::scene::DrawItem;
 use crate::scene::gpu::GpuScene;
@@ -166,6 +168,32 @@ impl TransparencyPasses {
         self.interlaced.destroy(ctx);
         self.peeling.destroy(ctx);
     }
+}
+
+/// A compute pass, `name`, running `pipeline` over every pixel (8×8 groups), reading and writing
+/// what `declare` names.
+fn compute_pass(
+    f: &mut Frame,
+    name: &'static str,
+    pipeline: vk::Pipeline,
+    declare: impl for<'f, 'a> FnOnce(PassBuilder<'f, 'a>) -> PassBuilder<'f, 'a>,
+) -> Result<(), RenderError> {
+    declare(f.pass(name, PassKind::Compute)).record(|p| {
+        p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
+        // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
+        unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
+    })
+}
+
+/// What a composition pass reads and writes: the kept lit image, the G-buffer's depth, material
+/// (opacity, refraction) and normal, the scene tables; it rewrites the HDR target.
+fn composition<'f, 'a>(pass: PassBuilder<'f, 'a>, scene: &GpuScene) -> PassBuilder<'f, 'a> {
+    pass.sample(&TRANSPARENCY_SOURCE)
+        .sample(&DEPTH)
+        .sample(&GBUFFER_MATERIAL)
+        .sample(&GBUFFER_NORMAL)
+        .image(&HDR, ImageUse::StorageWrite)
+        .read(scene.res.tables, BufferUse::Storage)
 }
 
 /// One transfer pass, `name`, copying the colour target `from` whole into `to` (same size and

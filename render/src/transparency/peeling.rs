@@ -29,10 +29,10 @@ use crate::RenderError;
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::create_compute;
 use crate::gpu::shaders;
-use crate::graph::targets::{BACKGROUND_DEPTH, DEPTH, GBUFFER_MATERIAL, GBUFFER_NORMAL, HDR, TRANSPARENCY_SOURCE};
-use crate::graph::{BufferUse, Frame, ImageUse, PassBuilder, PassKind};
+use crate::graph::targets::{BACKGROUND_DEPTH, DEPTH, HDR, TRANSPARENCY_SOURCE};
+use crate::graph::{BufferUse, Frame, ImageUse};
 use crate::scene::gpu::GpuScene;
-use crate::transparency::copy_target;
+use crate::transparency::{composition, compute_pass, copy_target};
 
 /// The depth-peeling composition's pipeline.
 pub struct Peeling {
@@ -53,38 +53,14 @@ impl Peeling {
     /// layer's G-buffer replaces them.
     pub fn keep_background(&self, f: &mut Frame, scene: &GpuScene) -> Result<(), RenderError> {
         copy_target(f, "peeling_copy", &HDR, &TRANSPARENCY_SOURCE)?;
-        self.dispatch(f, "peeling_keep_depth", self.keep_depth, |pass| {
+        compute_pass(f, "peeling_keep_depth", self.keep_depth, |pass| {
             pass.sample(&DEPTH).image(&BACKGROUND_DEPTH, ImageUse::StorageWrite).read(scene.res.tables, BufferUse::Storage)
         })
     }
 
     /// Blends the lit nearest layer's glass over the kept opaque layer, in the HDR target.
     pub fn compose(&self, f: &mut Frame, scene: &GpuScene) -> Result<(), RenderError> {
-        self.dispatch(f, "peeling_compose", self.compose, |pass| {
-            pass.sample(&TRANSPARENCY_SOURCE)
-                .sample(&BACKGROUND_DEPTH)
-                .sample(&DEPTH)
-                .sample(&GBUFFER_MATERIAL)
-                .sample(&GBUFFER_NORMAL)
-                .image(&HDR, ImageUse::StorageWrite)
-                .read(scene.res.tables, BufferUse::Storage)
-        })
-    }
-
-    /// A compute pass over every pixel (8×8 groups) with `pipeline`, reading and writing what
-    /// `declare` names.
-    fn dispatch(
-        &self,
-        f: &mut Frame,
-        name: &'static str,
-        pipeline: vk::Pipeline,
-        declare: impl for<'f, 'a> FnOnce(PassBuilder<'f, 'a>) -> PassBuilder<'f, 'a>,
-    ) -> Result<(), RenderError> {
-        declare(f.pass(name, PassKind::Compute)).record(|p| {
-            p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-            // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-            unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
-        })
+        compute_pass(f, "peeling_compose", self.compose, |pass| composition(pass, scene).sample(&BACKGROUND_DEPTH))
     }
 
     /// Destroys the pipeline; the GPU must be idle.
