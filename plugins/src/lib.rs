@@ -73,6 +73,12 @@ pub struct RenderSettings {
     /// Glass refracts the background by its material's refraction (false: straight through), in
     /// interlaced and depth-peeled transparency.
     pub refraction: bool,
+    /// How instances are culled on the GPU before they are drawn (default: frustum and
+    /// two-phase occlusion culling).
+    pub culling: render::CullingMode,
+    /// Keep culling against the view of the frame this was set in, to fly out and see what it
+    /// culled (a debug option: engines call it "freeze culling").
+    pub freeze_culling: bool,
     /// How many mesh instances, lights and decals the scene tables hold at most.
     pub limits: SceneLimits,
 }
@@ -139,6 +145,8 @@ impl Default for RenderSettings {
             compute_shading: true,
             transparency: render::TransparencyMethod::Interlaced,
             refraction: true,
+            culling: render::CullingMode::Occlusion,
+            freeze_culling: false,
             limits: SceneLimits::MAX,
         }
     }
@@ -438,6 +446,8 @@ fn render_frame(
         compute_shading: settings.compute_shading,
         transparency: settings.transparency,
         refraction: settings.refraction,
+        culling: settings.culling,
+        freeze_culling: settings.freeze_culling,
     };
     let result = match window {
         Some(mut window) => {

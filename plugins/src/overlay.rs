@@ -162,6 +162,13 @@ impl DebugOverlay {
             c.light_blas_updates,
             c.bytes_uploaded
         ));
+        let k = c.culling;
+        let measured = if k.measured_frame == u64::MAX {
+            "not measured yet".to_string()
+        } else {
+            format!("{} tested, {} in the frustum, {} drawn", k.instances, k.after_frustum, k.after_occlusion)
+        };
+        ui.label(format!("culling {}{}: {measured}; {} draw calls", k.mode.name(), if k.frozen { " (frozen)" } else { "" }, c.draw_calls));
     }
 
     fn controls(&mut self, ui: &mut egui::Ui, world: &mut World) {
@@ -212,6 +219,12 @@ impl DebugOverlay {
                 ui.selectable_value(&mut settings.transparency, m, m.name());
             }
             ui.checkbox(&mut settings.refraction, "refraction");
+        });
+        ui.horizontal(|ui| {
+            for m in render::CullingMode::ALL {
+                ui.selectable_value(&mut settings.culling, m, format!("culling {}", m.name()));
+            }
+            ui.checkbox(&mut settings.freeze_culling, "freeze culling");
         });
     }
 }

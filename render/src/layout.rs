@@ -419,7 +419,8 @@ pub fn glsl() -> String {
         };
         out.push_str(&format!("// {} ({rule}, {} bytes)\n", doc(s.doc), s.size));
         out.push_str(&match s.rule {
-            Rule::PushConstant => format!("layout(push_constant) uniform {} {{\n", s.name),
+            // Shaders with push constants of their own (the culling passes) define NO_SCENE_PUSH.
+            Rule::PushConstant => format!("#ifndef NO_SCENE_PUSH\nlayout(push_constant) uniform {} {{\n", s.name),
             _ => format!("struct {} {{\n", s.name),
         });
         let fields: Vec<_> = s
@@ -432,7 +433,7 @@ pub fn glsl() -> String {
             .collect();
         aligned(&mut out, &fields);
         out.push_str(&match s.rule {
-            Rule::PushConstant => format!("}} {};\n", s.instance),
+            Rule::PushConstant => format!("}} {};\n#endif\n", s.instance),
             _ => "};\n".to_string(),
         });
     }
@@ -628,6 +629,47 @@ layout! {
     pub const DEBUG_LIGHT_COUNT: u32 = 9;
     /// Debug view: the shadow pass's visibility of the first light as R (for tests).
     pub const DEBUG_SHADOW_FIRST: u32 = 10;
+
+    /// Culling record flag: the slot holds a live instance.
+    pub const CULL_LIVE: u32 = 1;
+    /// Culling record flag: alpha-tested (the masked batches).
+    pub const CULL_MASKED: u32 = 2;
+    /// Culling record flag: drawn without back-face culling (the double-sided batches).
+    pub const CULL_DOUBLE_SIDED: u32 = 4;
+    /// Culling record flag: blended; drawn by the transparency passes only, in their order.
+    pub const CULL_TRANSPARENT: u32 = 8;
+    /// Draw batches of the opaque passes: opaque or masked × back-face culled or double-sided
+    /// (`batch = 2 × masked + double_sided`).
+    pub const CULL_BATCHES: u32 = 4;
+    /// Words of the draw buffer's header: the per-batch counts of the two phases' lists
+    /// (`2 × CULL_BATCHES`), then the statistics (`CULL_STAT_*`), then padding.
+    pub const CULL_HEADER: u32 = 16;
+    /// Header word: instances tested for the main view.
+    pub const CULL_STAT_TESTED: u32 = 8;
+    /// Header word: instances inside the main view's frustum.
+    pub const CULL_STAT_FRUSTUM: u32 = 9;
+    /// Header word: instances left after occlusion (drawn in either phase).
+    pub const CULL_STAT_VISIBLE: u32 = 10;
+    /// Header word: draws dropped because a batch's list was full (never expected).
+    pub const CULL_STAT_DROPPED: u32 = 11;
+    /// Header word: the blended order's length (the count of the glass draws).
+    pub const CULL_ORDERED: u32 = 12;
+    /// Culling mode: every live instance is drawn.
+    pub const CULL_MODE_OFF: u32 = 0;
+    /// Culling mode: instances outside the view frustum are skipped.
+    pub const CULL_MODE_FRUSTUM: u32 = 1;
+    /// Culling mode: frustum, then two-phase hierarchical-Z occlusion.
+    pub const CULL_MODE_OCCLUSION: u32 = 2;
+    /// Culling pass: the first phase (frustum; occlusion by last frame's visibility).
+    pub const CULL_PASS_FIRST: u32 = 0;
+    /// Culling pass: the second phase (the rest against this frame's depth pyramid).
+    pub const CULL_PASS_SECOND: u32 = 1;
+    /// Culling pass: the blended instances in their back-to-front order (a command each).
+    pub const CULL_PASS_ORDERED: u32 = 2;
+    /// Culling pass: the shadow-map views (a list per view).
+    pub const CULL_PASS_SHADOW_VIEWS: u32 = 3;
+    /// Most levels of the depth pyramid (a 65536-pixel side).
+    pub const HIZ_MAX_LEVELS: u32 = 16;
 
     /// The camera as the shaders see it.
     #[layout(std430)]
@@ -898,6 +940,111 @@ layout! {
         pub vertices: u64,
         /// Device address of the first index.
         pub indices: u64,
+        /// The first index's place in the mesh pool's buffer, in indices (an indirect draw's
+        /// `firstIndex`).
+        pub first_index: u32,
+        /// Number of indices (0 for a free mesh id: nothing is drawn).
+        pub index_count: u32,
+        /// The first vertex's place in the mesh pool's buffer, in vertices (`vertexOffset`).
+        pub vertex_offset: u32,
+        /// Padding to 16 bytes.
+        pub pad: u32,
+    }
+
+    /// What GPU culling knows of an instance slot, kept by change detection like the instance
+    /// record (written when the transform, mesh or material changed).
+    #[layout(std430)]
+    pub struct GpuCullRecord {
+        /// World-space bounds, minimum corner.
+        pub min: Vec3,
+        /// `CULL_*` flags (0 for a free slot).
+        pub flags: u32,
+        /// World-space bounds, maximum corner.
+        pub max: Vec3,
+        /// The instance's mesh.
+        pub mesh: u32,
+    }
+
+    /// One `VkDrawIndexedIndirectCommand`, as the culling passes write it.
+    #[layout(scalar)]
+    pub struct GpuDrawCommand {
+        /// Indices to draw.
+        pub index_count: u32,
+        /// 1, or 0 for an ordered command whose instance was culled.
+        pub instance_count: u32,
+        /// First index in the mesh pool.
+        pub first_index: u32,
+        /// First vertex in the mesh pool (a signed `vertexOffset`, never negative here).
+        pub vertex_offset: u32,
+        /// The instance slot: shaders find their record at `gl_InstanceIndex`.
+        pub first_instance: u32,
+    }
+
+    /// What the culling passes read of a frame: where everything is and how the lists are laid
+    /// out (`shaders/include/culling.glsl`; uploaded only when it changes).
+    #[layout(std430)]
+    #[derive(Default)]
+    pub struct GpuCullParams {
+        /// World to clip of the view culled against (the camera's, or the frozen one).
+        pub view_proj: Mat4,
+        /// Address of the culling records (`GpuCullRecord` per instance slot).
+        pub records: u64,
+        /// Address of the mesh table (`GpuMeshInfo` per mesh).
+        pub meshes: u64,
+        /// Address of the draw buffer: the header (`CULL_HEADER` words, then a count per shadow
+        /// view), then the commands.
+        pub draws: u64,
+        /// Address of the visibility bits (one per instance slot: drawn last frame).
+        pub visibility: u64,
+        /// Address of the depth pyramid: per level its word offset, width and height
+        /// (`HIZ_MAX_LEVELS` × 4 words), then the levels.
+        pub hiz: u64,
+        /// Address of the blended instances' back-to-front order (instance slots).
+        pub order: u64,
+        /// Address of the shadow maps' views buffer (`ScenePush::shadow_views`).
+        pub shadow_views: u64,
+        /// Instance slots to visit.
+        pub count: u32,
+        /// A `CULL_MODE_*` value.
+        pub mode: u32,
+        /// Word offset of the commands in the draw buffer.
+        pub commands: u32,
+        /// Commands of one phase's list (the second list starts this many after the first).
+        pub list_stride: u32,
+        /// Command index of the ordered (blended) commands.
+        pub ordered_first: u32,
+        /// Entries of the blended order.
+        pub ordered_count: u32,
+        /// Command index of shadow view 0's list.
+        pub shadow_first: u32,
+        /// Commands each shadow view's list has room for.
+        pub shadow_stride: u32,
+        /// Shadow views drawn this frame.
+        pub shadow_count: u32,
+        /// Depth-pyramid levels.
+        pub hiz_levels: u32,
+        /// Depth size in pixels (the pyramid is built from it).
+        pub viewport: Vec2,
+        /// Command index of each batch's first command within a list.
+        pub batch_start: [u32; 4],
+        /// Commands each batch has room for.
+        pub batch_capacity: [u32; 4],
+        /// 1 while the culling view is frozen: visibility is read, never written.
+        pub frozen: u32,
+        /// Padding to 16 bytes.
+        pub pad: [u32; 5],
+    }
+
+    /// The culling passes' push constants (their pipelines have a layout of their own).
+    #[layout(std430)]
+    #[derive(Default)]
+    pub struct GpuCullPush {
+        /// Address of this frame's `GpuCullParams`.
+        pub params: u64,
+        /// A `CULL_PASS_*` value.
+        pub pass: u32,
+        /// In the depth-pyramid build, the level being written.
+        pub level: u32,
     }
 
     /// One vertex as the mesh pipelines read it (binding 0, interleaved).

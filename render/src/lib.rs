@@ -32,6 +32,7 @@
 //! | [`renderer`] | frames in flight, submit |
 //! | [`settings`] | per-frame settings: pipeline, decal method, debug view |
 
+pub mod culling;
 pub mod decals;
 pub mod error;
 pub mod gpu;
@@ -46,10 +47,11 @@ pub mod settings;
 pub mod shadows;
 pub mod transparency;
 
+pub use culling::CullingStats;
 pub use error::RenderError;
 pub use gpu::device::{Capabilities, DeviceSettings, Tier};
 pub use gpu::timestamps::PassTimes;
 pub use present::{overlay, window};
 pub use renderer::{DebugView, DecalMethod, FinishedFrame, FrameReport, FrameSettings, PipelineKind, Renderer, RendererSettings};
 pub use scene::{FrameCounters, SceneMirror};
-pub use settings::{DepthNormals, LightMethod, LightSettings, RaySupport, ShadowMapBudget, ShadowMethod, TransparencyMethod};
+pub use settings::{CullingMode, DepthNormals, LightMethod, LightSettings, RaySupport, ShadowMapBudget, ShadowMethod, TransparencyMethod};

@@ -10,6 +10,7 @@ use std::time::Instant;
 use ash::vk;
 
 use crate::RenderError;
+use crate::culling::Culling;
 use crate::decals::{DecalChoice, Decals};
 use crate::gpu::device::{DeviceSettings, GpuContext, Tier};
 use crate::gpu::memory::Graveyard;
@@ -104,6 +105,7 @@ struct Resources {
     /// The graph's name for the swapchain image being drawn.
     swapchain_image: ImageId,
     scene: GpuScene,
+    culling: Culling,
     forward: ForwardPasses,
     deferred: DeferredPasses,
     visbuffer: VisBufferPasses,
@@ -168,6 +170,7 @@ impl Renderer {
             frames,
             timeline,
             layout,
+            culling: Culling::new(ctx, &mut graph, scene.set_layout)?,
             forward: ForwardPasses::new(ctx, layout)?,
             deferred: DeferredPasses::new(ctx, layout)?,
             visbuffer: VisBufferPasses::new(ctx, layout)?,
@@ -363,6 +366,7 @@ impl Renderer {
         mirror.trim();
         let mut parts = FrameParts {
             scene: &mut res.scene,
+            culling: &mut res.culling,
             decals: &mut res.decals,
             lighting: &mut res.lighting,
             forward: &res.forward,
@@ -390,6 +394,8 @@ impl Renderer {
             res.scene.bind_target(ctx, bind, view);
         }
         mirror.counters.instances = mirror.instances.len() as u64;
+        mirror.counters.draw_calls = res.culling.draw_calls();
+        mirror.counters.mesh_pool_bytes = res.scene.pool_bytes();
         mirror.counters.lights = mirror.lights.len() as u64;
         mirror.counters.decals = mirror.decals.len() as u64;
         let decal_method = decal_choice.applied;
@@ -476,6 +482,14 @@ impl Renderer {
         res.lighting.tiles.read_back(&self.ctx, &mut res.graph)
     }
 
+    /// The instance slots the last frame's culling drew, list by list (waits for the GPU);
+    /// `None` before any frame.
+    pub fn read_culled_lists(&mut self) -> Result<Option<crate::culling::CulledLists>, RenderError> {
+        self.ctx.wait_idle();
+        let res = &mut *self.res;
+        res.culling.read_back(&self.ctx, &mut res.graph)
+    }
+
     /// Resizes the targets (waits for the GPU); they are created at the new size when next used.
     pub fn resize(&mut self, width: u32, height: u32) -> Result<(), RenderError> {
         check_size(width, height)?;
@@ -555,6 +569,7 @@ impl Drop for Renderer {
             graph,
             swapchain_image: _,
             scene,
+            culling,
             forward,
             deferred,
             visbuffer,
@@ -582,6 +597,7 @@ impl Drop for Renderer {
         graveyard.clear(ctx);
         decals.destroy(ctx);
         lighting.destroy(ctx);
+        culling.destroy(ctx);
         forward.destroy(ctx);
         deferred.destroy(ctx);
         visbuffer.destroy(ctx);

@@ -405,6 +405,39 @@ impl Default for ShadowMapBudget {
     }
 }
 
+/// How instances are culled on the GPU before they are drawn (`crate::culling`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum CullingMode {
+    /// Every live instance is drawn (still through the same indirect draws).
+    Off,
+    /// Instances whose bounds lie outside the view frustum are skipped.
+    Frustum,
+    /// Frustum culling, then two-phase hierarchical-Z occlusion culling: what was visible last
+    /// frame is drawn, a depth pyramid is built from it, and the rest is tested against it and
+    /// drawn in the same frame when it shows.
+    #[default]
+    Occlusion,
+}
+
+impl CullingMode {
+    /// Every mode.
+    pub const ALL: [CullingMode; 3] = [CullingMode::Off, CullingMode::Frustum, CullingMode::Occlusion];
+
+    /// The name used in `--stats` and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            CullingMode::Off => "off",
+            CullingMode::Frustum => "frustum",
+            CullingMode::Occlusion => "occlusion",
+        }
+    }
+
+    /// Parses [`CullingMode::name`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+}
+
 /// Per-frame choices that may change from one frame to the next.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameSettings {
@@ -428,6 +461,11 @@ pub struct FrameSettings {
     /// Interlaced and depth-peeled transparency displace the background by the materials'
     /// refraction (false: straight through, for comparison).
     pub refraction: bool,
+    /// How instances are culled before they are drawn.
+    pub culling: CullingMode,
+    /// Keep culling against the view of the frame this was first set in ("freeze culling"): fly
+    /// out and see what that view culled. Visibility is not updated while frozen.
+    pub freeze_culling: bool,
 }
 
 impl Default for FrameSettings {
@@ -442,6 +480,8 @@ impl Default for FrameSettings {
             compute_shading: true,
             transparency: TransparencyMethod::Interlaced,
             refraction: true,
+            culling: CullingMode::Occlusion,
+            freeze_culling: false,
         }
     }
 }

@@ -9,6 +9,7 @@
 //! | `many-decals` | §5.2.4: Emerald Square, 100,000 leaf decals on the ground, 1 light | 100,000 leaf decals (0.2–0.6 m) on the ground, the sun alone |
 //! | `ten-point-lights` | seed 001 §5: Sponza, ten point lights of varied intensity, colour and range, a fixed central camera | the courtyard with its lights replaced by ten point lights (5–60 cd, ranges from eq. 4.1 or 6–14 m) around the fountain, the courtyard's camera |
 //! | `many-lights` | seed 000 §5.2.5: Emerald Square, 28,587 small point lights, no decals | 28,587 small point lights (0.05–0.4 cd, eq. 4.1 ranges of 1.6–4.5 m) over the courtyard's ground and walls, the sun |
+//! | `many-instances` | issue 24 (GPU-driven scene): none of the seeds culls | a city of [`MANY_INSTANCES`] (`--instances`) props on a grid of blocks walled in by 12 m buildings, most props inside the blocks, a few along the streets; the camera at street level looking down a street, so nearly everything is behind a wall ([`spawn_city`]) |
 //! | `transparency` | seed 002 §4.2: one scene of about 60,000 polygons (38,812 opaque, 20,832 transparent), 2 to 64 spot lights | not the courtyard (48,340 opaque triangles on its own) but a stone floor and a field of opaque balls (38,812 opaque triangles in all, + less than one ball), a row of glass balls (refracting, 35 % opaque) and three glass panes in front of them (20,832 transparent triangles, + less than one ball), [`TRANSPARENCY_LIGHTS`] spot lights ([`set_spot_lights`] changes the count) and no other light |
 //!
 //! The courtyard stands in for the seeds' scenes (Sponza, Emerald Square, Bistro), which are not
@@ -43,6 +44,8 @@ pub enum BenchScene {
     ManyLights,
     /// Seed 002 §4.2.
     Transparency,
+    /// Issue 24: a city of `--instances` props behind walls, seen from the street.
+    ManyInstances,
 }
 
 impl BenchScene {
@@ -55,8 +58,9 @@ impl BenchScene {
             "ten-point-lights" => BenchScene::TenPointLights,
             "many-lights" => BenchScene::ManyLights,
             "transparency" => BenchScene::Transparency,
+            "many-instances" => BenchScene::ManyInstances,
             _ => bail!(
-                "unknown bench scene {name:?} (few-blended-decals, decals-and-lights, many-decals, ten-point-lights, many-lights, transparency)"
+                "unknown bench scene {name:?} (few-blended-decals, decals-and-lights, many-decals, ten-point-lights, many-lights, transparency, many-instances)"
             ),
         })
     }
@@ -88,9 +92,10 @@ fn ground_decal(
 
 /// Spawns `scene` into `world` (which has the render plugin).
 pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
-    if scene == BenchScene::Transparency {
-        spawn_transparency_scene(world);
-        return;
+    match scene {
+        BenchScene::Transparency => return spawn_transparency_scene(world),
+        BenchScene::ManyInstances => return spawn_city(world, MANY_INSTANCES),
+        _ => {}
     }
     let info = spawn_courtyard(world);
     let mut rng = SplitMix64::new(5);
@@ -182,7 +187,96 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
             world.spawn_batch(batch);
         }
         BenchScene::Transparency => unreachable!("spawned above"),
+        BenchScene::ManyInstances => unreachable!("spawned by spawn_city, which needs the instance count"),
     }
+}
+
+/// Props of the `many-instances` scene unless `--instances` says otherwise.
+pub const MANY_INSTANCES: usize = 10_000;
+/// Props in each block of the city (the last block may hold fewer).
+const PROPS_PER_BLOCK: usize = 100;
+/// A block's side and the width of the street around it, in metres.
+const BLOCK: f32 = 20.0;
+const STREET: f32 = 6.0;
+
+/// The `many-instances` scene: `props` small meshes (boxes, balls, pillars, crates in four
+/// materials, randomly turned and scaled) in square blocks of [`PROPS_PER_BLOCK`], each block
+/// walled in by four 12 m buildings (the occluders), one prop in ten standing on the street
+/// along its block instead; a ground; the sun; the camera at eye height in the middle of the
+/// city, looking down a street. Instances: `props` + 4 per block + 1.
+pub fn spawn_city(world: &mut World, props: usize) {
+    use engine::camera::Camera;
+    use engine::material::Material;
+    use engine::mesh::{Mesh, shapes};
+    use engine::scene::MeshInstance;
+
+    let blocks = props.div_ceil(PROPS_PER_BLOCK).max(1);
+    let side = (blocks as f32).sqrt().ceil() as usize;
+    let pitch = BLOCK + STREET;
+    let extent = side as f32 * pitch;
+    let (ground, wall, shapes) = {
+        let mut meshes = world.resource_mut::<Assets<Mesh>>();
+        let ground = meshes.add(shapes::plane(extent + 2.0 * STREET, extent + 2.0 * STREET, 1, extent / 4.0));
+        let wall = meshes.add(shapes::cuboid(Vec3::new(BLOCK, 12.0, 1.0), 1.0));
+        let shapes = [
+            meshes.add(shapes::cuboid(Vec3::splat(1.0), 1.0)),
+            meshes.add(shapes::uv_sphere(0.5, 16, 8)),
+            meshes.add(shapes::cylinder(0.3, 2.0, 12, 1.0)),
+            meshes.add(shapes::cuboid(Vec3::new(1.6, 0.8, 1.0), 1.0)),
+        ];
+        (ground, wall, shapes)
+    };
+    let (stone, colours) = {
+        let mut materials = world.resource_mut::<Assets<Material>>();
+        let stone = materials.add(Material::from_color(Vec3::new(0.55, 0.52, 0.48).extend(1.0), 0.0, 0.8));
+        let colours: Vec<_> = [Vec3::new(0.8, 0.3, 0.2), Vec3::new(0.2, 0.6, 0.3), Vec3::new(0.25, 0.35, 0.8), Vec3::new(0.8, 0.75, 0.6)]
+            .into_iter()
+            .map(|c| materials.add(Material::from_color(c.extend(1.0), 0.0, 0.5)))
+            .collect();
+        (stone, colours)
+    };
+    world.spawn((MeshInstance { mesh: ground, material: stone }, Transform::default()));
+    let origin = -extent / 2.0;
+    let mut rng = SplitMix64::new(24);
+    let mut batch = Vec::with_capacity(props + 4 * blocks);
+    for b in 0..blocks {
+        let corner = Vec3::new(origin + (b % side) as f32 * pitch + STREET / 2.0, 0.0, origin + (b / side) as f32 * pitch + STREET / 2.0);
+        let centre = corner + Vec3::new(BLOCK / 2.0, 0.0, BLOCK / 2.0);
+        for (offset, turn) in [(Vec3::new(0.0, 6.0, -BLOCK / 2.0), 0.0), (Vec3::new(0.0, 6.0, BLOCK / 2.0), 0.0)]
+            .into_iter()
+            .chain([(Vec3::new(-BLOCK / 2.0, 6.0, 0.0), 1.0), (Vec3::new(BLOCK / 2.0, 6.0, 0.0), 1.0)])
+        {
+            let rotation = Quat::from_rotation_y(turn * std::f32::consts::FRAC_PI_2);
+            batch
+                .push((MeshInstance { mesh: wall, material: stone }, Transform::from_translation(centre + offset).with_rotation(rotation)));
+        }
+        for _ in 0..PROPS_PER_BLOCK.min(props - b * PROPS_PER_BLOCK) {
+            let kind = (rng.next_u64() % 4) as usize;
+            let on_street = rng.next_u64().is_multiple_of(10);
+            let (u, v) = (rng.next_f32(), rng.next_f32());
+            let at = if on_street {
+                // Along the block's north side, in the street.
+                corner + Vec3::new(u * BLOCK, 0.0, -STREET / 2.0 + v * 1.5 + 0.5)
+            } else {
+                corner + Vec3::new(1.5 + u * (BLOCK - 3.0), 0.0, 1.5 + v * (BLOCK - 3.0))
+            };
+            let scale = 0.6 + rng.next_f32() * 0.8;
+            let transform = Transform::from_translation(at + Vec3::Y * 0.5 * scale)
+                .with_rotation(Quat::from_rotation_y(rng.next_f32() * std::f32::consts::TAU))
+                .with_scale(Vec3::splat(scale));
+            batch.push((MeshInstance { mesh: shapes[kind], material: colours[(rng.next_u64() % 4) as usize] }, transform));
+        }
+    }
+    world.spawn_batch(batch);
+    world.spawn((
+        DirectionalLight { illuminance: 4.0, ..Default::default() },
+        Transform::default().looking_at(Vec3::new(0.35, -1.0, 0.25), Vec3::Z),
+    ));
+    // In the street south of the middle row of blocks, looking east along it.
+    let row = (side / 2) as f32;
+    let street_z = origin + row * pitch;
+    let eye = Vec3::new(origin + pitch * 0.5, 1.7, street_z);
+    world.spawn((Camera::default(), Transform::from_translation(eye).looking_at(eye + Vec3::new(1.0, -0.02, 0.0), Vec3::Y)));
 }
 
 /// Seed 002 §4.2's polygon counts: opaque and transparent triangles.

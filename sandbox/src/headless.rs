@@ -85,6 +85,12 @@ pub struct HeadlessOptions {
     pub transparency: render::TransparencyMethod,
     /// The shadow-map atlas.
     pub shadow_maps: render::ShadowMapBudget,
+    /// How instances are culled.
+    pub culling: render::CullingMode,
+    /// Run `frames` frames with every culling mode in turn (off, frustum, occlusion).
+    pub compare_culling: bool,
+    /// Instances of the `many-instances` bench scene.
+    pub instances: usize,
 }
 
 /// The light configurations `--compare-lights` runs, in order, named after the rows of seed 001's
@@ -139,6 +145,8 @@ pub struct Run {
     pub refraction: bool,
     /// The transparency scene's spot-light count (`None`: the scene's lights as they are).
     pub spot_lights: Option<usize>,
+    /// How instances are culled.
+    pub culling: render::CullingMode,
 }
 
 /// Light counts of seed 002's Tables 4.2–4.5.
@@ -243,6 +251,9 @@ impl Default for HeadlessOptions {
             compute_shading: true,
             transparency: render::TransparencyMethod::Interlaced,
             shadow_maps: render::ShadowMapBudget::default(),
+            culling: render::CullingMode::Occlusion,
+            compare_culling: false,
+            instances: crate::bench::MANY_INSTANCES,
         }
     }
 }
@@ -296,9 +307,11 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         lights: opts.lights,
         compute_shading: opts.compute_shading,
         transparency: opts.transparency,
+        culling: opts.culling,
         ..Default::default()
     }));
     match opts.bench_scene {
+        Some(crate::bench::BenchScene::ManyInstances) => crate::bench::spawn_city(&mut app.world, opts.instances),
         Some(scene) => crate::bench::spawn_bench_scene(&mut app.world, scene),
         None => load_scene(&mut app.world, &opts.scene)?,
     }
@@ -345,6 +358,7 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
         transparency: opts.transparency,
         refraction: true,
         spot_lights: None,
+        culling: opts.culling,
     };
     let mut combos: Vec<Run> = Vec::new();
     if opts.compare {
@@ -363,6 +377,9 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
     if opts.compare_transparency {
         combos.extend(transparency_compare_set(base));
     }
+    if opts.compare_culling {
+        combos.extend(render::CullingMode::ALL.map(|culling| Run { culling, ..base }));
+    }
     let total = opts.frames as usize * combos.len().max(1);
     let mut frames = Vec::with_capacity(total);
     for i in 0..total {
@@ -373,6 +390,7 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
             settings.lights = run.lights;
             settings.transparency = run.transparency;
             settings.refraction = run.refraction;
+            settings.culling = run.culling;
             let spot_lights = app.world.query_filtered::<(), bevy_ecs::query::With<crate::bench::BenchSpot>>().iter(&app.world).count();
             if let Some(count) = run.spot_lights.filter(|&c| c != spot_lights) {
                 crate::bench::set_spot_lights(&mut app.world, count);

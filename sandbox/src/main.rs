@@ -152,6 +152,20 @@ struct Cli {
     /// Soak: the seed.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// GPU culling of instances: off, frustum, occlusion (frustum and two-phase
+    /// hierarchical-Z).
+    #[arg(long, default_value = "occlusion", value_parser = parse_culling)]
+    culling: render::CullingMode,
+    /// Run --frames frames with each culling mode in turn (off, frustum, occlusion).
+    #[arg(long)]
+    compare_culling: bool,
+    /// Instances of --bench-scene many-instances.
+    #[arg(long, default_value_t = sandbox::bench::MANY_INSTANCES)]
+    instances: usize,
+}
+
+fn parse_culling(s: &str) -> Result<render::CullingMode, String> {
+    render::CullingMode::from_name(s).ok_or_else(|| format!("unknown culling mode {s:?} (off, frustum, occlusion)"))
 }
 
 fn parse_debug_view(s: &str) -> Result<DebugView, String> {
@@ -273,6 +287,9 @@ fn main() -> Result<()> {
             shadow_maps: cli.shadow_maps,
         },
         shadow_maps: render::ShadowMapBudget { tile: cli.shadow_map_size, tiles: cli.shadow_map_tiles, ..Default::default() },
+        culling: cli.culling,
+        compare_culling: cli.compare_culling,
+        instances: cli.instances,
     };
     if windowed {
         let window_opts = sandbox::window::WindowOptions { base: opts, exit_after: cli.exit_after, resize_to: cli.resize_to };
@@ -298,7 +315,9 @@ fn main() -> Result<()> {
         return Ok(());
     }
     let summary = run(&opts)?;
-    if let (true, Some(stats)) = (cli.compare || cli.compare_lights || cli.compare_light_methods || cli.compare_transparency, &cli.stats) {
+    if let (true, Some(stats)) =
+        (cli.compare || cli.compare_lights || cli.compare_light_methods || cli.compare_transparency || cli.compare_culling, &cli.stats)
+    {
         let (csv, svg) = sandbox::charts::write(stats, &sandbox::charts::run_medians(&summary.frames))?;
         println!("per-pass medians: {} and {}", csv.display(), svg.display());
     }

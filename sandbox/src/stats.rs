@@ -28,6 +28,13 @@
 //! lights, `light_tiles`: `tiles`, `tile_size`, `capacity`, `grows`, and what the GPU measured in
 //! `measured_frame`: `entries`, `overflowed`, `max_per_tile`, `tiles_used`, `mean_per_tile`
 //! (entries over used tiles).
+//!
+//! Culling (`render/src/culling`): `counters.draw_calls` (draw commands the CPU recorded this
+//! frame, every pass: each indirect draw covers a batch), `counters.mesh_pool_bytes`, and
+//! `culling`: `mode` (`off`, `frustum`, `occlusion`), `frozen`, and what the GPU measured for
+//! the main view in `measured_frame` (absent until one has): `instances` (tested),
+//! `after_frustum`, `after_occlusion` (drawn), `dropped` (draws that found their list full:
+//! never expected).
 
 use plugins::FrameStats;
 use serde_json::{Map, Value, json};
@@ -80,7 +87,10 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
             "transparent": c.transparent,
             "shadow_map_views": c.shadow_map_views,
             "shadow_maps_missing": c.shadow_maps_missing,
+            "draw_calls": c.draw_calls,
+            "mesh_pool_bytes": c.mesh_pool_bytes,
         },
+        "culling": culling_json(&c.culling),
     });
     if stats.decal_method == render::DecalMethod::Clustered {
         value["clusters"] = clusters_json(&c.clusters);
@@ -89,6 +99,18 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
         value["light_tiles"] = light_tiles_json(&c.light_tiles);
     }
     value
+}
+
+fn culling_json(k: &render::CullingStats) -> Value {
+    let mut v = json!({ "mode": k.mode.name(), "frozen": k.frozen });
+    if k.measured_frame != u64::MAX {
+        v["measured_frame"] = json!(k.measured_frame);
+        v["instances"] = json!(k.instances);
+        v["after_frustum"] = json!(k.after_frustum);
+        v["after_occlusion"] = json!(k.after_occlusion);
+        v["dropped"] = json!(k.dropped);
+    }
+    v
 }
 
 fn light_tiles_json(t: &render::lights::tiles::LightTileStats) -> Value {

@@ -279,6 +279,8 @@ impl GpuContext {
             .sampler_anisotropy(true)
             .independent_blend(true)
             .geometry_shader(true) // gl_PrimitiveID in fragment shaders (visibility buffer)
+            .multi_draw_indirect(true) // GPU culling's indirect draws (crate::culling)
+            .draw_indirect_first_instance(true) // their firstInstance is the instance slot
             .shader_int64(true)
             .fill_mode_non_solid(false);
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
@@ -293,6 +295,7 @@ impl GpuContext {
             .shader_sampled_image_array_non_uniform_indexing(true)
             .timeline_semaphore(true)
             .scalar_block_layout(true)
+            .draw_indirect_count(true)
             .host_query_reset(true);
         let mut f13 = vk::PhysicalDeviceVulkan13Features::default().dynamic_rendering(true).synchronization2(true).maintenance4(true);
         let mut f_as = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
@@ -489,6 +492,9 @@ fn pick_physical_device(instance: &ash::Instance) -> Result<(vk::PhysicalDevice,
             ("shaderInt64", base.shader_int64),
             ("independentBlend", base.independent_blend),
             ("geometryShader", base.geometry_shader),
+            ("multiDrawIndirect", base.multi_draw_indirect),
+            ("drawIndirectFirstInstance", base.draw_indirect_first_instance),
+            ("drawIndirectCount", f12.draw_indirect_count),
         ];
         if let Some((missing, _)) = required.iter().find(|(_, ok)| *ok == vk::FALSE) {
             rejected.push(format!("{name}: lacks {missing}"));

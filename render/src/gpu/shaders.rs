@@ -16,6 +16,8 @@ macro_rules! spirv {
 
 spirv! {
     MESH_VERT = "mesh.vert";
+    CULL_COMP = "cull.comp";
+    HIZ_COMP = "hiz.comp";
     PREPASS_MASK_FRAG = "prepass_mask.frag";
     FORWARD_FRAG = "forward.frag";
     FORWARD_FRAG_RAY_QUERY_DECALS = "forward.frag.RAY_QUERY_DECALS";

@@ -8,8 +8,9 @@ use ash::vk;
 use crate::RenderError;
 use crate::gpu::device::GpuContext;
 
-/// Most passes one frame can time.
-pub const MAX_PASSES: usize = 16;
+/// Most passes one frame can time (a deferred frame with two-phase culling, shadows, decals and
+/// glass records about 20).
+pub const MAX_PASSES: usize = 32;
 
 /// GPU milliseconds per pass for one frame, in recording order; no heap allocation.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -16,6 +16,7 @@ pub mod tiles;
 use ash::vk;
 
 use crate::RenderError;
+use crate::culling::Draws;
 use crate::gpu::device::GpuContext;
 use crate::graph::targets::SHADOW_DEBUG;
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassBuilder, ResourceId};
@@ -23,8 +24,8 @@ use crate::layout::{
     COLOURED_SHADOWS, GLASS_SHADOWS, GpuLighting, INTERLACED, LIGHT_CULL_AABB, LIGHTS_ALL, LIGHTS_RAY_QUERY, LIGHTS_TILED, REFRACTION,
     SHADOW_DEBUG as SHADOW_DEBUG_FLAG, SHADOW_NORMALS_IMPROVED, SHADOW_RAY_CULLING, SHADOWS_TRACED,
 };
+use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
-use crate::scene::{DrawItem, SceneMirror};
 use crate::settings::{DepthNormals, FrameSettings, LightMethod, ShadowMapBudget, ShadowMethod, TransparencyMethod};
 use crate::shadows::accel::{SceneAccel, SceneAccelFrame};
 use crate::shadows::maps::ShadowMapPlan;
@@ -71,6 +72,11 @@ pub struct LightFrame {
 }
 
 impl LightFrame {
+    /// Shadow-map views drawn this frame (culling makes a draw list for each).
+    pub fn shadow_map_views(&self) -> u32 {
+        self.shadow_maps.views
+    }
+
     /// Whether light culling or the shadow pass's glass layer reads the transparent depth this
     /// frame (blended instances drawn by the forward transparency pass, with tiled lights or
     /// shadows), so the transparency depth pass must run before them.
@@ -249,20 +255,14 @@ impl Lighting {
 
     /// Culls the lights into tiles and makes the shadows (tracing rays, or drawing `draws` into
     /// shadow maps and reading them); needs this frame's depth.
-    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, draws: &[Option<DrawItem>], frame: &LightFrame) -> Result<(), RenderError> {
+    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, draws: &Draws, frame: &LightFrame) -> Result<(), RenderError> {
         self.record_layer(f, scene, draws, frame, frame.shadow_maps)
     }
 
     /// [`Lighting::record`] again, over a second layer of depth written since (depth peeling,
     /// `crate::transparency::peeling`): culls and shadows anew, reading the shadow maps the
     /// first call drew instead of drawing them twice.
-    pub fn record_again(
-        &mut self,
-        f: &mut Frame,
-        scene: &GpuScene,
-        draws: &[Option<DrawItem>],
-        frame: &LightFrame,
-    ) -> Result<(), RenderError> {
+    pub fn record_again(&mut self, f: &mut Frame, scene: &GpuScene, draws: &Draws, frame: &LightFrame) -> Result<(), RenderError> {
         self.record_layer(f, scene, draws, frame, ShadowMapPlan { views: 0, ..frame.shadow_maps })
     }
 
@@ -270,7 +270,7 @@ impl Lighting {
         &mut self,
         f: &mut Frame,
         scene: &GpuScene,
-        draws: &[Option<DrawItem>],
+        draws: &Draws,
         frame: &LightFrame,
         maps: ShadowMapPlan,
     ) -> Result<(), RenderError> {

@@ -23,6 +23,7 @@
 use ash::vk;
 
 use crate::RenderError;
+use crate::culling::{Draws, Phase};
 use crate::decals::{DecalFrame, DecalRun, declare_decal_reads};
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::{Blend, GraphicsDesc, create_compute, create_graphics};
@@ -35,7 +36,7 @@ use crate::graph::{Frame, ImageUse, Load, PassKind};
 use crate::lights::{LightFrame, declare_light_reads};
 use crate::pipelines::{RayLightShading, ShadeVariants};
 use crate::scene::gpu::GpuScene;
-use crate::scene::{DECAL_ALBEDO, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, DrawItem};
+use crate::scene::{DECAL_ALBEDO, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS};
 use crate::settings::LightMethod;
 
 /// Pipelines of the deferred renderer.
@@ -155,38 +156,41 @@ impl DeferredPasses {
         })
     }
 
-    /// Geometry pass: depth and every attribute, emitted radiance into the HDR target; then the
+    /// Geometry pass: depth and every attribute of the instances `draws` holds (one of the
+    /// culling's `phase`s), emitted radiance into the HDR target; then, in the last phase, the
     /// blended instances `glass` names, with their opacity and refraction.
     pub fn geometry(
         &self,
         f: &mut Frame,
         scene: &GpuScene,
-        draws: &[Option<DrawItem>],
+        draws: &Draws,
         glass: GBufferGlass,
         clear: [f32; 4],
+        phase: Phase,
     ) -> Result<(), RenderError> {
         f.pass("gbuffer", PassKind::Graphics)
-            .image(&DEPTH, ImageUse::DepthWrite(Load::ClearDepth(0.0)))
-            .color(&GBUFFER_ALBEDO, Load::Clear([0.0; 4]))
-            .color(&GBUFFER_NORMAL, Load::Clear([0.5, 0.5, 1.0, 1.0]))
-            .color(&GBUFFER_MATERIAL, Load::Clear([0.0, 0.0, 1.0, 0.0]))
-            .color(&GBUFFER_LAYERS, Load::Clear([0.0; 4]))
-            .color(&HDR, Load::Clear(clear))
+            .image(&DEPTH, ImageUse::DepthWrite(phase.depth_load()))
+            .color(&GBUFFER_ALBEDO, phase.color_load([0.0; 4]))
+            .color(&GBUFFER_NORMAL, phase.color_load([0.5, 0.5, 1.0, 1.0]))
+            .color(&GBUFFER_MATERIAL, phase.color_load([0.0, 0.0, 1.0, 0.0]))
+            .color(&GBUFFER_LAYERS, phase.color_load([0.0; 4]))
+            .color(&HDR, phase.color_load(clear))
             .reads(scene.res.drawn())
+            .reads(draws.reads())
             .record(|p| {
                 let push = p.push;
                 p.bind_graphics(self.gbuffer_opaque, &push);
-                scene.draw_meshes(p, draws, DrawItem::is_opaque);
+                draws.opaque(p);
                 p.bind_graphics(self.gbuffer_mask, &push);
-                scene.draw_meshes(p, draws, DrawItem::is_masked);
+                draws.masked(p);
                 let (pipeline, order) = match glass {
                     GBufferGlass::None => return,
                     GBufferGlass::Interlaced(order) => (self.gbuffer_interlaced, order),
                     GBufferGlass::Full(order) => (self.gbuffer_glass, order),
                 };
-                if !order.is_empty() {
+                if phase.last && !order.is_empty() {
                     p.bind_graphics(pipeline, &push);
-                    scene.draw_slots(p, draws, order.iter().copied());
+                    draws.glass(p);
                 }
             })
     }

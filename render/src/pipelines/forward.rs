@@ -7,6 +7,7 @@
 use ash::vk;
 
 use crate::RenderError;
+use crate::culling::{Draws, Phase};
 use crate::decals::{DecalFrame, declare_decal_reads};
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::{GraphicsDesc, create_graphics};
@@ -15,7 +16,6 @@ use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT};
 use crate::graph::{Frame, ImageUse, Load, PassKind};
 use crate::lights::{LightFrame, declare_light_reads};
 use crate::pipelines::ShadeVariants;
-use crate::scene::DrawItem;
 use crate::scene::gpu::GpuScene;
 
 /// Pipelines of the forward renderer.
@@ -50,17 +50,20 @@ impl ForwardPasses {
         })
     }
 
-    /// Depth prepass: writes reverse-Z depth for every instance; masked materials discard.
-    pub fn prepass(&self, f: &mut Frame, scene: &GpuScene, draws: &[Option<DrawItem>]) -> Result<(), RenderError> {
-        f.pass("prepass", PassKind::Graphics).image(&DEPTH, ImageUse::DepthWrite(Load::ClearDepth(0.0))).reads(scene.res.drawn()).record(
-            |p| {
+    /// Depth prepass: writes reverse-Z depth for the instances `draws` holds (one of the
+    /// culling's `phase`s); masked materials discard.
+    pub fn prepass(&self, f: &mut Frame, scene: &GpuScene, draws: &Draws, phase: Phase) -> Result<(), RenderError> {
+        f.pass("prepass", PassKind::Graphics)
+            .image(&DEPTH, ImageUse::DepthWrite(phase.depth_load()))
+            .reads(scene.res.drawn())
+            .reads(draws.reads())
+            .record(|p| {
                 let push = p.push;
                 p.bind_graphics(self.prepass_opaque, &push);
-                scene.draw_meshes(p, draws, DrawItem::is_opaque);
+                draws.opaque(p);
                 p.bind_graphics(self.prepass_mask, &push);
-                scene.draw_meshes(p, draws, DrawItem::is_masked);
-            },
-        )
+                draws.masked(p);
+            })
     }
 
     /// Shading: every visible pixel once, lit by every light, into the HDR target, with this
@@ -69,7 +72,7 @@ impl ForwardPasses {
         &self,
         f: &mut Frame,
         scene: &GpuScene,
-        draws: &[Option<DrawItem>],
+        draws: &Draws,
         clear: [f32; 4],
         decals: &DecalFrame,
         lights: &LightFrame,
@@ -78,11 +81,12 @@ impl ForwardPasses {
             .pass("forward", PassKind::Graphics)
             .image(&DEPTH, ImageUse::DepthTest)
             .color(&HDR, Load::Clear(clear))
-            .reads(scene.res.drawn());
+            .reads(scene.res.drawn())
+            .reads(draws.reads());
         declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| {
             let push = p.push;
             p.bind_graphics(self.shade.pick(decals), &push);
-            scene.draw_meshes(p, draws, |d| !d.transparent);
+            draws.all_opaque(p);
         })
     }
 

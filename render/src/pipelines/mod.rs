@@ -11,6 +11,7 @@ pub mod visbuffer;
 use ash::vk;
 
 use crate::RenderError;
+use crate::culling::{Culling, Draws, Phase};
 use crate::decals::{DecalChoice, DecalFrame, DecalSurfaceSource, Decals};
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::pipeline::{RayTracingDesc, RayTracingPipeline, ScenePush};
@@ -29,6 +30,8 @@ use deferred::GBufferGlass;
 pub struct FrameParts<'a> {
     /// The GPU scene (tables, meshes, textures).
     pub scene: &'a mut GpuScene,
+    /// GPU culling and the indirect draws every mesh pass records.
+    pub culling: &'a mut Culling,
     /// Decal acceleration structures, deferred-decal order, debug boxes.
     pub decals: &'a mut Decals,
     /// Light culling, the scene's acceleration structures, shadows.
@@ -48,15 +51,18 @@ pub struct FrameParts<'a> {
 }
 
 /// What every frame does before its passes: follow the decals' and lights' changes, upload what
-/// changed, bring the acceleration structures up to date, and set the push constants.
+/// changed, bring the acceleration structures up to date, set the push constants, and cull the
+/// instances into the first phase's draw lists (`crate::culling`).
 fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<(DecalFrame, LightFrame), RenderError> {
     mirror.sort_transparent(mirror.camera().position);
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
     let lights = r.lighting.prepare(f, r.scene, mirror, s)?;
+    mirror.counters.culling = r.culling.prepare(f, r.scene, mirror, s, lights.shadow_map_views())?;
     let boxes_changed = r.scene.upload(f, mirror)?;
     let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, boxes_changed)?;
     f.push = scene_push(r.scene, mirror, s, &decals);
     r.lighting.build(f, r.scene, mirror, &lights)?;
+    mirror.counters.bytes_uploaded += r.culling.cull(f, r.scene)?;
     Ok((decals, lights))
 }
 
@@ -65,16 +71,18 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
 /// EQUAL, then the blended surfaces back to front.
 pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let (decals, lights) = begin(f, r, mirror, s)?;
+    let (scene, visbuffer, forward) = (&*r.scene, r.visbuffer, r.forward);
     if decals.buffered() {
-        r.visbuffer.visibility(f, "prepass", r.scene, &mirror.draws)?;
+        r.culling.depth_passes(f, scene, |f, draws, phase| visbuffer.visibility(f, "prepass", scene, &draws, phase))?;
     } else {
-        r.forward.prepass(f, r.scene, &mirror.draws)?;
+        r.culling.depth_passes(f, scene, |f, draws, phase| forward.prepass(f, scene, &draws, phase))?;
     }
-    transparent_depth(f, r, mirror, &lights)?;
-    r.lighting.record(f, r.scene, &mirror.draws, &lights)?;
+    let draws = r.culling.draws();
+    transparent_depth(f, r, &draws, mirror, &lights)?;
+    r.lighting.record(f, r.scene, &draws, &lights)?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
-    r.forward.shade(f, r.scene, &mirror.draws, s.clear_color, &decals, &lights)?;
-    r.transparency.shade(f, r.scene, &mirror.draws, mirror.transparent_order(), &decals, &lights)?;
+    r.forward.shade(f, r.scene, &draws, s.clear_color, &decals, &lights)?;
+    r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)?;
     Ok(lights)
@@ -111,7 +119,7 @@ pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirro
         r.transparency.interlaced.compose(f, r.scene, s.transparency)?;
     } else {
         deferred_layer(f, r, mirror, GBufferGlass::None, s, &decals, &lights, false)?;
-        r.transparency.shade(f, r.scene, &mirror.draws, glass, &decals, &lights)?;
+        r.transparency.shade(f, r.scene, &r.culling.draws(), glass, &decals, &lights)?;
     }
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)?;
@@ -132,12 +140,19 @@ fn deferred_layer(
     lights: &LightFrame,
     again: bool,
 ) -> Result<(), RenderError> {
-    r.deferred.geometry(f, r.scene, &mirror.draws, glass, s.clear_color)?;
+    let (scene, deferred) = (&*r.scene, r.deferred);
     if again {
-        r.lighting.record_again(f, r.scene, &mirror.draws, lights)?;
+        // The second layer draws what the first phase and the second found.
+        deferred.geometry(f, scene, &r.culling.draws(), glass, s.clear_color, Phase::WHOLE)?;
     } else {
-        transparent_depth(f, r, mirror, lights)?;
-        r.lighting.record(f, r.scene, &mirror.draws, lights)?;
+        r.culling.depth_passes(f, scene, |f, draws, phase| deferred.geometry(f, scene, &draws, glass, s.clear_color, phase))?;
+    }
+    let draws = r.culling.draws();
+    if again {
+        r.lighting.record_again(f, r.scene, &draws, lights)?;
+    } else {
+        transparent_depth(f, r, &draws, mirror, lights)?;
+        r.lighting.record(f, r.scene, &draws, lights)?;
     }
     r.deferred.decals(f, r.scene, r.decals.deferred_runs(decals))?;
     r.decals.decal_pass(f, r.scene, decals, DecalSurfaceSource::GBuffer)?;
@@ -149,12 +164,14 @@ fn deferred_layer(
 /// forward pass.
 pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let (decals, lights) = begin(f, r, mirror, s)?;
-    r.visbuffer.visibility(f, "visibility", r.scene, &mirror.draws)?;
-    transparent_depth(f, r, mirror, &lights)?;
-    r.lighting.record(f, r.scene, &mirror.draws, &lights)?;
+    let (scene, visbuffer) = (&*r.scene, r.visbuffer);
+    r.culling.depth_passes(f, scene, |f, draws, phase| visbuffer.visibility(f, "visibility", scene, &draws, phase))?;
+    let draws = r.culling.draws();
+    transparent_depth(f, r, &draws, mirror, &lights)?;
+    r.lighting.record(f, r.scene, &draws, &lights)?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
     r.visbuffer.shade(f, r.scene, s.clear_color, &decals, &lights, s.compute_shading)?;
-    r.transparency.shade(f, r.scene, &mirror.draws, mirror.transparent_order(), &decals, &lights)?;
+    r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)?;
     Ok(lights)
@@ -162,11 +179,11 @@ pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirr
 
 /// The transparent depth, when light culling or the glass shadows read it this frame (before
 /// both).
-fn transparent_depth(f: &mut Frame, r: &FrameParts, mirror: &SceneMirror, lights: &LightFrame) -> Result<(), RenderError> {
+fn transparent_depth(f: &mut Frame, r: &FrameParts, draws: &Draws, mirror: &SceneMirror, lights: &LightFrame) -> Result<(), RenderError> {
     if !lights.reads_transparent_depth() {
         return Ok(());
     }
-    r.transparency.depth(f, r.scene, &mirror.draws, mirror.transparent_order())
+    r.transparency.depth(f, r.scene, draws, mirror.transparent_order())
 }
 
 /// A shading pass's pipeline in each way it can apply decals: none, in-shader ray queries (on the

@@ -9,6 +9,7 @@
 use ash::vk;
 
 use crate::RenderError;
+use crate::culling::{Draws, Phase};
 use crate::decals::{DecalFrame, declare_decal_reads};
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::{GraphicsDesc, create_compute, create_graphics};
@@ -17,7 +18,6 @@ use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT, VISIBILITY, VI
 use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind};
 use crate::lights::{LightFrame, declare_light_reads};
 use crate::pipelines::{RayLightShading, ShadeVariants};
-use crate::scene::DrawItem;
 use crate::scene::gpu::GpuScene;
 use crate::settings::LightMethod;
 
@@ -64,19 +64,21 @@ impl VisBufferPasses {
         })
     }
 
-    /// Writes depth and the instance/triangle ids, as the pass `name` (the forward pipeline's
-    /// prepass is this pass when a decal pass needs the ids).
-    pub fn visibility(&self, f: &mut Frame, name: &'static str, scene: &GpuScene, draws: &[Option<DrawItem>]) -> Result<(), RenderError> {
+    /// Writes depth and the instance/triangle ids of the instances `draws` holds (one of the
+    /// culling's `phase`s), as the pass `name` (the forward pipeline's prepass is this pass
+    /// when a decal pass needs the ids).
+    pub fn visibility(&self, f: &mut Frame, name: &'static str, scene: &GpuScene, draws: &Draws, phase: Phase) -> Result<(), RenderError> {
         f.pass(name, PassKind::Graphics)
-            .image(&DEPTH, ImageUse::DepthWrite(Load::ClearDepth(0.0)))
-            .color(&VISIBILITY, Load::Clear([0.0; 4]))
+            .image(&DEPTH, ImageUse::DepthWrite(phase.depth_load()))
+            .color(&VISIBILITY, phase.color_load([0.0; 4]))
             .reads(scene.res.drawn())
+            .reads(draws.reads())
             .record(|p| {
                 let push = p.push;
                 p.bind_graphics(self.ids_opaque, &push);
-                scene.draw_meshes(p, draws, DrawItem::is_opaque);
+                draws.opaque(p);
                 p.bind_graphics(self.ids_mask, &push);
-                scene.draw_meshes(p, draws, DrawItem::is_masked);
+                draws.masked(p);
             })
     }
 

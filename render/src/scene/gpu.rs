@@ -28,10 +28,11 @@ use crate::RenderError;
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::memory::{Buffer, Image, ImageDesc, Retired};
 use crate::gpu::upload::{CopyList, Shrink, StagingRing, Upload};
-use crate::graph::{Bind, BufferUse, Frame, FrameGraph, PassContext, PassKind, ResourceId};
+use crate::graph::{Bind, BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::GpuLighting;
+use crate::scene::pool::{GRANULE, POOL_FLOOR, RangeAllocator};
 use crate::scene::{
-    DrawItem, GpuAabb, GpuCamera, GpuMeshInfo, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
+    GpuAabb, GpuCamera, GpuMeshInfo, MeshData, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
     TextureData,
 };
 
@@ -310,16 +311,45 @@ impl SceneResources {
     }
 }
 
-/// Geometry on the GPU: vertices followed by indices in one buffer.
+/// A mesh's place in the mesh pool ([`crate::scene::pool`]): its vertices, then its indices.
+#[derive(Clone, Copy, Debug)]
 pub struct GpuMesh {
-    /// The buffer.
-    pub buffer: Buffer,
-    /// Byte offset of the indices.
-    pub index_offset: u64,
+    /// Byte offset of the first vertex in the pool buffer.
+    pub offset: u64,
+    /// Bytes of vertices and indices.
+    pub bytes: u64,
     /// Number of indices.
     pub index_count: u32,
     /// Number of vertices.
     pub vertex_count: u32,
+}
+
+impl GpuMesh {
+    /// Byte offset of the first index in the pool buffer.
+    pub fn index_offset(&self) -> u64 {
+        self.offset + self.vertex_count as u64 * std::mem::size_of::<crate::scene::GpuVertex>() as u64
+    }
+
+    fn info(&self, pool: vk::DeviceAddress) -> GpuMeshInfo {
+        GpuMeshInfo {
+            vertices: pool + self.offset,
+            indices: pool + self.index_offset(),
+            first_index: (self.index_offset() / 4) as u32,
+            index_count: self.index_count,
+            vertex_offset: (self.offset / std::mem::size_of::<crate::scene::GpuVertex>() as u64) as u32,
+            pad: 0,
+        }
+    }
+}
+
+/// What the mesh pool does this frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum PoolPlan {
+    Keep,
+    /// Repack the live meshes into a buffer of this many bytes.
+    Repack(u64),
+    /// No mesh has been live for a while: the buffer goes.
+    Release,
 }
 
 /// The GPU scene.
@@ -350,8 +380,20 @@ pub struct GpuScene {
     pub decal_order: WordArray,
     /// Shadow maps' views and the first view of each light slot (`shaders/include/shadow_maps.glsl`).
     pub shadow_views: WordArray,
-    /// Meshes by [`MeshId`].
+    /// Culling records (world bounds, mesh, batch flags per instance slot).
+    pub culls: GpuTable,
+    /// The blended instances' back-to-front order (instance slots), culled into ordered draws.
+    pub glass_order: WordArray,
+    /// Meshes by [`MeshId`], placed in the pool.
     pub meshes: Vec<Option<GpuMesh>>,
+    /// The mesh pool's buffer (none before the first mesh, or after a while without any).
+    mesh_pool: Option<Buffer>,
+    ranges: RangeAllocator,
+    /// Ranges of freed meshes, returned to `ranges` once the frame value has completed.
+    released_ranges: Vec<(u64, u64, u64)>,
+    pool_shrink: Shrink,
+    /// Times the pool was repacked (grown, shrunk) or released, since the renderer started.
+    pub pool_repacks: u64,
     textures: Vec<Option<Image>>,
     /// Bindless set layout (set 0).
     pub set_layout: vk::DescriptorSetLayout,
@@ -447,6 +489,7 @@ impl GpuScene {
             | vk::BufferUsageFlags::INDEX_BUFFER
             | vk::BufferUsageFlags::STORAGE_BUFFER
             | vk::BufferUsageFlags::TRANSFER_DST
+            | vk::BufferUsageFlags::TRANSFER_SRC
             | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
         if ctx.tier >= Tier::RayTracingPipeline {
             mesh_usage |= vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR;
@@ -477,7 +520,14 @@ impl GpuScene {
             mesh_info_dirty: false,
             decal_order: WordArray::new(ctx, "decal order")?,
             shadow_views: WordArray::new(ctx, "shadow map views")?,
+            culls: GpuTable::new::<crate::scene::GpuCullRecord>(ctx, "culling records", 64)?,
+            glass_order: WordArray::new(ctx, "glass order")?,
             meshes: Vec::new(),
+            mesh_pool: None,
+            ranges: RangeAllocator::default(),
+            released_ranges: Vec::new(),
+            pool_shrink: Shrink::default(),
+            pool_repacks: 0,
             textures: (0..RESERVED_TEXTURES).map(|_| None).collect(),
             set_layout,
             pool,
@@ -621,17 +671,19 @@ impl GpuScene {
         }
         for id in mirror.released_meshes.drain(..) {
             if let Some(mesh) = self.meshes.get_mut(id.0 as usize).and_then(Option::take) {
-                up.graveyard.bury(up.frame_value, Retired::Buffer(mesh.buffer));
+                self.released_ranges.push((up.frame_value, mesh.offset, mesh.bytes));
                 self.mesh_info[id.0 as usize] = GpuMeshInfo::default();
                 self.mesh_info_dirty = true;
             }
         }
+        let pool_plan = self.plan_pool(completed, &mirror.pending_meshes);
 
         // Once a frame, whether or not anything changed: the tables (and below, the ring) grow
         // or shrink.
         let mut replaced = false;
-        let tables: [(&mut GpuTable, u32); 6] = [
+        let tables: [(&mut GpuTable, u32); 7] = [
             (&mut self.instances, mirror.instances.slot_count()),
+            (&mut self.culls, mirror.culls.slot_count()),
             (&mut self.materials, mirror.materials.slot_count()),
             (&mut self.lights, mirror.lights.slot_count()),
             (&mut self.decals, mirror.decals.records.slot_count()),
@@ -645,8 +697,9 @@ impl GpuScene {
         if self.mesh_table.plan(meshes as u32) {
             self.mesh_info_dirty = true;
         }
-        self.decal_order.plan();
-        self.shadow_views.plan();
+        for words in [&mut self.decal_order, &mut self.shadow_views, &mut self.glass_order] {
+            words.plan();
+        }
         let trimmed_boxes = !mirror.decals.aabbs.trimmed_tail().is_empty();
         if mirror.is_clean()
             && !replaced
@@ -654,6 +707,8 @@ impl GpuScene {
             && !self.mesh_info_dirty
             && !self.decal_order.dirty
             && !self.shadow_views.dirty
+            && !self.glass_order.dirty
+            && pool_plan == PoolPlan::Keep
             && !self.lighting_dirty
             && self.builtins.is_empty()
         {
@@ -662,6 +717,7 @@ impl GpuScene {
         }
         let camera_dirty = mirror.take_camera_dirty();
         let need = staging_need(&mirror.instances, &self.instances)
+            + staging_need(&mirror.culls, &self.culls)
             + staging_need(&mirror.materials, &self.materials)
             + staging_need(&mirror.lights, &self.lights)
             + staging_need(&mirror.decals.records, &self.decals)
@@ -670,6 +726,7 @@ impl GpuScene {
             + 2 * (std::mem::size_of::<GpuMeshInfo>() * (self.mesh_info.len() + mirror.pending_meshes.len())) as u64
             + self.decal_order.staging_need()
             + self.shadow_views.staging_need()
+            + self.glass_order.staging_need()
             + 64
             + std::mem::size_of::<GpuCamera>() as u64
             + std::mem::size_of::<GpuLighting>() as u64
@@ -678,8 +735,8 @@ impl GpuScene {
 
         let mut copies = std::mem::take(&mut self.copies);
         copies.clear();
-        let new_meshes = !mirror.pending_meshes.is_empty();
-        self.prepare_meshes(up, &mut copies, mirror)?;
+        let new_meshes = !mirror.pending_meshes.is_empty() || pool_plan != PoolPlan::Keep;
+        self.prepare_meshes(up, &mut copies, mirror, pool_plan)?;
         let scene_bytes = up.bytes;
         for (slot, data) in std::mem::take(&mut self.builtins) {
             self.prepare_texture(up, &mut copies, slot, &data)?;
@@ -692,8 +749,9 @@ impl GpuScene {
         // must pick those up too.
         let trimmed = mirror.decals.aabbs.trimmed_tail();
         let decal_boxes_changed = mirror.decals.aabbs.dirty_count() as u32 + (trimmed.end - trimmed.start);
-        let tables: [(&mut dyn DirtyTable, &mut GpuTable); 5] = [
+        let tables: [(&mut dyn DirtyTable, &mut GpuTable); 6] = [
             (&mut mirror.instances, &mut self.instances),
+            (&mut mirror.culls, &mut self.culls),
             (&mut mirror.materials, &mut self.materials),
             (&mut mirror.lights, &mut self.lights),
             (&mut mirror.decals.records, &mut self.decals),
@@ -707,7 +765,7 @@ impl GpuScene {
         if std::mem::take(&mut self.mesh_info_dirty) {
             upload_array(up, &mut copies, &mut self.mesh_table, bytemuck::cast_slice(&self.mesh_info))?;
         }
-        for words in [&mut self.decal_order, &mut self.shadow_views] {
+        for words in [&mut self.decal_order, &mut self.shadow_views, &mut self.glass_order] {
             if std::mem::take(&mut words.dirty) {
                 upload_array(up, &mut copies, &mut words.table, bytemuck::cast_slice(&words.cpu))?;
             }
@@ -737,31 +795,111 @@ impl GpuScene {
         result.map(|()| decal_boxes_changed)
     }
 
-    fn prepare_meshes(&mut self, up: &mut Upload, copies: &mut CopyList, mirror: &mut SceneMirror) -> Result<(), RenderError> {
+    /// Once a frame: returns ranges whose frames have completed, and decides whether the pool
+    /// is repacked (to fit `incoming`, or smaller by the shrink rule) or released.
+    fn plan_pool(&mut self, completed: u64, incoming: &[(MeshId, MeshData)]) -> PoolPlan {
+        let ranges = &mut self.ranges;
+        self.released_ranges.retain(|&(after, offset, bytes)| {
+            let done = after <= completed;
+            if done {
+                ranges.free(offset, bytes);
+            }
+            !done
+        });
+        let live: u64 = self.meshes.iter().flatten().map(|m| m.bytes.next_multiple_of(GRANULE)).sum();
+        if !incoming.is_empty() {
+            let sizes = incoming.iter().map(|(_, m)| RangeAllocator::mesh_bytes(m.vertices.len(), m.indices.len()));
+            let mut trial = self.ranges.clone();
+            if self.mesh_pool.is_some() && sizes.clone().all(|size| trial.alloc(size).is_some()) {
+                return PoolPlan::Keep;
+            }
+            let need = live + sizes.map(|s| s.next_multiple_of(GRANULE).max(GRANULE)).sum::<u64>();
+            return PoolPlan::Repack(need.next_power_of_two().max(POOL_FLOOR).max(self.ranges.capacity()));
+        }
+        let Some(pool) = self.mesh_pool.as_ref() else { return PoolPlan::Keep };
+        if live == 0 {
+            return if self.pool_shrink.unused() { PoolPlan::Release } else { PoolPlan::Keep };
+        }
+        match self.pool_shrink.check(pool.size, live, POOL_FLOOR) {
+            Some(capacity) => PoolPlan::Repack(capacity),
+            None => PoolPlan::Keep,
+        }
+    }
+
+    /// Carries out the pool's `plan` (the live meshes copied into a new buffer, back to back),
+    /// then places the pending meshes and prepares their copies.
+    fn prepare_meshes(
+        &mut self,
+        up: &mut Upload,
+        copies: &mut CopyList,
+        mirror: &mut SceneMirror,
+        plan: PoolPlan,
+    ) -> Result<(), RenderError> {
+        let ctx = up.ctx;
+        match plan {
+            PoolPlan::Keep => {}
+            PoolPlan::Release => {
+                if let Some(old) = self.mesh_pool.take() {
+                    up.bury_shrunk(old, 0);
+                }
+                self.ranges = RangeAllocator::default();
+                self.released_ranges.clear();
+                self.pool_shrink.reset();
+                self.pool_repacks += 1;
+            }
+            PoolPlan::Repack(capacity) => {
+                let new = Buffer::new(ctx, "mesh pool", capacity, self.mesh_usage, MemoryLocation::GpuOnly)?;
+                let mut end = 0u64;
+                if let Some(old) = self.mesh_pool.as_ref() {
+                    let mut copy = copies.buffer_copy(old.raw, new.raw);
+                    for mesh in self.meshes.iter_mut().flatten() {
+                        copy.push(mesh.offset, end, mesh.bytes);
+                        mesh.offset = end;
+                        end += mesh.bytes.next_multiple_of(GRANULE).max(GRANULE);
+                    }
+                }
+                for (slot, mesh) in self.meshes.iter().enumerate() {
+                    if let Some(mesh) = mesh {
+                        self.mesh_info[slot] = mesh.info(new.address);
+                    }
+                }
+                self.mesh_info_dirty = true;
+                if let Some(old) = self.mesh_pool.replace(new) {
+                    if capacity < old.size {
+                        up.bury_shrunk(old, capacity);
+                    } else {
+                        up.graveyard.bury(up.frame_value, Retired::Buffer(old));
+                    }
+                }
+                tracing::debug!(bytes = capacity, live = end, "mesh pool repacked");
+                self.ranges = RangeAllocator::packed(capacity, end);
+                self.released_ranges.clear();
+                self.pool_shrink.reset();
+                self.pool_repacks += 1;
+            }
+        }
         if mirror.pending_meshes.is_empty() {
             return Ok(());
         }
-        let ctx = up.ctx;
         let pending = std::mem::take(&mut mirror.pending_meshes);
-        let total: u64 = pending
-            .iter()
-            .map(|(_, m)| (std::mem::size_of_val(m.vertices.as_slice()) + std::mem::size_of_val(m.indices.as_slice()) + 16) as u64)
-            .sum();
+        let total: u64 = pending.iter().map(|(_, m)| RangeAllocator::mesh_bytes(m.vertices.len(), m.indices.len()) + 16).sum();
         let mut staging = Buffer::new(ctx, "mesh staging", total, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)?;
+        let pool = self.mesh_pool.as_ref().expect("planned for the pending meshes");
         let mut offset = 0u64;
         for (id, data) in &pending {
             let vbytes: &[u8] = bytemuck::cast_slice(&data.vertices);
             let ibytes: &[u8] = bytemuck::cast_slice(&data.indices);
-            let index_offset = (vbytes.len() as u64).next_multiple_of(16);
-            let size = index_offset + ibytes.len() as u64;
-            let buffer = Buffer::new(ctx, "mesh", size, self.mesh_usage, MemoryLocation::GpuOnly)?;
+            let size = (vbytes.len() + ibytes.len()) as u64;
+            let place = self.ranges.alloc(size).expect("the plan made room for every pending mesh");
             let mapped = staging.mapped();
             let o = offset as usize;
             mapped[o..o + vbytes.len()].copy_from_slice(vbytes);
-            mapped[o + index_offset as usize..o + index_offset as usize + ibytes.len()].copy_from_slice(ibytes);
-            copies.buffer_copy(staging.raw, buffer.raw).push(offset, 0, size);
+            mapped[o + vbytes.len()..o + size as usize].copy_from_slice(ibytes);
+            if size > 0 {
+                copies.buffer_copy(staging.raw, pool.raw).push(offset, place, size);
+            }
             offset = (offset + size).next_multiple_of(16);
-            up.bytes += vbytes.len() as u64 + ibytes.len() as u64;
+            up.bytes += size;
             let slot = id.0 as usize;
             if self.meshes.len() <= slot {
                 self.meshes.resize_with(slot + 1, || None);
@@ -769,11 +907,12 @@ impl GpuScene {
             if self.mesh_info.len() <= slot {
                 self.mesh_info.resize(slot + 1, GpuMeshInfo::default());
             }
-            self.mesh_info[slot] = GpuMeshInfo { vertices: buffer.address, indices: buffer.address + index_offset };
+            let mesh =
+                GpuMesh { offset: place, bytes: size, index_count: data.indices.len() as u32, vertex_count: data.vertices.len() as u32 };
+            self.mesh_info[slot] = mesh.info(pool.address);
             self.mesh_info_dirty = true;
-            let mesh = GpuMesh { buffer, index_offset, index_count: data.indices.len() as u32, vertex_count: data.vertices.len() as u32 };
             if let Some(old) = self.meshes[slot].replace(mesh) {
-                up.graveyard.bury(up.frame_value, Retired::Buffer(old.buffer));
+                self.released_ranges.push((up.frame_value, old.offset, old.bytes));
             }
         }
         up.graveyard.bury(up.frame_value, Retired::Buffer(staging));
@@ -798,53 +937,26 @@ impl GpuScene {
         self.decal_order.set(order);
     }
 
-    /// Draws every instance whose draw item passes `filter`; the instance slot is passed as
-    /// `firstInstance`, so shaders find their record at `gl_InstanceIndex`.
-    pub fn draw_meshes(&self, p: &PassContext, draws: &[Option<DrawItem>], filter: impl Fn(&DrawItem) -> bool) {
-        let slots = draws.iter().enumerate().filter(|(_, d)| d.is_some_and(|d| filter(&d))).map(|(slot, _)| slot as u32);
-        self.draw_slots(p, draws, slots);
-    }
-
-    /// Draws the instances in `slots`, in that order (the transparency passes' back-to-front
-    /// order), like [`GpuScene::draw_meshes`].
-    pub fn draw_slots(&self, p: &PassContext, draws: &[Option<DrawItem>], slots: impl IntoIterator<Item = u32>) {
-        self.draw(p, draws, slots, true);
-    }
-
-    /// Draws every instance with both faces, whatever its material says (shadow maps: rays hit
-    /// both sides of a surface, and so does the light).
-    pub fn draw_all_two_sided(&self, p: &PassContext, draws: &[Option<DrawItem>]) {
-        self.draw(p, draws, 0..draws.len() as u32, false);
-    }
-
-    fn draw(&self, p: &PassContext, draws: &[Option<DrawItem>], slots: impl IntoIterator<Item = u32>, cull_back_faces: bool) {
-        let (d, cmd) = (&p.ctx.device, p.cmd);
-        let mut bound_mesh = None;
-        let mut cull = Some(vk::CullModeFlags::NONE); // the rendering scope's default
-        for slot in slots {
-            let Some(Some(draw)) = draws.get(slot as usize) else { continue };
-            let Some(mesh) = self.mesh(draw.mesh) else { continue };
-            // SAFETY: `cmd` is recording inside a rendering scope with a mesh pipeline bound;
-            // the mesh buffer is live until the frame completes (deferred destruction).
-            unsafe {
-                if bound_mesh != Some(draw.mesh) {
-                    d.cmd_bind_vertex_buffers(cmd, 0, &[mesh.buffer.raw], &[0]);
-                    d.cmd_bind_index_buffer(cmd, mesh.buffer.raw, mesh.index_offset, vk::IndexType::UINT32);
-                    bound_mesh = Some(draw.mesh);
-                }
-                let mode = if draw.double_sided || !cull_back_faces { vk::CullModeFlags::NONE } else { vk::CullModeFlags::BACK };
-                if cull != Some(mode) {
-                    d.cmd_set_cull_mode(cmd, mode);
-                    cull = Some(mode);
-                }
-                d.cmd_draw_indexed(cmd, mesh.index_count, 1, 0, 0, slot);
-            }
-        }
-    }
-
     /// The mesh for `id`, once uploaded.
     pub fn mesh(&self, id: MeshId) -> Option<&GpuMesh> {
         self.meshes.get(id.0 as usize).and_then(Option::as_ref)
+    }
+
+    /// The addresses of the vertices and indices of mesh `id` and its vertex count, once
+    /// uploaded (acceleration-structure builds read them).
+    pub fn mesh_geometry(&self, id: MeshId) -> Option<(vk::DeviceAddress, vk::DeviceAddress, u32)> {
+        let (mesh, pool) = (self.mesh(id)?, self.mesh_pool.as_ref()?);
+        Some((pool.address + mesh.offset, pool.address + mesh.index_offset(), mesh.vertex_count))
+    }
+
+    /// The mesh pool's buffer, which every mesh draw binds as its vertex and index buffer.
+    pub fn pool_buffer(&self) -> Option<vk::Buffer> {
+        self.mesh_pool.as_ref().map(|b| b.raw)
+    }
+
+    /// Bytes of the mesh pool's buffer (0 without one).
+    pub fn pool_bytes(&self) -> u64 {
+        self.mesh_pool.as_ref().map_or(0, |b| b.size)
     }
 
     /// Destroys everything; the GPU must be idle.
@@ -861,11 +973,13 @@ impl GpuScene {
             self.mesh_table,
             self.decal_order.table,
             self.shadow_views.table,
+            self.culls,
+            self.glass_order.table,
         ] {
             t.buffer.destroy(ctx);
         }
-        for m in self.meshes.into_iter().flatten() {
-            m.buffer.destroy(ctx);
+        if let Some(pool) = self.mesh_pool {
+            pool.destroy(ctx);
         }
         for t in self.textures.into_iter().flatten() {
             t.destroy(ctx);

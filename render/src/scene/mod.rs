@@ -7,6 +7,7 @@
 //! [`crate::layout`], which also generates their GLSL; they are re-exported here.
 
 pub mod gpu;
+pub mod pool;
 
 use std::cmp::Reverse;
 use std::collections::{BTreeSet, BinaryHeap};
@@ -15,9 +16,10 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec2, Vec3};
 
 pub use crate::layout::{
-    DECAL_ALBEDO, DECAL_CHANNELS, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuDecal, GpuDecalMaterial,
-    GpuInstance, GpuLight, GpuMaterial, GpuMeshInfo, GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, NO_DECAL,
-    RESERVED_TEXTURES, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
+    CULL_BATCHES, CULL_DOUBLE_SIDED, CULL_LIVE, CULL_MASKED, CULL_TRANSPARENT, DECAL_ALBEDO, DECAL_CHANNELS, DECAL_METALLIC, DECAL_NORMAL,
+    DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuCullRecord, GpuDecal, GpuDecalMaterial, GpuDrawCommand, GpuInstance, GpuLight, GpuMaterial,
+    GpuMeshInfo, GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, NO_DECAL, RESERVED_TEXTURES, TEXTURE_FLAT_NORMAL,
+    TEXTURE_WHITE,
 };
 
 impl GpuInstance {
@@ -323,6 +325,21 @@ pub struct DrawItem {
 }
 
 impl DrawItem {
+    /// The opaque passes' draw batch (`2 × masked + double-sided`, below [`CULL_BATCHES`]);
+    /// `None` for a blended instance, which the transparency passes draw in their own order.
+    pub fn batch(&self) -> Option<usize> {
+        (!self.transparent).then_some(2 * usize::from(self.alpha_mask) + usize::from(self.double_sided))
+    }
+
+    /// The `CULL_*` flags of a live instance drawn like this.
+    pub fn cull_flags(&self) -> u32 {
+        let flag = |on: bool, bit: u32| if on { bit } else { 0 };
+        CULL_LIVE
+            | flag(self.alpha_mask, CULL_MASKED)
+            | flag(self.double_sided, CULL_DOUBLE_SIDED)
+            | flag(self.transparent, CULL_TRANSPARENT)
+    }
+
     /// Drawn by the opaque passes without an alpha test.
     pub fn is_opaque(&self) -> bool {
         !self.alpha_mask && !self.transparent
@@ -386,6 +403,13 @@ pub struct FrameCounters {
     pub clusters: DecalClusterStats,
     /// Tiled light culling, as measured on the GPU (all zero unless lights were tiled).
     pub light_tiles: crate::lights::tiles::LightTileStats,
+    /// Instance culling for the main view, as measured on the GPU (`crate::culling`).
+    pub culling: crate::culling::CullingStats,
+    /// Draw commands the CPU recorded this frame, every pass (indirect draws: each covers a
+    /// batch of instances).
+    pub draw_calls: u64,
+    /// Bytes of the mesh pool's buffer (`crate::scene::pool`).
+    pub mesh_pool_bytes: u64,
 }
 
 /// What clustered decals measured on the GPU. The GPU writes these into the cluster buffer and
@@ -587,6 +611,12 @@ impl<T: Pod> SlotTable<T> {
 pub struct SceneMirror {
     /// Mesh instances.
     pub instances: SlotTable<GpuInstance>,
+    /// What GPU culling knows of each instance slot: world bounds, mesh and batch flags, kept in
+    /// step with `instances` (the same slots; written when the transform, mesh or draw changed).
+    pub culls: SlotTable<GpuCullRecord>,
+    /// Live instances in each opaque draw batch ([`DrawItem::batch`]), kept as draws change: the
+    /// culling lists are laid out from them without visiting the instances.
+    pub batch_counts: [u32; CULL_BATCHES as usize],
     /// What to draw for each instance slot (`None` for free slots).
     pub draws: Vec<Option<DrawItem>>,
     /// Materials.
@@ -616,8 +646,9 @@ pub struct SceneMirror {
     /// Set when an instance was added or removed or changed its mesh or material (not only its
     /// transform): the scene TLAS is then rebuilt rather than updated.
     instances_rearranged: bool,
-    /// Object-space centre of each mesh's bounds, by mesh id (sorts transparent instances).
-    mesh_centers: Vec<Vec3>,
+    /// Object-space bounds (minimum and maximum corner) of each mesh, by mesh id: culling's
+    /// world bounds come from them, and the transparent sort from their centres.
+    mesh_bounds: Vec<(Vec3, Vec3)>,
     /// Slots of the transparent instances, kept as draws change, so the per-frame sort visits
     /// the glass only.
     transparent: BTreeSet<u32>,
@@ -642,35 +673,68 @@ impl SceneMirror {
     /// Adds or replaces the draw of an instance slot.
     pub fn set_instance(&mut self, slot: Option<u32>, mut record: GpuInstance, draw: DrawItem) -> u32 {
         record.mesh = draw.mesh.0;
+        let cull = self.cull_record(&record.model, draw);
         let slot = match slot {
             Some(slot) => {
                 let same_material = self.instances.get(slot).is_some_and(|old| old.material == record.material);
-                let same_draw = self.draws.get(slot as usize) == Some(&Some(draw));
-                self.instances_rearranged |= !(same_material && same_draw);
+                let old = self.draws.get(slot as usize).copied().flatten();
+                self.instances_rearranged |= !(same_material && old == Some(draw));
+                self.count_batch(old, -1);
                 self.instances.write(slot, record);
+                self.culls.write(slot, cull);
                 slot
             }
             None => {
                 self.instances_rearranged = true;
-                self.instances.insert(record)
+                let slot = self.instances.insert(record);
+                let cull_slot = self.culls.insert(cull);
+                debug_assert_eq!(slot, cull_slot, "the culling records keep the instances' slots");
+                slot
             }
         };
         if self.draws.len() <= slot as usize {
             self.draws.resize(slot as usize + 1, None);
         }
         self.draws[slot as usize] = Some(draw);
+        self.count_batch(Some(draw), 1);
         self.note_transparency(slot, draw.transparent);
         self.counters.records_written += 1;
         slot
     }
 
+    /// The culling record of an instance placed by `model` and drawn as `draw`: its mesh's
+    /// bounds in world space (an empty or unknown mesh gets an empty box at its origin).
+    fn cull_record(&self, model: &Mat4, draw: DrawItem) -> GpuCullRecord {
+        let (lo, hi) = self.mesh_bounds.get(draw.mesh.0 as usize).copied().unwrap_or((Vec3::ZERO, Vec3::ZERO));
+        let center = model.transform_point3((lo + hi) * 0.5);
+        let half = (hi - lo) * 0.5;
+        let extent =
+            model.x_axis.truncate().abs() * half.x + model.y_axis.truncate().abs() * half.y + model.z_axis.truncate().abs() * half.z;
+        GpuCullRecord { min: center - extent, flags: draw.cull_flags(), max: center + extent, mesh: draw.mesh.0 }
+    }
+
+    fn count_batch(&mut self, draw: Option<DrawItem>, delta: i32) {
+        if let Some(batch) = draw.and_then(|d| d.batch()) {
+            self.batch_counts[batch] = self.batch_counts[batch].wrapping_add_signed(delta);
+        }
+    }
+
     /// Changes the draw item of a live instance slot in place (its material's alpha mode or
     /// sidedness changed); nothing is uploaded.
     pub fn update_draw(&mut self, slot: u32, update: impl FnOnce(&mut DrawItem)) {
-        if let Some(Some(draw)) = self.draws.get_mut(slot as usize) {
-            update(draw);
-            let transparent = draw.transparent;
-            self.note_transparency(slot, transparent);
+        let Some(Some(draw)) = self.draws.get_mut(slot as usize) else { return };
+        let old = *draw;
+        update(draw);
+        let new = *draw;
+        if new == old {
+            return;
+        }
+        self.count_batch(Some(old), -1);
+        self.count_batch(Some(new), 1);
+        self.note_transparency(slot, new.transparent);
+        // Culling must draw it in its new batch: only the flags of its record change.
+        if let Some(&record) = self.culls.get(slot) {
+            self.culls.write(slot, GpuCullRecord { flags: new.cull_flags(), ..record });
         }
     }
 
@@ -686,8 +750,10 @@ impl SceneMirror {
     pub fn remove_instance(&mut self, slot: u32) {
         self.instances_rearranged = true;
         self.instances.remove(slot);
+        self.culls.remove(slot);
         if let Some(d) = self.draws.get_mut(slot as usize) {
-            *d = None;
+            let old = d.take();
+            self.count_batch(old, -1);
         }
         self.transparent.remove(&slot);
         self.counters.records_written += 1;
@@ -740,11 +806,11 @@ impl SceneMirror {
             let p = Vec3::from(v.position);
             (lo.min(p), hi.max(p))
         });
-        let center = if lo.cmple(hi).all() { (lo + hi) * 0.5 } else { Vec3::ZERO };
-        if self.mesh_centers.len() <= id.0 as usize {
-            self.mesh_centers.resize(id.0 as usize + 1, Vec3::ZERO);
+        let bounds = if lo.cmple(hi).all() && lo.is_finite() && hi.is_finite() { (lo, hi) } else { (Vec3::ZERO, Vec3::ZERO) };
+        if self.mesh_bounds.len() <= id.0 as usize {
+            self.mesh_bounds.resize(id.0 as usize + 1, (Vec3::ZERO, Vec3::ZERO));
         }
-        self.mesh_centers[id.0 as usize] = center;
+        self.mesh_bounds[id.0 as usize] = bounds;
         self.pending_meshes.push((id, data));
         id
     }
@@ -758,7 +824,7 @@ impl SceneMirror {
         self.transparent_keys.clear();
         for &slot in &self.transparent {
             let (Some(Some(draw)), Some(record)) = (self.draws.get(slot as usize), self.instances.get(slot)) else { continue };
-            let center = self.mesh_centers.get(draw.mesh.0 as usize).copied().unwrap_or(Vec3::ZERO);
+            let center = self.mesh_bounds.get(draw.mesh.0 as usize).map_or(Vec3::ZERO, |(lo, hi)| (*lo + *hi) * 0.5);
             let distance = record.model.transform_point3(center).distance_squared(eye);
             // A non-finite distance (a broken transform, skipped by extraction anyway) sorts last.
             self.transparent_keys.push((if distance.is_finite() { distance } else { 0.0 }, slot));
@@ -814,6 +880,7 @@ impl SceneMirror {
     /// the GPU tables and passes that follow them) fall when the highest records go away.
     pub fn trim(&mut self) {
         self.instances.trim();
+        self.culls.trim();
         self.draws.truncate(self.instances.slot_count() as usize);
         self.materials.trim();
         self.lights.trim();
@@ -826,6 +893,7 @@ impl SceneMirror {
     pub fn clear_dirty(&mut self) {
         self.trim();
         self.instances.take_dirty(|_, _| {});
+        self.culls.take_dirty(|_, _| {});
         self.materials.take_dirty(|_, _| {});
         self.lights.take_dirty(|_, _| {});
         self.decals.records.take_dirty(|_, _| {});
@@ -840,6 +908,7 @@ impl SceneMirror {
     /// True when the renderer has nothing to upload.
     pub fn is_clean(&self) -> bool {
         self.instances.dirty_count() == 0
+            && self.culls.dirty_count() == 0
             && self.materials.dirty_count() == 0
             && self.lights.dirty_count() == 0
             && self.decals.records.dirty_count() == 0
@@ -1121,5 +1190,65 @@ mod tests {
             });
             assert!(touches, "axis {a} is tight");
         }
+    }
+
+    /// The batch counts a full scan of the draws gives, to compare with the kept ones.
+    fn recount(m: &SceneMirror) -> [u32; CULL_BATCHES as usize] {
+        let mut counts = [0; CULL_BATCHES as usize];
+        for draw in m.draws.iter().flatten() {
+            if let Some(b) = draw.batch() {
+                counts[b] += 1;
+            }
+        }
+        counts
+    }
+
+    #[test]
+    fn culling_records_follow_spawns_moves_rematerials_and_despawns() {
+        let mut m = SceneMirror::new();
+        let cube = m.add_mesh(MeshData {
+            vertices: [Vec3::splat(-0.5), Vec3::splat(0.5)]
+                .map(|p| GpuVertex { position: p.into(), normal: [0.0, 1.0, 0.0], uv: [0.0; 2], tangent: [1.0, 0.0, 0.0, 1.0] })
+                .to_vec(),
+            indices: vec![0, 1, 0],
+        });
+        let opaque = DrawItem { mesh: cube, alpha_mask: false, double_sided: false, transparent: false };
+        let at = |x: f32| GpuInstance::new(Mat4::from_translation(Vec3::new(x, 0.0, 0.0)), 0, 1);
+        let slots: Vec<u32> = (0..5).map(|i| m.set_instance(None, at(i as f32 * 3.0), opaque)).collect();
+        assert_eq!(m.batch_counts, [5, 0, 0, 0]);
+        let record = *m.culls.get(slots[2]).unwrap();
+        assert_eq!((record.min, record.max), (Vec3::new(5.5, -0.5, -0.5), Vec3::new(6.5, 0.5, 0.5)));
+        assert_eq!(record.flags, CULL_LIVE);
+
+        // A move rewrites the record in place: a rotated, scaled box bounds its corners.
+        m.clear_dirty();
+        let turned = Mat4::from_scale_rotation_translation(Vec3::splat(2.0), glam::Quat::from_rotation_y(0.5), Vec3::Y);
+        m.set_instance(Some(slots[1]), GpuInstance::new(turned, 0, 1), opaque);
+        assert_eq!(m.culls.dirty_count(), 1, "only the moved slot is rewritten");
+        let r = *m.culls.get(slots[1]).unwrap();
+        let half = (0.5f32.cos() + 0.5f32.sin()) * 1.0; // a unit cube doubled, turned 0.5 rad
+        assert!((r.max[0] - half).abs() < 1e-5 && (r.max[1] - 2.0).abs() < 1e-5, "{r:?}");
+
+        // Material changes move instances between batches (and out of them for glass).
+        m.update_draw(slots[3], |d| d.alpha_mask = true);
+        m.update_draw(slots[4], |d| d.double_sided = true);
+        m.update_draw(slots[0], |d| d.transparent = true);
+        assert_eq!(m.batch_counts, recount(&m));
+        assert_eq!(m.batch_counts, [2, 1, 1, 0]);
+        assert_eq!(m.culls.get(slots[3]).unwrap().flags, CULL_LIVE | CULL_MASKED);
+        assert_eq!(m.culls.get(slots[0]).unwrap().flags, CULL_LIVE | CULL_TRANSPARENT);
+        m.set_instance(Some(slots[3]), at(1.0), DrawItem { double_sided: true, ..opaque });
+        assert_eq!(m.batch_counts, recount(&m));
+
+        // Despawns free the record; a new instance takes the lowest slot in both tables.
+        m.remove_instance(slots[2]);
+        assert_eq!(m.culls.get(slots[2]), None);
+        assert_eq!(m.batch_counts, recount(&m));
+        assert_eq!(m.set_instance(None, at(9.0), opaque), slots[2], "the freed slot is reused");
+        m.remove_instance(slots[4]);
+        m.trim();
+        assert_eq!(m.culls.slot_count(), m.instances.slot_count());
+        assert_eq!(m.batch_counts, recount(&m));
+        assert_eq!(m.culls.len(), m.instances.len());
     }
 }

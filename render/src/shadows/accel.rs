@@ -345,8 +345,8 @@ impl SceneAccel {
         let mut scratch_need = 0u64;
         for (slot, b) in self.blas.iter().enumerate() {
             let Some(b) = b.as_ref().filter(|b| b.needs_build) else { continue };
-            let Some(mesh) = scene.mesh(MeshId(slot as u32)) else { continue };
-            let geometry = [triangles(mesh.buffer.address, mesh.buffer.address + mesh.index_offset, mesh.vertex_count)];
+            let Some((vertices, indices, vertex_count)) = scene.mesh_geometry(MeshId(slot as u32)) else { continue };
+            let geometry = [triangles(vertices, indices, vertex_count)];
             let sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, BLAS_FLAGS, &geometry, &[b.primitives]);
             builds.push((slot, scratch_need));
             scratch_need += sizes.build_scratch_size.next_multiple_of(256);
@@ -377,8 +377,8 @@ impl SceneAccel {
                 .record(|p| {
                     for &(slot, offset) in &builds {
                         let b = blas[slot].as_ref().expect("listed above");
-                        let mesh = scene.mesh(MeshId(slot as u32)).expect("listed above");
-                        let geometry = [triangles(mesh.buffer.address, mesh.buffer.address + mesh.index_offset, mesh.vertex_count)];
+                        let (vertices, indices, vertex_count) = scene.mesh_geometry(MeshId(slot as u32)).expect("listed above");
+                        let geometry = [triangles(vertices, indices, vertex_count)];
                         let info = build_info(
                             vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
                             BLAS_FLAGS,

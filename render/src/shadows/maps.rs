@@ -11,8 +11,9 @@
 //!   to whole texels, so its edges do not crawl as the camera moves). Lights take views in slot
 //!   order until the atlas is full; the rest are unshadowed and counted.
 //! - **The atlas**: one depth target and one filter target (RGBA8), a tile per view, drawn in
-//!   one pass (`shaders/shadow_map.vert`, `shadow_map.frag`): per tile, a viewport and every
-//!   instance, both faces. With coloured shadows glass writes its colour and opacity on odd rows
+//!   one pass (`shaders/shadow_map.vert`, `shadow_map.frag`): per tile, a viewport and the
+//!   instances inside that view's frustum (one indirect draw of the list `crate::culling`
+//!   made for the view), both faces. With coloured shadows glass writes its colour and opacity on odd rows
 //!   only (the seed's interlaced shadow map: a single pass over the geometry keeps both the
 //!   glass and the opaque surface behind it).
 //! - **The resolve** (`shaders/shadows_mapped.comp`): the shadow pass's per-pixel loop
@@ -26,13 +27,14 @@
 //! shades all of a pixel's lights in one pass from the shadow bits, so the maps answer the same
 //! question the rays do, and shading does not know which answered. Left out: filtering (the
 //! lookups are hard, like the traced shadows), caching maps of lights and casters that did not
-//! move (every map is drawn every frame), culling casters per view, and cascades (one fitted
+//! move (every map is drawn every frame), occlusion culling of casters per view, and cascades (one fitted
 //! map per directional light).
 
 use ash::vk;
 use glam::{Mat4, Vec3, Vec4Swizzles};
 
 use crate::RenderError;
+use crate::culling::Draws;
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::{GraphicsDesc, create_compute, create_graphics};
 use crate::gpu::shaders;
@@ -41,7 +43,6 @@ use crate::graph::targets::{
 };
 use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind};
 use crate::layout::{GpuCamera, GpuLight, GpuShadowView, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, NO_SHADOW_MAP, SHADOW_VIEWS_HEADER};
-use crate::scene::DrawItem;
 use crate::scene::gpu::GpuScene;
 use crate::settings::ShadowMapBudget;
 use crate::shadows::ShadowInputs;
@@ -138,7 +139,7 @@ impl ShadowMaps {
         &self,
         f: &mut Frame,
         scene: &GpuScene,
-        draws: &[Option<DrawItem>],
+        draws: &Draws,
         plan: ShadowMapPlan,
         inputs: &ShadowInputs,
     ) -> Result<(), RenderError> {
@@ -154,6 +155,7 @@ impl ShadowMaps {
                 .image(&SHADOW_MAP_DEPTH, ImageUse::DepthWrite(Load::ClearDepth(0.0)))
                 .color(&SHADOW_MAP_FILTER, Load::Clear([1.0; 4]))
                 .reads(scene.res.drawn())
+                .reads(draws.reads())
                 .record(|p| {
                     let mut push = p.push;
                     for v in 0..plan.views {
@@ -174,7 +176,7 @@ impl ShadowMaps {
                             p.ctx.device.cmd_set_viewport(p.cmd, 0, &[viewport]);
                             p.ctx.device.cmd_set_scissor(p.cmd, 0, &[scissor]);
                         }
-                        scene.draw_all_two_sided(p, draws);
+                        draws.shadow_view(p, v);
                     }
                 })?;
         }

@@ -39,12 +39,12 @@ pub mod maps;
 use ash::vk;
 
 use crate::RenderError;
+use crate::culling::Draws;
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::pipeline::{RayTracingDesc, RayTracingPipeline, create_compute};
 use crate::gpu::shaders;
 use crate::graph::targets::{DEPTH, SHADOW_DEBUG, TRANSPARENT_DEPTH};
 use crate::graph::{BufferUse, Frame, ImageUse, PassKind, ResourceId};
-use crate::scene::DrawItem;
 use crate::scene::gpu::GpuScene;
 use crate::settings::{ShadowMapBudget, ShadowMethod};
 use maps::{ShadowMapPlan, ShadowMaps};
@@ -145,7 +145,7 @@ impl ShadowPass {
         &self,
         f: &mut Frame,
         scene: &GpuScene,
-        draws: &[Option<DrawItem>],
+        draws: &Draws,
         plan: ShadowMapPlan,
         inputs: &ShadowInputs,
     ) -> Result<(), RenderError> {

@@ -50,6 +50,7 @@ pub mod peeling;
 use ash::vk;
 
 use crate::RenderError;
+use crate::culling::Draws;
 use crate::decals::DecalFrame;
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::pipeline::{Blend, GraphicsDesc, create_graphics};
@@ -59,7 +60,6 @@ use crate::graph::targets::{
 };
 use crate::graph::{BufferUse, Frame, ImageUse, Load, PassBuilder, PassKind, TargetDesc};
 use crate::lights::{LightFrame, declare_light_reads};
-use crate::scene::DrawItem;
 use crate::scene::gpu::GpuScene;
 use crate::settings::DecalMethod;
 use interlaced::Interlaced;
@@ -111,17 +111,18 @@ impl TransparencyPasses {
 
     /// The transparency depth pass: the nearest depth of the instances in `order` (the frame's
     /// blended instances), for light culling. Records nothing when `order` is empty.
-    pub fn depth(&self, f: &mut Frame, scene: &GpuScene, draws: &[Option<DrawItem>], order: &[u32]) -> Result<(), RenderError> {
+    pub fn depth(&self, f: &mut Frame, scene: &GpuScene, draws: &Draws, order: &[u32]) -> Result<(), RenderError> {
         if order.is_empty() {
             return Ok(());
         }
         f.pass("transparent_depth", PassKind::Graphics)
             .image(&TRANSPARENT_DEPTH, ImageUse::DepthWrite(Load::ClearDepth(0.0)))
             .reads(scene.res.drawn())
+            .reads(draws.reads())
             .record(|p| {
                 let push = p.push;
                 p.bind_graphics(self.depth, &push);
-                scene.draw_slots(p, draws, order.iter().copied());
+                draws.glass(p);
             })
     }
 
@@ -131,7 +132,7 @@ impl TransparencyPasses {
         &self,
         f: &mut Frame,
         scene: &GpuScene,
-        draws: &[Option<DrawItem>],
+        draws: &Draws,
         order: &[u32],
         decals: &DecalFrame,
         lights: &LightFrame,
@@ -147,6 +148,7 @@ impl TransparencyPasses {
             .image(&DEPTH, ImageUse::DepthTest)
             .color(&HDR, Load::Keep)
             .reads(scene.res.drawn())
+            .reads(draws.reads())
             .when(lights.glass_shadows(), |p| p.sample(&TRANSPARENT_DEPTH));
         let pass = match ray_query {
             Some(_) => pass.reads(decals.traced.into_iter().flatten().map(|a| (a, BufferUse::Accel))),
@@ -155,7 +157,7 @@ impl TransparencyPasses {
         declare_light_reads(pass, lights).record(|p| {
             let push = p.push;
             p.bind_graphics(ray_query.unwrap_or(self.shade[shadowed]), &push);
-            scene.draw_slots(p, draws, order.iter().copied());
+            draws.glass(p);
         })
     }
 
