@@ -194,10 +194,11 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
 /// Props of the `many-instances` scene unless `--instances` says otherwise.
 pub const MANY_INSTANCES: usize = 10_000;
 /// Props in each block of the city (the last block may hold fewer).
-const PROPS_PER_BLOCK: usize = 100;
-/// A block's side and the width of the street around it, in metres.
-const BLOCK: f32 = 20.0;
-const STREET: f32 = 6.0;
+pub const PROPS_PER_BLOCK: usize = 100;
+/// A block's side, in metres.
+pub const BLOCK: f32 = 20.0;
+/// The width of the streets between blocks, in metres.
+pub const STREET: f32 = 6.0;
 
 /// The `many-instances` scene: `props` small meshes (boxes, balls, pillars, crates in four
 /// materials, randomly turned and scaled) in square blocks of [`PROPS_PER_BLOCK`], each block

@@ -7,8 +7,9 @@
 //! lifetime, some riding on meshes), point, spot and directional lights and mesh instances, and
 //! now and then adds or removes meshes, materials (a third of them blended glass, some
 //! refracting), textures and decal materials, including ones still in use. Between frames the
-//! driver ([`run`]) switches the pipeline, decal method, light method, transparency method and
-//! debug view and resizes the target (down to 1×1). The run is split into cycles;
+//! driver ([`run`]) switches the pipeline, decal method, light method, transparency method,
+//! culling mode (and freezes or thaws the culling view) and debug view and resizes the target
+//! (down to 1×1). The run is split into cycles;
 //! each cycle starts a new renderer on a randomly chosen capability tier
 //! ([`plugins::restart_renderer`], which re-extracts the scene), and ends with everything the
 //! cycle spawned despawned.
@@ -177,6 +178,8 @@ pub struct SwitchCounts {
     pub light_method: u64,
     /// Transparency method changes.
     pub transparency: u64,
+    /// Culling mode changes and culling-view freezes or thaws.
+    pub culling: u64,
     /// Debug view changes.
     pub debug_view: u64,
     /// Render size changes.
@@ -503,6 +506,7 @@ fn frame(app: &mut App, report: &mut SoakReport) -> Result<()> {
             decals = s.decal_method.name(),
             lights = s.lights.method.name(),
             transparency = s.transparency.name(),
+            culling = s.culling.name(),
             view = ?s.debug_view,
             size = ?s.size,
             "non-finite pixels"
@@ -596,6 +600,14 @@ pub fn run(config: &SoakConfig) -> Result<SoakReport> {
             if rng.next_u64().is_multiple_of(53) {
                 settings.transparency = TransparencyMethod::ALL[(rng.next_u64() % TransparencyMethod::ALL.len() as u64) as usize];
                 report.switches.transparency += 1;
+            }
+            if rng.next_u64().is_multiple_of(59) {
+                settings.culling = render::CullingMode::ALL[(rng.next_u64() % 3) as usize];
+                report.switches.culling += 1;
+            }
+            if rng.next_u64().is_multiple_of(61) {
+                settings.freeze_culling = !settings.freeze_culling;
+                report.switches.culling += 1;
             }
             if rng.next_u64().is_multiple_of(47) {
                 settings.debug_view = DEBUG_VIEWS[(rng.next_u64() % DEBUG_VIEWS.len() as u64) as usize];
