@@ -152,6 +152,16 @@ fn shadow_maps_drawn_from_culled_lists_equal_unculled_ones() {
     assert_no_validation_errors(&mut app);
 }
 
+/// Renders the next frame with occlusion culling and asserts it equals an unculled one of the
+/// same scene (what was hidden shows in that very frame); culling stays on.
+fn assert_next_frame_shows_everything(app: &mut App, what: &str) {
+    app.update();
+    let shown = hdr(app);
+    let reference = render_in(app, CullingMode::Off, 1);
+    assert_same(&reference, &shown, what);
+    set_culling(app, CullingMode::Occlusion);
+}
+
 #[test]
 fn a_wall_hides_the_boxes_behind_it_and_they_show_in_the_frame_it_goes() {
     let mut app = gpu_app(SIZE.0, SIZE.1, RenderSettings { pipeline: PipelineKind::VisBuffer, ..Default::default() });
@@ -175,20 +185,13 @@ fn a_wall_hides_the_boxes_behind_it_and_they_show_in_the_frame_it_goes() {
 
     // The wall goes: the boxes behind it are drawn in that very frame.
     app.world.despawn(s.wall);
-    app.update();
-    let revealed = hdr(&mut app);
-    let reference = render_in(&mut app, CullingMode::Off, 1);
-    assert_same(&reference, &revealed, "the frame the wall went");
-    set_culling(&mut app, CullingMode::Occlusion);
+    assert_next_frame_shows_everything(&mut app, "the frame the wall went");
     let c = stats(&mut app);
     assert_eq!(c.after_occlusion, (s.hidden + s.front + s.others) as u64, "{c:?}");
 
     // The camera turns round: the boxes that were behind it show in the frame it turns.
     turn_round(&mut app, s.camera);
-    app.update();
-    let turned = hdr(&mut app);
-    let reference = render_in(&mut app, CullingMode::Off, 1);
-    assert_same(&reference, &turned, "the frame the camera turned");
+    assert_next_frame_shows_everything(&mut app, "the frame the camera turned");
     assert_no_validation_errors(&mut app);
 }
 

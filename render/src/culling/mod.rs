@@ -719,6 +719,27 @@ impl Draws<'_> {
         unsafe { p.ctx.device.cmd_set_cull_mode(p.cmd, mode) };
     }
 
+    /// One `vkCmdDrawIndexedIndirectCount` over at most `max` commands from command
+    /// `first_command`, its count in header word `count_word`.
+    fn draw_count(&self, p: &PassContext, first_command: u32, count_word: u32, max: u32) {
+        let f = self.frame;
+        // SAFETY: `cmd` is recording inside a rendering scope with a mesh pipeline bound and the
+        // pool bound; the commands and the count lie in the draw buffer, which the culling
+        // passes wrote before this pass (declared through `reads`).
+        unsafe {
+            p.ctx.device.cmd_draw_indexed_indirect_count(
+                p.cmd,
+                f.draws,
+                f.commands + first_command as u64 * COMMAND_BYTES,
+                f.draws,
+                count_word as u64 * 4,
+                max,
+                COMMAND_BYTES as u32,
+            )
+        };
+        self.calls.fetch_add(1, Ordering::Relaxed);
+    }
+
     fn batches(&self, p: &PassContext, batches: std::ops::Range<usize>) {
         if !self.bind_pool(p) {
             return;
@@ -735,23 +756,7 @@ impl Draws<'_> {
                     continue;
                 }
                 Self::set_cull(p, b & 1 == 1);
-                let command = (list * f.list_stride + f.batch_start[b]) as u64;
-                let count = ((list as usize * BATCHES + b) * 4) as u64;
-                // SAFETY: `cmd` is recording inside a rendering scope with a mesh pipeline bound;
-                // the commands and the count lie in the draw buffer, which the culling passes
-                // wrote before this pass (declared through `reads`).
-                unsafe {
-                    p.ctx.device.cmd_draw_indexed_indirect_count(
-                        p.cmd,
-                        f.draws,
-                        f.commands + command * COMMAND_BYTES,
-                        f.draws,
-                        count,
-                        f.batch_capacity[b],
-                        COMMAND_BYTES as u32,
-                    )
-                };
-                self.calls.fetch_add(1, Ordering::Relaxed);
+                self.draw_count(p, list * f.list_stride + f.batch_start[b], list * CULL_BATCHES + b as u32, f.batch_capacity[b]);
             }
         }
     }
@@ -783,20 +788,7 @@ impl Draws<'_> {
         let f = self.frame;
         for run in self.glass {
             Self::set_cull(p, run.double_sided);
-            let offset = f.commands + (f.ordered_first + run.first) as u64 * COMMAND_BYTES;
-            // SAFETY: as in `batches`; the run lies in the ordered commands.
-            unsafe {
-                p.ctx.device.cmd_draw_indexed_indirect_count(
-                    p.cmd,
-                    f.draws,
-                    offset,
-                    f.draws,
-                    CULL_ORDERED as u64 * 4,
-                    run.count,
-                    COMMAND_BYTES as u32,
-                )
-            };
-            self.calls.fetch_add(1, Ordering::Relaxed);
+            self.draw_count(p, f.ordered_first + run.first, CULL_ORDERED, run.count);
         }
     }
 
@@ -812,20 +804,8 @@ impl Draws<'_> {
             return;
         }
         Self::set_cull(p, true);
-        let command = (f.shadow_first + view * f.shadow_stride) as u64;
-        // SAFETY: as in `batches`; the view's count word follows the header's.
-        unsafe {
-            p.ctx.device.cmd_draw_indexed_indirect_count(
-                p.cmd,
-                f.draws,
-                f.commands + command * COMMAND_BYTES,
-                f.draws,
-                (CULL_HEADER + view) as u64 * 4,
-                f.shadow_stride,
-                COMMAND_BYTES as u32,
-            )
-        };
-        self.calls.fetch_add(1, Ordering::Relaxed);
+        // The view's count word follows the header's.
+        self.draw_count(p, f.shadow_first + view * f.shadow_stride, CULL_HEADER + view, f.shadow_stride);
     }
 }
 
