@@ -13,16 +13,24 @@ CULL_PASSES = ("cull_clear", "cull", "depth_pyramid", "cull_second")
 
 def rows(path):
     frames = [json.loads(line) for line in open(path) if line.strip()]
-    m = re.search(r"culling_(\w+?)_(\d+)\.jsonl$", path)
-    pipeline, count = (m.group(1), int(m.group(2))) if m else ("?", 0)
+    # culling_PIPELINE_N.jsonl (scripts/bench_culling.sh) or LABEL_PIPELINE_N.jsonl.
+    m = re.search(r"([^/]+?)_(\w+?)_(\d+)\.jsonl$", path)
+    label, pipeline, count = (m.group(1), m.group(2), int(m.group(3))) if m else ("?", "?", 0)
+    if label != "culling":
+        pipeline = f"{label} {pipeline}"
     by_mode = {}
     for f in frames:
-        by_mode.setdefault(f["culling"]["mode"], []).append(f)
+        # Builds from before culling have no "culling" key: every instance drawn, one draw each.
+        by_mode.setdefault(f.get("culling", {}).get("mode", "before"), []).append(f)
     for mode, fs in by_mode.items():
         fs = fs[10:40] if len(fs) >= 40 else fs
         med = lambda get: statistics.median(get(f) for f in fs)
         cull = med(lambda f: sum(f["gpu_ms"].get(p, 0.0) for p in CULL_PASSES))
-        drawn = [f["culling"].get("after_occlusion") for f in fs if "after_occlusion" in f["culling"]]
+        drawn = [
+            f["culling"]["after_occlusion"] if "culling" in f else f["counters"]["instances"]
+            for f in fs
+            if "culling" not in f or "after_occlusion" in f["culling"]
+        ]
         yield {
             "pipeline": pipeline,
             "instances": count,
@@ -31,7 +39,7 @@ def rows(path):
             "extract": med(lambda f: f["cpu_ms"]["extract"]),
             "gpu": med(lambda f: f["gpu_ms"]["total"]),
             "cull": cull,
-            "draws": med(lambda f: f["counters"]["draw_calls"]),
+            "draws": med(lambda f: f["counters"].get("draw_calls", -1)),
             "drawn": statistics.median(drawn) if drawn else "-",
             "device": fs[0]["device"],
         }
@@ -39,14 +47,15 @@ def rows(path):
 
 def main():
     out = [r for path in sys.argv[1:] for r in rows(path)]
-    out.sort(key=lambda r: (r["pipeline"], r["instances"], ["off", "frustum", "occlusion"].index(r["mode"])))
+    out.sort(key=lambda r: (r["pipeline"], r["instances"], ["before", "off", "frustum", "occlusion"].index(r["mode"])))
     devices = sorted({r["device"] for r in out})
     print(f"Device: {', '.join(devices)}; medians of frames 10-39 of each mode's 40 frames, 1920x1080.\n")
     print("| pipeline | instances | culling | CPU record ms | CPU extract ms | GPU frame ms | culling passes ms | draw calls | drawn |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for r in out:
+        draws = "-" if r["draws"] < 0 else f"{r['draws']:.0f}"
         print(f"| {r['pipeline']} | {r['instances']:,} | {r['mode']} | {r['record']:.3f} | {r['extract']:.3f} | {r['gpu']:.2f} | "
-              f"{r['cull']:.3f} | {r['draws']:.0f} | {r['drawn']} |")
+              f"{r['cull']:.3f} | {draws} | {r['drawn']} |")
 
 
 if __name__ == "__main__":
