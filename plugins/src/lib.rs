@@ -285,8 +285,10 @@ pub struct FrameStats {
     pub gpu: PassTimes,
     /// CPU milliseconds in the extraction systems.
     pub cpu_extract_ms: f32,
-    /// CPU milliseconds uploading and recording.
+    /// CPU milliseconds uploading and recording (the submission included).
     pub cpu_record_ms: f32,
+    /// Of those, CPU milliseconds in the driver's queue submission.
+    pub cpu_submit_ms: f32,
     /// Work counters.
     pub counters: FrameCounters,
 }
@@ -474,6 +476,7 @@ fn render_frame(
                 gpu: PassTimes::default(),
                 cpu_extract_ms: extract_ms,
                 cpu_record_ms: report.record_ms,
+                cpu_submit_ms: report.submit_ms,
                 counters: report.counters,
             });
             if let Some(done) = report.finished {

@@ -81,8 +81,10 @@ pub struct FrameReport {
     /// Work done for this frame (uploads, records, acceleration structures, live counts).
     pub counters: FrameCounters,
     /// CPU time spent uploading and recording, in milliseconds (not counting the wait for the
-    /// frame slot's previous use to finish).
+    /// frame slot's previous use to finish); the submission included.
     pub record_ms: f32,
+    /// Of `record_ms`, the time in `vkQueueSubmit2` (the driver's).
+    pub submit_ms: f32,
     /// A frame that finished on the GPU while this one was being prepared, with its GPU times.
     pub finished: Option<FinishedFrame>,
 }
@@ -401,6 +403,7 @@ impl Renderer {
         let decal_method = decal_choice.applied;
 
         // SAFETY: recording is complete; the submit signals the timeline with this frame's value.
+        let submit_start = Instant::now();
         let submitted: Result<(), vk::Result> = unsafe {
             d.end_command_buffer(cmd)?;
             let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
@@ -426,6 +429,7 @@ impl Renderer {
                 .signal_semaphore_infos(&signals[..1 + n]);
             d.queue_submit2(ctx.queue, &[submit], vk::Fence::null())
         };
+        let submit_ms = submit_start.elapsed().as_secs_f32() * 1e3;
         submitted.map_err(|e| RenderError::from(e).in_frame(frame, "submitting the frame"))?;
         if let (Some((surface, _)), Some(image)) = (&mut window, &acquired) {
             surface.present(ctx, image).map_err(|e| e.in_frame(frame, "presenting the frame"))?;
@@ -441,6 +445,7 @@ impl Renderer {
             shadows: lights.shadows,
             counters: mirror.counters,
             record_ms: start.elapsed().as_secs_f32() * 1e3,
+            submit_ms,
             finished,
         }))
     }

@@ -5,7 +5,7 @@
 //! device can run no decal method in this pipeline), `tier`,
 //! `device`, `size` `[w, h]`, `gpu_ms` (one key per pass, summed over the times it ran, plus
 //! `total`), `cpu_ms` (`extract`,
-//! `record`), and `counters` (`bytes_uploaded`, `records_written`, `blas_builds`,
+//! `record`, and `submit`: the part of `record` spent in the driver's queue submission), and `counters` (`bytes_uploaded`, `records_written`, `blas_builds`,
 //! `blas_updates`, `tlas_builds`, `instances`, `lights`, `decals`, `transparent`: blended instances drawn,
 //! `shadow_map_views`: atlas tiles drawn, `shadow_maps_missing`: lights the atlas had no room
 //! for), and, in frames that applied
@@ -68,7 +68,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
         "device": device,
         "size": [stats.size.0, stats.size.1],
         "gpu_ms": gpu,
-        "cpu_ms": { "extract": round(stats.cpu_extract_ms), "record": round(stats.cpu_record_ms) },
+        "cpu_ms": { "extract": round(stats.cpu_extract_ms), "record": round(stats.cpu_record_ms), "submit": round(stats.cpu_submit_ms) },
         "counters": {
             "bytes_uploaded": c.bytes_uploaded,
             "records_written": c.records_written,
