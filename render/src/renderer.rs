@@ -402,8 +402,8 @@ impl Renderer {
         mirror.counters.decals = mirror.decals.len() as u64;
         let decal_method = decal_choice.applied;
 
-        // SAFETY: recording is complete; the submit signals the timeline with this frame's value.
         let submit_start = Instant::now();
+        // SAFETY: recording is complete; the submit signals the timeline with this frame's value.
         let submitted: Result<(), vk::Result> = unsafe {
             d.end_command_buffer(cmd)?;
             let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
