@@ -14,7 +14,7 @@ CULL_PASSES = ("cull_clear", "cull", "depth_pyramid", "cull_second")
 def rows(path):
     frames = [json.loads(line) for line in open(path) if line.strip()]
     # culling_PIPELINE_N.jsonl (scripts/bench_culling.sh) or LABEL_PIPELINE_N.jsonl.
-    m = re.search(r"([^/]+?)_(\w+?)_(\d+)\.jsonl$", path)
+    m = re.search(r"([^/_]+)_(\w+?)_(\d+)\.jsonl$", path)
     label, pipeline, count = (m.group(1), m.group(2), int(m.group(3))) if m else ("?", "?", 0)
     if label != "culling":
         pipeline = f"{label} {pipeline}"

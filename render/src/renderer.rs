@@ -83,7 +83,7 @@ pub struct FrameReport {
     /// CPU time spent uploading and recording, in milliseconds (not counting the wait for the
     /// frame slot's previous use to finish); the submission included.
     pub record_ms: f32,
-    /// Of `record_ms`, the time in `vkQueueSubmit2` (the driver's).
+    /// Of `record_ms`, the time ending the command buffer and in `vkQueueSubmit2` (the driver's).
     pub submit_ms: f32,
     /// A frame that finished on the GPU while this one was being prepared, with its GPU times.
     pub finished: Option<FinishedFrame>,

@@ -10,6 +10,7 @@
 //! | `ten-point-lights` | seed 001 §5: Sponza, ten point lights of varied intensity, colour and range, a fixed central camera | the courtyard with its lights replaced by ten point lights (5–60 cd, ranges from eq. 4.1 or 6–14 m) around the fountain, the courtyard's camera |
 //! | `many-lights` | seed 000 §5.2.5: Emerald Square, 28,587 small point lights, no decals | 28,587 small point lights (0.05–0.4 cd, eq. 4.1 ranges of 1.6–4.5 m) over the courtyard's ground and walls, the sun |
 //! | `many-instances` | issue 24 (GPU-driven scene): none of the seeds culls | a city of [`MANY_INSTANCES`] (`--instances`) props on a grid of blocks walled in by 12 m buildings, most props inside the blocks, a few along the streets; the camera at street level looking down a street, so nearly everything is behind a wall ([`spawn_city`]) |
+//! | `behind-wall` | `../shared/PEERS.md`, "many instances behind a wall" (Bevy measured on our GPU) | a wall 6 m in front of the camera, `--instances` 0.6 m boxes on a grid behind it (most also outside the view), 20 boxes in front of it, a floor and the sun ([`spawn_behind_wall`]; run it with `--no-shadows` as the peer's was) |
 //! | `transparency` | seed 002 §4.2: one scene of about 60,000 polygons (38,812 opaque, 20,832 transparent), 2 to 64 spot lights | not the courtyard (48,340 opaque triangles on its own) but a stone floor and a field of opaque balls (38,812 opaque triangles in all, + less than one ball), a row of glass balls (refracting, 35 % opaque) and three glass panes in front of them (20,832 transparent triangles, + less than one ball), [`TRANSPARENCY_LIGHTS`] spot lights ([`set_spot_lights`] changes the count) and no other light |
 //!
 //! The courtyard stands in for the seeds' scenes (Sponza, Emerald Square, Bistro), which are not
@@ -46,6 +47,8 @@ pub enum BenchScene {
     Transparency,
     /// Issue 24: a city of `--instances` props behind walls, seen from the street.
     ManyInstances,
+    /// PEERS.md's "many instances behind a wall": `--instances` boxes in a grid behind a wall.
+    BehindWall,
 }
 
 impl BenchScene {
@@ -59,8 +62,9 @@ impl BenchScene {
             "many-lights" => BenchScene::ManyLights,
             "transparency" => BenchScene::Transparency,
             "many-instances" => BenchScene::ManyInstances,
+            "behind-wall" => BenchScene::BehindWall,
             _ => bail!(
-                "unknown bench scene {name:?} (few-blended-decals, decals-and-lights, many-decals, ten-point-lights, many-lights, transparency, many-instances)"
+                "unknown bench scene {name:?} (few-blended-decals, decals-and-lights, many-decals, ten-point-lights, many-lights, transparency, many-instances, behind-wall)"
             ),
         })
     }
@@ -95,6 +99,7 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
     match scene {
         BenchScene::Transparency => return spawn_transparency_scene(world),
         BenchScene::ManyInstances => return spawn_city(world, MANY_INSTANCES),
+        BenchScene::BehindWall => return spawn_behind_wall(world, MANY_INSTANCES),
         _ => {}
     }
     let info = spawn_courtyard(world);
@@ -187,7 +192,7 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
             world.spawn_batch(batch);
         }
         BenchScene::Transparency => unreachable!("spawned above"),
-        BenchScene::ManyInstances => unreachable!("spawned by spawn_city, which needs the instance count"),
+        BenchScene::ManyInstances | BenchScene::BehindWall => unreachable!("spawned above"),
     }
 }
 
@@ -278,6 +283,51 @@ pub fn spawn_city(world: &mut World, props: usize) {
     let street_z = origin + row * pitch;
     let eye = Vec3::new(origin + pitch * 0.5, 1.7, street_z);
     world.spawn((Camera::default(), Transform::from_translation(eye).looking_at(eye + Vec3::new(1.0, -0.02, 0.0), Vec3::Y)));
+}
+
+/// PEERS.md's "many instances behind a wall": a floor, the sun, the camera at eye height looking
+/// down −Z, a 16 × 8 m wall 6 m in front of it, `boxes` boxes of 0.6 m on a square grid 1.2 m
+/// apart from 8 m behind the camera onwards (most of them outside the view), and 20 boxes
+/// between the camera and the wall. Instances: `boxes` + 22.
+pub fn spawn_behind_wall(world: &mut World, boxes: usize) {
+    use engine::camera::Camera;
+    use engine::material::Material;
+    use engine::mesh::{Mesh, shapes};
+    use engine::scene::MeshInstance;
+
+    let side = (boxes as f32).sqrt().ceil().max(1.0) as usize;
+    let extent = side as f32 * 1.2;
+    let (floor, wall, cube) = {
+        let mut meshes = world.resource_mut::<Assets<Mesh>>();
+        (
+            meshes.add(shapes::plane(extent + 40.0, extent + 40.0, 1, 8.0)),
+            meshes.add(shapes::cuboid(Vec3::new(16.0, 8.0, 0.5), 1.0)),
+            meshes.add(shapes::cuboid(Vec3::splat(0.6), 1.0)),
+        )
+    };
+    let (grey, red) = {
+        let mut materials = world.resource_mut::<Assets<Material>>();
+        (
+            materials.add(Material::from_color(Vec3::splat(0.6).extend(1.0), 0.0, 0.8)),
+            materials.add(Material::from_color(Vec3::new(0.8, 0.3, 0.2).extend(1.0), 0.0, 0.5)),
+        )
+    };
+    world.spawn((MeshInstance { mesh: floor, material: grey }, Transform::from_xyz(0.0, 0.0, -extent / 2.0)));
+    world.spawn((MeshInstance { mesh: wall, material: grey }, Transform::from_xyz(0.0, 4.0, -6.0)));
+    let grid = (0..boxes).map(|i| {
+        let at = Vec3::new(((i % side) as f32 - side as f32 / 2.0) * 1.2, 0.3, -8.0 - (i / side) as f32 * 1.2);
+        (MeshInstance { mesh: cube, material: red }, Transform::from_translation(at))
+    });
+    let front = (0..20).map(|i| {
+        let at = Vec3::new((i % 10) as f32 * 0.9 - 4.0, 0.3, -2.5 - (i / 10) as f32 * 1.5);
+        (MeshInstance { mesh: cube, material: red }, Transform::from_translation(at))
+    });
+    world.spawn_batch(grid.chain(front).collect::<Vec<_>>());
+    world.spawn((
+        DirectionalLight { illuminance: 4.0, ..Default::default() },
+        Transform::default().looking_at(Vec3::new(0.3, -1.0, -0.4), Vec3::Z),
+    ));
+    world.spawn((Camera::default(), Transform::from_xyz(0.0, 1.7, 0.0).looking_at(Vec3::new(0.0, 1.5, -10.0), Vec3::Y)));
 }
 
 /// Seed 002 §4.2's polygon counts: opaque and transparent triangles.

@@ -312,6 +312,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
     }));
     match opts.bench_scene {
         Some(crate::bench::BenchScene::ManyInstances) => crate::bench::spawn_city(&mut app.world, opts.instances),
+        Some(crate::bench::BenchScene::BehindWall) => crate::bench::spawn_behind_wall(&mut app.world, opts.instances),
         Some(scene) => crate::bench::spawn_bench_scene(&mut app.world, scene),
         None => load_scene(&mut app.world, &opts.scene)?,
     }

@@ -159,7 +159,7 @@ struct Cli {
     /// Run --frames frames with each culling mode in turn (off, frustum, occlusion).
     #[arg(long)]
     compare_culling: bool,
-    /// Instances of --bench-scene many-instances.
+    /// Instances of --bench-scene many-instances (props) and behind-wall (boxes behind the wall).
     #[arg(long, default_value_t = sandbox::bench::MANY_INSTANCES)]
     instances: usize,
 }
