@@ -208,3 +208,47 @@ fn a_steady_scene_under_churn_settles_without_shrinking_and_regrowing() {
     assert!(shrinks_by_frame[..130].iter().sum::<u64>() <= 2, "the staging rings at most: {shrinks_by_frame:?}");
     assert_eq!(Some(memory(&mut app)), level, "memory in use stays level under churn ({})", breakdown(&mut app));
 }
+
+/// The mesh pool (`render::scene::pool`) repacks when a mesh does not fit and again, smaller,
+/// once the big mesh has gone for a while: the meshes already drawn move inside the pool (a
+/// freed mesh before them leaves a hole the repack closes) and must still draw the same image.
+#[test]
+fn the_mesh_pool_grows_and_shrinks_and_its_meshes_still_draw() {
+    let (mut app, grey, cube, _) = base_scene();
+    let mesh = |app: &mut App, m: Mesh| app.world.resource_mut::<Assets<Mesh>>().add(m);
+    let hidden = Transform::from_xyz(0.0, -50.0, 0.0);
+    // A spacer mesh, then the cubes' mesh after it in the pool.
+    let spacer = mesh(&mut app, shapes::uv_sphere(0.5, 32, 16));
+    let spacer_instance = app.world.spawn((MeshInstance { mesh: spacer, material: grey }, hidden)).id();
+    app.update();
+    let slab = mesh(&mut app, shapes::cuboid(Vec3::new(0.6, 0.1, 0.3), 1.0));
+    for (i, x) in [-1.0, 0.0, 1.0].into_iter().enumerate() {
+        let m = if i == 1 { cube } else { slab };
+        app.world.spawn((MeshInstance { mesh: m, material: grey }, Transform::from_xyz(x, 0.05, 0.0).with_scale(Vec3::splat(2.0))));
+    }
+    app.world.despawn(spacer_instance);
+    app.world.resource_mut::<Assets<Mesh>>().remove(spacer);
+    run(&mut app, 3);
+    let before = renderer(&mut app).read_hdr().unwrap();
+    let floor = app.world.resource::<RenderStats>().last.mesh_pool_bytes;
+    assert_eq!(floor, 1 << 20, "the pool starts at its floor");
+
+    // A sphere of about 2.4 MB, out of sight: the pool repacks into a larger buffer, the slabs'
+    // geometry moving down into the spacer's place.
+    let big = mesh(&mut app, shapes::uv_sphere(0.5, 256, 128));
+    let far = app.world.spawn((MeshInstance { mesh: big, material: grey }, hidden)).id();
+    app.update();
+    let grown = app.world.resource::<RenderStats>().last.mesh_pool_bytes;
+    assert!(grown >= 4 << 20, "the pool grew to fit the sphere ({grown} bytes)");
+    let after_grow = renderer(&mut app).read_hdr().unwrap();
+    assert!(after_grow == before, "the slabs and the cube draw the same after their geometry moved");
+
+    // The sphere goes: a second later the pool is repacked back to its floor.
+    app.world.despawn(far);
+    app.world.resource_mut::<Assets<Mesh>>().remove(big);
+    run(&mut app, render::gpu::upload::SHRINK_AFTER_FRAMES as usize + 4);
+    assert_eq!(app.world.resource::<RenderStats>().last.mesh_pool_bytes, floor, "the pool shrank back");
+    let after_shrink = renderer(&mut app).read_hdr().unwrap();
+    assert!(after_shrink == before, "the slabs and the cube draw the same after the pool shrank");
+    assert_no_validation_errors(&mut app);
+}
