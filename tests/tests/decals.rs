@@ -692,6 +692,57 @@ fn debug_views_show_boxes_and_count_the_decals_tested_per_pixel() {
     }
 }
 
+/// Every pixel enumerates each decal whose box (its AABB, the acceleration structure's
+/// primitive) holds the pixel's surface point exactly once: the count view equals a CPU count of
+/// the boxes holding the point, over 24 overlapping boxes, on both ray-tracing tiers (pixels
+/// within 2 cm of a box face are left out: the surface point is reconstructed from depth).
+#[test]
+fn every_pixel_enumerates_each_decal_box_holding_it_once() {
+    for c in CONFIGS.into_iter().filter(|c| c.method != DecalMethod::Clustered) {
+        eprintln!("{c:?}");
+        let (mut app, view) = plane_app(c);
+        let red = red_material(&mut app);
+        let mut rng = Lcg(11);
+        let mut boxes = Vec::new();
+        for _ in 0..24 {
+            let centre = Vec3::new(rng.range(-1.5, 1.5), 0.0, rng.range(-1.1, 1.1));
+            let size = Vec2::new(rng.range(0.3, 1.2), rng.range(0.3, 1.2));
+            let t = downward(centre, size, rng.range(0.3, 1.0), rng.range(0.0, 3.0));
+            let m = t.compute_matrix();
+            let corners = (0..8).map(|i| {
+                m.transform_point3(Vec3::new(
+                    if i & 1 == 0 { -0.5 } else { 0.5 },
+                    if i & 2 == 0 { -0.5 } else { 0.5 },
+                    if i & 4 == 0 { -0.5 } else { 0.5 },
+                ))
+            });
+            let (lo, hi) = corners.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)));
+            boxes.push((lo, hi));
+            app.world.spawn((Decal::new(red), t));
+        }
+        app.world.resource_mut::<RenderSettings>().debug_view = DebugView::DecalCount;
+        app.update();
+        let counts = renderer(&mut app).read_hdr().unwrap();
+        assert_no_validation_errors(&mut app);
+        let (mut checked, mut most) = (0, 0);
+        for py in 0..SIZE.1 {
+            for px in 0..SIZE.0 {
+                let Some(p) = view.ground_point(px, py, 0.0) else { continue };
+                let near_face = |(lo, hi): &(Vec3, Vec3)| (0..3).any(|a| (p[a] - lo[a]).abs() < 0.02 || (p[a] - hi[a]).abs() < 0.02);
+                if boxes.iter().any(near_face) {
+                    continue;
+                }
+                let expected = boxes.iter().filter(|(lo, hi)| p.cmpge(*lo).all() && p.cmple(*hi).all()).count();
+                let got = counts[(py * SIZE.0 + px) as usize][0];
+                assert_eq!(got, expected as f32, "{c:?}: pixel ({px},{py}) at {p}");
+                checked += 1;
+                most = most.max(expected);
+            }
+        }
+        assert!(checked > (SIZE.0 * SIZE.1 / 4) as usize && most >= 4, "{checked} pixels checked, at most {most} boxes deep");
+    }
+}
+
 #[test]
 fn decal_normal_maps_rotate_with_the_decal() {
     for c in CONFIGS {

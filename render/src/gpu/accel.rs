@@ -537,7 +537,10 @@ const BOX_BLAS_FLAGS: vk::BuildAccelerationStructureFlagsKHR = vk::BuildAccelera
 /// Flags of the one-instance TLAS builds.
 const BOX_TLAS_FLAGS: vk::BuildAccelerationStructureFlagsKHR = vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE;
 
-/// The geometry of a build over [`GpuAabb`] boxes from `address`.
+/// The geometry of a build over [`GpuAabb`] boxes from `address`. Its any-hit shaders
+/// accumulate (decals blend, lights add), so each box must reach them once per ray: without
+/// `NO_DUPLICATE_ANY_HIT_INVOCATION` the specification lets an implementation run any-hit twice
+/// for one primitive, and a decal would be blended twice.
 fn aabb_geometry(address: vk::DeviceAddress) -> [vk::AccelerationStructureGeometryKHR<'static>; 1] {
     [vk::AccelerationStructureGeometryKHR::default()
         .geometry_type(vk::GeometryTypeKHR::AABBS)
@@ -546,7 +549,7 @@ fn aabb_geometry(address: vk::DeviceAddress) -> [vk::AccelerationStructureGeomet
                 .data(vk::DeviceOrHostAddressConstKHR { device_address: address })
                 .stride(std::mem::size_of::<GpuAabb>() as u64),
         })
-        .flags(vk::GeometryFlagsKHR::OPAQUE)]
+        .flags(vk::GeometryFlagsKHR::OPAQUE | vk::GeometryFlagsKHR::NO_DUPLICATE_ANY_HIT_INVOCATION)]
 }
 
 /// The geometry of a TLAS build over the instance records at `address`.
