@@ -145,11 +145,10 @@ struct GlassRun {
 }
 
 /// This frame's lists: where each batch's commands and counts are.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 struct CullFrame {
     draws: vk::Buffer,
     pool: Option<vk::Buffer>,
-    res: ResourceId,
     /// Byte offset of the commands.
     commands: u64,
     list_stride: u32,
@@ -167,32 +166,6 @@ struct CullFrame {
     fresh_visibility: bool,
     hiz_levels: u32,
     extent: vk::Extent2D,
-}
-
-impl CullFrame {
-    fn empty(res: ResourceId) -> Self {
-        Self {
-            draws: vk::Buffer::null(),
-            pool: None,
-            res,
-            commands: 0,
-            list_stride: 0,
-            batch_start: [0; BATCHES],
-            batch_capacity: [0; BATCHES],
-            ordered_first: 0,
-            shadow_first: 0,
-            shadow_stride: 0,
-            shadow_count: 0,
-            slots: 0,
-            glass: 0,
-            header_words: 0,
-            two_phase: false,
-            reads_visibility: false,
-            fresh_visibility: false,
-            hiz_levels: 0,
-            extent: vk::Extent2D::default(),
-        }
-    }
 }
 
 /// The graph resources of culling.
@@ -289,7 +262,7 @@ impl Culling {
             readback,
             latest: CullingStats { measured_frame: u64::MAX, ..Default::default() },
             frozen: None,
-            frame: CullFrame::empty(res.draws),
+            frame: CullFrame::default(),
             params: GpuCullParams::default(),
             params_buffer,
             params_written: None,
@@ -456,7 +429,6 @@ impl Culling {
         self.frame = CullFrame {
             draws: draws.raw,
             pool: None,
-            res: self.res.draws,
             commands: header_words as u64 * 4,
             list_stride,
             batch_start,
@@ -619,7 +591,7 @@ impl Culling {
 
     fn lists(&self, lists: Lists) -> Draws<'_> {
         let lists = if self.frame.two_phase { lists } else { Lists::First };
-        Draws { frame: &self.frame, lists, calls: &self.draw_calls, glass: &self.glass_runs }
+        Draws { frame: &self.frame, res: self.res.draws, lists, calls: &self.draw_calls, glass: &self.glass_runs }
     }
 
     /// The lists the last frame's culling wrote, as instance slots (waits for the GPU); `None`
@@ -691,6 +663,7 @@ fn hiz_words(extent: vk::Extent2D, levels: u32) -> u64 {
 #[derive(Clone, Copy)]
 pub struct Draws<'a> {
     frame: &'a CullFrame,
+    res: ResourceId,
     lists: Lists,
     calls: &'a AtomicU64,
     glass: &'a [GlassRun],
@@ -699,7 +672,7 @@ pub struct Draws<'a> {
 impl Draws<'_> {
     /// What a pass that draws these lists reads besides the scene: the commands.
     pub fn reads(&self) -> [(ResourceId, BufferUse); 1] {
-        [(self.frame.res, BufferUse::Indirect)]
+        [(self.res, BufferUse::Indirect)]
     }
 
     fn bind_pool(&self, p: &PassContext) -> bool {

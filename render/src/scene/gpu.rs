@@ -30,7 +30,7 @@ use crate::gpu::memory::{Buffer, Image, ImageDesc, Retired};
 use crate::gpu::upload::{CopyList, Shrink, StagingRing, Upload};
 use crate::graph::{Bind, BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::GpuLighting;
-use crate::scene::pool::{GRANULE, POOL_FLOOR, RangeAllocator};
+use crate::scene::pool::{POOL_FLOOR, RangeAllocator, footprint};
 use crate::scene::{
     GpuAabb, GpuCamera, GpuMeshInfo, MeshData, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
     TextureData,
@@ -392,8 +392,6 @@ pub struct GpuScene {
     /// Ranges of freed meshes, returned to `ranges` once the frame value has completed.
     released_ranges: Vec<(u64, u64, u64)>,
     pool_shrink: Shrink,
-    /// Times the pool was repacked (grown, shrunk) or released, since the renderer started.
-    pub pool_repacks: u64,
     textures: Vec<Option<Image>>,
     /// Bindless set layout (set 0).
     pub set_layout: vk::DescriptorSetLayout,
@@ -527,7 +525,6 @@ impl GpuScene {
             ranges: RangeAllocator::default(),
             released_ranges: Vec::new(),
             pool_shrink: Shrink::default(),
-            pool_repacks: 0,
             textures: (0..RESERVED_TEXTURES).map(|_| None).collect(),
             set_layout,
             pool,
@@ -806,14 +803,14 @@ impl GpuScene {
             }
             !done
         });
-        let live: u64 = self.meshes.iter().flatten().map(|m| m.bytes.next_multiple_of(GRANULE)).sum();
+        let live: u64 = self.meshes.iter().flatten().map(|m| footprint(m.bytes)).sum();
         if !incoming.is_empty() {
             let sizes = incoming.iter().map(|(_, m)| RangeAllocator::mesh_bytes(m.vertices.len(), m.indices.len()));
             let mut trial = self.ranges.clone();
             if self.mesh_pool.is_some() && sizes.clone().all(|size| trial.alloc(size).is_some()) {
                 return PoolPlan::Keep;
             }
-            let need = live + sizes.map(|s| s.next_multiple_of(GRANULE).max(GRANULE)).sum::<u64>();
+            let need = live + sizes.map(footprint).sum::<u64>();
             return PoolPlan::Repack(need.next_power_of_two().max(POOL_FLOOR).max(self.ranges.capacity()));
         }
         let Some(pool) = self.mesh_pool.as_ref() else { return PoolPlan::Keep };
@@ -845,7 +842,6 @@ impl GpuScene {
                 self.ranges = RangeAllocator::default();
                 self.released_ranges.clear();
                 self.pool_shrink.reset();
-                self.pool_repacks += 1;
             }
             PoolPlan::Repack(capacity) => {
                 let new = Buffer::new(ctx, "mesh pool", capacity, self.mesh_usage, MemoryLocation::GpuOnly)?;
@@ -855,7 +851,7 @@ impl GpuScene {
                     for mesh in self.meshes.iter_mut().flatten() {
                         copy.push(mesh.offset, end, mesh.bytes);
                         mesh.offset = end;
-                        end += mesh.bytes.next_multiple_of(GRANULE).max(GRANULE);
+                        end += footprint(mesh.bytes);
                     }
                 }
                 for (slot, mesh) in self.meshes.iter().enumerate() {
@@ -875,7 +871,6 @@ impl GpuScene {
                 self.ranges = RangeAllocator::packed(capacity, end);
                 self.released_ranges.clear();
                 self.pool_shrink.reset();
-                self.pool_repacks += 1;
             }
         }
         if mirror.pending_meshes.is_empty() {

@@ -23,6 +23,11 @@ use crate::scene::GpuVertex;
 pub const GRANULE: u64 = 48;
 const _: () = assert!(GRANULE.is_multiple_of(std::mem::size_of::<GpuVertex>() as u64) && GRANULE.is_multiple_of(16));
 
+/// The bytes a range asked for `size` takes in the pool: whole granules, at least one.
+pub fn footprint(size: u64) -> u64 {
+    size.next_multiple_of(GRANULE).max(GRANULE)
+}
+
 /// The smallest pool buffer (1 MiB).
 pub const POOL_FLOOR: u64 = 1 << 20;
 
@@ -49,7 +54,7 @@ impl RangeAllocator {
     /// Takes `size` bytes (rounded up to [`GRANULE`]) from the first free range that holds
     /// them; `None` when none does.
     pub fn alloc(&mut self, size: u64) -> Option<u64> {
-        let size = size.next_multiple_of(GRANULE).max(GRANULE);
+        let size = footprint(size);
         let i = self.free.iter().position(|&(_, len)| len >= size)?;
         let (start, len) = self.free[i];
         if len == size {
@@ -63,7 +68,7 @@ impl RangeAllocator {
 
     /// Returns a range [`RangeAllocator::alloc`] gave out (`size` as asked for then).
     pub fn free(&mut self, offset: u64, size: u64) {
-        let size = size.next_multiple_of(GRANULE).max(GRANULE);
+        let size = footprint(size);
         let i = self.free.partition_point(|&(start, _)| start < offset);
         debug_assert!(i == 0 || self.free[i - 1].0 + self.free[i - 1].1 <= offset, "a range freed twice");
         self.free.insert(i, (offset, size));
