@@ -22,4 +22,4 @@ pub use crate::material::{AlphaMode, Material};
 pub use crate::mesh::{Mesh, shapes};
 pub use crate::scene::{MeshInstance, Name};
 pub use crate::time::Time;
-pub use crate::transform::{GlobalTransform, Transform, TransformPlugin, TransformSystems};
+pub use crate::transform::{GlobalTransform, Static, Transform, TransformChanges, TransformPlugin, TransformSystems};

@@ -15,6 +15,7 @@ pub struct Time {
     delta: Duration,
     elapsed: Duration,
     frame: u64,
+    update_started: Option<Instant>,
 }
 
 impl Time {
@@ -48,6 +49,12 @@ impl Time {
         self.frame
     }
 
+    /// The wall-clock instant at which the current frame's update began (also with a fixed
+    /// step): for measuring the CPU time a frame took, never for simulation.
+    pub fn update_started(&self) -> Option<Instant> {
+        self.update_started
+    }
+
     /// Sets (`Some`) or clears (`None`, real clock) the fixed step.
     pub fn set_fixed_step(&mut self, step: Option<Duration>) {
         self.fixed_step = step;
@@ -62,6 +69,7 @@ impl Time {
     /// Starts a new frame: measures (or, with a fixed step, assumes) its delta.
     pub fn advance(&mut self) {
         let now = Instant::now();
+        self.update_started = Some(now);
         self.delta = match (self.fixed_step, self.last_instant) {
             (Some(step), _) => step,
             (None, Some(last)) => now.saturating_duration_since(last),

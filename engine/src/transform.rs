@@ -6,18 +6,36 @@
 //! a changed ancestor (the ancestor's pass covers them), and recomputes each such subtree once,
 //! top-down, with a reusable stack (no per-frame allocation once warm). [`GlobalTransform`] is
 //! written with `set_if_neq`, so a frame in which nothing moved produces no
-//! `Changed<GlobalTransform>` and the render extraction uploads nothing.
+//! `Changed<GlobalTransform>` and the render extraction uploads nothing. Every entity whose
+//! global transform did change is listed in [`TransformChanges::moved`], so that consumers
+//! (the render extraction of decals) find what moved without visiting what did not.
+//!
+//! Finding the changed transforms is a scan of the change ticks of every entity with a
+//! `Transform`, which costs about a millisecond per million entities. Entities that never move
+//! on their own (bullet holes, footprints, level geometry) can carry [`Static`]: their archetype
+//! is left out of the scan, and their transform is seen only when it is *inserted* (at spawn, or
+//! re-inserted to move it: a component hook lists it) or when they are re-parented. What stays
+//! proportional to what: the scan to the non-static entities, everything else to the entities
+//! that moved (a static child still follows a moving parent: subtrees are walked from the
+//! parent). Changing a static entity's `Transform` in place is not seen; debug builds warn
+//! once when it happens.
 
+use std::collections::HashSet;
+
+use bevy_ecs::lifecycle::HookContext;
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::SystemSet;
+use bevy_ecs::world::DeferredWorld;
 use glam::{Affine3A, Mat3, Mat4, Quat, Vec3};
 use tracing::warn;
 
 use crate::app::{App, Plugin, PostUpdate};
+use crate::time::Time;
 
 /// Position, rotation and scale of an entity relative to its parent (or the world for roots).
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
 #[require(GlobalTransform)]
+#[component(on_insert = static_transform_inserted)]
 pub struct Transform {
     /// Translation in the parent's space.
     pub translation: Vec3,
@@ -150,6 +168,63 @@ impl GlobalTransform {
     }
 }
 
+/// Marks an entity whose [`Transform`] does not change in place: transform propagation skips
+/// its archetype when it scans for changes, so a million static decals cost the scan nothing.
+///
+/// Such an entity is still placed when spawned, follows its parent when the parent moves, and
+/// moves when its `Transform` is re-inserted (`commands.entity(e).insert(new_transform)`) or
+/// when it is re-parented. Writing its `Transform` through `&mut Transform` is *not* seen (debug
+/// builds warn once); remove `Static` first for an entity that will move every frame.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[component(on_insert = static_inserted)]
+pub struct Static;
+
+/// What transform propagation must look at besides its scan, and what it moved.
+///
+/// Kept by the [`TransformPlugin`]: component hooks list the [`Static`] entities whose transform
+/// was inserted or whose parent changed, and [`propagate_transforms`] lists each entity whose
+/// [`GlobalTransform`] it changed during the current frame (every propagation run of the frame
+/// adds to the list; the first run of the next frame clears it).
+#[derive(Resource, Default)]
+pub struct TransformChanges {
+    /// Static entities to propagate at the next run.
+    pending: HashSet<Entity>,
+    /// Entities whose global transform changed this frame.
+    moved: Vec<Entity>,
+    /// The frame (`Time::frame`) that `moved` belongs to.
+    frame: u64,
+}
+
+impl TransformChanges {
+    /// Entities whose [`GlobalTransform`] changed during the current frame, in propagation
+    /// order (an entity moved by two propagation runs is listed twice).
+    pub fn moved(&self) -> &[Entity] {
+        &self.moved
+    }
+
+    fn note_static(mut world: DeferredWorld, entity: Entity) {
+        if let Some(mut changes) = world.get_resource_mut::<TransformChanges>() {
+            changes.pending.insert(entity);
+        }
+    }
+}
+
+fn static_transform_inserted(world: DeferredWorld, ctx: HookContext) {
+    if world.entity(ctx.entity).contains::<Static>() {
+        TransformChanges::note_static(world, ctx.entity);
+    }
+}
+
+fn static_inserted(world: DeferredWorld, ctx: HookContext) {
+    TransformChanges::note_static(world, ctx.entity);
+}
+
+fn static_reparented(event: On<Insert<ChildOf>>, statics: Query<(), With<Static>>, mut changes: ResMut<TransformChanges>) {
+    if statics.contains(event.entity) {
+        changes.pending.insert(event.entity);
+    }
+}
+
 /// System sets of the transform plugin.
 #[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum TransformSystems {
@@ -157,42 +232,84 @@ pub enum TransformSystems {
     Propagate,
 }
 
-/// Adds [`propagate_transforms`] to [`PostUpdate`] in [`TransformSystems::Propagate`].
+/// Adds [`propagate_transforms`] to [`PostUpdate`] in [`TransformSystems::Propagate`], and the
+/// [`TransformChanges`] it keeps.
 pub struct TransformPlugin;
 
 impl Plugin for TransformPlugin {
     fn build(&self, app: &mut App) {
+        app.world.init_resource::<TransformChanges>();
+        app.world.add_observer(static_reparented);
         app.add_systems(PostUpdate, propagate_transforms.in_set(TransformSystems::Propagate));
+        #[cfg(debug_assertions)]
+        app.add_systems(PostUpdate, warn_on_static_writes.before(TransformSystems::Propagate));
+    }
+}
+
+/// Debug builds: warns once when a [`Static`] entity's `Transform` was written in place (which
+/// propagation does not see). Scans the static entities, so release builds leave it out.
+#[cfg(debug_assertions)]
+fn warn_on_static_writes(
+    written: Query<Entity, (With<Static>, Changed<Transform>)>,
+    changes: Option<Res<TransformChanges>>,
+    mut warned: Local<bool>,
+) {
+    if *warned {
+        return;
+    }
+    let Some(changes) = changes else { return };
+    if let Some(entity) = written.iter().find(|e| !changes.pending.contains(e)) {
+        *warned = true;
+        warn!(
+            ?entity,
+            "the Transform of a Static entity was changed in place, which transform propagation does not see: re-insert the Transform to move it, or remove Static from entities that move (warned once)"
+        );
     }
 }
 
 /// Deepest ancestor chain walked before a hierarchy is reported as cyclic.
 const MAX_DEPTH: usize = 1 << 16;
 
-/// Entities whose own transform or parent link changed since the last run.
-type Dirty = Or<(Changed<Transform>, Changed<ChildOf>)>;
+/// Non-static entities whose own transform or parent link changed since the last run.
+type Dirty = (With<Transform>, Without<Static>, Or<(Changed<Transform>, Changed<ChildOf>)>);
 
-/// Updates [`GlobalTransform`] of every entity whose transform, parent link or ancestor changed.
+/// Updates [`GlobalTransform`] of every entity whose transform, parent link or ancestor changed,
+/// and lists those whose global transform changed in [`TransformChanges`].
 ///
 /// Roots get `GlobalTransform = Transform`; children get `parent_global * local`. An entity
-/// whose parent has no [`GlobalTransform`] is treated as a root of its own.
+/// whose parent has no [`GlobalTransform`] is treated as a root of its own. Without the
+/// [`TransformChanges`] resource (no [`TransformPlugin`]), [`Static`] entities are not seen.
 pub fn propagate_transforms(
-    dirty: Query<Entity, (With<Transform>, Dirty)>,
+    dirty: Query<Entity, Dirty>,
     parents: Query<&ChildOf>,
     mut nodes: Query<(&Transform, &mut GlobalTransform, Option<&Children>)>,
     mut orphaned: RemovedComponents<ChildOf>,
-    mut stack: Local<Vec<(Entity, Affine3A)>>,
+    (changes, time): (Option<ResMut<TransformChanges>>, Option<Res<Time>>),
+    (mut stack, mut seeds, mut scratch): (Local<Vec<(Entity, Affine3A)>>, Local<Vec<Entity>>, Local<TransformChanges>),
 ) {
+    let changes = match changes {
+        Some(changes) => changes.into_inner(),
+        None => &mut *scratch,
+    };
+    let frame = time.map_or(0, |t| t.frame());
+    if changes.frame != frame {
+        changes.frame = frame;
+        changes.moved.clear();
+    }
+    let TransformChanges { pending, moved, .. } = changes;
+    let is_dirty = |entity: Entity| dirty.contains(entity) || pending.contains(&entity);
     // Entities that lost their parent and are roots now (unless they are also dirty, in which
     // case the loop below handles them).
     for entity in orphaned.read() {
-        if !dirty.contains(entity) && !parents.contains(entity) && nodes.contains(entity) {
+        if !is_dirty(entity) && !parents.contains(entity) && nodes.contains(entity) {
             stack.push((entity, Affine3A::IDENTITY));
         }
     }
-    propagate_stack(&mut stack, &mut nodes);
+    propagate_stack(&mut stack, &mut nodes, moved);
 
-    'seeds: for entity in &dirty {
+    seeds.clear();
+    seeds.extend(dirty.iter().chain(pending.iter().copied()));
+    'seeds: for &entity in seeds.iter() {
         // Skip entities with a dirty ancestor: the ancestor's subtree pass recomputes them.
         let mut current = entity;
         let mut depth = 0;
@@ -203,7 +320,7 @@ pub fn propagate_transforms(
                 warn!(?entity, "transform hierarchy is cyclic or too deep; not propagated");
                 continue 'seeds;
             }
-            if dirty.contains(current) {
+            if is_dirty(current) {
                 continue 'seeds;
             }
         }
@@ -213,18 +330,26 @@ pub fn propagate_transforms(
             .and_then(|child_of| nodes.get(child_of.parent()).ok())
             .map_or(Affine3A::IDENTITY, |(_, global, _)| global.0);
         stack.push((entity, parent_affine));
-        propagate_stack(&mut stack, &mut nodes);
+        propagate_stack(&mut stack, &mut nodes, moved);
     }
+    pending.clear();
 }
 
-/// Recomputes the subtrees rooted at the entities on `stack`, depth first, emptying it.
-fn propagate_stack(stack: &mut Vec<(Entity, Affine3A)>, nodes: &mut Query<(&Transform, &mut GlobalTransform, Option<&Children>)>) {
+/// Recomputes the subtrees rooted at the entities on `stack`, depth first, emptying it, and
+/// lists the entities whose global transform changed in `moved`.
+fn propagate_stack(
+    stack: &mut Vec<(Entity, Affine3A)>,
+    nodes: &mut Query<(&Transform, &mut GlobalTransform, Option<&Children>)>,
+    moved: &mut Vec<Entity>,
+) {
     while let Some((entity, parent_affine)) = stack.pop() {
         let Ok((transform, mut global, children)) = nodes.get_mut(entity) else {
             continue;
         };
         let affine = parent_affine * transform.compute_affine();
-        global.set_if_neq(GlobalTransform(affine));
+        if global.set_if_neq(GlobalTransform(affine)) {
+            moved.push(entity);
+        }
         if let Some(children) = children {
             stack.extend(children.iter().map(|child| (child, affine)));
         }

@@ -94,6 +94,61 @@ fn reparenting_and_orphaning() {
     assert_eq!(app.world.resource::<ChangedGlobals>().0, 0);
 }
 
+/// Entities whose global transform changed, as propagation listed them this frame (sorted).
+fn moved(app: &App) -> Vec<Entity> {
+    sorted(app.world.resource::<TransformChanges>().moved().to_vec())
+}
+
+fn sorted(mut entities: Vec<Entity>) -> Vec<Entity> {
+    entities.sort();
+    entities
+}
+
+#[test]
+fn static_entities_are_placed_follow_parents_and_move_only_when_their_transform_is_inserted() {
+    let mut app = app();
+    let parent = app.world.spawn(Transform::from_xyz(5.0, 0.0, 0.0)).id();
+    let free = app.world.spawn(Transform::from_xyz(0.0, 0.0, 1.0)).id();
+    let fixed = app.world.spawn((Transform::from_xyz(1.0, 0.0, 0.0), Static)).id();
+    let riding = app.world.spawn((Transform::from_xyz(0.0, 1.0, 0.0), Static, ChildOf(parent))).id();
+    app.update();
+    assert!(close(global(&app, fixed), Vec3::new(1.0, 0.0, 0.0)));
+    assert!(close(global(&app, riding), Vec3::new(5.0, 1.0, 0.0)));
+    assert_eq!(moved(&app), sorted(vec![parent, free, fixed, riding]), "every spawned entity is listed as moved");
+    app.update();
+    assert!(moved(&app).is_empty(), "nothing moved");
+
+    // A moving parent carries its static child.
+    app.world.get_mut::<Transform>(parent).unwrap().translation.x = 6.0;
+    app.update();
+    assert!(close(global(&app, riding), Vec3::new(6.0, 1.0, 0.0)));
+    assert_eq!(moved(&app), sorted(vec![parent, riding]));
+
+    // Re-inserting the transform moves a static entity; re-parenting does too.
+    app.world.entity_mut(fixed).insert(Transform::from_xyz(2.0, 0.0, 0.0));
+    app.update();
+    assert!(close(global(&app, fixed), Vec3::new(2.0, 0.0, 0.0)));
+    assert_eq!(moved(&app), [fixed]);
+    app.world.entity_mut(fixed).insert(ChildOf(parent));
+    app.update();
+    assert!(close(global(&app, fixed), Vec3::new(8.0, 0.0, 0.0)));
+    assert_eq!(moved(&app), [fixed]);
+
+    // Writing a static entity's transform in place is not seen (debug builds warn); the
+    // non-static entity moves as always.
+    app.world.get_mut::<Transform>(fixed).unwrap().translation.x = 3.0;
+    app.world.get_mut::<Transform>(free).unwrap().translation.z = 2.0;
+    app.update();
+    assert!(close(global(&app, fixed), Vec3::new(8.0, 0.0, 0.0)));
+    assert_eq!(moved(&app), [free]);
+    // Removing Static makes the entity watched again.
+    app.world.entity_mut(fixed).remove::<Static>();
+    app.world.get_mut::<Transform>(fixed).unwrap().translation.x = 4.0;
+    app.update();
+    assert!(close(global(&app, fixed), Vec3::new(10.0, 0.0, 0.0)));
+    assert_eq!(moved(&app), [fixed]);
+}
+
 #[test]
 fn deep_chain_is_linear_and_correct() {
     // 2000 levels: an O(n²) propagation would still pass, but a wrong order would not.

@@ -6,9 +6,18 @@
 //! `Query`; a decal parented to a moving entity follows it through transform propagation.
 //!
 //! Extraction writes each decal into a stable GPU slot keyed by its entity, together with the
-//! AABB of its box; the renderer refits the decal BLAS when only boxes moved and rebuilds it when
-//! its capacity changed or refits have degraded it (see `render::decals`). The seed's renderer
-//! handled only static, pre-placed decals and left decals on moving objects out.
+//! AABB of its box. It visits only the decals that changed, never the others: [`Decal`] and
+//! [`DecalLifetime`] are immutable components (edit a decal by inserting a new one: the compiler
+//! refuses `&mut Decal`), so component hooks list every spawn and edit in [`DecalChanges`];
+//! transform propagation lists what moved ([`engine::transform::TransformChanges`]); despawns
+//! arrive as removal events. Decals that never move can carry [`engine::transform::Static`], so
+//! that the transform scan skips them too: a frame in which a million static decals sit still
+//! costs the CPU nothing per decal. A lifetime's fade is evaluated on the GPU from the scene
+//! clock (`GpuCamera::time`), and expiry pops a time-ordered queue ([`DecalLifetimes`]), so
+//! ageing decals are neither visited nor re-uploaded. The renderer refits the decal BLAS when
+//! only boxes moved and rebuilds it when its capacity changed or refits have degraded it (see
+//! `render::decals`). The seed's renderer handled only static, pre-placed decals and left decals
+//! on moving objects out.
 //!
 //! ```
 //! use engine::prelude::*;
@@ -19,11 +28,21 @@
 //!     let transform = Transform::from_translation(hit)
 //!         .looking_at(hit - normal, if normal.y.abs() > 0.9 { Vec3::X } else { Vec3::Y })
 //!         .with_scale(Vec3::new(0.15, 0.15, 0.1));
-//!     world.spawn((Decal::new(material), transform, DecalLifetime::new(30.0, 2.0)));
+//!     // A bullet hole never moves on its own: `Static` keeps it out of the transform scan.
+//!     world.spawn((Decal::new(material), transform, Static, DecalLifetime::new(30.0, 2.0)));
 //! }
 //! ```
+//!
+//! To edit a decal, insert a changed copy: `commands.entity(e).insert(Decal { opacity: 0.5,
+//! ..decal.clone() })`.
 
+use std::cmp::Reverse;
+use std::collections::{BinaryHeap, HashMap};
+use std::time::Duration;
+
+use bevy_ecs::lifecycle::HookContext;
 use bevy_ecs::prelude::*;
+use bevy_ecs::world::DeferredWorld;
 use engine::asset::Handle;
 use engine::image::Image;
 use engine::time::Time;
@@ -124,8 +143,12 @@ pub const DEFAULT_RECEIVER_LAYERS: u32 = 1;
 
 /// A decal projector. Needs a `Transform` (added automatically): translation is the box centre,
 /// rotation orients it (projection along local −Z), scale is the box size.
+///
+/// Immutable: to edit a decal, insert a new `Decal` on its entity (a hook then lists it for
+/// extraction, which is how extraction avoids visiting the decals that did not change).
 #[derive(Component, Clone, Debug, PartialEq)]
 #[require(engine::transform::Transform)]
+#[component(immutable, on_insert = decal_inserted)]
 pub struct Decal {
     /// What the decal applies.
     pub material: Handle<DecalMaterial>,
@@ -140,7 +163,7 @@ pub struct Decal {
     pub receivers: u32,
     /// Grazing-angle fade; `None` projects at every angle (also onto back-facing surfaces).
     pub angle_fade: Option<AngleFade>,
-    /// Overall opacity multiplier (the lifetime system drives it during fade-out).
+    /// Overall opacity multiplier (a [`DecalLifetime`] fades it further on the GPU).
     pub opacity: f32,
 }
 
@@ -165,49 +188,149 @@ impl Decal {
 #[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DecalReceiver(pub u32);
 
-/// Despawns a decal after `remaining` seconds, fading its opacity to zero over the last
-/// `fade_out` seconds. Driven by [`update_decal_lifetimes`], which the render plugin adds.
+/// Despawns a decal `seconds` after it was inserted, fading it out over the last `fade_out`
+/// seconds. The fade is evaluated on the GPU and expiry pops a time-ordered queue
+/// ([`DecalLifetimes`]), so an ageing decal costs nothing per frame. Immutable: insert a new
+/// lifetime to restart it; remove it to keep the decal.
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[component(immutable, on_insert = lifetime_inserted, on_remove = lifetime_removed)]
 pub struct DecalLifetime {
-    /// Seconds left.
-    pub remaining: f32,
-    /// Length of the fade at the end.
+    /// Seconds the decal lives from the moment the lifetime is inserted.
+    pub seconds: f32,
+    /// Length of the fade at the end, in seconds.
     pub fade_out: f32,
-    /// Opacity at spawn (the fade scales from it).
-    pub initial_opacity: f32,
 }
 
 impl DecalLifetime {
-    /// Lives `seconds`, fading over the last `fade_out` seconds.
+    /// Lives `seconds`, fading over the last `fade_out` seconds (both clamped to ≥ 0; a fade
+    /// longer than the life starts at once).
     pub fn new(seconds: f32, fade_out: f32) -> Self {
-        Self { remaining: seconds, fade_out: fade_out.max(0.0), initial_opacity: 1.0 }
+        Self { seconds, fade_out }
+    }
+
+    /// The fade window (start, end) of a lifetime inserted at `now`.
+    fn window(&self, now: Duration) -> (Duration, Duration) {
+        let secs = |s: f32| Duration::try_from_secs_f32(s.max(0.0)).unwrap_or(Duration::MAX / 4);
+        let end = now.saturating_add(secs(self.seconds));
+        (end.saturating_sub(secs(self.fade_out)).max(now), end)
     }
 }
 
-/// Counts down every [`DecalLifetime`], fades the decal's opacity over the last `fade_out`
-/// seconds and despawns it when the time is up. Runs in `Update`.
-pub fn update_decal_lifetimes(mut commands: Commands, time: Res<Time>, mut decals: Query<(Entity, &mut DecalLifetime, &mut Decal)>) {
-    let dt = time.delta_secs();
-    for (entity, mut life, mut decal) in &mut decals {
-        life.remaining -= dt;
-        if life.remaining <= 0.0 {
+/// Decals whose [`Decal`] or [`DecalLifetime`] was inserted or removed since the last
+/// extraction, listed by component hooks: the extraction visits these, the moved ones and the
+/// despawned ones, and nothing else.
+#[derive(Resource, Default)]
+pub struct DecalChanges {
+    entities: Vec<Entity>,
+}
+
+impl DecalChanges {
+    /// Lists `entity` for the next extraction.
+    pub fn push(&mut self, entity: Entity) {
+        self.entities.push(entity);
+    }
+
+    /// Takes the listed entities, leaving the list empty (its capacity kept).
+    pub(crate) fn drain(&mut self) -> std::vec::Drain<'_, Entity> {
+        self.entities.drain(..)
+    }
+}
+
+/// The lifetimes of living decals on the scene clock (`Time::elapsed`): each decal's fade window
+/// and a queue ordered by expiry, so that expiring decals are found without visiting the others.
+#[derive(Resource, Default)]
+pub struct DecalLifetimes {
+    windows: HashMap<Entity, (Duration, Duration)>,
+    /// (end, entity): popped when the end has passed; stale when the window changed.
+    expiry: BinaryHeap<Reverse<(Duration, Entity)>>,
+    /// (start, entity): the earliest fade start of a live window at the top (stale ones popped).
+    fades: BinaryHeap<Reverse<(Duration, Entity)>>,
+    fading: bool,
+}
+
+impl DecalLifetimes {
+    /// The fade window (start, end) of a decal's lifetime on the scene clock, if it has one.
+    pub fn fade_window(&self, entity: Entity) -> Option<(Duration, Duration)> {
+        self.windows.get(&entity).copied()
+    }
+
+    /// Whether some decal's fade had begun at the last [`expire_decals`]: the scene clock is
+    /// handed to the GPU only then, so frames in which decals merely age upload nothing.
+    pub fn fading(&self) -> bool {
+        self.fading
+    }
+
+    /// Decals with a lifetime.
+    pub fn len(&self) -> usize {
+        self.windows.len()
+    }
+
+    /// True when no decal has a lifetime.
+    pub fn is_empty(&self) -> bool {
+        self.windows.is_empty()
+    }
+
+    fn insert(&mut self, entity: Entity, window: (Duration, Duration)) {
+        self.windows.insert(entity, window);
+        self.expiry.push(Reverse((window.1, entity)));
+        self.fades.push(Reverse((window.0, entity)));
+    }
+}
+
+fn decal_inserted(mut world: DeferredWorld, ctx: HookContext) {
+    if let Some(mut changes) = world.get_resource_mut::<DecalChanges>() {
+        changes.push(ctx.entity);
+    }
+}
+
+fn lifetime_inserted(mut world: DeferredWorld, ctx: HookContext) {
+    let Some(&life) = world.get::<DecalLifetime>(ctx.entity) else { return };
+    let now = world.get_resource::<Time>().map_or(Duration::ZERO, |t| t.elapsed());
+    if let Some(mut lifetimes) = world.get_resource_mut::<DecalLifetimes>() {
+        lifetimes.insert(ctx.entity, life.window(now));
+    }
+    decal_inserted(world, ctx);
+}
+
+fn lifetime_removed(mut world: DeferredWorld, ctx: HookContext) {
+    if let Some(mut lifetimes) = world.get_resource_mut::<DecalLifetimes>() {
+        // Its queue entries go stale and are dropped when they reach the top.
+        lifetimes.windows.remove(&ctx.entity);
+    }
+    decal_inserted(world, ctx);
+}
+
+/// Despawns the decals whose [`DecalLifetime`] ran out, popping the expiry queue (work
+/// proportional to the decals expiring), and notes whether any decal is fading. Runs in
+/// `Update`; the render plugin adds it.
+pub fn expire_decals(mut commands: Commands, time: Res<Time>, mut lifetimes: ResMut<DecalLifetimes>) {
+    let now = time.elapsed();
+    let DecalLifetimes { windows, expiry, fades, fading } = &mut *lifetimes;
+    while let Some(&Reverse((end, entity))) = expiry.peek() {
+        if end > now {
+            break;
+        }
+        expiry.pop();
+        if windows.get(&entity).is_some_and(|w| w.1 == end) {
+            windows.remove(&entity);
             // Silently, as the decal may be leaving this frame anyway with the entity it rides on.
             commands.entity(entity).try_despawn();
-            continue;
-        }
-        if life.remaining < life.fade_out {
-            let opacity = life.initial_opacity * (life.remaining / life.fade_out);
-            // Written only when it changes, so a decal that is not fading is not re-extracted.
-            if decal.opacity != opacity {
-                decal.opacity = opacity;
-            }
         }
     }
+    while let Some(&Reverse((start, entity))) = fades.peek() {
+        if windows.get(&entity).is_some_and(|w| w.0 == start) {
+            break;
+        }
+        fades.pop();
+    }
+    *fading = fades.peek().is_some_and(|Reverse((start, _))| *start <= now);
 }
 
-/// The decal as the renderer takes it, placed by `decal_to_world`.
-pub(crate) fn decal_desc(decal: &Decal, decal_to_world: Mat4, material: u32) -> DecalDesc {
+/// The decal as the renderer takes it, placed by `decal_to_world`, fading over `lifetime`
+/// (on the scene clock).
+pub(crate) fn decal_desc(decal: &Decal, decal_to_world: Mat4, material: u32, lifetime: Option<(Duration, Duration)>) -> DecalDesc {
     DecalDesc {
+        lifetime_fade: lifetime.map(|(start, end)| (start.as_secs_f32(), end.as_secs_f32())),
         decal_to_world,
         material,
         uv_corners: decal.uv.corners(),

@@ -13,7 +13,8 @@ use engine::light::{DirectionalLight, PointLight, SpotLight};
 use engine::material::{AlphaMode, Material};
 use engine::mesh::Mesh;
 use engine::scene::MeshInstance;
-use engine::transform::GlobalTransform;
+use engine::time::Time;
+use engine::transform::{GlobalTransform, TransformChanges};
 use glam::{Mat4, Vec2, Vec3};
 use render::scene::{
     DrawItem, GpuCamera, GpuInstance, GpuMaterial, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, MeshId, SceneMirror,
@@ -21,7 +22,9 @@ use render::scene::{
 };
 use std::collections::{HashMap, HashSet};
 
-use crate::decal::{DEFAULT_RECEIVER_LAYERS, Decal, DecalMaterial, DecalReceiver, decal_desc, gpu_decal_material};
+use crate::decal::{
+    DEFAULT_RECEIVER_LAYERS, Decal, DecalChanges, DecalLifetimes, DecalMaterial, DecalReceiver, decal_desc, gpu_decal_material,
+};
 use crate::validate::{self, WarnOnce};
 use crate::{RenderMirror, RenderSettings, RenderStats};
 
@@ -437,12 +440,19 @@ pub fn extract_lights(
 /// record, so a still camera uploads nothing. A camera whose transform is not finite or not
 /// invertible keeps the last good view (one warning); a field of view outside (0, π) or a
 /// non-positive near plane is replaced by a default in [`Camera::projection`] (one warning).
+///
+/// The camera record also carries the scene clock for decals fading out at the end of their
+/// lifetime; it advances only while one is fading, so that frames in which time merely passes
+/// upload nothing.
 pub fn extract_camera(
     cameras: Query<(Entity, &Camera, &GlobalTransform)>,
-    settings: Res<RenderSettings>,
+    (settings, time, lifetimes): (Res<RenderSettings>, Res<Time>, Res<DecalLifetimes>),
     mut mirror: ResMut<RenderMirror>,
-    mut warned: Local<WarnOnce<(Entity, bool)>>,
+    (mut warned, mut clock): (Local<WarnOnce<(Entity, bool)>>, Local<f32>),
 ) {
+    if lifetimes.fading() {
+        *clock = time.elapsed_secs();
+    }
     let Some((entity, camera, global)) = cameras.iter().find(|(_, c, _)| c.active) else {
         return;
     };
@@ -467,7 +477,9 @@ pub fn extract_camera(
     let view = world.inverse();
     let proj = camera.projection(w as f32 / h.max(1) as f32);
     let view_proj = proj * view;
-    mirror.0.set_camera(camera_record(view, proj, view_proj, global.translation(), exposure, (w, h), settings.ambient));
+    let mut record = camera_record(view, proj, view_proj, global.translation(), exposure, (w, h), settings.ambient);
+    record.time = *clock;
+    mirror.0.set_camera(record);
 }
 
 fn camera_record(view: Mat4, proj: Mat4, view_proj: Mat4, position: Vec3, exposure: f32, (w, h): (u32, u32), ambient: Vec3) -> GpuCamera {
@@ -481,7 +493,7 @@ fn camera_record(view: Mat4, proj: Mat4, view_proj: Mat4, position: Vec3, exposu
         viewport_size: Vec2::new(w as f32, h as f32),
         inv_viewport_size: Vec2::new(1.0 / w as f32, 1.0 / h as f32),
         ambient,
-        pad: 0,
+        time: 0.0,
     }
 }
 
@@ -513,17 +525,21 @@ pub fn extract_decal_materials(
     }
 }
 
-type ChangedDecal = Or<(Changed<Decal>, Changed<GlobalTransform>)>;
-
-/// Mirrors decals that were spawned, moved (directly or through a parent) or edited into their
-/// stable slots, with their boxes; frees despawned ones. Unchanged decals cost nothing.
+/// Mirrors the decals that were spawned, edited (re-inserted), given or relieved of a lifetime,
+/// moved (directly or through a parent) or despawned; unchanged decals are never visited.
+///
+/// The decals to visit come from lists, not from a scan: [`DecalChanges`] (component hooks on
+/// insert), [`TransformChanges::moved`] (transform propagation) and the removal events. So the
+/// work is proportional to the decals that changed, and [`RenderStats::visited`] says how many
+/// that was. (Without the engine's `TransformPlugin` no moves are listed.)
+#[allow(clippy::too_many_arguments)]
 pub fn extract_decals(
-    changed: Query<(Entity, &Decal, &GlobalTransform), ChangedDecal>,
-    all: Query<(Entity, &Decal, &GlobalTransform)>,
+    decals: Query<(&Decal, &GlobalTransform)>,
+    (mut changes, moved, lifetimes): (ResMut<DecalChanges>, Option<Res<TransformChanges>>, Res<DecalLifetimes>),
     mut removed: RemovedComponents<Decal>,
     live: Query<(), With<Decal>>,
     (mut mirror, mut slots): (ResMut<RenderMirror>, ResMut<MirrorSlots>),
-    mut checks: Local<EntityChecks>,
+    (mut checks, mut visit): (Local<EntityChecks>, Local<Vec<Entity>>),
     (settings, mut stats): (Res<RenderSettings>, ResMut<RenderStats>),
 ) {
     let EntityChecks { warned, waiting } = &mut *checks;
@@ -540,8 +556,17 @@ pub fn extract_decals(
             mirror.counters.records_written += 1;
         }
     }
-    let retry = waiting.retry(mirror.decals.len(), limit);
-    for (entity, decal, global) in changed.iter().chain(retry.iter().filter_map(|&e| all.get(e).ok())) {
+    // One visit per changed decal, however many lists name it.
+    visit.clear();
+    visit.extend(changes.drain());
+    visit.extend(moved.iter().flat_map(|m| m.moved()).copied().filter(|&e| decals.contains(e)));
+    visit.extend(waiting.retry(mirror.decals.len(), limit));
+    visit.sort_unstable();
+    visit.dedup();
+    let mut visited = 0;
+    for &entity in visit.iter() {
+        let Ok((decal, global)) = decals.get(entity) else { continue };
+        visited += 1;
         let Some(&material) = slots.decal_materials.get(&decal.material) else {
             warned.report(entity, "decal", Some("refers to a decal material that does not exist"), "not drawn");
             waiting.forget(entity);
@@ -551,7 +576,7 @@ pub fn extract_decals(
             }
             continue;
         };
-        let mut desc = decal_desc(decal, global.compute_matrix(), material);
+        let mut desc = decal_desc(decal, global.compute_matrix(), material, lifetimes.fade_window(entity));
         // An invalid decal keeps its slot but lands nowhere (render::scene::DecalDesc::is_valid
         // for its transform, no receiver layers for bad parameters); said once per entity.
         let problem =
@@ -571,5 +596,6 @@ pub fn extract_decals(
         mirror.counters.records_written += 1;
         slots.decals.insert(entity, slot);
     }
+    stats.visited.decals = visited;
     stats.over_limit.decals = waiting.len();
 }

@@ -211,6 +211,20 @@ pub fn start_renderer(world: &mut World, surface_extensions: Vec<&'static std::f
 pub fn restart_renderer(world: &mut World, settings: render::RendererSettings) -> Result<(), render::RenderError> {
     drop(world.remove_resource::<GpuRenderer>());
     world.insert_resource(RendererConfig(settings));
+    reset_mirror(world);
+    // The new renderer numbers its frames from 0 again: frames of the old one will never finish.
+    world.resource_mut::<RenderStats>().pending.clear();
+    let started = start_renderer(world, Vec::new());
+    if let Err(e) = &started {
+        world.resource_mut::<RenderStats>().last_error = Some(format!("could not restart the renderer: {e}"));
+    }
+    started
+}
+
+/// Empties the [`RenderMirror`] and marks every asset and every mirrored entity for the next
+/// extraction, which then rebuilds the whole mirror as a first frame does (what a renderer
+/// restart needs, and the reference that incremental extraction is tested against).
+pub fn reset_mirror(world: &mut World) {
     let (mirror, slots) = fresh_mirror();
     world.insert_resource(mirror);
     world.insert_resource(slots);
@@ -232,14 +246,10 @@ pub fn restart_renderer(world: &mut World, settings: render::RendererSettings) -
     touch::<engine::light::PointLight>(world);
     touch::<engine::light::SpotLight>(world);
     touch::<engine::light::DirectionalLight>(world);
-    touch::<decal::Decal>(world);
-    // The new renderer numbers its frames from 0 again: frames of the old one will never finish.
-    world.resource_mut::<RenderStats>().pending.clear();
-    let started = start_renderer(world, Vec::new());
-    if let Err(e) = &started {
-        world.resource_mut::<RenderStats>().last_error = Some(format!("could not restart the renderer: {e}"));
-    }
-    started
+    // Decals are immutable: list them all for the next extraction instead.
+    let decals: Vec<Entity> = world.query_filtered::<Entity, With<decal::Decal>>().iter(world).collect();
+    let mut changes = world.resource_mut::<decal::DecalChanges>();
+    decals.into_iter().for_each(|e| changes.push(e));
 }
 
 /// The CPU copy of the GPU scene that extraction writes.
@@ -289,6 +299,11 @@ pub struct FrameStats {
     pub cpu_record_ms: f32,
     /// Of those, CPU milliseconds in the driver's queue submission.
     pub cpu_submit_ms: f32,
+    /// CPU milliseconds of the whole app update that drew the frame, every schedule from its
+    /// start to the frame's submission, the waits for the GPU excluded.
+    pub cpu_frame_ms: f32,
+    /// Entities its extraction visited.
+    pub visited: VisitCounts,
     /// Work counters.
     pub counters: FrameCounters,
 }
@@ -301,6 +316,14 @@ pub struct OverLimitCounts {
     /// Lights.
     pub lights: u64,
     /// Decals.
+    pub decals: u64,
+}
+
+/// How many entities of each kind the last extraction visited: the changed ones only, for the
+/// kinds extracted from change lists.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct VisitCounts {
+    /// Decals (spawned, edited, moved or retried after waiting for room).
     pub decals: u64,
 }
 
@@ -318,6 +341,8 @@ pub struct RenderStats {
     pub last_error: Option<String>,
     /// Entities waiting for room because their table is at its [`SceneLimits`] limit.
     pub over_limit: OverLimitCounts,
+    /// Entities the extraction visited in the last frame.
+    pub visited: VisitCounts,
     extract_started: Option<Instant>,
     extract_ms: f32,
 }
@@ -397,7 +422,9 @@ impl Plugin for RenderPlugin {
         );
         app.add_systems(Render, render_frame.in_set(RenderSystems::Render));
         app.insert_resource(engine::asset::Assets::<decal::DecalMaterial>::default());
-        app.add_systems(engine::app::Update, decal::update_decal_lifetimes);
+        app.world.init_resource::<decal::DecalChanges>();
+        app.world.init_resource::<decal::DecalLifetimes>();
+        app.add_systems(engine::app::Update, decal::expire_decals);
     }
 }
 
@@ -416,7 +443,7 @@ fn render_frame(
     renderer: Option<ResMut<GpuRenderer>>,
     (window, overlay): (Option<ResMut<WindowTarget>>, Option<ResMut<OverlayInput>>),
     mut mirror: ResMut<RenderMirror>,
-    settings: Res<RenderSettings>,
+    (settings, time): (Res<RenderSettings>, Res<engine::time::Time>),
     mut stats: ResMut<RenderStats>,
     (mut bad_size, mut failed): (Local<Option<(u32, u32)>>, Local<bool>),
     mut commands: Commands,
@@ -462,7 +489,7 @@ fn render_frame(
         Ok(None) => {} // nothing drawn (minimised window); the changes wait for the next frame
         Ok(Some(report)) => {
             stats.last = report.counters;
-            let extract_ms = stats.extract_ms;
+            let (extract_ms, visited) = (stats.extract_ms, stats.visited);
             stats.pending.push_back(FrameStats {
                 frame: report.frame,
                 pipeline: settings.pipeline,
@@ -477,6 +504,8 @@ fn render_frame(
                 cpu_extract_ms: extract_ms,
                 cpu_record_ms: report.record_ms,
                 cpu_submit_ms: report.submit_ms,
+                visited,
+                cpu_frame_ms: time.update_started().map_or(0.0, |t| (t.elapsed().as_secs_f32() * 1e3 - report.wait_ms).max(0.0)),
                 counters: report.counters,
             });
             if let Some(done) = report.finished {

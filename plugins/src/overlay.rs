@@ -115,6 +115,10 @@ impl DebugOverlay {
         if let Some(last) = self.history.back() {
             let passes: Vec<String> = last.gpu.iter().map(|(name, ms)| format!("{name} {ms:.2}")).collect();
             ui.label(format!("GPU {:.2} ms: {}", last.gpu.total_ms, passes.join(", ")));
+            ui.label(format!(
+                "CPU {:.2} ms a frame (GPU waits excluded): extract {:.2}, record {:.2}; {} decals visited",
+                last.cpu_frame_ms, last.cpu_extract_ms, last.cpu_record_ms, last.visited.decals
+            ));
         }
         // A small graph of frame time (white) and GPU time (green) over the last seconds.
         let (rect, _) = ui.allocate_exact_size(egui::vec2(260.0, 60.0), egui::Sense::hover());

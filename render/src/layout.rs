@@ -692,8 +692,10 @@ layout! {
         pub inv_viewport_size: Vec2,
         /// Uniform ambient radiance (scaled by material occlusion).
         pub ambient: Vec3,
-        /// Padding to 16 bytes.
-        pub pad: u32,
+        /// Seconds on the scene's clock, for decals fading at the end of their lifetime
+        /// (`GpuDecal::life_scale`). It may stand still while no decal is fading, so that
+        /// frames in which only time passed upload nothing.
+        pub time: f32,
     }
 
     /// One drawn mesh instance.
@@ -799,8 +801,14 @@ layout! {
         pub fade_scale: f32,
         /// See `fade_scale`.
         pub fade_offset: f32,
+        /// Lifetime fade: opacity × saturate(`GpuCamera::time` × scale + offset); (0, 1)
+        /// disables it. The fade is evaluated on the GPU so that an ageing decal is never
+        /// re-uploaded.
+        pub life_scale: f32,
+        /// See `life_scale`.
+        pub life_offset: f32,
         /// Padding to 16 bytes.
-        pub pad: u32,
+        pub pad: [u32; 3],
     }
 
     /// What a decal applies.

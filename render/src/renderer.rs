@@ -85,6 +85,9 @@ pub struct FrameReport {
     pub record_ms: f32,
     /// Of `record_ms`, the time ending the command buffer and in `vkQueueSubmit2` (the driver's).
     pub submit_ms: f32,
+    /// CPU time spent waiting for the GPU before recording (the frame slot's previous use, the
+    /// swapchain image), in milliseconds: what a whole-frame CPU time should leave out.
+    pub wait_ms: f32,
     /// A frame that finished on the GPU while this one was being prepared, with its GPU times.
     pub finished: Option<FinishedFrame>,
 }
@@ -294,6 +297,7 @@ impl Renderer {
 
         // Wait for this slot's previous frame, then harvest its timings and free its garbage.
         let slot = &mut res.frames[slot_index];
+        let wait_start = Instant::now();
         if slot.value > 0 {
             let semaphores = [res.timeline];
             let values = [slot.value];
@@ -311,6 +315,7 @@ impl Renderer {
             },
             None => None,
         };
+        let wait_ms = wait_start.elapsed().as_secs_f32() * 1e3;
         let decal_choice = DecalChoice { requested: settings.decal_method, applied: res.decal_method(ctx, settings) };
         let slot = &mut res.frames[slot_index];
         let finished = slot.timer.collect(ctx).map(|gpu| FinishedFrame { frame: slot.frame, gpu });
@@ -446,6 +451,7 @@ impl Renderer {
             counters: mirror.counters,
             record_ms: start.elapsed().as_secs_f32() * 1e3,
             submit_ms,
+            wait_ms,
             finished,
         }))
     }

@@ -6,12 +6,14 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
+use bevy_ecs::entity::Entity;
+use bevy_ecs::query::With;
 use bevy_ecs::world::World;
 use engine::app::App;
 use engine::asset::Assets;
 use engine::image::Image;
 use engine::time::Time;
-use engine::transform::Transform;
+use engine::transform::{Static, Transform};
 use glam::Vec3;
 use plugins::decal::DecalMaterial;
 use plugins::{GpuRenderer, RenderPlugin, RenderSettings, RenderStats, finish_frames};
@@ -324,6 +326,11 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         tracing::info!(requested = opts.decals, placed, "scattered decals");
     }
     if opts.move_decals_percent > 0.0 {
+        // Decals that move every frame are not static: the transform scan must see them.
+        let scattered: Vec<Entity> = app.world.query_filtered::<Entity, (With<Static>, With<plugins::decal::Decal>)>().iter(&app.world).collect();
+        for e in scattered {
+            app.world.entity_mut(e).remove::<Static>();
+        }
         app.insert_resource(DecalJitter { percent: opts.move_decals_percent, cursor: 0 });
         app.add_systems(engine::app::Update, jitter_decals);
     }

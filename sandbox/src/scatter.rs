@@ -11,7 +11,7 @@ use bevy_ecs::system::RunSystemOnce;
 use engine::asset::{Assets, Handle};
 use engine::mesh::Mesh;
 use engine::scene::MeshInstance;
-use engine::transform::{GlobalTransform, Transform, propagate_transforms};
+use engine::transform::{GlobalTransform, Static, Transform, propagate_transforms};
 use glam::{Mat3, Quat, Vec3, Vec3A};
 use plugins::decal::{Decal, DecalMaterial, DecalReceiver};
 
@@ -145,8 +145,8 @@ fn refresh_global_transforms(world: &mut World) {
 /// of them. Each decal gets a material drawn from `materials`, channel 0..=3, weight in
 /// [`WEIGHT_RANGE`], a random rotation about the surface normal, a square size in
 /// [`SIZE_RANGE`] and a depth of [`DEPTH_RATIO`] × the size; its local +Z is the surface normal,
-/// so it projects along −Z into the surface. Decals are spawned as roots with their
-/// `GlobalTransform` already set.
+/// so it projects along −Z into the surface. Decals are spawned as [`Static`] roots (they sit on
+/// their surfaces: the transform scan skips them) with their `GlobalTransform` already set.
 pub fn scatter_decals(world: &mut World, count: usize, seed: u64, materials: &[Handle<DecalMaterial>]) -> usize {
     if count == 0 || materials.is_empty() {
         return 0;
@@ -194,7 +194,7 @@ pub fn scatter_decals(world: &mut World, count: usize, seed: u64, materials: &[H
         let mut decal = Decal::new(materials[rng.below(materials.len())]);
         decal.channel = rng.below(4) as u8;
         decal.weight = rng.range_f32(WEIGHT_RANGE.0, WEIGHT_RANGE.1);
-        decals.push((decal, transform, GlobalTransform::from(transform)));
+        decals.push((decal, transform, GlobalTransform::from(transform), Static));
     }
     let spawned = decals.len();
     world.spawn_batch(decals);

@@ -68,7 +68,13 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
         "device": device,
         "size": [stats.size.0, stats.size.1],
         "gpu_ms": gpu,
-        "cpu_ms": { "extract": round(stats.cpu_extract_ms), "record": round(stats.cpu_record_ms), "submit": round(stats.cpu_submit_ms) },
+        "cpu_ms": {
+            "frame": round(stats.cpu_frame_ms),
+            "extract": round(stats.cpu_extract_ms),
+            "record": round(stats.cpu_record_ms),
+            "submit": round(stats.cpu_submit_ms),
+        },
+        "visited": { "decals": stats.visited.decals },
         "counters": {
             "bytes_uploaded": c.bytes_uploaded,
             "records_written": c.records_written,

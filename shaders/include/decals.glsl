@@ -70,7 +70,8 @@ void decal_accumulate(inout DecalBlend b, GpuDecal d, vec3 local, float fade, De
 
     GpuDecalMaterial m = DecalMaterialsRef(scene.decal_materials).decal_materials[d.material];
     vec4 texel = textureGrad(textures[nonuniformEXT(m.base_color_tex)], uv, duvdx, duvdy);
-    float a = clamp(texel.a * m.base_color.a * d.opacity * fade, 0.0, 1.0);
+    float life = clamp(scene.camera.camera.time * d.life_scale + d.life_offset, 0.0, 1.0);
+    float a = clamp(texel.a * m.base_color.a * d.opacity * fade * life, 0.0, 1.0);
     if (a <= 0.0) return;
     uint c = min(d.channel, DECAL_CHANNELS - 1u);
     float w = d.weight;

@@ -46,6 +46,16 @@ pub fn ecs_app() -> App {
     app
 }
 
+/// The opacity a decal's GPU record gives it at the mirror's scene clock (the camera record's
+/// `time`), lifetime fade included, as `decals.glsl` evaluates it; `None` without a record.
+pub fn decal_opacity_in_mirror(app: &App, decal: Entity) -> Option<f32> {
+    let slot = app.world.resource::<plugins::MirrorSlots>().decal(decal)?;
+    let mirror = &app.world.resource::<plugins::RenderMirror>().0;
+    let record = mirror.decals.records.get(slot)?;
+    let life = (mirror.camera().time * record.life_scale + record.life_offset).clamp(0.0, 1.0);
+    Some(record.opacity * life)
+}
+
 /// An app that renders offscreen at `w`×`h` on the default device with validation on.
 pub fn gpu_app(w: u32, h: u32, settings: RenderSettings) -> App {
     gpu_app_at(w, h, settings, render::Tier::RayQuery)

@@ -549,34 +549,46 @@ fn ecs_sequences_give_the_expected_image_and_the_expected_work() {
 }
 
 #[test]
-fn lifetimes_fade_decals_out_and_despawn_them_on_time() {
-    // Headless ECS: 60 frames per second, a 1 s lifetime fading over its last 0.5 s.
+fn lifetimes_fade_decals_out_on_the_gpu_clock_and_despawn_them_on_time() {
+    // Headless ECS: 60 frames per second, a 1 s lifetime fading over its last 0.5 s, among
+    // decals without lifetimes.
     let mut app = tests::ecs_app();
     let material = app.world.resource_mut::<Assets<DecalMaterial>>().add(DecalMaterial::default());
     app.world.resource_mut::<Time>().set_fixed_step(Some(std::time::Duration::from_secs_f64(1.0 / 60.0)));
+    app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 1.0, 3.0)));
+    for i in 0..10 {
+        app.world.spawn((Decal::new(material), Transform::from_xyz(i as f32, 0.0, 0.0)));
+    }
     let e = app.world.spawn((Decal::new(material), Transform::default(), DecalLifetime::new(1.0, 0.5))).id();
-    let opacity_in_mirror = |app: &App| {
-        let slot = app.world.resource::<MirrorSlots>().decal(e)?;
-        app.world.resource::<RenderMirror>().0.decals.records.get(slot).map(|r| r.opacity)
-    };
     let mut seen = Vec::new();
     for frame in 1..=70 {
         app.update();
-        let alive = app.world.get_entity(e).is_ok();
-        if !alive {
-            seen.push((frame, None));
+        let records = app.world.resource::<RenderMirror>().0.counters.records_written;
+        let visited = app.world.resource::<RenderStats>().visited.decals;
+        if app.world.get_entity(e).is_err() {
+            seen.push((frame, None, records, visited));
             break;
         }
-        seen.push((frame, opacity_in_mirror(&app)));
+        seen.push((frame, tests::decal_opacity_in_mirror(&app, e), records, visited));
     }
-    let opacity_at = |f: usize| seen[f - 1].1.expect("alive");
+    let at = |f: usize| seen[f - 1];
+    let opacity_at = |f: usize| at(f).1.expect("alive");
     assert_eq!(opacity_at(10), 1.0, "full opacity before the fade");
     assert!((opacity_at(45) - 0.5).abs() < 0.05, "halfway through the fade: {}", opacity_at(45));
     assert!(opacity_at(59) < 0.05);
-    let (last_frame, state) = *seen.last().unwrap();
+    // Ageing writes nothing: no decal record, and the camera's clock only while a decal fades.
+    for f in 2..=29 {
+        assert_eq!((at(f).2, at(f).3), (0, 0), "frame {f}: nothing written, no decal visited while the decals only age");
+    }
+    for f in 32..=58 {
+        assert_eq!((at(f).2, at(f).3), (1, 0), "frame {f}: only the camera's clock is written during the fade");
+    }
+    let (last_frame, state, _, _) = *seen.last().unwrap();
     assert_eq!(state, None, "despawned");
     assert!((60..=61).contains(&last_frame), "despawned after 1 s, at frame {last_frame}");
-    assert_eq!(app.world.resource::<RenderMirror>().0.decals.len(), 0, "its slot is freed");
+    assert_eq!(app.world.resource::<RenderMirror>().0.decals.len(), 10, "its slot is freed, the others stay");
+    app.update();
+    assert_eq!(app.world.resource::<RenderMirror>().0.counters.records_written, 0, "the clock stops once nothing fades");
 }
 
 #[test]

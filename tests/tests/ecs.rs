@@ -4,6 +4,7 @@
 #![forbid(unsafe_code)]
 
 use engine::prelude::*;
+use plugins::decal::{Decal, DecalLifetime, DecalMaterial};
 use plugins::{MirrorSlots, RenderMirror, RenderStats};
 use render::scene::LightKind;
 use tests::ecs_app;
@@ -124,4 +125,88 @@ fn decal_receiver_layers_reach_the_instance_record() {
     app.world.entity_mut(e).remove::<DecalReceiver>();
     app.update();
     assert_eq!(layers(&app), DEFAULT_RECEIVER_LAYERS, "removing the component restores the default");
+}
+
+/// Every live decal's record and box in the mirror, by entity (the box's slot left out: slots
+/// may differ between two extractions, their contents may not).
+fn decal_records(app: &mut App) -> std::collections::HashMap<Entity, (render::scene::GpuDecal, [f32; 6])> {
+    let entities: Vec<Entity> = app.world.query_filtered::<Entity, With<Decal>>().iter(&app.world).collect();
+    let slots = app.world.resource::<MirrorSlots>();
+    let table = &app.world.resource::<RenderMirror>().0.decals;
+    let boxes: std::collections::HashMap<u32, [f32; 6]> = (0..table.len() as u32)
+        .filter_map(|i| table.aabbs.get(i))
+        .map(|b| (b.slot, [b.min[0], b.min[1], b.min[2], b.max[0], b.max[1], b.max[2]]))
+        .collect();
+    entities
+        .into_iter()
+        .map(|e| {
+            let slot = slots.decal(e).expect("every decal has a slot");
+            (e, (*table.records.get(slot).expect("a record"), boxes[&slot]))
+        })
+        .collect()
+}
+
+#[test]
+fn decal_extraction_visits_only_what_changed_and_equals_a_full_re_extraction() {
+    let mut app = ecs_app();
+    let material = app.world.resource_mut::<Assets<DecalMaterial>>().add(DecalMaterial::default());
+    let n = 100_000;
+    let fixed: Vec<Entity> = app
+        .world
+        .spawn_batch((0..n).map(|i| (Decal::new(material), Transform::from_xyz((i % 300) as f32, 0.0, (i / 300) as f32), Static)))
+        .collect();
+    let free: Vec<Entity> = (0..4).map(|i| app.world.spawn((Decal::new(material), Transform::from_xyz(i as f32, 1.0, 0.0))).id()).collect();
+    let mover = app.world.spawn(Transform::from_xyz(0.0, 5.0, 0.0)).id();
+    let riding: Vec<Entity> =
+        (0..3).map(|i| app.world.spawn((Decal::new(material), Transform::from_xyz(i as f32, 0.0, 0.0), Static, ChildOf(mover))).id()).collect();
+    app.update();
+    let visited = |app: &App| app.world.resource::<RenderStats>().visited.decals;
+    assert_eq!(visited(&app), n as u64 + 7, "the first frame visits every decal");
+    app.update();
+    assert_eq!((visited(&app), app.world.resource::<RenderStats>().last.records_written), (0, 0), "a still frame visits none");
+
+    // Among the 100,000 untouched: spawn 10, edit 5, move 3 static ones (re-inserted transforms)
+    // and 2 free ones (in place), re-parent 2 onto the mover, move the mover (carrying its 3
+    // riders and the 2 re-parented), give 1 a lifetime, despawn 7.
+    for i in 0..10 {
+        app.world.spawn((Decal::new(material), Transform::from_xyz(i as f32, 2.0, 0.0), Static));
+    }
+    for &e in &fixed[0..5] {
+        let edited = Decal { opacity: 0.5, weight: 2.0, ..app.world.get::<Decal>(e).unwrap().clone() };
+        app.world.entity_mut(e).insert(edited);
+    }
+    for &e in &fixed[5..8] {
+        app.world.entity_mut(e).insert(Transform::from_xyz(-1.0, 0.0, -1.0).with_scale(Vec3::splat(0.5)));
+    }
+    for &e in &free[0..2] {
+        app.world.get_mut::<Transform>(e).unwrap().translation.y = 3.0;
+    }
+    for &e in &fixed[8..10] {
+        app.world.entity_mut(e).insert(ChildOf(mover));
+    }
+    app.world.get_mut::<Transform>(mover).unwrap().translation.x = 7.0;
+    app.world.entity_mut(fixed[10]).insert(DecalLifetime::new(60.0, 1.0));
+    for &e in &fixed[11..18] {
+        app.world.despawn(e);
+    }
+    app.update();
+    assert_eq!(visited(&app), 10 + 5 + 3 + 2 + 2 + 3 + 1, "only the changed decals are visited");
+    assert_eq!(app.world.resource::<RenderMirror>().0.decals.len(), n + 7 + 10 - 7);
+
+    // The incremental mirror equals one extracted from scratch.
+    let incremental = decal_records(&mut app);
+    for (i, e) in riding.iter().enumerate() {
+        let b = incremental[e].1;
+        assert!(((b[0] + b[3]) * 0.5 - (7.0 + i as f32)).abs() < 1e-4, "rider {i} follows the mover: {b:?}");
+    }
+    plugins::reset_mirror(&mut app.world);
+    app.update();
+    assert_eq!(visited(&app), (n + 7 + 10 - 7) as u64);
+    let full = decal_records(&mut app);
+    assert_eq!(incremental.len(), full.len());
+    for (e, record) in &incremental {
+        assert_eq!(Some(record), full.get(e), "decal {e:?}");
+    }
+    let lifetime = incremental[&fixed[10]].0;
+    assert!(lifetime.life_scale < 0.0, "the lifetime fade reached the record");
 }

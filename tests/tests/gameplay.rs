@@ -12,7 +12,7 @@
 use std::f32::consts::FRAC_PI_6;
 
 use engine::prelude::*;
-use plugins::decal::{Decal, DecalLifetime};
+use plugins::decal::DecalLifetime;
 use plugins::{RenderMirror, RenderSettings};
 use render::DebugView;
 use sandbox::game::{
@@ -196,7 +196,7 @@ fn footprints_alternate_and_keep_their_spacing() {
         assert!((transform.rotation * Vec3::Z - Vec3::Y).length() < 1e-4, "projects down");
         assert!((transform.rotation * Vec3::Y - Vec3::NEG_Z).length() < 1e-4, "toe along the walk");
         let life = app.world.get::<DecalLifetime>(print).unwrap();
-        assert_eq!((life.fade_out, life.initial_opacity), (settings.footprint_fade, 1.0));
+        assert_eq!((life.seconds, life.fade_out), (settings.footprint_lifetime, settings.footprint_fade));
     }
     assert_eq!(app.world.resource::<GameStats>().footprints, order.len() as u64);
 }
@@ -222,20 +222,19 @@ fn footprints_fade_and_despawn_after_their_lifetime() {
     let (print, born) = first.expect("0.9 m walked: one print at 0.7 m");
     let mut seen_fading = false;
     while app.world.get_entity(print).is_ok() {
-        let age = frame - born + 1; // frames of countdown so far, the spawn frame included
-        let decal = app.world.get::<Decal>(print).unwrap();
-        let life = app.world.get::<DecalLifetime>(print).unwrap();
+        let age = frame - born; // frames (steps of scene time) since the print was spawned
+        let opacity = tests::decal_opacity_in_mirror(&app, print).expect("a live print has a record");
         assert!(age < lifetime_frames, "alive after {age} frames of a {lifetime_frames}-frame life");
         if age + fade_frames < lifetime_frames {
-            assert_eq!(decal.opacity, 1.0, "not fading yet at frame {age}");
-        } else if life.remaining < settings.footprint_fade - step {
-            assert!(decal.opacity > 0.0 && decal.opacity < 1.0, "fading at frame {age}");
+            assert_eq!(opacity, 1.0, "not fading yet at frame {age}");
+        } else if age + fade_frames > lifetime_frames {
+            assert!(opacity > 0.0 && opacity < 1.0, "fading at frame {age}: {opacity}");
             seen_fading = true;
         }
         app.update();
         frame += 1;
     }
-    assert_eq!(frame - born + 1, lifetime_frames, "despawned exactly when its life ran out");
+    assert_eq!(frame - born, lifetime_frames, "despawned in the first frame at which its life had run out");
     assert!(seen_fading);
     assert!(app.world.resource::<SpawnOrder<GameDecal>>().iter().all(|e| e != print), "left the cap's queue");
 }

@@ -171,6 +171,9 @@ pub struct DecalDesc {
     /// Angle fade: full strength up to the first angle (radians) between the surface normal and
     /// the projection axis, nothing from the second on; `None` disables it.
     pub angle_fade: Option<(f32, f32)>,
+    /// Lifetime fade: full strength until the first time, nothing from the second on, in
+    /// seconds on the clock of [`GpuCamera::time`]; `None` disables it.
+    pub lifetime_fade: Option<(f32, f32)>,
 }
 
 impl DecalDesc {
@@ -197,6 +200,13 @@ impl DecalDesc {
             }
             None => (0.0, 1.0),
         };
+        let (life_scale, life_offset) = match self.lifetime_fade {
+            Some((start, end)) if end > start && start.is_finite() && end.is_finite() => {
+                let scale = -1.0 / (end - start);
+                (scale, -end * scale)
+            }
+            _ => (0.0, 1.0),
+        };
         GpuDecal {
             world_to_decal: self.decal_to_world.inverse(),
             uv01: [c[0].x, c[0].y, c[1].x, c[1].y],
@@ -208,7 +218,9 @@ impl DecalDesc {
             opacity: if self.opacity.is_nan() { 0.0 } else { self.opacity.clamp(0.0, 1.0) },
             fade_scale,
             fade_offset,
-            pad: 0,
+            life_scale,
+            life_offset,
+            pad: [0; 3],
         }
     }
 }
@@ -1010,6 +1022,7 @@ mod tests {
             receivers: 1,
             opacity: 1.0,
             angle_fade: None,
+            lifetime_fade: None,
         }
     }
 
@@ -1138,6 +1151,7 @@ mod tests {
             receivers: 1,
             opacity: f32::NAN,
             angle_fade: None,
+            lifetime_fade: None,
         };
         let good = desc(Mat4::from_scale(Vec3::splat(2.0)));
         assert!(good.is_valid());

@@ -183,7 +183,7 @@ pub enum GameSystems {
     /// [`footprints::lay_footprints`], [`shooting::shoot`], [`lights::drop_light`].
     Act,
     /// [`decal_cap::enforce_decal_cap`], [`decal_cap::enforce_light_cap`]. `Act` runs before
-    /// and `Recycle` after `plugins::decal::update_decal_lifetimes`.
+    /// and `Recycle` after `plugins::decal::expire_decals`.
     Recycle,
 }
 
@@ -216,8 +216,8 @@ impl Plugin for GamePlugin {
             .configure_sets((GameSystems::Move, GameSystems::Act, GameSystems::Recycle).chain())
             // A decal's lifetime starts counting down in the frame it was spawned, and the caps
             // see the decals whose lifetime ended this frame as gone.
-            .configure_sets(GameSystems::Act.before(plugins::decal::update_decal_lifetimes))
-            .configure_sets(GameSystems::Recycle.after(plugins::decal::update_decal_lifetimes));
+            .configure_sets(GameSystems::Act.before(plugins::decal::expire_decals))
+            .configure_sets(GameSystems::Recycle.after(plugins::decal::expire_decals));
         app.add_systems(PreUpdate, script::play_script.run_if(resource_exists::<ScriptPlayer>));
         app.add_systems(Update, player::move_player.in_set(GameSystems::Move));
         app.add_systems(Update, (footprints::lay_footprints, shooting::shoot, lights::drop_light).chain().in_set(GameSystems::Act));
