@@ -20,8 +20,7 @@
 //! parent). Changing a static entity's `Transform` in place is not seen; debug builds warn
 //! once when it happens.
 
-use std::collections::HashSet;
-
+use bevy_ecs::entity::EntityHashSet;
 use bevy_ecs::lifecycle::HookContext;
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::SystemSet;
@@ -188,7 +187,7 @@ pub struct Static;
 #[derive(Resource, Default)]
 pub struct TransformChanges {
     /// Static entities to propagate at the next run.
-    pending: HashSet<Entity>,
+    pending: EntityHashSet,
     /// Entities whose global transform changed this frame.
     moved: Vec<Entity>,
     /// The frame (`Time::frame`) that `moved` belongs to.

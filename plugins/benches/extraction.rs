@@ -1,5 +1,7 @@
 //! CPU cost of decal extraction (no GPU): what a frame costs on the CPU when 0 %, 1 % or 100 %
-//! of 100,000 decals moved, and what spawning 1,000 or 10,000 decals in one frame costs.
+//! of 100,000 decals moved, what spawning 1,000 or 10,000 decals in one frame costs, what a
+//! still frame costs with 1,000,000 static decals, and a frame that spawns 1,000 decals and
+//! despawns 1,000 among 100,000 static ones.
 //!
 //! Each measured frame is `App::update()` (transform propagation, lifetimes, every extraction
 //! system) followed by draining the mirror's dirty lists the way the GPU uploader does (sorting
@@ -15,18 +17,23 @@ use plugins::decal::{Decal, DecalMaterial};
 use plugins::{RenderMirror, RenderPlugin, RenderSettings};
 
 fn app_with_decals(n: usize) -> (App, Vec<Entity>, Handle<DecalMaterial>) {
+    app_with(n, false)
+}
+
+/// An app with `n` decals on a grid (`fixed`: [`Static`], as bullet holes are), after its first
+/// frame.
+fn app_with(n: usize, fixed: bool) -> (App, Vec<Entity>, Handle<DecalMaterial>) {
     let mut app = App::new();
     app.world.resource_mut::<Time>().set_fixed_step(Some(std::time::Duration::from_millis(16)));
     app.add_plugins(RenderPlugin::new(RenderSettings::default()));
     let material = app.world.resource_mut::<Assets<DecalMaterial>>().add(DecalMaterial::default());
     let side = (n as f32).sqrt().ceil() as usize;
-    let batch: Vec<_> = (0..n)
-        .map(|i| {
-            let (x, z) = ((i % side) as f32, (i / side) as f32);
-            (Decal::new(material), Transform::from_xyz(x, 0.0, z).with_scale(Vec3::splat(0.5)))
-        })
-        .collect();
-    let entities: Vec<Entity> = app.world.spawn_batch(batch).collect();
+    let transform = |i: usize| Transform::from_xyz((i % side) as f32, 0.0, (i / side) as f32).with_scale(Vec3::splat(0.5));
+    let entities: Vec<Entity> = if fixed {
+        app.world.spawn_batch((0..n).map(|i| (Decal::new(material), transform(i), Static))).collect()
+    } else {
+        app.world.spawn_batch((0..n).map(|i| (Decal::new(material), transform(i)))).collect()
+    };
     frame(&mut app);
     (app, entities, material)
 }
@@ -79,5 +86,39 @@ fn spawn_in_one_frame(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, moved_per_frame, spawn_in_one_frame);
+fn static_decals(c: &mut Criterion) {
+    let mut group = c.benchmark_group("static decals");
+    {
+        let (mut app, _, _) = app_with(1_000_000, true);
+        group.bench_function("1M, still frame", |b| b.iter(|| frame(&mut app)));
+    }
+    {
+        // Churn: before each frame the game spawns 1,000 bullet holes and despawns the 1,000
+        // oldest (not measured: that is the game's work); the frame that takes them in is.
+        let (mut app, entities, material) = app_with(100_000, true);
+        let mut live: std::collections::VecDeque<Entity> = entities.into();
+        let mut i = 0usize;
+        group.bench_function("100k, frame after 1k spawned + 1k despawned", |b| {
+            b.iter_custom(|iterations| {
+                let mut measured = std::time::Duration::ZERO;
+                for _ in 0..iterations {
+                    for _ in 0..1000 {
+                        i += 1;
+                        let t = Transform::from_xyz((i % 317) as f32, 0.0, (i % 311) as f32).with_scale(Vec3::splat(0.5));
+                        live.push_back(app.world.spawn((Decal::new(material), t, Static)).id());
+                        let old = live.pop_front().expect("100k live");
+                        app.world.despawn(old);
+                    }
+                    let start = std::time::Instant::now();
+                    frame(&mut app);
+                    measured += start.elapsed();
+                }
+                measured
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, moved_per_frame, spawn_in_one_frame, static_decals);
 criterion_main!(benches);

@@ -37,9 +37,10 @@
 //! ..decal.clone() })`.
 
 use std::cmp::Reverse;
-use std::collections::{BinaryHeap, HashMap};
+use std::collections::BinaryHeap;
 use std::time::Duration;
 
+use bevy_ecs::entity::EntityHashMap;
 use bevy_ecs::lifecycle::HookContext;
 use bevy_ecs::prelude::*;
 use bevy_ecs::world::DeferredWorld;
@@ -240,7 +241,7 @@ impl DecalChanges {
 /// and a queue ordered by expiry, so that expiring decals are found without visiting the others.
 #[derive(Resource, Default)]
 pub struct DecalLifetimes {
-    windows: HashMap<Entity, (Duration, Duration)>,
+    windows: EntityHashMap<(Duration, Duration)>,
     /// (end, entity): popped when the end has passed; stale when the window changed.
     expiry: BinaryHeap<Reverse<(Duration, Entity)>>,
     /// (start, entity): the earliest fade start of a live window at the top (stale ones popped).

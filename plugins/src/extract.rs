@@ -5,6 +5,7 @@
 //! go into stable slots keyed by entity (or asset handle), so a frame in which nothing changed
 //! writes nothing and uploads nothing.
 
+use bevy_ecs::entity::{EntityHashMap, EntityHashSet};
 use bevy_ecs::prelude::*;
 use engine::asset::{AssetEvent, Assets, Handle};
 use engine::camera::Camera;
@@ -20,7 +21,7 @@ use render::scene::{
     DrawItem, GpuCamera, GpuInstance, GpuMaterial, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, MeshId, SceneMirror,
     TEXTURE_FLAT_NORMAL, TEXTURE_WHITE, TextureData,
 };
-use std::collections::{HashMap, HashSet};
+use std::collections::HashMap;
 
 use crate::decal::{
     DEFAULT_RECEIVER_LAYERS, Decal, DecalChanges, DecalLifetimes, DecalMaterial, DecalReceiver, decal_desc, gpu_decal_material,
@@ -34,9 +35,9 @@ pub struct MirrorSlots {
     meshes: HashMap<Handle<Mesh>, MeshId>,
     textures: HashMap<Handle<Image>, u32>,
     materials: HashMap<Handle<Material>, (u32, DrawFlags)>,
-    instances: HashMap<Entity, u32>,
-    lights: HashMap<Entity, u32>,
-    decals: HashMap<Entity, u32>,
+    instances: EntityHashMap<u32>,
+    lights: EntityHashMap<u32>,
+    decals: EntityHashMap<u32>,
     decal_materials: HashMap<Handle<DecalMaterial>, u32>,
     /// The slot of the material used when an instance's material is missing.
     pub default_material: u32,
@@ -52,7 +53,7 @@ impl MirrorSlots {
 /// Entities that found their table at its [`crate::SceneLimits`] limit and wait for room.
 #[derive(Default)]
 pub struct Waiting {
-    entities: HashSet<Entity>,
+    entities: EntityHashSet,
     warned: bool,
 }
 
@@ -76,6 +77,9 @@ impl Waiting {
 
     /// `entity` no longer waits (despawned, admitted, or no longer drawable).
     fn forget(&mut self, entity: Entity) {
+        if self.entities.is_empty() {
+            return;
+        }
         self.entities.remove(&entity);
         if self.entities.is_empty() {
             self.warned = false;
@@ -376,7 +380,13 @@ pub fn extract_instances(
     stats.over_limit.instances = waiting.len();
 }
 
-type ChangedLight = Or<(Changed<GlobalTransform>, Changed<PointLight>, Changed<SpotLight>, Changed<DirectionalLight>)>;
+/// Lights whose transform or parameters changed. The `With` part keeps the scan to the lights'
+/// archetypes: `Changed<GlobalTransform>` alone would visit every placed entity (a million
+/// decals' included) every frame.
+type ChangedLight = (
+    Or<(With<PointLight>, With<SpotLight>, With<DirectionalLight>)>,
+    Or<(Changed<GlobalTransform>, Changed<PointLight>, Changed<SpotLight>, Changed<DirectionalLight>)>,
+);
 
 /// Mirrors lights whose transform or parameters changed; frees removed ones.
 #[allow(clippy::type_complexity)]
@@ -559,7 +569,7 @@ pub fn extract_decals(
     // One visit per changed decal, however many lists name it.
     visit.clear();
     visit.extend(changes.drain());
-    visit.extend(moved.iter().flat_map(|m| m.moved()).copied().filter(|&e| decals.contains(e)));
+    visit.extend(moved.iter().flat_map(|m| m.moved()).copied());
     visit.extend(waiting.retry(mirror.decals.len(), limit));
     visit.sort_unstable();
     visit.dedup();
@@ -589,12 +599,15 @@ pub fn extract_decals(
             desc.angle_fade = None;
         }
         warned.report(entity, "decal", problem, "not drawn until it is fixed");
-        if !slots.decals.contains_key(&entity) && !waiting.admit(entity, mirror.decals.len(), limit, "decal") {
+        let slot = slots.decals.get(&entity).copied();
+        if slot.is_none() && !waiting.admit(entity, mirror.decals.len(), limit, "decal") {
             continue;
         }
-        let slot = mirror.decals.write(slots.decals.get(&entity).copied(), &desc);
+        let written = mirror.decals.write(slot, &desc);
         mirror.counters.records_written += 1;
-        slots.decals.insert(entity, slot);
+        if slot.is_none() {
+            slots.decals.insert(entity, written);
+        }
     }
     stats.visited.decals = visited;
     stats.over_limit.decals = waiting.len();

@@ -48,15 +48,19 @@ impl<K: Eq + Hash + Copy + std::fmt::Debug> WarnOnce<K> {
                 tracing::warn!(?key, "{what} {problem}; {consequence}");
             }
             Some(_) => {}
-            None => {
+            // Most checks pass and most keys were never warned about: no hashing then.
+            None if !self.0.is_empty() => {
                 self.0.remove(&key);
             }
+            None => {}
         }
     }
 
     /// Forgets `key` (it was despawned or dropped).
     pub fn forget(&mut self, key: K) {
-        self.0.remove(&key);
+        if !self.0.is_empty() {
+            self.0.remove(&key);
+        }
     }
 
     /// Number of keys currently warned about.

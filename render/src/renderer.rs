@@ -85,8 +85,9 @@ pub struct FrameReport {
     pub record_ms: f32,
     /// Of `record_ms`, the time ending the command buffer and in `vkQueueSubmit2` (the driver's).
     pub submit_ms: f32,
-    /// CPU time spent waiting for the GPU before recording (the frame slot's previous use, the
-    /// swapchain image), in milliseconds: what a whole-frame CPU time should leave out.
+    /// CPU time spent waiting for the GPU before recording (the frame slot's previous use and its
+    /// timestamps, the swapchain image), in milliseconds: what a whole-frame CPU time should
+    /// leave out.
     pub wait_ms: f32,
     /// A frame that finished on the GPU while this one was being prepared, with its GPU times.
     pub finished: Option<FinishedFrame>,
@@ -315,15 +316,16 @@ impl Renderer {
             },
             None => None,
         };
-        let wait_ms = wait_start.elapsed().as_secs_f32() * 1e3;
         let decal_choice = DecalChoice { requested: settings.decal_method, applied: res.decal_method(ctx, settings) };
         let slot = &mut res.frames[slot_index];
+        // Reading the slot's timestamps is where some drivers (lavapipe) do their waiting.
         let finished = slot.timer.collect(ctx).map(|gpu| FinishedFrame { frame: slot.frame, gpu });
         // SAFETY: the semaphore is live.
         let completed = unsafe { d.get_semaphore_counter_value(res.timeline) }
             .map_err(|e| RenderError::from(e).in_frame(frame, "reading the GPU's progress"))?;
         // CPU time is measured from here: waiting for the GPU is not recording.
         let start = Instant::now();
+        let wait_ms = (start - wait_start).as_secs_f32() * 1e3;
         res.graveyard.collect(ctx, completed);
         slot.staging.reset();
         let frame_value = frame + 1;

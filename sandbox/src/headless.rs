@@ -68,6 +68,8 @@ pub struct HeadlessOptions {
     pub show_decal_boxes: bool,
     /// Percentage of decals nudged every frame (benchmarks refits).
     pub move_decals_percent: f32,
+    /// Decals despawned and respawned (as new entities) every frame (benchmarks extraction).
+    pub churn_decals: usize,
     /// Replace the scene with one of the seed's benchmark scenarios.
     pub bench_scene: Option<crate::bench::BenchScene>,
     /// Run `frames` frames with every pipeline and decal method in turn (see [`COMPARE_SET`]).
@@ -244,6 +246,7 @@ impl Default for HeadlessOptions {
             debug_view: DebugView::Lit,
             show_decal_boxes: false,
             move_decals_percent: 0.0,
+            churn_decals: 0,
             bench_scene: None,
             compare: false,
             compare_lights: false,
@@ -333,6 +336,11 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         }
         app.insert_resource(DecalJitter { percent: opts.move_decals_percent, cursor: 0 });
         app.add_systems(engine::app::Update, jitter_decals);
+    }
+    if opts.churn_decals > 0 {
+        let decals = app.world.query_filtered::<Entity, With<plugins::decal::Decal>>().iter(&app.world).collect();
+        app.insert_resource(DecalChurn { per_frame: opts.churn_decals, oldest_first: decals });
+        app.add_systems(engine::app::Update, churn_decals);
     }
     Ok(app)
 }
@@ -453,6 +461,31 @@ pub fn frame_scene(world: &mut World) {
     {
         settings.ambient = Vec3::splat(0.35);
     }
+}
+
+/// Replaces the oldest decals with new entities every frame, as bullet holes come and go.
+#[derive(bevy_ecs::resource::Resource)]
+pub struct DecalChurn {
+    /// Decals despawned (and as many spawned) per frame.
+    pub per_frame: usize,
+    oldest_first: std::collections::VecDeque<Entity>,
+}
+
+fn churn_decals(world: &mut World) {
+    world.resource_scope(|world, mut churn: bevy_ecs::world::Mut<DecalChurn>| {
+        for _ in 0..churn.per_frame.min(churn.oldest_first.len()) {
+            let Some(old) = churn.oldest_first.pop_front() else { break };
+            let Some(copy) = world.get::<plugins::decal::Decal>(old).cloned() else { continue };
+            let transform = world.get::<Transform>(old).copied().unwrap_or_default();
+            let fixed = world.get::<Static>(old).is_some();
+            world.despawn(old);
+            let mut new = world.spawn((copy, transform));
+            if fixed {
+                new.insert(Static);
+            }
+            churn.oldest_first.push_back(new.id());
+        }
+    });
 }
 
 /// Moves a rotating window of decals a little every frame, so benchmarks see a steady stream

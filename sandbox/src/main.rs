@@ -63,6 +63,10 @@ struct Cli {
     /// Nudge this percentage of the decals every frame (for refit benchmarks).
     #[arg(long, default_value_t = 0.0)]
     move_decals: f32,
+    /// Every frame, despawn this many of the oldest decals and spawn as many new ones (copies of
+    /// them, so the image stays the same): bullet holes coming and going, for CPU benchmarks.
+    #[arg(long, default_value_t = 0)]
+    churn_decals: usize,
     /// A benchmark scene instead of --scene: few-blended-decals, decals-and-lights, many-decals.
     #[arg(long)]
     bench_scene: Option<String>,
@@ -269,6 +273,7 @@ fn main() -> Result<()> {
         debug_view: cli.debug_view,
         show_decal_boxes: cli.decal_boxes,
         move_decals_percent: cli.move_decals,
+        churn_decals: cli.churn_decals,
         bench_scene: cli.bench_scene.as_deref().map(sandbox::bench::BenchScene::parse).transpose()?,
         compare: cli.compare,
         compare_lights: cli.compare_lights,

@@ -181,16 +181,24 @@ impl DecalDesc {
     /// but lands nowhere (its record has no receiver layers, its box is a point), so a NaN or a
     /// zero scale from gameplay can neither corrupt the image nor stall the GPU's binning.
     pub fn is_valid(&self) -> bool {
+        self.world_to_decal().is_some()
+    }
+
+    /// The inverse of `decal_to_world`, when the decal is valid ([`DecalDesc::is_valid`]).
+    fn world_to_decal(&self) -> Option<Mat4> {
         let m = self.decal_to_world;
         let det = m.determinant();
-        m.is_finite() && det.is_finite() && det.abs() > 1e-12 && m.inverse().is_finite()
+        if !(m.is_finite() && det.is_finite() && det.abs() > 1e-12) {
+            return None;
+        }
+        Some(m.inverse()).filter(|inverse| inverse.is_finite())
     }
 
     /// The GPU record.
     pub fn record(&self) -> GpuDecal {
-        if !self.is_valid() {
+        let Some(world_to_decal) = self.world_to_decal() else {
             return GpuDecal { receivers: 0, weight: 1.0, ..GpuDecal::zeroed() };
-        }
+        };
         let c = self.uv_corners;
         let (fade_scale, fade_offset) = match self.angle_fade {
             Some((start, end)) => {
@@ -208,7 +216,7 @@ impl DecalDesc {
             _ => (0.0, 1.0),
         };
         GpuDecal {
-            world_to_decal: self.decal_to_world.inverse(),
+            world_to_decal,
             uv01: [c[0].x, c[0].y, c[1].x, c[1].y],
             uv23: [c[2].x, c[2].y, c[3].x, c[3].y],
             material: self.material,
