@@ -269,6 +269,15 @@ fn warn_on_static_writes(
 /// Deepest ancestor chain walked before a hierarchy is reported as cyclic.
 const MAX_DEPTH: usize = 1 << 16;
 
+/// What [`propagate_transforms`] keeps between runs so that it allocates nothing once warm.
+#[derive(Default)]
+pub struct PropagationScratch {
+    stack: Vec<(Entity, Affine3A)>,
+    seeds: Vec<Entity>,
+    /// The change lists used when the app has no [`TransformChanges`] resource.
+    changes: TransformChanges,
+}
+
 /// Non-static entities whose own transform or parent link changed since the last run.
 type Dirty = (With<Transform>, Without<Static>, Or<(Changed<Transform>, Changed<ChildOf>)>);
 
@@ -284,11 +293,12 @@ pub fn propagate_transforms(
     mut nodes: Query<(&Transform, &mut GlobalTransform, Option<&Children>)>,
     mut orphaned: RemovedComponents<ChildOf>,
     (changes, time): (Option<ResMut<TransformChanges>>, Option<Res<Time>>),
-    (mut stack, mut seeds, mut scratch): (Local<Vec<(Entity, Affine3A)>>, Local<Vec<Entity>>, Local<TransformChanges>),
+    mut scratch: Local<PropagationScratch>,
 ) {
+    let PropagationScratch { stack, seeds, changes: own } = &mut *scratch;
     let changes = match changes {
         Some(changes) => changes.into_inner(),
-        None => &mut *scratch,
+        None => own,
     };
     let frame = time.map_or(0, |t| t.frame());
     if changes.frame != frame {
@@ -304,7 +314,7 @@ pub fn propagate_transforms(
             stack.push((entity, Affine3A::IDENTITY));
         }
     }
-    propagate_stack(&mut stack, &mut nodes, moved);
+    propagate_stack(stack, &mut nodes, moved);
 
     seeds.clear();
     seeds.extend(dirty.iter().chain(pending.iter().copied()));
@@ -329,7 +339,7 @@ pub fn propagate_transforms(
             .and_then(|child_of| nodes.get(child_of.parent()).ok())
             .map_or(Affine3A::IDENTITY, |(_, global, _)| global.0);
         stack.push((entity, parent_affine));
-        propagate_stack(&mut stack, &mut nodes, moved);
+        propagate_stack(stack, &mut nodes, moved);
     }
     pending.clear();
 }

@@ -330,7 +330,8 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
     }
     if opts.move_decals_percent > 0.0 {
         // Decals that move every frame are not static: the transform scan must see them.
-        let scattered: Vec<Entity> = app.world.query_filtered::<Entity, (With<Static>, With<plugins::decal::Decal>)>().iter(&app.world).collect();
+        let scattered: Vec<Entity> =
+            app.world.query_filtered::<Entity, (With<Static>, With<plugins::decal::Decal>)>().iter(&app.world).collect();
         for e in scattered {
             app.world.entity_mut(e).remove::<Static>();
         }

@@ -157,8 +157,9 @@ fn decal_extraction_visits_only_what_changed_and_equals_a_full_re_extraction() {
         .collect();
     let free: Vec<Entity> = (0..4).map(|i| app.world.spawn((Decal::new(material), Transform::from_xyz(i as f32, 1.0, 0.0))).id()).collect();
     let mover = app.world.spawn(Transform::from_xyz(0.0, 5.0, 0.0)).id();
-    let riding: Vec<Entity> =
-        (0..3).map(|i| app.world.spawn((Decal::new(material), Transform::from_xyz(i as f32, 0.0, 0.0), Static, ChildOf(mover))).id()).collect();
+    let riding: Vec<Entity> = (0..3)
+        .map(|i| app.world.spawn((Decal::new(material), Transform::from_xyz(i as f32, 0.0, 0.0), Static, ChildOf(mover))).id())
+        .collect();
     app.update();
     let visited = |app: &App| app.world.resource::<RenderStats>().visited.decals;
     assert_eq!(visited(&app), n as u64 + 7, "the first frame visits every decal");
