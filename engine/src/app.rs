@@ -100,7 +100,8 @@ pub struct App {
 
 impl App {
     /// Creates a bare app: [`Time`], the asset stores `Assets<Mesh>`, `Assets<Material>` and
-    /// `Assets<Image>`, and empty frame schedules, without any plugin. Games usually want
+    /// `Assets<Image>`, the change lists of mesh instances and lights
+    /// ([`crate::changes::Inserted`]), and empty frame schedules, without any plugin. Games usually want
     /// [`App::new`], which adds the engine's default plugins (transform propagation) to this.
     pub fn empty() -> Self {
         let mut world = World::new();
@@ -115,6 +116,10 @@ impl App {
         app.schedule_mut(Update);
         app.schedule_mut(PostUpdate);
         app.schedule_mut(Render);
+        app.add_message::<crate::changes::Inserted<crate::scene::MeshInstance>>();
+        app.add_message::<crate::changes::Inserted<crate::light::PointLight>>();
+        app.add_message::<crate::changes::Inserted<crate::light::SpotLight>>();
+        app.add_message::<crate::changes::Inserted<crate::light::DirectionalLight>>();
         app
     }
 

@@ -35,6 +35,7 @@
 pub mod app;
 pub mod asset;
 pub mod camera;
+pub mod changes;
 pub mod defaults;
 pub mod gltf;
 pub mod image;

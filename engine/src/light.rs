@@ -20,8 +20,12 @@ pub fn range_from_intensity(intensity: f32) -> f32 {
 }
 
 /// An omnidirectional light at its entity's position.
+///
+/// Immutable: change it by inserting a new value (the render extraction then finds it without
+/// scanning; see [`crate::changes`]).
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
 #[require(Transform)]
+#[component(immutable, on_insert = crate::changes::note_inserted::<Self>)]
 pub struct PointLight {
     /// Linear RGB colour.
     pub color: Vec3,
@@ -45,8 +49,12 @@ impl PointLight {
 }
 
 /// A cone light at its entity's position, shining along its local -Z.
+///
+/// Immutable: change it by inserting a new value (the render extraction then finds it without
+/// scanning; see [`crate::changes`]).
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
 #[require(Transform)]
+#[component(immutable, on_insert = crate::changes::note_inserted::<Self>)]
 pub struct SpotLight {
     /// Linear RGB colour.
     pub color: Vec3,
@@ -74,8 +82,12 @@ impl SpotLight {
 }
 
 /// A light infinitely far away, shining along its entity's local -Z.
+///
+/// Immutable: change it by inserting a new value (the render extraction then finds it without
+/// scanning; see [`crate::changes`]).
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
 #[require(Transform)]
+#[component(immutable, on_insert = crate::changes::note_inserted::<Self>)]
 pub struct DirectionalLight {
     /// Linear RGB colour.
     pub color: Vec3,

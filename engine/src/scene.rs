@@ -13,8 +13,12 @@ use crate::mesh::Mesh;
 use crate::transform::{GlobalTransform, Transform};
 
 /// Draws `mesh` with `material` at its entity's `GlobalTransform`.
+///
+/// Immutable: change it by inserting a new value (the render extraction then finds it without
+/// scanning; see [`crate::changes`]).
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
 #[require(Transform)]
+#[component(immutable, on_insert = crate::changes::note_inserted::<Self>)]
 pub struct MeshInstance {
     /// The mesh in `Assets<Mesh>`.
     pub mesh: Handle<Mesh>,

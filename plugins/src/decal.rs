@@ -185,8 +185,10 @@ impl Decal {
 }
 
 /// Which decal layers a mesh instance receives. Meshes without it are on
-/// [`DEFAULT_RECEIVER_LAYERS`]; `DecalReceiver(0)` receives no decals at all.
+/// [`DEFAULT_RECEIVER_LAYERS`]; `DecalReceiver(0)` receives no decals at all. Immutable: insert
+/// a new one to change the layers.
 #[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
+#[component(immutable, on_insert = engine::changes::note_inserted::<Self>)]
 pub struct DecalReceiver(pub u32);
 
 /// Despawns a decal `seconds` after it was inserted, fading it out over the last `fade_out`

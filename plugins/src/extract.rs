@@ -6,9 +6,12 @@
 //! writes nothing and uploads nothing.
 
 use bevy_ecs::entity::{EntityHashMap, EntityHashSet};
+use bevy_ecs::message::MessageReader;
 use bevy_ecs::prelude::*;
+use bevy_ecs::system::SystemParam;
 use engine::asset::{AssetEvent, Assets, Handle};
 use engine::camera::Camera;
+use engine::changes::Inserted;
 use engine::image::{ColorSpace, Image};
 use engine::light::{DirectionalLight, PointLight, SpotLight};
 use engine::material::{AlphaMode, Material};
@@ -322,27 +325,49 @@ pub fn extract_meshes(
     }
 }
 
-type ChangedInstance = Or<(Changed<MeshInstance>, Changed<GlobalTransform>, Changed<DecalReceiver>)>;
+/// The change lists that name mesh instances: inserted instances and decal receiver layers
+/// ([`Inserted`] messages), and what transform propagation moved.
+#[derive(SystemParam)]
+pub struct InstanceChanges<'w, 's> {
+    inserted: MessageReader<'w, 's, Inserted<MeshInstance>>,
+    receivers: MessageReader<'w, 's, Inserted<DecalReceiver>>,
+    moved: Option<Res<'w, TransformChanges>>,
+}
 
-/// Mirrors mesh instances whose transform, mesh, material or decal layers changed; frees
-/// removed ones.
+impl InstanceChanges<'_, '_> {
+    /// Appends every listed entity to `out` (entities that are not instances and repeats
+    /// included) and marks the messages read.
+    pub fn drain_into(&mut self, out: &mut Vec<Entity>) {
+        out.extend(self.inserted.read().map(|m| m.entity));
+        out.extend(self.receivers.read().map(|m| m.entity));
+        out.extend(self.moved.iter().flat_map(|m| m.moved()).copied());
+    }
+}
+
+/// Mirrors mesh instances that were spawned, moved, given another mesh or material (a new
+/// `MeshInstance` inserted) or other decal layers; frees removed ones. The instances to visit
+/// come from change lists ([`Inserted`] messages and [`TransformChanges::moved`]), not from a
+/// scan, so a frame in which nothing changed visits none of them.
+#[allow(clippy::too_many_arguments)]
 pub fn extract_instances(
-    changed: Query<(Entity, &MeshInstance, &GlobalTransform, Option<&DecalReceiver>), ChangedInstance>,
-    all: Query<(Entity, &MeshInstance, &GlobalTransform, Option<&DecalReceiver>)>,
+    all: Query<(&MeshInstance, &GlobalTransform, Option<&DecalReceiver>)>,
+    mut changes: InstanceChanges,
     (mut removed, mut removed_receivers): (RemovedComponents<MeshInstance>, RemovedComponents<DecalReceiver>),
     (mut mirror, mut slots): (ResMut<RenderMirror>, ResMut<MirrorSlots>),
     live: Query<(), With<MeshInstance>>,
-    mut checks: Local<EntityChecks>,
+    (mut checks, mut visit): (Local<EntityChecks>, Local<Vec<Entity>>),
     (settings, mut stats): (Res<RenderSettings>, ResMut<RenderStats>),
 ) {
     let EntityChecks { warned, waiting } = &mut *checks;
     let mirror = &mut mirror.0;
     let limit = settings.limits.clamped().instances;
+    visit.clear();
     // An instance that lost its DecalReceiver falls back to the default layers.
-    let lost_receiver = removed_receivers.read().filter_map(|e| all.get(e).ok());
+    visit.extend(removed_receivers.read());
     for entity in removed.read() {
         if live.contains(entity) {
-            continue; // removed and re-added in the same frame: handled as a change below
+            visit.push(entity); // removed and re-added in the same frame: handled as a change
+            continue;
         }
         warned.forget(entity);
         waiting.forget(entity);
@@ -350,8 +375,14 @@ pub fn extract_instances(
             mirror.remove_instance(slot);
         }
     }
-    let retry = waiting.retry(mirror.instances.len(), limit);
-    for (entity, inst, global, receiver) in changed.iter().chain(lost_receiver).chain(retry.iter().filter_map(|&e| all.get(e).ok())) {
+    changes.drain_into(&mut visit);
+    visit.extend(waiting.retry(mirror.instances.len(), limit));
+    visit.sort_unstable();
+    visit.dedup();
+    let mut visited = 0;
+    for &entity in visit.iter() {
+        let Ok((inst, global, receiver)) = all.get(entity) else { continue };
+        visited += 1;
         let world = global.compute_matrix();
         let mesh = slots.meshes.get(&inst.mesh).copied();
         let problem = match mesh {
@@ -366,7 +397,8 @@ pub fn extract_instances(
             }
             continue;
         };
-        if !slots.instances.contains_key(&entity) && !waiting.admit(entity, mirror.instances.len(), limit, "mesh instance") {
+        let slot = slots.instances.get(&entity).copied();
+        if slot.is_none() && !waiting.admit(entity, mirror.instances.len(), limit, "mesh instance") {
             continue;
         }
         let (material, flags) = slots.materials.get(&inst.material).copied().unwrap_or((slots.default_material, DrawFlags::default()));
@@ -374,25 +406,26 @@ pub fn extract_instances(
         let layers = receiver.map_or(if flags.transparent { 0 } else { DEFAULT_RECEIVER_LAYERS }, |r| r.0);
         let record = GpuInstance::new(world, material, layers);
         let draw = DrawItem { mesh, alpha_mask: flags.alpha_mask, double_sided: flags.double_sided, transparent: flags.transparent };
-        let slot = mirror.set_instance(slots.instances.get(&entity).copied(), record, draw);
-        slots.instances.insert(entity, slot);
+        let written = mirror.set_instance(slot, record, draw);
+        if slot.is_none() {
+            slots.instances.insert(entity, written);
+        }
     }
+    stats.visited.instances = visited;
     stats.over_limit.instances = waiting.len();
 }
 
-/// Lights whose transform or parameters changed. The `With` part keeps the scan to the lights'
-/// archetypes: `Changed<GlobalTransform>` alone would visit every placed entity (a million
-/// decals' included) every frame.
-type ChangedLight = (
-    Or<(With<PointLight>, With<SpotLight>, With<DirectionalLight>)>,
-    Or<(Changed<GlobalTransform>, Changed<PointLight>, Changed<SpotLight>, Changed<DirectionalLight>)>,
-);
-
-/// Mirrors lights whose transform or parameters changed; frees removed ones.
-#[allow(clippy::type_complexity)]
+/// Mirrors lights that were spawned, moved or changed (a new light component inserted); frees
+/// removed ones. Like instances, the lights to visit come from change lists.
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
 pub fn extract_lights(
-    changed: Query<(Entity, &GlobalTransform, Option<&PointLight>, Option<&SpotLight>, Option<&DirectionalLight>), ChangedLight>,
-    all: Query<(Entity, &GlobalTransform, Option<&PointLight>, Option<&SpotLight>, Option<&DirectionalLight>)>,
+    all: Query<(&GlobalTransform, Option<&PointLight>, Option<&SpotLight>, Option<&DirectionalLight>)>,
+    (mut inserted_point, mut inserted_spot, mut inserted_dir, moved): (
+        MessageReader<Inserted<PointLight>>,
+        MessageReader<Inserted<SpotLight>>,
+        MessageReader<Inserted<DirectionalLight>>,
+        Option<Res<TransformChanges>>,
+    ),
     (mut removed_point, mut removed_spot, mut removed_dir): (
         RemovedComponents<PointLight>,
         RemovedComponents<SpotLight>,
@@ -400,14 +433,16 @@ pub fn extract_lights(
     ),
     live: Query<(), Or<(With<PointLight>, With<SpotLight>, With<DirectionalLight>)>>,
     (mut mirror, mut slots): (ResMut<RenderMirror>, ResMut<MirrorSlots>),
-    mut checks: Local<EntityChecks>,
+    (mut checks, mut visit): (Local<EntityChecks>, Local<Vec<Entity>>),
     (settings, mut stats): (Res<RenderSettings>, ResMut<RenderStats>),
 ) {
     let EntityChecks { warned, waiting } = &mut *checks;
     let mirror = &mut mirror.0;
     let limit = settings.limits.clamped().lights;
+    visit.clear();
     for entity in removed_point.read().chain(removed_spot.read()).chain(removed_dir.read()) {
         if live.contains(entity) {
+            visit.push(entity); // one kind of light replaced by another
             continue;
         }
         warned.forget(entity);
@@ -417,11 +452,20 @@ pub fn extract_lights(
             mirror.counters.records_written += 1;
         }
     }
-    let retry = waiting.retry(mirror.lights.len(), limit);
-    for (entity, global, point, spot, dir) in changed.iter().chain(retry.iter().filter_map(|&e| all.get(e).ok())) {
+    visit.extend(inserted_point.read().map(|m| m.entity));
+    visit.extend(inserted_spot.read().map(|m| m.entity));
+    visit.extend(inserted_dir.read().map(|m| m.entity));
+    visit.extend(moved.iter().flat_map(|m| m.moved()).copied());
+    visit.extend(waiting.retry(mirror.lights.len(), limit));
+    visit.sort_unstable();
+    visit.dedup();
+    let mut visited = 0;
+    for &entity in visit.iter() {
+        let Ok((global, point, spot, dir)) = all.get(entity) else { continue };
         if point.is_none() && spot.is_none() && dir.is_none() {
             continue; // a moved entity that is not a light
         }
+        visited += 1;
         let record = match validate::light_record(global.compute_matrix(), point, spot, dir) {
             Ok((record, clamped)) => {
                 warned.report(entity, "light", clamped, "drawn clamped");
@@ -443,6 +487,7 @@ pub fn extract_lights(
         let slot = SceneMirror::write(&mut mirror.counters, &mut mirror.lights, slots.lights.get(&entity).copied(), record);
         slots.lights.insert(entity, slot);
     }
+    stats.visited.lights = visited;
     stats.over_limit.lights = waiting.len();
 }
 

@@ -233,19 +233,19 @@ pub fn reset_mirror(world: &mut World) {
             assets.touch_all();
         }
     }
-    fn touch<C: Component<Mutability = bevy_ecs::component::Mutable>>(world: &mut World) {
-        for mut c in world.query::<&mut C>().iter_mut(world) {
-            c.set_changed();
-        }
+    // Instances and lights are immutable: their change lists name them all instead.
+    fn list_all<C: Component>(world: &mut World) {
+        let entities: Vec<Entity> = world.query_filtered::<Entity, With<C>>().iter(world).collect();
+        world.write_message_batch(entities.into_iter().map(engine::changes::Inserted::<C>::new));
     }
     touch_assets::<engine::image::Image>(world);
     touch_assets::<engine::material::Material>(world);
     touch_assets::<engine::mesh::Mesh>(world);
     touch_assets::<decal::DecalMaterial>(world);
-    touch::<engine::scene::MeshInstance>(world);
-    touch::<engine::light::PointLight>(world);
-    touch::<engine::light::SpotLight>(world);
-    touch::<engine::light::DirectionalLight>(world);
+    list_all::<engine::scene::MeshInstance>(world);
+    list_all::<engine::light::PointLight>(world);
+    list_all::<engine::light::SpotLight>(world);
+    list_all::<engine::light::DirectionalLight>(world);
     // Decals are immutable: list them all for the next extraction instead.
     let decals: Vec<Entity> = world.query_filtered::<Entity, With<decal::Decal>>().iter(world).collect();
     let mut changes = world.resource_mut::<decal::DecalChanges>();
@@ -323,7 +323,11 @@ pub struct OverLimitCounts {
 /// kinds extracted from change lists.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct VisitCounts {
-    /// Decals (spawned, edited, moved or retried after waiting for room).
+    /// Mesh instances (spawned, changed, moved or retried after waiting for room).
+    pub instances: u64,
+    /// Lights (likewise).
+    pub lights: u64,
+    /// Decals (likewise).
     pub decals: u64,
 }
 
@@ -423,6 +427,7 @@ impl Plugin for RenderPlugin {
         app.add_systems(Render, render_frame.in_set(RenderSystems::Render));
         app.insert_resource(engine::asset::Assets::<decal::DecalMaterial>::default());
         app.world.init_resource::<decal::DecalChanges>();
+        app.add_message::<engine::changes::Inserted<decal::DecalReceiver>>();
         app.world.init_resource::<decal::DecalLifetimes>();
         app.add_systems(engine::app::Update, decal::expire_decals);
     }

@@ -116,8 +116,13 @@ impl DebugOverlay {
             let passes: Vec<String> = last.gpu.iter().map(|(name, ms)| format!("{name} {ms:.2}")).collect();
             ui.label(format!("GPU {:.2} ms: {}", last.gpu.total_ms, passes.join(", ")));
             ui.label(format!(
-                "CPU {:.2} ms a frame (GPU waits excluded): extract {:.2}, record {:.2}; {} decals visited",
-                last.cpu_frame_ms, last.cpu_extract_ms, last.cpu_record_ms, last.visited.decals
+                "CPU {:.2} ms a frame (GPU waits excluded): extract {:.2}, record {:.2}; visited {} instances, {} lights, {} decals",
+                last.cpu_frame_ms,
+                last.cpu_extract_ms,
+                last.cpu_record_ms,
+                last.visited.instances,
+                last.visited.lights,
+                last.visited.decals
             ));
         }
         // A small graph of frame time (white) and GPU time (green) over the last seconds.

@@ -50,6 +50,7 @@ use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::ray::{Ray, RayHit};
 
 use crate::decal::DecalReceiver;
+use crate::extract::InstanceChanges;
 
 /// Ray casts pass through this entity and its descendants (a player's own body).
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -61,6 +62,7 @@ pub struct RaycastPlugin;
 impl Plugin for RaycastPlugin {
     fn build(&self, app: &mut App) {
         app.world.init_resource::<SceneRaycaster>();
+        app.add_message::<engine::changes::Inserted<DecalReceiver>>();
         app.add_systems(PostUpdate, rebuild_raycaster.after(TransformSystems::Propagate));
     }
 }
@@ -284,26 +286,22 @@ pub fn rebuild_raycaster(
     ignored: Query<Ref<RaycastIgnore>>,
     parents: Query<&ChildOf>,
     meshes: Option<Res<Assets<Mesh>>>,
+    (mut changes, mut listed): (InstanceChanges, Local<Vec<Entity>>),
     mut removed_instances: RemovedComponents<MeshInstance>,
     mut removed_receivers: RemovedComponents<DecalReceiver>,
     mut removed_ignored: RemovedComponents<RaycastIgnore>,
     ticks: SystemChangeTick,
 ) {
-    // Drain every reader each frame, whether or not a rebuild follows.
+    // Drain every reader each frame, whether or not a rebuild follows. What changed comes from
+    // change lists (inserts, moves, removals), so a still frame visits no instance.
     let removed = removed_instances.read().count() + removed_receivers.read().count() + removed_ignored.read().count() > 0;
+    let solid = |entity: Entity| instances.contains(entity) && !is_ignored(entity, &ignored, &parents);
+    listed.clear();
+    changes.drain_into(&mut listed);
     let Some(meshes) = meshes else { return };
     let stale = match raycaster.built {
         None => true,
-        Some(built) => {
-            removed
-                || ignored.iter().any(|i| i.is_added_after(built))
-                || instances.iter().any(|(entity, instance, global, receiver)| {
-                    let changed = instance.is_changed_after(built)
-                        || global.is_changed_after(built)
-                        || receiver.is_some_and(|r| r.is_changed_after(built));
-                    changed && !is_ignored(entity, &ignored, &parents)
-                })
-        }
+        Some(built) => removed || ignored.iter().any(|i| i.is_added_after(built)) || listed.iter().any(|&e| solid(e)),
     };
     if stale {
         *raycaster = gather(&instances, &ignored, &parents, &meshes);
@@ -370,8 +368,7 @@ mod tests {
     #[test]
     fn rebuilds_only_when_solid_geometry_changes() {
         let mut app = App::new();
-        app.world.init_resource::<SceneRaycaster>();
-        app.add_systems(engine::app::PostUpdate, rebuild_raycaster.after(engine::transform::TransformSystems::Propagate));
+        app.add_plugins(RaycastPlugin);
         let cube = spawn_mesh(&mut app.world, shapes::cuboid(Vec3::ONE, 1.0), Transform::IDENTITY);
         let player = app.world.spawn((RaycastIgnore, Transform::IDENTITY)).id();
         let body = spawn_mesh(&mut app.world, shapes::cuboid(Vec3::ONE, 1.0), Transform::IDENTITY);

@@ -22,7 +22,7 @@ use bevy_ecs::prelude::*;
 use engine::asset::{Assets, Handle};
 use engine::image::Image;
 use engine::light::{DirectionalLight, PointLight, SpotLight};
-use engine::transform::Transform;
+use engine::transform::{Static, Transform};
 use glam::{Quat, Vec3};
 use plugins::decal::{Decal, DecalMaterial};
 
@@ -241,7 +241,8 @@ pub fn spawn_city(world: &mut World, props: usize) {
             .collect();
         (stone, colours)
     };
-    world.spawn((MeshInstance { mesh: ground, material: stone }, Transform::default()));
+    // A city does not move: Static keeps its million props out of the transform scan.
+    world.spawn((MeshInstance { mesh: ground, material: stone }, Transform::default(), Static));
     let origin = -extent / 2.0;
     let mut rng = SplitMix64::new(24);
     let mut batch = Vec::with_capacity(props + 4 * blocks);
@@ -253,8 +254,11 @@ pub fn spawn_city(world: &mut World, props: usize) {
             .chain([(Vec3::new(-BLOCK / 2.0, 6.0, 0.0), 1.0), (Vec3::new(BLOCK / 2.0, 6.0, 0.0), 1.0)])
         {
             let rotation = Quat::from_rotation_y(turn * std::f32::consts::FRAC_PI_2);
-            batch
-                .push((MeshInstance { mesh: wall, material: stone }, Transform::from_translation(centre + offset).with_rotation(rotation)));
+            batch.push((
+                MeshInstance { mesh: wall, material: stone },
+                Transform::from_translation(centre + offset).with_rotation(rotation),
+                Static,
+            ));
         }
         for _ in 0..PROPS_PER_BLOCK.min(props - b * PROPS_PER_BLOCK) {
             let kind = (rng.next_u64() % 4) as usize;
@@ -270,7 +274,7 @@ pub fn spawn_city(world: &mut World, props: usize) {
             let transform = Transform::from_translation(at + Vec3::Y * 0.5 * scale)
                 .with_rotation(Quat::from_rotation_y(rng.next_f32() * std::f32::consts::TAU))
                 .with_scale(Vec3::splat(scale));
-            batch.push((MeshInstance { mesh: shapes[kind], material: colours[(rng.next_u64() % 4) as usize] }, transform));
+            batch.push((MeshInstance { mesh: shapes[kind], material: colours[(rng.next_u64() % 4) as usize] }, transform, Static));
         }
     }
     world.spawn_batch(batch);
@@ -312,15 +316,15 @@ pub fn spawn_behind_wall(world: &mut World, boxes: usize) {
             materials.add(Material::from_color(Vec3::new(0.8, 0.3, 0.2).extend(1.0), 0.0, 0.5)),
         )
     };
-    world.spawn((MeshInstance { mesh: floor, material: grey }, Transform::from_xyz(0.0, 0.0, -extent / 2.0)));
-    world.spawn((MeshInstance { mesh: wall, material: grey }, Transform::from_xyz(0.0, 4.0, -6.0)));
+    world.spawn((MeshInstance { mesh: floor, material: grey }, Transform::from_xyz(0.0, 0.0, -extent / 2.0), Static));
+    world.spawn((MeshInstance { mesh: wall, material: grey }, Transform::from_xyz(0.0, 4.0, -6.0), Static));
     let grid = (0..boxes).map(|i| {
         let at = Vec3::new(((i % side) as f32 - side as f32 / 2.0) * 1.2, 0.3, -8.0 - (i / side) as f32 * 1.2);
-        (MeshInstance { mesh: cube, material: red }, Transform::from_translation(at))
+        (MeshInstance { mesh: cube, material: red }, Transform::from_translation(at), Static)
     });
     let front = (0..20).map(|i| {
         let at = Vec3::new((i % 10) as f32 * 0.9 - 4.0, 0.3, -2.5 - (i / 10) as f32 * 1.5);
-        (MeshInstance { mesh: cube, material: red }, Transform::from_translation(at))
+        (MeshInstance { mesh: cube, material: red }, Transform::from_translation(at), Static)
     });
     world.spawn_batch(grid.chain(front).collect::<Vec<_>>());
     world.spawn((

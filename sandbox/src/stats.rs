@@ -74,7 +74,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
             "record": round(stats.cpu_record_ms),
             "submit": round(stats.cpu_submit_ms),
         },
-        "visited": { "decals": stats.visited.decals },
+        "visited": { "instances": stats.visited.instances, "lights": stats.visited.lights, "decals": stats.visited.decals },
         "counters": {
             "bytes_uploaded": c.bytes_uploaded,
             "records_written": c.records_written,
