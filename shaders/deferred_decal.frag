@@ -29,7 +29,7 @@ void main() {
     DecalBlend b;
     blend_init(b);
     apply_decal(b, v_slot, s);
-    uint c = min(DecalsRef(scene.decals).decals[v_slot].channel, DECAL_CHANNELS - 1u);
+    uint c = decal_channel(DecalsRef(scene.decals).decals[v_slot]);
     // One decal in its channel: sum / weight is its value, 1 − visibility its alpha.
     vec4 w = b.weight[c];
     if (w.x + w.y + w.z + w.w <= 0.0) discard;

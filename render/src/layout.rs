@@ -528,8 +528,10 @@ layout! {
     pub const DECAL_ROUGHNESS: u32 = 4;
     /// Decal material flag: blends metallic.
     pub const DECAL_METALLIC: u32 = 8;
-    /// Number of decal blending channels (`GpuDecal::channel` is below this).
+    /// Number of decal blending channels (a `GpuDecal`'s channel is below this).
     pub const DECAL_CHANNELS: u32 = 4;
+    /// `GpuDecal::material_channel`: the channel sits above this many bits of material slot.
+    pub const DECAL_CHANNEL_SHIFT: u32 = 30;
     /// `GpuAabb::slot` of a box that belongs to no decal (the padding of a BLAS build).
     pub const NO_DECAL: u32 = 0xFFFF_FFFF;
     /// Clustered decals: the side of a cluster's screen tile, in pixels.
@@ -787,10 +789,10 @@ layout! {
         pub uv01: [f32; 4],
         /// UVs of the corners at (+x,+y) and (−x,+y).
         pub uv23: [f32; 4],
-        /// Slot in the decal material table.
-        pub material: u32,
-        /// Blending channel, below `DECAL_CHANNELS`.
-        pub channel: u32,
+        /// Slot in the decal material table (the low `DECAL_CHANNEL_SHIFT` bits) and blending
+        /// channel, below `DECAL_CHANNELS` (the bits above): one word, so that the record, with
+        /// its lifetime fade, stays 128 bytes (one cache line on the GPUs we measure on).
+        pub material_channel: u32,
         /// Weight within the channel.
         pub weight: f32,
         /// Receiver layers the decal lands on (0 in free slots: never applies).
@@ -807,8 +809,6 @@ layout! {
         pub life_scale: f32,
         /// See `life_scale`.
         pub life_offset: f32,
-        /// Padding to 16 bytes.
-        pub pad: [u32; 3],
     }
 
     /// What a decal applies.

@@ -21,6 +21,11 @@ layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer De
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer DecalMaterialsRef { GpuDecalMaterial decal_materials[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer DecalBoxesRef { GpuAabb boxes[]; };
 
+// GpuDecal::material_channel: the material slot in the low DECAL_CHANNEL_SHIFT bits, the
+// blending channel above them (render/src/scene/mod.rs, GpuDecal::pack_material_channel).
+uint decal_material(GpuDecal d) { return d.material_channel & ((1u << DECAL_CHANNEL_SHIFT) - 1u); }
+uint decal_channel(GpuDecal d) { return d.material_channel >> DECAL_CHANNEL_SHIFT; }
+
 // The decal record of a BLAS primitive (the box table is dense; NO_DECAL for padding boxes).
 uint decal_of_box(uint primitive) {
     return DecalBoxesRef(scene.decal_aabbs).boxes[primitive].slot;
@@ -68,12 +73,12 @@ void decal_accumulate(inout DecalBlend b, GpuDecal d, vec3 local, float fade, De
     vec2 duvdx = duv_ds * dlx.x + duv_dt * dlx.y;
     vec2 duvdy = duv_ds * dly.x + duv_dt * dly.y;
 
-    GpuDecalMaterial m = DecalMaterialsRef(scene.decal_materials).decal_materials[d.material];
+    GpuDecalMaterial m = DecalMaterialsRef(scene.decal_materials).decal_materials[decal_material(d)];
     vec4 texel = textureGrad(textures[nonuniformEXT(m.base_color_tex)], uv, duvdx, duvdy);
     float life = clamp(scene.camera.camera.time * d.life_scale + d.life_offset, 0.0, 1.0);
     float a = clamp(texel.a * m.base_color.a * d.opacity * fade * life, 0.0, 1.0);
     if (a <= 0.0) return;
-    uint c = min(d.channel, DECAL_CHANNELS - 1u);
+    uint c = decal_channel(d);
     float w = d.weight;
 
     if ((m.flags & DECAL_ALBEDO) != 0u) blend_albedo(b, c, texel.rgb * m.base_color.rgb, a, w);

@@ -26,13 +26,13 @@ pub fn plan_deferred_decals(
     runs: &mut Vec<DecalRun>,
 ) {
     keys.clear();
-    keys.extend(records.iter().enumerate().filter(|(_, r)| r.receivers != 0).map(|(i, r)| (r.channel, r.weight, i as u32)));
+    keys.extend(records.iter().enumerate().filter(|(_, r)| r.receivers != 0).map(|(i, r)| (r.channel(), r.weight, i as u32)));
     keys.sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.cmp(&b.2)));
     slots.clear();
     slots.extend(keys.iter().map(|k| k.2));
     runs.clear();
     for (i, &slot) in slots.iter().enumerate() {
-        let flags = materials.get(records[slot as usize].material as usize).map_or(0, |m| m.flags & 15);
+        let flags = materials.get(records[slot as usize].material() as usize).map_or(0, |m| m.flags & 15);
         match runs.last_mut() {
             Some(run) if run.flags == flags => run.count += 1,
             _ => runs.push(DecalRun { first: i as u32, count: 1, flags }),
@@ -91,7 +91,12 @@ mod tests {
 
     #[test]
     fn decals_are_ordered_by_channel_then_weight_in_runs_of_equal_attributes() {
-        let decal = |channel, weight, material| GpuDecal { channel, weight, material, receivers: 1, ..GpuDecal::zeroed() };
+        let decal = |channel, weight, material| GpuDecal {
+            material_channel: GpuDecal::pack_material_channel(material, channel),
+            weight,
+            receivers: 1,
+            ..GpuDecal::zeroed()
+        };
         let records = [
             decal(1, 1.0, 0),
             GpuDecal::zeroed(), // a free slot

@@ -16,10 +16,10 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec2, Vec3};
 
 pub use crate::layout::{
-    CULL_BATCHES, CULL_DOUBLE_SIDED, CULL_LIVE, CULL_MASKED, CULL_TRANSPARENT, DECAL_ALBEDO, DECAL_CHANNELS, DECAL_METALLIC, DECAL_NORMAL,
-    DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuCullRecord, GpuDecal, GpuDecalMaterial, GpuDrawCommand, GpuInstance, GpuLight, GpuMaterial,
-    GpuMeshInfo, GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, NO_DECAL, RESERVED_TEXTURES, TEXTURE_FLAT_NORMAL,
-    TEXTURE_WHITE,
+    CULL_BATCHES, CULL_DOUBLE_SIDED, CULL_LIVE, CULL_MASKED, CULL_TRANSPARENT, DECAL_ALBEDO, DECAL_CHANNEL_SHIFT, DECAL_CHANNELS,
+    DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuCullRecord, GpuDecal, GpuDecalMaterial, GpuDrawCommand,
+    GpuInstance, GpuLight, GpuMaterial, GpuMeshInfo, GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, NO_DECAL,
+    RESERVED_TEXTURES, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
 };
 
 impl GpuInstance {
@@ -100,6 +100,25 @@ impl GpuLight {
             range: f32::INFINITY,
             ..Self::zeroed()
         }
+    }
+}
+
+impl GpuDecal {
+    /// `material_channel` for a decal material slot and a channel (clamped below
+    /// [`DECAL_CHANNELS`]). Slots reach 2³⁰, far past the decal material table's limit.
+    pub fn pack_material_channel(material: u32, channel: u32) -> u32 {
+        debug_assert!(material < 1 << DECAL_CHANNEL_SHIFT, "decal material slot {material} out of range");
+        (material & ((1 << DECAL_CHANNEL_SHIFT) - 1)) | (channel.min(DECAL_CHANNELS - 1) << DECAL_CHANNEL_SHIFT)
+    }
+
+    /// The decal material slot.
+    pub fn material(&self) -> u32 {
+        self.material_channel & ((1 << DECAL_CHANNEL_SHIFT) - 1)
+    }
+
+    /// The blending channel.
+    pub fn channel(&self) -> u32 {
+        self.material_channel >> DECAL_CHANNEL_SHIFT
     }
 }
 
@@ -219,8 +238,7 @@ impl DecalDesc {
             world_to_decal,
             uv01: [c[0].x, c[0].y, c[1].x, c[1].y],
             uv23: [c[2].x, c[2].y, c[3].x, c[3].y],
-            material: self.material,
-            channel: self.channel.min(DECAL_CHANNELS - 1),
+            material_channel: GpuDecal::pack_material_channel(self.material, self.channel),
             weight: self.weight.max(1e-4),
             receivers: self.receivers,
             opacity: if self.opacity.is_nan() { 0.0 } else { self.opacity.clamp(0.0, 1.0) },
@@ -228,7 +246,6 @@ impl DecalDesc {
             fade_offset,
             life_scale,
             life_offset,
-            pad: [0; 3],
         }
     }
 }
