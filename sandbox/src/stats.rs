@@ -133,7 +133,7 @@ fn light_tiles_json(t: &render::lights::tiles::LightTileStats) -> Value {
 }
 
 fn clusters_json(k: &render::scene::DecalClusterStats) -> Value {
-    let mut v = json!({ "clusters": k.clusters, "capacity": k.capacity, "grows": k.grows });
+    let mut v = json!({ "clusters": k.clusters, "capacity": k.capacity, "limit": k.limit, "grows": k.grows, "shrinks": k.shrinks });
     if k.measured_frame != u64::MAX {
         let mean = |sum: u64, n: u64| if n == 0 { 0.0 } else { (sum as f64 / n as f64 * 100.0).round() / 100.0 };
         let measured = json!({

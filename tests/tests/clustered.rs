@@ -71,6 +71,20 @@ fn the_cluster_buffer_grows_when_a_cluster_holds_more_decals_than_it_has_room_fo
         let got = albedo[(py * SIZE.0 + px) as usize];
         assert!(got[0] > 0.9 && got[1] < 0.1, "the decal at {c} shows after the growth: {got:?}");
     }
+    assert!(last.limit >= last.capacity, "the room stays under its memory ceiling: {last:?}");
+
+    // All but one decal go: a second later the room is back to the initial 64 entries.
+    let decals: Vec<Entity> = app.world.query_filtered::<Entity, With<Decal>>().iter(&app.world).skip(1).collect();
+    for e in decals {
+        app.world.despawn(e);
+    }
+    for _ in 0..render::gpu::upload::SHRINK_AFTER_FRAMES + 6 {
+        app.update();
+    }
+    let after = cluster_stats(&app);
+    assert_eq!(after.capacity, 64, "the cluster room returned after the despawn: {after:?}");
+    assert!(after.shrinks > last.shrinks && after.dropped == 0, "{after:?}");
+    assert_no_validation_errors(&mut app);
 }
 
 #[test]

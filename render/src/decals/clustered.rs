@@ -23,6 +23,13 @@
 //!   [`crate::gpu::upload::Shrink`]): once the need (with that quarter) has stayed at or below a
 //!   quarter of the room for a second (60 frames), it shrinks to the need's power of two, never
 //!   below the initial room; after a second without clustered decals to bin, it is released.
+//! - **A ceiling**: the lists never take more than [`MEMORY_SHARE`] of the renderer's memory
+//!   (the memory budget, or the largest device-local heap; [`DecalClusterStats::limit`]). A
+//!   scene that needs more keeps the ceiling and drops the entries past it, every frame, which
+//!   the statistics count and one warning names (again only after the need fitted in between).
+//!   The growth's two-frame latency also drops entries, but growing ends it, so that is counted
+//!   and not warned about. At 1920×1080 the scatter of 1,000,000 decals (139 applied a shaded
+//!   pixel) needs 134 M entries, 537 MB: within the ceiling of an 80 GB GPU's 10 GB.
 //! - **CPU work** is none per frame: the binning reads the decal boxes the GPU already holds
 //!   (kept by change detection for the acceleration structures), and the camera, so the lists
 //!   follow the view without any upload.
@@ -49,6 +56,24 @@ use crate::scene::gpu::GpuScene;
 /// Entries the cluster buffer starts with room for, unless the renderer's settings say
 /// otherwise.
 pub const INITIAL_CAPACITY: u32 = 1 << 16;
+
+/// The share of the renderer's memory ([`GpuContext::memory_limit`]) the cluster lists may take
+/// at most: one eighth.
+pub const MEMORY_SHARE: (u64, u64) = (1, 8);
+
+/// The room the cluster buffer should have, in entries: a quarter more than `needed`, rounded
+/// up to a power of two, when the current room is too small; `smaller` (the shrink policy's
+/// verdict) when it has stayed far too large; otherwise the current room (at least
+/// `initial`). Never more than `limit`.
+fn plan_capacity(current: u32, needed: u32, initial: u32, smaller: Option<u64>, limit: u32) -> u32 {
+    let mut capacity = current.max(initial);
+    if needed > capacity {
+        capacity = needed.saturating_add(needed / 4).checked_next_power_of_two().unwrap_or(u32::MAX);
+    } else if let Some(smaller) = smaller {
+        capacity = smaller.min(u32::MAX as u64) as u32;
+    }
+    capacity.min(limit)
+}
 
 /// The cluster buffer this frame: where it is and what it holds room for (push constants).
 #[derive(Clone, Copy, Debug, Default)]
@@ -78,6 +103,8 @@ pub struct DecalClusters {
     shrinks: u64,
     shrink: Shrink,
     latest: DecalClusterStats,
+    /// Whether the ceiling's drops were warned about (reset once the need fits again).
+    warned_at_limit: bool,
     res: ResourceId,
 }
 
@@ -103,6 +130,7 @@ impl DecalClusters {
             shrinks: 0,
             shrink: Shrink::default(),
             latest: DecalClusterStats { measured_frame: u64::MAX, ..Default::default() },
+            warned_at_limit: false,
             res: graph.resource("decal clusters"),
         })
     }
@@ -123,6 +151,7 @@ impl DecalClusters {
                 clusters_used: words[3] as u64,
                 entries: words[0] as u64,
                 capacity: self.capacity as u64,
+                limit: 0, // filled in below
                 dropped: words[1] as u64,
                 grows: self.grows,
                 shrinks: self.shrinks,
@@ -134,13 +163,25 @@ impl DecalClusters {
                 max_applied: words[10] as u64,
             };
         }
+        // The ceiling in entries: the share of memory, less the header and the cluster table.
+        let share = ctx.memory_limit() / MEMORY_SHARE.1 * MEMORY_SHARE.0;
+        let fixed = (DECAL_CLUSTER_HEADER as u64 + 3 * clusters as u64) * 4;
+        let limit = (share.saturating_sub(fixed) / 4).clamp(self.initial_capacity.min(1024) as u64, u32::MAX as u64 / 2) as u32;
         let needed = self.latest.entries.min(u32::MAX as u64 / 2) as u32;
-        let mut capacity = self.capacity.max(self.initial_capacity);
         let smaller = self.shrink.check(self.capacity as u64, (needed + needed / 4) as u64, self.initial_capacity as u64);
-        if needed > capacity {
-            capacity = (needed + needed / 4).next_power_of_two();
-        } else if let Some(smaller) = smaller {
-            capacity = smaller as u32;
+        let capacity = plan_capacity(self.capacity, needed, self.initial_capacity, smaller, limit);
+        if needed > limit && self.latest.dropped > 0 {
+            if !self.warned_at_limit {
+                self.warned_at_limit = true;
+                tracing::warn!(
+                    "clustered decals need {needed} cluster entries, past the ceiling of {limit} (1/{} of {} MiB of GPU memory): {} entries are dropped each frame, so some decals are missing where many overlap",
+                    MEMORY_SHARE.1,
+                    ctx.memory_limit() >> 20,
+                    needed - limit
+                );
+            }
+        } else if needed <= limit {
+            self.warned_at_limit = false;
         }
         if self.buffer.is_none() || capacity != self.capacity || clusters != self.clusters {
             let size = (DECAL_CLUSTER_HEADER as u64 + 3 * clusters as u64 + capacity as u64) * 4;
@@ -171,6 +212,7 @@ impl DecalClusters {
         *stats = DecalClusterStats {
             clusters: clusters as u64,
             capacity: capacity as u64,
+            limit: limit as u64,
             grows: self.grows,
             shrinks: self.shrinks,
             ..self.latest
@@ -248,5 +290,27 @@ impl DecalClusters {
             b.destroy(ctx);
         }
         self.readback.destroy(ctx);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::plan_capacity;
+
+    #[test]
+    fn the_cluster_room_grows_with_a_quarter_to_spare_shrinks_when_told_and_stops_at_the_ceiling() {
+        // Fits: stays (at least the initial room).
+        assert_eq!(plan_capacity(0, 10, 64, None, 1 << 20), 64);
+        assert_eq!(plan_capacity(4096, 1000, 64, None, 1 << 20), 4096);
+        // Too small: a quarter more, to the next power of two.
+        assert_eq!(plan_capacity(64, 100, 64, None, 1 << 20), 128);
+        assert_eq!(plan_capacity(64, 1000, 64, None, 1 << 20), 2048);
+        // The shrink policy's verdict.
+        assert_eq!(plan_capacity(1 << 16, 10, 64, Some(64), 1 << 20), 64);
+        // The ceiling caps growth, and a room above it (a lowered budget) comes down to it.
+        assert_eq!(plan_capacity(64, 1 << 22, 64, None, 1 << 20), 1 << 20);
+        assert_eq!(plan_capacity(1 << 21, 10, 64, None, 1 << 20), 1 << 20);
+        // Near the top of u32 the growth saturates instead of overflowing, at the ceiling.
+        assert_eq!(plan_capacity(64, u32::MAX / 2, 64, None, u32::MAX / 2), u32::MAX / 2);
     }
 }

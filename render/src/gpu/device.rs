@@ -184,6 +184,8 @@ pub struct GpuContext {
     pub limits: vk::PhysicalDeviceLimits,
     /// [`DeviceSettings::memory_budget`].
     pub memory_budget: Option<u64>,
+    /// Size of the device's largest device-local memory heap.
+    pub device_local_bytes: u64,
 }
 
 impl GpuContext {
@@ -258,6 +260,14 @@ impl GpuContext {
         let tier = caps.best_tier().min(settings.max_tier);
         // SAFETY: `physical` came from this instance.
         let props = unsafe { instance.get_physical_device_properties(physical) };
+        // SAFETY: `physical` was enumerated from this instance.
+        let memory = unsafe { instance.get_physical_device_memory_properties(physical) };
+        let device_local_bytes = memory.memory_heaps[..memory.memory_heap_count as usize]
+            .iter()
+            .filter(|heap| heap.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+            .map(|heap| heap.size)
+            .max()
+            .unwrap_or(0);
 
         let mut extensions: Vec<&CStr> = Vec::new();
         if !settings.surface_extensions.is_empty() {
@@ -357,6 +367,7 @@ impl GpuContext {
             debug_utils,
             limits: props.limits,
             memory_budget: settings.memory_budget,
+            device_local_bytes,
         })
     }
 
@@ -372,6 +383,12 @@ impl GpuContext {
     /// Locks the memory allocator.
     pub fn allocator(&self) -> std::sync::MutexGuard<'_, Allocator> {
         self.allocator.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// The memory the renderer may use: [`GpuContext::memory_budget`] when set, otherwise the
+    /// largest device-local heap. Buffers that grow with the scene take stated shares of it.
+    pub fn memory_limit(&self) -> u64 {
+        self.memory_budget.unwrap_or(self.device_local_bytes)
     }
 
     /// Allocates memory through the allocator, within [`GpuContext::memory_budget`]. Running out

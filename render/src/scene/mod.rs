@@ -465,6 +465,9 @@ pub struct DecalClusterStats {
     pub entries: u64,
     /// Entries the cluster buffer has room for this frame.
     pub capacity: u64,
+    /// The most entries it may ever have room for: [`crate::decals::clustered::MEMORY_SHARE`]
+    /// of the renderer's memory ([`crate::gpu::device::GpuContext::memory_limit`]).
+    pub limit: u64,
     /// Entries that did not fit (their decals were missing from those clusters that frame).
     pub dropped: u64,
     /// Times the cluster buffer grew, since the renderer started.
