@@ -24,12 +24,14 @@
 //!   quarter of the room for a second (60 frames), it shrinks to the need's power of two, never
 //!   below the initial room; after a second without clustered decals to bin, it is released.
 //! - **A ceiling**: the lists never take more than [`MEMORY_SHARE`] of the renderer's memory
-//!   (the memory budget, or the largest device-local heap; [`DecalClusterStats::limit`]). A
+//!   (the memory budget, or the largest device-local heap), nor more than 2³¹ − 1 entries
+//!   (8 GiB; [`DecalClusterStats::limit`]). A
 //!   scene that needs more keeps the ceiling and drops the entries past it, every frame, which
 //!   the statistics count and one warning names (again only after the need fitted in between).
 //!   The growth's two-frame latency also drops entries, but growing ends it, so that is counted
-//!   and not warned about. At 1920×1080 the scatter of 1,000,000 decals (139 applied a shaded
-//!   pixel) needs 134 M entries, 537 MB: within the ceiling of an 80 GB GPU's 10 GB.
+//!   and not warned about. Measured on an H100 at 1920×1080 (docs/BENCHMARKS.md): the scatter
+//!   of 100,000 decals needs 6.9 M entries and gets room for 16.8 M (64 MiB); 1,000,000 need
+//!   69.9 M and get 134 M (512 MiB), well under the 8 GiB ceiling there.
 //! - **CPU work** is none per frame: the binning reads the decal boxes the GPU already holds
 //!   (kept by change detection for the acceleration structures), and the camera, so the lists
 //!   follow the view without any upload.
