@@ -1,0 +1,248 @@
+//! glTF materials and the images they use: decoding once per (image, colour space), texture
+//! transforms, and the forgiving handling of textures that cannot be loaded (see the parent
+//! module's docs).
+
+use super::*;
+
+/// Decodes the images materials use, once per (image, colour space).
+pub(super) struct ImageLoader<'a> {
+    pub(super) buffers: &'a [Vec<u8>],
+    pub(super) base: Option<&'a Path>,
+    /// The glTF file, for messages about embedded images.
+    pub(super) file: &'a Path,
+    pub(super) images: Vec<Image>,
+    pub(super) slots: HashMap<(usize, ColorSpace), usize>,
+    /// The slot of [`Image::missing_texture`], once a base colour texture needed it.
+    pub(super) placeholder: Option<usize>,
+}
+
+impl ImageLoader<'_> {
+    fn placeholder(&mut self) -> usize {
+        *self.placeholder.get_or_insert_with(|| {
+            self.images.push(Image::missing_texture());
+            self.images.len() - 1
+        })
+    }
+
+    fn get(&mut self, info: &::gltf::Texture<'_>, tex_coord: u32, cs: ColorSpace) -> Result<usize, GltfError> {
+        if tex_coord != 0 {
+            warn!(texture = info.index(), tex_coord, "only TEXCOORD_0 is supported; using it");
+        }
+        let source = info.source();
+        let index = source.index();
+        if let Some(&slot) = self.slots.get(&(index, cs)) {
+            return Ok(slot);
+        }
+        // The same image in the other colour space: reuse the decoded level 0.
+        let other = match cs {
+            ColorSpace::Srgb => ColorSpace::Linear,
+            ColorSpace::Linear => ColorSpace::Srgb,
+        };
+        let describe = || describe_image(&source, self.file);
+        let image = if let Some(&slot) = self.slots.get(&(index, other)) {
+            let decoded = &self.images[slot];
+            Image::from_rgba8(decoded.width, decoded.height, decoded.mips[0].clone(), cs)
+        } else {
+            let bytes = match source.source() {
+                ::gltf::image::Source::Uri { uri, .. } => read_uri(uri, self.base)?,
+                ::gltf::image::Source::View { view, .. } => view_bytes(&view, self.buffers)
+                    .ok_or_else(|| GltfError::BadBuffer {
+                        buffer: format!("#{} of {}", view.buffer().index(), self.file.display()),
+                        reason: format!("view {} of image {} lies outside the buffer", view.index(), describe()),
+                    })?
+                    .to_vec(),
+            };
+            Image::from_encoded(&bytes, cs)
+        }
+        .map_err(|source| GltfError::Image { uri_or_index: describe(), source })?;
+        self.images.push(image);
+        let slot = self.images.len() - 1;
+        self.slots.insert((index, cs), slot);
+        Ok(slot)
+    }
+}
+
+/// An image's URI, or its index and name in `file` when embedded.
+pub(super) fn describe_image(image: &::gltf::Image<'_>, file: &Path) -> String {
+    match (image.source(), image.name()) {
+        (::gltf::image::Source::Uri { uri, .. }, _) => short_uri(uri),
+        (_, Some(name)) => format!("#{} '{name}' in {}", image.index(), file.display()),
+        (_, None) => format!("#{} in {}", image.index(), file.display()),
+    }
+}
+
+/// The bytes of a buffer view, if they lie inside its buffer.
+pub(super) fn view_bytes<'b>(view: &::gltf::buffer::View<'_>, buffers: &'b [Vec<u8>]) -> Option<&'b [u8]> {
+    let buffer = buffers.get(view.buffer().index())?;
+    let end = view.offset().checked_add(view.length())?;
+    buffer.get(view.offset()..end)
+}
+
+/// A `KHR_texture_transform`: `uv' = T(offset) · R(rotation) · S(scale) · uv`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct UvTransform {
+    offset: [f32; 2],
+    rotation: f32,
+    scale: [f32; 2],
+}
+
+impl UvTransform {
+    const IDENTITY: UvTransform = UvTransform { offset: [0.0; 2], rotation: 0.0, scale: [1.0; 2] };
+
+    /// The transform and its `texCoord` override.
+    fn from_json(json: &::gltf::json::extensions::texture::TextureTransform) -> (UvTransform, Option<u32>) {
+        (UvTransform { offset: json.offset.0, rotation: json.rotation.0, scale: json.scale.0 }, json.tex_coord)
+    }
+
+    /// The extension's matrix: rotation is counter-clockwise in UV space whose V points down,
+    /// i.e. `[cos sin; -sin cos]`.
+    pub(super) fn apply(&self, uv: [f32; 2]) -> [f32; 2] {
+        let (sin, cos) = self.rotation.sin_cos();
+        let (x, y) = (uv[0] * self.scale[0], uv[1] * self.scale[1]);
+        [cos * x + sin * y + self.offset[0], -sin * x + cos * y + self.offset[1]]
+    }
+}
+
+/// One texture reference of a material, before its image is loaded.
+pub(super) struct TextureSlot<'a> {
+    slot: &'static str,
+    texture: ::gltf::Texture<'a>,
+    tex_coord: u32,
+    transform: Option<UvTransform>,
+    color_space: ColorSpace,
+}
+
+impl<'a> TextureSlot<'a> {
+    /// `transform` is the parsed extension and its `texCoord` override.
+    fn new(
+        slot: &'static str,
+        texture: ::gltf::Texture<'a>,
+        tex_coord: u32,
+        transform: Option<(UvTransform, Option<u32>)>,
+        color_space: ColorSpace,
+    ) -> Self {
+        let tex_coord = transform.and_then(|(_, set)| set).unwrap_or(tex_coord);
+        TextureSlot { slot, texture, tex_coord, transform: transform.map(|(t, _)| t), color_space }
+    }
+
+    fn from_info(slot: &'static str, info: Option<::gltf::texture::Info<'a>>, color_space: ColorSpace) -> Option<Self> {
+        info.map(|i| {
+            let transform = i
+                .texture_transform()
+                .map(|t| (UvTransform { offset: t.offset(), rotation: t.rotation(), scale: t.scale() }, t.tex_coord()));
+            TextureSlot::new(slot, i.texture(), i.tex_coord(), transform, color_space)
+        })
+    }
+}
+
+/// Whether a texture error may be replaced by a placeholder (the image's bytes are missing,
+/// unreadable or undecodable) rather than refused (bad URIs, views outside their buffer).
+pub(super) fn is_forgivable(error: &GltfError) -> bool {
+    matches!(error, GltfError::MissingFile { .. } | GltfError::Io { .. } | GltfError::Image { .. })
+}
+
+pub(super) fn load_material(
+    m: &::gltf::Material<'_>,
+    document: &Document,
+    images: &mut ImageLoader<'_>,
+    options: &LoadOptions,
+) -> Result<(GltfMaterial, Option<UvTransform>), GltfError> {
+    let label = match (m.name(), m.index()) {
+        (Some(name), Some(index)) => format!("'{name}' (#{index})"),
+        (None, Some(index)) => format!("#{index}"),
+        (Some(name), None) => format!("'{name}'"),
+        (None, None) => "default".to_owned(),
+    };
+    // The gltf crate parses KHR_texture_transform on texture infos only; on the normal and
+    // occlusion textures it stays among the unparsed extensions.
+    let json = m.index().and_then(|i| document.as_json().materials.get(i));
+    let parse_transform = |value: Option<&::gltf::json::Value>| {
+        value.and_then(|v| match ::gltf::json::deserialize::from_value(v.clone()) {
+            Ok(transform) => Some(UvTransform::from_json(&transform)),
+            Err(error) => {
+                warn!(material = %label, %error, "malformed KHR_texture_transform ignored");
+                None
+            }
+        })
+    };
+    let normal_ext = json.and_then(|j| j.normal_texture.as_ref()).and_then(|t| t.extensions.as_ref());
+    let normal_transform = parse_transform(normal_ext.and_then(|e| e.others.get("KHR_texture_transform")));
+    let occlusion_ext = json.and_then(|j| j.occlusion_texture.as_ref()).and_then(|t| t.extensions.as_ref());
+    let occlusion_transform = parse_transform(occlusion_ext.and_then(|e| e.others.get("KHR_texture_transform")));
+
+    let pbr = m.pbr_metallic_roughness();
+    let normal = m.normal_texture();
+    let occlusion = m.occlusion_texture();
+    let slots: [Option<TextureSlot<'_>>; 5] = [
+        TextureSlot::from_info("base colour", pbr.base_color_texture(), ColorSpace::Srgb),
+        TextureSlot::from_info("metallic-roughness", pbr.metallic_roughness_texture(), ColorSpace::Linear),
+        normal.as_ref().map(|n| TextureSlot::new("normal", n.texture(), n.tex_coord(), normal_transform, ColorSpace::Linear)),
+        occlusion.as_ref().map(|o| TextureSlot::new("occlusion", o.texture(), o.tex_coord(), occlusion_transform, ColorSpace::Linear)),
+        TextureSlot::from_info("emissive", m.emissive_texture(), ColorSpace::Srgb),
+    ];
+
+    // One UV set serves every texture: bake the shared transform, or the first slot's (base
+    // colour first) with one warning when they disagree.
+    let transforms: Vec<UvTransform> = slots.iter().flatten().map(|s| s.transform.unwrap_or(UvTransform::IDENTITY)).collect();
+    let uv_transform = transforms.first().copied().filter(|t| *t != UvTransform::IDENTITY);
+    if transforms.windows(2).any(|w| w[0] != w[1]) {
+        warn!(
+            material = %label,
+            "the material's textures use different KHR_texture_transforms; only one UV set exists, so the {} texture's is applied to all",
+            slots.iter().flatten().next().map_or("", |s| s.slot)
+        );
+    }
+
+    // Load each image; forgivable failures are gathered per file for one warning each.
+    let mut failures: Vec<(String, String, Vec<&'static str>)> = Vec::new();
+    let mut loaded = [None; 5];
+    for (out, slot) in loaded.iter_mut().zip(&slots) {
+        let Some(slot) = slot else { continue };
+        match images.get(&slot.texture, slot.tex_coord, slot.color_space) {
+            Ok(index) => *out = Some(index),
+            Err(error) if !options.strict_textures && is_forgivable(&error) => {
+                let file = describe_image(&slot.texture.source(), images.file);
+                match failures.iter_mut().find(|(f, _, _)| *f == file) {
+                    Some((_, _, slots)) => slots.push(slot.slot),
+                    None => failures.push((file, error.to_string(), vec![slot.slot])),
+                }
+                if slot.slot == "base colour" {
+                    *out = Some(images.placeholder());
+                }
+            }
+            Err(error) => return Err(error),
+        }
+    }
+    for (file, error, slots) in failures {
+        let replacement = if slots.contains(&"base colour") {
+            "the base colour uses a magenta/black checker, other textures from it are left out"
+        } else {
+            "the material is drawn as if it had no such texture"
+        };
+        warn!(file = %file, material = %label, textures = %slots.join(", "), %error, "glTF texture could not be loaded; {replacement}");
+    }
+    let [base_color_texture, metallic_roughness_texture, normal_texture, occlusion_texture, emissive_texture] = loaded;
+    let material = GltfMaterial {
+        name: m.name().map(str::to_owned),
+        base_color: Vec4::from(pbr.base_color_factor()),
+        base_color_texture,
+        metallic: pbr.metallic_factor(),
+        roughness: pbr.roughness_factor(),
+        metallic_roughness_texture,
+        normal_texture,
+        normal_scale: normal.map_or(1.0, |n| n.scale()),
+        occlusion_texture,
+        occlusion_strength: occlusion.map_or(1.0, |o| o.strength()),
+        emissive: Vec3::from(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0),
+        emissive_texture,
+        alpha_mode: match m.alpha_mode() {
+            ::gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+            ::gltf::material::AlphaMode::Mask => AlphaMode::Mask(m.alpha_cutoff().unwrap_or(0.5)),
+            ::gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+        },
+        double_sided: m.double_sided(),
+        ior: m.ior().unwrap_or(1.5),
+        thickness: m.volume().map_or(0.0, |v| v.thickness_factor()),
+    };
+    Ok((material, uv_transform))
+}
