@@ -32,6 +32,7 @@
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod animation;
 pub mod app;
 pub mod asset;
 pub mod camera;

@@ -1,0 +1,396 @@
+//! Skeletal and morph-target animation as ECS: clips as assets, an [`AnimationPlayer`] on the
+//! entity that owns an animated hierarchy, and a system that samples the playing clips into the
+//! joints' [`Transform`]s (and the meshes' [`MorphWeights`]) before transform propagation.
+//!
+//! Clips follow glTF 2.0's animation model (the specification's §3.11 and Appendix C):
+//! channels target a node's translation, rotation, scale or morph weights, with keyframes
+//! interpolated step-wise, linearly (rotations by shortest-path spherical interpolation) or by
+//! cubic Hermite splines (tangents stored beside each value, rotations renormalised). A channel
+//! names its target by *node index*; [`AnimationTargets`] maps those to the entities that the
+//! glTF spawner created, so a clip can drive every instance of a model.
+//!
+//! Time comes from [`Time`], so headless runs with a fixed step animate the same way every
+//! run, frame by frame. Work per frame is proportional to the channels of the playing clips;
+//! a paused or finished (clamped) player writes only values that changed: [`Transform`]s are
+//! written with `set_if_neq`, so a still pose costs neither propagation nor extraction.
+//!
+//! ```
+//! use engine::prelude::*;
+//! use engine::animation::{AnimationClip, AnimationPlayer, Channel, Interpolation, Keyframes, AnimationTargets};
+//!
+//! let mut app = App::new();
+//! let joint = app.world.spawn(Transform::IDENTITY).id();
+//! let clip = AnimationClip::new(
+//!     "raise",
+//!     vec![Channel::new(0, Interpolation::Linear, vec![0.0, 1.0], Keyframes::Translation(vec![Vec3::ZERO, Vec3::Y]))],
+//! )
+//! .unwrap();
+//! let clip = app.world.resource_mut::<Assets<AnimationClip>>().add(clip);
+//! app.world.spawn((AnimationPlayer::new(clip), AnimationTargets(vec![Some(joint)])));
+//! app.update();
+//! ```
+
+mod sample;
+
+use bevy_ecs::prelude::*;
+use glam::{Quat, Vec3};
+use thiserror::Error;
+
+use crate::app::{App, Plugin, PostUpdate};
+use crate::asset::{Assets, Handle};
+use crate::time::Time;
+use crate::transform::{Transform, TransformSystems};
+
+pub use sample::{Sampled, sample_channel};
+
+/// How values between two keyframes are found (glTF's `interpolation`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Interpolation {
+    /// The earlier keyframe's value until the next keyframe.
+    Step,
+    /// Linear (spherical for rotations).
+    Linear,
+    /// Cubic Hermite spline; each keyframe stores an in-tangent, the value and an out-tangent.
+    CubicSpline,
+}
+
+/// The keyframe values of a channel. With [`Interpolation::CubicSpline`] each keyframe holds
+/// three entries (in-tangent, value, out-tangent); morph weights hold one entry per target per
+/// keyframe (three times that for cubic splines).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Keyframes {
+    /// Translations.
+    Translation(Vec<Vec3>),
+    /// Rotations (unit quaternions).
+    Rotation(Vec<Quat>),
+    /// Scales.
+    Scale(Vec<Vec3>),
+    /// Morph target weights, `targets` per keyframe.
+    Weights {
+        /// Weights per keyframe.
+        targets: usize,
+        /// The weights, keyframe after keyframe.
+        values: Vec<f32>,
+    },
+}
+
+impl Keyframes {
+    fn len(&self) -> usize {
+        match self {
+            Keyframes::Translation(v) | Keyframes::Scale(v) => v.len(),
+            Keyframes::Rotation(v) => v.len(),
+            Keyframes::Weights { targets, values } => values.len() / (*targets).max(1),
+        }
+    }
+}
+
+/// One animated property of one node.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Channel {
+    /// The node it animates: an index into [`AnimationTargets`].
+    pub target: usize,
+    /// Interpolation between keyframes.
+    pub interpolation: Interpolation,
+    /// Keyframe times in seconds, strictly increasing.
+    pub times: Vec<f32>,
+    /// The values.
+    pub keyframes: Keyframes,
+}
+
+impl Channel {
+    /// A channel (checked when it joins a clip, [`AnimationClip::new`]).
+    pub fn new(target: usize, interpolation: Interpolation, times: Vec<f32>, keyframes: Keyframes) -> Self {
+        Self { target, interpolation, times, keyframes }
+    }
+
+    fn check(&self) -> Result<(), AnimationError> {
+        let bad = |reason: String| Err(AnimationError::BadChannel { target: self.target, reason });
+        if self.times.is_empty() {
+            return bad("no keyframes".into());
+        }
+        if let Some(i) = self.times.iter().position(|t| !t.is_finite()) {
+            return bad(format!("keyframe {i}'s time is not finite"));
+        }
+        if let Some(i) = self.times.windows(2).position(|w| w[1] <= w[0]) {
+            return bad(format!("keyframe times do not increase at keyframe {}", i + 1));
+        }
+        if let Keyframes::Weights { targets: 0, .. } = self.keyframes {
+            return bad("morph weights for no targets".into());
+        }
+        let per_key = if self.interpolation == Interpolation::CubicSpline { 3 } else { 1 };
+        if self.keyframes.len() != self.times.len() * per_key {
+            return bad(format!(
+                "{} values for {} keyframes ({} expected with {:?} interpolation)",
+                self.keyframes.len(),
+                self.times.len(),
+                self.times.len() * per_key,
+                self.interpolation
+            ));
+        }
+        let finite = match &self.keyframes {
+            Keyframes::Translation(v) | Keyframes::Scale(v) => v.iter().all(|x| x.is_finite()),
+            Keyframes::Rotation(v) => v.iter().all(|q| q.is_finite()),
+            Keyframes::Weights { values, .. } => values.iter().all(|x| x.is_finite()),
+        };
+        if !finite {
+            return bad("a value is not finite".into());
+        }
+        Ok(())
+    }
+}
+
+/// A problem with a clip's data.
+#[derive(Debug, Error, PartialEq)]
+pub enum AnimationError {
+    /// A channel's keyframes cannot be sampled.
+    #[error("animation channel for node {target}: {reason}")]
+    BadChannel {
+        /// The channel's target node.
+        target: usize,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+/// An animation: channels over the nodes of one model. An asset in `Assets<AnimationClip>`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AnimationClip {
+    /// The clip's name (glTF's animation name, or `animation N`).
+    pub name: String,
+    /// The channels.
+    pub channels: Vec<Channel>,
+    /// The last keyframe time over all channels, in seconds.
+    pub duration: f32,
+}
+
+impl AnimationClip {
+    /// A clip from checked channels: keyframe times finite and strictly increasing, as many
+    /// values as the interpolation needs, every value finite.
+    pub fn new(name: impl Into<String>, channels: Vec<Channel>) -> Result<Self, AnimationError> {
+        for channel in &channels {
+            channel.check()?;
+        }
+        let duration = channels.iter().filter_map(|c| c.times.last().copied()).fold(0.0, f32::max);
+        Ok(Self { name: name.into(), channels, duration })
+    }
+}
+
+/// The entities a clip's node indices stand for, on the entity that carries the
+/// [`AnimationPlayer`] (the glTF spawner sets it on a model's root): `None` for nodes that were
+/// not spawned.
+#[derive(Component, Clone, Debug, Default, PartialEq)]
+pub struct AnimationTargets(pub Vec<Option<Entity>>);
+
+/// Morph target weights of a mesh node, written by animation and read by skinning.
+#[derive(Component, Clone, Debug, Default, PartialEq)]
+pub struct MorphWeights(pub Vec<f32>);
+
+/// What a player does at the end of its clip.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Repeat {
+    /// Starts again from the beginning.
+    #[default]
+    Loop,
+    /// Holds the last pose.
+    Clamp,
+}
+
+/// Plays one clip (and, while cross-fading, blends from the previous one) on the entities of
+/// [`AnimationTargets`]. The sandbox plays a glTF's first clip on a loop.
+#[derive(Component, Clone, Debug, PartialEq)]
+#[require(AnimationTargets)]
+pub struct AnimationPlayer {
+    /// The clip playing.
+    pub clip: Handle<AnimationClip>,
+    /// Seconds into the clip.
+    pub time: f32,
+    /// Playback rate (negative plays backwards).
+    pub speed: f32,
+    /// Whether time stands still.
+    pub paused: bool,
+    /// What happens at the end.
+    pub repeat: Repeat,
+    fade: Option<CrossFade>,
+}
+
+/// A fade from the clip that played before.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct CrossFade {
+    from: Handle<AnimationClip>,
+    from_time: f32,
+    from_speed: f32,
+    duration: f32,
+    elapsed: f32,
+}
+
+impl AnimationPlayer {
+    /// Plays `clip` from its start, looping, at normal speed.
+    pub fn new(clip: Handle<AnimationClip>) -> Self {
+        Self { clip, time: 0.0, speed: 1.0, paused: false, repeat: Repeat::Loop, fade: None }
+    }
+
+    /// Jumps to `seconds` into the clip.
+    pub fn seek(&mut self, seconds: f32) {
+        self.time = if seconds.is_finite() { seconds } else { 0.0 };
+    }
+
+    /// Switches to `clip` from its start, blending from the current pose over `seconds` (0:
+    /// at once). Both clips advance during the fade.
+    pub fn cross_fade(&mut self, clip: Handle<AnimationClip>, seconds: f32) {
+        self.fade = (seconds > 0.0 && seconds.is_finite()).then_some(CrossFade {
+            from: self.clip,
+            from_time: self.time,
+            from_speed: self.speed,
+            duration: seconds,
+            elapsed: 0.0,
+        });
+        self.clip = clip;
+        self.time = 0.0;
+    }
+
+    /// The weight of the clip playing (1 unless a cross-fade is under way).
+    pub fn blend(&self) -> f32 {
+        self.fade.map_or(1.0, |f| (f.elapsed / f.duration).clamp(0.0, 1.0))
+    }
+}
+
+/// A time `t` within a clip of `duration`, after looping or clamping.
+fn wrap(t: f32, duration: f32, repeat: Repeat) -> f32 {
+    if duration <= 0.0 {
+        return 0.0;
+    }
+    match repeat {
+        Repeat::Loop => t.rem_euclid(duration),
+        Repeat::Clamp => t.clamp(0.0, duration),
+    }
+}
+
+/// Systems of the animation plugin.
+#[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct AnimationSystems;
+
+/// Adds `Assets<AnimationClip>` and [`animate`], in [`PostUpdate`] before transform
+/// propagation.
+pub struct AnimationPlugin;
+
+impl Plugin for AnimationPlugin {
+    fn build(&self, app: &mut App) {
+        app.world.get_resource_or_init::<Assets<AnimationClip>>();
+        app.add_systems(PostUpdate, animate.in_set(AnimationSystems).before(TransformSystems::Propagate));
+    }
+}
+
+/// A pose being accumulated for one target: each property with the total weight of the clips
+/// blended into it so far.
+#[derive(Clone, Copy)]
+struct Pose {
+    translation: Option<(Vec3, f32)>,
+    rotation: Option<(Quat, f32)>,
+    scale: Option<(Vec3, f32)>,
+    weights: f32,
+}
+
+/// Reused buffers of [`animate`], so that a steady frame allocates nothing.
+#[derive(Default)]
+pub struct AnimateScratch {
+    poses: Vec<(Entity, Pose)>,
+    weights: Vec<f32>,
+}
+
+/// Advances every player by the frame's time and writes the sampled pose into its targets'
+/// [`Transform`]s and [`MorphWeights`]. A property the clip does not animate keeps its value;
+/// during a cross-fade the two clips' values are blended by [`AnimationPlayer::blend`].
+pub fn animate(
+    time: Res<Time>,
+    clips: Option<Res<Assets<AnimationClip>>>,
+    mut players: Query<(&mut AnimationPlayer, &AnimationTargets)>,
+    mut transforms: Query<&mut Transform>,
+    mut morphs: Query<&mut MorphWeights>,
+    mut scratch: Local<AnimateScratch>,
+) {
+    let Some(clips) = clips else { return };
+    let AnimateScratch { poses, weights } = &mut *scratch;
+    let dt = time.delta_secs();
+    for (mut player, targets) in &mut players {
+        if !player.paused {
+            let speed = player.speed;
+            player.time += dt * speed;
+            if let Some(fade) = &mut player.fade {
+                fade.elapsed += dt;
+                fade.from_time += dt * fade.from_speed;
+            }
+            if player.fade.is_some_and(|f| f.elapsed >= f.duration) {
+                player.fade = None;
+            }
+        }
+        let Some(clip) = clips.get(player.clip) else { continue };
+        let repeat = player.repeat;
+        if repeat == Repeat::Clamp && clip.duration > 0.0 {
+            // Keep the clock at the end, so that a later switch to Loop starts from there.
+            let clamped = player.time.clamp(0.0, clip.duration);
+            if player.time != clamped {
+                player.time = clamped;
+            }
+        }
+        let blend = player.blend();
+        let from = player.fade.and_then(|f| clips.get(f.from).map(|c| (c, wrap(f.from_time, c.duration, repeat), 1.0 - blend)));
+        let layers = [Some((clip, wrap(player.time, clip.duration, repeat), blend)), from];
+        poses.clear();
+        for (clip, t, weight) in layers.into_iter().flatten().filter(|l| l.2 > 0.0) {
+            for channel in &clip.channels {
+                let Some(&Some(entity)) = targets.0.get(channel.target) else { continue };
+                let index = poses.iter().position(|(e, _)| *e == entity).unwrap_or_else(|| {
+                    poses.push((entity, Pose { translation: None, rotation: None, scale: None, weights: 0.0 }));
+                    poses.len() - 1
+                });
+                let pose = &mut poses[index].1;
+                match sample_channel(channel, t, weights) {
+                    Sampled::Translation(v) => accumulate(&mut pose.translation, v, weight, Vec3::lerp),
+                    Sampled::Scale(v) => accumulate(&mut pose.scale, v, weight, Vec3::lerp),
+                    Sampled::Rotation(q) => accumulate(&mut pose.rotation, q, weight, Quat::slerp),
+                    Sampled::Weights => {
+                        if let Ok(mut morph) = morphs.get_mut(entity) {
+                            // The first clip replaces, a later one mixes in by its share;
+                            // written (and flagged changed) only when a value changes.
+                            let share = weight / (pose.weights + weight);
+                            let current = &morph.bypass_change_detection().0;
+                            let changed = current.len() != weights.len()
+                                || current.iter().zip(weights.iter()).any(|(&a, &b)| a + (b - a) * share != a);
+                            if changed {
+                                let values = &mut morph.0;
+                                values.resize(weights.len(), 0.0);
+                                for (a, &b) in values.iter_mut().zip(weights.iter()) {
+                                    *a += (b - *a) * share;
+                                }
+                            }
+                        }
+                        pose.weights += weight;
+                    }
+                }
+            }
+        }
+        for (entity, pose) in poses.iter() {
+            let Ok(mut transform) = transforms.get_mut(*entity) else { continue };
+            let mut next = *transform;
+            if let Some((v, _)) = pose.translation {
+                next.translation = v;
+            }
+            if let Some((q, _)) = pose.rotation {
+                next.rotation = q.normalize();
+            }
+            if let Some((v, _)) = pose.scale {
+                next.scale = v;
+            }
+            transform.set_if_neq(next);
+        }
+    }
+}
+
+/// Weighted running average: the first value with its weight, later ones mixed in by their
+/// share of the total.
+fn accumulate<T: Copy>(slot: &mut Option<(T, f32)>, value: T, weight: f32, mix: impl Fn(T, T, f32) -> T) {
+    *slot = Some(match *slot {
+        None => (value, weight),
+        Some((acc, w)) => (mix(acc, value, weight / (w + weight)), w + weight),
+    });
+}
