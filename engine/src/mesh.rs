@@ -21,7 +21,7 @@ pub enum MeshError {
     /// A vertex attribute's length differs from the number of positions.
     #[error("attribute {attribute} has {found} elements but there are {expected} positions")]
     AttributeLength {
-        /// The attribute (`normals`, `uvs` or `tangents`).
+        /// The attribute (`normals`, `uvs`, `tangents`, skin joints or weights, morph targets).
         attribute: &'static str,
         /// Number of positions.
         expected: usize,
@@ -46,6 +46,43 @@ pub enum MeshError {
     TooManyVertices(usize),
 }
 
+/// Per-vertex joints and weights of a skinned mesh (glTF `JOINTS_0`/`WEIGHTS_0`): up to four
+/// joints per vertex, indices into the skin's joint list, weights normalised to sum to 1.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SkinWeights {
+    /// Joint indices.
+    pub joints: Vec<[u16; 4]>,
+    /// Their weights.
+    pub weights: Vec<[f32; 4]>,
+}
+
+impl SkinWeights {
+    /// Weights as given, normalised to sum to 1 (files often store sums a little off, and some
+    /// well below 1); a vertex whose weights sum to nothing follows its first joint.
+    pub fn normalized(joints: Vec<[u16; 4]>, mut weights: Vec<[f32; 4]>) -> Self {
+        for w in &mut weights {
+            let w4 = w.map(|x| if x.is_finite() { x.max(0.0) } else { 0.0 });
+            let sum: f32 = w4.iter().sum();
+            *w = if sum > 1e-6 { w4.map(|x| x / sum) } else { [1.0, 0.0, 0.0, 0.0] };
+        }
+        Self { joints, weights }
+    }
+
+    /// The largest joint index used (by a vertex with a non-zero weight on it).
+    pub fn max_joint(&self) -> Option<u16> {
+        self.joints.iter().zip(&self.weights).flat_map(|(j, w)| (0..4).filter(|&i| w[i] > 0.0).map(move |i| j[i])).max()
+    }
+}
+
+/// A morph target: offsets added to the positions (and normals) in proportion to its weight.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MorphTarget {
+    /// Position offsets, one per vertex.
+    pub positions: Vec<[f32; 3]>,
+    /// Normal offsets, one per vertex (empty when the target leaves normals alone).
+    pub normals: Vec<[f32; 3]>,
+}
+
 /// An indexed triangle list. All attribute vectors have one element per position.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mesh {
@@ -59,6 +96,10 @@ pub struct Mesh {
     pub tangents: Vec<[f32; 4]>,
     /// Triangle list indices, counter-clockwise front faces.
     pub indices: Vec<u32>,
+    /// Joints and weights, for a skinned mesh.
+    pub skin: Option<SkinWeights>,
+    /// Morph targets (blend shapes).
+    pub morph_targets: Vec<MorphTarget>,
 }
 
 impl Mesh {
@@ -78,7 +119,7 @@ impl Mesh {
         tangents: Vec<[f32; 4]>,
         indices: Vec<u32>,
     ) -> Result<Mesh, MeshError> {
-        let mesh = Mesh { positions, normals, uvs, tangents, indices };
+        let mesh = Mesh { positions, normals, uvs, tangents, indices, skin: None, morph_targets: Vec::new() };
         mesh.validate()?;
         Ok(mesh)
     }
@@ -89,8 +130,22 @@ impl Mesh {
         if u32::try_from(n).is_err() {
             return Err(MeshError::TooManyVertices(n));
         }
-        for (attribute, found) in [("normals", self.normals.len()), ("uvs", self.uvs.len()), ("tangents", self.tangents.len())] {
-            if found != n {
+        let skin = self.skin.as_ref();
+        let lengths = [
+            ("normals", Some(self.normals.len())),
+            ("uvs", Some(self.uvs.len())),
+            ("tangents", Some(self.tangents.len())),
+            ("skin joints", skin.map(|s| s.joints.len())),
+            ("skin weights", skin.map(|s| s.weights.len())),
+        ];
+        let targets = self.morph_targets.iter().flat_map(|t| {
+            [
+                ("morph target positions", Some(t.positions.len())),
+                ("morph target normals", (!t.normals.is_empty()).then_some(t.normals.len())),
+            ]
+        });
+        for (attribute, found) in lengths.into_iter().chain(targets) {
+            if let Some(found) = found.filter(|&found| found != n) {
                 return Err(MeshError::AttributeLength { attribute, expected: n, found });
             }
         }
@@ -195,6 +250,15 @@ impl Mesh {
             uvs: self.uvs.clone(),
             tangents,
             indices,
+            skin: self.skin.clone(),
+            morph_targets: self
+                .morph_targets
+                .iter()
+                .map(|t| MorphTarget {
+                    positions: t.positions.iter().map(|&d| (linear * Vec3::from(d)).into()).collect(),
+                    normals: t.normals.iter().map(|&d| (normal_matrix * Vec3::from(d)).into()).collect(),
+                })
+                .collect(),
         }
     }
 

@@ -299,7 +299,14 @@ mod tests {
 
     fn tri_mesh(positions: Vec<[f32; 3]>, indices: Vec<u32>) -> Mesh {
         let n = positions.len();
-        Mesh { positions, normals: vec![[0.0, 0.0, 1.0]; n], uvs: vec![[0.0; 2]; n], tangents: vec![[1.0, 0.0, 0.0, 1.0]; n], indices }
+        Mesh {
+            positions,
+            normals: vec![[0.0, 0.0, 1.0]; n],
+            uvs: vec![[0.0; 2]; n],
+            tangents: vec![[1.0, 0.0, 0.0, 1.0]; n],
+            indices,
+            ..Default::default()
+        }
     }
 
     #[test]

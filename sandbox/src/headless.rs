@@ -346,7 +346,8 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
     Ok(app)
 }
 
-/// Spawns the scene, adding a camera and a light when a glTF file brings none.
+/// Spawns the scene, adding a camera and a light when a glTF file brings none, and plays a
+/// glTF's first animation on a loop.
 pub fn load_scene(world: &mut World, source: &SceneSource) -> Result<()> {
     match source {
         SceneSource::Default => {
@@ -354,7 +355,11 @@ pub fn load_scene(world: &mut World, source: &SceneSource) -> Result<()> {
         }
         SceneSource::Gltf(path) => {
             let gltf = engine::gltf::load(path).with_context(|| format!("could not load scene {}", path.display()))?;
-            gltf.spawn(world);
+            let root = gltf.spawn(world);
+            let first = world.get::<engine::gltf::GltfAnimations>(root).and_then(|clips| clips.0.first().copied());
+            if let Some(clip) = first {
+                world.entity_mut(root).insert(engine::animation::AnimationPlayer::new(clip));
+            }
             frame_scene(world);
         }
     }

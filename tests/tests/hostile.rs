@@ -90,6 +90,7 @@ fn hostile_entities_and_assets_are_skipped_with_one_warning_each_and_the_rest_re
         uvs: vec![[0.0; 2]; 3],
         tangents: vec![[1.0, 0.0, 0.0, 1.0]; 3],
         indices,
+        ..Default::default()
     };
     let good = [[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]];
     let empty = meshes.add(Mesh::default());

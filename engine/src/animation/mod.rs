@@ -181,6 +181,18 @@ impl AnimationClip {
 #[derive(Component, Clone, Debug, Default, PartialEq)]
 pub struct AnimationTargets(pub Vec<Option<Entity>>);
 
+/// The joints that deform a skinned mesh: on the entity with the [`crate::scene::MeshInstance`],
+/// the joints' entities (whose global transforms pose the mesh) and, per joint, the inverse of
+/// its global transform in the bind pose. A vertex at rest `p` with joints `j` and weights `w`
+/// is posed at `Σ w_i · joint_i · inverse_bind_i · p` (in the mesh's space, glTF §3.7.3).
+#[derive(Component, Clone, Debug, PartialEq)]
+pub struct Skin {
+    /// The joints' entities, in the order the mesh's joint indices count.
+    pub joints: Vec<Entity>,
+    /// Inverse bind matrices, one per joint.
+    pub inverse_bind_matrices: std::sync::Arc<[glam::Mat4]>,
+}
+
 /// Morph target weights of a mesh node, written by animation and read by skinning.
 #[derive(Component, Clone, Debug, Default, PartialEq)]
 pub struct MorphWeights(pub Vec<f32>);

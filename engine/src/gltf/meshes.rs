@@ -231,6 +231,39 @@ pub(super) fn load_primitive(
     if let Some(transform) = uv_transform {
         uvs.iter_mut().for_each(|uv| *uv = transform.apply(*uv));
     }
+    let skin = match (attribute(::gltf::Semantic::Joints(0)), attribute(::gltf::Semantic::Weights(0))) {
+        (Some(joints), Some(weights)) => {
+            let joints =
+                read_attribute::<4>(&joints, buffers, mesh, "JOINTS_0", |t, norm| !norm && matches!(t, DataType::U8 | DataType::U16))?;
+            let weights = read_attribute::<4>(&weights, buffers, mesh, "WEIGHTS_0", |t, norm| {
+                is_float(t, norm) || (norm && matches!(t, DataType::U8 | DataType::U16))
+            })?;
+            same_count("JOINTS_0", joints.len())?;
+            same_count("WEIGHTS_0", weights.len())?;
+            Some(SkinWeights::normalized(joints.into_iter().map(|j| j.map(|i| i as u16)).collect(), weights))
+        }
+        (None, None) => None,
+        _ => {
+            return Err(GltfError::BadAccessor {
+                mesh: mesh.to_owned(),
+                attribute: "JOINTS_0".into(),
+                reason: "JOINTS_0 and WEIGHTS_0 must come together".into(),
+            });
+        }
+    };
+    let mut morph_targets = Vec::new();
+    for (i, target) in primitive.morph_targets().enumerate() {
+        let label = |what: &str| format!("morph target {i} {what}");
+        let read = |accessor: Option<Accessor<'_>>, what: &str| -> Result<Vec<[f32; 3]>, GltfError> {
+            let Some(accessor) = accessor else { return Ok(Vec::new()) };
+            let values = read_attribute::<3>(&accessor, buffers, mesh, &label(what), position_ok)?;
+            same_count(&label(what), values.len())?;
+            Ok(values)
+        };
+        let positions = read(target.positions(), "POSITION")?;
+        let normals = read(target.normals(), "NORMAL")?;
+        morph_targets.push(MorphTarget { positions: if positions.is_empty() { vec![[0.0; 3]; n] } else { positions }, normals });
+    }
     let result = match tangents {
         Some(tangents) => Mesh::from_parts(positions, normals, uvs, tangents, indices).map(|mut mesh| {
             mesh.orthonormalize_tangents();
@@ -238,5 +271,11 @@ pub(super) fn load_primitive(
         }),
         None => Mesh::new(positions, normals, uvs, indices),
     };
-    result.map_err(|source| GltfError::Mesh { mesh: mesh.to_owned(), source })
+    result
+        .and_then(|mut m| {
+            m.skin = skin;
+            m.morph_targets = morph_targets;
+            m.validate().map(|()| m)
+        })
+        .map_err(|source| GltfError::Mesh { mesh: mesh.to_owned(), source })
 }

@@ -69,22 +69,28 @@ use glam::{Quat, Vec3, Vec4};
 use thiserror::Error;
 use tracing::{info, warn};
 
+use crate::animation::{AnimationClip, AnimationTargets, MorphWeights, Skin};
 use crate::asset::{Assets, Handle};
 use crate::camera::Camera;
 use crate::image::{ColorSpace, Image, ImageError};
 use crate::light::{DirectionalLight, PointLight, SpotLight};
 use crate::material::{AlphaMode, Material};
-use crate::mesh::{Mesh, MeshError, smooth_normals};
+use crate::mesh::{Mesh, MeshError, MorphTarget, SkinWeights, smooth_normals};
 use crate::scene::{MeshInstance, Name};
 use crate::transform::Transform;
 
+mod animations;
 mod materials;
 mod meshes;
 mod nodes;
+mod skins;
 
+use animations::*;
 use materials::*;
 use meshes::*;
 use nodes::*;
+pub use skins::GltfSkin;
+use skins::*;
 
 /// Errors from loading a glTF file. Messages name the file, buffer, image, mesh or attribute.
 #[derive(Error, Debug)]
@@ -161,6 +167,23 @@ pub enum GltfError {
         mesh: String,
         /// The attribute.
         attribute: String,
+        /// Why.
+        reason: String,
+    },
+    /// A skin cannot deform its mesh: inverse bind matrices that are missing, not finite or
+    /// not one per joint, or a vertex weighted to a joint the skin does not have.
+    #[error("skin {skin}: {reason}")]
+    Skin {
+        /// The skin's name (or index) and the glTF file.
+        skin: String,
+        /// Why.
+        reason: String,
+    },
+    /// An animation's channel cannot be sampled.
+    #[error("animation {animation}: {reason}")]
+    Animation {
+        /// The animation's name (or index) and the glTF file.
+        animation: String,
         /// Why.
         reason: String,
     },
@@ -302,6 +325,10 @@ pub struct GltfNode {
     pub children: Vec<usize>,
     /// Index into [`GltfScene::meshes`].
     pub mesh: Option<usize>,
+    /// Index into [`GltfScene::skins`]: the skin that deforms the node's mesh.
+    pub skin: Option<usize>,
+    /// The morph target weights of the node's mesh at rest (the node's, else the mesh's).
+    pub weights: Vec<f32>,
     /// The node's light.
     pub light: Option<GltfLight>,
     /// The node's (perspective) camera.
@@ -323,7 +350,17 @@ pub struct GltfScene {
     pub nodes: Vec<GltfNode>,
     /// The nodes of the default (or first) scene; all parentless nodes if there is no scene.
     pub roots: Vec<usize>,
+    /// The skins (joint nodes and inverse bind matrices).
+    pub skins: Vec<GltfSkin>,
+    /// The animations, as clips over node indices.
+    pub animations: Vec<AnimationClip>,
 }
+
+/// The animation clips of a spawned glTF model, on its root entity (beside the
+/// [`AnimationTargets`] that map their node indices to entities). Play one with
+/// [`crate::animation::AnimationPlayer`].
+#[derive(Component, Clone, Debug, Default, PartialEq)]
+pub struct GltfAnimations(pub Vec<Handle<AnimationClip>>);
 
 /// Extensions a document may require.
 const SUPPORTED_EXTENSIONS: &[&str] = &[
@@ -483,7 +520,9 @@ fn load_impl(bytes: &[u8], base: Option<&Path>, file: &Path, name: String, optio
         Some(scene) => scene.nodes().map(|n| n.index()).collect(),
         None => (0..nodes.len()).filter(|&i| nodes[i].parent.is_none()).collect(),
     };
-    let scene = GltfScene { name, meshes, materials, images: images.images, nodes, roots };
+    let skins = load_skins(&document, &buffers, file, &nodes, &meshes)?;
+    let animations = load_animations(&document, &buffers, file)?;
+    let scene = GltfScene { name, meshes, materials, images: images.images, nodes, roots, skins, animations };
     info!(
         file = %file.display(),
         meshes = scene.meshes.len(),
@@ -491,6 +530,8 @@ fn load_impl(bytes: &[u8], base: Option<&Path>, file: &Path, name: String, optio
         materials = scene.materials.len(),
         images = scene.images.len(),
         nodes = scene.nodes.len(),
+        skins = scene.skins.len(),
+        animations = scene.animations.len(),
         "loaded glTF"
     );
     Ok(scene)
@@ -505,7 +546,10 @@ impl GltfScene {
     /// Adds the images, materials and meshes to the world's `Assets` (created if missing) and
     /// spawns the scene: a root entity (`Transform`, `Name`), one entity per node reachable from
     /// [`GltfScene::roots`] parented with `ChildOf`, one child entity with a [`MeshInstance`]
-    /// per primitive, and light/camera components on their nodes. Returns the root entity.
+    /// per primitive (with a [`Skin`] whose joints are the joint nodes' entities, when the node
+    /// is skinned), light/camera components and [`MorphWeights`] on their nodes; the clips go to
+    /// `Assets<AnimationClip>`, named on the root by [`GltfAnimations`] beside the
+    /// [`AnimationTargets`] they animate. Returns the root entity.
     pub fn spawn(self, world: &mut World) -> Entity {
         let image_handles: Vec<Handle<Image>> = {
             let mut assets = world.get_resource_or_init::<Assets<Image>>();
@@ -521,6 +565,8 @@ impl GltfScene {
         };
 
         let root = world.spawn((Transform::IDENTITY, Name(self.name))).id();
+        let mut entities: Vec<Option<Entity>> = vec![None; self.nodes.len()];
+        let mut skinned: Vec<(Entity, usize)> = Vec::new();
         let mut visited = vec![false; self.nodes.len()];
         let mut stack: Vec<(usize, Entity)> = self.roots.iter().rev().map(|&n| (n, root)).collect();
         while let Some((index, parent)) = stack.pop() {
@@ -550,14 +596,38 @@ impl GltfScene {
             if let Some(camera) = node.camera {
                 entity.insert(camera);
             }
+            if !node.weights.is_empty() {
+                entity.insert(MorphWeights(node.weights.clone()));
+            }
             let id = entity.id();
+            entities[index] = Some(id);
             for &(mesh, material) in node.mesh.and_then(|m| mesh_handles.get(m)).into_iter().flatten() {
                 let Some(&material) = material_handles.get(material) else {
                     continue;
                 };
-                world.spawn((Transform::IDENTITY, MeshInstance { mesh, material }, ChildOf(id)));
+                let primitive = world.spawn((Transform::IDENTITY, MeshInstance { mesh, material }, ChildOf(id))).id();
+                if let Some(skin) = node.skin {
+                    skinned.push((primitive, skin));
+                }
             }
             stack.extend(node.children.iter().rev().map(|&child| (child, id)));
+        }
+        // Skins once every joint has its entity.
+        for (primitive, skin) in skinned {
+            let Some(skin) = self.skins.get(skin) else { continue };
+            match skin.joints.iter().map(|&j| entities.get(j).copied().flatten()).collect::<Option<Vec<Entity>>>() {
+                Some(joints) => {
+                    world.entity_mut(primitive).insert(Skin { joints, inverse_bind_matrices: skin.inverse_bind_matrices.clone().into() });
+                }
+                None => warn!(skin = ?skin.name, "a joint of this skin is not in the spawned scene; its mesh stays in its bind pose"),
+            }
+        }
+        if !self.animations.is_empty() {
+            let clips: Vec<Handle<AnimationClip>> = {
+                let mut assets = world.get_resource_or_init::<Assets<AnimationClip>>();
+                self.animations.into_iter().map(|clip| assets.add(clip)).collect()
+            };
+            world.entity_mut(root).insert((AnimationTargets(entities), GltfAnimations(clips)));
         }
         root
     }

@@ -45,6 +45,8 @@ pub(super) fn load_nodes(document: &Document) -> Vec<GltfNode> {
                 parent: None,
                 children: node.children().map(|c| c.index()).collect(),
                 mesh: node.mesh().map(|m| m.index()),
+                skin: node.skin().map(|s| s.index()),
+                weights: node.weights().or_else(|| node.mesh().and_then(|m| m.weights())).map(<[f32]>::to_vec).unwrap_or_default(),
                 light,
                 camera,
             }
