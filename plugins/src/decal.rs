@@ -137,6 +137,21 @@ impl Default for AngleFade {
     }
 }
 
+/// Fades a decal out with its distance from the camera: full strength nearer than `start`
+/// metres, none beyond `end`, linear between (measured at each shaded point).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DistanceFade {
+    /// Distance where fading begins.
+    pub start: f32,
+    /// Distance where the decal has vanished.
+    pub end: f32,
+}
+
+impl DistanceFade {
+    /// Never fades (to exempt a decal from [`crate::RenderSettings::decal_distance_fade`]).
+    pub const NEVER: DistanceFade = DistanceFade { start: f32::INFINITY, end: f32::INFINITY };
+}
+
 /// Receiver layers a decal lands on by default (all of them).
 pub const ALL_RECEIVERS: u32 = u32::MAX;
 /// Layers of a mesh without a [`DecalReceiver`] component.
@@ -164,13 +179,15 @@ pub struct Decal {
     pub receivers: u32,
     /// Grazing-angle fade; `None` projects at every angle (also onto back-facing surfaces).
     pub angle_fade: Option<AngleFade>,
+    /// Distance fade; `None` takes [`crate::RenderSettings::decal_distance_fade`].
+    pub distance_fade: Option<DistanceFade>,
     /// Overall opacity multiplier (a [`DecalLifetime`] fades it further on the GPU).
     pub opacity: f32,
 }
 
 impl Decal {
     /// A decal with `material`, channel 0, weight 1, the whole texture, all receivers, the
-    /// default angle fade and full opacity.
+    /// default angle fade, the global distance fade and full opacity.
     pub fn new(material: Handle<DecalMaterial>) -> Self {
         Self {
             material,
@@ -179,6 +196,7 @@ impl Decal {
             uv: DecalUv::default(),
             receivers: ALL_RECEIVERS,
             angle_fade: Some(AngleFade::default()),
+            distance_fade: None,
             opacity: 1.0,
         }
     }
@@ -334,6 +352,7 @@ pub fn expire_decals(mut commands: Commands, time: Res<Time>, mut lifetimes: Res
 pub(crate) fn decal_desc(decal: &Decal, decal_to_world: Mat4, material: u32, lifetime: Option<(Duration, Duration)>) -> DecalDesc {
     DecalDesc {
         lifetime_fade: lifetime.map(|(start, end)| (start.as_secs_f32(), end.as_secs_f32())),
+        distance_fade: decal.distance_fade.map(|f| (f.start, f.end)),
         decal_to_world,
         material,
         uv_corners: decal.uv.corners(),

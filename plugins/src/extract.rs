@@ -534,6 +534,10 @@ pub fn extract_camera(
     let view_proj = proj * view;
     let mut record = camera_record(view, proj, view_proj, global.translation(), exposure, (w, h), settings.ambient);
     record.time = *clock;
+    record.decal_fade = settings
+        .decal_distance_fade
+        .filter(|f| !(f.start.is_nan() || f.end.is_nan() || f.start < 0.0 || f.end < f.start))
+        .map_or(Vec2::INFINITY, |f| Vec2::new(f.start.max(1e-3), f.end.max(f.start).max(1e-3)));
     mirror.0.set_camera(record);
 }
 
@@ -549,6 +553,8 @@ fn camera_record(view: Mat4, proj: Mat4, view_proj: Mat4, position: Vec3, exposu
         inv_viewport_size: Vec2::new(1.0 / w as f32, 1.0 / h as f32),
         ambient,
         time: 0.0,
+        decal_fade: Vec2::INFINITY,
+        pad: [0; 2],
     }
 }
 

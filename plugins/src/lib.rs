@@ -81,6 +81,9 @@ pub struct RenderSettings {
     pub freeze_culling: bool,
     /// How many mesh instances, lights and decals the scene tables hold at most.
     pub limits: SceneLimits,
+    /// The distance fade of decals without their own ([`decal::Decal::distance_fade`]):
+    /// `None` (the default) never fades.
+    pub decal_distance_fade: Option<decal::DistanceFade>,
 }
 
 /// How many mesh instances, lights and decals the renderer's tables hold. An entity that would
@@ -148,6 +151,7 @@ impl Default for RenderSettings {
             culling: render::CullingMode::Occlusion,
             freeze_culling: false,
             limits: SceneLimits::MAX,
+            decal_distance_fade: None,
         }
     }
 }

@@ -202,6 +202,8 @@ pub fn decal_problem(decal: &Decal) -> Option<&'static str> {
         Some("has non-finite texture coordinates")
     } else if decal.angle_fade.is_some_and(|f| !(f.start.is_finite() && f.end.is_finite())) {
         Some("has non-finite angle-fade angles")
+    } else if decal.distance_fade.is_some_and(|f| f.start.is_nan() || f.end.is_nan() || f.start < 0.0 || f.end < f.start) {
+        Some("has a distance fade that is NaN, negative or ends before it starts")
     } else {
         None
     }

@@ -698,6 +698,11 @@ layout! {
         /// (`GpuDecal::life_scale`). It may stand still while no decal is fading, so that
         /// frames in which only time passed upload nothing.
         pub time: f32,
+        /// The distance fade (start, end, in metres) of decals that have none of their own;
+        /// (∞, ∞) or (0, 0) never fades.
+        pub decal_fade: Vec2,
+        /// Padding to 16 bytes.
+        pub pad: [u32; 2],
     }
 
     /// One drawn mesh instance.
@@ -799,10 +804,13 @@ layout! {
         pub receivers: u32,
         /// Overall opacity.
         pub opacity: f32,
-        /// Angle fade: fade = saturate(cos θ × scale + offset); (0, 1) disables it.
-        pub fade_scale: f32,
-        /// See `fade_scale`.
-        pub fade_offset: f32,
+        /// Angle fade as two half floats (scale, offset): fade = saturate(cos θ × scale +
+        /// offset); (0, 1) disables it.
+        pub angle_fade: u32,
+        /// Distance fade as two half floats (start, end) in metres from the camera: full
+        /// strength nearer than start, none beyond end; (0, 0) takes the camera's default
+        /// (`GpuCamera::decal_fade`), (∞, ∞) never fades.
+        pub distance_fade: u32,
         /// Lifetime fade: opacity × saturate(`GpuCamera::time` × scale + offset); (0, 1)
         /// disables it. The fade is evaluated on the GPU so that an ageing decal is never
         /// re-uploaded.

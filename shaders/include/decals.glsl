@@ -26,6 +26,16 @@ layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer Dec
 uint decal_material(GpuDecal d) { return d.material_channel & ((1u << DECAL_CHANNEL_SHIFT) - 1u); }
 uint decal_channel(GpuDecal d) { return d.material_channel >> DECAL_CHANNEL_SHIFT; }
 
+// The distance fade of decal `d` at `position`: 1 nearer the camera than its start, 0 beyond
+// its end, linear between (the decal's own distances, or the camera's default when it has none).
+float decal_distance_fade(GpuDecal d, vec3 position) {
+    vec2 fade = d.distance_fade == 0u ? scene.camera.camera.decal_fade : unpackHalf2x16(d.distance_fade);
+    if (fade == vec2(0.0)) return 1.0; // a camera record without a default
+    float distance = length(position - scene.camera.camera.position);
+    if (fade.y > fade.x) return clamp((fade.y - distance) / (fade.y - fade.x), 0.0, 1.0);
+    return distance < fade.y ? 1.0 : 0.0;
+}
+
 // The decal record of a BLAS primitive (the box table is dense; NO_DECAL for padding boxes).
 uint decal_of_box(uint primitive) {
     return DecalBoxesRef(scene.decal_aabbs).boxes[primitive].slot;
@@ -52,7 +62,8 @@ bool decal_locate(GpuDecal d, vec3 position, vec3 geometric_normal, out vec3 loc
     // projector); surfaces facing it have cos = 1.
     vec3 grad_z = vec3(d.world_to_decal[0][2], d.world_to_decal[1][2], d.world_to_decal[2][2]);
     float cos_angle = dot(geometric_normal, normalize(grad_z));
-    fade = clamp(cos_angle * d.fade_scale + d.fade_offset, 0.0, 1.0);
+    vec2 angle = unpackHalf2x16(d.angle_fade);
+    fade = clamp(cos_angle * angle.x + angle.y, 0.0, 1.0) * decal_distance_fade(d, position);
     return fade > 0.0;
 }
 

@@ -14,7 +14,7 @@
 #![forbid(unsafe_code)]
 
 use engine::prelude::*;
-use plugins::decal::{AngleFade, Decal, DecalLifetime, DecalMaterial, DecalReceiver};
+use plugins::decal::{AngleFade, Decal, DecalLifetime, DecalMaterial, DecalReceiver, DistanceFade};
 use plugins::{MirrorSlots, RenderMirror, RenderSettings, RenderStats};
 use render::{DebugView, DecalMethod, PipelineKind, Tier};
 use tests::{TopDownView, assert_no_validation_errors, gpu_app_at, renderer};
@@ -876,5 +876,40 @@ fn a_gameplay_system_spawns_a_bullet_hole_that_shows_in_the_same_frame() {
         assert!(darkening > 0.2, "the burnt centre of the hole darkens the albedo: before {:?} after {:?}", before[i], after[i]);
         let (fx, fy) = pixel_of(&view, target + Vec3::new(1.0, 0.0, 0.0));
         assert_eq!(before[(fy * SIZE.0 + fx) as usize], after[(fy * SIZE.0 + fx) as usize], "1 m away nothing changed");
+    }
+}
+
+#[test]
+fn decals_fade_with_distance_by_their_own_fade_or_the_global_default() {
+    // The camera is 4 m above the plane: a decal centred at (x, 0, z) is sqrt(16 + x² + z²) m
+    // away. One fades over 3..5 m (at 4.12 m: (5 − 4.12) / 2 = 0.44 of its colour); one is
+    // exempt from the global 1..2 m fade; one takes it and has vanished. Every method: the
+    // configurations above and the deferred decals.
+    let deferred_decals = Config { tier: Tier::NoRayTracing, pipeline: PipelineKind::Deferred, method: DecalMethod::DeferredDecals };
+    for c in CONFIGS.into_iter().chain([deferred_decals]) {
+        eprintln!("{c:?}");
+        let (mut app, view) = plane_app(c);
+        app.world.resource_mut::<RenderSettings>().decal_distance_fade = Some(DistanceFade { start: 1.0, end: 2.0 });
+        let red = red_material(&mut app);
+        let spots = [Vec3::new(-1.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 1.0)];
+        let fades = [Some(DistanceFade { start: 3.0, end: 5.0 }), Some(DistanceFade::NEVER), None];
+        for (&at, fade) in spots.iter().zip(fades) {
+            app.world.spawn((Decal { distance_fade: fade, ..Decal::new(red) }, downward(at, Vec2::splat(0.3), 1.0, 0.0)));
+        }
+        app.update();
+        let albedo = renderer(&mut app).read_hdr().unwrap();
+        assert_no_validation_errors(&mut app);
+        let at = |p: Vec3| {
+            let (px, py) = view.pixel_of(p);
+            albedo[(py * SIZE.0 + px) as usize]
+        };
+        let s = SURFACE_ALBEDO.x;
+        let a = (5.0 - 17f32.sqrt()) / 2.0;
+        let faded = at(spots[0]);
+        assert!((faded[0] - (s + (1.0 - s) * a)).abs() < 0.02 && (faded[1] - s * (1.0 - a)).abs() < 0.02, "{faded:?} for {a}");
+        let exempt = at(spots[1]);
+        assert!(exempt[0] > 0.97 && exempt[1] < 0.03, "never fades: {exempt:?}");
+        let gone = at(spots[2]);
+        assert!((gone[0] - s).abs() < 0.01 && (gone[1] - s).abs() < 0.01, "faded out by the global default: {gone:?}");
     }
 }

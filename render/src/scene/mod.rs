@@ -193,6 +193,14 @@ pub struct DecalDesc {
     /// Lifetime fade: full strength until the first time, nothing from the second on, in
     /// seconds on the clock of [`GpuCamera::time`]; `None` disables it.
     pub lifetime_fade: Option<(f32, f32)>,
+    /// Distance fade: full strength nearer the camera than the first distance (metres),
+    /// nothing beyond the second; `None` takes the camera's default ([`GpuCamera::decal_fade`]).
+    pub distance_fade: Option<(f32, f32)>,
+}
+
+/// Two floats as half floats in one word (GLSL's `packHalf2x16`: the first in the low bits).
+pub fn pack_half2(a: f32, b: f32) -> u32 {
+    half::f16::from_f32(a).to_bits() as u32 | (half::f16::from_f32(b).to_bits() as u32) << 16
 }
 
 impl DecalDesc {
@@ -242,8 +250,13 @@ impl DecalDesc {
             weight: self.weight.max(1e-4),
             receivers: self.receivers,
             opacity: if self.opacity.is_nan() { 0.0 } else { self.opacity.clamp(0.0, 1.0) },
-            fade_scale,
-            fade_offset,
+            angle_fade: pack_half2(fade_scale, fade_offset),
+            distance_fade: match self.distance_fade {
+                // A fade that starts at 0 m would read as "the camera's default": start it just
+                // past the camera instead.
+                Some((start, end)) => pack_half2(start.max(1e-3), end.max(start).max(1e-3)),
+                None => 0,
+            },
             life_scale,
             life_offset,
         }
@@ -700,7 +713,7 @@ pub struct SceneMirror {
 
 impl Default for GpuCamera {
     fn default() -> Self {
-        Self::zeroed()
+        Self { decal_fade: Vec2::splat(f32::INFINITY), ..Self::zeroed() }
     }
 }
 
@@ -1051,6 +1064,7 @@ mod tests {
             opacity: 1.0,
             angle_fade: None,
             lifetime_fade: None,
+            distance_fade: None,
         }
     }
 
@@ -1180,6 +1194,7 @@ mod tests {
             opacity: f32::NAN,
             angle_fade: None,
             lifetime_fade: None,
+            distance_fade: None,
         };
         let good = desc(Mat4::from_scale(Vec3::splat(2.0)));
         assert!(good.is_valid());
