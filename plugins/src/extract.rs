@@ -325,6 +325,15 @@ pub fn extract_meshes(
     }
 }
 
+/// Completes a list of entities to visit from what the change lists named: adds what transform
+/// propagation moved and what waits for room, and keeps each entity once.
+fn finish_visits(visit: &mut Vec<Entity>, moved: Option<&TransformChanges>, waiting: Vec<Entity>) {
+    visit.extend(moved.iter().flat_map(|m| m.moved()).copied());
+    visit.extend(waiting);
+    visit.sort_unstable();
+    visit.dedup();
+}
+
 /// The change lists that name mesh instances: inserted instances and decal receiver layers
 /// ([`Inserted`] messages), and what transform propagation moved.
 #[derive(SystemParam)]
@@ -376,9 +385,7 @@ pub fn extract_instances(
         }
     }
     changes.drain_into(&mut visit);
-    visit.extend(waiting.retry(mirror.instances.len(), limit));
-    visit.sort_unstable();
-    visit.dedup();
+    finish_visits(&mut visit, None, waiting.retry(mirror.instances.len(), limit));
     let mut visited = 0;
     for &entity in visit.iter() {
         let Ok((inst, global, receiver)) = all.get(entity) else { continue };
@@ -455,10 +462,7 @@ pub fn extract_lights(
     visit.extend(inserted_point.read().map(|m| m.entity));
     visit.extend(inserted_spot.read().map(|m| m.entity));
     visit.extend(inserted_dir.read().map(|m| m.entity));
-    visit.extend(moved.iter().flat_map(|m| m.moved()).copied());
-    visit.extend(waiting.retry(mirror.lights.len(), limit));
-    visit.sort_unstable();
-    visit.dedup();
+    finish_visits(&mut visit, moved.as_deref(), waiting.retry(mirror.lights.len(), limit));
     let mut visited = 0;
     for &entity in visit.iter() {
         let Ok((global, point, spot, dir)) = all.get(entity) else { continue };
@@ -620,10 +624,7 @@ pub fn extract_decals(
     // One visit per changed decal, however many lists name it.
     visit.clear();
     visit.extend(changes.drain());
-    visit.extend(moved.iter().flat_map(|m| m.moved()).copied());
-    visit.extend(waiting.retry(mirror.decals.len(), limit));
-    visit.sort_unstable();
-    visit.dedup();
+    finish_visits(&mut visit, moved.as_deref(), waiting.retry(mirror.decals.len(), limit));
     let mut visited = 0;
     for &entity in visit.iter() {
         let Ok((decal, global)) = decals.get(entity) else { continue };

@@ -87,6 +87,7 @@ mod skins;
 
 use animations::*;
 use materials::*;
+pub use meshes::MAX_UNBACKED_COMPONENTS;
 use meshes::*;
 use nodes::*;
 pub use skins::GltfSkin;
