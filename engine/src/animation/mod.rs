@@ -306,6 +306,8 @@ struct Pose {
 #[derive(Default)]
 pub struct AnimateScratch {
     poses: Vec<(Entity, Pose)>,
+    /// Per target node, its index in `poses` (`u32::MAX`: none yet).
+    pose_of: Vec<u32>,
     weights: Vec<f32>,
 }
 
@@ -321,7 +323,7 @@ pub fn animate(
     mut scratch: Local<AnimateScratch>,
 ) {
     let Some(clips) = clips else { return };
-    let AnimateScratch { poses, weights } = &mut *scratch;
+    let AnimateScratch { poses, pose_of, weights } = &mut *scratch;
     let dt = time.delta_secs();
     for (mut player, targets) in &mut players {
         if !player.paused {
@@ -348,14 +350,17 @@ pub fn animate(
         let from = player.fade.and_then(|f| clips.get(f.from).map(|c| (c, wrap(f.from_time, c.duration, repeat), 1.0 - blend)));
         let layers = [Some((clip, wrap(player.time, clip.duration, repeat), blend)), from];
         poses.clear();
+        pose_of.clear();
+        pose_of.resize(targets.0.len(), u32::MAX);
         for (clip, t, weight) in layers.into_iter().flatten().filter(|l| l.2 > 0.0) {
             for channel in &clip.channels {
                 let Some(&Some(entity)) = targets.0.get(channel.target) else { continue };
-                let index = poses.iter().position(|(e, _)| *e == entity).unwrap_or_else(|| {
+                let slot = &mut pose_of[channel.target];
+                if *slot == u32::MAX {
+                    *slot = poses.len() as u32;
                     poses.push((entity, Pose { translation: None, rotation: None, scale: None, weights: 0.0 }));
-                    poses.len() - 1
-                });
-                let pose = &mut poses[index].1;
+                }
+                let pose = &mut poses[*slot as usize].1;
                 match sample_channel(channel, t, weights) {
                     Sampled::Translation(v) => accumulate(&mut pose.translation, v, weight, Vec3::lerp),
                     Sampled::Scale(v) => accumulate(&mut pose.scale, v, weight, Vec3::lerp),
