@@ -8,7 +8,8 @@
 //! Extraction writes each decal into a stable GPU slot keyed by its entity, together with the
 //! AABB of its box. It visits only the decals that changed, never the others: [`Decal`] and
 //! [`DecalLifetime`] are immutable components (edit a decal by inserting a new one: the compiler
-//! refuses `&mut Decal`), so component hooks list every spawn and edit in [`DecalChanges`];
+//! refuses `&mut Decal`), so component hooks list every spawn and edit as
+//! [`engine::changes::Inserted`] messages, as for mesh instances and lights;
 //! transform propagation lists what moved ([`engine::transform::TransformChanges`]); despawns
 //! arrive as removal events. Decals that never move can carry [`engine::transform::Static`], so
 //! that the transform scan skips them too: a frame in which a million static decals sit still
@@ -164,7 +165,7 @@ pub const DEFAULT_RECEIVER_LAYERS: u32 = 1;
 /// extraction, which is how extraction avoids visiting the decals that did not change).
 #[derive(Component, Clone, Debug, PartialEq)]
 #[require(engine::transform::Transform)]
-#[component(immutable, on_insert = decal_inserted)]
+#[component(immutable, on_insert = engine::changes::note_inserted::<Self>)]
 pub struct Decal {
     /// What the decal applies.
     pub material: Handle<DecalMaterial>,
@@ -237,26 +238,6 @@ impl DecalLifetime {
     }
 }
 
-/// Decals whose [`Decal`] or [`DecalLifetime`] was inserted or removed since the last
-/// extraction, listed by component hooks: the extraction visits these, the moved ones and the
-/// despawned ones, and nothing else.
-#[derive(Resource, Default)]
-pub struct DecalChanges {
-    entities: Vec<Entity>,
-}
-
-impl DecalChanges {
-    /// Lists `entity` for the next extraction.
-    pub fn push(&mut self, entity: Entity) {
-        self.entities.push(entity);
-    }
-
-    /// Takes the listed entities, leaving the list empty (its capacity kept).
-    pub(crate) fn drain(&mut self) -> std::vec::Drain<'_, Entity> {
-        self.entities.drain(..)
-    }
-}
-
 /// The lifetimes of living decals on the scene clock (`Time::elapsed`): each decal's fade window
 /// and a queue ordered by expiry, so that expiring decals are found without visiting the others.
 #[derive(Resource, Default)]
@@ -298,19 +279,14 @@ impl DecalLifetimes {
     }
 }
 
-fn decal_inserted(mut world: DeferredWorld, ctx: HookContext) {
-    if let Some(mut changes) = world.get_resource_mut::<DecalChanges>() {
-        changes.push(ctx.entity);
-    }
-}
-
 fn lifetime_inserted(mut world: DeferredWorld, ctx: HookContext) {
     let Some(&life) = world.get::<DecalLifetime>(ctx.entity) else { return };
     let now = world.get_resource::<Time>().map_or(Duration::ZERO, |t| t.elapsed());
     if let Some(mut lifetimes) = world.get_resource_mut::<DecalLifetimes>() {
         lifetimes.insert(ctx.entity, life.window(now));
     }
-    decal_inserted(world, ctx);
+    // The decal's record carries its fade: list it as changed.
+    engine::changes::note_inserted::<Decal>(world, ctx);
 }
 
 fn lifetime_removed(mut world: DeferredWorld, ctx: HookContext) {
@@ -318,7 +294,7 @@ fn lifetime_removed(mut world: DeferredWorld, ctx: HookContext) {
         // Its queue entries go stale and are dropped when they reach the top.
         lifetimes.windows.remove(&ctx.entity);
     }
-    decal_inserted(world, ctx);
+    engine::changes::note_inserted::<Decal>(world, ctx);
 }
 
 /// Despawns the decals whose [`DecalLifetime`] ran out, popping the expiry queue (work

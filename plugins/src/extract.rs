@@ -26,9 +26,7 @@ use render::scene::{
 };
 use std::collections::HashMap;
 
-use crate::decal::{
-    DEFAULT_RECEIVER_LAYERS, Decal, DecalChanges, DecalLifetimes, DecalMaterial, DecalReceiver, decal_desc, gpu_decal_material,
-};
+use crate::decal::{DEFAULT_RECEIVER_LAYERS, Decal, DecalLifetimes, DecalMaterial, DecalReceiver, decal_desc, gpu_decal_material};
 use crate::validate::{self, WarnOnce};
 use crate::{RenderMirror, RenderSettings, RenderStats};
 
@@ -593,14 +591,14 @@ pub fn extract_decal_materials(
 /// Mirrors the decals that were spawned, edited (re-inserted), given or relieved of a lifetime,
 /// moved (directly or through a parent) or despawned; unchanged decals are never visited.
 ///
-/// The decals to visit come from lists, not from a scan: [`DecalChanges`] (component hooks on
+/// The decals to visit come from lists, not from a scan: [`Inserted`] messages (component hooks on
 /// insert), [`TransformChanges::moved`] (transform propagation) and the removal events. So the
 /// work is proportional to the decals that changed, and [`RenderStats::visited`] says how many
 /// that was. (Without the engine's `TransformPlugin` no moves are listed.)
 #[allow(clippy::too_many_arguments)]
 pub fn extract_decals(
     decals: Query<(&Decal, &GlobalTransform)>,
-    (mut changes, moved, lifetimes): (ResMut<DecalChanges>, Option<Res<TransformChanges>>, Res<DecalLifetimes>),
+    (mut inserted, moved, lifetimes): (MessageReader<Inserted<Decal>>, Option<Res<TransformChanges>>, Res<DecalLifetimes>),
     mut removed: RemovedComponents<Decal>,
     live: Query<(), With<Decal>>,
     (mut mirror, mut slots): (ResMut<RenderMirror>, ResMut<MirrorSlots>),
@@ -623,7 +621,7 @@ pub fn extract_decals(
     }
     // One visit per changed decal, however many lists name it.
     visit.clear();
-    visit.extend(changes.drain());
+    visit.extend(inserted.read().map(|m| m.entity));
     finish_visits(&mut visit, moved.as_deref(), waiting.retry(mirror.decals.len(), limit));
     let mut visited = 0;
     for &entity in visit.iter() {

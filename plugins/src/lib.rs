@@ -237,7 +237,7 @@ pub fn reset_mirror(world: &mut World) {
             assets.touch_all();
         }
     }
-    // Instances and lights are immutable: their change lists name them all instead.
+    // Instances, lights and decals are immutable: their change lists name them all instead.
     fn list_all<C: Component>(world: &mut World) {
         let entities: Vec<Entity> = world.query_filtered::<Entity, With<C>>().iter(world).collect();
         world.write_message_batch(entities.into_iter().map(engine::changes::Inserted::<C>::new));
@@ -250,10 +250,7 @@ pub fn reset_mirror(world: &mut World) {
     list_all::<engine::light::PointLight>(world);
     list_all::<engine::light::SpotLight>(world);
     list_all::<engine::light::DirectionalLight>(world);
-    // Decals are immutable: list them all for the next extraction instead.
-    let decals: Vec<Entity> = world.query_filtered::<Entity, With<decal::Decal>>().iter(world).collect();
-    let mut changes = world.resource_mut::<decal::DecalChanges>();
-    decals.into_iter().for_each(|e| changes.push(e));
+    list_all::<decal::Decal>(world);
 }
 
 /// The CPU copy of the GPU scene that extraction writes.
@@ -430,7 +427,7 @@ impl Plugin for RenderPlugin {
         );
         app.add_systems(Render, render_frame.in_set(RenderSystems::Render));
         app.insert_resource(engine::asset::Assets::<decal::DecalMaterial>::default());
-        app.world.init_resource::<decal::DecalChanges>();
+        app.add_message::<engine::changes::Inserted<decal::Decal>>();
         app.add_message::<engine::changes::Inserted<decal::DecalReceiver>>();
         app.world.init_resource::<decal::DecalLifetimes>();
         app.add_systems(engine::app::Update, decal::expire_decals);
