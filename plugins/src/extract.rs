@@ -9,6 +9,7 @@ use bevy_ecs::entity::{EntityHashMap, EntityHashSet};
 use bevy_ecs::message::MessageReader;
 use bevy_ecs::prelude::*;
 use bevy_ecs::system::SystemParam;
+use engine::animation::Skin;
 use engine::asset::{AssetEvent, Assets, Handle};
 use engine::camera::Camera;
 use engine::changes::Inserted;
@@ -40,6 +41,10 @@ pub struct MirrorSlots {
     lights: EntityHashMap<u32>,
     decals: EntityHashMap<u32>,
     decal_materials: HashMap<Handle<DecalMaterial>, u32>,
+    /// Skinned instances' posed meshes (and the skinned mesh each copies).
+    posed: EntityHashMap<(MeshId, MeshId)>,
+    /// Skinned instances whose posed mesh is new: posed in this frame whatever moved.
+    fresh_poses: Vec<Entity>,
     /// The slot of the material used when an instance's material is missing.
     pub default_material: u32,
 }
@@ -317,8 +322,29 @@ pub fn extract_meshes(
                 warned.report(handle, "mesh", repaired.as_deref(), "repaired; the rest is drawn");
                 let id = mirror.0.add_mesh(data);
                 slots.meshes.insert(handle, id);
+                repose(&mut mirror.0, &mut slots, id);
             }
             Err(problem) => warned.report(handle, "mesh", Some(&problem), "not drawn"),
+        }
+    }
+}
+
+/// Gives the skinned instances of a mesh that was replaced new posed copies of it. They take
+/// the ids of the copies they replace (freed ids are reused last-in first-out), so the instances'
+/// records stay as they are; a mesh that lost its skin leaves them drawing nothing until they
+/// are re-inserted.
+fn repose(mirror: &mut render::SceneMirror, slots: &mut MirrorSlots, source: MeshId) {
+    let stale: Vec<(Entity, MeshId)> = slots.posed.iter().filter(|(_, (_, s))| *s == source).map(|(e, (p, _))| (*e, *p)).collect();
+    for (entity, posed) in stale {
+        mirror.remove_mesh(posed);
+        match mirror.add_posed_mesh(source) {
+            Some(again) => {
+                debug_assert_eq!(again, posed, "a freed mesh id is reused first");
+                slots.fresh_poses.push(entity);
+            }
+            None => {
+                slots.posed.remove(&entity);
+            }
         }
     }
 }
@@ -357,7 +383,7 @@ impl InstanceChanges<'_, '_> {
 /// scan, so a frame in which nothing changed visits none of them.
 #[allow(clippy::too_many_arguments)]
 pub fn extract_instances(
-    all: Query<(&MeshInstance, &GlobalTransform, Option<&DecalReceiver>)>,
+    all: Query<(&MeshInstance, &GlobalTransform, Option<&DecalReceiver>, Has<Skin>)>,
     mut changes: InstanceChanges,
     (mut removed, mut removed_receivers): (RemovedComponents<MeshInstance>, RemovedComponents<DecalReceiver>),
     (mut mirror, mut slots): (ResMut<RenderMirror>, ResMut<MirrorSlots>),
@@ -381,12 +407,15 @@ pub fn extract_instances(
         if let Some(slot) = slots.instances.remove(&entity) {
             mirror.remove_instance(slot);
         }
+        if let Some((posed, _)) = slots.posed.remove(&entity) {
+            mirror.remove_mesh(posed);
+        }
     }
     changes.drain_into(&mut visit);
     finish_visits(&mut visit, None, waiting.retry(mirror.instances.len(), limit));
     let mut visited = 0;
     for &entity in visit.iter() {
-        let Ok((inst, global, receiver)) = all.get(entity) else { continue };
+        let Ok((inst, global, receiver, skinned)) = all.get(entity) else { continue };
         visited += 1;
         let world = global.compute_matrix();
         let mesh = slots.meshes.get(&inst.mesh).copied();
@@ -400,12 +429,33 @@ pub fn extract_instances(
             if let Some(slot) = slots.instances.remove(&entity) {
                 mirror.remove_instance(slot);
             }
+            if let Some((posed, _)) = slots.posed.remove(&entity) {
+                mirror.remove_mesh(posed);
+            }
             continue;
         };
         let slot = slots.instances.get(&entity).copied();
         if slot.is_none() && !waiting.admit(entity, mirror.instances.len(), limit, "mesh instance") {
             continue;
         }
+        // A skinned instance draws a posed copy of its mesh (kept while the mesh stays).
+        let mesh = match (skinned && mirror.poses.is_skinned(mesh), slots.posed.get(&entity).copied()) {
+            (true, Some((posed, source))) if source == mesh => posed,
+            (want, old) => {
+                if let Some((posed, _)) = old {
+                    mirror.remove_mesh(posed);
+                    slots.posed.remove(&entity);
+                }
+                match want.then(|| mirror.add_posed_mesh(mesh)).flatten() {
+                    Some(posed) => {
+                        slots.posed.insert(entity, (posed, mesh));
+                        slots.fresh_poses.push(entity);
+                        posed
+                    }
+                    None => mesh,
+                }
+            }
+        };
         let (material, flags) = slots.materials.get(&inst.material).copied().unwrap_or((slots.default_material, DrawFlags::default()));
         // Decals land on glass only when a DecalReceiver says so.
         let layers = receiver.map_or(if flags.transparent { 0 } else { DEFAULT_RECEIVER_LAYERS }, |r| r.0);
@@ -418,6 +468,41 @@ pub fn extract_instances(
     }
     stats.visited.instances = visited;
     stats.over_limit.instances = waiting.len();
+}
+
+/// Poses skinned instances: for each whose joints or own transform moved this frame (or whose
+/// posed mesh is new), the joint matrices of its [`Skin`] go to its posed mesh
+/// ([`render::SceneMirror::set_pose`]) and its culling bounds follow the pose. It visits the
+/// skinned instances (not every instance), and the skinning pass then runs for those that moved.
+pub fn extract_poses(
+    skinned: Query<(Entity, Ref<Skin>, Ref<GlobalTransform>)>,
+    joints: Query<Ref<GlobalTransform>>,
+    (mut mirror, mut slots): (ResMut<RenderMirror>, ResMut<MirrorSlots>),
+    mut matrices: Local<Vec<Mat4>>,
+    mut stats: ResMut<RenderStats>,
+) {
+    let slots = &mut *slots;
+    let mirror = &mut mirror.0;
+    let mut fresh = std::mem::take(&mut slots.fresh_poses);
+    fresh.sort_unstable();
+    let mut posed = 0;
+    for (entity, skin, global) in &skinned {
+        let Some(&(mesh, _)) = slots.posed.get(&entity) else { continue };
+        let moved = global.is_changed() || skin.is_changed() || skin.joints.iter().any(|&j| joints.get(j).is_ok_and(|g| g.is_changed()));
+        if !moved && fresh.binary_search(&entity).is_err() {
+            continue;
+        }
+        skin.joint_matrices(&global, |j| joints.get(j).ok().map(|g| g.0), &mut matrices);
+        if mirror.set_pose(mesh, matrices.iter().copied()) {
+            posed += 1;
+            if let Some(&slot) = slots.instances.get(&entity) {
+                mirror.refresh_cull(slot);
+            }
+        }
+    }
+    fresh.clear();
+    slots.fresh_poses = fresh;
+    stats.visited.poses = posed;
 }
 
 /// Mirrors lights that were spawned, moved or changed (a new light component inserted); frees

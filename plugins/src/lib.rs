@@ -330,6 +330,8 @@ pub struct VisitCounts {
     pub lights: u64,
     /// Decals (likewise).
     pub decals: u64,
+    /// Skinned instances posed (their joints or they moved).
+    pub poses: u64,
 }
 
 /// Counters of the last frame and a queue of finished frames' statistics.
@@ -417,6 +419,7 @@ impl Plugin for RenderPlugin {
                 extract::extract_meshes,
                 extract::extract_decal_materials,
                 extract::extract_instances,
+                extract::extract_poses,
                 extract::extract_decals,
                 extract::extract_lights,
                 extract::extract_camera,

@@ -24,7 +24,7 @@ use engine::light::{DirectionalLight, PointLight, SpotLight};
 use engine::material::Material;
 use engine::mesh::Mesh;
 use glam::{Mat4, Vec3};
-use render::scene::{DECAL_CHANNELS, GpuLight, GpuVertex, MeshData};
+use render::scene::{DECAL_CHANNELS, GpuLight, GpuSkinVertex, GpuVertex, MeshData};
 
 use crate::decal::Decal;
 
@@ -292,7 +292,18 @@ pub fn mesh_data(mesh: &Mesh) -> Result<(MeshData, Option<String>), String> {
         };
         return Err(why);
     }
-    Ok((MeshData { vertices, indices }, (!repaired.is_empty()).then(|| format!("had {}", repaired.join(", ")))))
+    // Joints and weights (normalised by the loader) go with the mesh when there is one per vertex.
+    let skin = match &mesh.skin {
+        Some(s) if s.joints.len() == n && s.weights.len() == n => {
+            s.joints.iter().zip(&s.weights).map(|(&j, &w)| GpuSkinVertex::new(j, w)).collect()
+        }
+        Some(_) => {
+            repaired.push("joints or weights not one per vertex (the skin dropped: it draws rigidly)".to_owned());
+            Vec::new()
+        }
+        None => Vec::new(),
+    };
+    Ok((MeshData { vertices, indices, skin }, (!repaired.is_empty()).then(|| format!("had {}", repaired.join(", ")))))
 }
 
 #[cfg(test)]

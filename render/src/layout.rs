@@ -963,8 +963,70 @@ layout! {
         pub index_count: u32,
         /// The first vertex's place in the mesh pool's buffer, in vertices (`vertexOffset`).
         pub vertex_offset: u32,
+        /// Number of vertices.
+        pub vertex_count: u32,
+        /// Device address of the rest-pose vertices, in the same order: `vertices` itself for
+        /// a mesh that is not posed; for a posed copy (`render/src/skinning`), its skinned
+        /// source's. Decals attached to a skin are evaluated at the rest-pose position.
+        pub rest: u64,
+        /// Device address of the joints and weights (`GpuSkinVertex` per vertex) of a skinned
+        /// mesh and its posed copies; 0 for a mesh without a skin.
+        pub skin: u64,
+    }
+
+    /// Joints and weights of one vertex of a skinned mesh: four joint indices as 16-bit halves
+    /// and four weights as 16-bit unorm halves (`unpackUnorm2x16`), summing to 1.
+    #[layout(std430)]
+    pub struct GpuSkinVertex {
+        /// Joints 0 (low half) and 1.
+        pub joints01: u32,
+        /// Joints 2 (low half) and 3.
+        pub joints23: u32,
+        /// Weights 0 (low half) and 1.
+        pub weights01: u32,
+        /// Weights 2 (low half) and 3.
+        pub weights23: u32,
+    }
+
+    /// One joint's skinning matrix (joint's world × inverse bind matrix, in the posed mesh's
+    /// object space), as the three rows of a 3×4 affine matrix.
+    #[layout(std430)]
+    pub struct GpuJointMatrix {
+        /// First row.
+        pub x: Vec4,
+        /// Second row.
+        pub y: Vec4,
+        /// Third row.
+        pub z: Vec4,
+    }
+
+    /// One posed mesh the skinning pass writes this frame.
+    #[layout(std430)]
+    pub struct GpuSkinJob {
+        /// The posed mesh (its `GpuMeshInfo` names its source's rest vertices and skin).
+        pub mesh: u32,
+        /// Its first joint matrix in the palette.
+        pub palette: u32,
+        /// 1 the first time it is posed: its previous positions are set to the new ones.
+        pub first: u32,
         /// Padding to 16 bytes.
         pub pad: u32,
+    }
+
+    /// The skinning pass's push constants (its pipeline has a layout of its own).
+    #[layout(std430)]
+    #[derive(Default)]
+    pub struct GpuSkinPush {
+        /// Address of the mesh table.
+        pub meshes: u64,
+        /// Address of this frame's jobs.
+        pub jobs: u64,
+        /// Address of the joint palette (`GpuJointMatrix` each).
+        pub palette: u64,
+        /// Number of jobs.
+        pub job_count: u32,
+        /// Workgroups per job along x (the largest mesh's vertices / 64).
+        pub groups: u32,
     }
 
     /// What GPU culling knows of an instance slot, kept by change detection like the instance

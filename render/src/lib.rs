@@ -27,6 +27,7 @@
 //! | [`decals`] | decal acceleration structures, deferred decals, decal debug views |
 //! | [`lights`] | tiled light culling and the lighting record |
 //! | [`shadows`] | the scene's acceleration structures and ray-traced shadows |
+//! | [`skinning`] | posed meshes: skinning in compute, joint matrices, pose bounds |
 //! | [`pipelines`] | forward, Forward+, deferred and visibility-buffer frames |
 //! | [`present`] | tone mapping, overlay, window swapchain |
 //! | [`renderer`] | frames in flight, submit |
@@ -45,6 +46,7 @@ pub mod renderer;
 pub mod scene;
 pub mod settings;
 pub mod shadows;
+pub mod skinning;
 pub mod transparency;
 
 pub use culling::CullingStats;

@@ -112,6 +112,7 @@ struct Resources {
     swapchain_image: ImageId,
     scene: GpuScene,
     culling: Culling,
+    skinning: crate::skinning::Skinning,
     forward: ForwardPasses,
     deferred: DeferredPasses,
     visbuffer: VisBufferPasses,
@@ -177,6 +178,7 @@ impl Renderer {
             timeline,
             layout,
             culling: Culling::new(ctx, &mut graph, scene.set_layout)?,
+            skinning: crate::skinning::Skinning::new(ctx)?,
             forward: ForwardPasses::new(ctx, layout)?,
             deferred: DeferredPasses::new(ctx, layout)?,
             visbuffer: VisBufferPasses::new(ctx, layout)?,
@@ -376,6 +378,7 @@ impl Renderer {
         let mut parts = FrameParts {
             scene: &mut res.scene,
             culling: &mut res.culling,
+            skinning: &mut res.skinning,
             decals: &mut res.decals,
             lighting: &mut res.lighting,
             forward: &res.forward,
@@ -583,6 +586,7 @@ impl Drop for Renderer {
             swapchain_image: _,
             scene,
             culling,
+            skinning,
             forward,
             deferred,
             visbuffer,
@@ -611,6 +615,7 @@ impl Drop for Renderer {
         decals.destroy(ctx);
         lighting.destroy(ctx);
         culling.destroy(ctx);
+        skinning.destroy(ctx);
         forward.destroy(ctx);
         deferred.destroy(ctx);
         visbuffer.destroy(ctx);

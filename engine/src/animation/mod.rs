@@ -193,6 +193,42 @@ pub struct Skin {
     pub inverse_bind_matrices: std::sync::Arc<[glam::Mat4]>,
 }
 
+impl Skin {
+    /// The skinning matrices of the current pose into `out`, one per joint: `joint world ×
+    /// inverse bind`, expressed in the space of the mesh entity (`mesh_world`'s inverse on the
+    /// left), so that the entity's own transform places the posed mesh as it places a rigid one.
+    /// (glTF ignores a skinned node's own transform; the inverse here cancels it.) A joint
+    /// `joint_world` cannot place (despawned) keeps its bind pose.
+    pub fn joint_matrices(
+        &self,
+        mesh_world: &crate::transform::GlobalTransform,
+        joint_world: impl Fn(Entity) -> Option<glam::Affine3A>,
+        out: &mut Vec<glam::Mat4>,
+    ) {
+        let to_mesh = mesh_world.0.inverse();
+        out.clear();
+        out.extend(self.joints.iter().zip(self.inverse_bind_matrices.iter()).map(|(&joint, ibm)| match joint_world(joint) {
+            Some(world) => glam::Mat4::from(to_mesh * world) * *ibm,
+            None => glam::Mat4::IDENTITY,
+        }));
+    }
+
+    /// A point of the mesh posed on the CPU (linear blend skinning with the matrices of
+    /// [`Skin::joint_matrices`]): `rest` moved by the weighted joints. For picking and tests;
+    /// the renderer skins on the GPU.
+    pub fn pose_point(matrices: &[glam::Mat4], rest: Vec3, joints: [u16; 4], weights: [f32; 4]) -> Vec3 {
+        let mut posed = Vec3::ZERO;
+        let mut total = 0.0;
+        for (&joint, &weight) in joints.iter().zip(&weights) {
+            if let Some(m) = matrices.get(joint as usize).filter(|_| weight > 0.0) {
+                posed += weight * m.transform_point3(rest);
+                total += weight;
+            }
+        }
+        if total > 0.0 { posed / total } else { rest }
+    }
+}
+
 /// Morph target weights of a mesh node, written by animation and read by skinning.
 #[derive(Component, Clone, Debug, Default, PartialEq)]
 pub struct MorphWeights(pub Vec<f32>);

@@ -17,6 +17,7 @@ macro_rules! spirv {
 spirv! {
     MESH_VERT = "mesh.vert";
     CULL_COMP = "cull.comp";
+    SKINNING_COMP = "skinning.comp";
     HIZ_COMP = "hiz.comp";
     PREPASS_MASK_FRAG = "prepass_mask.frag";
     FORWARD_FRAG = "forward.frag";

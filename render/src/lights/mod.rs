@@ -127,7 +127,7 @@ impl Lighting {
         let method = l.method.effective(s.pipeline, f.ctx.ray_support());
         let enumerated = method == LightMethod::RayQuery;
         let accel = match self.accel.as_mut() {
-            Some(a) => a.prepare(f, mirror)?,
+            Some(a) => a.prepare(f, scene, mirror)?,
             None => SceneAccelFrame::default(),
         };
         let ray_query = match self.ray_query.as_mut() {

@@ -32,6 +32,8 @@ pub struct FrameParts<'a> {
     pub scene: &'a mut GpuScene,
     /// GPU culling and the indirect draws every mesh pass records.
     pub culling: &'a mut Culling,
+    /// Posed meshes' skinning.
+    pub skinning: &'a mut crate::skinning::Skinning,
     /// Decal acceleration structures, deferred-decal order, debug boxes.
     pub decals: &'a mut Decals,
     /// Light culling, the scene's acceleration structures, shadows.
@@ -51,14 +53,17 @@ pub struct FrameParts<'a> {
 }
 
 /// What every frame does before its passes: follow the decals' and lights' changes, upload what
-/// changed, bring the acceleration structures up to date, set the push constants, and cull the
-/// instances into the first phase's draw lists (`crate::culling`).
+/// changed, skin the posed meshes whose pose changed, bring the acceleration structures up to
+/// date, set the push constants, and cull the instances into the first phase's draw lists
+/// (`crate::culling`).
 fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<(DecalFrame, LightFrame), RenderError> {
     mirror.sort_transparent(mirror.camera().position);
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
+    r.skinning.prepare(mirror, r.scene);
     let lights = r.lighting.prepare(f, r.scene, mirror, s)?;
     mirror.counters.culling = r.culling.prepare(f, r.scene, mirror, s, lights.shadow_map_views())?;
     let boxes_changed = r.scene.upload(f, mirror)?;
+    r.skinning.record(f, r.scene)?;
     let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, boxes_changed)?;
     f.push = scene_push(r.scene, mirror, s, &decals);
     r.lighting.build(f, r.scene, mirror, &lights)?;

@@ -32,8 +32,8 @@ use crate::graph::{Bind, BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::GpuLighting;
 use crate::scene::pool::{POOL_FLOOR, RangeAllocator, footprint};
 use crate::scene::{
-    GpuAabb, GpuCamera, GpuMeshInfo, MeshData, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
-    TextureData,
+    GpuAabb, GpuCamera, GpuMeshInfo, GpuSkinVertex, MeshData, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL,
+    TEXTURE_WHITE, TextureData,
 };
 
 /// Bindless array size.
@@ -311,35 +311,74 @@ impl SceneResources {
     }
 }
 
-/// A mesh's place in the mesh pool ([`crate::scene::pool`]): its vertices, then its indices.
+/// A mesh's place in the mesh pool ([`crate::scene::pool`]): its vertices, then its indices,
+/// then (for a skinned mesh) its joints and weights; a posed mesh's vertices, then their
+/// previous positions (its indices and skin are its source's).
 #[derive(Clone, Copy, Debug)]
 pub struct GpuMesh {
     /// Byte offset of the first vertex in the pool buffer.
     pub offset: u64,
-    /// Bytes of vertices and indices.
+    /// Bytes of its range.
     pub bytes: u64,
     /// Number of indices.
     pub index_count: u32,
     /// Number of vertices.
     pub vertex_count: u32,
+    /// Whether joints and weights follow the indices.
+    pub skinned: bool,
+    /// The skinned mesh a posed mesh copies.
+    pub source: Option<MeshId>,
 }
 
 impl GpuMesh {
-    /// Byte offset of the first index in the pool buffer.
+    /// Byte offset of the first index in the pool buffer (a posed mesh's are its source's).
     pub fn index_offset(&self) -> u64 {
         self.offset + self.vertex_count as u64 * std::mem::size_of::<crate::scene::GpuVertex>() as u64
     }
 
+    /// Byte offset of the joints and weights of a skinned mesh.
+    fn skin_offset(&self) -> u64 {
+        (self.index_offset() + self.index_count as u64 * 4).next_multiple_of(16)
+    }
+
+    /// The table entry of a mesh that is not posed.
     fn info(&self, pool: vk::DeviceAddress) -> GpuMeshInfo {
+        let vertices = pool + self.offset;
         GpuMeshInfo {
-            vertices: pool + self.offset,
+            vertices,
             indices: pool + self.index_offset(),
             first_index: (self.index_offset() / 4) as u32,
             index_count: self.index_count,
             vertex_offset: (self.offset / std::mem::size_of::<crate::scene::GpuVertex>() as u64) as u32,
-            pad: 0,
+            vertex_count: self.vertex_count,
+            rest: vertices,
+            skin: if self.skinned { pool + self.skin_offset() } else { 0 },
         }
     }
+
+    /// The table entry of a posed mesh: its own vertices over its source's indices, rest
+    /// vertices and skin. Nothing to draw or skin when the source is gone or no longer has its
+    /// vertex count (it was replaced).
+    fn posed_info(&self, pool: vk::DeviceAddress, source: Option<&GpuMesh>) -> GpuMeshInfo {
+        let Some(source) = source.filter(|s| s.skinned && s.vertex_count == self.vertex_count) else { return GpuMeshInfo::default() };
+        let vertices = pool + self.offset;
+        GpuMeshInfo {
+            vertices,
+            vertex_offset: (self.offset / std::mem::size_of::<crate::scene::GpuVertex>() as u64) as u32,
+            ..source.info(pool)
+        }
+    }
+}
+
+/// The bytes a posed mesh of `vertices` takes: its vertices and a previous position (vec4) each.
+fn posed_bytes(vertices: u32) -> u64 {
+    vertices as u64 * (std::mem::size_of::<crate::scene::GpuVertex>() as u64 + 16)
+}
+
+/// The bytes a mesh takes in the pool: vertices, indices, and (16-byte aligned) its skin.
+fn mesh_bytes(m: &MeshData) -> u64 {
+    let plain = RangeAllocator::mesh_bytes(m.vertices.len(), m.indices.len());
+    if m.skin.is_empty() { plain } else { plain.next_multiple_of(16) + (m.skin.len() * std::mem::size_of::<GpuSkinVertex>()) as u64 }
 }
 
 /// What the mesh pool does this frame.
@@ -384,6 +423,8 @@ pub struct GpuScene {
     pub culls: GpuTable,
     /// The blended instances' back-to-front order (instance slots), culled into ordered draws.
     pub glass_order: WordArray,
+    /// This frame's skinning jobs and joint matrices (`crate::skinning`).
+    pub skin_input: WordArray,
     /// Meshes by [`MeshId`], placed in the pool.
     pub meshes: Vec<Option<GpuMesh>>,
     /// The mesh pool's buffer (none before the first mesh, or after a while without any).
@@ -520,6 +561,7 @@ impl GpuScene {
             shadow_views: WordArray::new(ctx, "shadow map views")?,
             culls: GpuTable::new::<crate::scene::GpuCullRecord>(ctx, "culling records", 64)?,
             glass_order: WordArray::new(ctx, "glass order")?,
+            skin_input: WordArray::new(ctx, "skinning jobs")?,
             meshes: Vec::new(),
             mesh_pool: None,
             ranges: RangeAllocator::default(),
@@ -666,14 +708,21 @@ impl GpuScene {
             }
             self.released_textures.push((up.frame_value, slot));
         }
+        let mut released_source = false;
         for id in mirror.released_meshes.drain(..) {
             if let Some(mesh) = self.meshes.get_mut(id.0 as usize).and_then(Option::take) {
                 self.released_ranges.push((up.frame_value, mesh.offset, mesh.bytes));
                 self.mesh_info[id.0 as usize] = GpuMeshInfo::default();
                 self.mesh_info_dirty = true;
+                released_source |= mesh.skinned;
             }
         }
-        let pool_plan = self.plan_pool(completed, &mirror.pending_meshes);
+        if let Some(pool) = self.mesh_pool.as_ref().map(|p| p.address).filter(|_| released_source) {
+            // Posed copies of a skinned mesh that went draw nothing.
+            self.refresh_infos(pool, |m| m.source.is_some());
+        }
+        let incoming = self.incoming_sizes(mirror);
+        let pool_plan = self.plan_pool(completed, &incoming);
 
         // Once a frame, whether or not anything changed: the tables (and below, the ring) grow
         // or shrink.
@@ -690,11 +739,12 @@ impl GpuScene {
         for (gpu, slots) in tables {
             replaced |= gpu.plan(slots);
         }
-        let meshes = mirror.pending_meshes.iter().map(|(id, _)| id.0 as usize + 1).fold(self.mesh_info.len(), usize::max);
+        let ids = mirror.pending_meshes.iter().map(|(id, _)| *id).chain(mirror.pending_posed.iter().map(|(id, _)| *id));
+        let meshes = ids.map(|id| id.0 as usize + 1).fold(self.mesh_info.len(), usize::max);
         if self.mesh_table.plan(meshes as u32) {
             self.mesh_info_dirty = true;
         }
-        for words in [&mut self.decal_order, &mut self.shadow_views, &mut self.glass_order] {
+        for words in [&mut self.decal_order, &mut self.shadow_views, &mut self.glass_order, &mut self.skin_input] {
             words.plan();
         }
         let trimmed_boxes = !mirror.decals.aabbs.trimmed_tail().is_empty();
@@ -705,6 +755,7 @@ impl GpuScene {
             && !self.decal_order.dirty
             && !self.shadow_views.dirty
             && !self.glass_order.dirty
+            && !self.skin_input.dirty
             && pool_plan == PoolPlan::Keep
             && !self.lighting_dirty
             && self.builtins.is_empty()
@@ -720,10 +771,11 @@ impl GpuScene {
             + staging_need(&mirror.decals.records, &self.decals)
             + staging_need(&mirror.decals.aabbs, &self.decal_aabbs)
             + staging_need(&mirror.decal_materials, &self.decal_materials)
-            + 2 * (std::mem::size_of::<GpuMeshInfo>() * (self.mesh_info.len() + mirror.pending_meshes.len())) as u64
+            + 2 * (std::mem::size_of::<GpuMeshInfo>() * (self.mesh_info.len() + incoming.len())) as u64
             + self.decal_order.staging_need()
             + self.shadow_views.staging_need()
             + self.glass_order.staging_need()
+            + self.skin_input.staging_need()
             + 64
             + std::mem::size_of::<GpuCamera>() as u64
             + std::mem::size_of::<GpuLighting>() as u64
@@ -732,7 +784,7 @@ impl GpuScene {
 
         let mut copies = std::mem::take(&mut self.copies);
         copies.clear();
-        let new_meshes = !mirror.pending_meshes.is_empty() || pool_plan != PoolPlan::Keep;
+        let new_meshes = !incoming.is_empty() || pool_plan != PoolPlan::Keep;
         self.prepare_meshes(up, &mut copies, mirror, pool_plan)?;
         let scene_bytes = up.bytes;
         for (slot, data) in std::mem::take(&mut self.builtins) {
@@ -762,7 +814,7 @@ impl GpuScene {
         if std::mem::take(&mut self.mesh_info_dirty) {
             upload_array(up, &mut copies, &mut self.mesh_table, bytemuck::cast_slice(&self.mesh_info))?;
         }
-        for words in [&mut self.decal_order, &mut self.shadow_views, &mut self.glass_order] {
+        for words in [&mut self.decal_order, &mut self.shadow_views, &mut self.glass_order, &mut self.skin_input] {
             if std::mem::take(&mut words.dirty) {
                 upload_array(up, &mut copies, &mut words.table, bytemuck::cast_slice(&words.cpu))?;
             }
@@ -794,7 +846,7 @@ impl GpuScene {
 
     /// Once a frame: returns ranges whose frames have completed, and decides whether the pool
     /// is repacked (to fit `incoming`, or smaller by the shrink rule) or released.
-    fn plan_pool(&mut self, completed: u64, incoming: &[(MeshId, MeshData)]) -> PoolPlan {
+    fn plan_pool(&mut self, completed: u64, incoming: &[u64]) -> PoolPlan {
         let ranges = &mut self.ranges;
         self.released_ranges.retain(|&(after, offset, bytes)| {
             let done = after <= completed;
@@ -805,7 +857,7 @@ impl GpuScene {
         });
         let live: u64 = self.meshes.iter().flatten().map(|m| footprint(m.bytes)).sum();
         if !incoming.is_empty() {
-            let sizes = incoming.iter().map(|(_, m)| RangeAllocator::mesh_bytes(m.vertices.len(), m.indices.len()));
+            let sizes = incoming.iter().copied();
             let mut trial = self.ranges.clone();
             if self.mesh_pool.is_some() && sizes.clone().all(|size| trial.alloc(size).is_some()) {
                 return PoolPlan::Keep;
@@ -854,12 +906,7 @@ impl GpuScene {
                         end += footprint(mesh.bytes);
                     }
                 }
-                for (slot, mesh) in self.meshes.iter().enumerate() {
-                    if let Some(mesh) = mesh {
-                        self.mesh_info[slot] = mesh.info(new.address);
-                    }
-                }
-                self.mesh_info_dirty = true;
+                self.refresh_infos(new.address, |_| true);
                 if let Some(old) = self.mesh_pool.replace(new) {
                     if capacity < old.size {
                         up.bury_shrunk(old, capacity);
@@ -873,45 +920,110 @@ impl GpuScene {
                 self.pool_shrink.reset();
             }
         }
-        if mirror.pending_meshes.is_empty() {
+        if mirror.pending_meshes.is_empty() && mirror.pending_posed.is_empty() {
             return Ok(());
         }
         let pending = std::mem::take(&mut mirror.pending_meshes);
-        let total: u64 = pending.iter().map(|(_, m)| RangeAllocator::mesh_bytes(m.vertices.len(), m.indices.len()) + 16).sum();
-        let mut staging = Buffer::new(ctx, "mesh staging", total, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)?;
+        let total: u64 = pending.iter().map(|(_, m)| mesh_bytes(m) + 16).sum();
         let pool = self.mesh_pool.as_ref().expect("planned for the pending meshes");
-        let mut offset = 0u64;
-        for (id, data) in &pending {
-            let vbytes: &[u8] = bytemuck::cast_slice(&data.vertices);
-            let ibytes: &[u8] = bytemuck::cast_slice(&data.indices);
-            let size = (vbytes.len() + ibytes.len()) as u64;
-            let place = self.ranges.alloc(size).expect("the plan made room for every pending mesh");
-            let mapped = staging.mapped();
-            let o = offset as usize;
-            mapped[o..o + vbytes.len()].copy_from_slice(vbytes);
-            mapped[o + vbytes.len()..o + size as usize].copy_from_slice(ibytes);
-            if size > 0 {
-                copies.buffer_copy(staging.raw, pool.raw).push(offset, place, size);
+        let pool_address = pool.address;
+        let mut placed = Vec::with_capacity(pending.len() + mirror.pending_posed.len());
+        if total > 0 {
+            let mut staging = Buffer::new(ctx, "mesh staging", total, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)?;
+            let mut offset = 0u64;
+            for (id, data) in &pending {
+                let vbytes: &[u8] = bytemuck::cast_slice(&data.vertices);
+                let ibytes: &[u8] = bytemuck::cast_slice(&data.indices);
+                let sbytes: &[u8] = bytemuck::cast_slice(&data.skin);
+                let size = mesh_bytes(data);
+                let place = self.ranges.alloc(size).expect("the plan made room for every pending mesh");
+                let mapped = staging.mapped();
+                let o = offset as usize;
+                mapped[o..o + vbytes.len()].copy_from_slice(vbytes);
+                mapped[o + vbytes.len()..o + vbytes.len() + ibytes.len()].copy_from_slice(ibytes);
+                if !sbytes.is_empty() {
+                    let s = o + size as usize - sbytes.len();
+                    mapped[s..s + sbytes.len()].copy_from_slice(sbytes);
+                }
+                if size > 0 {
+                    copies.buffer_copy(staging.raw, pool.raw).push(offset, place, size);
+                }
+                offset = (offset + size).next_multiple_of(16);
+                up.bytes += size;
+                let mesh = GpuMesh {
+                    offset: place,
+                    bytes: size,
+                    index_count: data.indices.len() as u32,
+                    vertex_count: data.vertices.len() as u32,
+                    skinned: !data.skin.is_empty(),
+                    source: None,
+                };
+                placed.push((*id, mesh));
             }
-            offset = (offset + size).next_multiple_of(16);
-            up.bytes += size;
-            let slot = id.0 as usize;
-            if self.meshes.len() <= slot {
-                self.meshes.resize_with(slot + 1, || None);
-            }
-            if self.mesh_info.len() <= slot {
-                self.mesh_info.resize(slot + 1, GpuMeshInfo::default());
-            }
-            let mesh =
-                GpuMesh { offset: place, bytes: size, index_count: data.indices.len() as u32, vertex_count: data.vertices.len() as u32 };
-            self.mesh_info[slot] = mesh.info(pool.address);
-            self.mesh_info_dirty = true;
-            if let Some(old) = self.meshes[slot].replace(mesh) {
-                self.released_ranges.push((up.frame_value, old.offset, old.bytes));
+            up.graveyard.bury(up.frame_value, Retired::Buffer(staging));
+        }
+        for (slot, mesh) in placed.drain(..) {
+            self.place(slot, mesh, up.frame_value);
+        }
+        // Posed meshes: room only (the skinning pass writes them before anything reads them).
+        for (id, source) in std::mem::take(&mut mirror.pending_posed) {
+            let Some(src) = self.mesh(source).copied() else { continue };
+            let size = posed_bytes(src.vertex_count);
+            let place = self.ranges.alloc(size).expect("the plan made room for every posed mesh");
+            let mesh = GpuMesh {
+                offset: place,
+                bytes: size,
+                index_count: src.index_count,
+                vertex_count: src.vertex_count,
+                skinned: false,
+                source: Some(source),
+            };
+            self.place(id, mesh, up.frame_value);
+        }
+        self.refresh_infos(pool_address, |_| true);
+        Ok(())
+    }
+
+    /// The pool bytes this frame's new meshes and posed meshes ask for (a posed mesh of a
+    /// source not uploaded asks nothing: it is skipped).
+    fn incoming_sizes(&self, mirror: &SceneMirror) -> Vec<u64> {
+        if mirror.pending_meshes.is_empty() && mirror.pending_posed.is_empty() {
+            return Vec::new();
+        }
+        let mut sizes: Vec<u64> = mirror.pending_meshes.iter().map(|(_, m)| mesh_bytes(m)).collect();
+        for &(_, source) in &mirror.pending_posed {
+            let pending = mirror.pending_meshes.iter().rev().find(|(id, _)| *id == source).map(|(_, m)| m.vertices.len() as u32);
+            if let Some(vertices) = pending.or_else(|| self.mesh(source).map(|m| m.vertex_count)) {
+                sizes.push(posed_bytes(vertices));
             }
         }
-        up.graveyard.bury(up.frame_value, Retired::Buffer(staging));
-        Ok(())
+        sizes
+    }
+
+    /// Records mesh `id`'s place, releasing the range it replaces.
+    fn place(&mut self, id: MeshId, mesh: GpuMesh, frame_value: u64) {
+        let slot = id.0 as usize;
+        if self.meshes.len() <= slot {
+            self.meshes.resize_with(slot + 1, || None);
+        }
+        if self.mesh_info.len() <= slot {
+            self.mesh_info.resize(slot + 1, GpuMeshInfo::default());
+        }
+        if let Some(old) = self.meshes[slot].replace(mesh) {
+            self.released_ranges.push((frame_value, old.offset, old.bytes));
+        }
+    }
+
+    /// Rewrites the table entries of the meshes `which` picks (posed ones from their sources).
+    fn refresh_infos(&mut self, pool: vk::DeviceAddress, which: impl Fn(&GpuMesh) -> bool) {
+        for slot in 0..self.meshes.len() {
+            let Some(mesh) = self.meshes[slot].filter(|m| which(m)) else { continue };
+            self.mesh_info[slot] = match mesh.source {
+                Some(source) => mesh.posed_info(pool, self.mesh(source)),
+                None => mesh.info(pool),
+            };
+        }
+        self.mesh_info_dirty = true;
     }
 
     /// Sets the lighting record; it is uploaded with the next sync only when it differs.
@@ -940,8 +1052,9 @@ impl GpuScene {
     /// The addresses of the vertices and indices of mesh `id` and its vertex count, once
     /// uploaded (acceleration-structure builds read them).
     pub fn mesh_geometry(&self, id: MeshId) -> Option<(vk::DeviceAddress, vk::DeviceAddress, u32)> {
-        let (mesh, pool) = (self.mesh(id)?, self.mesh_pool.as_ref()?);
-        Some((pool.address + mesh.offset, pool.address + mesh.index_offset(), mesh.vertex_count))
+        let (mesh, info) = (self.mesh(id)?, self.mesh_info.get(id.0 as usize)?);
+        // A posed mesh's indices are its source's; one whose source went has nothing to build.
+        (info.index_count > 0 || mesh.index_count == 0).then_some((info.vertices, info.indices, mesh.vertex_count))
     }
 
     /// The mesh pool's buffer, which every mesh draw binds as its vertex and index buffer.
@@ -970,6 +1083,7 @@ impl GpuScene {
             self.shadow_views.table,
             self.culls,
             self.glass_order.table,
+            self.skin_input.table,
         ] {
             t.buffer.destroy(ctx);
         }

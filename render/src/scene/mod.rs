@@ -18,8 +18,8 @@ use glam::{Mat4, Vec2, Vec3};
 pub use crate::layout::{
     CULL_BATCHES, CULL_DOUBLE_SIDED, CULL_LIVE, CULL_MASKED, CULL_TRANSPARENT, DECAL_ALBEDO, DECAL_CHANNEL_SHIFT, DECAL_CHANNELS,
     DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuCullRecord, GpuDecal, GpuDecalMaterial, GpuDrawCommand,
-    GpuInstance, GpuLight, GpuMaterial, GpuMeshInfo, GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, NO_DECAL,
-    RESERVED_TEXTURES, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
+    GpuInstance, GpuJointMatrix, GpuLight, GpuMaterial, GpuMeshInfo, GpuSkinVertex, GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_BLEND,
+    MATERIAL_DOUBLE_SIDED, NO_DECAL, RESERVED_TEXTURES, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
 };
 
 impl GpuInstance {
@@ -335,13 +335,17 @@ impl DecalTable {
     }
 }
 
-/// Geometry to upload: interleaved vertices and a triangle list.
+/// Geometry to upload: interleaved vertices and a triangle list, and for a skinned mesh its
+/// joints and weights.
 #[derive(Clone, Debug, Default)]
 pub struct MeshData {
     /// Vertices.
     pub vertices: Vec<GpuVertex>,
     /// Triangle list indices.
     pub indices: Vec<u32>,
+    /// Joints and weights, one per vertex, for a mesh that can be posed
+    /// ([`SceneMirror::add_posed_mesh`]); empty for a rigid mesh.
+    pub skin: Vec<GpuSkinVertex>,
 }
 
 /// Pixels to upload: RGBA8, a full or partial mip chain, level 0 first.
@@ -460,6 +464,12 @@ pub struct FrameCounters {
     pub draw_calls: u64,
     /// Bytes of the mesh pool's buffer (`crate::scene::pool`).
     pub mesh_pool_bytes: u64,
+    /// Posed meshes the skinning pass wrote this frame (`crate::skinning`).
+    pub skinned_meshes: u64,
+    /// Vertices it skinned.
+    pub skinned_vertices: u64,
+    /// Scene BLAS refits (posed meshes skinned this frame).
+    pub scene_blas_refits: u64,
 }
 
 /// What clustered decals measured on the GPU. The GPU writes these into the cluster buffer and
@@ -684,6 +694,10 @@ pub struct SceneMirror {
     camera_dirty: bool,
     /// Meshes waiting for upload.
     pub pending_meshes: Vec<(MeshId, MeshData)>,
+    /// Posed meshes waiting for a place in the pool: (posed mesh, its skinned source).
+    pub pending_posed: Vec<(MeshId, MeshId)>,
+    /// Skinned meshes' joint bounds and posed meshes' joint matrices.
+    pub poses: crate::skinning::PoseTable,
     /// Meshes to free once the GPU is done with them.
     pub released_meshes: Vec<MeshId>,
     /// Textures waiting for upload, by bindless slot.
@@ -753,6 +767,17 @@ impl SceneMirror {
         self.note_transparency(slot, draw.transparent);
         self.counters.records_written += 1;
         slot
+    }
+
+    /// Rewrites the culling record of a live instance slot from its mesh's current bounds (a
+    /// posed mesh's follow its pose: [`SceneMirror::set_pose`]); nothing else is written.
+    pub fn refresh_cull(&mut self, slot: u32) {
+        let (Some(&record), Some(&Some(draw))) = (self.instances.get(slot), self.draws.get(slot as usize)) else { return };
+        let cull = self.cull_record(&record.model, draw);
+        if self.culls.get(slot) != Some(&cull) {
+            self.culls.write(slot, cull);
+            self.counters.records_written += 1;
+        }
     }
 
     /// The culling record of an instance placed by `model` and drawn as `draw`: its mesh's
@@ -849,23 +874,75 @@ impl SceneMirror {
         std::mem::take(&mut self.camera_dirty)
     }
 
-    /// Queues geometry for upload and returns its id.
-    pub fn add_mesh(&mut self, data: MeshData) -> MeshId {
+    fn new_mesh_id(&mut self, bounds: (Vec3, Vec3)) -> MeshId {
         let id = MeshId(self.free_meshes.pop().unwrap_or_else(|| {
             self.next_mesh += 1;
             self.next_mesh - 1
         }));
+        if self.mesh_bounds.len() <= id.0 as usize {
+            self.mesh_bounds.resize(id.0 as usize + 1, (Vec3::ZERO, Vec3::ZERO));
+        }
+        self.mesh_bounds[id.0 as usize] = bounds;
+        id
+    }
+
+    /// Queues geometry for upload and returns its id. A mesh with joints and weights
+    /// ([`MeshData::skin`], one per vertex; otherwise they are dropped) can be posed.
+    pub fn add_mesh(&mut self, mut data: MeshData) -> MeshId {
         let (lo, hi) = data.vertices.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), v| {
             let p = Vec3::from(v.position);
             (lo.min(p), hi.max(p))
         });
         let bounds = if lo.cmple(hi).all() && lo.is_finite() && hi.is_finite() { (lo, hi) } else { (Vec3::ZERO, Vec3::ZERO) };
-        if self.mesh_bounds.len() <= id.0 as usize {
-            self.mesh_bounds.resize(id.0 as usize + 1, (Vec3::ZERO, Vec3::ZERO));
+        let id = self.new_mesh_id(bounds);
+        if data.skin.len() != data.vertices.len() {
+            data.skin.clear();
         }
-        self.mesh_bounds[id.0 as usize] = bounds;
+        let skin = (!data.skin.is_empty()).then(|| {
+            let joints = crate::skinning::joint_bounds(data.vertices.iter().map(|v| Vec3::from(v.position)), &data.skin);
+            (joints, data.vertices.len() as u32)
+        });
+        self.poses.set_source(id, skin);
         self.pending_meshes.push((id, data));
         id
+    }
+
+    /// A posed copy of skinned mesh `source` for one instance to draw: vertices of its own,
+    /// written by the skinning pass from the joint matrices [`SceneMirror::set_pose`] sets;
+    /// indices, rest-pose vertices and weights shared with `source` (`crate::skinning`).
+    /// `None` when `source` has no skin. Free it with [`SceneMirror::remove_mesh`]; it draws
+    /// its source's bind pose until it is first posed.
+    pub fn add_posed_mesh(&mut self, source: MeshId) -> Option<MeshId> {
+        if !self.poses.is_skinned(source) {
+            return None;
+        }
+        let bounds = self.mesh_bounds.get(source.0 as usize).copied().unwrap_or((Vec3::ZERO, Vec3::ZERO));
+        let id = self.new_mesh_id(bounds);
+        self.poses.add(id, source);
+        self.pending_posed.push((id, source));
+        // Its first skinning is its bind pose: the joint matrices that leave every vertex where
+        // it is, until a pose is set.
+        let joints = self.poses.joint_count(source);
+        self.poses.set(id, std::iter::repeat_n(Mat4::IDENTITY, joints));
+        Some(id)
+    }
+
+    /// Sets the joint matrices of posed mesh `posed` (per joint of its skin: the joint's
+    /// transform × its inverse bind matrix, in the space of the instance that draws it, i.e.
+    /// the instance's world matrix inverse × joint world × inverse bind). The pose's bounds
+    /// become the mesh's: set the instance again ([`SceneMirror::set_instance`]) for culling to
+    /// follow them. Returns false (nothing set) when `posed` is not a posed mesh.
+    pub fn set_pose(&mut self, posed: MeshId, joints: impl IntoIterator<Item = Mat4>) -> bool {
+        let Some(bounds) = self.poses.set(posed, joints) else { return false };
+        if let (Some(bounds), Some(slot)) = (bounds, self.mesh_bounds.get_mut(posed.0 as usize)) {
+            *slot = bounds;
+        }
+        true
+    }
+
+    /// Object-space bounds of mesh `id` (a posed mesh's follow its latest pose).
+    pub fn mesh_bounds(&self, id: MeshId) -> Option<(Vec3, Vec3)> {
+        self.mesh_bounds.get(id.0 as usize).copied()
     }
 
     /// The transparent instances' slots, back to front as seen from `eye`: ordered by the
@@ -897,6 +974,8 @@ impl SceneMirror {
     /// Frees a mesh; the id is reused after the GPU has finished with it.
     pub fn remove_mesh(&mut self, id: MeshId) {
         self.pending_meshes.retain(|(m, _)| *m != id);
+        self.pending_posed.retain(|(m, _)| *m != id);
+        self.poses.remove(id);
         self.released_meshes.push(id);
         self.free_meshes.push(id.0);
     }
@@ -955,6 +1034,8 @@ impl SceneMirror {
         self.camera_dirty = false;
         self.instances_rearranged = false;
         self.pending_meshes.clear();
+        self.pending_posed.clear();
+        self.poses.take_jobs(&mut Vec::new());
         self.pending_textures.clear();
     }
 
@@ -969,6 +1050,7 @@ impl SceneMirror {
             && self.decal_materials.dirty_count() == 0
             && !self.camera_dirty
             && self.pending_meshes.is_empty()
+            && self.pending_posed.is_empty()
             && self.pending_textures.is_empty()
     }
 }
@@ -1120,6 +1202,7 @@ mod tests {
         let mesh = m.add_mesh(MeshData {
             vertices: vec![GpuVertex { position: [1.0, 0.0, 0.0], normal: [0.0; 3], uv: [0.0; 2], tangent: [0.0; 4] }],
             indices: vec![0, 0, 0],
+            skin: vec![],
         });
         let at = |z: f32| GpuInstance::new(Mat4::from_translation(Vec3::new(0.0, 0.0, z)), 0, 1);
         let glass = DrawItem { mesh, alpha_mask: false, double_sided: false, transparent: true };
@@ -1268,6 +1351,7 @@ mod tests {
                 .map(|p| GpuVertex { position: p.into(), normal: [0.0, 1.0, 0.0], uv: [0.0; 2], tangent: [1.0, 0.0, 0.0, 1.0] })
                 .to_vec(),
             indices: vec![0, 1, 0],
+            skin: vec![],
         });
         let opaque = DrawItem { mesh: cube, alpha_mask: false, double_sided: false, transparent: false };
         let at = |x: f32| GpuInstance::new(Mat4::from_translation(Vec3::new(x, 0.0, 0.0)), 0, 1);

@@ -58,6 +58,40 @@ struct MeshBlas {
     /// A compacted copy made this frame from the structure in the graveyard: (source, dest).
     compact_from: Option<vk::AccelerationStructureKHR>,
     primitives: u32,
+    /// A posed mesh's refit state (its BLAS allows updates and is never compacted).
+    posed: Option<PosedBlas>,
+}
+
+/// How far a posed mesh's BLAS has drifted from the pose it was built for.
+#[derive(Clone, Copy, Debug)]
+struct PosedBlas {
+    /// Refits since the build.
+    refits: u32,
+    /// Surface area of the posed bounds it was built for.
+    built_area: f32,
+    /// Surface area of the latest pose's bounds.
+    area: f32,
+    /// Refit this frame (after the skinning pass).
+    needs_refit: bool,
+}
+
+/// A posed BLAS is rebuilt after this many refits at the latest.
+pub const POSED_REBUILD_REFITS: u32 = 240;
+/// ... or as soon as its pose's bounds have grown or shrunk by this factor in surface area since
+/// the build: refits keep the tree's topology, so boxes that stretched over a limb that moved
+/// away overlap more and more (a cheap stand-in for the tree's own surface area, which the API
+/// does not report).
+pub const POSED_REBUILD_AREA: f32 = 1.5;
+
+/// Whether a posed BLAS refit `refits` times since its build for bounds of surface area
+/// `built` should be rebuilt rather than refit now that its bounds have area `now`.
+pub fn posed_needs_rebuild(refits: u32, built: f32, now: f32) -> bool {
+    refits >= POSED_REBUILD_REFITS || now > built * POSED_REBUILD_AREA || now * POSED_REBUILD_AREA < built
+}
+
+fn surface_area((lo, hi): (glam::Vec3, glam::Vec3)) -> f32 {
+    let d = (hi - lo).max(glam::Vec3::ZERO);
+    2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
 }
 
 /// What the scene's structures need this frame, worked out before the upload.
@@ -193,7 +227,7 @@ impl SceneAccel {
     /// change marks): frees dropped meshes' BLASes, creates the new meshes' (their builds are
     /// recorded by [`SceneAccel::record`]), compacts BLASes whose size query has come back, and
     /// makes room for the instances. Returns the addresses the lighting record needs.
-    pub fn prepare(&mut self, f: &mut Frame, mirror: &mut SceneMirror) -> Result<SceneAccelFrame, RenderError> {
+    pub fn prepare(&mut self, f: &mut Frame, scene: &GpuScene, mirror: &mut SceneMirror) -> Result<SceneAccelFrame, RenderError> {
         let ctx = f.ctx;
         let (frame_value, completed) = (f.upload.frame_value, f.upload.completed);
         let graveyard = &mut *f.upload.graveyard;
@@ -229,7 +263,66 @@ impl SceneAccel {
                 needs_build: true,
                 compact_from: None,
                 primitives,
+                posed: None,
             });
+        }
+        // Posed meshes: a BLAS that can be refit, of their source's size.
+        for &(id, source) in &mirror.pending_posed {
+            let counts = mirror
+                .pending_meshes
+                .iter()
+                .rev()
+                .find(|(m, _)| *m == source)
+                .map(|(_, d)| (d.vertices.len() as u32, d.indices.len() as u32 / 3));
+            let Some((vertices, primitives)) = counts.or_else(|| scene.mesh(source).map(|m| (m.vertex_count, m.index_count / 3))) else {
+                continue;
+            };
+            let slot = id.0 as usize;
+            if self.blas.len() <= slot {
+                self.blas.resize_with(slot + 1, || None);
+            }
+            if let Some(old) = self.blas[slot].take() {
+                self.free_queries.extend(old.query);
+                old.accel.bury(graveyard, frame_value);
+            }
+            self.blas_table_dirty = true;
+            if primitives == 0 {
+                continue;
+            }
+            let sizes =
+                build_sizes(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, POSED_FLAGS, &[triangles(0, 0, vertices)], &[primitives]);
+            let accel = AccelStruct::new(
+                ctx,
+                vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+                sizes.acceleration_structure_size,
+                "posed mesh blas",
+            )?;
+            let area = mirror.mesh_bounds(id).map_or(0.0, surface_area);
+            let posed = PosedBlas { refits: 0, built_area: area, area, needs_refit: false };
+            self.blas[slot] = Some(MeshBlas {
+                accel,
+                query: None,
+                built_in: frame_value,
+                needs_build: true,
+                compact_from: None,
+                primitives,
+                posed: Some(posed),
+            });
+        }
+        // Posed meshes skinned this frame: refit, or rebuilt once refits have degraded them.
+        for &id in mirror.poses.jobs() {
+            let Some(Some(b)) = self.blas.get_mut(id.0 as usize) else { continue };
+            let Some(posed) = b.posed.as_mut() else { continue };
+            self.pending_moved += 1;
+            posed.area = mirror.mesh_bounds(id).map_or(0.0, surface_area);
+            if b.needs_build {
+                continue;
+            }
+            if posed_needs_rebuild(posed.refits, posed.built_area, posed.area) {
+                b.needs_build = true; // in place: the TLAS still names it, and is updated
+            } else {
+                posed.needs_refit = true;
+            }
         }
         // Compactions whose sizes are known: the copies are recorded this frame.
         for (slot, entry) in self.blas.iter_mut().enumerate() {
@@ -347,9 +440,23 @@ impl SceneAccel {
             let Some(b) = b.as_ref().filter(|b| b.needs_build) else { continue };
             let Some((vertices, indices, vertex_count)) = scene.mesh_geometry(MeshId(slot as u32)) else { continue };
             let geometry = [triangles(vertices, indices, vertex_count)];
-            let sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, BLAS_FLAGS, &geometry, &[b.primitives]);
+            let sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, b.flags(), &geometry, &[b.primitives]);
             builds.push((slot, scratch_need));
             scratch_need += sizes.build_scratch_size.next_multiple_of(256);
+        }
+        let mut refits: Vec<(usize, u64)> = Vec::new();
+        for (slot, b) in self.blas.iter().enumerate() {
+            let Some(b) = b.as_ref().filter(|b| b.posed.is_some_and(|p| p.needs_refit) && !b.needs_build) else { continue };
+            let Some((vertices, indices, vertex_count)) = scene.mesh_geometry(MeshId(slot as u32)) else { continue };
+            let sizes = build_sizes(
+                ctx,
+                vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+                POSED_FLAGS,
+                &[triangles(vertices, indices, vertex_count)],
+                &[b.primitives],
+            );
+            refits.push((slot, scratch_need));
+            scratch_need += sizes.update_scratch_size.next_multiple_of(256);
         }
         let tlas_sizes = build_sizes(
             ctx,
@@ -359,7 +466,7 @@ impl SceneAccel {
             &[frame.instance_count.max(1)],
         );
         let scratch_need = scratch_need.max(tlas_sizes.build_scratch_size).max(tlas_sizes.update_scratch_size);
-        let scratch = if builds.is_empty() && frame.work == TlasWork::None {
+        let scratch = if builds.is_empty() && refits.is_empty() && frame.work == TlasWork::None {
             0
         } else {
             if std::mem::take(&mut self.shrink_scratch) {
@@ -381,7 +488,7 @@ impl SceneAccel {
                         let geometry = [triangles(vertices, indices, vertex_count)];
                         let info = build_info(
                             vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
-                            BLAS_FLAGS,
+                            b.flags(),
                             b.accel.raw,
                             false,
                             &geometry,
@@ -413,10 +520,46 @@ impl SceneAccel {
             })?;
             counters.scene_blas_builds += builds.len() as u64;
         }
+        if !refits.is_empty() {
+            let blas = &self.blas;
+            f.pass("scene_blas_refit", PassKind::AccelBuild)
+                .read(scene.res.meshes, BufferUse::BuildInput)
+                .write(res.blas, BufferUse::Accel)
+                .write(res.scratch, BufferUse::Accel)
+                .record(|p| {
+                    for &(slot, offset) in &refits {
+                        let b = blas[slot].as_ref().expect("listed above");
+                        let (vertices, indices, vertex_count) = scene.mesh_geometry(MeshId(slot as u32)).expect("listed above");
+                        let geometry = [triangles(vertices, indices, vertex_count)];
+                        let info = build_info(
+                            vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+                            POSED_FLAGS,
+                            b.accel.raw,
+                            true,
+                            &geometry,
+                            scratch + offset,
+                        );
+                        let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(b.primitives)];
+                        // SAFETY: `cmd` is recording; the skinning pass wrote the vertices earlier
+                        // this frame (declared); the structure was built with ALLOW_UPDATE from
+                        // the same geometry; each refit has its own scratch range.
+                        unsafe { asx.cmd_build_acceleration_structures(p.cmd, &[info], &[&ranges[..]]) };
+                    }
+                })?;
+            counters.scene_blas_refits += refits.len() as u64;
+        }
+        for &(slot, _) in &refits {
+            let posed = self.blas[slot].as_mut().and_then(|b| b.posed.as_mut()).expect("listed above");
+            posed.refits += 1;
+            posed.needs_refit = false;
+        }
         for &(slot, _) in &builds {
             let b = self.blas[slot].as_mut().expect("listed above");
             b.needs_build = false;
             b.built_in = frame_value;
+            if let Some(posed) = b.posed.as_mut() {
+                *posed = PosedBlas { refits: 0, built_area: posed.area, needs_refit: false, ..*posed };
+            }
         }
         let compactions: Vec<(vk::AccelerationStructureKHR, vk::AccelerationStructureKHR)> =
             self.blas.iter_mut().flatten().filter_map(|b| b.compact_from.take().map(|src| (src, b.accel.raw))).collect();
@@ -499,6 +642,16 @@ impl SceneAccel {
 const BLAS_FLAGS: vk::BuildAccelerationStructureFlagsKHR = vk::BuildAccelerationStructureFlagsKHR::from_raw(
     vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE.as_raw() | vk::BuildAccelerationStructureFlagsKHR::ALLOW_COMPACTION.as_raw(),
 );
+/// Posed meshes' BLASes: refit after every skinning, so built fast and never compacted.
+const POSED_FLAGS: vk::BuildAccelerationStructureFlagsKHR = vk::BuildAccelerationStructureFlagsKHR::from_raw(
+    vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_BUILD.as_raw() | vk::BuildAccelerationStructureFlagsKHR::ALLOW_UPDATE.as_raw(),
+);
+impl MeshBlas {
+    fn flags(&self) -> vk::BuildAccelerationStructureFlagsKHR {
+        if self.posed.is_some() { POSED_FLAGS } else { BLAS_FLAGS }
+    }
+}
+
 const TLAS_FLAGS: vk::BuildAccelerationStructureFlagsKHR = vk::BuildAccelerationStructureFlagsKHR::from_raw(
     vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE.as_raw() | vk::BuildAccelerationStructureFlagsKHR::ALLOW_UPDATE.as_raw(),
 );

@@ -1,0 +1,413 @@
+//! GPU skinning: linear blend skinning (glTF 2.0 §3.7.3, "Skins") in a compute pass, written
+//! into a posed copy of the mesh that every other pass reads as an ordinary mesh.
+//!
+//! **Design.** A skinned instance draws a *posed mesh* ([`crate::scene::SceneMirror::add_posed_mesh`]):
+//! a mesh of the pool ([`crate::scene::pool`]) with vertices of its own (and, behind them, the
+//! previous frame's positions for motion vectors), while its indices, rest-pose vertices and
+//! joint weights stay its source's (`GpuMeshInfo::rest`, `GpuMeshInfo::skin`). Culling, the
+//! indirect draws, the depth prepass, the visibility buffer, shadow maps, the decal id prepass,
+//! glass and the scene BLAS read it like any other mesh, so none of them knows about skins.
+//! Engines that skin in the vertex shader (Bevy, three.js) repeat the work in every pass that
+//! draws the mesh and cannot hand a ray tracer the pose; skinning once into a buffer is what
+//! ray tracing needs anyway (the BLAS is built from it).
+//!
+//! - **Work follows the pose.** Only posed meshes whose pose was set this frame are skinned
+//!   ([`PoseTable::set`]), plus, once, those posed the frame before, so that their previous
+//!   positions catch up with a pose that stopped changing. A frame in which no pose changed
+//!   dispatches nothing and uploads nothing.
+//! - **One dispatch.** This frame's jobs (posed mesh, first joint matrix) and joint matrices
+//!   (3×4, 48 bytes a joint) go up in one array with the scene's upload; one dispatch covers
+//!   every job, a row of workgroups per job.
+//! - **Normals and tangents** are transformed by the cofactor of each vertex's blended matrix,
+//!   so joints that scale unevenly still give perpendicular normals.
+//! - **Bounds.** At load, every joint gets the rest-pose bounds of the vertices it moves; a
+//!   pose's bounds are the union of those boxes moved by their joints (conservative and 24 box
+//!   transforms for a fox, not a pass over its vertices), so culling follows the pose.
+//! - **Acceleration structures.** A posed mesh's BLAS is refit after each skinning and rebuilt
+//!   when the refits have degraded it ([`crate::shadows::accel`]); counters say how many.
+
+use std::sync::Arc;
+
+use ash::vk;
+use glam::{Mat4, Vec3, Vec4};
+
+use crate::RenderError;
+use crate::gpu::device::GpuContext;
+use crate::gpu::pipeline::create_compute;
+use crate::gpu::shaders;
+use crate::graph::{BufferUse, Frame, PassKind};
+use crate::layout::{GpuJointMatrix, GpuSkinJob, GpuSkinPush, GpuSkinVertex};
+use crate::scene::gpu::GpuScene;
+use crate::scene::{MeshId, SceneMirror};
+
+/// Vertices a skinning workgroup handles.
+const GROUP: u32 = 64;
+
+impl GpuSkinVertex {
+    /// Packs four joints and four weights (normalised to sum to 1 before quantising).
+    pub fn new(joints: [u16; 4], weights: [f32; 4]) -> Self {
+        let sum: f32 = weights.iter().map(|w| w.max(0.0)).sum();
+        let w = if sum > 1e-6 { weights.map(|w| w.max(0.0) / sum) } else { [1.0, 0.0, 0.0, 0.0] };
+        let unorm = |x: f32| (x.clamp(0.0, 1.0) * 65535.0).round() as u32;
+        Self {
+            joints01: joints[0] as u32 | (joints[1] as u32) << 16,
+            joints23: joints[2] as u32 | (joints[3] as u32) << 16,
+            weights01: unorm(w[0]) | unorm(w[1]) << 16,
+            weights23: unorm(w[2]) | unorm(w[3]) << 16,
+        }
+    }
+
+    /// The four joints.
+    pub fn joints(&self) -> [u16; 4] {
+        [self.joints01 as u16, (self.joints01 >> 16) as u16, self.joints23 as u16, (self.joints23 >> 16) as u16]
+    }
+
+    /// The four weights as the GPU reads them.
+    pub fn weights(&self) -> [f32; 4] {
+        let f = |x: u32| x as f32 / 65535.0;
+        [f(self.weights01 & 0xFFFF), f(self.weights01 >> 16), f(self.weights23 & 0xFFFF), f(self.weights23 >> 16)]
+    }
+}
+
+impl GpuJointMatrix {
+    /// The rows of an affine matrix (its last row is dropped).
+    pub fn from_mat4(m: Mat4) -> Self {
+        let t = m.transpose();
+        Self { x: t.x_axis, y: t.y_axis, z: t.z_axis }
+    }
+
+    fn to_mat4(self) -> Mat4 {
+        Mat4::from_cols(self.x, self.y, self.z, Vec4::W).transpose()
+    }
+}
+
+/// Rest-pose bounds (minimum, maximum corner) of the vertices each joint moves, by joint index;
+/// joints that move nothing have an empty box (minimum above maximum).
+pub fn joint_bounds(positions: impl Iterator<Item = Vec3>, skin: &[GpuSkinVertex]) -> Vec<(Vec3, Vec3)> {
+    let mut bounds: Vec<(Vec3, Vec3)> = Vec::new();
+    for (p, s) in positions.zip(skin) {
+        let (joints, weights) = (s.joints(), s.weights());
+        for i in 0..4 {
+            if weights[i] <= 0.0 {
+                continue;
+            }
+            let j = joints[i] as usize;
+            if bounds.len() <= j {
+                bounds.resize(j + 1, (Vec3::INFINITY, Vec3::NEG_INFINITY));
+            }
+            bounds[j] = (bounds[j].0.min(p), bounds[j].1.max(p));
+        }
+    }
+    bounds
+}
+
+/// The bounds of a pose: each joint's rest box moved by its matrix, all of them together.
+/// `None` when no joint moves anything or a matrix is not finite.
+pub fn posed_bounds(joint_bounds: &[(Vec3, Vec3)], joints: &[GpuJointMatrix]) -> Option<(Vec3, Vec3)> {
+    let mut lo = Vec3::INFINITY;
+    let mut hi = Vec3::NEG_INFINITY;
+    for (&(bmin, bmax), m) in joint_bounds.iter().zip(joints) {
+        if bmin.cmpgt(bmax).any() {
+            continue;
+        }
+        let m = m.to_mat4();
+        let center = m.transform_point3((bmin + bmax) * 0.5);
+        let half = (bmax - bmin) * 0.5;
+        let extent = m.x_axis.truncate().abs() * half.x + m.y_axis.truncate().abs() * half.y + m.z_axis.truncate().abs() * half.z;
+        lo = lo.min(center - extent);
+        hi = hi.max(center + extent);
+    }
+    (lo.cmple(hi).all() && lo.is_finite() && hi.is_finite()).then_some((lo, hi))
+}
+
+/// A posed mesh's joints and skinning state.
+#[derive(Clone, Debug)]
+struct Pose {
+    source: MeshId,
+    vertices: u32,
+    joints: Vec<GpuJointMatrix>,
+    /// Never skinned yet: its first skinning also sets its previous positions.
+    fresh: bool,
+    /// Set this frame.
+    changed: bool,
+    /// Skinned last frame: skinned once more if unchanged, so its previous positions catch up.
+    settling: bool,
+}
+
+/// A skinned mesh that posed meshes copy.
+#[derive(Clone, Debug)]
+struct Source {
+    /// Per joint, the rest bounds of the vertices it moves.
+    joint_bounds: Arc<[(Vec3, Vec3)]>,
+    vertices: u32,
+}
+
+/// The CPU side of skinning, kept in the [`SceneMirror`]: each skinned source mesh's joint
+/// bounds and each posed mesh's latest joint matrices.
+#[derive(Default)]
+pub struct PoseTable {
+    /// By mesh id: skinned meshes (sources).
+    sources: Vec<Option<Source>>,
+    /// By mesh id: the pose of a posed mesh.
+    poses: Vec<Option<Pose>>,
+    /// Posed meshes set this frame or settling.
+    active: Vec<MeshId>,
+    /// This frame's jobs (posed meshes skinned), once [`PoseTable::take_jobs`] has run.
+    jobs: Vec<MeshId>,
+    /// Their vertices.
+    job_vertices: u64,
+}
+
+impl PoseTable {
+    /// Notes a skinned source mesh (its joint bounds and vertex count), or forgets a mesh id's
+    /// skin (`None`).
+    pub(crate) fn set_source(&mut self, id: MeshId, skin: Option<(Vec<(Vec3, Vec3)>, u32)>) {
+        let slot = id.0 as usize;
+        if self.sources.len() <= slot {
+            self.sources.resize(slot + 1, None);
+        }
+        self.sources[slot] = skin.map(|(bounds, vertices)| Source { joint_bounds: bounds.into(), vertices });
+    }
+
+    /// Whether mesh `id` has a skin (it can be posed).
+    pub fn is_skinned(&self, id: MeshId) -> bool {
+        self.sources.get(id.0 as usize).is_some_and(Option::is_some)
+    }
+
+    /// The number of joints mesh `id`'s skin refers to (0 for a mesh without a skin).
+    pub fn joint_count(&self, id: MeshId) -> usize {
+        self.sources.get(id.0 as usize).and_then(Option::as_ref).map_or(0, |s| s.joint_bounds.len())
+    }
+
+    /// The source of a posed mesh.
+    pub fn source_of(&self, posed: MeshId) -> Option<MeshId> {
+        self.poses.get(posed.0 as usize)?.as_ref().map(|p| p.source)
+    }
+
+    /// Starts posing `source` as `posed`; false when `source` has no skin.
+    pub(crate) fn add(&mut self, posed: MeshId, source: MeshId) -> bool {
+        let Some(vertices) = self.sources.get(source.0 as usize).and_then(Option::as_ref).map(|s| s.vertices) else { return false };
+        let slot = posed.0 as usize;
+        if self.poses.len() <= slot {
+            self.poses.resize(slot + 1, None);
+        }
+        self.poses[slot] = Some(Pose { source, vertices, joints: Vec::new(), fresh: true, changed: false, settling: false });
+        true
+    }
+
+    /// Forgets mesh `id` as a source and as a posed mesh.
+    pub(crate) fn remove(&mut self, id: MeshId) {
+        if let Some(p) = self.poses.get_mut(id.0 as usize) {
+            *p = None;
+        }
+        if let Some(s) = self.sources.get_mut(id.0 as usize) {
+            *s = None;
+        }
+    }
+
+    /// Sets a posed mesh's joint matrices (joint's world × inverse bind matrix, in the posed
+    /// mesh's object space) and returns the pose's bounds (`None` when they cannot be known);
+    /// `None` (nothing set) when `posed` is not a posed mesh.
+    pub(crate) fn set(&mut self, posed: MeshId, joints: impl IntoIterator<Item = Mat4>) -> Option<Option<(Vec3, Vec3)>> {
+        let pose = self.poses.get_mut(posed.0 as usize)?.as_mut()?;
+        pose.joints.clear();
+        pose.joints.extend(joints.into_iter().map(GpuJointMatrix::from_mat4));
+        if !pose.changed && !pose.settling {
+            self.active.push(posed);
+        }
+        pose.changed = true;
+        let source = self.sources.get(pose.source.0 as usize).and_then(Option::as_ref);
+        Some(source.and_then(|s| posed_bounds(&s.joint_bounds, &pose.joints)))
+    }
+
+    /// Collects this frame's skinning jobs into `words` (the `GpuSkinJob`s, then the joint
+    /// matrices they point at) and moves every pose a frame on: what changed settles next frame,
+    /// what settled rests. Returns the most vertices of a job.
+    pub(crate) fn take_jobs(&mut self, words: &mut Vec<u32>) -> u32 {
+        self.jobs.clear();
+        words.clear();
+        self.job_vertices = 0;
+        let mut most = 0;
+        let mut joints = 0;
+        for &id in &self.active {
+            let Some(Some(pose)) = self.poses.get(id.0 as usize) else { continue };
+            if pose.vertices == 0 || pose.joints.is_empty() {
+                continue;
+            }
+            most = most.max(pose.vertices);
+            self.job_vertices += pose.vertices as u64;
+            self.jobs.push(id);
+            joints += pose.joints.len();
+        }
+        words.reserve(self.jobs.len() * 4 + joints * 12);
+        let mut first = 0u32;
+        for &id in &self.jobs {
+            let pose = self.poses[id.0 as usize].as_ref().expect("listed above");
+            let job = GpuSkinJob { mesh: id.0, palette: first, first: pose.fresh as u32, pad: 0 };
+            words.extend_from_slice(bytemuck::cast_slice(&[job]));
+            first += pose.joints.len() as u32;
+        }
+        for &id in &self.jobs {
+            words.extend_from_slice(bytemuck::cast_slice(&self.poses[id.0 as usize].as_ref().expect("listed above").joints));
+        }
+        let active = std::mem::take(&mut self.active);
+        for id in active {
+            let Some(Some(pose)) = self.poses.get_mut(id.0 as usize) else { continue };
+            pose.fresh &= pose.joints.is_empty();
+            pose.settling = std::mem::take(&mut pose.changed);
+            if pose.settling {
+                self.active.push(id);
+            }
+        }
+        most
+    }
+
+    /// The posed meshes skinned this frame (after [`PoseTable::take_jobs`]).
+    pub fn jobs(&self) -> &[MeshId] {
+        &self.jobs
+    }
+
+    /// The vertices skinned this frame.
+    pub fn job_vertices(&self) -> u64 {
+        self.job_vertices
+    }
+
+    /// Whether no pose waits to be skinned.
+    pub fn is_clean(&self) -> bool {
+        self.active.is_empty()
+    }
+}
+
+/// The skinning pass.
+pub struct Skinning {
+    layout: vk::PipelineLayout,
+    pipeline: vk::Pipeline,
+    /// This frame's jobs and joint matrices, as uploaded.
+    words: Vec<u32>,
+    jobs: u32,
+    groups: u32,
+}
+
+impl Skinning {
+    /// Creates the pass (a pipeline layout of its own: push constants only).
+    pub fn new(ctx: &GpuContext) -> Result<Self, RenderError> {
+        let ranges = [vk::PushConstantRange {
+            stage_flags: vk::ShaderStageFlags::COMPUTE,
+            offset: 0,
+            size: std::mem::size_of::<GpuSkinPush>() as u32,
+        }];
+        // SAFETY: valid create info pointing at locals; destroyed in `destroy`.
+        let layout =
+            unsafe { ctx.device.create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&ranges), None) }?;
+        let pipeline = match create_compute(ctx, layout, "skinning", shaders::SKINNING_COMP) {
+            Ok(p) => p,
+            Err(e) => {
+                // SAFETY: never used.
+                unsafe { ctx.device.destroy_pipeline_layout(layout, None) };
+                return Err(e);
+            }
+        };
+        Ok(Self { layout, pipeline, words: Vec::new(), jobs: 0, groups: 0 })
+    }
+
+    /// Before the scene's upload: collects the poses set since last frame into jobs, hands them
+    /// to the upload and counts them.
+    pub fn prepare(&mut self, mirror: &mut SceneMirror, scene: &mut GpuScene) {
+        let most = mirror.poses.take_jobs(&mut self.words);
+        self.jobs = mirror.poses.jobs().len() as u32;
+        self.groups = most.div_ceil(GROUP);
+        if self.jobs > 0 {
+            scene.skin_input.set(&self.words);
+        }
+        mirror.counters.skinned_meshes = self.jobs as u64;
+        mirror.counters.skinned_vertices = mirror.poses.job_vertices();
+    }
+
+    /// After the upload: skins this frame's jobs into their posed meshes.
+    pub fn record(&self, f: &mut Frame, scene: &GpuScene) -> Result<(), RenderError> {
+        if self.jobs == 0 {
+            return Ok(());
+        }
+        let jobs = scene.skin_input.address();
+        let push = GpuSkinPush {
+            meshes: scene.mesh_table.address(),
+            jobs,
+            palette: jobs + self.jobs as u64 * std::mem::size_of::<GpuSkinJob>() as u64,
+            job_count: self.jobs,
+            groups: self.groups,
+        };
+        let (layout, pipeline, groups, count) = (self.layout, self.pipeline, self.groups, self.jobs);
+        f.pass("skinning", PassKind::Compute).read(scene.res.tables, BufferUse::Storage).write(scene.res.meshes, BufferUse::Storage).record(
+            |p| {
+                let d = &p.ctx.device;
+                // SAFETY: `cmd` is recording outside a rendering scope; the push constants are
+                // this layout's; y and z split the jobs below the guaranteed 65,535 groups.
+                unsafe {
+                    d.cmd_bind_pipeline(p.cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
+                    d.cmd_push_constants(p.cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(&push));
+                    d.cmd_dispatch(p.cmd, groups, count.min(MAX_ROWS), count.div_ceil(MAX_ROWS));
+                }
+            },
+        )
+    }
+
+    /// Destroys the pass; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        // SAFETY: the GPU is idle.
+        unsafe {
+            ctx.device.destroy_pipeline(self.pipeline, None);
+            ctx.device.destroy_pipeline_layout(self.layout, None);
+        }
+    }
+}
+
+/// Jobs per row of the dispatch (the y extent every device supports).
+pub const MAX_ROWS: u32 = 65_535;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn weights_are_normalised_and_packed() {
+        let v = GpuSkinVertex::new([1, 2, 3, 65535], [2.0, 1.0, 1.0, 0.0]);
+        assert_eq!(v.joints(), [1, 2, 3, 65535]);
+        let w = v.weights();
+        assert!((w[0] - 0.5).abs() < 1e-4 && (w[1] - 0.25).abs() < 1e-4 && w[3] == 0.0, "{w:?}");
+        assert_eq!(GpuSkinVertex::new([0; 4], [0.0; 4]).weights(), [1.0, 0.0, 0.0, 0.0], "no weight: the first joint");
+    }
+
+    #[test]
+    fn pose_bounds_follow_the_joints() {
+        let positions = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 2.0, 0.0)];
+        let skin = [
+            GpuSkinVertex::new([0, 0, 0, 0], [1.0, 0.0, 0.0, 0.0]),
+            GpuSkinVertex::new([0, 1, 0, 0], [0.5, 0.5, 0.0, 0.0]),
+            GpuSkinVertex::new([1, 0, 0, 0], [1.0, 0.0, 0.0, 0.0]),
+        ];
+        let bounds = joint_bounds(positions.into_iter(), &skin);
+        assert_eq!(bounds, vec![(Vec3::ZERO, Vec3::Y), (Vec3::Y, Vec3::new(0.0, 2.0, 0.0))]);
+        let moved = [GpuJointMatrix::from_mat4(Mat4::IDENTITY), GpuJointMatrix::from_mat4(Mat4::from_translation(Vec3::X * 3.0))];
+        assert_eq!(posed_bounds(&bounds, &moved), Some((Vec3::ZERO, Vec3::new(3.0, 2.0, 0.0))));
+    }
+
+    #[test]
+    fn a_pose_is_skinned_when_set_and_once_more_to_settle() {
+        let mut t = PoseTable::default();
+        t.set_source(MeshId(0), Some((vec![(Vec3::ZERO, Vec3::ONE)], 10)));
+        assert!(t.add(MeshId(1), MeshId(0)));
+        assert!(!t.add(MeshId(2), MeshId(5)), "no such skinned mesh");
+        let mut words = Vec::new();
+        assert_eq!(t.take_jobs(&mut words), 0, "never posed: nothing to skin");
+        t.set(MeshId(1), [Mat4::IDENTITY]).expect("a posed mesh");
+        assert_eq!(t.take_jobs(&mut words), 10);
+        assert_eq!(t.jobs(), &[MeshId(1)]);
+        assert_eq!(words.len(), 4 + 12, "one job and one joint matrix");
+        assert_eq!(words[2], 1, "the first skinning sets the previous positions too");
+        t.take_jobs(&mut words);
+        assert_eq!(t.jobs(), &[MeshId(1)], "settles once");
+        assert_eq!(words[2], 0);
+        t.take_jobs(&mut words);
+        assert!(t.jobs().is_empty() && words.is_empty() && t.is_clean(), "then rests");
+    }
+}

@@ -1,0 +1,62 @@
+#version 460
+// GPU skinning (render/src/skinning): linear blend skinning (glTF 2.0 §3.7.3) of this frame's
+// posed meshes, one invocation per vertex, a row of workgroups per job. Each posed mesh gets its
+// rest-pose vertices moved by the blend of its four joints' matrices; normals and tangents by
+// the blend's cofactor (perpendicular under uneven scale too); its previous positions (behind its
+// vertices, a vec4 each) keep the positions this pass overwrites, for motion vectors.
+#define NO_SCENE_PUSH
+#include "scene.glsl"
+
+layout(local_size_x = 64) in;
+
+layout(push_constant) uniform SkinPushBlock { GpuSkinPush p; };
+
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer JobsRef { GpuSkinJob jobs[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer PaletteRef { GpuJointMatrix joints[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer SkinRef { GpuSkinVertex skin[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer PosedRef { GpuVertex vertices[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer PreviousRef { vec4 positions[]; };
+
+// The joint's 3×4 matrix as a mat4x3 (columns: the three axes and the translation).
+mat4x3 joint_matrix(uint index) {
+    GpuJointMatrix m = PaletteRef(p.palette).joints[index];
+    return transpose(mat3x4(m.x, m.y, m.z));
+}
+
+void main() {
+    uint job_index = gl_WorkGroupID.y + gl_WorkGroupID.z * gl_NumWorkGroups.y;
+    if (job_index >= p.job_count) return;
+    GpuSkinJob job = JobsRef(p.jobs).jobs[job_index];
+    GpuMeshInfo mesh = MeshesRef(p.meshes).meshes[job.mesh];
+    uint v = gl_WorkGroupID.x * 64u + gl_LocalInvocationID.x;
+    if (v >= mesh.vertex_count || mesh.skin == 0ul || mesh.rest == 0ul) return;
+
+    GpuSkinVertex s = SkinRef(mesh.skin).skin[v];
+    uvec4 joints = uvec4(s.joints01 & 0xFFFFu, s.joints01 >> 16, s.joints23 & 0xFFFFu, s.joints23 >> 16);
+    vec4 weights = vec4(unpackUnorm2x16(s.weights01), unpackUnorm2x16(s.weights23));
+    weights /= max(weights.x + weights.y + weights.z + weights.w, 1e-6);
+    mat4x3 m = weights.x * joint_matrix(job.palette + joints.x);
+    if (weights.y > 0.0) m += weights.y * joint_matrix(job.palette + joints.y);
+    if (weights.z > 0.0) m += weights.z * joint_matrix(job.palette + joints.z);
+    if (weights.w > 0.0) m += weights.w * joint_matrix(job.palette + joints.w);
+
+    GpuVertex rest = VerticesRef(mesh.rest).vertices[v];
+    mat3 linear = mat3(m);
+    // Cofactor matrix: the inverse transpose times the determinant (normals need only the
+    // direction, and it exists for singular matrices too).
+    mat3 cofactor = mat3(cross(linear[1], linear[2]), cross(linear[2], linear[0]), cross(linear[0], linear[1]));
+    vec3 normal = cofactor * rest.normal;
+    vec3 tangent = linear * rest.tangent.xyz;
+    float nl = dot(normal, normal), tl = dot(tangent, tangent);
+
+    PosedRef posed = PosedRef(mesh.vertices);
+    PreviousRef previous = PreviousRef(mesh.vertices + uint64_t(mesh.vertex_count) * 48ul);
+    vec3 position = m * vec4(rest.position, 1.0);
+    previous.positions[v] = vec4(job.first != 0u ? position : posed.vertices[v].position, 1.0);
+    GpuVertex out_v;
+    out_v.position = position;
+    out_v.normal = nl > 1e-20 ? normal * inversesqrt(nl) : rest.normal;
+    out_v.uv = rest.uv;
+    out_v.tangent = vec4(tl > 1e-20 ? tangent * inversesqrt(tl) : rest.tangent.xyz, rest.tangent.w);
+    posed.vertices[v] = out_v;
+}
