@@ -13,10 +13,12 @@ layout(local_size_x = 8, local_size_y = 8) in;
 void main() {
     ivec2 px = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(px, ivec2(scene.camera.camera.viewport_size)))) return;
-    DecalSurface s;
-    if (!decal_surface_at(px, s)) return;
+    DecalSurface s, skin;
+    bool skinned;
+    if (!decal_surface_at(px, s, skinned, skin)) return;
     DecalBlend b;
     blend_init(b);
     uint tested = gather_decals(b, s);
+    if (skinned) tested += gather_decals(b, skin);
     decal_buffer_store(px, b, tested);
 }

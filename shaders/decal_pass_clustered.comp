@@ -24,8 +24,9 @@ void main() {
     }
     barrier();
     ivec2 px = ivec2(gl_GlobalInvocationID.xy);
-    DecalSurface s;
-    if (all(lessThan(px, ivec2(scene.camera.camera.viewport_size))) && decal_surface_at(px, s)) {
+    DecalSurface s, skin;
+    bool skinned;
+    if (all(lessThan(px, ivec2(scene.camera.camera.viewport_size))) && decal_surface_at(px, s, skinned, skin)) {
         uint c = cluster_index(uvec2(px) / DECAL_CLUSTER_TILE, cluster_slice(view_distance(s.position)));
         ClusterWordsRef w = cluster_words();
         uint first = w.words[offsets_at() + c];
@@ -38,6 +39,12 @@ void main() {
             applied += apply_decal(b, w.words[entries_at() + i], s) ? 1u : 0u;
         }
         uint tested = end > first ? end - first : 0u;
+        if (skinned) {   // the same list at the rest pose: decals on the skin are binned by their instance's bounds
+            for (uint i = first; i < end; ++i) {
+                applied += apply_decal(b, w.words[entries_at() + i], skin) ? 1u : 0u;
+            }
+            tested *= 2u;
+        }
         decal_buffer_store(px, b, tested);
         atomicAdd(group_tested, tested);
         atomicAdd(group_applied, applied);

@@ -17,14 +17,15 @@ void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     float depth = texelFetch(depth_target, px, 0).r;
     if (depth <= 0.0) discard;
-    DecalSurface s;
-    s.position = world_from_depth(vec2(px), depth);
-    world_derivatives(px, depth, s.position, s.dpdx, s.dpdy);
-    vec3 n = safe_normalize(cross(s.dpdy, s.dpdx), vec3(0.0, 1.0, 0.0));
-    vec3 to_eye = scene.camera.camera.position - s.position;
-    s.geometric_normal = dot(n, to_eye) < 0.0 ? -n : n;
-    s.normal = s.geometric_normal; // the G-buffer normal cannot be read while it is blended into
-    s.layers = texelFetch(gbuffer_layers, px, 0).r;
+    vec3 position = world_from_depth(vec2(px), depth);
+    vec3 dpdx, dpdy;
+    world_derivatives(px, depth, position, dpdx, dpdy);
+    vec3 n = safe_normalize(cross(dpdy, dpdx), vec3(0.0, 1.0, 0.0));
+    vec3 to_eye = scene.camera.camera.position - position;
+    n = dot(n, to_eye) < 0.0 ? -n : n;
+    // The G-buffer normal cannot be read while it is blended into. Decals on a skin are not
+    // drawn as boxes (their box is in the rest pose): decal_world_view lets only world decals in.
+    DecalSurface s = decal_world_view(position, dpdx, dpdy, n, n, texelFetch(gbuffer_layers, px, 0).r & 0xFFu);
 
     DecalBlend b;
     blend_init(b);

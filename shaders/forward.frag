@@ -37,6 +37,10 @@ void main() {
     s.occlusion = ms.occlusion;
     s.emissive = ms.emissive;
     s.decal_layers = scene.instances.instances[v_instance].decal_layers;
+    s.skinned = v_skinned;
+    s.rest_position = v_rest_pos;
+    s.rest_normal = safe_normalize(v_rest_normal, geometric_n);
+    if (dot(v_normal, geometric_n) < 0.0) s.rest_normal = -s.rest_normal;
     out_color = shade_surface(s, ivec2(gl_FragCoord.xy));
 #ifdef TRANSPARENT
     out_color.a = clamp(ms.base.a, 0.0, 1.0);

@@ -7,8 +7,11 @@
 //                             would be tighter but cannot be blended)
 //   material  RGBA8_UNORM     roughness, metallic, opacity (1 for opaque surfaces and the
 //                             sky), refraction (over 0..REFRACTION_MAX_MM millimetres)
-//   layers    R8_UINT         decal receiver layers (the low 8 bits: the deferred pipelines
-//                             support 8 layers)
+//   layers    RG32_UINT       decal receiver layers in the low 8 bits of x (the deferred
+//                             pipelines support 8 layers), the triangle above them; y: the
+//                             instance slot + 1 of a posed mesh (0 for others), whose rest pose
+//                             decals on its skin are found at (visibility.glsl,
+//                             rest_pose_of_pixel)
 //   hdr       RGBA16F         emitted radiance (the lighting pass adds to it)
 // The geometric normal that decals fade by is reconstructed from depth, so it costs no storage.
 // GLASS: blended surfaces, drawn after the opaque ones with the same depth test and writes, with
@@ -24,7 +27,7 @@
 layout(location = 0) out vec4 gb_albedo;
 layout(location = 1) out vec4 gb_normal;
 layout(location = 2) out vec4 gb_material;
-layout(location = 3) out uint gb_layers;
+layout(location = 3) out uvec2 gb_layers;
 layout(location = 4) out vec4 out_emissive;
 
 void main() {
@@ -49,6 +52,6 @@ void main() {
     gb_albedo = vec4(ms.base.rgb, ms.occlusion);
     gb_normal = vec4(n * 0.5 + 0.5, 1.0);
     gb_material = vec4(ms.roughness, ms.metallic, opacity, refraction);
-    gb_layers = scene.instances.instances[v_instance].decal_layers & 0xFFu;
+    gb_layers = uvec2((scene.instances.instances[v_instance].decal_layers & 0xFFu) | (uint(gl_PrimitiveID) << 8), v_skinned ? v_instance + 1u : 0u);
     out_emissive = vec4(scene.debug_view == DEBUG_LIT ? ms.emissive : vec3(0.0), 1.0);
 }

@@ -17,7 +17,7 @@ void main() {
     uint slots = scene.light_count;
     GpuAabb box;
     box.slot = NO_DECAL;
-    box.pad = 0u;
+    box.owner = 0u;
     GpuLight light = scene.lights.lights[slots == 0u ? 0u : i % slots];
     vec3 at = light_position_finite(light) ? light.position : vec3(0.0);
     box.min = at;

@@ -21,5 +21,15 @@ void main() {
     v_uv = a_uv;
     v_material = inst.material;
     v_instance = gl_InstanceIndex;
+    // A posed mesh carries its rest pose along (the same vertex of its source's vertices).
+    GpuMeshInfo mesh = MeshesRef(scene.meshes).meshes[inst.mesh];
+    v_skinned_flag = mesh.rest != mesh.vertices ? 1u : 0u;
+    v_rest_pos = v_world_pos;
+    v_rest_normal = v_normal;
+    if (v_skinned_flag != 0u) {
+        GpuVertex rest = VerticesRef(mesh.rest).vertices[uint(gl_VertexIndex) - mesh.vertex_offset];
+        v_rest_pos = (inst.model * vec4(rest.position, 1.0)).xyz;
+        v_rest_normal = mat3(inst.normal_model) * rest.normal;
+    }
     gl_Position = scene.camera.camera.view_proj * world;
 }

@@ -184,6 +184,16 @@ pub struct Decal {
     pub distance_fade: Option<DistanceFade>,
     /// Overall opacity multiplier (a [`DecalLifetime`] fades it further on the GPU).
     pub opacity: f32,
+    /// Stick to the skin of the skinned mesh instance this decal is a child of (`ChildOf`): its
+    /// transform is then read in that mesh's *rest pose* (the parent's space as the mesh stands
+    /// unposed), and the decal follows the skin exactly however the mesh deforms, where a decal
+    /// parented to a joint moves rigidly and swims where the skin blends between joints.
+    /// [`crate::raycast::Hit::rest`] gives the rest-pose point and normal a hit on a posed mesh
+    /// came from. Such a decal lands only on its own instance's skin. Deferred decals (boxes
+    /// rasterised into the G-buffer) cannot draw it: its box is in the rest pose, which the
+    /// camera does not see; every other method does. A decal whose parent is not a skinned
+    /// instance is placed in the world (with a warning).
+    pub on_skin: bool,
 }
 
 impl Decal {
@@ -199,7 +209,14 @@ impl Decal {
             angle_fade: Some(AngleFade::default()),
             distance_fade: None,
             opacity: 1.0,
+            on_skin: false,
         }
+    }
+
+    /// The same decal, stuck to the skin of the skinned instance it is a child of
+    /// ([`Decal::on_skin`]).
+    pub fn on_skin(self) -> Self {
+        Self { on_skin: true, ..self }
     }
 }
 
@@ -327,6 +344,7 @@ pub fn expire_decals(mut commands: Commands, time: Res<Time>, mut lifetimes: Res
 /// (on the scene clock).
 pub(crate) fn decal_desc(decal: &Decal, decal_to_world: Mat4, material: u32, lifetime: Option<(Duration, Duration)>) -> DecalDesc {
     DecalDesc {
+        on_skin: None,
         lifetime_fade: lifetime.map(|(start, end)| (start.as_secs_f32(), end.as_secs_f32())),
         distance_fade: decal.distance_fade.map(|f| (f.start, f.end)),
         decal_to_world,

@@ -682,7 +682,7 @@ pub fn extract_decal_materials(
 /// that was. (Without the engine's `TransformPlugin` no moves are listed.)
 #[allow(clippy::too_many_arguments)]
 pub fn extract_decals(
-    decals: Query<(&Decal, &GlobalTransform)>,
+    decals: Query<(&Decal, &GlobalTransform, Option<&ChildOf>)>,
     (mut inserted, moved, lifetimes): (MessageReader<Inserted<Decal>>, Option<Res<TransformChanges>>, Res<DecalLifetimes>),
     mut removed: RemovedComponents<Decal>,
     live: Query<(), With<Decal>>,
@@ -710,7 +710,7 @@ pub fn extract_decals(
     finish_visits(&mut visit, moved.as_deref(), waiting.retry(mirror.decals.len(), limit));
     let mut visited = 0;
     for &entity in visit.iter() {
-        let Ok((decal, global)) = decals.get(entity) else { continue };
+        let Ok((decal, global, parent)) = decals.get(entity) else { continue };
         visited += 1;
         let Some(&material) = slots.decal_materials.get(&decal.material) else {
             warned.report(entity, "decal", Some("refers to a decal material that does not exist"), "not drawn");
@@ -722,18 +722,24 @@ pub fn extract_decals(
             continue;
         };
         let mut desc = decal_desc(decal, global.compute_matrix(), material, lifetimes.fade_window(entity));
+        // On a skin: its parent's instance slot, when the parent is a posed (skinned) instance.
+        let skin = parent.map(|p| p.parent()).filter(|p| slots.posed.contains_key(p)).and_then(|p| slots.instances.get(&p).copied());
+        desc.on_skin = skin.filter(|_| decal.on_skin);
         // An invalid decal keeps its slot but lands nowhere (render::scene::DecalDesc::is_valid
         // for its transform, no receiver layers for bad parameters); said once per entity.
         let problem =
             validate::decal_problem(decal).or((!desc.is_valid()).then_some("has a transform that is not finite or not invertible"));
-        if problem.is_some() {
+        let invalid = problem.is_some();
+        let problem = problem.or((decal.on_skin && desc.on_skin.is_none())
+            .then_some("is on_skin but not a child of a skinned mesh instance (placed in the world)"));
+        if invalid {
             desc.receivers = 0;
             desc.weight = 1.0;
             desc.opacity = 0.0;
             desc.uv_corners = [glam::Vec2::ZERO; 4];
             desc.angle_fade = None;
         }
-        warned.report(entity, "decal", problem, "not drawn until it is fixed");
+        warned.report(entity, "decal", problem, if invalid { "not drawn until it is fixed" } else { "drawn in the world" });
         let slot = slots.decals.get(&entity).copied();
         if slot.is_none() && !waiting.admit(entity, mirror.decals.len(), limit, "decal") {
             continue;

@@ -534,6 +534,10 @@ layout! {
     pub const DECAL_CHANNEL_SHIFT: u32 = 30;
     /// `GpuAabb::slot` of a box that belongs to no decal (the padding of a BLAS build).
     pub const NO_DECAL: u32 = 0xFFFF_FFFF;
+    /// Receiver bit of decals on a skin (`render/src/skinning`): they apply only where a skinned
+    /// surface is looked up at its rest-pose position, and world decals only elsewhere. Reserved:
+    /// decal and instance layers are the 31 bits below it.
+    pub const DECAL_ON_SKIN: u32 = 0x8000_0000;
     /// Clustered decals: the side of a cluster's screen tile, in pixels.
     pub const DECAL_CLUSTER_TILE: u32 = 32;
     /// Clustered decals: depth slices (exponential in view distance, `DECAL_CLUSTER_NEAR_MM` to
@@ -854,8 +858,10 @@ layout! {
         pub max: [f32; 3],
         /// Slot of the record the box belongs to: the decal in the decal table, or the light (`NO_DECAL` for padding boxes).
         pub slot: u32,
-        /// Padding to the 8-byte multiple a build's AABB stride must be.
-        pub pad: u32,
+        /// A decal on a skin: its skinned instance's slot + 1, whose posed bounds clustered
+        /// decals bin it by (the box is in the rest pose); 0 otherwise. (It also pads the box
+        /// to the 8-byte multiple a build's AABB stride must be.)
+        pub owner: u32,
     }
 
     /// How this frame assigns lights to pixels and where the light-culling and shadow buffers
@@ -914,6 +920,12 @@ layout! {
         pub shadow_map_columns: u32,
         /// Radiance where no geometry is drawn (compute shading writes it to sky pixels).
         pub clear_color: Vec4,
+        /// Address of the culling records (`GpuCullRecord` per instance slot: world bounds that
+        /// follow a skinned instance's pose), where clustered decals bin decals on a skin. Set by
+        /// the scene's upload, after the tables have their buffers for the frame.
+        pub culls: u64,
+        /// Padding to 16 bytes.
+        pub pad: [u32; 2],
     }
 
     /// One shadow-map view (a tile of the atlas): a spot light's, one cube face of a point

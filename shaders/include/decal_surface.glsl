@@ -10,33 +10,41 @@
 //     built on it rather than on the normal-mapped one, which would mean sampling every
 //     material's normal map twice. Where a decal covers a surface fully its normal replaces the
 //     surface's anyway; where it covers part, the remaining weight keeps the surface's bumps.
+// A posed mesh's pixel also gives its skin's view (decal_skin_view): its rest pose from the
+// visibility ids, or in the deferred pipeline from the G-buffer's instance and triangle.
 #ifndef DECAL_SURFACE_GLSL
 #define DECAL_SURFACE_GLSL
 
 #include "scene.glsl"
 #include "depth.glsl"
 #include "decals.glsl"
-#ifdef DECAL_SURFACE_VISIBILITY
 #include "visibility.glsl"
-#endif
 
-// False for sky pixels (nothing to decal).
-bool decal_surface_at(ivec2 px, out DecalSurface s) {
+// False for sky pixels (nothing to decal). `skinned`: the pixel is a posed mesh's, and `skin` is
+// its skin's view.
+bool decal_surface_at(ivec2 px, out DecalSurface s, out bool skinned, out DecalSurface skin) {
     float depth = texelFetch(depth_target, px, 0).r;
+    skinned = false;
     if (depth <= 0.0) return false;
-    s.position = world_from_depth(vec2(px), depth);
-    world_derivatives(px, depth, s.position, s.dpdx, s.dpdy);
+    vec3 position = world_from_depth(vec2(px), depth);
+    vec3 dpdx, dpdy;
+    world_derivatives(px, depth, position, dpdx, dpdy);
+    vec3 rest_position, rest_normal;
 #ifdef DECAL_SURFACE_VISIBILITY
     VisibleSurface v = visible_surface(px, texelFetch(visibility_ids, px, 0).rg);
-    s.geometric_normal = v.geometric_normal;
-    s.normal = v.geometric_normal;
-    s.layers = v.instance.decal_layers;
+    s = decal_world_view(position, dpdx, dpdy, v.geometric_normal, v.geometric_normal, v.instance.decal_layers);
+    skinned = v.skinned;
+    rest_position = v.rest_position;
+    rest_normal = v.rest_normal;
 #else
-    s.geometric_normal = safe_normalize(cross(s.dpdy, s.dpdx), vec3(0.0, 1.0, 0.0));
-    s.normal = safe_normalize(texelFetch(gbuffer_normal, px, 0).xyz * 2.0 - 1.0, s.geometric_normal);
-    if (dot(s.geometric_normal, s.normal) < 0.0) s.geometric_normal = -s.geometric_normal;
-    s.layers = texelFetch(gbuffer_layers, px, 0).r;
+    vec3 geometric_normal = safe_normalize(cross(dpdy, dpdx), vec3(0.0, 1.0, 0.0));
+    vec3 normal = safe_normalize(texelFetch(gbuffer_normal, px, 0).xyz * 2.0 - 1.0, geometric_normal);
+    if (dot(geometric_normal, normal) < 0.0) geometric_normal = -geometric_normal;
+    uvec2 ids = texelFetch(gbuffer_layers, px, 0).rg;
+    s = decal_world_view(position, dpdx, dpdy, geometric_normal, normal, ids.x & 0xFFu);
+    skinned = ids.y != 0u && rest_pose_of_pixel(px, ids.y - 1u, ids.x >> 8, geometric_normal, rest_position, rest_normal);
 #endif
+    if (skinned) skin = decal_skin_view(s, rest_position, rest_normal);
     return true;
 }
 

@@ -9,6 +9,12 @@
 // Normals: a decal's normal map is read in a tangent frame built at the surface from the
 // decal's own axes (the gradients of decal-space x and y, projected onto the surface), so a
 // rotated decal's normals rotate with it whatever the surface's UV layout.
+//
+// Decals on a skin (render/src/skinning, DECAL_ON_SKIN in their receivers) sit on a skinned
+// instance's rest pose. A skinned surface is looked up twice: at its position for the decals of
+// the world, and at its rest-pose position (decal_skin_view) for those on the skin, which then
+// follow the skin exactly however it deforms. The rest→posed rotation of the surface's normal
+// carries the decal's axes (and derivatives) between the two spaces.
 #ifndef DECALS_GLSL
 #define DECALS_GLSL
 
@@ -48,8 +54,41 @@ struct DecalSurface {
     vec3 dpdy;
     vec3 geometric_normal; // for the angle fade
     vec3 normal;           // shading normal the decal normal maps are built on
-    uint layers;           // receiver layers of the instance
+    uint layers;           // receiver layers of the instance (| DECAL_ON_SKIN: the skin's view)
+    vec4 skin_rotation;    // quaternion from the rest pose to the pose (identity in the world's view)
 };
+
+// Whether decal `d` lands on a surface of receiver `layers`: a shared layer, and a decal on a
+// skin only in a skin's view, a world decal only in the world's.
+bool decal_receives(GpuDecal d, uint layers) {
+    return ((d.receivers ^ layers) & DECAL_ON_SKIN) == 0u && (d.receivers & layers & ~DECAL_ON_SKIN) != 0u;
+}
+
+vec3 quat_rotate(vec4 q, vec3 v) {
+    return v + 2.0 * cross(q.xyz, cross(q.xyz, v) + q.w * v);
+}
+
+// The shortest rotation taking unit vector a to unit vector b.
+vec4 quat_between(vec3 a, vec3 b) {
+    float d = dot(a, b);
+    if (d < -0.9999) return vec4(normalize(abs(a.x) < 0.9 ? cross(a, vec3(1.0, 0.0, 0.0)) : cross(a, vec3(0.0, 1.0, 0.0))), 0.0);
+    return normalize(vec4(cross(a, b), 1.0 + d));
+}
+
+// The surface as the decals of the world see it: its own layers, no skin.
+DecalSurface decal_world_view(vec3 position, vec3 dpdx, vec3 dpdy, vec3 geometric_normal, vec3 normal, uint layers) {
+    return DecalSurface(position, dpdx, dpdy, geometric_normal, normal, layers & ~DECAL_ON_SKIN, vec4(0.0, 0.0, 0.0, 1.0));
+}
+
+// A skinned surface as the decals on its skin see it: at its rest-pose position (world space as
+// the instance places its rest pose) with its rest-pose geometric normal, derivatives taken back
+// to the rest pose by the rotation between the two normals.
+DecalSurface decal_skin_view(DecalSurface s, vec3 rest_position, vec3 rest_normal) {
+    vec4 q = quat_between(rest_normal, s.geometric_normal);
+    vec4 back = vec4(-q.xyz, q.w);
+    return DecalSurface(rest_position, quat_rotate(back, s.dpdx), quat_rotate(back, s.dpdy), rest_normal, s.normal,
+                        s.layers | DECAL_ON_SKIN, q);
+}
 
 // The texture-free part of a decal's test (§4.1.3): the exact oriented-box test of `position`
 // and the angle fade by the surface's geometric normal. False when the decal does not apply;
@@ -72,8 +111,9 @@ bool decal_locate(GpuDecal d, vec3 position, vec3 geometric_normal, out vec3 loc
 void decal_accumulate(inout DecalBlend b, GpuDecal d, vec3 local, float fade, DecalSurface s) {
     // Bilinear UVs over the four corners, and their derivatives along decal x and y.
     mat3 to_local = mat3(d.world_to_decal);
-    vec3 grad_x = vec3(d.world_to_decal[0][0], d.world_to_decal[1][0], d.world_to_decal[2][0]);
-    vec3 grad_y = vec3(d.world_to_decal[0][1], d.world_to_decal[1][1], d.world_to_decal[2][1]);
+    // The decal's axes where the surface is (posed, for a decal on a skin).
+    vec3 grad_x = quat_rotate(s.skin_rotation, vec3(d.world_to_decal[0][0], d.world_to_decal[1][0], d.world_to_decal[2][0]));
+    vec3 grad_y = quat_rotate(s.skin_rotation, vec3(d.world_to_decal[0][1], d.world_to_decal[1][1], d.world_to_decal[2][1]));
     vec2 st = local.xy + 0.5;
     vec2 c0 = d.uv01.xy, c1 = d.uv01.zw, c2 = d.uv23.xy, c3 = d.uv23.zw;
     vec2 uv = mix(mix(c0, c1, st.x), mix(c3, c2, st.x), st.y);
@@ -115,7 +155,7 @@ void decal_accumulate(inout DecalBlend b, GpuDecal d, vec3 local, float fade, De
 bool apply_decal(inout DecalBlend b, uint index, DecalSurface s) {
     if (index == NO_DECAL) return false;
     GpuDecal d = DecalsRef(scene.decals).decals[index];
-    if ((d.receivers & s.layers) == 0u) return false;
+    if (!decal_receives(d, s.layers)) return false;
     vec3 local;
     float fade;
     if (!decal_locate(d, s.position, s.geometric_normal, local, fade)) return false;

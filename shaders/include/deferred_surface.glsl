@@ -6,6 +6,7 @@
 #include "scene.glsl"
 #include "depth.glsl"
 #include "shading.glsl"
+#include "visibility.glsl"
 
 bool deferred_surface(ivec2 px, out SurfaceInputs s) {
     float depth = texelFetch(depth_target, px, 0).r;
@@ -24,7 +25,9 @@ bool deferred_surface(ivec2 px, out SurfaceInputs s) {
     s.roughness = rm.r;
     s.metallic = rm.g;
     s.emissive = vec3(0.0); // written by the geometry pass
-    s.decal_layers = texelFetch(gbuffer_layers, px, 0).r;
+    uvec2 ids = texelFetch(gbuffer_layers, px, 0).rg;
+    s.decal_layers = ids.x & 0xFFu;
+    s.skinned = ids.y != 0u && rest_pose_of_pixel(px, ids.y - 1u, ids.x >> 8, s.geometric_normal, s.rest_position, s.rest_normal);
     return true;
 }
 

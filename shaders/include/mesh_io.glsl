@@ -12,5 +12,10 @@ layout(location = 2) IO vec4 v_tangent;
 layout(location = 3) IO vec2 v_uv;
 layout(location = 4) flat IO uint v_material;
 layout(location = 5) flat IO uint v_instance;
+// A posed mesh's rest pose (render/src/skinning): where decals on its skin are looked up.
+layout(location = 6) IO vec3 v_rest_pos;
+layout(location = 7) IO vec3 v_rest_normal;
+layout(location = 8) flat IO uint v_skinned_flag;
+#define v_skinned (v_skinned_flag != 0u)
 #undef IO
 #endif

@@ -33,6 +33,9 @@ struct SurfaceInputs {
     float occlusion;
     vec3 emissive;
     uint decal_layers;
+    bool skinned;           // a posed mesh: decals on its skin are looked up at its rest pose
+    vec3 rest_position;
+    vec3 rest_normal;
 };
 
 #ifdef ENUMERATED_LIGHTS
@@ -45,16 +48,11 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
     uint decals_tested = 0u;
 #ifdef RAY_QUERY_DECALS
     if (scene.decal_count > 0u) {
-        DecalSurface surface;
-        surface.position = s.position;
-        surface.dpdx = s.dpdx;
-        surface.dpdy = s.dpdy;
-        surface.geometric_normal = s.geometric_normal;
-        surface.normal = s.normal;
-        surface.layers = s.decal_layers;
+        DecalSurface surface = decal_world_view(s.position, s.dpdx, s.dpdy, s.geometric_normal, s.normal, s.decal_layers);
         DecalBlend blend;
         blend_init(blend);
         decals_tested = gather_decals(blend, surface);
+        if (s.skinned) decals_tested += gather_decals(blend, decal_skin_view(surface, s.rest_position, s.rest_normal));
         blend_resolve(blend, s.albedo, s.normal, s.roughness, s.metallic);
     }
 #endif

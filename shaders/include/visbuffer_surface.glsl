@@ -26,6 +26,9 @@ bool visbuffer_surface(ivec2 px, out SurfaceInputs s) {
     s.occlusion = ms.occlusion;
     s.emissive = ms.emissive;
     s.decal_layers = v.instance.decal_layers;
+    s.skinned = v.skinned;
+    s.rest_position = v.rest_position;
+    s.rest_normal = v.rest_normal;
     return true;
 }
 

@@ -41,7 +41,45 @@ struct VisibleSurface {
     vec2 uv;
     vec2 duvdx;
     vec2 duvdy;
+    bool skinned;            // a posed mesh: the rest pose below is where decals on its skin are
+    vec3 rest_position;      // rest-pose position and geometric normal, placed by the instance
+    vec3 rest_normal;
 };
+
+// The rest pose of the point with barycentrics `b` on triangle `triangle` of a posed mesh
+// (render/src/skinning): its position and normal as `instance` places them, the normal turned
+// to agree with `facing` where the posed vertex normals `posed_normal` disagree with it.
+void rest_pose_at(GpuInstance instance, GpuMeshInfo mesh, uint triangle, vec3 b, vec3 posed_normal, vec3 facing,
+                  out vec3 position, out vec3 normal) {
+    IndicesRef indices = IndicesRef(mesh.indices);
+    VerticesRef rest = VerticesRef(mesh.rest);
+    GpuVertex r0 = rest.vertices[indices.indices[triangle * 3u]];
+    GpuVertex r1 = rest.vertices[indices.indices[triangle * 3u + 1u]];
+    GpuVertex r2 = rest.vertices[indices.indices[triangle * 3u + 2u]];
+    position = (instance.model * vec4(mat3(r0.position, r1.position, r2.position) * b, 1.0)).xyz;
+    normal = safe_normalize(mat3(instance.normal_model) * (mat3(r0.normal, r1.normal, r2.normal) * b), vec3(0.0, 1.0, 0.0));
+    if (dot(posed_normal, facing) < 0.0) normal = -normal;
+}
+
+// The rest pose of what pixel `px` sees of triangle `triangle` of instance slot `instance`, for
+// pipelines that keep only those ids (the deferred G-buffer): the camera ray through the pixel's
+// centre against the posed triangle gives the barycentrics. False for a mesh that is not posed.
+bool rest_pose_of_pixel(ivec2 px, uint instance, uint triangle, vec3 facing, out vec3 position, out vec3 normal) {
+    GpuInstance inst = scene.instances.instances[instance];
+    GpuMeshInfo mesh = MeshesRef(scene.meshes).meshes[inst.mesh];
+    if (mesh.rest == mesh.vertices || mesh.index_count == 0u) return false;
+    IndicesRef indices = IndicesRef(mesh.indices);
+    VerticesRef posed = VerticesRef(mesh.vertices);
+    GpuVertex v0 = posed.vertices[indices.indices[triangle * 3u]];
+    GpuVertex v1 = posed.vertices[indices.indices[triangle * 3u + 1u]];
+    GpuVertex v2 = posed.vertices[indices.indices[triangle * 3u + 2u]];
+    mat4 model = inst.model;
+    vec3 b = barycentrics(scene.camera.camera.position, ray_dir(vec2(px)), (model * vec4(v0.position, 1.0)).xyz,
+                          (model * vec4(v1.position, 1.0)).xyz, (model * vec4(v2.position, 1.0)).xyz);
+    vec3 posed_normal = mat3(inst.normal_model) * (mat3(v0.normal, v1.normal, v2.normal) * b);
+    rest_pose_at(inst, mesh, triangle, b, posed_normal, facing, position, normal);
+    return true;
+}
 
 VisibleSurface visible_surface(ivec2 px, uvec2 ids) {
     VisibleSurface v;
@@ -79,6 +117,10 @@ VisibleSurface visible_surface(ivec2 px, uvec2 ids) {
     // Front-facing as the rasteriser defines it: counter-clockwise on screen.
     bool front = dot(cross(p1 - p0, p2 - p0), dir) < 0.0;
     if ((v.material.flags & MATERIAL_DOUBLE_SIDED) != 0u && !front) v.geometric_normal = -v.geometric_normal;
+    v.skinned = mesh.rest != mesh.vertices;
+    v.rest_position = v.position;
+    v.rest_normal = v.geometric_normal;
+    if (v.skinned) rest_pose_at(v.instance, mesh, ids.y, b, normal, v.geometric_normal, v.rest_position, v.rest_normal);
     return v;
 }
 

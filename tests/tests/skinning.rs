@@ -2,6 +2,9 @@
 //! 90° renders as its CPU linear-blend-skinning reference (the same geometry posed on the CPU and
 //! drawn as a rigid mesh) in every pipeline, its shadow follows the pose with ray-traced shadows
 //! on both ray-tracing tiers and with shadow maps, and a pose that stops changing stops costing.
+//! A decal on the skin, placed at rest where the joints' weights blend, stays on its surface
+//! point when the tube bends (every pipeline and decal method), while the same decal in the
+//! world does not.
 //!
 //! Tolerance: mean absolute error ≤ 1e-4 and 99th percentile ≤ 1e-3 of the HDR target (weights
 //! go to the GPU as 16-bit unorm, so positions may differ by ~1e-5 m; measured: mean ~1e-8,
@@ -12,8 +15,9 @@
 use engine::animation::Skin;
 use engine::mesh::SkinWeights;
 use engine::prelude::*;
-use plugins::{RenderSettings, RenderStats};
-use render::{PipelineKind, Tier};
+use plugins::decal::{Decal, DecalMaterial};
+use plugins::{RenderMirror, RenderSettings, RenderStats};
+use render::{DecalMethod, PipelineKind, Tier};
 use tests::{assert_no_validation_errors, error_stats, gpu_app_at, renderer};
 
 const SIZE: (u32, u32) = (160, 120);
@@ -211,4 +215,81 @@ fn only_changed_poses_are_skinned_and_refit() {
     app.update();
     app.update();
     assert_no_validation_errors(&mut app);
+}
+
+/// The centroid (pixels) and count of the pixels where `pick` holds.
+fn centroid(hdr: &[[f32; 4]], width: u32, pick: impl Fn([f32; 4]) -> bool) -> (Vec2, usize) {
+    let mut sum = Vec2::ZERO;
+    let mut n = 0;
+    for (i, p) in hdr.iter().enumerate() {
+        if pick(*p) {
+            sum += Vec2::new((i as u32 % width) as f32 + 0.5, (i as u32 / width) as f32 + 0.5);
+            n += 1;
+        }
+    }
+    (sum / n.max(1) as f32, n)
+}
+
+#[test]
+fn a_decal_on_the_skin_stays_on_its_surface_point_in_every_pipeline_and_method() {
+    const BIG: (u32, u32) = (320, 240);
+    let configs = [
+        (Tier::RayQuery, PipelineKind::Forward, DecalMethod::RayQuery),
+        (Tier::RayQuery, PipelineKind::Deferred, DecalMethod::RayQuery),
+        (Tier::RayQuery, PipelineKind::VisBuffer, DecalMethod::RayQuery),
+        (Tier::RayTracingPipeline, PipelineKind::Forward, DecalMethod::RayPipeline),
+        (Tier::RayTracingPipeline, PipelineKind::Deferred, DecalMethod::RayPipeline),
+        (Tier::RayTracingPipeline, PipelineKind::VisBuffer, DecalMethod::RayPipeline),
+        (Tier::NoRayTracing, PipelineKind::Forward, DecalMethod::Clustered),
+        (Tier::NoRayTracing, PipelineKind::Deferred, DecalMethod::Clustered),
+        (Tier::NoRayTracing, PipelineKind::VisBuffer, DecalMethod::Clustered),
+    ];
+    for (tier, pipeline, method) in configs {
+        let what = format!("{pipeline:?} with {method:?} decals on {tier:?}");
+        let settings = RenderSettings { pipeline, decal_method: method, ..Default::default() };
+        let mut app = gpu_app_at(BIG.0, BIG.1, settings, tier);
+        let bend = scene(&mut app, 0.0);
+        // A green decal on the skin, placed at rest on the tube's front where the weights blend
+        // (y = 1.3: 1/8 joint 0, 7/8 joint 1); later the same decal in the world.
+        let rest = Vec3::new(0.0, 1.3, 0.25);
+        let place = Transform::from_translation(rest).with_scale(Vec3::new(0.2, 0.2, 0.3));
+        let material = app
+            .world
+            .resource_mut::<Assets<DecalMaterial>>()
+            .add(DecalMaterial { base_color: Some(Vec4::new(0.05, 0.9, 0.05, 1.0)), ..Default::default() });
+        let decal = Decal { angle_fade: None, ..Decal::new(material) };
+        let on_skin = app.world.spawn((decal.clone().on_skin(), place, ChildOf(bend.tube))).id();
+        let green = |p: [f32; 4]| p[1] > 1.5 * p[0] && p[1] > 1.5 * p[2];
+        let pixel_of = |app: &mut App, bend: &Bend| {
+            let m = matrices(app, bend);
+            let posed = Skin::pose_point(&m, rest, [0, 1, 0, 0], [0.125, 0.875, 0.0, 0.0]);
+            let world = app.world.get::<GlobalTransform>(bend.tube).unwrap().compute_matrix().transform_point3(posed);
+            let clip = app.world.resource::<RenderMirror>().0.camera().view_proj * world.extend(1.0);
+            let ndc = clip.truncate() / clip.w;
+            Vec2::new((ndc.x + 1.0) * 0.5 * BIG.0 as f32, (1.0 - ndc.y) * 0.5 * BIG.1 as f32)
+        };
+        let (at_rest, at_rest_n) = centroid(&frames(&mut app, 3), BIG.0, green);
+        let expected_rest = pixel_of(&mut app, &bend);
+        assert!(at_rest_n > 20, "{what}: the decal on the skin shows ({at_rest_n} pixels)");
+        assert!(at_rest.distance(expected_rest) < 1.5, "{what}: at rest it is where it was placed ({at_rest} vs {expected_rest})");
+
+        app.world
+            .entity_mut(bend.elbow)
+            .insert(Transform::from_xyz(0.0, 1.0, 0.0).with_rotation(Quat::from_rotation_z(-std::f32::consts::FRAC_PI_2)));
+        let (bent, bent_n) = centroid(&frames(&mut app, 3), BIG.0, green);
+        let expected = pixel_of(&mut app, &bend);
+        assert!(expected.distance(expected_rest) > 8.0, "{what}: the bend moves the point");
+        assert!(bent_n * 2 > at_rest_n, "{what}: the decal on the skin keeps its size ({bent_n} of {at_rest_n} pixels)");
+        assert!(bent.distance(expected) < 1.5, "{what}: the decal on the skin follows its surface point ({bent} vs {expected})");
+
+        // The same decal in the world stays where it was placed, and the skin slides away under it.
+        app.world.despawn(on_skin);
+        app.world.spawn((decal, place, ChildOf(bend.tube)));
+        let (world, world_n) = centroid(&frames(&mut app, 3), BIG.0, green);
+        assert_no_validation_errors(&mut app);
+        assert!(
+            world_n * 2 < bent_n || world.distance(expected) > 4.0,
+            "{what}: a world decal does not follow the skin ({world_n} pixels at {world})"
+        );
+    }
 }

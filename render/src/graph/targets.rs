@@ -19,7 +19,7 @@ pub const GBUFFER_NORMAL_FORMAT: vk::Format = vk::Format::A2B10G10R10_UNORM_PACK
 /// Roughness, metallic, opacity, refraction (shaders/gbuffer.frag).
 pub const GBUFFER_MATERIAL_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
 /// Decal receiver layers (low 8 bits).
-pub const GBUFFER_LAYERS_FORMAT: vk::Format = vk::Format::R8_UINT;
+pub const GBUFFER_LAYERS_FORMAT: vk::Format = vk::Format::R32G32_UINT;
 /// Visibility buffer: instance slot, triangle index.
 pub const VISIBILITY_FORMAT: vk::Format = vk::Format::R32G32_UINT;
 

@@ -215,6 +215,8 @@ impl Lighting {
             shadow_map_tile: self.shadows.maps.tile(),
             shadow_map_columns: self.shadows.maps.columns(),
             clear_color: s.clear_color.into(),
+            culls: 0, // the scene's upload sets it
+            pad: [0; 2],
         });
         let res = self.tiles.resources();
         let inline_shadows = match self.accel.as_ref() {

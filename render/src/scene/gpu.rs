@@ -825,6 +825,11 @@ impl GpuScene {
             copies.buffer_copy(up.staging.buffer(), self.camera.buffer()).push(src, 0, bytes.len() as u64);
             up.bytes += bytes.len() as u64;
         }
+        // The culling records' address (their table may have been replaced above).
+        if self.lighting_cpu.culls != self.culls.address() {
+            self.lighting_cpu.culls = self.culls.address();
+            self.lighting_dirty = true;
+        }
         if std::mem::take(&mut self.lighting_dirty) {
             let bytes = bytemuck::bytes_of(&self.lighting_cpu);
             let src = up.staging.push(bytes);
@@ -1027,7 +1032,8 @@ impl GpuScene {
     }
 
     /// Sets the lighting record; it is uploaded with the next sync only when it differs.
-    pub fn set_lighting(&mut self, lighting: GpuLighting) {
+    pub fn set_lighting(&mut self, mut lighting: GpuLighting) {
+        lighting.culls = self.lighting_cpu.culls; // the upload's to set
         if lighting != self.lighting_cpu {
             self.lighting_cpu = lighting;
             self.lighting_dirty = true;

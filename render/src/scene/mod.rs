@@ -17,9 +17,9 @@ use glam::{Mat4, Vec2, Vec3};
 
 pub use crate::layout::{
     CULL_BATCHES, CULL_DOUBLE_SIDED, CULL_LIVE, CULL_MASKED, CULL_TRANSPARENT, DECAL_ALBEDO, DECAL_CHANNEL_SHIFT, DECAL_CHANNELS,
-    DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuCullRecord, GpuDecal, GpuDecalMaterial, GpuDrawCommand,
-    GpuInstance, GpuJointMatrix, GpuLight, GpuMaterial, GpuMeshInfo, GpuSkinVertex, GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_BLEND,
-    MATERIAL_DOUBLE_SIDED, NO_DECAL, RESERVED_TEXTURES, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
+    DECAL_METALLIC, DECAL_NORMAL, DECAL_ON_SKIN, DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuCullRecord, GpuDecal, GpuDecalMaterial,
+    GpuDrawCommand, GpuInstance, GpuJointMatrix, GpuLight, GpuMaterial, GpuMeshInfo, GpuSkinVertex, GpuVertex, MATERIAL_ALPHA_MASK,
+    MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, NO_DECAL, RESERVED_TEXTURES, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
 };
 
 impl GpuInstance {
@@ -125,7 +125,7 @@ impl GpuDecal {
 impl GpuAabb {
     /// A zero-size box at `p` that belongs to no decal.
     pub fn point(p: Vec3) -> Self {
-        Self { min: p.to_array(), max: p.to_array(), slot: NO_DECAL, pad: 0 }
+        Self { min: p.to_array(), max: p.to_array(), slot: NO_DECAL, owner: 0 }
     }
 
     /// The zero-size box at this box's centre.
@@ -152,7 +152,7 @@ impl GpuAabb {
     /// stands when its transform is invalid ([`DecalDesc::is_valid`]).
     pub fn of_decal(decal: &DecalDesc, slot: u32) -> Self {
         if decal.is_valid() {
-            return Self::of_unit_box(decal.decal_to_world, slot);
+            return Self { owner: decal.on_skin.map_or(0, |instance| instance + 1), ..Self::of_unit_box(decal.decal_to_world, slot) };
         }
         let at = decal.decal_to_world.w_axis.truncate();
         Self { slot, ..Self::point(if at.is_finite() { at } else { Vec3::ZERO }) }
@@ -165,7 +165,7 @@ impl GpuAabb {
         let half =
             (decal_to_world.x_axis.truncate().abs() + decal_to_world.y_axis.truncate().abs() + decal_to_world.z_axis.truncate().abs())
                 * 0.5;
-        Self { min: (centre - half).to_array(), max: (centre + half).to_array(), slot, pad: 0 }
+        Self { min: (centre - half).to_array(), max: (centre + half).to_array(), slot, owner: 0 }
     }
 }
 
@@ -196,6 +196,11 @@ pub struct DecalDesc {
     /// Distance fade: full strength nearer the camera than the first distance (metres),
     /// nothing beyond the second; `None` takes the camera's default ([`GpuCamera::decal_fade`]).
     pub distance_fade: Option<(f32, f32)>,
+    /// A decal on a skin: the slot of the skinned instance it sticks to. Its transform then
+    /// places it on that instance's *rest pose* (the instance's model × rest-pose space), where
+    /// the instance's pixels look it up, so it follows the skin as it deforms
+    /// (`crate::skinning`). `None`: a decal in the world.
+    pub on_skin: Option<u32>,
 }
 
 /// Two floats as half floats in one word (GLSL's `packHalf2x16`: the first in the low bits).
@@ -248,7 +253,7 @@ impl DecalDesc {
             uv23: [c[2].x, c[2].y, c[3].x, c[3].y],
             material_channel: GpuDecal::pack_material_channel(self.material, self.channel),
             weight: self.weight.max(1e-4),
-            receivers: self.receivers,
+            receivers: (self.receivers & !DECAL_ON_SKIN) | if self.on_skin.is_some() { DECAL_ON_SKIN } else { 0 },
             opacity: if self.opacity.is_nan() { 0.0 } else { self.opacity.clamp(0.0, 1.0) },
             angle_fade: pack_half2(fade_scale, fade_offset),
             distance_fade: match self.distance_fade {
@@ -1147,6 +1152,7 @@ mod tests {
             angle_fade: None,
             lifetime_fade: None,
             distance_fade: None,
+            on_skin: None,
         }
     }
 
@@ -1278,6 +1284,7 @@ mod tests {
             angle_fade: None,
             lifetime_fade: None,
             distance_fade: None,
+            on_skin: None,
         };
         let good = desc(Mat4::from_scale(Vec3::splat(2.0)));
         assert!(good.is_valid());
