@@ -488,8 +488,7 @@ pub fn extract_poses(
     let mut posed = 0;
     for (entity, skin, global) in &skinned {
         let Some(&(mesh, _)) = slots.posed.get(&entity) else { continue };
-        let moved = global.is_changed() || skin.is_changed() || skin.joints.iter().any(|&j| joints.get(j).is_ok_and(|g| g.is_changed()));
-        if !moved && fresh.binary_search(&entity).is_err() {
+        if !Skin::pose_changed(&skin, &global, &joints) && fresh.binary_search(&entity).is_err() {
             continue;
         }
         skin.joint_matrices(&global, |j| joints.get(j).ok().map(|g| g.0), &mut matrices);

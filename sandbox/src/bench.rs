@@ -49,6 +49,8 @@ pub enum BenchScene {
     ManyInstances,
     /// PEERS.md's "many instances behind a wall": `--instances` boxes in a grid behind a wall.
     BehindWall,
+    /// Issue 25: `--instances` animated foxes (the `--character`), each at its own time.
+    Foxes,
 }
 
 impl BenchScene {
@@ -63,8 +65,9 @@ impl BenchScene {
             "transparency" => BenchScene::Transparency,
             "many-instances" => BenchScene::ManyInstances,
             "behind-wall" => BenchScene::BehindWall,
+            "foxes" => BenchScene::Foxes,
             _ => bail!(
-                "unknown bench scene {name:?} (few-blended-decals, decals-and-lights, many-decals, ten-point-lights, many-lights, transparency, many-instances, behind-wall)"
+                "unknown bench scene {name:?} (few-blended-decals, decals-and-lights, many-decals, ten-point-lights, many-lights, transparency, many-instances, behind-wall, foxes)"
             ),
         })
     }
@@ -100,6 +103,10 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
         BenchScene::Transparency => return spawn_transparency_scene(world),
         BenchScene::ManyInstances => return spawn_city(world, MANY_INSTANCES),
         BenchScene::BehindWall => return spawn_behind_wall(world, MANY_INSTANCES),
+        BenchScene::Foxes => {
+            tracing::warn!("the foxes scene needs a character model: spawn it with spawn_foxes");
+            return;
+        }
         _ => {}
     }
     let info = spawn_courtyard(world);
@@ -192,8 +199,30 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
             world.spawn_batch(batch);
         }
         BenchScene::Transparency => unreachable!("spawned above"),
-        BenchScene::ManyInstances | BenchScene::BehindWall => unreachable!("spawned above"),
+        BenchScene::ManyInstances | BenchScene::BehindWall | BenchScene::Foxes => unreachable!("spawned above"),
     }
+}
+
+/// The skinning benchmark (issue 25): `count` foxes from `character` on a ground, each playing
+/// its walk from its own time (so every pose differs and is skinned every frame), a sun, and a
+/// camera that sees the whole crowd.
+pub fn spawn_foxes(world: &mut World, character: &std::path::Path, count: usize) -> anyhow::Result<()> {
+    use engine::camera::Camera;
+    use engine::material::Material;
+    use engine::mesh::{Mesh, shapes};
+    use engine::scene::MeshInstance;
+
+    let half = crate::character::spawn_crowd(world, character, count)?;
+    let ground = world.resource_mut::<Assets<Mesh>>().add(shapes::plane(2.0 * half + 8.0, 2.0 * half + 8.0, 1, 1.0));
+    let grey = world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec3::new(0.5, 0.5, 0.48).extend(1.0), 0.0, 0.8));
+    world.spawn((MeshInstance { mesh: ground, material: grey }, Transform::default(), Static));
+    world.spawn((
+        engine::light::DirectionalLight { illuminance: 4.0, ..Default::default() },
+        Transform::default().looking_at(Vec3::new(0.3, -1.0, -0.4), Vec3::Z),
+    ));
+    let distance = 3.0 + half * 1.6;
+    world.spawn((Camera::default(), Transform::from_xyz(0.0, distance * 0.6, distance).looking_at(Vec3::ZERO, Vec3::Y)));
+    Ok(())
 }
 
 /// Props of the `many-instances` scene unless `--instances` says otherwise.

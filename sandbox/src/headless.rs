@@ -48,6 +48,9 @@ pub struct HeadlessOptions {
     pub size: (u32, u32),
     /// The scene.
     pub scene: SceneSource,
+    /// The character that walks the default scene, and the model of the `foxes` benchmark
+    /// scene (`None`: no character).
+    pub character: Option<PathBuf>,
     /// Where to write the last frame as PNG.
     pub screenshot: Option<PathBuf>,
     /// Where to write one JSON object per frame.
@@ -236,6 +239,7 @@ impl Default for HeadlessOptions {
             frames: 3,
             size: (320, 240),
             scene: SceneSource::Default,
+            character: crate::character::default_character(),
             screenshot: None,
             stats: None,
             pipeline: PipelineKind::Forward,
@@ -318,9 +322,14 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
     match opts.bench_scene {
         Some(crate::bench::BenchScene::ManyInstances) => crate::bench::spawn_city(&mut app.world, opts.instances),
         Some(crate::bench::BenchScene::BehindWall) => crate::bench::spawn_behind_wall(&mut app.world, opts.instances),
+        Some(crate::bench::BenchScene::Foxes) => {
+            let path = opts.character.as_deref().context("the foxes scene needs a character (--character PATH)")?;
+            crate::bench::spawn_foxes(&mut app.world, path, opts.instances)?;
+        }
         Some(scene) => crate::bench::spawn_bench_scene(&mut app.world, scene),
-        None => load_scene(&mut app.world, &opts.scene)?,
+        None => load_scene(&mut app.world, &opts.scene, opts.character.as_deref())?,
     }
+    app.add_systems(engine::app::Update, crate::character::walk_loops);
     if opts.decals > 0 {
         let materials = app.world.resource_scope(|world, mut materials: bevy_ecs::world::Mut<Assets<DecalMaterial>>| {
             crate::decal_textures::add_builtin_materials(&mut world.resource_mut::<Assets<Image>>(), &mut materials)
@@ -347,11 +356,20 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
 }
 
 /// Spawns the scene, adding a camera and a light when a glTF file brings none, and plays a
-/// glTF's first animation on a loop.
-pub fn load_scene(world: &mut World, source: &SceneSource) -> Result<()> {
+/// glTF's first animation on a loop. In the default courtyard, `character` (when given) walks a
+/// loop in front of the camera ([`crate::character`]).
+pub fn load_scene(world: &mut World, source: &SceneSource, character: Option<&std::path::Path>) -> Result<()> {
     match source {
         SceneSource::Default => {
             scene::spawn_courtyard(world);
+            match character {
+                Some(path) => {
+                    crate::character::spawn_walker(world, path, scene::WALKER_LOOP.0, scene::WALKER_LOOP.1)?;
+                }
+                None => {
+                    tracing::info!("no character model found (../shared/assets/gltf/Fox/Fox.glb, or --character): the courtyard is empty")
+                }
+            }
         }
         SceneSource::Gltf(path) => {
             let gltf = engine::gltf::load(path).with_context(|| format!("could not load scene {}", path.display()))?;

@@ -17,6 +17,7 @@
 #![forbid(unsafe_code)]
 
 pub mod bench;
+pub mod character;
 pub mod charts;
 pub mod decal_textures;
 pub mod game;

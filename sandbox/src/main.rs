@@ -32,6 +32,10 @@ struct Cli {
     /// `default` (the generated courtyard) or a .gltf/.glb path.
     #[arg(long, default_value = "default")]
     scene: String,
+    /// The animated character that walks the courtyard (and fills `--bench-scene foxes`): a
+    /// skinned .gltf/.glb, or `none`. Default: the shared Fox, when ../shared/assets has it.
+    #[arg(long)]
+    character: Option<String>,
     /// Write the last frame here as PNG.
     #[arg(long)]
     screenshot: Option<PathBuf>,
@@ -67,7 +71,8 @@ struct Cli {
     /// them, so the image stays the same): bullet holes coming and going, for CPU benchmarks.
     #[arg(long, default_value_t = 0)]
     churn_decals: usize,
-    /// A benchmark scene instead of --scene: few-blended-decals, decals-and-lights, many-decals.
+    /// A benchmark scene instead of --scene: few-blended-decals, decals-and-lights, many-decals,
+    /// ten-point-lights, many-lights, transparency, many-instances, behind-wall, foxes.
     #[arg(long)]
     bench_scene: Option<String>,
     /// Run --frames frames with each pipeline and decal method in turn (with --stats, also a CSV
@@ -263,6 +268,11 @@ fn main() -> Result<()> {
         frames: cli.frames,
         size: cli.size,
         scene: SceneSource::parse(&cli.scene),
+        character: match cli.character.as_deref() {
+            Some("none") => None,
+            Some(path) => Some(PathBuf::from(path)),
+            None => sandbox::character::default_character(),
+        },
         screenshot: screenshot.clone(),
         stats: cli.stats.clone(),
         pipeline: cli.pipeline,

@@ -41,6 +41,10 @@ const TEXTURE_SIZE: u32 = 256;
 /// Half the distance between opposite walls, in metres.
 const HALF_COURT: f32 = 20.0;
 
+/// Where the character walks ([`crate::character`]): centre and radius of its loop, in the open
+/// corner in front of the camera.
+pub const WALKER_LOOP: (Vec3, f32) = (Vec3::new(-13.0, 0.0, 13.0), 2.0);
+
 /// Spawns the courtyard into `world` (creating the `Assets` resources if missing).
 pub fn spawn_courtyard(world: &mut World) -> CourtyardInfo {
     let textures = {

@@ -60,7 +60,7 @@ fn bad_gltf_files_are_clear_errors_and_tear_nothing_down() {
     std::fs::write(&malformed, &text[..text.len() / 2]).unwrap();
 
     let mut app = gpu_app(96, 64, Default::default());
-    load_scene(&mut app.world, &SceneSource::Default).expect("the courtyard loads");
+    load_scene(&mut app.world, &SceneSource::Default, None).expect("the courtyard loads");
     app.update();
     let instances = app.world.resource::<RenderMirror>().0.instances.len();
 
@@ -71,7 +71,7 @@ fn bad_gltf_files_are_clear_errors_and_tear_nothing_down() {
         (Path::new("/nonexistent/scene.glb"), &["/nonexistent/scene.glb"]),
     ];
     for (path, must_name) in cases {
-        let err = load_scene(&mut app.world, &SceneSource::Gltf(path.to_path_buf())).expect_err("a bad file is an error");
+        let err = load_scene(&mut app.world, &SceneSource::Gltf(path.to_path_buf()), None).expect_err("a bad file is an error");
         let message = format!("{err:#}");
         for needle in must_name {
             assert!(message.contains(needle), "error for {} names {needle:?}: {message}", path.display());
@@ -81,7 +81,7 @@ fn bad_gltf_files_are_clear_errors_and_tear_nothing_down() {
     assert_eq!(app.world.resource::<RenderMirror>().0.instances.len(), instances, "the running scene is untouched");
 
     // The valid file still loads into the same running app afterwards.
-    load_scene(&mut app.world, &SceneSource::Gltf(valid)).expect("the valid triangle loads");
+    load_scene(&mut app.world, &SceneSource::Gltf(valid), None).expect("the valid triangle loads");
     app.update();
     assert_eq!(app.world.resource::<RenderMirror>().0.instances.len(), instances + 1);
     assert_no_validation_errors(&mut app);

@@ -213,6 +213,17 @@ impl Skin {
         }));
     }
 
+    /// Whether the pose of the skinned entity with this skin and `global` transform may have
+    /// changed since the calling system last ran: the entity moved, its skin was replaced, or a
+    /// joint's global transform changed.
+    pub fn pose_changed(
+        skin: &Ref<Skin>,
+        global: &Ref<crate::transform::GlobalTransform>,
+        joints: &Query<Ref<crate::transform::GlobalTransform>>,
+    ) -> bool {
+        global.is_changed() || skin.is_changed() || skin.joints.iter().any(|&j| joints.get(j).is_ok_and(|g| g.is_changed()))
+    }
+
     /// A point of the mesh posed on the CPU (linear blend skinning with the matrices of
     /// [`Skin::joint_matrices`]): `rest` moved by the weighted joints. For picking and tests;
     /// the renderer skins on the GPU.

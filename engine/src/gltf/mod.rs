@@ -550,22 +550,56 @@ impl GltfScene {
     /// per primitive (with a [`Skin`] whose joints are the joint nodes' entities, when the node
     /// is skinned), light/camera components and [`MorphWeights`] on their nodes; the clips go to
     /// `Assets<AnimationClip>`, named on the root by [`GltfAnimations`] beside the
-    /// [`AnimationTargets`] they animate. Returns the root entity.
+    /// [`AnimationTargets`] they animate. Returns the root entity. To spawn a model many times
+    /// over the same assets, use [`GltfScene::into_prefab`].
     pub fn spawn(self, world: &mut World) -> Entity {
+        self.into_prefab(world).spawn(world)
+    }
+
+    /// Adds the images, materials, meshes and clips to the world's `Assets` once, and keeps what
+    /// spawning needs: [`GltfPrefab::spawn`] then spawns the scene as often as wanted, every copy
+    /// sharing those assets (a crowd of one character: one mesh, one set of clips).
+    pub fn into_prefab(self, world: &mut World) -> GltfPrefab {
         let image_handles: Vec<Handle<Image>> = {
             let mut assets = world.get_resource_or_init::<Assets<Image>>();
             self.images.into_iter().map(|image| assets.add(image)).collect()
         };
-        let material_handles: Vec<Handle<Material>> = {
+        let materials: Vec<Handle<Material>> = {
             let mut assets = world.get_resource_or_init::<Assets<Material>>();
             self.materials.iter().map(|m| assets.add(m.to_material(&image_handles))).collect()
         };
-        let mesh_handles: Vec<Vec<(Handle<Mesh>, usize)>> = {
+        let meshes: Vec<Vec<(Handle<Mesh>, usize)>> = {
             let mut assets = world.get_resource_or_init::<Assets<Mesh>>();
             self.meshes.into_iter().map(|prims| prims.into_iter().map(|(m, mat)| (assets.add(m), mat)).collect()).collect()
         };
+        let clips: Vec<Handle<AnimationClip>> = {
+            let mut assets = world.get_resource_or_init::<Assets<AnimationClip>>();
+            self.animations.into_iter().map(|clip| assets.add(clip)).collect()
+        };
+        GltfPrefab { name: self.name, meshes, materials, nodes: self.nodes, roots: self.roots, skins: self.skins, clips }
+    }
+}
 
-        let root = world.spawn((Transform::IDENTITY, Name(self.name))).id();
+/// A glTF scene whose assets are in the world, ready to spawn any number of times
+/// ([`GltfScene::into_prefab`]).
+#[derive(Clone, Debug)]
+pub struct GltfPrefab {
+    /// Name for each root entity.
+    pub name: String,
+    meshes: Vec<Vec<(Handle<Mesh>, usize)>>,
+    materials: Vec<Handle<Material>>,
+    nodes: Vec<GltfNode>,
+    roots: Vec<usize>,
+    skins: Vec<GltfSkin>,
+    /// The animation clips, in the file's order.
+    pub clips: Vec<Handle<AnimationClip>>,
+}
+
+impl GltfPrefab {
+    /// Spawns one copy of the scene (as [`GltfScene::spawn`] describes) and returns its root.
+    pub fn spawn(&self, world: &mut World) -> Entity {
+        let (mesh_handles, material_handles) = (&self.meshes, &self.materials);
+        let root = world.spawn((Transform::IDENTITY, Name(self.name.clone()))).id();
         let mut entities: Vec<Option<Entity>> = vec![None; self.nodes.len()];
         let mut skinned: Vec<(Entity, usize)> = Vec::new();
         let mut visited = vec![false; self.nodes.len()];
@@ -623,12 +657,8 @@ impl GltfScene {
                 None => warn!(skin = ?skin.name, "a joint of this skin is not in the spawned scene; its mesh stays in its bind pose"),
             }
         }
-        if !self.animations.is_empty() {
-            let clips: Vec<Handle<AnimationClip>> = {
-                let mut assets = world.get_resource_or_init::<Assets<AnimationClip>>();
-                self.animations.into_iter().map(|clip| assets.add(clip)).collect()
-            };
-            world.entity_mut(root).insert((AnimationTargets(entities), GltfAnimations(clips)));
+        if !self.clips.is_empty() {
+            world.entity_mut(root).insert((AnimationTargets(entities), GltfAnimations(self.clips.clone())));
         }
         root
     }

@@ -904,7 +904,8 @@ impl SceneMirror {
             data.skin.clear();
         }
         let skin = (!data.skin.is_empty()).then(|| {
-            let joints = crate::skinning::joint_bounds(data.vertices.iter().map(|v| Vec3::from(v.position)), &data.skin);
+            let vertices = data.vertices.iter().zip(&data.skin).map(|(v, s)| (Vec3::from(v.position), s.joints(), s.weights()));
+            let joints = crate::skinning::joint_bounds(vertices);
             (joints, data.vertices.len() as u32)
         });
         self.poses.set_source(id, skin);

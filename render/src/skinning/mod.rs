@@ -81,12 +81,12 @@ impl GpuJointMatrix {
     }
 }
 
-/// Rest-pose bounds (minimum, maximum corner) of the vertices each joint moves, by joint index;
-/// joints that move nothing have an empty box (minimum above maximum).
-pub fn joint_bounds(positions: impl Iterator<Item = Vec3>, skin: &[GpuSkinVertex]) -> Vec<(Vec3, Vec3)> {
+/// Rest-pose bounds (minimum, maximum corner) of the vertices each joint moves, by joint index,
+/// from each vertex's rest position, joints and weights; joints that move nothing have an empty
+/// box (minimum above maximum). (CPU picking of posed meshes uses it too.)
+pub fn joint_bounds(vertices: impl Iterator<Item = (Vec3, [u16; 4], [f32; 4])>) -> Vec<(Vec3, Vec3)> {
     let mut bounds: Vec<(Vec3, Vec3)> = Vec::new();
-    for (p, s) in positions.zip(skin) {
-        let (joints, weights) = (s.joints(), s.weights());
+    for (p, joints, weights) in vertices {
         for i in 0..4 {
             if weights[i] <= 0.0 {
                 continue;
@@ -103,14 +103,13 @@ pub fn joint_bounds(positions: impl Iterator<Item = Vec3>, skin: &[GpuSkinVertex
 
 /// The bounds of a pose: each joint's rest box moved by its matrix, all of them together.
 /// `None` when no joint moves anything or a matrix is not finite.
-pub fn posed_bounds(joint_bounds: &[(Vec3, Vec3)], joints: &[GpuJointMatrix]) -> Option<(Vec3, Vec3)> {
+pub fn posed_bounds(joint_bounds: &[(Vec3, Vec3)], joints: impl IntoIterator<Item = Mat4>) -> Option<(Vec3, Vec3)> {
     let mut lo = Vec3::INFINITY;
     let mut hi = Vec3::NEG_INFINITY;
     for (&(bmin, bmax), m) in joint_bounds.iter().zip(joints) {
         if bmin.cmpgt(bmax).any() {
             continue;
         }
-        let m = m.to_mat4();
         let center = m.transform_point3((bmin + bmax) * 0.5);
         let half = (bmax - bmin) * 0.5;
         let extent = m.x_axis.truncate().abs() * half.x + m.y_axis.truncate().abs() * half.y + m.z_axis.truncate().abs() * half.z;
@@ -217,7 +216,7 @@ impl PoseTable {
         }
         pose.changed = true;
         let source = self.sources.get(pose.source.0 as usize).and_then(Option::as_ref);
-        Some(source.and_then(|s| posed_bounds(&s.joint_bounds, &pose.joints)))
+        Some(source.and_then(|s| posed_bounds(&s.joint_bounds, pose.joints.iter().map(|m| m.to_mat4()))))
     }
 
     /// Collects this frame's skinning jobs into `words` (the `GpuSkinJob`s, then the joint
@@ -385,10 +384,10 @@ mod tests {
             GpuSkinVertex::new([0, 1, 0, 0], [0.5, 0.5, 0.0, 0.0]),
             GpuSkinVertex::new([1, 0, 0, 0], [1.0, 0.0, 0.0, 0.0]),
         ];
-        let bounds = joint_bounds(positions.into_iter(), &skin);
+        let bounds = joint_bounds(positions.into_iter().zip(&skin).map(|(p, s)| (p, s.joints(), s.weights())));
         assert_eq!(bounds, vec![(Vec3::ZERO, Vec3::Y), (Vec3::Y, Vec3::new(0.0, 2.0, 0.0))]);
         let moved = [GpuJointMatrix::from_mat4(Mat4::IDENTITY), GpuJointMatrix::from_mat4(Mat4::from_translation(Vec3::X * 3.0))];
-        assert_eq!(posed_bounds(&bounds, &moved), Some((Vec3::ZERO, Vec3::new(3.0, 2.0, 0.0))));
+        assert_eq!(posed_bounds(&bounds, moved.map(|m| m.to_mat4())), Some((Vec3::ZERO, Vec3::new(3.0, 2.0, 0.0))));
     }
 
     #[test]

@@ -13,6 +13,7 @@
 //! | `look DEGREES` | looks up (negative: down) by mouse motion, in one frame |
 //! | `shoot [U V]` | a left click with the crosshair at normalised screen coordinates (U, V) in [0, 1]², (0, 0) top-left; the screen centre without coordinates |
 //! | `light` | taps L (drops a light) |
+//! | `aim` | turns the view onto the walking character's body (`crate::character::Walker`), in one frame; nothing without one |
 //! | `key KEY` | taps a key for one frame (`key E`, `key 3`) |
 //!
 //! Keys are named as [`Key::name`] spells them. Timed commands last as many frames as their
@@ -40,7 +41,8 @@ use bevy_ecs::resource::Resource;
 use bevy_ecs::system::{Query, Res, ResMut};
 use engine::input::{Input, Key, MouseButton};
 use engine::time::Time;
-use glam::Vec2;
+use engine::transform::{GlobalTransform, Transform};
+use glam::{Vec2, Vec3};
 
 use super::player::{Player, PlayerController};
 use super::shooting::Crosshair;
@@ -91,6 +93,8 @@ pub enum Command {
     Shoot(Vec2),
     /// Tap a key for one frame (`light` is `Tap(Key::L)`).
     Tap(Key),
+    /// Turn and look onto the walking character.
+    Aim,
 }
 
 impl Command {
@@ -249,6 +253,10 @@ fn parse_command(content: &str) -> Result<Command, String> {
             expect(0, "light")?;
             Ok(Command::Tap(Key::L))
         }
+        "aim" => {
+            expect(0, "aim")?;
+            Ok(Command::Aim)
+        }
         "key" => {
             expect(1, "key KEY")?;
             Ok(Command::Tap(key(args[0])?))
@@ -292,6 +300,8 @@ pub struct ScriptPlayer {
     /// The line of the command that acted in the last step.
     played_line: Option<usize>,
     frames: u64,
+    /// What `aim` turns and looks by this frame, in degrees ([`ScriptPlayer::set_aim`]).
+    aim: Option<Vec2>,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -303,7 +313,13 @@ enum Tap {
 impl ScriptPlayer {
     /// A player at the start of `script`.
     pub fn new(script: Script) -> Self {
-        Self { script, index: 0, remaining: None, tapped: None, restore_crosshair: None, played_line: None, frames: 0 }
+        Self { script, index: 0, remaining: None, tapped: None, restore_crosshair: None, played_line: None, frames: 0, aim: None }
+    }
+
+    /// Sets what an `aim` command would turn (right) and look (up) by this frame, in degrees:
+    /// the way from the view to the character (`None`: there is none to aim at).
+    pub fn set_aim(&mut self, turn_look: Option<Vec2>) {
+        self.aim = turn_look;
     }
 
     /// Whether every command has had all its frames (after [`Script::frames_at`] steps at a
@@ -404,6 +420,12 @@ impl ScriptPlayer {
                     self.tapped = Some(Tap::Key(key));
                     self.index += 1;
                 }
+                Command::Aim => {
+                    if let Some(aim) = self.aim {
+                        input.add_mouse_motion(Vec2::new(aim.x * pixels_per_degree, -aim.y * pixels_per_degree));
+                    }
+                    self.index += 1;
+                }
             }
             self.played_line = Some(line);
             return;
@@ -419,11 +441,28 @@ pub fn play_script(
     mut player: ResMut<ScriptPlayer>,
     mut input: ResMut<Input>,
     mut crosshair: ResMut<Crosshair>,
-    controllers: Query<&PlayerController, With<Player>>,
+    controllers: Query<(&PlayerController, &Transform), With<Player>>,
+    walkers: Query<&GlobalTransform, With<crate::character::Walker>>,
 ) {
-    let sensitivity = controllers.single().map_or(PlayerController::default().mouse_sensitivity, |c| c.mouse_sensitivity);
+    let controller = controllers.single().ok();
+    let sensitivity = controller.map_or(PlayerController::default().mouse_sensitivity, |(c, _)| c.mouse_sensitivity);
+    // `aim`: from the view to the middle of the nearest walker's body (its origin is at its feet).
+    let aim = controller.and_then(|(c, eye)| {
+        let eye = eye.translation;
+        let target =
+            walkers.iter().map(|w| w.translation() + Vec3::Y * AIM_HEIGHT).min_by(|a, b| a.distance(eye).total_cmp(&b.distance(eye)))?;
+        let d = (target - eye).try_normalize()?;
+        let yaw = (-d.x).atan2(-d.z);
+        let turn = ((c.yaw - yaw + std::f32::consts::PI).rem_euclid(std::f32::consts::TAU) - std::f32::consts::PI).to_degrees();
+        let look = (d.y.clamp(-1.0, 1.0).asin() - c.pitch).to_degrees();
+        Some(Vec2::new(turn, look))
+    });
+    player.set_aim(aim);
     player.step(time.delta_secs(), sensitivity, &mut input, &mut crosshair);
 }
+
+/// Height above a walker's origin that `aim` aims at, in metres (the middle of the fox's body).
+const AIM_HEIGHT: f32 = 0.4;
 
 #[cfg(test)]
 mod tests {

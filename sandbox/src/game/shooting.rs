@@ -13,6 +13,7 @@
 //!
 //! [`PLAYER_LAYER`]: super::PLAYER_LAYER
 
+use bevy_ecs::hierarchy::ChildOf;
 use bevy_ecs::prelude::*;
 use engine::camera::Camera;
 use engine::input::{Input, MouseButton};
@@ -92,6 +93,7 @@ pub fn shoot(
     mut order: ResMut<SpawnOrder<GameDecal>>,
     mut stats: ResMut<GameStats>,
     players: Query<(&Camera, &Transform), With<Player>>,
+    globals: Query<&GlobalTransform>,
 ) {
     if !input.button_just_pressed(MouseButton::Left) {
         return;
@@ -109,10 +111,22 @@ pub fn shoot(
     };
     stats.hits += 1;
     let angle = rng.0.range_f32(0.0, std::f32::consts::TAU);
-    let transform = bullet_hole_transform(&hit, settings.bullet_hole_size, settings.decal_depth, angle);
     let mut decal = Decal::new(assets.bullet_hole);
     decal.receivers = GAME_DECAL_RECEIVERS;
-    let entity = commands.spawn((decal, transform, GlobalTransform::from(transform), BulletHole, GameDecal, Name::new("Bullet hole"))).id();
+    let entity = match (hit.rest, globals.get(hit.entity)) {
+        // A skinned character: the hole goes on its skin, placed in its rest pose, so it stays
+        // on the spot that was hit however the character moves (`Decal::on_skin`).
+        (Some(rest), Ok(global)) => {
+            let scale = global.0.matrix3.x_axis.length().max(1e-6);
+            let at_rest = Hit { point: rest.point, normal: rest.normal, ..hit };
+            let transform = bullet_hole_transform(&at_rest, settings.bullet_hole_size / scale, settings.decal_depth / scale, angle);
+            commands.spawn((decal.on_skin(), transform, ChildOf(hit.entity), BulletHole, GameDecal, Name::new("Bullet hole (skin)"))).id()
+        }
+        _ => {
+            let transform = bullet_hole_transform(&hit, settings.bullet_hole_size, settings.decal_depth, angle);
+            commands.spawn((decal, transform, GlobalTransform::from(transform), BulletHole, GameDecal, Name::new("Bullet hole"))).id()
+        }
+    };
     order.push(entity);
 }
 
@@ -142,7 +156,8 @@ mod tests {
 
     #[test]
     fn bullet_holes_face_out_of_the_surface() {
-        let hit = Hit { t: 1.0, point: Vec3::new(0.0, 1.0, -2.0), normal: Vec3::new(0.0, 0.6, 0.8), entity: Entity::PLACEHOLDER };
+        let hit =
+            Hit { t: 1.0, point: Vec3::new(0.0, 1.0, -2.0), normal: Vec3::new(0.0, 0.6, 0.8), entity: Entity::PLACEHOLDER, rest: None };
         for angle in [0.0, 1.0, 4.0] {
             let t = bullet_hole_transform(&hit, 0.25, 0.2, angle);
             assert!((t.rotation * Vec3::Z - hit.normal).length() < 1e-5);
