@@ -178,6 +178,16 @@ impl GlobalTransform {
 #[component(on_insert = static_inserted)]
 pub struct Static;
 
+/// A bone of a skeleton (the glTF spawner marks a skin's joint nodes): propagation moves it like
+/// any entity but leaves it out of [`TransformChanges::moved`]. What reads that list looks for
+/// mesh instances, lights and decals, which joints are not (a skinned mesh follows its joints
+/// through [`crate::animation::Skin::pose_changed`]; meshes and decals hung on a bone are child
+/// entities, listed when they move). So an animated crowd's tens of thousands of bones, moving
+/// every frame, cost the change lists nothing. Do not put it on an entity that carries a mesh
+/// instance or a light itself.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Joint;
+
 /// What transform propagation must look at besides its scan, and what it moved.
 ///
 /// Kept by the [`TransformPlugin`]: component hooks list the [`Static`] entities whose transform
@@ -196,7 +206,7 @@ pub struct TransformChanges {
 
 impl TransformChanges {
     /// Entities whose [`GlobalTransform`] changed during the current frame, in propagation
-    /// order (an entity moved by two propagation runs is listed twice).
+    /// order (an entity moved by two propagation runs is listed twice), [`Joint`]s left out.
     pub fn moved(&self) -> &[Entity] {
         &self.moved
     }
@@ -278,6 +288,9 @@ pub struct PropagationScratch {
     changes: TransformChanges,
 }
 
+/// What propagation reads and writes of each entity it visits.
+type Node = (&'static Transform, &'static mut GlobalTransform, Option<&'static Children>, Has<Joint>);
+
 /// Non-static entities whose own transform or parent link changed since the last run.
 type Dirty = (With<Transform>, Without<Static>, Or<(Changed<Transform>, Changed<ChildOf>)>);
 
@@ -290,7 +303,7 @@ type Dirty = (With<Transform>, Without<Static>, Or<(Changed<Transform>, Changed<
 pub fn propagate_transforms(
     dirty: Query<Entity, Dirty>,
     parents: Query<&ChildOf>,
-    mut nodes: Query<(&Transform, &mut GlobalTransform, Option<&Children>)>,
+    mut nodes: Query<Node>,
     mut orphaned: RemovedComponents<ChildOf>,
     (changes, time): (Option<ResMut<TransformChanges>>, Option<Res<Time>>),
     mut scratch: Local<PropagationScratch>,
@@ -337,7 +350,7 @@ pub fn propagate_transforms(
             .get(entity)
             .ok()
             .and_then(|child_of| nodes.get(child_of.parent()).ok())
-            .map_or(Affine3A::IDENTITY, |(_, global, _)| global.0);
+            .map_or(Affine3A::IDENTITY, |(_, global, _, _)| global.0);
         stack.push((entity, parent_affine));
         propagate_stack(stack, &mut nodes, moved);
     }
@@ -346,17 +359,13 @@ pub fn propagate_transforms(
 
 /// Recomputes the subtrees rooted at the entities on `stack`, depth first, emptying it, and
 /// lists the entities whose global transform changed in `moved`.
-fn propagate_stack(
-    stack: &mut Vec<(Entity, Affine3A)>,
-    nodes: &mut Query<(&Transform, &mut GlobalTransform, Option<&Children>)>,
-    moved: &mut Vec<Entity>,
-) {
+fn propagate_stack(stack: &mut Vec<(Entity, Affine3A)>, nodes: &mut Query<Node>, moved: &mut Vec<Entity>) {
     while let Some((entity, parent_affine)) = stack.pop() {
-        let Ok((transform, mut global, children)) = nodes.get_mut(entity) else {
+        let Ok((transform, mut global, children, joint)) = nodes.get_mut(entity) else {
             continue;
         };
         let affine = parent_affine * transform.compute_affine();
-        if global.set_if_neq(GlobalTransform(affine)) {
+        if global.set_if_neq(GlobalTransform(affine)) && !joint {
             moved.push(entity);
         }
         if let Some(children) = children {

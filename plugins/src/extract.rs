@@ -9,7 +9,7 @@ use bevy_ecs::entity::{EntityHashMap, EntityHashSet};
 use bevy_ecs::message::MessageReader;
 use bevy_ecs::prelude::*;
 use bevy_ecs::system::SystemParam;
-use engine::animation::Skin;
+use engine::animation::{Skin, SkinPose};
 use engine::asset::{AssetEvent, Assets, Handle};
 use engine::camera::Camera;
 use engine::changes::Inserted;
@@ -470,15 +470,14 @@ pub fn extract_instances(
     stats.over_limit.instances = waiting.len();
 }
 
-/// Poses skinned instances: for each whose joints or own transform moved this frame (or whose
-/// posed mesh is new), the joint matrices of its [`Skin`] go to its posed mesh
-/// ([`render::SceneMirror::set_pose`]) and its culling bounds follow the pose. It visits the
-/// skinned instances (not every instance), and the skinning pass then runs for those that moved.
+/// Poses skinned instances: for each whose [`SkinPose`] changed this frame (its joints or it
+/// moved; `engine::animation::update_skin_poses` computes the matrices in parallel) or whose
+/// posed mesh is new, the matrices go to its posed mesh ([`render::SceneMirror::set_pose`]) and
+/// its culling bounds follow the pose. It visits the skinned instances (not every instance), and
+/// the skinning pass then runs for those that moved.
 pub fn extract_poses(
-    skinned: Query<(Entity, Ref<Skin>, Ref<GlobalTransform>)>,
-    joints: Query<Ref<GlobalTransform>>,
+    skinned: Query<(Entity, Ref<SkinPose>)>,
     (mut mirror, mut slots): (ResMut<RenderMirror>, ResMut<MirrorSlots>),
-    mut matrices: Local<Vec<Mat4>>,
     mut stats: ResMut<RenderStats>,
 ) {
     let slots = &mut *slots;
@@ -486,13 +485,12 @@ pub fn extract_poses(
     let mut fresh = std::mem::take(&mut slots.fresh_poses);
     fresh.sort_unstable();
     let mut posed = 0;
-    for (entity, skin, global) in &skinned {
+    for (entity, pose) in &skinned {
         let Some(&(mesh, _)) = slots.posed.get(&entity) else { continue };
-        if !Skin::pose_changed(&skin, &global, &joints) && fresh.binary_search(&entity).is_err() {
+        if !pose.is_changed() && fresh.binary_search(&entity).is_err() {
             continue;
         }
-        skin.joint_matrices(&global, |j| joints.get(j).ok().map(|g| g.0), &mut matrices);
-        if mirror.set_pose(mesh, matrices.iter().copied()) {
+        if mirror.set_pose(mesh, pose.0.iter().copied()) {
             posed += 1;
             if let Some(&slot) = slots.instances.get(&entity) {
                 mirror.refresh_cull(slot);

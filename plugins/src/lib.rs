@@ -296,6 +296,9 @@ pub struct FrameStats {
     pub gpu: PassTimes,
     /// CPU milliseconds in the extraction systems.
     pub cpu_extract_ms: f32,
+    /// CPU milliseconds animating (sampling clips into joint transforms,
+    /// [`engine::animation::AnimationStats`]) in the update that drew the frame.
+    pub cpu_animate_ms: f32,
     /// CPU milliseconds uploading and recording (the submission included).
     pub cpu_record_ms: f32,
     /// Of those, CPU milliseconds in the driver's queue submission.
@@ -453,7 +456,7 @@ fn render_frame(
     (window, overlay): (Option<ResMut<WindowTarget>>, Option<ResMut<OverlayInput>>),
     mut mirror: ResMut<RenderMirror>,
     (settings, time): (Res<RenderSettings>, Res<engine::time::Time>),
-    mut stats: ResMut<RenderStats>,
+    (mut stats, animation): (ResMut<RenderStats>, Option<Res<engine::animation::AnimationStats>>),
     (mut bad_size, mut failed): (Local<Option<(u32, u32)>>, Local<bool>),
     mut commands: Commands,
 ) {
@@ -511,6 +514,7 @@ fn render_frame(
                 size: renderer.0.size(),
                 gpu: PassTimes::default(),
                 cpu_extract_ms: extract_ms,
+                cpu_animate_ms: animation.map_or(0.0, |a| a.cpu_ms),
                 cpu_record_ms: report.record_ms,
                 cpu_submit_ms: report.submit_ms,
                 visited,

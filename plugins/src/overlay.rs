@@ -171,6 +171,12 @@ impl DebugOverlay {
             c.light_blas_updates,
             c.bytes_uploaded
         ));
+        if c.skinned_meshes > 0 || c.scene_blas_refits > 0 {
+            ui.label(format!(
+                "skinning: {} meshes, {} vertices; scene BLAS refits {}",
+                c.skinned_meshes, c.skinned_vertices, c.scene_blas_refits
+            ));
+        }
         let k = c.culling;
         let measured = if k.measured_frame == u64::MAX {
             "not measured yet".to_string()

@@ -49,7 +49,7 @@ use bevy_ecs::change_detection::Tick;
 use bevy_ecs::entity::EntityHashMap;
 use bevy_ecs::prelude::*;
 use bevy_ecs::system::{RunSystemOnce, SystemChangeTick};
-use engine::animation::Skin;
+use engine::animation::{Skin, SkinPose, SkinPoseSystems};
 use engine::app::{App, Plugin, PostUpdate};
 use engine::asset::{Assets, Handle};
 use engine::mesh::Mesh;
@@ -75,7 +75,10 @@ impl Plugin for RaycastPlugin {
     fn build(&self, app: &mut App) {
         app.world.init_resource::<SceneRaycaster>();
         app.add_message::<engine::changes::Inserted<DecalReceiver>>();
-        app.add_systems(PostUpdate, (rebuild_raycaster, pose_skinned_solids).chain().after(TransformSystems::Propagate));
+        app.add_systems(
+            PostUpdate,
+            (rebuild_raycaster, pose_skinned_solids).chain().after(TransformSystems::Propagate).after(SkinPoseSystems),
+        );
     }
 }
 
@@ -136,7 +139,7 @@ struct SkinnedSolid {
     entity: Entity,
     shape: Arc<SkinnedShape>,
     to_world: Affine3A,
-    /// Joint matrices in the instance's space ([`Skin::joint_matrices`]).
+    /// Joint matrices in the instance's space (its [`SkinPose`]).
     matrices: Vec<Mat4>,
     /// World bounds of the pose (none: not posed yet, or nothing to hit).
     bounds: Option<(Vec3, Vec3)>,
@@ -145,8 +148,8 @@ struct SkinnedSolid {
 }
 
 impl SkinnedSolid {
-    fn pose(&mut self, skin: &Skin, global: &GlobalTransform, joints: &Query<Ref<GlobalTransform>>) {
-        skin.joint_matrices(global, |j| joints.get(j).ok().map(|g| g.0), &mut self.matrices);
+    fn pose(&mut self, pose: &SkinPose, global: &GlobalTransform) {
+        self.matrices.clone_from(&pose.0);
         self.to_world = global.0;
         let local = render::skinning::posed_bounds(&self.shape.joint_bounds, self.matrices.iter().copied());
         self.bounds = local.map(|(lo, hi)| {
@@ -458,11 +461,10 @@ fn collect_solids(
     ignored: Query<Ref<RaycastIgnore>>,
     parents: Query<&ChildOf>,
     meshes: Res<Assets<Mesh>>,
-    skins: Query<(Ref<Skin>, Ref<GlobalTransform>)>,
-    joints: Query<Ref<GlobalTransform>>,
+    skins: Query<(Ref<SkinPose>, &GlobalTransform)>,
 ) -> SceneRaycaster {
     let mut raycaster = gather(&instances, &ignored, &parents, &meshes, HashMap::new());
-    raycaster.pose_all(&skins, &joints, true);
+    raycaster.pose_all(&skins, true);
     raycaster
 }
 
@@ -505,26 +507,22 @@ pub fn rebuild_raycaster(
 }
 
 /// Keeps the skinned instances of the [`SceneRaycaster`] in their current pose: joint matrices
-/// and posed bounds of those whose joints or transform moved (or that are new to it), so a cast
-/// hits a character where it is drawn. Runs after [`rebuild_raycaster`].
-pub fn pose_skinned_solids(
-    mut raycaster: ResMut<SceneRaycaster>,
-    skins: Query<(Ref<Skin>, Ref<GlobalTransform>)>,
-    joints: Query<Ref<GlobalTransform>>,
-) {
+/// (their [`SkinPose`]) and posed bounds of those whose pose changed (or that are new to it), so
+/// a cast hits a character where it is drawn. Runs after [`rebuild_raycaster`].
+pub fn pose_skinned_solids(mut raycaster: ResMut<SceneRaycaster>, skins: Query<(Ref<SkinPose>, &GlobalTransform)>) {
     if !raycaster.skinned.is_empty() {
-        raycaster.pose_all(&skins, &joints, false);
+        raycaster.pose_all(&skins, false);
     }
 }
 
 impl SceneRaycaster {
-    /// Poses the skinned instances whose pose changed (all of them with `all`, and those never
-    /// posed).
-    fn pose_all(&mut self, skins: &Query<(Ref<Skin>, Ref<GlobalTransform>)>, joints: &Query<Ref<GlobalTransform>>, all: bool) {
+    /// Poses the skinned instances whose [`SkinPose`] changed (all of them with `all`, and those
+    /// never posed).
+    fn pose_all(&mut self, skins: &Query<(Ref<SkinPose>, &GlobalTransform)>, all: bool) {
         for solid in &mut self.skinned {
-            let Ok((skin, global)) = skins.get(solid.entity) else { continue };
-            if all || solid.matrices.is_empty() || Skin::pose_changed(&skin, &global, joints) {
-                solid.pose(&skin, &global, joints);
+            let Ok((pose, global)) = skins.get(solid.entity) else { continue };
+            if all || solid.matrices.is_empty() || pose.is_changed() {
+                solid.pose(&pose, global);
             }
         }
     }

@@ -4,8 +4,9 @@
 //! `decal_method` (the method applied, which may differ from the one asked for: `none` when the
 //! device can run no decal method in this pipeline), `tier`,
 //! `device`, `size` `[w, h]`, `gpu_ms` (one key per pass, summed over the times it ran, plus
-//! `total`), `cpu_ms` (`extract`,
-//! `record`, and `submit`: the part of `record` spent in the driver's queue submission), and `counters` (`bytes_uploaded`, `records_written`, `blas_builds`,
+//! `total`), `cpu_ms` (`frame`: the whole update up to submission, GPU waits left out;
+//! `extract`; `animate`: sampling animation clips; `record`, and `submit`: the part of `record`
+//! spent in the driver's queue submission), and `counters` (`bytes_uploaded`, `records_written`, `blas_builds`,
 //! `blas_updates`, `tlas_builds`, `instances`, `lights`, `decals`, `transparent`: blended instances drawn,
 //! `shadow_map_views`: atlas tiles drawn, `shadow_maps_missing`: lights the atlas had no room
 //! for), and, in frames that applied
@@ -35,6 +36,12 @@
 //! the main view in `measured_frame` (absent until one has): `instances` (tested),
 //! `after_frustum`, `after_occlusion` (drawn), `dropped` (draws that found their list full:
 //! never expected).
+//!
+//! Skinning (`render/src/skinning`): `counters.skinned_meshes` and `skinned_vertices` (posed
+//! meshes and vertices the skinning pass wrote this frame), `scene_blas_refits` (their BLASes
+//! refit; rebuilds count in `scene_blas_builds`), `visited.poses` (skinned instances whose pose
+//! extraction set), and the `skinning`, `scene_blas_refit` and `scene_blas_build` passes in
+//! `gpu_ms`.
 
 use plugins::FrameStats;
 use serde_json::{Map, Value, json};
@@ -71,10 +78,16 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
         "cpu_ms": {
             "frame": round(stats.cpu_frame_ms),
             "extract": round(stats.cpu_extract_ms),
+            "animate": round(stats.cpu_animate_ms),
             "record": round(stats.cpu_record_ms),
             "submit": round(stats.cpu_submit_ms),
         },
-        "visited": { "instances": stats.visited.instances, "lights": stats.visited.lights, "decals": stats.visited.decals },
+        "visited": {
+            "instances": stats.visited.instances,
+            "lights": stats.visited.lights,
+            "decals": stats.visited.decals,
+            "poses": stats.visited.poses,
+        },
         "counters": {
             "bytes_uploaded": c.bytes_uploaded,
             "records_written": c.records_written,
@@ -95,6 +108,9 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
             "shadow_maps_missing": c.shadow_maps_missing,
             "draw_calls": c.draw_calls,
             "mesh_pool_bytes": c.mesh_pool_bytes,
+            "skinned_meshes": c.skinned_meshes,
+            "skinned_vertices": c.skinned_vertices,
+            "scene_blas_refits": c.scene_blas_refits,
         },
         "culling": culling_json(&c.culling),
     });

@@ -186,6 +186,7 @@ pub struct AnimationTargets(pub Vec<Option<Entity>>);
 /// its global transform in the bind pose. A vertex at rest `p` with joints `j` and weights `w`
 /// is posed at `Σ w_i · joint_i · inverse_bind_i · p` (in the mesh's space, glTF §3.7.3).
 #[derive(Component, Clone, Debug, PartialEq)]
+#[require(SkinPose)]
 pub struct Skin {
     /// The joints' entities, in the order the mesh's joint indices count.
     pub joints: Vec<Entity>,
@@ -257,7 +258,7 @@ pub enum Repeat {
 /// Plays one clip (and, while cross-fading, blends from the previous one) on the entities of
 /// [`AnimationTargets`]. The sandbox plays a glTF's first clip on a loop.
 #[derive(Component, Clone, Debug, PartialEq)]
-#[require(AnimationTargets)]
+#[require(AnimationTargets, AnimationOutput)]
 pub struct AnimationPlayer {
     /// The clip playing.
     pub clip: Handle<AnimationClip>,
@@ -328,113 +329,185 @@ fn wrap(t: f32, duration: f32, repeat: Repeat) -> f32 {
 #[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct AnimationSystems;
 
+/// [`update_skin_poses`], after transform propagation: what reads [`SkinPose`] runs after it.
+#[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct SkinPoseSystems;
+
 /// Adds `Assets<AnimationClip>` and [`animate`], in [`PostUpdate`] before transform
-/// propagation.
+/// propagation, and [`update_skin_poses`] after it.
 pub struct AnimationPlugin;
 
 impl Plugin for AnimationPlugin {
     fn build(&self, app: &mut App) {
         app.world.get_resource_or_init::<Assets<AnimationClip>>();
+        app.world.init_resource::<AnimationStats>();
         app.add_systems(PostUpdate, animate.in_set(AnimationSystems).before(TransformSystems::Propagate));
+        app.add_systems(PostUpdate, update_skin_poses.in_set(SkinPoseSystems).after(TransformSystems::Propagate));
     }
 }
 
+/// The skinning matrices of a skinned entity's current pose ([`Skin::joint_matrices`]: per
+/// joint, in the entity's space), kept by [`update_skin_poses`] and changed only when the pose
+/// changed, so the renderer's extraction and picking read them through change detection.
+/// Added with every [`Skin`].
+#[derive(Component, Clone, Debug, Default, PartialEq)]
+pub struct SkinPose(pub Vec<glam::Mat4>);
+
+/// Recomputes the [`SkinPose`] of every skinned entity whose pose changed ([`Skin::pose_changed`]),
+/// in parallel across the entities (each reads its joints' global transforms and writes only its
+/// own matrices).
+pub fn update_skin_poses(
+    mut skinned: Query<(Ref<Skin>, Ref<crate::transform::GlobalTransform>, &mut SkinPose)>,
+    joints: Query<Ref<crate::transform::GlobalTransform>>,
+) {
+    skinned.par_iter_mut().for_each(|(skin, global, mut pose)| {
+        if pose.0.len() != skin.joints.len() || Skin::pose_changed(&skin, &global, &joints) {
+            skin.joint_matrices(&global, |j| joints.get(j).ok().map(|g| g.0), &mut pose.0);
+        }
+    });
+}
+
 /// A pose being accumulated for one target: each property with the total weight of the clips
-/// blended into it so far.
+/// blended into it so far, and its morph weights (a range of [`AnimationOutput::weights`]).
 #[derive(Clone, Copy)]
 struct Pose {
     translation: Option<(Vec3, f32)>,
     rotation: Option<(Quat, f32)>,
     scale: Option<(Vec3, f32)>,
+    /// Start and length of its morph weights in the output, once a clip set them.
+    morph: Option<(u32, u32)>,
     weights: f32,
 }
 
-/// Reused buffers of [`animate`], so that a steady frame allocates nothing.
-#[derive(Default)]
-pub struct AnimateScratch {
+/// What a player sampled this frame, written by [`animate`]'s parallel phase and applied to the
+/// targets by its serial one (added with every [`AnimationPlayer`]; its buffers are reused, so a
+/// steady frame allocates nothing).
+#[derive(Component, Default)]
+pub struct AnimationOutput {
     poses: Vec<(Entity, Pose)>,
     /// Per target node, its index in `poses` (`u32::MAX`: none yet).
     pose_of: Vec<u32>,
+    /// Morph weights of every pose, back to back.
     weights: Vec<f32>,
+    /// One channel's sampled morph weights.
+    sampled: Vec<f32>,
+}
+
+/// What the last [`animate`] did: for statistics (`cpu_ms.animate` in the sandbox's `--stats`).
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq)]
+pub struct AnimationStats {
+    /// CPU milliseconds it took: advancing the players, sampling and writing the poses.
+    pub cpu_ms: f32,
+    /// Players it advanced.
+    pub players: u32,
+}
+
+/// Advances one player by `dt` and samples its clips (blended while cross-fading) into `out`.
+fn sample_player(
+    player: &mut AnimationPlayer,
+    targets: &AnimationTargets,
+    clips: &Assets<AnimationClip>,
+    dt: f32,
+    out: &mut AnimationOutput,
+) {
+    let AnimationOutput { poses, pose_of, weights, sampled } = out;
+    poses.clear();
+    weights.clear();
+    if !player.paused {
+        player.time += dt * player.speed;
+        if let Some(fade) = &mut player.fade {
+            fade.elapsed += dt;
+            fade.from_time += dt * fade.from_speed;
+        }
+        if player.fade.is_some_and(|f| f.elapsed >= f.duration) {
+            player.fade = None;
+        }
+    }
+    let Some(clip) = clips.get(player.clip) else { return };
+    let repeat = player.repeat;
+    if repeat == Repeat::Clamp && clip.duration > 0.0 {
+        // Keep the clock at the end, so that a later switch to Loop starts from there.
+        player.time = player.time.clamp(0.0, clip.duration);
+    }
+    let blend = player.blend();
+    let from = player.fade.and_then(|f| clips.get(f.from).map(|c| (c, wrap(f.from_time, c.duration, repeat), 1.0 - blend)));
+    let layers = [Some((clip, wrap(player.time, clip.duration, repeat), blend)), from];
+    pose_of.clear();
+    pose_of.resize(targets.0.len(), u32::MAX);
+    for (clip, t, weight) in layers.into_iter().flatten().filter(|l| l.2 > 0.0) {
+        for channel in &clip.channels {
+            let Some(&Some(entity)) = targets.0.get(channel.target) else { continue };
+            let slot = &mut pose_of[channel.target];
+            if *slot == u32::MAX {
+                *slot = poses.len() as u32;
+                poses.push((entity, Pose { translation: None, rotation: None, scale: None, morph: None, weights: 0.0 }));
+            }
+            let pose = &mut poses[*slot as usize].1;
+            match sample_channel(channel, t, sampled) {
+                Sampled::Translation(v) => accumulate(&mut pose.translation, v, weight, Vec3::lerp),
+                Sampled::Scale(v) => accumulate(&mut pose.scale, v, weight, Vec3::lerp),
+                Sampled::Rotation(q) => accumulate(&mut pose.rotation, q, weight, Quat::slerp),
+                Sampled::Weights => {
+                    // The first clip sets them, a later one mixes in by its share.
+                    match pose.morph {
+                        None => {
+                            pose.morph = Some((weights.len() as u32, sampled.len() as u32));
+                            weights.extend_from_slice(sampled);
+                        }
+                        Some((start, len)) => {
+                            let share = weight / (pose.weights + weight);
+                            let range = start as usize..(start + len) as usize;
+                            for (a, &b) in weights[range].iter_mut().zip(sampled.iter()) {
+                                *a += (b - *a) * share;
+                            }
+                        }
+                    }
+                    pose.weights += weight;
+                }
+            }
+        }
+    }
 }
 
 /// Advances every player by the frame's time and writes the sampled pose into its targets'
 /// [`Transform`]s and [`MorphWeights`]. A property the clip does not animate keeps its value;
 /// during a cross-fade the two clips' values are blended by [`AnimationPlayer::blend`].
+///
+/// Two phases: the players are advanced and sampled in parallel (each into its own
+/// [`AnimationOutput`]: the clips are read-only, so players never contend), then the poses are
+/// written to the targets one player after another (two players may share a target; the later
+/// one wins, as before). Sampling is most of the work, so a crowd scales with the cores.
 pub fn animate(
     time: Res<Time>,
     clips: Option<Res<Assets<AnimationClip>>>,
-    mut players: Query<(&mut AnimationPlayer, &AnimationTargets)>,
+    mut players: Query<(&mut AnimationPlayer, &AnimationTargets, &mut AnimationOutput)>,
     mut transforms: Query<&mut Transform>,
     mut morphs: Query<&mut MorphWeights>,
-    mut scratch: Local<AnimateScratch>,
+    stats: Option<ResMut<AnimationStats>>,
 ) {
     let Some(clips) = clips else { return };
-    let AnimateScratch { poses, pose_of, weights } = &mut *scratch;
+    let started = std::time::Instant::now();
     let dt = time.delta_secs();
-    for (mut player, targets) in &mut players {
-        if !player.paused {
-            let speed = player.speed;
-            player.time += dt * speed;
-            if let Some(fade) = &mut player.fade {
-                fade.elapsed += dt;
-                fade.from_time += dt * fade.from_speed;
-            }
-            if player.fade.is_some_and(|f| f.elapsed >= f.duration) {
-                player.fade = None;
-            }
-        }
-        let Some(clip) = clips.get(player.clip) else { continue };
-        let repeat = player.repeat;
-        if repeat == Repeat::Clamp && clip.duration > 0.0 {
-            // Keep the clock at the end, so that a later switch to Loop starts from there.
-            let clamped = player.time.clamp(0.0, clip.duration);
-            if player.time != clamped {
-                player.time = clamped;
-            }
-        }
-        let blend = player.blend();
-        let from = player.fade.and_then(|f| clips.get(f.from).map(|c| (c, wrap(f.from_time, c.duration, repeat), 1.0 - blend)));
-        let layers = [Some((clip, wrap(player.time, clip.duration, repeat), blend)), from];
-        poses.clear();
-        pose_of.clear();
-        pose_of.resize(targets.0.len(), u32::MAX);
-        for (clip, t, weight) in layers.into_iter().flatten().filter(|l| l.2 > 0.0) {
-            for channel in &clip.channels {
-                let Some(&Some(entity)) = targets.0.get(channel.target) else { continue };
-                let slot = &mut pose_of[channel.target];
-                if *slot == u32::MAX {
-                    *slot = poses.len() as u32;
-                    poses.push((entity, Pose { translation: None, rotation: None, scale: None, weights: 0.0 }));
-                }
-                let pose = &mut poses[*slot as usize].1;
-                match sample_channel(channel, t, weights) {
-                    Sampled::Translation(v) => accumulate(&mut pose.translation, v, weight, Vec3::lerp),
-                    Sampled::Scale(v) => accumulate(&mut pose.scale, v, weight, Vec3::lerp),
-                    Sampled::Rotation(q) => accumulate(&mut pose.rotation, q, weight, Quat::slerp),
-                    Sampled::Weights => {
-                        if let Ok(mut morph) = morphs.get_mut(entity) {
-                            // The first clip replaces, a later one mixes in by its share;
-                            // written (and flagged changed) only when a value changes.
-                            let share = weight / (pose.weights + weight);
-                            let current = &morph.bypass_change_detection().0;
-                            let changed = current.len() != weights.len()
-                                || current.iter().zip(weights.iter()).any(|(&a, &b)| a + (b - a) * share != a);
-                            if changed {
-                                let values = &mut morph.0;
-                                values.resize(weights.len(), 0.0);
-                                for (a, &b) in values.iter_mut().zip(weights.iter()) {
-                                    *a += (b - *a) * share;
-                                }
-                            }
-                        }
-                        pose.weights += weight;
-                    }
+    let clips = &*clips;
+    players.par_iter_mut().for_each(|(mut player, targets, mut out)| sample_player(&mut player, targets, clips, dt, &mut out));
+    let mut advanced = 0;
+    for (_, _, out) in &players {
+        advanced += 1;
+        for &(entity, pose) in &out.poses {
+            if let Some((start, len)) = pose.morph
+                && let Ok(mut morph) = morphs.get_mut(entity)
+            {
+                let values = &out.weights[start as usize..(start + len) as usize];
+                // Written (and flagged changed) only when a value changes.
+                if morph.bypass_change_detection().0 != values {
+                    morph.0.clear();
+                    morph.0.extend_from_slice(values);
                 }
             }
-        }
-        for (entity, pose) in poses.iter() {
-            let Ok(mut transform) = transforms.get_mut(*entity) else { continue };
+            if pose.translation.is_none() && pose.rotation.is_none() && pose.scale.is_none() {
+                continue;
+            }
+            let Ok(mut transform) = transforms.get_mut(entity) else { continue };
             let mut next = *transform;
             if let Some((v, _)) = pose.translation {
                 next.translation = v;
@@ -447,6 +520,9 @@ pub fn animate(
             }
             transform.set_if_neq(next);
         }
+    }
+    if let Some(mut stats) = stats {
+        *stats = AnimationStats { cpu_ms: started.elapsed().as_secs_f32() * 1e3, players: advanced };
     }
 }
 

@@ -652,6 +652,16 @@ impl GltfPrefab {
             let Some(skin) = self.skins.get(skin) else { continue };
             match skin.joints.iter().map(|&j| entities.get(j).copied().flatten()).collect::<Option<Vec<Entity>>>() {
                 Some(joints) => {
+                    // Bones only: a joint node that also carries a light or camera stays listed.
+                    for &joint in &joints {
+                        let bare = world.get::<PointLight>(joint).is_none()
+                            && world.get::<SpotLight>(joint).is_none()
+                            && world.get::<DirectionalLight>(joint).is_none()
+                            && world.get::<crate::camera::Camera>(joint).is_none();
+                        if bare {
+                            world.entity_mut(joint).insert(crate::transform::Joint);
+                        }
+                    }
                     world.entity_mut(primitive).insert(Skin { joints, inverse_bind_matrices: skin.inverse_bind_matrices.clone().into() });
                 }
                 None => warn!(skin = ?skin.name, "a joint of this skin is not in the spawned scene; its mesh stays in its bind pose"),

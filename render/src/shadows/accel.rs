@@ -73,6 +73,8 @@ struct PosedBlas {
     area: f32,
     /// Refit this frame (after the skinning pass).
     needs_refit: bool,
+    /// Scratch bytes a refit needs (asked of the driver once, at creation).
+    update_scratch: u64,
 }
 
 /// A posed BLAS is rebuilt after this many refits at the latest.
@@ -156,6 +158,9 @@ pub struct SceneAccel {
     tlas_shrink: Shrink,
     instance_pass: vk::Pipeline,
     res: SceneAccelResources,
+    /// This frame's skinned posed meshes, and their refits with scratch offsets (kept to reuse).
+    refit_list: Vec<MeshId>,
+    refits: Vec<(usize, u64)>,
 }
 
 /// Instances the TLAS has room for at the least.
@@ -209,6 +214,8 @@ impl SceneAccel {
             shrink_scratch: false,
             tlas_shrink: Shrink::default(),
             instance_pass,
+            refit_list: Vec::new(),
+            refits: Vec::new(),
             res: SceneAccelResources {
                 blas: graph.resource("scene blas"),
                 tlas: graph.resource("scene tlas"),
@@ -298,7 +305,8 @@ impl SceneAccel {
                 "posed mesh blas",
             )?;
             let area = mirror.mesh_bounds(id).map_or(0.0, surface_area);
-            let posed = PosedBlas { refits: 0, built_area: area, area, needs_refit: false };
+            let update_scratch = sizes.update_scratch_size.next_multiple_of(256);
+            let posed = PosedBlas { refits: 0, built_area: area, area, needs_refit: false, update_scratch };
             self.blas[slot] = Some(MeshBlas {
                 accel,
                 query: None,
@@ -310,6 +318,8 @@ impl SceneAccel {
             });
         }
         // Posed meshes skinned this frame: refit, or rebuilt once refits have degraded them.
+        self.refit_list.clear();
+        self.refit_list.extend_from_slice(mirror.poses.jobs());
         for &id in mirror.poses.jobs() {
             let Some(Some(b)) = self.blas.get_mut(id.0 as usize) else { continue };
             let Some(posed) = b.posed.as_mut() else { continue };
@@ -444,19 +454,18 @@ impl SceneAccel {
             builds.push((slot, scratch_need));
             scratch_need += sizes.build_scratch_size.next_multiple_of(256);
         }
-        let mut refits: Vec<(usize, u64)> = Vec::new();
-        for (slot, b) in self.blas.iter().enumerate() {
-            let Some(b) = b.as_ref().filter(|b| b.posed.is_some_and(|p| p.needs_refit) && !b.needs_build) else { continue };
-            let Some((vertices, indices, vertex_count)) = scene.mesh_geometry(MeshId(slot as u32)) else { continue };
-            let sizes = build_sizes(
-                ctx,
-                vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
-                POSED_FLAGS,
-                &[triangles(vertices, indices, vertex_count)],
-                &[b.primitives],
-            );
-            refits.push((slot, scratch_need));
-            scratch_need += sizes.update_scratch_size.next_multiple_of(256);
+        // This frame's refits (the posed meshes skinned: `mirror.poses.jobs()`, listed in
+        // `prepare`), each with its own piece of scratch.
+        let mut refits = std::mem::take(&mut self.refits);
+        refits.clear();
+        for &id in &self.refit_list {
+            let Some(posed) = self.blas.get(id.0 as usize).and_then(Option::as_ref).filter(|b| !b.needs_build).and_then(|b| b.posed) else {
+                continue;
+            };
+            if posed.needs_refit && scene.mesh_geometry(id).is_some() {
+                refits.push((id.0 as usize, scratch_need));
+                scratch_need += posed.update_scratch;
+            }
         }
         let tlas_sizes = build_sizes(
             ctx,
@@ -527,24 +536,41 @@ impl SceneAccel {
                 .write(res.blas, BufferUse::Accel)
                 .write(res.scratch, BufferUse::Accel)
                 .record(|p| {
-                    for &(slot, offset) in &refits {
-                        let b = blas[slot].as_ref().expect("listed above");
-                        let (vertices, indices, vertex_count) = scene.mesh_geometry(MeshId(slot as u32)).expect("listed above");
-                        let geometry = [triangles(vertices, indices, vertex_count)];
-                        let info = build_info(
-                            vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
-                            POSED_FLAGS,
-                            b.accel.raw,
-                            true,
-                            &geometry,
-                            scratch + offset,
-                        );
-                        let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(b.primitives)];
-                        // SAFETY: `cmd` is recording; the skinning pass wrote the vertices earlier
-                        // this frame (declared); the structure was built with ALLOW_UPDATE from
-                        // the same geometry; each refit has its own scratch range.
-                        unsafe { asx.cmd_build_acceleration_structures(p.cmd, &[info], &[&ranges[..]]) };
-                    }
+                    // One call for every refit: a crowd's thousands of BLASes in one command.
+                    let geometries: Vec<[vk::AccelerationStructureGeometryKHR; 1]> = refits
+                        .iter()
+                        .map(|&(slot, _)| {
+                            let (vertices, indices, vertex_count) = scene.mesh_geometry(MeshId(slot as u32)).expect("listed above");
+                            [triangles(vertices, indices, vertex_count)]
+                        })
+                        .collect();
+                    let infos: Vec<_> = refits
+                        .iter()
+                        .zip(&geometries)
+                        .map(|(&(slot, offset), geometry)| {
+                            let b = blas[slot].as_ref().expect("listed above");
+                            build_info(
+                                vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+                                POSED_FLAGS,
+                                b.accel.raw,
+                                true,
+                                geometry,
+                                scratch + offset,
+                            )
+                        })
+                        .collect();
+                    let ranges: Vec<[vk::AccelerationStructureBuildRangeInfoKHR; 1]> = refits
+                        .iter()
+                        .map(|&(slot, _)| {
+                            let primitives = blas[slot].as_ref().expect("listed above").primitives;
+                            [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(primitives)]
+                        })
+                        .collect();
+                    let ranges: Vec<&[vk::AccelerationStructureBuildRangeInfoKHR]> = ranges.iter().map(|r| &r[..]).collect();
+                    // SAFETY: `cmd` is recording; the skinning pass wrote the vertices earlier
+                    // this frame (declared); each structure was built with ALLOW_UPDATE from the
+                    // same geometry; each refit has its own scratch range.
+                    unsafe { asx.cmd_build_acceleration_structures(p.cmd, &infos, &ranges) };
                 })?;
             counters.scene_blas_refits += refits.len() as u64;
         }
@@ -553,6 +579,7 @@ impl SceneAccel {
             posed.refits += 1;
             posed.needs_refit = false;
         }
+        self.refits = refits;
         for &(slot, _) in &builds {
             let b = self.blas[slot].as_mut().expect("listed above");
             b.needs_build = false;
