@@ -341,7 +341,7 @@ impl Plugin for AnimationPlugin {
     fn build(&self, app: &mut App) {
         app.world.get_resource_or_init::<Assets<AnimationClip>>();
         app.world.init_resource::<AnimationStats>();
-        app.add_systems(PostUpdate, animate.in_set(AnimationSystems).before(TransformSystems::Propagate));
+        app.add_systems(PostUpdate, (link_animation_targets, animate).chain().in_set(AnimationSystems).before(TransformSystems::Propagate));
         app.add_systems(PostUpdate, update_skin_poses.in_set(SkinPoseSystems).after(TransformSystems::Propagate));
     }
 }
@@ -469,19 +469,43 @@ fn sample_player(
     }
 }
 
+/// The player that animates an entity, and which of its [`AnimationTargets`] the entity is
+/// (its node index): how [`animate`] writes poses in parallel, each target fetching its own.
+/// Set by [`link_animation_targets`] when a player's targets are set; an entity two players
+/// target follows the one linked last.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AnimatedBy {
+    /// The entity with the [`AnimationPlayer`].
+    pub player: Entity,
+    /// The entity's index in the player's [`AnimationTargets`].
+    pub node: u32,
+}
+
+/// Links the targets of players whose [`AnimationTargets`] were set to them ([`AnimatedBy`]).
+/// Runs before [`animate`].
+pub fn link_animation_targets(mut commands: Commands, players: Query<(Entity, &AnimationTargets), Changed<AnimationTargets>>) {
+    for (player, targets) in &players {
+        for (node, target) in targets.0.iter().enumerate() {
+            if let Some(target) = *target {
+                commands.entity(target).try_insert(AnimatedBy { player, node: node as u32 });
+            }
+        }
+    }
+}
+
 /// Advances every player by the frame's time and writes the sampled pose into its targets'
 /// [`Transform`]s and [`MorphWeights`]. A property the clip does not animate keeps its value;
 /// during a cross-fade the two clips' values are blended by [`AnimationPlayer::blend`].
 ///
-/// Two phases: the players are advanced and sampled in parallel (each into its own
-/// [`AnimationOutput`]: the clips are read-only, so players never contend), then the poses are
-/// written to the targets one player after another (two players may share a target; the later
-/// one wins, as before). Sampling is most of the work, so a crowd scales with the cores.
+/// Two parallel phases: the players are advanced and sampled (each into its own
+/// [`AnimationOutput`]: the clips are read-only, so players never contend), then every target
+/// ([`AnimatedBy`]) fetches its pose from its player's output and writes its own `Transform`.
+/// A crowd scales with the cores. Morph weights, rare, are written after, one player at a time.
 pub fn animate(
     time: Res<Time>,
     clips: Option<Res<Assets<AnimationClip>>>,
     mut players: Query<(&mut AnimationPlayer, &AnimationTargets, &mut AnimationOutput)>,
-    mut transforms: Query<&mut Transform>,
+    mut targets: Query<(Entity, &AnimatedBy, &mut Transform)>,
     mut morphs: Query<&mut MorphWeights>,
     stats: Option<ResMut<AnimationStats>>,
 ) {
@@ -490,6 +514,29 @@ pub fn animate(
     let dt = time.delta_secs();
     let clips = &*clips;
     players.par_iter_mut().for_each(|(mut player, targets, mut out)| sample_player(&mut player, targets, clips, dt, &mut out));
+    let outputs = &players;
+    targets.par_iter_mut().for_each(|(entity, by, mut transform)| {
+        let Ok((_, links, out)) = outputs.get(by.player) else { return };
+        // Still this player's target, and posed this frame?
+        if links.0.get(by.node as usize) != Some(&Some(entity)) {
+            return;
+        }
+        let Some(&(_, pose)) = out.pose_of.get(by.node as usize).and_then(|&i| out.poses.get(i as usize)) else { return };
+        if pose.translation.is_none() && pose.rotation.is_none() && pose.scale.is_none() {
+            return;
+        }
+        let mut next = *transform;
+        if let Some((v, _)) = pose.translation {
+            next.translation = v;
+        }
+        if let Some((q, _)) = pose.rotation {
+            next.rotation = q.normalize();
+        }
+        if let Some((v, _)) = pose.scale {
+            next.scale = v;
+        }
+        transform.set_if_neq(next);
+    });
     let mut advanced = 0;
     for (_, _, out) in &players {
         advanced += 1;
@@ -504,21 +551,6 @@ pub fn animate(
                     morph.0.extend_from_slice(values);
                 }
             }
-            if pose.translation.is_none() && pose.rotation.is_none() && pose.scale.is_none() {
-                continue;
-            }
-            let Ok(mut transform) = transforms.get_mut(entity) else { continue };
-            let mut next = *transform;
-            if let Some((v, _)) = pose.translation {
-                next.translation = v;
-            }
-            if let Some((q, _)) = pose.rotation {
-                next.rotation = q.normalize();
-            }
-            if let Some((v, _)) = pose.scale {
-                next.scale = v;
-            }
-            transform.set_if_neq(next);
         }
     }
     if let Some(mut stats) = stats {
