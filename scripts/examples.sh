@@ -25,5 +25,11 @@ echo "examples.sh: shoot (two clicks on the model: two bullet holes)"
 out=$("$bin/shoot" "$model" --headless --frames 8 --size 160x120 --click 80,60 --click 70,50)
 echo "$out"
 grep -q ", 2 decals" <<<"$out" || { echo "examples.sh: shoot did not leave two bullet holes" >&2; exit 1; }
+echo "examples.sh: skinned_decals (the shared Fox, shot on its bones: holes on its skin)"
+fox=../shared/assets/gltf/Fox/Fox.glb
+[ -f "$fox" ] || { echo "examples.sh: $fox is missing" >&2; exit 1; }
+out=$("$bin/skinned_decals" "$fox" --headless --frames 30 --size 160x120)
+echo "$out"
+grep -qE ", ([4-9]|[1-9][0-9]+) decals" <<<"$out" || { echo "examples.sh: skinned_decals left too few holes" >&2; exit 1; }
 echo "examples.sh: headless_test"
 "$bin/headless_test"
