@@ -35,7 +35,7 @@ use gpu_allocator::MemoryLocation;
 use crate::RenderError;
 use crate::gpu::accel::{AccelStruct, Scratch, build_info, build_sizes, instances_geometry};
 use crate::gpu::device::GpuContext;
-use crate::gpu::memory::{Buffer, Retired};
+use crate::gpu::memory::{Buffer, Graveyard, Retired};
 use crate::gpu::pipeline::create_compute;
 use crate::gpu::shaders;
 use crate::gpu::upload::Shrink;
@@ -247,14 +247,7 @@ impl SceneAccel {
         }
         for (id, data) in &mirror.pending_meshes {
             let slot = id.0 as usize;
-            if self.blas.len() <= slot {
-                self.blas.resize_with(slot + 1, || None);
-            }
-            if let Some(old) = self.blas[slot].take() {
-                self.free_queries.extend(old.query);
-                old.accel.bury(graveyard, frame_value);
-            }
-            self.blas_table_dirty = true;
+            self.vacate(slot, graveyard, frame_value);
             let primitives = (data.indices.len() / 3) as u32;
             if primitives == 0 || data.vertices.is_empty() {
                 continue; // nothing to hit: the instance stays inactive
@@ -285,14 +278,7 @@ impl SceneAccel {
                 continue;
             };
             let slot = id.0 as usize;
-            if self.blas.len() <= slot {
-                self.blas.resize_with(slot + 1, || None);
-            }
-            if let Some(old) = self.blas[slot].take() {
-                self.free_queries.extend(old.query);
-                old.accel.bury(graveyard, frame_value);
-            }
-            self.blas_table_dirty = true;
+            self.vacate(slot, graveyard, frame_value);
             if primitives == 0 {
                 continue;
             }
@@ -427,6 +413,18 @@ impl SceneAccel {
             work,
             instance_count: count,
         })
+    }
+
+    /// Makes room for mesh `slot`'s BLAS, burying the one it replaces (the table is rewritten).
+    fn vacate(&mut self, slot: usize, graveyard: &mut Graveyard, frame_value: u64) {
+        if self.blas.len() <= slot {
+            self.blas.resize_with(slot + 1, || None);
+        }
+        if let Some(old) = self.blas[slot].take() {
+            self.free_queries.extend(old.query);
+            old.accel.bury(graveyard, frame_value);
+        }
+        self.blas_table_dirty = true;
     }
 
     /// Records this frame's work after the upload: new meshes' BLAS builds and their size
