@@ -104,6 +104,9 @@ impl App {
     /// ([`crate::changes::Inserted`]), and empty frame schedules, without any plugin. Games usually want
     /// [`App::new`], which adds the engine's default plugins (transform propagation) to this.
     pub fn empty() -> Self {
+        // Parallel queries (animation, skin poses) run on the compute pool; a schedule run by the
+        // single-threaded executor would otherwise find it missing.
+        bevy_tasks::ComputeTaskPool::get_or_init(bevy_tasks::TaskPool::default);
         let mut world = World::new();
         world.init_resource::<Schedules>();
         world.insert_resource(Time::default());
