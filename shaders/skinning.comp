@@ -1,7 +1,8 @@
 #version 460
-// GPU skinning (render/src/skinning): linear blend skinning (glTF 2.0 §3.7.3) of this frame's
-// posed meshes, one invocation per vertex, a row of workgroups per job. Each posed mesh gets its
-// rest-pose vertices moved by the blend of its four joints' matrices; normals and tangents by
+// GPU skinning (render/src/skinning): morph targets (glTF 2.0 §3.7.2.2), then linear blend
+// skinning (§3.7.3) of this frame's posed meshes, one invocation per vertex, a row of workgroups
+// per job. Each posed mesh gets its rest-pose vertices offset by its weighted morph targets, then
+// moved by the blend of its four joints' matrices (none without a skin); normals and tangents by
 // the blend's cofactor (perpendicular under uneven scale too); its previous positions (behind its
 // vertices, a vec4 each) keep the positions this pass overwrites, for motion vectors.
 #define NO_SCENE_PUSH
@@ -16,6 +17,8 @@ layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Pa
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer SkinRef { GpuSkinVertex skin[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) buffer PosedRef { GpuVertex vertices[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer PreviousRef { vec4 positions[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer MorphsRef { GpuMorphDelta deltas[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer WeightsRef { float weights[]; };
 
 // The joint's 3×4 matrix as a mat4x3 (columns: the three axes and the translation).
 mat4x3 joint_matrix(uint index) {
@@ -29,18 +32,28 @@ void main() {
     GpuSkinJob job = JobsRef(p.jobs).jobs[job_index];
     GpuMeshInfo mesh = MeshesRef(p.meshes).meshes[job.mesh];
     uint v = gl_WorkGroupID.x * 64u + gl_LocalInvocationID.x;
-    if (v >= mesh.vertex_count || mesh.skin == 0ul || mesh.rest == 0ul) return;
-
-    GpuSkinVertex s = SkinRef(mesh.skin).skin[v];
-    uvec4 joints = uvec4(s.joints01 & 0xFFFFu, s.joints01 >> 16, s.joints23 & 0xFFFFu, s.joints23 >> 16);
-    vec4 weights = vec4(unpackUnorm2x16(s.weights01), unpackUnorm2x16(s.weights23));
-    weights /= max(weights.x + weights.y + weights.z + weights.w, 1e-6);
-    mat4x3 m = weights.x * joint_matrix(job.palette + joints.x);
-    if (weights.y > 0.0) m += weights.y * joint_matrix(job.palette + joints.y);
-    if (weights.z > 0.0) m += weights.z * joint_matrix(job.palette + joints.z);
-    if (weights.w > 0.0) m += weights.w * joint_matrix(job.palette + joints.w);
+    if (v >= mesh.vertex_count || mesh.rest == 0ul || (mesh.skin == 0ul && mesh.morph_targets == 0u)) return;
 
     GpuVertex rest = VerticesRef(mesh.rest).vertices[v];
+    for (uint t = 0u; t < mesh.morph_targets; ++t) {
+        float w = WeightsRef(p.weights).weights[job.weights + t];
+        if (w == 0.0) continue;
+        GpuMorphDelta d = MorphsRef(mesh.morphs).deltas[t * mesh.vertex_count + v];
+        rest.position += w * d.position;
+        rest.normal += w * d.normal;
+    }
+
+    mat4x3 m = mat4x3(1.0);   // no skin: the morphed rest pose as it is
+    if (mesh.skin != 0ul) {
+        GpuSkinVertex s = SkinRef(mesh.skin).skin[v];
+        uvec4 joints = uvec4(s.joints01 & 0xFFFFu, s.joints01 >> 16, s.joints23 & 0xFFFFu, s.joints23 >> 16);
+        vec4 weights = vec4(unpackUnorm2x16(s.weights01), unpackUnorm2x16(s.weights23));
+        weights /= max(weights.x + weights.y + weights.z + weights.w, 1e-6);
+        m = weights.x * joint_matrix(job.palette + joints.x);
+        if (weights.y > 0.0) m += weights.y * joint_matrix(job.palette + joints.y);
+        if (weights.z > 0.0) m += weights.z * joint_matrix(job.palette + joints.z);
+        if (weights.w > 0.0) m += weights.w * joint_matrix(job.palette + joints.w);
+    }
     mat3 linear = mat3(m);
     // Cofactor matrix: the inverse transpose times the determinant (normals need only the
     // direction, and it exists for singular matrices too).

@@ -9,7 +9,7 @@ use bevy_ecs::entity::{EntityHashMap, EntityHashSet};
 use bevy_ecs::message::MessageReader;
 use bevy_ecs::prelude::*;
 use bevy_ecs::system::SystemParam;
-use engine::animation::{Skin, SkinPose};
+use engine::animation::{MorphWeights, Skin, SkinPose};
 use engine::asset::{AssetEvent, Assets, Handle};
 use engine::camera::Camera;
 use engine::changes::Inserted;
@@ -439,7 +439,8 @@ pub fn extract_instances(
             continue;
         }
         // A skinned instance draws a posed copy of its mesh (kept while the mesh stays).
-        let mesh = match (skinned && mirror.poses.is_skinned(mesh), slots.posed.get(&entity).copied()) {
+        let posable = (skinned && mirror.poses.is_skinned(mesh)) || mirror.poses.morph_targets(mesh) > 0;
+        let mesh = match (posable, slots.posed.get(&entity).copied()) {
             (true, Some((posed, source))) if source == mesh => posed,
             (want, old) => {
                 if let Some((posed, _)) = old {
@@ -470,13 +471,15 @@ pub fn extract_instances(
     stats.over_limit.instances = waiting.len();
 }
 
-/// Poses skinned instances: for each whose [`SkinPose`] changed this frame (its joints or it
-/// moved; `engine::animation::update_skin_poses` computes the matrices in parallel) or whose
-/// posed mesh is new, the matrices go to its posed mesh ([`render::SceneMirror::set_pose`]) and
-/// its culling bounds follow the pose. It visits the skinned instances (not every instance), and
-/// the skinning pass then runs for those that moved.
+/// Poses skinned and morphed instances: for each whose [`SkinPose`] changed this frame (its
+/// joints or it moved; `engine::animation::update_skin_poses` computes the matrices in
+/// parallel), whose [`MorphWeights`] (its own or its glTF node's) changed, or whose posed mesh
+/// is new, the matrices and weights go to its posed mesh ([`render::SceneMirror::set_pose`]) and
+/// its culling bounds follow the pose. It visits the posed instances (not every instance), and
+/// the skinning pass then runs for those that changed.
 pub fn extract_poses(
-    skinned: Query<(Entity, Ref<SkinPose>)>,
+    skins: Query<Ref<SkinPose>>,
+    (morphs, parents): (Query<Ref<MorphWeights>>, Query<&ChildOf>),
     (mut mirror, mut slots): (ResMut<RenderMirror>, ResMut<MirrorSlots>),
     mut stats: ResMut<RenderStats>,
 ) {
@@ -485,12 +488,17 @@ pub fn extract_poses(
     let mut fresh = std::mem::take(&mut slots.fresh_poses);
     fresh.sort_unstable();
     let mut posed = 0;
-    for (entity, pose) in &skinned {
-        let Some(&(mesh, _)) = slots.posed.get(&entity) else { continue };
-        if !pose.is_changed() && fresh.binary_search(&entity).is_err() {
+    for (&entity, &(mesh, _)) in slots.posed.iter() {
+        let skin = skins.get(entity).ok();
+        // Morph weights live on the glTF node: the instance's own, or its parent's.
+        let weights = morphs.get(entity).ok().or_else(|| parents.get(entity).ok().and_then(|p| morphs.get(p.parent()).ok()));
+        let changed = skin.as_ref().is_some_and(|p| p.is_changed()) || weights.as_ref().is_some_and(|w| w.is_changed());
+        if !changed && fresh.binary_search(&entity).is_err() {
             continue;
         }
-        if mirror.set_pose(mesh, pose.0.iter().copied()) {
+        let joints = skin.as_ref().map_or(&[][..], |p| &p.0[..]);
+        let weights = weights.as_ref().map_or(&[][..], |w| &w.0[..]);
+        if mirror.set_pose(mesh, joints.iter().copied(), weights) {
             posed += 1;
             if let Some(&slot) = slots.instances.get(&entity) {
                 mirror.refresh_cull(slot);

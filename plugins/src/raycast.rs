@@ -25,7 +25,8 @@
 //! cast that reaches those bounds poses that instance's triangles on the CPU (linear blend
 //! skinning, as the GPU does) and tests them. A hit on a skin also says where it is in the rest
 //! pose ([`Hit::rest`]): what a decal that stays on the skin is placed with
-//! ([`crate::decal::Decal::on_skin`]).
+//! ([`crate::decal::Decal::on_skin`]). Morph targets are not applied to picking (the renderer
+//! applies them): a cast hits the skinned but unmorphed surface.
 //!
 //! ```
 //! use engine::prelude::*;

@@ -24,7 +24,7 @@ use engine::light::{DirectionalLight, PointLight, SpotLight};
 use engine::material::Material;
 use engine::mesh::Mesh;
 use glam::{Mat4, Vec3};
-use render::scene::{DECAL_CHANNELS, GpuLight, GpuSkinVertex, GpuVertex, MeshData};
+use render::scene::{DECAL_CHANNELS, GpuLight, GpuMorphDelta, GpuSkinVertex, GpuVertex, MeshData};
 
 use crate::decal::Decal;
 
@@ -303,7 +303,30 @@ pub fn mesh_data(mesh: &Mesh) -> Result<(MeshData, Option<String>), String> {
         }
         None => Vec::new(),
     };
-    Ok((MeshData { vertices, indices, skin }, (!repaired.is_empty()).then(|| format!("had {}", repaired.join(", ")))))
+    // Morph targets, target after target: position offsets (and normal offsets, when given).
+    let complete = mesh.morph_targets.iter().all(|t| t.positions.len() == n && (t.normals.is_empty() || t.normals.len() == n));
+    if !complete {
+        repaired.push("morph targets without one offset per vertex (dropped)".to_owned());
+    }
+    let targets = if complete { mesh.morph_targets.as_slice() } else { &[] };
+    let morphs = targets
+        .iter()
+        .flat_map(|t| {
+            (0..n).map(move |i| GpuMorphDelta { position: t.positions[i], normal: t.normals.get(i).copied().unwrap_or([0.0; 3]) })
+        })
+        .map(|d| {
+            if Vec3::from(d.position).is_finite() && Vec3::from(d.normal).is_finite() {
+                d
+            } else {
+                GpuMorphDelta { position: [0.0; 3], normal: [0.0; 3] }
+            }
+        })
+        .collect();
+    let morph_targets = targets.len() as u32;
+    Ok((
+        MeshData { vertices, indices, skin, morphs, morph_targets },
+        (!repaired.is_empty()).then(|| format!("had {}", repaired.join(", "))),
+    ))
 }
 
 #[cfg(test)]

@@ -984,6 +984,23 @@ layout! {
         /// Device address of the joints and weights (`GpuSkinVertex` per vertex) of a skinned
         /// mesh and its posed copies; 0 for a mesh without a skin.
         pub skin: u64,
+        /// Device address of the morph targets' offsets (`GpuMorphDelta`, target after target,
+        /// `vertex_count` each) of a mesh with morph targets and its posed copies; 0 without.
+        pub morphs: u64,
+        /// Number of morph targets.
+        pub morph_targets: u32,
+        /// Padding to 16 bytes.
+        pub pad: u32,
+    }
+
+    /// One vertex's offsets in one morph target (glTF 2.0 §3.7.2.2), added in proportion to the
+    /// target's weight before skinning.
+    #[layout(scalar)]
+    pub struct GpuMorphDelta {
+        /// Position offset.
+        pub position: [f32; 3],
+        /// Normal offset.
+        pub normal: [f32; 3],
     }
 
     /// Joints and weights of one vertex of a skinned mesh: four joint indices as 16-bit halves
@@ -1021,8 +1038,8 @@ layout! {
         pub palette: u32,
         /// 1 the first time it is posed: its previous positions are set to the new ones.
         pub first: u32,
-        /// Padding to 16 bytes.
-        pub pad: u32,
+        /// Its first morph weight in the weights array (the mesh's `morph_targets` of them).
+        pub weights: u32,
     }
 
     /// The skinning pass's push constants (its pipeline has a layout of its own).
@@ -1035,6 +1052,8 @@ layout! {
         pub jobs: u64,
         /// Address of the joint palette (`GpuJointMatrix` each).
         pub palette: u64,
+        /// Address of the morph weights (floats).
+        pub weights: u64,
         /// Number of jobs.
         pub job_count: u32,
         /// Workgroups per job along x (the largest mesh's vertices / 64).

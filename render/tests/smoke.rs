@@ -11,7 +11,11 @@ use render::{FrameSettings, Renderer, RendererSettings, Tier};
 
 fn quad() -> MeshData {
     let v = |x: f32, z: f32| GpuVertex { position: [x, 0.0, z], normal: [0.0, 1.0, 0.0], uv: [x, z], tangent: [1.0, 0.0, 0.0, 1.0] };
-    MeshData { vertices: vec![v(-1.0, -1.0), v(-1.0, 1.0), v(1.0, 1.0), v(1.0, -1.0)], indices: vec![0, 1, 2, 0, 2, 3], skin: vec![] }
+    MeshData {
+        vertices: vec![v(-1.0, -1.0), v(-1.0, 1.0), v(1.0, 1.0), v(1.0, -1.0)],
+        indices: vec![0, 1, 2, 0, 2, 3],
+        ..Default::default()
+    }
 }
 
 #[test]

@@ -1,6 +1,6 @@
 //! GPU skinning (`render/src/skinning`) on lavapipe: a procedural two-joint cylinder bent by
-//! 90° renders as its CPU linear-blend-skinning reference (the same geometry posed on the CPU and
-//! drawn as a rigid mesh) in every pipeline, its shadow follows the pose with ray-traced shadows
+//! 90° and swollen by a morph target renders as its CPU reference (the same geometry morphed and
+//! linear-blend skinned on the CPU and drawn as a rigid mesh) in every pipeline, its shadow follows the pose with ray-traced shadows
 //! on both ray-tracing tiers and with shadow maps, and a pose that stops changing stops costing.
 //! A decal on the skin, placed at rest where the joints' weights blend, stays on its surface
 //! point when the tube bends (every pipeline and decal method), while the same decal in the
@@ -12,8 +12,8 @@
 
 #![forbid(unsafe_code)]
 
-use engine::animation::Skin;
-use engine::mesh::SkinWeights;
+use engine::animation::{MorphWeights, Skin};
+use engine::mesh::{MorphTarget, SkinWeights};
 use engine::prelude::*;
 use plugins::decal::{Decal, DecalMaterial};
 use plugins::{RenderMirror, RenderSettings, RenderStats};
@@ -69,20 +69,38 @@ fn bendy_cylinder() -> Mesh {
             [1.0 - t, t, 0.0, 0.0]
         })
         .collect();
+    // A morph target that swells the middle of the tube (up to 0.15 m outwards at the elbow).
+    let bulge = positions.iter().map(|p| {
+        let swell = 0.15 * (1.0 - (p[1] - 1.0).abs()).max(0.0);
+        let out = Vec2::new(p[0], p[2]).normalize_or_zero() * swell;
+        [out.x, 0.0, out.y]
+    });
+    let bulge = MorphTarget { positions: bulge.collect(), normals: Vec::new() };
     let mut mesh = Mesh::new(positions, normals, uvs, indices).expect("a valid tube");
     mesh.skin = Some(SkinWeights::normalized(vec![[0, 1, 0, 0]; weights.len()], weights));
+    mesh.morph_targets = vec![bulge];
     mesh
 }
 
+/// The weight the tube's bulge is posed with.
+const BULGE: f32 = 0.6;
+
 /// The tube posed on the CPU by `matrices` (linear blend skinning, normals by the cofactor of
 /// each vertex's blended matrix), as a rigid mesh.
-fn posed_on_cpu(mesh: &Mesh, matrices: &[Mat4]) -> Mesh {
+fn posed_on_cpu(mesh: &Mesh, matrices: &[Mat4], morph_weights: &[f32]) -> Mesh {
     let skin = mesh.skin.as_ref().expect("skinned");
     let mut posed = mesh.clone();
     posed.skin = None;
+    posed.morph_targets.clear();
     for i in 0..mesh.positions.len() {
         let (j, w) = (skin.joints[i], skin.weights[i]);
-        posed.positions[i] = Skin::pose_point(matrices, Vec3::from(mesh.positions[i]), j, w).into();
+        // Morph targets first (their normal offsets are zero here), then the joints.
+        let morphed = mesh
+            .morph_targets
+            .iter()
+            .zip(morph_weights)
+            .fold(Vec3::from(mesh.positions[i]), |p, (t, &m)| p + m * Vec3::from(t.positions[i]));
+        posed.positions[i] = Skin::pose_point(matrices, morphed, j, w).into();
         let blend: Mat3 = (0..4).map(|k| Mat3::from_mat4(matrices[j[k] as usize]) * w[k]).fold(Mat3::ZERO, |a, b| a + b);
         let cofactor =
             Mat3::from_cols(blend.y_axis.cross(blend.z_axis), blend.z_axis.cross(blend.x_axis), blend.x_axis.cross(blend.y_axis));
@@ -119,6 +137,7 @@ fn scene(app: &mut App, angle: f32) -> Bend {
     let handle = app.world.resource_mut::<Assets<Mesh>>().add(mesh.clone());
     let skin = Skin { joints: vec![root, elbow], inverse_bind_matrices: vec![Mat4::IDENTITY, Mat4::from_translation(-Vec3::Y)].into() };
     let tube = app.world.spawn((MeshInstance { mesh: handle, material: red }, skin, Transform::from_xyz(-0.5, 0.0, 0.0))).id();
+    app.world.entity_mut(tube).insert(MorphWeights(vec![BULGE]));
     Bend { tube, elbow, mesh, material: red }
 }
 
@@ -158,7 +177,7 @@ fn skinned_and_reference(pipeline: PipelineKind, tier: Tier, shadow_maps: bool) 
     assert_eq!(stats.skinned_meshes, 0, "a pose that stopped changing is not skinned again");
 
     // The reference: the CPU-posed tube as a rigid mesh where the skinned one was.
-    let posed = posed_on_cpu(&bend.mesh, &matrices(&mut app, &bend));
+    let posed = posed_on_cpu(&bend.mesh, &matrices(&mut app, &bend), &[BULGE]);
     let handle = app.world.resource_mut::<Assets<Mesh>>().add(posed);
     app.world.entity_mut(bend.tube).remove::<Skin>().insert(MeshInstance { mesh: handle, material: bend.material });
     let reference = frames(&mut app, 3);
@@ -262,7 +281,9 @@ fn a_decal_on_the_skin_stays_on_its_surface_point_in_every_pipeline_and_method()
         let green = |p: [f32; 4]| p[1] > 1.5 * p[0] && p[1] > 1.5 * p[2];
         let pixel_of = |app: &mut App, bend: &Bend| {
             let m = matrices(app, bend);
-            let posed = Skin::pose_point(&m, rest, [0, 1, 0, 0], [0.125, 0.875, 0.0, 0.0]);
+            // The surface point there: swollen by the bulge (along +z on the front), then posed.
+            let swollen = rest + Vec3::Z * 0.15 * (1.0 - (rest.y - 1.0).abs()) * BULGE;
+            let posed = Skin::pose_point(&m, swollen, [0, 1, 0, 0], [0.125, 0.875, 0.0, 0.0]);
             let world = app.world.get::<GlobalTransform>(bend.tube).unwrap().compute_matrix().transform_point3(posed);
             let clip = app.world.resource::<RenderMirror>().0.camera().view_proj * world.extend(1.0);
             let ndc = clip.truncate() / clip.w;
@@ -292,4 +313,31 @@ fn a_decal_on_the_skin_stays_on_its_surface_point_in_every_pipeline_and_method()
             "{what}: a world decal does not follow the skin ({world_n} pixels at {world})"
         );
     }
+}
+
+#[test]
+fn a_morph_target_without_a_skin_follows_its_weight() {
+    let mut app = gpu_app_at(SIZE.0, SIZE.1, RenderSettings { pipeline: PipelineKind::VisBuffer, ..Default::default() }, Tier::RayQuery);
+    let bend = scene(&mut app, 0.0);
+    app.world.despawn(bend.tube);
+    // A 1 m sphere whose target pushes its top half 0.4 m up, at weight 0.75.
+    let mut ball = shapes::uv_sphere(0.5, 24, 12);
+    let lift: Vec<[f32; 3]> = ball.positions.iter().map(|p| if p[1] > 0.0 { [0.0, 0.4, 0.0] } else { [0.0; 3] }).collect();
+    ball.morph_targets = vec![MorphTarget { positions: lift.clone(), normals: Vec::new() }];
+    let mut reference = ball.clone();
+    reference.morph_targets.clear();
+    for (p, d) in reference.positions.iter_mut().zip(&lift) {
+        p[1] += 0.75 * d[1];
+    }
+    let at = Transform::from_xyz(0.3, 0.6, 0.0);
+    let handle = app.world.resource_mut::<Assets<Mesh>>().add(ball);
+    let ball = app.world.spawn((MeshInstance { mesh: handle, material: bend.material }, at, MorphWeights(vec![0.75]))).id();
+    let morphed = frames(&mut app, 3);
+    assert_eq!(app.world.resource::<RenderStats>().last.skinned_meshes, 0, "posed once, then still");
+    let handle = app.world.resource_mut::<Assets<Mesh>>().add(reference);
+    app.world.entity_mut(ball).insert(MeshInstance { mesh: handle, material: bend.material });
+    let expected = frames(&mut app, 3);
+    assert_no_validation_errors(&mut app);
+    let (mean, p99) = error_stats(&morphed, &expected, |_| true);
+    assert!(mean <= 1e-4 && p99 <= 1e-3, "the morphed sphere differs from its CPU reference (mean {mean}, p99 {p99})");
 }

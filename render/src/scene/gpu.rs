@@ -326,6 +326,8 @@ pub struct GpuMesh {
     pub vertex_count: u32,
     /// Whether joints and weights follow the indices.
     pub skinned: bool,
+    /// Morph targets (their offsets follow the skin).
+    pub morph_targets: u32,
     /// The skinned mesh a posed mesh copies.
     pub source: Option<MeshId>,
 }
@@ -341,6 +343,12 @@ impl GpuMesh {
         (self.index_offset() + self.index_count as u64 * 4).next_multiple_of(16)
     }
 
+    /// Byte offset of the morph targets' offsets (after the skin, if any).
+    fn morph_offset(&self) -> u64 {
+        let skin = if self.skinned { self.vertex_count as u64 * std::mem::size_of::<GpuSkinVertex>() as u64 } else { 0 };
+        (self.skin_offset() + skin).next_multiple_of(16)
+    }
+
     /// The table entry of a mesh that is not posed.
     fn info(&self, pool: vk::DeviceAddress) -> GpuMeshInfo {
         let vertices = pool + self.offset;
@@ -353,6 +361,9 @@ impl GpuMesh {
             vertex_count: self.vertex_count,
             rest: vertices,
             skin: if self.skinned { pool + self.skin_offset() } else { 0 },
+            morphs: if self.morph_targets > 0 { pool + self.morph_offset() } else { 0 },
+            morph_targets: self.morph_targets,
+            pad: 0,
         }
     }
 
@@ -360,7 +371,8 @@ impl GpuMesh {
     /// vertices and skin. Nothing to draw or skin when the source is gone or no longer has its
     /// vertex count (it was replaced).
     fn posed_info(&self, pool: vk::DeviceAddress, source: Option<&GpuMesh>) -> GpuMeshInfo {
-        let Some(source) = source.filter(|s| s.skinned && s.vertex_count == self.vertex_count) else { return GpuMeshInfo::default() };
+        let posable = |s: &&GpuMesh| (s.skinned || s.morph_targets > 0) && s.vertex_count == self.vertex_count;
+        let Some(source) = source.filter(posable) else { return GpuMeshInfo::default() };
         let vertices = pool + self.offset;
         GpuMeshInfo {
             vertices,
@@ -375,10 +387,17 @@ fn posed_bytes(vertices: u32) -> u64 {
     vertices as u64 * (std::mem::size_of::<crate::scene::GpuVertex>() as u64 + 16)
 }
 
-/// The bytes a mesh takes in the pool: vertices, indices, and (16-byte aligned) its skin.
+/// The bytes a mesh takes in the pool: vertices, indices, then (each 16-byte aligned) its skin
+/// and its morph targets.
 fn mesh_bytes(m: &MeshData) -> u64 {
-    let plain = RangeAllocator::mesh_bytes(m.vertices.len(), m.indices.len());
-    if m.skin.is_empty() { plain } else { plain.next_multiple_of(16) + (m.skin.len() * std::mem::size_of::<GpuSkinVertex>()) as u64 }
+    let mut bytes = RangeAllocator::mesh_bytes(m.vertices.len(), m.indices.len());
+    if !m.skin.is_empty() {
+        bytes = bytes.next_multiple_of(16) + (m.skin.len() * std::mem::size_of::<GpuSkinVertex>()) as u64;
+    }
+    if !m.morphs.is_empty() {
+        bytes = bytes.next_multiple_of(16) + std::mem::size_of_val(m.morphs.as_slice()) as u64;
+    }
+    bytes
 }
 
 /// What the mesh pool does this frame.
@@ -714,7 +733,7 @@ impl GpuScene {
                 self.released_ranges.push((up.frame_value, mesh.offset, mesh.bytes));
                 self.mesh_info[id.0 as usize] = GpuMeshInfo::default();
                 self.mesh_info_dirty = true;
-                released_source |= mesh.skinned;
+                released_source |= mesh.skinned || mesh.morph_targets > 0;
             }
         }
         if let Some(pool) = self.mesh_pool.as_ref().map(|p| p.address).filter(|_| released_source) {
@@ -939,30 +958,34 @@ impl GpuScene {
             for (id, data) in &pending {
                 let vbytes: &[u8] = bytemuck::cast_slice(&data.vertices);
                 let ibytes: &[u8] = bytemuck::cast_slice(&data.indices);
-                let sbytes: &[u8] = bytemuck::cast_slice(&data.skin);
                 let size = mesh_bytes(data);
                 let place = self.ranges.alloc(size).expect("the plan made room for every pending mesh");
-                let mapped = staging.mapped();
-                let o = offset as usize;
-                mapped[o..o + vbytes.len()].copy_from_slice(vbytes);
-                mapped[o + vbytes.len()..o + vbytes.len() + ibytes.len()].copy_from_slice(ibytes);
-                if !sbytes.is_empty() {
-                    let s = o + size as usize - sbytes.len();
-                    mapped[s..s + sbytes.len()].copy_from_slice(sbytes);
-                }
-                if size > 0 {
-                    copies.buffer_copy(staging.raw, pool.raw).push(offset, place, size);
-                }
-                offset = (offset + size).next_multiple_of(16);
-                up.bytes += size;
                 let mesh = GpuMesh {
                     offset: place,
                     bytes: size,
                     index_count: data.indices.len() as u32,
                     vertex_count: data.vertices.len() as u32,
                     skinned: !data.skin.is_empty(),
+                    morph_targets: data.morph_targets,
                     source: None,
                 };
+                let mapped = staging.mapped();
+                let o = offset as usize;
+                mapped[o..o + vbytes.len()].copy_from_slice(vbytes);
+                mapped[o + vbytes.len()..o + vbytes.len() + ibytes.len()].copy_from_slice(ibytes);
+                // The skin and the morph targets where the mesh's offsets say (relative to it).
+                for (at, bytes) in [
+                    (mesh.skin_offset(), bytemuck::cast_slice::<_, u8>(&data.skin)),
+                    (mesh.morph_offset(), bytemuck::cast_slice(&data.morphs)),
+                ] {
+                    let s = o + (at - place) as usize;
+                    mapped[s..s + bytes.len()].copy_from_slice(bytes);
+                }
+                if size > 0 {
+                    copies.buffer_copy(staging.raw, pool.raw).push(offset, place, size);
+                }
+                offset = (offset + size).next_multiple_of(16);
+                up.bytes += size;
                 placed.push((*id, mesh));
             }
             up.graveyard.bury(up.frame_value, Retired::Buffer(staging));
@@ -981,6 +1004,7 @@ impl GpuScene {
                 index_count: src.index_count,
                 vertex_count: src.vertex_count,
                 skinned: false,
+                morph_targets: 0,
                 source: Some(source),
             };
             self.place(id, mesh, up.frame_value);

@@ -18,8 +18,8 @@ use glam::{Mat4, Vec2, Vec3};
 pub use crate::layout::{
     CULL_BATCHES, CULL_DOUBLE_SIDED, CULL_LIVE, CULL_MASKED, CULL_TRANSPARENT, DECAL_ALBEDO, DECAL_CHANNEL_SHIFT, DECAL_CHANNELS,
     DECAL_METALLIC, DECAL_NORMAL, DECAL_ON_SKIN, DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuCullRecord, GpuDecal, GpuDecalMaterial,
-    GpuDrawCommand, GpuInstance, GpuJointMatrix, GpuLight, GpuMaterial, GpuMeshInfo, GpuSkinVertex, GpuVertex, MATERIAL_ALPHA_MASK,
-    MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, NO_DECAL, RESERVED_TEXTURES, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
+    GpuDrawCommand, GpuInstance, GpuJointMatrix, GpuLight, GpuMaterial, GpuMeshInfo, GpuMorphDelta, GpuSkinVertex, GpuVertex,
+    MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, NO_DECAL, RESERVED_TEXTURES, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
 };
 
 impl GpuInstance {
@@ -351,6 +351,11 @@ pub struct MeshData {
     /// Joints and weights, one per vertex, for a mesh that can be posed
     /// ([`SceneMirror::add_posed_mesh`]); empty for a rigid mesh.
     pub skin: Vec<GpuSkinVertex>,
+    /// Morph targets' offsets, target after target, one per vertex each (`morph_targets` ×
+    /// the vertex count; otherwise they are dropped); empty without morph targets.
+    pub morphs: Vec<GpuMorphDelta>,
+    /// Number of morph targets in `morphs`.
+    pub morph_targets: u32,
 }
 
 /// Pixels to upload: RGBA8, a full or partial mip chain, level 0 first.
@@ -903,23 +908,34 @@ impl SceneMirror {
         if data.skin.len() != data.vertices.len() {
             data.skin.clear();
         }
-        let skin = (!data.skin.is_empty()).then(|| {
+        if data.morph_targets == 0 || data.morphs.len() != data.morph_targets as usize * data.vertices.len() {
+            data.morphs.clear();
+            data.morph_targets = 0;
+        }
+        let posable = !data.skin.is_empty() || data.morph_targets > 0;
+        let source = posable.then(|| {
             let vertices = data.vertices.iter().zip(&data.skin).map(|(v, s)| (Vec3::from(v.position), s.joints(), s.weights()));
-            let joints = crate::skinning::joint_bounds(vertices);
-            (joints, data.vertices.len() as u32)
+            let reach = |target: &[GpuMorphDelta]| target.iter().map(|d| Vec3::from(d.position).length()).fold(0.0, f32::max);
+            crate::skinning::SourceDesc {
+                joint_bounds: crate::skinning::joint_bounds(vertices),
+                vertices: data.vertices.len() as u32,
+                rest_bounds: bounds,
+                morph_reach: data.morphs.chunks(data.vertices.len().max(1)).map(reach).collect(),
+            }
         });
-        self.poses.set_source(id, skin);
+        self.poses.set_source(id, source);
         self.pending_meshes.push((id, data));
         id
     }
 
-    /// A posed copy of skinned mesh `source` for one instance to draw: vertices of its own,
-    /// written by the skinning pass from the joint matrices [`SceneMirror::set_pose`] sets;
-    /// indices, rest-pose vertices and weights shared with `source` (`crate::skinning`).
-    /// `None` when `source` has no skin. Free it with [`SceneMirror::remove_mesh`]; it draws
-    /// its source's bind pose until it is first posed.
+    /// A posed copy of skinned (or morphed) mesh `source` for one instance to draw: vertices
+    /// of its own, written by the skinning pass from the joint matrices and morph weights
+    /// [`SceneMirror::set_pose`] sets; indices, rest-pose vertices, weights and morph targets
+    /// shared with `source` (`crate::skinning`). `None` when `source` has neither a skin nor
+    /// morph targets. Free it with [`SceneMirror::remove_mesh`]; it draws its source's bind
+    /// pose until it is first posed.
     pub fn add_posed_mesh(&mut self, source: MeshId) -> Option<MeshId> {
-        if !self.poses.is_skinned(source) {
+        if !self.poses.can_pose(source) {
             return None;
         }
         let bounds = self.mesh_bounds.get(source.0 as usize).copied().unwrap_or((Vec3::ZERO, Vec3::ZERO));
@@ -929,17 +945,18 @@ impl SceneMirror {
         // Its first skinning is its bind pose: the joint matrices that leave every vertex where
         // it is, until a pose is set.
         let joints = self.poses.joint_count(source);
-        self.poses.set(id, std::iter::repeat_n(Mat4::IDENTITY, joints));
+        self.poses.set(id, std::iter::repeat_n(Mat4::IDENTITY, joints), &[]);
         Some(id)
     }
 
     /// Sets the joint matrices of posed mesh `posed` (per joint of its skin: the joint's
     /// transform × its inverse bind matrix, in the space of the instance that draws it, i.e.
-    /// the instance's world matrix inverse × joint world × inverse bind). The pose's bounds
+    /// the instance's world matrix inverse × joint world × inverse bind) and its morph weights
+    /// (one per morph target; missing ones are 0). The pose's bounds
     /// become the mesh's: set the instance again ([`SceneMirror::set_instance`]) for culling to
     /// follow them. Returns false (nothing set) when `posed` is not a posed mesh.
-    pub fn set_pose(&mut self, posed: MeshId, joints: impl IntoIterator<Item = Mat4>) -> bool {
-        let Some(bounds) = self.poses.set(posed, joints) else { return false };
+    pub fn set_pose(&mut self, posed: MeshId, joints: impl IntoIterator<Item = Mat4>, morph_weights: &[f32]) -> bool {
+        let Some(bounds) = self.poses.set(posed, joints, morph_weights) else { return false };
         if let (Some(bounds), Some(slot)) = (bounds, self.mesh_bounds.get_mut(posed.0 as usize)) {
             *slot = bounds;
         }
@@ -1209,7 +1226,7 @@ mod tests {
         let mesh = m.add_mesh(MeshData {
             vertices: vec![GpuVertex { position: [1.0, 0.0, 0.0], normal: [0.0; 3], uv: [0.0; 2], tangent: [0.0; 4] }],
             indices: vec![0, 0, 0],
-            skin: vec![],
+            ..Default::default()
         });
         let at = |z: f32| GpuInstance::new(Mat4::from_translation(Vec3::new(0.0, 0.0, z)), 0, 1);
         let glass = DrawItem { mesh, alpha_mask: false, double_sided: false, transparent: true };
@@ -1359,7 +1376,7 @@ mod tests {
                 .map(|p| GpuVertex { position: p.into(), normal: [0.0, 1.0, 0.0], uv: [0.0; 2], tangent: [1.0, 0.0, 0.0, 1.0] })
                 .to_vec(),
             indices: vec![0, 1, 0],
-            skin: vec![],
+            ..Default::default()
         });
         let opaque = DrawItem { mesh: cube, alpha_mask: false, double_sided: false, transparent: false };
         let at = |x: f32| GpuInstance::new(Mat4::from_translation(Vec3::new(x, 0.0, 0.0)), 0, 1);

@@ -18,6 +18,9 @@
 //! - **One dispatch.** This frame's jobs (posed mesh, first joint matrix) and joint matrices
 //!   (3×4, 48 bytes a joint) go up in one array with the scene's upload; one dispatch covers
 //!   every job, a row of workgroups per job.
+//! - **Morph targets** (blend shapes, glTF §3.7.2.2) are added first, in proportion to their
+//!   weights (`MorphWeights`), then the joints move the result; a mesh with morph targets and no
+//!   skin is posed the same way, with no joints.
 //! - **Normals and tangents** are transformed by the cofactor of each vertex's blended matrix,
 //!   so joints that scale unevenly still give perpendicular normals.
 //! - **Bounds.** At load, every joint gets the rest-pose bounds of the vertices it moves; a
@@ -125,6 +128,8 @@ struct Pose {
     source: MeshId,
     vertices: u32,
     joints: Vec<GpuJointMatrix>,
+    /// Morph weights, one per target of the source.
+    weights: Vec<f32>,
     /// Never skinned yet: its first skinning also sets its previous positions.
     fresh: bool,
     /// Set this frame.
@@ -133,12 +138,24 @@ struct Pose {
     settling: bool,
 }
 
-/// A skinned mesh that posed meshes copy.
+/// A skinned (or morphed) mesh that posed meshes copy.
 #[derive(Clone, Debug)]
 struct Source {
-    /// Per joint, the rest bounds of the vertices it moves.
+    /// Per joint, the rest bounds of the vertices it moves (empty without a skin).
     joint_bounds: Arc<[(Vec3, Vec3)]>,
     vertices: u32,
+    /// Rest bounds of the whole mesh.
+    rest_bounds: (Vec3, Vec3),
+    /// Per morph target, the longest position offset: how far a weight of 1 can move a vertex.
+    morph_reach: Arc<[f32]>,
+}
+
+/// What posing needs of a mesh that can be posed ([`crate::scene::SceneMirror::add_mesh`]).
+pub(crate) struct SourceDesc {
+    pub joint_bounds: Vec<(Vec3, Vec3)>,
+    pub vertices: u32,
+    pub rest_bounds: (Vec3, Vec3),
+    pub morph_reach: Vec<f32>,
 }
 
 /// The CPU side of skinning, kept in the [`SceneMirror`]: each skinned source mesh's joint
@@ -155,22 +172,38 @@ pub struct PoseTable {
     jobs: Vec<MeshId>,
     /// Their vertices.
     job_vertices: u64,
+    /// Their joint matrices (the morph weights follow them).
+    palette_len: u32,
 }
 
 impl PoseTable {
-    /// Notes a skinned source mesh (its joint bounds and vertex count), or forgets a mesh id's
-    /// skin (`None`).
-    pub(crate) fn set_source(&mut self, id: MeshId, skin: Option<(Vec<(Vec3, Vec3)>, u32)>) {
+    /// Notes a source mesh that can be posed (skinned or morphed), or forgets one (`None`).
+    pub(crate) fn set_source(&mut self, id: MeshId, desc: Option<SourceDesc>) {
         let slot = id.0 as usize;
         if self.sources.len() <= slot {
             self.sources.resize(slot + 1, None);
         }
-        self.sources[slot] = skin.map(|(bounds, vertices)| Source { joint_bounds: bounds.into(), vertices });
+        self.sources[slot] = desc.map(|d| Source {
+            joint_bounds: d.joint_bounds.into(),
+            vertices: d.vertices,
+            rest_bounds: d.rest_bounds,
+            morph_reach: d.morph_reach.into(),
+        });
     }
 
-    /// Whether mesh `id` has a skin (it can be posed).
-    pub fn is_skinned(&self, id: MeshId) -> bool {
+    /// Whether mesh `id` can be posed: it has a skin or morph targets.
+    pub fn can_pose(&self, id: MeshId) -> bool {
         self.sources.get(id.0 as usize).is_some_and(Option::is_some)
+    }
+
+    /// Whether mesh `id` has a skin (joints move it).
+    pub fn is_skinned(&self, id: MeshId) -> bool {
+        self.joint_count(id) > 0
+    }
+
+    /// The number of morph targets of mesh `id` (0 for a mesh that cannot be posed).
+    pub fn morph_targets(&self, id: MeshId) -> usize {
+        self.sources.get(id.0 as usize).and_then(Option::as_ref).map_or(0, |s| s.morph_reach.len())
     }
 
     /// The number of joints mesh `id`'s skin refers to (0 for a mesh without a skin).
@@ -190,7 +223,8 @@ impl PoseTable {
         if self.poses.len() <= slot {
             self.poses.resize(slot + 1, None);
         }
-        self.poses[slot] = Some(Pose { source, vertices, joints: Vec::new(), fresh: true, changed: false, settling: false });
+        self.poses[slot] =
+            Some(Pose { source, vertices, joints: Vec::new(), weights: Vec::new(), fresh: true, changed: false, settling: false });
         true
     }
 
@@ -205,54 +239,75 @@ impl PoseTable {
     }
 
     /// Sets a posed mesh's joint matrices (joint's world × inverse bind matrix, in the posed
-    /// mesh's object space) and returns the pose's bounds (`None` when they cannot be known);
-    /// `None` (nothing set) when `posed` is not a posed mesh.
-    pub(crate) fn set(&mut self, posed: MeshId, joints: impl IntoIterator<Item = Mat4>) -> Option<Option<(Vec3, Vec3)>> {
+    /// mesh's object space; ignored for a mesh without a skin) and morph weights (missing ones
+    /// are 0), and returns the pose's bounds (`None` when they cannot be known); `None` (nothing
+    /// set) when `posed` is not a posed mesh.
+    pub(crate) fn set(&mut self, posed: MeshId, joints: impl IntoIterator<Item = Mat4>, weights: &[f32]) -> Option<Option<(Vec3, Vec3)>> {
         let pose = self.poses.get_mut(posed.0 as usize)?.as_mut()?;
+        let source = self.sources.get(pose.source.0 as usize).and_then(Option::as_ref)?;
         pose.joints.clear();
-        pose.joints.extend(joints.into_iter().map(GpuJointMatrix::from_mat4));
+        if !source.joint_bounds.is_empty() {
+            pose.joints.extend(joints.into_iter().map(GpuJointMatrix::from_mat4));
+        }
+        pose.weights.clear();
+        pose.weights.extend((0..source.morph_reach.len()).map(|t| weights.get(t).copied().filter(|w| w.is_finite()).unwrap_or(0.0)));
         if !pose.changed && !pose.settling {
             self.active.push(posed);
         }
         pose.changed = true;
-        let source = self.sources.get(pose.source.0 as usize).and_then(Option::as_ref);
-        Some(source.and_then(|s| posed_bounds(&s.joint_bounds, pose.joints.iter().map(|m| m.to_mat4()))))
+        // Morph targets move vertices by at most their reach times their weight: the boxes grow
+        // by that before the joints move them.
+        let reach: f32 = pose.weights.iter().zip(source.morph_reach.iter()).map(|(w, r)| w.abs() * r).sum();
+        let grow = |(lo, hi): (Vec3, Vec3)| (lo - Vec3::splat(reach), hi + Vec3::splat(reach));
+        Some(if source.joint_bounds.is_empty() {
+            Some(grow(source.rest_bounds))
+        } else {
+            let boxes = source.joint_bounds.iter().map(|&b| if b.0.cmpgt(b.1).any() { b } else { grow(b) });
+            posed_bounds(&boxes.collect::<Vec<_>>(), pose.joints.iter().map(|m| m.to_mat4()))
+        })
     }
 
     /// Collects this frame's skinning jobs into `words` (the `GpuSkinJob`s, then the joint
-    /// matrices they point at) and moves every pose a frame on: what changed settles next frame,
-    /// what settled rests. Returns the most vertices of a job.
+    /// matrices, then the morph weights they point at) and moves every pose a frame on: what
+    /// changed settles next frame, what settled rests. Returns the most vertices of a job.
     pub(crate) fn take_jobs(&mut self, words: &mut Vec<u32>) -> u32 {
         self.jobs.clear();
         words.clear();
         self.job_vertices = 0;
         let mut most = 0;
         let mut joints = 0;
+        let mut weights = 0;
         for &id in &self.active {
             let Some(Some(pose)) = self.poses.get(id.0 as usize) else { continue };
-            if pose.vertices == 0 || pose.joints.is_empty() {
+            if pose.vertices == 0 || (pose.joints.is_empty() && pose.weights.is_empty()) {
                 continue;
             }
             most = most.max(pose.vertices);
             self.job_vertices += pose.vertices as u64;
             self.jobs.push(id);
             joints += pose.joints.len();
+            weights += pose.weights.len();
         }
-        words.reserve(self.jobs.len() * 4 + joints * 12);
-        let mut first = 0u32;
+        self.palette_len = joints as u32;
+        words.reserve(self.jobs.len() * 4 + joints * 12 + weights);
+        let (mut first, mut first_weight) = (0u32, 0u32);
         for &id in &self.jobs {
             let pose = self.poses[id.0 as usize].as_ref().expect("listed above");
-            let job = GpuSkinJob { mesh: id.0, palette: first, first: pose.fresh as u32, pad: 0 };
+            let job = GpuSkinJob { mesh: id.0, palette: first, first: pose.fresh as u32, weights: first_weight };
             words.extend_from_slice(bytemuck::cast_slice(&[job]));
             first += pose.joints.len() as u32;
+            first_weight += pose.weights.len() as u32;
         }
         for &id in &self.jobs {
             words.extend_from_slice(bytemuck::cast_slice(&self.poses[id.0 as usize].as_ref().expect("listed above").joints));
         }
+        for &id in &self.jobs {
+            words.extend_from_slice(bytemuck::cast_slice(&self.poses[id.0 as usize].as_ref().expect("listed above").weights));
+        }
         let active = std::mem::take(&mut self.active);
         for id in active {
             let Some(Some(pose)) = self.poses.get_mut(id.0 as usize) else { continue };
-            pose.fresh &= pose.joints.is_empty();
+            pose.fresh &= pose.joints.is_empty() && pose.weights.is_empty();
             pose.settling = std::mem::take(&mut pose.changed);
             if pose.settling {
                 self.active.push(id);
@@ -285,6 +340,7 @@ pub struct Skinning {
     words: Vec<u32>,
     jobs: u32,
     groups: u32,
+    palette_len: u32,
 }
 
 impl Skinning {
@@ -306,7 +362,7 @@ impl Skinning {
                 return Err(e);
             }
         };
-        Ok(Self { layout, pipeline, words: Vec::new(), jobs: 0, groups: 0 })
+        Ok(Self { layout, pipeline, words: Vec::new(), jobs: 0, groups: 0, palette_len: 0 })
     }
 
     /// Before the scene's upload: collects the poses set since last frame into jobs, hands them
@@ -314,6 +370,7 @@ impl Skinning {
     pub fn prepare(&mut self, mirror: &mut SceneMirror, scene: &mut GpuScene) {
         let most = mirror.poses.take_jobs(&mut self.words);
         self.jobs = mirror.poses.jobs().len() as u32;
+        self.palette_len = mirror.poses.palette_len;
         self.groups = most.div_ceil(GROUP);
         if self.jobs > 0 {
             scene.skin_input.set(&self.words);
@@ -328,10 +385,12 @@ impl Skinning {
             return Ok(());
         }
         let jobs = scene.skin_input.address();
+        let palette = jobs + self.jobs as u64 * std::mem::size_of::<GpuSkinJob>() as u64;
         let push = GpuSkinPush {
             meshes: scene.mesh_table.address(),
             jobs,
-            palette: jobs + self.jobs as u64 * std::mem::size_of::<GpuSkinJob>() as u64,
+            palette,
+            weights: palette + self.palette_len as u64 * std::mem::size_of::<GpuJointMatrix>() as u64,
             job_count: self.jobs,
             groups: self.groups,
         };
@@ -393,12 +452,18 @@ mod tests {
     #[test]
     fn a_pose_is_skinned_when_set_and_once_more_to_settle() {
         let mut t = PoseTable::default();
-        t.set_source(MeshId(0), Some((vec![(Vec3::ZERO, Vec3::ONE)], 10)));
+        let desc = SourceDesc {
+            joint_bounds: vec![(Vec3::ZERO, Vec3::ONE)],
+            vertices: 10,
+            rest_bounds: (Vec3::ZERO, Vec3::ONE),
+            morph_reach: vec![],
+        };
+        t.set_source(MeshId(0), Some(desc));
         assert!(t.add(MeshId(1), MeshId(0)));
         assert!(!t.add(MeshId(2), MeshId(5)), "no such skinned mesh");
         let mut words = Vec::new();
         assert_eq!(t.take_jobs(&mut words), 0, "never posed: nothing to skin");
-        t.set(MeshId(1), [Mat4::IDENTITY]).expect("a posed mesh");
+        t.set(MeshId(1), [Mat4::IDENTITY], &[]).expect("a posed mesh");
         assert_eq!(t.take_jobs(&mut words), 10);
         assert_eq!(t.jobs(), &[MeshId(1)]);
         assert_eq!(words.len(), 4 + 12, "one job and one joint matrix");
