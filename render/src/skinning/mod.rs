@@ -12,9 +12,9 @@
 //! ray tracing needs anyway (the BLAS is built from it).
 //!
 //! - **Work follows the pose.** Only posed meshes whose pose was set this frame are skinned
-//!   ([`PoseTable::set`]), plus, once, those posed the frame before, so that their previous
-//!   positions catch up with a pose that stopped changing. A frame in which no pose changed
-//!   dispatches nothing and uploads nothing.
+//!   ([`crate::scene::SceneMirror::set_pose`]), plus, once, those posed the frame before, so
+//!   that their previous positions catch up with a pose that stopped changing. A frame in which
+//!   no pose changed dispatches nothing and uploads nothing.
 //! - **One dispatch.** This frame's jobs (posed mesh, first joint matrix) and joint matrices
 //!   (3×4, 48 bytes a joint) go up in one array with the scene's upload; one dispatch covers
 //!   every job, a row of workgroups per job.
@@ -316,7 +316,7 @@ impl PoseTable {
         most
     }
 
-    /// The posed meshes skinned this frame (after [`PoseTable::take_jobs`]).
+    /// The posed meshes skinned this frame (once the frame's jobs were taken).
     pub fn jobs(&self) -> &[MeshId] {
         &self.jobs
     }
