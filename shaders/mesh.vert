@@ -22,12 +22,14 @@ void main() {
     v_material = inst.material;
     v_instance = gl_InstanceIndex;
     // A posed mesh carries its rest pose along (the same vertex of its source's vertices).
-    GpuMeshInfo mesh = MeshesRef(scene.meshes).meshes[inst.mesh];
-    v_skinned_flag = mesh.rest != mesh.vertices ? 1u : 0u;
+    // (Field by field: only what is used is fetched, not the whole 64-byte record.)
+    MeshesRef meshes = MeshesRef(scene.meshes);
+    uint64_t rest_vertices = meshes.meshes[inst.mesh].rest;
+    v_skinned_flag = rest_vertices != meshes.meshes[inst.mesh].vertices ? 1u : 0u;
     v_rest_pos = v_world_pos;
     v_rest_normal = v_normal;
     if (v_skinned_flag != 0u) {
-        GpuVertex rest = VerticesRef(mesh.rest).vertices[uint(gl_VertexIndex) - mesh.vertex_offset];
+        GpuVertex rest = VerticesRef(rest_vertices).vertices[uint(gl_VertexIndex) - meshes.meshes[inst.mesh].vertex_offset];
         v_rest_pos = (inst.model * vec4(rest.position, 1.0)).xyz;
         v_rest_normal = mat3(inst.normal_model) * rest.normal;
     }

@@ -478,8 +478,9 @@ pub fn extract_instances(
 /// its culling bounds follow the pose. It visits the posed instances (not every instance), and
 /// the skinning pass then runs for those that changed.
 pub fn extract_poses(
-    skins: Query<Ref<SkinPose>>,
-    (morphs, parents): (Query<Ref<MorphWeights>>, Query<&ChildOf>),
+    skins: Query<(Entity, Ref<SkinPose>)>,
+    morphs: Query<(Entity, Ref<MorphWeights>, Option<&Children>)>,
+    parents: Query<&ChildOf>,
     (mut mirror, mut slots): (ResMut<RenderMirror>, ResMut<MirrorSlots>),
     mut stats: ResMut<RenderStats>,
 ) {
@@ -487,21 +488,41 @@ pub fn extract_poses(
     let mirror = &mut mirror.0;
     let mut fresh = std::mem::take(&mut slots.fresh_poses);
     fresh.sort_unstable();
+    fresh.dedup();
     let mut posed = 0;
-    for (&entity, &(mesh, _)) in slots.posed.iter() {
+    // Sets one instance's pose from its skin matrices and its morph weights (on the glTF node:
+    // its own, or its parent's; looked up only for meshes with morph targets).
+    let mut pose = |mirror: &mut render::SceneMirror, entity: Entity| {
+        let Some(&(mesh, source)) = slots.posed.get(&entity) else { return };
         let skin = skins.get(entity).ok();
-        // Morph weights live on the glTF node: the instance's own, or its parent's.
-        let weights = morphs.get(entity).ok().or_else(|| parents.get(entity).ok().and_then(|p| morphs.get(p.parent()).ok()));
-        let changed = skin.as_ref().is_some_and(|p| p.is_changed()) || weights.as_ref().is_some_and(|w| w.is_changed());
-        if !changed && fresh.binary_search(&entity).is_err() {
-            continue;
-        }
-        let joints = skin.as_ref().map_or(&[][..], |p| &p.0[..]);
-        let weights = weights.as_ref().map_or(&[][..], |w| &w.0[..]);
+        let weights = (mirror.poses.morph_targets(source) > 0)
+            .then(|| morphs.get(entity).ok().or_else(|| parents.get(entity).ok().and_then(|p| morphs.get(p.parent()).ok())))
+            .flatten();
+        let joints = skin.as_ref().map_or(&[][..], |(_, p)| &p.0[..]);
+        let weights = weights.as_ref().map_or(&[][..], |(_, w, _)| &w.0[..]);
         if mirror.set_pose(mesh, joints.iter().copied(), weights) {
             posed += 1;
             if let Some(&slot) = slots.instances.get(&entity) {
                 mirror.refresh_cull(slot);
+            }
+        }
+    };
+    // New posed meshes; then the instances whose skin matrices changed; then those whose morph
+    // weights (or their node's) changed. Each list names only what changed.
+    for &entity in &fresh {
+        pose(mirror, entity);
+    }
+    for (entity, skin) in &skins {
+        if skin.is_changed() && fresh.binary_search(&entity).is_err() {
+            pose(mirror, entity);
+        }
+    }
+    for (node, weights, children) in &morphs {
+        if weights.is_changed() {
+            for entity in std::iter::once(node).chain(children.into_iter().flat_map(|c| c.iter())) {
+                if fresh.binary_search(&entity).is_err() {
+                    pose(mirror, entity);
+                }
             }
         }
     }

@@ -152,7 +152,7 @@ impl SkinnedSolid {
     fn pose(&mut self, pose: &SkinPose, global: &GlobalTransform) {
         self.matrices.clone_from(&pose.0);
         self.to_world = global.0;
-        let local = render::skinning::posed_bounds(&self.shape.joint_bounds, self.matrices.iter().copied());
+        let local = render::skinning::posed_bounds(self.shape.joint_bounds.iter().copied(), self.matrices.iter().copied());
         self.bounds = local.map(|(lo, hi)| {
             let m = Mat4::from(self.to_world);
             let (center, half) = (m.transform_point3((lo + hi) * 0.5), (hi - lo) * 0.5);

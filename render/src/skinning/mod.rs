@@ -106,10 +106,10 @@ pub fn joint_bounds(vertices: impl Iterator<Item = (Vec3, [u16; 4], [f32; 4])>) 
 
 /// The bounds of a pose: each joint's rest box moved by its matrix, all of them together.
 /// `None` when no joint moves anything or a matrix is not finite.
-pub fn posed_bounds(joint_bounds: &[(Vec3, Vec3)], joints: impl IntoIterator<Item = Mat4>) -> Option<(Vec3, Vec3)> {
+pub fn posed_bounds(joint_bounds: impl IntoIterator<Item = (Vec3, Vec3)>, joints: impl IntoIterator<Item = Mat4>) -> Option<(Vec3, Vec3)> {
     let mut lo = Vec3::INFINITY;
     let mut hi = Vec3::NEG_INFINITY;
-    for (&(bmin, bmax), m) in joint_bounds.iter().zip(joints) {
+    for ((bmin, bmax), m) in joint_bounds.into_iter().zip(joints) {
         if bmin.cmpgt(bmax).any() {
             continue;
         }
@@ -263,7 +263,7 @@ impl PoseTable {
             Some(grow(source.rest_bounds))
         } else {
             let boxes = source.joint_bounds.iter().map(|&b| if b.0.cmpgt(b.1).any() { b } else { grow(b) });
-            posed_bounds(&boxes.collect::<Vec<_>>(), pose.joints.iter().map(|m| m.to_mat4()))
+            posed_bounds(boxes, pose.joints.iter().map(|m| m.to_mat4()))
         })
     }
 
@@ -446,7 +446,7 @@ mod tests {
         let bounds = joint_bounds(positions.into_iter().zip(&skin).map(|(p, s)| (p, s.joints(), s.weights())));
         assert_eq!(bounds, vec![(Vec3::ZERO, Vec3::Y), (Vec3::Y, Vec3::new(0.0, 2.0, 0.0))]);
         let moved = [GpuJointMatrix::from_mat4(Mat4::IDENTITY), GpuJointMatrix::from_mat4(Mat4::from_translation(Vec3::X * 3.0))];
-        assert_eq!(posed_bounds(&bounds, moved.map(|m| m.to_mat4())), Some((Vec3::ZERO, Vec3::new(3.0, 2.0, 0.0))));
+        assert_eq!(posed_bounds(bounds.iter().copied(), moved.map(|m| m.to_mat4())), Some((Vec3::ZERO, Vec3::new(3.0, 2.0, 0.0))));
     }
 
     #[test]
