@@ -703,6 +703,15 @@ mod tests {
     use super::*;
 
     #[test]
+    fn posed_blases_are_rebuilt_after_many_refits_or_a_big_change_of_bounds() {
+        assert!(!posed_needs_rebuild(0, 10.0, 10.0), "a fresh build is refit");
+        assert!(!posed_needs_rebuild(POSED_REBUILD_REFITS - 1, 10.0, 14.0), "bounds within 1.5x: refit");
+        assert!(posed_needs_rebuild(POSED_REBUILD_REFITS, 10.0, 10.0), "too many refits");
+        assert!(posed_needs_rebuild(3, 10.0, 15.5), "a limb stretched out");
+        assert!(posed_needs_rebuild(3, 10.0, 6.0), "curled up");
+    }
+
+    #[test]
     fn tlas_policy() {
         assert_eq!(plan_tlas_work(None, 0, false, 0, 0), TlasWork::None, "nothing to build over");
         assert_eq!(plan_tlas_work(None, 5, false, 0, 0), TlasWork::Build, "first use builds");
