@@ -492,13 +492,12 @@ pub fn extract_poses(
     let mut posed = 0;
     // Sets one instance's pose from its skin matrices and its morph weights (on the glTF node:
     // its own, or its parent's; looked up only for meshes with morph targets).
-    let mut pose = |mirror: &mut render::SceneMirror, entity: Entity| {
+    let mut pose = |mirror: &mut render::SceneMirror, entity: Entity, skin: Option<&SkinPose>| {
         let Some(&(mesh, source)) = slots.posed.get(&entity) else { return };
-        let skin = skins.get(entity).ok();
         let weights = (mirror.poses.morph_targets(source) > 0)
             .then(|| morphs.get(entity).ok().or_else(|| parents.get(entity).ok().and_then(|p| morphs.get(p.parent()).ok())))
             .flatten();
-        let joints = skin.as_ref().map_or(&[][..], |(_, p)| &p.0[..]);
+        let joints = skin.map_or(&[][..], |p| &p.0[..]);
         let weights = weights.as_ref().map_or(&[][..], |(_, w, _)| &w.0[..]);
         if mirror.set_pose(mesh, joints.iter().copied(), weights) {
             posed += 1;
@@ -510,18 +509,18 @@ pub fn extract_poses(
     // New posed meshes; then the instances whose skin matrices changed; then those whose morph
     // weights (or their node's) changed. Each list names only what changed.
     for &entity in &fresh {
-        pose(mirror, entity);
+        pose(mirror, entity, skins.get(entity).ok().map(|(_, s)| s.into_inner()));
     }
     for (entity, skin) in &skins {
         if skin.is_changed() && fresh.binary_search(&entity).is_err() {
-            pose(mirror, entity);
+            pose(mirror, entity, Some(skin.into_inner()));
         }
     }
     for (node, weights, children) in &morphs {
         if weights.is_changed() {
             for entity in std::iter::once(node).chain(children.into_iter().flat_map(|c| c.iter())) {
                 if fresh.binary_search(&entity).is_err() {
-                    pose(mirror, entity);
+                    pose(mirror, entity, skins.get(entity).ok().map(|(_, s)| s.into_inner()));
                 }
             }
         }

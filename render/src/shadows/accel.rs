@@ -77,6 +77,9 @@ struct PosedBlas {
     update_scratch: u64,
 }
 
+/// Refits recorded per `vkCmdBuildAccelerationStructuresKHR` call.
+const REFIT_BATCH: usize = 64;
+
 /// A posed BLAS is rebuilt after this many refits at the latest.
 pub const POSED_REBUILD_REFITS: u32 = 240;
 /// ... or as soon as its pose's bounds have grown or shrunk by this factor in surface area since
@@ -534,41 +537,34 @@ impl SceneAccel {
                 .write(res.blas, BufferUse::Accel)
                 .write(res.scratch, BufferUse::Accel)
                 .record(|p| {
-                    // One call for every refit: a crowd's thousands of BLASes in one command.
-                    let geometries: Vec<[vk::AccelerationStructureGeometryKHR; 1]> = refits
-                        .iter()
-                        .map(|&(slot, _)| {
+                    // In batches, from arrays on the stack: a crowd's thousands of refits take a
+                    // few calls (one each cost the driver far more) and allocate nothing.
+                    for chunk in refits.chunks(REFIT_BATCH) {
+                        let mut geometries = [[vk::AccelerationStructureGeometryKHR::default(); 1]; REFIT_BATCH];
+                        let mut ranges = [[vk::AccelerationStructureBuildRangeInfoKHR::default(); 1]; REFIT_BATCH];
+                        for (i, &(slot, _)) in chunk.iter().enumerate() {
                             let (vertices, indices, vertex_count) = scene.mesh_geometry(MeshId(slot as u32)).expect("listed above");
-                            [triangles(vertices, indices, vertex_count)]
-                        })
-                        .collect();
-                    let infos: Vec<_> = refits
-                        .iter()
-                        .zip(&geometries)
-                        .map(|(&(slot, offset), geometry)| {
-                            let b = blas[slot].as_ref().expect("listed above");
-                            build_info(
-                                vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
-                                POSED_FLAGS,
-                                b.accel.raw,
-                                true,
-                                geometry,
-                                scratch + offset,
-                            )
-                        })
-                        .collect();
-                    let ranges: Vec<[vk::AccelerationStructureBuildRangeInfoKHR; 1]> = refits
-                        .iter()
-                        .map(|&(slot, _)| {
+                            geometries[i] = [triangles(vertices, indices, vertex_count)];
                             let primitives = blas[slot].as_ref().expect("listed above").primitives;
-                            [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(primitives)]
-                        })
-                        .collect();
-                    let ranges: Vec<&[vk::AccelerationStructureBuildRangeInfoKHR]> = ranges.iter().map(|r| &r[..]).collect();
-                    // SAFETY: `cmd` is recording; the skinning pass wrote the vertices earlier
-                    // this frame (declared); each structure was built with ALLOW_UPDATE from the
-                    // same geometry; each refit has its own scratch range.
-                    unsafe { asx.cmd_build_acceleration_structures(p.cmd, &infos, &ranges) };
+                            ranges[i] = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(primitives)];
+                        }
+                        let infos: [vk::AccelerationStructureBuildGeometryInfoKHR; REFIT_BATCH] =
+                            std::array::from_fn(|i| match chunk.get(i) {
+                                Some(&(slot, offset)) => {
+                                    let b = blas[slot].as_ref().expect("listed above");
+                                    let kind = vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL;
+                                    build_info(kind, POSED_FLAGS, b.accel.raw, true, &geometries[i], scratch + offset)
+                                }
+                                None => vk::AccelerationStructureBuildGeometryInfoKHR::default(),
+                            });
+                        let range_refs: [&[vk::AccelerationStructureBuildRangeInfoKHR]; REFIT_BATCH] =
+                            std::array::from_fn(|i| &ranges[i][..]);
+                        // SAFETY: `cmd` is recording; the skinning pass wrote the vertices earlier
+                        // this frame (declared); each structure was built with ALLOW_UPDATE from
+                        // the same geometry; each refit has its own scratch range; only the
+                        // chunk's entries are passed.
+                        unsafe { asx.cmd_build_acceleration_structures(p.cmd, &infos[..chunk.len()], &range_refs[..chunk.len()]) };
+                    }
                 })?;
             counters.scene_blas_refits += refits.len() as u64;
         }
