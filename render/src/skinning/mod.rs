@@ -211,11 +211,6 @@ impl PoseTable {
         self.sources.get(id.0 as usize).and_then(Option::as_ref).map_or(0, |s| s.joint_bounds.len())
     }
 
-    /// The source of a posed mesh.
-    pub fn source_of(&self, posed: MeshId) -> Option<MeshId> {
-        self.poses.get(posed.0 as usize)?.as_ref().map(|p| p.source)
-    }
-
     /// Starts posing `source` as `posed`; false when `source` has no skin.
     pub(crate) fn add(&mut self, posed: MeshId, source: MeshId) -> bool {
         let Some(vertices) = self.sources.get(source.0 as usize).and_then(Option::as_ref).map(|s| s.vertices) else { return false };
