@@ -204,15 +204,15 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
 }
 
 /// The skinning benchmark (issue 25): `count` foxes from `character` on a ground, each playing
-/// its walk from its own time (so every pose differs and is skinned every frame), a sun, and a
+/// `clip` (its walk, or PEERS.md's run) from its own time (so every pose differs and is skinned every frame), a sun, and a
 /// camera that sees the whole crowd.
-pub fn spawn_foxes(world: &mut World, character: &std::path::Path, count: usize) -> anyhow::Result<()> {
+pub fn spawn_foxes(world: &mut World, character: &std::path::Path, clip: &str, count: usize) -> anyhow::Result<()> {
     use engine::camera::Camera;
     use engine::material::Material;
     use engine::mesh::{Mesh, shapes};
     use engine::scene::MeshInstance;
 
-    let half = crate::character::spawn_crowd(world, character, count)?;
+    let half = crate::character::spawn_crowd(world, character, clip, count)?;
     let ground = world.resource_mut::<Assets<Mesh>>().add(shapes::plane(2.0 * half + 8.0, 2.0 * half + 8.0, 1, 1.0));
     let grey = world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec3::new(0.5, 0.5, 0.48).extend(1.0), 0.0, 0.8));
     world.spawn((MeshInstance { mesh: ground, material: grey }, Transform::default(), Static));

@@ -51,6 +51,9 @@ pub struct HeadlessOptions {
     /// The character that walks the default scene, and the model of the `foxes` benchmark
     /// scene (`None`: no character).
     pub character: Option<PathBuf>,
+    /// The clip the `foxes` benchmark scene plays (the first when the model has none of that
+    /// name).
+    pub character_clip: String,
     /// Where to write the last frame as PNG.
     pub screenshot: Option<PathBuf>,
     /// Where to write one JSON object per frame.
@@ -240,6 +243,7 @@ impl Default for HeadlessOptions {
             size: (320, 240),
             scene: SceneSource::Default,
             character: crate::character::default_character(),
+            character_clip: "Walk".to_owned(),
             screenshot: None,
             stats: None,
             pipeline: PipelineKind::Forward,
@@ -324,7 +328,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         Some(crate::bench::BenchScene::BehindWall) => crate::bench::spawn_behind_wall(&mut app.world, opts.instances),
         Some(crate::bench::BenchScene::Foxes) => {
             let path = opts.character.as_deref().context("the foxes scene needs a character (--character PATH)")?;
-            crate::bench::spawn_foxes(&mut app.world, path, opts.instances)?;
+            crate::bench::spawn_foxes(&mut app.world, path, &opts.character_clip, opts.instances)?;
         }
         Some(scene) => crate::bench::spawn_bench_scene(&mut app.world, scene),
         None => load_scene(&mut app.world, &opts.scene, opts.character.as_deref())?,

@@ -36,6 +36,9 @@ struct Cli {
     /// skinned .gltf/.glb, or `none`. Default: the shared Fox, when ../shared/assets has it.
     #[arg(long)]
     character: Option<String>,
+    /// The clip `--bench-scene foxes` plays (Walk; PEERS.md's comparison uses Run).
+    #[arg(long, default_value = "Walk")]
+    character_clip: String,
     /// Write the last frame here as PNG.
     #[arg(long)]
     screenshot: Option<PathBuf>,
@@ -273,6 +276,7 @@ fn main() -> Result<()> {
             Some(path) => Some(PathBuf::from(path)),
             None => sandbox::character::default_character(),
         },
+        character_clip: cli.character_clip.clone(),
         screenshot: screenshot.clone(),
         stats: cli.stats.clone(),
         pipeline: cli.pipeline,
