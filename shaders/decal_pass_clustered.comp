@@ -4,7 +4,8 @@
 // its cluster (include/clusters.glsl) with the same test, texture sampling and per-channel
 // weighted-OIT blending as the ray-traced passes (apply_decal in decals.glsl: the sums are
 // order-independent within a channel, so list order does not matter), and writes the same
-// decal buffer. It also sums, per workgroup then once into the cluster buffer's header, the
+// decal buffer (forward and Forward+ walk the same lists inside their shading instead:
+// shading.glsl, CLUSTERED_DECALS). It also sums, per workgroup then once into the cluster buffer's header, the
 // decals tested and applied at each pixel, for the statistics.
 #include "decal_surface.glsl"
 #include "decal_buffer.glsl"
@@ -27,22 +28,13 @@ void main() {
     DecalSurface s, skin;
     bool skinned;
     if (all(lessThan(px, ivec2(scene.camera.camera.viewport_size))) && decal_surface_at(px, s, skinned, skin)) {
-        uint c = cluster_index(uvec2(px) / DECAL_CLUSTER_TILE, cluster_slice(view_distance(s.position)));
-        ClusterWordsRef w = cluster_words();
-        uint first = w.words[offsets_at() + c];
-        uint count = w.words[counts_at() + c];
-        uint end = min(first + count, scene.decal_cluster_capacity);
+        uvec2 list = cluster_list(uvec2(px), s.position);
         DecalBlend b;
         blend_init(b);
-        uint applied = 0u;
-        for (uint i = first; i < end; ++i) {
-            applied += apply_decal(b, w.words[entries_at() + i], s) ? 1u : 0u;
-        }
-        uint tested = end > first ? end - first : 0u;
+        uint applied = apply_cluster_list(b, list, s);
+        uint tested = list.y > list.x ? list.y - list.x : 0u;
         if (skinned) {   // the same list at the rest pose: decals on the skin are binned by their instance's bounds
-            for (uint i = first; i < end; ++i) {
-                applied += apply_decal(b, w.words[entries_at() + i], skin) ? 1u : 0u;
-            }
+            applied += apply_cluster_list(b, list, skin);
             tested *= 2u;
         }
         decal_buffer_store(px, b, tested);

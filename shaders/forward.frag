@@ -1,7 +1,8 @@
-// variants: RAY_QUERY_DECALS DECAL_BUFFER TRANSPARENT TRANSPARENT+RAY_QUERY_DECALS TRANSPARENT+SHADOWED_GLASS TRANSPARENT+SHADOWED_GLASS+RAY_QUERY_DECALS
+// variants: RAY_QUERY_DECALS DECAL_BUFFER CLUSTERED_DECALS TRANSPARENT TRANSPARENT+RAY_QUERY_DECALS TRANSPARENT+SHADOWED_GLASS TRANSPARENT+SHADOWED_GLASS+RAY_QUERY_DECALS
 #version 460
 // Forward shading pass (depth test EQUAL against the prepass): the material through the
-// bindless array, normal mapping, then shade_surface (ray-query decals and every light).
+// bindless array, normal mapping, then shade_surface (decals: ray queries, the decal buffer, or
+// the clustered decals' lists walked in place; then every light).
 // TRANSPARENT variants shade blended surfaces in the transparency pass (depth test GREATER,
 // no depth write, back to front; crate::transparency): the same shading with the material's
 // opacity as alpha, blended over what is behind (glTF's "over" operator); the opaque surface's

@@ -66,6 +66,10 @@ pub struct RenderSettings {
     /// Deferred lighting and visibility-buffer shading in compute (false: full-screen fragment
     /// passes).
     pub compute_shading: bool,
+    /// Forward and Forward+ apply clustered decals in their shading pass, with no decal pass
+    /// and no ids prepass ([`render::FrameSettings::decals_in_forward_shading`]: off by default,
+    /// slower on the lent H100).
+    pub decals_in_forward_shading: bool,
     /// How blended (glass) surfaces are drawn: interlaced into the deferred G-buffer (the
     /// default, deferred pipeline only), forward over the opaque image, or depth-peeled into a
     /// second G-buffer (deferred only; the full-resolution reference, at about twice the cost).
@@ -146,6 +150,7 @@ impl Default for RenderSettings {
             show_decal_boxes: false,
             lights: render::LightSettings::default(),
             compute_shading: true,
+            decals_in_forward_shading: false,
             transparency: render::TransparencyMethod::Interlaced,
             refraction: true,
             culling: render::CullingMode::Occlusion,
@@ -485,6 +490,7 @@ fn render_frame(
         show_decal_boxes: settings.show_decal_boxes,
         lights: settings.lights,
         compute_shading: settings.compute_shading,
+        decals_in_forward_shading: settings.decals_in_forward_shading,
         transparency: settings.transparency,
         refraction: settings.refraction,
         culling: settings.culling,

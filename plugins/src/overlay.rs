@@ -228,6 +228,7 @@ impl DebugOverlay {
             ui.checkbox(&mut settings.lights.shadow_ray_culling, "shadow-ray culling");
             ui.checkbox(&mut settings.lights.cull_aabb, "tile AABB");
             ui.checkbox(&mut settings.compute_shading, "compute shading");
+            ui.checkbox(&mut settings.decals_in_forward_shading, "decals in forward shading");
         });
         ui.horizontal(|ui| {
             for m in render::TransparencyMethod::ALL {

@@ -36,6 +36,12 @@ impl PipelineKind {
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|p| p.name() == name)
     }
+
+    /// Whether the pipeline shades in a forward pass over the prepass's depth (forward and
+    /// Forward+), where decals found in the shader need no decal pass and no ids prepass.
+    pub fn is_forward(self) -> bool {
+        matches!(self, PipelineKind::Forward | PipelineKind::ForwardPlus)
+    }
 }
 
 /// How decals are applied.
@@ -137,7 +143,10 @@ impl DecalMethod {
     /// requested one when it can run, else the best one that can (ray queries in the shading
     /// pass, then the ray-tracing-pipeline decal pass, then clustered decals, which run
     /// everywhere), so never nothing ([`DecalMethod::Unavailable`] remains for a device that
-    /// could run none).
+    /// could run none). In forward and Forward+ clustered decals are walked in the shading
+    /// itself, with no ids prepass; on the lent H100, whose fragment shading is slow, the
+    /// ray-tracing-pipeline pass with its ids prepass is still the faster of the two, so it
+    /// stays ahead of them (docs/BENCHMARKS.md, "Decals in forward shading").
     pub fn effective(self, pipeline: PipelineKind, support: RaySupport) -> DecalMethod {
         if self.runs(pipeline, support) {
             return self;
@@ -456,6 +465,13 @@ pub struct FrameSettings {
     /// Deferred lighting and visibility-buffer shading run as compute passes (false: as
     /// full-screen fragment passes, for comparison).
     pub compute_shading: bool,
+    /// Forward and Forward+ walk the clustered decals' lists in their shading pass (no decal
+    /// pass, no ids prepass) instead of reading the decal buffer of a clustered decal pass.
+    /// Off by default: on the lent H100, whose fragment shading is slow, it measured +0.9 ms
+    /// at 100 decals of PEERS.md's scene (the decal pass with its ids prepass: +0.9 ms too),
+    /// +1.9 ms at 1,000 (+0.9) and 290 ms a frame at 100,000 decals on the courtyard (8 ms);
+    /// docs/BENCHMARKS.md, "Decals in forward shading".
+    pub decals_in_forward_shading: bool,
     /// How blended surfaces are drawn (see [`TransparencyMethod::effective`]).
     pub transparency: TransparencyMethod,
     /// Interlaced and depth-peeled transparency displace the background by the materials'
@@ -478,6 +494,7 @@ impl Default for FrameSettings {
             show_decal_boxes: false,
             lights: LightSettings::default(),
             compute_shading: true,
+            decals_in_forward_shading: false,
             transparency: TransparencyMethod::Interlaced,
             refraction: true,
             culling: CullingMode::Occlusion,

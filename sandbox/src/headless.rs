@@ -91,6 +91,8 @@ pub struct HeadlessOptions {
     pub lights: LightSettings,
     /// Deferred lighting and visibility-buffer shading in compute.
     pub compute_shading: bool,
+    /// Forward and Forward+ walk clustered decals' lists in their shading pass.
+    pub decals_in_forward_shading: bool,
     /// How blended surfaces are drawn.
     pub transparency: render::TransparencyMethod,
     /// The shadow-map atlas.
@@ -262,6 +264,7 @@ impl Default for HeadlessOptions {
             compare_light_methods: false,
             lights: LightSettings::default(),
             compute_shading: true,
+            decals_in_forward_shading: false,
             transparency: render::TransparencyMethod::Interlaced,
             shadow_maps: render::ShadowMapBudget::default(),
             culling: render::CullingMode::Occlusion,
@@ -319,6 +322,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         show_decal_boxes: opts.show_decal_boxes,
         lights: opts.lights,
         compute_shading: opts.compute_shading,
+        decals_in_forward_shading: opts.decals_in_forward_shading,
         transparency: opts.transparency,
         culling: opts.culling,
         ..Default::default()

@@ -132,6 +132,10 @@ struct Cli {
     /// compute.
     #[arg(long)]
     fragment_shading: bool,
+    /// Forward and Forward+ apply clustered decals in their shading pass (no decal pass, no ids
+    /// prepass); slower on the lent H100 (docs/BENCHMARKS.md)
+    #[arg(long)]
+    decals_in_forward_shading: bool,
     /// Blended (glass) surfaces: interlaced into the deferred G-buffer (seed 002; deferred
     /// only, other pipelines draw them forward), interlaced_pairs (the seed's composition),
     /// forward over the opaque image, or depth_peeling (deferred only: two G-buffers, the
@@ -294,6 +298,7 @@ fn main() -> Result<()> {
         compare_light_methods: cli.compare_light_methods,
         compare_transparency: cli.compare_transparency,
         compute_shading: !cli.fragment_shading,
+        decals_in_forward_shading: cli.decals_in_forward_shading,
         transparency: cli.transparency,
         lights: render::LightSettings {
             method: cli.lights,

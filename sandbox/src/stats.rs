@@ -13,9 +13,10 @@
 //! clustered decals, `clusters`: `clusters`, `capacity`, `grows` (this frame's), and what the GPU
 //! measured in frame `measured_frame` (the one that last used this frame slot; absent until one
 //! has): `entries` (needed), `dropped` (entries that did not fit), `clusters_used`,
-//! `max_per_cluster`, `mean_per_cluster` (entries over used clusters), `pixels`, and per pixel
-//! `mean_tested`, `max_tested` (list entries walked) and `mean_applied`, `max_applied` (decals
-//! whose box held the pixel).
+//! `max_per_cluster`, `mean_per_cluster` (entries over used clusters), and, where a decal pass
+//! walked the lists (not in forward and Forward+, whose shading walks them itself), `pixels` and
+//! per pixel `mean_tested`, `max_tested` (list entries walked) and `mean_applied`, `max_applied`
+//! (decals whose box held the pixel).
 //!
 //! Transparency: `transparency` (the method applied: `interlaced`, `interlaced_pairs`,
 //! `forward` or `depth_peeling`) and `refraction` (whether glass refracts: interlaced and
@@ -152,19 +153,28 @@ fn clusters_json(k: &render::scene::DecalClusterStats) -> Value {
     let mut v = json!({ "clusters": k.clusters, "capacity": k.capacity, "limit": k.limit, "grows": k.grows, "shrinks": k.shrinks });
     if k.measured_frame != u64::MAX {
         let mean = |sum: u64, n: u64| if n == 0 { 0.0 } else { (sum as f64 / n as f64 * 100.0).round() / 100.0 };
-        let measured = json!({
+        let mut measured = json!({
             "measured_frame": k.measured_frame,
             "entries": k.entries,
             "dropped": k.dropped,
             "clusters_used": k.clusters_used,
             "max_per_cluster": k.max_per_cluster,
             "mean_per_cluster": mean(k.entries, k.clusters_used),
-            "pixels": k.pixels,
-            "mean_tested": mean(k.tested, k.pixels),
-            "max_tested": k.max_tested,
-            "mean_applied": mean(k.applied, k.pixels),
-            "max_applied": k.max_applied,
         });
+        // Per pixel only where a decal pass walked the lists (forward shading walks them itself
+        // and counts nothing).
+        if k.pixels > 0 {
+            let per_pixel = json!({
+                "pixels": k.pixels,
+                "mean_tested": mean(k.tested, k.pixels),
+                "max_tested": k.max_tested,
+                "mean_applied": mean(k.applied, k.pixels),
+                "max_applied": k.max_applied,
+            });
+            for (key, value) in per_pixel.as_object().expect("an object") {
+                measured[key] = value.clone();
+            }
+        }
         for (key, value) in measured.as_object().expect("an object") {
             v[key] = value.clone();
         }

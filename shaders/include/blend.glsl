@@ -12,15 +12,28 @@
 
 #include "layout.glsl"  // DECAL_CHANNELS
 
+// A shader that defines DECAL_BLEND_ONE_CHANNEL before including this keeps the sums of one
+// channel at a time (BLEND_SLOTS = 1): it must blend one channel's decals, fold them into a
+// DecalComposite (blend_collapse_onto), and go on with the next channel, in order. The result
+// is the same arithmetic; the state is a quarter of the size, which is what a forward shading
+// pass that walks decal lists can afford (shading.glsl, CLUSTERED_DECALS).
+#ifdef DECAL_BLEND_ONE_CHANNEL
+#define BLEND_SLOTS 1u
+#define BLEND_SLOT(c) 0u
+#else
+#define BLEND_SLOTS DECAL_CHANNELS
+#define BLEND_SLOT(c) (c)
+#endif
+
 struct DecalBlend {
-    vec4 albedo[DECAL_CHANNELS];   // rgb: Σ albedo·a·w,  a: Π(1−a)
-    vec4 normal[DECAL_CHANNELS];   // xyz: Σ n·a·w,       w: Π(1−a)
-    vec4 spec[DECAL_CHANNELS];     // xy: Σ (roughness, metallic)·a·w,  zw: Π(1−a) of each
-    vec4 weight[DECAL_CHANNELS];   // Σ a·w for albedo, normal, roughness, metallic
+    vec4 albedo[BLEND_SLOTS];   // rgb: Σ albedo·a·w,  a: Π(1−a)
+    vec4 normal[BLEND_SLOTS];   // xyz: Σ n·a·w,       w: Π(1−a)
+    vec4 spec[BLEND_SLOTS];     // xy: Σ (roughness, metallic)·a·w,  zw: Π(1−a) of each
+    vec4 weight[BLEND_SLOTS];   // Σ a·w for albedo, normal, roughness, metallic
 };
 
 void blend_init(out DecalBlend b) {
-    for (uint c = 0u; c < DECAL_CHANNELS; ++c) {
+    for (uint c = 0u; c < BLEND_SLOTS; ++c) {
         b.albedo[c] = vec4(0.0, 0.0, 0.0, 1.0);
         b.normal[c] = vec4(0.0, 0.0, 0.0, 1.0);
         b.spec[c] = vec4(0.0, 0.0, 1.0, 1.0);
@@ -28,25 +41,29 @@ void blend_init(out DecalBlend b) {
     }
 }
 
-void blend_albedo(inout DecalBlend b, uint c, vec3 value, float a, float w) {
+void blend_albedo(inout DecalBlend b, uint channel, vec3 value, float a, float w) {
+    uint c = BLEND_SLOT(channel);
     b.albedo[c].rgb += value * a * w;
     b.albedo[c].a *= 1.0 - a;
     b.weight[c].x += a * w;
 }
 
-void blend_normal(inout DecalBlend b, uint c, vec3 n, float a, float w) {
+void blend_normal(inout DecalBlend b, uint channel, vec3 n, float a, float w) {
+    uint c = BLEND_SLOT(channel);
     b.normal[c].xyz += n * a * w;
     b.normal[c].w *= 1.0 - a;
     b.weight[c].y += a * w;
 }
 
-void blend_roughness(inout DecalBlend b, uint c, float value, float a, float w) {
+void blend_roughness(inout DecalBlend b, uint channel, float value, float a, float w) {
+    uint c = BLEND_SLOT(channel);
     b.spec[c].x += value * a * w;
     b.spec[c].z *= 1.0 - a;
     b.weight[c].z += a * w;
 }
 
-void blend_metallic(inout DecalBlend b, uint c, float value, float a, float w) {
+void blend_metallic(inout DecalBlend b, uint channel, float value, float a, float w) {
+    uint c = BLEND_SLOT(channel);
     b.spec[c].y += value * a * w;
     b.spec[c].w *= 1.0 - a;
     b.weight[c].w += a * w;
@@ -63,18 +80,29 @@ struct DecalComposite {
     vec4 spec;     // xy: decal roughness and metallic, zw: remaining
 };
 
-DecalComposite blend_collapse(DecalBlend b) {
+// The composite that leaves the surface as it is.
+DecalComposite blend_identity() {
     DecalComposite o;
     o.albedo = vec4(0.0, 0.0, 0.0, 1.0);
     o.normal = vec4(0.0, 0.0, 0.0, 1.0);
     o.spec = vec4(0.0, 0.0, 1.0, 1.0);
-    for (uint c = 0u; c < DECAL_CHANNELS; ++c) {
+    return o;
+}
+
+// Composites the channels of `b` over `o` (what the channels before them made), in order.
+void blend_collapse_onto(inout DecalComposite o, DecalBlend b) {
+    for (uint c = 0u; c < BLEND_SLOTS; ++c) {
         vec4 w = b.weight[c];
         if (w.x > 0.0) o.albedo = vec4(b.albedo[c].rgb / w.x * (1.0 - b.albedo[c].a) + o.albedo.rgb * b.albedo[c].a, o.albedo.a * b.albedo[c].a);
         if (w.y > 0.0) o.normal = vec4(b.normal[c].xyz / w.y * (1.0 - b.normal[c].w) + o.normal.xyz * b.normal[c].w, o.normal.w * b.normal[c].w);
         if (w.z > 0.0) { o.spec.x = b.spec[c].x / w.z * (1.0 - b.spec[c].z) + o.spec.x * b.spec[c].z; o.spec.z *= b.spec[c].z; }
         if (w.w > 0.0) { o.spec.y = b.spec[c].y / w.w * (1.0 - b.spec[c].w) + o.spec.y * b.spec[c].w; o.spec.w *= b.spec[c].w; }
     }
+}
+
+DecalComposite blend_collapse(DecalBlend b) {
+    DecalComposite o = blend_identity();
+    blend_collapse_onto(o, b);
     return o;
 }
 

@@ -13,6 +13,7 @@
 #define CLUSTERS_GLSL
 
 #include "scene.glsl"
+#include "decals.glsl"
 
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer ClusterWordsRef { uint words[]; };
 
@@ -62,6 +63,55 @@ uint counts_at() { return DECAL_CLUSTER_HEADER; }
 uint offsets_at() { return DECAL_CLUSTER_HEADER + cluster_count(); }
 uint cursors_at() { return DECAL_CLUSTER_HEADER + 2u * cluster_count(); }
 uint entries_at() { return DECAL_CLUSTER_HEADER + 3u * cluster_count(); }
+
+// The decal list of the cluster that holds world point `position`, seen at pixel `px`: entries
+// [first, end) of cluster_words() (cut at the capacity when the lists overflowed).
+uvec2 cluster_list(uvec2 px, vec3 position) {
+    uint c = cluster_index(px / DECAL_CLUSTER_TILE, cluster_slice(view_distance(position)));
+    ClusterWordsRef w = cluster_words();
+    uint first = w.words[offsets_at() + c];
+    return uvec2(first, min(first + w.words[counts_at() + c], scene.decal_cluster_capacity));
+}
+
+// The blending channels of the decals of `list` that land on surface `s` (their receivers
+// match and their boxes hold the point), a bit each: the box test alone, without the blend
+// state, so that a pixel no decal covers (most of them) skips blending altogether.
+uint landing_channels(uvec2 list, DecalSurface s) {
+    ClusterWordsRef w = cluster_words();
+    uint channels = 0u;
+    for (uint i = list.x; i < list.y; ++i) {
+        uint index = w.words[entries_at() + i];
+        if (index == NO_DECAL) continue;
+        GpuDecal d = DecalsRef(scene.decals).decals[index];
+        vec3 local;
+        float fade;
+        if (decal_receives(d, s.layers) && decal_locate(d, s.position, s.geometric_normal, local, fade)) channels |= 1u << decal_channel(d);
+    }
+    return channels;
+}
+
+// Blends the decals of `list` in `channel` that land on surface `s` (for DECAL_BLEND_ONE_CHANNEL).
+void apply_cluster_channel(inout DecalBlend b, uvec2 list, DecalSurface s, uint channel) {
+    ClusterWordsRef w = cluster_words();
+    for (uint i = list.x; i < list.y; ++i) {
+        uint index = w.words[entries_at() + i];
+        if (index == NO_DECAL) continue;
+        GpuDecal d = DecalsRef(scene.decals).decals[index];
+        if (decal_channel(d) == channel) apply_decal_record(b, d, s);
+    }
+}
+
+// Tests every decal of `list` against surface `s` and blends those that apply (apply_decal:
+// the per-channel weighted blending is order-independent within a channel, so the list's order,
+// whatever the binning's atomics gave, does not matter). Returns how many applied.
+uint apply_cluster_list(inout DecalBlend b, uvec2 list, DecalSurface s) {
+    ClusterWordsRef w = cluster_words();
+    uint applied = 0u;
+    for (uint i = list.x; i < list.y; ++i) {
+        applied += apply_decal(b, w.words[entries_at() + i], s) ? 1u : 0u;
+    }
+    return applied;
+}
 
 // Adds `v` to the 64-bit counter at words[lo], words[lo + 1].
 void add64(uint lo, uint v) {

@@ -150,17 +150,21 @@ void decal_accumulate(inout DecalBlend b, GpuDecal d, vec3 local, float fade, De
     }
 }
 
-// Tests one decal against the surface and accumulates it into its channel; true when it
+// Tests decal record `d` against the surface and accumulates it into its channel; true when it
 // applied (its receivers match, its box holds the point and its fade leaves something).
-bool apply_decal(inout DecalBlend b, uint index, DecalSurface s) {
-    if (index == NO_DECAL) return false;
-    GpuDecal d = DecalsRef(scene.decals).decals[index];
+bool apply_decal_record(inout DecalBlend b, GpuDecal d, DecalSurface s) {
     if (!decal_receives(d, s.layers)) return false;
     vec3 local;
     float fade;
     if (!decal_locate(d, s.position, s.geometric_normal, local, fade)) return false;
     decal_accumulate(b, d, local, fade, s);
     return true;
+}
+
+// apply_decal_record for decal slot `index` (NO_DECAL: none).
+bool apply_decal(inout DecalBlend b, uint index, DecalSurface s) {
+    if (index == NO_DECAL) return false;
+    return apply_decal_record(b, DecalsRef(scene.decals).decals[index], s);
 }
 
 #ifdef RAY_QUERY_DECALS

@@ -1,7 +1,10 @@
 // Shading shared by every pipeline: given a surface's attributes (from the forward pass's
 // varyings, the G-buffer, or the visibility buffer's reconstruction), apply decals, answer the
 // debug views, and light it. Decals come from in-shader ray queries (RAY_QUERY_DECALS variants)
-// or from the decal buffer a decal pass wrote (DECAL_BUFFER variants), when the frame has any.
+// or from the decal buffer a decal pass wrote (DECAL_BUFFER variants), or, in the forward
+// pipelines, from the lists of clustered decals walked right here (CLUSTERED_DECALS variants:
+// the surface's own position, normal-mapped normal and derivatives, no decal pass and no ids
+// prepass), when the frame has any.
 // Lights come from the pixel's list (its tile's after light culling, or every light; see
 // light_tiles.glsl), each weighted by the shadow pass's bit when shadows were traced (the
 // visibility term V of seed 001 eq. 4.4). With ray-query lights (ENUMERATED_LIGHTS: the
@@ -9,6 +12,10 @@
 // ray_pipeline_lights.glsl) the lights come from a zero-length ray instead of a list.
 #ifndef SHADING_GLSL
 #define SHADING_GLSL
+
+#ifdef CLUSTERED_DECALS
+#define DECAL_BLEND_ONE_CHANNEL   // blend.glsl: a quarter of the blend state (see below)
+#endif
 
 #include "scene.glsl"
 #include "lighting.glsl"
@@ -19,6 +26,9 @@
 layout(set = 0, binding = BINDING_SHADOW_DEBUG, rgba16f) uniform readonly image2D shadow_debug_in;
 #ifdef DECAL_BUFFER
 #include "decal_buffer.glsl"
+#endif
+#ifdef CLUSTERED_DECALS
+#include "clusters.glsl"
 #endif
 
 struct SurfaceInputs {
@@ -54,6 +64,35 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
         decals_tested = gather_decals(blend, surface);
         if (s.skinned) decals_tested += gather_decals(blend, decal_skin_view(surface, s.rest_position, s.rest_normal));
         blend_resolve(blend, s.albedo, s.normal, s.roughness, s.metallic);
+    }
+#endif
+#ifdef CLUSTERED_DECALS
+    if (scene.decal_count > 0u) {
+        // The blend state only where some decal lands, and one channel's at a time: in a
+        // fragment shader that also loops over lights, the whole state of four channels cost
+        // the lent H100's forward pass 57 % at 100 decals (docs/BENCHMARKS.md, forward decals).
+        DecalSurface surface = decal_world_view(s.position, s.dpdx, s.dpdy, s.geometric_normal, s.normal, s.decal_layers);
+        uvec2 list = cluster_list(uvec2(px), s.position);
+        decals_tested = list.y > list.x ? list.y - list.x : 0u;
+        uint channels = landing_channels(list, surface);
+        DecalSurface skin = surface;
+        if (s.skinned) {   // the same list at the rest pose (decals on a skin are binned by its posed bounds)
+            skin = decal_skin_view(surface, s.rest_position, s.rest_normal);
+            channels |= landing_channels(list, skin);
+            decals_tested *= 2u;
+        }
+        if (channels != 0u) {
+            DecalComposite composite = blend_identity();
+            for (uint c = 0u; c < DECAL_CHANNELS; ++c) {
+                if ((channels & (1u << c)) == 0u) continue;
+                DecalBlend blend;
+                blend_init(blend);
+                apply_cluster_channel(blend, list, surface, c);
+                if (s.skinned) apply_cluster_channel(blend, list, skin, c);
+                blend_collapse_onto(composite, blend);
+            }
+            blend_apply(composite, s.albedo, s.normal, s.roughness, s.metallic);
+        }
     }
 #endif
 #ifdef DECAL_BUFFER

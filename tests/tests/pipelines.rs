@@ -157,7 +157,9 @@ fn alpha_masked_holes_stay_open_in_every_pipeline() {
 fn ray_traced_decal_methods_give_the_same_image_in_every_pipeline() {
     // The courtyard's 300 textured, normal-mapped decals, in each pipeline: in-shader ray queries,
     // the ray-query compute decal pass, the ray-tracing-pipeline decal pass (lavapipe offers all
-    // three on the ray-query tier) and clustered decals (which need no ray tracing).
+    // three on the ray-query tier) and clustered decals (which need no ray tracing: a decal pass,
+    // and in forward and Forward+ also the lists walked in the shading, with the shader's own
+    // derivatives, as in-shader ray queries have).
     // The normal view too in the deferred pipeline, where every method builds decal normals on
     // the same G-buffer normal (the forward and visibility-buffer decal passes build them on the
     // vertex normal: shaders/include/decal_surface.glsl).
@@ -172,11 +174,27 @@ fn ray_traced_decal_methods_give_the_same_image_in_every_pipeline() {
             let (compute, _) = render_with(&mut app, pipeline, DecalMethod::RayQueryCompute, view);
             let (ray_pipeline, _) = render_with(&mut app, pipeline, DecalMethod::RayPipeline, view);
             let (clustered, _) = render_with(&mut app, pipeline, DecalMethod::Clustered, view);
-            assert_no_validation_errors(&mut app);
-            let covered = |i: usize| depth[i] > 0.0;
             let max_diff = |x: &[[f32; 4]], y: &[[f32; 4]]| {
                 x.iter().zip(y).flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs())).fold(0.0f32, f32::max)
             };
+            if pipeline.is_forward() {
+                app.world.resource_mut::<RenderSettings>().decals_in_forward_shading = true;
+                let (in_shading, _) = render_with(&mut app, pipeline, DecalMethod::Clustered, view);
+                for _ in 0..3 {
+                    app.update(); // the timestamps come back a few frames later
+                }
+                app.world.resource_mut::<RenderSettings>().decals_in_forward_shading = false;
+                let stats = app.world.resource::<plugins::RenderStats>();
+                let frame = stats.completed.back().expect("frames with GPU times");
+                assert_eq!((frame.pipeline, frame.decal_method), (pipeline, DecalMethod::Clustered));
+                assert!(frame.gpu.get("decal_pass_clustered").is_none(), "{pipeline:?}: no decal pass when the shading walks the lists");
+                assert!(frame.gpu.get("decal_clusters_fill").is_some(), "{pipeline:?}: the binning still runs");
+                let max = max_diff(&in_shading, &in_shader);
+                eprintln!("{pipeline:?} {view:?}: clustered in the shading vs in-shader ray queries max {max:.5}");
+                assert!(max <= 0.002, "{pipeline:?} {view:?}: clustered decals walked in the shading differ by {max}");
+            }
+            assert_no_validation_errors(&mut app);
+            let covered = |i: usize| depth[i] > 0.0;
             let max = max_diff(&compute, &ray_pipeline);
             let max_clustered = max_diff(&clustered, &ray_pipeline);
             let (mean, p99) = error_stats(&ray_pipeline, &in_shader, covered);

@@ -149,10 +149,13 @@ pub fn declare_decal_surface<'f, 'a>(pass: PassBuilder<'f, 'a>, scene: &GpuScene
 }
 
 /// Declares what a shading pass reads to apply this frame's decals: the decal buffer when a
-/// decal pass wrote it, the acceleration structures when it traces ray queries itself.
+/// decal pass wrote it, the cluster lists when it walks them itself, the acceleration
+/// structures when it traces ray queries itself.
 pub fn declare_decal_reads<'f, 'a>(pass: PassBuilder<'f, 'a>, frame: &DecalFrame) -> PassBuilder<'f, 'a> {
     if frame.buffered() {
         DECAL_BUFFER.iter().fold(pass, |pass, &target| pass.image(target, ImageUse::StorageRead))
+    } else if let Some(clusters) = frame.clusters.filter(|_| frame.clusters_in_shading()) {
+        pass.read(clusters.res, BufferUse::Storage)
     } else {
         pass.reads(frame.traced.into_iter().flatten().map(|a| (a, BufferUse::Accel)))
     }

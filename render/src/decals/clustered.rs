@@ -2,8 +2,28 @@
 //! comparison the seed did not make): decals with no ray tracing at all. Each frame, compute
 //! passes bin the live decals' boxes into view clusters, and a decal pass walks each pixel's
 //! cluster list and writes the same decal buffer as the ray-traced decal passes
-//! ([`super::buffer`]), so every pipeline's shading applies it unchanged. The layout of the
-//! cluster buffer, the binning and the statistics are in `shaders/include/clusters.glsl`.
+//! ([`super::buffer`]), so the deferred and visibility-buffer shading apply it unchanged. The
+//! layout of the cluster buffer, the binning and the statistics are in
+//! `shaders/include/clusters.glsl`.
+//!
+//! - **Forward and Forward+** can walk the lists in the shading pass itself
+//!   ([`crate::settings::FrameSettings::decals_in_forward_shading`],
+//!   [`super::DecalFrame::clusters_in_shading`], `CLUSTERED_DECALS` in `shading.glsl`): the
+//!   fragment's own position, normal-mapped normal and derivatives, no decal pass and no ids
+//!   prepass (issue "decals at a million", item 5; Bevy applies its clustered decals the same
+//!   way). A pixel first tests the boxes of its list without any blend state, and blends only
+//!   when some decal lands, one channel at a time (`DECAL_BLEND_ONE_CHANNEL` in `blend.glsl`):
+//!   the four channels' state in a forward shader cost the lent H100's forward pass more than
+//!   the decals did. It is off by default because on that GPU, whose fragment shading is slow
+//!   (the same lighting costs 25× more in the forward fragment pass than in deferred compute),
+//!   the decal pass with its ids prepass is faster: equal at 100 decals of PEERS.md's scene,
+//!   1 ms faster at 1,000, and 8 against 290 ms a frame at 100,000 decals on the courtyard
+//!   (docs/BENCHMARKS.md, "Decals in forward shading"). The per-pixel statistics (tested,
+//!   applied) come only from the decal pass: the forward shading counts nothing.
+//! - **Binning** bounds a box by its part in front of the camera's near plane (its corners
+//!   there and where its edges cross the plane). It used to give any box reaching behind the
+//!   camera the whole screen: in PEERS.md's decals-and-lights scene at 1,000 decals that was
+//!   144,000 entries and 0.80 ms of binning on the lent H100, now 7,600 entries and 0.11 ms.
 //!
 //! - **Layout**: screen tiles of 32×32 pixels × 16 depth slices, exponential in view distance
 //!   from 0.1 m to 1 km (`DECAL_CLUSTER_*` in `render/src/layout.rs`): 32,640 clusters at
@@ -78,8 +98,10 @@ fn plan_capacity(current: u32, needed: u32, initial: u32, smaller: Option<u64>, 
 }
 
 /// The cluster buffer this frame: where it is and what it holds room for (push constants).
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 pub struct ClusterFrame {
+    /// Its frame-graph resource (for the passes that read the lists).
+    pub res: ResourceId,
     /// Device address of the cluster buffer.
     pub address: vk::DeviceAddress,
     /// Entries it has room for.
@@ -220,7 +242,7 @@ impl DecalClusters {
             ..self.latest
         };
         let address = self.buffer.as_ref().expect("allocated above").address;
-        Ok(ClusterFrame { address, capacity, tiles: tiles.0 | tiles.1 << 16 })
+        Ok(ClusterFrame { res: self.res, address, capacity, tiles: tiles.0 | tiles.1 << 16 })
     }
 
     /// A frame without clustered decals (another method, or no decal): after
@@ -239,9 +261,10 @@ impl DecalClusters {
     }
 
     /// Bins `live` decal boxes into the clusters, runs the decal pass over the surface `source`
-    /// (writing the decal buffer, declared by the caller's `declare`), and copies the statistics
-    /// for the CPU. The push constants must hold [`DecalClusters::prepare`]'s result.
-    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, live: u32, source: DecalSurfaceSource) -> Result<(), RenderError> {
+    /// (writing the decal buffer) unless there is none (the shading walks the lists itself),
+    /// and copies the statistics for the CPU. The push constants must hold
+    /// [`DecalClusters::prepare`]'s result.
+    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, live: u32, source: Option<DecalSurfaceSource>) -> Result<(), RenderError> {
         let Some(buffer) = self.buffer.as_ref() else { return Ok(()) };
         let (raw, res, clusters) = (buffer.raw, self.res, self.clusters);
         let prefix = (DECAL_CLUSTER_HEADER as u64 + 3 * clusters as u64) * 4;
@@ -269,15 +292,17 @@ impl DecalClusters {
         )?;
         bin(f, "decal_clusters_fill", self.fill)?;
 
-        let extent = f.graph.extent();
-        let pipeline = self.pass[source as usize];
-        let pass = super::buffer::declare_decal_surface(f.pass("decal_pass_clustered", PassKind::Compute), scene, source)
-            .write(res, BufferUse::Storage);
-        pass.record(|p| {
-            p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-            // SAFETY: as above.
-            unsafe { p.ctx.device.cmd_dispatch(p.cmd, extent.width.div_ceil(8), extent.height.div_ceil(8), 1) };
-        })?;
+        if let Some(source) = source {
+            let extent = f.graph.extent();
+            let pipeline = self.pass[source as usize];
+            let pass = super::buffer::declare_decal_surface(f.pass("decal_pass_clustered", PassKind::Compute), scene, source)
+                .write(res, BufferUse::Storage);
+            pass.record(|p| {
+                p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
+                // SAFETY: as above.
+                unsafe { p.ctx.device.cmd_dispatch(p.cmd, extent.width.div_ceil(8), extent.height.div_ceil(8), 1) };
+            })?;
+        }
 
         self.readback.record(f, "decal_clusters_statistics", res, raw)
     }

@@ -61,12 +61,22 @@ pub struct DecalFrame {
     pub count: u32,
     /// The cluster buffer, when clustered decals are applied this frame.
     pub clusters: Option<ClusterFrame>,
+    /// Whether the pipeline's shading walks the cluster lists itself (forward and Forward+ with
+    /// [`FrameSettings::decals_in_forward_shading`]), so that no decal pass (and no ids
+    /// prepass) runs: only the binning.
+    pub lists_in_shading: bool,
 }
 
 impl DecalFrame {
     /// Whether a decal pass writes the decal buffer this frame (the shading passes apply it).
     pub fn buffered(&self) -> bool {
-        self.method.uses_decal_buffer() && (self.traced.is_some() || self.clusters.is_some())
+        self.method.uses_decal_buffer() && (self.traced.is_some() || self.clusters.is_some()) && !self.clusters_in_shading()
+    }
+
+    /// Whether clustered decals are applied this frame by the shading pass itself, from the
+    /// cluster lists.
+    pub fn clusters_in_shading(&self) -> bool {
+        self.lists_in_shading && self.clusters.is_some()
     }
 }
 
@@ -90,13 +100,15 @@ impl Decals {
     }
 
     /// Brings the acceleration structures (or the cluster buffer) up to date (`boxes_changed`
-    /// boxes were uploaded this frame) and says what the shading passes apply.
+    /// boxes were uploaded this frame) and says what the shading passes apply (`lists_in_shading`:
+    /// a forward shading pass walks clustered decals' lists itself).
     pub fn build_accel(
         &mut self,
         f: &mut Frame,
         scene: &GpuScene,
         mirror: &mut SceneMirror,
         choice: DecalChoice,
+        lists_in_shading: bool,
         boxes_changed: u32,
     ) -> Result<DecalFrame, RenderError> {
         let method = choice.applied;
@@ -124,11 +136,13 @@ impl Decals {
             tlas_address: if shaded { self.accel.tlas_address() } else { 0 },
             count: if shaded || clustered { mirror.decals.len() as u32 } else { 0 },
             clusters,
+            lists_in_shading,
         })
     }
 
     /// Writes the decal buffer when this frame's method is a decal pass ([`buffer`], or
-    /// [`clustered`] with its binning passes).
+    /// [`clustered`] with its binning passes); bins the clustered decals only, when the shading
+    /// walks their lists itself.
     pub fn decal_pass(
         &mut self,
         f: &mut Frame,
@@ -137,7 +151,7 @@ impl Decals {
         source: DecalSurfaceSource,
     ) -> Result<(), RenderError> {
         if frame.clusters.is_some() {
-            return self.clusters.record(f, scene, frame.count, source);
+            return self.clusters.record(f, scene, frame.count, (!frame.clusters_in_shading()).then_some(source));
         }
         self.passes.record(f, scene, frame, source)
     }

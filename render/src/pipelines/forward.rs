@@ -1,8 +1,12 @@
 //! The forward pipeline: a reverse-Z depth prepass (seed 001 §4.1; alpha test only for masked
 //! materials) and a shading pass that tests depth EQUAL, so each pixel is shaded once: decals
-//! (found by a zero-length ray query in the shader, seed 000 §4.2.2, or read from the decal
-//! buffer a decal pass wrote, [`crate::decals::buffer`]) are blended into the surface
-//! attributes, then every light is applied with the Frostbite BRDF of seed 000 §2.3.
+//! (found by a zero-length ray query in the shader, seed 000 §4.2.2; read from the decal buffer
+//! a decal pass wrote, [`crate::decals::buffer`]; or, for clustered decals with
+//! [`crate::settings::FrameSettings::decals_in_forward_shading`], found by walking the pixel's
+//! cluster list in the shader, [`crate::decals::clustered`]) are blended into the surface
+//! attributes, then every light is applied with the Frostbite BRDF of seed 000 §2.3. Decal
+//! passes need the ids prepass (they run before shading, from the visibility ids); the
+//! in-shader methods need a depth-only prepass.
 
 use ash::vk;
 
@@ -29,24 +33,26 @@ impl ForwardPasses {
     /// Creates the pipelines.
     pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
         let prepass = GraphicsDesc::mesh("prepass", None, &[], DEPTH_FORMAT);
+        let shade = |fragment: &[u8]| {
+            let desc = GraphicsDesc {
+                name: "forward",
+                fragment: Some(fragment),
+                color_formats: &[HDR_FORMAT],
+                depth_compare: Some(vk::CompareOp::EQUAL),
+                depth_write: false,
+                ..prepass
+            };
+            create_graphics(ctx, layout, &desc)
+        };
         Ok(Self {
             prepass_opaque: create_graphics(ctx, layout, &prepass)?,
             prepass_mask: create_graphics(ctx, layout, &GraphicsDesc { fragment: Some(shaders::PREPASS_MASK_FRAG), ..prepass })?,
             shade: ShadeVariants::new(
                 ctx,
                 [shaders::FORWARD_FRAG, shaders::FORWARD_FRAG_RAY_QUERY_DECALS, shaders::FORWARD_FRAG_DECAL_BUFFER],
-                |fragment| {
-                    let desc = GraphicsDesc {
-                        name: "forward",
-                        fragment: Some(fragment),
-                        color_formats: &[HDR_FORMAT],
-                        depth_compare: Some(vk::CompareOp::EQUAL),
-                        depth_write: false,
-                        ..prepass
-                    };
-                    create_graphics(ctx, layout, &desc)
-                },
-            )?,
+                shade,
+            )?
+            .with_clustered(shaders::FORWARD_FRAG_CLUSTERED_DECALS, shade)?,
         })
     }
 

@@ -64,7 +64,8 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     mirror.counters.culling = r.culling.prepare(f, r.scene, mirror, s, lights.shadow_map_views())?;
     let boxes_changed = r.scene.upload(f, mirror)?;
     r.skinning.record(f, r.scene)?;
-    let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, boxes_changed)?;
+    let in_shading = s.pipeline.is_forward() && s.decals_in_forward_shading;
+    let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, in_shading, boxes_changed)?;
     f.push = scene_push(r.scene, mirror, s, &decals);
     r.lighting.build(f, r.scene, mirror, &lights)?;
     mirror.counters.bytes_uploaded += r.culling.cull(f, r.scene)?;
@@ -72,8 +73,9 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
 }
 
 /// Forward: depth prepass (the visibility pass, which also writes ids, when a decal pass
-/// follows), light culling and shadows when asked for, the decal pass, shading with depth
-/// EQUAL, then the blended surfaces back to front.
+/// follows), light culling and shadows when asked for, the decal pass (or, for clustered
+/// decals, only their binning: the shading walks the lists), shading with depth EQUAL, then the
+/// blended surfaces back to front.
 pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let (decals, lights) = begin(f, r, mirror, s)?;
     let (scene, visbuffer, forward) = (&*r.scene, r.visbuffer, r.forward);
@@ -192,12 +194,14 @@ fn transparent_depth(f: &mut Frame, r: &FrameParts, draws: &Draws, mirror: &Scen
 }
 
 /// A shading pass's pipeline in each way it can apply decals: none, in-shader ray queries (on the
-/// ray-query tier only: SPIR-V with ray queries cannot even be loaded elsewhere), or the decal
-/// buffer a decal pass wrote.
+/// ray-query tier only: SPIR-V with ray queries cannot even be loaded elsewhere), the decal
+/// buffer a decal pass wrote, or (the forward shading pass) the clustered decals' lists walked
+/// in the shader ([`DecalFrame::clusters_in_shading`]).
 pub struct ShadeVariants {
     plain: vk::Pipeline,
     ray_query: Option<vk::Pipeline>,
     decal_buffer: vk::Pipeline,
+    clustered: Option<vk::Pipeline>,
 }
 
 impl ShadeVariants {
@@ -211,21 +215,34 @@ impl ShadeVariants {
             plain: create(plain)?,
             ray_query: if ctx.tier == Tier::RayQuery { Some(create(ray_query)?) } else { None },
             decal_buffer: create(decal_buffer)?,
+            clustered: None,
         })
+    }
+
+    /// Adds the variant that walks the clustered decals' lists itself, made by `create` from
+    /// `shader`.
+    pub fn with_clustered(
+        mut self,
+        shader: &[u8],
+        create: impl Fn(&[u8]) -> Result<vk::Pipeline, RenderError>,
+    ) -> Result<Self, RenderError> {
+        self.clustered = Some(create(shader)?);
+        Ok(self)
     }
 
     /// The variant that applies this frame's decals.
     pub fn pick(&self, decals: &DecalFrame) -> vk::Pipeline {
-        match self.ray_query {
+        match (self.ray_query, self.clustered) {
             _ if decals.buffered() => self.decal_buffer,
-            Some(rq) if decals.traced.is_some() && decals.method == crate::settings::DecalMethod::RayQuery => rq,
+            (_, Some(clustered)) if decals.clusters_in_shading() => clustered,
+            (Some(rq), _) if decals.traced.is_some() && decals.method == crate::settings::DecalMethod::RayQuery => rq,
             _ => self.plain,
         }
     }
 
     /// Destroys the pipelines; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for p in [self.plain, self.decal_buffer].into_iter().chain(self.ray_query) {
+        for p in [self.plain, self.decal_buffer].into_iter().chain(self.ray_query).chain(self.clustered) {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }
