@@ -70,6 +70,8 @@ pub struct RenderSettings {
     /// and no ids prepass ([`render::FrameSettings::decals_in_forward_shading`]: off by default,
     /// slower on the lent H100).
     pub decals_in_forward_shading: bool,
+    /// Anti-aliasing of the displayed image (default none; FXAA in every pipeline).
+    pub aa: render::AntiAliasing,
     /// How blended (glass) surfaces are drawn: interlaced into the deferred G-buffer (the
     /// default, deferred pipeline only), forward over the opaque image, or depth-peeled into a
     /// second G-buffer (deferred only; the full-resolution reference, at about twice the cost).
@@ -151,6 +153,7 @@ impl Default for RenderSettings {
             lights: render::LightSettings::default(),
             compute_shading: true,
             decals_in_forward_shading: false,
+            aa: render::AntiAliasing::None,
             transparency: render::TransparencyMethod::Interlaced,
             refraction: true,
             culling: render::CullingMode::Occlusion,
@@ -293,6 +296,8 @@ pub struct FrameStats {
     pub transparency: render::TransparencyMethod,
     /// Whether glass refracted (interlaced and depth-peeled transparency refract).
     pub refraction: bool,
+    /// The anti-aliasing it was displayed with.
+    pub aa: render::AntiAliasing,
     /// The light settings it was drawn with.
     pub lights: render::LightSettings,
     /// Render size.
@@ -491,6 +496,7 @@ fn render_frame(
         lights: settings.lights,
         compute_shading: settings.compute_shading,
         decals_in_forward_shading: settings.decals_in_forward_shading,
+        aa: settings.aa,
         transparency: settings.transparency,
         refraction: settings.refraction,
         culling: settings.culling,
@@ -516,6 +522,7 @@ fn render_frame(
                 shadows: report.shadows,
                 transparency: settings.transparency.effective(settings.pipeline),
                 refraction: settings.refraction && settings.transparency.effective(settings.pipeline).refracts(),
+                aa: settings.aa,
                 lights: settings.lights,
                 size: renderer.0.size(),
                 gpu: PassTimes::default(),

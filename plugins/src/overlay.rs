@@ -237,6 +237,11 @@ impl DebugOverlay {
             ui.checkbox(&mut settings.refraction, "refraction");
         });
         ui.horizontal(|ui| {
+            for m in render::AntiAliasing::ALL {
+                ui.selectable_value(&mut settings.aa, m, format!("AA {}", m.name()));
+            }
+        });
+        ui.horizontal(|ui| {
             for m in render::CullingMode::ALL {
                 ui.selectable_value(&mut settings.culling, m, format!("culling {}", m.name()));
             }

@@ -56,4 +56,6 @@ pub use gpu::timestamps::PassTimes;
 pub use present::{overlay, window};
 pub use renderer::{DebugView, DecalMethod, FinishedFrame, FrameReport, FrameSettings, PipelineKind, Renderer, RendererSettings};
 pub use scene::{FrameCounters, SceneMirror};
-pub use settings::{CullingMode, DepthNormals, LightMethod, LightSettings, RaySupport, ShadowMapBudget, ShadowMethod, TransparencyMethod};
+pub use settings::{
+    AntiAliasing, CullingMode, DepthNormals, LightMethod, LightSettings, RaySupport, ShadowMapBudget, ShadowMethod, TransparencyMethod,
+};

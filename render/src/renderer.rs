@@ -385,7 +385,7 @@ impl Renderer {
             deferred: &res.deferred,
             visbuffer: &res.visbuffer,
             transparency: &res.transparency,
-            present: Present { tonemap, target, overlay },
+            present: Present { tonemap, target, overlay, aa: settings.aa },
             decal_choice,
         };
         let lights = match settings.pipeline {

@@ -414,6 +414,35 @@ impl Default for ShadowMapBudget {
     }
 }
 
+/// Anti-aliasing of the displayed image (issue: anti-aliasing; so far the post-process kind).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum AntiAliasing {
+    /// None: every edge shows its stair steps.
+    #[default]
+    None,
+    /// Fast approximate anti-aliasing (`shaders/include/fxaa.glsl`) in the tone-mapping pass,
+    /// in every pipeline: edges found by luma contrast are blended along their stair steps.
+    Fxaa,
+}
+
+impl AntiAliasing {
+    /// Every mode.
+    pub const ALL: [AntiAliasing; 2] = [AntiAliasing::None, AntiAliasing::Fxaa];
+
+    /// The name used in `--stats` and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            AntiAliasing::None => "none",
+            AntiAliasing::Fxaa => "fxaa",
+        }
+    }
+
+    /// Parses [`AntiAliasing::name`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+}
+
 /// How instances are culled on the GPU before they are drawn (`crate::culling`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum CullingMode {
@@ -472,6 +501,8 @@ pub struct FrameSettings {
     /// +1.9 ms at 1,000 (+0.9) and 290 ms a frame at 100,000 decals on the courtyard (8 ms);
     /// docs/BENCHMARKS.md, "Decals in forward shading".
     pub decals_in_forward_shading: bool,
+    /// Anti-aliasing of the displayed image.
+    pub aa: AntiAliasing,
     /// How blended surfaces are drawn (see [`TransparencyMethod::effective`]).
     pub transparency: TransparencyMethod,
     /// Interlaced and depth-peeled transparency displace the background by the materials'
@@ -495,6 +526,7 @@ impl Default for FrameSettings {
             lights: LightSettings::default(),
             compute_shading: true,
             decals_in_forward_shading: false,
+            aa: AntiAliasing::None,
             transparency: TransparencyMethod::Interlaced,
             refraction: true,
             culling: CullingMode::Occlusion,

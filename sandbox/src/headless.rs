@@ -93,6 +93,8 @@ pub struct HeadlessOptions {
     pub compute_shading: bool,
     /// Forward and Forward+ walk clustered decals' lists in their shading pass.
     pub decals_in_forward_shading: bool,
+    /// Anti-aliasing of the displayed image.
+    pub aa: render::AntiAliasing,
     /// How blended surfaces are drawn.
     pub transparency: render::TransparencyMethod,
     /// The shadow-map atlas.
@@ -265,6 +267,7 @@ impl Default for HeadlessOptions {
             lights: LightSettings::default(),
             compute_shading: true,
             decals_in_forward_shading: false,
+            aa: render::AntiAliasing::None,
             transparency: render::TransparencyMethod::Interlaced,
             shadow_maps: render::ShadowMapBudget::default(),
             culling: render::CullingMode::Occlusion,
@@ -323,6 +326,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         lights: opts.lights,
         compute_shading: opts.compute_shading,
         decals_in_forward_shading: opts.decals_in_forward_shading,
+        aa: opts.aa,
         transparency: opts.transparency,
         culling: opts.culling,
         ..Default::default()

@@ -172,12 +172,19 @@ struct Cli {
     /// hierarchical-Z).
     #[arg(long, default_value = "occlusion", value_parser = parse_culling)]
     culling: render::CullingMode,
+    /// Anti-aliasing of the displayed image: none, fxaa (fast approximate, in the tone mapper).
+    #[arg(long, default_value = "none", value_parser = parse_aa)]
+    aa: render::AntiAliasing,
     /// Run --frames frames with each culling mode in turn (off, frustum, occlusion).
     #[arg(long)]
     compare_culling: bool,
     /// Instances of --bench-scene many-instances (props) and behind-wall (boxes behind the wall).
     #[arg(long, default_value_t = sandbox::bench::MANY_INSTANCES)]
     instances: usize,
+}
+
+fn parse_aa(s: &str) -> Result<render::AntiAliasing, String> {
+    render::AntiAliasing::from_name(s).ok_or_else(|| format!("unknown anti-aliasing {s:?} (none, fxaa)"))
 }
 
 fn parse_culling(s: &str) -> Result<render::CullingMode, String> {
@@ -299,6 +306,7 @@ fn main() -> Result<()> {
         compare_transparency: cli.compare_transparency,
         compute_shading: !cli.fragment_shading,
         decals_in_forward_shading: cli.decals_in_forward_shading,
+        aa: cli.aa,
         transparency: cli.transparency,
         lights: render::LightSettings {
             method: cli.lights,

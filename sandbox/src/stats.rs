@@ -20,7 +20,7 @@
 //!
 //! Transparency: `transparency` (the method applied: `interlaced`, `interlaced_pairs`,
 //! `forward` or `depth_peeling`) and `refraction` (whether glass refracts: interlaced and
-//! depth-peeled glass do).
+//! depth-peeled glass do). Anti-aliasing: `aa` (`none` or `fxaa`).
 //!
 //! Lights: `light_method` (applied: `all`, `tiled` or `ray_query`), `shadows` (`ray_query`, `ray_pipeline`, `maps`
 //! (devices without ray tracing, or `--shadow-maps`), or `none`), `lights` (the settings:
@@ -65,6 +65,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
         "shadows": stats.shadows.name(),
         "transparency": stats.transparency.name(),
         "refraction": stats.refraction,
+        "aa": stats.aa.name(),
         "lights": {
             "tile_size": stats.lights.tile(),
             "aabb": stats.lights.cull_aabb,

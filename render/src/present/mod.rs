@@ -1,4 +1,4 @@
-//! Getting the frame to the eye: tone mapping into the display image (the offscreen display
+//! Getting the frame to the eye: tone mapping (and post-process anti-aliasing) into the display image (the offscreen display
 //! target or a swapchain image), the egui overlay on top, and the window swapchain.
 
 pub mod overlay;
@@ -8,6 +8,7 @@ pub mod window;
 use crate::RenderError;
 use crate::graph::{Frame, ImageRef, Load, PassKind};
 use crate::scene::gpu::GpuScene;
+use crate::settings::AntiAliasing;
 use overlay::{Overlay, OverlayFrame};
 use tonemap::Tonemap;
 
@@ -19,12 +20,14 @@ pub struct Present<'a> {
     pub target: ImageRef,
     /// The egui overlay and this frame's primitives, in a window.
     pub overlay: Option<(&'a mut Overlay, &'a OverlayFrame)>,
+    /// Anti-aliasing of the displayed image.
+    pub aa: AntiAliasing,
 }
 
 impl Present<'_> {
     /// Tone maps the HDR target into the display image, then draws the overlay over it.
     pub fn record(&mut self, f: &mut Frame, scene: &GpuScene) -> Result<(), RenderError> {
-        self.tonemap.record(f, scene, self.target)?;
+        self.tonemap.record(f, scene, self.target, self.aa)?;
         if let Some((egui, frame)) = &mut self.overlay {
             f.pass("overlay", PassKind::Graphics).color(self.target, Load::Keep).record(|p| egui.record(p.cmd, p.extent, frame))??;
         }
