@@ -494,19 +494,22 @@ layout! {
     /// Binding of the opaque layer's depth under depth peeling (`background_depth`, reverse-Z
     /// R32F: a copy of the depth target after the opaque G-buffer).
     pub const BINDING_BACKGROUND_DEPTH: u32 = 12;
+    /// Binding of the anti-aliased display colour (`antialiased`, RGBA16F: tone-mapped linear
+    /// colour), which the FXAA pass writes and the display pass copies out.
+    pub const BINDING_ANTIALIASED: u32 = 13;
     /// Binding of the decal buffer's albedo (`decal_albedo`, storage image RGBA16F): the
     /// premultiplied decal albedo (rgb) and the weight left to the surface's own (a). The decal
     /// pass writes the decal buffer; shading applies `value = decal + value × remaining`.
-    pub const BINDING_DECAL_ALBEDO: u32 = 13;
+    pub const BINDING_DECAL_ALBEDO: u32 = 14;
     /// Binding of the decal buffer's normal (`decal_normal`, RGBA16F): decal normal (xyz) and
     /// the weight left to the surface normal (w).
-    pub const BINDING_DECAL_NORMAL: u32 = 14;
+    pub const BINDING_DECAL_NORMAL: u32 = 15;
     /// Binding of the decal buffer's roughness/metallic (`decal_spec`, RGBA16F): decal roughness
     /// and metallic (xy), the weights left to the surface's (zw).
-    pub const BINDING_DECAL_SPEC: u32 = 15;
+    pub const BINDING_DECAL_SPEC: u32 = 16;
     /// Binding of the decal buffer's count of decals tested per pixel (`decal_tested`, R32UI;
     /// the debug views read it).
-    pub const BINDING_DECAL_TESTED: u32 = 16;
+    pub const BINDING_DECAL_TESTED: u32 = 17;
     /// Number of bindless slots the renderer reserves for itself (built-ins and render targets;
     /// scene textures start here).
     pub const RESERVED_TEXTURES: u32 = 16;
@@ -599,13 +602,16 @@ layout! {
     pub const LIGHT_CULL_SHARED_LIGHTS: u32 = 32768;
     /// Binding of the shadow debug image (`shadow_debug`, storage RGBA16F): the reconstructed
     /// normal × 0.5 + 0.5 (rgb) and the shadow rays traced (a).
-    pub const BINDING_SHADOW_DEBUG: u32 = 17;
+    pub const BINDING_SHADOW_DEBUG: u32 = 18;
     /// Binding of the opaque layer's depth under depth peeling as a storage image
     /// (`background_depth_out`, R32F), which the copy writes.
-    pub const BINDING_BACKGROUND_DEPTH_STORAGE: u32 = 18;
+    pub const BINDING_BACKGROUND_DEPTH_STORAGE: u32 = 19;
     /// Binding of the HDR target as a storage image (`hdr_image`, RGBA16F), for the lighting
     /// passes that run in compute.
-    pub const BINDING_HDR_STORAGE: u32 = 19;
+    pub const BINDING_HDR_STORAGE: u32 = 20;
+    /// Binding of the anti-aliased display colour as a storage image (`antialiased_out`), which
+    /// the FXAA pass writes.
+    pub const BINDING_ANTIALIASED_STORAGE: u32 = 21;
     /// Shadow maps: the first view of a light slot without a shadow map.
     pub const NO_SHADOW_MAP: u32 = 0xFFFF_FFFF;
     /// Shadow maps: 32-bit words before the slot table in the views buffer (the word offset

@@ -420,8 +420,9 @@ pub enum AntiAliasing {
     /// None: every edge shows its stair steps.
     #[default]
     None,
-    /// Fast approximate anti-aliasing (`shaders/include/fxaa.glsl`) in the tone-mapping pass,
-    /// in every pipeline: edges found by luma contrast are blended along their stair steps.
+    /// Fast approximate anti-aliasing (`shaders/include/fxaa.glsl`), a compute pass before the
+    /// display pass, in every pipeline: edges found by luma contrast are blended along their
+    /// stair steps.
     Fxaa,
 }
 

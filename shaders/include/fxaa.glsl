@@ -5,9 +5,9 @@
 // of the edge with bilinear filtering; sub-pixel aliasing (a pixel unlike all its neighbours)
 // gets a blend of its own. Written here from the published description.
 //
-// The including shader defines `vec3 fxaa_display(vec2 uv)`: the displayed colour at `uv` (the
-// tone mapper samples the HDR target bilinearly and maps it, so every tap is what the screen
-// shows). Luma is taken perceptually (the square root of linear luminance, near sRGB's).
+// The including shader defines `vec3 fxaa_display(vec2 uv)`: the displayed colour at `uv`
+// (fxaa.comp samples the HDR target bilinearly and tone maps it, so every tap is what the
+// screen shows). Luma is taken perceptually (the square root of linear luminance, near sRGB's).
 #ifndef FXAA_GLSL
 #define FXAA_GLSL
 

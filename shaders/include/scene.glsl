@@ -38,6 +38,7 @@ layout(set = 0, binding = BINDING_TRANSPARENCY_SOURCE) uniform sampler2D transpa
 layout(set = 0, binding = BINDING_SHADOW_MAP_DEPTH) uniform sampler2D shadow_map_depth;
 layout(set = 0, binding = BINDING_SHADOW_MAP_FILTER) uniform sampler2D shadow_map_filter;
 layout(set = 0, binding = BINDING_BACKGROUND_DEPTH) uniform sampler2D background_depth;
+layout(set = 0, binding = BINDING_ANTIALIASED) uniform sampler2D antialiased;
 
 vec4 sample_texture(uint index, vec2 uv) {
     return texture(textures[nonuniformEXT(index)], uv);

@@ -24,7 +24,8 @@ spirv! {
     FORWARD_FRAG_RAY_QUERY_DECALS = "forward.frag.RAY_QUERY_DECALS";
     FULLSCREEN_VERT = "fullscreen.vert";
     TONEMAP_FRAG = "tonemap.frag";
-    TONEMAP_FRAG_FXAA = "tonemap.frag.FXAA";
+    TONEMAP_FRAG_ANTIALIASED = "tonemap.frag.ANTIALIASED";
+    FXAA_COMP = "fxaa.comp";
     DECAL_BOXES_VERT = "decal_boxes.vert";
     GBUFFER_FRAG = "gbuffer.frag";
     GBUFFER_FRAG_ALPHA_MASK = "gbuffer.frag.ALPHA_MASK";

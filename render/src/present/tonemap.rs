@@ -1,26 +1,31 @@
 //! Display transform: exposure and the Khronos PBR Neutral tone mapper, from the HDR target
-//! into an sRGB display image (the offscreen target or a swapchain image), anti-aliased in the
-//! same pass with FXAA when asked for (`shaders/include/fxaa.glsl`: Lottes's FXAA, NVIDIA 2009).
-//! FXAA taps the image it anti-aliases about 20 times a pixel; fused into the tone mapper each
-//! tap samples the HDR target and maps it, where a pass of its own would first write the
-//! displayed image and then read it back (on the lent H100 a full-screen pass costs 0.15 ms
-//! before it does anything).
+//! into an sRGB display image (the offscreen target or a swapchain image), anti-aliased with
+//! FXAA when asked for (`shaders/include/fxaa.glsl`: Lottes's FXAA, NVIDIA 2009).
+//!
+//! FXAA runs in compute (`shaders/fxaa.comp`): it tone maps each of its taps from the HDR
+//! target and writes the anti-aliased colour into a target of its own, which the display pass
+//! then copies into the display image (compute cannot write an sRGB or swapchain image). FXAA
+//! fused into the full-screen tone-mapping fragment pass took that pass from 0.15 to 1.08 ms on
+//! the lent H100, whose fragment shading is slow; in compute it costs a fraction of that
+//! (docs/BENCHMARKS.md, "FXAA").
 
 use ash::vk;
 
 use crate::RenderError;
 use crate::gpu::device::GpuContext;
-use crate::gpu::pipeline::{GraphicsDesc, create_graphics};
+use crate::gpu::pipeline::{GraphicsDesc, create_compute, create_graphics};
 use crate::gpu::shaders;
-use crate::graph::targets::HDR;
-use crate::graph::{BufferUse, Frame, ImageRef, Load, PassKind};
+use crate::graph::targets::{ANTIALIASED, HDR};
+use crate::graph::{BufferUse, Frame, ImageRef, ImageUse, Load, PassKind};
 use crate::scene::gpu::GpuScene;
 use crate::settings::AntiAliasing;
 
 /// The tone-mapping pass.
 pub struct Tonemap {
-    /// Without and with FXAA.
+    /// The display pass: tone mapping, or copying out FXAA's result.
     pipelines: [vk::Pipeline; 2],
+    /// FXAA in compute.
+    fxaa: vk::Pipeline,
     format: vk::Format,
 }
 
@@ -30,9 +35,10 @@ impl Tonemap {
         let formats = [format];
         let pipelines = [
             create_graphics(ctx, layout, &GraphicsDesc::fullscreen("tonemap", shaders::TONEMAP_FRAG, &formats))?,
-            create_graphics(ctx, layout, &GraphicsDesc::fullscreen("tonemap (FXAA)", shaders::TONEMAP_FRAG_FXAA, &formats))?,
+            create_graphics(ctx, layout, &GraphicsDesc::fullscreen("display (anti-aliased)", shaders::TONEMAP_FRAG_ANTIALIASED, &formats))?,
         ];
-        Ok(Self { pipelines, format })
+        let fxaa = create_compute(ctx, layout, "fxaa", shaders::FXAA_COMP)?;
+        Ok(Self { pipelines, fxaa, format })
     }
 
     /// The display format this pipeline writes.
@@ -43,18 +49,31 @@ impl Tonemap {
     /// Reads the HDR target, writes `display` (the offscreen display target or a swapchain
     /// image) with anti-aliasing `aa`.
     pub fn record(&self, f: &mut Frame, scene: &GpuScene, display: impl Into<ImageRef>, aa: AntiAliasing) -> Result<(), RenderError> {
-        let pipeline = self.pipelines[usize::from(aa == AntiAliasing::Fxaa)];
-        f.pass("tonemap", PassKind::Graphics).sample(&HDR).read(scene.res.tables, BufferUse::Storage).color(display, Load::Discard).record(
-            |p| {
-                let push = p.push;
-                p.fullscreen(pipeline, &push);
-            },
-        )
+        let fxaa = aa == AntiAliasing::Fxaa;
+        if fxaa {
+            let (pipeline, extent) = (self.fxaa, f.graph.extent());
+            f.pass("fxaa", PassKind::Compute)
+                .sample(&HDR)
+                .read(scene.res.tables, BufferUse::Storage)
+                .image(&ANTIALIASED, ImageUse::StorageWrite)
+                .record(|p| {
+                    p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
+                    // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
+                    unsafe { p.ctx.device.cmd_dispatch(p.cmd, extent.width.div_ceil(8), extent.height.div_ceil(8), 1) };
+                })?;
+        }
+        let pipeline = self.pipelines[usize::from(fxaa)];
+        let pass = f.pass("tonemap", PassKind::Graphics).read(scene.res.tables, BufferUse::Storage);
+        let pass = if fxaa { pass.sample(&ANTIALIASED) } else { pass.sample(&HDR) };
+        pass.color(display, Load::Discard).record(|p| {
+            let push = p.push;
+            p.fullscreen(pipeline, &push);
+        })
     }
 
     /// Destroys the pipeline; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for p in self.pipelines {
+        for p in self.pipelines.into_iter().chain([self.fxaa]) {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }
