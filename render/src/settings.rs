@@ -143,10 +143,7 @@ impl DecalMethod {
     /// requested one when it can run, else the best one that can (ray queries in the shading
     /// pass, then the ray-tracing-pipeline decal pass, then clustered decals, which run
     /// everywhere), so never nothing ([`DecalMethod::Unavailable`] remains for a device that
-    /// could run none). In forward and Forward+ clustered decals are walked in the shading
-    /// itself, with no ids prepass; on the lent H100, whose fragment shading is slow, the
-    /// ray-tracing-pipeline pass with its ids prepass is still the faster of the two, so it
-    /// stays ahead of them (docs/BENCHMARKS.md, "Decals in forward shading").
+    /// could run none).
     pub fn effective(self, pipeline: PipelineKind, support: RaySupport) -> DecalMethod {
         if self.runs(pipeline, support) {
             return self;
@@ -497,10 +494,10 @@ pub struct FrameSettings {
     pub compute_shading: bool,
     /// Forward and Forward+ walk the clustered decals' lists in their shading pass (no decal
     /// pass, no ids prepass) instead of reading the decal buffer of a clustered decal pass.
-    /// Off by default: on the lent H100, whose fragment shading is slow, it measured +0.9 ms
-    /// at 100 decals of PEERS.md's scene (the decal pass with its ids prepass: +0.9 ms too),
-    /// +1.9 ms at 1,000 (+0.9) and 290 ms a frame at 100,000 decals on the courtyard (8 ms);
-    /// docs/BENCHMARKS.md, "Decals in forward shading".
+    /// Off by default: on the lent H100, whose fragment shading is slow, Forward+ measured
+    /// +0.89 ms at 100 decals of PEERS.md's scene (with the decal pass and its ids prepass:
+    /// +0.86), +1.93 ms at 1,000 (+0.87) and 290 ms a frame at 100,000 decals on the courtyard
+    /// (7 ms); docs/BENCHMARKS.md, "Decals in PEERS.md's scene".
     pub decals_in_forward_shading: bool,
     /// Anti-aliasing of the displayed image.
     pub aa: AntiAliasing,

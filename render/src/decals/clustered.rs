@@ -16,9 +16,9 @@
 //!   the four channels' state in a forward shader cost the lent H100's forward pass more than
 //!   the decals did. It is off by default because on that GPU, whose fragment shading is slow
 //!   (the same lighting costs 25× more in the forward fragment pass than in deferred compute),
-//!   the decal pass with its ids prepass is faster: equal at 100 decals of PEERS.md's scene,
-//!   1 ms faster at 1,000, and 8 against 290 ms a frame at 100,000 decals on the courtyard
-//!   (docs/BENCHMARKS.md, "Decals in forward shading"). The per-pixel statistics (tested,
+//!   the decal pass with its ids prepass is faster: about equal at 100 decals of PEERS.md's
+//!   scene, 1 ms faster at 1,000, and 7 against 290 ms a frame at 100,000 decals on the
+//!   courtyard (docs/BENCHMARKS.md, "Decals in PEERS.md's scene"). The per-pixel statistics (tested,
 //!   applied) come only from the decal pass: the forward shading counts nothing.
 //! - **Binning** bounds a box by its part in front of the camera's near plane (its corners
 //!   there and where its edges cross the plane). It used to give any box reaching behind the
