@@ -262,10 +262,13 @@ fn a_decal_on_the_skin_stays_on_its_surface_point_in_every_pipeline_and_method()
         (Tier::NoRayTracing, PipelineKind::Forward, DecalMethod::Clustered),
         (Tier::NoRayTracing, PipelineKind::Deferred, DecalMethod::Clustered),
         (Tier::NoRayTracing, PipelineKind::VisBuffer, DecalMethod::Clustered),
+        // Forward+ here walks the clustered lists in its shading pass (decals_in_forward_shading).
+        (Tier::NoRayTracing, PipelineKind::ForwardPlus, DecalMethod::Clustered),
     ];
     for (tier, pipeline, method) in configs {
-        let what = format!("{pipeline:?} with {method:?} decals on {tier:?}");
-        let settings = RenderSettings { pipeline, decal_method: method, ..Default::default() };
+        let in_shading = pipeline == PipelineKind::ForwardPlus;
+        let what = format!("{pipeline:?} with {method:?} decals on {tier:?} (in the shading: {in_shading})");
+        let settings = RenderSettings { pipeline, decal_method: method, decals_in_forward_shading: in_shading, ..Default::default() };
         let mut app = gpu_app_at(BIG.0, BIG.1, settings, tier);
         let bend = scene(&mut app, 0.0);
         // A green decal on the skin, placed at rest on the tube's front where the weights blend
