@@ -6,14 +6,9 @@
 #   scripts/bench_boxes.sh OUT_DIR LABEL=SANDBOX [LABEL=SANDBOX...] [-- N...]
 # then the table (scripts/culling_table.py OUT_DIR/*.jsonl).
 set -euo pipefail
-out="$1"
-shift
-bins=()
-while [ $# -gt 0 ] && [ "$1" != "--" ]; do bins+=("$1"); shift; done
-[ $# -gt 0 ] && shift
-counts=("$@")
+source "$(dirname "$0")/builds.sh"
+counts=("${rest[@]}")
 [ ${#counts[@]} -gt 0 ] || counts=(1000 10000 50000 100000)
-mkdir -p "$out"
 for n in "${counts[@]}"; do
   python3 "$(dirname "$0")/boxes_gltf.py" "$n" "$out/boxes_$n.gltf"
   for entry in "${bins[@]}"; do

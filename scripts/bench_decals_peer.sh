@@ -8,14 +8,9 @@
 # adds sandbox flags, e.g. EXTRA=--decals-in-forward-shading)
 # then the table (scripts/decals_peer_table.py OUT_DIR/*.jsonl): medians of frames 20-119.
 set -euo pipefail
-out="$1"
-shift
-bins=()
-while [ $# -gt 0 ] && [ "$1" != "--" ]; do bins+=("$1"); shift; done
-[ $# -gt 0 ] && shift
-pipelines=("$@")
+source "$(dirname "$0")/builds.sh"
+pipelines=("${rest[@]}")
 [ ${#pipelines[@]} -gt 0 ] || pipelines=(forward_plus deferred visbuffer)
-mkdir -p "$out"
 python3 "$(dirname "$0")/peer_decals_gltf.py" "$out/peer.gltf"
 for entry in "${bins[@]}"; do
   label="${entry%%=*}"

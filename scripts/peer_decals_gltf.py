@@ -14,35 +14,23 @@ size, along the surface normal), as PEERS.md describes.
 import base64
 import json
 import math
+import os
 import struct
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from boxes_gltf import box  # noqa: E402  (the same unit box)
+
 
 def quad_and_box():
-    """A 1 m ground quad (facing +y) and a unit box, as one blob of positions, normals, indices."""
-    positions, normals, indices = [], [], []
-    # Quad: y = 0, x and z in [-0.5, 0.5], counter-clockwise seen from above.
-    for x, z in ((-0.5, -0.5), (-0.5, 0.5), (0.5, 0.5), (0.5, -0.5)):
-        positions.append([x, 0.0, z])
-        normals.append([0.0, 1.0, 0.0])
-    indices += [0, 1, 2, 0, 2, 3]
-    quad_indices = len(indices)
-    for axis in range(3):
-        for sign in (-1.0, 1.0):
-            n = [0.0, 0.0, 0.0]
-            n[axis] = sign
-            u, v = [(axis + 1) % 3, (axis + 2) % 3]
-            base = len(positions)
-            for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
-                p = [0.0, 0.0, 0.0]
-                p[axis] = 0.5 * sign
-                p[u] = 0.5 * a
-                p[v] = 0.5 * b
-                positions.append(p)
-                normals.append(n)
-            quad = [0, 1, 2, 0, 2, 3] if sign > 0 else [0, 2, 1, 0, 3, 2]
-            indices += [base + i for i in quad]
-    return positions, normals, indices, quad_indices
+    """A 1 m ground quad (facing +y) and the unit box of boxes_gltf.py, as one blob of positions,
+    normals and indices (the quad's first)."""
+    positions = [[x, 0.0, z] for x, z in ((-0.5, -0.5), (-0.5, 0.5), (0.5, 0.5), (0.5, -0.5))]
+    normals = [[0.0, 1.0, 0.0]] * 4
+    indices = [0, 1, 2, 0, 2, 3]
+    box_positions, box_normals, box_indices = box()
+    indices += [len(positions) + i for i in box_indices]
+    return positions + box_positions, normals + box_normals, indices, 6
 
 
 def rng(seed):
