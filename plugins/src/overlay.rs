@@ -214,7 +214,14 @@ impl DebugOverlay {
                 ui.selectable_value(&mut settings.debug_view, v, name);
             }
         });
-        ui.checkbox(&mut settings.show_decal_boxes, "decal boxes");
+        ui.horizontal(|ui| {
+            ui.checkbox(&mut settings.show_decal_boxes, "decal boxes");
+            ui.checkbox(&mut settings.decals_in_forward_shading, "decals in shading")
+                .on_hover_text("forward and Forward+ walk clustered decals' lists in their shading pass (no decal pass, no ids prepass)");
+            for m in render::AntiAliasing::ALL {
+                ui.selectable_value(&mut settings.aa, m, format!("AA {}", m.name()));
+            }
+        });
         ui.horizontal(|ui| {
             for m in render::LightMethod::ALL {
                 ui.selectable_value(&mut settings.lights.method, m, m.name());
@@ -228,18 +235,12 @@ impl DebugOverlay {
             ui.checkbox(&mut settings.lights.shadow_ray_culling, "shadow-ray culling");
             ui.checkbox(&mut settings.lights.cull_aabb, "tile AABB");
             ui.checkbox(&mut settings.compute_shading, "compute shading");
-            ui.checkbox(&mut settings.decals_in_forward_shading, "decals in forward shading");
         });
         ui.horizontal(|ui| {
             for m in render::TransparencyMethod::ALL {
                 ui.selectable_value(&mut settings.transparency, m, m.name());
             }
             ui.checkbox(&mut settings.refraction, "refraction");
-        });
-        ui.horizontal(|ui| {
-            for m in render::AntiAliasing::ALL {
-                ui.selectable_value(&mut settings.aa, m, format!("AA {}", m.name()));
-            }
         });
         ui.horizontal(|ui| {
             for m in render::CullingMode::ALL {

@@ -8,7 +8,7 @@
 //! now and then adds or removes meshes, materials (a third of them blended glass, some
 //! refracting), textures and decal materials, including ones still in use. Between frames the
 //! driver ([`run`]) switches the pipeline, decal method, light method, transparency method,
-//! culling mode (and freezes or thaws the culling view) and debug view and resizes the target
+//! culling mode (and freezes or thaws the culling view), anti-aliasing, decals in forward shading and debug view and resizes the target
 //! (down to 1×1). The run is split into cycles;
 //! each cycle starts a new renderer on a randomly chosen capability tier
 //! ([`plugins::restart_renderer`], which re-extracts the scene), and ends with everything the
@@ -172,8 +172,10 @@ pub struct GameplayCounts {
 pub struct SwitchCounts {
     /// Pipeline changes.
     pub pipeline: u64,
-    /// Decal method changes.
+    /// Decal method changes (and forward shading walking clustered decals, or not).
     pub decal_method: u64,
+    /// Anti-aliasing changes.
+    pub aa: u64,
     /// Light method changes.
     pub light_method: u64,
     /// Transparency method changes.
@@ -507,6 +509,8 @@ fn frame(app: &mut App, report: &mut SoakReport) -> Result<()> {
             lights = s.lights.method.name(),
             transparency = s.transparency.name(),
             culling = s.culling.name(),
+            aa = s.aa.name(),
+            in_shading = s.decals_in_forward_shading,
             view = ?s.debug_view,
             size = ?s.size,
             "non-finite pixels"
@@ -612,6 +616,14 @@ pub fn run(config: &SoakConfig) -> Result<SoakReport> {
             if rng.next_u64().is_multiple_of(47) {
                 settings.debug_view = DEBUG_VIEWS[(rng.next_u64() % DEBUG_VIEWS.len() as u64) as usize];
                 report.switches.debug_view += 1;
+            }
+            if rng.next_u64().is_multiple_of(67) {
+                settings.decals_in_forward_shading = !settings.decals_in_forward_shading;
+                report.switches.decal_method += 1;
+            }
+            if rng.next_u64().is_multiple_of(71) {
+                settings.aa = render::AntiAliasing::ALL[(rng.next_u64() % render::AntiAliasing::ALL.len() as u64) as usize];
+                report.switches.aa += 1;
             }
             if rng.next_u64().is_multiple_of(89) {
                 settings.size = SIZES[(rng.next_u64() % SIZES.len() as u64) as usize];
