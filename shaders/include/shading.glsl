@@ -2,9 +2,10 @@
 // varyings, the G-buffer, or the visibility buffer's reconstruction), apply decals, answer the
 // debug views, and light it. Decals come from in-shader ray queries (RAY_QUERY_DECALS variants)
 // or from the decal buffer a decal pass wrote (DECAL_BUFFER variants), or, in the forward
-// pipelines, from the lists of clustered decals walked right here (CLUSTERED_DECALS variants:
-// the surface's own position, normal-mapped normal and derivatives, no decal pass and no ids
-// prepass), when the frame has any.
+// pipelines when FrameSettings::decals_in_forward_shading asks, from the lists of clustered
+// decals walked right here (CLUSTERED_DECALS variants: the surface's own position,
+// normal-mapped normal and derivatives, no decal pass and no ids prepass), when the frame has
+// any.
 // Lights come from the pixel's list (its tile's after light culling, or every light; see
 // light_tiles.glsl), each weighted by the shadow pass's bit when shadows were traced (the
 // visibility term V of seed 001 eq. 4.4). With ray-query lights (ENUMERATED_LIGHTS: the
@@ -69,8 +70,9 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
 #ifdef CLUSTERED_DECALS
     if (scene.decal_count > 0u) {
         // The blend state only where some decal lands, and one channel's at a time: in a
-        // fragment shader that also loops over lights, the whole state of four channels cost
-        // the lent H100's forward pass 57 % at 100 decals (docs/BENCHMARKS.md, forward decals).
+        // fragment shader that also loops over lights, 100 decals made the lent H100's forward
+        // pass 71 % slower with four channels' state everywhere, 57 % with it only where a decal
+        // lands, 38 % with one channel's (docs/BENCHMARKS.md, "Decals in PEERS.md's scene").
         DecalSurface surface = decal_world_view(s.position, s.dpdx, s.dpdy, s.geometric_normal, s.normal, s.decal_layers);
         uvec2 list = cluster_list(uvec2(px), s.position);
         decals_tested = list.y > list.x ? list.y - list.x : 0u;
