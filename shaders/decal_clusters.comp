@@ -3,7 +3,7 @@
 // Clustered decals, binning (include/clusters.glsl): BIN_LANES threads per live decal box. The
 // box's eight corners, seen from the camera, give the screen tiles and depth slices it may touch
 // (boxes wholly behind the camera or off screen touch none); the lanes share those clusters out.
-// Without FILL the pass counts the decals of each cluster; with FILL (after the prefix sum) it
+// Without FILL the pass counts the decals of each cluster; with FILL (after the lists' allocation) it
 // writes their record slots. One thread per box left a big box's hundreds of clusters to one
 // thread: filling the lists of 100 puddles took 0.98 ms on an H200, 8 lanes a box 0.13 ms.
 // A decal on a skin has its box in its instance's rest pose, which the camera never sees: it is

@@ -2,7 +2,7 @@
 // the comparison it did not make, §6): view clusters are screen tiles of DECAL_CLUSTER_TILE
 // pixels × DECAL_CLUSTER_SLICES depth slices, exponential in view distance (render/src/decals/
 // clustered.rs says how the sizes were chosen). Each frame compute
-// passes bin every live decal's box into the clusters it touches (count, prefix sum, fill), and
+// passes bin every live decal's box into the clusters it touches (count, allocate, fill), and
 // the decal pass walks the list of the pixel's cluster. One buffer holds it all (32-bit words):
 //   [0, DECAL_CLUSTER_HEADER)   statistics (below), read back by the CPU
 //   counts[C], offsets[C], cursors[C]   per cluster (C = tiles x × tiles y × slices)

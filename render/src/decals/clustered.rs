@@ -32,7 +32,7 @@
 //!   each pixel walks but cost more binning (each decal lands in more clusters) and a longer
 //!   prefix sum; 32 × 16 was fastest over both scenes. The engines game programmers use cap their decals low (Bevy 1,024, Godot 512 by
 //!   default) because each cluster holds a bit mask or a fixed list; here the lists are packed
-//!   back to back after a prefix sum (count, scan, fill), so no decal count is capped and no
+//!   back to back (count, allocate, fill), so no decal count is capped and no
 //!   cluster has a budget of its own: the buffer has room for a total number of entries.
 //! - **Overflow** never drops decals silently: entries that do not fit are counted
 //!   ([`DecalClusterStats::dropped`]), and when the CPU reads the needed total back (two frames
@@ -283,11 +283,13 @@ impl DecalClusters {
             })
         };
         bin(f, "decal_clusters_count", self.count)?;
+        // One workgroup for each 256 clusters reserves their lists (32,640 clusters at 1080p:
+        // 128 workgroups).
         f.pass("decal_clusters_scan", PassKind::Compute).read(scene.res.tables, BufferUse::Storage).write(res, BufferUse::Storage).record(
             |p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, self.scan, &p.push);
                 // SAFETY: as above.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, 1, 1, 1) };
+                unsafe { p.ctx.device.cmd_dispatch(p.cmd, clusters.div_ceil(256), 1, 1) };
             },
         )?;
         bin(f, "decal_clusters_fill", self.fill)?;
