@@ -74,8 +74,8 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
 
 /// Forward: depth prepass (the visibility pass, which also writes ids, when a decal pass
 /// follows), light culling and shadows when asked for, the decal pass (or, for clustered
-/// decals, only their binning: the shading walks the lists), shading with depth EQUAL, then the
-/// blended surfaces back to front.
+/// decals with `decals_in_forward_shading`, only their binning: the shading walks the lists),
+/// shading with depth EQUAL, then the blended surfaces back to front.
 pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let (decals, lights) = begin(f, r, mirror, s)?;
     let (scene, visbuffer, forward) = (&*r.scene, r.visbuffer, r.forward);

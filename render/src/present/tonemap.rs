@@ -30,7 +30,8 @@ pub struct Tonemap {
 }
 
 impl Tonemap {
-    /// Creates the pipeline for a display target of `format`.
+    /// Creates the pipelines (the display pass in both forms, and FXAA) for a display target of
+    /// `format`.
     pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout, format: vk::Format) -> Result<Self, RenderError> {
         let formats = [format];
         let pipelines = [
