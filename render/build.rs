@@ -11,6 +11,9 @@
 //! constants, compiled here as a module so its layout assertions run before the crate does) and
 //! checks the header against glslang's own layout; shaders include it with `-I $OUT_DIR`.
 
+// The layout! macro recurses once per record field; GpuLighting has more than 128 tokens' worth.
+#![recursion_limit = "256"]
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -72,6 +72,9 @@ pub struct RenderSettings {
     pub decals_in_forward_shading: bool,
     /// Anti-aliasing of the displayed image (default none; FXAA in every pipeline).
     pub aa: render::AntiAliasing,
+    /// Reflections of smooth surfaces (default: ray-traced where the device has ray queries, at
+    /// full resolution, below roughness 0.4).
+    pub reflections: render::ReflectionSettings,
     /// How blended (glass) surfaces are drawn: interlaced into the deferred G-buffer (the
     /// default, deferred pipeline only), forward over the opaque image, or depth-peeled into a
     /// second G-buffer (deferred only; the full-resolution reference, at about twice the cost).
@@ -154,6 +157,7 @@ impl Default for RenderSettings {
             compute_shading: true,
             decals_in_forward_shading: false,
             aa: render::AntiAliasing::None,
+            reflections: render::ReflectionSettings::default(),
             transparency: render::TransparencyMethod::Interlaced,
             refraction: true,
             culling: render::CullingMode::Occlusion,
@@ -497,6 +501,7 @@ fn render_frame(
         compute_shading: settings.compute_shading,
         decals_in_forward_shading: settings.decals_in_forward_shading,
         aa: settings.aa,
+        reflections: settings.reflections,
         transparency: settings.transparency,
         refraction: settings.refraction,
         culling: settings.culling,

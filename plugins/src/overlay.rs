@@ -207,6 +207,7 @@ impl DebugOverlay {
             (DebugView::LightHeatmap, "lights per tile"),
             (DebugView::ShadowRays, "shadow rays"),
             (DebugView::DepthNormals, "normals from depth"),
+            (DebugView::Reflections, "reflection rays"),
         ];
         let current = views.iter().find(|(v, _)| *v == settings.debug_view).map_or("lit", |(_, n)| n);
         egui::ComboBox::from_label("view").selected_text(current).show_ui(ui, |ui| {
@@ -221,6 +222,13 @@ impl DebugOverlay {
             for m in render::AntiAliasing::ALL {
                 ui.selectable_value(&mut settings.aa, m, format!("AA {}", m.name()));
             }
+        });
+        ui.horizontal(|ui| {
+            ui.label("reflections");
+            for m in render::ReflectionMode::ALL {
+                ui.selectable_value(&mut settings.reflections.mode, m, m.name());
+            }
+            ui.checkbox(&mut settings.reflections.half_resolution, "half res");
         });
         ui.horizontal(|ui| {
             for m in render::LightMethod::ALL {

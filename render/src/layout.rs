@@ -612,6 +612,23 @@ layout! {
     /// Binding of the anti-aliased display colour as a storage image (`antialiased_out`), which
     /// the FXAA pass writes.
     pub const BINDING_ANTIALIASED_STORAGE: u32 = 21;
+    /// Binding of the reflected radiance (`reflection_image`, storage RGBA16F): what each
+    /// traced reflection ray brought back (rgb) and the view depth of the pixel that traced it
+    /// (a; 0 where none did), at full or half resolution (`REFLECT_HALF_RES`).
+    pub const BINDING_REFLECTION: u32 = 22;
+    /// Binding of the reflection weights (`reflection_weight`, storage RGBA16F): per pixel the
+    /// reflected radiance's weight (rgb: the pre-integrated specular reflectance × occlusion ×
+    /// the fade towards the roughness cut-off) and the surface's roughness (a; negative where
+    /// nothing reflects).
+    pub const BINDING_REFLECTION_WEIGHT: u32 = 23;
+    /// `GpuLighting::reflection_flags`: the reflection pass runs this frame.
+    pub const REFLECT_ON: u32 = 1;
+    /// `GpuLighting::reflection_flags`: one ray per 2×2 pixels, upsampled by depth.
+    pub const REFLECT_HALF_RES: u32 = 2;
+    /// Reflections: 32-bit words of statistics (`GpuLighting::reflection_stats`): pixels that
+    /// reflect, rays traced, rays that hit geometry, decal candidates tested at hit points,
+    /// decals applied there, light candidates found there, shadow rays not blocked.
+    pub const REFLECTION_STATS: u32 = 8;
     /// Shadow maps: the first view of a light slot without a shadow map.
     pub const NO_SHADOW_MAP: u32 = 0xFFFF_FFFF;
     /// Shadow maps: 32-bit words before the slot table in the views buffer (the word offset
@@ -641,6 +658,9 @@ layout! {
     pub const DEBUG_LIGHT_COUNT: u32 = 9;
     /// Debug view: the shadow pass's visibility of the first light as R (for tests).
     pub const DEBUG_SHADOW_FIRST: u32 = 10;
+    /// Debug view: the reflection rays, as a heat map of their hit distance where a pixel
+    /// traced one (white: missed, to the sky), the lit image dimmed where none was traced.
+    pub const DEBUG_REFLECTIONS: u32 = 11;
 
     /// Culling record flag: the slot holds a live instance.
     pub const CULL_LIVE: u32 = 1;
@@ -930,6 +950,14 @@ layout! {
         /// follow a skinned instance's pose), where clustered decals bin decals on a skin. Set by
         /// the scene's upload, after the tables have their buffers for the frame.
         pub culls: u64,
+        /// Address of the reflection pass's statistics (`REFLECTION_STATS` words, zeroed by the
+        /// pass each frame; 0 when reflections are off): see `shaders/include/reflections.glsl`.
+        pub reflection_stats: u64,
+        /// Reflections: surfaces at least this rough reflect nothing (the ambient term stays);
+        /// reflection fades out over the last quarter below it.
+        pub reflection_cutoff: f32,
+        /// `REFLECT_*` flags (0: reflections off).
+        pub reflection_flags: u32,
         /// Padding to 16 bytes.
         pub pad: [u32; 2],
     }

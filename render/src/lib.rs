@@ -32,6 +32,7 @@
 //! | [`present`] | tone mapping, overlay, window swapchain |
 //! | [`renderer`] | frames in flight, submit |
 //! | [`settings`] | per-frame settings: pipeline, decal method, debug view |
+#![recursion_limit = "256"] // layout! recurses once per record field (GpuLighting is long)
 
 pub mod culling;
 pub mod decals;
@@ -42,6 +43,7 @@ pub mod layout;
 pub mod lights;
 pub mod pipelines;
 pub mod present;
+pub mod reflections;
 pub mod renderer;
 pub mod scene;
 pub mod settings;
@@ -57,5 +59,6 @@ pub use present::{overlay, window};
 pub use renderer::{DebugView, DecalMethod, FinishedFrame, FrameReport, FrameSettings, PipelineKind, Renderer, RendererSettings};
 pub use scene::{FrameCounters, SceneMirror};
 pub use settings::{
-    AntiAliasing, CullingMode, DepthNormals, LightMethod, LightSettings, RaySupport, ShadowMapBudget, ShadowMethod, TransparencyMethod,
+    AntiAliasing, CullingMode, DepthNormals, LightMethod, LightSettings, RaySupport, ReflectionMode, ReflectionSettings, ShadowMapBudget,
+    ShadowMethod, TransparencyMethod,
 };

@@ -28,6 +28,7 @@ use crate::present::Present;
 use crate::present::overlay::{Overlay, OverlayFrame};
 use crate::present::tonemap::Tonemap;
 use crate::present::window::{AcquiredImage, WindowSurface};
+use crate::reflections::Reflections;
 use crate::scene::gpu::GpuScene;
 use crate::scene::{FrameCounters, SceneMirror};
 pub use crate::settings::{DebugView, DecalMethod, FrameSettings, LightMethod, PipelineKind, ShadowMethod};
@@ -117,6 +118,7 @@ struct Resources {
     deferred: DeferredPasses,
     visbuffer: VisBufferPasses,
     transparency: TransparencyPasses,
+    reflections: Reflections,
     decals: Decals,
     lighting: Lighting,
     tonemap: Tonemap,
@@ -183,6 +185,7 @@ impl Renderer {
             deferred: DeferredPasses::new(ctx, layout)?,
             visbuffer: VisBufferPasses::new(ctx, layout)?,
             transparency: TransparencyPasses::new(ctx, layout)?,
+            reflections: Reflections::new(ctx, &mut graph, layout)?,
             decals: Decals::new(ctx, &mut graph, layout, settings.decal_cluster_capacity)?,
             lighting: Lighting::new(ctx, &mut graph, layout, settings.shadow_maps)?,
             tonemap: Tonemap::new(ctx, layout, DISPLAY_FORMAT)?,
@@ -385,6 +388,7 @@ impl Renderer {
             deferred: &res.deferred,
             visbuffer: &res.visbuffer,
             transparency: &res.transparency,
+            reflections: &mut res.reflections,
             present: Present { tonemap, target, overlay, aa: settings.aa },
             decal_choice,
         };
@@ -591,6 +595,7 @@ impl Drop for Renderer {
             deferred,
             visbuffer,
             transparency,
+            reflections,
             decals,
             lighting,
             tonemap,
@@ -620,6 +625,7 @@ impl Drop for Renderer {
         deferred.destroy(ctx);
         visbuffer.destroy(ctx);
         transparency.destroy(ctx);
+        reflections.destroy(ctx);
         tonemap.destroy(ctx);
         graph.destroy(ctx);
         scene.destroy(ctx);

@@ -381,6 +381,9 @@ pub enum DebugView {
     /// The shadow bit of the first light of each pixel's list in R, the list's length in G,
     /// whether shadows were read in B (for tests).
     ShadowFirst = crate::layout::DEBUG_SHADOW_FIRST,
+    /// The reflection rays: a heat map of their hit distance (0 to 16 m) where a pixel traced
+    /// one, white where it missed, the lit image dimmed elsewhere.
+    Reflections = crate::layout::DEBUG_REFLECTIONS,
 }
 
 impl DebugView {
@@ -439,6 +442,69 @@ impl AntiAliasing {
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|m| m.name() == name)
     }
+}
+
+/// Where reflections come from (`crate::reflections`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum ReflectionMode {
+    /// None: smooth surfaces show the ambient colour.
+    Off,
+    /// A ray per pixel (or per 2×2 pixels) against the scene's TLAS, shaded at its hit point
+    /// with the decals there, its lights and their shadows; the clear colour on a miss. Needs
+    /// ray queries (falls back to [`ReflectionMode::Off`] without them).
+    #[default]
+    RayTraced,
+}
+
+impl ReflectionMode {
+    /// Every mode.
+    pub const ALL: [ReflectionMode; 2] = [ReflectionMode::Off, ReflectionMode::RayTraced];
+
+    /// The name used in `--stats` and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            ReflectionMode::Off => "off",
+            ReflectionMode::RayTraced => "ray_traced",
+        }
+    }
+
+    /// Parses [`ReflectionMode::name`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+
+    /// The mode this device runs: ray-traced reflections need ray queries.
+    pub fn effective(self, support: RaySupport) -> Self {
+        match self {
+            ReflectionMode::RayTraced if support.ray_query => ReflectionMode::RayTraced,
+            _ => ReflectionMode::Off,
+        }
+    }
+}
+
+/// Reflections of smooth surfaces (`crate::reflections`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReflectionSettings {
+    /// Where they come from.
+    pub mode: ReflectionMode,
+    /// Surfaces at least this rough reflect nothing (their ambient term stays); below it the
+    /// reflection fades in over a quarter of the cut-off. Mirrors (roughness under 0.05) trace
+    /// exactly; glossy surfaces sample the GGX lobe and are filtered.
+    pub roughness_cutoff: f32,
+    /// One ray per 2×2 pixels, upsampled by depth (about a quarter of the rays).
+    pub half_resolution: bool,
+}
+
+impl Default for ReflectionSettings {
+    /// Ray-traced at full resolution, for surfaces smoother than 0.4.
+    fn default() -> Self {
+        Self { mode: ReflectionMode::RayTraced, roughness_cutoff: 0.4, half_resolution: false }
+    }
+}
+
+impl ReflectionSettings {
+    /// No reflections.
+    pub const OFF: Self = Self { mode: ReflectionMode::Off, roughness_cutoff: 0.4, half_resolution: false };
 }
 
 /// How instances are culled on the GPU before they are drawn (`crate::culling`).
@@ -501,6 +567,8 @@ pub struct FrameSettings {
     pub decals_in_forward_shading: bool,
     /// Anti-aliasing of the displayed image.
     pub aa: AntiAliasing,
+    /// Reflections of smooth surfaces.
+    pub reflections: ReflectionSettings,
     /// How blended surfaces are drawn (see [`TransparencyMethod::effective`]).
     pub transparency: TransparencyMethod,
     /// Interlaced and depth-peeled transparency displace the background by the materials'
@@ -525,6 +593,7 @@ impl Default for FrameSettings {
             compute_shading: true,
             decals_in_forward_shading: false,
             aa: AntiAliasing::None,
+            reflections: ReflectionSettings::default(),
             transparency: TransparencyMethod::Interlaced,
             refraction: true,
             culling: CullingMode::Occlusion,

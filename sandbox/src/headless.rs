@@ -95,6 +95,8 @@ pub struct HeadlessOptions {
     pub decals_in_forward_shading: bool,
     /// Anti-aliasing of the displayed image.
     pub aa: render::AntiAliasing,
+    /// Reflections of smooth surfaces.
+    pub reflections: render::ReflectionSettings,
     /// How blended surfaces are drawn.
     pub transparency: render::TransparencyMethod,
     /// The shadow-map atlas.
@@ -268,6 +270,7 @@ impl Default for HeadlessOptions {
             compute_shading: true,
             decals_in_forward_shading: false,
             aa: render::AntiAliasing::None,
+            reflections: render::ReflectionSettings::default(),
             transparency: render::TransparencyMethod::Interlaced,
             shadow_maps: render::ShadowMapBudget::default(),
             culling: render::CullingMode::Occlusion,
@@ -327,6 +330,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         compute_shading: opts.compute_shading,
         decals_in_forward_shading: opts.decals_in_forward_shading,
         aa: opts.aa,
+        reflections: opts.reflections,
         transparency: opts.transparency,
         culling: opts.culling,
         ..Default::default()

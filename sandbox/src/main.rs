@@ -61,7 +61,7 @@ struct Cli {
     #[arg(long, default_value_t = 1)]
     decal_seed: u64,
     /// What to show: lit, decal-heatmap, albedo, normal, roughness-metallic, light-heatmap,
-    /// shadow-rays, depth-normals.
+    /// shadow-rays, depth-normals, reflections (the reflection rays' hit distance).
     #[arg(long, default_value = "lit", value_parser = parse_debug_view)]
     debug_view: DebugView,
     /// Draw every decal's box and AABB.
@@ -175,6 +175,16 @@ struct Cli {
     /// Anti-aliasing of the displayed image: none, fxaa (fast approximate, in the tone mapper).
     #[arg(long, default_value = "none", value_parser = parse_aa)]
     aa: render::AntiAliasing,
+    /// Reflections of smooth surfaces: off, ray_traced (needs ray queries; falls back to off
+    /// without them, which --stats reports).
+    #[arg(long, default_value = "ray_traced", value_parser = parse_reflections)]
+    reflections: render::ReflectionMode,
+    /// Surfaces at least this rough reflect nothing.
+    #[arg(long, default_value_t = render::ReflectionSettings::default().roughness_cutoff)]
+    reflection_cutoff: f32,
+    /// Trace one reflection ray per 2×2 pixels, upsampled by depth.
+    #[arg(long)]
+    half_res_reflections: bool,
     /// Run --frames frames with each culling mode in turn (off, frustum, occlusion).
     #[arg(long)]
     compare_culling: bool,
@@ -185,6 +195,10 @@ struct Cli {
 
 fn parse_aa(s: &str) -> Result<render::AntiAliasing, String> {
     render::AntiAliasing::from_name(s).ok_or_else(|| format!("unknown anti-aliasing {s:?} (none, fxaa)"))
+}
+
+fn parse_reflections(s: &str) -> Result<render::ReflectionMode, String> {
+    render::ReflectionMode::from_name(s).ok_or_else(|| format!("unknown reflections {s:?} (off, ray_traced)"))
 }
 
 fn parse_culling(s: &str) -> Result<render::CullingMode, String> {
@@ -201,9 +215,10 @@ fn parse_debug_view(s: &str) -> Result<DebugView, String> {
         "light-heatmap" => DebugView::LightHeatmap,
         "shadow-rays" => DebugView::ShadowRays,
         "depth-normals" => DebugView::DepthNormals,
+        "reflections" => DebugView::Reflections,
         _ => {
             return Err(format!(
-                "unknown view {s:?} (lit, decal-heatmap, albedo, normal, roughness-metallic, light-heatmap, shadow-rays, depth-normals)"
+                "unknown view {s:?} (lit, decal-heatmap, albedo, normal, roughness-metallic, light-heatmap, shadow-rays, depth-normals, reflections)"
             ));
         }
     })
@@ -307,6 +322,11 @@ fn main() -> Result<()> {
         compute_shading: !cli.fragment_shading,
         decals_in_forward_shading: cli.decals_in_forward_shading,
         aa: cli.aa,
+        reflections: render::ReflectionSettings {
+            mode: cli.reflections,
+            roughness_cutoff: cli.reflection_cutoff,
+            half_resolution: cli.half_res_reflections,
+        },
         transparency: cli.transparency,
         lights: render::LightSettings {
             method: cli.lights,

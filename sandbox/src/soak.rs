@@ -176,6 +176,8 @@ pub struct SwitchCounts {
     pub decal_method: u64,
     /// Anti-aliasing changes.
     pub aa: u64,
+    /// Reflection changes (on or off, full or half resolution).
+    pub reflections: u64,
     /// Light method changes.
     pub light_method: u64,
     /// Transparency method changes.
@@ -462,7 +464,7 @@ pub fn resident_bytes() -> u64 {
         .map_or(0, |pages| pages * 4096)
 }
 
-const DEBUG_VIEWS: [DebugView; 8] = [
+const DEBUG_VIEWS: [DebugView; 9] = [
     DebugView::Lit,
     DebugView::DecalHeatmap,
     DebugView::Albedo,
@@ -471,6 +473,7 @@ const DEBUG_VIEWS: [DebugView; 8] = [
     DebugView::LightHeatmap,
     DebugView::ShadowRays,
     DebugView::DepthNormals,
+    DebugView::Reflections,
 ];
 
 const SIZES: [(u32, u32); 6] = [(1, 1), (2, 3), (17, 9), (48, 32), (33, 61), (64, 48)];
@@ -510,6 +513,8 @@ fn frame(app: &mut App, report: &mut SoakReport) -> Result<()> {
             transparency = s.transparency.name(),
             culling = s.culling.name(),
             aa = s.aa.name(),
+            reflections = s.reflections.mode.name(),
+            half_res_reflections = s.reflections.half_resolution,
             in_shading = s.decals_in_forward_shading,
             view = ?s.debug_view,
             size = ?s.size,
@@ -624,6 +629,15 @@ pub fn run(config: &SoakConfig) -> Result<SoakReport> {
             if rng.next_u64().is_multiple_of(71) {
                 settings.aa = render::AntiAliasing::ALL[(rng.next_u64() % render::AntiAliasing::ALL.len() as u64) as usize];
                 report.switches.aa += 1;
+            }
+            if rng.next_u64().is_multiple_of(73) {
+                let r = &mut settings.reflections;
+                (r.mode, r.half_resolution) = match rng.next_u64() % 3 {
+                    0 => (render::ReflectionMode::Off, false),
+                    1 => (render::ReflectionMode::RayTraced, false),
+                    _ => (render::ReflectionMode::RayTraced, true),
+                };
+                report.switches.reflections += 1;
             }
             if rng.next_u64().is_multiple_of(89) {
                 settings.size = SIZES[(rng.next_u64() % SIZES.len() as u64) as usize];

@@ -22,6 +22,10 @@
 //! `forward` or `depth_peeling`) and `refraction` (whether glass refracts: interlaced and
 //! depth-peeled glass do). Anti-aliasing: `aa` (`none` or `fxaa`).
 //!
+//! Reflections: `reflections`: `mode` (applied: `off` or `ray_traced`), `half_resolution`, and
+//! what the GPU measured two frames earlier: `pixels` (that reflect), `rays`, `hits` (the rest
+//! saw the sky), `decals_tested` and `lights_found` at the hit points, `through_glass`.
+//!
 //! Lights: `light_method` (applied: `all`, `tiled` or `ray_query`), `shadows` (`ray_query`, `ray_pipeline`, `maps`
 //! (devices without ray tracing, or `--shadow-maps`), or `none`), `lights` (the settings:
 //! `tile_size`, `aabb`, `shadow_ray_culling`, `normals`, `coloured_shadows`), the counters `scene_blas_builds`,
@@ -115,6 +119,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
             "scene_blas_refits": c.scene_blas_refits,
         },
         "culling": culling_json(&c.culling),
+        "reflections": reflections_json(&c.reflections),
     });
     if stats.decal_method == render::DecalMethod::Clustered {
         value["clusters"] = clusters_json(&c.clusters);
@@ -123,6 +128,20 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
         value["light_tiles"] = light_tiles_json(&c.light_tiles);
     }
     value
+}
+
+fn reflections_json(k: &render::reflections::ReflectionStats) -> Value {
+    let mut v = json!({ "mode": k.applied.name(), "half_resolution": k.half_resolution });
+    if k.measured_frame != u64::MAX && k.applied != render::ReflectionMode::Off {
+        v["measured_frame"] = json!(k.measured_frame);
+        v["pixels"] = json!(k.pixels);
+        v["rays"] = json!(k.rays);
+        v["hits"] = json!(k.hits);
+        v["decals_tested"] = json!(k.decals_tested);
+        v["lights_found"] = json!(k.lights_found);
+        v["through_glass"] = json!(k.through_glass);
+    }
+    v
 }
 
 fn culling_json(k: &render::CullingStats) -> Value {

@@ -76,4 +76,34 @@ vec3 brdf_cos(SurfaceBrdf s, vec3 n, vec3 v, vec3 l) {
     return (fr + fd) * n_dot_l;
 }
 
+// The specular reflectance integrated over the GGX lobe (the split sum's second factor), from
+// Karis's analytic fit ("Physically Based Shading on Mobile", 2014): what a reflection seen
+// along the lobe is weighted by, f0 × a + b.
+vec3 env_brdf_approx(vec3 f0, float roughness, float n_dot_v) {
+    const vec4 c0 = vec4(-1.0, -0.0275, -0.572, 0.022);
+    const vec4 c1 = vec4(1.0, 0.0425, 1.04, -0.04);
+    vec4 r = roughness * c0 + c1;
+    float a004 = min(r.x * r.x, exp2(-9.28 * n_dot_v)) * r.x + r.y;
+    vec2 ab = vec2(-1.04, 1.04) * a004 + r.zw;
+    return f0 * ab.x + ab.y;
+}
+
+// A microfacet normal drawn from the GGX distribution of visible normals (Heitz 2018, "Sampling
+// the GGX Distribution of Visible Normals"), for view direction `v` in the tangent frame whose z
+// is the surface normal; `u` two uniform numbers in [0, 1).
+vec3 sample_ggx_vndf(vec3 v, float alpha, vec2 u) {
+    vec3 vh = normalize(vec3(alpha * v.x, alpha * v.y, v.z));
+    float len2 = vh.x * vh.x + vh.y * vh.y;
+    vec3 t1 = len2 > 0.0 ? vec3(-vh.y, vh.x, 0.0) * inversesqrt(len2) : vec3(1.0, 0.0, 0.0);
+    vec3 t2 = cross(vh, t1);
+    float r = sqrt(u.x);
+    float phi = 2.0 * PI * u.y;
+    float p1 = r * cos(phi);
+    float p2 = r * sin(phi);
+    float s = 0.5 * (1.0 + vh.z);
+    p2 = (1.0 - s) * sqrt(max(0.0, 1.0 - p1 * p1)) + s * p2;
+    vec3 nh = p1 * t1 + p2 * t2 + sqrt(max(0.0, 1.0 - p1 * p1 - p2 * p2)) * vh;
+    return normalize(vec3(alpha * nh.x, alpha * nh.y, max(0.0, nh.z)));
+}
+
 #endif

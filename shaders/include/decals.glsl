@@ -167,7 +167,7 @@ bool apply_decal(inout DecalBlend b, uint index, DecalSurface s) {
     return apply_decal_record(b, DecalsRef(scene.decals).decals[index], s);
 }
 
-#ifdef RAY_QUERY_DECALS
+#if defined(RAY_QUERY_DECALS) || defined(DECALS_AT_HITS)
 #extension GL_EXT_ray_query : require
 
 // Listing 4.1: a ray of length zero at the surface point; every AABB containing the point is a

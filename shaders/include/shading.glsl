@@ -54,18 +54,28 @@ struct SurfaceInputs {
 vec3 enumerated_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found);
 #endif
 
-// `px` is the pixel being shaded (its tile's lights, its shadow bits, its decal buffer texel).
-vec4 shade_surface(SurfaceInputs s, ivec2 px) {
+#if defined(RAY_QUERY_DECALS) || defined(DECALS_AT_HITS)
+// Applies the decals at surface `s` that zero-length ray queries in the decal TLAS find (seed
+// 000 §4.2.2), those of the world and, on a skin, those at its rest pose; returns the decals
+// tested. The primary surface's ray-query decals and the reflection rays' hit points share it.
+uint traced_decals(inout SurfaceInputs s) {
+    if (scene.decal_count == 0u || scene.decal_tlas == 0ul) return 0u;
+    DecalSurface surface = decal_world_view(s.position, s.dpdx, s.dpdy, s.geometric_normal, s.normal, s.decal_layers);
+    DecalBlend blend;
+    blend_init(blend);
+    uint tested = gather_decals(blend, surface);
+    if (s.skinned) tested += gather_decals(blend, decal_skin_view(surface, s.rest_position, s.rest_normal));
+    blend_resolve(blend, s.albedo, s.normal, s.roughness, s.metallic);
+    return tested;
+}
+#endif
+
+// Applies the frame's decals to surface `s` at pixel `px` the way this variant finds them
+// (none, ray queries, the decal buffer or the cluster lists); returns the decals tested.
+uint apply_surface_decals(inout SurfaceInputs s, ivec2 px) {
     uint decals_tested = 0u;
 #ifdef RAY_QUERY_DECALS
-    if (scene.decal_count > 0u) {
-        DecalSurface surface = decal_world_view(s.position, s.dpdx, s.dpdy, s.geometric_normal, s.normal, s.decal_layers);
-        DecalBlend blend;
-        blend_init(blend);
-        decals_tested = gather_decals(blend, surface);
-        if (s.skinned) decals_tested += gather_decals(blend, decal_skin_view(surface, s.rest_position, s.rest_normal));
-        blend_resolve(blend, s.albedo, s.normal, s.roughness, s.metallic);
-    }
+    decals_tested = traced_decals(s);
 #endif
 #ifdef CLUSTERED_DECALS
     if (scene.decal_count > 0u) {
@@ -100,6 +110,12 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
 #ifdef DECAL_BUFFER
     if (scene.decal_count > 0u) decals_tested = decal_buffer_apply(px, s.albedo, s.normal, s.roughness, s.metallic);
 #endif
+    return decals_tested;
+}
+
+// `px` is the pixel being shaded (its tile's lights, its shadow bits, its decal buffer texel).
+vec4 shade_surface(SurfaceInputs s, ivec2 px) {
+    uint decals_tested = apply_surface_decals(s, px);
     if (scene.debug_view == DEBUG_ALBEDO) return vec4(s.albedo, 1.0);
     if (scene.debug_view == DEBUG_NORMAL) return vec4(s.normal * 0.5 + 0.5, 1.0);
     if (scene.debug_view == DEBUG_ROUGHNESS_METALLIC) return vec4(s.roughness, s.metallic, 0.0, 1.0);

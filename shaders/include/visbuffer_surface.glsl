@@ -1,6 +1,7 @@
 // The visibility buffer's surface at a pixel: the ids' triangle intersected by the camera ray
 // (visibility.glsl, with analytic derivatives) and its material sampled, for the shading pass
-// (visbuffer_shade.frag and .comp): false for sky.
+// (visbuffer_shade.frag and .comp): false for sky. The reflection pass samples the surfaces its
+// rays hit through the same `surface_inputs`.
 #ifndef VISBUFFER_SURFACE_GLSL
 #define VISBUFFER_SURFACE_GLSL
 
@@ -9,10 +10,9 @@
 #include "material.glsl"
 #include "shading.glsl"
 
-bool visbuffer_surface(ivec2 px, out SurfaceInputs s) {
-    float depth = texelFetch(depth_target, px, 0).r;
-    if (depth <= 0.0) return false; // sky: the clear colour stays
-    VisibleSurface v = visible_surface(px, texelFetch(visibility_ids, px, 0).rg);
+// The shading inputs of a rebuilt surface: its material sampled with its analytic gradients.
+SurfaceInputs surface_inputs(VisibleSurface v) {
+    SurfaceInputs s;
     GpuMaterial m = v.material;
     MaterialSample ms = sample_material(m, v.uv, v.duvdx, v.duvdy);
     s.position = v.position;
@@ -29,6 +29,13 @@ bool visbuffer_surface(ivec2 px, out SurfaceInputs s) {
     s.skinned = v.skinned;
     s.rest_position = v.rest_position;
     s.rest_normal = v.rest_normal;
+    return s;
+}
+
+bool visbuffer_surface(ivec2 px, out SurfaceInputs s) {
+    float depth = texelFetch(depth_target, px, 0).r;
+    if (depth <= 0.0) return false; // sky: the clear colour stays
+    s = surface_inputs(visible_surface(px, texelFetch(visibility_ids, px, 0).rg));
     return true;
 }
 

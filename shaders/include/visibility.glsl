@@ -81,29 +81,41 @@ bool rest_pose_of_pixel(ivec2 px, uint instance, uint triangle, vec3 facing, out
     return true;
 }
 
-VisibleSurface visible_surface(ivec2 px, uvec2 ids) {
+// A triangle of an instance, fetched: its vertices and their world positions.
+struct InstanceTriangle {
+    GpuInstance instance;
+    GpuMeshInfo mesh;
+    uint index;              // the triangle's index in the mesh
+    GpuVertex v0, v1, v2;
+    vec3 p0, p1, p2;         // world positions
+};
+
+InstanceTriangle instance_triangle(uint instance, uint triangle) {
+    InstanceTriangle t;
+    t.instance = scene.instances.instances[instance];
+    t.mesh = MeshesRef(scene.meshes).meshes[t.instance.mesh];
+    t.index = triangle;
+    IndicesRef indices = IndicesRef(t.mesh.indices);
+    VerticesRef vertices = VerticesRef(t.mesh.vertices);
+    t.v0 = vertices.vertices[indices.indices[triangle * 3u]];
+    t.v1 = vertices.vertices[indices.indices[triangle * 3u + 1u]];
+    t.v2 = vertices.vertices[indices.indices[triangle * 3u + 2u]];
+    mat4 model = t.instance.model;
+    t.p0 = (model * vec4(t.v0.position, 1.0)).xyz;
+    t.p1 = (model * vec4(t.v1.position, 1.0)).xyz;
+    t.p2 = (model * vec4(t.v2.position, 1.0)).xyz;
+    return t;
+}
+
+// The surface of triangle `t` at barycentrics `b`, seen along `dir`, with `bx` and `by` the
+// barycentrics' changes over one footprint step in each screen direction (the pixel's
+// neighbours for the camera, a ray cone's width at a reflection ray's hit).
+VisibleSurface triangle_surface(InstanceTriangle t, vec3 b, vec3 bx, vec3 by, vec3 dir) {
     VisibleSurface v;
-    v.instance = scene.instances.instances[ids.x];
-    v.material = scene.materials.materials[v.instance.material];
-    GpuMeshInfo mesh = MeshesRef(scene.meshes).meshes[v.instance.mesh];
-    IndicesRef indices = IndicesRef(mesh.indices);
-    VerticesRef vertices = VerticesRef(mesh.vertices);
-    GpuVertex v0 = vertices.vertices[indices.indices[ids.y * 3u]];
-    GpuVertex v1 = vertices.vertices[indices.indices[ids.y * 3u + 1u]];
-    GpuVertex v2 = vertices.vertices[indices.indices[ids.y * 3u + 2u]];
-
-    mat4 model = v.instance.model;
-    vec3 p0 = (model * vec4(v0.position, 1.0)).xyz;
-    vec3 p1 = (model * vec4(v1.position, 1.0)).xyz;
-    vec3 p2 = (model * vec4(v2.position, 1.0)).xyz;
-    vec3 eye = scene.camera.camera.position;
-    vec3 dir = ray_dir(vec2(px));
-    vec3 b = barycentrics(eye, dir, p0, p1, p2);
-    vec3 bx = barycentrics(eye, ray_dir(vec2(px) + vec2(1.0, 0.0)), p0, p1, p2) - b;
-    vec3 by = barycentrics(eye, ray_dir(vec2(px) + vec2(0.0, 1.0)), p0, p1, p2) - b;
-
-    mat3x2 uvs = mat3x2(v0.uv, v1.uv, v2.uv);
-    mat3 positions = mat3(p0, p1, p2);
+    v.instance = t.instance;
+    v.material = scene.materials.materials[t.instance.material];
+    mat3x2 uvs = mat3x2(t.v0.uv, t.v1.uv, t.v2.uv);
+    mat3 positions = mat3(t.p0, t.p1, t.p2);
     v.uv = uvs * b;
     v.duvdx = uvs * bx;
     v.duvdy = uvs * by;
@@ -111,17 +123,42 @@ VisibleSurface visible_surface(ivec2 px, uvec2 ids) {
     v.dpdx = positions * bx;
     v.dpdy = positions * by;
 
-    vec3 normal = mat3(v.instance.normal_model) * (mat3(v0.normal, v1.normal, v2.normal) * b);
-    v.tangent = vec4(mat3(model) * (mat3(v0.tangent.xyz, v1.tangent.xyz, v2.tangent.xyz) * b), v0.tangent.w);
+    vec3 normal = mat3(t.instance.normal_model) * (mat3(t.v0.normal, t.v1.normal, t.v2.normal) * b);
+    v.tangent = vec4(mat3(t.instance.model) * (mat3(t.v0.tangent.xyz, t.v1.tangent.xyz, t.v2.tangent.xyz) * b), t.v0.tangent.w);
     v.geometric_normal = safe_normalize(normal, vec3(0.0, 1.0, 0.0));
     // Front-facing as the rasteriser defines it: counter-clockwise on screen.
-    bool front = dot(cross(p1 - p0, p2 - p0), dir) < 0.0;
+    bool front = dot(cross(t.p1 - t.p0, t.p2 - t.p0), dir) < 0.0;
     if ((v.material.flags & MATERIAL_DOUBLE_SIDED) != 0u && !front) v.geometric_normal = -v.geometric_normal;
-    v.skinned = mesh.rest != mesh.vertices;
+    v.skinned = t.mesh.rest != t.mesh.vertices;
     v.rest_position = v.position;
     v.rest_normal = v.geometric_normal;
-    if (v.skinned) rest_pose_at(v.instance, mesh, ids.y, b, normal, v.geometric_normal, v.rest_position, v.rest_normal);
+    if (v.skinned) rest_pose_at(t.instance, t.mesh, t.index, b, normal, v.geometric_normal, v.rest_position, v.rest_normal);
     return v;
+}
+
+VisibleSurface visible_surface(ivec2 px, uvec2 ids) {
+    InstanceTriangle t = instance_triangle(ids.x, ids.y);
+    vec3 eye = scene.camera.camera.position;
+    vec3 dir = ray_dir(vec2(px));
+    vec3 b = barycentrics(eye, dir, t.p0, t.p1, t.p2);
+    vec3 bx = barycentrics(eye, ray_dir(vec2(px) + vec2(1.0, 0.0)), t.p0, t.p1, t.p2) - b;
+    vec3 by = barycentrics(eye, ray_dir(vec2(px) + vec2(0.0, 1.0)), t.p0, t.p1, t.p2) - b;
+    return triangle_surface(t, b, bx, by, dir);
+}
+
+// The surface a ray along `dir` hits on triangle `triangle` of instance slot `instance`, at the
+// hit's barycentrics (u, v), where its cone is `width` metres across: the footprint's two steps
+// lie in the triangle's plane, across the ray and along it (stretched by the grazing angle).
+VisibleSurface hit_surface(uint instance, uint triangle, vec2 hit, vec3 dir, float width) {
+    InstanceTriangle t = instance_triangle(instance, triangle);
+    vec3 b = vec3(1.0 - hit.x - hit.y, hit.x, hit.y);
+    vec3 p = mat3(t.p0, t.p1, t.p2) * b;
+    vec3 n = safe_normalize(cross(t.p1 - t.p0, t.p2 - t.p0), vec3(0.0, 1.0, 0.0));
+    vec3 across = safe_normalize(cross(n, dir), abs(n.x) < 0.9 ? cross(n, vec3(1.0, 0.0, 0.0)) : cross(n, vec3(0.0, 1.0, 0.0)));
+    vec3 along = cross(across, n) / max(abs(dot(dir, n)), 0.1);
+    vec3 bx = barycentrics(p + across * width + n, -n, t.p0, t.p1, t.p2) - b;
+    vec3 by = barycentrics(p + along * width + n, -n, t.p0, t.p1, t.p2) - b;
+    return triangle_surface(t, b, bx, by, dir);
 }
 
 #endif

@@ -47,6 +47,16 @@ pub struct DecalChoice {
     pub applied: DecalMethod,
 }
 
+/// Which passes besides the method's own read this frame's decals.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct DecalReaders {
+    /// A forward shading pass walks clustered decals' lists itself
+    /// ([`FrameSettings::decals_in_forward_shading`]).
+    pub lists_in_shading: bool,
+    /// The reflection rays look for decals at their hit points (`crate::reflections`).
+    pub reflections: bool,
+}
+
 /// What this frame does with decals, once the acceleration structures are up to date.
 #[derive(Clone, Copy, Debug)]
 pub struct DecalFrame {
@@ -65,6 +75,10 @@ pub struct DecalFrame {
     /// [`FrameSettings::decals_in_forward_shading`]), so that no decal pass (and no ids
     /// prepass) runs: only the binning.
     pub lists_in_shading: bool,
+    /// The acceleration structures (TLAS and BLAS) the reflection rays' hit points search
+    /// (`crate::reflections`), whatever the on-screen method, when reflections run and there
+    /// are decals.
+    pub at_hits: Option<[ResourceId; 2]>,
 }
 
 impl DecalFrame {
@@ -100,18 +114,22 @@ impl Decals {
     }
 
     /// Brings the acceleration structures (or the cluster buffer) up to date (`boxes_changed`
-    /// boxes were uploaded this frame) and says what the shading passes apply (`lists_in_shading`:
-    /// a forward shading pass walks clustered decals' lists itself).
+    /// boxes were uploaded this frame) and says what the shading passes apply, for the passes
+    /// that `readers` names.
     pub fn build_accel(
         &mut self,
         f: &mut Frame,
         scene: &GpuScene,
         mirror: &mut SceneMirror,
         choice: DecalChoice,
-        lists_in_shading: bool,
+        readers: DecalReaders,
         boxes_changed: u32,
     ) -> Result<DecalFrame, RenderError> {
+        let DecalReaders { lists_in_shading, reflections } = readers;
         let method = choice.applied;
+        // Reflection rays find the decals at their hit points in the decal TLAS, whatever the
+        // method on screen (unless decals are off).
+        let at_hits = reflections && !matches!(method, DecalMethod::Off | DecalMethod::Unavailable);
         let input = DecalBoxInput {
             tables: scene.res.tables,
             address: scene.decal_aabbs.address(),
@@ -121,8 +139,9 @@ impl Decals {
         };
         // The structures follow the decals whenever a ray-traced method is applied (changes made
         // meanwhile wait for the next frame that traces them).
-        self.accel.build(f, input, method.traces(), &mut mirror.counters)?;
+        self.accel.build(f, input, method.traces() || at_hits, &mut mirror.counters)?;
         let shaded = method.traces() && !mirror.decals.is_empty() && self.accel.traced().is_some();
+        let at_hits = (at_hits && !mirror.decals.is_empty()).then(|| self.accel.traced()).flatten();
         let clustered = method == DecalMethod::Clustered && !mirror.decals.is_empty();
         let clusters = if clustered {
             Some(self.clusters.prepare(f, &mut mirror.counters.clusters)?)
@@ -133,10 +152,11 @@ impl Decals {
         Ok(DecalFrame {
             method,
             traced: if shaded { self.accel.traced() } else { None },
-            tlas_address: if shaded { self.accel.tlas_address() } else { 0 },
-            count: if shaded || clustered { mirror.decals.len() as u32 } else { 0 },
+            tlas_address: if shaded || at_hits.is_some() { self.accel.tlas_address() } else { 0 },
+            count: if shaded || clustered || at_hits.is_some() { mirror.decals.len() as u32 } else { 0 },
             clusters,
             lists_in_shading,
+            at_hits,
         })
     }
 

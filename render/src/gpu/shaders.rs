@@ -26,6 +26,14 @@ spirv! {
     TONEMAP_FRAG = "tonemap.frag";
     TONEMAP_FRAG_ANTIALIASED = "tonemap.frag.ANTIALIASED";
     FXAA_COMP = "fxaa.comp";
+    REFLECTIONS_COMP = "reflections.comp";
+    REFLECTIONS_COMP_RAY_QUERY_DECALS = "reflections.comp.RAY_QUERY_DECALS";
+    REFLECTIONS_COMP_DECAL_BUFFER = "reflections.comp.DECAL_BUFFER";
+    REFLECTIONS_COMP_CLUSTERED_DECALS = "reflections.comp.CLUSTERED_DECALS";
+    REFLECTIONS_COMP_GBUFFER = "reflections.comp.GBUFFER";
+    REFLECTIONS_COMP_GBUFFER_RAY_QUERY_DECALS = "reflections.comp.GBUFFER+RAY_QUERY_DECALS";
+    REFLECTIONS_COMP_GBUFFER_DECAL_BUFFER = "reflections.comp.GBUFFER+DECAL_BUFFER";
+    REFLECTIONS_RESOLVE_COMP = "reflections_resolve.comp";
     DECAL_BOXES_VERT = "decal_boxes.vert";
     GBUFFER_FRAG = "gbuffer.frag";
     GBUFFER_FRAG_ALPHA_MASK = "gbuffer.frag.ALPHA_MASK";

@@ -31,8 +31,9 @@ pub const DECAL_TESTED_FORMAT: vk::Format = vk::Format::R32_UINT;
 pub use crate::layout::{
     BINDING_ANTIALIASED, BINDING_ANTIALIASED_STORAGE, BINDING_BACKGROUND_DEPTH, BINDING_BACKGROUND_DEPTH_STORAGE, BINDING_DECAL_ALBEDO,
     BINDING_DECAL_NORMAL, BINDING_DECAL_SPEC, BINDING_DECAL_TESTED, BINDING_DEPTH, BINDING_GBUFFER_ALBEDO, BINDING_GBUFFER_LAYERS,
-    BINDING_GBUFFER_MATERIAL, BINDING_GBUFFER_NORMAL, BINDING_HDR, BINDING_HDR_STORAGE, BINDING_SHADOW_DEBUG, BINDING_SHADOW_MAP_DEPTH,
-    BINDING_SHADOW_MAP_FILTER, BINDING_TRANSPARENCY_SOURCE, BINDING_TRANSPARENT_DEPTH, BINDING_VISIBILITY,
+    BINDING_GBUFFER_MATERIAL, BINDING_GBUFFER_NORMAL, BINDING_HDR, BINDING_HDR_STORAGE, BINDING_REFLECTION, BINDING_REFLECTION_WEIGHT,
+    BINDING_SHADOW_DEBUG, BINDING_SHADOW_MAP_DEPTH, BINDING_SHADOW_MAP_FILTER, BINDING_TRANSPARENCY_SOURCE, BINDING_TRANSPARENT_DEPTH,
+    BINDING_VISIBILITY,
 };
 
 /// Where a target is bound for sampling: its descriptor binding in set 0 (`BINDING_*`).
@@ -239,6 +240,18 @@ pub static SHADOW_DEBUG: TargetDesc = TargetDesc {
     format: DECAL_BUFFER_FORMAT,
     usage: STORAGE,
     bind: Some(Bind::Storage(BINDING_SHADOW_DEBUG)),
+    storage: None,
+};
+/// What the reflection rays brought back (`crate::reflections`): radiance and the tracing
+/// pixel's view depth, at full resolution or in the top-left quarter at half.
+pub static REFLECTION: TargetDesc =
+    TargetDesc { name: "reflection", format: HDR_FORMAT, usage: STORAGE, bind: Some(Bind::Storage(BINDING_REFLECTION)), storage: None };
+/// Each pixel's weight for the reflected radiance and its roughness (`crate::reflections`).
+pub static REFLECTION_WEIGHT: TargetDesc = TargetDesc {
+    name: "reflection weight",
+    format: HDR_FORMAT,
+    usage: STORAGE,
+    bind: Some(Bind::Storage(BINDING_REFLECTION_WEIGHT)),
     storage: None,
 };
 /// The decal buffer's images, in binding order.

@@ -24,6 +24,7 @@ use crate::layout::{
     COLOURED_SHADOWS, GLASS_SHADOWS, GpuLighting, INTERLACED, LIGHT_CULL_AABB, LIGHTS_ALL, LIGHTS_RAY_QUERY, LIGHTS_TILED, REFRACTION,
     SHADOW_DEBUG as SHADOW_DEBUG_FLAG, SHADOW_NORMALS_IMPROVED, SHADOW_RAY_CULLING, SHADOWS_TRACED,
 };
+use crate::reflections::ReflectionFrame;
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
 use crate::settings::{DepthNormals, FrameSettings, LightMethod, ShadowMapBudget, ShadowMethod, TransparencyMethod};
@@ -64,6 +65,14 @@ pub struct LightFrame {
     /// When shading traces shadow rays itself (ray-query lights on the ray-query tier): the
     /// scene's TLAS, BLAS and meshes (alpha-masked hits read their texture coordinates).
     pub inline_shadows: Option<[ResourceId; 3]>,
+    /// Whether the reflection pass runs this frame (`crate::reflections`: asked for, and the
+    /// scene's TLAS exists to trace against).
+    pub reflections: bool,
+    /// The scene's TLAS and BLAS, once built.
+    pub scene_accel: Option<[ResourceId; 2]>,
+    /// The ray-query lights' TLAS, BLAS and box buffer, when they are built this frame (for
+    /// ray-query lights, or for the reflection rays' hit points).
+    pub light_boxes: Option<[ResourceId; 3]>,
     interlaced: bool,
     shadow_maps: ShadowMapPlan,
     tiles: TileFrame,
@@ -122,6 +131,7 @@ impl Lighting {
         scene: &mut GpuScene,
         mirror: &mut SceneMirror,
         s: &FrameSettings,
+        reflections: &ReflectionFrame,
     ) -> Result<LightFrame, RenderError> {
         let l = &s.lights;
         let method = l.method.effective(s.pipeline, f.ctx.ray_support());
@@ -131,7 +141,7 @@ impl Lighting {
             None => SceneAccelFrame::default(),
         };
         let ray_query = match self.ray_query.as_mut() {
-            Some(r) => r.prepare(f, mirror, enumerated)?,
+            Some(r) => r.prepare(f, mirror, enumerated || reflections.on)?,
             None => RayQueryLightFrame::default(),
         };
         let traced = match self.shadows.method() {
@@ -171,6 +181,7 @@ impl Lighting {
         mirror.counters.shadow_map_views = shadow_maps.views as u64;
         mirror.counters.shadow_maps_missing = shadow_maps.missing as u64;
         let interlaced = glass && s.transparency.effective(s.pipeline).interlaces();
+        let reflect = reflections.on && accel.tlas_address != 0;
         let mut flags = 0;
         for (on, flag) in [
             (l.cull_aabb, LIGHT_CULL_AABB),
@@ -216,6 +227,9 @@ impl Lighting {
             shadow_map_columns: self.shadows.maps.columns(),
             clear_color: s.clear_color.into(),
             culls: 0, // the scene's upload sets it
+            reflection_stats: if reflect { reflections.stats } else { 0 },
+            reflection_cutoff: reflections.cutoff,
+            reflection_flags: if reflect { reflections.flags } else { 0 },
             pad: [0; 2],
         });
         let res = self.tiles.resources();
@@ -226,7 +240,9 @@ impl Lighting {
             }
             _ => None,
         };
-        let light_accel = if enumerated && ray_query.tlas != 0 { self.ray_query.as_ref().and_then(|r| r.reads()) } else { None };
+        let light_boxes = if ray_query.tlas != 0 { self.ray_query.as_ref().and_then(|r| r.reads()) } else { None };
+        let light_accel = light_boxes.filter(|_| enumerated);
+        let scene_accel = self.accel.as_ref().filter(|_| accel.tlas_address != 0).map(|a| a.traced());
         Ok(LightFrame {
             method,
             shadows,
@@ -235,6 +251,9 @@ impl Lighting {
             debug,
             light_accel,
             inline_shadows,
+            reflections: reflect,
+            scene_accel,
+            light_boxes,
             interlaced,
             shadow_maps,
             tiles,

@@ -12,7 +12,7 @@ use ash::vk;
 
 use crate::RenderError;
 use crate::culling::{Culling, Draws, Phase};
-use crate::decals::{DecalChoice, DecalFrame, DecalSurfaceSource, Decals};
+use crate::decals::{DecalChoice, DecalFrame, DecalReaders, DecalSurfaceSource, Decals};
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::pipeline::{RayTracingDesc, RayTracingPipeline, ScenePush};
 use crate::gpu::shaders;
@@ -20,6 +20,7 @@ use crate::graph::pass::PassContext;
 use crate::graph::{Frame, PassKind};
 use crate::lights::{LightFrame, Lighting};
 use crate::present::Present;
+use crate::reflections::Reflections;
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
 use crate::settings::{FrameSettings, TransparencyMethod};
@@ -46,6 +47,8 @@ pub struct FrameParts<'a> {
     pub visbuffer: &'a visbuffer::VisBufferPasses,
     /// Blended transparency, drawn over every pipeline's opaque shading.
     pub transparency: &'a TransparencyPasses,
+    /// Ray-traced reflections, added to every pipeline's opaque shading.
+    pub reflections: &'a mut Reflections,
     /// Tone mapping and overlay into the frame's display image.
     pub present: Present<'a>,
     /// The decal method asked for and the one this device and pipeline apply.
@@ -60,26 +63,28 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     mirror.sort_transparent(mirror.camera().position);
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
     r.skinning.prepare(mirror, r.scene);
-    let lights = r.lighting.prepare(f, r.scene, mirror, s)?;
+    let reflections = r.reflections.prepare(f, s, &mut mirror.counters.reflections);
+    let lights = r.lighting.prepare(f, r.scene, mirror, s, &reflections)?;
     mirror.counters.culling = r.culling.prepare(f, r.scene, mirror, s, lights.shadow_map_views())?;
     let boxes_changed = r.scene.upload(f, mirror)?;
     r.skinning.record(f, r.scene)?;
     let in_shading = s.pipeline.is_forward() && s.decals_in_forward_shading;
-    let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, in_shading, boxes_changed)?;
+    let readers = DecalReaders { lists_in_shading: in_shading, reflections: lights.reflections };
+    let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, readers, boxes_changed)?;
     f.push = scene_push(r.scene, mirror, s, &decals);
     r.lighting.build(f, r.scene, mirror, &lights)?;
     mirror.counters.bytes_uploaded += r.culling.cull(f, r.scene)?;
     Ok((decals, lights))
 }
 
-/// Forward: depth prepass (the visibility pass, which also writes ids, when a decal pass
-/// follows), light culling and shadows when asked for, the decal pass (or, for clustered
-/// decals with `decals_in_forward_shading`, only their binning: the shading walks the lists),
-/// shading with depth EQUAL, then the blended surfaces back to front.
+/// Forward: depth prepass (the visibility pass, which also writes ids, when a decal pass or the
+/// reflection rays follow), light culling and shadows when asked for, the decal pass (or, for
+/// clustered decals with `decals_in_forward_shading`, only their binning: the shading walks the
+/// lists), shading with depth EQUAL, reflections, then the blended surfaces back to front.
 pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let (decals, lights) = begin(f, r, mirror, s)?;
     let (scene, visbuffer, forward) = (&*r.scene, r.visbuffer, r.forward);
-    if decals.buffered() {
+    if decals.buffered() || lights.reflections {
         r.culling.depth_passes(f, scene, |f, draws, phase| visbuffer.visibility(f, "prepass", scene, &draws, phase))?;
     } else {
         r.culling.depth_passes(f, scene, |f, draws, phase| forward.prepass(f, scene, &draws, phase))?;
@@ -89,6 +94,7 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
     r.lighting.record(f, r.scene, &draws, &lights)?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
     r.forward.shade(f, r.scene, &draws, s.clear_color, &decals, &lights)?;
+    r.reflections.record(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
     r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)?;
@@ -135,7 +141,7 @@ pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirro
 
 /// The deferred pipeline's passes over one G-buffer: geometry (with `glass`), light culling
 /// and shadows (`again`: a second layer this frame, whose shadow maps are drawn), decals,
-/// lighting.
+/// lighting, reflections.
 #[allow(clippy::too_many_arguments)]
 fn deferred_layer(
     f: &mut Frame,
@@ -163,12 +169,13 @@ fn deferred_layer(
     }
     r.deferred.decals(f, r.scene, r.decals.deferred_runs(decals))?;
     r.decals.decal_pass(f, r.scene, decals, DecalSurfaceSource::GBuffer)?;
-    r.deferred.lighting(f, r.scene, decals, lights, s.compute_shading)
+    r.deferred.lighting(f, r.scene, decals, lights, s.compute_shading)?;
+    r.reflections.record(f, r.scene, DecalSurfaceSource::GBuffer, decals, lights)
 }
 
 /// Visibility buffer: ids and depth, light culling and shadows, the decal pass, one pass
-/// (compute, or full-screen fragment) that rebuilds and shades, then the blended surfaces in a
-/// forward pass.
+/// (compute, or full-screen fragment) that rebuilds and shades, reflections, then the blended
+/// surfaces in a forward pass.
 pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let (decals, lights) = begin(f, r, mirror, s)?;
     let (scene, visbuffer) = (&*r.scene, r.visbuffer);
@@ -178,6 +185,7 @@ pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirr
     r.lighting.record(f, r.scene, &draws, &lights)?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
     r.visbuffer.shade(f, r.scene, s.clear_color, &decals, &lights, s.compute_shading)?;
+    r.reflections.record(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
     r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)?;

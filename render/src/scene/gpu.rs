@@ -41,8 +41,9 @@ pub const MAX_TEXTURES: u32 = 4096;
 /// Descriptor bindings after the texture array, one per sampled render target (`BINDING_*`).
 pub const TARGET_BINDINGS: u32 = crate::layout::BINDING_ANTIALIASED;
 /// Storage-image bindings after those: the decal buffer (`BINDING_DECAL_*`), the shadow debug
-/// image, depth peeling's background depth, the HDR target and the anti-aliased colour.
-pub const STORAGE_BINDINGS: u32 = crate::layout::BINDING_ANTIALIASED_STORAGE - TARGET_BINDINGS;
+/// image, depth peeling's background depth, the HDR target, the anti-aliased colour and the
+/// reflection pass's two images.
+pub const STORAGE_BINDINGS: u32 = crate::layout::BINDING_REFLECTION_WEIGHT - TARGET_BINDINGS;
 const _: () = assert!(crate::layout::BINDING_DECAL_ALBEDO == TARGET_BINDINGS + 1, "storage bindings follow the sampled targets");
 const BINDINGS: usize = 1 + (TARGET_BINDINGS + STORAGE_BINDINGS) as usize;
 

@@ -480,6 +480,8 @@ pub struct FrameCounters {
     pub skinned_vertices: u64,
     /// Scene BLAS refits (posed meshes skinned this frame).
     pub scene_blas_refits: u64,
+    /// Reflections: the mode applied, and what the GPU measured (`crate::reflections`).
+    pub reflections: crate::reflections::ReflectionStats,
 }
 
 /// What clustered decals measured on the GPU. The GPU writes these into the cluster buffer and

@@ -1,0 +1,256 @@
+//! Ray-traced reflections in which decals appear. Seed 000 (`seeds/000`, §2.4 and Fig. 2.4) lists
+//! ray-query reflections among its renderer's options and shows decals under them; its future
+//! work (§6) proposes ray-query decals in real-time ray tracing. This is where enumerating decals
+//! through an acceleration structure pays most: the decals at *any* point a ray reaches can be
+//! found, including points the camera never sees, where deferred, clustered and screen-space
+//! decals have nothing to offer (Unity HDRP's ray-traced reflections leave decals out).
+//!
+//! Two compute passes after the opaque shading, before blended surfaces:
+//!
+//! 1. **Rays** (`shaders/reflections.comp`). Each pixel rebuilds its surface as its pipeline's
+//!    shading does (G-buffer, or visibility ids: the forward pipelines then draw the ids
+//!    prepass), applies the frame's decals the same way, and stores the weight its reflection
+//!    gets: the GGX lobe's pre-integrated reflectance (Karis's fit) × occlusion, faded out over
+//!    the last quarter below the roughness cut-off. Surfaces below the cut-off trace a ray, every
+//!    pixel at full resolution or one per 2×2 block at half: mirrors (roughness < 0.05) the exact
+//!    mirror direction, glossy surfaces one drawn from the GGX distribution of visible normals.
+//!    At the hit (`shaders/include/reflections.glsl`) the surface is rebuilt bindlessly with the
+//!    visibility buffer's code, its decals found by the same zero-length ray in the decal TLAS as
+//!    on screen (whatever the on-screen decal method), its lights by the ray-query lights' TLAS
+//!    with their shadow rays, the clear colour on a miss; masked surfaces are alpha-tested and
+//!    glass is blended over what lies behind it.
+//! 2. **Resolve** (`shaders/reflections_resolve.comp`): a depth-aware Gaussian over the rays
+//!    around each pixel, as wide as its roughness asks (none for a mirror at full resolution; the
+//!    depth-aware upsample at half), added to the HDR target in place of the ambient term's
+//!    specular part. There are no motion vectors yet, so glossy reflections are filtered in
+//!    space only; the noise pattern is fixed per pixel, so a still frame stays still.
+//!
+//! Both tiers: this pass needs ray queries. The ray-tracing-pipeline tier (the lent GPU) and
+//! devices without ray tracing fall back to no reflections, which `--stats` reports.
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use crate::RenderError;
+use crate::decals::{DecalFrame, DecalSurfaceSource, declare_decal_reads};
+use crate::gpu::device::{GpuContext, Tier};
+use crate::gpu::memory::Buffer;
+use crate::gpu::pipeline::create_compute;
+use crate::gpu::shaders;
+use crate::graph::readback::StatsReadback;
+use crate::graph::targets::{
+    DEPTH, GBUFFER_ALBEDO, GBUFFER_LAYERS, GBUFFER_MATERIAL, GBUFFER_NORMAL, HDR, REFLECTION, REFLECTION_WEIGHT, VISIBILITY,
+};
+use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassKind, ResourceId};
+use crate::layout::{REFLECT_HALF_RES, REFLECT_ON, REFLECTION_STATS};
+use crate::lights::LightFrame;
+use crate::pipelines::ShadeVariants;
+use crate::scene::gpu::GpuScene;
+use crate::settings::{DebugView, FrameSettings, ReflectionMode};
+
+/// What the reflection pass measured on the GPU, read back once its frame has finished (so a
+/// frame reports the figures of the frame that last used its frame slot, two frames earlier).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ReflectionStats {
+    /// The mode applied this frame (after [`ReflectionMode::effective`]).
+    pub applied: ReflectionMode,
+    /// Whether the rays were traced at half resolution this frame.
+    pub half_resolution: bool,
+    /// Frame whose GPU figures these are (`u64::MAX` before any).
+    pub measured_frame: u64,
+    /// Pixels that reflect (smoother than the cut-off).
+    pub pixels: u64,
+    /// Reflection rays traced.
+    pub rays: u64,
+    /// Rays that hit geometry (the rest saw the sky).
+    pub hits: u64,
+    /// Decal candidates tested at the hit points (zero-length rays in the decal TLAS).
+    pub decals_tested: u64,
+    /// Lights found at the hit points (their TLAS, and the unbounded lights).
+    pub lights_found: u64,
+    /// Rays that crossed glass.
+    pub through_glass: u64,
+}
+
+/// This frame's reflections, decided before the lighting record is written.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ReflectionFrame {
+    /// Whether the passes run (the mode applies on this device, and the debug view shows them).
+    pub on: bool,
+    /// `REFLECT_*` flags for the lighting record (0 when off).
+    pub flags: u32,
+    /// The roughness cut-off.
+    pub cutoff: f32,
+    /// The statistics buffer's address (0 when off).
+    pub stats: u64,
+}
+
+/// The reflection passes and their statistics.
+pub struct Reflections {
+    /// The ray pass over the G-buffer, in each way it applies the primary surface's decals.
+    gbuffer: Option<ShadeVariants>,
+    /// The ray pass over the visibility ids.
+    visibility: Option<ShadeVariants>,
+    resolve: vk::Pipeline,
+    stats: Buffer,
+    stats_res: ResourceId,
+    readback: StatsReadback,
+    latest: ReflectionStats,
+}
+
+impl Reflections {
+    /// Creates the passes (the ray passes only on the ray-query tier) and the statistics
+    /// buffers.
+    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
+        let compute = |spirv: &[u8]| create_compute(ctx, layout, "reflection rays", spirv);
+        let (gbuffer, visibility) = if ctx.tier == Tier::RayQuery {
+            (
+                Some(ShadeVariants::new(
+                    ctx,
+                    [
+                        shaders::REFLECTIONS_COMP_GBUFFER,
+                        shaders::REFLECTIONS_COMP_GBUFFER_RAY_QUERY_DECALS,
+                        shaders::REFLECTIONS_COMP_GBUFFER_DECAL_BUFFER,
+                    ],
+                    compute,
+                )?),
+                Some(
+                    ShadeVariants::new(
+                        ctx,
+                        [shaders::REFLECTIONS_COMP, shaders::REFLECTIONS_COMP_RAY_QUERY_DECALS, shaders::REFLECTIONS_COMP_DECAL_BUFFER],
+                        compute,
+                    )?
+                    .with_clustered(shaders::REFLECTIONS_COMP_CLUSTERED_DECALS, compute)?,
+                ),
+            )
+        } else {
+            (None, None)
+        };
+        let bytes = REFLECTION_STATS as u64 * 4;
+        let stats = Buffer::new(
+            ctx,
+            "reflection statistics",
+            bytes,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST
+                | vk::BufferUsageFlags::TRANSFER_SRC
+                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+            MemoryLocation::GpuOnly,
+        )?;
+        Ok(Self {
+            gbuffer,
+            visibility,
+            resolve: create_compute(ctx, layout, "reflection resolve", shaders::REFLECTIONS_RESOLVE_COMP)?,
+            stats,
+            stats_res: graph.resource("reflection statistics"),
+            readback: StatsReadback::new(ctx, graph, "reflection statistics readback", bytes)?,
+            latest: ReflectionStats { measured_frame: u64::MAX, ..Default::default() },
+        })
+    }
+
+    /// Decides this frame's reflections from `s` (the mode this device runs; none in debug views
+    /// other than the lit image and the reflection rays) and reads back the statistics of the
+    /// frame that last used this frame's slot into `stats`.
+    pub fn prepare(&mut self, f: &mut Frame, s: &FrameSettings, stats: &mut ReflectionStats) -> ReflectionFrame {
+        if let Some((frame, words)) = self.readback.take(f) {
+            let w = |i: usize| words[i] as u64;
+            self.latest = ReflectionStats {
+                measured_frame: frame,
+                pixels: w(0),
+                rays: w(1),
+                hits: w(2),
+                decals_tested: w(3),
+                lights_found: w(4),
+                through_glass: w(5),
+                ..self.latest
+            };
+        }
+        let applied = s.reflections.mode.effective(f.ctx.ray_support());
+        let shown = matches!(s.debug_view, DebugView::Lit | DebugView::Reflections);
+        let on = applied == ReflectionMode::RayTraced && shown && self.visibility.is_some();
+        let half = on && s.reflections.half_resolution;
+        *stats = ReflectionStats { applied: if on { applied } else { ReflectionMode::Off }, half_resolution: half, ..self.latest };
+        if !on {
+            return ReflectionFrame::default();
+        }
+        ReflectionFrame {
+            on,
+            flags: REFLECT_ON | if half { REFLECT_HALF_RES } else { 0 },
+            cutoff: s.reflections.roughness_cutoff.clamp(0.0, 1.0),
+            stats: self.stats.address,
+        }
+    }
+
+    /// Traces and resolves this frame's reflections into the HDR target, over the surfaces of
+    /// `source` with the frame's `decals` (the primary surface's, and the TLAS the hit points
+    /// search) and `lights`; nothing when [`LightFrame::reflections`] says they are off.
+    pub fn record(
+        &mut self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        source: DecalSurfaceSource,
+        decals: &DecalFrame,
+        lights: &LightFrame,
+    ) -> Result<(), RenderError> {
+        let variants = match source {
+            DecalSurfaceSource::GBuffer => self.gbuffer.as_ref(),
+            DecalSurfaceSource::Visibility => self.visibility.as_ref(),
+        };
+        let Some(variants) = variants.filter(|_| lights.reflections) else { return Ok(()) };
+        let (stats, stats_res) = (self.stats.raw, self.stats_res);
+        f.pass("reflection_stats_clear", PassKind::Transfer).write(stats_res, BufferUse::Transfer).record(|p| {
+            // SAFETY: `cmd` is recording outside a rendering scope; the range is the buffer.
+            unsafe { p.ctx.device.cmd_fill_buffer(p.cmd, stats, 0, vk::WHOLE_SIZE, 0) };
+        })?;
+        let pass = f
+            .pass("reflection_rays", PassKind::Compute)
+            .sample(&DEPTH)
+            .reads(scene.res.shaded())
+            .read(scene.res.meshes, BufferUse::Storage);
+        let pass = match source {
+            DecalSurfaceSource::GBuffer => {
+                pass.sample(&GBUFFER_ALBEDO).sample(&GBUFFER_NORMAL).sample(&GBUFFER_MATERIAL).sample(&GBUFFER_LAYERS)
+            }
+            DecalSurfaceSource::Visibility => pass.sample(&VISIBILITY),
+        };
+        let accel = |ids: Option<[ResourceId; 2]>| ids.into_iter().flatten().map(|a| (a, BufferUse::Accel));
+        let pipeline = variants.pick(decals);
+        declare_decal_reads(pass, decals)
+            .reads(accel(decals.at_hits))
+            .reads(accel(lights.scene_accel))
+            .reads(accel(lights.light_boxes.map(|[tlas, blas, _]| [tlas, blas])))
+            .reads(lights.light_boxes.map(|[_, _, boxes]| (boxes, BufferUse::Storage)))
+            .write(stats_res, BufferUse::Storage)
+            .image(&REFLECTION, ImageUse::StorageWrite)
+            .image(&REFLECTION_WEIGHT, ImageUse::StorageWrite)
+            .record(|p| {
+                p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
+                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
+                unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
+            })?;
+        let resolve = self.resolve;
+        f.pass("reflection_resolve", PassKind::Compute)
+            .sample(&DEPTH)
+            .reads(scene.res.shaded())
+            .image(&REFLECTION, ImageUse::StorageRead)
+            .image(&REFLECTION_WEIGHT, ImageUse::StorageRead)
+            .image(&HDR, ImageUse::StorageWrite)
+            .record(|p| {
+                p.bind(vk::PipelineBindPoint::COMPUTE, resolve, &p.push);
+                // SAFETY: as above.
+                unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
+            })?;
+        self.readback.record(f, "reflection_statistics", stats_res, stats)
+    }
+
+    /// Destroys the pipelines and buffers; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        for v in [self.gbuffer, self.visibility].into_iter().flatten() {
+            v.destroy(ctx);
+        }
+        // SAFETY: the GPU is idle.
+        unsafe { ctx.device.destroy_pipeline(self.resolve, None) };
+        self.stats.destroy(ctx);
+        self.readback.destroy(ctx);
+    }
+}

