@@ -2,8 +2,11 @@
 """Writes PEERS.md's "decals and lights" scene as a glTF, so that the sandbox can run the scene
 Bevy was measured in (issue: decals at a million, item 5):
 
-    python3 scripts/peer_decals_gltf.py OUT.gltf
+    python3 scripts/peer_decals_gltf.py OUT.gltf [--floor-roughness R]
     sandbox --scene OUT.gltf --decals N --no-shadows --pipeline forward_plus ...
+
+With --floor-roughness the ground is a metal of that roughness (0.02: a mirror), the scene of
+the reflections issue: a mirror floor, 28 lights and 1,000 decals.
 
 A 40 m ground quad, 60 unit boxes (a fixed pseudo-random layout over the middle 30 m), 28 point
 lights of 8 m range 1.5 m above the ground on a 7 x 4 grid over the 30 m square, a sun, and the
@@ -46,6 +49,7 @@ def rng(seed):
 
 def main():
     out = sys.argv[1]
+    floor_roughness = float(sys.argv[sys.argv.index("--floor-roughness") + 1]) if "--floor-roughness" in sys.argv else None
     positions, normals, indices, quad_indices = quad_and_box()
     blob = b"".join(struct.pack("<3f", *p) for p in positions)
     blob += b"".join(struct.pack("<3f", *p) for p in normals)
@@ -94,7 +98,9 @@ def main():
             {"name": "box", "primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 3, "material": 1}]},
         ],
         "materials": [
-            {"name": "ground", "pbrMetallicRoughness": {"baseColorFactor": [0.6, 0.6, 0.6, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.85}},
+            {"name": "ground", "pbrMetallicRoughness": {"baseColorFactor": [0.6, 0.6, 0.6, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.85}}
+            if floor_roughness is None
+            else {"name": "mirror", "pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.9, 0.9, 1.0], "metallicFactor": 1.0, "roughnessFactor": floor_roughness}},
             {"name": "box", "pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.55, 0.4, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.6}},
         ],
         "buffers": [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode()}],

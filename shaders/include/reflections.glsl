@@ -9,9 +9,9 @@
 // the hit point is usually somewhere the camera does not see.
 //
 // Along the ray, alpha-masked surfaces are alpha-tested (alpha_mask.glsl) and blended ones
-// (glass) do not stop it: the nearest pane in front of the hit is shaded and blended over it by
-// its opacity, and panes behind that filter it as coloured shadows do. A miss sees the clear
-// colour (the sky).
+// (glass) do not stop it: up to REFLECTION_GLASS panes in front of the hit are shaded and
+// blended over it back to front by their opacity, as the transparency passes draw glass on
+// screen (back faces only on double-sided materials). A miss sees the clear colour (the sky).
 #ifndef REFLECTIONS_GLSL
 #define REFLECTIONS_GLSL
 
@@ -83,7 +83,10 @@ ReflectionRay trace_reflection(vec3 origin, vec3 dir, float width0, float spread
         GpuInstance inst = scene.instances.instances[instance];
         GpuMaterial m = scene.materials.materials[inst.material];
         if ((m.flags & MATERIAL_BLEND) != 0u) {
-            if (panes < REFLECTION_GLASS) {
+            // Glass as the transparency passes draw it: back faces only when double-sided.
+            InstanceTriangle t = instance_triangle(instance, primitive);
+            bool front = dot(cross(t.p1 - t.p0, t.p2 - t.p0), dir) < 0.0;
+            if (panes < REFLECTION_GLASS && (front || (m.flags & MATERIAL_DOUBLE_SIDED) != 0u)) {
                 glass_t[panes] = rayQueryGetIntersectionTEXT(q, false);
                 glass_ids[panes] = uvec2(instance, primitive);
                 glass_bary[panes] = bary;
@@ -104,25 +107,19 @@ ReflectionRay trace_reflection(vec3 origin, vec3 dir, float width0, float spread
     } else {
         r.radiance = scene.lighting.lighting.clear_color.rgb;
     }
-    // Glass in front of the hit: the nearest pane is shaded and blended over by its opacity,
-    // the others filter the light by their colour × (1 − opacity).
-    uint nearest = REFLECTION_GLASS;
-    for (uint i = 0u; i < panes; ++i) {
-        if (glass_t[i] < r.distance && (nearest == REFLECTION_GLASS || glass_t[i] < glass_t[nearest])) nearest = i;
-    }
-    for (uint i = 0u; i < panes; ++i) {
-        if (i == nearest || glass_t[i] >= r.distance) continue;
-        GpuInstance inst = scene.instances.instances[glass_ids[i].x];
-        vec4 c = hit_base_color(inst, scene.materials.materials[inst.material], glass_ids[i].y, glass_bary[i]);
-        r.radiance *= clamp(c.rgb * (1.0 - c.a), 0.0, 1.0);
-    }
-    if (nearest != REFLECTION_GLASS) {
+    // Glass in front of the hit, blended over it back to front as the transparency passes blend
+    // it on screen: each pane shaded, over what lies behind by its opacity.
+    for (uint done = 0u; done < panes; ++done) {
+        uint far = REFLECTION_GLASS;
+        for (uint i = 0u; i < panes; ++i) {
+            if (glass_t[i] < r.distance && (far == REFLECTION_GLASS || glass_t[i] > glass_t[far])) far = i;
+        }
+        if (far == REFLECTION_GLASS) break;
         r.glass = true;
-        VisibleSurface v = hit_surface(glass_ids[nearest].x, glass_ids[nearest].y, glass_bary[nearest], dir,
-                                       cone_width(width0, spread, glass_t[nearest]));
-        SurfaceInputs pane = surface_inputs(v);
+        VisibleSurface v = hit_surface(glass_ids[far].x, glass_ids[far].y, glass_bary[far], dir, cone_width(width0, spread, glass_t[far]));
         float opacity = clamp(sample_material(v.material, v.uv, v.duvdx, v.duvdy).base.a, 0.0, 1.0);
-        r.radiance = mix(r.radiance, shade_hit(pane, -dir, r), opacity);
+        r.radiance = mix(r.radiance, shade_hit(surface_inputs(v), -dir, r), opacity);
+        glass_t[far] = REFLECTION_MAX_DISTANCE;   // done
     }
     return r;
 }

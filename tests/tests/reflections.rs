@@ -187,3 +187,93 @@ fn without_ray_queries_nothing_is_reflected_and_the_stats_say_so() {
         assert_eq!(stats.applied, ReflectionMode::Off, "{tier:?}: {stats:?}");
     }
 }
+
+/// Renders the mirror-floor scene of `pipeline` with a slab of `material` (if any) high above the
+/// floor between the camera and the wall, where only the mirror shows it.
+fn with_slab(pipeline: PipelineKind, material: Option<Material>) -> (Vec<[f32; 4]>, render::reflections::ReflectionStats) {
+    let (mut app, ..) = mirror_floor_app(Tier::RayQuery, pipeline, DecalMethod::RayQuery, ReflectionSettings::default());
+    if let Some(material) = material {
+        let material = app.world.resource_mut::<Assets<Material>>().add(material);
+        let mesh = app.world.resource_mut::<Assets<Mesh>>().add(shapes::cuboid(Vec3::new(3.0, 1.4, 0.02), 1.0));
+        app.world.spawn((MeshInstance { mesh, material }, Transform::from_xyz(0.0, 3.3, -2.0)));
+    }
+    for _ in 0..3 {
+        app.update();
+    }
+    let hdr = renderer(&mut app).read_hdr().expect("HDR reads back");
+    assert_no_validation_errors(&mut app);
+    (hdr, app.world.resource::<RenderStats>().last.reflections)
+}
+
+#[test]
+fn masked_surfaces_are_alpha_tested_and_glass_is_blended_in_reflections() {
+    let (camera, transform) =
+        (Camera::default(), GlobalTransform::from(Transform::from_xyz(0.0, 1.1, 3.0).looking_at(Vec3::new(0.0, -0.3, -2.0), Vec3::Y)));
+    for pipeline in [PipelineKind::Deferred, PipelineKind::VisBuffer] {
+        let green = Vec4::new(0.0, 1.0, 0.0, 0.2);
+        let (plain, _) = with_slab(pipeline, None);
+        // The slab opaque (alpha above its cutoff): the pixels it changes are all on the floor.
+        let (opaque, _) = with_slab(pipeline, Some(Material { alpha_mode: AlphaMode::Mask(0.1), ..Material::from_color(green, 0.0, 0.9) }));
+        let changed: Vec<usize> = (0..plain.len()).filter(|&i| (0..3).any(|c| (opaque[i][c] - plain[i][c]).abs() > 0.05)).collect();
+        assert!(changed.len() > 100, "{pipeline:?}: the mirror shows the slab ({} pixels)", changed.len());
+        let on_floor = |i: usize| expected(&camera, &transform, i as u32 % SIZE.0, i as u32 / SIZE.0) != Seen::Unknown;
+        let off_floor = changed.iter().filter(|&&i| !on_floor(i)).count();
+        assert!(off_floor * 20 < changed.len(), "{pipeline:?}: only the mirror shows it ({off_floor} of {} elsewhere)", changed.len());
+        // Alpha under its cutoff everywhere: cut away, in reflections too.
+        let (masked, _) = with_slab(pipeline, Some(Material { alpha_mode: AlphaMode::Mask(0.5), ..Material::from_color(green, 0.0, 0.9) }));
+        let worst =
+            plain.iter().zip(&masked).map(|(a, b)| (0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0f32, f32::max)).fold(0.0f32, f32::max);
+        assert!(worst < 1e-3, "{pipeline:?}: a cut-away slab leaves the image as it was (largest difference {worst})");
+        // As glass of opacity 0.5 over the sky: green, with half the sky's blue left.
+        let (glass, stats) =
+            with_slab(pipeline, Some(Material { alpha_mode: AlphaMode::Blend, ..Material::from_color(green.with_w(0.5), 0.0, 0.9) }));
+        let mean = |img: &[[f32; 4]]| changed.iter().map(|&i| Vec3::from_slice(&img[i][..3])).sum::<Vec3>() / changed.len() as f32;
+        let (sky, tinted) = (mean(&plain), mean(&glass));
+        eprintln!("{pipeline:?}: where the slab shows, without it {sky}, glass {tinted}, opaque {}", mean(&opaque));
+        assert!(
+            tinted.y > sky.y + 0.05 && tinted.z > 0.3 * sky.z && tinted.z < 0.7 * sky.z,
+            "{pipeline:?}: glass blended over the sky: {sky} / {tinted}"
+        );
+        assert!(stats.through_glass > 0, "{pipeline:?}: {stats:?}");
+    }
+}
+
+#[test]
+fn a_mirror_shows_what_a_light_the_camera_does_not_see_lights() {
+    for pipeline in [PipelineKind::ForwardPlus, PipelineKind::Deferred] {
+        let render = |light: bool| {
+            let settings = RenderSettings { pipeline, clear_color: [0.0, 0.0, 0.0, 1.0], ambient: Vec3::splat(0.01), ..Default::default() };
+            let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, Tier::RayQuery);
+            let (mirror, panel) = {
+                let mut materials = app.world.resource_mut::<Assets<Material>>();
+                (materials.add(Material::from_color(Vec4::ONE, 1.0, 0.0)), materials.add(Material::from_color(Vec4::splat(0.8), 0.0, 0.9)))
+            };
+            let (wall, square) = {
+                let mut meshes = app.world.resource_mut::<Assets<Mesh>>();
+                (meshes.add(shapes::cuboid(Vec3::new(6.0, 4.0, 0.1), 1.0)), meshes.add(shapes::cuboid(Vec3::new(1.5, 1.5, 0.1), 1.0)))
+            };
+            // A mirror ahead; behind the camera a panel, and a light of 1 m range in front of it,
+            // which reaches nothing the camera sees directly.
+            app.world.spawn((MeshInstance { mesh: wall, material: mirror }, Transform::from_xyz(0.0, 1.0, -3.0)));
+            app.world.spawn((MeshInstance { mesh: square, material: panel }, Transform::from_xyz(0.0, 1.0, 3.0)));
+            if light {
+                app.world
+                    .spawn((PointLight { intensity: 5.0, range: Some(1.0), ..Default::default() }, Transform::from_xyz(0.0, 1.0, 2.4)));
+            }
+            app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 1.0, 0.0).looking_at(Vec3::new(0.0, 1.0, -3.0), Vec3::Y)));
+            for _ in 0..2 {
+                app.update();
+            }
+            let hdr = renderer(&mut app).read_hdr().expect("HDR reads back");
+            assert_no_validation_errors(&mut app);
+            let centre = hdr[(SIZE.1 / 2 * SIZE.0 + SIZE.0 / 2) as usize];
+            Vec3::from_slice(&centre[..3])
+        };
+        let (dark, lit) = (render(false), render(true));
+        eprintln!("{pipeline:?}: the panel in the mirror unlit {dark}, lit {lit}");
+        assert!(
+            lit.x > 0.2 && lit.x > 10.0 * dark.x,
+            "{pipeline:?}: the light behind the camera lights the panel in the mirror: {dark} / {lit}"
+        );
+    }
+}

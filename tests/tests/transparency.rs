@@ -38,7 +38,7 @@
 
 use engine::prelude::*;
 use plugins::RenderSettings;
-use render::{DecalMethod, PipelineKind, Tier, TransparencyMethod};
+use render::{DecalMethod, PipelineKind, ReflectionSettings, Tier, TransparencyMethod};
 use tests::{TopDownView, assert_no_validation_errors, gpu_app, gpu_app_at, renderer};
 
 const SIZE: (u32, u32) = (128, 96);
@@ -54,9 +54,16 @@ struct Scene {
 }
 
 fn scene() -> Scene {
-    // No shadows: the floor references are drawn without the panes, which would otherwise tint
-    // the floor's shadows (tested in `glass_casts_shadows_of_its_colour_from_every_light_kind`).
-    let mut settings = RenderSettings { decal_method: DecalMethod::Off, transparency: TransparencyMethod::Forward, ..Default::default() };
+    // No shadows and no reflections: the floor references are drawn without the panes, which
+    // would otherwise tint the floor's shadows (tested in
+    // `glass_casts_shadows_of_its_colour_from_every_light_kind`) and show in its reflection
+    // (tests/tests/reflections.rs).
+    let mut settings = RenderSettings {
+        decal_method: DecalMethod::Off,
+        transparency: TransparencyMethod::Forward,
+        reflections: ReflectionSettings::OFF,
+        ..Default::default()
+    };
     settings.lights.shadows = false;
     let mut app = gpu_app(SIZE.0, SIZE.1, settings);
     TopDownView::new(10.0, SIZE).spawn(&mut app.world);
