@@ -61,26 +61,6 @@ void rest_pose_at(GpuInstance instance, GpuMeshInfo mesh, uint triangle, vec3 b,
     if (dot(posed_normal, facing) < 0.0) normal = -normal;
 }
 
-// The rest pose of what pixel `px` sees of triangle `triangle` of instance slot `instance`, for
-// pipelines that keep only those ids (the deferred G-buffer): the camera ray through the pixel's
-// centre against the posed triangle gives the barycentrics. False for a mesh that is not posed.
-bool rest_pose_of_pixel(ivec2 px, uint instance, uint triangle, vec3 facing, out vec3 position, out vec3 normal) {
-    GpuInstance inst = scene.instances.instances[instance];
-    GpuMeshInfo mesh = MeshesRef(scene.meshes).meshes[inst.mesh];
-    if (mesh.rest == mesh.vertices || mesh.index_count == 0u) return false;
-    IndicesRef indices = IndicesRef(mesh.indices);
-    VerticesRef posed = VerticesRef(mesh.vertices);
-    GpuVertex v0 = posed.vertices[indices.indices[triangle * 3u]];
-    GpuVertex v1 = posed.vertices[indices.indices[triangle * 3u + 1u]];
-    GpuVertex v2 = posed.vertices[indices.indices[triangle * 3u + 2u]];
-    mat4 model = inst.model;
-    vec3 b = barycentrics(scene.camera.camera.position, ray_dir(vec2(px)), (model * vec4(v0.position, 1.0)).xyz,
-                          (model * vec4(v1.position, 1.0)).xyz, (model * vec4(v2.position, 1.0)).xyz);
-    vec3 posed_normal = mat3(inst.normal_model) * (mat3(v0.normal, v1.normal, v2.normal) * b);
-    rest_pose_at(inst, mesh, triangle, b, posed_normal, facing, position, normal);
-    return true;
-}
-
 // A triangle of an instance, fetched: its vertices and their world positions.
 struct InstanceTriangle {
     GpuInstance instance;
@@ -105,6 +85,19 @@ InstanceTriangle instance_triangle(uint instance, uint triangle) {
     t.p1 = (model * vec4(t.v1.position, 1.0)).xyz;
     t.p2 = (model * vec4(t.v2.position, 1.0)).xyz;
     return t;
+}
+
+// The rest pose of what pixel `px` sees of triangle `triangle` of instance slot `instance`, for
+// pipelines that keep only those ids (the deferred G-buffer): the camera ray through the pixel's
+// centre against the posed triangle gives the barycentrics. False for a mesh that is not posed.
+bool rest_pose_of_pixel(ivec2 px, uint instance, uint triangle, vec3 facing, out vec3 position, out vec3 normal) {
+    GpuMeshInfo mesh = MeshesRef(scene.meshes).meshes[scene.instances.instances[instance].mesh];
+    if (mesh.rest == mesh.vertices || mesh.index_count == 0u) return false;
+    InstanceTriangle t = instance_triangle(instance, triangle);
+    vec3 b = barycentrics(scene.camera.camera.position, ray_dir(vec2(px)), t.p0, t.p1, t.p2);
+    vec3 posed_normal = mat3(t.instance.normal_model) * (mat3(t.v0.normal, t.v1.normal, t.v2.normal) * b);
+    rest_pose_at(t.instance, t.mesh, triangle, b, posed_normal, facing, position, normal);
+    return true;
 }
 
 // The surface of triangle `t` at barycentrics `b`, seen along `dir`, with `bx` and `by` the
