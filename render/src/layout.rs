@@ -621,9 +621,13 @@ layout! {
     /// the fade towards the roughness cut-off) and the surface's roughness (a; negative where
     /// nothing reflects).
     pub const BINDING_REFLECTION_WEIGHT: u32 = 23;
+    /// Binding of what each reflection ray found (`rays_out`, storage R32UI, one word per cell:
+    /// a pixel, or a 2×2 block at half resolution; `pack_cell` in
+    /// `shaders/include/reflections.glsl`), which the resolve counts and upsamples by.
+    pub const BINDING_REFLECTION_RAYS: u32 = 24;
     /// `GpuLighting::reflection_flags`: the reflection pass runs this frame.
     pub const REFLECT_ON: u32 = 1;
-    /// `GpuLighting::reflection_flags`: one ray per 2×2 pixels, upsampled by depth.
+    /// `GpuLighting::reflection_flags`: one ray per 2×2 pixels (a cell), upsampled by depth.
     pub const REFLECT_HALF_RES: u32 = 2;
     /// Reflections: 32-bit words of statistics (`GpuLighting::reflection_stats`): pixels that
     /// reflect, rays traced, rays that hit geometry, decal candidates tested at hit points,

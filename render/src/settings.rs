@@ -451,7 +451,7 @@ pub enum ReflectionMode {
     Off,
     /// A ray per pixel (or per 2×2 pixels) against the scene's TLAS, shaded at its hit point
     /// with the decals there, its lights and their shadows; the clear colour on a miss. Needs
-    /// ray queries (falls back to [`ReflectionMode::Off`] without them).
+    /// ray queries or ray-tracing pipelines (falls back to [`ReflectionMode::Off`] without).
     #[default]
     RayTraced,
 }
@@ -473,10 +473,11 @@ impl ReflectionMode {
         Self::ALL.into_iter().find(|m| m.name() == name)
     }
 
-    /// The mode this device runs: ray-traced reflections need ray queries.
+    /// The mode this device runs: ray-traced reflections need ray queries or ray-tracing
+    /// pipelines.
     pub fn effective(self, support: RaySupport) -> Self {
         match self {
-            ReflectionMode::RayTraced if support.ray_query => ReflectionMode::RayTraced,
+            ReflectionMode::RayTraced if support.ray_query || support.ray_pipeline => ReflectionMode::RayTraced,
             _ => ReflectionMode::Off,
         }
     }

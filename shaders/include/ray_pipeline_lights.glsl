@@ -24,7 +24,13 @@ struct LightPayload {
 };
 
 #ifdef LIGHT_RAYGEN
-layout(location = 0) rayPayloadEXT LightPayload light_payload;
+// A ray-generation shader that traces other rays too (reflections.glsl) moves the payload and
+// the hit group and miss shader these lights' rays use.
+#ifndef LIGHT_PAYLOAD_LOCATION
+#define LIGHT_PAYLOAD_LOCATION 0
+#define LIGHT_SBT_OFFSET 0
+#endif
+layout(location = LIGHT_PAYLOAD_LOCATION) rayPayloadEXT LightPayload light_payload;
 
 vec3 enumerated_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found) {
     GpuLighting l = scene.lighting.lighting;
@@ -40,8 +46,8 @@ vec3 enumerated_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found
     for (uint k = 0u; k < unbounded_count; ++k) {
         light_payload.color += shade_light(scene.lights.lights[unbounded.slots[k]], brdf, s.position, s.normal, v);
     }
-    traceRayEXT(accelerationStructureEXT(l.light_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF, 0, 0, 0,
-                s.position, 0.0, vec3(1.0, 0.0, 0.0), 0.0, 0);
+    traceRayEXT(accelerationStructureEXT(l.light_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF, LIGHT_SBT_OFFSET, 0,
+                LIGHT_SBT_OFFSET, s.position, 0.0, vec3(1.0, 0.0, 0.0), 0.0, LIGHT_PAYLOAD_LOCATION);
     found = unbounded_count + light_payload.found;
     return light_payload.color;
 }

@@ -1,35 +1,47 @@
 // Ray-traced reflections in which decals appear (render/src/reflections; seed 000 §2.4 lists
 // ray-query reflections among its renderer's options and shows decals under them in Fig. 2.4;
-// its §6 proposes ray-query decals in real-time ray tracing). A reflection ray is a ray query
-// against the scene TLAS; the surface it hits is rebuilt bindlessly as the visibility buffer
-// rebuilds its pixels (visibility.glsl's hit_surface, visbuffer_surface.glsl's surface_inputs),
-// and shaded with the decals there, found by the same zero-length ray in the decal TLAS as on
-// screen (shading.glsl's traced_decals), and the lights there, found in the lights' TLAS with
-// their shadow rays (ray_query_lights.glsl). Screen-space and clustered decals cannot do this:
-// the hit point is usually somewhere the camera does not see.
+// its §6 proposes ray-query decals in real-time ray tracing). A reflection ray is traced against
+// the scene TLAS; the surface it hits is rebuilt bindlessly as the visibility buffer rebuilds its
+// pixels (visibility.glsl's hit_surface, visbuffer_surface.glsl's surface_inputs), and shaded
+// with the decals there, found by a zero-length ray in the decal TLAS as on screen, and the
+// lights there, found in the lights' TLAS. Screen-space and clustered decals cannot do this: the
+// hit point is usually somewhere the camera does not see.
+//
+// Two formulations of the same rays, as for decals and lights:
+// - REFLECTION_RAY_QUERY (reflections.comp, the ray-query tier): ray queries for everything,
+//   the hit point's lights with their shadow rays (ray_query_lights.glsl);
+// - REFLECTION_RAYGEN (reflections.rgen, the ray-tracing-pipeline tier): traceRayEXT with four
+//   hit groups and miss shaders (REFLECTION_SBT_*): the reflection ray's closest hit
+//   (reflections.rchit, with reflections.rahit for masked and blended surfaces), the decal
+//   pass's decal shaders, the ray-query lights' light shaders, the shadow pass's any-hit. The
+//   unbounded lights (the sun) send their shadow rays from here; lights found in their TLAS are
+//   added by an any-hit shader, which cannot trace, so they are unshadowed at hit points.
 //
 // Along the ray, alpha-masked surfaces are alpha-tested (alpha_mask.glsl) and blended ones
 // (glass) do not stop it: up to REFLECTION_GLASS panes in front of the hit are shaded and
 // blended over it back to front by their opacity, as the transparency passes draw glass on
 // screen (back faces only on double-sided materials). A miss sees the clear colour (the sky).
+//
+// Work is done per cell: a pixel at full resolution, a 2×2 block at half (REFLECT_HALF_RES),
+// whose first pixel that reflects traces for the block. Every pixel stores its weight; the cell
+// stores the ray's radiance and what it found (reflection_rays: see pack_cell).
 #ifndef REFLECTIONS_GLSL
 #define REFLECTIONS_GLSL
 
-#define DECALS_AT_HITS
-#extension GL_EXT_ray_query : require
+#ifdef REFLECTION_RAY_QUERY
+#define DECALS_AT_HITS   // shading.glsl's traced_decals at the hit points
+#endif
+// The ray-tracing-pipeline tier's hit groups and miss shaders, in the shader binding table's order.
+#define REFLECTION_SBT_SCENE 0
+#define REFLECTION_SBT_DECALS 1
+#define REFLECTION_SBT_LIGHTS 2
+#define REFLECTION_SBT_SHADOWS 3
 #include "visbuffer_surface.glsl"
-#include "ray_query_lights.glsl"
 #include "alpha_mask.glsl"
 #include "brdf.glsl"
-
-// GpuLighting::reflection_stats (REFLECTION_STATS words).
-layout(buffer_reference, std430, buffer_reference_align = 4) buffer ReflectionStatsRef { uint words[]; };
-const uint REFLECTION_STAT_PIXELS = 0u;          // pixels that reflect
-const uint REFLECTION_STAT_RAYS = 1u;            // reflection rays traced
-const uint REFLECTION_STAT_HITS = 2u;            // rays that hit geometry
-const uint REFLECTION_STAT_DECALS_TESTED = 3u;   // decal candidates tested at hit points
-const uint REFLECTION_STAT_LIGHTS = 4u;          // lights found at hit points
-const uint REFLECTION_STAT_GLASS = 5u;           // rays that crossed glass
+#ifdef GBUFFER
+#include "deferred_surface.glsl"
+#endif
 
 // Panes of glass a reflection ray remembers (nearer candidates past this many are ignored).
 const uint REFLECTION_GLASS = 4u;
@@ -42,21 +54,49 @@ struct ReflectionRay {
     float distance;       // to the hit (REFLECTION_MAX_DISTANCE on a miss)
     bool hit;
     bool glass;           // crossed a blended surface
-    uint decals_tested;   // at the hit point (and the glass pane's)
+    uint decals_tested;   // at the hit point (and the glass panes')
     uint lights_found;
 };
 
-// A hit surface's radiance towards `v`: its decals, the ambient term, emission and its lights
-// with their shadow rays.
-vec3 shade_hit(SurfaceInputs s, vec3 v, inout ReflectionRay r) {
-    r.decals_tested += traced_decals(s);
-    SurfaceBrdf brdf = surface_brdf(s.albedo, s.metallic, s.roughness);
-    vec3 color = s.emissive + scene.camera.camera.ambient * (brdf.diffuse_color + brdf.f0) * s.occlusion;
-    uint found;
-    color += enumerated_lights(brdf, s, v, found);
-    r.lights_found += found;
-    return color;
+// The hit and the glass in front of it, as the traversal leaves them.
+struct ReflectionHits {
+    bool hit;
+    uvec2 ids;            // instance slot, triangle
+    vec2 bary;
+    float t;
+    uint panes;
+    float glass_t[REFLECTION_GLASS];
+    uvec2 glass_ids[REFLECTION_GLASS];
+    vec2 glass_bary[REFLECTION_GLASS];
+};
+
+// Whether a candidate hit on a blended instance is a pane the transparency passes draw (its
+// front face, or either face when double-sided), for a ray along `dir`.
+bool glass_pane_faces(uint instance, uint triangle, GpuMaterial m, vec3 dir) {
+    InstanceTriangle t = instance_triangle(instance, triangle);
+    return (m.flags & MATERIAL_DOUBLE_SIDED) != 0u || dot(cross(t.p1 - t.p0, t.p2 - t.p0), dir) < 0.0;
 }
+
+// A candidate hit on a non-opaque instance (masked or blended): remembers glass in `h` and
+// returns false (the ray goes on); true when a masked texel stops the ray.
+bool reflection_candidate(inout ReflectionHits h, uint instance, uint triangle, vec2 bary, float t, vec3 dir) {
+    GpuInstance inst = scene.instances.instances[instance];
+    GpuMaterial m = scene.materials.materials[inst.material];
+    if ((m.flags & MATERIAL_BLEND) != 0u) {
+        if (h.panes < REFLECTION_GLASS && glass_pane_faces(instance, triangle, m, dir)) {
+            h.glass_t[h.panes] = t;
+            h.glass_ids[h.panes] = uvec2(instance, triangle);
+            h.glass_bary[h.panes] = bary;
+            ++h.panes;
+        }
+        return false;
+    }
+    return (m.flags & MATERIAL_ALPHA_MASK) == 0u || hit_base_color(inst, m, triangle, bary).a >= m.alpha_cutoff;
+}
+
+#ifdef REFLECTION_HIT_SHADERS
+// reflections.rchit, .rahit and .rmiss: the payload only.
+#else
 
 // The cone's width `t` metres along a reflection ray that left a surface where it was `width0`
 // across, spreading by `spread` radians.
@@ -64,62 +104,154 @@ float cone_width(float width0, float spread, float t) {
     return width0 + spread * t;
 }
 
-// Traces the reflection ray origin + t·dir and shades what it sees.
-ReflectionRay trace_reflection(vec3 origin, vec3 dir, float width0, float spread) {
-    ReflectionRay r = ReflectionRay(vec3(0.0), REFLECTION_MAX_DISTANCE, false, false, 0u, 0u);
+#ifdef REFLECTION_RAY_QUERY
+#extension GL_EXT_ray_query : require
+#include "ray_query_lights.glsl"
+
+ReflectionHits trace_hits(vec3 origin, vec3 dir) {
+    ReflectionHits h;
+    h.panes = 0u;
     rayQueryEXT q;
     rayQueryInitializeEXT(q, accelerationStructureEXT(scene.lighting.lighting.scene_tlas), gl_RayFlagsNoneEXT, 0xFF, origin, 0.0, dir,
                           REFLECTION_MAX_DISTANCE);
-    float glass_t[REFLECTION_GLASS];
-    uvec2 glass_ids[REFLECTION_GLASS];
-    vec2 glass_bary[REFLECTION_GLASS];
-    uint panes = 0u;
     // Only masked and blended instances are non-opaque in the scene TLAS, so only they come here.
     while (rayQueryProceedEXT(q)) {
         if (rayQueryGetIntersectionTypeEXT(q, false) != gl_RayQueryCandidateIntersectionTriangleEXT) continue;
-        uint instance = rayQueryGetIntersectionInstanceCustomIndexEXT(q, false);
-        uint primitive = rayQueryGetIntersectionPrimitiveIndexEXT(q, false);
-        vec2 bary = rayQueryGetIntersectionBarycentricsEXT(q, false);
-        GpuInstance inst = scene.instances.instances[instance];
-        GpuMaterial m = scene.materials.materials[inst.material];
-        if ((m.flags & MATERIAL_BLEND) != 0u) {
-            // Glass as the transparency passes draw it: back faces only when double-sided.
-            InstanceTriangle t = instance_triangle(instance, primitive);
-            bool front = dot(cross(t.p1 - t.p0, t.p2 - t.p0), dir) < 0.0;
-            if (panes < REFLECTION_GLASS && (front || (m.flags & MATERIAL_DOUBLE_SIDED) != 0u)) {
-                glass_t[panes] = rayQueryGetIntersectionTEXT(q, false);
-                glass_ids[panes] = uvec2(instance, primitive);
-                glass_bary[panes] = bary;
-                ++panes;
-            }
-            continue;
-        }
-        if ((m.flags & MATERIAL_ALPHA_MASK) == 0u || hit_base_color(inst, m, primitive, bary).a >= m.alpha_cutoff) {
+        if (reflection_candidate(h, rayQueryGetIntersectionInstanceCustomIndexEXT(q, false), rayQueryGetIntersectionPrimitiveIndexEXT(q, false),
+                                 rayQueryGetIntersectionBarycentricsEXT(q, false), rayQueryGetIntersectionTEXT(q, false), dir)) {
             rayQueryConfirmIntersectionEXT(q);
         }
     }
-    if (rayQueryGetIntersectionTypeEXT(q, true) == gl_RayQueryCommittedIntersectionTriangleEXT) {
+    h.hit = rayQueryGetIntersectionTypeEXT(q, true) == gl_RayQueryCommittedIntersectionTriangleEXT;
+    if (h.hit) {
+        h.ids = uvec2(rayQueryGetIntersectionInstanceCustomIndexEXT(q, true), rayQueryGetIntersectionPrimitiveIndexEXT(q, true));
+        h.bary = rayQueryGetIntersectionBarycentricsEXT(q, true);
+        h.t = rayQueryGetIntersectionTEXT(q, true);
+    }
+    return h;
+}
+
+// The decals at a hit point, from the same ray queries as on screen.
+uint hit_decals(inout SurfaceInputs s) {
+    return traced_decals(s);
+}
+
+// The lights at a hit point, each with its shadow ray.
+vec3 hit_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found) {
+    return enumerated_lights(brdf, s, v, found);
+}
+#endif
+
+#ifdef REFLECTION_RAYGEN
+#extension GL_EXT_ray_tracing : require
+#define LIGHT_RAYGEN
+#define LIGHT_PAYLOAD_LOCATION 2
+#define LIGHT_SBT_OFFSET REFLECTION_SBT_LIGHTS
+#include "ray_pipeline_lights.glsl"
+#include "decal_pass.glsl"
+
+layout(location = 0) rayPayloadEXT ReflectionHits reflection_payload;
+layout(location = 1) rayPayloadEXT DecalPayload decal_payload;
+layout(location = 3) rayPayloadEXT vec4 shadow_payload;
+
+ReflectionHits trace_hits(vec3 origin, vec3 dir) {
+    reflection_payload.panes = 0u;
+    reflection_payload.hit = false;
+    traceRayEXT(accelerationStructureEXT(scene.lighting.lighting.scene_tlas), gl_RayFlagsNoneEXT, 0xFF, REFLECTION_SBT_SCENE, 0,
+                REFLECTION_SBT_SCENE, origin, 0.0, dir, REFLECTION_MAX_DISTANCE, 0);
+    return reflection_payload;
+}
+
+// One zero-length ray in the decal TLAS for `view` (decal_pass.rint and .rahit).
+uint trace_decals(DecalSurface view) {
+    decal_payload.surface = view;
+    decal_payload.tested = 0u;
+    traceRayEXT(accelerationStructureEXT(scene.decal_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF,
+                REFLECTION_SBT_DECALS, 0, REFLECTION_SBT_DECALS, view.position, 0.0, view.geometric_normal, 0.0, 1);
+    return decal_payload.tested;
+}
+
+uint hit_decals(inout SurfaceInputs s) {
+    if (scene.decal_count == 0u || scene.decal_tlas == 0ul) return 0u;
+    DecalSurface surface = decal_world_view(s.position, s.dpdx, s.dpdy, s.geometric_normal, s.normal, s.decal_layers);
+    blend_init(decal_payload.blend);
+    uint tested = trace_decals(surface);
+    if (s.skinned) tested += trace_decals(decal_skin_view(surface, s.rest_position, s.rest_normal));
+    blend_resolve(decal_payload.blend, s.albedo, s.normal, s.roughness, s.metallic);
+    return tested;
+}
+
+vec3 hit_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found) {
+    GpuLighting l = scene.lighting.lighting;
+    found = 0u;
+    if (l.light_tlas == 0ul) return vec3(0.0);
+    bool shadows = (l.flags & SHADOWS_TRACED) != 0u;
+    vec3 facing = dot(s.geometric_normal, v) < 0.0 ? -s.geometric_normal : s.geometric_normal;
+    vec3 color = vec3(0.0);
+    UnboundedLightsRef unbounded = UnboundedLightsRef(l.unbounded_lights);
+    uint unbounded_count = unbounded.count;
+    for (uint k = 0u; k < unbounded_count; ++k) {
+        GpuLight light = scene.lights.lights[unbounded.slots[k]];
+        vec3 c = shade_light(light, brdf, s.position, s.normal, v);
+        vec3 dir;
+        float tmax;
+        if (shadows && any(greaterThan(c, vec3(0.0))) && shadow_ray_towards(light, s.position, dir, tmax)) {
+            shadow_payload = vec4(1.0, 1.0, 1.0, 0.0);
+            traceRayEXT(accelerationStructureEXT(l.scene_tlas), gl_RayFlagsTerminateOnFirstHitEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF,
+                        REFLECTION_SBT_SHADOWS, 0, REFLECTION_SBT_SHADOWS, shadow_origin(s.position, facing), 1e-3, dir, tmax, 3);
+            c *= shadow_payload.w != 0.0 ? shadow_payload.rgb : vec3(0.0);
+        }
+        color += c;
+    }
+    found = unbounded_count;
+    light_payload.brdf = brdf;
+    light_payload.normal = s.normal;
+    light_payload.view = v;
+    light_payload.color = vec3(0.0);
+    light_payload.found = 0u;
+    traceRayEXT(accelerationStructureEXT(l.light_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF, REFLECTION_SBT_LIGHTS,
+                0, REFLECTION_SBT_LIGHTS, s.position, 0.0, vec3(1.0, 0.0, 0.0), 0.0, 2);
+    found += light_payload.found;
+    return color + light_payload.color;
+}
+#endif
+
+// A hit surface's radiance towards `v`: its decals, the ambient term, emission and its lights.
+vec3 shade_hit(SurfaceInputs s, vec3 v, inout ReflectionRay r) {
+    r.decals_tested += hit_decals(s);
+    SurfaceBrdf brdf = surface_brdf(s.albedo, s.metallic, s.roughness);
+    vec3 color = s.emissive + scene.camera.camera.ambient * (brdf.diffuse_color + brdf.f0) * s.occlusion;
+    uint found;
+    color += hit_lights(brdf, s, v, found);
+    r.lights_found += found;
+    return color;
+}
+
+// Traces the reflection ray origin + t·dir and shades what it sees.
+ReflectionRay trace_reflection(vec3 origin, vec3 dir, float width0, float spread) {
+    ReflectionRay r = ReflectionRay(vec3(0.0), REFLECTION_MAX_DISTANCE, false, false, 0u, 0u);
+    ReflectionHits h = trace_hits(origin, dir);
+    if (h.hit) {
         r.hit = true;
-        r.distance = rayQueryGetIntersectionTEXT(q, true);
-        VisibleSurface v = hit_surface(rayQueryGetIntersectionInstanceCustomIndexEXT(q, true), rayQueryGetIntersectionPrimitiveIndexEXT(q, true),
-                                       rayQueryGetIntersectionBarycentricsEXT(q, true), dir, cone_width(width0, spread, r.distance));
+        r.distance = h.t;
+        VisibleSurface v = hit_surface(h.ids.x, h.ids.y, h.bary, dir, cone_width(width0, spread, h.t));
         r.radiance = shade_hit(surface_inputs(v), -dir, r);
     } else {
         r.radiance = scene.lighting.lighting.clear_color.rgb;
     }
     // Glass in front of the hit, blended over it back to front as the transparency passes blend
     // it on screen: each pane shaded, over what lies behind by its opacity.
-    for (uint done = 0u; done < panes; ++done) {
+    for (uint done = 0u; done < h.panes; ++done) {
         uint far = REFLECTION_GLASS;
-        for (uint i = 0u; i < panes; ++i) {
-            if (glass_t[i] < r.distance && (far == REFLECTION_GLASS || glass_t[i] > glass_t[far])) far = i;
+        for (uint i = 0u; i < h.panes; ++i) {
+            if (h.glass_t[i] < r.distance && (far == REFLECTION_GLASS || h.glass_t[i] > h.glass_t[far])) far = i;
         }
         if (far == REFLECTION_GLASS) break;
         r.glass = true;
-        VisibleSurface v = hit_surface(glass_ids[far].x, glass_ids[far].y, glass_bary[far], dir, cone_width(width0, spread, glass_t[far]));
+        VisibleSurface v = hit_surface(h.glass_ids[far].x, h.glass_ids[far].y, h.glass_bary[far], dir, cone_width(width0, spread, h.glass_t[far]));
         float opacity = clamp(sample_material(v.material, v.uv, v.duvdx, v.duvdy).base.a, 0.0, 1.0);
         r.radiance = mix(r.radiance, shade_hit(surface_inputs(v), -dir, r), opacity);
-        glass_t[far] = REFLECTION_MAX_DISTANCE;   // done
+        h.glass_t[far] = REFLECTION_MAX_DISTANCE;   // done
     }
     return r;
 }
@@ -149,4 +281,79 @@ vec3 reflection_direction(vec3 n, vec3 v, float roughness, vec2 u) {
     return dot(l, n) > 1e-3 ? l : reflect(-v, n);   // below the surface: take the mirror direction
 }
 
+layout(set = 0, binding = BINDING_REFLECTION, rgba16f) uniform writeonly image2D reflection_out;
+layout(set = 0, binding = BINDING_REFLECTION_WEIGHT, rgba16f) uniform writeonly image2D weight_out;
+layout(set = 0, binding = BINDING_REFLECTION_RAYS, r32ui) uniform writeonly uimage2D rays_out;
+
+bool primary_surface(ivec2 px, out SurfaceInputs s) {
+#ifdef GBUFFER
+    return deferred_surface(px, s);
+#else
+    return visbuffer_surface(px, s);
+#endif
+}
+
+// What a cell's ray found, in one word for the resolve's statistics and upsample: decals tested
+// at its hit points (bits 0–11, saturating), lights found (12–23), pixels of the cell that
+// reflect (24–26), whether a ray was traced (27), hit (28), crossed glass (29), and which pixel
+// of a 2×2 cell traced it (30–31).
+uint pack_cell(ReflectionRay r, uint reflecting, bool traced, uint tracer) {
+    uint word = min(r.decals_tested, 4095u) | (min(r.lights_found, 4095u) << 12) | (reflecting << 24) | (tracer << 30);
+    if (traced) word |= 1u << 27;
+    if (traced && r.hit) word |= 1u << 28;
+    if (traced && r.glass) word |= 1u << 29;
+    return word;
+}
+
+// The reflection pass's work for one cell: each pixel rebuilds its surface as its pipeline's
+// shading does, applies the frame's decals the same way (they may make it smoother or rougher)
+// and stores its reflection's weight; the cell's first pixel smoother than the cut-off traces.
+void reflection_cell(ivec2 cell) {
+    GpuCamera cam = scene.camera.camera;
+    GpuLighting l = scene.lighting.lighting;
+    int side = (l.reflection_flags & REFLECT_HALF_RES) != 0u ? 2 : 1;
+    ivec2 size = ivec2(cam.viewport_size);
+    ReflectionRay r = ReflectionRay(vec3(0.0), 0.0, false, false, 0u, 0u);
+    bool traced = false;
+    uint reflecting = 0u, tracer = 0u;
+    float distance = 0.0;
+    for (int i = 0; i < side * side; ++i) {
+        ivec2 px = cell * side + ivec2(i % side, i / side);
+        if (any(greaterThanEqual(px, size))) continue;
+        SurfaceInputs s;
+        if (!primary_surface(px, s)) {
+            imageStore(weight_out, px, vec4(0.0, 0.0, 0.0, -1.0));
+            continue;
+        }
+        apply_surface_decals(s, px);
+        vec3 v = normalize(cam.position - s.position);
+        vec3 facing = dot(s.geometric_normal, v) < 0.0 ? -s.geometric_normal : s.geometric_normal;
+        vec3 n = dot(s.normal, v) > 1e-3 ? s.normal : facing;
+        float fade = clamp((l.reflection_cutoff - s.roughness) / (0.25 * l.reflection_cutoff), 0.0, 1.0);
+        if (fade <= 0.0) {
+            imageStore(weight_out, px, vec4(0.0, 0.0, 0.0, -1.0));
+            continue;
+        }
+        SurfaceBrdf brdf = surface_brdf(s.albedo, s.metallic, s.roughness);
+        vec3 weight = env_brdf_approx(brdf.f0, brdf.roughness, clamp(dot(n, v), 1e-4, 1.0)) * s.occlusion * fade;
+        imageStore(weight_out, px, vec4(weight, s.roughness));
+        ++reflecting;
+        if (traced) continue;
+        // The pixel's cone: its width where it meets the surface, spreading by a pixel's angle,
+        // and by the lobe's width on glossy surfaces.
+        traced = true;
+        tracer = uint(i);
+        float pixel_angle = 2.0 / (cam.proj[1][1] * cam.viewport_size.y);
+        distance = length(cam.position - s.position);
+        float spread = pixel_angle + (s.roughness < REFLECTION_MIRROR ? 0.0 : 0.5 * s.roughness * s.roughness);
+        vec3 dir = reflection_direction(n, v, s.roughness, pixel_noise(uvec2(px)));
+        r = trace_reflection(shadow_origin(s.position, facing), dir, distance * pixel_angle, spread);
+    }
+    vec3 radiance = r.radiance;
+    if (scene.debug_view == DEBUG_REFLECTIONS) radiance = r.hit ? heatmap(r.distance / 16.0) : vec3(1.0);
+    imageStore(reflection_out, cell, traced ? vec4(radiance, distance) : vec4(0.0));
+    imageStore(rays_out, cell, uvec4(pack_cell(r, reflecting, traced, tracer)));
+}
+
+#endif
 #endif

@@ -1,9 +1,9 @@
 //! Ray-traced reflections on lavapipe (`render::reflections`): a mirror floor shows a lit wall,
 //! and the bullet hole on it, at their mirror images, classified per pixel by tracing the same
-//! rays on the CPU, in every pipeline and with every decal method on the ray-query tier; a mirror
-//! shows a panel behind the camera lit by a light whose range reaches no pixel the camera sees;
-//! glass and alpha-masked geometry in a reflection; and the tiers without ray queries say that
-//! nothing was reflected.
+//! rays on the CPU, in every pipeline, on both ray-tracing tiers, with every decal method; a
+//! mirror shows a panel behind the camera lit by a light whose range reaches no pixel the camera
+//! sees; glass and alpha-masked geometry in a reflection; and a device without ray tracing says
+//! that nothing was reflected.
 
 #![forbid(unsafe_code)]
 
@@ -178,8 +178,22 @@ fn a_mirror_floor_reflects_the_wall_and_its_decal_at_their_mirror_images() {
 }
 
 #[test]
-fn without_ray_queries_nothing_is_reflected_and_the_stats_say_so() {
-    for tier in [Tier::RayTracingPipeline, Tier::NoRayTracing] {
+fn the_ray_tracing_pipeline_tier_reflects_the_wall_and_its_decal_too() {
+    for (pipeline, method) in [
+        (PipelineKind::ForwardPlus, DecalMethod::RayPipeline),
+        (PipelineKind::Deferred, DecalMethod::RayPipeline),
+        (PipelineKind::VisBuffer, DecalMethod::Clustered),
+        (PipelineKind::Deferred, DecalMethod::DeferredDecals),
+    ] {
+        check_mirror_floor(Tier::RayTracingPipeline, pipeline, method, false);
+    }
+    let stats = check_mirror_floor(Tier::RayTracingPipeline, PipelineKind::VisBuffer, DecalMethod::RayPipeline, true);
+    assert!(stats.rays * 3 < stats.pixels && stats.rays * 5 > stats.pixels, "a ray per 2×2 block: {stats:?}");
+}
+
+#[test]
+fn without_ray_tracing_nothing_is_reflected_and_the_stats_say_so() {
+    for tier in [Tier::NoRayTracing] {
         let (mut app, ..) = mirror_floor_app(tier, PipelineKind::Deferred, DecalMethod::Clustered, ReflectionSettings::default());
         app.update();
         assert_no_validation_errors(&mut app);
@@ -190,8 +204,9 @@ fn without_ray_queries_nothing_is_reflected_and_the_stats_say_so() {
 
 /// Renders the mirror-floor scene of `pipeline` with a slab of `material` (if any) high above the
 /// floor between the camera and the wall, where only the mirror shows it.
-fn with_slab(pipeline: PipelineKind, material: Option<Material>) -> (Vec<[f32; 4]>, render::reflections::ReflectionStats) {
-    let (mut app, ..) = mirror_floor_app(Tier::RayQuery, pipeline, DecalMethod::RayQuery, ReflectionSettings::default());
+fn with_slab(tier: Tier, pipeline: PipelineKind, material: Option<Material>) -> (Vec<[f32; 4]>, render::reflections::ReflectionStats) {
+    let method = if tier == Tier::RayQuery { DecalMethod::RayQuery } else { DecalMethod::RayPipeline };
+    let (mut app, ..) = mirror_floor_app(tier, pipeline, method, ReflectionSettings::default());
     if let Some(material) = material {
         let material = app.world.resource_mut::<Assets<Material>>().add(material);
         let mesh = app.world.resource_mut::<Assets<Mesh>>().add(shapes::cuboid(Vec3::new(3.0, 1.4, 0.02), 1.0));
@@ -209,41 +224,57 @@ fn with_slab(pipeline: PipelineKind, material: Option<Material>) -> (Vec<[f32; 4
 fn masked_surfaces_are_alpha_tested_and_glass_is_blended_in_reflections() {
     let (camera, transform) =
         (Camera::default(), GlobalTransform::from(Transform::from_xyz(0.0, 1.1, 3.0).looking_at(Vec3::new(0.0, -0.3, -2.0), Vec3::Y)));
-    for pipeline in [PipelineKind::Deferred, PipelineKind::VisBuffer] {
+    for (tier, pipeline) in [
+        (Tier::RayQuery, PipelineKind::Deferred),
+        (Tier::RayQuery, PipelineKind::VisBuffer),
+        (Tier::RayTracingPipeline, PipelineKind::Deferred),
+    ] {
         let green = Vec4::new(0.0, 1.0, 0.0, 0.2);
-        let (plain, _) = with_slab(pipeline, None);
+        let (plain, _) = with_slab(tier, pipeline, None);
         // The slab opaque (alpha above its cutoff): the pixels it changes are all on the floor.
-        let (opaque, _) = with_slab(pipeline, Some(Material { alpha_mode: AlphaMode::Mask(0.1), ..Material::from_color(green, 0.0, 0.9) }));
+        let (opaque, _) =
+            with_slab(tier, pipeline, Some(Material { alpha_mode: AlphaMode::Mask(0.1), ..Material::from_color(green, 0.0, 0.9) }));
         let changed: Vec<usize> = (0..plain.len()).filter(|&i| (0..3).any(|c| (opaque[i][c] - plain[i][c]).abs() > 0.05)).collect();
-        assert!(changed.len() > 100, "{pipeline:?}: the mirror shows the slab ({} pixels)", changed.len());
+        assert!(changed.len() > 100, "{tier:?} {pipeline:?}: the mirror shows the slab ({} pixels)", changed.len());
         let on_floor = |i: usize| expected(&camera, &transform, i as u32 % SIZE.0, i as u32 / SIZE.0) != Seen::Unknown;
         let off_floor = changed.iter().filter(|&&i| !on_floor(i)).count();
-        assert!(off_floor * 20 < changed.len(), "{pipeline:?}: only the mirror shows it ({off_floor} of {} elsewhere)", changed.len());
+        assert!(
+            off_floor * 20 < changed.len(),
+            "{tier:?} {pipeline:?}: only the mirror shows it ({off_floor} of {} elsewhere)",
+            changed.len()
+        );
         // Alpha under its cutoff everywhere: cut away, in reflections too.
-        let (masked, _) = with_slab(pipeline, Some(Material { alpha_mode: AlphaMode::Mask(0.5), ..Material::from_color(green, 0.0, 0.9) }));
+        let (masked, _) =
+            with_slab(tier, pipeline, Some(Material { alpha_mode: AlphaMode::Mask(0.5), ..Material::from_color(green, 0.0, 0.9) }));
         let worst =
             plain.iter().zip(&masked).map(|(a, b)| (0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0f32, f32::max)).fold(0.0f32, f32::max);
-        assert!(worst < 1e-3, "{pipeline:?}: a cut-away slab leaves the image as it was (largest difference {worst})");
+        assert!(worst < 1e-3, "{tier:?} {pipeline:?}: a cut-away slab leaves the image as it was (largest difference {worst})");
         // As glass of opacity 0.5 over the sky: green, with half the sky's blue left.
         let (glass, stats) =
-            with_slab(pipeline, Some(Material { alpha_mode: AlphaMode::Blend, ..Material::from_color(green.with_w(0.5), 0.0, 0.9) }));
+            with_slab(tier, pipeline, Some(Material { alpha_mode: AlphaMode::Blend, ..Material::from_color(green.with_w(0.5), 0.0, 0.9) }));
         let mean = |img: &[[f32; 4]]| changed.iter().map(|&i| Vec3::from_slice(&img[i][..3])).sum::<Vec3>() / changed.len() as f32;
         let (sky, tinted) = (mean(&plain), mean(&glass));
-        eprintln!("{pipeline:?}: where the slab shows, without it {sky}, glass {tinted}, opaque {}", mean(&opaque));
+        eprintln!("{tier:?} {pipeline:?}: where the slab shows, without it {sky}, glass {tinted}, opaque {}", mean(&opaque));
         assert!(
             tinted.y > sky.y + 0.05 && tinted.z > 0.3 * sky.z && tinted.z < 0.7 * sky.z,
-            "{pipeline:?}: glass blended over the sky: {sky} / {tinted}"
+            "{tier:?} {pipeline:?}: glass blended over the sky: {sky} / {tinted}"
         );
-        assert!(stats.through_glass > 0, "{pipeline:?}: {stats:?}");
+        assert!(stats.through_glass > 0, "{tier:?} {pipeline:?}: {stats:?}");
     }
 }
 
 #[test]
 fn a_mirror_shows_what_a_light_the_camera_does_not_see_lights() {
-    for pipeline in [PipelineKind::ForwardPlus, PipelineKind::Deferred] {
+    // Forward+ culls lights by screen tiles, where this one is in none; the ray-tracing-pipeline
+    // tier finds it in the lights' TLAS too (unshadowed there: its any-hit shader cannot trace).
+    for (tier, pipeline) in [
+        (Tier::RayQuery, PipelineKind::ForwardPlus),
+        (Tier::RayQuery, PipelineKind::Deferred),
+        (Tier::RayTracingPipeline, PipelineKind::ForwardPlus),
+    ] {
         let render = |light: bool| {
             let settings = RenderSettings { pipeline, clear_color: [0.0, 0.0, 0.0, 1.0], ambient: Vec3::splat(0.01), ..Default::default() };
-            let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, Tier::RayQuery);
+            let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, tier);
             let (mirror, panel) = {
                 let mut materials = app.world.resource_mut::<Assets<Material>>();
                 (materials.add(Material::from_color(Vec4::ONE, 1.0, 0.0)), materials.add(Material::from_color(Vec4::splat(0.8), 0.0, 0.9)))

@@ -35,7 +35,7 @@ use ash::vk;
 use crate::RenderError;
 use crate::decals::DecalFrame;
 use crate::gpu::device::GpuContext;
-use crate::gpu::pipeline::{RayTracingDesc, RayTracingPipeline, create_compute};
+use crate::gpu::pipeline::{HitGroup, RayTracingDesc, RayTracingPipeline, create_compute};
 use crate::gpu::shaders;
 use crate::graph::targets::{DECAL_BUFFER, DEPTH, GBUFFER_LAYERS, GBUFFER_NORMAL, VISIBILITY};
 use crate::graph::{BufferUse, Frame, ImageUse, PassBuilder, PassKind};
@@ -70,9 +70,8 @@ impl DecalPasses {
                 &RayTracingDesc {
                     name: "decal pass (ray-tracing pipeline)",
                     raygen: &[shaders::DECAL_PASS_RGEN, shaders::DECAL_PASS_RGEN_VISIBILITY],
-                    miss: shaders::DECAL_PASS_RMISS,
-                    intersection: Some(shaders::DECAL_PASS_RINT),
-                    any_hit: shaders::DECAL_PASS_RAHIT,
+                    misses: &[shaders::DECAL_PASS_RMISS],
+                    hit_groups: &[HitGroup::any_hit(shaders::DECAL_PASS_RAHIT, Some(shaders::DECAL_PASS_RINT))],
                 },
             )?)
         } else {

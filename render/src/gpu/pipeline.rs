@@ -228,20 +228,37 @@ pub fn create_compute(ctx: &GpuContext, layout: vk::PipelineLayout, name: &str, 
     Ok(pipeline)
 }
 
+/// One hit group of a ray-tracing pipeline: its shaders (procedural geometry when it has an
+/// intersection shader, else triangles).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct HitGroup<'a> {
+    /// Closest-hit shader SPIR-V.
+    pub closest_hit: Option<&'a [u8]>,
+    /// Any-hit shader SPIR-V.
+    pub any_hit: Option<&'a [u8]>,
+    /// Intersection shader SPIR-V for procedural geometry; `None` for triangles.
+    pub intersection: Option<&'a [u8]>,
+}
+
+impl<'a> HitGroup<'a> {
+    /// A group with only an any-hit shader (and an intersection shader for procedural geometry).
+    pub fn any_hit(any_hit: &'a [u8], intersection: Option<&'a [u8]>) -> Self {
+        Self { closest_hit: None, any_hit: Some(any_hit), intersection }
+    }
+}
+
 /// The shaders of a ray-tracing pipeline: ray-generation shaders (one shader-binding-table record
-/// each, chosen per dispatch), one miss shader and one hit group with an any-hit shader and no
-/// closest hit: for procedural geometry (with an intersection shader) or for triangles.
+/// each, chosen per dispatch), miss shaders and hit groups, chosen by a traced ray's miss index
+/// and hit-group offset (every instance's own offset is 0).
 pub struct RayTracingDesc<'a> {
     /// Debug name.
     pub name: &'a str,
     /// Ray-generation shaders' SPIR-V.
     pub raygen: &'a [&'a [u8]],
-    /// Miss shader SPIR-V.
-    pub miss: &'a [u8],
-    /// Intersection shader SPIR-V for procedural geometry; `None` for a triangle hit group.
-    pub intersection: Option<&'a [u8]>,
-    /// Any-hit shader SPIR-V.
-    pub any_hit: &'a [u8],
+    /// Miss shaders' SPIR-V.
+    pub misses: &'a [&'a [u8]],
+    /// Hit groups.
+    pub hit_groups: &'a [HitGroup<'a>],
 }
 
 /// A ray-tracing pipeline and its shader binding table (written once, at creation).
@@ -256,8 +273,8 @@ pub struct RayTracingPipeline {
 
 impl RayTracingPipeline {
     /// Creates the pipeline (recursion depth 1) and its shader binding table: each record at a
-    /// multiple of the device's base alignment, in the order raygen…, miss, hit group.
-    pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout, desc: &RayTracingDesc) -> Result<Self, RenderError> {
+    /// multiple of the device's base alignment, in the order raygen…, miss…, hit group….
+    pub fn new<'a>(ctx: &GpuContext, layout: vk::PipelineLayout, desc: &RayTracingDesc<'a>) -> Result<Self, RenderError> {
         let rt = ctx.ray_tracing.as_ref().and_then(|rt| rt.ray_tracing_pipeline.as_ref());
         let rt = rt.ok_or_else(|| RenderError::Other(format!("{}: this device has no ray-tracing pipelines", desc.name)))?;
         let mut props = vk::PhysicalDeviceRayTracingPipelinePropertiesKHR::default();
@@ -267,8 +284,41 @@ impl RayTracingPipeline {
 
         use vk::ShaderStageFlags as S;
         let mut stages_spirv: Vec<(S, &[u8])> = desc.raygen.iter().map(|s| (S::RAYGEN_KHR, *s)).collect();
-        stages_spirv.extend([(S::MISS_KHR, desc.miss), (S::ANY_HIT_KHR, desc.any_hit)]);
-        stages_spirv.extend(desc.intersection.map(|i| (S::INTERSECTION_KHR, i)));
+        stages_spirv.extend(desc.misses.iter().map(|s| (S::MISS_KHR, *s)));
+        let general = |i: usize| {
+            vk::RayTracingShaderGroupCreateInfoKHR::default()
+                .ty(vk::RayTracingShaderGroupTypeKHR::GENERAL)
+                .general_shader(i as u32)
+                .closest_hit_shader(vk::SHADER_UNUSED_KHR)
+                .any_hit_shader(vk::SHADER_UNUSED_KHR)
+                .intersection_shader(vk::SHADER_UNUSED_KHR)
+        };
+        let (n, misses) = (desc.raygen.len(), desc.misses.len());
+        let mut groups: Vec<_> = (0..n + misses).map(general).collect();
+        for group in desc.hit_groups {
+            let mut stage = |stage: S, spirv: Option<&'a [u8]>| match spirv {
+                Some(spirv) => {
+                    stages_spirv.push((stage, spirv));
+                    stages_spirv.len() as u32 - 1
+                }
+                None => vk::SHADER_UNUSED_KHR,
+            };
+            let closest_hit = stage(S::CLOSEST_HIT_KHR, group.closest_hit);
+            let any_hit = stage(S::ANY_HIT_KHR, group.any_hit);
+            let intersection = stage(S::INTERSECTION_KHR, group.intersection);
+            let ty = match group.intersection {
+                Some(_) => vk::RayTracingShaderGroupTypeKHR::PROCEDURAL_HIT_GROUP,
+                None => vk::RayTracingShaderGroupTypeKHR::TRIANGLES_HIT_GROUP,
+            };
+            groups.push(
+                vk::RayTracingShaderGroupCreateInfoKHR::default()
+                    .ty(ty)
+                    .general_shader(vk::SHADER_UNUSED_KHR)
+                    .closest_hit_shader(closest_hit)
+                    .intersection_shader(intersection)
+                    .any_hit_shader(any_hit),
+            );
+        }
         let mut modules = Vec::with_capacity(stages_spirv.len());
         for (_, spirv) in &stages_spirv {
             match shaders::module(ctx, spirv) {
@@ -285,28 +335,6 @@ impl RayTracingPipeline {
             .zip(&modules)
             .map(|((stage, _), &module)| vk::PipelineShaderStageCreateInfo::default().stage(*stage).module(module).name(c"main"))
             .collect();
-        let general = |i: usize| {
-            vk::RayTracingShaderGroupCreateInfoKHR::default()
-                .ty(vk::RayTracingShaderGroupTypeKHR::GENERAL)
-                .general_shader(i as u32)
-                .closest_hit_shader(vk::SHADER_UNUSED_KHR)
-                .any_hit_shader(vk::SHADER_UNUSED_KHR)
-                .intersection_shader(vk::SHADER_UNUSED_KHR)
-        };
-        let n = desc.raygen.len();
-        let mut groups: Vec<_> = (0..=n).map(general).collect();
-        let (ty, intersection) = match desc.intersection {
-            Some(_) => (vk::RayTracingShaderGroupTypeKHR::PROCEDURAL_HIT_GROUP, n as u32 + 2),
-            None => (vk::RayTracingShaderGroupTypeKHR::TRIANGLES_HIT_GROUP, vk::SHADER_UNUSED_KHR),
-        };
-        groups.push(
-            vk::RayTracingShaderGroupCreateInfoKHR::default()
-                .ty(ty)
-                .general_shader(vk::SHADER_UNUSED_KHR)
-                .closest_hit_shader(vk::SHADER_UNUSED_KHR)
-                .intersection_shader(intersection)
-                .any_hit_shader(n as u32 + 1),
-        );
         let info = vk::RayTracingPipelineCreateInfoKHR::default()
             .stages(&stages)
             .groups(&groups)
@@ -355,9 +383,13 @@ impl RayTracingPipeline {
             let at = (start + g as u64 * stride) as usize;
             bytes[at..at + handle_size].copy_from_slice(handle);
         }
-        let region =
-            |g: usize| vk::StridedDeviceAddressRegionKHR { device_address: sbt.address + start + g as u64 * stride, stride, size: stride };
-        Ok(Self { pipeline, raygen: (0..n).map(region).collect(), miss: region(n), hit: region(n + 1), sbt })
+        let region = |g: usize, count: usize| vk::StridedDeviceAddressRegionKHR {
+            device_address: sbt.address + start + g as u64 * stride,
+            stride,
+            size: stride * count as u64,
+        };
+        let hits = desc.hit_groups.len();
+        Ok(Self { pipeline, raygen: (0..n).map(|g| region(g, 1)).collect(), miss: region(n, misses), hit: region(n + misses, hits), sbt })
     }
 
     /// Dispatches `extent` rays from ray-generation shader `raygen` (the pipeline must be bound).

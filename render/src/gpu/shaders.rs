@@ -34,6 +34,14 @@ spirv! {
     REFLECTIONS_COMP_GBUFFER_RAY_QUERY_DECALS = "reflections.comp.GBUFFER+RAY_QUERY_DECALS";
     REFLECTIONS_COMP_GBUFFER_DECAL_BUFFER = "reflections.comp.GBUFFER+DECAL_BUFFER";
     REFLECTIONS_RESOLVE_COMP = "reflections_resolve.comp";
+    REFLECTIONS_RGEN = "reflections.rgen";
+    REFLECTIONS_RGEN_DECAL_BUFFER = "reflections.rgen.DECAL_BUFFER";
+    REFLECTIONS_RGEN_CLUSTERED_DECALS = "reflections.rgen.CLUSTERED_DECALS";
+    REFLECTIONS_RGEN_GBUFFER = "reflections.rgen.GBUFFER";
+    REFLECTIONS_RGEN_GBUFFER_DECAL_BUFFER = "reflections.rgen.GBUFFER+DECAL_BUFFER";
+    REFLECTIONS_RCHIT = "reflections.rchit";
+    REFLECTIONS_RAHIT = "reflections.rahit";
+    REFLECTIONS_RMISS = "reflections.rmiss";
     DECAL_BOXES_VERT = "decal_boxes.vert";
     GBUFFER_FRAG = "gbuffer.frag";
     GBUFFER_FRAG_ALPHA_MASK = "gbuffer.frag.ALPHA_MASK";

@@ -31,9 +31,9 @@ pub const DECAL_TESTED_FORMAT: vk::Format = vk::Format::R32_UINT;
 pub use crate::layout::{
     BINDING_ANTIALIASED, BINDING_ANTIALIASED_STORAGE, BINDING_BACKGROUND_DEPTH, BINDING_BACKGROUND_DEPTH_STORAGE, BINDING_DECAL_ALBEDO,
     BINDING_DECAL_NORMAL, BINDING_DECAL_SPEC, BINDING_DECAL_TESTED, BINDING_DEPTH, BINDING_GBUFFER_ALBEDO, BINDING_GBUFFER_LAYERS,
-    BINDING_GBUFFER_MATERIAL, BINDING_GBUFFER_NORMAL, BINDING_HDR, BINDING_HDR_STORAGE, BINDING_REFLECTION, BINDING_REFLECTION_WEIGHT,
-    BINDING_SHADOW_DEBUG, BINDING_SHADOW_MAP_DEPTH, BINDING_SHADOW_MAP_FILTER, BINDING_TRANSPARENCY_SOURCE, BINDING_TRANSPARENT_DEPTH,
-    BINDING_VISIBILITY,
+    BINDING_GBUFFER_MATERIAL, BINDING_GBUFFER_NORMAL, BINDING_HDR, BINDING_HDR_STORAGE, BINDING_REFLECTION, BINDING_REFLECTION_RAYS,
+    BINDING_REFLECTION_WEIGHT, BINDING_SHADOW_DEBUG, BINDING_SHADOW_MAP_DEPTH, BINDING_SHADOW_MAP_FILTER, BINDING_TRANSPARENCY_SOURCE,
+    BINDING_TRANSPARENT_DEPTH, BINDING_VISIBILITY,
 };
 
 /// Where a target is bound for sampling: its descriptor binding in set 0 (`BINDING_*`).
@@ -243,7 +243,8 @@ pub static SHADOW_DEBUG: TargetDesc = TargetDesc {
     storage: None,
 };
 /// What the reflection rays brought back (`crate::reflections`): radiance and the tracing
-/// pixel's view depth, at full resolution or in the top-left quarter at half.
+/// pixel's distance from the camera, per cell (a pixel, or a 2×2 block at half resolution: the
+/// top-left quarter).
 pub static REFLECTION: TargetDesc =
     TargetDesc { name: "reflection", format: HDR_FORMAT, usage: STORAGE, bind: Some(Bind::Storage(BINDING_REFLECTION)), storage: None };
 /// Each pixel's weight for the reflected radiance and its roughness (`crate::reflections`).
@@ -252,6 +253,14 @@ pub static REFLECTION_WEIGHT: TargetDesc = TargetDesc {
     format: HDR_FORMAT,
     usage: STORAGE,
     bind: Some(Bind::Storage(BINDING_REFLECTION_WEIGHT)),
+    storage: None,
+};
+/// What each reflection ray found, one word per cell (`crate::reflections`).
+pub static REFLECTION_RAYS: TargetDesc = TargetDesc {
+    name: "reflection rays",
+    format: vk::Format::R32_UINT,
+    usage: STORAGE,
+    bind: Some(Bind::Storage(BINDING_REFLECTION_RAYS)),
     storage: None,
 };
 /// The decal buffer's images, in binding order.

@@ -68,6 +68,8 @@ pub struct LightFrame {
     /// Whether the reflection pass runs this frame (`crate::reflections`: asked for, and the
     /// scene's TLAS exists to trace against).
     pub reflections: bool,
+    /// The `REFLECT_*` flags of the lighting record (0 when off).
+    pub reflection_flags: u32,
     /// The scene's TLAS and BLAS, once built.
     pub scene_accel: Option<[ResourceId; 2]>,
     /// The ray-query lights' TLAS, BLAS and box buffer, when they are built this frame (for
@@ -252,6 +254,7 @@ impl Lighting {
             light_accel,
             inline_shadows,
             reflections: reflect,
+            reflection_flags: if reflect { reflections.flags } else { 0 },
             scene_accel,
             light_boxes,
             interlaced,

@@ -14,7 +14,7 @@ use crate::RenderError;
 use crate::culling::{Culling, Draws, Phase};
 use crate::decals::{DecalChoice, DecalFrame, DecalReaders, DecalSurfaceSource, Decals};
 use crate::gpu::device::{GpuContext, Tier};
-use crate::gpu::pipeline::{RayTracingDesc, RayTracingPipeline, ScenePush};
+use crate::gpu::pipeline::{HitGroup, RayTracingDesc, RayTracingPipeline, ScenePush};
 use crate::gpu::shaders;
 use crate::graph::pass::PassContext;
 use crate::graph::{Frame, PassKind};
@@ -287,9 +287,8 @@ impl RayLightShading {
         let desc = RayTracingDesc {
             name,
             raygen: &raygen,
-            miss: shaders::LIGHT_RAYS_RMISS,
-            intersection: Some(shaders::LIGHT_RAYS_RINT),
-            any_hit: shaders::LIGHT_RAYS_RAHIT,
+            misses: &[shaders::LIGHT_RAYS_RMISS],
+            hit_groups: &[HitGroup::any_hit(shaders::LIGHT_RAYS_RAHIT, Some(shaders::LIGHT_RAYS_RINT))],
         };
         Ok(Self { compute: None, rays: Some(RayTracingPipeline::new(ctx, layout, &desc)?) })
     }

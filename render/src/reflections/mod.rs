@@ -25,8 +25,14 @@
 //!    specular part. There are no motion vectors yet, so glossy reflections are filtered in
 //!    space only; the noise pattern is fixed per pixel, so a still frame stays still.
 //!
-//! Both tiers: this pass needs ray queries. The ray-tracing-pipeline tier (the lent GPU) and
-//! devices without ray tracing fall back to no reflections, which `--stats` reports.
+//! Both ray-tracing tiers: in compute with ray queries, or as a ray-generation shader with four
+//! hit groups (the reflection ray's closest hit with an any-hit for masked and blended surfaces,
+//! and the decal pass's, the ray-query lights' and the shadow pass's) on the ray-tracing-pipeline
+//! tier, whose lights found at hit points are unshadowed (an any-hit shader cannot trace; the
+//! sun's shadow rays are traced from the ray-generation shader). Work is per cell (a pixel, or
+//! a 2×2 block at half resolution, traced by its first pixel that reflects), so neither needs
+//! shared memory. Devices without ray tracing fall back to no reflections, which `--stats`
+//! reports.
 
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -35,11 +41,12 @@ use crate::RenderError;
 use crate::decals::{DecalFrame, DecalSurfaceSource, declare_decal_reads};
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::memory::Buffer;
-use crate::gpu::pipeline::create_compute;
+use crate::gpu::pipeline::{HitGroup, RayTracingDesc, RayTracingPipeline, create_compute};
 use crate::gpu::shaders;
 use crate::graph::readback::StatsReadback;
 use crate::graph::targets::{
-    DEPTH, GBUFFER_ALBEDO, GBUFFER_LAYERS, GBUFFER_MATERIAL, GBUFFER_NORMAL, HDR, REFLECTION, REFLECTION_WEIGHT, VISIBILITY,
+    DEPTH, GBUFFER_ALBEDO, GBUFFER_LAYERS, GBUFFER_MATERIAL, GBUFFER_NORMAL, HDR, REFLECTION, REFLECTION_RAYS, REFLECTION_WEIGHT,
+    VISIBILITY,
 };
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassKind, ResourceId};
 use crate::layout::{REFLECT_HALF_RES, REFLECT_ON, REFLECTION_STATS};
@@ -91,6 +98,10 @@ pub struct Reflections {
     gbuffer: Option<ShadeVariants>,
     /// The ray pass over the visibility ids.
     visibility: Option<ShadeVariants>,
+    /// The ray passes on the ray-tracing-pipeline tier: one ray-generation shader for each
+    /// surface and way of applying the primary surface's decals (G-buffer: plain, decal buffer;
+    /// visibility ids: plain, decal buffer, cluster lists).
+    rays: Option<RayTracingPipeline>,
     resolve: vk::Pipeline,
     stats: Buffer,
     stats_res: ResourceId,
@@ -126,6 +137,32 @@ impl Reflections {
         } else {
             (None, None)
         };
+        let rays = if ctx.tier != Tier::RayQuery && ctx.ray_support().ray_pipeline {
+            let desc = RayTracingDesc {
+                name: "reflection rays (ray-tracing pipeline)",
+                raygen: &[
+                    shaders::REFLECTIONS_RGEN_GBUFFER,
+                    shaders::REFLECTIONS_RGEN_GBUFFER_DECAL_BUFFER,
+                    shaders::REFLECTIONS_RGEN,
+                    shaders::REFLECTIONS_RGEN_DECAL_BUFFER,
+                    shaders::REFLECTIONS_RGEN_CLUSTERED_DECALS,
+                ],
+                misses: &[shaders::REFLECTIONS_RMISS, shaders::DECAL_PASS_RMISS, shaders::LIGHT_RAYS_RMISS, shaders::SHADOWS_RMISS],
+                hit_groups: &[
+                    HitGroup {
+                        closest_hit: Some(shaders::REFLECTIONS_RCHIT),
+                        any_hit: Some(shaders::REFLECTIONS_RAHIT),
+                        intersection: None,
+                    },
+                    HitGroup::any_hit(shaders::DECAL_PASS_RAHIT, Some(shaders::DECAL_PASS_RINT)),
+                    HitGroup::any_hit(shaders::LIGHT_RAYS_RAHIT, Some(shaders::LIGHT_RAYS_RINT)),
+                    HitGroup::any_hit(shaders::SHADOWS_RAHIT, None),
+                ],
+            };
+            Some(RayTracingPipeline::new(ctx, layout, &desc)?)
+        } else {
+            None
+        };
         let bytes = REFLECTION_STATS as u64 * 4;
         let stats = Buffer::new(
             ctx,
@@ -140,6 +177,7 @@ impl Reflections {
         Ok(Self {
             gbuffer,
             visibility,
+            rays,
             resolve: create_compute(ctx, layout, "reflection resolve", shaders::REFLECTIONS_RESOLVE_COMP)?,
             stats,
             stats_res: graph.resource("reflection statistics"),
@@ -167,7 +205,7 @@ impl Reflections {
         }
         let applied = s.reflections.mode.effective(f.ctx.ray_support());
         let shown = matches!(s.debug_view, DebugView::Lit | DebugView::Reflections);
-        let on = applied == ReflectionMode::RayTraced && shown && self.visibility.is_some();
+        let on = applied == ReflectionMode::RayTraced && shown && (self.visibility.is_some() || self.rays.is_some());
         let half = on && s.reflections.half_resolution;
         *stats = ReflectionStats { applied: if on { applied } else { ReflectionMode::Off }, half_resolution: half, ..self.latest };
         if !on {
@@ -192,21 +230,24 @@ impl Reflections {
         decals: &DecalFrame,
         lights: &LightFrame,
     ) -> Result<(), RenderError> {
-        let variants = match source {
+        if !lights.reflections {
+            return Ok(());
+        }
+        let compute = match source {
             DecalSurfaceSource::GBuffer => self.gbuffer.as_ref(),
             DecalSurfaceSource::Visibility => self.visibility.as_ref(),
         };
-        let Some(variants) = variants.filter(|_| lights.reflections) else { return Ok(()) };
+        let kind = match (compute, &self.rays) {
+            (Some(_), _) => PassKind::Compute,
+            (None, Some(_)) => PassKind::RayTracing,
+            (None, None) => return Ok(()),
+        };
         let (stats, stats_res) = (self.stats.raw, self.stats_res);
         f.pass("reflection_stats_clear", PassKind::Transfer).write(stats_res, BufferUse::Transfer).record(|p| {
             // SAFETY: `cmd` is recording outside a rendering scope; the range is the buffer.
             unsafe { p.ctx.device.cmd_fill_buffer(p.cmd, stats, 0, vk::WHOLE_SIZE, 0) };
         })?;
-        let pass = f
-            .pass("reflection_rays", PassKind::Compute)
-            .sample(&DEPTH)
-            .reads(scene.res.shaded())
-            .read(scene.res.meshes, BufferUse::Storage);
+        let pass = f.pass("reflection_rays", kind).sample(&DEPTH).reads(scene.res.shaded()).read(scene.res.meshes, BufferUse::Storage);
         let pass = match source {
             DecalSurfaceSource::GBuffer => {
                 pass.sample(&GBUFFER_ALBEDO).sample(&GBUFFER_NORMAL).sample(&GBUFFER_MATERIAL).sample(&GBUFFER_LAYERS)
@@ -214,19 +255,34 @@ impl Reflections {
             DecalSurfaceSource::Visibility => pass.sample(&VISIBILITY),
         };
         let accel = |ids: Option<[ResourceId; 2]>| ids.into_iter().flatten().map(|a| (a, BufferUse::Accel));
-        let pipeline = variants.pick(decals);
+        // The ray-generation shader for this surface and decal method (in `rays`' order).
+        let raygen = match source {
+            DecalSurfaceSource::GBuffer => usize::from(decals.buffered()),
+            DecalSurfaceSource::Visibility if decals.buffered() => 3,
+            DecalSurfaceSource::Visibility if decals.clusters_in_shading() => 4,
+            DecalSurfaceSource::Visibility => 2,
+        };
+        let half = lights.reflection_flags & REFLECT_HALF_RES != 0;
+        let rays = self.rays.as_ref();
         declare_decal_reads(pass, decals)
             .reads(accel(decals.at_hits))
             .reads(accel(lights.scene_accel))
             .reads(accel(lights.light_boxes.map(|[tlas, blas, _]| [tlas, blas])))
             .reads(lights.light_boxes.map(|[_, _, boxes]| (boxes, BufferUse::Storage)))
-            .write(stats_res, BufferUse::Storage)
             .image(&REFLECTION, ImageUse::StorageWrite)
             .image(&REFLECTION_WEIGHT, ImageUse::StorageWrite)
+            .image(&REFLECTION_RAYS, ImageUse::StorageWrite)
             .record(|p| {
-                p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
+                let side = if half { 2 } else { 1 };
+                let cells = vk::Extent2D { width: p.extent.width.div_ceil(side), height: p.extent.height.div_ceil(side) };
+                if let Some(variants) = compute {
+                    p.bind(vk::PipelineBindPoint::COMPUTE, variants.pick(decals), &p.push);
+                    // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
+                    unsafe { p.ctx.device.cmd_dispatch(p.cmd, cells.width.div_ceil(8), cells.height.div_ceil(8), 1) };
+                } else if let Some(rays) = rays {
+                    p.bind(vk::PipelineBindPoint::RAY_TRACING_KHR, rays.pipeline, &p.push);
+                    rays.trace(p.ctx, p.cmd, raygen, cells);
+                }
             })?;
         let resolve = self.resolve;
         f.pass("reflection_resolve", PassKind::Compute)
@@ -234,6 +290,8 @@ impl Reflections {
             .reads(scene.res.shaded())
             .image(&REFLECTION, ImageUse::StorageRead)
             .image(&REFLECTION_WEIGHT, ImageUse::StorageRead)
+            .image(&REFLECTION_RAYS, ImageUse::StorageRead)
+            .write(stats_res, BufferUse::Storage)
             .image(&HDR, ImageUse::StorageWrite)
             .record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, resolve, &p.push);
@@ -247,6 +305,9 @@ impl Reflections {
     pub fn destroy(self, ctx: &GpuContext) {
         for v in [self.gbuffer, self.visibility].into_iter().flatten() {
             v.destroy(ctx);
+        }
+        if let Some(r) = self.rays {
+            r.destroy(ctx);
         }
         // SAFETY: the GPU is idle.
         unsafe { ctx.device.destroy_pipeline(self.resolve, None) };

@@ -42,8 +42,8 @@ pub const MAX_TEXTURES: u32 = 4096;
 pub const TARGET_BINDINGS: u32 = crate::layout::BINDING_ANTIALIASED;
 /// Storage-image bindings after those: the decal buffer (`BINDING_DECAL_*`), the shadow debug
 /// image, depth peeling's background depth, the HDR target, the anti-aliased colour and the
-/// reflection pass's two images.
-pub const STORAGE_BINDINGS: u32 = crate::layout::BINDING_REFLECTION_WEIGHT - TARGET_BINDINGS;
+/// reflection pass's three images.
+pub const STORAGE_BINDINGS: u32 = crate::layout::BINDING_REFLECTION_RAYS - TARGET_BINDINGS;
 const _: () = assert!(crate::layout::BINDING_DECAL_ALBEDO == TARGET_BINDINGS + 1, "storage bindings follow the sampled targets");
 const BINDINGS: usize = 1 + (TARGET_BINDINGS + STORAGE_BINDINGS) as usize;
 

@@ -41,7 +41,7 @@ use ash::vk;
 use crate::RenderError;
 use crate::culling::Draws;
 use crate::gpu::device::{GpuContext, Tier};
-use crate::gpu::pipeline::{RayTracingDesc, RayTracingPipeline, create_compute};
+use crate::gpu::pipeline::{HitGroup, RayTracingDesc, RayTracingPipeline, create_compute};
 use crate::gpu::shaders;
 use crate::graph::targets::{DEPTH, SHADOW_DEBUG, TRANSPARENT_DEPTH};
 use crate::graph::{BufferUse, Frame, ImageUse, PassKind, ResourceId};
@@ -97,9 +97,8 @@ impl ShadowPass {
                 &RayTracingDesc {
                     name: "shadows (ray-tracing pipeline)",
                     raygen: &[shaders::SHADOWS_RGEN, shaders::SHADOWS_RGEN_GLASS_LAYER],
-                    miss: shaders::SHADOWS_RMISS,
-                    intersection: None,
-                    any_hit: shaders::SHADOWS_RAHIT,
+                    misses: &[shaders::SHADOWS_RMISS],
+                    hit_groups: &[HitGroup::any_hit(shaders::SHADOWS_RAHIT, None)],
                 },
             ) {
                 Ok(p) => Some(p),
