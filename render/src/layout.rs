@@ -629,6 +629,9 @@ layout! {
     pub const REFLECT_ON: u32 = 1;
     /// `GpuLighting::reflection_flags`: one ray per 2×2 pixels (a cell), upsampled by depth.
     pub const REFLECT_HALF_RES: u32 = 2;
+    /// `GpuLighting::reflection_flags`: the hit points look for decals (off only to measure
+    /// what they cost).
+    pub const REFLECT_DECALS: u32 = 4;
     /// Reflections: 32-bit words of statistics (`GpuLighting::reflection_stats`): pixels that
     /// reflect, rays traced, rays that hit geometry, decal candidates tested at hit points,
     /// decals applied there, light candidates found there, shadow rays not blocked.

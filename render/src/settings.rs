@@ -494,18 +494,20 @@ pub struct ReflectionSettings {
     pub roughness_cutoff: f32,
     /// One ray per 2×2 pixels, upsampled by depth (about a quarter of the rays).
     pub half_resolution: bool,
+    /// The rays' hit points show the decals there (false only to measure what that costs).
+    pub decals_at_hits: bool,
 }
 
 impl Default for ReflectionSettings {
     /// Ray-traced at full resolution, for surfaces smoother than 0.4.
     fn default() -> Self {
-        Self { mode: ReflectionMode::RayTraced, roughness_cutoff: 0.4, half_resolution: false }
+        Self { mode: ReflectionMode::RayTraced, roughness_cutoff: 0.4, half_resolution: false, decals_at_hits: true }
     }
 }
 
 impl ReflectionSettings {
     /// No reflections.
-    pub const OFF: Self = Self { mode: ReflectionMode::Off, roughness_cutoff: 0.4, half_resolution: false };
+    pub const OFF: Self = Self { mode: ReflectionMode::Off, roughness_cutoff: 0.4, half_resolution: false, decals_at_hits: true };
 }
 
 /// How instances are culled on the GPU before they are drawn (`crate::culling`).

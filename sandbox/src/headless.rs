@@ -105,6 +105,9 @@ pub struct HeadlessOptions {
     pub culling: render::CullingMode,
     /// Run `frames` frames with every culling mode in turn (off, frustum, occlusion).
     pub compare_culling: bool,
+    /// Run `frames` frames with reflections off, then at full and half resolution, each with and
+    /// without the decals at their hit points, then off again (the first run warms up).
+    pub compare_reflections: bool,
     /// Instances of the `many-instances` bench scene.
     pub instances: usize,
 }
@@ -163,6 +166,8 @@ pub struct Run {
     pub spot_lights: Option<usize>,
     /// How instances are culled.
     pub culling: render::CullingMode,
+    /// Reflections.
+    pub reflections: render::ReflectionSettings,
 }
 
 /// Light counts of seed 002's Tables 4.2–4.5.
@@ -275,6 +280,7 @@ impl Default for HeadlessOptions {
             shadow_maps: render::ShadowMapBudget::default(),
             culling: render::CullingMode::Occlusion,
             compare_culling: false,
+            compare_reflections: false,
             instances: crate::bench::MANY_INSTANCES,
         }
     }
@@ -415,6 +421,7 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
         refraction: true,
         spot_lights: None,
         culling: opts.culling,
+        reflections: opts.reflections,
     };
     let mut combos: Vec<Run> = Vec::new();
     if opts.compare {
@@ -436,6 +443,19 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
     if opts.compare_culling {
         combos.extend(render::CullingMode::ALL.map(|culling| Run { culling, ..base }));
     }
+    if opts.compare_reflections {
+        // Off first and last: the first run also warms the GPU's clocks up (on the lent H100 the
+        // first 40 frames ran at a third of the speed).
+        let on = render::ReflectionSettings { mode: render::ReflectionMode::RayTraced, ..opts.reflections };
+        let off = Run { reflections: render::ReflectionSettings { mode: render::ReflectionMode::Off, ..on }, ..base };
+        combos.push(off);
+        for half_resolution in [false, true] {
+            for decals_at_hits in [true, false] {
+                combos.push(Run { reflections: render::ReflectionSettings { half_resolution, decals_at_hits, ..on }, ..base });
+            }
+        }
+        combos.push(off);
+    }
     let total = opts.frames as usize * combos.len().max(1);
     let mut frames = Vec::with_capacity(total);
     for i in 0..total {
@@ -447,6 +467,7 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
             settings.transparency = run.transparency;
             settings.refraction = run.refraction;
             settings.culling = run.culling;
+            settings.reflections = run.reflections;
             let spot_lights = app.world.query_filtered::<(), bevy_ecs::query::With<crate::bench::BenchSpot>>().iter(&app.world).count();
             if let Some(count) = run.spot_lights.filter(|&c| c != spot_lights) {
                 crate::bench::set_spot_lights(&mut app.world, count);

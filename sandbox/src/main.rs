@@ -185,6 +185,13 @@ struct Cli {
     /// Trace one reflection ray per 2×2 pixels, upsampled by depth.
     #[arg(long)]
     half_res_reflections: bool,
+    /// Reflections without the decals at their hit points (to measure what those cost).
+    #[arg(long)]
+    no_reflection_decals: bool,
+    /// Run --frames frames with reflections off, then at full and half resolution, each with and
+    /// without the decals at their hit points, then off again (the first run warms up).
+    #[arg(long)]
+    compare_reflections: bool,
     /// Run --frames frames with each culling mode in turn (off, frustum, occlusion).
     #[arg(long)]
     compare_culling: bool,
@@ -326,7 +333,9 @@ fn main() -> Result<()> {
             mode: cli.reflections,
             roughness_cutoff: cli.reflection_cutoff,
             half_resolution: cli.half_res_reflections,
+            decals_at_hits: !cli.no_reflection_decals,
         },
+        compare_reflections: cli.compare_reflections,
         transparency: cli.transparency,
         lights: render::LightSettings {
             method: cli.lights,
@@ -367,9 +376,15 @@ fn main() -> Result<()> {
         return Ok(());
     }
     let summary = run(&opts)?;
-    if let (true, Some(stats)) =
-        (cli.compare || cli.compare_lights || cli.compare_light_methods || cli.compare_transparency || cli.compare_culling, &cli.stats)
-    {
+    if let (true, Some(stats)) = (
+        cli.compare
+            || cli.compare_lights
+            || cli.compare_light_methods
+            || cli.compare_transparency
+            || cli.compare_culling
+            || cli.compare_reflections,
+        &cli.stats,
+    ) {
         let (csv, svg) = sandbox::charts::write(stats, &sandbox::charts::run_medians(&summary.frames))?;
         println!("per-pass medians: {} and {}", csv.display(), svg.display());
     }

@@ -133,6 +133,7 @@ ReflectionHits trace_hits(vec3 origin, vec3 dir) {
 
 // The decals at a hit point, from the same ray queries as on screen.
 uint hit_decals(inout SurfaceInputs s) {
+    if ((scene.lighting.lighting.reflection_flags & REFLECT_DECALS) == 0u) return 0u;
     return traced_decals(s);
 }
 
@@ -172,7 +173,7 @@ uint trace_decals(DecalSurface view) {
 }
 
 uint hit_decals(inout SurfaceInputs s) {
-    if (scene.decal_count == 0u || scene.decal_tlas == 0ul) return 0u;
+    if (scene.decal_count == 0u || scene.decal_tlas == 0ul || (scene.lighting.lighting.reflection_flags & REFLECT_DECALS) == 0u) return 0u;
     DecalSurface surface = decal_world_view(s.position, s.dpdx, s.dpdy, s.geometric_normal, s.normal, s.decal_layers);
     blend_init(decal_payload.blend);
     uint tested = trace_decals(surface);

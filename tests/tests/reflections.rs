@@ -193,13 +193,11 @@ fn the_ray_tracing_pipeline_tier_reflects_the_wall_and_its_decal_too() {
 
 #[test]
 fn without_ray_tracing_nothing_is_reflected_and_the_stats_say_so() {
-    for tier in [Tier::NoRayTracing] {
-        let (mut app, ..) = mirror_floor_app(tier, PipelineKind::Deferred, DecalMethod::Clustered, ReflectionSettings::default());
-        app.update();
-        assert_no_validation_errors(&mut app);
-        let stats = app.world.resource::<RenderStats>().last.reflections;
-        assert_eq!(stats.applied, ReflectionMode::Off, "{tier:?}: {stats:?}");
-    }
+    let (mut app, ..) = mirror_floor_app(Tier::NoRayTracing, PipelineKind::Deferred, DecalMethod::Clustered, ReflectionSettings::default());
+    app.update();
+    assert_no_validation_errors(&mut app);
+    let stats = app.world.resource::<RenderStats>().last.reflections;
+    assert_eq!(stats.applied, ReflectionMode::Off, "{stats:?}");
 }
 
 /// Renders the mirror-floor scene of `pipeline` with a slab of `material` (if any) high above the

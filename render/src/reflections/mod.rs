@@ -49,7 +49,7 @@ use crate::graph::targets::{
     VISIBILITY,
 };
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassKind, ResourceId};
-use crate::layout::{REFLECT_HALF_RES, REFLECT_ON, REFLECTION_STATS};
+use crate::layout::{REFLECT_DECALS, REFLECT_HALF_RES, REFLECT_ON, REFLECTION_STATS};
 use crate::lights::LightFrame;
 use crate::pipelines::ShadeVariants;
 use crate::scene::gpu::GpuScene;
@@ -63,6 +63,8 @@ pub struct ReflectionStats {
     pub applied: ReflectionMode,
     /// Whether the rays were traced at half resolution this frame.
     pub half_resolution: bool,
+    /// Whether the hit points looked for decals this frame.
+    pub decals_at_hits: bool,
     /// Frame whose GPU figures these are (`u64::MAX` before any).
     pub measured_frame: u64,
     /// Pixels that reflect (smoother than the cut-off).
@@ -207,13 +209,19 @@ impl Reflections {
         let shown = matches!(s.debug_view, DebugView::Lit | DebugView::Reflections);
         let on = applied == ReflectionMode::RayTraced && shown && (self.visibility.is_some() || self.rays.is_some());
         let half = on && s.reflections.half_resolution;
-        *stats = ReflectionStats { applied: if on { applied } else { ReflectionMode::Off }, half_resolution: half, ..self.latest };
+        let decals = on && s.reflections.decals_at_hits;
+        *stats = ReflectionStats {
+            applied: if on { applied } else { ReflectionMode::Off },
+            half_resolution: half,
+            decals_at_hits: decals,
+            ..self.latest
+        };
         if !on {
             return ReflectionFrame::default();
         }
         ReflectionFrame {
             on,
-            flags: REFLECT_ON | if half { REFLECT_HALF_RES } else { 0 },
+            flags: REFLECT_ON | if half { REFLECT_HALF_RES } else { 0 } | if decals { REFLECT_DECALS } else { 0 },
             cutoff: s.reflections.roughness_cutoff.clamp(0.0, 1.0),
             stats: self.stats.address,
         }
