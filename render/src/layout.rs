@@ -632,6 +632,8 @@ layout! {
     /// `GpuLighting::reflection_flags`: the hit points look for decals (off only to measure
     /// what they cost).
     pub const REFLECT_DECALS: u32 = 4;
+    /// `GpuLighting::reflection_flags`: the rays are marched in screen space (no ray tracing).
+    pub const REFLECT_SCREEN_SPACE: u32 = 8;
     /// Reflections: 32-bit words of statistics (`GpuLighting::reflection_stats`): pixels that
     /// reflect, rays traced, rays that hit geometry, decal candidates tested at hit points,
     /// decals applied there, light candidates found there, shadow rays not blocked.

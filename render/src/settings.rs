@@ -451,20 +451,25 @@ pub enum ReflectionMode {
     Off,
     /// A ray per pixel (or per 2×2 pixels) against the scene's TLAS, shaded at its hit point
     /// with the decals there, its lights and their shadows; the clear colour on a miss. Needs
-    /// ray queries or ray-tracing pipelines (falls back to [`ReflectionMode::Off`] without).
+    /// ray queries or ray-tracing pipelines (falls back to [`ReflectionMode::ScreenSpace`]
+    /// without).
     #[default]
     RayTraced,
+    /// Each ray marched through the depth buffer, seeing this frame's lit image: only what is on
+    /// screen is reflected (decals included), the clear colour elsewhere. Runs everywhere.
+    ScreenSpace,
 }
 
 impl ReflectionMode {
     /// Every mode.
-    pub const ALL: [ReflectionMode; 2] = [ReflectionMode::Off, ReflectionMode::RayTraced];
+    pub const ALL: [ReflectionMode; 3] = [ReflectionMode::Off, ReflectionMode::RayTraced, ReflectionMode::ScreenSpace];
 
     /// The name used in `--stats` and on the command line.
     pub fn name(self) -> &'static str {
         match self {
             ReflectionMode::Off => "off",
             ReflectionMode::RayTraced => "ray_traced",
+            ReflectionMode::ScreenSpace => "screen_space",
         }
     }
 
@@ -474,11 +479,11 @@ impl ReflectionMode {
     }
 
     /// The mode this device runs: ray-traced reflections need ray queries or ray-tracing
-    /// pipelines.
+    /// pipelines, and fall back to screen-space ones.
     pub fn effective(self, support: RaySupport) -> Self {
         match self {
-            ReflectionMode::RayTraced if support.ray_query || support.ray_pipeline => ReflectionMode::RayTraced,
-            _ => ReflectionMode::Off,
+            ReflectionMode::RayTraced if !(support.ray_query || support.ray_pipeline) => ReflectionMode::ScreenSpace,
+            m => m,
         }
     }
 }

@@ -175,8 +175,8 @@ struct Cli {
     /// Anti-aliasing of the displayed image: none, fxaa (fast approximate, in the tone mapper).
     #[arg(long, default_value = "none", value_parser = parse_aa)]
     aa: render::AntiAliasing,
-    /// Reflections of smooth surfaces: off, ray_traced (needs ray queries; falls back to off
-    /// without them, which --stats reports).
+    /// Reflections of smooth surfaces: off, ray_traced (needs ray tracing; falls back to
+    /// screen_space without, which --stats reports), screen_space.
     #[arg(long, default_value = "ray_traced", value_parser = parse_reflections)]
     reflections: render::ReflectionMode,
     /// Surfaces at least this rough reflect nothing.
@@ -205,7 +205,7 @@ fn parse_aa(s: &str) -> Result<render::AntiAliasing, String> {
 }
 
 fn parse_reflections(s: &str) -> Result<render::ReflectionMode, String> {
-    render::ReflectionMode::from_name(s).ok_or_else(|| format!("unknown reflections {s:?} (off, ray_traced)"))
+    render::ReflectionMode::from_name(s).ok_or_else(|| format!("unknown reflections {s:?} (off, ray_traced, screen_space)"))
 }
 
 fn parse_culling(s: &str) -> Result<render::CullingMode, String> {

@@ -217,6 +217,7 @@ vec3 hit_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found) {
 }
 #endif
 
+#if defined(REFLECTION_RAY_QUERY) || defined(REFLECTION_RAYGEN)
 // A hit surface's radiance towards `v`: its decals, the ambient term, emission and its lights.
 vec3 shade_hit(SurfaceInputs s, vec3 v, inout ReflectionRay r) {
     r.decals_tested += hit_decals(s);
@@ -256,6 +257,95 @@ ReflectionRay trace_reflection(vec3 origin, vec3 dir, float width0, float spread
     }
     return r;
 }
+
+#endif
+
+#ifdef REFLECTION_SCREEN_SPACE
+// Screen-space reflections, where there is no ray tracing (or when asked for): the ray is
+// marched through the depth buffer in screen space, a step of about two pixels at a time, and
+// where it first passes behind a surface no thicker than REFLECTION_THICKNESS it is refined by
+// bisection and sees the lit image there (this frame's, before reflections and glass). So only
+// what is on screen is reflected, decals included; rays that leave the screen or pass behind
+// everything see the clear colour, faded in over the last tenth of the screen's edge.
+const float REFLECTION_THICKNESS = 0.25;   // metres, plus 2 % of the distance
+const int REFLECTION_MARCH_STEPS = 192;
+
+// Pixel position and reverse-Z depth of clip-space point `h`.
+vec3 screen_of(vec4 h) {
+    vec2 ndc = h.xy / h.w;
+    return vec3((ndc * vec2(0.5, -0.5) + 0.5) * scene.camera.camera.viewport_size, h.z / h.w);
+}
+
+// Distance along the view axis of reverse-Z depth `depth` (infinite far plane).
+float view_depth(float depth) {
+    GpuCamera cam = scene.camera.camera;
+    return cam.proj[3][2] / max(depth + cam.proj[2][2], 1e-9);
+}
+
+// 0 where the ray's point at `t` along [h0, h1] is in front of the depth buffer, 1 behind a
+// surface within the thickness, 2 behind it by more (the ray passes behind), 3 off the screen.
+int march_test(vec4 h0, vec4 h1, float t, out ivec2 px) {
+    vec3 p = screen_of(mix(h0, h1, t));
+    px = ivec2(floor(p.xy));
+    ivec2 size = ivec2(scene.camera.camera.viewport_size);
+    if (any(lessThan(px, ivec2(0))) || any(greaterThanEqual(px, size)) || p.z <= 0.0) return 3;
+    float scene_depth = texelFetch(depth_target, px, 0).r;
+    if (scene_depth <= p.z) return 0;   // the ray's point is nearer (reverse-Z): in front
+    float ray_z = view_depth(p.z), scene_z = view_depth(scene_depth);
+    return ray_z - scene_z < REFLECTION_THICKNESS + 0.02 * scene_z ? 1 : 2;
+}
+
+ReflectionRay trace_reflection(vec3 origin, vec3 dir, float width0, float spread) {
+    GpuCamera cam = scene.camera.camera;
+    ReflectionRay r = ReflectionRay(scene.lighting.lighting.clear_color.rgb, REFLECTION_MAX_DISTANCE, false, false, 0u, 0u);
+    // Clip the ray where it would cross the near plane (and at 100 m).
+    float near = cam.proj[3][2];
+    vec3 forward = -vec3(cam.view[0][2], cam.view[1][2], cam.view[2][2]);
+    float towards = dot(dir, forward);
+    float origin_depth = dot(origin - cam.position, forward);
+    float reach = towards < 0.0 ? min(100.0, (origin_depth - 2.0 * near) / -towards) : 100.0;
+    if (reach <= 0.0) return r;
+    vec4 h0 = cam.view_proj * vec4(origin, 1.0);
+    // Shorten the ray until its end projects near the screen, so that steps stay a few pixels.
+    vec4 h1 = cam.view_proj * vec4(origin + dir * reach, 1.0);
+    for (int k = 0; k < 12 && (h1.w <= 0.0 || any(greaterThan(abs(h1.xy / h1.w), vec2(1.5)))); ++k) {
+        reach *= 0.5;
+        h1 = cam.view_proj * vec4(origin + dir * reach, 1.0);
+    }
+    vec2 span = screen_of(h1).xy - screen_of(h0).xy;
+    int steps = clamp(int(max(abs(span.x), abs(span.y)) * 0.5), 4, REFLECTION_MARCH_STEPS);
+    float previous = 0.0;
+    ivec2 px;
+    for (int i = 1; i <= steps; ++i) {
+        float t = float(i) / float(steps);
+        int state = march_test(h0, h1, t, px);
+        if (state == 3) break;
+        if (state == 0) {
+            previous = t;
+            continue;
+        }
+        // Behind a surface: bisect between the last point in front and this one for where the
+        // ray crossed it, and take it if the surface is no thicker than the limit there.
+        float lo = previous, hi = t;
+        for (int k = 0; k < 6; ++k) {
+            float mid = 0.5 * (lo + hi);
+            ivec2 q;
+            if (march_test(h0, h1, mid, q) == 0) lo = mid; else hi = mid;
+        }
+        if (march_test(h0, h1, hi, px) != 1) {
+            previous = t;   // it passes behind something thick: go on behind it
+            continue;
+        }
+        vec2 edge = min(vec2(px), cam.viewport_size - 1.0 - vec2(px)) / (0.1 * cam.viewport_size);
+        float fade = clamp(min(edge.x, edge.y), 0.0, 1.0);
+        r.radiance = mix(r.radiance, texelFetch(hdr_target, px, 0).rgb, fade);
+        r.hit = true;
+        r.distance = reach * hi;
+        return r;
+    }
+    return r;
+}
+#endif
 
 // A hash of a pixel to two numbers in [0, 1) (a fixed pattern: the spatial filter averages it
 // out, and still frames stay still).

@@ -146,12 +146,24 @@ fn check_mirror_floor(tier: Tier, pipeline: PipelineKind, method: DecalMethod, h
     for (i, name) in ["sky", "wall", "decal"].iter().enumerate() {
         let [n, matched] = counts[i];
         assert!(n >= 12, "{label}: the view sees the {name} in the mirror ({n} pixels)");
-        let share = if half { 0.8 } else { 0.9 };
+        // Screen-space rays lose some of the wall's foot to their steps and their thickness test.
+        let share = match (tier == Tier::NoRayTracing, half) {
+            (false, false) => 0.9,
+            (false, true) => 0.8,
+            (true, false) => 0.85,
+            (true, true) => 0.7,
+        };
         assert!(matched as f64 >= share * n as f64, "{label}: the mirror shows the {name} where it should: {matched} of {n} pixels");
     }
     let stats = app.world.resource::<RenderStats>().last.reflections;
-    assert_eq!(stats.applied, ReflectionMode::RayTraced, "{label}");
-    assert!(stats.rays > 0 && stats.hits > 0 && stats.decals_tested > 0, "{label}: {stats:?}");
+    if tier == Tier::NoRayTracing {
+        // Screen space: the decal is on screen, so its reflection is found in the lit image.
+        assert_eq!(stats.applied, ReflectionMode::ScreenSpace, "{label}");
+        assert!(stats.rays > 0 && stats.hits > 0 && stats.decals_tested == 0, "{label}: {stats:?}");
+    } else {
+        assert_eq!(stats.applied, ReflectionMode::RayTraced, "{label}");
+        assert!(stats.rays > 0 && stats.hits > 0 && stats.decals_tested > 0, "{label}: {stats:?}");
+    }
     stats
 }
 
@@ -192,12 +204,12 @@ fn the_ray_tracing_pipeline_tier_reflects_the_wall_and_its_decal_too() {
 }
 
 #[test]
-fn without_ray_tracing_nothing_is_reflected_and_the_stats_say_so() {
-    let (mut app, ..) = mirror_floor_app(Tier::NoRayTracing, PipelineKind::Deferred, DecalMethod::Clustered, ReflectionSettings::default());
-    app.update();
-    assert_no_validation_errors(&mut app);
-    let stats = app.world.resource::<RenderStats>().last.reflections;
-    assert_eq!(stats.applied, ReflectionMode::Off, "{stats:?}");
+fn without_ray_tracing_reflections_are_marched_in_screen_space() {
+    // The wall and its decal are on screen: the mirror shows them.
+    for pipeline in [PipelineKind::Forward, PipelineKind::Deferred, PipelineKind::VisBuffer] {
+        check_mirror_floor(Tier::NoRayTracing, pipeline, DecalMethod::Clustered, false);
+    }
+    check_mirror_floor(Tier::NoRayTracing, PipelineKind::Deferred, DecalMethod::DeferredDecals, true);
 }
 
 /// Renders the mirror-floor scene of `pipeline` with a slab of `material` (if any) high above the

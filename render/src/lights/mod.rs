@@ -143,7 +143,7 @@ impl Lighting {
             None => SceneAccelFrame::default(),
         };
         let ray_query = match self.ray_query.as_mut() {
-            Some(r) => r.prepare(f, mirror, enumerated || reflections.on)?,
+            Some(r) => r.prepare(f, mirror, enumerated || reflections.traced)?,
             None => RayQueryLightFrame::default(),
         };
         let traced = match self.shadows.method() {
@@ -183,7 +183,7 @@ impl Lighting {
         mirror.counters.shadow_map_views = shadow_maps.views as u64;
         mirror.counters.shadow_maps_missing = shadow_maps.missing as u64;
         let interlaced = glass && s.transparency.effective(s.pipeline).interlaces();
-        let reflect = reflections.on && accel.tlas_address != 0;
+        let reflect = reflections.on && (!reflections.traced || accel.tlas_address != 0);
         let mut flags = 0;
         for (on, flag) in [
             (l.cull_aabb, LIGHT_CULL_AABB),

@@ -49,7 +49,7 @@ use crate::graph::targets::{
     VISIBILITY,
 };
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassKind, ResourceId};
-use crate::layout::{REFLECT_DECALS, REFLECT_HALF_RES, REFLECT_ON, REFLECTION_STATS};
+use crate::layout::{REFLECT_DECALS, REFLECT_HALF_RES, REFLECT_ON, REFLECT_SCREEN_SPACE, REFLECTION_STATS};
 use crate::lights::LightFrame;
 use crate::pipelines::ShadeVariants;
 use crate::scene::gpu::GpuScene;
@@ -86,6 +86,8 @@ pub struct ReflectionStats {
 pub struct ReflectionFrame {
     /// Whether the passes run (the mode applies on this device, and the debug view shows them).
     pub on: bool,
+    /// Whether they trace rays (so the lights' and decals' structures must be built).
+    pub traced: bool,
     /// `REFLECT_*` flags for the lighting record (0 when off).
     pub flags: u32,
     /// The roughness cut-off.
@@ -100,6 +102,8 @@ pub struct Reflections {
     gbuffer: Option<ShadeVariants>,
     /// The ray pass over the visibility ids.
     visibility: Option<ShadeVariants>,
+    /// Screen-space rays, over the G-buffer and over the visibility ids.
+    screen: [ShadeVariants; 2],
     /// The ray passes on the ray-tracing-pipeline tier: one ray-generation shader for each
     /// surface and way of applying the primary surface's decals (G-buffer: plain, decal buffer;
     /// visibility ids: plain, decal buffer, cluster lists).
@@ -139,6 +143,28 @@ impl Reflections {
         } else {
             (None, None)
         };
+        let screen = |spirv: &[u8]| create_compute(ctx, layout, "reflection rays (screen space)", spirv);
+        let screen = [
+            ShadeVariants::new(
+                ctx,
+                [
+                    shaders::SCREEN_REFLECTIONS_COMP_GBUFFER,
+                    shaders::SCREEN_REFLECTIONS_COMP_GBUFFER_RAY_QUERY_DECALS,
+                    shaders::SCREEN_REFLECTIONS_COMP_GBUFFER_DECAL_BUFFER,
+                ],
+                screen,
+            )?,
+            ShadeVariants::new(
+                ctx,
+                [
+                    shaders::SCREEN_REFLECTIONS_COMP,
+                    shaders::SCREEN_REFLECTIONS_COMP_RAY_QUERY_DECALS,
+                    shaders::SCREEN_REFLECTIONS_COMP_DECAL_BUFFER,
+                ],
+                screen,
+            )?
+            .with_clustered(shaders::SCREEN_REFLECTIONS_COMP_CLUSTERED_DECALS, screen)?,
+        ];
         let rays = if ctx.tier != Tier::RayQuery && ctx.ray_support().ray_pipeline {
             let desc = RayTracingDesc {
                 name: "reflection rays (ray-tracing pipeline)",
@@ -179,6 +205,7 @@ impl Reflections {
         Ok(Self {
             gbuffer,
             visibility,
+            screen,
             rays,
             resolve: create_compute(ctx, layout, "reflection resolve", shaders::REFLECTIONS_RESOLVE_COMP)?,
             stats,
@@ -207,7 +234,7 @@ impl Reflections {
         }
         let applied = s.reflections.mode.effective(f.ctx.ray_support());
         let shown = matches!(s.debug_view, DebugView::Lit | DebugView::Reflections);
-        let on = applied == ReflectionMode::RayTraced && shown && (self.visibility.is_some() || self.rays.is_some());
+        let on = applied != ReflectionMode::Off && shown;
         let half = on && s.reflections.half_resolution;
         let decals = on && s.reflections.decals_at_hits;
         *stats = ReflectionStats {
@@ -221,7 +248,11 @@ impl Reflections {
         }
         ReflectionFrame {
             on,
-            flags: REFLECT_ON | if half { REFLECT_HALF_RES } else { 0 } | if decals { REFLECT_DECALS } else { 0 },
+            traced: applied == ReflectionMode::RayTraced,
+            flags: REFLECT_ON
+                | if half { REFLECT_HALF_RES } else { 0 }
+                | if decals { REFLECT_DECALS } else { 0 }
+                | if applied == ReflectionMode::ScreenSpace { REFLECT_SCREEN_SPACE } else { 0 },
             cutoff: s.reflections.roughness_cutoff.clamp(0.0, 1.0),
             stats: self.stats.address,
         }
@@ -241,7 +272,9 @@ impl Reflections {
         if !lights.reflections {
             return Ok(());
         }
+        let screen = lights.reflection_flags & REFLECT_SCREEN_SPACE != 0;
         let compute = match source {
+            _ if screen => Some(&self.screen[source as usize]),
             DecalSurfaceSource::GBuffer => self.gbuffer.as_ref(),
             DecalSurfaceSource::Visibility => self.visibility.as_ref(),
         };
@@ -262,6 +295,10 @@ impl Reflections {
             }
             DecalSurfaceSource::Visibility => pass.sample(&VISIBILITY),
         };
+        // Screen-space rays see the lit image; traced ones the structures.
+        let pass = if screen { pass.sample(&HDR) } else { pass };
+        let (decals_at_hits, scene_accel, light_boxes) =
+            if screen { (None, None, None) } else { (decals.at_hits, lights.scene_accel, lights.light_boxes) };
         let accel = |ids: Option<[ResourceId; 2]>| ids.into_iter().flatten().map(|a| (a, BufferUse::Accel));
         // The ray-generation shader for this surface and decal method (in `rays`' order).
         let raygen = match source {
@@ -273,10 +310,10 @@ impl Reflections {
         let half = lights.reflection_flags & REFLECT_HALF_RES != 0;
         let rays = self.rays.as_ref();
         declare_decal_reads(pass, decals)
-            .reads(accel(decals.at_hits))
-            .reads(accel(lights.scene_accel))
-            .reads(accel(lights.light_boxes.map(|[tlas, blas, _]| [tlas, blas])))
-            .reads(lights.light_boxes.map(|[_, _, boxes]| (boxes, BufferUse::Storage)))
+            .reads(accel(decals_at_hits))
+            .reads(accel(scene_accel))
+            .reads(accel(light_boxes.map(|[tlas, blas, _]| [tlas, blas])))
+            .reads(light_boxes.map(|[_, _, boxes]| (boxes, BufferUse::Storage)))
             .image(&REFLECTION, ImageUse::StorageWrite)
             .image(&REFLECTION_WEIGHT, ImageUse::StorageWrite)
             .image(&REFLECTION_RAYS, ImageUse::StorageWrite)
@@ -311,7 +348,7 @@ impl Reflections {
 
     /// Destroys the pipelines and buffers; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for v in [self.gbuffer, self.visibility].into_iter().flatten() {
+        for v in [self.gbuffer, self.visibility].into_iter().flatten().chain(self.screen) {
             v.destroy(ctx);
         }
         if let Some(r) = self.rays {
