@@ -14,14 +14,44 @@
 #include "light_boxes.glsl"
 
 // The surface travels with the ray (its position is the ray's origin); the radiance and the
-// number of lights found come back.
+// number of lights found come back. With SHADOWED_LIGHTS (the reflection rays' hit points,
+// reflections.glsl) the LIGHT_SHADOW_SLOTS lights that contribute most are kept apart instead,
+// for the ray-generation shader to trace their shadow rays: the any-hit shader cannot.
+const uint LIGHT_SHADOW_SLOTS = 4u;
 struct LightPayload {
     SurfaceBrdf brdf;
     vec3 normal;
     vec3 view;
     vec3 color;
     uint found;
+#ifdef SHADOWED_LIGHTS
+    uint slots[LIGHT_SHADOW_SLOTS];    // light slots (NO_SHADOWED_LIGHT: none)
+    vec3 slot_color[LIGHT_SHADOW_SLOTS];
+#endif
 };
+const uint NO_SHADOWED_LIGHT = 0xFFFFFFFFu;
+
+#ifdef SHADOWED_LIGHTS
+float light_strength(vec3 c) {
+    return dot(c, vec3(0.2126, 0.7152, 0.0722));
+}
+
+// Adds light `slot`'s radiance `c` to the payload: kept apart if it is among the strongest so
+// far (the weakest kept one then joins the unshadowed sum), else added unshadowed.
+void keep_light(inout LightPayload p, uint slot, vec3 c) {
+    uint weakest = 0u;
+    for (uint i = 1u; i < LIGHT_SHADOW_SLOTS; ++i) {
+        if (light_strength(p.slot_color[i]) < light_strength(p.slot_color[weakest])) weakest = i;
+    }
+    if (light_strength(c) <= light_strength(p.slot_color[weakest])) {
+        p.color += c;
+        return;
+    }
+    p.color += p.slot_color[weakest];
+    p.slots[weakest] = slot;
+    p.slot_color[weakest] = c;
+}
+#endif
 
 #ifdef LIGHT_RAYGEN
 // A ray-generation shader that traces other rays too (reflections.glsl) moves the payload and

@@ -14,8 +14,9 @@
 //   hit groups and miss shaders (REFLECTION_SBT_*): the reflection ray's closest hit
 //   (reflections.rchit, with reflections.rahit for masked and blended surfaces), the decal
 //   pass's decal shaders, the ray-query lights' light shaders, the shadow pass's any-hit. The
-//   unbounded lights (the sun) send their shadow rays from here; lights found in their TLAS are
-//   added by an any-hit shader, which cannot trace, so they are unshadowed at hit points.
+//   unbounded lights (the sun) send their shadow rays from here; of the lights found in their
+//   TLAS by an any-hit shader, which cannot trace, the LIGHT_SHADOW_SLOTS that contribute most
+//   come back for their shadow rays from here, the rest are added unshadowed.
 //
 // Along the ray, alpha-masked surfaces are alpha-tested (alpha_mask.glsl) and blended ones
 // (glass) do not stop it: up to REFLECTION_GLASS panes in front of the hit are shaded and
@@ -146,6 +147,7 @@ vec3 hit_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found) {
 #ifdef REFLECTION_RAYGEN
 #extension GL_EXT_ray_tracing : require
 #define LIGHT_RAYGEN
+#define SHADOWED_LIGHTS
 #define LIGHT_PAYLOAD_LOCATION 2
 #define LIGHT_SBT_OFFSET REFLECTION_SBT_LIGHTS
 #include "ray_pipeline_lights.glsl"
@@ -182,6 +184,18 @@ uint hit_decals(inout SurfaceInputs s) {
     return tested;
 }
 
+// Light `light`'s radiance `c` at `p` (facing `facing`), through its shadow ray when `shadows`.
+vec3 shadowed_light(GpuLight light, vec3 c, vec3 p, vec3 facing, bool shadows) {
+    vec3 dir;
+    float tmax;
+    if (!shadows || all(equal(c, vec3(0.0)))) return c;
+    if (!shadow_ray_towards(light, p, dir, tmax)) return vec3(0.0);
+    shadow_payload = vec4(1.0, 1.0, 1.0, 0.0);
+    traceRayEXT(accelerationStructureEXT(scene.lighting.lighting.scene_tlas), gl_RayFlagsTerminateOnFirstHitEXT | gl_RayFlagsSkipClosestHitShaderEXT,
+                0xFF, REFLECTION_SBT_SHADOWS, 0, REFLECTION_SBT_SHADOWS, shadow_origin(p, facing), 1e-3, dir, tmax, 3);
+    return shadow_payload.w != 0.0 ? c * shadow_payload.rgb : vec3(0.0);
+}
+
 vec3 hit_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found) {
     GpuLighting l = scene.lighting.lighting;
     found = 0u;
@@ -193,16 +207,7 @@ vec3 hit_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found) {
     uint unbounded_count = unbounded.count;
     for (uint k = 0u; k < unbounded_count; ++k) {
         GpuLight light = scene.lights.lights[unbounded.slots[k]];
-        vec3 c = shade_light(light, brdf, s.position, s.normal, v);
-        vec3 dir;
-        float tmax;
-        if (shadows && any(greaterThan(c, vec3(0.0))) && shadow_ray_towards(light, s.position, dir, tmax)) {
-            shadow_payload = vec4(1.0, 1.0, 1.0, 0.0);
-            traceRayEXT(accelerationStructureEXT(l.scene_tlas), gl_RayFlagsTerminateOnFirstHitEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF,
-                        REFLECTION_SBT_SHADOWS, 0, REFLECTION_SBT_SHADOWS, shadow_origin(s.position, facing), 1e-3, dir, tmax, 3);
-            c *= shadow_payload.w != 0.0 ? shadow_payload.rgb : vec3(0.0);
-        }
-        color += c;
+        color += shadowed_light(light, shade_light(light, brdf, s.position, s.normal, v), s.position, facing, shadows);
     }
     found = unbounded_count;
     light_payload.brdf = brdf;
@@ -210,10 +215,20 @@ vec3 hit_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found) {
     light_payload.view = v;
     light_payload.color = vec3(0.0);
     light_payload.found = 0u;
+    for (uint i = 0u; i < LIGHT_SHADOW_SLOTS; ++i) {
+        light_payload.slots[i] = NO_SHADOWED_LIGHT;
+        light_payload.slot_color[i] = vec3(0.0);
+    }
     traceRayEXT(accelerationStructureEXT(l.light_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF, REFLECTION_SBT_LIGHTS,
                 0, REFLECTION_SBT_LIGHTS, s.position, 0.0, vec3(1.0, 0.0, 0.0), 0.0, 2);
     found += light_payload.found;
-    return color + light_payload.color;
+    color += light_payload.color;   // beyond the strongest few: unshadowed
+    for (uint i = 0u; i < LIGHT_SHADOW_SLOTS; ++i) {
+        if (light_payload.slots[i] == NO_SHADOWED_LIGHT) continue;
+        GpuLight light = scene.lights.lights[light_payload.slots[i]];
+        color += shadowed_light(light, light_payload.slot_color[i], s.position, facing, shadows);
+    }
+    return color;
 }
 #endif
 

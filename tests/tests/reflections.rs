@@ -274,24 +274,29 @@ fn masked_surfaces_are_alpha_tested_and_glass_is_blended_in_reflections() {
 }
 
 #[test]
-fn a_mirror_shows_what_a_light_the_camera_does_not_see_lights() {
-    // Forward+ culls lights by screen tiles, where this one is in none; the ray-tracing-pipeline
-    // tier finds it in the lights' TLAS too (unshadowed there: its any-hit shader cannot trace).
+fn a_mirror_shows_what_a_light_the_camera_does_not_see_lights_and_its_shadow() {
+    // Forward+ culls lights by screen tiles, where this one is in none; both tiers find it in the
+    // lights' TLAS at the hit point, and trace its shadow ray (the ray-tracing-pipeline tier for
+    // the strongest few lights there).
     for (tier, pipeline) in [
         (Tier::RayQuery, PipelineKind::ForwardPlus),
         (Tier::RayQuery, PipelineKind::Deferred),
         (Tier::RayTracingPipeline, PipelineKind::ForwardPlus),
     ] {
-        let render = |light: bool| {
+        let render = |light: bool, occluder: bool| {
             let settings = RenderSettings { pipeline, clear_color: [0.0, 0.0, 0.0, 1.0], ambient: Vec3::splat(0.01), ..Default::default() };
             let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, tier);
             let (mirror, panel) = {
                 let mut materials = app.world.resource_mut::<Assets<Material>>();
                 (materials.add(Material::from_color(Vec4::ONE, 1.0, 0.0)), materials.add(Material::from_color(Vec4::splat(0.8), 0.0, 0.9)))
             };
-            let (wall, square) = {
+            let (wall, square, small) = {
                 let mut meshes = app.world.resource_mut::<Assets<Mesh>>();
-                (meshes.add(shapes::cuboid(Vec3::new(6.0, 4.0, 0.1), 1.0)), meshes.add(shapes::cuboid(Vec3::new(1.5, 1.5, 0.1), 1.0)))
+                (
+                    meshes.add(shapes::cuboid(Vec3::new(6.0, 4.0, 0.1), 1.0)),
+                    meshes.add(shapes::cuboid(Vec3::new(1.5, 1.5, 0.1), 1.0)),
+                    meshes.add(shapes::cuboid(Vec3::new(0.3, 0.3, 0.02), 1.0)),
+                )
             };
             // A mirror ahead; behind the camera a panel, and a light of 1 m range in front of it,
             // which reaches nothing the camera sees directly.
@@ -301,20 +306,27 @@ fn a_mirror_shows_what_a_light_the_camera_does_not_see_lights() {
                 app.world
                     .spawn((PointLight { intensity: 5.0, range: Some(1.0), ..Default::default() }, Transform::from_xyz(0.0, 1.0, 2.4)));
             }
+            if occluder {
+                // 10 cm in front of the light: its shadow covers the panel; its own image, the
+                // middle of the panel's.
+                app.world.spawn((MeshInstance { mesh: small, material: panel }, Transform::from_xyz(0.0, 1.0, 2.5)));
+            }
             app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 1.0, 0.0).looking_at(Vec3::new(0.0, 1.0, -3.0), Vec3::Y)));
             for _ in 0..2 {
                 app.update();
             }
             let hdr = renderer(&mut app).read_hdr().expect("HDR reads back");
             assert_no_validation_errors(&mut app);
-            let centre = hdr[(SIZE.1 / 2 * SIZE.0 + SIZE.0 / 2) as usize];
-            Vec3::from_slice(&centre[..3])
+            // Four pixels right of the middle: on the panel's image, off the occluder's.
+            let at = hdr[(SIZE.1 / 2 * SIZE.0 + SIZE.0 / 2 + 4) as usize];
+            Vec3::from_slice(&at[..3])
         };
-        let (dark, lit) = (render(false), render(true));
-        eprintln!("{pipeline:?}: the panel in the mirror unlit {dark}, lit {lit}");
+        let (dark, lit, shadowed) = (render(false, false), render(true, false), render(true, true));
+        eprintln!("{tier:?} {pipeline:?}: the panel in the mirror unlit {dark}, lit {lit}, in the occluder's shadow {shadowed}");
         assert!(
-            lit.x > 0.2 && lit.x > 10.0 * dark.x,
-            "{pipeline:?}: the light behind the camera lights the panel in the mirror: {dark} / {lit}"
+            lit.x > 0.1 && lit.x > 10.0 * dark.x,
+            "{tier:?} {pipeline:?}: the light behind the camera lights the panel in the mirror: {dark} / {lit}"
         );
+        assert!(shadowed.x < 0.1 * lit.x, "{tier:?} {pipeline:?}: the hit point's shadow ray finds the occluder: {lit} / {shadowed}");
     }
 }

@@ -49,6 +49,8 @@ spirv! {
     REFLECTIONS_RCHIT = "reflections.rchit";
     REFLECTIONS_RAHIT = "reflections.rahit";
     REFLECTIONS_RMISS = "reflections.rmiss";
+    LIGHT_RAYS_RAHIT_SHADOWED_LIGHTS = "light_rays.rahit.SHADOWED_LIGHTS";
+    LIGHT_RAYS_RMISS_SHADOWED_LIGHTS = "light_rays.rmiss.SHADOWED_LIGHTS";
     DECAL_BOXES_VERT = "decal_boxes.vert";
     GBUFFER_FRAG = "gbuffer.frag";
     GBUFFER_FRAG_ALPHA_MASK = "gbuffer.frag.ALPHA_MASK";

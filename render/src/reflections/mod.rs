@@ -28,8 +28,9 @@
 //! Both ray-tracing tiers: in compute with ray queries, or as a ray-generation shader with four
 //! hit groups (the reflection ray's closest hit with an any-hit for masked and blended surfaces,
 //! and the decal pass's, the ray-query lights' and the shadow pass's) on the ray-tracing-pipeline
-//! tier, whose lights found at hit points are unshadowed (an any-hit shader cannot trace; the
-//! sun's shadow rays are traced from the ray-generation shader). Work is per cell (a pixel, or
+//! tier, where the lights found at a hit point by an any-hit shader (which cannot trace) come
+//! back four strongest apart, and those and the sun get their shadow rays from the
+//! ray-generation shader; the rest are unshadowed. Work is per cell (a pixel, or
 //! a 2×2 block at half resolution, traced by its first pixel that reflects), so neither needs
 //! shared memory. Devices without ray tracing fall back to no reflections, which `--stats`
 //! reports.
@@ -175,7 +176,12 @@ impl Reflections {
                     shaders::REFLECTIONS_RGEN_DECAL_BUFFER,
                     shaders::REFLECTIONS_RGEN_CLUSTERED_DECALS,
                 ],
-                misses: &[shaders::REFLECTIONS_RMISS, shaders::DECAL_PASS_RMISS, shaders::LIGHT_RAYS_RMISS, shaders::SHADOWS_RMISS],
+                misses: &[
+                    shaders::REFLECTIONS_RMISS,
+                    shaders::DECAL_PASS_RMISS,
+                    shaders::LIGHT_RAYS_RMISS_SHADOWED_LIGHTS,
+                    shaders::SHADOWS_RMISS,
+                ],
                 hit_groups: &[
                     HitGroup {
                         closest_hit: Some(shaders::REFLECTIONS_RCHIT),
@@ -183,7 +189,7 @@ impl Reflections {
                         intersection: None,
                     },
                     HitGroup::any_hit(shaders::DECAL_PASS_RAHIT, Some(shaders::DECAL_PASS_RINT)),
-                    HitGroup::any_hit(shaders::LIGHT_RAYS_RAHIT, Some(shaders::LIGHT_RAYS_RINT)),
+                    HitGroup::any_hit(shaders::LIGHT_RAYS_RAHIT_SHADOWED_LIGHTS, Some(shaders::LIGHT_RAYS_RINT)),
                     HitGroup::any_hit(shaders::SHADOWS_RAHIT, None),
                 ],
             };
