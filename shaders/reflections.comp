@@ -1,4 +1,4 @@
-// variants: GBUFFER GBUFFER+RAY_QUERY_DECALS GBUFFER+DECAL_BUFFER RAY_QUERY_DECALS DECAL_BUFFER CLUSTERED_DECALS
+// variants: GBUFFER GBUFFER+RAY_QUERY_DECALS GBUFFER+DECAL_BUFFER RAY_QUERY_DECALS DECAL_BUFFER CLUSTERED_DECALS GLASS_LAYER
 #version 460
 // The reflection pass's rays on the ray-query tier (render/src/reflections): one invocation per
 // cell (a pixel, or a 2×2 block at half resolution) runs reflections.glsl's reflection_cell,

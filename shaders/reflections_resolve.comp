@@ -1,3 +1,4 @@
+// variants: GLASS_LAYER
 #version 460
 // The reflection pass's resolve (render/src/reflections): each pixel that reflects gathers the
 // radiance its neighbourhood's rays brought back, weighted by a Gaussian whose width grows with
@@ -65,11 +66,17 @@ vec3 resolve(ivec2 px, vec4 weight, bool half_res) {
     int side = half_res ? 2 : 1;
     ivec2 grid = (ivec2(cam.viewport_size) + side - 1) / side;
     ivec2 at = px / side;
+#ifdef GLASS_LAYER
+    // Glass is not in the depth buffer: its ray's own distance stands for it, flat.
+    float distance = imageLoad(reflection_in, at).a;
+    vec2 slope = vec2(0.0);
+#else
     float distance = distance_at(px);
     // How the distance changes per pixel across this surface, so that rays traced from the same
     // surface are recognised however slanted it is (a floor seen at a grazing angle changes by
     // several per cent a row).
     vec2 slope = vec2(distance_slope(px, distance, ivec2(1, 0)), distance_slope(px, distance, ivec2(0, row_step())) / float(row_step()));
+#endif
     float slack = 0.02 * distance;
     vec4 own = imageLoad(reflection_in, at);
     if (!half_res && weight.a < MIRROR && own.a > 0.0) return own.rgb;

@@ -24,7 +24,8 @@
 // screen (back faces only on double-sided materials). A miss sees the clear colour (the sky).
 //
 // Work is done per cell: a pixel at full resolution, a 2×2 block at half (REFLECT_HALF_RES),
-// whose first pixel that reflects traces for the block. Every pixel stores its weight; the cell
+// whose first pixel that reflects traces for the block. With GLASS_LAYER the surfaces are the
+// nearest blended ones, found by a camera ray, for the forward transparency pass's glass. Every pixel stores its weight; the cell
 // stores the ray's radiance and what it found (reflection_rays: see pack_cell).
 #ifndef REFLECTIONS_GLSL
 #define REFLECTIONS_GLSL
@@ -391,6 +392,31 @@ layout(set = 0, binding = BINDING_REFLECTION, rgba16f) uniform writeonly image2D
 layout(set = 0, binding = BINDING_REFLECTION_WEIGHT, rgba16f) uniform writeonly image2D weight_out;
 layout(set = 0, binding = BINDING_REFLECTION_RAYS, r32ui) uniform writeonly uimage2D rays_out;
 
+#ifdef GLASS_LAYER
+// The nearest blended surface in front of the pixel's opaque one (the forward transparency
+// pass's glass), found by a camera ray: false where there is none. Its decals come from the
+// decal TLAS like a hit point's.
+bool primary_surface(ivec2 px, out SurfaceInputs s) {
+    GpuCamera cam = scene.camera.camera;
+    vec3 dir = normalize(ray_dir(vec2(px)));
+    float depth = texelFetch(depth_target, px, 0).r;
+    float opaque = depth > 0.0 ? 0.999 * length(world_from_depth(vec2(px), depth) - cam.position) : REFLECTION_MAX_DISTANCE;
+    ReflectionHits h = trace_hits(cam.position, dir);
+    if (h.hit) opaque = min(opaque, h.t);
+    uint nearest = REFLECTION_GLASS;
+    for (uint i = 0u; i < h.panes; ++i) {
+        if (h.glass_t[i] < opaque && (nearest == REFLECTION_GLASS || h.glass_t[i] < h.glass_t[nearest])) nearest = i;
+    }
+    if (nearest == REFLECTION_GLASS) return false;
+    float pixel_angle = 2.0 / (cam.proj[1][1] * cam.viewport_size.y);
+    s = surface_inputs(hit_surface(h.glass_ids[nearest].x, h.glass_ids[nearest].y, h.glass_bary[nearest], dir, h.glass_t[nearest] * pixel_angle));
+    return true;
+}
+
+void apply_primary_decals(inout SurfaceInputs s, ivec2 px) {
+    hit_decals(s);
+}
+#else
 bool primary_surface(ivec2 px, out SurfaceInputs s) {
 #ifdef GBUFFER
     return deferred_surface(px, s);
@@ -398,6 +424,11 @@ bool primary_surface(ivec2 px, out SurfaceInputs s) {
     return visbuffer_surface(px, s);
 #endif
 }
+
+void apply_primary_decals(inout SurfaceInputs s, ivec2 px) {
+    apply_surface_decals(s, px);
+}
+#endif
 
 // What a cell's ray found, in one word for the resolve's statistics and upsample: decals tested
 // at its hit points (bits 0–11, saturating), lights found (12–23), pixels of the cell that
@@ -431,7 +462,7 @@ void reflection_cell(ivec2 cell) {
             imageStore(weight_out, px, vec4(0.0, 0.0, 0.0, -1.0));
             continue;
         }
-        apply_surface_decals(s, px);
+        apply_primary_decals(s, px);
         vec3 v = normalize(cam.position - s.position);
         vec3 facing = dot(s.geometric_normal, v) < 0.0 ? -s.geometric_normal : s.geometric_normal;
         vec3 n = dot(s.normal, v) > 1e-3 ? s.normal : facing;
@@ -442,6 +473,12 @@ void reflection_cell(ivec2 cell) {
         }
         SurfaceBrdf brdf = surface_brdf(s.albedo, s.metallic, s.roughness);
         vec3 weight = env_brdf_approx(brdf.f0, brdf.roughness, clamp(dot(n, v), 1e-4, 1.0)) * s.occlusion * fade;
+#ifdef GBUFFER
+        // Glass in the G-buffer (interlaced rows, depth peeling's layer) is composed over what is
+        // behind it by its opacity α; its reflection is not transmitted light and must stay
+        // whole, so it is added as R / α.
+        weight /= max(texelFetch(gbuffer_material, px, 0).b, 0.05);
+#endif
         imageStore(weight_out, px, vec4(weight, s.roughness));
         ++reflecting;
         if (traced) continue;

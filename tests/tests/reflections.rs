@@ -330,3 +330,57 @@ fn a_mirror_shows_what_a_light_the_camera_does_not_see_lights_and_its_shadow() {
         assert!(shadowed.x < 0.1 * lit.x, "{tier:?} {pipeline:?}: the hit point's shadow ray finds the occluder: {lit} / {shadowed}");
     }
 }
+
+#[test]
+fn glass_reflects_what_is_behind_the_camera() {
+    // A clear pane ahead and a glowing red panel behind the camera: the pane shows the panel at
+    // about its Fresnel reflectance, on both tiers, drawn by the forward transparency pass (a
+    // camera ray finds the pane) or interlaced into the deferred G-buffer.
+    for (tier, pipeline) in [
+        (Tier::RayQuery, PipelineKind::Forward),
+        (Tier::RayQuery, PipelineKind::VisBuffer),
+        (Tier::RayQuery, PipelineKind::Deferred),
+        (Tier::RayTracingPipeline, PipelineKind::Forward),
+    ] {
+        let render = |reflections: ReflectionSettings| {
+            let settings = RenderSettings {
+                pipeline,
+                reflections,
+                clear_color: [0.0, 0.0, 0.0, 1.0],
+                ambient: Vec3::splat(0.01),
+                ..Default::default()
+            };
+            let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, tier);
+            let (glass, glow) = {
+                let mut materials = app.world.resource_mut::<Assets<Material>>();
+                (
+                    materials
+                        .add(Material { alpha_mode: AlphaMode::Blend, ..Material::from_color(Vec4::new(1.0, 1.0, 1.0, 0.3), 0.0, 0.0) }),
+                    materials.add(Material {
+                        emissive: Vec3::new(20.0, 0.0, 0.0),
+                        ..Material::from_color(Vec4::new(0.0, 0.0, 0.0, 1.0), 0.0, 0.9)
+                    }),
+                )
+            };
+            let (pane, panel) = {
+                let mut meshes = app.world.resource_mut::<Assets<Mesh>>();
+                (meshes.add(shapes::cuboid(Vec3::new(3.0, 3.0, 0.02), 1.0)), meshes.add(shapes::cuboid(Vec3::new(3.0, 3.0, 0.1), 1.0)))
+            };
+            app.world.spawn((MeshInstance { mesh: pane, material: glass }, Transform::from_xyz(0.0, 1.0, -2.0)));
+            app.world.spawn((MeshInstance { mesh: panel, material: glow }, Transform::from_xyz(0.0, 1.0, 3.0)));
+            app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 1.0, 0.0).looking_at(Vec3::new(0.0, 1.0, -3.0), Vec3::Y)));
+            for _ in 0..3 {
+                app.update();
+            }
+            let hdr = renderer(&mut app).read_hdr().expect("HDR reads back");
+            assert_no_validation_errors(&mut app);
+            let stats = app.world.resource::<RenderStats>().last.reflections;
+            (Vec3::from_slice(&hdr[(SIZE.1 / 2 * SIZE.0 + SIZE.0 / 2) as usize][..3]), stats)
+        };
+        let (off, _) = render(ReflectionSettings::OFF);
+        let (on, stats) = render(ReflectionSettings::default());
+        eprintln!("{tier:?} {pipeline:?}: the pane without reflections {off}, with {on}; {stats:?}");
+        assert!(on.x > off.x + 0.2 && on.y < 0.05, "{tier:?} {pipeline:?}: the pane reflects the red panel: {off} / {on}");
+        assert!(stats.rays > 0 && stats.hits > 0, "{tier:?} {pipeline:?}: {stats:?}");
+    }
+}

@@ -63,7 +63,7 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     mirror.sort_transparent(mirror.camera().position);
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
     r.skinning.prepare(mirror, r.scene);
-    let reflections = r.reflections.prepare(f, s, &mut mirror.counters.reflections);
+    let reflections = r.reflections.prepare(f, s, &mut mirror.counters.reflections)?;
     let lights = r.lighting.prepare(f, r.scene, mirror, s, &reflections)?;
     mirror.counters.culling = r.culling.prepare(f, r.scene, mirror, s, lights.shadow_map_views())?;
     let boxes_changed = r.scene.upload(f, mirror)?;
@@ -97,6 +97,7 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
     r.forward.shade(f, r.scene, &draws, s.clear_color, &decals, &lights)?;
     r.reflections.record(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
     r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
+    glass_reflections(f, r, mirror, &decals, &lights)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)?;
     Ok(lights)
@@ -134,7 +135,9 @@ pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirro
     } else {
         deferred_layer(f, r, mirror, GBufferGlass::None, s, &decals, &lights, false)?;
         r.transparency.shade(f, r.scene, &r.culling.draws(), glass, &decals, &lights)?;
+        r.reflections.record_glass(f, r.scene, &decals, &lights, !glass.is_empty())?;
     }
+    r.reflections.finish(f, &lights)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)?;
     Ok(lights)
@@ -188,9 +191,23 @@ pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirr
     r.visbuffer.shade(f, r.scene, s.clear_color, &decals, &lights, s.compute_shading)?;
     r.reflections.record(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
     r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
+    glass_reflections(f, r, mirror, &decals, &lights)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)?;
     Ok(lights)
+}
+
+/// Reflections on the glass the forward transparency pass drew, then the reflection statistics'
+/// copy for the CPU.
+fn glass_reflections(
+    f: &mut Frame,
+    r: &mut FrameParts,
+    mirror: &SceneMirror,
+    decals: &DecalFrame,
+    lights: &LightFrame,
+) -> Result<(), RenderError> {
+    r.reflections.record_glass(f, r.scene, decals, lights, !mirror.transparent_order().is_empty())?;
+    r.reflections.finish(f, lights)
 }
 
 /// The transparent depth, when light culling or the glass shadows read it this frame (before

@@ -107,9 +107,12 @@ pub struct Reflections {
     screen: [ShadeVariants; 2],
     /// The ray passes on the ray-tracing-pipeline tier: one ray-generation shader for each
     /// surface and way of applying the primary surface's decals (G-buffer: plain, decal buffer;
-    /// visibility ids: plain, decal buffer, cluster lists).
+    /// visibility ids: plain, decal buffer, cluster lists), then the nearest glass's.
     rays: Option<RayTracingPipeline>,
     resolve: vk::Pipeline,
+    /// The ray pass over the nearest glass on the ray-query tier, and the resolve for it.
+    glass: Option<vk::Pipeline>,
+    resolve_glass: vk::Pipeline,
     stats: Buffer,
     stats_res: ResourceId,
     readback: StatsReadback,
@@ -175,6 +178,7 @@ impl Reflections {
                     shaders::REFLECTIONS_RGEN,
                     shaders::REFLECTIONS_RGEN_DECAL_BUFFER,
                     shaders::REFLECTIONS_RGEN_CLUSTERED_DECALS,
+                    shaders::REFLECTIONS_RGEN_GLASS_LAYER,
                 ],
                 misses: &[
                     shaders::REFLECTIONS_RMISS,
@@ -214,6 +218,8 @@ impl Reflections {
             screen,
             rays,
             resolve: create_compute(ctx, layout, "reflection resolve", shaders::REFLECTIONS_RESOLVE_COMP)?,
+            glass: if ctx.tier == Tier::RayQuery { Some(compute(shaders::REFLECTIONS_COMP_GLASS_LAYER)?) } else { None },
+            resolve_glass: create_compute(ctx, layout, "glass reflection resolve", shaders::REFLECTIONS_RESOLVE_COMP_GLASS_LAYER)?,
             stats,
             stats_res: graph.resource("reflection statistics"),
             readback: StatsReadback::new(ctx, graph, "reflection statistics readback", bytes)?,
@@ -222,9 +228,9 @@ impl Reflections {
     }
 
     /// Decides this frame's reflections from `s` (the mode this device runs; none in debug views
-    /// other than the lit image and the reflection rays) and reads back the statistics of the
-    /// frame that last used this frame's slot into `stats`.
-    pub fn prepare(&mut self, f: &mut Frame, s: &FrameSettings, stats: &mut ReflectionStats) -> ReflectionFrame {
+    /// other than the lit image and the reflection rays), reads back the statistics of the
+    /// frame that last used this frame's slot into `stats`, and clears this frame's.
+    pub fn prepare(&mut self, f: &mut Frame, s: &FrameSettings, stats: &mut ReflectionStats) -> Result<ReflectionFrame, RenderError> {
         if let Some((frame, words)) = self.readback.take(f) {
             let w = |i: usize| words[i] as u64;
             self.latest = ReflectionStats {
@@ -250,9 +256,14 @@ impl Reflections {
             ..self.latest
         };
         if !on {
-            return ReflectionFrame::default();
+            return Ok(ReflectionFrame::default());
         }
-        ReflectionFrame {
+        let (stats, stats_res) = (self.stats.raw, self.stats_res);
+        f.pass("reflection_stats_clear", PassKind::Transfer).write(stats_res, BufferUse::Transfer).record(|p| {
+            // SAFETY: `cmd` is recording outside a rendering scope; the range is the buffer.
+            unsafe { p.ctx.device.cmd_fill_buffer(p.cmd, stats, 0, vk::WHOLE_SIZE, 0) };
+        })?;
+        Ok(ReflectionFrame {
             on,
             traced: applied == ReflectionMode::RayTraced,
             flags: REFLECT_ON
@@ -261,7 +272,7 @@ impl Reflections {
                 | if applied == ReflectionMode::ScreenSpace { REFLECT_SCREEN_SPACE } else { 0 },
             cutoff: s.reflections.roughness_cutoff.clamp(0.0, 1.0),
             stats: self.stats.address,
-        }
+        })
     }
 
     /// Traces and resolves this frame's reflections into the HDR target, over the surfaces of
@@ -275,31 +286,67 @@ impl Reflections {
         decals: &DecalFrame,
         lights: &LightFrame,
     ) -> Result<(), RenderError> {
+        self.layer(f, scene, Some(source), decals, lights)
+    }
+
+    /// The same for the nearest glass the forward transparency pass drew (`glass`: blended
+    /// instances were drawn), found by a camera ray: traced reflections only (screen space has
+    /// no glass surface to start from), and not where the deferred G-buffer interlaces glass
+    /// (its glass rows reflected with the opaque surfaces).
+    pub fn record_glass(
+        &mut self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        decals: &DecalFrame,
+        lights: &LightFrame,
+        glass: bool,
+    ) -> Result<(), RenderError> {
+        if !glass || lights.interlaced() || lights.reflection_flags & REFLECT_SCREEN_SPACE != 0 {
+            return Ok(());
+        }
+        self.layer(f, scene, None, decals, lights)
+    }
+
+    /// Copies the statistics for the CPU, after every reflection pass of the frame.
+    pub fn finish(&mut self, f: &mut Frame, lights: &LightFrame) -> Result<(), RenderError> {
+        if !lights.reflections {
+            return Ok(());
+        }
+        self.readback.record(f, "reflection_statistics", self.stats_res, self.stats.raw)
+    }
+
+    /// The ray and resolve passes over `source`'s surfaces, or the nearest glass (`None`).
+    fn layer(
+        &mut self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        source: Option<DecalSurfaceSource>,
+        decals: &DecalFrame,
+        lights: &LightFrame,
+    ) -> Result<(), RenderError> {
         if !lights.reflections {
             return Ok(());
         }
         let screen = lights.reflection_flags & REFLECT_SCREEN_SPACE != 0;
         let compute = match source {
-            _ if screen => Some(&self.screen[source as usize]),
-            DecalSurfaceSource::GBuffer => self.gbuffer.as_ref(),
-            DecalSurfaceSource::Visibility => self.visibility.as_ref(),
+            Some(source) if screen => Some(self.screen[source as usize].pick(decals)),
+            Some(DecalSurfaceSource::GBuffer) => self.gbuffer.as_ref().map(|v| v.pick(decals)),
+            Some(DecalSurfaceSource::Visibility) => self.visibility.as_ref().map(|v| v.pick(decals)),
+            None => self.glass,
         };
         let kind = match (compute, &self.rays) {
             (Some(_), _) => PassKind::Compute,
             (None, Some(_)) => PassKind::RayTracing,
             (None, None) => return Ok(()),
         };
-        let (stats, stats_res) = (self.stats.raw, self.stats_res);
-        f.pass("reflection_stats_clear", PassKind::Transfer).write(stats_res, BufferUse::Transfer).record(|p| {
-            // SAFETY: `cmd` is recording outside a rendering scope; the range is the buffer.
-            unsafe { p.ctx.device.cmd_fill_buffer(p.cmd, stats, 0, vk::WHOLE_SIZE, 0) };
-        })?;
-        let pass = f.pass("reflection_rays", kind).sample(&DEPTH).reads(scene.res.shaded()).read(scene.res.meshes, BufferUse::Storage);
+        let name = if source.is_some() { "reflection_rays" } else { "glass_reflection_rays" };
+        let pass = f.pass(name, kind).sample(&DEPTH).reads(scene.res.shaded()).read(scene.res.meshes, BufferUse::Storage);
         let pass = match source {
-            DecalSurfaceSource::GBuffer => {
+            Some(DecalSurfaceSource::GBuffer) => {
                 pass.sample(&GBUFFER_ALBEDO).sample(&GBUFFER_NORMAL).sample(&GBUFFER_MATERIAL).sample(&GBUFFER_LAYERS)
             }
-            DecalSurfaceSource::Visibility => pass.sample(&VISIBILITY),
+            Some(DecalSurfaceSource::Visibility) => pass.sample(&VISIBILITY),
+            None => pass,
         };
         // Screen-space rays see the lit image; traced ones the structures.
         let pass = if screen { pass.sample(&HDR) } else { pass };
@@ -308,15 +355,16 @@ impl Reflections {
         let accel = |ids: Option<[ResourceId; 2]>| ids.into_iter().flatten().map(|a| (a, BufferUse::Accel));
         // The ray-generation shader for this surface and decal method (in `rays`' order).
         let raygen = match source {
-            DecalSurfaceSource::GBuffer => usize::from(decals.buffered()),
-            DecalSurfaceSource::Visibility if decals.buffered() => 3,
-            DecalSurfaceSource::Visibility if decals.clusters_in_shading() => 4,
-            DecalSurfaceSource::Visibility => 2,
+            Some(DecalSurfaceSource::GBuffer) => usize::from(decals.buffered()),
+            Some(DecalSurfaceSource::Visibility) if decals.buffered() => 3,
+            Some(DecalSurfaceSource::Visibility) if decals.clusters_in_shading() => 4,
+            Some(DecalSurfaceSource::Visibility) => 2,
+            None => 5,
         };
         let half = lights.reflection_flags & REFLECT_HALF_RES != 0;
         let rays = self.rays.as_ref();
-        declare_decal_reads(pass, decals)
-            .reads(accel(decals_at_hits))
+        let pass = if source.is_some() { declare_decal_reads(pass, decals) } else { pass };
+        pass.reads(accel(decals_at_hits))
             .reads(accel(scene_accel))
             .reads(accel(light_boxes.map(|[tlas, blas, _]| [tlas, blas])))
             .reads(light_boxes.map(|[_, _, boxes]| (boxes, BufferUse::Storage)))
@@ -326,8 +374,8 @@ impl Reflections {
             .record(|p| {
                 let side = if half { 2 } else { 1 };
                 let cells = vk::Extent2D { width: p.extent.width.div_ceil(side), height: p.extent.height.div_ceil(side) };
-                if let Some(variants) = compute {
-                    p.bind(vk::PipelineBindPoint::COMPUTE, variants.pick(decals), &p.push);
+                if let Some(pipeline) = compute {
+                    p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
                     // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
                     unsafe { p.ctx.device.cmd_dispatch(p.cmd, cells.width.div_ceil(8), cells.height.div_ceil(8), 1) };
                 } else if let Some(rays) = rays {
@@ -335,21 +383,20 @@ impl Reflections {
                     rays.trace(p.ctx, p.cmd, raygen, cells);
                 }
             })?;
-        let resolve = self.resolve;
-        f.pass("reflection_resolve", PassKind::Compute)
+        let resolve = if source.is_some() { self.resolve } else { self.resolve_glass };
+        f.pass(if source.is_some() { "reflection_resolve" } else { "glass_reflection_resolve" }, PassKind::Compute)
             .sample(&DEPTH)
             .reads(scene.res.shaded())
             .image(&REFLECTION, ImageUse::StorageRead)
             .image(&REFLECTION_WEIGHT, ImageUse::StorageRead)
             .image(&REFLECTION_RAYS, ImageUse::StorageRead)
-            .write(stats_res, BufferUse::Storage)
+            .write(self.stats_res, BufferUse::Storage)
             .image(&HDR, ImageUse::StorageWrite)
             .record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, resolve, &p.push);
                 // SAFETY: as above.
                 unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
-            })?;
-        self.readback.record(f, "reflection_statistics", stats_res, stats)
+            })
     }
 
     /// Destroys the pipelines and buffers; the GPU must be idle.
@@ -360,8 +407,10 @@ impl Reflections {
         if let Some(r) = self.rays {
             r.destroy(ctx);
         }
-        // SAFETY: the GPU is idle.
-        unsafe { ctx.device.destroy_pipeline(self.resolve, None) };
+        for p in [self.resolve, self.resolve_glass].into_iter().chain(self.glass) {
+            // SAFETY: the GPU is idle.
+            unsafe { ctx.device.destroy_pipeline(p, None) };
+        }
         self.stats.destroy(ctx);
         self.readback.destroy(ctx);
     }
