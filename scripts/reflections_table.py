@@ -38,8 +38,8 @@ def main():
         shadows = med(lambda d: sum(v for k, v in d["gpu_ms"].items() if k.startswith("shadows")))
         rays = med(lambda d: d["reflections"].get("rays", 0))
         pipeline, mode, half, decals = key
-        label = "off" if mode == "off" else ("half" if half else "full")
-        print(f"| {pipeline} | {label} | {'yes' if decals and mode != 'off' else '-'} | {rays:.0f} | {gpu('reflection_rays'):.3f} | "
+        label = {"off": "off", "screen_space": "screen space"}.get(mode, "ray traced") + ("" if mode == "off" else (", half" if half else ", full"))
+        print(f"| {pipeline} | {label} | {'yes' if decals and mode == 'ray_traced' else '-'} | {rays:.0f} | {gpu('reflection_rays'):.3f} | "
               f"{gpu('reflection_resolve'):.3f} | {shadows:.3f} | {gpu('total'):.3f} |")
 
 

@@ -106,7 +106,8 @@ pub struct HeadlessOptions {
     /// Run `frames` frames with every culling mode in turn (off, frustum, occlusion).
     pub compare_culling: bool,
     /// Run `frames` frames with reflections off, then at full and half resolution, each with and
-    /// without the decals at their hit points, then off again (the first run warms up).
+    /// without the decals at their hit points, then in screen space, then off again (the first
+    /// run warms up).
     pub compare_reflections: bool,
     /// Instances of the `many-instances` bench scene.
     pub instances: usize,
@@ -454,6 +455,8 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
                 combos.push(Run { reflections: render::ReflectionSettings { half_resolution, decals_at_hits, ..on }, ..base });
             }
         }
+        let screen = render::ReflectionSettings { mode: render::ReflectionMode::ScreenSpace, ..on };
+        combos.push(Run { reflections: screen, ..base });
         combos.push(off);
     }
     let total = opts.frames as usize * combos.len().max(1);

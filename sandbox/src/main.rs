@@ -188,8 +188,9 @@ struct Cli {
     /// Reflections without the decals at their hit points (to measure what those cost).
     #[arg(long)]
     no_reflection_decals: bool,
-    /// Run --frames frames with reflections off, then at full and half resolution, each with and
-    /// without the decals at their hit points, then off again (the first run warms up).
+    /// Run --frames frames with reflections off, then ray-traced at full and half resolution,
+    /// each with and without the decals at their hit points, then in screen space, then off
+    /// again (the first run warms up).
     #[arg(long)]
     compare_reflections: bool,
     /// Run --frames frames with each culling mode in turn (off, frustum, occlusion).

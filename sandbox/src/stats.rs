@@ -131,7 +131,12 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
 }
 
 fn reflections_json(k: &render::reflections::ReflectionStats) -> Value {
-    let mut v = json!({ "mode": k.applied.name(), "half_resolution": k.half_resolution, "decals_at_hits": k.decals_at_hits });
+    let mut v = json!({
+        "mode": k.applied.name(),
+        "half_resolution": k.half_resolution,
+        "decals_at_hits": k.decals_at_hits,
+        "smoothest": round(k.smoothest),
+    });
     if k.measured_frame != u64::MAX && k.applied != render::ReflectionMode::Off {
         v["measured_frame"] = json!(k.measured_frame);
         v["pixels"] = json!(k.pixels);

@@ -384,3 +384,29 @@ fn glass_reflects_what_is_behind_the_camera() {
         assert!(stats.rays > 0 && stats.hits > 0, "{tier:?} {pipeline:?}: {stats:?}");
     }
 }
+
+#[test]
+fn reflections_run_only_when_some_material_or_decal_is_smooth_enough() {
+    let settings = RenderSettings { pipeline: PipelineKind::Forward, ..Default::default() };
+    let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, Tier::RayQuery);
+    let rough = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec4::splat(0.8), 0.0, 0.9));
+    let floor = app.world.resource_mut::<Assets<Mesh>>().add(shapes::cuboid(Vec3::new(8.0, 0.1, 8.0), 1.0));
+    app.world.spawn((MeshInstance { mesh: floor, material: rough }, Transform::from_xyz(0.0, -0.05, 0.0)));
+    app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 1.1, 3.0).looking_at(Vec3::ZERO, Vec3::Y)));
+    app.update();
+    let stats = app.world.resource::<RenderStats>().last.reflections;
+    assert_eq!(stats.applied, ReflectionMode::Off, "nothing smoother than the cut-off: no reflection pass ({stats:?})");
+    // A puddle: a decal that makes the floor smooth where it lands.
+    let wet = app.world.resource_mut::<Assets<DecalMaterial>>().add(DecalMaterial {
+        base_color: None,
+        roughness: Some(0.05),
+        ..Default::default()
+    });
+    app.world
+        .spawn((Decal::new(wet), Transform::from_xyz(0.0, 0.0, 0.0).with_rotation(Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2))));
+    app.update();
+    assert_no_validation_errors(&mut app);
+    let stats = app.world.resource::<RenderStats>().last.reflections;
+    assert_eq!(stats.applied, ReflectionMode::RayTraced, "a smooth decal brings them back ({stats:?})");
+    assert!((stats.smoothest - 0.05).abs() < 1e-6, "{stats:?}");
+}

@@ -63,7 +63,7 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     mirror.sort_transparent(mirror.camera().position);
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
     r.skinning.prepare(mirror, r.scene);
-    let reflections = r.reflections.prepare(f, s, &mut mirror.counters.reflections)?;
+    let reflections = r.reflections.prepare(f, s, mirror)?;
     let lights = r.lighting.prepare(f, r.scene, mirror, s, &reflections)?;
     mirror.counters.culling = r.culling.prepare(f, r.scene, mirror, s, lights.shadow_map_views())?;
     let boxes_changed = r.scene.upload(f, mirror)?;

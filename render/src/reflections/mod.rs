@@ -30,10 +30,22 @@
 //! and the decal pass's, the ray-query lights' and the shadow pass's) on the ray-tracing-pipeline
 //! tier, where the lights found at a hit point by an any-hit shader (which cannot trace) come
 //! back four strongest apart, and those and the sun get their shadow rays from the
-//! ray-generation shader; the rest are unshadowed. Work is per cell (a pixel, or
-//! a 2×2 block at half resolution, traced by its first pixel that reflects), so neither needs
-//! shared memory. Devices without ray tracing fall back to no reflections, which `--stats`
-//! reports.
+//! ray-generation shader; the rest are unshadowed. Work is per cell (a pixel, or a 2×2 block at
+//! half resolution, traced by its first pixel that reflects), so neither needs shared memory.
+//!
+//! Devices without ray tracing (or `ReflectionMode::ScreenSpace`) march each ray through the
+//! depth buffer instead (`shaders/screen_reflections.comp`) and see the lit image where it
+//! crosses a surface: decals then appear in reflections only where they are on screen.
+//!
+//! Glass reflects too: the glass of the deferred G-buffer (interlaced rows, depth peeling's
+//! layer) with the opaque surfaces, its reflection added as R / opacity so that the composition
+//! by opacity keeps it whole; the glass the forward transparency pass drew, after that pass, from
+//! a camera ray that finds the nearest pane (`GLASS_LAYER`; traced tiers only). Refraction is
+//! unchanged.
+//!
+//! No pass runs while no material, nor any decal material that blends roughness, is smoother
+//! than the cut-off (found again only when a material changes): a scene without smooth surfaces
+//! pays nothing, not even the forward pipelines' ids prepass.
 
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -50,15 +62,16 @@ use crate::graph::targets::{
     VISIBILITY,
 };
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassKind, ResourceId};
-use crate::layout::{REFLECT_DECALS, REFLECT_HALF_RES, REFLECT_ON, REFLECT_SCREEN_SPACE, REFLECTION_STATS};
+use crate::layout::{DECAL_ROUGHNESS, REFLECT_DECALS, REFLECT_HALF_RES, REFLECT_ON, REFLECT_SCREEN_SPACE, REFLECTION_STATS};
 use crate::lights::LightFrame;
 use crate::pipelines::ShadeVariants;
+use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
 use crate::settings::{DebugView, FrameSettings, ReflectionMode};
 
 /// What the reflection pass measured on the GPU, read back once its frame has finished (so a
 /// frame reports the figures of the frame that last used its frame slot, two frames earlier).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ReflectionStats {
     /// The mode applied this frame (after [`ReflectionMode::effective`]).
     pub applied: ReflectionMode,
@@ -80,6 +93,9 @@ pub struct ReflectionStats {
     pub lights_found: u64,
     /// Rays that crossed glass.
     pub through_glass: u64,
+    /// The smallest roughness of any material, or of any decal material that blends roughness:
+    /// reflections run only when it is under the cut-off.
+    pub smoothest: f32,
 }
 
 /// This frame's reflections, decided before the lighting record is written.
@@ -117,6 +133,20 @@ pub struct Reflections {
     stats_res: ResourceId,
     readback: StatsReadback,
     latest: ReflectionStats,
+    /// [`ReflectionStats::smoothest`], kept until a material changes.
+    smoothest: Option<f32>,
+}
+
+/// The smallest roughness factor of the live materials and of the live decal materials that
+/// blend roughness (a texture can only make a surface rougher than its factor; a decal can make
+/// it smoother): 1 when there is none.
+fn smoothest(mirror: &SceneMirror) -> f32 {
+    let materials = (0..mirror.materials.slot_count()).filter_map(|slot| mirror.materials.get(slot)).map(|m| m.roughness);
+    let decals = (0..mirror.decal_materials.slot_count())
+        .filter_map(|slot| mirror.decal_materials.get(slot))
+        .filter(|m| m.flags & DECAL_ROUGHNESS != 0)
+        .map(|m| m.roughness);
+    materials.chain(decals).fold(1.0, f32::min)
 }
 
 impl Reflections {
@@ -224,13 +254,21 @@ impl Reflections {
             stats_res: graph.resource("reflection statistics"),
             readback: StatsReadback::new(ctx, graph, "reflection statistics readback", bytes)?,
             latest: ReflectionStats { measured_frame: u64::MAX, ..Default::default() },
+            smoothest: None,
         })
     }
 
     /// Decides this frame's reflections from `s` (the mode this device runs; none in debug views
-    /// other than the lit image and the reflection rays), reads back the statistics of the
-    /// frame that last used this frame's slot into `stats`, and clears this frame's.
-    pub fn prepare(&mut self, f: &mut Frame, s: &FrameSettings, stats: &mut ReflectionStats) -> Result<ReflectionFrame, RenderError> {
+    /// other than the lit image and the reflection rays, nor when no material is smoother than
+    /// the cut-off: no pass, no ids prepass), reads back the statistics of the frame that last
+    /// used this frame's slot into the mirror's counters, and clears this frame's.
+    pub fn prepare(&mut self, f: &mut Frame, s: &FrameSettings, mirror: &mut SceneMirror) -> Result<ReflectionFrame, RenderError> {
+        // Recomputed only when a material or decal material changed (before the upload takes
+        // the change marks).
+        if self.smoothest.is_none() || mirror.materials.dirty_count() > 0 || mirror.decal_materials.dirty_count() > 0 {
+            self.smoothest = Some(smoothest(mirror));
+        }
+        let smoothest = self.smoothest.unwrap_or(1.0);
         if let Some((frame, words)) = self.readback.take(f) {
             let w = |i: usize| words[i] as u64;
             self.latest = ReflectionStats {
@@ -246,13 +284,15 @@ impl Reflections {
         }
         let applied = s.reflections.mode.effective(f.ctx.ray_support());
         let shown = matches!(s.debug_view, DebugView::Lit | DebugView::Reflections);
-        let on = applied != ReflectionMode::Off && shown;
+        let cutoff = s.reflections.roughness_cutoff.clamp(0.0, 1.0);
+        let on = applied != ReflectionMode::Off && shown && smoothest < cutoff;
         let half = on && s.reflections.half_resolution;
         let decals = on && s.reflections.decals_at_hits;
-        *stats = ReflectionStats {
+        mirror.counters.reflections = ReflectionStats {
             applied: if on { applied } else { ReflectionMode::Off },
             half_resolution: half,
             decals_at_hits: decals,
+            smoothest,
             ..self.latest
         };
         if !on {
@@ -270,7 +310,7 @@ impl Reflections {
                 | if half { REFLECT_HALF_RES } else { 0 }
                 | if decals { REFLECT_DECALS } else { 0 }
                 | if applied == ReflectionMode::ScreenSpace { REFLECT_SCREEN_SPACE } else { 0 },
-            cutoff: s.reflections.roughness_cutoff.clamp(0.0, 1.0),
+            cutoff,
             stats: self.stats.address,
         })
     }

@@ -417,7 +417,7 @@ impl DrawItem {
 
 /// Work counters for one frame. Tests, `--stats` and the overlay read these; keys never change
 /// meaning.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FrameCounters {
     /// Bytes copied from the CPU to GPU memory this frame (records, meshes, textures).
     pub bytes_uploaded: u64,
