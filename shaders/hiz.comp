@@ -13,18 +13,6 @@ void main() {
     uvec2 t = gl_GlobalInvocationID.xy;
     if (any(greaterThanEqual(t, size))) return;
     HizRef h = HizRef(p.hiz);
-    float d;
-    if (level == 0u) {
-        ivec2 m = ivec2(viewport) - 1;
-        ivec2 a = min(ivec2(2u * t), m), b = min(ivec2(2u * t + 1u), m);
-        d = min(min(texelFetch(depth_target, a, 0).r, texelFetch(depth_target, ivec2(b.x, a.y), 0).r),
-                min(texelFetch(depth_target, ivec2(a.x, b.y), 0).r, texelFetch(depth_target, b, 0).r));
-    } else {
-        uvec2 below = hiz_size(viewport, level - 1u);
-        uint o = hiz_offset(viewport, level - 1u);
-        uvec2 a = min(2u * t, below - 1u), b = min(2u * t + 1u, below - 1u);
-        d = min(min(h.depth[o + a.y * below.x + a.x], h.depth[o + a.y * below.x + b.x]),
-                min(h.depth[o + b.y * below.x + a.x], h.depth[o + b.y * below.x + b.x]));
-    }
+    float d = pyramid_texel(h, viewport, level, t, false);
     h.depth[hiz_offset(viewport, level) + t.y * size.x + t.x] = d;
 }

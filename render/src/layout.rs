@@ -967,8 +967,9 @@ layout! {
         pub reflection_cutoff: f32,
         /// `REFLECT_*` flags (0: reflections off).
         pub reflection_flags: u32,
-        /// Padding to 16 bytes.
-        pub pad: [u32; 2],
+        /// Address of screen-space reflections' nearest-depth pyramid
+        /// (`shaders/include/depth_pyramid.glsl`; 0 unless they run).
+        pub reflection_hiz: u64,
     }
 
     /// One shadow-map view (a tile of the atlas): a spot light's, one cube face of a point

@@ -7,6 +7,7 @@
 
 #define NO_SCENE_PUSH
 #include "scene.glsl"
+#include "depth_pyramid.glsl"
 
 layout(push_constant) uniform CullPushBlock {
     GpuCullPush cull;
@@ -15,29 +16,9 @@ layout(push_constant) uniform CullPushBlock {
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer CullParamsRef { GpuCullParams params; };
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer CullRecordsRef { GpuCullRecord records[]; };
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer CullWordsRef { uint words[]; };
-layout(buffer_reference, std430, buffer_reference_align = 4) buffer HizRef { float depth[]; };
 
 GpuCullParams cull_params() {
     return CullParamsRef(cull.params).params;
-}
-
-// Size of depth-pyramid level `level` for a `viewport` of pixels: level 0 is half the
-// viewport (rounded up), each level half the one before: texel i of a level covers texels 2i
-// and 2i + 1 of the level below (the last one clamped), so every pixel is covered.
-uvec2 hiz_size(uvec2 viewport, uint level) {
-    uint shift = level + 1u;
-    uint round = (1u << shift) - 1u;
-    return max(uvec2(1u), (viewport + uvec2(round)) >> shift);
-}
-
-// Word offset of level `level` in the pyramid.
-uint hiz_offset(uvec2 viewport, uint level) {
-    uint offset = 0u;
-    for (uint l = 0u; l < level; l++) {
-        uvec2 s = hiz_size(viewport, l);
-        offset += s.x * s.y;
-    }
-    return offset;
 }
 
 // Row r of a column-major matrix.

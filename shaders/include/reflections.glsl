@@ -277,14 +277,17 @@ ReflectionRay trace_reflection(vec3 origin, vec3 dir, float width0, float spread
 #endif
 
 #ifdef REFLECTION_SCREEN_SPACE
-// Screen-space reflections, where there is no ray tracing (or when asked for): the ray is
-// marched through the depth buffer in screen space, a step of about two pixels at a time, and
-// where it first passes behind a surface no thicker than REFLECTION_THICKNESS it is refined by
-// bisection and sees the lit image there (this frame's, before reflections and glass). So only
-// what is on screen is reflected, decals included; rays that leave the screen or pass behind
-// everything see the clear colour, faded in over the last tenth of the screen's edge.
+#include "depth_pyramid.glsl"
+// Screen-space reflections, where there is no ray tracing (or when asked for): a hierarchical
+// depth march. The ray, projected to the screen, is followed through the nearest-depth pyramid
+// (reflection_hiz.comp): where it passes in front of a pyramid texel it skips the whole texel
+// and climbs a level; where it may pass behind, it descends, down to the depth buffer's pixels,
+// where a surface no thicker than REFLECTION_THICKNESS it has gone behind is a hit, and the ray
+// sees the lit image there (this frame's, before reflections and glass). So only what is on
+// screen is reflected, decals included; rays that leave the screen or pass behind everything
+// see the clear colour, faded in over the last tenth of the screen's edge.
 const float REFLECTION_THICKNESS = 0.25;   // metres, plus 2 % of the distance
-const int REFLECTION_MARCH_STEPS = 192;
+const int REFLECTION_MARCH_STEPS = 128;
 
 // Pixel position and reverse-Z depth of clip-space point `h`.
 vec3 screen_of(vec4 h) {
@@ -298,17 +301,13 @@ float view_depth(float depth) {
     return cam.proj[3][2] / max(depth + cam.proj[2][2], 1e-9);
 }
 
-// 0 where the ray's point at `t` along [h0, h1] is in front of the depth buffer, 1 behind a
-// surface within the thickness, 2 behind it by more (the ray passes behind), 3 off the screen.
-int march_test(vec4 h0, vec4 h1, float t, out ivec2 px) {
-    vec3 p = screen_of(mix(h0, h1, t));
-    px = ivec2(floor(p.xy));
-    ivec2 size = ivec2(scene.camera.camera.viewport_size);
-    if (any(lessThan(px, ivec2(0))) || any(greaterThanEqual(px, size)) || p.z <= 0.0) return 3;
-    float scene_depth = texelFetch(depth_target, px, 0).r;
-    if (scene_depth <= p.z) return 0;   // the ray's point is nearer (reverse-Z): in front
-    float ray_z = view_depth(p.z), scene_z = view_depth(scene_depth);
-    return ray_z - scene_z < REFLECTION_THICKNESS + 0.02 * scene_z ? 1 : 2;
+// The nearest depth of the texel of pyramid level `level` (-1: the depth buffer) holding `cell`.
+float nearest_depth(int level, ivec2 cell) {
+    if (level < 0) return texelFetch(depth_target, cell, 0).r;
+    uvec2 viewport = uvec2(scene.camera.camera.viewport_size);
+    uvec2 size = hiz_size(viewport, uint(level));
+    uvec2 t = min(uvec2(cell), size - 1u);
+    return HizRef(scene.lighting.lighting.reflection_hiz).depth[hiz_offset(viewport, uint(level)) + t.y * size.x + t.x];
 }
 
 ReflectionRay trace_reflection(vec3 origin, vec3 dir, float width0, float spread) {
@@ -321,43 +320,51 @@ ReflectionRay trace_reflection(vec3 origin, vec3 dir, float width0, float spread
     float origin_depth = dot(origin - cam.position, forward);
     float reach = towards < 0.0 ? min(100.0, (origin_depth - 2.0 * near) / -towards) : 100.0;
     if (reach <= 0.0) return r;
-    vec4 h0 = cam.view_proj * vec4(origin, 1.0);
-    // Shorten the ray until its end projects near the screen, so that steps stay a few pixels.
-    vec4 h1 = cam.view_proj * vec4(origin + dir * reach, 1.0);
-    for (int k = 0; k < 12 && (h1.w <= 0.0 || any(greaterThan(abs(h1.xy / h1.w), vec2(1.5)))); ++k) {
-        reach *= 0.5;
-        h1 = cam.view_proj * vec4(origin + dir * reach, 1.0);
-    }
-    vec2 span = screen_of(h1).xy - screen_of(h0).xy;
-    int steps = clamp(int(max(abs(span.x), abs(span.y)) * 0.5), 4, REFLECTION_MARCH_STEPS);
-    float previous = 0.0;
-    ivec2 px;
-    for (int i = 1; i <= steps; ++i) {
-        float t = float(i) / float(steps);
-        int state = march_test(h0, h1, t, px);
-        if (state == 3) break;
-        if (state == 0) {
-            previous = t;
+    vec3 a = screen_of(cam.view_proj * vec4(origin, 1.0));
+    vec3 b = screen_of(cam.view_proj * vec4(origin + dir * reach, 1.0));
+    vec3 d = b - a;   // pixel position and reverse-Z depth are both affine along the projected ray
+    float pixels = max(max(abs(d.x), abs(d.y)), 1e-3);
+    vec2 size = cam.viewport_size;
+    int top = int(findMSB(uint(max(size.x, size.y)))) - 2;
+    int level = 0;
+    float s = 1.5 / pixels;   // a pixel and a half from the surface
+    for (int i = 0; i < REFLECTION_MARCH_STEPS && s <= 1.0; ++i) {
+        vec3 p = a + d * s;
+        if (any(lessThan(p.xy, vec2(0.0))) || any(greaterThanEqual(p.xy, size)) || p.z <= 0.0) break;
+        float cell_size = level < 0 ? 1.0 : float(2 << level);
+        vec2 cell = floor(p.xy / cell_size);
+        float nearest = nearest_depth(level, ivec2(cell));
+        // Where the ray leaves the texel (just past its far edge), and where its depth would
+        // reach the texel's nearest surface.
+        vec2 bound = (cell + step(vec2(0.0), d.xy)) * cell_size;
+        vec2 exits = mix(vec2(2.0), (bound - a.xy) / d.xy, greaterThan(abs(d.xy), vec2(1e-6)));
+        float exit = min(exits.x, exits.y) + 0.01 / pixels;
+        if (p.z > nearest) {   // in front of everything in the texel (reverse Z)
+            float reaches = d.z < 0.0 ? (nearest - a.z) / d.z : 2.0;
+            if (level >= 0 && reaches < exit) {
+                s = max(s, reaches);
+                --level;
+            } else {
+                s = exit;
+                level = min(level + 1, top);
+            }
             continue;
         }
-        // Behind a surface: bisect between the last point in front and this one for where the
-        // ray crossed it, and take it if the surface is no thicker than the limit there.
-        float lo = previous, hi = t;
-        for (int k = 0; k < 6; ++k) {
-            float mid = 0.5 * (lo + hi);
-            ivec2 q;
-            if (march_test(h0, h1, mid, q) == 0) lo = mid; else hi = mid;
-        }
-        if (march_test(h0, h1, hi, px) != 1) {
-            previous = t;   // it passes behind something thick: go on behind it
+        if (level >= 0) {   // behind some surface of the texel: look closer
+            --level;
             continue;
         }
-        vec2 edge = min(vec2(px), cam.viewport_size - 1.0 - vec2(px)) / (0.1 * cam.viewport_size);
-        float fade = clamp(min(edge.x, edge.y), 0.0, 1.0);
-        r.radiance = mix(r.radiance, texelFetch(hdr_target, px, 0).rgb, fade);
-        r.hit = true;
-        r.distance = reach * hi;
-        return r;
+        // Behind this pixel's surface: a hit where it is thin enough, else go on behind it.
+        if (view_depth(p.z) - view_depth(nearest) < REFLECTION_THICKNESS + 0.02 * view_depth(nearest)) {
+            ivec2 px = ivec2(cell);
+            vec2 edge = min(vec2(px), size - 1.0 - vec2(px)) / (0.1 * size);
+            r.radiance = mix(r.radiance, texelFetch(hdr_target, px, 0).rgb, clamp(min(edge.x, edge.y), 0.0, 1.0));
+            r.hit = true;
+            r.distance = reach * s;
+            return r;
+        }
+        s = exit;
+        level = 0;
     }
     return r;
 }

@@ -146,12 +146,12 @@ fn check_mirror_floor(tier: Tier, pipeline: PipelineKind, method: DecalMethod, h
     for (i, name) in ["sky", "wall", "decal"].iter().enumerate() {
         let [n, matched] = counts[i];
         assert!(n >= 12, "{label}: the view sees the {name} in the mirror ({n} pixels)");
-        // Screen-space rays lose some of the wall's foot to their steps and their thickness test.
+        // Half resolution blurs the mirror image by a pixel; screen-space rays at half
+        // resolution lose a little more at the wall's foot.
         let share = match (tier == Tier::NoRayTracing, half) {
-            (false, false) => 0.9,
+            (_, false) => 0.9,
             (false, true) => 0.8,
-            (true, false) => 0.85,
-            (true, true) => 0.7,
+            (true, true) => 0.75,
         };
         assert!(matched as f64 >= share * n as f64, "{label}: the mirror shows the {name} where it should: {matched} of {n} pixels");
     }
@@ -165,6 +165,11 @@ fn check_mirror_floor(tier: Tier, pipeline: PipelineKind, method: DecalMethod, h
         assert!(stats.rays > 0 && stats.hits > 0 && stats.decals_tested > 0, "{label}: {stats:?}");
     }
     stats
+}
+
+/// Half resolution traces about a ray per 2×2 pixels that reflect.
+fn assert_a_ray_per_block(stats: render::reflections::ReflectionStats) {
+    assert!(stats.rays * 3 < stats.pixels && stats.rays * 5 > stats.pixels, "a ray per 2×2 block: {stats:?}");
 }
 
 #[test]
@@ -186,7 +191,7 @@ fn a_mirror_floor_reflects_the_wall_and_its_decal_at_their_mirror_images() {
     }
     // Half resolution: about a ray per 2×2 pixels.
     let stats = check_mirror_floor(Tier::RayQuery, PipelineKind::Deferred, DecalMethod::RayQuery, true);
-    assert!(stats.rays * 3 < stats.pixels && stats.rays * 5 > stats.pixels, "a ray per 2×2 block: {stats:?}");
+    assert_a_ray_per_block(stats);
 }
 
 #[test]
@@ -200,7 +205,7 @@ fn the_ray_tracing_pipeline_tier_reflects_the_wall_and_its_decal_too() {
         check_mirror_floor(Tier::RayTracingPipeline, pipeline, method, false);
     }
     let stats = check_mirror_floor(Tier::RayTracingPipeline, PipelineKind::VisBuffer, DecalMethod::RayPipeline, true);
-    assert!(stats.rays * 3 < stats.pixels && stats.rays * 5 > stats.pixels, "a ray per 2×2 block: {stats:?}");
+    assert_a_ray_per_block(stats);
 }
 
 #[test]

@@ -549,25 +549,7 @@ impl Culling {
             .sample(&DEPTH)
             .read(res.params, BufferUse::Storage)
             .write(res.hiz, BufferUse::Storage)
-            .record(|p| {
-            for level in 0..frame.hiz_levels {
-                if level > 0 {
-                    // Each level reads the one before.
-                    let barrier = [vk::MemoryBarrier2::default()
-                        .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
-                        .src_access_mask(vk::AccessFlags2::SHADER_STORAGE_WRITE)
-                        .dst_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
-                        .dst_access_mask(vk::AccessFlags2::SHADER_STORAGE_READ)];
-                    // SAFETY: `cmd` is recording outside a rendering scope.
-                    unsafe { p.ctx.device.cmd_pipeline_barrier2(p.cmd, &vk::DependencyInfo::default().memory_barriers(&barrier)) };
-                }
-                let shift = level + 1;
-                let (w, h) = (frame.extent.width.div_ceil(1 << shift).max(1), frame.extent.height.div_ceil(1 << shift).max(1));
-                self.bind(p, self.hiz, params, 0, level);
-                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, w.div_ceil(8), h.div_ceil(8), 1) };
-            }
-        })?;
+            .record(|p| dispatch_pyramid(p, frame.extent, frame.hiz_levels, |p, level| self.bind(p, self.hiz, params, 0, level)))?;
         f.pass("cull_second", PassKind::Compute)
             .read(scene.res.tables, BufferUse::Storage)
             .read(res.params, BufferUse::Storage)
@@ -645,7 +627,30 @@ impl Culling {
 }
 
 /// Levels of the depth pyramid for `extent`: halved (rounded up) until 1×1.
-fn hiz_levels(extent: vk::Extent2D) -> u32 {
+/// Records the dispatches of a depth pyramid's `levels` for `extent`, each after `bind` has bound
+/// its pipeline and push constants for the level, with a barrier between levels (each reads the
+/// one before). GPU culling's pyramid and screen-space reflections' share it.
+pub(crate) fn dispatch_pyramid(p: &PassContext, extent: vk::Extent2D, levels: u32, bind: impl Fn(&PassContext, u32)) {
+    for level in 0..levels {
+        if level > 0 {
+            let barrier = [vk::MemoryBarrier2::default()
+                .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+                .src_access_mask(vk::AccessFlags2::SHADER_STORAGE_WRITE)
+                .dst_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+                .dst_access_mask(vk::AccessFlags2::SHADER_STORAGE_READ)];
+            // SAFETY: `cmd` is recording outside a rendering scope.
+            unsafe { p.ctx.device.cmd_pipeline_barrier2(p.cmd, &vk::DependencyInfo::default().memory_barriers(&barrier)) };
+        }
+        let shift = level + 1;
+        let (w, h) = (extent.width.div_ceil(1 << shift).max(1), extent.height.div_ceil(1 << shift).max(1));
+        bind(p, level);
+        // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
+        unsafe { p.ctx.device.cmd_dispatch(p.cmd, w.div_ceil(8), h.div_ceil(8), 1) };
+    }
+}
+
+/// Levels of a depth pyramid for `extent` (`shaders/include/depth_pyramid.glsl`).
+pub(crate) fn hiz_levels(extent: vk::Extent2D) -> u32 {
     let mut levels = 1;
     while levels < HIZ_MAX_LEVELS && (extent.width.div_ceil(1 << levels) > 1 || extent.height.div_ceil(1 << levels) > 1) {
         levels += 1;
@@ -653,8 +658,8 @@ fn hiz_levels(extent: vk::Extent2D) -> u32 {
     levels
 }
 
-/// Words of the depth pyramid's `levels` for `extent` (`shaders/include/culling.glsl`).
-fn hiz_words(extent: vk::Extent2D, levels: u32) -> u64 {
+/// Words of a depth pyramid's `levels` for `extent` (`shaders/include/depth_pyramid.glsl`).
+pub(crate) fn hiz_words(extent: vk::Extent2D, levels: u32) -> u64 {
     (0..levels).map(|l| extent.width.div_ceil(1 << (l + 1)).max(1) as u64 * extent.height.div_ceil(1 << (l + 1)).max(1) as u64).sum()
 }
 

@@ -209,16 +209,7 @@ impl DecalClusters {
         }
         if self.buffer.is_none() || capacity != self.capacity || clusters != self.clusters {
             let size = (DECAL_CLUSTER_HEADER as u64 + 3 * clusters as u64 + capacity as u64) * 4;
-            let buffer = Buffer::new(
-                ctx,
-                "decal clusters",
-                size,
-                vk::BufferUsageFlags::STORAGE_BUFFER
-                    | vk::BufferUsageFlags::TRANSFER_DST
-                    | vk::BufferUsageFlags::TRANSFER_SRC
-                    | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
-                MemoryLocation::GpuOnly,
-            )?;
+            let buffer = Buffer::new(ctx, "decal clusters", size, crate::gpu::memory::GPU_WRITTEN, MemoryLocation::GpuOnly)?;
             if let Some(old) = self.buffer.replace(buffer) {
                 if capacity < self.capacity {
                     self.shrinks += 1;

@@ -11,6 +11,16 @@ use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use crate::RenderError;
 use crate::gpu::device::GpuContext;
 
+/// The usage of a buffer that compute passes write by address, that a transfer clears and that
+/// is copied out for the CPU (statistics at its head): light tiles, decal clusters, reflection
+/// statistics.
+pub const GPU_WRITTEN: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
+    vk::BufferUsageFlags::STORAGE_BUFFER.as_raw()
+        | vk::BufferUsageFlags::TRANSFER_DST.as_raw()
+        | vk::BufferUsageFlags::TRANSFER_SRC.as_raw()
+        | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS.as_raw(),
+);
+
 /// A buffer and its memory.
 pub struct Buffer {
     /// The Vulkan buffer.

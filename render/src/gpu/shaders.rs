@@ -19,6 +19,7 @@ spirv! {
     CULL_COMP = "cull.comp";
     SKINNING_COMP = "skinning.comp";
     HIZ_COMP = "hiz.comp";
+    REFLECTION_HIZ_COMP = "reflection_hiz.comp";
     PREPASS_MASK_FRAG = "prepass_mask.frag";
     FORWARD_FRAG = "forward.frag";
     FORWARD_FRAG_RAY_QUERY_DECALS = "forward.frag.RAY_QUERY_DECALS";

@@ -232,7 +232,7 @@ impl Lighting {
             reflection_stats: if reflect { reflections.stats } else { 0 },
             reflection_cutoff: reflections.cutoff,
             reflection_flags: if reflect { reflections.flags } else { 0 },
-            pad: [0; 2],
+            reflection_hiz: if reflect { reflections.hiz } else { 0 },
         });
         let res = self.tiles.resources();
         let inline_shadows = match self.accel.as_ref() {

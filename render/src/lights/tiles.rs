@@ -273,11 +273,7 @@ impl LightTiles {
             }
             if self.tiles.is_none() || capacity != self.list_capacity || self.tiles_for != (tiles.0, tiles.1, tile_size) {
                 let size = (LIGHT_TILE_HEADER as u64 + 3 * tile_count as u64 + capacity as u64) * 4;
-                let usage = vk::BufferUsageFlags::STORAGE_BUFFER
-                    | vk::BufferUsageFlags::TRANSFER_DST
-                    | vk::BufferUsageFlags::TRANSFER_SRC
-                    | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
-                let buffer = Buffer::new(ctx, "light tiles", size, usage, MemoryLocation::GpuOnly)?;
+                let buffer = Buffer::new(ctx, "light tiles", size, crate::gpu::memory::GPU_WRITTEN, MemoryLocation::GpuOnly)?;
                 if let Some(old) = self.tiles.replace(buffer) {
                     if capacity < self.list_capacity {
                         self.shrinks += 1;

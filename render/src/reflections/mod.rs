@@ -51,9 +51,12 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use crate::RenderError;
+use crate::culling::{dispatch_pyramid, hiz_levels, hiz_words};
 use crate::decals::{DecalFrame, DecalSurfaceSource, declare_decal_reads};
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::memory::Buffer;
+use crate::gpu::memory::Retired;
+use crate::gpu::pipeline::ScenePush;
 use crate::gpu::pipeline::{HitGroup, RayTracingDesc, RayTracingPipeline, create_compute};
 use crate::gpu::shaders;
 use crate::graph::readback::StatsReadback;
@@ -111,6 +114,8 @@ pub struct ReflectionFrame {
     pub cutoff: f32,
     /// The statistics buffer's address (0 when off).
     pub stats: u64,
+    /// Screen-space reflections' depth pyramid's address (0 when they do not run).
+    pub hiz: u64,
 }
 
 /// The reflection passes and their statistics.
@@ -135,6 +140,10 @@ pub struct Reflections {
     latest: ReflectionStats,
     /// [`ReflectionStats::smoothest`], kept until a material changes.
     smoothest: Option<f32>,
+    /// Screen-space reflections' nearest-depth pyramid, its pass and the view size it is for.
+    hiz: vk::Pipeline,
+    pyramid: Option<(Buffer, vk::Extent2D)>,
+    hiz_res: ResourceId,
 }
 
 /// The smallest roughness factor of the live materials and of the live decal materials that
@@ -232,16 +241,7 @@ impl Reflections {
             None
         };
         let bytes = REFLECTION_STATS as u64 * 4;
-        let stats = Buffer::new(
-            ctx,
-            "reflection statistics",
-            bytes,
-            vk::BufferUsageFlags::STORAGE_BUFFER
-                | vk::BufferUsageFlags::TRANSFER_DST
-                | vk::BufferUsageFlags::TRANSFER_SRC
-                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
-            MemoryLocation::GpuOnly,
-        )?;
+        let stats = Buffer::new(ctx, "reflection statistics", bytes, crate::gpu::memory::GPU_WRITTEN, MemoryLocation::GpuOnly)?;
         Ok(Self {
             gbuffer,
             visibility,
@@ -255,6 +255,9 @@ impl Reflections {
             readback: StatsReadback::new(ctx, graph, "reflection statistics readback", bytes)?,
             latest: ReflectionStats { measured_frame: u64::MAX, ..Default::default() },
             smoothest: None,
+            hiz: create_compute(ctx, layout, "reflection depth pyramid", shaders::REFLECTION_HIZ_COMP)?,
+            pyramid: None,
+            hiz_res: graph.resource("reflection depth pyramid"),
         })
     }
 
@@ -295,6 +298,20 @@ impl Reflections {
             smoothest,
             ..self.latest
         };
+        // The screen-space rays' depth pyramid, at the view's size, only while they run.
+        let extent = f.graph.extent();
+        if on && applied == ReflectionMode::ScreenSpace {
+            if self.pyramid.as_ref().is_none_or(|(_, e)| *e != extent) {
+                let bytes = hiz_words(extent, hiz_levels(extent)) * 4;
+                let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+                let buffer = Buffer::new(f.ctx, "reflection depth pyramid", bytes, usage, MemoryLocation::GpuOnly)?;
+                if let Some((old, _)) = self.pyramid.replace((buffer, extent)) {
+                    f.upload.graveyard.bury(f.upload.frame_value, Retired::Buffer(old));
+                }
+            }
+        } else if let Some((old, _)) = self.pyramid.take() {
+            f.upload.graveyard.bury(f.upload.frame_value, Retired::Buffer(old));
+        }
         if !on {
             return Ok(ReflectionFrame::default());
         }
@@ -312,6 +329,7 @@ impl Reflections {
                 | if applied == ReflectionMode::ScreenSpace { REFLECT_SCREEN_SPACE } else { 0 },
             cutoff,
             stats: self.stats.address,
+            hiz: self.pyramid.as_ref().map_or(0, |(b, _)| b.address),
         })
     }
 
@@ -380,6 +398,18 @@ impl Reflections {
             (None, None) => return Ok(()),
         };
         let name = if source.is_some() { "reflection_rays" } else { "glass_reflection_rays" };
+        if let Some((_, extent)) = self.pyramid.as_ref().filter(|_| screen && source.is_some()) {
+            let (extent, hiz, hiz_res) = (*extent, self.hiz, self.hiz_res);
+            f.pass("reflection_depth_pyramid", PassKind::Compute)
+                .sample(&DEPTH)
+                .reads(scene.res.shaded())
+                .write(hiz_res, BufferUse::Storage)
+                .record(|p| {
+                    dispatch_pyramid(p, extent, hiz_levels(extent), |p, level| {
+                        p.bind(vk::PipelineBindPoint::COMPUTE, hiz, &ScenePush { texture_index: level, ..p.push })
+                    })
+                })?;
+        }
         let pass = f.pass(name, kind).sample(&DEPTH).reads(scene.res.shaded()).read(scene.res.meshes, BufferUse::Storage);
         let pass = match source {
             Some(DecalSurfaceSource::GBuffer) => {
@@ -389,7 +419,7 @@ impl Reflections {
             None => pass,
         };
         // Screen-space rays see the lit image; traced ones the structures.
-        let pass = if screen { pass.sample(&HDR) } else { pass };
+        let pass = if screen { pass.sample(&HDR).read(self.hiz_res, BufferUse::Storage) } else { pass };
         let (decals_at_hits, scene_accel, light_boxes) =
             if screen { (None, None, None) } else { (decals.at_hits, lights.scene_accel, lights.light_boxes) };
         let accel = |ids: Option<[ResourceId; 2]>| ids.into_iter().flatten().map(|a| (a, BufferUse::Accel));
@@ -450,6 +480,11 @@ impl Reflections {
         for p in [self.resolve, self.resolve_glass].into_iter().chain(self.glass) {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
+        }
+        // SAFETY: the GPU is idle.
+        unsafe { ctx.device.destroy_pipeline(self.hiz, None) };
+        if let Some((b, _)) = self.pyramid {
+            b.destroy(ctx);
         }
         self.stats.destroy(ctx);
         self.readback.destroy(ctx);
