@@ -159,10 +159,10 @@ fn check_mirror_floor(tier: Tier, pipeline: PipelineKind, method: DecalMethod, h
     if tier == Tier::NoRayTracing {
         // Screen space: the decal is on screen, so its reflection is found in the lit image.
         assert_eq!(stats.applied, ReflectionMode::ScreenSpace, "{label}");
-        assert!(stats.rays > 0 && stats.hits > 0 && stats.decals_tested == 0, "{label}: {stats:?}");
+        assert!(stats.rays > 0 && stats.hits > 0 && stats.decals_tested == 0 && !stats.decals_at_hits, "{label}: {stats:?}");
     } else {
         assert_eq!(stats.applied, ReflectionMode::RayTraced, "{label}");
-        assert!(stats.rays > 0 && stats.hits > 0 && stats.decals_tested > 0, "{label}: {stats:?}");
+        assert!(stats.rays > 0 && stats.hits > 0 && stats.decals_tested > 0 && stats.decals_at_hits, "{label}: {stats:?}");
     }
     stats
 }

@@ -80,7 +80,8 @@ pub struct ReflectionStats {
     pub applied: ReflectionMode,
     /// Whether the rays were traced at half resolution this frame.
     pub half_resolution: bool,
-    /// Whether the hit points looked for decals this frame.
+    /// Whether the hit points looked for decals this frame (traced rays only: screen-space ones
+    /// see the decals that are on screen, and no others).
     pub decals_at_hits: bool,
     /// Frame whose GPU figures these are (`u64::MAX` before any).
     pub measured_frame: u64,
@@ -290,7 +291,8 @@ impl Reflections {
         let cutoff = s.reflections.roughness_cutoff.clamp(0.0, 1.0);
         let on = applied != ReflectionMode::Off && shown && smoothest < cutoff;
         let half = on && s.reflections.half_resolution;
-        let decals = on && s.reflections.decals_at_hits;
+        // Decals at hit points are looked up by traced rays; screen-space ones see what is on screen.
+        let decals = on && s.reflections.decals_at_hits && applied == ReflectionMode::RayTraced;
         mirror.counters.reflections = ReflectionStats {
             applied: if on { applied } else { ReflectionMode::Off },
             half_resolution: half,
