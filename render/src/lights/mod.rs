@@ -21,8 +21,8 @@ use crate::gpu::device::GpuContext;
 use crate::graph::targets::SHADOW_DEBUG;
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassBuilder, ResourceId};
 use crate::layout::{
-    COLOURED_SHADOWS, GLASS_SHADOWS, GpuLighting, INTERLACED, LIGHT_CULL_AABB, LIGHTS_ALL, LIGHTS_RAY_QUERY, LIGHTS_TILED, REFRACTION,
-    SHADOW_DEBUG as SHADOW_DEBUG_FLAG, SHADOW_NORMALS_IMPROVED, SHADOW_RAY_CULLING, SHADOWS_TRACED,
+    COLOURED_SHADOWS, GLASS_SHADOWS, GpuLighting, INTERLACED, LIGHT_CULL_AABB, LIGHTS_ALL, LIGHTS_RAY_QUERY, LIGHTS_TILED,
+    REFLECT_SCREEN_SPACE, REFRACTION, SHADOW_DEBUG as SHADOW_DEBUG_FLAG, SHADOW_NORMALS_IMPROVED, SHADOW_RAY_CULLING, SHADOWS_TRACED,
 };
 use crate::reflections::ReflectionFrame;
 use crate::scene::SceneMirror;
@@ -65,9 +65,6 @@ pub struct LightFrame {
     /// When shading traces shadow rays itself (ray-query lights on the ray-query tier): the
     /// scene's TLAS, BLAS and meshes (alpha-masked hits read their texture coordinates).
     pub inline_shadows: Option<[ResourceId; 3]>,
-    /// Whether the reflection pass runs this frame (`crate::reflections`: asked for, and the
-    /// scene's TLAS exists to trace against).
-    pub reflections: bool,
     /// The `REFLECT_*` flags of the lighting record (0 when off).
     pub reflection_flags: u32,
     /// The scene's TLAS and BLAS, once built.
@@ -83,6 +80,17 @@ pub struct LightFrame {
 }
 
 impl LightFrame {
+    /// Whether the reflection pass runs this frame (`crate::reflections`: asked for, and the
+    /// scene's TLAS exists to trace against when it traces).
+    pub fn reflections(&self) -> bool {
+        self.reflection_flags != 0
+    }
+
+    /// Whether it traces rays (rather than marching the depth buffer in screen space).
+    pub fn traced_reflections(&self) -> bool {
+        self.reflections() && self.reflection_flags & REFLECT_SCREEN_SPACE == 0
+    }
+
     /// Shadow-map views drawn this frame (culling makes a draw list for each).
     pub fn shadow_map_views(&self) -> u32 {
         self.shadow_maps.views
@@ -143,7 +151,7 @@ impl Lighting {
             None => SceneAccelFrame::default(),
         };
         let ray_query = match self.ray_query.as_mut() {
-            Some(r) => r.prepare(f, mirror, enumerated || reflections.traced)?,
+            Some(r) => r.prepare(f, mirror, enumerated || reflections.traced())?,
             None => RayQueryLightFrame::default(),
         };
         let traced = match self.shadows.method() {
@@ -183,7 +191,7 @@ impl Lighting {
         mirror.counters.shadow_map_views = shadow_maps.views as u64;
         mirror.counters.shadow_maps_missing = shadow_maps.missing as u64;
         let interlaced = glass && s.transparency.effective(s.pipeline).interlaces();
-        let reflect = reflections.on && (!reflections.traced || accel.tlas_address != 0);
+        let reflect = reflections.on() && (!reflections.traced() || accel.tlas_address != 0);
         let mut flags = 0;
         for (on, flag) in [
             (l.cull_aabb, LIGHT_CULL_AABB),
@@ -253,7 +261,6 @@ impl Lighting {
             debug,
             light_accel,
             inline_shadows,
-            reflections: reflect,
             reflection_flags: if reflect { reflections.flags } else { 0 },
             scene_accel,
             light_boxes,

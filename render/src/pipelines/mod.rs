@@ -69,8 +69,7 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     let boxes_changed = r.scene.upload(f, mirror)?;
     r.skinning.record(f, r.scene)?;
     let in_shading = s.pipeline.is_forward() && s.decals_in_forward_shading;
-    let traced = lights.reflection_flags & crate::layout::REFLECT_SCREEN_SPACE == 0;
-    let readers = DecalReaders { lists_in_shading: in_shading, reflections: lights.reflections && traced && s.reflections.decals_at_hits };
+    let readers = DecalReaders { lists_in_shading: in_shading, reflections: lights.traced_reflections() && s.reflections.decals_at_hits };
     let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, readers, boxes_changed)?;
     f.push = scene_push(r.scene, mirror, s, &decals);
     r.lighting.build(f, r.scene, mirror, &lights)?;
@@ -85,7 +84,7 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
 pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let (decals, lights) = begin(f, r, mirror, s)?;
     let (scene, visbuffer, forward) = (&*r.scene, r.visbuffer, r.forward);
-    if decals.buffered() || lights.reflections {
+    if decals.buffered() || lights.reflections() {
         r.culling.depth_passes(f, scene, |f, draws, phase| visbuffer.visibility(f, "prepass", scene, &draws, phase))?;
     } else {
         r.culling.depth_passes(f, scene, |f, draws, phase| forward.prepass(f, scene, &draws, phase))?;

@@ -105,10 +105,6 @@ pub struct ReflectionStats {
 /// This frame's reflections, decided before the lighting record is written.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct ReflectionFrame {
-    /// Whether the passes run (the mode applies on this device, and the debug view shows them).
-    pub on: bool,
-    /// Whether they trace rays (so the lights' and decals' structures must be built).
-    pub traced: bool,
     /// `REFLECT_*` flags for the lighting record (0 when off).
     pub flags: u32,
     /// The roughness cut-off.
@@ -117,6 +113,19 @@ pub struct ReflectionFrame {
     pub stats: u64,
     /// Screen-space reflections' depth pyramid's address (0 when they do not run).
     pub hiz: u64,
+}
+
+impl ReflectionFrame {
+    /// Whether the passes run (the mode applies on this device, the debug view shows them and
+    /// some material is smooth enough).
+    pub fn on(&self) -> bool {
+        self.flags != 0
+    }
+
+    /// Whether they trace rays (so the lights' and decals' structures must be built).
+    pub fn traced(&self) -> bool {
+        self.on() && self.flags & REFLECT_SCREEN_SPACE == 0
+    }
 }
 
 /// The reflection passes and their statistics.
@@ -323,8 +332,6 @@ impl Reflections {
             unsafe { p.ctx.device.cmd_fill_buffer(p.cmd, stats, 0, vk::WHOLE_SIZE, 0) };
         })?;
         Ok(ReflectionFrame {
-            on,
-            traced: applied == ReflectionMode::RayTraced,
             flags: REFLECT_ON
                 | if half { REFLECT_HALF_RES } else { 0 }
                 | if decals { REFLECT_DECALS } else { 0 }
@@ -361,7 +368,7 @@ impl Reflections {
         lights: &LightFrame,
         glass: bool,
     ) -> Result<(), RenderError> {
-        if !glass || lights.interlaced() || lights.reflection_flags & REFLECT_SCREEN_SPACE != 0 {
+        if !glass || lights.interlaced() || !lights.traced_reflections() {
             return Ok(());
         }
         self.layer(f, scene, None, decals, lights)
@@ -369,7 +376,7 @@ impl Reflections {
 
     /// Copies the statistics for the CPU, after every reflection pass of the frame.
     pub fn finish(&mut self, f: &mut Frame, lights: &LightFrame) -> Result<(), RenderError> {
-        if !lights.reflections {
+        if !lights.reflections() {
             return Ok(());
         }
         self.readback.record(f, "reflection_statistics", self.stats_res, self.stats.raw)
@@ -384,10 +391,10 @@ impl Reflections {
         decals: &DecalFrame,
         lights: &LightFrame,
     ) -> Result<(), RenderError> {
-        if !lights.reflections {
+        if !lights.reflections() {
             return Ok(());
         }
-        let screen = lights.reflection_flags & REFLECT_SCREEN_SPACE != 0;
+        let screen = !lights.traced_reflections();
         let compute = match source {
             Some(source) if screen => Some(self.screen[source as usize].pick(decals)),
             Some(DecalSurfaceSource::GBuffer) => self.gbuffer.as_ref().map(|v| v.pick(decals)),
