@@ -6,7 +6,9 @@
 // for a mirror at half) and by how well each tracing pixel's distance from the camera agrees
 // with this surface's, extrapolated along its slope (so nothing bleeds across depth edges; at
 // half resolution this is the depth-aware upsample). It adds the result to the HDR target in
-// place of the ambient term's specular part: `hdr += weight × (reflected − ambient)`. It also
+// place of the ambient term's specular part: each ray stored what it brought beyond the
+// environment's prefiltered radiance (or the ambient colour) its surface was shaded with, so
+// `hdr += weight × (reflected − ambient)` is `weight × resolved`. It also
 // sums the cells' statistics (pack_cell in reflections.glsl) into the statistics buffer, one
 // atomic add per workgroup and counter.
 #include "scene.glsl"
@@ -111,7 +113,7 @@ vec3 resolve(ivec2 px, vec4 weight, bool half_res) {
         }
     }
     // No ray on this surface nearby: the ambient term stays.
-    return total < 1e-6 ? cam.ambient : sum / total;
+    return total < 1e-6 ? vec3(0.0) : sum / total;
 }
 
 void main() {
@@ -137,6 +139,6 @@ void main() {
         return;
     }
     if (weight.a < 0.0 || all(equal(weight.rgb, vec3(0.0)))) return;
-    hdr.rgb = max(hdr.rgb + weight.rgb * (resolve(px, weight, half_res) - cam.ambient), vec3(0.0));
+    hdr.rgb = max(hdr.rgb + weight.rgb * resolve(px, weight, half_res), vec3(0.0));
     imageStore(hdr_image, px, hdr);
 }

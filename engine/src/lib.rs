@@ -38,6 +38,7 @@ pub mod asset;
 pub mod camera;
 pub mod changes;
 pub mod defaults;
+pub mod environment;
 pub mod gltf;
 pub mod image;
 pub mod input;

@@ -15,6 +15,7 @@ pub use crate::app::{App, AppExit, Plugin, PostUpdate, PreUpdate, Render, Startu
 pub use crate::asset::{AssetEvent, Assets, Handle};
 pub use crate::camera::Camera;
 pub use crate::defaults::DefaultPlugins;
+pub use crate::environment::{Environment, EnvironmentSource, HdrImage};
 pub use crate::image::{ColorSpace, Image};
 pub use crate::input::{Input, InputPlugin, Key, MouseButton};
 pub use crate::light::{DirectionalLight, PointLight, SpotLight};

@@ -778,3 +778,34 @@ pub fn extract_decals(
     stats.visited.decals = visited;
     stats.over_limit.decals = waiting.len();
 }
+
+/// Hands the [`engine::environment::Environment`] resource to the renderer when it changes (or
+/// goes: the flat ambient colour then lights the scene). The map's texels are shared, not copied.
+pub fn extract_environment(
+    environment: Option<Res<engine::environment::Environment>>,
+    mut mirror: ResMut<RenderMirror>,
+    mut present: Local<bool>,
+) {
+    use engine::environment::EnvironmentSource as Source;
+    match environment {
+        Some(env) if env.is_changed() || !*present => {
+            let source = match &env.source {
+                Source::None => None,
+                Source::Sky => Some(render::EnvironmentSource::Sky),
+                Source::Map(map) => Some(render::EnvironmentSource::Map(render::EnvironmentMap {
+                    width: map.width,
+                    height: map.height,
+                    texels: map.texels.clone(),
+                })),
+                Source::Uniform(c) => Some(render::EnvironmentSource::Uniform(*c)),
+            };
+            mirror.0.set_environment(source.map(|source| render::Environment { source, intensity: env.intensity, rotation: env.rotation }));
+            *present = true;
+        }
+        None if *present => {
+            mirror.0.set_environment(None);
+            *present = false;
+        }
+        _ => {}
+    }
+}

@@ -440,6 +440,7 @@ impl Plugin for RenderPlugin {
                 extract::extract_decals,
                 extract::extract_lights,
                 extract::extract_camera,
+                extract::extract_environment,
                 end_extract,
             )
                 .chain()
@@ -450,6 +451,7 @@ impl Plugin for RenderPlugin {
         app.add_message::<engine::changes::Inserted<decal::Decal>>();
         app.add_message::<engine::changes::Inserted<decal::DecalReceiver>>();
         app.world.init_resource::<decal::DecalLifetimes>();
+        app.world.init_resource::<engine::environment::Environment>();
         app.add_systems(engine::app::Update, decal::expire_decals);
     }
 }

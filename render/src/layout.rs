@@ -126,6 +126,15 @@ impl<const N: usize> GlslType for [u32; N] {
     const ALIGN_SCALAR: usize = 4;
 }
 
+impl<const N: usize> GlslType for [Vec4; N] {
+    const NAME: &'static str = "vec4";
+    const ARRAY: usize = N;
+    const SCALAR: Scalar = Scalar::F32;
+    const SIZE: usize = 16 * N;
+    const ALIGN_STD430: usize = 16;
+    const ALIGN_SCALAR: usize = 4;
+}
+
 /// One field of a [`Struct`] as GLSL sees it.
 #[derive(Clone, Copy, Debug)]
 pub struct Field {
@@ -625,6 +634,40 @@ layout! {
     /// a pixel, or a 2×2 block at half resolution; `pack_cell` in
     /// `shaders/include/reflections.glsl`), which the resolve counts and upsamples by.
     pub const BINDING_REFLECTION_RAYS: u32 = 24;
+    /// Binding of the environment's prefiltered specular cube (`environment_specular`,
+    /// RGBA16F, sampled in the GENERAL layout its filtering passes write it in): level `i` holds
+    /// the radiance reflected by a surface of roughness `i / (levels − 1)` (`crate::environment`).
+    pub const BINDING_ENVIRONMENT: u32 = 25;
+    /// Binding of the environment's radiance cube (`environment_source`, RGBA16F, box-filtered
+    /// mips): the sky is drawn from it, and the prefiltering samples it.
+    pub const BINDING_ENVIRONMENT_SOURCE: u32 = 26;
+    /// Binding of the split-sum BRDF table (`brdf_lut`, RG16F): the GGX lobe's scale and bias
+    /// of F0 (x: n·v, y: perceptual roughness).
+    pub const BINDING_BRDF_LUT: u32 = 27;
+    /// Binding of the environment cubes' levels as storage images (`environment_levels`, an
+    /// array of `ENVIRONMENT_LEVEL_VIEWS` 6-layer views): the radiance cube's levels first, then
+    /// the specular cube's from `ENVIRONMENT_SPECULAR_VIEWS`.
+    pub const BINDING_ENVIRONMENT_LEVELS: u32 = 28;
+    /// Binding of the BRDF table as a storage image (`brdf_lut_out`), which its pass writes once.
+    pub const BINDING_BRDF_LUT_STORAGE: u32 = 29;
+    /// Views in `BINDING_ENVIRONMENT_LEVELS` (16 radiance levels, then 16 specular ones).
+    pub const ENVIRONMENT_LEVEL_VIEWS: u32 = 32;
+    /// The first specular level's view in `BINDING_ENVIRONMENT_LEVELS`.
+    pub const ENVIRONMENT_SPECULAR_VIEWS: u32 = 16;
+    /// `GpuEnvironmentJob::mode`: a procedural sky lit by the scene's brightest directional light.
+    pub const ENVIRONMENT_SKY: u32 = 1;
+    /// `GpuEnvironmentJob::mode`: an equirectangular HDR map (`GpuEnvironmentJob::source`).
+    pub const ENVIRONMENT_MAP: u32 = 2;
+    /// `GpuEnvironmentJob::mode`: the same radiance in every direction (`GpuEnvironmentJob::color`).
+    pub const ENVIRONMENT_UNIFORM: u32 = 3;
+    /// `GpuLighting::environment_flags`: an environment lights the scene (else the flat ambient
+    /// colour and the clear colour).
+    pub const ENVIRONMENT_ON: u32 = 1;
+    /// `GpuLighting::environment_flags`: the sky pass draws the sun's disc (the procedural sky,
+    /// whose sun is the directional light and so is not in the cube).
+    pub const ENVIRONMENT_SUN_DISC: u32 = 2;
+    /// Side of the split-sum BRDF table in texels.
+    pub const BRDF_LUT_SIZE: u32 = 64;
     /// `GpuLighting::reflection_flags`: the reflection pass runs this frame.
     pub const REFLECT_ON: u32 = 1;
     /// `GpuLighting::reflection_flags`: one ray per 2×2 pixels (a cell), upsampled by depth.
@@ -970,6 +1013,63 @@ layout! {
         /// Address of screen-space reflections' nearest-depth pyramid
         /// (`shaders/include/depth_pyramid.glsl`; 0 unless they run).
         pub reflection_hiz: u64,
+        /// Address of the environment record (`GpuEnvironment`; 0 without an environment).
+        pub environment: u64,
+        /// Address of the environment's filtering job (`GpuEnvironmentJob`) on the frame that
+        /// filters a new source, else 0.
+        pub environment_job: u64,
+        /// The environment's rotation about +Y as (cos, sin).
+        pub environment_rotation: Vec2,
+        /// Multiplier of the environment's radiance.
+        pub environment_intensity: f32,
+        /// `ENVIRONMENT_*` flags (0: no environment).
+        pub environment_flags: u32,
+        /// Levels of the specular cube − 1 (the level of roughness 1).
+        pub environment_max_level: f32,
+        /// Padding to 16 bytes.
+        pub environment_pad: [u32; 3],
+    }
+
+    /// What the environment's filtering passes make the environment from
+    /// (`crate::environment`): written by the CPU into a host-visible buffer, with the map's
+    /// texels after it, for the frame that filters a new source (`GpuLighting::environment_job`).
+    #[layout(std430)]
+    #[derive(Default)]
+    pub struct GpuEnvironmentJob {
+        /// Direction towards the sun (xyz; the procedural sky) and the cosine of its disc's
+        /// angular radius (w).
+        pub sun: Vec4,
+        /// The sun's illuminance (rgb, lux: the directional light's colour × illuminance).
+        pub sun_color: Vec4,
+        /// The uniform environment's radiance (`ENVIRONMENT_UNIFORM`).
+        pub color: Vec4,
+        /// Address of the equirectangular map's texels (`ENVIRONMENT_MAP`): RGB32F rows, the
+        /// first looking up (+Y), the middle column along +X, longitude growing towards +Z.
+        pub source: u64,
+        /// The map's width and height in texels.
+        pub source_size: [u32; 2],
+        /// An `ENVIRONMENT_*` mode.
+        pub mode: u32,
+        /// Side of the cubes' faces in texels.
+        pub face: u32,
+        /// Levels of the radiance cube.
+        pub source_levels: u32,
+        /// Levels of the specular cube.
+        pub specular_levels: u32,
+    }
+
+    /// The environment as shading reads it (`GpuLighting::environment`), written on the GPU by
+    /// the irradiance pass whenever the source changes.
+    #[layout(std430)]
+    #[derive(Default)]
+    pub struct GpuEnvironment {
+        /// Diffuse irradiance / π as nine spherical-harmonic coefficients (rgb), already
+        /// convolved with the cosine lobe: `E(n)/π = Σ sh[i] Y_i(n)`.
+        pub sh: [Vec4; 9],
+        /// The job's `sun` (the sky pass draws its disc).
+        pub sun: Vec4,
+        /// The job's `sun_color`.
+        pub sun_color: Vec4,
     }
 
     /// One shadow-map view (a tile of the atlas): a spot light's, one cube face of a point

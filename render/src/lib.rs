@@ -36,6 +36,7 @@
 
 pub mod culling;
 pub mod decals;
+pub mod environment;
 pub mod error;
 pub mod gpu;
 pub mod graph;
@@ -52,6 +53,7 @@ pub mod skinning;
 pub mod transparency;
 
 pub use culling::CullingStats;
+pub use environment::{Environment, EnvironmentMap, EnvironmentSource, EnvironmentStats};
 pub use error::RenderError;
 pub use gpu::device::{Capabilities, DeviceSettings, Tier};
 pub use gpu::timestamps::PassTimes;

@@ -12,6 +12,7 @@ use ash::vk;
 use crate::RenderError;
 use crate::culling::Culling;
 use crate::decals::{DecalChoice, Decals};
+use crate::environment::Environments;
 use crate::gpu::device::{DeviceSettings, GpuContext, Tier};
 use crate::gpu::memory::Graveyard;
 use crate::gpu::pipeline::{ScenePush, create_layout};
@@ -46,6 +47,10 @@ pub struct RendererSettings {
     pub decal_cluster_capacity: u32,
     /// The shadow-map atlas.
     pub shadow_maps: crate::settings::ShadowMapBudget,
+    /// Face size of the environment's cubes in texels (a power of two, 32 to 2048; default 512,
+    /// an equirectangular map of 2048 texels across): what the sky and mirror reflections of
+    /// an environment map show at most, and what filtering a new source costs.
+    pub environment_resolution: u32,
 }
 
 impl Default for RendererSettings {
@@ -54,6 +59,7 @@ impl Default for RendererSettings {
             device: DeviceSettings::default(),
             decal_cluster_capacity: crate::decals::clustered::INITIAL_CAPACITY,
             shadow_maps: Default::default(),
+            environment_resolution: 512,
         }
     }
 }
@@ -119,6 +125,7 @@ struct Resources {
     visbuffer: VisBufferPasses,
     transparency: TransparencyPasses,
     reflections: Reflections,
+    environment: Environments,
     decals: Decals,
     lighting: Lighting,
     tonemap: Tonemap,
@@ -186,6 +193,7 @@ impl Renderer {
             visbuffer: VisBufferPasses::new(ctx, layout)?,
             transparency: TransparencyPasses::new(ctx, layout)?,
             reflections: Reflections::new(ctx, &mut graph, layout)?,
+            environment: Environments::new(ctx, &mut graph, layout, settings.environment_resolution)?,
             decals: Decals::new(ctx, &mut graph, layout, settings.decal_cluster_capacity)?,
             lighting: Lighting::new(ctx, &mut graph, layout, settings.shadow_maps)?,
             tonemap: Tonemap::new(ctx, layout, DISPLAY_FORMAT)?,
@@ -389,6 +397,7 @@ impl Renderer {
             visbuffer: &res.visbuffer,
             transparency: &res.transparency,
             reflections: &mut res.reflections,
+            environment: &mut res.environment,
             present: Present { tonemap, target, overlay, aa: settings.aa },
             decal_choice,
         };
@@ -413,6 +422,7 @@ impl Renderer {
         mirror.counters.draw_calls = res.culling.draw_calls();
         mirror.counters.mesh_pool_bytes = res.scene.pool_bytes();
         mirror.counters.lights = mirror.lights.len() as u64;
+        mirror.counters.environment = res.environment.stats;
         mirror.counters.decals = mirror.decals.len() as u64;
         let decal_method = decal_choice.applied;
 
@@ -485,6 +495,15 @@ impl Renderer {
         self.ctx.wait_idle();
         let bytes = self.res.graph.read_back(&self.ctx, &HDR, 8)?;
         Ok(bytes.chunks_exact(8).map(|px| std::array::from_fn(|c| f16_to_f32(u16::from_le_bytes([px[c * 2], px[c * 2 + 1]])))).collect())
+    }
+
+    /// Level `level` of the environment's radiance cube (`specular` false) or its specular cube
+    /// (level i prefiltered for roughness i / (levels − 1)). `None` before an environment was
+    /// used. Waits for the GPU; for tests.
+    pub fn read_environment(&mut self, specular: bool, level: u32) -> Result<Option<crate::environment::CubeLevel>, RenderError> {
+        self.ctx.wait_idle();
+        let res = &mut *self.res;
+        res.environment.read_level(&self.ctx, &mut res.graph, specular, level)
     }
 
     /// The depth of the last frame (reverse-Z: 1 at the near plane, 0 at infinity).
@@ -596,6 +615,7 @@ impl Drop for Renderer {
             visbuffer,
             transparency,
             reflections,
+            environment,
             decals,
             lighting,
             tonemap,
@@ -626,6 +646,7 @@ impl Drop for Renderer {
         visbuffer.destroy(ctx);
         transparency.destroy(ctx);
         reflections.destroy(ctx);
+        environment.destroy(ctx);
         tonemap.destroy(ctx);
         graph.destroy(ctx);
         scene.destroy(ctx);

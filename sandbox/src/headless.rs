@@ -105,6 +105,10 @@ pub struct HeadlessOptions {
     pub culling: render::CullingMode,
     /// Run `frames` frames with every culling mode in turn (off, frustum, occlusion).
     pub compare_culling: bool,
+    /// What lights the scene from all around (default: the procedural sky).
+    pub environment: engine::environment::Environment,
+    /// Face size of the environment's cubes ([`RendererSettings::environment_resolution`]).
+    pub environment_resolution: u32,
     /// Run `frames` frames with reflections off, then at full and half resolution, each with and
     /// without the decals at their hit points, then in screen space, then off again (the first
     /// run warms up).
@@ -281,6 +285,8 @@ impl Default for HeadlessOptions {
             shadow_maps: render::ShadowMapBudget::default(),
             culling: render::CullingMode::Occlusion,
             compare_culling: false,
+            environment: engine::environment::Environment::default(),
+            environment_resolution: RendererSettings::default().environment_resolution,
             compare_reflections: false,
             instances: crate::bench::MANY_INSTANCES,
         }
@@ -304,6 +310,7 @@ pub fn build_app(opts: &HeadlessOptions) -> Result<App> {
     let settings = RendererSettings {
         device: DeviceSettings { max_tier: opts.max_tier, ..Default::default() },
         shadow_maps: opts.shadow_maps,
+        environment_resolution: opts.environment_resolution,
         ..Default::default()
     };
     build_app_with(opts, &settings)
@@ -342,6 +349,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         culling: opts.culling,
         ..Default::default()
     }));
+    app.insert_resource(opts.environment.clone());
     match opts.bench_scene {
         Some(crate::bench::BenchScene::ManyInstances) => crate::bench::spawn_city(&mut app.world, opts.instances),
         Some(crate::bench::BenchScene::BehindWall) => crate::bench::spawn_behind_wall(&mut app.world, opts.instances),

@@ -193,6 +193,20 @@ struct Cli {
     /// again (the first run warms up).
     #[arg(long)]
     compare_reflections: bool,
+    /// What lights the scene from all around: sky (procedural, its sun the scene's sun),
+    /// none (a flat ambient colour), or the path of an equirectangular HDR map (a Radiance
+    /// .hdr); a map that cannot be loaded is reported and the sky stands in.
+    #[arg(long, default_value = "sky")]
+    environment: String,
+    /// Multiplier of the environment's radiance.
+    #[arg(long, default_value_t = 1.0)]
+    environment_intensity: f32,
+    /// Turn of the environment map about the vertical axis, in degrees.
+    #[arg(long, default_value_t = 0.0)]
+    environment_rotation: f32,
+    /// Face size of the environment's cube maps in texels (32 to 2048).
+    #[arg(long, default_value_t = render::RendererSettings::default().environment_resolution)]
+    environment_resolution: u32,
     /// Run --frames frames with each culling mode in turn (off, frustum, occlusion).
     #[arg(long)]
     compare_culling: bool,
@@ -301,6 +315,12 @@ fn main() -> Result<()> {
         eprintln!("sandbox: no display available (neither DISPLAY nor WAYLAND_DISPLAY is set); playing a short scene headless instead");
     }
     let screenshot = cli.screenshot.clone().or_else(|| (!cli.headless).then(|| PathBuf::from("out/sandbox.png")));
+    let (mut environment, environment_error) = engine::environment::Environment::from_argument(&cli.environment);
+    if let Some(e) = environment_error {
+        eprintln!("sandbox: {e}; the procedural sky lights the scene instead");
+    }
+    environment.intensity = cli.environment_intensity;
+    environment.rotation = cli.environment_rotation.to_radians();
     let opts = HeadlessOptions {
         frames: cli.frames,
         size: cli.size,
@@ -351,6 +371,8 @@ fn main() -> Result<()> {
         shadow_maps: render::ShadowMapBudget { tile: cli.shadow_map_size, tiles: cli.shadow_map_tiles, ..Default::default() },
         culling: cli.culling,
         compare_culling: cli.compare_culling,
+        environment,
+        environment_resolution: cli.environment_resolution,
         instances: cli.instances,
     };
     if windowed {

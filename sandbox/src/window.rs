@@ -35,7 +35,13 @@ pub struct WindowOptions {
 pub fn run_windowed(opts: WindowOptions) -> Result<()> {
     let mut app = build_scene_app(&opts.base)?;
     let device = DeviceSettings { max_tier: opts.base.max_tier, ..Default::default() };
-    app.add_plugins(GpuPlugin { settings: RendererSettings { device, ..Default::default() } });
+    let settings = RendererSettings {
+        device,
+        shadow_maps: opts.base.shadow_maps,
+        environment_resolution: opts.base.environment_resolution,
+        ..Default::default()
+    };
+    app.add_plugins(GpuPlugin { settings });
     app.add_plugins(crate::game::GamePlugin);
     let camera = crate::game::find_camera(&mut app.world).context("the scene has no camera to play with")?;
     crate::game::setup_game(&mut app.world, camera)?;

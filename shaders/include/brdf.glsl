@@ -106,4 +106,19 @@ vec3 sample_ggx_vndf(vec3 v, float alpha, vec2 u) {
     return normalize(vec3(alpha * nh.x, alpha * nh.y, max(0.0, nh.z)));
 }
 
+// Point `i` of `n` of the Hammersley set in [0, 1)² (the split-sum integrals' low-discrepancy
+// samples).
+vec2 hammersley(uint i, uint n) {
+    return vec2((float(i) + 0.5) / float(n), float(bitfieldReverse(i)) * (1.0 / 4294967296.0));
+}
+
+// A half vector drawn from the GGX distribution D(h)·(n·h) around +Z (Karis 2013, "Real Shading
+// in Unreal Engine 4"); its pdf for the reflected direction is D·(n·h) / (4 v·h).
+vec3 sample_ggx_ndf(vec2 u, float alpha) {
+    float phi = 2.0 * PI * u.x;
+    float cos_theta = sqrt((1.0 - u.y) / (1.0 + (alpha * alpha - 1.0) * u.y));
+    float sin_theta = sqrt(max(1.0 - cos_theta * cos_theta, 0.0));
+    return vec3(sin_theta * cos(phi), sin_theta * sin(phi), cos_theta);
+}
+
 #endif

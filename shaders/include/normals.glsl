@@ -24,4 +24,10 @@ vec3 decode_normal_texel(vec3 texel) {
     return texel * 2.0 - 1.0;
 }
 
+// An orthonormal frame whose third column is the unit vector `n` (tangent, bitangent, n).
+mat3 tangent_frame(vec3 n) {
+    vec3 t = normalize(abs(n.z) < 0.999 ? cross(vec3(0.0, 0.0, 1.0), n) : cross(vec3(1.0, 0.0, 0.0), n));
+    return mat3(t, cross(n, t), n);
+}
+
 #endif

@@ -41,6 +41,7 @@
 #include "visbuffer_surface.glsl"
 #include "alpha_mask.glsl"
 #include "brdf.glsl"
+#include "environment.glsl"
 #ifdef GBUFFER
 #include "deferred_surface.glsl"
 #endif
@@ -238,7 +239,7 @@ vec3 hit_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found) {
 vec3 shade_hit(SurfaceInputs s, vec3 v, inout ReflectionRay r) {
     r.decals_tested += hit_decals(s);
     SurfaceBrdf brdf = surface_brdf(s.albedo, s.metallic, s.roughness);
-    vec3 color = s.emissive + scene.camera.camera.ambient * (brdf.diffuse_color + brdf.f0) * s.occlusion;
+    vec3 color = s.emissive + ambient_light(brdf, s.normal, v, s.occlusion);
     uint found;
     color += hit_lights(brdf, s, v, found);
     r.lights_found += found;
@@ -255,7 +256,7 @@ ReflectionRay trace_reflection(vec3 origin, vec3 dir, float width0, float spread
         VisibleSurface v = hit_surface(h.ids.x, h.ids.y, h.bary, dir, cone_width(width0, spread, h.t));
         r.radiance = shade_hit(surface_inputs(v), -dir, r);
     } else {
-        r.radiance = scene.lighting.lighting.clear_color.rgb;
+        r.radiance = sky_along(dir);
     }
     // Glass in front of the hit, blended over it back to front as the transparency passes blend
     // it on screen: each pane shaded, over what lies behind by its opacity.
@@ -312,7 +313,7 @@ float nearest_depth(int level, ivec2 cell) {
 
 ReflectionRay trace_reflection(vec3 origin, vec3 dir, float width0, float spread) {
     GpuCamera cam = scene.camera.camera;
-    ReflectionRay r = ReflectionRay(scene.lighting.lighting.clear_color.rgb, REFLECTION_MAX_DISTANCE, false, false, 0u, 0u);
+    ReflectionRay r = ReflectionRay(sky_along(dir), REFLECTION_MAX_DISTANCE, false, false, 0u, 0u);
     // Clip the ray where it would cross the near plane (and at 100 m).
     float near = cam.proj[3][2];
     vec3 forward = -vec3(cam.view[0][2], cam.view[1][2], cam.view[2][2]);
@@ -387,11 +388,9 @@ vec2 pixel_noise(uvec2 px) {
 // to: the mirror direction below REFLECTION_MIRROR, else one drawn from the GGX lobe.
 vec3 reflection_direction(vec3 n, vec3 v, float roughness, vec2 u) {
     if (roughness < REFLECTION_MIRROR) return reflect(-v, n);
-    vec3 t = normalize(abs(n.z) < 0.999 ? cross(vec3(0.0, 0.0, 1.0), n) : cross(vec3(1.0, 0.0, 0.0), n));
-    vec3 b = cross(n, t);
-    vec3 local_v = vec3(dot(v, t), dot(v, b), dot(v, n));
-    vec3 h = sample_ggx_vndf(local_v, roughness * roughness, u);
-    vec3 l = reflect(-v, t * h.x + b * h.y + n * h.z);
+    mat3 frame = tangent_frame(n);
+    vec3 h = sample_ggx_vndf(v * frame, roughness * roughness, u);
+    vec3 l = reflect(-v, frame * h);
     return dot(l, n) > 1e-3 ? l : reflect(-v, n);   // below the surface: take the mirror direction
 }
 
@@ -461,6 +460,7 @@ void reflection_cell(ivec2 cell) {
     bool traced = false;
     uint reflecting = 0u, tracer = 0u;
     float distance = 0.0;
+    vec3 baseline = vec3(0.0);
     for (int i = 0; i < side * side; ++i) {
         ivec2 px = cell * side + ivec2(i % side, i / side);
         if (any(greaterThanEqual(px, size))) continue;
@@ -479,7 +479,7 @@ void reflection_cell(ivec2 cell) {
             continue;
         }
         SurfaceBrdf brdf = surface_brdf(s.albedo, s.metallic, s.roughness);
-        vec3 weight = env_brdf_approx(brdf.f0, brdf.roughness, clamp(dot(n, v), 1e-4, 1.0)) * s.occlusion * fade;
+        vec3 weight = ambient_specular_weight(brdf, n, v, s.occlusion) * fade;
 #ifdef GBUFFER
         // Glass in the G-buffer (interlaced rows, depth peeling's layer) is composed over what is
         // behind it by its opacity α; its reflection is not transmitted light and must stay
@@ -498,8 +498,11 @@ void reflection_cell(ivec2 cell) {
         float spread = pixel_angle + (s.roughness < REFLECTION_MIRROR ? 0.0 : 0.5 * s.roughness * s.roughness);
         vec3 dir = reflection_direction(n, v, s.roughness, pixel_noise(uvec2(px)));
         r = trace_reflection(shadow_origin(s.position, facing), dir, distance * pixel_angle, spread);
+        // Shading lit the surface with the environment's prefiltered radiance (or the ambient
+        // colour) in the mirror direction; the ray stores what it brings beyond that.
+        baseline = ambient_specular(reflect(-v, n), s.roughness);
     }
-    vec3 radiance = r.radiance;
+    vec3 radiance = r.radiance - baseline;
     if (scene.debug_view == DEBUG_REFLECTIONS) radiance = r.hit ? heatmap(r.distance / 16.0) : vec3(1.0);
     imageStore(reflection_out, cell, traced ? vec4(radiance, distance) : vec4(0.0));
     imageStore(rays_out, cell, uvec4(pack_cell(r, reflecting, traced, tracer)));

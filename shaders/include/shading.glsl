@@ -23,6 +23,7 @@
 #include "decals.glsl"
 #include "heatmap.glsl"
 #include "light_tiles.glsl"
+#include "environment.glsl"
 
 layout(set = 0, binding = BINDING_SHADOW_DEBUG, rgba16f) uniform readonly image2D shadow_debug_in;
 #ifdef DECAL_BUFFER
@@ -125,7 +126,7 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
     GpuCamera cam = scene.camera.camera;
     vec3 v = normalize(cam.position - s.position);
     SurfaceBrdf brdf = surface_brdf(s.albedo, s.metallic, s.roughness);
-    vec3 color = s.emissive + cam.ambient * (brdf.diffuse_color + brdf.f0) * s.occlusion;
+    vec3 color = s.emissive + ambient_light(brdf, s.normal, v, s.occlusion);
 #ifdef ENUMERATED_LIGHTS
     uint found;
     color += enumerated_lights(brdf, s, v, found);

@@ -105,7 +105,7 @@ pub struct ImageDesc<'a> {
     pub usage: vk::ImageUsageFlags,
 }
 
-/// A 2D image, its memory and a view of all its mips.
+/// A 2D image (or a cube map: six layers), its memory and a view of all its mips.
 pub struct Image {
     /// The Vulkan image.
     pub raw: vk::Image,
@@ -120,19 +120,32 @@ pub struct Image {
     pub mip_levels: u32,
     /// Colour or depth aspect.
     pub aspect: vk::ImageAspectFlags,
+    /// Array layers (6 for a cube map).
+    pub layers: u32,
 }
 
 impl Image {
     /// Creates an image in device-local memory.
     pub fn new(ctx: &GpuContext, desc: &ImageDesc) -> Result<Image, RenderError> {
+        Self::create(ctx, desc, 1)
+    }
+
+    /// Creates a cube map (six square layers of `desc.extent`), whose view is a cube.
+    pub fn cube(ctx: &GpuContext, desc: &ImageDesc) -> Result<Image, RenderError> {
+        Self::create(ctx, desc, 6)
+    }
+
+    fn create(ctx: &GpuContext, desc: &ImageDesc, layers: u32) -> Result<Image, RenderError> {
         let d = &ctx.device;
         let aspect = if is_depth_format(desc.format) { vk::ImageAspectFlags::DEPTH } else { vk::ImageAspectFlags::COLOR };
+        let cube = layers == 6;
         let info = vk::ImageCreateInfo::default()
+            .flags(if cube { vk::ImageCreateFlags::CUBE_COMPATIBLE } else { vk::ImageCreateFlags::empty() })
             .image_type(vk::ImageType::TYPE_2D)
             .format(desc.format)
             .extent(vk::Extent3D { width: desc.extent.width, height: desc.extent.height, depth: 1 })
             .mip_levels(desc.mip_levels)
-            .array_layers(1)
+            .array_layers(layers)
             .samples(vk::SampleCountFlags::TYPE_1)
             .tiling(vk::ImageTiling::OPTIMAL)
             .usage(desc.usage)
@@ -158,29 +171,67 @@ impl Image {
         };
         // SAFETY: the allocation satisfies the image's requirements.
         unsafe { d.bind_image_memory(raw, allocation.memory(), allocation.offset()) }?;
-        let view_info =
-            vk::ImageViewCreateInfo::default().image(raw).view_type(vk::ImageViewType::TYPE_2D).format(desc.format).subresource_range(
-                vk::ImageSubresourceRange {
-                    aspect_mask: aspect,
-                    base_mip_level: 0,
-                    level_count: desc.mip_levels,
-                    base_array_layer: 0,
-                    layer_count: 1,
-                },
-            );
+        let view_type = if cube { vk::ImageViewType::CUBE } else { vk::ImageViewType::TYPE_2D };
+        let view_info = vk::ImageViewCreateInfo::default().image(raw).view_type(view_type).format(desc.format).subresource_range(
+            vk::ImageSubresourceRange {
+                aspect_mask: aspect,
+                base_mip_level: 0,
+                level_count: desc.mip_levels,
+                base_array_layer: 0,
+                layer_count: layers,
+            },
+        );
         // SAFETY: the image is bound and the range lies inside it.
-        let view = unsafe { d.create_image_view(&view_info, None) }?;
-        Ok(Image { raw, view, allocation: Some(allocation), format: desc.format, extent: desc.extent, mip_levels: desc.mip_levels, aspect })
+        let view = match unsafe { d.create_image_view(&view_info, None) } {
+            Ok(v) => v,
+            Err(e) => {
+                let image = Image {
+                    raw,
+                    view: vk::ImageView::null(),
+                    allocation: Some(allocation),
+                    format: desc.format,
+                    extent: desc.extent,
+                    mip_levels: 0,
+                    aspect,
+                    layers,
+                };
+                image.destroy(ctx);
+                return Err(e.into());
+            }
+        };
+        Ok(Image {
+            raw,
+            view,
+            allocation: Some(allocation),
+            format: desc.format,
+            extent: desc.extent,
+            mip_levels: desc.mip_levels,
+            aspect,
+            layers,
+        })
     }
 
-    /// The subresource range covering every mip.
+    /// A view of one mip level's layers as a 2D array (a storage image a pass writes a cube
+    /// level through); the caller destroys it before the image.
+    pub fn level_view(&self, ctx: &GpuContext, level: u32) -> Result<vk::ImageView, RenderError> {
+        let range = vk::ImageSubresourceRange { base_mip_level: level, level_count: 1, ..self.full_range() };
+        let info = vk::ImageViewCreateInfo::default()
+            .image(self.raw)
+            .view_type(vk::ImageViewType::TYPE_2D_ARRAY)
+            .format(self.format)
+            .subresource_range(range);
+        // SAFETY: the image is live and the range lies inside it.
+        Ok(unsafe { ctx.device.create_image_view(&info, None) }?)
+    }
+
+    /// The subresource range covering every mip and layer.
     pub fn full_range(&self) -> vk::ImageSubresourceRange {
         vk::ImageSubresourceRange {
             aspect_mask: self.aspect,
             base_mip_level: 0,
             level_count: self.mip_levels,
             base_array_layer: 0,
-            layer_count: 1,
+            layer_count: self.layers,
         }
     }
 

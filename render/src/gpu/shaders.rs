@@ -34,6 +34,12 @@ spirv! {
     REFLECTIONS_COMP_GBUFFER = "reflections.comp.GBUFFER";
     REFLECTIONS_COMP_GBUFFER_RAY_QUERY_DECALS = "reflections.comp.GBUFFER+RAY_QUERY_DECALS";
     REFLECTIONS_COMP_GBUFFER_DECAL_BUFFER = "reflections.comp.GBUFFER+DECAL_BUFFER";
+    ENVIRONMENT_SOURCE_COMP = "environment_source.comp";
+    ENVIRONMENT_DOWNSAMPLE_COMP = "environment_downsample.comp";
+    ENVIRONMENT_IRRADIANCE_COMP = "environment_irradiance.comp";
+    ENVIRONMENT_PREFILTER_COMP = "environment_prefilter.comp";
+    BRDF_LUT_COMP = "brdf_lut.comp";
+    SKY_COMP = "sky.comp";
     REFLECTIONS_RESOLVE_COMP = "reflections_resolve.comp";
     REFLECTIONS_RESOLVE_COMP_GLASS_LAYER = "reflections_resolve.comp.GLASS_LAYER";
     REFLECTIONS_COMP_GLASS_LAYER = "reflections.comp.GLASS_LAYER";

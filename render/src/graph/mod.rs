@@ -159,6 +159,9 @@ struct ResourceEntry {
     /// Images filled by a copy and not yet made sampleable: the next pass that reads this
     /// resource transitions them.
     pending_images: Vec<(vk::Image, vk::ImageSubresourceRange)>,
+    /// New images the next pass that writes this resource writes as storage (see
+    /// [`PassBuilder::storage_images`]): moved from UNDEFINED to GENERAL, where they stay.
+    general_images: Vec<(vk::Image, vk::ImageSubresourceRange)>,
 }
 
 /// One declaration of a pass.
@@ -226,7 +229,12 @@ impl FrameGraph {
 
     /// Registers a logical buffer or acceleration-structure resource.
     pub fn resource(&mut self, name: &'static str) -> ResourceId {
-        self.resources.push(ResourceEntry { track: Track::default(), fresh_images: Vec::new(), pending_images: Vec::new() });
+        self.resources.push(ResourceEntry {
+            track: Track::default(),
+            fresh_images: Vec::new(),
+            pending_images: Vec::new(),
+            general_images: Vec::new(),
+        });
         tracing::debug!(resource = name, id = self.resources.len() - 1, "frame graph resource");
         ResourceId((self.resources.len() - 1) as u16)
     }
@@ -382,6 +390,44 @@ impl FrameGraph {
         bytes
     }
 
+    /// Copies every layer of level `level` of `image` (a storage image of `resource`, kept in
+    /// GENERAL: the environment's cubes) into host memory, layer after layer, `bytes_per_texel`
+    /// a texel. Waits for the GPU; for tests and tools.
+    pub fn read_back_general_image(
+        &mut self,
+        ctx: &GpuContext,
+        resource: ResourceId,
+        image: &Image,
+        level: u32,
+        bytes_per_texel: u64,
+    ) -> Result<Vec<u8>, RenderError> {
+        let (width, height) = ((image.extent.width >> level).max(1), (image.extent.height >> level).max(1));
+        let size = width as u64 * height as u64 * image.layers as u64 * bytes_per_texel;
+        let mut buffer = Buffer::new(ctx, "readback", size, vk::BufferUsageFlags::TRANSFER_DST, gpu_allocator::MemoryLocation::GpuToCpu)?;
+        let result = ctx.run_once(|cmd| {
+            self.decls.clear();
+            self.decls.push(Decl::Resource(resource, BufferUse::Transfer, false));
+            self.emit_barriers(ctx, cmd, PassKind::Transfer);
+            let region = vk::BufferImageCopy {
+                image_subresource: vk::ImageSubresourceLayers {
+                    aspect_mask: image.aspect,
+                    mip_level: level,
+                    base_array_layer: 0,
+                    layer_count: image.layers,
+                },
+                image_extent: vk::Extent3D { width, height, depth: 1 },
+                ..Default::default()
+            };
+            // SAFETY: `cmd` is recording; the image stays in GENERAL, the barrier above made its
+            // last write visible to copies, and the buffer holds the whole level.
+            unsafe { ctx.device.cmd_copy_image_to_buffer(cmd, image.raw, vk::ImageLayout::GENERAL, buffer.raw, &[region]) };
+            copy_visible_to_host(ctx, cmd);
+        });
+        let bytes = result.map(|_| buffer.mapped()[..size as usize].to_vec());
+        buffer.destroy(ctx);
+        bytes
+    }
+
     /// Copies the first `size` bytes of `src`, tracked as `resource`, to the host (waits for the
     /// GPU). For tests and tools: it submits and waits on its own.
     pub fn read_back_buffer(&mut self, ctx: &GpuContext, resource: ResourceId, src: vk::Buffer, size: u64) -> Result<Vec<u8>, RenderError> {
@@ -468,6 +514,9 @@ impl FrameGraph {
                             let layout = vk::ImageLayout::TRANSFER_DST_OPTIMAL;
                             self.image_barriers.push(image_barrier(dep, vk::ImageLayout::UNDEFINED, layout, raw, range));
                             e.pending_images.push((raw, range));
+                        }
+                        for (raw, range) in e.general_images.drain(..) {
+                            self.image_barriers.push(image_barrier(dep, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL, raw, range));
                         }
                     }
                 }
@@ -632,6 +681,14 @@ impl PassBuilder<'_, '_> {
     pub fn upload_images(self, resource: ResourceId, images: impl IntoIterator<Item = (vk::Image, vk::ImageSubresourceRange)>) -> Self {
         self.frame.graph.resources[resource.0 as usize].fresh_images.extend(images);
         self.write(resource, BufferUse::Transfer)
+    }
+
+    /// Declares that the pass writes new images belonging to `resource` as storage images (the
+    /// environment's cubes): they are moved from UNDEFINED to GENERAL before the pass and stay
+    /// there, written as storage and sampled, with `resource`'s barriers ordering the uses.
+    pub fn storage_images(self, resource: ResourceId, images: impl IntoIterator<Item = (vk::Image, vk::ImageSubresourceRange)>) -> Self {
+        self.frame.graph.resources[resource.0 as usize].general_images.extend(images);
+        self.write(resource, BufferUse::Storage)
     }
 
     /// Records the pass: the derived barriers, the timer, the rendering scope of its attachments

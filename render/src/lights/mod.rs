@@ -17,6 +17,7 @@ use ash::vk;
 
 use crate::RenderError;
 use crate::culling::Draws;
+use crate::environment::EnvironmentFrame;
 use crate::gpu::device::GpuContext;
 use crate::graph::targets::SHADOW_DEBUG;
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassBuilder, ResourceId};
@@ -72,6 +73,9 @@ pub struct LightFrame {
     /// The ray-query lights' TLAS, BLAS and box buffer, when they are built this frame (for
     /// ray-query lights, or for the reflection rays' hit points).
     pub light_boxes: Option<[ResourceId; 3]>,
+    /// The environment's images and record, when an environment lights the frame
+    /// (`crate::environment`): every shading pass samples them.
+    pub environment: Option<[ResourceId; 2]>,
     interlaced: bool,
     shadow_maps: ShadowMapPlan,
     tiles: TileFrame,
@@ -80,6 +84,11 @@ pub struct LightFrame {
 }
 
 impl LightFrame {
+    /// What a pass that lights surfaces reads of the environment (nothing without one).
+    pub fn environment_reads(&self) -> impl Iterator<Item = (ResourceId, BufferUse)> {
+        self.environment.into_iter().flat_map(|[images, record]| [(images, BufferUse::SampledImages), (record, BufferUse::Storage)])
+    }
+
     /// Whether the reflection pass runs this frame (`crate::reflections`: asked for, and the
     /// scene's TLAS exists to trace against when it traces).
     pub fn reflections(&self) -> bool {
@@ -142,6 +151,7 @@ impl Lighting {
         mirror: &mut SceneMirror,
         s: &FrameSettings,
         reflections: &ReflectionFrame,
+        environment: &EnvironmentFrame,
     ) -> Result<LightFrame, RenderError> {
         let l = &s.lights;
         let method = l.method.effective(s.pipeline, f.ctx.ray_support());
@@ -241,6 +251,13 @@ impl Lighting {
             reflection_cutoff: reflections.cutoff,
             reflection_flags: if reflect { reflections.flags } else { 0 },
             reflection_hiz: if reflect { reflections.hiz } else { 0 },
+            environment: environment.record,
+            environment_job: environment.job,
+            environment_rotation: environment.rotation,
+            environment_intensity: environment.intensity,
+            environment_flags: environment.flags,
+            environment_max_level: environment.max_level,
+            environment_pad: [0; 3],
         });
         let res = self.tiles.resources();
         let inline_shadows = match self.accel.as_ref() {
@@ -264,6 +281,7 @@ impl Lighting {
             reflection_flags: if reflect { reflections.flags } else { 0 },
             scene_accel,
             light_boxes,
+            environment: environment.reads,
             interlaced,
             shadow_maps,
             tiles,
@@ -351,4 +369,5 @@ pub fn declare_light_reads<'f, 'a>(pass: PassBuilder<'f, 'a>, frame: &LightFrame
         .reads(accel(frame.inline_shadows))
         .reads(storage(frame.inline_shadows))
         .when(frame.debug, |p| p.image(&SHADOW_DEBUG, ImageUse::StorageRead))
+        .reads(frame.environment_reads())
 }

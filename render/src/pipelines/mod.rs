@@ -13,6 +13,7 @@ use ash::vk;
 use crate::RenderError;
 use crate::culling::{Culling, Draws, Phase};
 use crate::decals::{DecalChoice, DecalFrame, DecalReaders, DecalSurfaceSource, Decals};
+use crate::environment::Environments;
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::pipeline::{HitGroup, RayTracingDesc, RayTracingPipeline, ScenePush};
 use crate::gpu::shaders;
@@ -49,6 +50,8 @@ pub struct FrameParts<'a> {
     pub transparency: &'a TransparencyPasses,
     /// Ray-traced reflections, added to every pipeline's opaque shading.
     pub reflections: &'a mut Reflections,
+    /// The environment's filtering and the sky pass.
+    pub environment: &'a mut Environments,
     /// Tone mapping and overlay into the frame's display image.
     pub present: Present<'a>,
     /// The decal method asked for and the one this device and pipeline apply.
@@ -64,7 +67,8 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
     r.skinning.prepare(mirror, r.scene);
     let reflections = r.reflections.prepare(f, s, mirror)?;
-    let lights = r.lighting.prepare(f, r.scene, mirror, s, &reflections)?;
+    let environment = r.environment.prepare(f, r.scene, mirror)?;
+    let lights = r.lighting.prepare(f, r.scene, mirror, s, &reflections, &environment)?;
     mirror.counters.culling = r.culling.prepare(f, r.scene, mirror, s, lights.shadow_map_views())?;
     let boxes_changed = r.scene.upload(f, mirror)?;
     r.skinning.record(f, r.scene)?;
@@ -72,6 +76,7 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     let readers = DecalReaders { lists_in_shading: in_shading, reflections: lights.traced_reflections() && s.reflections.decals_at_hits };
     let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, readers, boxes_changed)?;
     f.push = scene_push(r.scene, mirror, s, &decals);
+    r.environment.record(f, r.scene, &environment)?;
     r.lighting.build(f, r.scene, mirror, &lights)?;
     mirror.counters.bytes_uploaded += r.culling.cull(f, r.scene)?;
     Ok((decals, lights))
@@ -94,6 +99,7 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
     r.lighting.record(f, r.scene, &draws, &lights)?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
     r.forward.shade(f, r.scene, &draws, s.clear_color, &decals, &lights)?;
+    r.environment.sky(f, r.scene, &lights, s.debug_view)?;
     r.reflections.record(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
     r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
     glass_reflections(f, r, mirror, &decals, &lights)?;
@@ -173,6 +179,7 @@ fn deferred_layer(
     r.deferred.decals(f, r.scene, r.decals.deferred_runs(decals))?;
     r.decals.decal_pass(f, r.scene, decals, DecalSurfaceSource::GBuffer)?;
     r.deferred.lighting(f, r.scene, decals, lights, s.compute_shading)?;
+    r.environment.sky(f, r.scene, lights, s.debug_view)?;
     r.reflections.record(f, r.scene, DecalSurfaceSource::GBuffer, decals, lights)
 }
 
@@ -188,6 +195,7 @@ pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirr
     r.lighting.record(f, r.scene, &draws, &lights)?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
     r.visbuffer.shade(f, r.scene, s.clear_color, &decals, &lights, s.compute_shading)?;
+    r.environment.sky(f, r.scene, &lights, s.debug_view)?;
     r.reflections.record(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
     r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
     glass_reflections(f, r, mirror, &decals, &lights)?;

@@ -45,7 +45,12 @@ pub const TARGET_BINDINGS: u32 = crate::layout::BINDING_ANTIALIASED;
 /// reflection pass's three images.
 pub const STORAGE_BINDINGS: u32 = crate::layout::BINDING_REFLECTION_RAYS - TARGET_BINDINGS;
 const _: () = assert!(crate::layout::BINDING_DECAL_ALBEDO == TARGET_BINDINGS + 1, "storage bindings follow the sampled targets");
-const BINDINGS: usize = 1 + (TARGET_BINDINGS + STORAGE_BINDINGS) as usize;
+/// The environment's bindings after those (`crate::environment`): its two cubes and the BRDF
+/// table, sampled; the cubes' levels and the table as storage images.
+const ENVIRONMENT_BINDINGS: std::ops::RangeInclusive<u32> = crate::layout::BINDING_ENVIRONMENT..=crate::layout::BINDING_BRDF_LUT_STORAGE;
+const _: () =
+    assert!(crate::layout::BINDING_ENVIRONMENT == crate::layout::BINDING_REFLECTION_RAYS + 1, "the environment's bindings come last");
+const BINDINGS: usize = 1 + crate::layout::BINDING_BRDF_LUT_STORAGE as usize;
 
 /// A device-local array of records that grows geometrically and shrinks by the
 /// [`Shrink`] rule, never below its initial capacity.
@@ -474,7 +479,22 @@ pub struct GpuScene {
 
 /// The descriptor type of a binding of set 0.
 fn descriptor_type(binding: u32) -> vk::DescriptorType {
-    if binding > TARGET_BINDINGS { vk::DescriptorType::STORAGE_IMAGE } else { vk::DescriptorType::COMBINED_IMAGE_SAMPLER }
+    use crate::layout::{BINDING_BRDF_LUT_STORAGE, BINDING_ENVIRONMENT_LEVELS};
+    let storage = if ENVIRONMENT_BINDINGS.contains(&binding) {
+        binding == BINDING_ENVIRONMENT_LEVELS || binding == BINDING_BRDF_LUT_STORAGE
+    } else {
+        binding > TARGET_BINDINGS
+    };
+    if storage { vk::DescriptorType::STORAGE_IMAGE } else { vk::DescriptorType::COMBINED_IMAGE_SAMPLER }
+}
+
+/// How many descriptors a binding of set 0 holds.
+fn descriptor_count(binding: u32) -> u32 {
+    match binding {
+        0 => MAX_TEXTURES,
+        crate::layout::BINDING_ENVIRONMENT_LEVELS => crate::layout::ENVIRONMENT_LEVEL_VIEWS,
+        _ => 1,
+    }
 }
 
 impl GpuScene {
@@ -494,7 +514,7 @@ impl GpuScene {
             vk::DescriptorSetLayoutBinding::default()
                 .binding(i as u32)
                 .descriptor_type(descriptor_type(i as u32))
-                .descriptor_count(if i == 0 { MAX_TEXTURES } else { 1 })
+                .descriptor_count(descriptor_count(i as u32))
                 .stage_flags(vk::ShaderStageFlags::ALL)
         });
         // SAFETY: create infos point at locals; the objects are destroyed in `destroy`.
@@ -506,10 +526,9 @@ impl GpuScene {
                     .push_next(&mut flags_info),
                 None,
             )?;
-            let sizes = [
-                vk::DescriptorPoolSize { ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER, descriptor_count: MAX_TEXTURES + TARGET_BINDINGS },
-                vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_IMAGE, descriptor_count: STORAGE_BINDINGS },
-            ];
+            let count = |ty| (0..BINDINGS as u32).filter(|&b| descriptor_type(b) == ty).map(descriptor_count).sum();
+            let sizes = [vk::DescriptorType::COMBINED_IMAGE_SAMPLER, vk::DescriptorType::STORAGE_IMAGE]
+                .map(|ty| vk::DescriptorPoolSize { ty, descriptor_count: count(ty) });
             let pool = d.create_descriptor_pool(
                 &vk::DescriptorPoolCreateInfo::default()
                     .max_sets(1)
@@ -621,6 +640,13 @@ impl GpuScene {
         };
         let sampler = if bind.is_storage() { vk::Sampler::null() } else { self.clamp_sampler };
         self.write_descriptor_at(ctx, binding, 0, view, sampler, layout);
+    }
+
+    /// Writes `view` into element `index` of `binding` in the GENERAL layout (the environment's
+    /// images, which its passes write as storage and shading samples), with `sampler` (null for a
+    /// storage binding). Only for elements no pending frame uses.
+    pub fn bind_general(&self, ctx: &GpuContext, binding: u32, index: u32, view: vk::ImageView, sampler: vk::Sampler) {
+        self.write_descriptor_at(ctx, binding, index, view, sampler, vk::ImageLayout::GENERAL);
     }
 
     fn write_descriptor(&self, ctx: &GpuContext, slot: u32, view: vk::ImageView, sampler: vk::Sampler) {

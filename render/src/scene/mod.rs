@@ -482,6 +482,8 @@ pub struct FrameCounters {
     pub scene_blas_refits: u64,
     /// Reflections: the mode applied, and what the GPU measured (`crate::reflections`).
     pub reflections: crate::reflections::ReflectionStats,
+    /// The environment: sources filtered so far and the cubes' face size (`crate::environment`).
+    pub environment: crate::environment::EnvironmentStats,
 }
 
 /// What clustered decals measured on the GPU. The GPU writes these into the cluster buffer and
@@ -704,6 +706,8 @@ pub struct SceneMirror {
     pub decal_materials: SlotTable<GpuDecalMaterial>,
     camera: GpuCamera,
     camera_dirty: bool,
+    /// What lights the scene from all around (`None`: the flat ambient colour).
+    environment: Option<crate::environment::Environment>,
     /// Meshes waiting for upload.
     pub pending_meshes: Vec<(MeshId, MeshData)>,
     /// Posed meshes waiting for a place in the pool: (posed mesh, its skinned source).
@@ -879,6 +883,18 @@ impl SceneMirror {
             self.camera_dirty = true;
             self.counters.records_written += 1;
         }
+    }
+
+    /// The environment ([`crate::environment`]); `None` lights with the flat ambient colour
+    /// and draws the clear colour behind the scene.
+    pub fn environment(&self) -> Option<&crate::environment::Environment> {
+        self.environment.as_ref()
+    }
+
+    /// Sets the environment. A new source (or, for the procedural sky, a new sun) is filtered
+    /// once, on the next frame; intensity and rotation cost nothing.
+    pub fn set_environment(&mut self, environment: Option<crate::environment::Environment>) {
+        self.environment = environment;
     }
 
     /// Returns whether the camera changed since the last call, clearing the flag.

@@ -1,0 +1,549 @@
+//! Image-based light and the sky. Seed 000 (`seeds/000`, §2.3) lists an ambient term among its
+//! renderer's shading options and uses a constant; a game renderer lights with its surroundings
+//! instead. The environment is a procedural sky (the default: its sun is the scene's brightest
+//! directional light, so it follows time of day), an equirectangular HDR map (a Radiance `.hdr`,
+//! loaded by `engine::environment`), or a uniform radiance (the white furnace's), turned about
+//! +Y and scaled by an intensity at no cost.
+//!
+//! **Filtered when the source changes, never per frame** (Bevy #24517 refiltered generated
+//! environment maps every frame, 58 → 13 fps). On such a frame, compute passes:
+//!
+//! 1. `environment_source`: the radiance cube's level 0, from the map (bilinear), the sky or the
+//!    uniform colour; then each further level box-filtered from the one above.
+//! 2. `environment_irradiance`: diffuse irradiance as nine spherical-harmonic coefficients
+//!    (Ramamoorthi and Hanrahan 2001), one workgroup over a 32² level.
+//! 3. `environment_prefilter`: the specular cube, level `i` prefiltered for perceptual roughness
+//!    `i / (levels − 1)` by GGX importance sampling under the split sum's n = v = r (Karis 2013,
+//!    "Real Shading in Unreal Engine 4"), each sample read from the radiance level matching its
+//!    solid angle (Křivánek and Colbert 2008).
+//! 4. Once, the split sum's BRDF table (`shaders/brdf_lut.comp`), integrated with our own
+//!    height-correlated Smith term so the environment's specular matches the lights'.
+//!
+//! Shading (`shaders/include/environment.glsl`, every pipeline, glass and the reflection rays'
+//! hit points) adds the prefiltered radiance × (F0·A + B) × specular occlusion, the irradiance ×
+//! diffuse colour × occlusion, and Fdez-Agüera's (2019) multiple-scattering compensation, so a
+//! white furnace holds for rough metals too. Reflection rays that miss see the environment, and
+//! a traced reflection replaces exactly the prefiltered radiance shading added. The sky pass
+//! draws the radiance cube behind everything, and the procedural sky's sun disc.
+//!
+//! **Design.** The cubes are RGBA16F and live in the GENERAL layout: their passes write them as
+//! storage images (one 2D-array view per level, `BINDING_ENVIRONMENT_LEVELS`) and shading samples
+//! them there, so no pass needs a per-level layout; the frame graph orders the uses through two
+//! logical resources (the images, the record). Their face size is fixed at creation
+//! ([`crate::RendererSettings::environment_resolution`]): a new source refilters into the same
+//! images, so descriptors are written once and nothing is allocated but the job's host-visible
+//! buffer (the map's texels, read by the source pass through its address, and freed after the
+//! frame).
+
+use std::sync::Arc;
+
+use ash::vk;
+use glam::{Vec2, Vec3, Vec4};
+use gpu_allocator::MemoryLocation;
+
+use crate::RenderError;
+use crate::gpu::device::GpuContext;
+use crate::gpu::memory::{Buffer, GPU_WRITTEN, Image, ImageDesc, Retired};
+use crate::gpu::pipeline::create_compute;
+use crate::gpu::shaders;
+use crate::graph::targets::f16_to_f32;
+use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassKind, ResourceId};
+use crate::layout::{
+    BINDING_BRDF_LUT, BINDING_BRDF_LUT_STORAGE, BINDING_ENVIRONMENT, BINDING_ENVIRONMENT_LEVELS, BINDING_ENVIRONMENT_SOURCE, BRDF_LUT_SIZE,
+    ENVIRONMENT_MAP, ENVIRONMENT_ON, ENVIRONMENT_SKY, ENVIRONMENT_SPECULAR_VIEWS, ENVIRONMENT_SUN_DISC, ENVIRONMENT_UNIFORM,
+    GpuEnvironment, GpuEnvironmentJob, LIGHT_DIRECTIONAL,
+};
+use crate::lights::LightFrame;
+use crate::renderer::DebugView;
+use crate::scene::SceneMirror;
+use crate::scene::gpu::GpuScene;
+
+/// Format of the environment's cubes.
+const CUBE_FORMAT: vk::Format = vk::Format::R16G16B16A16_SFLOAT;
+/// Most levels of the specular cube (roughness steps of 0.2; the last level's faces are the
+/// face size / 32).
+pub const MAX_SPECULAR_LEVELS: u32 = 6;
+/// The smallest face size accepted (the irradiance pass's 32² level, a 4-texel last level).
+pub const MIN_RESOLUTION: u32 = 32;
+/// The largest (a 2048² face: an 8k map's detail).
+pub const MAX_RESOLUTION: u32 = 2048;
+/// Angular radius of the procedural sky's sun disc (the real sun's, 0.27°).
+const SUN_DISC_RADIUS: f32 = 0.0047;
+
+/// An equirectangular HDR image: linear RGB radiance, rows from the one looking up (+Y) to the
+/// one looking down, the middle column along +X and longitude growing towards +Z. Shared, not
+/// copied: two maps are the same source when they share their texels.
+#[derive(Clone, Debug)]
+pub struct EnvironmentMap {
+    /// Texels across (longitude).
+    pub width: u32,
+    /// Texels down (latitude).
+    pub height: u32,
+    /// `width × height` RGB texels, row after row.
+    pub texels: Arc<[[f32; 3]]>,
+}
+
+impl PartialEq for EnvironmentMap {
+    /// The same texels (not an equal copy: comparing millions of texels a frame would cost more
+    /// than filtering them).
+    fn eq(&self, other: &Self) -> bool {
+        self.width == other.width && self.height == other.height && Arc::ptr_eq(&self.texels, &other.texels)
+    }
+}
+
+/// What lights the scene from all around.
+#[derive(Clone, Debug, PartialEq)]
+pub enum EnvironmentSource {
+    /// The procedural sky, lit by the scene's brightest directional light (a default sun when
+    /// there is none).
+    Sky,
+    /// An HDR map.
+    Map(EnvironmentMap),
+    /// The same radiance from every direction (a white furnace).
+    Uniform(Vec3),
+}
+
+/// The environment: its source, intensity and rotation. Without one
+/// ([`SceneMirror::set_environment`] with `None`), the flat ambient colour lights the scene and
+/// the clear colour is drawn behind it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Environment {
+    /// Where the radiance comes from.
+    pub source: EnvironmentSource,
+    /// Multiplier of its radiance (applied in shading: changing it refilters nothing).
+    pub intensity: f32,
+    /// Turn about +Y, in radians (applied in shading; the procedural sky ignores it, since its
+    /// sun is the scene's light).
+    pub rotation: f32,
+}
+
+impl Default for Environment {
+    fn default() -> Self {
+        Self { source: EnvironmentSource::Sky, intensity: 1.0, rotation: 0.0 }
+    }
+}
+
+/// What the frame's passes need of the environment: the lighting record's fields and the
+/// resources shading reads.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct EnvironmentFrame {
+    /// Address of the `GpuEnvironment` record (0: no environment).
+    pub record: u64,
+    /// Address of the filtering job on a frame that filters, else 0.
+    pub job: u64,
+    /// `ENVIRONMENT_*` flags.
+    pub flags: u32,
+    /// (cos, sin) of the rotation.
+    pub rotation: Vec2,
+    /// Radiance multiplier.
+    pub intensity: f32,
+    /// The specular cube's last level.
+    pub max_level: f32,
+    /// What shading reads: the images (sampled) and the record (storage).
+    pub reads: Option<[ResourceId; 2]>,
+    /// Whether this frame filters a new source.
+    pub filters: bool,
+}
+
+impl EnvironmentFrame {
+    /// Whether an environment lights this frame.
+    pub fn on(&self) -> bool {
+        self.flags & ENVIRONMENT_ON != 0
+    }
+}
+
+/// One level of an environment cube read back ([`crate::Renderer::read_environment`]).
+#[derive(Clone, Debug)]
+pub struct CubeLevel {
+    /// Side of its faces in texels.
+    pub size: u32,
+    /// Linear RGBA texels, face after face (+X, −X, +Y, −Y, +Z, −Z), rows downwards.
+    pub texels: Vec<[f32; 4]>,
+}
+
+/// The GPU images of an environment, made on first use and kept.
+struct Cubes {
+    source: Image,
+    specular: Image,
+    lut: Image,
+    /// One 2D-array view per level: the source's, then the specular cube's.
+    level_views: Vec<vk::ImageView>,
+    record: Buffer,
+    sampler: vk::Sampler,
+    /// The images have not been written yet (their first pass moves them to GENERAL).
+    fresh: bool,
+}
+
+/// What the last filtered source was (a new one refilters).
+#[derive(Clone, Debug, PartialEq)]
+enum Filtered {
+    Sky { sun: Vec3, color: Vec3 },
+    Map(EnvironmentMap),
+    Uniform(Vec3),
+}
+
+/// Counters of the environment's work.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct EnvironmentStats {
+    /// Times a source was filtered since the renderer started.
+    pub filtered: u64,
+    /// Face size of the cubes (0 before an environment is first used).
+    pub resolution: u32,
+}
+
+/// The environment's passes and images.
+pub struct Environments {
+    source: vk::Pipeline,
+    downsample: vk::Pipeline,
+    irradiance: vk::Pipeline,
+    prefilter: vk::Pipeline,
+    lut: vk::Pipeline,
+    sky: vk::Pipeline,
+    resolution: u32,
+    cubes: Option<Cubes>,
+    filtered: Option<Filtered>,
+    /// The job of a frame that filters (buried after it).
+    job: Option<Buffer>,
+    warned_bad_map: bool,
+    images_res: ResourceId,
+    record_res: ResourceId,
+    /// Counters.
+    pub stats: EnvironmentStats,
+}
+
+/// The brightest directional light of the scene as the sun: its direction towards the light and
+/// its illuminance; a default sun high in the south-west when there is none.
+fn sun_of(mirror: &SceneMirror) -> (Vec3, Vec3) {
+    let luminance = |c: Vec3| c.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+    mirror
+        .lights
+        .records()
+        .iter()
+        .filter(|l| l.kind == LIGHT_DIRECTIONAL)
+        .max_by(|a, b| luminance(a.color).total_cmp(&luminance(b.color)))
+        .map(|l| (-l.direction.normalize_or(Vec3::NEG_Y), l.color))
+        .unwrap_or((Vec3::new(0.4, 0.8, 0.45).normalize(), Vec3::splat(4.0)))
+}
+
+impl Environments {
+    /// Creates the pipelines; images are made when an environment is first used, with faces of
+    /// `resolution` texels (clamped to [`MIN_RESOLUTION`]..=[`MAX_RESOLUTION`], a power of two).
+    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout, resolution: u32) -> Result<Self, RenderError> {
+        let compute = |name, spirv| create_compute(ctx, layout, name, spirv);
+        Ok(Self {
+            source: compute("environment source", shaders::ENVIRONMENT_SOURCE_COMP)?,
+            downsample: compute("environment downsample", shaders::ENVIRONMENT_DOWNSAMPLE_COMP)?,
+            irradiance: compute("environment irradiance", shaders::ENVIRONMENT_IRRADIANCE_COMP)?,
+            prefilter: compute("environment prefilter", shaders::ENVIRONMENT_PREFILTER_COMP)?,
+            lut: compute("brdf table", shaders::BRDF_LUT_COMP)?,
+            sky: compute("sky", shaders::SKY_COMP)?,
+            resolution: resolution.clamp(MIN_RESOLUTION, MAX_RESOLUTION).next_power_of_two(),
+            cubes: None,
+            filtered: None,
+            job: None,
+            warned_bad_map: false,
+            images_res: graph.resource("environment images"),
+            record_res: graph.resource("environment record"),
+            stats: EnvironmentStats::default(),
+        })
+    }
+
+    fn source_levels(&self) -> u32 {
+        self.resolution.ilog2() + 1
+    }
+
+    fn specular_levels(&self) -> u32 {
+        self.source_levels().min(MAX_SPECULAR_LEVELS)
+    }
+
+    /// Makes the images on first use and binds them.
+    fn cubes(&mut self, ctx: &GpuContext, scene: &GpuScene) -> Result<&mut Cubes, RenderError> {
+        if self.cubes.is_none() {
+            let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::SAMPLED;
+            let extent = vk::Extent2D { width: self.resolution, height: self.resolution };
+            let desc = |name, mip_levels| ImageDesc { name, format: CUBE_FORMAT, extent, mip_levels, usage };
+            let source = Image::cube(ctx, &desc("environment radiance", self.source_levels()))?;
+            let specular = Image::cube(ctx, &desc("environment specular", self.specular_levels()))?;
+            let lut_extent = vk::Extent2D { width: BRDF_LUT_SIZE, height: BRDF_LUT_SIZE };
+            let lut = Image::new(
+                ctx,
+                &ImageDesc { name: "brdf table", format: vk::Format::R16G16_SFLOAT, extent: lut_extent, mip_levels: 1, usage },
+            )?;
+            let mut level_views = Vec::new();
+            for level in 0..source.mip_levels {
+                level_views.push(source.level_view(ctx, level)?);
+            }
+            for level in 0..specular.mip_levels {
+                level_views.push(specular.level_view(ctx, level)?);
+            }
+            let record = Buffer::new(ctx, "environment record", size_of::<GpuEnvironment>() as u64, GPU_WRITTEN, MemoryLocation::GpuOnly)?;
+            // SAFETY: a valid create info; destroyed in `destroy`.
+            let sampler = unsafe {
+                ctx.device.create_sampler(
+                    &vk::SamplerCreateInfo::default()
+                        .mag_filter(vk::Filter::LINEAR)
+                        .min_filter(vk::Filter::LINEAR)
+                        .mipmap_mode(vk::SamplerMipmapMode::LINEAR)
+                        .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+                        .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+                        .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+                        .max_lod(vk::LOD_CLAMP_NONE),
+                    None,
+                )?
+            };
+            scene.bind_general(ctx, BINDING_ENVIRONMENT, 0, specular.view, sampler);
+            scene.bind_general(ctx, BINDING_ENVIRONMENT_SOURCE, 0, source.view, sampler);
+            scene.bind_general(ctx, BINDING_BRDF_LUT, 0, lut.view, sampler);
+            scene.bind_general(ctx, BINDING_BRDF_LUT_STORAGE, 0, lut.view, vk::Sampler::null());
+            for (i, &view) in level_views.iter().enumerate() {
+                let index =
+                    if (i as u32) < source.mip_levels { i as u32 } else { ENVIRONMENT_SPECULAR_VIEWS + i as u32 - source.mip_levels };
+                scene.bind_general(ctx, BINDING_ENVIRONMENT_LEVELS, index, view, vk::Sampler::null());
+            }
+            self.stats.resolution = self.resolution;
+            self.cubes = Some(Cubes { source, specular, lut, level_views, record, sampler, fresh: true });
+        }
+        Ok(self.cubes.as_mut().expect("made above"))
+    }
+
+    /// Decides what this frame does with the environment: nothing without one; else makes the
+    /// images on first use and, when the source (or the procedural sky's sun) changed, writes the
+    /// filtering job for [`Environments::record`]. Call before the lighting record is set.
+    pub fn prepare(&mut self, f: &mut Frame, scene: &GpuScene, mirror: &SceneMirror) -> Result<EnvironmentFrame, RenderError> {
+        let Some(env) = mirror.environment() else {
+            return Ok(EnvironmentFrame::default());
+        };
+        let (sun, sun_color) = sun_of(mirror);
+        let sky = EnvironmentSource::Sky;
+        let source = match &env.source {
+            EnvironmentSource::Map(m) if m.width == 0 || m.height == 0 || m.texels.len() != m.width as usize * m.height as usize => {
+                if !self.warned_bad_map {
+                    tracing::warn!(
+                        m.width,
+                        m.height,
+                        texels = m.texels.len(),
+                        "environment map's size and texels disagree; the procedural sky lights the scene"
+                    );
+                    self.warned_bad_map = true;
+                }
+                &sky
+            }
+            s => s,
+        };
+        let wanted = match source {
+            EnvironmentSource::Sky => Filtered::Sky { sun, color: sun_color },
+            EnvironmentSource::Map(map) => Filtered::Map(map.clone()),
+            EnvironmentSource::Uniform(c) => Filtered::Uniform(*c),
+        };
+        let filters = match (&self.filtered, &wanted) {
+            (Some(Filtered::Sky { sun: a, color: ca }), Filtered::Sky { sun: b, color: cb }) => {
+                a.dot(*b) < 0.99999 || (*ca - *cb).abs().max_element() > 1e-4 * cb.max_element().max(1e-3)
+            }
+            (old, new) => old.as_ref() != Some(new),
+        };
+        let (source_levels, specular_levels, resolution) = (self.source_levels(), self.specular_levels(), self.resolution);
+        let cubes = self.cubes(f.ctx, scene)?;
+        let record = cubes.record.address;
+        let mut job = 0;
+        if filters {
+            let mut record = GpuEnvironmentJob {
+                sun: sun.extend(SUN_DISC_RADIUS.cos()),
+                sun_color: sun_color.extend(0.0),
+                color: Vec4::ZERO,
+                source: 0,
+                source_size: [0, 0],
+                mode: ENVIRONMENT_SKY,
+                face: resolution,
+                source_levels,
+                specular_levels,
+            };
+            let texels: &[[f32; 3]] = match source {
+                EnvironmentSource::Map(map) => {
+                    record.mode = ENVIRONMENT_MAP;
+                    record.source_size = [map.width, map.height];
+                    &map.texels
+                }
+                EnvironmentSource::Uniform(c) => {
+                    record.mode = ENVIRONMENT_UNIFORM;
+                    record.color = c.extend(1.0);
+                    &[]
+                }
+                EnvironmentSource::Sky => &[],
+            };
+            let header = size_of::<GpuEnvironmentJob>().next_multiple_of(256);
+            let bytes = header + std::mem::size_of_val(texels);
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+            let mut buffer = Buffer::new(f.ctx, "environment job", bytes as u64, usage, MemoryLocation::CpuToGpu)?;
+            if !texels.is_empty() {
+                record.source = buffer.address + header as u64;
+            }
+            let mapped = buffer.mapped();
+            mapped[..size_of::<GpuEnvironmentJob>()].copy_from_slice(bytemuck::bytes_of(&record));
+            mapped[header..bytes].copy_from_slice(bytemuck::cast_slice(texels));
+            job = buffer.address;
+            f.upload.bytes += bytes as u64;
+            self.job = Some(buffer);
+            self.filtered = Some(wanted);
+            self.stats.filtered += 1;
+        }
+        let sky = matches!(source, EnvironmentSource::Sky);
+        let turns = if sky { 0.0 } else { env.rotation };
+        Ok(EnvironmentFrame {
+            record,
+            job,
+            flags: ENVIRONMENT_ON | if sky { ENVIRONMENT_SUN_DISC } else { 0 },
+            rotation: Vec2::new(turns.cos(), turns.sin()),
+            intensity: env.intensity.max(0.0),
+            max_level: (specular_levels - 1) as f32,
+            reads: Some([self.images_res, self.record_res]),
+            filters,
+        })
+    }
+
+    /// Records the filtering passes on a frame that filters (after the lighting record's
+    /// upload): the radiance cube and its levels, the irradiance, the specular cube, and the
+    /// BRDF table the first time. The job's buffer is freed after the frame.
+    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, frame: &EnvironmentFrame) -> Result<(), RenderError> {
+        if !frame.filters {
+            return Ok(());
+        }
+        let (images, record) = (self.images_res, self.record_res);
+        let cubes = self.cubes.as_mut().expect("prepare made the images");
+        let fresh = std::mem::take(&mut cubes.fresh);
+        let new_images = if fresh {
+            vec![
+                (cubes.source.raw, cubes.source.full_range()),
+                (cubes.specular.raw, cubes.specular.full_range()),
+                (cubes.lut.raw, cubes.lut.full_range()),
+            ]
+        } else {
+            Vec::new()
+        };
+        let face = self.resolution;
+        let groups = |level: u32| (face >> level).max(1).div_ceil(8);
+        let tables = scene.res.tables;
+        let pipeline = self.source;
+        f.pass("environment_source", PassKind::Compute).read(tables, BufferUse::Storage).storage_images(images, new_images).record(
+            |p| {
+                p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
+                // SAFETY: recording outside a rendering scope with the pipeline bound.
+                unsafe { p.ctx.device.cmd_dispatch(p.cmd, groups(0), groups(0), 6) };
+            },
+        )?;
+        for level in 1..self.source_levels() {
+            let pipeline = self.downsample;
+            f.pass("environment_downsample", PassKind::Compute)
+                .read(tables, BufferUse::Storage)
+                .read(images, BufferUse::SampledImages)
+                .write(images, BufferUse::Storage)
+                .record(|p| {
+                    let push = crate::gpu::pipeline::ScenePush { texture_index: level, ..p.push };
+                    p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &push);
+                    // SAFETY: as above.
+                    unsafe { p.ctx.device.cmd_dispatch(p.cmd, groups(level), groups(level), 6) };
+                })?;
+        }
+        let pipeline = self.irradiance;
+        f.pass("environment_irradiance", PassKind::Compute)
+            .read(tables, BufferUse::Storage)
+            .read(images, BufferUse::SampledImages)
+            .write(record, BufferUse::Storage)
+            .record(|p| {
+                p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
+                // SAFETY: as above.
+                unsafe { p.ctx.device.cmd_dispatch(p.cmd, 1, 1, 1) };
+            })?;
+        for level in 0..self.specular_levels() {
+            let pipeline = self.prefilter;
+            f.pass("environment_prefilter", PassKind::Compute)
+                .read(tables, BufferUse::Storage)
+                .read(images, BufferUse::SampledImages)
+                .write(images, BufferUse::Storage)
+                .record(|p| {
+                    let push = crate::gpu::pipeline::ScenePush { texture_index: level, ..p.push };
+                    p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &push);
+                    // SAFETY: as above.
+                    unsafe { p.ctx.device.cmd_dispatch(p.cmd, groups(level), groups(level), 6) };
+                })?;
+        }
+        if fresh {
+            let pipeline = self.lut;
+            f.pass("brdf_table", PassKind::Compute).write(images, BufferUse::Storage).record(|p| {
+                p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
+                let groups = BRDF_LUT_SIZE.div_ceil(8);
+                // SAFETY: as above.
+                unsafe { p.ctx.device.cmd_dispatch(p.cmd, groups, groups, 1) };
+            })?;
+        }
+        if let Some(job) = self.job.take() {
+            f.upload.graveyard.bury(f.upload.frame_value, Retired::Buffer(job));
+        }
+        Ok(())
+    }
+
+    /// The sky pass: where no geometry was drawn, the environment in the view direction (after
+    /// the opaque shading, before reflections and glass). Nothing without an environment, nor
+    /// in the debug views but the reflections'.
+    pub fn sky(&self, f: &mut Frame, scene: &GpuScene, lights: &LightFrame, view: DebugView) -> Result<(), RenderError> {
+        // Debug views show their values over the clear colour.
+        if lights.environment.is_none() || !matches!(view, DebugView::Lit | DebugView::Reflections) {
+            return Ok(());
+        }
+        let pipeline = self.sky;
+        f.pass("sky", PassKind::Compute)
+            .read(scene.res.tables, BufferUse::Storage)
+            .reads(lights.environment_reads())
+            .sample(&crate::graph::targets::DEPTH)
+            .image(&crate::graph::targets::HDR, ImageUse::StorageWrite)
+            .record(|p| {
+                p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
+                // SAFETY: as above.
+                unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
+            })
+    }
+
+    /// Level `level` of the radiance cube (`specular` false) or of the specular cube, as
+    /// linear RGBA texels, face after face (+X, −X, +Y, −Y, +Z, −Z; rows downwards), and the
+    /// level's side; `None` before an environment was first used. Waits for the GPU; for tests.
+    pub fn read_level(
+        &self,
+        ctx: &GpuContext,
+        graph: &mut FrameGraph,
+        specular: bool,
+        level: u32,
+    ) -> Result<Option<CubeLevel>, RenderError> {
+        let Some(cubes) = &self.cubes else { return Ok(None) };
+        let image = if specular { &cubes.specular } else { &cubes.source };
+        if level >= image.mip_levels {
+            return Err(RenderError::Other(format!("the environment cube has {} levels, not {}", image.mip_levels, level + 1)));
+        }
+        let bytes = graph.read_back_general_image(ctx, self.images_res, image, level, 8)?;
+        let texels =
+            bytes.chunks_exact(8).map(|px| std::array::from_fn(|c| f16_to_f32(u16::from_le_bytes([px[c * 2], px[c * 2 + 1]])))).collect();
+        Ok(Some(CubeLevel { size: (image.extent.width >> level).max(1), texels }))
+    }
+
+    /// Destroys everything; the GPU must be idle.
+    pub fn destroy(mut self, ctx: &GpuContext) {
+        for p in [self.source, self.downsample, self.irradiance, self.prefilter, self.lut, self.sky] {
+            // SAFETY: the GPU is idle.
+            unsafe { ctx.device.destroy_pipeline(p, None) };
+        }
+        if let Some(c) = self.cubes.take() {
+            // SAFETY: the GPU is idle.
+            unsafe {
+                for v in c.level_views {
+                    ctx.device.destroy_image_view(v, None);
+                }
+                ctx.device.destroy_sampler(c.sampler, None);
+            }
+            c.source.destroy(ctx);
+            c.specular.destroy(ctx);
+            c.lut.destroy(ctx);
+            c.record.destroy(ctx);
+        }
+        if let Some(j) = self.job.take() {
+            j.destroy(ctx);
+        }
+    }
+}
