@@ -1015,8 +1015,8 @@ layout! {
         pub reflection_hiz: u64,
         /// Address of the environment record (`GpuEnvironment`; 0 without an environment).
         pub environment: u64,
-        /// Address of the environment's filtering job (`GpuEnvironmentJob`) on the frame that
-        /// filters a new source, else 0.
+        /// Address of the environment's last filtering job (`GpuEnvironmentJob`; 0 before the
+        /// first), which the filtering passes read on the frame that filters it.
         pub environment_job: u64,
         /// The environment's rotation about +Y as (cos, sin).
         pub environment_rotation: Vec2,
@@ -1043,8 +1043,9 @@ layout! {
         pub sun_color: Vec4,
         /// The uniform environment's radiance (`ENVIRONMENT_UNIFORM`).
         pub color: Vec4,
-        /// Address of the equirectangular map's texels (`ENVIRONMENT_MAP`): RGB32F rows, the
-        /// first looking up (+Y), the middle column along +X, longitude growing towards +Z.
+        /// Address of the equirectangular map's texels (`ENVIRONMENT_MAP`; valid on the frame
+        /// that filters the job only): RGB32F rows, the first looking up (+Y), the middle column
+        /// along +X, longitude growing towards +Z.
         pub source: u64,
         /// The map's width and height in texels.
         pub source_size: [u32; 2],

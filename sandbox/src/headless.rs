@@ -107,6 +107,9 @@ pub struct HeadlessOptions {
     pub compare_culling: bool,
     /// What lights the scene from all around (default: the procedural sky).
     pub environment: engine::environment::Environment,
+    /// Run `frames` frames with no environment, the procedural sky, then `environment` if it
+    /// is a map, then none again (the first run warms up).
+    pub compare_environment: bool,
     /// Face size of the environment's cubes ([`RendererSettings::environment_resolution`]).
     pub environment_resolution: u32,
     /// Run `frames` frames with reflections off, then at full and half resolution, each with and
@@ -173,6 +176,8 @@ pub struct Run {
     pub culling: render::CullingMode,
     /// Reflections.
     pub reflections: render::ReflectionSettings,
+    /// The environment, as an index into the comparison's environments (`None`: as it is).
+    pub environment: Option<usize>,
 }
 
 /// Light counts of seed 002's Tables 4.2–4.5.
@@ -286,6 +291,7 @@ impl Default for HeadlessOptions {
             culling: render::CullingMode::Occlusion,
             compare_culling: false,
             environment: engine::environment::Environment::default(),
+            compare_environment: false,
             environment_resolution: RendererSettings::default().environment_resolution,
             compare_reflections: false,
             instances: crate::bench::MANY_INSTANCES,
@@ -431,8 +437,17 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
         spot_lights: None,
         culling: opts.culling,
         reflections: opts.reflections,
+        environment: None,
     };
     let mut combos: Vec<Run> = Vec::new();
+    // --compare-environment: none, the procedural sky, then the options' map if it is one.
+    let mut environments = vec![
+        engine::environment::Environment { source: engine::environment::EnvironmentSource::None, ..opts.environment.clone() },
+        engine::environment::Environment { source: engine::environment::EnvironmentSource::Sky, ..opts.environment.clone() },
+    ];
+    if matches!(opts.environment.source, engine::environment::EnvironmentSource::Map(_)) {
+        environments.push(opts.environment.clone());
+    }
     if opts.compare {
         let set = compare_set(app.world.resource::<GpuRenderer>().0.ray_support());
         combos.extend(set.into_iter().map(|(pipeline, decal_method)| Run { pipeline, decal_method, ..base }));
@@ -467,6 +482,10 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
         combos.push(Run { reflections: screen, ..base });
         combos.push(off);
     }
+    if opts.compare_environment {
+        // None first and last: the first run also warms the GPU up.
+        combos.extend((0..environments.len()).chain([0]).map(|i| Run { environment: Some(i), ..base }));
+    }
     let total = opts.frames as usize * combos.len().max(1);
     let mut frames = Vec::with_capacity(total);
     for i in 0..total {
@@ -479,6 +498,9 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
             settings.refraction = run.refraction;
             settings.culling = run.culling;
             settings.reflections = run.reflections;
+            if let Some(i) = run.environment {
+                app.insert_resource(environments[i].clone());
+            }
             let spot_lights = app.world.query_filtered::<(), bevy_ecs::query::With<crate::bench::BenchSpot>>().iter(&app.world).count();
             if let Some(count) = run.spot_lights.filter(|&c| c != spot_lights) {
                 crate::bench::set_spot_lights(&mut app.world, count);
@@ -525,8 +547,8 @@ fn create(path: &Path) -> Result<std::fs::File> {
 }
 
 /// Frames a loaded model ([`engine::scene::frame_scene`]: a camera whose near plane follows the
-/// model's size, and lights when it brings none); without image-based lighting metals would be
-/// black, so a brighter ambient stands in when the lights were added.
+/// model's size, and lights when it brings none); with `--environment none` metals would be black
+/// but for their highlights, so a brighter ambient stands in when the lights were added.
 pub fn frame_scene(world: &mut World) {
     if engine::scene::frame_scene(world).lights_spawned
         && let Some(mut settings) = world.get_resource_mut::<plugins::RenderSettings>()

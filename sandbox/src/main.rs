@@ -207,6 +207,10 @@ struct Cli {
     /// Face size of the environment's cube maps in texels (32 to 2048).
     #[arg(long, default_value_t = render::RendererSettings::default().environment_resolution)]
     environment_resolution: u32,
+    /// Run --frames frames with no environment, the procedural sky, then the --environment map
+    /// if one is given, then none again (the first run warms up).
+    #[arg(long)]
+    compare_environment: bool,
     /// Run --frames frames with each culling mode in turn (off, frustum, occlusion).
     #[arg(long)]
     compare_culling: bool,
@@ -373,6 +377,7 @@ fn main() -> Result<()> {
         compare_culling: cli.compare_culling,
         environment,
         environment_resolution: cli.environment_resolution,
+        compare_environment: cli.compare_environment,
         instances: cli.instances,
     };
     if windowed {

@@ -26,6 +26,10 @@
 //! what the GPU measured two frames earlier: `pixels` (that reflect), `rays`, `hits` (the rest
 //! saw the sky), `decals_tested` and `lights_found` at the hit points, `through_glass`.
 //!
+//! Environment: `environment`: `filtered` (sources filtered since the start: a frame that
+//! refilters nothing leaves it unchanged) and `resolution` (the cubes' face size; 0 before an
+//! environment was first used).
+//!
 //! Lights: `light_method` (applied: `all`, `tiled` or `ray_query`), `shadows` (`ray_query`, `ray_pipeline`, `maps`
 //! (devices without ray tracing, or `--shadow-maps`), or `none`), `lights` (the settings:
 //! `tile_size`, `aabb`, `shadow_ray_culling`, `normals`, `coloured_shadows`), the counters `scene_blas_builds`,
@@ -120,6 +124,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
         },
         "culling": culling_json(&c.culling),
         "reflections": reflections_json(&c.reflections),
+        "environment": { "filtered": c.environment.filtered, "resolution": c.environment.resolution },
     });
     if stats.decal_method == render::DecalMethod::Clustered {
         value["clusters"] = clusters_json(&c.clusters);

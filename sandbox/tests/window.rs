@@ -116,7 +116,9 @@ fn windowed_sandbox_shows_scene_and_overlay_survives_a_resize_and_exits_cleanly(
             };
             let window = region(&pixels);
             // The most seen in any screenshot (the window shrinks halfway through).
-            sky = sky.max(window.iter().filter(|p| near(**p, [151, 171, 197], 12)).count());
+            // The procedural sky: blue well above red (the walls are red, the floor grey).
+            let blue = |p: &[u8; 3]| p[2] > 80 && i32::from(p[2]) > i32::from(p[0]) + 20 && p[2] >= p[1];
+            sky = sky.max(window.iter().filter(|p| blue(p)).count());
             // egui's dark theme fills windows with (20, 20, 20) once blended to sRGB.
             panel = panel.max(window.iter().filter(|p| near(**p, [20, 20, 20], 4)).count());
             if sky > 20_000 && panel > 20_000 && !pressed_f12 {

@@ -46,8 +46,14 @@ fn test_map(width: u32) -> HdrImage {
 }
 
 fn app(w: u32, h: u32, pipeline: PipelineKind, environment: Environment) -> App {
-    let settings = RenderSettings { pipeline, clear_color: [0.0; 4], ..Default::default() };
-    let renderer_settings = RendererSettings { shadow_maps: TEST_SHADOW_MAPS, environment_resolution: RESOLUTION, ..Default::default() };
+    app_on(w, h, RenderSettings { pipeline, ..Default::default() }, render::Tier::RayQuery, environment)
+}
+
+fn app_on(w: u32, h: u32, settings: RenderSettings, tier: render::Tier, environment: Environment) -> App {
+    let settings = RenderSettings { clear_color: [0.0; 4], ..settings };
+    let device = render::DeviceSettings { max_tier: tier, ..Default::default() };
+    let renderer_settings =
+        RendererSettings { device, shadow_maps: TEST_SHADOW_MAPS, environment_resolution: RESOLUTION, ..Default::default() };
     let mut app = gpu_app_with(w, h, settings, &renderer_settings);
     app.insert_resource(environment);
     app
@@ -93,9 +99,22 @@ fn relative_error(got: Vec3, want: Vec3) -> f32 {
 #[test]
 fn a_white_furnace_holds_in_every_pipeline() {
     let (w, h) = (96u32, 64u32);
-    for pipeline in [PipelineKind::Forward, PipelineKind::ForwardPlus, PipelineKind::Deferred, PipelineKind::VisBuffer] {
+    use render::Tier::{RayQuery, RayTracingPipeline};
+    let compute = RenderSettings::default();
+    let fragment = RenderSettings { compute_shading: false, ..compute.clone() };
+    let runs = [
+        (PipelineKind::Forward, &compute, RayQuery),
+        (PipelineKind::ForwardPlus, &compute, RayQuery),
+        (PipelineKind::Deferred, &compute, RayQuery),
+        (PipelineKind::VisBuffer, &compute, RayQuery),
+        // Full-screen fragment shading, and reflection rays from a ray-generation shader.
+        (PipelineKind::Deferred, &fragment, RayQuery),
+        (PipelineKind::VisBuffer, &fragment, RayQuery),
+        (PipelineKind::Deferred, &compute, RayTracingPipeline),
+    ];
+    for (pipeline, settings, tier) in runs {
         let furnace = Environment { source: EnvironmentSource::Uniform(Vec3::ONE), ..Default::default() };
-        let mut app = app(w, h, pipeline, furnace);
+        let mut app = app_on(w, h, RenderSettings { pipeline, ..settings.clone() }, tier, furnace);
         // White diffuse, a glossy white metal the reflection rays trace, a rough white metal
         // (where single scattering alone would lose a fifth of the energy).
         sphere(&mut app, Vec3::new(-1.1, 0.0, 0.0), 0.5, Vec3::ONE, 0.0, 0.6);
@@ -125,9 +144,10 @@ fn a_white_furnace_holds_in_every_pipeline() {
                 }
             }
         }
-        assert!(covered > 500, "{pipeline:?}: the spheres cover {covered} pixels");
+        let run = format!("{pipeline:?}, compute shading {}, {tier:?}", settings.compute_shading);
+        assert!(covered > 500, "{run}: the spheres cover {covered} pixels");
         let mean = sum / covered as f32;
-        assert!(worst < 0.02 && mean < 0.01, "{pipeline:?}: furnace error mean {mean:.4}, worst {worst:.4} (want < 1 %, 2 %)");
+        assert!(worst < 0.02 && mean < 0.01, "{run}: furnace error mean {mean:.4}, worst {worst:.4} (want < 1 %, 2 %)");
     }
 }
 

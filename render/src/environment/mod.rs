@@ -32,7 +32,8 @@
 //! logical resources (the images, the record). Their face size is fixed at creation
 //! ([`crate::RendererSettings::environment_resolution`]): a new source refilters into the same
 //! images, so descriptors are written once and nothing is allocated but the job's host-visible
-//! buffer (the map's texels, read by the source pass through its address, and freed after the
+//! buffers (its parameters, kept until the next job so that the lighting record does not change
+//! again; a map's texels, read by the source pass through their address, and freed after the
 //! frame).
 
 use std::sync::Arc;
@@ -129,7 +130,7 @@ impl Default for Environment {
 pub struct EnvironmentFrame {
     /// Address of the `GpuEnvironment` record (0: no environment).
     pub record: u64,
-    /// Address of the filtering job on a frame that filters, else 0.
+    /// Address of the last filtering job (0 before the first).
     pub job: u64,
     /// `ENVIRONMENT_*` flags.
     pub flags: u32,
@@ -202,8 +203,11 @@ pub struct Environments {
     resolution: u32,
     cubes: Option<Cubes>,
     filtered: Option<Filtered>,
-    /// The job of a frame that filters (buried after it).
+    /// The last filtering job (`GpuEnvironmentJob`), kept until the next so that the lighting
+    /// record's address stays valid and unchanged.
     job: Option<Buffer>,
+    /// The map's texels on a frame that filters one (freed after it).
+    texels: Option<Buffer>,
     warned_bad_map: bool,
     images_res: ResourceId,
     record_res: ResourceId,
@@ -241,6 +245,7 @@ impl Environments {
             cubes: None,
             filtered: None,
             job: None,
+            texels: None,
             warned_bad_map: false,
             images_res: graph.resource("environment images"),
             record_res: graph.resource("environment record"),
@@ -344,7 +349,6 @@ impl Environments {
         let (source_levels, specular_levels, resolution) = (self.source_levels(), self.specular_levels(), self.resolution);
         let cubes = self.cubes(f.ctx, scene)?;
         let record = cubes.record.address;
-        let mut job = 0;
         if filters {
             let mut record = GpuEnvironmentJob {
                 sun: sun.extend(SUN_DISC_RADIUS.cos()),
@@ -370,19 +374,21 @@ impl Environments {
                 }
                 EnvironmentSource::Sky => &[],
             };
-            let header = size_of::<GpuEnvironmentJob>().next_multiple_of(256);
-            let bytes = header + std::mem::size_of_val(texels);
             let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
-            let mut buffer = Buffer::new(f.ctx, "environment job", bytes as u64, usage, MemoryLocation::CpuToGpu)?;
             if !texels.is_empty() {
-                record.source = buffer.address + header as u64;
+                let bytes = std::mem::size_of_val(texels) as u64;
+                let mut buffer = Buffer::new(f.ctx, "environment map texels", bytes, usage, MemoryLocation::CpuToGpu)?;
+                buffer.mapped()[..bytes as usize].copy_from_slice(bytemuck::cast_slice(texels));
+                record.source = buffer.address;
+                f.upload.bytes += bytes;
+                self.texels = Some(buffer);
             }
-            let mapped = buffer.mapped();
-            mapped[..size_of::<GpuEnvironmentJob>()].copy_from_slice(bytemuck::bytes_of(&record));
-            mapped[header..bytes].copy_from_slice(bytemuck::cast_slice(texels));
-            job = buffer.address;
-            f.upload.bytes += bytes as u64;
-            self.job = Some(buffer);
+            let mut buffer = Buffer::new(f.ctx, "environment job", size_of::<GpuEnvironmentJob>() as u64, usage, MemoryLocation::CpuToGpu)?;
+            buffer.mapped()[..size_of::<GpuEnvironmentJob>()].copy_from_slice(bytemuck::bytes_of(&record));
+            f.upload.bytes += size_of::<GpuEnvironmentJob>() as u64;
+            if let Some(old) = self.job.replace(buffer) {
+                f.upload.graveyard.bury(f.upload.frame_value, Retired::Buffer(old));
+            }
             self.filtered = Some(wanted);
             self.stats.filtered += 1;
         }
@@ -390,7 +396,7 @@ impl Environments {
         let turns = if sky { 0.0 } else { env.rotation };
         Ok(EnvironmentFrame {
             record,
-            job,
+            job: self.job.as_ref().map_or(0, |j| j.address),
             flags: ENVIRONMENT_ON | if sky { ENVIRONMENT_SUN_DISC } else { 0 },
             rotation: Vec2::new(turns.cos(), turns.sin()),
             intensity: env.intensity.max(0.0),
@@ -475,8 +481,8 @@ impl Environments {
                 unsafe { p.ctx.device.cmd_dispatch(p.cmd, groups, groups, 1) };
             })?;
         }
-        if let Some(job) = self.job.take() {
-            f.upload.graveyard.bury(f.upload.frame_value, Retired::Buffer(job));
+        if let Some(texels) = self.texels.take() {
+            f.upload.graveyard.bury(f.upload.frame_value, Retired::Buffer(texels));
         }
         Ok(())
     }
@@ -542,8 +548,8 @@ impl Environments {
             c.lut.destroy(ctx);
             c.record.destroy(ctx);
         }
-        if let Some(j) = self.job.take() {
-            j.destroy(ctx);
+        for b in [self.job.take(), self.texels.take()].into_iter().flatten() {
+            b.destroy(ctx);
         }
     }
 }

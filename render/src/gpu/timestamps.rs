@@ -9,16 +9,22 @@ use crate::RenderError;
 use crate::gpu::device::GpuContext;
 
 /// Most passes one frame can time (a deferred frame with two-phase culling, shadows, decals and
-/// glass records about 20).
-pub const MAX_PASSES: usize = 32;
+/// glass records about 20; a frame that filters a new environment about 20 more).
+pub const MAX_PASSES: usize = 64;
 
 /// GPU milliseconds per pass for one frame, in recording order; no heap allocation.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PassTimes {
     entries: [(&'static str, f32); MAX_PASSES],
     len: usize,
     /// From the first pass's start to the last pass's end.
     pub total_ms: f32,
+}
+
+impl Default for PassTimes {
+    fn default() -> Self {
+        Self { entries: [("", 0.0); MAX_PASSES], len: 0, total_ms: 0.0 }
+    }
 }
 
 impl PassTimes {
