@@ -9,7 +9,7 @@ layout(set = 0, binding = BINDING_ANTIALIASED_STORAGE, rgba16f) uniform writeonl
 layout(local_size_x = 8, local_size_y = 8) in;
 
 vec3 fxaa_display(vec2 uv) {
-    return pbr_neutral(texture(hdr_target, uv).rgb * scene.camera.camera.exposure);
+    return tonemap(texture(hdr_target, uv).rgb * scene.camera.camera.exposure, scene.lighting.lighting.tonemapper);
 }
 
 #include "fxaa.glsl"

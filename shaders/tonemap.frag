@@ -12,6 +12,6 @@ void main() {
 #ifdef ANTIALIASED
     out_color = vec4(texelFetch(antialiased, ivec2(gl_FragCoord.xy), 0).rgb, 1.0);
 #else
-    out_color = vec4(pbr_neutral(texture(hdr_target, v_uv).rgb * scene.camera.camera.exposure), 1.0);
+    out_color = vec4(tonemap(texture(hdr_target, v_uv).rgb * scene.camera.camera.exposure, scene.lighting.lighting.tonemapper), 1.0);
 #endif
 }

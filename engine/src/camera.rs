@@ -18,7 +18,8 @@ pub struct Camera {
     pub fov_y: f32,
     /// Distance to the near plane in metres (the far plane is at infinity).
     pub near: f32,
-    /// Linear exposure multiplier applied to radiance before tonemapping.
+    /// Linear exposure multiplier applied to radiance before tonemapping (see
+    /// [`Camera::exposure_from_ev100`] to set it from a photographic exposure value).
     pub exposure: f32,
     /// Whether this camera renders.
     pub active: bool,
@@ -31,6 +32,13 @@ impl Default for Camera {
 }
 
 impl Camera {
+    /// The exposure multiplier of an exposure value at ISO 100 (EV100): the saturation-based
+    /// sensitivity with the usual lens constant, `1 / (1.2 × 2^EV100)` (Lagarde and de Rousiers
+    /// 2014, §5.1). EV100 15 suits a sunny day in real units (100,000 lux); 0 gives 0.83.
+    pub fn exposure_from_ev100(ev100: f32) -> f32 {
+        1.0 / (1.2 * ev100.exp2())
+    }
+
     /// The projection matrix for a viewport of `aspect` = width / height. Non-finite or
     /// non-positive inputs are clamped to small positive values rather than producing NaN.
     pub fn projection(&self, aspect: f32) -> Mat4 {

@@ -72,6 +72,10 @@ pub struct RenderSettings {
     pub decals_in_forward_shading: bool,
     /// Anti-aliasing of the displayed image (default none; FXAA in every pipeline).
     pub aa: render::AntiAliasing,
+    /// The display transform's tone mapper (default Khronos PBR Neutral).
+    pub tonemapper: render::Tonemapper,
+    /// Bloom (default on, intensity 0.04).
+    pub bloom: render::BloomSettings,
     /// Reflections of smooth surfaces (default: ray-traced where the device has ray queries, at
     /// full resolution, below roughness 0.4).
     pub reflections: render::ReflectionSettings,
@@ -157,6 +161,8 @@ impl Default for RenderSettings {
             compute_shading: true,
             decals_in_forward_shading: false,
             aa: render::AntiAliasing::None,
+            tonemapper: render::Tonemapper::PbrNeutral,
+            bloom: render::BloomSettings::default(),
             reflections: render::ReflectionSettings::default(),
             transparency: render::TransparencyMethod::Interlaced,
             refraction: true,
@@ -302,6 +308,10 @@ pub struct FrameStats {
     pub refraction: bool,
     /// The anti-aliasing it was displayed with.
     pub aa: render::AntiAliasing,
+    /// The tone mapper of the display transform.
+    pub tonemapper: render::Tonemapper,
+    /// Whether bloom ran.
+    pub bloom: bool,
     /// The light settings it was drawn with.
     pub lights: render::LightSettings,
     /// Render size.
@@ -503,6 +513,8 @@ fn render_frame(
         compute_shading: settings.compute_shading,
         decals_in_forward_shading: settings.decals_in_forward_shading,
         aa: settings.aa,
+        tonemapper: settings.tonemapper,
+        bloom: settings.bloom,
         reflections: settings.reflections,
         transparency: settings.transparency,
         refraction: settings.refraction,
@@ -530,6 +542,8 @@ fn render_frame(
                 transparency: settings.transparency.effective(settings.pipeline),
                 refraction: settings.refraction && settings.transparency.effective(settings.pipeline).refracts(),
                 aa: settings.aa,
+                tonemapper: settings.tonemapper,
+                bloom: settings.bloom.runs(),
                 lights: settings.lights,
                 size: renderer.0.size(),
                 gpu: PassTimes::default(),

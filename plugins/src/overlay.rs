@@ -224,6 +224,14 @@ impl DebugOverlay {
             }
         });
         ui.horizontal(|ui| {
+            ui.label("tone map");
+            for t in render::Tonemapper::ALL {
+                ui.selectable_value(&mut settings.tonemapper, t, t.name());
+            }
+            ui.checkbox(&mut settings.bloom.enabled, "bloom");
+            ui.add(egui::Slider::new(&mut settings.bloom.intensity, 0.0..=0.3).text("intensity"));
+        });
+        ui.horizontal(|ui| {
             ui.label("reflections");
             for m in render::ReflectionMode::ALL {
                 ui.selectable_value(&mut settings.reflections.mode, m, m.name());

@@ -666,6 +666,14 @@ layout! {
     /// `GpuLighting::environment_flags`: the sky pass draws the sun's disc (the procedural sky,
     /// whose sun is the directional light and so is not in the cube).
     pub const ENVIRONMENT_SUN_DISC: u32 = 2;
+    /// `GpuLighting::tonemapper`: Khronos PBR Neutral.
+    pub const TONEMAP_PBR_NEUTRAL: u32 = 0;
+    /// `GpuLighting::tonemapper`: ACES, Hill's fit.
+    pub const TONEMAP_ACES_FITTED: u32 = 1;
+    /// `GpuLighting::tonemapper`: AgX, Wrensch's minimal fit.
+    pub const TONEMAP_AGX: u32 = 2;
+    /// Most levels of the bloom pyramid (the first at half resolution).
+    pub const BLOOM_MAX_LEVELS: u32 = 7;
     /// Side of the split-sum BRDF table in texels.
     pub const BRDF_LUT_SIZE: u32 = 64;
     /// `GpuLighting::reflection_flags`: the reflection pass runs this frame.
@@ -1026,8 +1034,16 @@ layout! {
         pub environment_flags: u32,
         /// Levels of the specular cube − 1 (the level of roughness 1).
         pub environment_max_level: f32,
+        /// The display transform's tone mapper (`TONEMAP_*`).
+        pub tonemapper: u32,
+        /// Bloom: how much of the image its blurred copy replaces (0: no bloom).
+        pub bloom_intensity: f32,
+        /// Bloom: levels of the pyramid (`shaders/include/bloom.glsl`).
+        pub bloom_levels: u32,
+        /// Bloom: address of the pyramid (0 without bloom).
+        pub bloom: u64,
         /// Padding to 16 bytes.
-        pub environment_pad: [u32; 3],
+        pub display_pad: [u32; 2],
     }
 
     /// What the environment's filtering passes make the environment from

@@ -34,6 +34,7 @@
 //! | [`settings`] | per-frame settings: pipeline, decal method, debug view |
 #![recursion_limit = "256"] // layout! recurses once per record field (GpuLighting is long)
 
+pub mod bloom;
 pub mod culling;
 pub mod decals;
 pub mod environment;
@@ -61,6 +62,6 @@ pub use present::{overlay, window};
 pub use renderer::{DebugView, DecalMethod, FinishedFrame, FrameReport, FrameSettings, PipelineKind, Renderer, RendererSettings};
 pub use scene::{FrameCounters, SceneMirror};
 pub use settings::{
-    AntiAliasing, CullingMode, DepthNormals, LightMethod, LightSettings, RaySupport, ReflectionMode, ReflectionSettings, ShadowMapBudget,
-    ShadowMethod, TransparencyMethod,
+    AntiAliasing, BloomSettings, CullingMode, DepthNormals, LightMethod, LightSettings, RaySupport, ReflectionMode, ReflectionSettings,
+    ShadowMapBudget, ShadowMethod, Tonemapper, TransparencyMethod,
 };

@@ -10,6 +10,7 @@ use std::time::Instant;
 use ash::vk;
 
 use crate::RenderError;
+use crate::bloom::Bloom;
 use crate::culling::Culling;
 use crate::decals::{DecalChoice, Decals};
 use crate::environment::Environments;
@@ -126,6 +127,7 @@ struct Resources {
     transparency: TransparencyPasses,
     reflections: Reflections,
     environment: Environments,
+    bloom: Bloom,
     decals: Decals,
     lighting: Lighting,
     tonemap: Tonemap,
@@ -194,6 +196,7 @@ impl Renderer {
             transparency: TransparencyPasses::new(ctx, layout)?,
             reflections: Reflections::new(ctx, &mut graph, layout)?,
             environment: Environments::new(ctx, &mut graph, layout, settings.environment_resolution)?,
+            bloom: Bloom::new(ctx, &mut graph, layout)?,
             decals: Decals::new(ctx, &mut graph, layout, settings.decal_cluster_capacity)?,
             lighting: Lighting::new(ctx, &mut graph, layout, settings.shadow_maps)?,
             tonemap: Tonemap::new(ctx, layout, DISPLAY_FORMAT)?,
@@ -398,6 +401,7 @@ impl Renderer {
             transparency: &res.transparency,
             reflections: &mut res.reflections,
             environment: &mut res.environment,
+            bloom: &mut res.bloom,
             present: Present { tonemap, target, overlay, aa: settings.aa },
             decal_choice,
         };
@@ -616,6 +620,7 @@ impl Drop for Renderer {
             transparency,
             reflections,
             environment,
+            bloom,
             decals,
             lighting,
             tonemap,
@@ -647,6 +652,7 @@ impl Drop for Renderer {
         transparency.destroy(ctx);
         reflections.destroy(ctx);
         environment.destroy(ctx);
+        bloom.destroy(ctx);
         tonemap.destroy(ctx);
         graph.destroy(ctx);
         scene.destroy(ctx);

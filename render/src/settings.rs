@@ -444,6 +444,67 @@ impl AntiAliasing {
     }
 }
 
+/// The tone mapper of the display transform (`shaders/include/color.glsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+#[repr(u32)]
+pub enum Tonemapper {
+    /// Khronos PBR Neutral: base colours stay recognisable up to the highlights, which compress
+    /// towards white (the glTF sample viewer's).
+    #[default]
+    PbrNeutral = crate::layout::TONEMAP_PBR_NEUTRAL,
+    /// Hill's fit of the ACES reference rendering and output transforms (with the customary
+    /// 1/0.6 exposure bias): filmic contrast, saturated highlights bleach.
+    AcesFitted = crate::layout::TONEMAP_ACES_FITTED,
+    /// AgX (Sobotka), in Wrensch's minimal polynomial fit: gentle contrast, bright saturated
+    /// colours desaturate towards white instead of skewing hue.
+    AgX = crate::layout::TONEMAP_AGX,
+}
+
+impl Tonemapper {
+    /// Every tone mapper.
+    pub const ALL: [Tonemapper; 3] = [Tonemapper::PbrNeutral, Tonemapper::AcesFitted, Tonemapper::AgX];
+
+    /// The name used in `--stats` and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Tonemapper::PbrNeutral => "neutral",
+            Tonemapper::AcesFitted => "aces",
+            Tonemapper::AgX => "agx",
+        }
+    }
+
+    /// Parses [`Tonemapper::name`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+}
+
+/// Bloom (`crate::bloom`): light spreading around bright parts of the image, as a lens does.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BloomSettings {
+    /// Whether the bloom passes run.
+    pub enabled: bool,
+    /// How much of the image is replaced by its blurred copy (0 to 1; the blend keeps the
+    /// image's energy).
+    pub intensity: f32,
+}
+
+impl Default for BloomSettings {
+    fn default() -> Self {
+        Self { enabled: true, intensity: 0.04 }
+    }
+}
+
+impl BloomSettings {
+    /// No bloom.
+    pub const OFF: BloomSettings = BloomSettings { enabled: false, intensity: 0.04 };
+
+    /// Whether bloom runs with these settings (on, with a positive intensity).
+    pub fn runs(&self) -> bool {
+        self.enabled && self.intensity > 0.0 && self.intensity.is_finite()
+    }
+}
+
 /// Where reflections come from (`crate::reflections`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum ReflectionMode {
@@ -575,6 +636,10 @@ pub struct FrameSettings {
     pub decals_in_forward_shading: bool,
     /// Anti-aliasing of the displayed image.
     pub aa: AntiAliasing,
+    /// The display transform's tone mapper.
+    pub tonemapper: Tonemapper,
+    /// Bloom.
+    pub bloom: BloomSettings,
     /// Reflections of smooth surfaces.
     pub reflections: ReflectionSettings,
     /// How blended surfaces are drawn (see [`TransparencyMethod::effective`]).
@@ -601,6 +666,8 @@ impl Default for FrameSettings {
             compute_shading: true,
             decals_in_forward_shading: false,
             aa: AntiAliasing::None,
+            tonemapper: Tonemapper::PbrNeutral,
+            bloom: BloomSettings::default(),
             reflections: ReflectionSettings::default(),
             transparency: TransparencyMethod::Interlaced,
             refraction: true,

@@ -110,6 +110,12 @@ pub struct HeadlessOptions {
     /// Run `frames` frames with no environment, the procedural sky, then `environment` if it
     /// is a map, then none again (the first run warms up).
     pub compare_environment: bool,
+    /// The display transform's tone mapper.
+    pub tonemapper: render::Tonemapper,
+    /// Bloom.
+    pub bloom: render::BloomSettings,
+    /// The camera's exposure as an EV100 (`None`: the scene's).
+    pub ev100: Option<f32>,
     /// Face size of the environment's cubes ([`RendererSettings::environment_resolution`]).
     pub environment_resolution: u32,
     /// Run `frames` frames with reflections off, then at full and half resolution, each with and
@@ -292,6 +298,9 @@ impl Default for HeadlessOptions {
             compare_culling: false,
             environment: engine::environment::Environment::default(),
             compare_environment: false,
+            tonemapper: render::Tonemapper::PbrNeutral,
+            bloom: render::BloomSettings::default(),
+            ev100: None,
             environment_resolution: RendererSettings::default().environment_resolution,
             compare_reflections: false,
             instances: crate::bench::MANY_INSTANCES,
@@ -353,6 +362,8 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         reflections: opts.reflections,
         transparency: opts.transparency,
         culling: opts.culling,
+        tonemapper: opts.tonemapper,
+        bloom: opts.bloom,
         ..Default::default()
     }));
     app.insert_resource(opts.environment.clone());
@@ -367,6 +378,11 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         None => load_scene(&mut app.world, &opts.scene, opts.character.as_deref())?,
     }
     app.add_systems(engine::app::Update, crate::character::walk_loops);
+    if let Some(ev100) = opts.ev100 {
+        for mut camera in app.world.query::<&mut engine::camera::Camera>().iter_mut(&mut app.world) {
+            camera.exposure = engine::camera::Camera::exposure_from_ev100(ev100);
+        }
+    }
     if opts.decals > 0 {
         let materials = app.world.resource_scope(|world, mut materials: bevy_ecs::world::Mut<Assets<DecalMaterial>>| {
             crate::decal_textures::add_builtin_materials(&mut world.resource_mut::<Assets<Image>>(), &mut materials)

@@ -207,6 +207,19 @@ struct Cli {
     /// Face size of the environment's cube maps in texels (32 to 2048).
     #[arg(long, default_value_t = render::RendererSettings::default().environment_resolution)]
     environment_resolution: u32,
+    /// The display transform's tone mapper: neutral (Khronos PBR Neutral), aces (Hill's fit),
+    /// agx.
+    #[arg(long, default_value = "neutral", value_parser = parse_tonemap)]
+    tonemap: render::Tonemapper,
+    /// No bloom.
+    #[arg(long)]
+    no_bloom: bool,
+    /// How much of the image bloom replaces by its blurred copy (0 to 1).
+    #[arg(long, default_value_t = render::BloomSettings::default().intensity)]
+    bloom_intensity: f32,
+    /// The camera's exposure as an exposure value at ISO 100 (default: the scene's exposure).
+    #[arg(long)]
+    ev100: Option<f32>,
     /// Run --frames frames with no environment, the procedural sky, then the --environment map
     /// if one is given, then none again (the first run warms up).
     #[arg(long)]
@@ -221,6 +234,10 @@ struct Cli {
 
 fn parse_aa(s: &str) -> Result<render::AntiAliasing, String> {
     render::AntiAliasing::from_name(s).ok_or_else(|| format!("unknown anti-aliasing {s:?} (none, fxaa)"))
+}
+
+fn parse_tonemap(s: &str) -> Result<render::Tonemapper, String> {
+    render::Tonemapper::from_name(s).ok_or_else(|| format!("unknown tone mapper {s:?} (neutral, aces, agx)"))
 }
 
 fn parse_reflections(s: &str) -> Result<render::ReflectionMode, String> {
@@ -378,6 +395,9 @@ fn main() -> Result<()> {
         environment,
         environment_resolution: cli.environment_resolution,
         compare_environment: cli.compare_environment,
+        tonemapper: cli.tonemap,
+        bloom: render::BloomSettings { enabled: !cli.no_bloom, intensity: cli.bloom_intensity },
+        ev100: cli.ev100,
         instances: cli.instances,
     };
     if windowed {

@@ -125,6 +125,8 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
         "culling": culling_json(&c.culling),
         "reflections": reflections_json(&c.reflections),
         "environment": { "filtered": c.environment.filtered, "resolution": c.environment.resolution },
+        "tonemap": stats.tonemapper.name(),
+        "bloom": stats.bloom,
     });
     if stats.decal_method == render::DecalMethod::Clustered {
         value["clusters"] = clusters_json(&c.clusters);

@@ -40,6 +40,10 @@ spirv! {
     ENVIRONMENT_PREFILTER_COMP = "environment_prefilter.comp";
     BRDF_LUT_COMP = "brdf_lut.comp";
     SKY_COMP = "sky.comp";
+    BLOOM_COMP = "bloom.comp";
+    BLOOM_COMP_FIRST = "bloom.comp.FIRST";
+    BLOOM_COMP_DOWN = "bloom.comp.DOWN";
+    BLOOM_COMP_UP = "bloom.comp.UP";
     REFLECTIONS_RESOLVE_COMP = "reflections_resolve.comp";
     REFLECTIONS_RESOLVE_COMP_GLASS_LAYER = "reflections_resolve.comp.GLASS_LAYER";
     REFLECTIONS_COMP_GLASS_LAYER = "reflections.comp.GLASS_LAYER";

@@ -257,7 +257,11 @@ impl Lighting {
             environment_intensity: environment.intensity,
             environment_flags: environment.flags,
             environment_max_level: environment.max_level,
-            environment_pad: [0; 3],
+            tonemapper: s.tonemapper as u32,
+            bloom_intensity: 0.0, // the bloom pass's to set
+            bloom_levels: 0,
+            bloom: 0,
+            display_pad: [0; 2],
         });
         let res = self.tiles.resources();
         let inline_shadows = match self.accel.as_ref() {

@@ -11,6 +11,7 @@ pub mod visbuffer;
 use ash::vk;
 
 use crate::RenderError;
+use crate::bloom::Bloom;
 use crate::culling::{Culling, Draws, Phase};
 use crate::decals::{DecalChoice, DecalFrame, DecalReaders, DecalSurfaceSource, Decals};
 use crate::environment::Environments;
@@ -52,6 +53,8 @@ pub struct FrameParts<'a> {
     pub reflections: &'a mut Reflections,
     /// The environment's filtering and the sky pass.
     pub environment: &'a mut Environments,
+    /// Bloom over the finished HDR image.
+    pub bloom: &'a mut Bloom,
     /// Tone mapping and overlay into the frame's display image.
     pub present: Present<'a>,
     /// The decal method asked for and the one this device and pipeline apply.
@@ -70,6 +73,7 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     let environment = r.environment.prepare(f, r.scene, mirror)?;
     let lights = r.lighting.prepare(f, r.scene, mirror, s, &reflections, &environment)?;
     mirror.counters.culling = r.culling.prepare(f, r.scene, mirror, s, lights.shadow_map_views())?;
+    r.bloom.prepare(f, r.scene, s.bloom)?;
     let boxes_changed = r.scene.upload(f, mirror)?;
     r.skinning.record(f, r.scene)?;
     let in_shading = s.pipeline.is_forward() && s.decals_in_forward_shading;
@@ -104,7 +108,7 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
     r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
     glass_reflections(f, r, mirror, &decals, &lights)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
-    r.present.record(f, r.scene)?;
+    present(f, r)?;
     Ok(lights)
 }
 
@@ -144,7 +148,7 @@ pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirro
     }
     r.reflections.finish(f, &lights)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
-    r.present.record(f, r.scene)?;
+    present(f, r)?;
     Ok(lights)
 }
 
@@ -200,8 +204,15 @@ pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirr
     r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
     glass_reflections(f, r, mirror, &decals, &lights)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
-    r.present.record(f, r.scene)?;
+    present(f, r)?;
     Ok(lights)
+}
+
+/// The end of every frame: bloom over the finished HDR image, then tone mapping into the
+/// display image and the overlay.
+fn present(f: &mut Frame, r: &mut FrameParts) -> Result<(), RenderError> {
+    r.bloom.record(f, r.scene)?;
+    r.present.record(f, r.scene)
 }
 
 /// Reflections on the glass the forward transparency pass drew, then the reflection statistics'

@@ -1085,8 +1085,21 @@ impl GpuScene {
     /// Sets the lighting record; it is uploaded with the next sync only when it differs.
     pub fn set_lighting(&mut self, mut lighting: GpuLighting) {
         lighting.culls = self.lighting_cpu.culls; // the upload's to set
+        // The bloom pass's to set (`set_bloom`).
+        (lighting.bloom, lighting.bloom_levels, lighting.bloom_intensity) =
+            (self.lighting_cpu.bloom, self.lighting_cpu.bloom_levels, self.lighting_cpu.bloom_intensity);
         if lighting != self.lighting_cpu {
             self.lighting_cpu = lighting;
+            self.lighting_dirty = true;
+        }
+    }
+
+    /// Sets the lighting record's bloom fields (`crate::bloom`): the pyramid's address and
+    /// levels, and the intensity (0: no bloom). An unchanged setting uploads nothing.
+    pub fn set_bloom(&mut self, address: u64, levels: u32, intensity: f32) {
+        let l = &mut self.lighting_cpu;
+        if (l.bloom, l.bloom_levels, l.bloom_intensity) != (address, levels, intensity) {
+            (l.bloom, l.bloom_levels, l.bloom_intensity) = (address, levels, intensity);
             self.lighting_dirty = true;
         }
     }
