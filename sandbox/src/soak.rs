@@ -8,8 +8,10 @@
 //! now and then adds or removes meshes, materials (a third of them blended glass, some
 //! refracting), textures and decal materials, including ones still in use. Between frames the
 //! driver ([`run`]) switches the pipeline, decal method, light method, transparency method,
-//! culling mode (and freezes or thaws the culling view), anti-aliasing, decals in forward shading and debug view and resizes the target
-//! (down to 1×1). The run is split into cycles;
+//! culling mode (and freezes or thaws the culling view), anti-aliasing, reflections, the
+//! environment (none, the procedural sky, a uniform radiance: each new one is filtered on the
+//! GPU that frame), the tone mapper and bloom, decals in forward shading and debug view and
+//! resizes the target (down to 1×1). The run is split into cycles;
 //! each cycle starts a new renderer on a randomly chosen capability tier
 //! ([`plugins::restart_renderer`], which re-extracts the scene), and ends with everything the
 //! cycle spawned despawned.
@@ -178,6 +180,11 @@ pub struct SwitchCounts {
     pub aa: u64,
     /// Reflection changes (on or off, full or half resolution).
     pub reflections: u64,
+    /// Environment changes (none, the procedural sky, a uniform radiance: each new source is
+    /// filtered that frame).
+    pub environment: u64,
+    /// Tone mapper and bloom changes.
+    pub display: u64,
     /// Light method changes.
     pub light_method: u64,
     /// Transparency method changes.
@@ -484,6 +491,7 @@ fn base_settings(settings: &mut RenderSettings, size: (u32, u32)) {
     settings.decal_method = DecalMethod::RayQuery;
     settings.lights.method = LightMethod::Tiled;
     settings.debug_view = DebugView::Lit;
+    settings.bloom = render::BloomSettings::default();
     settings.size = size;
 }
 
@@ -526,6 +534,8 @@ fn frame(app: &mut App, report: &mut SoakReport) -> Result<()> {
 
 fn settle(app: &mut App, report: &mut SoakReport, size: (u32, u32)) -> Result<u64> {
     base_settings(&mut app.world.resource_mut::<RenderSettings>(), size);
+    // The sky's cubes and the bloom pyramid exist before and after a cycle alike.
+    app.insert_resource(engine::environment::Environment::default());
     for _ in 0..SETTLE_FRAMES {
         frame(app, report)?;
     }
@@ -593,7 +603,22 @@ pub fn run(config: &SoakConfig) -> Result<SoakReport> {
         let mut heap_samples = Vec::new();
         let heap = || config.heap_bytes.map_or(0, |f| f());
         for f in 0..frames {
+            if rng.next_u64().is_multiple_of(79) {
+                use engine::environment::{Environment, EnvironmentSource};
+                let source = match rng.next_u64() % 3 {
+                    0 => EnvironmentSource::None,
+                    1 => EnvironmentSource::Sky,
+                    _ => EnvironmentSource::Uniform(Vec3::splat((rng.next_u64() % 8) as f32 * 0.1)),
+                };
+                app.insert_resource(Environment { source, ..Default::default() });
+                report.switches.environment += 1;
+            }
             let mut settings = app.world.resource_mut::<RenderSettings>();
+            if rng.next_u64().is_multiple_of(83) {
+                settings.tonemapper = render::Tonemapper::ALL[(rng.next_u64() % 3) as usize];
+                settings.bloom.enabled = !settings.bloom.enabled;
+                report.switches.display += 1;
+            }
             if rng.next_u64().is_multiple_of(37) {
                 settings.pipeline = PipelineKind::ALL[(rng.next_u64() % 4) as usize];
                 report.switches.pipeline += 1;
