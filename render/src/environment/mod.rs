@@ -45,7 +45,7 @@ use gpu_allocator::MemoryLocation;
 use crate::RenderError;
 use crate::gpu::device::GpuContext;
 use crate::gpu::memory::{Buffer, GPU_WRITTEN, Image, ImageDesc, Retired};
-use crate::gpu::pipeline::create_compute;
+use crate::gpu::pipeline::{ScenePush, create_compute};
 use crate::gpu::shaders;
 use crate::graph::targets::f16_to_f32;
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassKind, ResourceId};
@@ -436,41 +436,25 @@ impl Environments {
                 unsafe { p.ctx.device.cmd_dispatch(p.cmd, groups(0), groups(0), 6) };
             },
         )?;
+        // A pass that samples the radiance cube, writes `written`, gets its level through
+        // `scene.texture_index` and dispatches `(side, side, faces)` workgroups.
+        let level_pass = |f: &mut Frame, name, pipeline, level: u32, written: ResourceId, (side, faces): (u32, u32)| {
+            f.pass(name, PassKind::Compute)
+                .read(tables, BufferUse::Storage)
+                .read(images, BufferUse::SampledImages)
+                .write(written, BufferUse::Storage)
+                .record(|p| {
+                    p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &ScenePush { texture_index: level, ..p.push });
+                    // SAFETY: as above.
+                    unsafe { p.ctx.device.cmd_dispatch(p.cmd, side, side, faces) };
+                })
+        };
         for level in 1..self.source_levels() {
-            let pipeline = self.downsample;
-            f.pass("environment_downsample", PassKind::Compute)
-                .read(tables, BufferUse::Storage)
-                .read(images, BufferUse::SampledImages)
-                .write(images, BufferUse::Storage)
-                .record(|p| {
-                    let push = crate::gpu::pipeline::ScenePush { texture_index: level, ..p.push };
-                    p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &push);
-                    // SAFETY: as above.
-                    unsafe { p.ctx.device.cmd_dispatch(p.cmd, groups(level), groups(level), 6) };
-                })?;
+            level_pass(f, "environment_downsample", self.downsample, level, images, (groups(level), 6))?;
         }
-        let pipeline = self.irradiance;
-        f.pass("environment_irradiance", PassKind::Compute)
-            .read(tables, BufferUse::Storage)
-            .read(images, BufferUse::SampledImages)
-            .write(record, BufferUse::Storage)
-            .record(|p| {
-                p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-                // SAFETY: as above.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, 1, 1, 1) };
-            })?;
+        level_pass(f, "environment_irradiance", self.irradiance, 0, record, (1, 1))?;
         for level in 0..self.specular_levels() {
-            let pipeline = self.prefilter;
-            f.pass("environment_prefilter", PassKind::Compute)
-                .read(tables, BufferUse::Storage)
-                .read(images, BufferUse::SampledImages)
-                .write(images, BufferUse::Storage)
-                .record(|p| {
-                    let push = crate::gpu::pipeline::ScenePush { texture_index: level, ..p.push };
-                    p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &push);
-                    // SAFETY: as above.
-                    unsafe { p.ctx.device.cmd_dispatch(p.cmd, groups(level), groups(level), 6) };
-                })?;
+            level_pass(f, "environment_prefilter", self.prefilter, level, images, (groups(level), 6))?;
         }
         if fresh {
             let pipeline = self.lut;
