@@ -1,6 +1,7 @@
 //! The pipelines, one function each, reading as the whole frame from top to bottom: upload what
-//! changed, acceleration-structure work, the pipeline's passes (light culling and shadows once
-//! depth exists), debug overlays, tone mapping and the egui overlay. Each returns what it did
+//! changed (and filter a new environment), acceleration-structure work, the pipeline's passes
+//! (light culling and shadows once depth exists; the sky behind the opaque shading), bloom,
+//! debug overlays, tone mapping and the egui overlay. Each returns what it did
 //! with lights, for the frame's report. Every pass is declared on the frame graph ([`crate::graph`]), which derives
 //! the barriers between them.
 
@@ -107,8 +108,7 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
     r.reflections.record(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
     r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
     glass_reflections(f, r, mirror, &decals, &lights)?;
-    r.decals.draw_boxes(f, r.scene, mirror, s)?;
-    present(f, r)?;
+    present(f, r, mirror, s)?;
     Ok(lights)
 }
 
@@ -147,8 +147,7 @@ pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirro
         r.reflections.record_glass(f, r.scene, &decals, &lights, !glass.is_empty())?;
     }
     r.reflections.finish(f, &lights)?;
-    r.decals.draw_boxes(f, r.scene, mirror, s)?;
-    present(f, r)?;
+    present(f, r, mirror, s)?;
     Ok(lights)
 }
 
@@ -203,15 +202,15 @@ pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirr
     r.reflections.record(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
     r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
     glass_reflections(f, r, mirror, &decals, &lights)?;
-    r.decals.draw_boxes(f, r.scene, mirror, s)?;
-    present(f, r)?;
+    present(f, r, mirror, s)?;
     Ok(lights)
 }
 
-/// The end of every frame: bloom over the finished HDR image, then tone mapping into the
-/// display image and the overlay.
-fn present(f: &mut Frame, r: &mut FrameParts) -> Result<(), RenderError> {
+/// The end of every frame: bloom over the finished HDR image, the decal boxes when shown (not
+/// blurred), then tone mapping into the display image and the overlay.
+fn present(f: &mut Frame, r: &mut FrameParts, mirror: &SceneMirror, s: &FrameSettings) -> Result<(), RenderError> {
     r.bloom.record(f, r.scene)?;
+    r.decals.draw_boxes(f, r.scene, mirror, s)?;
     r.present.record(f, r.scene)
 }
 
