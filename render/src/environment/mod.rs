@@ -209,6 +209,9 @@ pub struct Environments {
     /// The map's texels on a frame that filters one (freed after it).
     texels: Option<Buffer>,
     warned_bad_map: bool,
+    /// The sun as last found ([`sun_of`]), looked for again only on frames whose light records
+    /// changed: a scene of a million lights is not scanned every frame.
+    sun: Option<(Vec3, Vec3)>,
     images_res: ResourceId,
     record_res: ResourceId,
     /// Counters.
@@ -247,6 +250,7 @@ impl Environments {
             job: None,
             texels: None,
             warned_bad_map: false,
+            sun: None,
             images_res: graph.resource("environment images"),
             record_res: graph.resource("environment record"),
             stats: EnvironmentStats::default(),
@@ -318,7 +322,10 @@ impl Environments {
         let Some(env) = mirror.environment() else {
             return Ok(EnvironmentFrame::default());
         };
-        let (sun, sun_color) = sun_of(mirror);
+        if self.sun.is_none() || mirror.lights.dirty_count() > 0 {
+            self.sun = Some(sun_of(mirror));
+        }
+        let (sun, sun_color) = self.sun.expect("found above");
         let sky = EnvironmentSource::Sky;
         let source = match &env.source {
             EnvironmentSource::Map(m) if m.width == 0 || m.height == 0 || m.texels.len() != m.width as usize * m.height as usize => {
