@@ -48,9 +48,10 @@ use bevy_ecs::world::DeferredWorld;
 use engine::asset::Handle;
 use engine::image::Image;
 use engine::time::Time;
-use glam::{Mat4, Vec2, Vec4};
+use glam::{Mat4, Vec2, Vec3, Vec4};
 use render::scene::{
-    DECAL_ALBEDO, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, DecalDesc, GpuDecalMaterial, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
+    DECAL_ALBEDO, DECAL_EMISSIVE, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS, DecalDesc, GpuDecalMaterial, TEXTURE_FLAT_NORMAL,
+    TEXTURE_WHITE,
 };
 
 /// What a decal does to the surfaces it covers. Every attribute is optional, so a decal can
@@ -73,6 +74,21 @@ pub struct DecalMaterial {
     pub metallic: Option<f32>,
     /// Optional metallic (B) / roughness (G) texture.
     pub metallic_roughness_texture: Option<Handle<Image>>,
+    /// Emitted radiance (linear rgb, in the units of the scene's lights, so 1.0 is as bright as
+    /// a white surface under light of 1; values above 1 glow, and bloom spreads them), × the
+    /// emissive texture's rgb and the decal's coverage. `None`: no light. Emission adds to the
+    /// surface's own (embers round a bullet hole, a neon sign, lava footprints) and is added
+    /// whatever the decal's channel; negative or non-finite values count as 0.
+    pub emissive: Option<Vec3>,
+    /// Optional emissive texture (rgb; sRGB images are decoded as colours).
+    pub emissive_texture: Option<Handle<Image>>,
+}
+
+impl DecalMaterial {
+    /// Every texture the material samples.
+    pub fn textures(&self) -> [Option<Handle<Image>>; 4] {
+        [self.base_color_texture, self.normal_texture, self.metallic_roughness_texture, self.emissive_texture]
+    }
 }
 
 impl Default for DecalMaterial {
@@ -85,6 +101,8 @@ impl Default for DecalMaterial {
             roughness: None,
             metallic: None,
             metallic_roughness_texture: None,
+            emissive: None,
+            emissive_texture: None,
         }
     }
 }
@@ -373,11 +391,17 @@ pub(crate) fn gpu_decal_material(m: &DecalMaterial, texture: impl Fn(Option<Hand
     if m.metallic.is_some() {
         flags |= DECAL_METALLIC;
     }
+    let emissive = m.emissive.map(|e| Vec3::from_array(e.to_array().map(|c| if c.is_finite() { c.max(0.0) } else { 0.0 })));
+    if emissive.is_some_and(|e| e != Vec3::ZERO) {
+        flags |= DECAL_EMISSIVE;
+    }
     GpuDecalMaterial {
         base_color: m.base_color.unwrap_or(Vec4::ONE).to_array(),
         base_color_tex: texture(m.base_color_texture, TEXTURE_WHITE),
         normal_tex: texture(m.normal_texture, TEXTURE_FLAT_NORMAL),
         metallic_roughness_tex: texture(m.metallic_roughness_texture, TEXTURE_WHITE),
+        emissive: emissive.unwrap_or(Vec3::ZERO).to_array(),
+        emissive_tex: texture(m.emissive_texture, TEXTURE_WHITE),
         flags,
         normal_scale: m.normal_scale,
         roughness: m.roughness.unwrap_or(0.0),

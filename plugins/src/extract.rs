@@ -199,9 +199,7 @@ pub fn extract_images(
         }
         let stale: Vec<_> = decal_materials
             .iter()
-            .filter(|(_, m)| {
-                [m.base_color_texture, m.normal_texture, m.metallic_roughness_texture].into_iter().flatten().any(|h| replaced.contains(&h))
-            })
+            .filter(|(_, m)| m.textures().into_iter().flatten().any(|h| replaced.contains(&h)))
             .map(|(h, _)| h)
             .collect();
         for h in stale {

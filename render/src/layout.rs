@@ -540,6 +540,8 @@ layout! {
     pub const DECAL_ROUGHNESS: u32 = 4;
     /// Decal material flag: blends metallic.
     pub const DECAL_METALLIC: u32 = 8;
+    /// Decal material flag: emits light (added to the surface's emission).
+    pub const DECAL_EMISSIVE: u32 = 16;
     /// Number of decal blending channels (a `GpuDecal`'s channel is below this).
     pub const DECAL_CHANNELS: u32 = 4;
     /// `GpuDecal::material_channel`: the channel sits above this many bits of material slot.
@@ -650,6 +652,17 @@ layout! {
     pub const BINDING_ENVIRONMENT_LEVELS: u32 = 28;
     /// Binding of the BRDF table as a storage image (`brdf_lut_out`), which its pass writes once.
     pub const BINDING_BRDF_LUT_STORAGE: u32 = 29;
+    /// Binding of the decal buffer's emission (`decal_emissive`, storage RGBA16F): the radiance
+    /// the pixel's emissive decals add (rgb; a unused). Emission adds light, so it has no weight
+    /// left to the surface's own (`shaders/include/blend.glsl`).
+    pub const BINDING_DECAL_EMISSIVE: u32 = 30;
+    /// Binding of the ambient occlusion the tracing pass leaves (`occlusion_raw`, storage R16F:
+    /// the share of short rays that escaped, noisy), which the denoiser reads
+    /// (`crate::environment::occlusion`).
+    pub const BINDING_OCCLUSION_RAW: u32 = 31;
+    /// Binding of the denoised ambient occlusion (`occlusion_image`, storage R16F) that shading
+    /// multiplies the environment's and the ambient colour's light by.
+    pub const BINDING_OCCLUSION: u32 = 32;
     /// Views in `BINDING_ENVIRONMENT_LEVELS` (16 radiance levels, then 16 specular ones).
     pub const ENVIRONMENT_LEVEL_VIEWS: u32 = 32;
     /// The first specular level's view in `BINDING_ENVIRONMENT_LEVELS`.
@@ -914,12 +927,16 @@ layout! {
     pub struct GpuDecalMaterial {
         /// Albedo factor (rgb) and opacity (a).
         pub base_color: [f32; 4],
+        /// Emitted radiance (linear rgb, HDR), × the emissive texture and the decal's coverage.
+        pub emissive: [f32; 3],
         /// Bindless slot of the RGBA texture (alpha is coverage).
         pub base_color_tex: u32,
         /// Bindless slot of the normal map.
         pub normal_tex: u32,
         /// Bindless slot of the metallic (B) / roughness (G) texture.
         pub metallic_roughness_tex: u32,
+        /// Bindless slot of the emissive texture (rgb, sRGB).
+        pub emissive_tex: u32,
         /// `DECAL_*` flags.
         pub flags: u32,
         /// Normal map XY strength.

@@ -567,6 +567,10 @@ pub fn sigil() -> DecalTextureSet {
     })
 }
 
+/// The sigil's emission: its texture's colour × this, about 3× as bright as a white wall in the
+/// courtyard's sun, so the rune glows and blooms.
+pub const SIGIL_GLOW: f32 = 3.0;
+
 /// All built-in sets, in the order bullet hole, footprint, puddle, leaves, sigil.
 pub fn all() -> Vec<DecalTextureSet> {
     vec![bullet_hole(), footprint(), puddle(), leaves(), sigil()]
@@ -574,13 +578,13 @@ pub fn all() -> Vec<DecalTextureSet> {
 
 /// Adds the set's images to `images` and returns a material that uses them:
 ///
-/// | set | albedo (factor) | normal | roughness |
-/// |---|---|---|---|
-/// | `bullet_hole` | texture × 1 | yes | — |
-/// | `footprint` | texture × (1, 1, 1, 0.9) | yes (scale 0.8) | — |
-/// | `puddle` | texture × (0.6, 0.6, 0.65, 0.8) | yes | 1 × the MR map's G (0.05 in the water) |
-/// | `leaves` | texture × 1 | yes | — |
-/// | `sigil` | texture × 1 | — | — |
+/// | set | albedo (factor) | normal | roughness | emission |
+/// |---|---|---|---|---|
+/// | `bullet_hole` | texture × 1 | yes | — | — |
+/// | `footprint` | texture × (1, 1, 1, 0.9) | yes (scale 0.8) | — | — |
+/// | `puddle` | texture × (0.6, 0.6, 0.65, 0.8) | yes | 1 × the MR map's G (0.05 in the water) | — |
+/// | `leaves` | texture × 1 | yes | — | — |
+/// | `sigil` | texture × 1 | — | — | the texture × [`SIGIL_GLOW`]: it glows |
 ///
 /// Metallic is never set. A set with another name gets its albedo at factor 1 and its normal
 /// and metallic-roughness maps if present (roughness 1 × G with the latter).
@@ -593,7 +597,10 @@ pub fn decal_material(set: &DecalTextureSet, images: &mut Assets<Image>) -> Deca
         PUDDLE => (Vec4::new(0.6, 0.6, 0.65, 0.8), 1.0),
         _ => (Vec4::ONE, 1.0),
     };
+    let glows = set.name == SIGIL;
     DecalMaterial {
+        emissive: glows.then_some(Vec3::splat(SIGIL_GLOW)),
+        emissive_texture: glows.then_some(albedo),
         base_color_texture: Some(albedo),
         base_color: Some(base_color),
         normal_texture: normal,
@@ -779,6 +786,8 @@ mod tests {
             assert_eq!(m.metallic_roughness_texture.and_then(|h| images.get(h)), set.metallic_roughness.as_ref());
             assert!(m.base_color.is_some() && m.metallic.is_none());
             assert_eq!(m.roughness.is_some(), set.name == PUDDLE);
+            assert_eq!(m.emissive.is_some(), set.name == SIGIL);
+            assert_eq!(m.emissive_texture, m.emissive.and(m.base_color_texture));
         }
         let puddle = decal_material(&puddle(), &mut images);
         assert_eq!(puddle.base_color, Some(Vec4::new(0.6, 0.6, 0.65, 0.8)));

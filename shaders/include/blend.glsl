@@ -7,6 +7,10 @@
 // The seed shares one weight between roughness and metallic; we keep them apart so a decal that
 // sets only roughness does not drag metallic towards zero. tests/tests/decal_blend.rs evaluates
 // the same equations on the CPU.
+// Emission (the fifth attribute, which the seed's decals lack) is light, not a property of the
+// surface: decals add it, Σ emission · a over every decal whatever its channel, as emissive
+// decals add to the lit image in Unreal's and HDRP's deferred decals. A sum is
+// order-independent by itself, and it needs no weights, so it costs the blend state one vec3.
 #ifndef BLEND_GLSL
 #define BLEND_GLSL
 
@@ -30,6 +34,7 @@ struct DecalBlend {
     vec4 normal[BLEND_SLOTS];   // xyz: Σ n·a·w,       w: Π(1−a)
     vec4 spec[BLEND_SLOTS];     // xy: Σ (roughness, metallic)·a·w,  zw: Π(1−a) of each
     vec4 weight[BLEND_SLOTS];   // Σ a·w for albedo, normal, roughness, metallic
+    vec3 emissive;              // Σ emission·a over every channel
 };
 
 void blend_init(out DecalBlend b) {
@@ -39,6 +44,7 @@ void blend_init(out DecalBlend b) {
         b.spec[c] = vec4(0.0, 0.0, 1.0, 1.0);
         b.weight[c] = vec4(0.0);
     }
+    b.emissive = vec3(0.0);
 }
 
 void blend_albedo(inout DecalBlend b, uint channel, vec3 value, float a, float w) {
@@ -62,6 +68,10 @@ void blend_roughness(inout DecalBlend b, uint channel, float value, float a, flo
     b.weight[c].z += a * w;
 }
 
+void blend_emissive(inout DecalBlend b, vec3 radiance, float a) {
+    b.emissive += radiance * a;
+}
+
 void blend_metallic(inout DecalBlend b, uint channel, float value, float a, float w) {
     uint c = BLEND_SLOT(channel);
     b.spec[c].y += value * a * w;
@@ -78,6 +88,7 @@ struct DecalComposite {
     vec4 albedo;   // rgb: decal albedo, a: weight remaining to the surface's albedo
     vec4 normal;   // xyz: decal normal, w: remaining
     vec4 spec;     // xy: decal roughness and metallic, zw: remaining
+    vec3 emissive; // radiance the decals add to the surface's emission
 };
 
 // The composite that leaves the surface as it is.
@@ -86,11 +97,13 @@ DecalComposite blend_identity() {
     o.albedo = vec4(0.0, 0.0, 0.0, 1.0);
     o.normal = vec4(0.0, 0.0, 0.0, 1.0);
     o.spec = vec4(0.0, 0.0, 1.0, 1.0);
+    o.emissive = vec3(0.0);
     return o;
 }
 
 // Composites the channels of `b` over `o` (what the channels before them made), in order.
 void blend_collapse_onto(inout DecalComposite o, DecalBlend b) {
+    o.emissive += b.emissive;
     for (uint c = 0u; c < BLEND_SLOTS; ++c) {
         vec4 w = b.weight[c];
         if (w.x > 0.0) o.albedo = vec4(b.albedo[c].rgb / w.x * (1.0 - b.albedo[c].a) + o.albedo.rgb * b.albedo[c].a, o.albedo.a * b.albedo[c].a);
@@ -107,7 +120,8 @@ DecalComposite blend_collapse(DecalBlend b) {
 }
 
 // Applies a collapsed composite to the surface attributes (then renormalises the normal).
-void blend_apply(DecalComposite o, inout vec3 albedo, inout vec3 n, inout float roughness, inout float metallic) {
+void blend_apply(DecalComposite o, inout vec3 albedo, inout vec3 n, inout float roughness, inout float metallic, inout vec3 emissive) {
+    emissive += o.emissive;
     albedo = o.albedo.rgb + albedo * o.albedo.a;
     n = o.normal.xyz + n * o.normal.w;
     roughness = o.spec.x + roughness * o.spec.z;
@@ -117,8 +131,8 @@ void blend_apply(DecalComposite o, inout vec3 albedo, inout vec3 n, inout float 
 }
 
 // Composites the channels over the surface attributes, channel 0 first.
-void blend_resolve(DecalBlend b, inout vec3 albedo, inout vec3 n, inout float roughness, inout float metallic) {
-    blend_apply(blend_collapse(b), albedo, n, roughness, metallic);
+void blend_resolve(DecalBlend b, inout vec3 albedo, inout vec3 n, inout float roughness, inout float metallic, inout vec3 emissive) {
+    blend_apply(blend_collapse(b), albedo, n, roughness, metallic, emissive);
 }
 
 #endif

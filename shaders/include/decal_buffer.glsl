@@ -2,7 +2,8 @@
 // shading passes, per pixel and attribute, as the collapsed composite of blend.glsl: the decal
 // contribution and the weight remaining to the surface's own value, so that shading applies
 // `value = decal + value × remaining` (seed 000 §4.3.1's final step). RGBA16F each; the count of
-// decals tested per pixel goes beside them for the debug views.
+// decals tested per pixel goes beside them for the debug views, and the radiance emissive decals
+// add (blend.glsl) in a fourth image.
 #ifndef DECAL_BUFFER_GLSL
 #define DECAL_BUFFER_GLSL
 
@@ -13,6 +14,7 @@ layout(set = 0, binding = BINDING_DECAL_ALBEDO, rgba16f) uniform image2D decal_a
 layout(set = 0, binding = BINDING_DECAL_NORMAL, rgba16f) uniform image2D decal_normal;
 layout(set = 0, binding = BINDING_DECAL_SPEC, rgba16f) uniform image2D decal_spec;
 layout(set = 0, binding = BINDING_DECAL_TESTED, r32ui) uniform uimage2D decal_tested;
+layout(set = 0, binding = BINDING_DECAL_EMISSIVE, rgba16f) uniform image2D decal_emissive;
 
 void decal_buffer_store(ivec2 px, DecalBlend b, uint tested) {
     DecalComposite o = blend_collapse(b);
@@ -20,15 +22,17 @@ void decal_buffer_store(ivec2 px, DecalBlend b, uint tested) {
     imageStore(decal_normal, px, o.normal);
     imageStore(decal_spec, px, o.spec);
     imageStore(decal_tested, px, uvec4(tested));
+    imageStore(decal_emissive, px, vec4(o.emissive, 0.0));
 }
 
 // Applies the pixel's decals to the surface attributes; returns the decals tested there.
-uint decal_buffer_apply(ivec2 px, inout vec3 albedo, inout vec3 n, inout float roughness, inout float metallic) {
+uint decal_buffer_apply(ivec2 px, inout vec3 albedo, inout vec3 n, inout float roughness, inout float metallic, inout vec3 emissive) {
     DecalComposite o;
     o.albedo = imageLoad(decal_albedo, px);
     o.normal = imageLoad(decal_normal, px);
     o.spec = imageLoad(decal_spec, px);
-    blend_apply(o, albedo, n, roughness, metallic);
+    o.emissive = imageLoad(decal_emissive, px).rgb;
+    blend_apply(o, albedo, n, roughness, metallic, emissive);
     return imageLoad(decal_tested, px).r;
 }
 

@@ -148,6 +148,10 @@ void decal_accumulate(inout DecalBlend b, GpuDecal d, vec3 local, float fade, De
         if ((m.flags & DECAL_ROUGHNESS) != 0u) blend_roughness(b, c, m.roughness * mr.y, a, w);
         if ((m.flags & DECAL_METALLIC) != 0u) blend_metallic(b, c, m.metallic * mr.x, a, w);
     }
+    if ((m.flags & DECAL_EMISSIVE) != 0u) {
+        vec3 glow = textureGrad(textures[nonuniformEXT(m.emissive_tex)], uv, duvdx, duvdy).rgb;
+        blend_emissive(b, m.emissive * glow, a);
+    }
 }
 
 // Tests decal record `d` against the surface and accumulates it into its channel; true when it

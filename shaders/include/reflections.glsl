@@ -182,7 +182,7 @@ uint hit_decals(inout SurfaceInputs s) {
     blend_init(decal_payload.blend);
     uint tested = trace_decals(surface);
     if (s.skinned) tested += trace_decals(decal_skin_view(surface, s.rest_position, s.rest_normal));
-    blend_resolve(decal_payload.blend, s.albedo, s.normal, s.roughness, s.metallic);
+    blend_resolve(decal_payload.blend, s.albedo, s.normal, s.roughness, s.metallic, s.emissive);
     return tested;
 }
 

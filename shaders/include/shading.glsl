@@ -66,7 +66,7 @@ uint traced_decals(inout SurfaceInputs s) {
     blend_init(blend);
     uint tested = gather_decals(blend, surface);
     if (s.skinned) tested += gather_decals(blend, decal_skin_view(surface, s.rest_position, s.rest_normal));
-    blend_resolve(blend, s.albedo, s.normal, s.roughness, s.metallic);
+    blend_resolve(blend, s.albedo, s.normal, s.roughness, s.metallic, s.emissive);
     return tested;
 }
 #endif
@@ -104,12 +104,12 @@ uint apply_surface_decals(inout SurfaceInputs s, ivec2 px) {
                 if (s.skinned) apply_cluster_channel(blend, list, skin, c);
                 blend_collapse_onto(composite, blend);
             }
-            blend_apply(composite, s.albedo, s.normal, s.roughness, s.metallic);
+            blend_apply(composite, s.albedo, s.normal, s.roughness, s.metallic, s.emissive);
         }
     }
 #endif
 #ifdef DECAL_BUFFER
-    if (scene.decal_count > 0u) decals_tested = decal_buffer_apply(px, s.albedo, s.normal, s.roughness, s.metallic);
+    if (scene.decal_count > 0u) decals_tested = decal_buffer_apply(px, s.albedo, s.normal, s.roughness, s.metallic, s.emissive);
 #endif
     return decals_tested;
 }

@@ -913,3 +913,50 @@ fn decals_fade_with_distance_by_their_own_fade_or_the_global_default() {
         assert!((gone[0] - s).abs() < 0.01 && (gone[1] - s).abs() < 0.01, "faded out by the global default: {gone:?}");
     }
 }
+
+#[test]
+fn emissive_decals_add_light_above_one_before_tone_mapping_through_the_blend() {
+    // An albedo decal and an emissive one (no albedo, weight 3) overlap in channel 0 over an
+    // unlit plane: the emissive one adds its radiance × coverage (blend.glsl: decals add light)
+    // and leaves the albedo blend as it was, so despawning it takes exactly that radiance away.
+    // Every method: the configurations above, the ray-query compute pass, the deferred decals
+    // and the clustered decals walked in the forward shading.
+    let extra = [
+        Config { tier: Tier::RayQuery, pipeline: PipelineKind::Deferred, method: DecalMethod::RayQueryCompute },
+        Config { tier: Tier::NoRayTracing, pipeline: PipelineKind::Deferred, method: DecalMethod::DeferredDecals },
+    ];
+    let radiance = Vec3::new(5.0, 2.0, 1.0);
+    let coverage = 0.6;
+    for (c, in_forward_shading) in CONFIGS.into_iter().map(|c| (c, false)).chain(extra.map(|c| (c, false))).chain([(CONFIGS[4], true)]) {
+        eprintln!("{c:?}, in forward shading: {in_forward_shading}");
+        let (mut app, view) = plane_app(c);
+        {
+            let mut settings = app.world.resource_mut::<RenderSettings>();
+            settings.debug_view = DebugView::Lit;
+            settings.decals_in_forward_shading = in_forward_shading;
+        }
+        let mut materials = app.world.resource_mut::<Assets<DecalMaterial>>();
+        let paint = materials.add(DecalMaterial { base_color: Some(Vec4::new(0.2, 0.4, 0.6, 1.0)), ..Default::default() });
+        let glow = materials.add(DecalMaterial { base_color: None, emissive: Some(radiance), ..Default::default() });
+        let place = downward(Vec3::ZERO, Vec2::splat(1.0), 1.0, 0.0);
+        app.world.spawn((Decal { opacity: 0.7, ..Decal::new(paint) }, place));
+        let ember = app.world.spawn((Decal { opacity: coverage, weight: 3.0, ..Decal::new(glow) }, place)).id();
+        app.update();
+        let lit = renderer(&mut app).read_hdr().unwrap();
+        app.world.despawn(ember);
+        app.update();
+        let unlit = renderer(&mut app).read_hdr().unwrap();
+        assert_no_validation_errors(&mut app);
+        let at = |image: &[[f32; 4]], p: Vec3| {
+            let (px, py) = view.pixel_of(p);
+            Vec3::from_slice(&image[(py * SIZE.0 + px) as usize][..3])
+        };
+        for p in [Vec3::ZERO, Vec3::new(0.3, 0.0, -0.2)] {
+            let added = at(&lit, p) - at(&unlit, p);
+            assert!((added - radiance * coverage).abs().max_element() < 0.02, "at {p}: added {added}, expected {}", radiance * coverage);
+            assert!(at(&lit, p).max_element() > 1.0, "above 1 before tone mapping: {}", at(&lit, p));
+        }
+        let outside = Vec3::new(1.5, 0.0, 0.0);
+        assert!((at(&lit, outside) - at(&unlit, outside)).abs().max_element() < 1e-3, "no light outside the box");
+    }
+}

@@ -49,7 +49,7 @@ pub struct GraphicsDesc<'a> {
     pub write_masks: &'a [vk::ColorComponentFlags],
 }
 
-/// Colour blending for every attachment of a pipeline.
+/// Colour blending of a pipeline's attachments.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Blend {
     /// Outputs replace the attachment.
@@ -58,6 +58,9 @@ pub enum Blend {
     Additive,
     /// `src.rgb · src.a + dst.rgb · (1 − src.a)`; the attachment's alpha is kept.
     Alpha,
+    /// [`Blend::Alpha`] into every attachment but the last, which [`Blend::Additive`] adds to
+    /// (deferred decals: attributes into the G-buffer, emission into the HDR target).
+    AlphaThenAdditive,
 }
 
 impl<'a> GraphicsDesc<'a> {
@@ -146,7 +149,13 @@ pub fn create_graphics(ctx: &GpuContext, layout: vk::PipelineLayout, desc: &Grap
         .map(|i| {
             let mask = desc.write_masks.get(i).copied().unwrap_or(vk::ColorComponentFlags::RGBA);
             let state = vk::PipelineColorBlendAttachmentState::default().color_write_mask(mask);
-            match desc.blend {
+            let last = i + 1 == desc.color_formats.len();
+            let blend = match desc.blend {
+                Blend::AlphaThenAdditive if last => Blend::Additive,
+                Blend::AlphaThenAdditive => Blend::Alpha,
+                blend => blend,
+            };
+            match blend {
                 Blend::Replace => state,
                 Blend::Additive => state
                     .blend_enable(true)
@@ -156,7 +165,7 @@ pub fn create_graphics(ctx: &GpuContext, layout: vk::PipelineLayout, desc: &Grap
                     .src_alpha_blend_factor(vk::BlendFactor::ZERO)
                     .dst_alpha_blend_factor(vk::BlendFactor::ONE)
                     .alpha_blend_op(vk::BlendOp::ADD),
-                Blend::Alpha => state
+                Blend::Alpha | Blend::AlphaThenAdditive => state
                     .blend_enable(true)
                     .src_color_blend_factor(vk::BlendFactor::SRC_ALPHA)
                     .dst_color_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)

@@ -18,7 +18,8 @@
 //! pixel beside depth and the HDR target). Deferred
 //! decals are drawn in channel-then-weight order as runs of instanced boxes; each run shares the
 //! decal material's set of attributes, which selects one of 16 pipelines whose write masks touch
-//! only those attributes.
+//! only those attributes. Emissive decals add their light to the HDR target, which holds the
+//! surfaces' emission until the lighting pass adds to it.
 
 use ash::vk;
 
@@ -76,7 +77,7 @@ impl DeferredPasses {
     pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
         let geometry = GraphicsDesc::mesh("gbuffer", Some(shaders::GBUFFER_FRAG), &GBUFFER_FORMATS, DEPTH_FORMAT);
         let hdr = [HDR_FORMAT];
-        let decal_formats = [GBUFFER_ALBEDO_FORMAT, GBUFFER_NORMAL_FORMAT, GBUFFER_MATERIAL_FORMAT];
+        let decal_formats = [GBUFFER_ALBEDO_FORMAT, GBUFFER_NORMAL_FORMAT, GBUFFER_MATERIAL_FORMAT, HDR_FORMAT];
         let mut decals = Vec::with_capacity(16);
         for flags in 0..16u32 {
             use vk::ColorComponentFlags as C;
@@ -86,6 +87,8 @@ impl DeferredPasses {
                 if flags & DECAL_NORMAL != 0 { rgb } else { C::empty() },
                 (if flags & DECAL_ROUGHNESS != 0 { C::R } else { C::empty() })
                     | (if flags & DECAL_METALLIC != 0 { C::G } else { C::empty() }),
+                // Emission adds: a decal without it adds zero, so it needs no variants.
+                rgb,
             ];
             decals.push(create_graphics(
                 ctx,
@@ -103,7 +106,7 @@ impl DeferredPasses {
                     depth_compare: Some(vk::CompareOp::GREATER_OR_EQUAL),
                     depth_write: false,
                     topology: vk::PrimitiveTopology::TRIANGLE_LIST,
-                    blend: Blend::Alpha,
+                    blend: Blend::AlphaThenAdditive,
                     write_masks: &masks,
                 },
             )?);
@@ -206,6 +209,7 @@ impl DeferredPasses {
             .color(&GBUFFER_ALBEDO, Load::Keep)
             .color(&GBUFFER_NORMAL, Load::Keep)
             .color(&GBUFFER_MATERIAL, Load::Keep)
+            .color(&HDR, Load::Keep)
             .reads(scene.res.shaded())
             .record(|p| {
                 let push = p.push;

@@ -42,15 +42,15 @@ pub const MAX_TEXTURES: u32 = 4096;
 pub const TARGET_BINDINGS: u32 = crate::layout::BINDING_ANTIALIASED;
 /// Storage-image bindings after those: the decal buffer (`BINDING_DECAL_*`), the shadow debug
 /// image, depth peeling's background depth, the HDR target, the anti-aliased colour and the
-/// reflection pass's three images.
-pub const STORAGE_BINDINGS: u32 = crate::layout::BINDING_REFLECTION_RAYS - TARGET_BINDINGS;
+/// reflection pass's three images; then the environment's (`crate::environment`: its two cubes
+/// and the BRDF table sampled, the cubes' levels and the table as storage images); then the
+/// decal buffer's emission and the ambient occlusion's two images, storage images again.
 const _: () = assert!(crate::layout::BINDING_DECAL_ALBEDO == TARGET_BINDINGS + 1, "storage bindings follow the sampled targets");
-/// The environment's bindings after those (`crate::environment`): its two cubes and the BRDF
-/// table, sampled; the cubes' levels and the table as storage images.
-const ENVIRONMENT_BINDINGS: std::ops::RangeInclusive<u32> = crate::layout::BINDING_ENVIRONMENT..=crate::layout::BINDING_BRDF_LUT_STORAGE;
-const _: () =
-    assert!(crate::layout::BINDING_ENVIRONMENT == crate::layout::BINDING_REFLECTION_RAYS + 1, "the environment's bindings come last");
-const BINDINGS: usize = 1 + crate::layout::BINDING_BRDF_LUT_STORAGE as usize;
+const _: () = assert!(crate::layout::BINDING_ENVIRONMENT == crate::layout::BINDING_REFLECTION_RAYS + 1, "the environment follows them");
+/// The sampled bindings among the storage images': the environment's cubes and BRDF table.
+const SAMPLED_ENVIRONMENT: [u32; 3] =
+    [crate::layout::BINDING_ENVIRONMENT, crate::layout::BINDING_ENVIRONMENT_SOURCE, crate::layout::BINDING_BRDF_LUT];
+const BINDINGS: usize = 1 + crate::layout::BINDING_OCCLUSION as usize;
 
 /// A device-local array of records that grows geometrically and shrinks by the
 /// [`Shrink`] rule, never below its initial capacity.
@@ -479,12 +479,7 @@ pub struct GpuScene {
 
 /// The descriptor type of a binding of set 0.
 fn descriptor_type(binding: u32) -> vk::DescriptorType {
-    use crate::layout::{BINDING_BRDF_LUT_STORAGE, BINDING_ENVIRONMENT_LEVELS};
-    let storage = if ENVIRONMENT_BINDINGS.contains(&binding) {
-        binding == BINDING_ENVIRONMENT_LEVELS || binding == BINDING_BRDF_LUT_STORAGE
-    } else {
-        binding > TARGET_BINDINGS
-    };
+    let storage = binding > TARGET_BINDINGS && !SAMPLED_ENVIRONMENT.contains(&binding);
     if storage { vk::DescriptorType::STORAGE_IMAGE } else { vk::DescriptorType::COMBINED_IMAGE_SAMPLER }
 }
 

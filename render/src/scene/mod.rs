@@ -17,9 +17,9 @@ use glam::{Mat4, Vec2, Vec3};
 
 pub use crate::layout::{
     CULL_BATCHES, CULL_DOUBLE_SIDED, CULL_LIVE, CULL_MASKED, CULL_TRANSPARENT, DECAL_ALBEDO, DECAL_CHANNEL_SHIFT, DECAL_CHANNELS,
-    DECAL_METALLIC, DECAL_NORMAL, DECAL_ON_SKIN, DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuCullRecord, GpuDecal, GpuDecalMaterial,
-    GpuDrawCommand, GpuInstance, GpuJointMatrix, GpuLight, GpuMaterial, GpuMeshInfo, GpuMorphDelta, GpuSkinVertex, GpuVertex,
-    MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, NO_DECAL, RESERVED_TEXTURES, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
+    DECAL_EMISSIVE, DECAL_METALLIC, DECAL_NORMAL, DECAL_ON_SKIN, DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuCullRecord, GpuDecal,
+    GpuDecalMaterial, GpuDrawCommand, GpuInstance, GpuJointMatrix, GpuLight, GpuMaterial, GpuMeshInfo, GpuMorphDelta, GpuSkinVertex,
+    GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, NO_DECAL, RESERVED_TEXTURES, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
 };
 
 impl GpuInstance {
