@@ -76,6 +76,9 @@ pub struct RenderSettings {
     pub tonemapper: render::Tonemapper,
     /// Bloom (default on, intensity 0.04).
     pub bloom: render::BloomSettings,
+    /// Ambient occlusion (default: two 1 m rays a pixel where the device traces rays, screen
+    /// space where it cannot).
+    pub occlusion: render::OcclusionSettings,
     /// Reflections of smooth surfaces (default: ray-traced where the device has ray queries, at
     /// full resolution, below roughness 0.4).
     pub reflections: render::ReflectionSettings,
@@ -163,6 +166,7 @@ impl Default for RenderSettings {
             aa: render::AntiAliasing::None,
             tonemapper: render::Tonemapper::PbrNeutral,
             bloom: render::BloomSettings::default(),
+            occlusion: render::OcclusionSettings::default(),
             reflections: render::ReflectionSettings::default(),
             transparency: render::TransparencyMethod::Interlaced,
             refraction: true,
@@ -312,6 +316,8 @@ pub struct FrameStats {
     pub tonemapper: render::Tonemapper,
     /// Whether bloom ran.
     pub bloom: bool,
+    /// How ambient light was occluded (the method applied).
+    pub occlusion: render::OcclusionMethod,
     /// The light settings it was drawn with.
     pub lights: render::LightSettings,
     /// Render size.
@@ -515,6 +521,7 @@ fn render_frame(
         aa: settings.aa,
         tonemapper: settings.tonemapper,
         bloom: settings.bloom,
+        occlusion: settings.occlusion,
         reflections: settings.reflections,
         transparency: settings.transparency,
         refraction: settings.refraction,
@@ -544,6 +551,7 @@ fn render_frame(
                 aa: settings.aa,
                 tonemapper: settings.tonemapper,
                 bloom: settings.bloom.runs(),
+                occlusion: report.occlusion,
                 lights: settings.lights,
                 size: renderer.0.size(),
                 gpu: PassTimes::default(),

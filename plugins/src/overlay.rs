@@ -153,10 +153,11 @@ impl DebugOverlay {
         // What the GPU applied, which may differ from the request (a device without ray queries).
         if let Some(last) = self.history.back() {
             ui.label(format!(
-                "decals applied: {}   lights: {}   shadows: {}",
+                "decals applied: {}   lights: {}   shadows: {}   ambient occlusion: {}",
                 last.decal_method.name(),
                 last.light_method.name(),
-                last.shadows.name()
+                last.shadows.name(),
+                last.occlusion.name()
             ));
         }
         ui.label(format!(
@@ -208,6 +209,7 @@ impl DebugOverlay {
             (DebugView::ShadowRays, "shadow rays"),
             (DebugView::DepthNormals, "normals from depth"),
             (DebugView::Reflections, "reflection rays"),
+            (DebugView::AmbientOcclusion, "ambient occlusion"),
         ];
         let current = views.iter().find(|(v, _)| *v == settings.debug_view).map_or("lit", |(_, n)| n);
         egui::ComboBox::from_label("view").selected_text(current).show_ui(ui, |ui| {
@@ -230,6 +232,13 @@ impl DebugOverlay {
             }
             ui.checkbox(&mut settings.bloom.enabled, "bloom");
             ui.add(egui::Slider::new(&mut settings.bloom.intensity, 0.0..=0.3).text("intensity"));
+        });
+        ui.horizontal(|ui| {
+            ui.label("ambient occlusion");
+            for m in render::OcclusionMethod::ALL {
+                ui.selectable_value(&mut settings.occlusion.method, m, m.name());
+            }
+            ui.add(egui::Slider::new(&mut settings.occlusion.radius, 0.1..=4.0).text("radius (m)"));
         });
         ui.horizontal(|ui| {
             ui.label("reflections");

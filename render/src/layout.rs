@@ -598,6 +598,9 @@ layout! {
     /// layer, `GLASS_LAYER` in `shaders/include/shadow_pass.glsl`), so the forward transparency
     /// pass shades the nearest blended surface with its own shadows.
     pub const GLASS_SHADOWS: u32 = 256;
+    /// `GpuLighting::flags`: the ambient occlusion pass ran (`crate::environment::occlusion`):
+    /// shading multiplies ambient light by its image.
+    pub const AMBIENT_OCCLUSION: u32 = 512;
     /// Coloured shadows: per pixel, how many lights keep the colour their light crossed glass
     /// with (`GpuLighting::shadow_tints`); a pixel's further tinted lights are lit or shadowed
     /// by the tint's luminance.
@@ -656,11 +659,11 @@ layout! {
     /// the pixel's emissive decals add (rgb; a unused). Emission adds light, so it has no weight
     /// left to the surface's own (`shaders/include/blend.glsl`).
     pub const BINDING_DECAL_EMISSIVE: u32 = 30;
-    /// Binding of the ambient occlusion the tracing pass leaves (`occlusion_raw`, storage R16F:
+    /// Binding of the ambient occlusion the tracing pass leaves (`occlusion_raw`, storage R32F:
     /// the share of short rays that escaped, noisy), which the denoiser reads
     /// (`crate::environment::occlusion`).
     pub const BINDING_OCCLUSION_RAW: u32 = 31;
-    /// Binding of the denoised ambient occlusion (`occlusion_image`, storage R16F) that shading
+    /// Binding of the denoised ambient occlusion (`occlusion_image`, storage R32F) that shading
     /// multiplies the environment's and the ambient colour's light by.
     pub const BINDING_OCCLUSION: u32 = 32;
     /// Views in `BINDING_ENVIRONMENT_LEVELS` (16 radiance levels, then 16 specular ones).
@@ -734,6 +737,9 @@ layout! {
     /// Debug view: the reflection rays, as a heat map of their hit distance where a pixel
     /// traced one (white: missed, to the sky), the lit image dimmed where none was traced.
     pub const DEBUG_REFLECTIONS: u32 = 11;
+    /// Debug view: the ambient occlusion shading multiplies ambient light by, as grey (white
+    /// where it is off).
+    pub const DEBUG_AMBIENT_OCCLUSION: u32 = 12;
 
     /// Culling record flag: the slot holds a live instance.
     pub const CULL_LIVE: u32 = 1;
@@ -1059,8 +1065,10 @@ layout! {
         pub bloom_levels: u32,
         /// Bloom: address of the pyramid (0 without bloom).
         pub bloom: u64,
-        /// Padding to 16 bytes.
-        pub display_pad: [u32; 2],
+        /// Ambient occlusion: how far occluders count, in metres (`crate::environment::occlusion`).
+        pub occlusion_radius: f32,
+        /// Ambient occlusion: rays per pixel (traced occlusion).
+        pub occlusion_rays: u32,
     }
 
     /// What the environment's filtering passes make the environment from

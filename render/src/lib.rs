@@ -62,6 +62,6 @@ pub use present::{overlay, window};
 pub use renderer::{DebugView, DecalMethod, FinishedFrame, FrameReport, FrameSettings, PipelineKind, Renderer, RendererSettings};
 pub use scene::{FrameCounters, SceneMirror};
 pub use settings::{
-    AntiAliasing, BloomSettings, CullingMode, DepthNormals, LightMethod, LightSettings, RaySupport, ReflectionMode, ReflectionSettings,
-    ShadowMapBudget, ShadowMethod, Tonemapper, TransparencyMethod,
+    AntiAliasing, BloomSettings, CullingMode, DepthNormals, LightMethod, LightSettings, OcclusionMethod, OcclusionSettings, RaySupport,
+    ReflectionMode, ReflectionSettings, ShadowMapBudget, ShadowMethod, Tonemapper, TransparencyMethod,
 };

@@ -86,6 +86,8 @@ pub struct FrameReport {
     pub light_method: LightMethod,
     /// How the frame's shadows were made (`None` when none were traced).
     pub shadows: ShadowMethod,
+    /// How the frame's ambient light was occluded (`Off` when it was not).
+    pub occlusion: crate::settings::OcclusionMethod,
     /// Work done for this frame (uploads, records, acceleration structures, live counts).
     pub counters: FrameCounters,
     /// CPU time spent uploading and recording, in milliseconds (not counting the wait for the
@@ -471,6 +473,7 @@ impl Renderer {
             decal_method,
             light_method: lights.method,
             shadows: lights.shadows,
+            occlusion: lights.occlusion.method,
             counters: mirror.counters,
             record_ms: start.elapsed().as_secs_f32() * 1e3,
             submit_ms,

@@ -384,6 +384,8 @@ pub enum DebugView {
     /// The reflection rays: a heat map of their hit distance (0 to 16 m) where a pixel traced
     /// one, white where it missed, the lit image dimmed elsewhere.
     Reflections = crate::layout::DEBUG_REFLECTIONS,
+    /// The ambient occlusion ambient light is multiplied by, as grey (white where it is off).
+    AmbientOcclusion = crate::layout::DEBUG_AMBIENT_OCCLUSION,
 }
 
 impl DebugView {
@@ -502,6 +504,73 @@ impl BloomSettings {
     /// Whether bloom runs with these settings (on, with a positive intensity).
     pub fn runs(&self) -> bool {
         self.enabled && self.intensity > 0.0 && self.intensity.is_finite()
+    }
+}
+
+/// How ambient light is occluded (`crate::environment::occlusion`): the environment's and the
+/// ambient colour's light, never the lights'.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum OcclusionMethod {
+    /// No ambient occlusion (the material's occlusion texture only).
+    Off,
+    /// Short rays against the scene's TLAS, on either ray-tracing tier (ray queries, or a
+    /// ray-tracing pipeline); without ray tracing, [`OcclusionMethod::ScreenSpace`] stands in.
+    #[default]
+    RayTraced,
+    /// Ground-truth ambient occlusion over the depth buffer, on every device: it cannot see
+    /// what is off screen or hidden behind the nearest surface.
+    ScreenSpace,
+}
+
+impl OcclusionMethod {
+    /// Every method, in the order of `--ao`'s names.
+    pub const ALL: [OcclusionMethod; 3] = [OcclusionMethod::Off, OcclusionMethod::RayTraced, OcclusionMethod::ScreenSpace];
+
+    /// The name `--ao` and `--stats` use.
+    pub fn name(self) -> &'static str {
+        match self {
+            OcclusionMethod::Off => "off",
+            OcclusionMethod::RayTraced => "ray_traced",
+            OcclusionMethod::ScreenSpace => "screen_space",
+        }
+    }
+
+    /// The method a device with `support` applies when this one is asked for: rays need an
+    /// acceleration structure and a way to trace it, else screen space stands in.
+    pub fn effective(self, support: RaySupport) -> OcclusionMethod {
+        match self {
+            OcclusionMethod::RayTraced if !(support.ray_query || support.ray_pipeline) => OcclusionMethod::ScreenSpace,
+            m => m,
+        }
+    }
+}
+
+/// Ambient occlusion's settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OcclusionSettings {
+    /// How (default: traced, screen space without ray tracing).
+    pub method: OcclusionMethod,
+    /// How far an occluder counts, in metres (default 1): the length of the rays, the
+    /// screen-space search's radius.
+    pub radius: f32,
+    /// Rays per pixel when traced (default 2; each 4×4 block of pixels shares 16× as many
+    /// directions through the denoiser).
+    pub rays: u32,
+}
+
+impl Default for OcclusionSettings {
+    fn default() -> Self {
+        Self { method: OcclusionMethod::default(), radius: 1.0, rays: 2 }
+    }
+}
+
+impl OcclusionSettings {
+    /// No ambient occlusion.
+    pub const OFF: OcclusionSettings = OcclusionSettings { method: OcclusionMethod::Off, radius: 1.0, rays: 2 };
+
+    /// Whether the settings can occlude anything: a method, a positive finite radius, a ray.
+    pub fn runs(&self) -> bool {
+        self.method != OcclusionMethod::Off && self.radius > 0.0 && self.radius.is_finite() && self.rays > 0
     }
 }
 
@@ -640,6 +709,8 @@ pub struct FrameSettings {
     pub tonemapper: Tonemapper,
     /// Bloom.
     pub bloom: BloomSettings,
+    /// Ambient occlusion.
+    pub occlusion: OcclusionSettings,
     /// Reflections of smooth surfaces.
     pub reflections: ReflectionSettings,
     /// How blended surfaces are drawn (see [`TransparencyMethod::effective`]).
@@ -668,6 +739,7 @@ impl Default for FrameSettings {
             aa: AntiAliasing::None,
             tonemapper: Tonemapper::PbrNeutral,
             bloom: BloomSettings::default(),
+            occlusion: OcclusionSettings::default(),
             reflections: ReflectionSettings::default(),
             transparency: TransparencyMethod::Interlaced,
             refraction: true,

@@ -114,6 +114,10 @@ pub struct HeadlessOptions {
     pub tonemapper: render::Tonemapper,
     /// Bloom.
     pub bloom: render::BloomSettings,
+    /// Ambient occlusion.
+    pub occlusion: render::OcclusionSettings,
+    /// Run `frames` frames with every ambient occlusion method in turn.
+    pub compare_occlusion: bool,
     /// The camera's exposure as an EV100 (`None`: the scene's).
     pub ev100: Option<f32>,
     /// Face size of the environment's cubes ([`RendererSettings::environment_resolution`]).
@@ -184,6 +188,8 @@ pub struct Run {
     pub reflections: render::ReflectionSettings,
     /// The environment, as an index into the comparison's environments (`None`: as it is).
     pub environment: Option<usize>,
+    /// Ambient occlusion.
+    pub occlusion: render::OcclusionSettings,
 }
 
 /// Light counts of seed 002's Tables 4.2–4.5.
@@ -300,6 +306,8 @@ impl Default for HeadlessOptions {
             compare_environment: false,
             tonemapper: render::Tonemapper::PbrNeutral,
             bloom: render::BloomSettings::default(),
+            occlusion: render::OcclusionSettings::default(),
+            compare_occlusion: false,
             ev100: None,
             environment_resolution: RendererSettings::default().environment_resolution,
             compare_reflections: false,
@@ -364,6 +372,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         culling: opts.culling,
         tonemapper: opts.tonemapper,
         bloom: opts.bloom,
+        occlusion: opts.occlusion,
         ..Default::default()
     }));
     app.insert_resource(opts.environment.clone());
@@ -454,6 +463,7 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
         culling: opts.culling,
         reflections: opts.reflections,
         environment: None,
+        occlusion: opts.occlusion,
     };
     let mut combos: Vec<Run> = Vec::new();
     // --compare-environment: none, the procedural sky, then the options' map if it is one.
@@ -502,6 +512,11 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
         // None first and last: the first run also warms the GPU up.
         combos.extend((0..environments.len()).chain([0]).map(|i| Run { environment: Some(i), ..base }));
     }
+    if opts.compare_occlusion {
+        // Off first and last: the first run also warms the GPU up.
+        let runs = render::OcclusionMethod::ALL.into_iter().chain([render::OcclusionMethod::Off]);
+        combos.extend(runs.map(|method| Run { occlusion: render::OcclusionSettings { method, ..opts.occlusion }, ..base }));
+    }
     let total = opts.frames as usize * combos.len().max(1);
     let mut frames = Vec::with_capacity(total);
     for i in 0..total {
@@ -514,6 +529,7 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
             settings.refraction = run.refraction;
             settings.culling = run.culling;
             settings.reflections = run.reflections;
+            settings.occlusion = run.occlusion;
             if let Some(i) = run.environment {
                 app.insert_resource(environments[i].clone());
             }

@@ -217,6 +217,20 @@ struct Cli {
     /// How much of the image bloom replaces by its blurred copy (0 to 1).
     #[arg(long, default_value_t = render::BloomSettings::default().intensity)]
     bloom_intensity: f32,
+    /// Ambient occlusion: off, ray_traced (screen space where the device cannot trace rays),
+    /// screen_space.
+    #[arg(long, default_value = "ray_traced", value_parser = parse_occlusion)]
+    ao: render::OcclusionMethod,
+    /// How far ambient occluders count, in metres.
+    #[arg(long, default_value_t = render::OcclusionSettings::default().radius)]
+    ao_radius: f32,
+    /// Rays per pixel of traced ambient occlusion.
+    #[arg(long, default_value_t = render::OcclusionSettings::default().rays)]
+    ao_rays: u32,
+    /// Run --frames frames with each ambient occlusion method in turn (off, ray_traced,
+    /// screen_space; the first run warms up and is repeated at the end).
+    #[arg(long)]
+    compare_ao: bool,
     /// The camera's exposure as an exposure value at ISO 100 (default: the scene's exposure).
     #[arg(long)]
     ev100: Option<f32>,
@@ -240,6 +254,13 @@ fn parse_tonemap(s: &str) -> Result<render::Tonemapper, String> {
     render::Tonemapper::from_name(s).ok_or_else(|| format!("unknown tone mapper {s:?} (neutral, aces, agx)"))
 }
 
+fn parse_occlusion(s: &str) -> Result<render::OcclusionMethod, String> {
+    render::OcclusionMethod::ALL
+        .into_iter()
+        .find(|m| m.name() == s)
+        .ok_or_else(|| format!("unknown ambient occlusion {s:?} (off, ray_traced, screen_space)"))
+}
+
 fn parse_reflections(s: &str) -> Result<render::ReflectionMode, String> {
     render::ReflectionMode::from_name(s).ok_or_else(|| format!("unknown reflections {s:?} (off, ray_traced, screen_space)"))
 }
@@ -259,9 +280,10 @@ fn parse_debug_view(s: &str) -> Result<DebugView, String> {
         "shadow-rays" => DebugView::ShadowRays,
         "depth-normals" => DebugView::DepthNormals,
         "reflections" => DebugView::Reflections,
+        "ambient-occlusion" => DebugView::AmbientOcclusion,
         _ => {
             return Err(format!(
-                "unknown view {s:?} (lit, decal-heatmap, albedo, normal, roughness-metallic, light-heatmap, shadow-rays, depth-normals, reflections)"
+                "unknown view {s:?} (lit, decal-heatmap, albedo, normal, roughness-metallic, light-heatmap, shadow-rays, depth-normals, reflections, ambient-occlusion)"
             ));
         }
     })
@@ -397,6 +419,8 @@ fn main() -> Result<()> {
         compare_environment: cli.compare_environment,
         tonemapper: cli.tonemap,
         bloom: render::BloomSettings { enabled: !cli.no_bloom, intensity: cli.bloom_intensity },
+        occlusion: render::OcclusionSettings { method: cli.ao, radius: cli.ao_radius, rays: cli.ao_rays },
+        compare_occlusion: cli.compare_ao,
         ev100: cli.ev100,
         instances: cli.instances,
     };

@@ -127,6 +127,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
         "environment": { "filtered": c.environment.filtered, "resolution": c.environment.resolution },
         "tonemap": stats.tonemapper.name(),
         "bloom": stats.bloom,
+        "ao": stats.occlusion.name(),
     });
     if stats.decal_method == render::DecalMethod::Clustered {
         value["clusters"] = clusters_json(&c.clusters);

@@ -26,6 +26,17 @@
 #include "environment.glsl"
 
 layout(set = 0, binding = BINDING_SHADOW_DEBUG, rgba16f) uniform readonly image2D shadow_debug_in;
+layout(set = 0, binding = BINDING_OCCLUSION, r32f) uniform readonly image2D occlusion_in;
+
+// The ambient occlusion at pixel `px` (occlusion.glsl; 1 where its passes did not run). Blended
+// surfaces are not in the depth it was made from: they are not occluded.
+float ambient_occlusion(ivec2 px) {
+#ifdef TRANSPARENT
+    return 1.0;
+#else
+    return (scene.lighting.lighting.flags & AMBIENT_OCCLUSION) != 0u ? imageLoad(occlusion_in, px).r : 1.0;
+#endif
+}
 #ifdef DECAL_BUFFER
 #include "decal_buffer.glsl"
 #endif
@@ -122,11 +133,13 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
     if (scene.debug_view == DEBUG_ROUGHNESS_METALLIC) return vec4(s.roughness, s.metallic, 0.0, 1.0);
     if (scene.debug_view == DEBUG_DECAL_COUNT) return vec4(float(decals_tested), 0.0, 0.0, 1.0);
     if (scene.debug_view == DEBUG_DECAL_HEATMAP) return vec4(heatmap(float(decals_tested) / 16.0), 1.0);
+    float occlusion = s.occlusion * ambient_occlusion(px);
+    if (scene.debug_view == DEBUG_AMBIENT_OCCLUSION) return vec4(vec3(occlusion), 1.0);
 
     GpuCamera cam = scene.camera.camera;
     vec3 v = normalize(cam.position - s.position);
     SurfaceBrdf brdf = surface_brdf(s.albedo, s.metallic, s.roughness);
-    vec3 color = s.emissive + ambient_light(brdf, s.normal, v, s.occlusion);
+    vec3 color = s.emissive + ambient_light(brdf, s.normal, v, occlusion);
 #ifdef ENUMERATED_LIGHTS
     uint found;
     color += enumerated_lights(brdf, s, v, found);

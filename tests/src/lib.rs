@@ -188,13 +188,19 @@ pub const TEST_SHADOW_MAPS: render::ShadowMapBudget = render::ShadowMapBudget { 
 /// [`gpu_app`] with a renderer created from `renderer_settings`.
 ///
 /// Its scenes are lit by the flat ambient colour of their `RenderSettings`, with the clear
-/// colour behind them, not by the plugin's default procedural sky, and without bloom: they
-/// check lights, decals and shadows against exact expectations. Environment and display tests
-/// insert their own [`engine::environment::Environment`] and turn bloom back on.
+/// colour behind them, not by the plugin's default procedural sky, without bloom and without
+/// ambient occlusion: they check lights, decals and shadows against exact expectations.
+/// Environment, display and occlusion tests insert their own
+/// [`engine::environment::Environment`] and turn bloom or occlusion back on.
 pub fn gpu_app_with(w: u32, h: u32, settings: RenderSettings, renderer_settings: &RendererSettings) -> App {
     let mut app = App::new();
     app.world.resource_mut::<Time>().set_fixed_step(Some(std::time::Duration::from_millis(16)));
-    app.add_plugins(RenderPlugin::new(RenderSettings { size: (w, h), bloom: render::BloomSettings::OFF, ..settings }));
+    app.add_plugins(RenderPlugin::new(RenderSettings {
+        size: (w, h),
+        bloom: render::BloomSettings::OFF,
+        occlusion: render::OcclusionSettings::OFF,
+        ..settings
+    }));
     app.insert_resource(engine::environment::Environment { source: engine::environment::EnvironmentSource::None, ..Default::default() });
     let renderer = Renderer::new(renderer_settings, w, h).expect("a Vulkan device (run scripts/setup.sh)");
     assert!(renderer.validation_enabled(), "GPU tests need the validation layer");

@@ -36,6 +36,8 @@
 //! again; a map's texels, read by the source pass through their address, and freed after the
 //! frame).
 
+pub mod occlusion;
+
 use std::sync::Arc;
 
 use ash::vk;

@@ -116,6 +116,10 @@ spirv! {
     SHADOWS_RGEN_GLASS_LAYER = "shadows.rgen.GLASS_LAYER";
     SHADOWS_RMISS = "shadows.rmiss";
     SHADOWS_RAHIT = "shadows.rahit";
+    OCCLUSION_COMP = "occlusion.comp";
+    OCCLUSION_COMP_SCREEN_SPACE = "occlusion.comp.SCREEN_SPACE";
+    OCCLUSION_RGEN = "occlusion.rgen";
+    OCCLUSION_DENOISE_COMP = "occlusion_denoise.comp";
     SCENE_INSTANCES_COMP = "scene_instances.comp";
     DEFERRED_LIGHTING_COMP = "deferred_lighting.comp";
     DEFERRED_LIGHTING_COMP_RAY_QUERY_DECALS = "deferred_lighting.comp.RAY_QUERY_DECALS";

@@ -1,13 +1,14 @@
 //! Lights on the renderer's side: which lights each pixel loops over (every light, its tile's
 //! after tiled light culling, [`tiles`], or those a zero-length ray finds, [`ray_query`]), and
-//! their ray-traced shadows ([`crate::shadows`]). The
+//! their ray-traced shadows ([`crate::shadows`]), and the ambient occlusion of the light that does
+//! not come from them ([`crate::environment::occlusion`]). The
 //! light records themselves live in the scene's tables, kept by change detection, and the
 //! shading math in `shaders/include/lighting.glsl` and `shading.glsl`.
 //!
 //! Each frame function calls, in order: [`Lighting::prepare`] before the scene's upload (it sizes
 //! the buffers and writes the lighting record the shaders find them through), [`Lighting::build`]
 //! after it (the scene's and the ray-query lights' acceleration structures), and [`Lighting::record`] once the frame's
-//! depth exists (culling, then the shadow pass). The shading passes then declare
+//! depth exists (culling, the shadow pass, the ambient occlusion). The shading passes then declare
 //! [`declare_light_reads`].
 
 pub mod ray_query;
@@ -18,12 +19,14 @@ use ash::vk;
 use crate::RenderError;
 use crate::culling::Draws;
 use crate::environment::EnvironmentFrame;
+use crate::environment::occlusion::{AmbientOcclusion, OcclusionFrame};
 use crate::gpu::device::GpuContext;
-use crate::graph::targets::SHADOW_DEBUG;
+use crate::graph::targets::{OCCLUSION, SHADOW_DEBUG};
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassBuilder, ResourceId};
 use crate::layout::{
-    COLOURED_SHADOWS, GLASS_SHADOWS, GpuLighting, INTERLACED, LIGHT_CULL_AABB, LIGHTS_ALL, LIGHTS_RAY_QUERY, LIGHTS_TILED,
-    REFLECT_SCREEN_SPACE, REFRACTION, SHADOW_DEBUG as SHADOW_DEBUG_FLAG, SHADOW_NORMALS_IMPROVED, SHADOW_RAY_CULLING, SHADOWS_TRACED,
+    AMBIENT_OCCLUSION, COLOURED_SHADOWS, GLASS_SHADOWS, GpuLighting, INTERLACED, LIGHT_CULL_AABB, LIGHTS_ALL, LIGHTS_RAY_QUERY,
+    LIGHTS_TILED, REFLECT_SCREEN_SPACE, REFRACTION, SHADOW_DEBUG as SHADOW_DEBUG_FLAG, SHADOW_NORMALS_IMPROVED, SHADOW_RAY_CULLING,
+    SHADOWS_TRACED,
 };
 use crate::reflections::ReflectionFrame;
 use crate::scene::SceneMirror;
@@ -46,6 +49,8 @@ pub struct Lighting {
     pub shadows: ShadowPass,
     /// Ray-query lights' boxes and structures (devices with acceleration structures).
     pub ray_query: Option<RayQueryLights>,
+    /// The ambient occlusion passes.
+    pub occlusion: AmbientOcclusion,
 }
 
 /// What this frame does with lights.
@@ -76,6 +81,8 @@ pub struct LightFrame {
     /// The environment's images and record, when an environment lights the frame
     /// (`crate::environment`): every shading pass samples them.
     pub environment: Option<[ResourceId; 2]>,
+    /// How ambient light is occluded this frame.
+    pub occlusion: OcclusionFrame,
     interlaced: bool,
     shadow_maps: ShadowMapPlan,
     tiles: TileFrame,
@@ -139,6 +146,7 @@ impl Lighting {
             accel: SceneAccel::new(ctx, graph, layout)?,
             shadows: ShadowPass::new(ctx, layout, shadow_maps)?,
             ray_query: RayQueryLights::new(ctx, graph, layout)?,
+            occlusion: AmbientOcclusion::new(ctx, layout)?,
         })
     }
 
@@ -202,6 +210,8 @@ impl Lighting {
         mirror.counters.shadow_maps_missing = shadow_maps.missing as u64;
         let interlaced = glass && s.transparency.effective(s.pipeline).interlaces();
         let reflect = reflections.on() && (!reflections.traced() || accel.tlas_address != 0);
+        let scene_accel = self.accel.as_ref().filter(|_| accel.tlas_address != 0).map(|a| a.traced());
+        let occlusion = self.occlusion.plan(&s.occlusion, scene_accel, scene.res.meshes);
         let mut flags = 0;
         for (on, flag) in [
             (l.cull_aabb, LIGHT_CULL_AABB),
@@ -213,6 +223,7 @@ impl Lighting {
             (s.refraction, REFRACTION),
             (l.coloured_shadows, COLOURED_SHADOWS),
             (tiles.glass_layer && shadows != ShadowMethod::None && !enumerated, GLASS_SHADOWS),
+            (occlusion.on(), AMBIENT_OCCLUSION),
         ] {
             if on {
                 flags |= flag;
@@ -261,7 +272,8 @@ impl Lighting {
             bloom_intensity: 0.0, // the bloom pass's to set
             bloom_levels: 0,
             bloom: 0,
-            display_pad: [0; 2],
+            occlusion_radius: s.occlusion.radius,
+            occlusion_rays: s.occlusion.rays,
         });
         let res = self.tiles.resources();
         let inline_shadows = match self.accel.as_ref() {
@@ -273,7 +285,6 @@ impl Lighting {
         };
         let light_boxes = if ray_query.tlas != 0 { self.ray_query.as_ref().and_then(|r| r.reads()) } else { None };
         let light_accel = light_boxes.filter(|_| enumerated);
-        let scene_accel = self.accel.as_ref().filter(|_| accel.tlas_address != 0).map(|a| a.traced());
         Ok(LightFrame {
             method,
             shadows,
@@ -286,6 +297,7 @@ impl Lighting {
             scene_accel,
             light_boxes,
             environment: environment.reads,
+            occlusion,
             interlaced,
             shadow_maps,
             tiles,
@@ -306,8 +318,8 @@ impl Lighting {
         Ok(())
     }
 
-    /// Culls the lights into tiles and makes the shadows (tracing rays, or drawing `draws` into
-    /// shadow maps and reading them); needs this frame's depth.
+    /// Culls the lights into tiles, makes the shadows (tracing rays, or drawing `draws` into
+    /// shadow maps and reading them) and the ambient occlusion; needs this frame's depth.
     pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, draws: &Draws, frame: &LightFrame) -> Result<(), RenderError> {
         self.record_layer(f, scene, draws, frame, frame.shadow_maps)
     }
@@ -328,6 +340,7 @@ impl Lighting {
         maps: ShadowMapPlan,
     ) -> Result<(), RenderError> {
         self.tiles.cull(f, scene, &frame.tiles)?;
+        self.occlusion.record(f, scene, &frame.occlusion)?;
         let Some(shadow_bits) = frame.shadow_bits else { return Ok(()) };
         let traced = match frame.shadows {
             ShadowMethod::Maps => None,
@@ -357,12 +370,14 @@ impl Lighting {
         if let Some(r) = self.ray_query {
             r.destroy(ctx);
         }
+        self.occlusion.destroy(ctx);
     }
 }
 
 /// Declares what a shading pass reads to light this frame: the light tile buffer when lights
 /// are tiled, the shadow words when shadows were traced, the shadow debug image in its views;
-/// with ray-query lights their structures and list, and the scene's when it traces shadows.
+/// with ray-query lights their structures and list, and the scene's when it traces shadows; the
+/// environment, and the ambient occlusion when it ran.
 pub fn declare_light_reads<'f, 'a>(pass: PassBuilder<'f, 'a>, frame: &LightFrame) -> PassBuilder<'f, 'a> {
     let accel = |ids: Option<[ResourceId; 3]>| ids.into_iter().flat_map(|[a, b, _]| [(a, BufferUse::Accel), (b, BufferUse::Accel)]);
     let storage = |ids: Option<[ResourceId; 3]>| ids.map(|[_, _, c]| (c, BufferUse::Storage));
@@ -374,4 +389,5 @@ pub fn declare_light_reads<'f, 'a>(pass: PassBuilder<'f, 'a>, frame: &LightFrame
         .reads(storage(frame.inline_shadows))
         .when(frame.debug, |p| p.image(&SHADOW_DEBUG, ImageUse::StorageRead))
         .reads(frame.environment_reads())
+        .when(frame.occlusion.on(), |p| p.image(&OCCLUSION, ImageUse::StorageRead))
 }
