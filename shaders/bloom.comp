@@ -11,6 +11,7 @@
 // - (no variant) composite: the HDR target becomes mix(image, bloom, intensity), where bloom is
 //   level 0 after the upsamples divided by the level count: every filter's weights sum to one,
 //   so the blurred copy carries the image's energy and the blend keeps it.
+#include "color.glsl"
 #include "bloom.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -31,7 +32,7 @@ vec3 source(vec2 uv) {
 #if defined(FIRST) || defined(DOWN)
 float box_weight(vec3 c) {
 #ifdef FIRST
-    return 1.0 / (1.0 + dot(c, vec3(0.2126, 0.7152, 0.0722)));
+    return 1.0 / (1.0 + luminance(c));
 #else
     return 1.0;
 #endif

@@ -4,12 +4,13 @@
 // (render/src/present/tonemap.rs says why this is not fused into that fragment pass).
 #include "scene.glsl"
 #include "color.glsl"
+#include "exposure.glsl"
 
 layout(set = 0, binding = BINDING_ANTIALIASED_STORAGE, rgba16f) uniform writeonly image2D antialiased_out;
 layout(local_size_x = 8, local_size_y = 8) in;
 
 vec3 fxaa_display(vec2 uv) {
-    return tonemap(texture(hdr_target, uv).rgb * scene.camera.camera.exposure, scene.lighting.lighting.tonemapper);
+    return tonemap(texture(hdr_target, uv).rgb * display_exposure(), scene.lighting.lighting.tonemapper);
 }
 
 #include "fxaa.glsl"

@@ -4,6 +4,7 @@
 // variant copies out the colour the FXAA pass (fxaa.comp) already tone mapped and anti-aliased.
 #include "scene.glsl"
 #include "color.glsl"
+#include "exposure.glsl"
 
 layout(location = 0) in vec2 v_uv;
 layout(location = 0) out vec4 out_color;
@@ -12,6 +13,6 @@ void main() {
 #ifdef ANTIALIASED
     out_color = vec4(texelFetch(antialiased, ivec2(gl_FragCoord.xy), 0).rgb, 1.0);
 #else
-    out_color = vec4(tonemap(texture(hdr_target, v_uv).rgb * scene.camera.camera.exposure, scene.lighting.lighting.tonemapper), 1.0);
+    out_color = vec4(tonemap(texture(hdr_target, v_uv).rgb * display_exposure(), scene.lighting.lighting.tonemapper), 1.0);
 #endif
 }

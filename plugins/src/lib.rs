@@ -79,6 +79,8 @@ pub struct RenderSettings {
     /// Ambient occlusion (default: two 1 m rays a pixel where the device traces rays, screen
     /// space where it cannot).
     pub occlusion: render::OcclusionSettings,
+    /// Auto-exposure (default off: the camera's exposure).
+    pub exposure: render::AutoExposure,
     /// Reflections of smooth surfaces (default: ray-traced where the device has ray queries, at
     /// full resolution, below roughness 0.4).
     pub reflections: render::ReflectionSettings,
@@ -167,6 +169,7 @@ impl Default for RenderSettings {
             tonemapper: render::Tonemapper::PbrNeutral,
             bloom: render::BloomSettings::default(),
             occlusion: render::OcclusionSettings::default(),
+            exposure: render::AutoExposure::default(),
             reflections: render::ReflectionSettings::default(),
             transparency: render::TransparencyMethod::Interlaced,
             refraction: true,
@@ -318,6 +321,8 @@ pub struct FrameStats {
     pub bloom: bool,
     /// How ambient light was occluded (the method applied).
     pub occlusion: render::OcclusionMethod,
+    /// Whether auto-exposure set the exposure.
+    pub auto_exposure: bool,
     /// The light settings it was drawn with.
     pub lights: render::LightSettings,
     /// Render size.
@@ -522,6 +527,8 @@ fn render_frame(
         tonemapper: settings.tonemapper,
         bloom: settings.bloom,
         occlusion: settings.occlusion,
+        exposure: settings.exposure,
+        delta_seconds: time.delta_secs(),
         reflections: settings.reflections,
         transparency: settings.transparency,
         refraction: settings.refraction,
@@ -552,6 +559,7 @@ fn render_frame(
                 tonemapper: settings.tonemapper,
                 bloom: settings.bloom.runs(),
                 occlusion: report.occlusion,
+                auto_exposure: settings.exposure.runs(),
                 lights: settings.lights,
                 size: renderer.0.size(),
                 gpu: PassTimes::default(),

@@ -241,6 +241,10 @@ impl DebugOverlay {
             ui.add(egui::Slider::new(&mut settings.occlusion.radius, 0.1..=4.0).text("radius (m)"));
         });
         ui.horizontal(|ui| {
+            ui.checkbox(&mut settings.exposure.enabled, "auto-exposure");
+            ui.add(egui::Slider::new(&mut settings.exposure.compensation, -4.0..=4.0).text("compensation (stops)"));
+        });
+        ui.horizontal(|ui| {
             ui.label("reflections");
             for m in render::ReflectionMode::ALL {
                 ui.selectable_value(&mut settings.reflections.mode, m, m.name());

@@ -690,6 +690,14 @@ layout! {
     pub const TONEMAP_AGX: u32 = 2;
     /// Most levels of the bloom pyramid (the first at half resolution).
     pub const BLOOM_MAX_LEVELS: u32 = 7;
+    /// Auto-exposure: bins of the luminance histogram (`GpuExposure`); bin 0 holds black and
+    /// what is darker than 2^−`EXPOSURE_LOG2_OFFSET`, the others split the `EXPOSURE_LOG2_RANGE`
+    /// stops above it.
+    pub const EXPOSURE_BINS: u32 = 128;
+    /// Auto-exposure: −log2 of the darkest luminance the histogram resolves (2^−12).
+    pub const EXPOSURE_LOG2_OFFSET: u32 = 12;
+    /// Auto-exposure: stops the histogram spans (2^−12 to 2^12).
+    pub const EXPOSURE_LOG2_RANGE: u32 = 24;
     /// Side of the split-sum BRDF table in texels.
     pub const BRDF_LUT_SIZE: u32 = 64;
     /// `GpuLighting::reflection_flags`: the reflection pass runs this frame.
@@ -1069,6 +1077,36 @@ layout! {
         pub occlusion_radius: f32,
         /// Ambient occlusion: rays per pixel (traced occlusion).
         pub occlusion_rays: u32,
+        /// Auto-exposure: address of its record (`GpuExposure`; 0: the camera's exposure).
+        pub exposure: u64,
+        /// Auto-exposure: compensation in stops (positive brightens).
+        pub exposure_compensation: f32,
+        /// Auto-exposure: the darkest scene it exposes for, as an EV100.
+        pub exposure_min_ev100: f32,
+        /// Auto-exposure: the brightest scene it exposes for, as an EV100.
+        pub exposure_max_ev100: f32,
+        /// Auto-exposure: adaptation rate per second (the share of the way to the target covered
+        /// in one second is 1 − e^−rate).
+        pub exposure_rate: f32,
+        /// Padding to 16 bytes.
+        pub exposure_pad: [u32; 2],
+    }
+
+    /// Auto-exposure's state on the GPU (`crate::exposure`): this frame's luminance histogram
+    /// (cleared by the pass that reads it) and the exposure the display transform applies.
+    #[layout(std430)]
+    pub struct GpuExposure {
+        /// Pixels per log2-luminance bin (`EXPOSURE_BINS`).
+        pub histogram: [u32; 128],
+        /// The exposure applied (radiance multiplier); 0 before the first adaptation.
+        pub exposure: f32,
+        /// The scene's average luminance the exposure is adapting to (the histogram's mean
+        /// between its 50th and 95th percentiles, in log2).
+        pub luminance: f32,
+        /// The exposure as an EV100.
+        pub ev100: f32,
+        /// Frames adapted since the state was reset.
+        pub frames: u32,
     }
 
     /// What the environment's filtering passes make the environment from

@@ -39,6 +39,7 @@ pub mod culling;
 pub mod decals;
 pub mod environment;
 pub mod error;
+pub mod exposure;
 pub mod gpu;
 pub mod graph;
 pub mod layout;
@@ -62,6 +63,6 @@ pub use present::{overlay, window};
 pub use renderer::{DebugView, DecalMethod, FinishedFrame, FrameReport, FrameSettings, PipelineKind, Renderer, RendererSettings};
 pub use scene::{FrameCounters, SceneMirror};
 pub use settings::{
-    AntiAliasing, BloomSettings, CullingMode, DepthNormals, LightMethod, LightSettings, OcclusionMethod, OcclusionSettings, RaySupport,
-    ReflectionMode, ReflectionSettings, ShadowMapBudget, ShadowMethod, Tonemapper, TransparencyMethod,
+    AntiAliasing, AutoExposure, BloomSettings, CullingMode, DepthNormals, LightMethod, LightSettings, OcclusionMethod, OcclusionSettings,
+    RaySupport, ReflectionMode, ReflectionSettings, ShadowMapBudget, ShadowMethod, Tonemapper, TransparencyMethod,
 };

@@ -14,6 +14,7 @@ use crate::bloom::Bloom;
 use crate::culling::Culling;
 use crate::decals::{DecalChoice, Decals};
 use crate::environment::Environments;
+use crate::exposure::Exposure;
 use crate::gpu::device::{DeviceSettings, GpuContext, Tier};
 use crate::gpu::memory::Graveyard;
 use crate::gpu::pipeline::{ScenePush, create_layout};
@@ -130,6 +131,7 @@ struct Resources {
     reflections: Reflections,
     environment: Environments,
     bloom: Bloom,
+    exposure: Exposure,
     decals: Decals,
     lighting: Lighting,
     tonemap: Tonemap,
@@ -199,6 +201,7 @@ impl Renderer {
             reflections: Reflections::new(ctx, &mut graph, layout)?,
             environment: Environments::new(ctx, &mut graph, layout, settings.environment_resolution)?,
             bloom: Bloom::new(ctx, &mut graph, layout)?,
+            exposure: Exposure::new(ctx, &mut graph, layout)?,
             decals: Decals::new(ctx, &mut graph, layout, settings.decal_cluster_capacity)?,
             lighting: Lighting::new(ctx, &mut graph, layout, settings.shadow_maps)?,
             tonemap: Tonemap::new(ctx, layout, DISPLAY_FORMAT)?,
@@ -404,6 +407,7 @@ impl Renderer {
             reflections: &mut res.reflections,
             environment: &mut res.environment,
             bloom: &mut res.bloom,
+            exposure: &mut res.exposure,
             present: Present { tonemap, target, overlay, aa: settings.aa },
             decal_choice,
         };
@@ -511,6 +515,14 @@ impl Renderer {
         self.ctx.wait_idle();
         let res = &mut *self.res;
         res.environment.read_level(&self.ctx, &mut res.graph, specular, level)
+    }
+
+    /// Auto-exposure's state after the last frame (waits for the GPU); `None` before it first
+    /// ran.
+    pub fn read_exposure(&mut self) -> Result<Option<crate::layout::GpuExposure>, RenderError> {
+        self.ctx.wait_idle();
+        let res = &mut *self.res;
+        res.exposure.read_back(&self.ctx, &mut res.graph)
     }
 
     /// The depth of the last frame (reverse-Z: 1 at the near plane, 0 at infinity).
@@ -624,6 +636,7 @@ impl Drop for Renderer {
             reflections,
             environment,
             bloom,
+            exposure,
             decals,
             lighting,
             tonemap,
@@ -656,6 +669,7 @@ impl Drop for Renderer {
         reflections.destroy(ctx);
         environment.destroy(ctx);
         bloom.destroy(ctx);
+        exposure.destroy(ctx);
         tonemap.destroy(ctx);
         graph.destroy(ctx);
         scene.destroy(ctx);

@@ -507,6 +507,37 @@ impl BloomSettings {
     }
 }
 
+/// Auto-exposure (`crate::exposure`): the display's exposure follows the scene's luminance, as
+/// an eye or a camera adapts, instead of the camera's fixed exposure.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AutoExposure {
+    /// Whether it runs (default off: the camera's exposure, `Camera::exposure`).
+    pub enabled: bool,
+    /// Stops added to the exposure it finds (positive brightens; default 0).
+    pub compensation: f32,
+    /// The darkest scene it exposes for, as an EV100 (default −4: darker scenes stay dark).
+    pub min_ev100: f32,
+    /// The brightest scene it exposes for, as an EV100 (default 16).
+    pub max_ev100: f32,
+    /// How fast it adapts: the share of the way covered in one second is 1 − e^−rate (default
+    /// 3: 95 % in one second).
+    pub rate: f32,
+}
+
+impl Default for AutoExposure {
+    fn default() -> Self {
+        Self { enabled: false, compensation: 0.0, min_ev100: -4.0, max_ev100: 16.0, rate: 3.0 }
+    }
+}
+
+impl AutoExposure {
+    /// Whether it runs with these settings: enabled, with finite settings and a range.
+    pub fn runs(&self) -> bool {
+        let finite = [self.compensation, self.min_ev100, self.max_ev100, self.rate].iter().all(|v| v.is_finite());
+        self.enabled && finite && self.min_ev100 <= self.max_ev100 && self.rate >= 0.0
+    }
+}
+
 /// How ambient light is occluded (`crate::environment::occlusion`): the environment's and the
 /// ambient colour's light, never the lights'.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
@@ -711,6 +742,11 @@ pub struct FrameSettings {
     pub bloom: BloomSettings,
     /// Ambient occlusion.
     pub occlusion: OcclusionSettings,
+    /// Auto-exposure.
+    pub exposure: AutoExposure,
+    /// Seconds since the previous frame (auto-exposure adapts over time; a headless run's fixed
+    /// step makes it reproducible).
+    pub delta_seconds: f32,
     /// Reflections of smooth surfaces.
     pub reflections: ReflectionSettings,
     /// How blended surfaces are drawn (see [`TransparencyMethod::effective`]).
@@ -740,6 +776,8 @@ impl Default for FrameSettings {
             tonemapper: Tonemapper::PbrNeutral,
             bloom: BloomSettings::default(),
             occlusion: OcclusionSettings::default(),
+            exposure: AutoExposure::default(),
+            delta_seconds: 1.0 / 60.0,
             reflections: ReflectionSettings::default(),
             transparency: TransparencyMethod::Interlaced,
             refraction: true,

@@ -118,6 +118,8 @@ pub struct HeadlessOptions {
     pub occlusion: render::OcclusionSettings,
     /// Run `frames` frames with every ambient occlusion method in turn.
     pub compare_occlusion: bool,
+    /// Auto-exposure.
+    pub exposure: render::AutoExposure,
     /// The camera's exposure as an EV100 (`None`: the scene's).
     pub ev100: Option<f32>,
     /// Face size of the environment's cubes ([`RendererSettings::environment_resolution`]).
@@ -308,6 +310,7 @@ impl Default for HeadlessOptions {
             bloom: render::BloomSettings::default(),
             occlusion: render::OcclusionSettings::default(),
             compare_occlusion: false,
+            exposure: render::AutoExposure::default(),
             ev100: None,
             environment_resolution: RendererSettings::default().environment_resolution,
             compare_reflections: false,
@@ -373,6 +376,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         tonemapper: opts.tonemapper,
         bloom: opts.bloom,
         occlusion: opts.occlusion,
+        exposure: opts.exposure,
         ..Default::default()
     }));
     app.insert_resource(opts.environment.clone());

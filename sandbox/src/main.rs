@@ -231,6 +231,12 @@ struct Cli {
     /// screen_space; the first run warms up and is repeated at the end).
     #[arg(long)]
     compare_ao: bool,
+    /// Auto-exposure from the image's luminance histogram instead of the camera's exposure.
+    #[arg(long)]
+    auto_exposure: bool,
+    /// Stops auto-exposure adds to the exposure it finds (positive brightens).
+    #[arg(long, default_value_t = 0.0)]
+    exposure_compensation: f32,
     /// The camera's exposure as an exposure value at ISO 100 (default: the scene's exposure).
     #[arg(long)]
     ev100: Option<f32>,
@@ -421,6 +427,7 @@ fn main() -> Result<()> {
         bloom: render::BloomSettings { enabled: !cli.no_bloom, intensity: cli.bloom_intensity },
         occlusion: render::OcclusionSettings { method: cli.ao, radius: cli.ao_radius, rays: cli.ao_rays },
         compare_occlusion: cli.compare_ao,
+        exposure: render::AutoExposure { enabled: cli.auto_exposure, compensation: cli.exposure_compensation, ..Default::default() },
         ev100: cli.ev100,
         instances: cli.instances,
     };

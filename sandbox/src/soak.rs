@@ -10,7 +10,8 @@
 //! driver ([`run`]) switches the pipeline, decal method, light method, transparency method,
 //! culling mode (and freezes or thaws the culling view), anti-aliasing, reflections, the
 //! environment (none, the procedural sky, a uniform radiance: each new one is filtered on the
-//! GPU that frame), the tone mapper and bloom, decals in forward shading and debug view and
+//! GPU that frame), the tone mapper, bloom, auto-exposure and the ambient occlusion method,
+//! decals in forward shading and debug view and
 //! resizes the target (down to 1×1). The run is split into cycles;
 //! each cycle starts a new renderer on a randomly chosen capability tier
 //! ([`plugins::restart_renderer`], which re-extracts the scene), and ends with everything the
@@ -183,7 +184,7 @@ pub struct SwitchCounts {
     /// Environment changes (none, the procedural sky, a uniform radiance: each new source is
     /// filtered that frame).
     pub environment: u64,
-    /// Tone mapper and bloom changes.
+    /// Tone mapper, bloom, auto-exposure and ambient occlusion changes.
     pub display: u64,
     /// Light method changes.
     pub light_method: u64,
@@ -493,6 +494,8 @@ fn base_settings(settings: &mut RenderSettings, size: (u32, u32)) {
     settings.lights.method = LightMethod::Tiled;
     settings.debug_view = DebugView::Lit;
     settings.bloom = render::BloomSettings::default();
+    settings.occlusion = render::OcclusionSettings::default();
+    settings.exposure = render::AutoExposure { enabled: true, ..Default::default() };
     settings.size = size;
 }
 
@@ -535,7 +538,8 @@ fn frame(app: &mut App, report: &mut SoakReport) -> Result<()> {
 
 fn settle(app: &mut App, report: &mut SoakReport, size: (u32, u32)) -> Result<u64> {
     base_settings(&mut app.world.resource_mut::<RenderSettings>(), size);
-    // The sky's cubes and the bloom pyramid exist before and after a cycle alike.
+    // The sky's cubes, the bloom pyramid, the occlusion images and auto-exposure's record exist
+    // before and after a cycle alike.
     app.insert_resource(engine::environment::Environment::default());
     for _ in 0..SETTLE_FRAMES {
         frame(app, report)?;
@@ -621,6 +625,8 @@ pub fn run(config: &SoakConfig) -> Result<SoakReport> {
             if rng.next_u64().is_multiple_of(83) {
                 settings.tonemapper = render::Tonemapper::ALL[(rng.next_u64() % 3) as usize];
                 settings.bloom.enabled = !settings.bloom.enabled;
+                settings.exposure.enabled = !settings.exposure.enabled;
+                settings.occlusion.method = render::OcclusionMethod::ALL[(rng.next_u64() % 3) as usize];
                 report.switches.display += 1;
             }
             if rng.next_u64().is_multiple_of(37) {

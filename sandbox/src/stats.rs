@@ -128,6 +128,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
         "tonemap": stats.tonemapper.name(),
         "bloom": stats.bloom,
         "ao": stats.occlusion.name(),
+        "auto_exposure": stats.auto_exposure,
     });
     if stats.decal_method == render::DecalMethod::Clustered {
         value["clusters"] = clusters_json(&c.clusters);

@@ -5,6 +5,14 @@
 #ifndef COLOR_GLSL
 #define COLOR_GLSL
 
+#include "layout.glsl"  // TONEMAP_*
+
+// Relative luminance of linear Rec. 709 radiance (the weights every pass that weighs colour by
+// brightness uses).
+float luminance(vec3 c) {
+    return dot(c, vec3(0.2126, 0.7152, 0.0722));
+}
+
 vec3 pbr_neutral(vec3 color) {
     const float start_compression = 0.8 - 0.04;
     const float desaturation = 0.15;

@@ -11,6 +11,8 @@
 #ifndef FXAA_GLSL
 #define FXAA_GLSL
 
+#include "color.glsl"
+
 vec3 fxaa_display(vec2 uv);
 
 const float FXAA_EDGE_THRESHOLD = 0.125;        // the local contrast an edge needs, relative
@@ -20,7 +22,7 @@ const int FXAA_SEARCH_STEPS = 10;
 const float FXAA_SEARCH_STRIDE[FXAA_SEARCH_STEPS] = float[](1.0, 1.0, 1.0, 1.0, 1.0, 1.5, 2.0, 2.0, 4.0, 8.0);
 
 float fxaa_luma(vec3 display) {
-    return sqrt(max(dot(display, vec3(0.2126, 0.7152, 0.0722)), 0.0));
+    return sqrt(max(luminance(display), 0.0));
 }
 
 float fxaa_luma_at(vec2 uv) {

@@ -18,6 +18,7 @@
 #ifndef OCCLUSION_GLSL
 #define OCCLUSION_GLSL
 
+#include "color.glsl"
 #include "scene.glsl"
 #include "depth_normals.glsl"
 #include "lighting.glsl"
@@ -109,7 +110,7 @@ float occlusion_at(ivec2 px, vec3 p, vec3 n) {
         vec2 u = hammersley(first + k, 16u * rays);
         float r = sqrt(u.x), phi = 2.0 * PI * u.y;
         vec3 dir = frame * vec3(r * cos(phi), r * sin(phi), sqrt(max(1.0 - u.x, 0.0)));
-        open += dot(shadow_ray_transmittance(origin, dir, 1e-3, l.occlusion_radius), vec3(0.2126, 0.7152, 0.0722));
+        open += luminance(shadow_ray_transmittance(origin, dir, 1e-3, l.occlusion_radius));
     }
     return open / float(rays);
 }

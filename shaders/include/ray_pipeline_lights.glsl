@@ -10,6 +10,7 @@
 #ifndef RAY_PIPELINE_LIGHTS_GLSL
 #define RAY_PIPELINE_LIGHTS_GLSL
 
+#include "color.glsl"
 #include "lighting.glsl"
 #include "light_boxes.glsl"
 
@@ -33,7 +34,7 @@ const uint NO_SHADOWED_LIGHT = 0xFFFFFFFFu;
 
 #ifdef SHADOWED_LIGHTS
 float light_strength(vec3 c) {
-    return dot(c, vec3(0.2126, 0.7152, 0.0722));
+    return luminance(c);
 }
 
 // Adds light `slot`'s radiance `c` to the payload: kept apart if it is among the strongest so

@@ -21,6 +21,7 @@
 #ifndef SHADOW_PASS_GLSL
 #define SHADOW_PASS_GLSL
 
+#include "color.glsl"
 #include "scene.glsl"
 #include "lighting.glsl"
 #include "depth_normals.glsl"
@@ -76,7 +77,7 @@ void shadow_pixel(ivec2 px) {
                 } else if (l.shadow_tints != 0ul && tinted < SHADOW_TINT_SLOTS && base + k < 255u) {
                     word |= 1u << k;
                     tints[tinted++] = (packUnorm4x8(vec4(t, 0.0)) & 0xFFFFFFu) | ((base + k + 1u) << 24);
-                } else if (dot(t, vec3(0.2126, 0.7152, 0.0722)) > 0.5) {
+                } else if (luminance(t) > 0.5) {
                     word |= 1u << k;
                 }
             }

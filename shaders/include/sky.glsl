@@ -9,6 +9,7 @@
 #ifndef SKY_GLSL
 #define SKY_GLSL
 
+#include "color.glsl"
 #include "brdf.glsl"
 
 const vec3 SKY_ZENITH = vec3(0.16, 0.30, 0.62);
@@ -17,7 +18,7 @@ const float SKY_SCALE = 0.12;         // radiance per lux of sun, at the gradien
 const float GROUND_ALBEDO = 0.25;
 
 vec3 sky_radiance(vec3 d, vec3 sun, vec3 sun_illuminance) {
-    float e = max(dot(sun_illuminance, vec3(0.2126, 0.7152, 0.0722)), 1e-6);
+    float e = max(luminance(sun_illuminance), 1e-6);
     vec3 tint = sun_illuminance / e;
     float day = smoothstep(-0.12, 0.15, sun.y);
     float cos_gamma = dot(d, sun);

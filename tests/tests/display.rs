@@ -166,3 +166,55 @@ fn each_tone_mapper_matches_its_formula() {
         }
     }
 }
+
+/// The shader's bin centre for luminance `l` (`shaders/include/exposure.glsl`).
+fn exposure_bin_log2(l: f32) -> f32 {
+    let (bins, offset, range) =
+        (render::layout::EXPOSURE_BINS as f32, render::layout::EXPOSURE_LOG2_OFFSET as f32, render::layout::EXPOSURE_LOG2_RANGE as f32);
+    let t = (l.log2() + offset) / range;
+    let bin = 1.0 + ((t * (bins - 1.0)).floor()).min(bins - 2.0);
+    (bin - 0.5) / (bins - 1.0) * range - offset
+}
+
+#[test]
+fn auto_exposure_adapts_to_the_scene_luminance_at_its_rate() {
+    // Nothing but a uniform sky of luminance 0.5, then 50: auto-exposure puts it at mid-grey at
+    // once on its first frame, then follows the hundredfold change by 1 − e^(−rate · dt) a frame
+    // (the harness's fixed step, 16 ms), until the display shows the same grey as before.
+    let (w, h) = (16u32, 16u32);
+    let settings = RenderSettings { exposure: render::AutoExposure { enabled: true, ..Default::default() }, ..Default::default() };
+    let sky = |intensity| Environment { source: EnvironmentSource::Uniform(Vec3::splat(0.5)), intensity, rotation: 0.0 };
+    let mut app = app(w, h, settings, sky(1.0));
+    app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 0.0, 3.0)));
+    let target = |luminance: f32, compensation: f32| exposure_bin_log2(luminance) + 3.0 - compensation;
+    app.update();
+    let first = renderer(&mut app).read_exposure().unwrap().expect("auto-exposure ran");
+    assert_eq!(first.frames, 1);
+    assert!((first.ev100 - target(0.5, 0.0)).abs() < 1e-4, "first frame: at once, {} vs {}", first.ev100, target(0.5, 0.0));
+    assert!((first.exposure * 1.2 * first.ev100.exp2() - 1.0).abs() < 1e-4);
+    assert!((first.exposure * 9.6 * 0.5).log2().abs() < 0.1, "mid-grey within half a bin: exposure {}", first.exposure);
+    let grey = renderer(&mut app).read_display().unwrap()[0];
+
+    app.insert_resource(sky(100.0));
+    app.update();
+    let step = renderer(&mut app).read_exposure().unwrap().unwrap();
+    let rate = render::AutoExposure::default().rate;
+    let expected = first.ev100 + (target(50.0, 0.0) - first.ev100) * (1.0 - (-rate * 0.016f32).exp());
+    assert!((step.ev100 - expected).abs() < 1e-3, "one frame of adaptation: {} vs {expected}", step.ev100);
+    for _ in 0..200 {
+        app.update();
+    }
+    let adapted = renderer(&mut app).read_exposure().unwrap().unwrap();
+    assert!((adapted.ev100 - target(50.0, 0.0)).abs() < 1e-3, "adapted: {} vs {}", adapted.ev100, target(50.0, 0.0));
+    let display = renderer(&mut app).read_display().unwrap();
+    assert!(display[0].abs_diff(grey) <= 2, "the same grey at a hundred times the light: {} vs {grey}", display[0]);
+
+    // A stop of compensation doubles the exposure (after adapting).
+    app.world.resource_mut::<RenderSettings>().exposure.compensation = 1.0;
+    for _ in 0..200 {
+        app.update();
+    }
+    let brighter = renderer(&mut app).read_exposure().unwrap().unwrap();
+    assert!((brighter.exposure / adapted.exposure - 2.0).abs() < 1e-3, "{} vs {}", brighter.exposure, adapted.exposure);
+    assert_no_validation_errors(&mut app);
+}

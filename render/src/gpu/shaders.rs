@@ -27,6 +27,8 @@ spirv! {
     TONEMAP_FRAG = "tonemap.frag";
     TONEMAP_FRAG_ANTIALIASED = "tonemap.frag.ANTIALIASED";
     FXAA_COMP = "fxaa.comp";
+    EXPOSURE_HISTOGRAM_COMP = "exposure_histogram.comp";
+    EXPOSURE_AVERAGE_COMP = "exposure_average.comp";
     REFLECTIONS_COMP = "reflections.comp";
     REFLECTIONS_COMP_RAY_QUERY_DECALS = "reflections.comp.RAY_QUERY_DECALS";
     REFLECTIONS_COMP_DECAL_BUFFER = "reflections.comp.DECAL_BUFFER";

@@ -274,6 +274,13 @@ impl Lighting {
             bloom: 0,
             occlusion_radius: s.occlusion.radius,
             occlusion_rays: s.occlusion.rays,
+            // Auto-exposure's to set (`crate::exposure`).
+            exposure: 0,
+            exposure_compensation: 0.0,
+            exposure_min_ev100: 0.0,
+            exposure_max_ev100: 0.0,
+            exposure_rate: 0.0,
+            exposure_pad: [0; 2],
         });
         let res = self.tiles.resources();
         let inline_shadows = match self.accel.as_ref() {

@@ -16,6 +16,7 @@ use crate::bloom::Bloom;
 use crate::culling::{Culling, Draws, Phase};
 use crate::decals::{DecalChoice, DecalFrame, DecalReaders, DecalSurfaceSource, Decals};
 use crate::environment::Environments;
+use crate::exposure::Exposure;
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::pipeline::{HitGroup, RayTracingDesc, RayTracingPipeline, ScenePush};
 use crate::gpu::shaders;
@@ -56,6 +57,8 @@ pub struct FrameParts<'a> {
     pub environment: &'a mut Environments,
     /// Bloom over the finished HDR image.
     pub bloom: &'a mut Bloom,
+    /// Auto-exposure from the finished HDR image.
+    pub exposure: &'a mut Exposure,
     /// Tone mapping and overlay into the frame's display image.
     pub present: Present<'a>,
     /// The decal method asked for and the one this device and pipeline apply.
@@ -75,6 +78,7 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     let lights = r.lighting.prepare(f, r.scene, mirror, s, &reflections, &environment)?;
     mirror.counters.culling = r.culling.prepare(f, r.scene, mirror, s, lights.shadow_map_views())?;
     r.bloom.prepare(f, r.scene, s.bloom)?;
+    r.exposure.prepare(f, r.scene, &s.exposure, s.delta_seconds)?;
     let boxes_changed = r.scene.upload(f, mirror)?;
     r.skinning.record(f, r.scene)?;
     let in_shading = s.pipeline.is_forward() && s.decals_in_forward_shading;
@@ -206,12 +210,14 @@ pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirr
     Ok(lights)
 }
 
-/// The end of every frame: bloom over the finished HDR image, the decal boxes when shown (not
-/// blurred), then tone mapping into the display image and the overlay.
+/// The end of every frame: bloom over the finished HDR image, auto-exposure's measurement of
+/// it, the decal boxes when shown (not blurred, not measured), then tone mapping into the
+/// display image and the overlay.
 fn present(f: &mut Frame, r: &mut FrameParts, mirror: &SceneMirror, s: &FrameSettings) -> Result<(), RenderError> {
     r.bloom.record(f, r.scene)?;
+    r.exposure.record(f, r.scene)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
-    r.present.record(f, r.scene)
+    r.present.record(f, r.scene, r.exposure.reads())
 }
 
 /// Reflections on the glass the forward transparency pass drew, then the reflection statistics'

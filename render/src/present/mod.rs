@@ -6,7 +6,7 @@ pub mod tonemap;
 pub mod window;
 
 use crate::RenderError;
-use crate::graph::{Frame, ImageRef, Load, PassKind};
+use crate::graph::{BufferUse, Frame, ImageRef, Load, PassKind, ResourceId};
 use crate::scene::gpu::GpuScene;
 use crate::settings::AntiAliasing;
 use overlay::{Overlay, OverlayFrame};
@@ -25,9 +25,10 @@ pub struct Present<'a> {
 }
 
 impl Present<'_> {
-    /// Tone maps the HDR target into the display image, then draws the overlay over it.
-    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene) -> Result<(), RenderError> {
-        self.tonemap.record(f, scene, self.target, self.aa)?;
+    /// Tone maps the HDR target into the display image (reading auto-exposure's record,
+    /// `exposure`, when it runs), then draws the overlay over it.
+    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, exposure: Option<(ResourceId, BufferUse)>) -> Result<(), RenderError> {
+        self.tonemap.record(f, scene, self.target, self.aa, exposure)?;
         if let Some((egui, frame)) = &mut self.overlay {
             f.pass("overlay", PassKind::Graphics).color(self.target, Load::Keep).record(|p| egui.record(p.cmd, p.extent, frame))??;
         }

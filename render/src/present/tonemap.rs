@@ -1,4 +1,4 @@
-//! Display transform: exposure and the Khronos PBR Neutral tone mapper, from the HDR target
+//! Display transform: exposure (the camera's, or auto-exposure's, `crate::exposure`) and a tone mapper, from the HDR target
 //! into an sRGB display image (the offscreen target or a swapchain image), anti-aliased with
 //! FXAA when asked for (`shaders/include/fxaa.glsl`: Lottes's FXAA, NVIDIA 2009).
 //!
@@ -16,7 +16,7 @@ use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::{GraphicsDesc, create_compute, create_graphics};
 use crate::gpu::shaders;
 use crate::graph::targets::{ANTIALIASED, HDR};
-use crate::graph::{BufferUse, Frame, ImageRef, ImageUse, Load, PassKind};
+use crate::graph::{BufferUse, Frame, ImageRef, ImageUse, Load, PassKind, ResourceId};
 use crate::scene::gpu::GpuScene;
 use crate::settings::AntiAliasing;
 
@@ -47,15 +47,23 @@ impl Tonemap {
         self.format
     }
 
-    /// Reads the HDR target, writes `display` (the offscreen display target or a swapchain
-    /// image) with anti-aliasing `aa`.
-    pub fn record(&self, f: &mut Frame, scene: &GpuScene, display: impl Into<ImageRef>, aa: AntiAliasing) -> Result<(), RenderError> {
+    /// Reads the HDR target (and auto-exposure's record, `exposure`, when it runs), writes
+    /// `display` (the offscreen display target or a swapchain image) with anti-aliasing `aa`.
+    pub fn record(
+        &self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        display: impl Into<ImageRef>,
+        aa: AntiAliasing,
+        exposure: Option<(ResourceId, BufferUse)>,
+    ) -> Result<(), RenderError> {
         let fxaa = aa == AntiAliasing::Fxaa;
         if fxaa {
             let (pipeline, extent) = (self.fxaa, f.graph.extent());
             f.pass("fxaa", PassKind::Compute)
                 .sample(&HDR)
                 .read(scene.res.tables, BufferUse::Storage)
+                .reads(exposure)
                 .image(&ANTIALIASED, ImageUse::StorageWrite)
                 .record(|p| {
                     p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
@@ -64,7 +72,7 @@ impl Tonemap {
                 })?;
         }
         let pipeline = self.pipelines[usize::from(fxaa)];
-        let pass = f.pass("tonemap", PassKind::Graphics).read(scene.res.tables, BufferUse::Storage);
+        let pass = f.pass("tonemap", PassKind::Graphics).read(scene.res.tables, BufferUse::Storage).reads(exposure);
         let pass = if fxaa { pass.sample(&ANTIALIASED) } else { pass.sample(&HDR) };
         pass.color(display, Load::Discard).record(|p| {
             let push = p.push;

@@ -1083,6 +1083,9 @@ impl GpuScene {
         // The bloom pass's to set (`set_bloom`).
         (lighting.bloom, lighting.bloom_levels, lighting.bloom_intensity) =
             (self.lighting_cpu.bloom, self.lighting_cpu.bloom_levels, self.lighting_cpu.bloom_intensity);
+        // And auto-exposure's (`set_exposure`).
+        let exposure = exposure_fields(&self.lighting_cpu);
+        set_exposure_fields(&mut lighting, exposure);
         if lighting != self.lighting_cpu {
             self.lighting_cpu = lighting;
             self.lighting_dirty = true;
@@ -1095,6 +1098,17 @@ impl GpuScene {
         let l = &mut self.lighting_cpu;
         if (l.bloom, l.bloom_levels, l.bloom_intensity) != (address, levels, intensity) {
             (l.bloom, l.bloom_levels, l.bloom_intensity) = (address, levels, intensity);
+            self.lighting_dirty = true;
+        }
+    }
+
+    /// Sets the lighting record's auto-exposure fields (`crate::exposure`): its record's address
+    /// (0: the camera's exposure) and its compensation, EV100 range and rate. An unchanged
+    /// setting uploads nothing.
+    pub fn set_exposure(&mut self, address: u64, [compensation, min_ev100, max_ev100, rate]: [f32; 4]) {
+        let fields = (address, [compensation, min_ev100, max_ev100, rate]);
+        if exposure_fields(&self.lighting_cpu) != fields {
+            set_exposure_fields(&mut self.lighting_cpu, fields);
             self.lighting_dirty = true;
         }
     }
@@ -1166,4 +1180,15 @@ impl GpuScene {
             ctx.device.destroy_descriptor_set_layout(self.set_layout, None);
         }
     }
+}
+
+/// Auto-exposure's fields of a lighting record: its address, then compensation, EV100 range and
+/// rate.
+fn exposure_fields(l: &GpuLighting) -> (u64, [f32; 4]) {
+    (l.exposure, [l.exposure_compensation, l.exposure_min_ev100, l.exposure_max_ev100, l.exposure_rate])
+}
+
+fn set_exposure_fields(l: &mut GpuLighting, (address, [compensation, min_ev100, max_ev100, rate]): (u64, [f32; 4])) {
+    (l.exposure, l.exposure_compensation, l.exposure_min_ev100, l.exposure_max_ev100, l.exposure_rate) =
+        (address, compensation, min_ev100, max_ev100, rate);
 }
