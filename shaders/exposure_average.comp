@@ -1,10 +1,11 @@
 #version 460
 // Auto-exposure, pass 2 (render/src/exposure): one workgroup reads the histogram (and clears it
-// for the next frame), averages log2 luminance over the pixels between the 50th and 95th
-// percentiles, ignoring black (the sky of an unlit scene, a dark half of the screen and a few
-// blinding highlights do not decide the exposure), and moves the exposure towards the one that
-// puts that average at mid-grey: EV100 = log2(L · 100 / 12.5), exposure = 1 / (1.2 · 2^EV100)
-// (Lagarde and de Rousiers, "Moving Frostbite to PBR", 2014, §5.1), by 1 − e^(−rate · dt).
+// for the next frame), averages log2 luminance over the pixels between the 10th and 90th
+// percentiles, ignoring black (a black sky, a few blinding highlights do not decide the
+// exposure), and moves the scene's EV100 = log2(L · 100 / 12.5) (Lagarde and de Rousiers,
+// "Moving Frostbite to PBR", 2014, §5.1) towards that average's by 1 − e^(−rate · dt); the
+// exposure puts the average at 18 % grey, as Unreal's auto-exposure does:
+// exposure = 0.18 / L = 1.44 / 2^EV100, times 2^compensation.
 // The push constant's texture_index carries dt's bits.
 #include "exposure.glsl"
 
@@ -12,8 +13,9 @@ layout(local_size_x = EXPOSURE_BINS) in;
 
 shared uint counts[EXPOSURE_BINS];
 
-const float LOW_PERCENTILE = 0.5;
-const float HIGH_PERCENTILE = 0.95;
+const float LOW_PERCENTILE = 0.1;
+const float HIGH_PERCENTILE = 0.9;
+const float MID_GREY = 0.18;
 
 void main() {
     GpuLighting l = scene.lighting.lighting;
@@ -42,7 +44,7 @@ void main() {
     float dt = uintBitsToFloat(scene.texture_index);
     float ev100 = record.exposure.frames == 0u ? target : mix(record.exposure.ev100, target, 1.0 - exp(-l.exposure_rate * dt));
     record.exposure.ev100 = ev100;
-    record.exposure.exposure = 1.0 / (1.2 * exp2(ev100));
+    record.exposure.exposure = MID_GREY * 8.0 / exp2(ev100);
     record.exposure.luminance = exp2(log2_luminance);
     record.exposure.frames += 1u;
 }

@@ -1101,9 +1101,10 @@ layout! {
         /// The exposure applied (radiance multiplier); 0 before the first adaptation.
         pub exposure: f32,
         /// The scene's average luminance the exposure is adapting to (the histogram's mean
-        /// between its 50th and 95th percentiles, in log2).
+        /// between its 10th and 90th percentiles, in log2).
         pub luminance: f32,
-        /// The exposure as an EV100.
+        /// The adapted EV100 (less the compensation): the exposure is 1.44 / 2^ev100, which
+        /// puts a luminance of 2^ev100 / 8 at 18 % grey.
         pub ev100: f32,
         /// Frames adapted since the state was reset.
         pub frames: u32,

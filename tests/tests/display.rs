@@ -191,8 +191,8 @@ fn auto_exposure_adapts_to_the_scene_luminance_at_its_rate() {
     let first = renderer(&mut app).read_exposure().unwrap().expect("auto-exposure ran");
     assert_eq!(first.frames, 1);
     assert!((first.ev100 - target(0.5, 0.0)).abs() < 1e-4, "first frame: at once, {} vs {}", first.ev100, target(0.5, 0.0));
-    assert!((first.exposure * 1.2 * first.ev100.exp2() - 1.0).abs() < 1e-4);
-    assert!((first.exposure * 9.6 * 0.5).log2().abs() < 0.1, "mid-grey within half a bin: exposure {}", first.exposure);
+    assert!((first.exposure * first.ev100.exp2() / 1.44 - 1.0).abs() < 1e-4);
+    assert!((first.exposure * 0.5 / 0.18).log2().abs() < 0.1, "18 % grey within half a bin: exposure {}", first.exposure);
     let grey = renderer(&mut app).read_display().unwrap()[0];
 
     app.insert_resource(sky(100.0));

@@ -5,11 +5,13 @@
 //!
 //! 1. **Histogram** (compute, after bloom): every pixel of the HDR target into 128 bins of log2
 //!    luminance over 2^−12 to 2^12, per workgroup in shared memory, then into the record.
-//! 2. **Average** (one workgroup): the mean log2 luminance of the pixels between the 50th and
-//!    95th percentiles, black left out; the target EV100 puts it at mid-grey (clamped to the
-//!    settings' range, minus the compensation), and the exposure moves towards it by
-//!    1 − e^(−rate · dt) (at once on the first frame). The pass clears the histogram for the
-//!    next frame.
+//! 2. **Average** (one workgroup): the mean log2 luminance of the pixels between the 10th and
+//!    90th percentiles (Bevy's default window), black left out, as an EV100 (clamped to the
+//!    settings' range, minus the compensation); the adapted EV100 moves towards it by
+//!    1 − e^(−rate · dt) (at once on the first frame), and the exposure puts it at 18 % grey
+//!    (Unreal's calibration; Frostbite's 1 / (1.2 · 2^EV100) maps it to 10 %, a stop and a
+//!    half darker than our scenes are lit for). The pass clears the histogram for the next
+//!    frame.
 //!
 //! The display transform (tone mapping, FXAA) multiplies by the record's exposure, read on the
 //! GPU: the CPU never waits for it and nothing is uploaded per frame (the frame's dt travels in
