@@ -794,6 +794,10 @@ pub fn extract_environment(
                     width: map.width,
                     height: map.height,
                     texels: map.texels.clone(),
+                    projection: match map.projection {
+                        engine::environment::Projection::Equirectangular => render::MapProjection::Equirectangular,
+                        engine::environment::Projection::CubeFaces => render::MapProjection::CubeFaces,
+                    },
                 })),
                 Source::Uniform(c) => Some(render::EnvironmentSource::Uniform(*c)),
             };

@@ -676,6 +676,9 @@ layout! {
     pub const ENVIRONMENT_MAP: u32 = 2;
     /// `GpuEnvironmentJob::mode`: the same radiance in every direction (`GpuEnvironmentJob::color`).
     pub const ENVIRONMENT_UNIFORM: u32 = 3;
+    /// `GpuEnvironmentJob::mode`: a cube map's six faces stacked in one image
+    /// (`GpuEnvironmentJob::source`; `source_size` is a face's side and six times it).
+    pub const ENVIRONMENT_CUBE_MAP: u32 = 4;
     /// `GpuLighting::environment_flags`: an environment lights the scene (else the flat ambient
     /// colour and the clear colour).
     pub const ENVIRONMENT_ON: u32 = 1;

@@ -55,7 +55,7 @@ pub mod skinning;
 pub mod transparency;
 
 pub use culling::CullingStats;
-pub use environment::{Environment, EnvironmentMap, EnvironmentSource, EnvironmentStats};
+pub use environment::{Environment, EnvironmentMap, EnvironmentSource, EnvironmentStats, MapProjection};
 pub use error::RenderError;
 pub use gpu::device::{Capabilities, DeviceSettings, Tier};
 pub use gpu::timestamps::PassTimes;

@@ -194,8 +194,9 @@ struct Cli {
     #[arg(long)]
     compare_reflections: bool,
     /// What lights the scene from all around: sky (procedural, its sun the scene's sun),
-    /// none (a flat ambient colour), or the path of an equirectangular HDR map (a Radiance
-    /// .hdr); a map that cannot be loaded is reported and the sky stands in.
+    /// none (a flat ambient colour), or the path of an HDR map (an equirectangular Radiance
+    /// .hdr, or a .ktx2 cube map or equirectangular map in a floating-point format); a map that
+    /// cannot be loaded is reported and the sky stands in.
     #[arg(long, default_value = "sky")]
     environment: String,
     /// Multiplier of the environment's radiance.

@@ -275,3 +275,41 @@ impl WarningLog {
         self.warnings().into_iter().filter(|w| w.key.as_deref() == Some(key.as_str())).collect()
     }
 }
+
+/// A KTX2 container of one level (`faces` 6 for a cube map, 1 otherwise) holding `data` in
+/// `format`, serialized with the `ktx2` crate's own header, level-index and data-format
+/// descriptor writers, for tests of the environment's KTX2 loading.
+pub fn ktx2_file(format: ktx2::Format, width: u32, height: u32, faces: u32, data: &[u8]) -> Vec<u8> {
+    let (descriptor, type_size) = ktx2::dfd::Basic::from_format(format).expect("a format the DFD table knows");
+    let block = ktx2::dfd::Block::Basic(descriptor).to_vec();
+    let dfd: Vec<u8> = ((block.len() + 4) as u32).to_le_bytes().into_iter().chain(block).collect();
+    let dfd_offset = ktx2::Header::LENGTH + ktx2::LevelIndex::LENGTH;
+    let data_offset = (dfd_offset + dfd.len()).next_multiple_of(16);
+    let header = ktx2::Header {
+        format: Some(format),
+        type_size,
+        pixel_width: width,
+        pixel_height: height,
+        pixel_depth: 0,
+        layer_count: 0,
+        face_count: faces,
+        level_count: 1,
+        supercompression_scheme: None,
+        index: ktx2::Index {
+            dfd_byte_offset: dfd_offset as u32,
+            dfd_byte_length: dfd.len() as u32,
+            kvd_byte_offset: 0,
+            kvd_byte_length: 0,
+            sgd_byte_offset: 0,
+            sgd_byte_length: 0,
+        },
+    };
+    let level =
+        ktx2::LevelIndex { byte_offset: data_offset as u64, byte_length: data.len() as u64, uncompressed_byte_length: data.len() as u64 };
+    let mut file = header.as_bytes().to_vec();
+    file.extend_from_slice(&level.as_bytes());
+    file.extend_from_slice(&dfd);
+    file.resize(data_offset, 0);
+    file.extend_from_slice(data);
+    file
+}

@@ -8,7 +8,10 @@
 //! - the specular cube's levels match a CPU GGX convolution of the same map;
 //! - a new source is filtered once, and frames after it refilter nothing;
 //! - a missing or malformed `.hdr` gives a clear error, and the sandbox's argument falls back to
-//!   the procedural sky.
+//!   the procedural sky;
+//! - a KTX2 cube map (written with the `ktx2` crate's serializers) lights the sky with each face
+//!   in its direction and orientation, and KTX2 files of the wrong shape or format are clear
+//!   errors.
 
 #![forbid(unsafe_code)]
 
@@ -42,7 +45,7 @@ fn test_map(width: u32) -> HdrImage {
             radiance(Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin())).to_array()
         })
         .collect();
-    HdrImage { width, height, texels }
+    HdrImage { width, height, texels, projection: engine::environment::Projection::Equirectangular }
 }
 
 fn app(w: u32, h: u32, pipeline: PipelineKind, environment: Environment) -> App {
@@ -324,5 +327,104 @@ fn a_missing_or_malformed_hdr_is_a_clear_error_and_the_sky_stands_in() {
     let map = HdrImage::load(&path).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!((map.width, map.height), (1024, 512));
     assert!(map.texels.iter().any(|t| t[0] > 1000.0), "its sun is far brighter than 1");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Radiance of the test cube map in direction `d`: each face its own colour, red growing across
+/// the +Z face with its texel coordinate u (Vulkan's orientation: u along +X there).
+fn cube_radiance(d: Vec3) -> Vec3 {
+    const FACES: [Vec3; 6] = [
+        Vec3::new(2.0, 0.2, 0.2),
+        Vec3::new(0.2, 2.0, 0.2),
+        Vec3::new(0.2, 0.2, 2.0),
+        Vec3::new(1.0, 1.0, 0.2),
+        Vec3::ZERO, // +Z: the gradient below
+        Vec3::new(0.2, 1.0, 1.0),
+    ];
+    let a = d.abs();
+    let face = if a.x >= a.y && a.x >= a.z {
+        if d.x > 0.0 { 0 } else { 1 }
+    } else if a.y >= a.z {
+        if d.y > 0.0 { 2 } else { 3 }
+    } else if d.z > 0.0 {
+        4
+    } else {
+        5
+    };
+    if face == 4 { Vec3::new(2.0 * (d.x / d.z * 0.5 + 0.5), 0.5, 0.5) } else { FACES[face] }
+}
+
+#[test]
+fn a_ktx2_cube_map_lights_the_sky_in_each_direction_and_bad_ones_are_clear_errors() {
+    // A 32² cube in half floats, written with the ktx2 crate's serializers and loaded through
+    // the `.ktx2` path; the sky, looking along each axis, shows its face's radiance (the +Z face
+    // a gradient that checks its orientation).
+    let face = 32u32;
+    let mut data = Vec::new();
+    for f in 0..6u32 {
+        for y in 0..face {
+            for x in 0..face {
+                let st = Vec2::new((x as f32 + 0.5) / face as f32, (y as f32 + 0.5) / face as f32) * 2.0 - 1.0;
+                let d = match f {
+                    0 => Vec3::new(1.0, -st.y, -st.x),
+                    1 => Vec3::new(-1.0, -st.y, st.x),
+                    2 => Vec3::new(st.x, 1.0, st.y),
+                    3 => Vec3::new(st.x, -1.0, -st.y),
+                    4 => Vec3::new(st.x, -st.y, 1.0),
+                    _ => Vec3::new(-st.x, -st.y, -1.0),
+                };
+                let c = cube_radiance(d);
+                for v in [c.x, c.y, c.z, 1.0] {
+                    data.extend_from_slice(&half::f16::from_f32(v).to_le_bytes());
+                }
+            }
+        }
+    }
+    let dir = std::env::temp_dir().join(format!("ktx2-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("cube.ktx2");
+    std::fs::write(&path, tests::ktx2_file(ktx2::Format::R16G16B16A16_SFLOAT, face, face, 6, &data)).unwrap();
+    let (environment, error) = Environment::from_argument(path.to_str().unwrap());
+    assert!(error.is_none(), "{error:?}");
+    let EnvironmentSource::Map(map) = &environment.source else { panic!("a map") };
+    assert_eq!((map.width, map.height, map.projection), (face, 6 * face, engine::environment::Projection::CubeFaces));
+
+    let (w, h) = (32u32, 32u32);
+    let mut app = app(w, h, PipelineKind::Deferred, environment);
+    for target in [Vec3::X, Vec3::NEG_X, Vec3::Z, Vec3::NEG_Z, Vec3::new(0.0, 1.0, 0.01), Vec3::new(0.0, -1.0, 0.01)] {
+        let camera = app.world.query_filtered::<Entity, With<Camera>>().iter(&app.world).collect::<Vec<_>>();
+        for e in camera {
+            app.world.despawn(e);
+        }
+        let view = View::spawn(&mut app, Vec3::ZERO, target, (w, h));
+        app.update();
+        let hdr = renderer(&mut app).read_hdr().expect("readback");
+        // Pixels away from the face's edges, where bilinear filtering blends in the neighbour.
+        for (px, py) in [(w / 2, h / 2), (w / 4, h / 2), (3 * w / 4, h / 2), (w / 2, h / 4)] {
+            let d = view.ray(px, py);
+            let want = cube_radiance(d);
+            let got = rgb(hdr[(py * w + px) as usize]);
+            assert!(relative_error(got, want) < 0.03, "looking at {target} pixel ({px},{py}): {got} vs {want}");
+        }
+    }
+    assert_no_validation_errors(&mut app);
+
+    // Wrong shapes and unreadable containers are errors that name the file.
+    let four_faces = dir.join("four.ktx2");
+    std::fs::write(&four_faces, tests::ktx2_file(ktx2::Format::R16G16B16A16_SFLOAT, face, face, 4, &data[..data.len() / 6 * 4])).unwrap();
+    let square = dir.join("square.ktx2");
+    std::fs::write(&square, tests::ktx2_file(ktx2::Format::R16G16B16A16_SFLOAT, face, face, 1, &data[..data.len() / 6])).unwrap();
+    let ldr = dir.join("ldr.ktx2");
+    std::fs::write(&ldr, tests::ktx2_file(ktx2::Format::R8G8B8A8_UNORM, face, face, 6, &data[..data.len() / 2])).unwrap();
+    let garbage = dir.join("garbage.ktx2");
+    std::fs::write(&garbage, b"not a ktx2 container at all").unwrap();
+    for (file, says) in
+        [(&four_faces, "4 faces"), (&square, "twice as wide"), (&ldr, "not a floating-point"), (&garbage, "not a valid KTX2")]
+    {
+        let e = HdrImage::load(file).expect_err("an error");
+        let text = e.to_string();
+        assert!(text.contains(file.file_name().unwrap().to_str().unwrap()) && text.contains(says), "{text}");
+        assert!(matches!(Environment::from_argument(file.to_str().unwrap()).0.source, EnvironmentSource::Sky), "the sky stands in");
+    }
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -1,14 +1,16 @@
 //! Image-based light and the sky. Seed 000 (`seeds/000`, §2.3) lists an ambient term among its
 //! renderer's shading options and uses a constant; a game renderer lights with its surroundings
 //! instead. The environment is a procedural sky (the default: its sun is the scene's brightest
-//! directional light, so it follows time of day), an equirectangular HDR map (a Radiance `.hdr`,
-//! loaded by `engine::environment`), or a uniform radiance (the white furnace's), turned about
-//! +Y and scaled by an intensity at no cost.
+//! directional light, so it follows time of day), an HDR map (an equirectangular Radiance `.hdr`,
+//! or a KTX2 cube map whose six faces the source pass samples in the face each direction
+//! selects; loaded by `engine::environment`), or a uniform radiance (the white furnace's),
+//! turned about +Y and scaled by an intensity at no cost.
 //!
 //! **Filtered when the source changes, never per frame** (Bevy #24517 refiltered generated
 //! environment maps every frame, 58 → 13 fps). On such a frame, compute passes:
 //!
-//! 1. `environment_source`: the radiance cube's level 0, from the map (bilinear), the sky or the
+//! 1. `environment_source`: the radiance cube's level 0, from the map (bilinear; a cube map's
+//!    within the face, any size: its own levels are not read, since the passes filter), the sky or the
 //!    uniform colour; then each further level box-filtered from the one above.
 //! 2. `environment_irradiance`: diffuse irradiance as nine spherical-harmonic coefficients
 //!    (Ramamoorthi and Hanrahan 2001), one workgroup over a 32² level.
@@ -53,8 +55,8 @@ use crate::graph::targets::f16_to_f32;
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassKind, ResourceId};
 use crate::layout::{
     BINDING_BRDF_LUT, BINDING_BRDF_LUT_STORAGE, BINDING_ENVIRONMENT, BINDING_ENVIRONMENT_LEVELS, BINDING_ENVIRONMENT_SOURCE, BRDF_LUT_SIZE,
-    ENVIRONMENT_MAP, ENVIRONMENT_ON, ENVIRONMENT_SKY, ENVIRONMENT_SPECULAR_VIEWS, ENVIRONMENT_SUN_DISC, ENVIRONMENT_UNIFORM,
-    GpuEnvironment, GpuEnvironmentJob, LIGHT_DIRECTIONAL,
+    ENVIRONMENT_CUBE_MAP, ENVIRONMENT_MAP, ENVIRONMENT_ON, ENVIRONMENT_SKY, ENVIRONMENT_SPECULAR_VIEWS, ENVIRONMENT_SUN_DISC,
+    ENVIRONMENT_UNIFORM, GpuEnvironment, GpuEnvironmentJob, LIGHT_DIRECTIONAL,
 };
 use crate::lights::LightFrame;
 use crate::renderer::DebugView;
@@ -73,24 +75,51 @@ pub const MAX_RESOLUTION: u32 = 2048;
 /// Angular radius of the procedural sky's sun disc (the real sun's, 0.27°).
 const SUN_DISC_RADIUS: f32 = 0.0047;
 
-/// An equirectangular HDR image: linear RGB radiance, rows from the one looking up (+Y) to the
-/// one looking down, the middle column along +X and longitude growing towards +Z. Shared, not
-/// copied: two maps are the same source when they share their texels.
+/// An HDR environment image: linear RGB radiance. Shared, not copied: two maps are the same
+/// source when they share their texels.
 #[derive(Clone, Debug)]
 pub struct EnvironmentMap {
-    /// Texels across (longitude).
+    /// Texels across (longitude; a cube face's side).
     pub width: u32,
-    /// Texels down (latitude).
+    /// Texels down (latitude; six faces' sides).
     pub height: u32,
     /// `width × height` RGB texels, row after row.
     pub texels: Arc<[[f32; 3]]>,
+    /// How the texels cover the sphere of directions.
+    pub projection: MapProjection,
+}
+
+/// How an environment map's texels cover the sphere of directions.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MapProjection {
+    /// Equirectangular: rows from the one looking up (+Y) to the one looking down, the middle
+    /// column along +X and longitude growing towards +Z.
+    #[default]
+    Equirectangular,
+    /// Six square faces stacked from top to bottom (+X, −X, +Y, −Y, +Z, −Z), each oriented as
+    /// Vulkan samples cube maps, rows downwards (as KTX2 stores a cube map).
+    CubeFaces,
+}
+
+impl EnvironmentMap {
+    /// Whether its size, texels and projection agree.
+    pub fn is_valid(&self) -> bool {
+        let shape = match self.projection {
+            MapProjection::Equirectangular => self.width > 0 && self.height > 0,
+            MapProjection::CubeFaces => self.width > 0 && self.height == 6 * self.width,
+        };
+        shape && self.texels.len() == self.width as usize * self.height as usize
+    }
 }
 
 impl PartialEq for EnvironmentMap {
     /// The same texels (not an equal copy: comparing millions of texels a frame would cost more
     /// than filtering them).
     fn eq(&self, other: &Self) -> bool {
-        self.width == other.width && self.height == other.height && Arc::ptr_eq(&self.texels, &other.texels)
+        self.width == other.width
+            && self.height == other.height
+            && self.projection == other.projection
+            && Arc::ptr_eq(&self.texels, &other.texels)
     }
 }
 
@@ -330,13 +359,13 @@ impl Environments {
         let (sun, sun_color) = self.sun.expect("found above");
         let sky = EnvironmentSource::Sky;
         let source = match &env.source {
-            EnvironmentSource::Map(m) if m.width == 0 || m.height == 0 || m.texels.len() != m.width as usize * m.height as usize => {
+            EnvironmentSource::Map(m) if !m.is_valid() => {
                 if !self.warned_bad_map {
                     tracing::warn!(
                         m.width,
                         m.height,
                         texels = m.texels.len(),
-                        "environment map's size and texels disagree; the procedural sky lights the scene"
+                        "environment map's size, projection and texels disagree; the procedural sky lights the scene"
                     );
                     self.warned_bad_map = true;
                 }
@@ -372,7 +401,10 @@ impl Environments {
             };
             let texels: &[[f32; 3]] = match source {
                 EnvironmentSource::Map(map) => {
-                    record.mode = ENVIRONMENT_MAP;
+                    record.mode = match map.projection {
+                        MapProjection::Equirectangular => ENVIRONMENT_MAP,
+                        MapProjection::CubeFaces => ENVIRONMENT_CUBE_MAP,
+                    };
                     record.source_size = [map.width, map.height];
                     &map.texels
                 }
