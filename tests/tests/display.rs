@@ -4,7 +4,11 @@
 //!   1 % of its sum without (a lit scene; Karis's average on the first downsample takes energy
 //!   from lone bright pixels by design, which this scene has none of), while it does blur;
 //! - each tone mapper turns a known radiance into the display value a CPU evaluation of its
-//!   published formula gives, within one 8-bit step, at two exposures, one of them set as EV100.
+//!   published formula gives, within one 8-bit step, at two exposures, one of them set as EV100;
+//! - auto-exposure exposes a uniform sky for 18 % grey at once, follows a hundredfold change at
+//!   its rate, and shows the same grey once adapted; compensation doubles it per stop;
+//! - emissive materials emit in every pipeline, and emissive glass through every way of drawing
+//!   glass (composited as colour × opacity).
 
 #![forbid(unsafe_code)]
 // The published constants are kept as their authors wrote them.
@@ -217,4 +221,47 @@ fn auto_exposure_adapts_to_the_scene_luminance_at_its_rate() {
     let brighter = renderer(&mut app).read_exposure().unwrap().unwrap();
     assert!((brighter.exposure / adapted.exposure - 2.0).abs() < 1e-3, "{} vs {}", brighter.exposure, adapted.exposure);
     assert_no_validation_errors(&mut app);
+}
+
+#[test]
+fn emissive_materials_emit_in_every_pipeline_and_through_every_kind_of_glass() {
+    // No light, no ambient colour, a black background: an emissive opaque square shows exactly
+    // its emission, and an emissive pane of opacity 0.5 half of its own (blended surfaces are
+    // composited as colour × opacity, their emission included), in every pipeline and with
+    // every way of drawing glass.
+    let (w, h) = (64u32, 48u32);
+    let opaque = Vec3::new(3.0, 1.0, 0.5);
+    let pane = Vec3::new(0.0, 2.0, 4.0);
+    let mut runs: Vec<(PipelineKind, render::TransparencyMethod)> =
+        PipelineKind::ALL.iter().map(|&p| (p, render::TransparencyMethod::default())).collect();
+    runs.extend([render::TransparencyMethod::Forward, render::TransparencyMethod::DepthPeeling].map(|t| (PipelineKind::Deferred, t)));
+    for (pipeline, transparency) in runs {
+        let settings = RenderSettings { pipeline, transparency, ambient: Vec3::ZERO, bloom: BloomSettings::OFF, ..Default::default() };
+        let mut app = app(w, h, settings, Environment { source: EnvironmentSource::None, ..Default::default() });
+        let square = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(1.5, 1.5, 1, 1.0));
+        let mut materials = app.world.resource_mut::<Assets<Material>>();
+        let glowing = materials.add(Material { emissive: opaque, ..Material::from_color(Vec4::new(0.0, 0.0, 0.0, 1.0), 0.0, 1.0) });
+        let glass = materials.add(Material {
+            emissive: pane,
+            alpha_mode: AlphaMode::Blend,
+            ..Material::from_color(Vec4::new(0.0, 0.0, 0.0, 0.5), 0.0, 1.0)
+        });
+        app.world.spawn((MeshInstance { mesh: square, material: glowing }, Transform::from_xyz(-1.0, 0.0, 0.0)));
+        app.world.spawn((MeshInstance { mesh: square, material: glass }, Transform::from_xyz(1.0, 0.5, 0.0)));
+        let view = tests::TopDownView::new(4.0, (w, h));
+        view.spawn(&mut app.world);
+        app.update();
+        let hdr = renderer(&mut app).read_hdr().expect("readback");
+        assert_no_validation_errors(&mut app);
+        let at = |p: Vec3| {
+            let (px, py) = view.pixel_of(p);
+            Vec3::from_slice(&hdr[(py * w + px) as usize][..3])
+        };
+        for (p, want) in
+            [(Vec3::new(-1.0, 0.0, 0.0), opaque), (Vec3::new(1.0, 0.5, 0.0), pane * 0.5), (Vec3::new(1.0, 0.5, 0.3), pane * 0.5)]
+        {
+            let got = at(p);
+            assert!((got - want).abs().max_element() < 0.02 * want.max_element(), "{pipeline:?} {transparency:?} at {p}: {got} vs {want}");
+        }
+    }
 }
