@@ -566,6 +566,11 @@ impl OcclusionMethod {
         }
     }
 
+    /// Parses [`OcclusionMethod::name`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+
     /// The method a device with `support` applies when this one is asked for: rays need an
     /// acceleration structure and a way to trace it, else screen space stands in.
     pub fn effective(self, support: RaySupport) -> OcclusionMethod {

@@ -262,10 +262,7 @@ fn parse_tonemap(s: &str) -> Result<render::Tonemapper, String> {
 }
 
 fn parse_occlusion(s: &str) -> Result<render::OcclusionMethod, String> {
-    render::OcclusionMethod::ALL
-        .into_iter()
-        .find(|m| m.name() == s)
-        .ok_or_else(|| format!("unknown ambient occlusion {s:?} (off, ray_traced, screen_space)"))
+    render::OcclusionMethod::from_name(s).ok_or_else(|| format!("unknown ambient occlusion {s:?} (off, ray_traced, screen_space)"))
 }
 
 fn parse_reflections(s: &str) -> Result<render::ReflectionMode, String> {

@@ -56,13 +56,12 @@ float gtao_horizon(ivec2 px, vec3 p, vec3 v, vec2 dir, float radius_px, float ra
     return horizon;
 }
 
-float occlusion_at(ivec2 px, vec3 p, vec3 n) {
+float occlusion_at(ivec2 px, float depth, vec3 p, vec3 n) {
     GpuLighting l = scene.lighting.lighting;
     vec3 v = normalize(scene.camera.camera.position - p);
     float radius = l.occlusion_radius;
     // The radius in pixels at this depth: the world size of a pixel here, from its neighbour at
     // the same depth.
-    float depth = texelFetch(depth_target, px, 0).r;
     float pixel_world = length(world_from_depth(vec2(px) + vec2(1.0, 0.0), depth) - p);
     float radius_px = min(radius / max(pixel_world, 1e-6), 256.0);
     if (radius_px < 1.0) return 1.0;
@@ -98,7 +97,7 @@ float occlusion_at(ivec2 px, vec3 p, vec3 n) {
 #else
 vec3 shadow_ray_transmittance(vec3 origin, vec3 dir, float tmin, float tmax);
 
-float occlusion_at(ivec2 px, vec3 p, vec3 n) {
+float occlusion_at(ivec2 px, float depth, vec3 p, vec3 n) {
     GpuLighting l = scene.lighting.lighting;
     uint rays = max(l.occlusion_rays, 1u);
     uint first = occlusion_pattern(px) * rays;
@@ -123,7 +122,7 @@ void occlusion_pixel(ivec2 px) {
     float open = 1.0;
     if (depth > 0.0) {
         vec3 p = world_from_depth(vec2(px), depth);
-        open = occlusion_at(px, p, normal_from_depth_improved(px, depth, p));
+        open = occlusion_at(px, depth, p, normal_from_depth_improved(px, depth, p));
     }
     imageStore(occlusion_raw_out, px, vec4(open));
 }
