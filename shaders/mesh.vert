@@ -4,6 +4,7 @@
 #define VERTEX_STAGE
 #include "scene.glsl"
 #include "mesh_io.glsl"
+#include "mesh_position.glsl"
 
 layout(location = 0) in vec3 a_position;
 layout(location = 1) in vec3 a_normal;
@@ -14,7 +15,8 @@ invariant gl_Position;
 
 void main() {
     GpuInstance inst = scene.instances.instances[gl_InstanceIndex];
-    vec4 world = inst.model * vec4(a_position, 1.0);
+    vec4 world;
+    gl_Position = mesh_clip_position(inst.model, a_position, world);
     v_world_pos = world.xyz;
     v_normal = mat3(inst.normal_model) * a_normal;
     v_tangent = vec4(mat3(inst.model) * a_tangent.xyz, a_tangent.w);
@@ -33,5 +35,4 @@ void main() {
         v_rest_pos = (inst.model * vec4(rest.position, 1.0)).xyz;
         v_rest_normal = mat3(inst.normal_model) * rest.normal;
     }
-    gl_Position = scene.camera.camera.view_proj * world;
 }

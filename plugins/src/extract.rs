@@ -606,6 +606,9 @@ pub fn extract_lights(
 /// invertible keeps the last good view (one warning); a field of view outside (0, π) or a
 /// non-positive near plane is replaced by a default in [`Camera::projection`] (one warning).
 ///
+/// Switching to another camera entity is a camera cut ([`render::SceneMirror::cut_camera`]):
+/// temporal anti-aliasing drops its history rather than blend two views.
+///
 /// The camera record also carries the scene clock for decals fading out at the end of their
 /// lifetime; it advances only while one is fading, so that frames in which time merely passes
 /// upload nothing.
@@ -614,6 +617,7 @@ pub fn extract_camera(
     (settings, time, lifetimes): (Res<RenderSettings>, Res<Time>, Res<DecalLifetimes>),
     mut mirror: ResMut<RenderMirror>,
     (mut warned, mut clock): (Local<WarnOnce<(Entity, bool)>>, Local<f32>),
+    mut shown: Local<Option<Entity>>,
 ) {
     if lifetimes.fading() {
         *clock = time.elapsed_secs();
@@ -621,6 +625,10 @@ pub fn extract_camera(
     let Some((entity, camera, global)) = cameras.iter().find(|(_, c, _)| c.active) else {
         return;
     };
+    // Another camera is a cut: temporal anti-aliasing starts its history again.
+    if shown.replace(entity).is_some_and(|e| e != entity) {
+        mirror.0.cut_camera();
+    }
     let world = global.compute_matrix();
     let placement = validate::placement_problem(world);
     warned.report((entity, false), "camera", placement, "the last good view is kept");
@@ -664,7 +672,10 @@ fn camera_record(view: Mat4, proj: Mat4, view_proj: Mat4, position: Vec3, exposu
         ambient,
         time: 0.0,
         decal_fade: Vec2::INFINITY,
-        pad: [0; 2],
+        // The renderer's to set (temporal anti-aliasing: `SceneMirror::gpu_camera`).
+        jitter: Vec2::ZERO,
+        motion_view_proj: view_proj,
+        prev_view_proj: view_proj,
     }
 }
 

@@ -70,8 +70,11 @@ pub struct RenderSettings {
     /// and no ids prepass ([`render::FrameSettings::decals_in_forward_shading`]: off by default,
     /// slower on the lent H100).
     pub decals_in_forward_shading: bool,
-    /// Anti-aliasing of the displayed image (default none; FXAA in every pipeline).
+    /// Anti-aliasing of the displayed image (default none; FXAA and temporal anti-aliasing in
+    /// every pipeline; the sandbox defaults to temporal).
     pub aa: render::AntiAliasing,
+    /// Temporal anti-aliasing's sharpening, 0 to 1 (default 0.25).
+    pub taa_sharpen: f32,
     /// The display transform's tone mapper (default Khronos PBR Neutral).
     pub tonemapper: render::Tonemapper,
     /// Bloom (default on, intensity 0.04).
@@ -166,6 +169,7 @@ impl Default for RenderSettings {
             compute_shading: true,
             decals_in_forward_shading: false,
             aa: render::AntiAliasing::None,
+            taa_sharpen: 0.25,
             tonemapper: render::Tonemapper::PbrNeutral,
             bloom: render::BloomSettings::default(),
             occlusion: render::OcclusionSettings::default(),
@@ -524,6 +528,7 @@ fn render_frame(
         compute_shading: settings.compute_shading,
         decals_in_forward_shading: settings.decals_in_forward_shading,
         aa: settings.aa,
+        taa_sharpen: settings.taa_sharpen,
         tonemapper: settings.tonemapper,
         bloom: settings.bloom,
         occlusion: settings.occlusion,
@@ -555,7 +560,7 @@ fn render_frame(
                 shadows: report.shadows,
                 transparency: settings.transparency.effective(settings.pipeline),
                 refraction: settings.refraction && settings.transparency.effective(settings.pipeline).refracts(),
-                aa: settings.aa,
+                aa: report.aa,
                 tonemapper: settings.tonemapper,
                 bloom: settings.bloom.runs(),
                 occlusion: report.occlusion,

@@ -666,6 +666,29 @@ layout! {
     /// Binding of the denoised ambient occlusion (`occlusion_image`, storage R32F) that shading
     /// multiplies the environment's and the ambient colour's light by.
     pub const BINDING_OCCLUSION: u32 = 32;
+    /// Binding of the motion vectors (`motion_image`, storage RGBA16F, `crate::motion`): xy the
+    /// screen-space motion since the previous frame in UV units (this frame's position less the
+    /// previous one, both unjittered), z the surface's view depth in the previous frame, w its
+    /// view depth in this one (what temporal anti-aliasing's disocclusion test compares).
+    pub const BINDING_MOTION: u32 = 33;
+    /// Binding of temporal anti-aliasing's first history image, sampled (`taa_history_a`,
+    /// RGBA16F: the resolved colour, and in a the view depth it was resolved at).
+    pub const BINDING_TAA_HISTORY_A: u32 = 34;
+    /// Binding of the second history image, sampled (`taa_history_b`): the two alternate.
+    pub const BINDING_TAA_HISTORY_B: u32 = 35;
+    /// Binding of the first history image as a storage image (`taa_history_a_out`).
+    pub const BINDING_TAA_HISTORY_A_STORAGE: u32 = 36;
+    /// Binding of the second history image as a storage image (`taa_history_b_out`).
+    pub const BINDING_TAA_HISTORY_B_STORAGE: u32 = 37;
+    /// Temporal anti-aliasing's push word (`ScenePush::texture_index`): its history is thrown
+    /// away this frame (the first frame, a resize, a pipeline switch, a camera cut).
+    pub const TAA_RESET: u32 = 1;
+    /// Temporal anti-aliasing's push word: odd rows hold interlaced glass this frame, so motion
+    /// and depth are read from the even row above (the surface behind the glass).
+    pub const TAA_INTERLACED: u32 = 2;
+    /// Temporal anti-aliasing's push word: the sharpening strength sits in the high 16 bits
+    /// (unorm16) of the output pass's word.
+    pub const TAA_SHARPEN_SHIFT: u32 = 16;
     /// Views in `BINDING_ENVIRONMENT_LEVELS` (16 radiance levels, then 16 specular ones).
     pub const ENVIRONMENT_LEVEL_VIEWS: u32 = 32;
     /// The first specular level's view in `BINDING_ENVIRONMENT_LEVELS`.
@@ -821,8 +844,29 @@ layout! {
         /// The distance fade (start, end, in metres) of decals that have none of their own;
         /// (∞, ∞) or (0, 0) never fades.
         pub decal_fade: Vec2,
-        /// Padding to 16 bytes.
-        pub pad: [u32; 2],
+        /// Temporal anti-aliasing's sub-pixel offset this frame, in NDC units: `proj`,
+        /// `view_proj` and `inv_view_proj` include it (0 without temporal anti-aliasing).
+        pub jitter: Vec2,
+        /// World to clip without the jitter: where motion vectors measure from.
+        pub motion_view_proj: Mat4,
+        /// The previous frame's `motion_view_proj` (this frame's when there is no history).
+        pub prev_view_proj: Mat4,
+    }
+
+    /// An instance that moved or was posed since the previous frame: the motion-vector pass
+    /// draws it (`crate::motion`, `shaders/motion.vert`), its draw's `first_instance` naming
+    /// this record.
+    #[layout(std430)]
+    pub struct GpuMover {
+        /// Object to world in the previous frame.
+        pub prev_model: Mat4,
+        /// The instance's slot.
+        pub slot: u32,
+        /// Its mesh's first vertex in the mesh pool (`vertexOffset`).
+        pub vertex_offset: u32,
+        /// Device address of a posed mesh's previous positions (a vec4 per vertex, behind its
+        /// vertices); 0 for a rigid mesh.
+        pub previous: u64,
     }
 
     /// One drawn mesh instance.
@@ -1093,6 +1137,11 @@ layout! {
         pub exposure_rate: f32,
         /// Padding to 16 bytes.
         pub exposure_pad: [u32; 2],
+        /// Address of this frame's movers (`GpuMover` each: instances that moved or were posed
+        /// since the previous frame), which the motion-vector pass draws (`crate::motion`).
+        pub movers: u64,
+        /// Padding to 16 bytes.
+        pub movers_pad: [u32; 2],
     }
 
     /// Auto-exposure's state on the GPU (`crate::exposure`): this frame's luminance histogram

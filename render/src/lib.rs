@@ -44,6 +44,7 @@ pub mod gpu;
 pub mod graph;
 pub mod layout;
 pub mod lights;
+pub mod motion;
 pub mod pipelines;
 pub mod present;
 pub mod reflections;
@@ -52,6 +53,7 @@ pub mod scene;
 pub mod settings;
 pub mod shadows;
 pub mod skinning;
+pub mod taa;
 pub mod transparency;
 
 pub use culling::CullingStats;

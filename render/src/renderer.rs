@@ -89,6 +89,8 @@ pub struct FrameReport {
     pub shadows: ShadowMethod,
     /// How the frame's ambient light was occluded (`Off` when it was not).
     pub occlusion: crate::settings::OcclusionMethod,
+    /// The anti-aliasing applied (temporal anti-aliasing is none under a debug view).
+    pub aa: crate::settings::AntiAliasing,
     /// Work done for this frame (uploads, records, acceleration structures, live counts).
     pub counters: FrameCounters,
     /// CPU time spent uploading and recording, in milliseconds (not counting the wait for the
@@ -132,6 +134,8 @@ struct Resources {
     environment: Environments,
     bloom: Bloom,
     exposure: Exposure,
+    motion: crate::motion::Motion,
+    taa: crate::taa::Taa,
     decals: Decals,
     lighting: Lighting,
     tonemap: Tonemap,
@@ -202,6 +206,8 @@ impl Renderer {
             environment: Environments::new(ctx, &mut graph, layout, settings.environment_resolution)?,
             bloom: Bloom::new(ctx, &mut graph, layout)?,
             exposure: Exposure::new(ctx, &mut graph, layout)?,
+            motion: crate::motion::Motion::new(ctx, layout)?,
+            taa: crate::taa::Taa::new(ctx, layout)?,
             decals: Decals::new(ctx, &mut graph, layout, settings.decal_cluster_capacity)?,
             lighting: Lighting::new(ctx, &mut graph, layout, settings.shadow_maps)?,
             tonemap: Tonemap::new(ctx, layout, DISPLAY_FORMAT)?,
@@ -408,6 +414,8 @@ impl Renderer {
             environment: &mut res.environment,
             bloom: &mut res.bloom,
             exposure: &mut res.exposure,
+            motion: &res.motion,
+            taa: &mut res.taa,
             present: Present { tonemap, target, overlay, aa: settings.aa },
             decal_choice,
         };
@@ -478,6 +486,7 @@ impl Renderer {
             light_method: lights.method,
             shadows: lights.shadows,
             occlusion: lights.occlusion.method,
+            aa: crate::taa::Taa::applied(settings),
             counters: mirror.counters,
             record_ms: start.elapsed().as_secs_f32() * 1e3,
             submit_ms,
@@ -523,6 +532,14 @@ impl Renderer {
         self.ctx.wait_idle();
         let res = &mut *self.res;
         res.exposure.read_back(&self.ctx, &mut res.graph)
+    }
+
+    /// The motion vectors of the last frame that drew them (waits for the GPU), row by row:
+    /// UV motion (xy), previous and current view depth (`crate::motion`).
+    pub fn read_motion(&mut self) -> Result<Vec<[f32; 4]>, RenderError> {
+        self.ctx.wait_idle();
+        let bytes = self.res.graph.read_back(&self.ctx, &crate::graph::targets::MOTION, 8)?;
+        Ok(bytes.chunks_exact(8).map(|px| std::array::from_fn(|c| f16_to_f32(u16::from_le_bytes([px[c * 2], px[c * 2 + 1]])))).collect())
     }
 
     /// The depth of the last frame (reverse-Z: 1 at the near plane, 0 at infinity).
@@ -637,6 +654,8 @@ impl Drop for Renderer {
             environment,
             bloom,
             exposure,
+            motion,
+            taa,
             decals,
             lighting,
             tonemap,
@@ -670,6 +689,8 @@ impl Drop for Renderer {
         environment.destroy(ctx);
         bloom.destroy(ctx);
         exposure.destroy(ctx);
+        motion.destroy(ctx);
+        taa.destroy(ctx);
         tonemap.destroy(ctx);
         graph.destroy(ctx);
         scene.destroy(ctx);

@@ -426,17 +426,22 @@ pub enum AntiAliasing {
     /// display pass, in every pipeline: edges found by luma contrast are blended along their
     /// stair steps.
     Fxaa,
+    /// Temporal anti-aliasing (`crate::taa`), in every pipeline: a jittered view each frame,
+    /// blended with the history reprojected by motion vectors (`crate::motion`). Applied as
+    /// none while a debug view is shown ([`crate::taa::Taa::applied`]).
+    Taa,
 }
 
 impl AntiAliasing {
     /// Every mode.
-    pub const ALL: [AntiAliasing; 2] = [AntiAliasing::None, AntiAliasing::Fxaa];
+    pub const ALL: [AntiAliasing; 3] = [AntiAliasing::None, AntiAliasing::Fxaa, AntiAliasing::Taa];
 
     /// The name used in `--stats` and on the command line.
     pub fn name(self) -> &'static str {
         match self {
             AntiAliasing::None => "none",
             AntiAliasing::Fxaa => "fxaa",
+            AntiAliasing::Taa => "taa",
         }
     }
 
@@ -741,6 +746,8 @@ pub struct FrameSettings {
     pub decals_in_forward_shading: bool,
     /// Anti-aliasing of the displayed image.
     pub aa: AntiAliasing,
+    /// Temporal anti-aliasing's sharpening of its output, 0 (none) to 1 (`crate::taa`).
+    pub taa_sharpen: f32,
     /// The display transform's tone mapper.
     pub tonemapper: Tonemapper,
     /// Bloom.
@@ -778,6 +785,7 @@ impl Default for FrameSettings {
             compute_shading: true,
             decals_in_forward_shading: false,
             aa: AntiAliasing::None,
+            taa_sharpen: 0.25,
             tonemapper: Tonemapper::PbrNeutral,
             bloom: BloomSettings::default(),
             occlusion: OcclusionSettings::default(),

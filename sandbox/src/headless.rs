@@ -95,6 +95,8 @@ pub struct HeadlessOptions {
     pub decals_in_forward_shading: bool,
     /// Anti-aliasing of the displayed image.
     pub aa: render::AntiAliasing,
+    /// Temporal anti-aliasing's sharpening (0–1).
+    pub taa_sharpen: f32,
     /// Reflections of smooth surfaces.
     pub reflections: render::ReflectionSettings,
     /// How blended surfaces are drawn.
@@ -299,6 +301,7 @@ impl Default for HeadlessOptions {
             compute_shading: true,
             decals_in_forward_shading: false,
             aa: render::AntiAliasing::None,
+            taa_sharpen: 0.25,
             reflections: render::ReflectionSettings::default(),
             transparency: render::TransparencyMethod::Interlaced,
             shadow_maps: render::ShadowMapBudget::default(),
@@ -370,6 +373,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         compute_shading: opts.compute_shading,
         decals_in_forward_shading: opts.decals_in_forward_shading,
         aa: opts.aa,
+        taa_sharpen: opts.taa_sharpen,
         reflections: opts.reflections,
         transparency: opts.transparency,
         culling: opts.culling,

@@ -172,9 +172,14 @@ struct Cli {
     /// hierarchical-Z).
     #[arg(long, default_value = "occlusion", value_parser = parse_culling)]
     culling: render::CullingMode,
-    /// Anti-aliasing of the displayed image: none, fxaa (fast approximate, in the tone mapper).
-    #[arg(long, default_value = "none", value_parser = parse_aa)]
+    /// Anti-aliasing of the displayed image: none, fxaa (fast approximate, in compute before
+    /// tone mapping), taa (temporal: jittered frames blended along motion vectors; none under a
+    /// debug view, which --stats reports).
+    #[arg(long, default_value = "taa", value_parser = parse_aa)]
     aa: render::AntiAliasing,
+    /// Temporal anti-aliasing's sharpening, 0 to 1.
+    #[arg(long, default_value_t = 0.25)]
+    taa_sharpen: f32,
     /// Reflections of smooth surfaces: off, ray_traced (needs ray tracing; falls back to
     /// screen_space without, which --stats reports), screen_space.
     #[arg(long, default_value = "ray_traced", value_parser = parse_reflections)]
@@ -254,7 +259,7 @@ struct Cli {
 }
 
 fn parse_aa(s: &str) -> Result<render::AntiAliasing, String> {
-    render::AntiAliasing::from_name(s).ok_or_else(|| format!("unknown anti-aliasing {s:?} (none, fxaa)"))
+    render::AntiAliasing::from_name(s).ok_or_else(|| format!("unknown anti-aliasing {s:?} (none, fxaa, taa)"))
 }
 
 fn parse_tonemap(s: &str) -> Result<render::Tonemapper, String> {
@@ -397,6 +402,7 @@ fn main() -> Result<()> {
         compute_shading: !cli.fragment_shading,
         decals_in_forward_shading: cli.decals_in_forward_shading,
         aa: cli.aa,
+        taa_sharpen: cli.taa_sharpen,
         reflections: render::ReflectionSettings {
             mode: cli.reflections,
             roughness_cutoff: cli.reflection_cutoff,

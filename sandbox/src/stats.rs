@@ -20,7 +20,7 @@
 //!
 //! Transparency: `transparency` (the method applied: `interlaced`, `interlaced_pairs`,
 //! `forward` or `depth_peeling`) and `refraction` (whether glass refracts: interlaced and
-//! depth-peeled glass do). Anti-aliasing: `aa` (`none` or `fxaa`).
+//! depth-peeled glass do). Anti-aliasing: `aa` (`none`, `fxaa` or `taa`, as applied: `none` for temporal anti-aliasing under a debug view).
 //!
 //! Reflections: `reflections`: `mode` (applied: `off` or `ray_traced`), `half_resolution`, and
 //! what the GPU measured two frames earlier: `pixels` (that reflect), `rays`, `hits` (the rest
@@ -51,6 +51,10 @@
 //! refit; rebuilds count in `scene_blas_builds`), `visited.poses` (skinned instances whose pose
 //! extraction set), and the `skinning`, `scene_blas_refit` and `scene_blas_build` passes in
 //! `gpu_ms`.
+//!
+//! Temporal anti-aliasing (`render/src/taa`, `render/src/motion`): `counters.motion_movers`
+//! (instances drawn over the camera's motion because they moved or were posed), and the
+//! `motion_camera`, `motion_movers`, `taa` and `taa_output` passes in `gpu_ms`.
 
 use plugins::FrameStats;
 use serde_json::{Map, Value, json};
@@ -119,6 +123,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
             "draw_calls": c.draw_calls,
             "mesh_pool_bytes": c.mesh_pool_bytes,
             "skinned_meshes": c.skinned_meshes,
+            "motion_movers": c.motion_movers,
             "skinned_vertices": c.skinned_vertices,
             "scene_blas_refits": c.scene_blas_refits,
         },

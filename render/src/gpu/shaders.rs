@@ -122,6 +122,13 @@ spirv! {
     OCCLUSION_COMP_SCREEN_SPACE = "occlusion.comp.SCREEN_SPACE";
     OCCLUSION_RGEN = "occlusion.rgen";
     OCCLUSION_DENOISE_COMP = "occlusion_denoise.comp";
+    MOTION_CAMERA_COMP = "motion_camera.comp";
+    MOTION_VERT = "motion.vert";
+    MOTION_FRAG = "motion.frag";
+    TAA_COMP = "taa.comp";
+    TAA_COMP_HISTORY_B = "taa.comp.HISTORY_B";
+    TAA_OUTPUT_COMP = "taa_output.comp";
+    TAA_OUTPUT_COMP_HISTORY_B = "taa_output.comp.HISTORY_B";
     SCENE_INSTANCES_COMP = "scene_instances.comp";
     DEFERRED_LIGHTING_COMP = "deferred_lighting.comp";
     DEFERRED_LIGHTING_COMP_RAY_QUERY_DECALS = "deferred_lighting.comp.RAY_QUERY_DECALS";

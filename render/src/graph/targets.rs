@@ -31,9 +31,10 @@ pub const DECAL_TESTED_FORMAT: vk::Format = vk::Format::R32_UINT;
 pub use crate::layout::{
     BINDING_ANTIALIASED, BINDING_ANTIALIASED_STORAGE, BINDING_BACKGROUND_DEPTH, BINDING_BACKGROUND_DEPTH_STORAGE, BINDING_DECAL_ALBEDO,
     BINDING_DECAL_EMISSIVE, BINDING_DECAL_NORMAL, BINDING_DECAL_SPEC, BINDING_DECAL_TESTED, BINDING_DEPTH, BINDING_GBUFFER_ALBEDO,
-    BINDING_GBUFFER_LAYERS, BINDING_GBUFFER_MATERIAL, BINDING_GBUFFER_NORMAL, BINDING_HDR, BINDING_HDR_STORAGE, BINDING_OCCLUSION,
-    BINDING_OCCLUSION_RAW, BINDING_REFLECTION, BINDING_REFLECTION_RAYS, BINDING_REFLECTION_WEIGHT, BINDING_SHADOW_DEBUG,
-    BINDING_SHADOW_MAP_DEPTH, BINDING_SHADOW_MAP_FILTER, BINDING_TRANSPARENCY_SOURCE, BINDING_TRANSPARENT_DEPTH, BINDING_VISIBILITY,
+    BINDING_GBUFFER_LAYERS, BINDING_GBUFFER_MATERIAL, BINDING_GBUFFER_NORMAL, BINDING_HDR, BINDING_HDR_STORAGE, BINDING_MOTION,
+    BINDING_OCCLUSION, BINDING_OCCLUSION_RAW, BINDING_REFLECTION, BINDING_REFLECTION_RAYS, BINDING_REFLECTION_WEIGHT, BINDING_SHADOW_DEBUG,
+    BINDING_SHADOW_MAP_DEPTH, BINDING_SHADOW_MAP_FILTER, BINDING_TAA_HISTORY_A, BINDING_TAA_HISTORY_A_STORAGE, BINDING_TAA_HISTORY_B,
+    BINDING_TAA_HISTORY_B_STORAGE, BINDING_TRANSPARENCY_SOURCE, BINDING_TRANSPARENT_DEPTH, BINDING_VISIBILITY,
 };
 
 /// Where a target is bound for sampling: its descriptor binding in set 0 (`BINDING_*`).
@@ -284,6 +285,31 @@ pub static OCCLUSION: TargetDesc =
     TargetDesc { name: "occlusion", format: OCCLUSION_FORMAT, usage: STORAGE, bind: Some(Bind::Storage(BINDING_OCCLUSION)), storage: None };
 /// Ambient occlusion's format: one float a pixel (R32F needs no extended storage formats).
 pub const OCCLUSION_FORMAT: vk::Format = vk::Format::R32_SFLOAT;
+/// Motion vectors (`crate::motion`): written in compute from depth, then over the movers by a
+/// raster pass; temporal anti-aliasing reads them.
+pub static MOTION: TargetDesc = TargetDesc {
+    name: "motion",
+    format: HDR_FORMAT,
+    usage: vk::ImageUsageFlags::from_raw(U::STORAGE.as_raw() | U::COLOR_ATTACHMENT.as_raw() | U::TRANSFER_SRC.as_raw()),
+    bind: Some(Bind::Storage(BINDING_MOTION)),
+    storage: None,
+};
+/// Temporal anti-aliasing's history (`crate::taa`): the resolve samples one and writes the other.
+pub static TAA_HISTORY_A: TargetDesc = TargetDesc {
+    name: "taa history a",
+    format: HDR_FORMAT,
+    usage: vk::ImageUsageFlags::from_raw(U::SAMPLED.as_raw() | U::STORAGE.as_raw()),
+    bind: Some(Bind::Color(BINDING_TAA_HISTORY_A)),
+    storage: Some(BINDING_TAA_HISTORY_A_STORAGE),
+};
+/// The other history image.
+pub static TAA_HISTORY_B: TargetDesc = TargetDesc {
+    name: "taa history b",
+    format: HDR_FORMAT,
+    usage: vk::ImageUsageFlags::from_raw(U::SAMPLED.as_raw() | U::STORAGE.as_raw()),
+    bind: Some(Bind::Color(BINDING_TAA_HISTORY_B)),
+    storage: Some(BINDING_TAA_HISTORY_B_STORAGE),
+};
 /// The decal buffer's images, in binding order.
 pub static DECAL_BUFFER: [&TargetDesc; 5] = [&DECAL_ALBEDO, &DECAL_NORMAL, &DECAL_SPEC, &DECAL_TESTED, &DECAL_EMISSIVE];
 

@@ -281,6 +281,8 @@ impl Lighting {
             exposure_max_ev100: 0.0,
             exposure_rate: 0.0,
             exposure_pad: [0; 2],
+            movers: 0, // the upload's to set
+            movers_pad: [0; 2],
         });
         let res = self.tiles.resources();
         let inline_shadows = match self.accel.as_ref() {

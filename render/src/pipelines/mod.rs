@@ -59,6 +59,10 @@ pub struct FrameParts<'a> {
     pub bloom: &'a mut Bloom,
     /// Auto-exposure from the finished HDR image.
     pub exposure: &'a mut Exposure,
+    /// Motion vectors, once the opaque depth is final (when temporal anti-aliasing runs).
+    pub motion: &'a crate::motion::Motion,
+    /// Temporal anti-aliasing of the finished HDR image.
+    pub taa: &'a mut crate::taa::Taa,
     /// Tone mapping and overlay into the frame's display image.
     pub present: Present<'a>,
     /// The decal method asked for and the one this device and pipeline apply.
@@ -71,6 +75,7 @@ pub struct FrameParts<'a> {
 /// (`crate::culling`).
 fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<(DecalFrame, LightFrame), RenderError> {
     mirror.sort_transparent(mirror.camera().position);
+    r.scene.motion_wanted = r.taa.prepare(mirror, s, f.graph.extent());
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
     r.skinning.prepare(mirror, r.scene);
     let reflections = r.reflections.prepare(f, s, mirror)?;
@@ -103,6 +108,7 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
     } else {
         r.culling.depth_passes(f, scene, |f, draws, phase| forward.prepass(f, scene, &draws, phase))?;
     }
+    motion(f, r)?;
     let draws = r.culling.draws();
     transparent_depth(f, r, &draws, mirror, &lights)?;
     r.lighting.record(f, r.scene, &draws, &lights)?;
@@ -112,7 +118,7 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
     r.reflections.record(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
     r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
     glass_reflections(f, r, mirror, &decals, &lights)?;
-    present(f, r, mirror, s)?;
+    present(f, r, mirror, s, &lights)?;
     Ok(lights)
 }
 
@@ -151,7 +157,7 @@ pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirro
         r.reflections.record_glass(f, r.scene, &decals, &lights, !glass.is_empty())?;
     }
     r.reflections.finish(f, &lights)?;
-    present(f, r, mirror, s)?;
+    present(f, r, mirror, s, &lights)?;
     Ok(lights)
 }
 
@@ -175,6 +181,7 @@ fn deferred_layer(
         deferred.geometry(f, scene, &r.culling.draws(), glass, s.clear_color, Phase::WHOLE)?;
     } else {
         r.culling.depth_passes(f, scene, |f, draws, phase| deferred.geometry(f, scene, &draws, glass, s.clear_color, phase))?;
+        motion(f, r)?;
     }
     let draws = r.culling.draws();
     if again {
@@ -197,6 +204,7 @@ pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirr
     let (decals, lights) = begin(f, r, mirror, s)?;
     let (scene, visbuffer) = (&*r.scene, r.visbuffer);
     r.culling.depth_passes(f, scene, |f, draws, phase| visbuffer.visibility(f, "visibility", scene, &draws, phase))?;
+    motion(f, r)?;
     let draws = r.culling.draws();
     transparent_depth(f, r, &draws, mirror, &lights)?;
     r.lighting.record(f, r.scene, &draws, &lights)?;
@@ -206,14 +214,25 @@ pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirr
     r.reflections.record(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
     r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
     glass_reflections(f, r, mirror, &decals, &lights)?;
-    present(f, r, mirror, s)?;
+    present(f, r, mirror, s, &lights)?;
     Ok(lights)
 }
 
-/// The end of every frame: bloom over the finished HDR image, auto-exposure's measurement of
-/// it, the decal boxes when shown (not blurred, not measured), then tone mapping into the
-/// display image and the overlay.
-fn present(f: &mut Frame, r: &mut FrameParts, mirror: &SceneMirror, s: &FrameSettings) -> Result<(), RenderError> {
+/// Motion vectors, when temporal anti-aliasing runs, right after the opaque depth (before any
+/// later layer, glass's, replaces it).
+fn motion(f: &mut Frame, r: &FrameParts) -> Result<(), RenderError> {
+    if !r.taa.runs() {
+        return Ok(());
+    }
+    r.motion.record(f, r.scene)
+}
+
+/// The end of every frame: temporal anti-aliasing, bloom over the finished HDR image,
+/// auto-exposure's measurement of it, the decal boxes when shown (not blurred, not measured),
+/// then tone mapping into the display image and the overlay.
+fn present(f: &mut Frame, r: &mut FrameParts, mirror: &SceneMirror, s: &FrameSettings, lights: &LightFrame) -> Result<(), RenderError> {
+    let interlaced = s.pipeline == crate::settings::PipelineKind::Deferred && lights.interlaced() && !mirror.transparent_order().is_empty();
+    r.taa.record(f, r.scene, interlaced, s.taa_sharpen)?;
     r.bloom.record(f, r.scene)?;
     r.exposure.record(f, r.scene)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;

@@ -21,7 +21,7 @@
 //! their capacity.
 
 use ash::vk;
-use bytemuck::Pod;
+use bytemuck::{Pod, Zeroable};
 use gpu_allocator::MemoryLocation;
 
 use crate::RenderError;
@@ -29,7 +29,7 @@ use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::memory::{Buffer, Image, ImageDesc, Retired};
 use crate::gpu::upload::{CopyList, Shrink, StagingRing, Upload};
 use crate::graph::{Bind, BufferUse, Frame, FrameGraph, PassKind, ResourceId};
-use crate::layout::GpuLighting;
+use crate::layout::{GpuDrawCommand, GpuLighting, GpuMover};
 use crate::scene::pool::{POOL_FLOOR, RangeAllocator, footprint};
 use crate::scene::{
     GpuAabb, GpuCamera, GpuMeshInfo, GpuSkinVertex, MeshData, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL,
@@ -44,13 +44,21 @@ pub const TARGET_BINDINGS: u32 = crate::layout::BINDING_ANTIALIASED;
 /// image, depth peeling's background depth, the HDR target, the anti-aliased colour and the
 /// reflection pass's three images; then the environment's (`crate::environment`: its two cubes
 /// and the BRDF table sampled, the cubes' levels and the table as storage images); then the
-/// decal buffer's emission and the ambient occlusion's two images, storage images again.
+/// decal buffer's emission and the ambient occlusion's two images, storage images again; then
+/// the motion vectors (storage) and temporal anti-aliasing's two history images, sampled and as
+/// storage images.
 const _: () = assert!(crate::layout::BINDING_DECAL_ALBEDO == TARGET_BINDINGS + 1, "storage bindings follow the sampled targets");
 const _: () = assert!(crate::layout::BINDING_ENVIRONMENT == crate::layout::BINDING_REFLECTION_RAYS + 1, "the environment follows them");
-/// The sampled bindings among the storage images': the environment's cubes and BRDF table.
-const SAMPLED_ENVIRONMENT: [u32; 3] =
-    [crate::layout::BINDING_ENVIRONMENT, crate::layout::BINDING_ENVIRONMENT_SOURCE, crate::layout::BINDING_BRDF_LUT];
-const BINDINGS: usize = 1 + crate::layout::BINDING_OCCLUSION as usize;
+/// The sampled bindings among the storage images': the environment's cubes and BRDF table, and
+/// temporal anti-aliasing's history.
+const SAMPLED_LATE: [u32; 5] = [
+    crate::layout::BINDING_ENVIRONMENT,
+    crate::layout::BINDING_ENVIRONMENT_SOURCE,
+    crate::layout::BINDING_BRDF_LUT,
+    crate::layout::BINDING_TAA_HISTORY_A,
+    crate::layout::BINDING_TAA_HISTORY_B,
+];
+const BINDINGS: usize = 1 + crate::layout::BINDING_TAA_HISTORY_B_STORAGE as usize;
 
 /// A device-local array of records that grows geometrically and shrinks by the
 /// [`Shrink`] rule, never below its initial capacity.
@@ -450,6 +458,19 @@ pub struct GpuScene {
     pub glass_order: WordArray,
     /// This frame's skinning jobs and joint matrices (`crate::skinning`).
     pub skin_input: WordArray,
+    /// This frame's movers (`GpuMover` each), which the motion-vector pass draws
+    /// (`crate::motion`).
+    pub movers: GpuTable,
+    /// Their draws (`GpuDrawCommand` each, `first_instance` naming the mover), after a first
+    /// command's place whose first word is their count.
+    pub mover_draws: GpuTable,
+    /// Movers uploaded this frame.
+    pub mover_count: u32,
+    /// Whether this frame draws motion vectors (set before the upload): only then are movers
+    /// uploaded.
+    pub motion_wanted: bool,
+    mover_records: Vec<GpuMover>,
+    mover_commands: Vec<GpuDrawCommand>,
     /// Meshes by [`MeshId`], placed in the pool.
     pub meshes: Vec<Option<GpuMesh>>,
     /// The mesh pool's buffer (none before the first mesh, or after a while without any).
@@ -479,7 +500,7 @@ pub struct GpuScene {
 
 /// The descriptor type of a binding of set 0.
 fn descriptor_type(binding: u32) -> vk::DescriptorType {
-    let storage = binding > TARGET_BINDINGS && !SAMPLED_ENVIRONMENT.contains(&binding);
+    let storage = binding > TARGET_BINDINGS && !SAMPLED_LATE.contains(&binding);
     if storage { vk::DescriptorType::STORAGE_IMAGE } else { vk::DescriptorType::COMBINED_IMAGE_SAMPLER }
 }
 
@@ -596,6 +617,12 @@ impl GpuScene {
             culls: GpuTable::new::<crate::scene::GpuCullRecord>(ctx, "culling records", 64)?,
             glass_order: WordArray::new(ctx, "glass order")?,
             skin_input: WordArray::new(ctx, "skinning jobs")?,
+            movers: GpuTable::new::<GpuMover>(ctx, "movers", 16)?,
+            mover_draws: GpuTable::with_usage::<GpuDrawCommand>(ctx, "mover draws", 16, vk::BufferUsageFlags::INDIRECT_BUFFER, false)?,
+            mover_count: 0,
+            motion_wanted: false,
+            mover_records: Vec::new(),
+            mover_commands: Vec::new(),
             meshes: Vec::new(),
             mesh_pool: None,
             ranges: RangeAllocator::default(),
@@ -780,6 +807,12 @@ impl GpuScene {
         for (gpu, slots) in tables {
             replaced |= gpu.plan(slots);
         }
+        self.mover_count = 0;
+        let movers = if self.motion_wanted { (mirror.movers.len() + mirror.poses.jobs().len()) as u32 } else { 0 };
+        if movers > 0 {
+            self.movers.plan(movers);
+            self.mover_draws.plan(movers + 1);
+        }
         let ids = mirror.pending_meshes.iter().map(|(id, _)| *id).chain(mirror.pending_posed.iter().map(|(id, _)| *id));
         let meshes = ids.map(|id| id.0 as usize + 1).fold(self.mesh_info.len(), usize::max);
         if self.mesh_table.plan(meshes as u32) {
@@ -800,7 +833,9 @@ impl GpuScene {
             && pool_plan == PoolPlan::Keep
             && !self.lighting_dirty
             && self.builtins.is_empty()
+            && movers == 0
         {
+            mirror.movers.clear();
             StagingRing::fit(up, 0)?;
             return Ok(0);
         }
@@ -819,6 +854,7 @@ impl GpuScene {
             + self.skin_input.staging_need()
             + 64
             + std::mem::size_of::<GpuCamera>() as u64
+            + (movers as u64 + 1) * (std::mem::size_of::<GpuMover>() + std::mem::size_of::<GpuDrawCommand>()) as u64
             + std::mem::size_of::<GpuLighting>() as u64
             + 96;
         StagingRing::fit(up, need)?;
@@ -860,8 +896,17 @@ impl GpuScene {
                 upload_array(up, &mut copies, &mut words.table, bytemuck::cast_slice(&words.cpu))?;
             }
         }
+        if movers > 0 {
+            self.upload_movers(up, &mut copies, mirror)?;
+        }
+        mirror.movers.clear();
+        if self.lighting_cpu.movers != self.movers.address() {
+            self.lighting_cpu.movers = self.movers.address();
+            self.lighting_dirty = true;
+        }
         if camera_dirty {
-            let bytes = bytemuck::bytes_of(mirror.camera());
+            let camera = mirror.gpu_camera();
+            let bytes = bytemuck::bytes_of(&camera);
             let src = up.staging.push(bytes);
             copies.buffer_copy(up.staging.buffer(), self.camera.buffer()).push(src, 0, bytes.len() as u64);
             up.bytes += bytes.len() as u64;
@@ -888,6 +933,43 @@ impl GpuScene {
             .record(|p| copies.record(p.ctx, p.cmd));
         self.copies = copies;
         result.map(|()| decal_boxes_changed)
+    }
+
+    /// Lists this frame's movers and their draws for the motion-vector pass: the instances that
+    /// moved (with their previous transforms) and those whose posed mesh was skinned (whose
+    /// previous positions then differ), each once.
+    fn upload_movers(&mut self, up: &mut Upload, copies: &mut CopyList, mirror: &mut SceneMirror) -> Result<(), RenderError> {
+        self.mover_records.clear();
+        self.mover_commands.clear();
+        // The first command's place holds the count (the draw is a count-draw: see
+        // `crate::motion`).
+        self.mover_commands.push(GpuDrawCommand::zeroed());
+        let vertex_bytes = std::mem::size_of::<crate::scene::GpuVertex>() as u64;
+        let posed =
+            mirror.poses.jobs().iter().filter_map(|&mesh| mirror.posed_slot(mesh)).filter(|&slot| mirror.movers.prev_model(slot).is_none());
+        let still = |slot: u32| mirror.instances.get(slot).map(|i| i.model);
+        let rigid = mirror.movers.iter().map(|(slot, prev)| (slot, Some(prev)));
+        for (slot, prev) in rigid.chain(posed.map(|slot| (slot, None))) {
+            let Some(Some(draw)) = mirror.draws.get(slot as usize) else { continue };
+            let (Some(info), Some(prev_model)) = (self.mesh_info.get(draw.mesh.0 as usize), prev.or_else(|| still(slot))) else { continue };
+            if info.index_count == 0 {
+                continue;
+            }
+            let previous = if mirror.poses.is_posed(draw.mesh) { info.vertices + info.vertex_count as u64 * vertex_bytes } else { 0 };
+            self.mover_commands.push(GpuDrawCommand {
+                index_count: info.index_count,
+                instance_count: 1,
+                first_index: info.first_index,
+                vertex_offset: info.vertex_offset,
+                first_instance: self.mover_records.len() as u32,
+            });
+            self.mover_records.push(GpuMover { prev_model, slot, vertex_offset: info.vertex_offset, previous });
+        }
+        self.mover_count = self.mover_records.len() as u32;
+        self.mover_commands[0].index_count = self.mover_count;
+        mirror.counters.motion_movers = self.mover_count as u64;
+        upload_array(up, copies, &mut self.movers, bytemuck::cast_slice(&self.mover_records))?;
+        upload_array(up, copies, &mut self.mover_draws, bytemuck::cast_slice(&self.mover_commands))
     }
 
     /// Once a frame: returns ranges whose frames have completed, and decides whether the pool
@@ -1079,7 +1161,7 @@ impl GpuScene {
 
     /// Sets the lighting record; it is uploaded with the next sync only when it differs.
     pub fn set_lighting(&mut self, mut lighting: GpuLighting) {
-        lighting.culls = self.lighting_cpu.culls; // the upload's to set
+        (lighting.culls, lighting.movers) = (self.lighting_cpu.culls, self.lighting_cpu.movers); // the upload's to set
         // The bloom pass's to set (`set_bloom`).
         (lighting.bloom, lighting.bloom_levels, lighting.bloom_intensity) =
             (self.lighting_cpu.bloom, self.lighting_cpu.bloom_levels, self.lighting_cpu.bloom_intensity);
@@ -1163,6 +1245,8 @@ impl GpuScene {
             self.culls,
             self.glass_order.table,
             self.skin_input.table,
+            self.movers,
+            self.mover_draws,
         ] {
             t.buffer.destroy(ctx);
         }

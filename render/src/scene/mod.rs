@@ -18,8 +18,9 @@ use glam::{Mat4, Vec2, Vec3};
 pub use crate::layout::{
     CULL_BATCHES, CULL_DOUBLE_SIDED, CULL_LIVE, CULL_MASKED, CULL_TRANSPARENT, DECAL_ALBEDO, DECAL_CHANNEL_SHIFT, DECAL_CHANNELS,
     DECAL_EMISSIVE, DECAL_METALLIC, DECAL_NORMAL, DECAL_ON_SKIN, DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuCullRecord, GpuDecal,
-    GpuDecalMaterial, GpuDrawCommand, GpuInstance, GpuJointMatrix, GpuLight, GpuMaterial, GpuMeshInfo, GpuMorphDelta, GpuSkinVertex,
-    GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, NO_DECAL, RESERVED_TEXTURES, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
+    GpuDecalMaterial, GpuDrawCommand, GpuInstance, GpuJointMatrix, GpuLight, GpuMaterial, GpuMeshInfo, GpuMorphDelta, GpuMover,
+    GpuSkinVertex, GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, NO_DECAL, RESERVED_TEXTURES, TEXTURE_FLAT_NORMAL,
+    TEXTURE_WHITE,
 };
 
 impl GpuInstance {
@@ -478,6 +479,9 @@ pub struct FrameCounters {
     pub skinned_meshes: u64,
     /// Vertices it skinned.
     pub skinned_vertices: u64,
+    /// Instances the motion-vector pass drew over the camera's motion this frame: those that
+    /// moved or were posed (`crate::motion`; zero unless temporal anti-aliasing runs).
+    pub motion_movers: u64,
     /// Scene BLAS refits (posed meshes skinned this frame).
     pub scene_blas_refits: u64,
     /// Reflections: the mode applied, and what the GPU measured (`crate::reflections`).
@@ -706,6 +710,17 @@ pub struct SceneMirror {
     pub decal_materials: SlotTable<GpuDecalMaterial>,
     camera: GpuCamera,
     camera_dirty: bool,
+    /// Temporal anti-aliasing's part of the camera record: this frame's jitter (NDC) and the
+    /// previous frame's unjittered view-projection ([`SceneMirror::set_camera_temporal`]).
+    temporal: (Vec2, Option<Mat4>),
+    /// Set by [`SceneMirror::cut_camera`]: the view jumped, so history is thrown away.
+    camera_cut: bool,
+    /// Instances that moved since the last upload, and the transforms they had then (the
+    /// motion-vector pass draws them: `crate::motion`).
+    pub movers: Movers,
+    /// By mesh id: the instance slot that draws a posed mesh (`u32::MAX`: none), so that its
+    /// skinning makes it a mover.
+    posed_slots: Vec<u32>,
     /// What lights the scene from all around (`None`: the flat ambient colour).
     environment: Option<crate::environment::Environment>,
     /// Meshes waiting for upload.
@@ -741,6 +756,58 @@ pub struct SceneMirror {
     transparent_order: Vec<u32>,
 }
 
+/// Instances that moved since the last upload, each once, with the transform it had at that
+/// upload (what its motion vectors measure from). Kept without allocating once grown.
+#[derive(Default)]
+pub struct Movers {
+    list: Vec<(u32, Mat4)>,
+    /// By slot: its place in `list` + 1 (0: not there).
+    place: Vec<u32>,
+}
+
+impl Movers {
+    /// Notes that `slot` moved from `prev` (only its first move since the last upload counts).
+    fn moved(&mut self, slot: u32, prev: Mat4) {
+        let i = slot as usize;
+        if self.place.len() <= i {
+            self.place.resize(i + 1, 0);
+        }
+        if self.place[i] == 0 {
+            self.list.push((slot, prev));
+            self.place[i] = self.list.len() as u32;
+        }
+    }
+
+    /// The previous transform of `slot`, if it moved.
+    pub fn prev_model(&self, slot: u32) -> Option<Mat4> {
+        let place = *self.place.get(slot as usize)?;
+        (place > 0).then(|| self.list[place as usize - 1].1)
+    }
+
+    /// The instances that moved, with their previous transforms.
+    pub fn iter(&self) -> impl Iterator<Item = (u32, Mat4)> + '_ {
+        self.list.iter().copied()
+    }
+
+    /// How many moved.
+    pub fn len(&self) -> usize {
+        self.list.len()
+    }
+
+    /// Whether none moved.
+    pub fn is_empty(&self) -> bool {
+        self.list.is_empty()
+    }
+
+    /// Forgets them (after the upload that took them).
+    pub fn clear(&mut self) {
+        for &(slot, _) in &self.list {
+            self.place[slot as usize] = 0;
+        }
+        self.list.clear();
+    }
+}
+
 impl Default for GpuCamera {
     fn default() -> Self {
         Self { decal_fade: Vec2::splat(f32::INFINITY), ..Self::zeroed() }
@@ -763,6 +830,9 @@ impl SceneMirror {
                 let old = self.draws.get(slot as usize).copied().flatten();
                 self.instances_rearranged |= !(same_material && old == Some(draw));
                 self.count_batch(old, -1);
+                if let Some(prev) = self.instances.get(slot).map(|i| i.model).filter(|m| *m != record.model) {
+                    self.movers.moved(slot, prev);
+                }
                 self.instances.write(slot, record);
                 self.culls.write(slot, cull);
                 slot
@@ -779,6 +849,13 @@ impl SceneMirror {
             self.draws.resize(slot as usize + 1, None);
         }
         self.draws[slot as usize] = Some(draw);
+        if self.poses.is_posed(draw.mesh) {
+            let m = draw.mesh.0 as usize;
+            if self.posed_slots.len() <= m {
+                self.posed_slots.resize(m + 1, u32::MAX);
+            }
+            self.posed_slots[m] = slot;
+        }
         self.count_batch(Some(draw), 1);
         self.note_transparency(slot, draw.transparent);
         self.counters.records_written += 1;
@@ -895,6 +972,51 @@ impl SceneMirror {
     /// once, on the next frame; intensity and rotation cost nothing.
     pub fn set_environment(&mut self, environment: Option<crate::environment::Environment>) {
         self.environment = environment;
+    }
+
+    /// The camera record the GPU reads: [`SceneMirror::camera`] with temporal anti-aliasing's
+    /// jitter applied to its projection and the previous frame's view-projection beside it.
+    pub fn gpu_camera(&self) -> GpuCamera {
+        let c = self.camera;
+        let (jitter, prev) = self.temporal;
+        let shift = Mat4::from_translation(jitter.extend(0.0));
+        let view_proj = shift * c.view_proj;
+        GpuCamera {
+            proj: shift * c.proj,
+            view_proj,
+            inv_view_proj: if jitter == Vec2::ZERO { c.inv_view_proj } else { view_proj.inverse() },
+            jitter,
+            motion_view_proj: c.view_proj,
+            prev_view_proj: prev.unwrap_or(c.view_proj),
+            ..c
+        }
+    }
+
+    /// Sets temporal anti-aliasing's part of the camera record: the sub-pixel `jitter` (NDC)
+    /// and the previous frame's unjittered view-projection (`None`: no history). Uploads only
+    /// when it changed.
+    pub fn set_camera_temporal(&mut self, jitter: Vec2, prev_view_proj: Option<Mat4>) {
+        if self.temporal != (jitter, prev_view_proj) {
+            self.temporal = (jitter, prev_view_proj);
+            self.camera_dirty = true;
+        }
+    }
+
+    /// Says that the view jumped (a cut to another shot, a teleport): the next frame throws
+    /// temporal history away instead of smearing the old view into the new one.
+    pub fn cut_camera(&mut self) {
+        self.camera_cut = true;
+    }
+
+    /// Returns whether [`SceneMirror::cut_camera`] was called since the last call.
+    pub fn take_camera_cut(&mut self) -> bool {
+        std::mem::take(&mut self.camera_cut)
+    }
+
+    /// The instance slot that draws posed mesh `mesh`, if one does.
+    pub fn posed_slot(&self, mesh: MeshId) -> Option<u32> {
+        let slot = *self.posed_slots.get(mesh.0 as usize)?;
+        (slot != u32::MAX && self.draws.get(slot as usize).copied().flatten().is_some_and(|d| d.mesh == mesh)).then_some(slot)
     }
 
     /// Returns whether the camera changed since the last call, clearing the flag.

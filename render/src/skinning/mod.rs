@@ -196,6 +196,11 @@ impl PoseTable {
         self.sources.get(id.0 as usize).is_some_and(Option::is_some)
     }
 
+    /// Whether mesh `id` is a posed mesh.
+    pub fn is_posed(&self, id: MeshId) -> bool {
+        self.poses.get(id.0 as usize).is_some_and(Option::is_some)
+    }
+
     /// Whether mesh `id` has a skin (joints move it).
     pub fn is_skinned(&self, id: MeshId) -> bool {
         self.joint_count(id) > 0

@@ -1,0 +1,113 @@
+//! Motion vectors: how far each pixel's surface moved on screen since the previous frame, for
+//! temporal anti-aliasing (`crate::taa`; issue 27, item 1). None of the seeds treats them (seed
+//! 000 §2.6 names temporal anti-aliasing as what deferred renderers use instead of MSAA); the
+//! record follows the field's usual one (UV-space motion between unjittered projections, as in
+//! Unreal's velocity buffer and Bevy's motion-vector prepass).
+//!
+//! **Design: work follows what moved.** Engines that write motion vectors draw *every* mesh a
+//! second time (or add a target to every depth pass, in every pipeline). Here two passes, after
+//! whichever pass wrote the opaque depth, serve all four pipelines:
+//!
+//! 1. **The camera's motion, from depth** (`shaders/motion_camera.comp`): each pixel's point is
+//!    projected by this frame's and the previous frame's unjittered view-projections
+//!    ([`crate::layout::GpuCamera::motion_view_proj`], `prev_view_proj`). This is exact for
+//!    everything that did not move by itself, the sky included (a point at infinite depth is
+//!    projected as a direction).
+//! 2. **The movers** (`shaders/motion.vert`): only the instances whose transform changed since
+//!    the previous upload (the mirror notes their previous transform as extraction writes the
+//!    new one: [`crate::scene::Movers`]) and those whose posed mesh was skinned this frame (the
+//!    skinning pass keeps each vertex's previous position behind the posed vertices) are drawn,
+//!    with depth EQUAL, over the camera's motion. One indirect multi-draw; a frame in which
+//!    nothing moved draws nothing and uploads nothing for it.
+//!
+//! Blended surfaces never write motion: glass does not replace the motion of what is behind it
+//! (the ghosting of Godot #108664). The record (`shaders/include/motion.glsl`) also keeps the
+//! surface's view depth in both frames, for temporal anti-aliasing's disocclusion test.
+
+use ash::vk;
+
+use crate::RenderError;
+use crate::gpu::device::GpuContext;
+use crate::gpu::pipeline::{GraphicsDesc, create_compute, create_graphics};
+use crate::gpu::shaders;
+use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR_FORMAT, MOTION};
+use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind};
+use crate::scene::gpu::GpuScene;
+
+/// Bytes of one indirect draw command (`GpuDrawCommand`).
+const COMMAND_BYTES: u32 = std::mem::size_of::<crate::scene::GpuDrawCommand>() as u32;
+
+/// The motion-vector passes.
+pub struct Motion {
+    camera: vk::Pipeline,
+    movers: vk::Pipeline,
+}
+
+impl Motion {
+    /// Creates the pipelines.
+    pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
+        let formats = [HDR_FORMAT];
+        let movers = GraphicsDesc {
+            name: "motion movers",
+            vertex: shaders::MOTION_VERT,
+            depth_compare: Some(vk::CompareOp::EQUAL),
+            depth_write: false,
+            ..GraphicsDesc::mesh("motion movers", Some(shaders::MOTION_FRAG), &formats, DEPTH_FORMAT)
+        };
+        Ok(Self {
+            camera: create_compute(ctx, layout, "motion camera", shaders::MOTION_CAMERA_COMP)?,
+            movers: create_graphics(ctx, layout, &movers)?,
+        })
+    }
+
+    /// Writes this frame's motion vectors into the motion target: the camera's motion from the
+    /// opaque depth, then the movers the scene's upload listed. Call once the opaque depth is
+    /// final.
+    pub fn record(&self, f: &mut Frame, scene: &GpuScene) -> Result<(), RenderError> {
+        let (camera, extent) = (self.camera, f.graph.extent());
+        f.pass("motion_camera", PassKind::Compute)
+            .read(scene.res.tables, BufferUse::Storage)
+            .sample(&DEPTH)
+            .image(&MOTION, ImageUse::StorageWrite)
+            .record(|p| {
+                p.bind(vk::PipelineBindPoint::COMPUTE, camera, &p.push);
+                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
+                unsafe { p.ctx.device.cmd_dispatch(p.cmd, extent.width.div_ceil(8), extent.height.div_ceil(8), 1) };
+            })?;
+        let (count, Some(pool)) = (scene.mover_count, scene.pool_buffer()) else { return Ok(()) };
+        if count == 0 {
+            return Ok(());
+        }
+        let (movers, draws) = (self.movers, scene.mover_draws.buffer());
+        f.pass("motion_movers", PassKind::Graphics)
+            .image(&DEPTH, ImageUse::DepthTest)
+            .color(&MOTION, Load::Keep)
+            .reads(scene.res.drawn())
+            .read(scene.res.tables, BufferUse::Indirect)
+            .record(|p| {
+                let push = p.push;
+                p.bind_graphics(movers, &push);
+                let d = &p.ctx.device;
+                // SAFETY: `cmd` is recording inside a rendering scope with a mesh pipeline bound;
+                // the pool and the draws (uploaded with the tables, declared above) live until
+                // the frame completes.
+                unsafe {
+                    d.cmd_set_cull_mode(p.cmd, vk::CullModeFlags::NONE);
+                    d.cmd_bind_vertex_buffers(p.cmd, 0, &[pool], &[0]);
+                    d.cmd_bind_index_buffer(p.cmd, pool, 0, vk::IndexType::UINT32);
+                    // A count-draw, its count in the first command's place: on Mesa lavapipe 25 a
+                    // plain indirect draw recorded after a count-draw (the depth passes') took
+                    // its draw count from that earlier draw's count buffer.
+                    d.cmd_draw_indexed_indirect_count(p.cmd, draws, COMMAND_BYTES as u64, draws, 0, count, COMMAND_BYTES);
+                }
+            })
+    }
+
+    /// Destroys the pipelines; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        for p in [self.camera, self.movers] {
+            // SAFETY: the GPU is idle.
+            unsafe { ctx.device.destroy_pipeline(p, None) };
+        }
+    }
+}
