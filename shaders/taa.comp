@@ -8,8 +8,9 @@
 //   current neighbourhood's mean ± 1.25 standard deviations (within its minimum and maximum):
 //   what the history shows that the neighbourhood cannot be (a despawned decal, a disoccluded
 //   background) is pulled in at once.
-// - Disocclusion: where the history's depth differs from the surface's previous depth by over
-//   5 %, or the reprojection leaves the screen, the history is dropped.
+// - Disocclusion: where the history around the reprojected point held a surface over 5 % nearer
+//   than the nearest surface here was in the previous frame, or the reprojection leaves the
+//   screen, the history is dropped.
 // - Interlaced glass (TAA_INTERLACED): odd rows hold glass in depth, so motion and depth come
 //   from the even row above, the surface behind; glass does not drag what is behind it.
 // Variant HISTORY_B reads history B and writes A; the plain one reads A and writes B.
@@ -66,8 +67,17 @@ void main() {
     bool keep = (flags & TAA_RESET) == 0u && all(greaterThanEqual(prev_uv, vec2(0.0))) && all(lessThanEqual(prev_uv, vec2(1.0)));
     vec3 result = current;
     if (keep) {
-        float history_depth = texelFetch(history_in, clamp(ivec2(prev_uv * vec2(size)), ivec2(0), size - 1), 0).a;
-        keep = abs(history_depth - nearest.z) <= 0.05 * nearest.z;
+        // Disocclusion: the history around the reprojected point held something nearer than
+        // the nearest surface here was then (it has moved away). Both sides take the nearest of
+        // 3×3 pixels, so jitter moving a thin edge in and out of a pixel does not count.
+        ivec2 at = ivec2(prev_uv * vec2(size));
+        float history_depth = MOTION_FAR;
+        for (int dy = -1; dy <= 1; dy++) {
+            for (int dx = -1; dx <= 1; dx++) {
+                history_depth = min(history_depth, texelFetch(history_in, clamp(at + ivec2(dx, dy), ivec2(0), size - 1), 0).a);
+            }
+        }
+        keep = history_depth >= nearest.z * 0.95;
     }
     if (keep) {
         vec3 mean = m1 / 9.0;
@@ -76,8 +86,7 @@ void main() {
         vec3 box_hi = min(hi, mean + 1.25 * sigma);
         vec3 history = rgb_to_ycocg(taa_compress(sample_catmull_rom(history_in, prev_uv, vec2(size))));
         history = clip_to_box(history, clamp(mean, box_lo, box_hi), box_lo, box_hi);
-        vec3 blended = mix(history, rgb_to_ycocg(taa_compress(current)), CURRENT_WEIGHT);
-        result = taa_expand(max(ycocg_to_rgb(blended), vec3(0.0)));
+        result = mix(taa_expand(max(ycocg_to_rgb(history), vec3(0.0))), current, CURRENT_WEIGHT);
     }
     imageStore(history_out, px, vec4(result, depth));
 }

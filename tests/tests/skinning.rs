@@ -344,3 +344,58 @@ fn a_morph_target_without_a_skin_follows_its_weight() {
     let (mean, p99) = error_stats(&morphed, &expected, |_| true);
     assert!(mean <= 1e-4 && p99 <= 1e-3, "the morphed sphere differs from its CPU reference (mean {mean}, p99 {p99})");
 }
+
+/// Motion vectors of a skinned mesh (`render/src/motion`): the tube bends further in one frame;
+/// where its upper half (joint 1 alone) shows, the motion is the CPU's projection of the point
+/// now and turned back about the elbow; its lower half (joint 0, still) has none. The skinning
+/// pass's previous positions give the motion, so this holds within a thirtieth of a pixel.
+#[test]
+fn a_bending_skin_has_the_motion_of_its_joints() {
+    let settings = RenderSettings { aa: render::AntiAliasing::Taa, ..Default::default() };
+    let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, Tier::RayQuery);
+    let (a0, a1) = (0.3f32, 0.6f32);
+    let bend = scene(&mut app, a0);
+    for _ in 0..3 {
+        app.update();
+    }
+    app.world.entity_mut(bend.elbow).insert(Transform::from_xyz(0.0, 1.0, 0.0).with_rotation(Quat::from_rotation_z(-a1)));
+    app.update();
+    assert_no_validation_errors(&mut app);
+    assert_eq!(app.world.resource::<RenderStats>().last.motion_movers, 1, "the posed tube is the one mover");
+    let motion = renderer(&mut app).read_motion().expect("read back the motion vectors");
+    let depth = renderer(&mut app).read_depth().expect("read back depth");
+    let camera = app.world.resource::<RenderMirror>().0.gpu_camera();
+    let elbow = Vec3::new(-0.5, 1.0, 0.0);
+    let project = |p: Vec3| {
+        let c = camera.motion_view_proj * p.extend(1.0);
+        Vec2::new(c.x, c.y) / c.w
+    };
+    let (mut upper, mut lower) = ((0usize, 0.0f32), (0usize, 0.0f32));
+    for y in 0..SIZE.1 {
+        for x in 0..SIZE.0 {
+            let i = (y * SIZE.0 + x) as usize;
+            let ndc = (Vec2::new((x as f32 + 0.5) / SIZE.0 as f32, (y as f32 + 0.5) / SIZE.1 as f32) * 2.0 - 1.0) * Vec2::new(1.0, -1.0);
+            let p = camera.inv_view_proj * Vec4::new(ndc.x, ndc.y, depth[i], 1.0);
+            let p = p.truncate() / p.w;
+            // The point in the unbent tube's frame about the elbow (upper half: q.y > 0).
+            let q = Quat::from_rotation_z(a1) * (p - elbow);
+            let radius = Vec2::new(q.x, q.z).length();
+            let got = Vec2::new(motion[i][0], motion[i][1]);
+            if depth[i] > 0.0 && p.y > 0.05 && q.y > 0.45 && q.y < 0.95 && radius < 0.45 {
+                let before = elbow + Quat::from_rotation_z(a1 - a0) * (p - elbow);
+                let expected = (project(p) - project(before)) * Vec2::new(0.5, -0.5);
+                upper = (upper.0 + 1, upper.1.max((got - expected).abs().max_element()));
+            } else if depth[i] > 0.0 && p.y > 0.05 && p.y < 0.5 && (p - Vec3::new(-0.5, p.y, 0.0)).length() < 0.45 {
+                lower = (lower.0 + 1, lower.1.max(got.abs().max_element()));
+            }
+        }
+    }
+    eprintln!(
+        "skinned motion: upper half {} pixels, worst error {:.2e} UV; lower half {} pixels, worst {:.2e}",
+        upper.0, upper.1, lower.0, lower.1
+    );
+    assert!(upper.0 > 50 && lower.0 > 50, "both halves show: {upper:?} {lower:?}");
+    // Measured 2.3e-4: motions of up to 0.1 UV rounded to RGBA16F, and silhouette pixels.
+    assert!(upper.1 <= 5e-4, "the upper half moves with its joint: worst error {} UV", upper.1);
+    assert!(lower.1 <= 2e-4, "the lower half stays: worst motion {} UV", lower.1);
+}

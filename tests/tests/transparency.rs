@@ -643,3 +643,41 @@ fn forward_glass_is_shadowed_like_the_depth_peeled_reference_on_every_tier() {
         }
     }
 }
+
+/// Interlaced glass under temporal anti-aliasing (`render/src/taa`): the odd rows' glass layer
+/// is composed into every row before the resolve, and motion comes from the rows behind it, so
+/// after 16 still frames the pane equals the forward blend under the same anti-aliasing (the
+/// tolerance of the test above) and shows no more difference between neighbouring rows than it
+/// does (stripes would).
+#[test]
+fn interlaced_glass_under_temporal_anti_aliasing_equals_forward_glass_without_stripes() {
+    let Scene { mut app, blue, .. } = scene();
+    app.world.despawn(blue);
+    app.world.resource_mut::<RenderSettings>().aa = render::AntiAliasing::Taa;
+    let mut resolved = |method| {
+        app.world.resource_mut::<RenderSettings>().transparency = method;
+        let mut image = Vec::new();
+        for _ in 0..16 {
+            image = render(&mut app, PipelineKind::Deferred).0;
+        }
+        image
+    };
+    let forward = resolved(TransparencyMethod::Forward);
+    let interlaced = resolved(TransparencyMethod::Interlaced);
+    let inside = pixels_seeing_square(&TopDownView::new(10.0, SIZE), 1.5, 1.2);
+    assert!(inside.len() > 500, "the pane covers the view: {}", inside.len());
+    let (mean, p99, max) = errors(&interlaced, &forward, &inside);
+    // Stripes: the mean difference between a pixel and the one below it.
+    let rows = |image: &[[f32; 4]]| {
+        let w = SIZE.0 as usize;
+        let d: f32 = inside.iter().map(|&i| (0..3).map(|c| (image[i][c] - image[i + w][c]).abs()).fold(0.0, f32::max)).sum();
+        d / inside.len() as f32
+    };
+    let (rows_interlaced, rows_forward) = (rows(&interlaced), rows(&forward));
+    eprintln!(
+        "under TAA, interlaced against forward glass ({} px): mean {mean:.5} p99 {p99:.5} max {max:.5}; row to row {rows_interlaced:.5} (forward {rows_forward:.5})",
+        inside.len()
+    );
+    assert!(mean <= 0.005 && p99 <= 0.04, "interlaced against forward glass under TAA: mean {mean}, p99 {p99}");
+    assert!(rows_interlaced <= rows_forward + 0.002, "no stripes: row to row {rows_interlaced} against forward's {rows_forward}");
+}
