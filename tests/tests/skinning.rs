@@ -348,10 +348,18 @@ fn a_morph_target_without_a_skin_follows_its_weight() {
 /// Motion vectors of a skinned mesh (`render/src/motion`): the tube bends further in one frame;
 /// where its upper half (joint 1 alone) shows, the motion is the CPU's projection of the point
 /// now and turned back about the elbow; its lower half (joint 0, still) has none. The skinning
-/// pass's previous positions give the motion, so this holds within a thirtieth of a pixel.
+/// pass's previous positions give the motion, so this holds within a thirtieth of a pixel, in
+/// the forward pipeline (the tube drawn again as a mover) and in the deferred and
+/// visibility-buffer pipelines (found per pixel from the ids they keep).
 #[test]
-fn a_bending_skin_has_the_motion_of_its_joints() {
-    let settings = RenderSettings { aa: render::AntiAliasing::Taa, ..Default::default() };
+fn a_bending_skin_has_the_motion_of_its_joints_in_every_pipeline() {
+    for pipeline in [PipelineKind::Forward, PipelineKind::Deferred, PipelineKind::VisBuffer] {
+        skin_motion(pipeline);
+    }
+}
+
+fn skin_motion(pipeline: PipelineKind) {
+    let settings = RenderSettings { pipeline, aa: render::AntiAliasing::Taa, ..Default::default() };
     let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, Tier::RayQuery);
     let (a0, a1) = (0.3f32, 0.6f32);
     let bend = scene(&mut app, a0);
@@ -361,7 +369,8 @@ fn a_bending_skin_has_the_motion_of_its_joints() {
     app.world.entity_mut(bend.elbow).insert(Transform::from_xyz(0.0, 1.0, 0.0).with_rotation(Quat::from_rotation_z(-a1)));
     app.update();
     assert_no_validation_errors(&mut app);
-    assert_eq!(app.world.resource::<RenderStats>().last.motion_movers, 1, "the posed tube is the one mover");
+    let movers = u64::from(pipeline == PipelineKind::Forward);
+    assert_eq!(app.world.resource::<RenderStats>().last.motion_movers, movers, "{pipeline:?}: the posed tube is a mover in forward only");
     let motion = renderer(&mut app).read_motion().expect("read back the motion vectors");
     let depth = renderer(&mut app).read_depth().expect("read back depth");
     let camera = app.world.resource::<RenderMirror>().0.gpu_camera();
@@ -391,11 +400,11 @@ fn a_bending_skin_has_the_motion_of_its_joints() {
         }
     }
     eprintln!(
-        "skinned motion: upper half {} pixels, worst error {:.2e} UV; lower half {} pixels, worst {:.2e}",
+        "{pipeline:?}: skinned motion: upper half {} pixels, worst error {:.2e} UV; lower half {} pixels, worst {:.2e}",
         upper.0, upper.1, lower.0, lower.1
     );
-    assert!(upper.0 > 50 && lower.0 > 50, "both halves show: {upper:?} {lower:?}");
+    assert!(upper.0 > 50 && lower.0 > 50, "{pipeline:?}: both halves show: {upper:?} {lower:?}");
     // Measured 2.3e-4: motions of up to 0.1 UV rounded to RGBA16F, and silhouette pixels.
-    assert!(upper.1 <= 5e-4, "the upper half moves with its joint: worst error {} UV", upper.1);
-    assert!(lower.1 <= 2e-4, "the lower half stays: worst motion {} UV", lower.1);
+    assert!(upper.1 <= 5e-4, "{pipeline:?}: the upper half moves with its joint: worst error {} UV", upper.1);
+    assert!(lower.1 <= 2e-4, "{pipeline:?}: the lower half stays: worst motion {} UV", lower.1);
 }

@@ -123,6 +123,8 @@ spirv! {
     OCCLUSION_RGEN = "occlusion.rgen";
     OCCLUSION_DENOISE_COMP = "occlusion_denoise.comp";
     MOTION_CAMERA_COMP = "motion_camera.comp";
+    MOTION_CAMERA_COMP_VISIBILITY = "motion_camera.comp.VISIBILITY";
+    MOTION_CAMERA_COMP_GBUFFER = "motion_camera.comp.GBUFFER";
     MOTION_VERT = "motion.vert";
     MOTION_FRAG = "motion.frag";
     TAA_COMP = "taa.comp";

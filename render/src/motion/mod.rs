@@ -13,12 +13,20 @@
 //!    ([`crate::layout::GpuCamera::motion_view_proj`], `prev_view_proj`). This is exact for
 //!    everything that did not move by itself, the sky included (a point at infinite depth is
 //!    projected as a direction).
+//!    Where the pipeline keeps each pixel's instance and triangle (the visibility buffer, and
+//!    the deferred G-buffer for posed meshes), a posed mesh's skin motion is found here too, per
+//!    pixel: the skinning pass keeps each vertex's previous position behind the posed vertices,
+//!    and the pixel's barycentrics weigh its triangle's.
 //! 2. **The movers** (`shaders/motion.vert`): only the instances whose transform changed since
 //!    the previous upload (the mirror notes their previous transform as extraction writes the
-//!    new one: [`crate::scene::Movers`]) and those whose posed mesh was skinned this frame (the
-//!    skinning pass keeps each vertex's previous position behind the posed vertices) are drawn,
-//!    with depth EQUAL, over the camera's motion. One indirect multi-draw; a frame in which
-//!    nothing moved draws nothing and uploads nothing for it.
+//!    new one: [`crate::scene::Movers`]) and, in the forward pipelines, those whose posed mesh
+//!    was skinned this frame are drawn, with depth EQUAL, over the camera's motion. One indirect
+//!    multi-draw; a frame in which nothing moved draws nothing and uploads nothing for it.
+//!
+//! Drawing posed meshes again costs what drawing them cost: 10,000 animated foxes (all visible)
+//! took 12.4 ms in the movers pass on the lent H100 against 22.4 ms for the G-buffer pass; found
+//! per pixel from the ids, their motion costs the first pass a triangle fetch per skin pixel
+//! (docs/BENCHMARKS.md, "Temporal anti-aliasing").
 //!
 //! Blended surfaces never write motion: glass does not replace the motion of what is behind it
 //! (the ghosting of Godot #108664). The record (`shaders/include/motion.glsl`) also keeps the
@@ -30,16 +38,39 @@ use crate::RenderError;
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::{GraphicsDesc, create_compute, create_graphics};
 use crate::gpu::shaders;
-use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR_FORMAT, MOTION};
+use crate::graph::targets::{DEPTH, DEPTH_FORMAT, GBUFFER_LAYERS, HDR_FORMAT, MOTION, VISIBILITY};
 use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind};
 use crate::scene::gpu::GpuScene;
 
 /// Bytes of one indirect draw command (`GpuDrawCommand`).
 const COMMAND_BYTES: u32 = std::mem::size_of::<crate::scene::GpuDrawCommand>() as u32;
 
+/// Where the first pass finds each pixel's instance and triangle, for posed meshes' motion.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PixelIds {
+    /// Nowhere (the forward pipelines' depth prepass): posed meshes are movers.
+    None,
+    /// The visibility buffer.
+    Visibility,
+    /// The deferred G-buffer's layers (which name posed meshes' instances).
+    GBuffer,
+}
+
+impl PixelIds {
+    /// Where `pipeline` keeps them once its opaque depth is final.
+    pub fn of(pipeline: crate::settings::PipelineKind) -> Self {
+        match pipeline {
+            crate::settings::PipelineKind::VisBuffer => PixelIds::Visibility,
+            crate::settings::PipelineKind::Deferred => PixelIds::GBuffer,
+            _ => PixelIds::None,
+        }
+    }
+}
+
 /// The motion-vector passes.
 pub struct Motion {
-    camera: vk::Pipeline,
+    /// The camera's motion, by [`PixelIds`].
+    camera: [vk::Pipeline; 3],
     movers: vk::Pipeline,
 }
 
@@ -55,19 +86,26 @@ impl Motion {
             ..GraphicsDesc::mesh("motion movers", Some(shaders::MOTION_FRAG), &formats, DEPTH_FORMAT)
         };
         Ok(Self {
-            camera: create_compute(ctx, layout, "motion camera", shaders::MOTION_CAMERA_COMP)?,
+            camera: [
+                create_compute(ctx, layout, "motion camera", shaders::MOTION_CAMERA_COMP)?,
+                create_compute(ctx, layout, "motion camera", shaders::MOTION_CAMERA_COMP_VISIBILITY)?,
+                create_compute(ctx, layout, "motion camera", shaders::MOTION_CAMERA_COMP_GBUFFER)?,
+            ],
             movers: create_graphics(ctx, layout, &movers)?,
         })
     }
 
     /// Writes this frame's motion vectors into the motion target: the camera's motion from the
-    /// opaque depth, then the movers the scene's upload listed. Call once the opaque depth is
-    /// final.
-    pub fn record(&self, f: &mut Frame, scene: &GpuScene) -> Result<(), RenderError> {
-        let (camera, extent) = (self.camera, f.graph.extent());
+    /// opaque depth (and posed meshes' from the pixels' `ids`), then the movers the scene's upload
+    /// listed. Call once the opaque depth is final.
+    pub fn record(&self, f: &mut Frame, scene: &GpuScene, ids: PixelIds) -> Result<(), RenderError> {
+        let (camera, extent) = (self.camera[ids as usize], f.graph.extent());
         f.pass("motion_camera", PassKind::Compute)
             .read(scene.res.tables, BufferUse::Storage)
+            .read(scene.res.meshes, BufferUse::Storage)
             .sample(&DEPTH)
+            .when(ids == PixelIds::Visibility, |p| p.sample(&VISIBILITY))
+            .when(ids == PixelIds::GBuffer, |p| p.sample(&GBUFFER_LAYERS))
             .image(&MOTION, ImageUse::StorageWrite)
             .record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, camera, &p.push);
@@ -105,7 +143,7 @@ impl Motion {
 
     /// Destroys the pipelines; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for p in [self.camera, self.movers] {
+        for p in self.camera.into_iter().chain([self.movers]) {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }

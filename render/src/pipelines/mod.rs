@@ -76,6 +76,7 @@ pub struct FrameParts<'a> {
 fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<(DecalFrame, LightFrame), RenderError> {
     mirror.sort_transparent(mirror.camera().position);
     r.scene.motion_wanted = r.taa.prepare(mirror, s, f.graph.extent());
+    r.scene.posed_motion_per_pixel = crate::motion::PixelIds::of(s.pipeline) != crate::motion::PixelIds::None;
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
     r.skinning.prepare(mirror, r.scene);
     let reflections = r.reflections.prepare(f, s, mirror)?;
@@ -108,7 +109,7 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
     } else {
         r.culling.depth_passes(f, scene, |f, draws, phase| forward.prepass(f, scene, &draws, phase))?;
     }
-    motion(f, r)?;
+    motion(f, r, s)?;
     let draws = r.culling.draws();
     transparent_depth(f, r, &draws, mirror, &lights)?;
     r.lighting.record(f, r.scene, &draws, &lights)?;
@@ -181,7 +182,7 @@ fn deferred_layer(
         deferred.geometry(f, scene, &r.culling.draws(), glass, s.clear_color, Phase::WHOLE)?;
     } else {
         r.culling.depth_passes(f, scene, |f, draws, phase| deferred.geometry(f, scene, &draws, glass, s.clear_color, phase))?;
-        motion(f, r)?;
+        motion(f, r, s)?;
     }
     let draws = r.culling.draws();
     if again {
@@ -204,7 +205,7 @@ pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirr
     let (decals, lights) = begin(f, r, mirror, s)?;
     let (scene, visbuffer) = (&*r.scene, r.visbuffer);
     r.culling.depth_passes(f, scene, |f, draws, phase| visbuffer.visibility(f, "visibility", scene, &draws, phase))?;
-    motion(f, r)?;
+    motion(f, r, s)?;
     let draws = r.culling.draws();
     transparent_depth(f, r, &draws, mirror, &lights)?;
     r.lighting.record(f, r.scene, &draws, &lights)?;
@@ -220,11 +221,11 @@ pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirr
 
 /// Motion vectors, when temporal anti-aliasing runs, right after the opaque depth (before any
 /// later layer, glass's, replaces it).
-fn motion(f: &mut Frame, r: &FrameParts) -> Result<(), RenderError> {
+fn motion(f: &mut Frame, r: &FrameParts, s: &FrameSettings) -> Result<(), RenderError> {
     if !r.taa.runs() {
         return Ok(());
     }
-    r.motion.record(f, r.scene)
+    r.motion.record(f, r.scene, crate::motion::PixelIds::of(s.pipeline))
 }
 
 /// The end of every frame: temporal anti-aliasing, bloom over the finished HDR image,

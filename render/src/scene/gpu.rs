@@ -469,6 +469,9 @@ pub struct GpuScene {
     /// Whether this frame draws motion vectors (set before the upload): only then are movers
     /// uploaded.
     pub motion_wanted: bool,
+    /// Whether this frame's pipeline finds posed meshes' motion per pixel (`crate::motion`):
+    /// then they are movers only when they moved as a whole.
+    pub posed_motion_per_pixel: bool,
     mover_records: Vec<GpuMover>,
     mover_commands: Vec<GpuDrawCommand>,
     /// Meshes by [`MeshId`], placed in the pool.
@@ -621,6 +624,7 @@ impl GpuScene {
             mover_draws: GpuTable::with_usage::<GpuDrawCommand>(ctx, "mover draws", 16, vk::BufferUsageFlags::INDIRECT_BUFFER, false)?,
             mover_count: 0,
             motion_wanted: false,
+            posed_motion_per_pixel: false,
             mover_records: Vec::new(),
             mover_commands: Vec::new(),
             meshes: Vec::new(),
@@ -808,7 +812,8 @@ impl GpuScene {
             replaced |= gpu.plan(slots);
         }
         self.mover_count = 0;
-        let movers = if self.motion_wanted { (mirror.movers.len() + mirror.poses.jobs().len()) as u32 } else { 0 };
+        let posed_movers = if self.posed_motion_per_pixel { 0 } else { mirror.poses.jobs().len() };
+        let movers = if self.motion_wanted { (mirror.movers.len() + posed_movers) as u32 } else { 0 };
         if movers > 0 {
             self.movers.plan(movers);
             self.mover_draws.plan(movers + 1);
@@ -936,8 +941,9 @@ impl GpuScene {
     }
 
     /// Lists this frame's movers and their draws for the motion-vector pass: the instances that
-    /// moved (with their previous transforms) and those whose posed mesh was skinned (whose
-    /// previous positions then differ), each once.
+    /// moved (with their previous transforms) and, unless the pipeline finds their motion per
+    /// pixel, those whose posed mesh was skinned (whose previous positions then differ), each
+    /// once.
     fn upload_movers(&mut self, up: &mut Upload, copies: &mut CopyList, mirror: &mut SceneMirror) -> Result<(), RenderError> {
         self.mover_records.clear();
         self.mover_commands.clear();
