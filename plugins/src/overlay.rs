@@ -224,6 +224,9 @@ impl DebugOverlay {
             for m in render::AntiAliasing::ALL {
                 ui.selectable_value(&mut settings.aa, m, format!("AA {}", m.name()));
             }
+            if settings.aa == render::AntiAliasing::Taa {
+                ui.add(egui::Slider::new(&mut settings.taa_sharpen, 0.0..=1.0).text("sharpen"));
+            }
         });
         ui.horizontal(|ui| {
             ui.label("tone map");
