@@ -10,7 +10,8 @@
 //!   compute passes that rebuild positions from depth) sees the same jittered view.
 //! - **Resolve** (`shaders/taa.comp`): history filtered by Catmull-Rom (a bilinear history
 //!   blurs a little more each frame: the smearing of Bevy #10183), clipped in compressed YCoCg to
-//!   the current 3×3 neighbourhood's variance box, and blended with 10 % of the current frame.
+//!   the current 3×3 neighbourhood's variance box, and blended with 10 % of the current frame
+//!   (more in motion, up to a third: each reprojection softens the history a little).
 //!   Motion is taken from the nearest surface of the neighbourhood; the history is dropped where
 //!   the reprojection leaves the screen or its depth shows a disocclusion.
 //! - **History**: two targets that alternate (one read, one written); thrown away on the first
