@@ -778,6 +778,16 @@ impl Movers {
         }
     }
 
+    /// Drops `slot` from the list (its instance was removed).
+    fn forget(&mut self, slot: u32) {
+        let Some(&place) = self.place.get(slot as usize).filter(|&&p| p > 0) else { return };
+        self.place[slot as usize] = 0;
+        self.list.swap_remove(place as usize - 1);
+        if let Some(&(moved, _)) = self.list.get(place as usize - 1) {
+            self.place[moved as usize] = place;
+        }
+    }
+
     /// The previous transform of `slot`, if it moved.
     pub fn prev_model(&self, slot: u32) -> Option<Mat4> {
         let place = *self.place.get(slot as usize)?;
@@ -922,6 +932,8 @@ impl SceneMirror {
         self.instances_rearranged = true;
         self.instances.remove(slot);
         self.culls.remove(slot);
+        // A slot taken again this frame must not inherit the removed instance's motion.
+        self.movers.forget(slot);
         if let Some(d) = self.draws.get_mut(slot as usize) {
             let old = d.take();
             self.count_batch(old, -1);
@@ -1383,6 +1395,21 @@ mod tests {
         // From behind, the order turns round.
         m.update_draw(far, |d| d.transparent = true);
         assert_eq!(m.sort_transparent(Vec3::new(0.0, 0.0, -10.0)), &[opaque, far]);
+    }
+
+    #[test]
+    fn movers_keep_their_first_previous_transform_and_forget_removed_slots() {
+        let mut m = Movers::default();
+        let at = |x: f32| Mat4::from_translation(Vec3::new(x, 0.0, 0.0));
+        m.moved(3, at(1.0));
+        m.moved(7, at(2.0));
+        m.moved(3, at(9.0));
+        assert_eq!(m.prev_model(3), Some(at(1.0)), "the transform at the last upload counts");
+        m.forget(3);
+        assert_eq!((m.prev_model(3), m.prev_model(7), m.len()), (None, Some(at(2.0)), 1));
+        m.moved(3, at(4.0));
+        m.clear();
+        assert!(m.is_empty() && m.prev_model(3).is_none() && m.prev_model(7).is_none());
     }
 
     #[test]
