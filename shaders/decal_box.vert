@@ -33,7 +33,7 @@ void main() {
     uint k = inside ? v - v % 3u + (2u - v % 3u) : v; // reversed winding when inside
     uint corner = CUBE[k];
     vec3 local = vec3(corner & 1u, (corner >> 1) & 1u, (corner >> 2) & 1u) - 0.5;
-    gl_Position = cam.view_proj * (inverse(d.world_to_decal) * vec4(local, 1.0));
+    gl_Position = cam.motion_view_proj * (inverse(d.world_to_decal) * vec4(local, 1.0));
     if (inside) gl_Position.z = gl_Position.w; // depth 1: the near plane in reverse-Z
     v_slot = slot;
 }

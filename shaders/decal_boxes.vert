@@ -28,5 +28,5 @@ void main() {
         world = mix(vec3(b.min[0], b.min[1], b.min[2]), vec3(b.max[0], b.max[1], b.max[2]), unit);
         v_color = vec3(1.0, 0.85, 0.1);
     }
-    gl_Position = scene.camera.camera.view_proj * vec4(world, 1.0);
+    gl_Position = scene.camera.camera.motion_view_proj * vec4(world, 1.0); // unjittered: drawn after TAA
 }

@@ -31,7 +31,11 @@ void main() {
     uvec2 tile = uvec2(t % l.tiles_x, t / l.tiles_x);
     vec2 lo = vec2(tile * l.tile_size);
     vec2 hi = min(vec2((tile + 1u) * l.tile_size), cam.viewport_size);
-    mat4 inv_proj = inverse(cam.proj);
+    // Without temporal anti-aliasing's jitter: the frusta are rebuilt when the projection
+    // changes, not with every frame's sub-pixel offset (render/src/taa).
+    mat4 unjitter = mat4(1.0);
+    unjitter[3].xy = -cam.jitter;
+    mat4 inv_proj = inverse(unjitter * cam.proj);
     vec3 tl = corner_ray(inv_proj, lo);
     vec3 tr = corner_ray(inv_proj, vec2(hi.x, lo.y));
     vec3 bl = corner_ray(inv_proj, vec2(lo.x, hi.y));

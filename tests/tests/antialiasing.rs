@@ -265,8 +265,9 @@ fn a_spawned_decal_is_sharp_within_three_frames_and_a_despawned_one_leaves_no_gh
     let decal = display(&mut app);
 
     // The decal's inside: flat in the un-anti-aliased image, and darker than the wall.
-    let inside: Vec<usize> =
-        (0..(SIZE.0 * SIZE.1) as usize).filter(|&i| flat_around(&decal, i) && decal[i * 4] + 20 < wall[i * 4]).collect();
+    let inside: Vec<usize> = (0..(SIZE.0 * SIZE.1) as usize)
+        .filter(|&i| flat_around(&decal, i) && i32::from(decal[i * 4]) + 20 < i32::from(wall[i * 4]))
+        .collect();
     assert!(inside.len() > 200, "the decal covers part of the view: {}", inside.len());
     let contrast = |image: &[u8]| inside.iter().map(|&i| wall[i * 4] as f32 - image[i * 4] as f32).sum::<f32>();
     let reached = contrast(&shown) / contrast(&decal);
@@ -299,7 +300,7 @@ fn a_fine_texture_stays_sharp_while_the_camera_pans_under_taa() {
     let mut app = wall_app(PipelineKind::Deferred);
     let n = 128usize;
     let texels: Vec<u8> =
-        (0..n * n).flat_map(|i| if (i % n + i / n) % 2 == 0 { [230, 230, 230, 255] } else { [25, 25, 25, 255] }).collect();
+        (0..n * n).flat_map(|i| if (i % n + i / n).is_multiple_of(2) { [230, 230, 230, 255] } else { [25, 25, 25, 255] }).collect();
     let image = Image::from_rgba8(n as u32, n as u32, texels, ColorSpace::Srgb).expect("a checkerboard");
     let image = app.world.resource_mut::<Assets<Image>>().add(image);
     let checks = Material { base_color_texture: Some(image), ..Material::from_color(Vec4::ONE, 0.0, 0.9) };
@@ -307,7 +308,7 @@ fn a_fine_texture_stays_sharp_while_the_camera_pans_under_taa() {
     let wall = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(12.0, 12.0, 1, 1.0 / 12.0));
     let facing_camera = Transform::from_xyz(0.0, 0.0, -0.9).with_rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2));
     app.world.spawn((MeshInstance { mesh: wall, material: checks }, facing_camera));
-    let mut camera_at = |app: &mut App, x: f32| {
+    let camera_at = |app: &mut App, x: f32| {
         let mut q = app.world.query_filtered::<&mut Transform, With<Camera>>();
         *q.single_mut(&mut app.world).unwrap() = Transform::from_xyz(x, 0.0, 4.0).looking_at(Vec3::new(x, 0.0, 0.0), Vec3::Y);
     };

@@ -37,7 +37,7 @@
 #![forbid(unsafe_code)]
 
 use engine::prelude::*;
-use plugins::RenderSettings;
+use plugins::{RenderMirror, RenderSettings};
 use render::{DecalMethod, PipelineKind, ReflectionSettings, Tier, TransparencyMethod};
 use tests::{TopDownView, assert_no_validation_errors, gpu_app, gpu_app_at, renderer};
 
@@ -656,6 +656,8 @@ fn interlaced_glass_under_temporal_anti_aliasing_equals_forward_glass_without_st
     app.world.resource_mut::<RenderSettings>().aa = render::AntiAliasing::Taa;
     let mut resolved = |method| {
         app.world.resource_mut::<RenderSettings>().transparency = method;
+        // Each method's image from its own history.
+        app.world.resource_mut::<RenderMirror>().0.cut_camera();
         let mut image = Vec::new();
         for _ in 0..16 {
             image = render(&mut app, PipelineKind::Deferred).0;

@@ -121,6 +121,8 @@ impl Motion {
             .image(&DEPTH, ImageUse::DepthTest)
             .color(&MOTION, Load::Keep)
             .reads(scene.res.drawn())
+            // Posed meshes' previous positions, which the skinning pass wrote.
+            .read(scene.res.meshes, BufferUse::Storage)
             .read(scene.res.tables, BufferUse::Indirect)
             .record(|p| {
                 let push = p.push;

@@ -956,7 +956,8 @@ impl GpuScene {
         let still = |slot: u32| mirror.instances.get(slot).map(|i| i.model);
         let rigid = mirror.movers.iter().map(|(slot, prev)| (slot, Some(prev)));
         for (slot, prev) in rigid.chain(posed.map(|slot| (slot, None))) {
-            let Some(Some(draw)) = mirror.draws.get(slot as usize) else { continue };
+            // Blended surfaces write no motion (what is behind them keeps its own).
+            let Some(Some(draw)) = mirror.draws.get(slot as usize).filter(|d| d.is_some_and(|d| !d.transparent)) else { continue };
             let (Some(info), Some(prev_model)) = (self.mesh_info.get(draw.mesh.0 as usize), prev.or_else(|| still(slot))) else { continue };
             if info.index_count == 0 {
                 continue;
