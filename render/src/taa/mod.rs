@@ -24,7 +24,8 @@
 //!   once, and the clipping follows it (no ghost of a despawned bullet hole); interlaced glass
 //!   (odd rows) takes its motion and depth from the even rows behind it, and the composition
 //!   has already filled every row, so jitter does not turn its rows into stripes; debug views
-//!   are drawn unjittered and unresolved (the statistics then say `"aa": "none"`).
+//!   are drawn unjittered and unresolved (the statistics then say `"aa": "none"`; one warning
+//!   says why).
 
 use ash::vk;
 use glam::{Mat4, Vec2};
@@ -78,6 +79,8 @@ pub struct Taa {
     /// This frame: whether it runs, and whether the history is thrown away.
     runs: bool,
     reset: bool,
+    /// Whether the fallback to none under a debug view was logged (once).
+    warned: bool,
 }
 
 impl Taa {
@@ -98,6 +101,7 @@ impl Taa {
             last_view_proj: None,
             runs: false,
             reset: true,
+            warned: false,
         })
     }
 
@@ -116,6 +120,9 @@ impl Taa {
     pub fn prepare(&mut self, mirror: &mut SceneMirror, s: &FrameSettings, extent: vk::Extent2D) -> bool {
         let cut = mirror.take_camera_cut();
         self.runs = Self::applied(s) == AntiAliasing::Taa;
+        if s.aa == AntiAliasing::Taa && !self.runs && !std::mem::replace(&mut self.warned, true) {
+            tracing::warn!(debug_view = ?s.debug_view, "temporal anti-aliasing is off while a debug view is shown (drawn unjittered)");
+        }
         if !self.runs {
             (self.made_with, self.last_view_proj) = (None, None);
             mirror.set_camera_temporal(Vec2::ZERO, None);
