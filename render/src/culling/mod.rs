@@ -663,6 +663,17 @@ pub(crate) fn hiz_words(extent: vk::Extent2D, levels: u32) -> u64 {
     (0..levels).map(|l| extent.width.div_ceil(1 << (l + 1)).max(1) as u64 * extent.height.div_ceil(1 << (l + 1)).max(1) as u64).sum()
 }
 
+/// Binds the mesh pool as the vertex and index buffer of a mesh pass (`pool`: the scene's
+/// [`crate::scene::gpu::GpuScene::pool_buffer`] this frame).
+pub(crate) fn bind_mesh_pool(p: &PassContext, pool: vk::Buffer) {
+    // SAFETY: `cmd` is recording inside a rendering scope; the pool lives until the frame
+    // completes (deferred destruction).
+    unsafe {
+        p.ctx.device.cmd_bind_vertex_buffers(p.cmd, 0, &[pool], &[0]);
+        p.ctx.device.cmd_bind_index_buffer(p.cmd, pool, 0, vk::IndexType::UINT32);
+    }
+}
+
 /// The lists a pass draws this frame, and the calls that draw them. Declare
 /// [`Draws::reads`] on the pass.
 #[derive(Clone, Copy)]
@@ -682,12 +693,7 @@ impl Draws<'_> {
 
     fn bind_pool(&self, p: &PassContext) -> bool {
         let Some(pool) = self.frame.pool else { return false };
-        // SAFETY: `cmd` is recording inside a rendering scope; the pool lives until the frame
-        // completes (deferred destruction).
-        unsafe {
-            p.ctx.device.cmd_bind_vertex_buffers(p.cmd, 0, &[pool], &[0]);
-            p.ctx.device.cmd_bind_index_buffer(p.cmd, pool, 0, vk::IndexType::UINT32);
-        }
+        bind_mesh_pool(p, pool);
         true
     }
 

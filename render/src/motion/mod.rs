@@ -127,14 +127,13 @@ impl Motion {
             .record(|p| {
                 let push = p.push;
                 p.bind_graphics(movers, &push);
+                crate::culling::bind_mesh_pool(p, pool);
                 let d = &p.ctx.device;
                 // SAFETY: `cmd` is recording inside a rendering scope with a mesh pipeline bound;
-                // the pool and the draws (uploaded with the tables, declared above) live until
-                // the frame completes.
+                // the draws (uploaded with the tables, declared above) live until the frame
+                // completes.
                 unsafe {
                     d.cmd_set_cull_mode(p.cmd, vk::CullModeFlags::NONE);
-                    d.cmd_bind_vertex_buffers(p.cmd, 0, &[pool], &[0]);
-                    d.cmd_bind_index_buffer(p.cmd, pool, 0, vk::IndexType::UINT32);
                     // A count-draw, its count in the first command's place: on Mesa lavapipe 25 a
                     // plain indirect draw recorded after a count-draw (the depth passes') took
                     // its draw count from that earlier draw's count buffer.
