@@ -1,4 +1,4 @@
-// variants: RAY_QUERY_DECALS DECAL_BUFFER CLUSTERED_DECALS TRANSPARENT TRANSPARENT+RAY_QUERY_DECALS TRANSPARENT+SHADOWED_GLASS TRANSPARENT+SHADOWED_GLASS+RAY_QUERY_DECALS
+// variants: RAY_QUERY_DECALS DECAL_BUFFER CLUSTERED_DECALS MSAA MSAA+RAY_QUERY_DECALS MSAA+DECAL_BUFFER MSAA+CLUSTERED_DECALS TRANSPARENT TRANSPARENT+RAY_QUERY_DECALS TRANSPARENT+SHADOWED_GLASS TRANSPARENT+SHADOWED_GLASS+RAY_QUERY_DECALS
 #version 460
 // Forward shading pass (depth test EQUAL against the prepass): the material through the
 // bindless array, normal mapping, then shade_surface (decals: ray queries, the decal buffer, or
@@ -9,10 +9,16 @@
 // decal buffer is not theirs, so only in-shader ray-query decals apply; the nearest blended
 // surface at a pixel reads the shadow pass's glass layer in the SHADOWED_GLASS variants (frames
 // with GLASS_SHADOWS), glass behind it is lit unshadowed.
+// MSAA variants run once per pixel and primitive over multisampled attachments; the per-pixel
+// inputs (shadows, occlusion, decal buffer, light tile) are read at the pixel of the fragment's
+// own surface (msaa.glsl).
 #include "scene.glsl"
 #include "mesh_io.glsl"
 #include "material.glsl"
 #include "shading.glsl"
+#ifdef MSAA
+#include "msaa.glsl"
+#endif
 
 layout(location = 0) out vec4 out_color;
 
@@ -42,7 +48,11 @@ void main() {
     s.rest_position = v_rest_pos;
     s.rest_normal = safe_normalize(v_rest_normal, geometric_n);
     if (dot(v_normal, geometric_n) < 0.0) s.rest_normal = -s.rest_normal;
+#ifdef MSAA
+    out_color = shade_surface(s, msaa_surface_pixel(ivec2(gl_FragCoord.xy), gl_FragCoord.z));
+#else
     out_color = shade_surface(s, ivec2(gl_FragCoord.xy));
+#endif
 #ifdef TRANSPARENT
     out_color.a = clamp(ms.base.a, 0.0, 1.0);
 #endif

@@ -45,6 +45,7 @@ pub mod graph;
 pub mod layout;
 pub mod lights;
 pub mod motion;
+pub mod msaa;
 pub mod pipelines;
 pub mod present;
 pub mod reflections;

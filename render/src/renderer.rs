@@ -136,6 +136,7 @@ struct Resources {
     exposure: Exposure,
     motion: crate::motion::Motion,
     taa: crate::taa::Taa,
+    msaa: crate::msaa::Msaa,
     decals: Decals,
     lighting: Lighting,
     tonemap: Tonemap,
@@ -198,7 +199,7 @@ impl Renderer {
             layout,
             culling: Culling::new(ctx, &mut graph, scene.set_layout)?,
             skinning: crate::skinning::Skinning::new(ctx)?,
-            forward: ForwardPasses::new(ctx, layout)?,
+            forward: ForwardPasses::new(ctx, layout, 1)?,
             deferred: DeferredPasses::new(ctx, layout)?,
             visbuffer: VisBufferPasses::new(ctx, layout)?,
             transparency: TransparencyPasses::new(ctx, layout)?,
@@ -208,6 +209,7 @@ impl Renderer {
             exposure: Exposure::new(ctx, &mut graph, layout)?,
             motion: crate::motion::Motion::new(ctx, layout)?,
             taa: crate::taa::Taa::new(ctx, layout)?,
+            msaa: crate::msaa::Msaa::new(ctx),
             decals: Decals::new(ctx, &mut graph, layout, settings.decal_cluster_capacity)?,
             lighting: Lighting::new(ctx, &mut graph, layout, settings.shadow_maps)?,
             tonemap: Tonemap::new(ctx, layout, DISPLAY_FORMAT)?,
@@ -344,6 +346,8 @@ impl Renderer {
             None => None,
         };
         let decal_choice = DecalChoice { requested: settings.decal_method, applied: res.decal_method(ctx, settings) };
+        let aa = res.msaa.choose(settings);
+        res.msaa.prepare(ctx, &mut res.graph, res.layout, aa).map_err(|e| e.in_frame(frame, "making the MSAA pipelines"))?;
         let slot = &mut res.frames[slot_index];
         // Reading the slot's timestamps is where some drivers (lavapipe) do their waiting.
         let finished = slot.timer.collect(ctx).map(|gpu| FinishedFrame { frame: slot.frame, gpu });
@@ -406,7 +410,7 @@ impl Renderer {
             skinning: &mut res.skinning,
             decals: &mut res.decals,
             lighting: &mut res.lighting,
-            forward: &res.forward,
+            forward: res.msaa.forward().unwrap_or(&res.forward),
             deferred: &res.deferred,
             visbuffer: &res.visbuffer,
             transparency: &res.transparency,
@@ -416,8 +420,9 @@ impl Renderer {
             exposure: &mut res.exposure,
             motion: &res.motion,
             taa: &mut res.taa,
-            present: Present { tonemap, target, overlay, aa: settings.aa },
+            present: Present { tonemap, target, overlay, aa },
             decal_choice,
+            aa,
         };
         let lights = match settings.pipeline {
             PipelineKind::Forward => forward_frame(&mut f, &mut parts, mirror, settings),
@@ -486,7 +491,7 @@ impl Renderer {
             light_method: lights.method,
             shadows: lights.shadows,
             occlusion: lights.occlusion.method,
-            aa: crate::taa::Taa::applied(settings),
+            aa,
             counters: mirror.counters,
             record_ms: start.elapsed().as_secs_f32() * 1e3,
             submit_ms,
@@ -656,6 +661,7 @@ impl Drop for Renderer {
             exposure,
             motion,
             taa,
+            msaa,
             decals,
             lighting,
             tonemap,
@@ -691,6 +697,7 @@ impl Drop for Renderer {
         exposure.destroy(ctx);
         motion.destroy(ctx);
         taa.destroy(ctx);
+        msaa.destroy(ctx);
         tonemap.destroy(ctx);
         graph.destroy(ctx);
         scene.destroy(ctx);

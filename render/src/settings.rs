@@ -416,7 +416,8 @@ impl Default for ShadowMapBudget {
     }
 }
 
-/// Anti-aliasing of the displayed image (issue: anti-aliasing; so far the post-process kind).
+/// Anti-aliasing of the displayed image. A mode a pipeline or device cannot run falls back
+/// ([`AntiAliasing::applied`]); the renderer says so once and reports the mode applied.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum AntiAliasing {
     /// None: every edge shows its stair steps.
@@ -428,13 +429,22 @@ pub enum AntiAliasing {
     Fxaa,
     /// Temporal anti-aliasing (`crate::taa`), in every pipeline: a jittered view each frame,
     /// blended with the history reprojected by motion vectors (`crate::motion`). Applied as
-    /// none while a debug view is shown ([`crate::taa::Taa::applied`]).
+    /// none while a debug view is shown (they are drawn unjittered).
     Taa,
+    /// Multisample anti-aliasing with 2 samples a pixel (`crate::msaa`), in forward and
+    /// Forward+; the deferred pipelines apply temporal anti-aliasing instead (seed 000 §2.6:
+    /// deferred shading does not support MSAA).
+    Msaa2,
+    /// MSAA with 4 samples a pixel.
+    Msaa4,
+    /// MSAA with 8 samples a pixel (devices that offer fewer use the most they offer).
+    Msaa8,
 }
 
 impl AntiAliasing {
     /// Every mode.
-    pub const ALL: [AntiAliasing; 3] = [AntiAliasing::None, AntiAliasing::Fxaa, AntiAliasing::Taa];
+    pub const ALL: [AntiAliasing; 6] =
+        [AntiAliasing::None, AntiAliasing::Fxaa, AntiAliasing::Taa, AntiAliasing::Msaa2, AntiAliasing::Msaa4, AntiAliasing::Msaa8];
 
     /// The name used in `--stats` and on the command line.
     pub fn name(self) -> &'static str {
@@ -442,12 +452,52 @@ impl AntiAliasing {
             AntiAliasing::None => "none",
             AntiAliasing::Fxaa => "fxaa",
             AntiAliasing::Taa => "taa",
+            AntiAliasing::Msaa2 => "msaa2",
+            AntiAliasing::Msaa4 => "msaa4",
+            AntiAliasing::Msaa8 => "msaa8",
         }
     }
 
     /// Parses [`AntiAliasing::name`].
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+
+    /// Samples a pixel the scene is rasterised with: 1 but for MSAA.
+    pub fn samples(self) -> u32 {
+        match self {
+            AntiAliasing::Msaa2 => 2,
+            AntiAliasing::Msaa4 => 4,
+            AntiAliasing::Msaa8 => 8,
+            _ => 1,
+        }
+    }
+
+    /// The MSAA mode of `samples` a pixel (none for 1 or fewer).
+    fn msaa(samples: u32) -> Self {
+        match samples {
+            8.. => AntiAliasing::Msaa8,
+            4..8 => AntiAliasing::Msaa4,
+            2..4 => AntiAliasing::Msaa2,
+            _ => AntiAliasing::None,
+        }
+    }
+
+    /// The mode as it applies in `pipeline` with `debug_view` on a device whose render targets
+    /// take at most `max_samples` samples: MSAA in a deferred pipeline is temporal
+    /// anti-aliasing (the G-buffer and the visibility buffer are shaded a pixel at a time), and
+    /// asks for no more samples than the device offers; temporal anti-aliasing is none under a
+    /// debug view (drawn unjittered, unresolved).
+    pub fn applied(self, pipeline: PipelineKind, debug_view: DebugView, max_samples: u32) -> Self {
+        let aa = match self {
+            AntiAliasing::Msaa2 | AntiAliasing::Msaa4 | AntiAliasing::Msaa8 if !pipeline.is_forward() => AntiAliasing::Taa,
+            AntiAliasing::Msaa2 | AntiAliasing::Msaa4 | AntiAliasing::Msaa8 => Self::msaa(self.samples().min(max_samples)),
+            aa => aa,
+        };
+        match aa {
+            AntiAliasing::Taa if debug_view != DebugView::Lit => AntiAliasing::None,
+            aa => aa,
+        }
     }
 }
 
@@ -803,6 +853,25 @@ impl Default for FrameSettings {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn msaa_falls_back_to_what_the_pipeline_and_device_can_run() {
+        use AntiAliasing as A;
+        let lit = DebugView::Lit;
+        for p in [PipelineKind::Forward, PipelineKind::ForwardPlus] {
+            assert_eq!([A::Msaa2, A::Msaa4, A::Msaa8].map(|m| m.applied(p, lit, 8)), [A::Msaa2, A::Msaa4, A::Msaa8]);
+            assert_eq!(A::Msaa8.applied(p, lit, 4), A::Msaa4, "no more samples than the device offers");
+            assert_eq!(A::Msaa2.applied(p, lit, 1), A::None);
+            assert_eq!(A::Msaa4.applied(p, DebugView::Albedo, 4), A::Msaa4, "debug views keep MSAA");
+        }
+        for p in [PipelineKind::Deferred, PipelineKind::VisBuffer] {
+            assert_eq!(A::Msaa4.applied(p, lit, 8), A::Taa, "deferred shading takes TAA instead");
+            assert_eq!(A::Msaa4.applied(p, DebugView::Albedo, 8), A::None, "and TAA is off under a debug view");
+        }
+        for m in A::ALL {
+            assert_eq!(A::from_name(m.name()), Some(m));
+        }
+    }
 
     #[test]
     fn light_settings_round_to_the_tile_sizes_and_forward_plus_is_always_tiled() {

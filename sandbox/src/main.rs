@@ -174,7 +174,9 @@ struct Cli {
     culling: render::CullingMode,
     /// Anti-aliasing of the displayed image: none, fxaa (fast approximate, in compute before
     /// tone mapping), taa (temporal: jittered frames blended along motion vectors; none under a
-    /// debug view, which --stats reports).
+    /// debug view), msaa2, msaa4, msaa8 (multisampling in forward and Forward+; taa in the
+    /// deferred pipelines, and no more samples than the device offers). --stats reports the
+    /// mode applied.
     #[arg(long, default_value = "taa", value_parser = parse_aa)]
     aa: render::AntiAliasing,
     /// Temporal anti-aliasing's sharpening, 0 to 1.
@@ -259,7 +261,7 @@ struct Cli {
 }
 
 fn parse_aa(s: &str) -> Result<render::AntiAliasing, String> {
-    render::AntiAliasing::from_name(s).ok_or_else(|| format!("unknown anti-aliasing {s:?} (none, fxaa, taa)"))
+    render::AntiAliasing::from_name(s).ok_or_else(|| format!("unknown anti-aliasing {s:?} (none, fxaa, taa, msaa2, msaa4, msaa8)"))
 }
 
 fn parse_tonemap(s: &str) -> Result<render::Tonemapper, String> {

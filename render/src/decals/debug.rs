@@ -34,6 +34,7 @@ impl DecalBoxes {
             topology: vk::PrimitiveTopology::LINE_LIST,
             blend: crate::gpu::pipeline::Blend::Replace,
             write_masks: &[],
+            samples: 1,
         };
         Ok(Self { pipeline: create_graphics(ctx, layout, &desc)? })
     }

@@ -230,7 +230,8 @@ pub struct Environments {
     irradiance: vk::Pipeline,
     prefilter: vk::Pipeline,
     lut: vk::Pipeline,
-    sky: vk::Pipeline,
+    /// The sky pass: over depth 0, and over the uncovered fraction of MSAA's pixels.
+    sky: [vk::Pipeline; 2],
     resolution: u32,
     cubes: Option<Cubes>,
     filtered: Option<Filtered>,
@@ -274,7 +275,7 @@ impl Environments {
             irradiance: compute("environment irradiance", shaders::ENVIRONMENT_IRRADIANCE_COMP)?,
             prefilter: compute("environment prefilter", shaders::ENVIRONMENT_PREFILTER_COMP)?,
             lut: compute("brdf table", shaders::BRDF_LUT_COMP)?,
-            sky: compute("sky", shaders::SKY_COMP)?,
+            sky: [compute("sky", shaders::SKY_COMP)?, compute("sky", shaders::SKY_COMP_COVERAGE)?],
             resolution: resolution.clamp(MIN_RESOLUTION, MAX_RESOLUTION).next_power_of_two(),
             cubes: None,
             filtered: None,
@@ -301,13 +302,13 @@ impl Environments {
         if self.cubes.is_none() {
             let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::SAMPLED;
             let extent = vk::Extent2D { width: self.resolution, height: self.resolution };
-            let desc = |name, mip_levels| ImageDesc { name, format: CUBE_FORMAT, extent, mip_levels, usage };
+            let desc = |name, mip_levels| ImageDesc { name, format: CUBE_FORMAT, extent, mip_levels, usage, samples: 1 };
             let source = Image::cube(ctx, &desc("environment radiance", self.source_levels()))?;
             let specular = Image::cube(ctx, &desc("environment specular", self.specular_levels()))?;
             let lut_extent = vk::Extent2D { width: BRDF_LUT_SIZE, height: BRDF_LUT_SIZE };
             let lut = Image::new(
                 ctx,
-                &ImageDesc { name: "brdf table", format: vk::Format::R16G16_SFLOAT, extent: lut_extent, mip_levels: 1, usage },
+                &ImageDesc { name: "brdf table", format: vk::Format::R16G16_SFLOAT, extent: lut_extent, mip_levels: 1, usage, samples: 1 },
             )?;
             let mut level_views = Vec::new();
             for level in 0..source.mip_levels {
@@ -512,19 +513,25 @@ impl Environments {
         Ok(())
     }
 
+    /// Whether the sky pass draws this frame: with an environment, in the lit view and the
+    /// reflections' (the other debug views show their values over the clear colour).
+    pub fn draws_sky(&self, lights: &LightFrame, view: DebugView) -> bool {
+        lights.environment.is_some() && matches!(view, DebugView::Lit | DebugView::Reflections)
+    }
+
     /// The sky pass: where no geometry was drawn, the environment in the view direction (after
-    /// the opaque shading, before reflections and glass). Nothing without an environment, nor
-    /// in the debug views but the reflections'.
-    pub fn sky(&self, f: &mut Frame, scene: &GpuScene, lights: &LightFrame, view: DebugView) -> Result<(), RenderError> {
-        // Debug views show their values over the clear colour.
-        if lights.environment.is_none() || !matches!(view, DebugView::Lit | DebugView::Reflections) {
+    /// the opaque shading, before reflections and glass), when [`Environments::draws_sky`].
+    /// `coverage`: the HDR target was resolved from MSAA's samples, its alpha the covered
+    /// fraction of each pixel, and the sky fills the rest (`crate::msaa`).
+    pub fn sky(&self, f: &mut Frame, scene: &GpuScene, lights: &LightFrame, view: DebugView, coverage: bool) -> Result<(), RenderError> {
+        if !self.draws_sky(lights, view) {
             return Ok(());
         }
-        let pipeline = self.sky;
+        let pipeline = self.sky[usize::from(coverage)];
         f.pass("sky", PassKind::Compute)
             .read(scene.res.tables, BufferUse::Storage)
             .reads(lights.environment_reads())
-            .sample(&crate::graph::targets::DEPTH)
+            .when(!coverage, |p| p.sample(&crate::graph::targets::DEPTH))
             .image(&crate::graph::targets::HDR, ImageUse::StorageWrite)
             .record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
@@ -556,7 +563,7 @@ impl Environments {
 
     /// Destroys everything; the GPU must be idle.
     pub fn destroy(mut self, ctx: &GpuContext) {
-        for p in [self.source, self.downsample, self.irradiance, self.prefilter, self.lut, self.sky] {
+        for p in [self.source, self.downsample, self.irradiance, self.prefilter, self.lut].into_iter().chain(self.sky) {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }

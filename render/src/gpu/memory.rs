@@ -103,6 +103,8 @@ pub struct ImageDesc<'a> {
     pub mip_levels: u32,
     /// Usage.
     pub usage: vk::ImageUsageFlags,
+    /// Samples a pixel (1 but for multisampled render targets).
+    pub samples: u32,
 }
 
 /// A 2D image (or a cube map: six layers), its memory and a view of all its mips.
@@ -146,7 +148,7 @@ impl Image {
             .extent(vk::Extent3D { width: desc.extent.width, height: desc.extent.height, depth: 1 })
             .mip_levels(desc.mip_levels)
             .array_layers(layers)
-            .samples(vk::SampleCountFlags::TYPE_1)
+            .samples(vk::SampleCountFlags::from_raw(desc.samples))
             .tiling(vk::ImageTiling::OPTIMAL)
             .usage(desc.usage)
             .initial_layout(vk::ImageLayout::UNDEFINED);

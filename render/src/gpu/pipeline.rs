@@ -47,6 +47,8 @@ pub struct GraphicsDesc<'a> {
     pub blend: Blend,
     /// Per-attachment write masks (empty: RGBA everywhere).
     pub write_masks: &'a [vk::ColorComponentFlags],
+    /// Samples a pixel of the attachments (1 but for MSAA, `crate::msaa`).
+    pub samples: u32,
 }
 
 /// Colour blending of a pipeline's attachments.
@@ -79,6 +81,7 @@ impl<'a> GraphicsDesc<'a> {
             topology: vk::PrimitiveTopology::TRIANGLE_LIST,
             blend: Blend::Replace,
             write_masks: &[],
+            samples: 1,
         }
     }
 
@@ -96,6 +99,7 @@ impl<'a> GraphicsDesc<'a> {
             topology: vk::PrimitiveTopology::TRIANGLE_LIST,
             blend: Blend::Replace,
             write_masks: &[],
+            samples: 1,
         }
     }
 }
@@ -140,7 +144,7 @@ pub fn create_graphics(ctx: &GpuContext, layout: vk::PipelineLayout, desc: &Grap
         .cull_mode(vk::CullModeFlags::NONE)
         .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
         .line_width(1.0);
-    let multisample = vk::PipelineMultisampleStateCreateInfo::default().rasterization_samples(vk::SampleCountFlags::TYPE_1);
+    let multisample = vk::PipelineMultisampleStateCreateInfo::default().rasterization_samples(vk::SampleCountFlags::from_raw(desc.samples));
     let depth = vk::PipelineDepthStencilStateCreateInfo::default()
         .depth_test_enable(desc.depth_compare.is_some())
         .depth_write_enable(desc.depth_write)

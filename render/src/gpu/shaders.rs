@@ -42,6 +42,7 @@ spirv! {
     ENVIRONMENT_PREFILTER_COMP = "environment_prefilter.comp";
     BRDF_LUT_COMP = "brdf_lut.comp";
     SKY_COMP = "sky.comp";
+    SKY_COMP_COVERAGE = "sky.comp.COVERAGE";
     BLOOM_COMP = "bloom.comp";
     BLOOM_COMP_FIRST = "bloom.comp.FIRST";
     BLOOM_COMP_DOWN = "bloom.comp.DOWN";
@@ -87,6 +88,10 @@ spirv! {
     FLAT_COLOR_FRAG = "flat_color.frag";
     FORWARD_FRAG_DECAL_BUFFER = "forward.frag.DECAL_BUFFER";
     FORWARD_FRAG_CLUSTERED_DECALS = "forward.frag.CLUSTERED_DECALS";
+    FORWARD_FRAG_MSAA = "forward.frag.MSAA";
+    FORWARD_FRAG_MSAA_RAY_QUERY_DECALS = "forward.frag.MSAA+RAY_QUERY_DECALS";
+    FORWARD_FRAG_MSAA_DECAL_BUFFER = "forward.frag.MSAA+DECAL_BUFFER";
+    FORWARD_FRAG_MSAA_CLUSTERED_DECALS = "forward.frag.MSAA+CLUSTERED_DECALS";
     FORWARD_FRAG_TRANSPARENT = "forward.frag.TRANSPARENT";
     FORWARD_FRAG_TRANSPARENT_RAY_QUERY_DECALS = "forward.frag.TRANSPARENT+RAY_QUERY_DECALS";
     FORWARD_FRAG_SHADOWED_GLASS = "forward.frag.TRANSPARENT+SHADOWED_GLASS";

@@ -80,6 +80,11 @@ pub enum ImageUse {
     TransferDst,
     /// Handed to the presentation engine.
     Present,
+    /// The single-sampled image a multisampled attachment of the pass resolves into at its end
+    /// (declared by [`super::PassBuilder::resolve`], which also declares the read below).
+    Resolve,
+    /// A multisampled attachment's samples, read by its resolve at the end of the pass.
+    ResolveSource,
 }
 
 /// Stage, access and layout of one image use, and whether it writes.
@@ -127,6 +132,22 @@ impl ImageUse {
             ImageUse::StorageWrite => (kind.stages(), A::SHADER_STORAGE_WRITE | A::SHADER_STORAGE_READ, L::GENERAL, true, false),
             ImageUse::TransferSrc => (S::COPY | S::BLIT, A::TRANSFER_READ, L::TRANSFER_SRC_OPTIMAL, false, false),
             ImageUse::TransferDst => (S::COPY | S::BLIT | S::CLEAR, A::TRANSFER_WRITE, L::TRANSFER_DST_OPTIMAL, true, true),
+            // Resolves read and write in the colour-output stage, depth included (the
+            // specification's "multisample resolve operations").
+            ImageUse::Resolve => (
+                S::COLOR_ATTACHMENT_OUTPUT,
+                A::COLOR_ATTACHMENT_WRITE | A::COLOR_ATTACHMENT_READ,
+                if depth { L::DEPTH_ATTACHMENT_OPTIMAL } else { L::COLOR_ATTACHMENT_OPTIMAL },
+                true,
+                true,
+            ),
+            ImageUse::ResolveSource => (
+                S::COLOR_ATTACHMENT_OUTPUT,
+                A::COLOR_ATTACHMENT_READ,
+                if depth { L::DEPTH_ATTACHMENT_OPTIMAL } else { L::COLOR_ATTACHMENT_OPTIMAL },
+                false,
+                false,
+            ),
             // Presentation happens after the submit's semaphore signal: nothing to wait for here.
             ImageUse::Present => (S::NONE, A::NONE, L::PRESENT_SRC_KHR, false, false),
         };

@@ -205,6 +205,8 @@ pub struct FrameGraph {
     colors: Vec<vk::RenderingAttachmentInfo<'static>>,
     /// Images dropped by a resize, destroyed once the GPU is idle.
     retired: Vec<Image>,
+    /// Samples a pixel of the multisampled targets ([`TargetDesc::multisampled`]).
+    samples: u32,
 }
 
 impl FrameGraph {
@@ -219,6 +221,7 @@ impl FrameGraph {
             image_barriers: Vec::with_capacity(32),
             colors: Vec::with_capacity(8),
             retired: Vec::new(),
+            samples: 1,
         }
     }
 
@@ -319,7 +322,9 @@ impl FrameGraph {
     fn create_target(&mut self, ctx: &GpuContext, i: usize) -> Result<(), RenderError> {
         let desc = self.images[i].desc.expect("targets have a description");
         let extent = self.images[i].fixed.unwrap_or(self.extent);
-        let image = Image::new(ctx, &ImageDesc { name: desc.name, format: desc.format, extent, mip_levels: 1, usage: desc.usage })?;
+        let samples = if desc.multisampled { self.samples } else { 1 };
+        let image =
+            Image::new(ctx, &ImageDesc { name: desc.name, format: desc.format, extent, mip_levels: 1, usage: desc.usage, samples })?;
         let e = &mut self.images[i];
         (e.raw, e.view, e.extent, e.range) = (image.raw, image.view, image.extent, image.full_range());
         e.depth = image.aspect.contains(vk::ImageAspectFlags::DEPTH);
@@ -349,6 +354,25 @@ impl FrameGraph {
     pub fn resize(&mut self, extent: vk::Extent2D) {
         self.extent = extent;
         for e in self.images.iter_mut().filter(|e| e.fixed.is_none()) {
+            if let Some(image) = e.owned.take() {
+                self.retired.push(image);
+            }
+        }
+    }
+
+    /// Sets the samples a pixel of the multisampled targets: those made at another count are
+    /// dropped, to be created again when next used (the GPU must be idle, as for a resize).
+    pub fn set_samples(&mut self, samples: u32) {
+        if samples != self.samples {
+            self.samples = samples;
+            self.drop_multisampled();
+        }
+    }
+
+    /// Drops the multisampled targets (MSAA switched off: their memory returns); the GPU must
+    /// be idle.
+    pub fn drop_multisampled(&mut self) {
+        for e in self.images.iter_mut().filter(|e| e.desc.is_some_and(|d| d.multisampled)) {
             if let Some(image) = e.owned.take() {
                 self.retired.push(image);
             }
@@ -540,6 +564,12 @@ impl FrameGraph {
     }
 }
 
+/// Whether `format` holds integers (resolved by taking a sample: they cannot be averaged).
+fn is_integer(format: vk::Format) -> bool {
+    use vk::Format as F;
+    matches!(format, F::R32_UINT | F::R32G32_UINT | F::R32G32B32A32_UINT | F::R16_UINT | F::R8_UINT | F::R32_SINT)
+}
+
 fn color_range() -> vk::ImageSubresourceRange {
     vk::ImageSubresourceRange {
         aspect_mask: vk::ImageAspectFlags::COLOR,
@@ -663,6 +693,21 @@ impl PassBuilder<'_, '_> {
         self
     }
 
+    /// Declares that the attachment declared last resolves into `target` (single-sampled) at
+    /// the end of the pass: depth and integer colours take sample 0 (so ids and depth stay one
+    /// surface), other colours the mean of the samples.
+    pub fn resolve(mut self, target: impl Into<ImageRef>) -> Self {
+        let source = self.frame.graph.decls.iter().rev().find_map(|d| match *d {
+            Decl::Image(ImageRef::Id(id), use_) if use_.is_attachment() => Some(id),
+            _ => None,
+        });
+        match source {
+            Some(id) => self.frame.graph.decls.push(Decl::Image(ImageRef::Id(id), ImageUse::ResolveSource)),
+            None => self.error = self.error.or(Some(RenderError::Other(format!("pass `{}` resolves no attachment", self.name)))),
+        }
+        self.image(target, ImageUse::Resolve)
+    }
+
     /// Renders (and clears) only `area`, from the attachments' top-left corner, instead of
     /// their whole extent (a partly used atlas).
     pub fn area(mut self, area: vk::Extent2D) -> Self {
@@ -708,12 +753,22 @@ impl PassBuilder<'_, '_> {
         graph.colors.clear();
         for decl in &graph.decls {
             let Decl::Image(ImageRef::Id(id), use_) = *decl else { continue };
+            let e = &graph.images[id.0 as usize];
+            let layout = use_.access(self.kind, e.depth).layout;
+            if use_ == ImageUse::Resolve {
+                // Into the attachment declared last (`PassBuilder::resolve`).
+                let sample_zero = e.depth || e.desc.is_some_and(|d| is_integer(d.format));
+                let mode = if sample_zero { vk::ResolveModeFlags::SAMPLE_ZERO } else { vk::ResolveModeFlags::AVERAGE };
+                let source = if e.depth { depth.as_mut() } else { graph.colors.last_mut() };
+                if let Some(info) = source {
+                    *info = info.resolve_mode(mode).resolve_image_view(e.view).resolve_image_layout(layout);
+                }
+                continue;
+            }
             if !use_.is_attachment() {
                 continue;
             }
-            let e = &graph.images[id.0 as usize];
             extent = e.extent;
-            let layout = use_.access(self.kind, e.depth).layout;
             let info = attachment(e.view, layout, use_);
             if e.depth { depth = Some(info) } else { graph.colors.push(info) }
         }

@@ -71,6 +71,9 @@ pub struct TargetDesc {
     /// A second binding as a storage image (`BINDING_*_STORAGE`), for compute passes that write
     /// a target other passes sample or draw into.
     pub storage: Option<u32>,
+    /// Made with the graph's samples a pixel ([`super::FrameGraph::set_samples`]): MSAA's
+    /// attachments, which resolve into their single-sampled twins.
+    pub multisampled: bool,
 }
 
 use vk::ImageUsageFlags as U;
@@ -85,6 +88,7 @@ pub static HDR: TargetDesc = TargetDesc {
     usage: vk::ImageUsageFlags::from_raw(ATTACHMENT_SAMPLED.as_raw() | U::STORAGE.as_raw()),
     bind: Some(Bind::Color(BINDING_HDR)),
     storage: Some(BINDING_HDR_STORAGE),
+    multisampled: false,
 };
 /// Reverse-Z depth.
 pub static DEPTH: TargetDesc = TargetDesc {
@@ -93,6 +97,7 @@ pub static DEPTH: TargetDesc = TargetDesc {
     usage: vk::ImageUsageFlags::from_raw(U::DEPTH_STENCIL_ATTACHMENT.as_raw() | U::SAMPLED.as_raw() | U::TRANSFER_SRC.as_raw()),
     bind: Some(Bind::Depth(BINDING_DEPTH)),
     storage: None,
+    multisampled: false,
 };
 /// Reverse-Z depth of the nearest transparent surface (the transparency depth pass writes it;
 /// light culling samples it).
@@ -102,6 +107,7 @@ pub static TRANSPARENT_DEPTH: TargetDesc = TargetDesc {
     usage: vk::ImageUsageFlags::from_raw(U::DEPTH_STENCIL_ATTACHMENT.as_raw() | U::SAMPLED.as_raw()),
     bind: Some(Bind::Depth(BINDING_TRANSPARENT_DEPTH)),
     storage: None,
+    multisampled: false,
 };
 /// A copy of the lit HDR image that the transparency compositions read: interlacing's after
 /// lighting, depth peeling's after lighting the opaque layer.
@@ -111,6 +117,7 @@ pub static TRANSPARENCY_SOURCE: TargetDesc = TargetDesc {
     usage: vk::ImageUsageFlags::from_raw(U::TRANSFER_DST.as_raw() | U::SAMPLED.as_raw()),
     bind: Some(Bind::Color(BINDING_TRANSPARENCY_SOURCE)),
     storage: None,
+    multisampled: false,
 };
 /// Depth peeling's copy of the opaque layer's depth (the composition's refraction checks it).
 /// A colour image written in compute: on the lent H100 a transfer copy of the D32 depth target
@@ -121,6 +128,7 @@ pub static BACKGROUND_DEPTH: TargetDesc = TargetDesc {
     usage: vk::ImageUsageFlags::from_raw(U::STORAGE.as_raw() | U::SAMPLED.as_raw()),
     bind: Some(Bind::Color(BINDING_BACKGROUND_DEPTH)),
     storage: Some(BINDING_BACKGROUND_DEPTH_STORAGE),
+    multisampled: false,
 };
 /// The tone-mapped colour after FXAA (linear RGBA16F; the display pass copies it into the
 /// display image, which compute cannot write).
@@ -130,6 +138,7 @@ pub static ANTIALIASED: TargetDesc = TargetDesc {
     usage: vk::ImageUsageFlags::from_raw(U::SAMPLED.as_raw() | U::STORAGE.as_raw()),
     bind: Some(Bind::Color(BINDING_ANTIALIASED)),
     storage: Some(BINDING_ANTIALIASED_STORAGE),
+    multisampled: false,
 };
 /// Tone-mapped sRGB output (headless; a window presents the swapchain image instead).
 pub static DISPLAY: TargetDesc = TargetDesc {
@@ -138,6 +147,7 @@ pub static DISPLAY: TargetDesc = TargetDesc {
     usage: vk::ImageUsageFlags::from_raw(U::COLOR_ATTACHMENT.as_raw() | U::TRANSFER_SRC.as_raw()),
     bind: None,
     storage: None,
+    multisampled: false,
 };
 /// G-buffer albedo and occlusion.
 pub static GBUFFER_ALBEDO: TargetDesc = TargetDesc {
@@ -146,6 +156,7 @@ pub static GBUFFER_ALBEDO: TargetDesc = TargetDesc {
     usage: ATTACHMENT_SAMPLED,
     bind: Some(Bind::Color(BINDING_GBUFFER_ALBEDO)),
     storage: None,
+    multisampled: false,
 };
 /// G-buffer shading normal.
 pub static GBUFFER_NORMAL: TargetDesc = TargetDesc {
@@ -154,6 +165,7 @@ pub static GBUFFER_NORMAL: TargetDesc = TargetDesc {
     usage: ATTACHMENT_SAMPLED,
     bind: Some(Bind::Color(BINDING_GBUFFER_NORMAL)),
     storage: None,
+    multisampled: false,
 };
 /// G-buffer roughness and metallic.
 pub static GBUFFER_MATERIAL: TargetDesc = TargetDesc {
@@ -162,6 +174,7 @@ pub static GBUFFER_MATERIAL: TargetDesc = TargetDesc {
     usage: ATTACHMENT_SAMPLED,
     bind: Some(Bind::Color(BINDING_GBUFFER_MATERIAL)),
     storage: None,
+    multisampled: false,
 };
 /// G-buffer decal receiver layers.
 pub static GBUFFER_LAYERS: TargetDesc = TargetDesc {
@@ -170,6 +183,7 @@ pub static GBUFFER_LAYERS: TargetDesc = TargetDesc {
     usage: ATTACHMENT_SAMPLED,
     bind: Some(Bind::Color(BINDING_GBUFFER_LAYERS)),
     storage: None,
+    multisampled: false,
 };
 /// The visibility buffer's instance and triangle ids.
 pub static VISIBILITY: TargetDesc = TargetDesc {
@@ -178,6 +192,7 @@ pub static VISIBILITY: TargetDesc = TargetDesc {
     usage: ATTACHMENT_SAMPLED,
     bind: Some(Bind::Color(BINDING_VISIBILITY)),
     storage: None,
+    multisampled: false,
 };
 
 /// Format of the shadow-map atlas's filter (glass colour and opacity).
@@ -191,6 +206,7 @@ pub static SHADOW_MAP_DEPTH: TargetDesc = TargetDesc {
     usage: vk::ImageUsageFlags::from_raw(U::DEPTH_STENCIL_ATTACHMENT.as_raw() | U::SAMPLED.as_raw()),
     bind: Some(Bind::Depth(BINDING_SHADOW_MAP_DEPTH)),
     storage: None,
+    multisampled: false,
 };
 /// The shadow-map atlas's filter: glass colour and opacity on odd rows (seed 002 Table 3.3).
 pub static SHADOW_MAP_FILTER: TargetDesc = TargetDesc {
@@ -199,6 +215,7 @@ pub static SHADOW_MAP_FILTER: TargetDesc = TargetDesc {
     usage: vk::ImageUsageFlags::from_raw(U::COLOR_ATTACHMENT.as_raw() | U::SAMPLED.as_raw()),
     bind: Some(Bind::Color(BINDING_SHADOW_MAP_FILTER)),
     storage: None,
+    multisampled: false,
 };
 
 const STORAGE: vk::ImageUsageFlags = vk::ImageUsageFlags::from_raw(U::STORAGE.as_raw() | U::TRANSFER_SRC.as_raw());
@@ -210,6 +227,7 @@ pub static DECAL_ALBEDO: TargetDesc = TargetDesc {
     usage: STORAGE,
     bind: Some(Bind::Storage(BINDING_DECAL_ALBEDO)),
     storage: None,
+    multisampled: false,
 };
 /// Decal buffer: decal normal and the surface normal's remaining weight.
 pub static DECAL_NORMAL: TargetDesc = TargetDesc {
@@ -218,6 +236,7 @@ pub static DECAL_NORMAL: TargetDesc = TargetDesc {
     usage: STORAGE,
     bind: Some(Bind::Storage(BINDING_DECAL_NORMAL)),
     storage: None,
+    multisampled: false,
 };
 /// Decal buffer: decal roughness and metallic and the surface's remaining weights.
 pub static DECAL_SPEC: TargetDesc = TargetDesc {
@@ -226,6 +245,7 @@ pub static DECAL_SPEC: TargetDesc = TargetDesc {
     usage: STORAGE,
     bind: Some(Bind::Storage(BINDING_DECAL_SPEC)),
     storage: None,
+    multisampled: false,
 };
 /// Decal buffer: the radiance emissive decals add.
 pub static DECAL_EMISSIVE: TargetDesc = TargetDesc {
@@ -234,6 +254,7 @@ pub static DECAL_EMISSIVE: TargetDesc = TargetDesc {
     usage: STORAGE,
     bind: Some(Bind::Storage(BINDING_DECAL_EMISSIVE)),
     storage: None,
+    multisampled: false,
 };
 /// Decal buffer: decals tested per pixel (debug views).
 pub static DECAL_TESTED: TargetDesc = TargetDesc {
@@ -242,6 +263,7 @@ pub static DECAL_TESTED: TargetDesc = TargetDesc {
     usage: STORAGE,
     bind: Some(Bind::Storage(BINDING_DECAL_TESTED)),
     storage: None,
+    multisampled: false,
 };
 /// The shadow pass's debug image: reconstructed normals and shadow rays per pixel.
 pub static SHADOW_DEBUG: TargetDesc = TargetDesc {
@@ -250,12 +272,19 @@ pub static SHADOW_DEBUG: TargetDesc = TargetDesc {
     usage: STORAGE,
     bind: Some(Bind::Storage(BINDING_SHADOW_DEBUG)),
     storage: None,
+    multisampled: false,
 };
 /// What the reflection rays brought back (`crate::reflections`): radiance and the tracing
 /// pixel's distance from the camera, per cell (a pixel, or a 2×2 block at half resolution: the
 /// top-left quarter).
-pub static REFLECTION: TargetDesc =
-    TargetDesc { name: "reflection", format: HDR_FORMAT, usage: STORAGE, bind: Some(Bind::Storage(BINDING_REFLECTION)), storage: None };
+pub static REFLECTION: TargetDesc = TargetDesc {
+    name: "reflection",
+    format: HDR_FORMAT,
+    usage: STORAGE,
+    bind: Some(Bind::Storage(BINDING_REFLECTION)),
+    storage: None,
+    multisampled: false,
+};
 /// Each pixel's weight for the reflected radiance and its roughness (`crate::reflections`).
 pub static REFLECTION_WEIGHT: TargetDesc = TargetDesc {
     name: "reflection weight",
@@ -263,6 +292,7 @@ pub static REFLECTION_WEIGHT: TargetDesc = TargetDesc {
     usage: STORAGE,
     bind: Some(Bind::Storage(BINDING_REFLECTION_WEIGHT)),
     storage: None,
+    multisampled: false,
 };
 /// What each reflection ray found, one word per cell (`crate::reflections`).
 pub static REFLECTION_RAYS: TargetDesc = TargetDesc {
@@ -271,6 +301,7 @@ pub static REFLECTION_RAYS: TargetDesc = TargetDesc {
     usage: STORAGE,
     bind: Some(Bind::Storage(BINDING_REFLECTION_RAYS)),
     storage: None,
+    multisampled: false,
 };
 /// The ambient occlusion's raw (noisy) image (`crate::environment::occlusion`).
 pub static OCCLUSION_RAW: TargetDesc = TargetDesc {
@@ -279,10 +310,17 @@ pub static OCCLUSION_RAW: TargetDesc = TargetDesc {
     usage: STORAGE,
     bind: Some(Bind::Storage(BINDING_OCCLUSION_RAW)),
     storage: None,
+    multisampled: false,
 };
 /// The denoised ambient occlusion that shading reads.
-pub static OCCLUSION: TargetDesc =
-    TargetDesc { name: "occlusion", format: OCCLUSION_FORMAT, usage: STORAGE, bind: Some(Bind::Storage(BINDING_OCCLUSION)), storage: None };
+pub static OCCLUSION: TargetDesc = TargetDesc {
+    name: "occlusion",
+    format: OCCLUSION_FORMAT,
+    usage: STORAGE,
+    bind: Some(Bind::Storage(BINDING_OCCLUSION)),
+    storage: None,
+    multisampled: false,
+};
 /// Ambient occlusion's format: one float a pixel (R32F needs no extended storage formats).
 pub const OCCLUSION_FORMAT: vk::Format = vk::Format::R32_SFLOAT;
 /// Motion vectors (`crate::motion`): written in compute from depth, then over the movers by a
@@ -293,6 +331,7 @@ pub static MOTION: TargetDesc = TargetDesc {
     usage: vk::ImageUsageFlags::from_raw(U::STORAGE.as_raw() | U::COLOR_ATTACHMENT.as_raw() | U::TRANSFER_SRC.as_raw()),
     bind: Some(Bind::Storage(BINDING_MOTION)),
     storage: None,
+    multisampled: false,
 };
 /// Temporal anti-aliasing's history (`crate::taa`): the resolve samples one and writes the other.
 pub static TAA_HISTORY_A: TargetDesc = TargetDesc {
@@ -301,6 +340,7 @@ pub static TAA_HISTORY_A: TargetDesc = TargetDesc {
     usage: vk::ImageUsageFlags::from_raw(U::SAMPLED.as_raw() | U::STORAGE.as_raw()),
     bind: Some(Bind::Color(BINDING_TAA_HISTORY_A)),
     storage: Some(BINDING_TAA_HISTORY_A_STORAGE),
+    multisampled: false,
 };
 /// The other history image.
 pub static TAA_HISTORY_B: TargetDesc = TargetDesc {
@@ -309,6 +349,36 @@ pub static TAA_HISTORY_B: TargetDesc = TargetDesc {
     usage: vk::ImageUsageFlags::from_raw(U::SAMPLED.as_raw() | U::STORAGE.as_raw()),
     bind: Some(Bind::Color(BINDING_TAA_HISTORY_B)),
     storage: Some(BINDING_TAA_HISTORY_B_STORAGE),
+    multisampled: false,
+};
+/// MSAA's radiance (`crate::msaa`): the forward shading pass draws into it and resolves it into
+/// [`HDR`] (the mean of the samples).
+pub static HDR_MS: TargetDesc = TargetDesc {
+    name: "hdr (multisampled)",
+    format: HDR_FORMAT,
+    usage: U::COLOR_ATTACHMENT,
+    bind: None,
+    storage: None,
+    multisampled: true,
+};
+/// MSAA's depth: written by the prepass, which resolves it into [`DEPTH`] (sample 0, the
+/// surface every per-pixel pass then works on), and tested by the shading pass.
+pub static DEPTH_MS: TargetDesc = TargetDesc {
+    name: "depth (multisampled)",
+    format: DEPTH_FORMAT,
+    usage: U::DEPTH_STENCIL_ATTACHMENT,
+    bind: None,
+    storage: None,
+    multisampled: true,
+};
+/// MSAA's instance and triangle ids, resolved into [`VISIBILITY`] (sample 0, as depth).
+pub static VISIBILITY_MS: TargetDesc = TargetDesc {
+    name: "visibility (multisampled)",
+    format: VISIBILITY_FORMAT,
+    usage: U::COLOR_ATTACHMENT,
+    bind: None,
+    storage: None,
+    multisampled: true,
 };
 /// The decal buffer's images, in binding order.
 pub static DECAL_BUFFER: [&TargetDesc; 5] = [&DECAL_ALBEDO, &DECAL_NORMAL, &DECAL_SPEC, &DECAL_TESTED, &DECAL_EMISSIVE];

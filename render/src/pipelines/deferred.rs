@@ -108,6 +108,7 @@ impl DeferredPasses {
                     topology: vk::PrimitiveTopology::TRIANGLE_LIST,
                     blend: Blend::AlphaThenAdditive,
                     write_masks: &masks,
+                    samples: 1,
                 },
             )?);
         }

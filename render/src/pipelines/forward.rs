@@ -16,23 +16,32 @@ use crate::decals::{DecalFrame, declare_decal_reads};
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::{GraphicsDesc, create_graphics};
 use crate::gpu::shaders;
-use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT};
+use crate::graph::targets::{
+    DEPTH, DEPTH_FORMAT, DEPTH_MS, HDR, HDR_FORMAT, HDR_MS, TargetDesc, VISIBILITY, VISIBILITY_FORMAT, VISIBILITY_MS,
+};
 use crate::graph::{Frame, ImageUse, Load, PassKind};
 use crate::lights::{LightFrame, declare_light_reads};
 use crate::pipelines::ShadeVariants;
 use crate::scene::gpu::GpuScene;
 
-/// Pipelines of the forward renderer.
+/// Pipelines of the forward renderer, at one count of samples a pixel: 1, or MSAA's
+/// ([`crate::msaa`], which keeps a second set).
 pub struct ForwardPasses {
+    samples: u32,
     prepass_opaque: vk::Pipeline,
     prepass_mask: vk::Pipeline,
+    /// The prepass that also writes instance and triangle ids (`shaders/visbuffer.frag`).
+    ids_opaque: vk::Pipeline,
+    ids_mask: vk::Pipeline,
     shade: ShadeVariants,
 }
 
 impl ForwardPasses {
-    /// Creates the pipelines.
-    pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
-        let prepass = GraphicsDesc::mesh("prepass", None, &[], DEPTH_FORMAT);
+    /// Creates the pipelines for attachments of `samples` samples a pixel.
+    pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout, samples: u32) -> Result<Self, RenderError> {
+        let prepass = GraphicsDesc { samples, ..GraphicsDesc::mesh("prepass", None, &[], DEPTH_FORMAT) };
+        let ids_formats = [VISIBILITY_FORMAT];
+        let ids = GraphicsDesc { samples, ..GraphicsDesc::mesh("prepass ids", Some(shaders::VISBUFFER_FRAG), &ids_formats, DEPTH_FORMAT) };
         let shade = |fragment: &[u8]| {
             let desc = GraphicsDesc {
                 name: "forward",
@@ -44,36 +53,65 @@ impl ForwardPasses {
             };
             create_graphics(ctx, layout, &desc)
         };
+        let (variants, clustered) = if samples > 1 {
+            (
+                [shaders::FORWARD_FRAG_MSAA, shaders::FORWARD_FRAG_MSAA_RAY_QUERY_DECALS, shaders::FORWARD_FRAG_MSAA_DECAL_BUFFER],
+                shaders::FORWARD_FRAG_MSAA_CLUSTERED_DECALS,
+            )
+        } else {
+            (
+                [shaders::FORWARD_FRAG, shaders::FORWARD_FRAG_RAY_QUERY_DECALS, shaders::FORWARD_FRAG_DECAL_BUFFER],
+                shaders::FORWARD_FRAG_CLUSTERED_DECALS,
+            )
+        };
         Ok(Self {
+            samples,
             prepass_opaque: create_graphics(ctx, layout, &prepass)?,
             prepass_mask: create_graphics(ctx, layout, &GraphicsDesc { fragment: Some(shaders::PREPASS_MASK_FRAG), ..prepass })?,
-            shade: ShadeVariants::new(
-                ctx,
-                [shaders::FORWARD_FRAG, shaders::FORWARD_FRAG_RAY_QUERY_DECALS, shaders::FORWARD_FRAG_DECAL_BUFFER],
-                shade,
-            )?
-            .with_clustered(shaders::FORWARD_FRAG_CLUSTERED_DECALS, shade)?,
+            ids_opaque: create_graphics(ctx, layout, &ids)?,
+            ids_mask: create_graphics(ctx, layout, &GraphicsDesc { fragment: Some(shaders::VISBUFFER_FRAG_ALPHA_MASK), ..ids })?,
+            shade: ShadeVariants::new(ctx, variants, shade)?.with_clustered(clustered, shade)?,
         })
     }
 
-    /// Depth prepass: writes reverse-Z depth for the instances `draws` holds (one of the
-    /// culling's `phase`s); masked materials discard.
-    pub fn prepass(&self, f: &mut Frame, scene: &GpuScene, draws: &Draws, phase: Phase) -> Result<(), RenderError> {
+    /// Samples a pixel of the attachments these pipelines draw into.
+    pub fn samples(&self) -> u32 {
+        self.samples
+    }
+
+    /// The depth, radiance and id attachments these pipelines draw into: the frame's targets,
+    /// or MSAA's, which resolve into them.
+    fn attachments(&self) -> [&'static TargetDesc; 3] {
+        if self.samples > 1 { [&DEPTH_MS, &HDR_MS, &VISIBILITY_MS] } else { [&DEPTH, &HDR, &VISIBILITY] }
+    }
+
+    /// Depth prepass: writes reverse-Z depth (and, when `ids`, the instance and triangle ids a
+    /// decal pass or the reflection rays read) for the instances `draws` holds (one of the
+    /// culling's `phase`s); masked materials discard. Under MSAA both resolve to sample 0 (one
+    /// surface per pixel for every per-pixel pass that follows).
+    pub fn prepass(&self, f: &mut Frame, scene: &GpuScene, draws: &Draws, phase: Phase, ids: bool) -> Result<(), RenderError> {
+        let ([depth, _, ids_target], ms) = (self.attachments(), self.samples > 1);
+        let (opaque, mask) = if ids { (self.ids_opaque, self.ids_mask) } else { (self.prepass_opaque, self.prepass_mask) };
         f.pass("prepass", PassKind::Graphics)
-            .image(&DEPTH, ImageUse::DepthWrite(phase.depth_load()))
+            .image(depth, ImageUse::DepthWrite(phase.depth_load()))
+            .when(ms, |p| p.resolve(&DEPTH))
+            .when(ids, |p| p.color(ids_target, phase.color_load([0.0; 4])).when(ms, |p| p.resolve(&VISIBILITY)))
             .reads(scene.res.drawn())
             .reads(draws.reads())
             .record(|p| {
                 let push = p.push;
-                p.bind_graphics(self.prepass_opaque, &push);
+                p.bind_graphics(opaque, &push);
                 draws.opaque(p);
-                p.bind_graphics(self.prepass_mask, &push);
+                p.bind_graphics(mask, &push);
                 draws.masked(p);
             })
     }
 
-    /// Shading: every visible pixel once, lit by every light, into the HDR target, with this
-    /// frame's `decals`.
+    /// Shading: every visible pixel once, lit by every light, into the HDR target (cleared to
+    /// `clear`), with this frame's `decals`. Under MSAA it draws into the multisampled target
+    /// (each sample its primitive's colour) and resolves it into the HDR target (the mean); a
+    /// fragment reads the per-pixel inputs at the pixel of its own surface
+    /// (`shaders/include/msaa.glsl`).
     pub fn shade(
         &self,
         f: &mut Frame,
@@ -83,10 +121,12 @@ impl ForwardPasses {
         decals: &DecalFrame,
         lights: &LightFrame,
     ) -> Result<(), RenderError> {
+        let ([depth, hdr, _], ms) = (self.attachments(), self.samples > 1);
         let pass = f
             .pass("forward", PassKind::Graphics)
-            .image(&DEPTH, ImageUse::DepthTest)
-            .color(&HDR, Load::Clear(clear))
+            .image(depth, ImageUse::DepthTest)
+            .color(hdr, Load::Clear(clear))
+            .when(ms, |p| p.resolve(&HDR).sample(&DEPTH))
             .reads(scene.res.drawn())
             .reads(draws.reads());
         declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| {
@@ -98,7 +138,7 @@ impl ForwardPasses {
 
     /// Destroys the pipelines; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for p in [self.prepass_opaque, self.prepass_mask] {
+        for p in [self.prepass_opaque, self.prepass_mask, self.ids_opaque, self.ids_mask] {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }

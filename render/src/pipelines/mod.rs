@@ -67,6 +67,8 @@ pub struct FrameParts<'a> {
     pub present: Present<'a>,
     /// The decal method asked for and the one this device and pipeline apply.
     pub decal_choice: DecalChoice,
+    /// The anti-aliasing applied ([`crate::settings::AntiAliasing::applied`]).
+    pub aa: crate::settings::AntiAliasing,
 }
 
 /// What every frame does before its passes: follow the decals' and lights' changes, upload what
@@ -75,7 +77,8 @@ pub struct FrameParts<'a> {
 /// (`crate::culling`).
 fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<(DecalFrame, LightFrame), RenderError> {
     mirror.sort_transparent(mirror.camera().position);
-    r.scene.motion_wanted = r.taa.prepare(mirror, s, f.graph.extent());
+    r.scene.motion_wanted = r.taa.prepare(mirror, s, r.aa, f.graph.extent());
+    mirror.set_depth_sample(crate::msaa::Msaa::depth_sample(r.aa.samples(), f.graph.extent()));
     r.scene.posed_motion_per_pixel = crate::motion::PixelIds::of(s.pipeline) != crate::motion::PixelIds::None;
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
     r.skinning.prepare(mirror, r.scene);
@@ -103,19 +106,26 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
 /// lists), shading with depth EQUAL, reflections, then the blended surfaces back to front.
 pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let (decals, lights) = begin(f, r, mirror, s)?;
-    let (scene, visbuffer, forward) = (&*r.scene, r.visbuffer, r.forward);
-    if decals.buffered() || lights.reflections() {
-        r.culling.depth_passes(f, scene, |f, draws, phase| visbuffer.visibility(f, "prepass", scene, &draws, phase))?;
-    } else {
-        r.culling.depth_passes(f, scene, |f, draws, phase| forward.prepass(f, scene, &draws, phase))?;
-    }
+    let (scene, forward) = (&*r.scene, r.forward);
+    let ids = decals.buffered() || lights.reflections();
+    r.culling.depth_passes(f, scene, |f, draws, phase| forward.prepass(f, scene, &draws, phase, ids))?;
     motion(f, r, s)?;
     let draws = r.culling.draws();
     transparent_depth(f, r, &draws, mirror, &lights)?;
     r.lighting.record(f, r.scene, &draws, &lights)?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
-    r.forward.shade(f, r.scene, &draws, s.clear_color, &decals, &lights)?;
-    r.environment.sky(f, r.scene, &lights, s.debug_view)?;
+    // Under MSAA the multisampled target is cleared transparent: the resolved alpha is the
+    // covered fraction of each pixel, which the sky fills (crate::msaa).
+    let msaa = r.forward.samples() > 1;
+    let sky = r.environment.draws_sky(&lights, s.debug_view);
+    let [red, green, blue, _] = s.clear_color;
+    let clear = match (msaa, sky) {
+        (false, _) => s.clear_color,
+        (true, false) => [red, green, blue, 0.0],
+        (true, true) => [0.0; 4],
+    };
+    r.forward.shade(f, r.scene, &draws, clear, &decals, &lights)?;
+    r.environment.sky(f, r.scene, &lights, s.debug_view, msaa)?;
     r.reflections.record(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
     r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
     glass_reflections(f, r, mirror, &decals, &lights)?;
@@ -194,7 +204,7 @@ fn deferred_layer(
     r.deferred.decals(f, r.scene, r.decals.deferred_runs(decals))?;
     r.decals.decal_pass(f, r.scene, decals, DecalSurfaceSource::GBuffer)?;
     r.deferred.lighting(f, r.scene, decals, lights, s.compute_shading)?;
-    r.environment.sky(f, r.scene, lights, s.debug_view)?;
+    r.environment.sky(f, r.scene, lights, s.debug_view, false)?;
     r.reflections.record(f, r.scene, DecalSurfaceSource::GBuffer, decals, lights)
 }
 
@@ -204,14 +214,14 @@ fn deferred_layer(
 pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let (decals, lights) = begin(f, r, mirror, s)?;
     let (scene, visbuffer) = (&*r.scene, r.visbuffer);
-    r.culling.depth_passes(f, scene, |f, draws, phase| visbuffer.visibility(f, "visibility", scene, &draws, phase))?;
+    r.culling.depth_passes(f, scene, |f, draws, phase| visbuffer.visibility(f, scene, &draws, phase))?;
     motion(f, r, s)?;
     let draws = r.culling.draws();
     transparent_depth(f, r, &draws, mirror, &lights)?;
     r.lighting.record(f, r.scene, &draws, &lights)?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
     r.visbuffer.shade(f, r.scene, s.clear_color, &decals, &lights, s.compute_shading)?;
-    r.environment.sky(f, r.scene, &lights, s.debug_view)?;
+    r.environment.sky(f, r.scene, &lights, s.debug_view, false)?;
     r.reflections.record(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
     r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
     glass_reflections(f, r, mirror, &decals, &lights)?;

@@ -65,10 +65,9 @@ impl VisBufferPasses {
     }
 
     /// Writes depth and the instance/triangle ids of the instances `draws` holds (one of the
-    /// culling's `phase`s), as the pass `name` (the forward pipeline's prepass is this pass
-    /// when a decal pass needs the ids).
-    pub fn visibility(&self, f: &mut Frame, name: &'static str, scene: &GpuScene, draws: &Draws, phase: Phase) -> Result<(), RenderError> {
-        f.pass(name, PassKind::Graphics)
+    /// culling's `phase`s).
+    pub fn visibility(&self, f: &mut Frame, scene: &GpuScene, draws: &Draws, phase: Phase) -> Result<(), RenderError> {
+        f.pass("visibility", PassKind::Graphics)
             .image(&DEPTH, ImageUse::DepthWrite(phase.depth_load()))
             .color(&VISIBILITY, phase.color_load([0.0; 4]))
             .reads(scene.res.drawn())

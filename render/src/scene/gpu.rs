@@ -744,6 +744,7 @@ impl GpuScene {
                 extent: vk::Extent2D { width: data.width, height: data.height },
                 mip_levels: data.mips.len() as u32,
                 usage: vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
+                samples: 1,
             },
         )?;
         copies.image_copy(src, image.raw, image.full_range(), regions);

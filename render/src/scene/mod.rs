@@ -713,6 +713,9 @@ pub struct SceneMirror {
     /// Temporal anti-aliasing's part of the camera record: this frame's jitter (NDC) and the
     /// previous frame's unjittered view-projection ([`SceneMirror::set_camera_temporal`]).
     temporal: (Vec2, Option<Mat4>),
+    /// Where (NDC, from the pixel's centre) the depth target's value of a pixel was taken:
+    /// MSAA resolves depth to sample 0 ([`SceneMirror::set_depth_sample`]).
+    depth_sample: Vec2,
     /// Set by [`SceneMirror::cut_camera`]: the view jumped, so history is thrown away.
     camera_cut: bool,
     /// Instances that moved since the last upload, and the transforms they had then (the
@@ -988,15 +991,21 @@ impl SceneMirror {
 
     /// The camera record the GPU reads: [`SceneMirror::camera`] with temporal anti-aliasing's
     /// jitter applied to its projection and the previous frame's view-projection beside it.
+    /// Its inverse rebuilds a pixel's position from depth where the depth was taken (the
+    /// pixel's centre, or MSAA's sample 0).
     pub fn gpu_camera(&self) -> GpuCamera {
         let c = self.camera;
         let (jitter, prev) = self.temporal;
         let shift = Mat4::from_translation(jitter.extend(0.0));
         let view_proj = shift * c.view_proj;
+        let inv_view_proj = match (jitter, self.depth_sample) {
+            (Vec2::ZERO, Vec2::ZERO) => c.inv_view_proj,
+            (_, sample) => view_proj.inverse() * Mat4::from_translation(sample.extend(0.0)),
+        };
         GpuCamera {
             proj: shift * c.proj,
             view_proj,
-            inv_view_proj: if jitter == Vec2::ZERO { c.inv_view_proj } else { view_proj.inverse() },
+            inv_view_proj,
             jitter,
             motion_view_proj: c.view_proj,
             prev_view_proj: prev.unwrap_or(c.view_proj),
@@ -1010,6 +1019,15 @@ impl SceneMirror {
     pub fn set_camera_temporal(&mut self, jitter: Vec2, prev_view_proj: Option<Mat4>) {
         if self.temporal != (jitter, prev_view_proj) {
             self.temporal = (jitter, prev_view_proj);
+            self.camera_dirty = true;
+        }
+    }
+
+    /// Sets where the depth target's value of a pixel is taken, as an offset from the pixel's
+    /// centre in NDC (zero but under MSAA). Uploads only when it changed.
+    pub fn set_depth_sample(&mut self, offset: Vec2) {
+        if self.depth_sample != offset {
+            self.depth_sample = offset;
             self.camera_dirty = true;
         }
     }

@@ -39,7 +39,7 @@ use crate::graph::{BufferUse, Frame, ImageUse, PassKind};
 use crate::layout::{TAA_INTERLACED, TAA_RESET, TAA_SHARPEN_SHIFT};
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
-use crate::settings::{AntiAliasing, DebugView, FrameSettings, PipelineKind};
+use crate::settings::{AntiAliasing, FrameSettings, PipelineKind};
 
 /// Positions of the jitter sequence before it repeats.
 pub const JITTER_PHASES: u32 = 8;
@@ -79,8 +79,6 @@ pub struct Taa {
     /// This frame: whether it runs, and whether the history is thrown away.
     runs: bool,
     reset: bool,
-    /// Whether the fallback to none under a debug view was logged (once).
-    warned: bool,
 }
 
 impl Taa {
@@ -101,28 +99,16 @@ impl Taa {
             last_view_proj: None,
             runs: false,
             reset: true,
-            warned: false,
         })
-    }
-
-    /// The anti-aliasing `s` asks for as it applies: temporal anti-aliasing falls back to none
-    /// while a debug view is shown (they are drawn unjittered).
-    pub fn applied(s: &FrameSettings) -> AntiAliasing {
-        match s.aa {
-            AntiAliasing::Taa if s.debug_view != DebugView::Lit => AntiAliasing::None,
-            aa => aa,
-        }
     }
 
     /// Once a frame, before the scene's upload: decides whether it runs and whether its history
     /// is kept, and sets the camera's jitter and previous view-projection. Returns whether it
-    /// runs (the frame then draws motion vectors).
-    pub fn prepare(&mut self, mirror: &mut SceneMirror, s: &FrameSettings, extent: vk::Extent2D) -> bool {
+    /// runs (the frame then draws motion vectors). `aa` is the anti-aliasing applied
+    /// ([`AntiAliasing::applied`]).
+    pub fn prepare(&mut self, mirror: &mut SceneMirror, s: &FrameSettings, aa: AntiAliasing, extent: vk::Extent2D) -> bool {
         let cut = mirror.take_camera_cut();
-        self.runs = Self::applied(s) == AntiAliasing::Taa;
-        if s.aa == AntiAliasing::Taa && !self.runs && !std::mem::replace(&mut self.warned, true) {
-            tracing::warn!(debug_view = ?s.debug_view, "temporal anti-aliasing is off while a debug view is shown (drawn unjittered)");
-        }
+        self.runs = aa == AntiAliasing::Taa;
         if !self.runs {
             (self.made_with, self.last_view_proj) = (None, None);
             mirror.set_camera_temporal(Vec2::ZERO, None);

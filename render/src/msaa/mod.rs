@@ -1,0 +1,154 @@
+//! Multisample anti-aliasing in the forward pipelines (issue: anti-aliasing, item 3). Seed 001's
+//! introduction counts hardware anti-aliasing among the reasons to shade forward (Forward+), and
+//! seed 000 §2.6 says deferred shading does not support MSAA and uses temporal anti-aliasing
+//! instead: in the deferred pipelines MSAA applies as TAA ([`AntiAliasing::applied`]).
+//!
+//! **What is per sample and what per pixel.** The depth prepass rasterises depth (and the ids,
+//! when a decal pass or the reflection rays follow) at every sample, and the shading pass tests
+//! each sample against it: coverage, depth and therefore every edge are per sample, and the
+//! shading pass resolves the mean of the samples into the HDR target. The shading itself runs
+//! once per pixel and primitive (not per sample: the cost of MSAA stays near the cost of the
+//! extra depth and colour bandwidth). Everything the frame computes from depth in screen space
+//! is per pixel: the prepass resolves depth and ids to **sample 0** (so a pixel's depth and ids
+//! always name one surface), and light culling, ray-traced shadows, ambient occlusion, the decal
+//! pass, reflections and the hierarchical depth of occlusion culling work on that. A fragment of
+//! another surface at an edge pixel would read inputs that are not its own; instead it reads them
+//! at the nearest pixel (of the 3×3 around it) whose sample-0 depth is its own depth
+//! (`shaders/include/msaa.glsl`): the pixel just beside the edge, on its own surface. That pixel's
+//! tile also lists the lights for a depth range that holds the fragment.
+//!
+//! The sky fills the samples no geometry covered: the multisampled target is cleared with alpha
+//! 0, shading writes alpha 1, so the resolved alpha is the covered fraction and the sky pass adds
+//! its radiance × (1 − alpha) (`shaders/sky.comp`, COVERAGE). Glass is drawn after the resolve,
+//! per pixel, depth-tested against sample 0 (as the reflections on it): its blend over the
+//! resolved image needs no multisampled variant of every glass pipeline, and where an opaque edge
+//! crosses glass the glass covers the whole pixel or none of it (its own edges are not
+//! anti-aliased).
+//!
+//! The pipelines are made for one sample count; changing the count waits for the GPU once and
+//! makes them again (with the multisampled targets), and switching MSAA off frees both.
+
+use ash::vk;
+
+use crate::RenderError;
+use crate::gpu::device::GpuContext;
+use crate::graph::FrameGraph;
+use crate::pipelines::forward::ForwardPasses;
+use crate::settings::{AntiAliasing, FrameSettings};
+
+/// MSAA's pipelines and the choice of the anti-aliasing a frame applies.
+pub struct Msaa {
+    /// The most samples a pixel every attachment MSAA draws into can take on this device.
+    max_samples: u32,
+    /// The forward pipelines at the sample count in use (none while MSAA is off).
+    passes: Option<ForwardPasses>,
+    /// The fallbacks already logged: (asked for, applied).
+    warned: Vec<(AntiAliasing, AntiAliasing)>,
+}
+
+impl Msaa {
+    /// Reads what the device offers; makes no pipeline until MSAA is asked for.
+    pub fn new(ctx: &GpuContext) -> Self {
+        let limits = &ctx.limits;
+        let mut counts = limits.framebuffer_color_sample_counts & limits.framebuffer_depth_sample_counts;
+        if limits.standard_sample_locations == vk::FALSE {
+            // Sample 0's place is known only where the locations are the standard ones.
+            counts = vk::SampleCountFlags::TYPE_1;
+        }
+        // The ids attachment is an integer format, whose sample counts Vulkan 1.2 reports apart.
+        // SAFETY: the physical device is valid; the query has no other precondition.
+        let ids = unsafe {
+            ctx.instance.get_physical_device_image_format_properties(
+                ctx.physical,
+                crate::graph::targets::VISIBILITY_FORMAT,
+                vk::ImageType::TYPE_2D,
+                vk::ImageTiling::OPTIMAL,
+                vk::ImageUsageFlags::COLOR_ATTACHMENT,
+                vk::ImageCreateFlags::empty(),
+            )
+        };
+        counts &= ids.map_or(vk::SampleCountFlags::TYPE_1, |p| p.sample_counts);
+        let max_samples = [8, 4, 2].into_iter().find(|&n| counts.contains(vk::SampleCountFlags::from_raw(n))).unwrap_or(1);
+        tracing::debug!(max_samples, "MSAA");
+        Self { max_samples, passes: None, warned: Vec::new() }
+    }
+
+    /// The most samples a pixel MSAA can use on this device (1: none).
+    pub fn max_samples(&self) -> u32 {
+        self.max_samples
+    }
+
+    /// The anti-aliasing `s` asks for as it applies ([`AntiAliasing::applied`]), saying once per
+    /// kind of fallback that it fell back.
+    pub fn choose(&mut self, s: &FrameSettings) -> AntiAliasing {
+        let applied = s.aa.applied(s.pipeline, s.debug_view, self.max_samples);
+        if applied != s.aa && !self.warned.contains(&(s.aa, applied)) {
+            self.warned.push((s.aa, applied));
+            tracing::warn!(
+                asked = s.aa.name(),
+                applied = applied.name(),
+                pipeline = s.pipeline.name(),
+                debug_view = ?s.debug_view,
+                max_samples = self.max_samples,
+                "anti-aliasing falls back: MSAA runs in forward and Forward+ only, with the samples the device offers; \
+                 temporal anti-aliasing is off under a debug view"
+            );
+        }
+        applied
+    }
+
+    /// Makes the pipelines (and sets the graph's multisampled targets) for `aa`, before a
+    /// frame is recorded. A change of sample count waits for the GPU.
+    pub fn prepare(
+        &mut self,
+        ctx: &GpuContext,
+        graph: &mut FrameGraph,
+        layout: vk::PipelineLayout,
+        aa: AntiAliasing,
+    ) -> Result<(), RenderError> {
+        let samples = aa.samples();
+        if self.passes.as_ref().map_or(1, ForwardPasses::samples) == samples {
+            return Ok(());
+        }
+        ctx.wait_idle();
+        if let Some(old) = self.passes.take() {
+            old.destroy(ctx);
+        }
+        if samples > 1 {
+            graph.set_samples(samples);
+            self.passes = Some(ForwardPasses::new(ctx, layout, samples)?);
+        } else {
+            graph.drop_multisampled();
+        }
+        graph.destroy_retired(ctx);
+        Ok(())
+    }
+
+    /// Where the resolved depth of a pixel lies, as an offset from its centre in NDC for a view
+    /// of `extent`: sample 0 of Vulkan's standard sample locations (zero without MSAA). Passes
+    /// that rebuild positions from depth must rebuild them there, or a sloped surface rebuilt
+    /// at the centre lies off itself by a fraction of a pixel's footprint, enough for its
+    /// shadow and occlusion rays to hit it.
+    pub fn depth_sample(samples: u32, extent: vk::Extent2D) -> glam::Vec2 {
+        let sample_zero = match samples {
+            2 => glam::Vec2::new(0.75, 0.75),
+            4 => glam::Vec2::new(0.375, 0.125),
+            8 => glam::Vec2::new(0.5625, 0.3125),
+            _ => return glam::Vec2::ZERO,
+        };
+        // The viewport is flipped: rows go down, NDC y up.
+        (sample_zero - 0.5) * glam::Vec2::new(2.0 / extent.width as f32, -2.0 / extent.height as f32)
+    }
+
+    /// The forward pipelines at MSAA's sample count, while it is on.
+    pub fn forward(&self) -> Option<&ForwardPasses> {
+        self.passes.as_ref()
+    }
+
+    /// Destroys the pipelines; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        if let Some(p) = self.passes {
+            p.destroy(ctx);
+        }
+    }
+}
