@@ -473,25 +473,28 @@ impl AntiAliasing {
         }
     }
 
-    /// The MSAA mode of `samples` a pixel (none for 1 or fewer).
-    fn msaa(samples: u32) -> Self {
-        match samples {
-            8.. => AntiAliasing::Msaa8,
-            4..8 => AntiAliasing::Msaa4,
-            2..4 => AntiAliasing::Msaa2,
-            _ => AntiAliasing::None,
+    /// The MSAA mode with the most samples a pixel, up to `samples`, among the counts
+    /// `supported` (a mask whose bit `n` stands for `n` samples, as Vulkan's sample-count
+    /// flags); none when there is none.
+    fn msaa(samples: u32, supported: u32) -> Self {
+        match [8, 4, 2].into_iter().find(|&n| n <= samples && supported & n != 0) {
+            Some(8) => AntiAliasing::Msaa8,
+            Some(4) => AntiAliasing::Msaa4,
+            Some(_) => AntiAliasing::Msaa2,
+            None => AntiAliasing::None,
         }
     }
 
     /// The mode as it applies in `pipeline` with `debug_view` on a device whose render targets
-    /// take at most `max_samples` samples: MSAA in a deferred pipeline is temporal
-    /// anti-aliasing (the G-buffer and the visibility buffer are shaded a pixel at a time), and
-    /// asks for no more samples than the device offers; temporal anti-aliasing is none under a
-    /// debug view (drawn unjittered, unresolved).
-    pub fn applied(self, pipeline: PipelineKind, debug_view: DebugView, max_samples: u32) -> Self {
+    /// take the sample counts of the mask `supported` (bit `n`: `n` samples): MSAA in a
+    /// deferred pipeline is temporal anti-aliasing (the G-buffer and the visibility buffer are
+    /// shaded a pixel at a time), and takes the most samples the device offers up to those
+    /// asked for; temporal anti-aliasing is none under a debug view (drawn unjittered,
+    /// unresolved).
+    pub fn applied(self, pipeline: PipelineKind, debug_view: DebugView, supported: u32) -> Self {
         let aa = match self {
             AntiAliasing::Msaa2 | AntiAliasing::Msaa4 | AntiAliasing::Msaa8 if !pipeline.is_forward() => AntiAliasing::Taa,
-            AntiAliasing::Msaa2 | AntiAliasing::Msaa4 | AntiAliasing::Msaa8 => Self::msaa(self.samples().min(max_samples)),
+            AntiAliasing::Msaa2 | AntiAliasing::Msaa4 | AntiAliasing::Msaa8 => Self::msaa(self.samples(), supported),
             aa => aa,
         };
         match aa {
@@ -859,14 +862,17 @@ mod tests {
         use AntiAliasing as A;
         let lit = DebugView::Lit;
         for p in [PipelineKind::Forward, PipelineKind::ForwardPlus] {
-            assert_eq!([A::Msaa2, A::Msaa4, A::Msaa8].map(|m| m.applied(p, lit, 8)), [A::Msaa2, A::Msaa4, A::Msaa8]);
-            assert_eq!(A::Msaa8.applied(p, lit, 4), A::Msaa4, "no more samples than the device offers");
+            let all = 1 | 2 | 4 | 8;
+            assert_eq!([A::Msaa2, A::Msaa4, A::Msaa8].map(|m| m.applied(p, lit, all)), [A::Msaa2, A::Msaa4, A::Msaa8]);
+            // Lavapipe offers 1 and 4 samples.
+            assert_eq!(A::Msaa8.applied(p, lit, 1 | 4), A::Msaa4, "no more samples than the device offers");
+            assert_eq!(A::Msaa2.applied(p, lit, 1 | 4), A::None, "and no count it does not offer");
             assert_eq!(A::Msaa2.applied(p, lit, 1), A::None);
-            assert_eq!(A::Msaa4.applied(p, DebugView::Albedo, 4), A::Msaa4, "debug views keep MSAA");
+            assert_eq!(A::Msaa4.applied(p, DebugView::Albedo, all), A::Msaa4, "debug views keep MSAA");
         }
         for p in [PipelineKind::Deferred, PipelineKind::VisBuffer] {
-            assert_eq!(A::Msaa4.applied(p, lit, 8), A::Taa, "deferred shading takes TAA instead");
-            assert_eq!(A::Msaa4.applied(p, DebugView::Albedo, 8), A::None, "and TAA is off under a debug view");
+            assert_eq!(A::Msaa4.applied(p, lit, 15), A::Taa, "deferred shading takes TAA instead");
+            assert_eq!(A::Msaa4.applied(p, DebugView::Albedo, 15), A::None, "and TAA is off under a debug view");
         }
         for m in A::ALL {
             assert_eq!(A::from_name(m.name()), Some(m));

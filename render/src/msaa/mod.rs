@@ -38,8 +38,9 @@ use crate::settings::{AntiAliasing, FrameSettings};
 
 /// MSAA's pipelines and the choice of the anti-aliasing a frame applies.
 pub struct Msaa {
-    /// The most samples a pixel every attachment MSAA draws into can take on this device.
-    max_samples: u32,
+    /// The sample counts every attachment MSAA draws into can take on this device (bit `n`:
+    /// `n` samples).
+    supported: u32,
     /// The forward pipelines at the sample count in use (none while MSAA is off).
     passes: Option<ForwardPasses>,
     /// The fallbacks already logged: (asked for, applied).
@@ -68,20 +69,19 @@ impl Msaa {
             )
         };
         counts &= ids.map_or(vk::SampleCountFlags::TYPE_1, |p| p.sample_counts);
-        let max_samples = [8, 4, 2].into_iter().find(|&n| counts.contains(vk::SampleCountFlags::from_raw(n))).unwrap_or(1);
-        tracing::debug!(max_samples, "MSAA");
-        Self { max_samples, passes: None, warned: Vec::new() }
+        tracing::debug!(sample_counts = ?counts, "MSAA");
+        Self { supported: counts.as_raw(), passes: None, warned: Vec::new() }
     }
 
-    /// The most samples a pixel MSAA can use on this device (1: none).
-    pub fn max_samples(&self) -> u32 {
-        self.max_samples
+    /// The sample counts MSAA can use on this device (bit `n`: `n` samples).
+    pub fn supported(&self) -> u32 {
+        self.supported
     }
 
     /// The anti-aliasing `s` asks for as it applies ([`AntiAliasing::applied`]), saying once per
     /// kind of fallback that it fell back.
     pub fn choose(&mut self, s: &FrameSettings) -> AntiAliasing {
-        let applied = s.aa.applied(s.pipeline, s.debug_view, self.max_samples);
+        let applied = s.aa.applied(s.pipeline, s.debug_view, self.supported);
         if applied != s.aa && !self.warned.contains(&(s.aa, applied)) {
             self.warned.push((s.aa, applied));
             tracing::warn!(
@@ -89,8 +89,8 @@ impl Msaa {
                 applied = applied.name(),
                 pipeline = s.pipeline.name(),
                 debug_view = ?s.debug_view,
-                max_samples = self.max_samples,
-                "anti-aliasing falls back: MSAA runs in forward and Forward+ only, with the samples the device offers; \
+                sample_counts = self.supported,
+                "anti-aliasing falls back: MSAA runs in forward and Forward+ only, with the sample counts the device offers; \
                  temporal anti-aliasing is off under a debug view"
             );
         }
