@@ -769,7 +769,12 @@ impl PassBuilder<'_, '_> {
                 continue;
             }
             extent = e.extent;
-            let info = attachment(e.view, layout, use_);
+            let mut info = attachment(e.view, layout, use_);
+            if e.desc.is_some_and(|d| d.usage.contains(vk::ImageUsageFlags::TRANSIENT_ATTACHMENT)) {
+                // A transient attachment's contents end with the pass (MSAA's radiance, of which
+                // only the resolve is kept): not stored.
+                info = info.store_op(vk::AttachmentStoreOp::DONT_CARE);
+            }
             if e.depth { depth = Some(info) } else { graph.colors.push(info) }
         }
         let extent = self.area.unwrap_or(extent);

@@ -352,11 +352,11 @@ pub static TAA_HISTORY_B: TargetDesc = TargetDesc {
     multisampled: false,
 };
 /// MSAA's radiance (`crate::msaa`): the forward shading pass draws into it and resolves it into
-/// [`HDR`] (the mean of the samples).
+/// [`HDR`] (the mean of the samples). Transient: only the resolve is kept (not stored).
 pub static HDR_MS: TargetDesc = TargetDesc {
     name: "hdr (multisampled)",
     format: HDR_FORMAT,
-    usage: U::COLOR_ATTACHMENT,
+    usage: vk::ImageUsageFlags::from_raw(U::COLOR_ATTACHMENT.as_raw() | U::TRANSIENT_ATTACHMENT.as_raw()),
     bind: None,
     storage: None,
     multisampled: true,
