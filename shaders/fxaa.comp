@@ -2,15 +2,13 @@
 // FXAA (include/fxaa.glsl) in compute: tone maps the HDR target and anti-aliases it into the
 // anti-aliased colour target, which the display pass then copies into the display image
 // (render/src/present/tonemap.rs says why this is not fused into that fragment pass).
-#include "scene.glsl"
-#include "color.glsl"
-#include "exposure.glsl"
+#include "display.glsl"
 
 layout(set = 0, binding = BINDING_ANTIALIASED_STORAGE, rgba16f) uniform writeonly image2D antialiased_out;
 layout(local_size_x = 8, local_size_y = 8) in;
 
 vec3 fxaa_display(vec2 uv) {
-    return tonemap(texture(hdr_target, uv).rgb * display_exposure(), scene.lighting.lighting.tonemapper);
+    return display_at(uv);
 }
 
 #include "fxaa.glsl"

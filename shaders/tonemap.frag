@@ -1,10 +1,9 @@
 // variants: ANTIALIASED
 #version 460
 // Exposure and tone mapping of the HDR colour target into the display target; the ANTIALIASED
-// variant copies out the colour the FXAA pass (fxaa.comp) already tone mapped and anti-aliased.
-#include "scene.glsl"
-#include "color.glsl"
-#include "exposure.glsl"
+// variant copies out the colour the FXAA or SMAA passes (fxaa.comp, smaa_blend.comp) already
+// tone mapped and anti-aliased.
+#include "display.glsl"
 
 layout(location = 0) in vec2 v_uv;
 layout(location = 0) out vec4 out_color;
@@ -13,6 +12,6 @@ void main() {
 #ifdef ANTIALIASED
     out_color = vec4(texelFetch(antialiased, ivec2(gl_FragCoord.xy), 0).rgb, 1.0);
 #else
-    out_color = vec4(tonemap(texture(hdr_target, v_uv).rgb * display_exposure(), scene.lighting.lighting.tonemapper), 1.0);
+    out_color = vec4(display_at(v_uv), 1.0);
 #endif
 }

@@ -680,6 +680,13 @@ layout! {
     pub const BINDING_TAA_HISTORY_A_STORAGE: u32 = 36;
     /// Binding of the second history image as a storage image (`taa_history_b_out`).
     pub const BINDING_TAA_HISTORY_B_STORAGE: u32 = 37;
+    /// Binding of SMAA's edges (`smaa_edges`, storage RGBA8, `crate::smaa`): x an edge on the
+    /// pixel's left side, y on its top side.
+    pub const BINDING_SMAA_EDGES: u32 = 38;
+    /// Binding of SMAA's blending weights (`smaa_weights`, storage RGBA8): how much of its top
+    /// neighbour's colour the pixel takes (x) and of its own the top neighbour takes (y); z and w
+    /// the same with its left neighbour.
+    pub const BINDING_SMAA_WEIGHTS: u32 = 39;
     /// Temporal anti-aliasing's push word (`ScenePush::texture_index`): its history is thrown
     /// away this frame (the first frame, a resize, a pipeline switch, a camera cut).
     pub const TAA_RESET: u32 = 1;

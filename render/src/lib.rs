@@ -54,6 +54,7 @@ pub mod scene;
 pub mod settings;
 pub mod shadows;
 pub mod skinning;
+pub mod smaa;
 pub mod taa;
 pub mod transparency;
 

@@ -137,6 +137,7 @@ struct Resources {
     motion: crate::motion::Motion,
     taa: crate::taa::Taa,
     msaa: crate::msaa::Msaa,
+    smaa: crate::smaa::Smaa,
     decals: Decals,
     lighting: Lighting,
     tonemap: Tonemap,
@@ -210,6 +211,7 @@ impl Renderer {
             motion: crate::motion::Motion::new(ctx, layout)?,
             taa: crate::taa::Taa::new(ctx, layout)?,
             msaa: crate::msaa::Msaa::new(ctx),
+            smaa: crate::smaa::Smaa::new(ctx, layout)?,
             decals: Decals::new(ctx, &mut graph, layout, settings.decal_cluster_capacity)?,
             lighting: Lighting::new(ctx, &mut graph, layout, settings.shadow_maps)?,
             tonemap: Tonemap::new(ctx, layout, DISPLAY_FORMAT)?,
@@ -420,7 +422,7 @@ impl Renderer {
             exposure: &mut res.exposure,
             motion: &res.motion,
             taa: &mut res.taa,
-            present: Present { tonemap, target, overlay, aa },
+            present: Present { tonemap, target, overlay, aa, smaa: &res.smaa },
             decal_choice,
             aa,
         };
@@ -662,6 +664,7 @@ impl Drop for Renderer {
             motion,
             taa,
             msaa,
+            smaa,
             decals,
             lighting,
             tonemap,
@@ -698,6 +701,7 @@ impl Drop for Renderer {
         motion.destroy(ctx);
         taa.destroy(ctx);
         msaa.destroy(ctx);
+        smaa.destroy(ctx);
         tonemap.destroy(ctx);
         graph.destroy(ctx);
         scene.destroy(ctx);

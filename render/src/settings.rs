@@ -427,6 +427,11 @@ pub enum AntiAliasing {
     /// display pass, in every pipeline: edges found by luma contrast are blended along their
     /// stair steps.
     Fxaa,
+    /// Subpixel morphological anti-aliasing, 1x (`crate::smaa`), three compute passes before the
+    /// display pass, in every pipeline: each stair step's silhouette is reconstructed from the
+    /// edge's length and the crossing edges at its ends, and pixels blend across the edge by
+    /// the area it cuts off (straight edges stay sharp).
+    Smaa,
     /// Temporal anti-aliasing (`crate::taa`), in every pipeline: a jittered view each frame,
     /// blended with the history reprojected by motion vectors (`crate::motion`). Applied as
     /// none while a debug view is shown (they are drawn unjittered).
@@ -443,14 +448,22 @@ pub enum AntiAliasing {
 
 impl AntiAliasing {
     /// Every mode.
-    pub const ALL: [AntiAliasing; 6] =
-        [AntiAliasing::None, AntiAliasing::Fxaa, AntiAliasing::Taa, AntiAliasing::Msaa2, AntiAliasing::Msaa4, AntiAliasing::Msaa8];
+    pub const ALL: [AntiAliasing; 7] = [
+        AntiAliasing::None,
+        AntiAliasing::Fxaa,
+        AntiAliasing::Smaa,
+        AntiAliasing::Taa,
+        AntiAliasing::Msaa2,
+        AntiAliasing::Msaa4,
+        AntiAliasing::Msaa8,
+    ];
 
     /// The name used in `--stats` and on the command line.
     pub fn name(self) -> &'static str {
         match self {
             AntiAliasing::None => "none",
             AntiAliasing::Fxaa => "fxaa",
+            AntiAliasing::Smaa => "smaa",
             AntiAliasing::Taa => "taa",
             AntiAliasing::Msaa2 => "msaa2",
             AntiAliasing::Msaa4 => "msaa4",

@@ -173,7 +173,7 @@ struct Cli {
     #[arg(long, default_value = "occlusion", value_parser = parse_culling)]
     culling: render::CullingMode,
     /// Anti-aliasing of the displayed image: none, fxaa (fast approximate, in compute before
-    /// tone mapping), taa (temporal: jittered frames blended along motion vectors; none under a
+    /// tone mapping), smaa (subpixel morphological, 1x, in compute), taa (temporal: jittered frames blended along motion vectors; none under a
     /// debug view), msaa2, msaa4, msaa8 (multisampling in forward and Forward+; taa in the
     /// deferred pipelines, and no more samples than the device offers). --stats reports the
     /// mode applied.
@@ -261,7 +261,7 @@ struct Cli {
 }
 
 fn parse_aa(s: &str) -> Result<render::AntiAliasing, String> {
-    render::AntiAliasing::from_name(s).ok_or_else(|| format!("unknown anti-aliasing {s:?} (none, fxaa, taa, msaa2, msaa4, msaa8)"))
+    render::AntiAliasing::from_name(s).ok_or_else(|| format!("unknown anti-aliasing {s:?} (none, fxaa, smaa, taa, msaa2, msaa4, msaa8)"))
 }
 
 fn parse_tonemap(s: &str) -> Result<render::Tonemapper, String> {

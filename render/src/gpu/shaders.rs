@@ -27,6 +27,9 @@ spirv! {
     TONEMAP_FRAG = "tonemap.frag";
     TONEMAP_FRAG_ANTIALIASED = "tonemap.frag.ANTIALIASED";
     FXAA_COMP = "fxaa.comp";
+    SMAA_EDGES_COMP = "smaa_edges.comp";
+    SMAA_WEIGHTS_COMP = "smaa_weights.comp";
+    SMAA_BLEND_COMP = "smaa_blend.comp";
     EXPOSURE_HISTOGRAM_COMP = "exposure_histogram.comp";
     EXPOSURE_AVERAGE_COMP = "exposure_average.comp";
     REFLECTIONS_COMP = "reflections.comp";

@@ -33,8 +33,9 @@ pub use crate::layout::{
     BINDING_DECAL_EMISSIVE, BINDING_DECAL_NORMAL, BINDING_DECAL_SPEC, BINDING_DECAL_TESTED, BINDING_DEPTH, BINDING_GBUFFER_ALBEDO,
     BINDING_GBUFFER_LAYERS, BINDING_GBUFFER_MATERIAL, BINDING_GBUFFER_NORMAL, BINDING_HDR, BINDING_HDR_STORAGE, BINDING_MOTION,
     BINDING_OCCLUSION, BINDING_OCCLUSION_RAW, BINDING_REFLECTION, BINDING_REFLECTION_RAYS, BINDING_REFLECTION_WEIGHT, BINDING_SHADOW_DEBUG,
-    BINDING_SHADOW_MAP_DEPTH, BINDING_SHADOW_MAP_FILTER, BINDING_TAA_HISTORY_A, BINDING_TAA_HISTORY_A_STORAGE, BINDING_TAA_HISTORY_B,
-    BINDING_TAA_HISTORY_B_STORAGE, BINDING_TRANSPARENCY_SOURCE, BINDING_TRANSPARENT_DEPTH, BINDING_VISIBILITY,
+    BINDING_SHADOW_MAP_DEPTH, BINDING_SHADOW_MAP_FILTER, BINDING_SMAA_EDGES, BINDING_SMAA_WEIGHTS, BINDING_TAA_HISTORY_A,
+    BINDING_TAA_HISTORY_A_STORAGE, BINDING_TAA_HISTORY_B, BINDING_TAA_HISTORY_B_STORAGE, BINDING_TRANSPARENCY_SOURCE,
+    BINDING_TRANSPARENT_DEPTH, BINDING_VISIBILITY,
 };
 
 /// Where a target is bound for sampling: its descriptor binding in set 0 (`BINDING_*`).
@@ -349,6 +350,24 @@ pub static TAA_HISTORY_B: TargetDesc = TargetDesc {
     usage: vk::ImageUsageFlags::from_raw(U::SAMPLED.as_raw() | U::STORAGE.as_raw()),
     bind: Some(Bind::Color(BINDING_TAA_HISTORY_B)),
     storage: Some(BINDING_TAA_HISTORY_B_STORAGE),
+    multisampled: false,
+};
+/// SMAA's edges (`crate::smaa`).
+pub static SMAA_EDGES: TargetDesc = TargetDesc {
+    name: "smaa edges",
+    format: vk::Format::R8G8B8A8_UNORM,
+    usage: STORAGE,
+    bind: Some(Bind::Storage(BINDING_SMAA_EDGES)),
+    storage: None,
+    multisampled: false,
+};
+/// SMAA's blending weights (`crate::smaa`).
+pub static SMAA_WEIGHTS: TargetDesc = TargetDesc {
+    name: "smaa weights",
+    format: vk::Format::R8G8B8A8_UNORM,
+    usage: STORAGE,
+    bind: Some(Bind::Storage(BINDING_SMAA_WEIGHTS)),
+    storage: None,
     multisampled: false,
 };
 /// MSAA's radiance (`crate::msaa`): the forward shading pass draws into it and resolves it into

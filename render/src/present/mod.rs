@@ -22,12 +22,17 @@ pub struct Present<'a> {
     pub overlay: Option<(&'a mut Overlay, &'a OverlayFrame)>,
     /// Anti-aliasing of the displayed image.
     pub aa: AntiAliasing,
+    /// SMAA's passes.
+    pub smaa: &'a crate::smaa::Smaa,
 }
 
 impl Present<'_> {
     /// Tone maps the HDR target into the display image (reading auto-exposure's record,
     /// `exposure`, when it runs), then draws the overlay over it.
     pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, exposure: Option<(ResourceId, BufferUse)>) -> Result<(), RenderError> {
+        if self.aa == AntiAliasing::Smaa {
+            self.smaa.record(f, scene, exposure)?;
+        }
         self.tonemap.record(f, scene, self.target, self.aa, exposure)?;
         if let Some((egui, frame)) = &mut self.overlay {
             f.pass("overlay", PassKind::Graphics).color(self.target, Load::Keep).record(|p| egui.record(p.cmd, p.extent, frame))??;

@@ -48,7 +48,9 @@ impl Tonemap {
     }
 
     /// Reads the HDR target (and auto-exposure's record, `exposure`, when it runs), writes
-    /// `display` (the offscreen display target or a swapchain image) with anti-aliasing `aa`.
+    /// `display` (the offscreen display target or a swapchain image) with anti-aliasing `aa`:
+    /// FXAA runs here; SMAA's passes (`crate::smaa`) ran before, and the display pass copies out
+    /// what either wrote.
     pub fn record(
         &self,
         f: &mut Frame,
@@ -58,6 +60,7 @@ impl Tonemap {
         exposure: Option<(ResourceId, BufferUse)>,
     ) -> Result<(), RenderError> {
         let fxaa = aa == AntiAliasing::Fxaa;
+        let antialiased = fxaa || aa == AntiAliasing::Smaa;
         if fxaa {
             let (pipeline, extent) = (self.fxaa, f.graph.extent());
             f.pass("fxaa", PassKind::Compute)
@@ -71,9 +74,9 @@ impl Tonemap {
                     unsafe { p.ctx.device.cmd_dispatch(p.cmd, extent.width.div_ceil(8), extent.height.div_ceil(8), 1) };
                 })?;
         }
-        let pipeline = self.pipelines[usize::from(fxaa)];
+        let pipeline = self.pipelines[usize::from(antialiased)];
         let pass = f.pass("tonemap", PassKind::Graphics).read(scene.res.tables, BufferUse::Storage).reads(exposure);
-        let pass = if fxaa { pass.sample(&ANTIALIASED) } else { pass.sample(&HDR) };
+        let pass = if antialiased { pass.sample(&ANTIALIASED) } else { pass.sample(&HDR) };
         pass.color(display, Load::Discard).record(|p| {
             let push = p.push;
             p.fullscreen(pipeline, &push);
