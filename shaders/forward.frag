@@ -1,4 +1,4 @@
-// variants: RAY_QUERY_DECALS DECAL_BUFFER CLUSTERED_DECALS MSAA MSAA+RAY_QUERY_DECALS MSAA+DECAL_BUFFER MSAA+CLUSTERED_DECALS TRANSPARENT TRANSPARENT+RAY_QUERY_DECALS TRANSPARENT+SHADOWED_GLASS TRANSPARENT+SHADOWED_GLASS+RAY_QUERY_DECALS
+// variants: RAY_QUERY_DECALS DECAL_BUFFER CLUSTERED_DECALS MSAA MSAA+RAY_QUERY_DECALS MSAA+DECAL_BUFFER MSAA+CLUSTERED_DECALS MSAA+REFLECTED MSAA+REFLECTED+RAY_QUERY_DECALS MSAA+REFLECTED+DECAL_BUFFER MSAA+REFLECTED+CLUSTERED_DECALS TRANSPARENT TRANSPARENT+RAY_QUERY_DECALS TRANSPARENT+SHADOWED_GLASS TRANSPARENT+SHADOWED_GLASS+RAY_QUERY_DECALS
 #version 460
 // Forward shading pass (depth test EQUAL against the prepass): the material through the
 // bindless array, normal mapping, then shade_surface (decals: ray queries, the decal buffer, or
@@ -11,13 +11,18 @@
 // with GLASS_SHADOWS), glass behind it is lit unshadowed.
 // MSAA variants run once per pixel and primitive over multisampled attachments; the per-pixel
 // inputs (shadows, occlusion, decal buffer, light tile) are read at the pixel of the fragment's
-// own surface (msaa.glsl).
+// own surface (msaa.glsl); the REFLECTED ones add the reflections' term resolved before them the
+// same way (the reflection resolve's SEPARATE variant), so each sample reflects what its surface
+// does.
 #include "scene.glsl"
 #include "mesh_io.glsl"
 #include "material.glsl"
 #include "shading.glsl"
 #ifdef MSAA
 #include "msaa.glsl"
+#endif
+#ifdef REFLECTED
+layout(set = 0, binding = BINDING_REFLECTION_ADDED, rgba16f) uniform readonly image2D reflection_added;
 #endif
 
 layout(location = 0) out vec4 out_color;
@@ -49,7 +54,11 @@ void main() {
     s.rest_normal = safe_normalize(v_rest_normal, geometric_n);
     if (dot(v_normal, geometric_n) < 0.0) s.rest_normal = -s.rest_normal;
 #ifdef MSAA
-    out_color = shade_surface(s, msaa_surface_pixel(ivec2(gl_FragCoord.xy), gl_FragCoord.z));
+    ivec2 surface_px = msaa_surface_pixel(ivec2(gl_FragCoord.xy), gl_FragCoord.z);
+    out_color = shade_surface(s, surface_px);
+#ifdef REFLECTED
+    out_color.rgb = max(out_color.rgb + imageLoad(reflection_added, surface_px).rgb, vec3(0.0));
+#endif
 #else
     out_color = shade_surface(s, ivec2(gl_FragCoord.xy));
 #endif

@@ -1,4 +1,4 @@
-// variants: GLASS_LAYER
+// variants: GLASS_LAYER SEPARATE
 #version 460
 // The reflection pass's resolve (render/src/reflections): each pixel that reflects gathers the
 // radiance its neighbourhood's rays brought back, weighted by a Gaussian whose width grows with
@@ -10,14 +10,20 @@
 // environment's prefiltered radiance (or the ambient colour) its surface was shaded with, so
 // `hdr += weight × (reflected − ambient)` is `weight × resolved`. It also
 // sums the cells' statistics (pack_cell in reflections.glsl) into the statistics buffer, one
-// atomic add per workgroup and counter.
+// atomic add per workgroup and counter. SEPARATE (MSAA, render/src/msaa) runs before the shading
+// pass and stores the term instead (zero where nothing reflects), which the shading pass adds to
+// each sample from the pixel of its own surface.
 #include "scene.glsl"
 #include "depth.glsl"
 
 layout(set = 0, binding = BINDING_REFLECTION, rgba16f) uniform readonly image2D reflection_in;
 layout(set = 0, binding = BINDING_REFLECTION_WEIGHT, rgba16f) uniform readonly image2D weight_in;
 layout(set = 0, binding = BINDING_REFLECTION_RAYS, r32ui) uniform readonly uimage2D rays_in;
+#ifdef SEPARATE
+layout(set = 0, binding = BINDING_REFLECTION_ADDED, rgba16f) uniform writeonly image2D added_out;
+#else
 layout(set = 0, binding = BINDING_HDR_STORAGE, rgba16f) uniform image2D hdr_image;
+#endif
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer ReflectionStatsRef { uint words[]; };
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -131,6 +137,10 @@ void main() {
     if (!inside) return;
 
     vec4 weight = imageLoad(weight_in, px);
+#ifdef SEPARATE
+    bool reflects = weight.a >= 0.0 && any(notEqual(weight.rgb, vec3(0.0)));
+    imageStore(added_out, px, vec4(reflects ? weight.rgb * resolve(px, weight, half_res) : vec3(0.0), 0.0));
+#else
     vec4 hdr = imageLoad(hdr_image, px);
     if (scene.debug_view == DEBUG_REFLECTIONS) {
         vec4 ray = imageLoad(reflection_in, half_res ? px / 2 : px);
@@ -141,4 +151,5 @@ void main() {
     if (weight.a < 0.0 || all(equal(weight.rgb, vec3(0.0)))) return;
     hdr.rgb = max(hdr.rgb + weight.rgb * resolve(px, weight, half_res), vec3(0.0));
     imageStore(hdr_image, px, hdr);
+#endif
 }

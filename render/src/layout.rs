@@ -687,6 +687,11 @@ layout! {
     /// neighbour's colour the pixel takes (x) and of its own the top neighbour takes (y); z and w
     /// the same with its left neighbour.
     pub const BINDING_SMAA_WEIGHTS: u32 = 39;
+    /// Binding of the reflections' resolved term (`reflection_added`, storage RGBA16F): what the
+    /// reflection resolve would add to each pixel's radiance, kept apart under MSAA so that the
+    /// shading pass adds it to each sample from the pixel of the sample's own surface
+    /// (`crate::msaa`).
+    pub const BINDING_REFLECTION_ADDED: u32 = 40;
     /// Temporal anti-aliasing's push word (`ScenePush::texture_index`): its history is thrown
     /// away this frame (the first frame, a resize, a pipeline switch, a camera cut).
     pub const TAA_RESET: u32 = 1;

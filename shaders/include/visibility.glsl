@@ -1,5 +1,6 @@
 // The surface a visibility-buffer pixel sees (seed 000 §3.4.1, §5.1.3): its triangle is fetched
-// by the ids the visibility pass wrote, the camera ray through the pixel's centre is intersected
+// by the ids the visibility pass wrote, the camera ray through the pixel (its centre; MSAA's sample
+// 0, where the resolved depth and ids were taken, through the camera record's inverse) is intersected
 // with it for barycentrics, and the rays through the next pixel right and down with the same
 // triangle's plane give *analytic* derivatives of every attribute. The seed took texture
 // gradients from the 2×2 quad, which is wrong wherever a quad spans two triangles (its

@@ -499,6 +499,13 @@ impl FrameGraph {
                 Decl::Image(ImageRef::Id(id), use_) => {
                     let e = &mut self.images[id.0 as usize];
                     let a: ImageAccess = use_.access(kind, e.depth);
+                    if use_ == ImageUse::ResolveSource {
+                        // Read by the resolve at the end of the pass that writes it: ordered
+                        // within the pass, so no barrier; the next write waits for this read.
+                        e.state.track.readers |= a.stages;
+                        e.state.track.visible |= a.stages;
+                        continue;
+                    }
                     let transition = e.state.layout != a.layout || a.discard;
                     if let Some(dep) = e.state.track.depend(a.stages, a.access, a.writes, transition) {
                         let old = if a.discard { vk::ImageLayout::UNDEFINED } else { e.state.layout };
@@ -693,17 +700,25 @@ impl PassBuilder<'_, '_> {
         self
     }
 
-    /// Declares that the attachment declared last resolves into `target` (single-sampled) at
-    /// the end of the pass: depth and integer colours take sample 0 (so ids and depth stay one
-    /// surface), other colours the mean of the samples.
+    /// Declares that the attachment declared last resolves into `target` (single-sampled, depth
+    /// if it is depth) at the end of the pass: depth and integer colours take sample 0 (so ids
+    /// and depth stay one surface), other colours the mean of the samples.
     pub fn resolve(mut self, target: impl Into<ImageRef>) -> Self {
         let source = self.frame.graph.decls.iter().rev().find_map(|d| match *d {
             Decl::Image(ImageRef::Id(id), use_) if use_.is_attachment() => Some(id),
             _ => None,
         });
-        match source {
-            Some(id) => self.frame.graph.decls.push(Decl::Image(ImageRef::Id(id), ImageUse::ResolveSource)),
-            None => self.error = self.error.or(Some(RenderError::Other(format!("pass `{}` resolves no attachment", self.name)))),
+        let target = target.into();
+        let kinds = source.zip(self.frame.graph.resolve(self.frame.ctx, target).ok()).map(|(s, t)| {
+            let images = &self.frame.graph.images;
+            (images[s.0 as usize].depth, images[t.0 as usize].depth)
+        });
+        match (source, kinds) {
+            (Some(id), Some((a, b))) if a == b => self.frame.graph.decls.push(Decl::Image(ImageRef::Id(id), ImageUse::ResolveSource)),
+            _ => {
+                let e = RenderError::Other(format!("pass `{}` resolves into a target unlike the attachment declared last", self.name));
+                self.error = self.error.or(Some(e));
+            }
         }
         self.image(target, ImageUse::Resolve)
     }

@@ -23,9 +23,19 @@
 //! per pixel, depth-tested against sample 0 (as the reflections on it): its blend over the
 //! resolved image needs no multisampled variant of every glass pipeline, and where an opaque edge
 //! crosses glass the glass covers the whole pixel or none of it (its own edges are not
-//! anti-aliased). Reflections too are added after the resolve, per pixel, for sample 0's surface:
-//! at the silhouette of a mirror the samples of the other surface get its reflection, or the
-//! mirror's own samples go without (a fringe a pixel wide; docs/BENCHMARKS.md, "MSAA").
+//! anti-aliased).
+//!
+//! **Reflections per sample.** Traced reflections are traced and resolved *before* the shading
+//! pass, into a target of their own ([`crate::reflections::Reflections::record_before_shading`]),
+//! and the shading pass adds that term to each sample from the pixel of the sample's surface, as
+//! it reads the other per-pixel inputs. Added after the resolve, per pixel, the term of sample
+//! 0's surface would go to every sample: at a mirror's silhouette the samples of the surface
+//! behind got the mirror's reflection, or the mirror's own went without, a fringe a pixel wide
+//! (docs/msaa_h100.png shows both). Screen-space reflections march the lit image, so they (and
+//! the reflections' debug view) stay after the resolve, per pixel.
+//!
+//! Occlusion culling's depth pyramid is built from the resolved depth (sample 0): an object seen
+//! only in other samples at a silhouette could be culled for that frame (not observed).
 //!
 //! Cost: on the lent H100 MSAA 4× adds 5.5 ms to the courtyard's frame (the depth prepass and
 //! the shading pass grow with the samples; docs/BENCHMARKS.md, "MSAA"), where TAA costs 0.17.
@@ -155,5 +165,23 @@ impl Msaa {
         if let Some(p) = self.passes {
             p.destroy(ctx);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Msaa;
+    use ash::vk;
+    use glam::Vec2;
+
+    #[test]
+    fn the_resolved_depth_lies_at_sample_zero_of_the_standard_locations() {
+        let extent = vk::Extent2D { width: 200, height: 100 };
+        // NDC spans 2 over the width (0.01 a pixel) and the height (0.02), y up while rows go down.
+        let pixels = |samples| Msaa::depth_sample(samples, extent) * Vec2::new(100.0, -50.0);
+        assert_eq!(pixels(1), Vec2::ZERO);
+        assert!((pixels(2) - Vec2::new(0.25, 0.25)).length() < 1e-5, "{}", pixels(2));
+        assert!((pixels(4) - Vec2::new(-0.125, -0.375)).length() < 1e-5, "{}", pixels(4));
+        assert!((pixels(8) - Vec2::new(0.0625, -0.1875)).length() < 1e-5, "{}", pixels(8));
     }
 }

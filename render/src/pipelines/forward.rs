@@ -17,7 +17,7 @@ use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::{GraphicsDesc, create_graphics};
 use crate::gpu::shaders;
 use crate::graph::targets::{
-    DEPTH, DEPTH_FORMAT, DEPTH_MS, HDR, HDR_FORMAT, HDR_MS, TargetDesc, VISIBILITY, VISIBILITY_FORMAT, VISIBILITY_MS,
+    DEPTH, DEPTH_FORMAT, DEPTH_MS, HDR, HDR_FORMAT, HDR_MS, REFLECTION_ADDED, TargetDesc, VISIBILITY, VISIBILITY_FORMAT, VISIBILITY_MS,
 };
 use crate::graph::{Frame, ImageUse, Load, PassKind};
 use crate::lights::{LightFrame, declare_light_reads};
@@ -34,6 +34,8 @@ pub struct ForwardPasses {
     ids_opaque: vk::Pipeline,
     ids_mask: vk::Pipeline,
     shade: ShadeVariants,
+    /// Under MSAA, the shading that also adds the reflections resolved before it, per sample.
+    shade_reflected: Option<ShadeVariants>,
 }
 
 impl ForwardPasses {
@@ -64,6 +66,16 @@ impl ForwardPasses {
                 shaders::FORWARD_FRAG_CLUSTERED_DECALS,
             )
         };
+        let shade_reflected = if samples > 1 {
+            let variants = [
+                shaders::FORWARD_FRAG_MSAA_REFLECTED,
+                shaders::FORWARD_FRAG_MSAA_REFLECTED_RAY_QUERY_DECALS,
+                shaders::FORWARD_FRAG_MSAA_REFLECTED_DECAL_BUFFER,
+            ];
+            Some(ShadeVariants::new(ctx, variants, shade)?.with_clustered(shaders::FORWARD_FRAG_MSAA_REFLECTED_CLUSTERED_DECALS, shade)?)
+        } else {
+            None
+        };
         Ok(Self {
             samples,
             prepass_opaque: create_graphics(ctx, layout, &prepass)?,
@@ -71,6 +83,7 @@ impl ForwardPasses {
             ids_opaque: create_graphics(ctx, layout, &ids)?,
             ids_mask: create_graphics(ctx, layout, &GraphicsDesc { fragment: Some(shaders::VISBUFFER_FRAG_ALPHA_MASK), ..ids })?,
             shade: ShadeVariants::new(ctx, variants, shade)?.with_clustered(clustered, shade)?,
+            shade_reflected,
         })
     }
 
@@ -111,7 +124,9 @@ impl ForwardPasses {
     /// `clear`), with this frame's `decals`. Under MSAA it draws into the multisampled target
     /// (each sample its primitive's colour) and resolves it into the HDR target (the mean); a
     /// fragment reads the per-pixel inputs at the pixel of its own surface
-    /// (`shaders/include/msaa.glsl`).
+    /// (`shaders/include/msaa.glsl`), and, when `reflected`, adds the reflections resolved before
+    /// it ([`crate::reflections::Reflections::record_before_shading`]) the same way.
+    #[allow(clippy::too_many_arguments)]
     pub fn shade(
         &self,
         f: &mut Frame,
@@ -120,18 +135,21 @@ impl ForwardPasses {
         clear: [f32; 4],
         decals: &DecalFrame,
         lights: &LightFrame,
+        reflected: bool,
     ) -> Result<(), RenderError> {
         let ([depth, hdr, _], ms) = (self.attachments(), self.samples > 1);
+        let variants = self.shade_reflected.as_ref().filter(|_| reflected).unwrap_or(&self.shade);
         let pass = f
             .pass("forward", PassKind::Graphics)
             .image(depth, ImageUse::DepthTest)
             .color(hdr, Load::Clear(clear))
             .when(ms, |p| p.resolve(&HDR).sample(&DEPTH))
+            .when(reflected, |p| p.image(&REFLECTION_ADDED, ImageUse::StorageRead))
             .reads(scene.res.drawn())
             .reads(draws.reads());
         declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| {
             let push = p.push;
-            p.bind_graphics(self.shade.pick(decals), &push);
+            p.bind_graphics(variants.pick(decals), &push);
             draws.all_opaque(p);
         })
     }
@@ -143,5 +161,8 @@ impl ForwardPasses {
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }
         self.shade.destroy(ctx);
+        if let Some(v) = self.shade_reflected {
+            v.destroy(ctx);
+        }
     }
 }

@@ -100,10 +100,13 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     Ok((decals, lights))
 }
 
-/// Forward: depth prepass (the visibility pass, which also writes ids, when a decal pass or the
-/// reflection rays follow), light culling and shadows when asked for, the decal pass (or, for
-/// clustered decals with `decals_in_forward_shading`, only their binning: the shading walks the
-/// lists), shading with depth EQUAL, reflections, then the blended surfaces back to front.
+/// Forward: depth prepass (also writing ids when a decal pass or the reflection rays follow),
+/// light culling and shadows when asked for, the decal pass (or, for clustered decals with
+/// `decals_in_forward_shading`, only their binning: the shading walks the lists), shading with
+/// depth EQUAL, the sky, reflections, then the blended surfaces back to front. Under MSAA
+/// (`crate::msaa`) the prepass and the shading draw into multisampled targets and resolve them
+/// (depth and ids to sample 0, radiance to the mean), traced reflections are resolved before the
+/// shading, which adds them per sample, and the sky fills the uncovered samples' share.
 pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let (decals, lights) = begin(f, r, mirror, s)?;
     let (scene, forward) = (&*r.scene, r.forward);
@@ -114,9 +117,15 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
     transparent_depth(f, r, &draws, mirror, &lights)?;
     r.lighting.record(f, r.scene, &draws, &lights)?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
-    // Under MSAA the multisampled target is cleared transparent: the resolved alpha is the
-    // covered fraction of each pixel, which the sky fills (crate::msaa).
+    // Under MSAA traced reflections are resolved before the shading, which adds them to each
+    // sample from its own surface's pixel; the multisampled target is cleared transparent, so
+    // the resolved alpha is the covered fraction of each pixel, which the sky fills
+    // (crate::msaa).
     let msaa = r.forward.samples() > 1;
+    let reflected = msaa && Reflections::before_shading(&lights, s.debug_view);
+    if reflected {
+        r.reflections.record_before_shading(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
+    }
     let sky = r.environment.draws_sky(&lights, s.debug_view);
     let [red, green, blue, _] = s.clear_color;
     let clear = match (msaa, sky) {
@@ -124,9 +133,11 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
         (true, false) => [red, green, blue, 0.0],
         (true, true) => [0.0; 4],
     };
-    r.forward.shade(f, r.scene, &draws, clear, &decals, &lights)?;
+    r.forward.shade(f, r.scene, &draws, clear, &decals, &lights, reflected)?;
     r.environment.sky(f, r.scene, &lights, s.debug_view, msaa)?;
-    r.reflections.record(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
+    if !reflected {
+        r.reflections.record(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
+    }
     r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
     glass_reflections(f, r, mirror, &decals, &lights)?;
     present(f, r, mirror, s, &lights)?;

@@ -61,8 +61,8 @@ use crate::gpu::pipeline::{HitGroup, RayTracingDesc, RayTracingPipeline, create_
 use crate::gpu::shaders;
 use crate::graph::readback::StatsReadback;
 use crate::graph::targets::{
-    DEPTH, GBUFFER_ALBEDO, GBUFFER_LAYERS, GBUFFER_MATERIAL, GBUFFER_NORMAL, HDR, REFLECTION, REFLECTION_RAYS, REFLECTION_WEIGHT,
-    VISIBILITY,
+    DEPTH, GBUFFER_ALBEDO, GBUFFER_LAYERS, GBUFFER_MATERIAL, GBUFFER_NORMAL, HDR, REFLECTION, REFLECTION_ADDED, REFLECTION_RAYS,
+    REFLECTION_WEIGHT, VISIBILITY,
 };
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassKind, ResourceId};
 use crate::layout::{DECAL_ROUGHNESS, REFLECT_DECALS, REFLECT_HALF_RES, REFLECT_ON, REFLECT_SCREEN_SPACE, REFLECTION_STATS};
@@ -141,6 +141,8 @@ pub struct Reflections {
     /// visibility ids: plain, decal buffer, cluster lists), then the nearest glass's.
     rays: Option<RayTracingPipeline>,
     resolve: vk::Pipeline,
+    /// The resolve into its own target, before the shading pass (MSAA: [`Reflections::record_before_shading`]).
+    resolve_separate: vk::Pipeline,
     /// The ray pass over the nearest glass on the ray-query tier, and the resolve for it.
     glass: Option<vk::Pipeline>,
     resolve_glass: vk::Pipeline,
@@ -258,6 +260,7 @@ impl Reflections {
             screen,
             rays,
             resolve: create_compute(ctx, layout, "reflection resolve", shaders::REFLECTIONS_RESOLVE_COMP)?,
+            resolve_separate: create_compute(ctx, layout, "reflection resolve (separate)", shaders::REFLECTIONS_RESOLVE_COMP_SEPARATE)?,
             glass: if ctx.tier == Tier::RayQuery { Some(compute(shaders::REFLECTIONS_COMP_GLASS_LAYER)?) } else { None },
             resolve_glass: create_compute(ctx, layout, "glass reflection resolve", shaders::REFLECTIONS_RESOLVE_COMP_GLASS_LAYER)?,
             stats,
@@ -353,7 +356,29 @@ impl Reflections {
         decals: &DecalFrame,
         lights: &LightFrame,
     ) -> Result<(), RenderError> {
-        self.layer(f, scene, Some(source), decals, lights)
+        self.layer(f, scene, Some(source), decals, lights, false)
+    }
+
+    /// Whether, under MSAA, this frame's reflections are traced and resolved before the shading
+    /// pass, into a target of their own that the shading pass adds to each sample from the pixel
+    /// of the sample's surface (`crate::msaa`): traced reflections in the lit view.
+    /// Screen-space reflections read the lit image and the reflections' debug view replaces
+    /// it, so both stay after the resolve, per pixel.
+    pub fn before_shading(lights: &LightFrame, view: DebugView) -> bool {
+        lights.traced_reflections() && view == DebugView::Lit
+    }
+
+    /// [`Reflections::record`] before the shading pass, into the reflections' resolved term
+    /// (`REFLECTION_ADDED`) instead of the HDR target, when [`Reflections::before_shading`].
+    pub fn record_before_shading(
+        &mut self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        source: DecalSurfaceSource,
+        decals: &DecalFrame,
+        lights: &LightFrame,
+    ) -> Result<(), RenderError> {
+        self.layer(f, scene, Some(source), decals, lights, true)
     }
 
     /// The same for the nearest glass the forward transparency pass drew (`glass`: blended
@@ -371,7 +396,7 @@ impl Reflections {
         if !glass || lights.interlaced() || !lights.traced_reflections() {
             return Ok(());
         }
-        self.layer(f, scene, None, decals, lights)
+        self.layer(f, scene, None, decals, lights, false)
     }
 
     /// Copies the statistics for the CPU, after every reflection pass of the frame.
@@ -382,7 +407,8 @@ impl Reflections {
         self.readback.record(f, "reflection_statistics", self.stats_res, self.stats.raw)
     }
 
-    /// The ray and resolve passes over `source`'s surfaces, or the nearest glass (`None`).
+    /// The ray and resolve passes over `source`'s surfaces, or the nearest glass (`None`); the
+    /// resolve adds to the HDR target, or (`separate`) stores the term apart.
     fn layer(
         &mut self,
         f: &mut Frame,
@@ -390,6 +416,7 @@ impl Reflections {
         source: Option<DecalSurfaceSource>,
         decals: &DecalFrame,
         lights: &LightFrame,
+        separate: bool,
     ) -> Result<(), RenderError> {
         if !lights.reflections() {
             return Ok(());
@@ -463,7 +490,11 @@ impl Reflections {
                     rays.trace(p.ctx, p.cmd, raygen, cells);
                 }
             })?;
-        let resolve = if source.is_some() { self.resolve } else { self.resolve_glass };
+        let resolve = match (source, separate) {
+            (None, _) => self.resolve_glass,
+            (Some(_), true) => self.resolve_separate,
+            (Some(_), false) => self.resolve,
+        };
         f.pass(if source.is_some() { "reflection_resolve" } else { "glass_reflection_resolve" }, PassKind::Compute)
             .sample(&DEPTH)
             .reads(scene.res.shaded())
@@ -471,7 +502,7 @@ impl Reflections {
             .image(&REFLECTION_WEIGHT, ImageUse::StorageRead)
             .image(&REFLECTION_RAYS, ImageUse::StorageRead)
             .write(self.stats_res, BufferUse::Storage)
-            .image(&HDR, ImageUse::StorageWrite)
+            .image(if separate { &REFLECTION_ADDED } else { &HDR }, ImageUse::StorageWrite)
             .record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, resolve, &p.push);
                 // SAFETY: as above.
@@ -487,7 +518,7 @@ impl Reflections {
         if let Some(r) = self.rays {
             r.destroy(ctx);
         }
-        for p in [self.resolve, self.resolve_glass].into_iter().chain(self.glass) {
+        for p in [self.resolve, self.resolve_separate, self.resolve_glass].into_iter().chain(self.glass) {
             // SAFETY: the GPU is idle.
             unsafe { ctx.device.destroy_pipeline(p, None) };
         }

@@ -46,7 +46,7 @@ pub const TARGET_BINDINGS: u32 = crate::layout::BINDING_ANTIALIASED;
 /// and the BRDF table sampled, the cubes' levels and the table as storage images); then the
 /// decal buffer's emission and the ambient occlusion's two images, storage images again; then
 /// the motion vectors (storage) and temporal anti-aliasing's two history images, sampled and as
-/// storage images; then SMAA's edges and weights (storage).
+/// storage images; then SMAA's edges and weights and the reflections' resolved term (storage).
 const _: () = assert!(crate::layout::BINDING_DECAL_ALBEDO == TARGET_BINDINGS + 1, "storage bindings follow the sampled targets");
 const _: () = assert!(crate::layout::BINDING_ENVIRONMENT == crate::layout::BINDING_REFLECTION_RAYS + 1, "the environment follows them");
 /// The sampled bindings among the storage images': the environment's cubes and BRDF table, and
@@ -58,7 +58,7 @@ const SAMPLED_LATE: [u32; 5] = [
     crate::layout::BINDING_TAA_HISTORY_A,
     crate::layout::BINDING_TAA_HISTORY_B,
 ];
-const BINDINGS: usize = 1 + crate::layout::BINDING_SMAA_WEIGHTS as usize;
+const BINDINGS: usize = 1 + crate::layout::BINDING_REFLECTION_ADDED as usize;
 
 /// A device-local array of records that grows geometrically and shrinks by the
 /// [`Shrink`] rule, never below its initial capacity.
