@@ -348,18 +348,27 @@ fn a_morph_target_without_a_skin_follows_its_weight() {
 /// Motion vectors of a skinned mesh (`render/src/motion`): the tube bends further in one frame;
 /// where its upper half (joint 1 alone) shows, the motion is the CPU's projection of the point
 /// now and turned back about the elbow; its lower half (joint 0, still) has none. The skinning
-/// pass's previous positions give the motion, so this holds within a thirtieth of a pixel, in
-/// the forward pipeline (the tube drawn again as a mover) and in the deferred and
-/// visibility-buffer pipelines (found per pixel from the ids they keep).
+/// pass's previous positions give the motion, so this holds within a thirtieth of a pixel: found
+/// per pixel from the ids the deferred and visibility-buffer pipelines keep, and the forward
+/// prepass's when it writes them for the reflection rays; drawn again as a mover in a forward
+/// frame whose prepass keeps no ids (no reflections, no decal pass).
 #[test]
 fn a_bending_skin_has_the_motion_of_its_joints_in_every_pipeline() {
     for pipeline in [PipelineKind::Forward, PipelineKind::Deferred, PipelineKind::VisBuffer] {
-        skin_motion(pipeline);
+        skin_motion(pipeline, true);
     }
+    skin_motion(PipelineKind::Forward, false);
 }
 
-fn skin_motion(pipeline: PipelineKind) {
-    let settings = RenderSettings { pipeline, aa: render::AntiAliasing::Taa, ..Default::default() };
+fn skin_motion(pipeline: PipelineKind, reflections: bool) {
+    let reflections = if reflections { render::ReflectionSettings::default() } else { render::ReflectionSettings::OFF };
+    let settings = RenderSettings {
+        pipeline,
+        aa: render::AntiAliasing::Taa,
+        reflections,
+        decal_method: render::DecalMethod::Off,
+        ..Default::default()
+    };
     let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, Tier::RayQuery);
     let (a0, a1) = (0.3f32, 0.6f32);
     let bend = scene(&mut app, a0);
@@ -369,8 +378,12 @@ fn skin_motion(pipeline: PipelineKind) {
     app.world.entity_mut(bend.elbow).insert(Transform::from_xyz(0.0, 1.0, 0.0).with_rotation(Quat::from_rotation_z(-a1)));
     app.update();
     assert_no_validation_errors(&mut app);
-    let movers = u64::from(pipeline == PipelineKind::Forward);
-    assert_eq!(app.world.resource::<RenderStats>().last.motion_movers, movers, "{pipeline:?}: the posed tube is a mover in forward only");
+    let movers = u64::from(pipeline == PipelineKind::Forward && reflections.mode == render::ReflectionMode::Off);
+    assert_eq!(
+        app.world.resource::<RenderStats>().last.motion_movers,
+        movers,
+        "{pipeline:?}: the posed tube is a mover only where no ids are kept"
+    );
     let motion = renderer(&mut app).read_motion().expect("read back the motion vectors");
     let depth = renderer(&mut app).read_depth().expect("read back depth");
     let camera = app.world.resource::<RenderMirror>().0.gpu_camera();

@@ -48,20 +48,22 @@ const COMMAND_BYTES: u32 = std::mem::size_of::<crate::scene::GpuDrawCommand>() a
 /// Where the first pass finds each pixel's instance and triangle, for posed meshes' motion.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PixelIds {
-    /// Nowhere (the forward pipelines' depth prepass): posed meshes are movers.
+    /// Nowhere (the forward pipelines' depth-only prepass): posed meshes are movers.
     None,
-    /// The visibility buffer.
+    /// The visibility buffer, or the forward pipelines' prepass when it writes ids.
     Visibility,
     /// The deferred G-buffer's layers (which name posed meshes' instances).
     GBuffer,
 }
 
 impl PixelIds {
-    /// Where `pipeline` keeps them once its opaque depth is final.
-    pub fn of(pipeline: crate::settings::PipelineKind) -> Self {
+    /// Where `pipeline` keeps them once its opaque depth is final; `forward_ids`: the forward
+    /// pipelines' prepass writes ids this frame.
+    pub fn of(pipeline: crate::settings::PipelineKind, forward_ids: bool) -> Self {
         match pipeline {
             crate::settings::PipelineKind::VisBuffer => PixelIds::Visibility,
             crate::settings::PipelineKind::Deferred => PixelIds::GBuffer,
+            _ if forward_ids => PixelIds::Visibility,
             _ => PixelIds::None,
         }
     }

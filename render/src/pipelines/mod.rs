@@ -23,6 +23,7 @@ use crate::gpu::shaders;
 use crate::graph::pass::PassContext;
 use crate::graph::{Frame, PassKind};
 use crate::lights::{LightFrame, Lighting};
+use crate::motion::PixelIds;
 use crate::present::Present;
 use crate::reflections::Reflections;
 use crate::scene::SceneMirror;
@@ -79,7 +80,7 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     mirror.sort_transparent(mirror.camera().position);
     r.scene.motion_wanted = r.taa.prepare(mirror, s, r.aa, f.graph.extent());
     mirror.set_depth_sample(crate::msaa::Msaa::depth_sample(r.aa.samples(), f.graph.extent()));
-    r.scene.posed_motion_per_pixel = crate::motion::PixelIds::of(s.pipeline) != crate::motion::PixelIds::None;
+    r.scene.posed_motion_per_pixel = motion_ids(r, s) != PixelIds::None;
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
     r.skinning.prepare(mirror, r.scene);
     let reflections = r.reflections.prepare(f, s, mirror)?;
@@ -110,7 +111,7 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
 pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let (decals, lights) = begin(f, r, mirror, s)?;
     let (scene, forward) = (&*r.scene, r.forward);
-    let ids = decals.buffered() || lights.reflections();
+    let ids = decals.buffered() || lights.reflections() || motion_ids(r, s) == PixelIds::Visibility;
     r.culling.depth_passes(f, scene, |f, draws, phase| forward.prepass(f, scene, &draws, phase, ids))?;
     motion(f, r, s)?;
     let draws = r.culling.draws();
@@ -246,7 +247,21 @@ fn motion(f: &mut Frame, r: &FrameParts, s: &FrameSettings) -> Result<(), Render
     if !r.taa.runs() {
         return Ok(());
     }
-    r.motion.record(f, r.scene, crate::motion::PixelIds::of(s.pipeline))
+    r.motion.record(f, r.scene, motion_ids(r, s))
+}
+
+/// Where this frame's motion pass finds each pixel's instance and triangle, for the motion of
+/// posed meshes' skin per pixel (`crate::motion`): the visibility buffer, the G-buffer's layers,
+/// or, in the forward pipelines under temporal anti-aliasing, the prepass's ids when the
+/// settings ask for a decal pass or reflection rays, which read them too (the prepass then
+/// writes them even in a frame with no decal or reflecting surface, so that the choice is made
+/// before the scene's upload, which must know whether posed meshes are movers). Otherwise the
+/// forward prepass keeps no ids and posed meshes are drawn again as movers.
+fn motion_ids(r: &FrameParts, s: &FrameSettings) -> PixelIds {
+    let decal_pass = r.decal_choice.applied.uses_decal_buffer() && !s.decals_in_forward_shading;
+    let rays = s.reflections.mode != crate::settings::ReflectionMode::Off;
+    let forward_ids = s.pipeline.is_forward() && r.aa == crate::settings::AntiAliasing::Taa && (decal_pass || rays);
+    PixelIds::of(s.pipeline, forward_ids)
 }
 
 /// The end of every frame: temporal anti-aliasing, bloom over the finished HDR image,
