@@ -70,8 +70,10 @@ pub struct RenderSettings {
     /// and no ids prepass ([`render::FrameSettings::decals_in_forward_shading`]: off by default,
     /// slower on the lent H100).
     pub decals_in_forward_shading: bool,
-    /// Anti-aliasing of the displayed image (default none; FXAA and temporal anti-aliasing in
-    /// every pipeline; the sandbox defaults to temporal).
+    /// Anti-aliasing of the displayed image (default none; FXAA, SMAA and temporal
+    /// anti-aliasing in every pipeline, MSAA in forward and Forward+; the sandbox defaults to
+    /// temporal). A mode a pipeline or device cannot run falls back with one warning
+    /// ([`render::AntiAliasing::applied`]); the stats report the mode applied.
     pub aa: render::AntiAliasing,
     /// Temporal anti-aliasing's sharpening, 0 to 1 (default 0.25).
     pub taa_sharpen: f32,

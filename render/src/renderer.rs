@@ -89,7 +89,9 @@ pub struct FrameReport {
     pub shadows: ShadowMethod,
     /// How the frame's ambient light was occluded (`Off` when it was not).
     pub occlusion: crate::settings::OcclusionMethod,
-    /// The anti-aliasing applied (temporal anti-aliasing is none under a debug view).
+    /// The anti-aliasing applied ([`crate::settings::AntiAliasing::applied`]: MSAA is TAA in the
+    /// deferred pipelines and takes the sample counts the device offers; TAA is none under a
+    /// debug view).
     pub aa: crate::settings::AntiAliasing,
     /// Work done for this frame (uploads, records, acceleration structures, live counts).
     pub counters: FrameCounters,
