@@ -471,8 +471,8 @@ impl FrameGraph {
         bytes
     }
 
-    /// Resolves a declaration's image (creating a target on first use).
-    fn resolve(&mut self, ctx: &GpuContext, image: ImageRef) -> Result<ImageId, RenderError> {
+    /// The image a declaration names (creating a target on first use).
+    fn image_id(&mut self, ctx: &GpuContext, image: ImageRef) -> Result<ImageId, RenderError> {
         match image {
             ImageRef::Id(id) => Ok(id),
             ImageRef::Target(desc) => self.target(ctx, desc),
@@ -663,7 +663,7 @@ pub struct PassBuilder<'f, 'a> {
 impl PassBuilder<'_, '_> {
     /// Declares a use of an image (a tracked image or a target).
     pub fn image(mut self, image: impl Into<ImageRef>, use_: ImageUse) -> Self {
-        match self.frame.graph.resolve(self.frame.ctx, image.into()) {
+        match self.frame.graph.image_id(self.frame.ctx, image.into()) {
             Ok(id) => self.frame.graph.decls.push(Decl::Image(ImageRef::Id(id), use_)),
             Err(e) => self.error = self.error.or(Some(e)),
         }
@@ -709,7 +709,7 @@ impl PassBuilder<'_, '_> {
             _ => None,
         });
         let target = target.into();
-        let kinds = source.zip(self.frame.graph.resolve(self.frame.ctx, target).ok()).map(|(s, t)| {
+        let kinds = source.zip(self.frame.graph.image_id(self.frame.ctx, target).ok()).map(|(s, t)| {
             let images = &self.frame.graph.images;
             (images[s.0 as usize].depth, images[t.0 as usize].depth)
         });
