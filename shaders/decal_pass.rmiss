@@ -3,6 +3,4 @@
 #extension GL_EXT_ray_tracing : require
 #include "decal_pass.glsl"
 
-layout(location = 0) rayPayloadInEXT DecalPayload payload;
-
 void main() {}

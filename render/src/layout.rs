@@ -786,6 +786,10 @@ layout! {
     /// Debug view: the ambient occlusion shading multiplies ambient light by, as grey (white
     /// where it is off).
     pub const DEBUG_AMBIENT_OCCLUSION: u32 = 12;
+    /// Debug view: decals whose box holds the pixel's surface point, as a raw count in R,
+    /// counted by the ray-tracing-pipeline decal pass's count-only variant (no decal applied):
+    /// the floor of that pass's enumeration, for benchmarks and tests.
+    pub const DEBUG_DECAL_FLOOR: u32 = 13;
 
     /// Culling record flag: the slot holds a live instance.
     pub const CULL_LIVE: u32 = 1;

@@ -61,7 +61,9 @@ struct Cli {
     #[arg(long, default_value_t = 1)]
     decal_seed: u64,
     /// What to show: lit, decal-heatmap, albedo, normal, roughness-metallic, light-heatmap,
-    /// shadow-rays, depth-normals, reflections (the reflection rays' hit distance).
+    /// shadow-rays, depth-normals, reflections (the reflection rays' hit distance),
+    /// ambient-occlusion, decal-floor (the ray-tracing-pipeline decal pass only counts the decals
+    /// at each pixel: its floor, for benchmarks).
     #[arg(long, default_value = "lit", value_parser = parse_debug_view)]
     debug_view: DebugView,
     /// Draw every decal's box and AABB.
@@ -292,9 +294,10 @@ fn parse_debug_view(s: &str) -> Result<DebugView, String> {
         "depth-normals" => DebugView::DepthNormals,
         "reflections" => DebugView::Reflections,
         "ambient-occlusion" => DebugView::AmbientOcclusion,
+        "decal-floor" => DebugView::DecalFloor,
         _ => {
             return Err(format!(
-                "unknown view {s:?} (lit, decal-heatmap, albedo, normal, roughness-metallic, light-heatmap, shadow-rays, depth-normals, reflections, ambient-occlusion)"
+                "unknown view {s:?} (lit, decal-heatmap, albedo, normal, roughness-metallic, light-heatmap, shadow-rays, depth-normals, reflections, ambient-occlusion, decal-floor)"
             ));
         }
     })

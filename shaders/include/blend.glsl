@@ -23,10 +23,8 @@
 // pass that walks decal lists can afford (shading.glsl, CLUSTERED_DECALS).
 #ifdef DECAL_BLEND_ONE_CHANNEL
 #define BLEND_SLOTS 1u
-#define BLEND_SLOT(c) 0u
 #else
 #define BLEND_SLOTS DECAL_CHANNELS
-#define BLEND_SLOT(c) (c)
 #endif
 
 struct DecalBlend {
@@ -47,25 +45,38 @@ void blend_init(out DecalBlend b) {
     b.emissive = vec3(0.0);
 }
 
+// Runs STEP(slot) for a channel's slot with the slot a constant in every branch. A slot picked
+// by a runtime index makes the compiler keep the arrays in addressable memory, where the decal
+// pass's any-hit shader then reads and writes them for every decal: measured on the lent H100
+// (docs/BENCHMARKS.md, "A ray-tracing-pipeline decal pass near its floor"), constant slots make
+// that pass about twice as fast.
+#ifdef DECAL_BLEND_ONE_CHANNEL
+#define BLEND_AT_SLOT(channel, STEP) STEP(0)
+#else
+#define BLEND_AT_SLOT(channel, STEP) \
+    switch (channel) { \
+    case 0u: STEP(0) break; \
+    case 1u: STEP(1) break; \
+    case 2u: STEP(2) break; \
+    default: STEP(3) break; \
+    }
+#endif
+
+#define BLEND_ALBEDO_STEP(c) b.albedo[c].rgb += value * a * w; b.albedo[c].a *= 1.0 - a; b.weight[c].x += a * w;
+#define BLEND_NORMAL_STEP(c) b.normal[c].xyz += n * a * w; b.normal[c].w *= 1.0 - a; b.weight[c].y += a * w;
+#define BLEND_ROUGHNESS_STEP(c) b.spec[c].x += value * a * w; b.spec[c].z *= 1.0 - a; b.weight[c].z += a * w;
+#define BLEND_METALLIC_STEP(c) b.spec[c].y += value * a * w; b.spec[c].w *= 1.0 - a; b.weight[c].w += a * w;
+
 void blend_albedo(inout DecalBlend b, uint channel, vec3 value, float a, float w) {
-    uint c = BLEND_SLOT(channel);
-    b.albedo[c].rgb += value * a * w;
-    b.albedo[c].a *= 1.0 - a;
-    b.weight[c].x += a * w;
+    BLEND_AT_SLOT(channel, BLEND_ALBEDO_STEP)
 }
 
 void blend_normal(inout DecalBlend b, uint channel, vec3 n, float a, float w) {
-    uint c = BLEND_SLOT(channel);
-    b.normal[c].xyz += n * a * w;
-    b.normal[c].w *= 1.0 - a;
-    b.weight[c].y += a * w;
+    BLEND_AT_SLOT(channel, BLEND_NORMAL_STEP)
 }
 
 void blend_roughness(inout DecalBlend b, uint channel, float value, float a, float w) {
-    uint c = BLEND_SLOT(channel);
-    b.spec[c].x += value * a * w;
-    b.spec[c].z *= 1.0 - a;
-    b.weight[c].z += a * w;
+    BLEND_AT_SLOT(channel, BLEND_ROUGHNESS_STEP)
 }
 
 void blend_emissive(inout DecalBlend b, vec3 radiance, float a) {
@@ -73,10 +84,7 @@ void blend_emissive(inout DecalBlend b, vec3 radiance, float a) {
 }
 
 void blend_metallic(inout DecalBlend b, uint channel, float value, float a, float w) {
-    uint c = BLEND_SLOT(channel);
-    b.spec[c].y += value * a * w;
-    b.spec[c].w *= 1.0 - a;
-    b.weight[c].w += a * w;
+    BLEND_AT_SLOT(channel, BLEND_METALLIC_STEP)
 }
 
 // The channels composited in order (channel 0 first) collapse into one affine map per

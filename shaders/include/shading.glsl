@@ -131,7 +131,7 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
     if (scene.debug_view == DEBUG_ALBEDO) return vec4(s.albedo, 1.0);
     if (scene.debug_view == DEBUG_NORMAL) return vec4(s.normal * 0.5 + 0.5, 1.0);
     if (scene.debug_view == DEBUG_ROUGHNESS_METALLIC) return vec4(s.roughness, s.metallic, 0.0, 1.0);
-    if (scene.debug_view == DEBUG_DECAL_COUNT) return vec4(float(decals_tested), 0.0, 0.0, 1.0);
+    if (scene.debug_view == DEBUG_DECAL_COUNT || scene.debug_view == DEBUG_DECAL_FLOOR) return vec4(float(decals_tested), 0.0, 0.0, 1.0);
     if (scene.debug_view == DEBUG_DECAL_HEATMAP) return vec4(heatmap(float(decals_tested) / 16.0), 1.0);
     float occlusion = s.occlusion * ambient_occlusion(px);
     if (scene.debug_view == DEBUG_AMBIENT_OCCLUSION) return vec4(vec3(occlusion), 1.0);

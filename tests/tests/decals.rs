@@ -707,7 +707,9 @@ fn debug_views_show_boxes_and_count_the_decals_tested_per_pixel() {
 /// Every pixel enumerates each decal whose box (its AABB, the acceleration structure's
 /// primitive) holds the pixel's surface point exactly once: the count view equals a CPU count of
 /// the boxes holding the point, over 24 overlapping boxes, on both ray-tracing tiers (pixels
-/// within 2 cm of a box face are left out: the surface point is reconstructed from depth).
+/// within 2 cm of a box face are left out: the surface point is reconstructed from depth). The
+/// ray-tracing-pipeline pass's count-only floor (`DebugView::DecalFloor`) counts the oriented
+/// boxes holding the point, and applies nothing.
 #[test]
 fn every_pixel_enumerates_each_decal_box_holding_it_once() {
     for c in CONFIGS.into_iter().filter(|c| c.method != DecalMethod::Clustered) {
@@ -715,7 +717,7 @@ fn every_pixel_enumerates_each_decal_box_holding_it_once() {
         let (mut app, view) = plane_app(c);
         let red = red_material(&mut app);
         let mut rng = Lcg(11);
-        let mut boxes = Vec::new();
+        let (mut boxes, mut oriented) = (Vec::new(), Vec::new());
         for _ in 0..24 {
             let centre = Vec3::new(rng.range(-1.5, 1.5), 0.0, rng.range(-1.1, 1.1));
             let size = Vec2::new(rng.range(0.3, 1.2), rng.range(0.3, 1.2));
@@ -730,6 +732,7 @@ fn every_pixel_enumerates_each_decal_box_holding_it_once() {
             });
             let (lo, hi) = corners.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)));
             boxes.push((lo, hi));
+            oriented.push(m.inverse());
             app.world.spawn((Decal::new(red), t));
         }
         app.world.resource_mut::<RenderSettings>().debug_view = DebugView::DecalCount;
@@ -752,6 +755,37 @@ fn every_pixel_enumerates_each_decal_box_holding_it_once() {
             }
         }
         assert!(checked > (SIZE.0 * SIZE.1 / 4) as usize && most >= 4, "{checked} pixels checked, at most {most} boxes deep");
+        if c.method != DecalMethod::RayPipeline {
+            continue;
+        }
+        app.world.resource_mut::<RenderSettings>().debug_view = DebugView::DecalFloor;
+        app.update();
+        let floor = renderer(&mut app).read_hdr().unwrap();
+        for _ in 0..3 {
+            app.update(); // the timestamps come back a few frames later
+        }
+        let stats = app.world.resource::<plugins::RenderStats>();
+        let frame = stats.completed.back().expect("frames with GPU times");
+        assert!(
+            frame.gpu.get("decal_pass_floor").is_some() && frame.gpu.get("decal_pass_ray_pipeline").is_none(),
+            "{c:?}: the floor replaces the lit pass"
+        );
+        assert_no_validation_errors(&mut app);
+        let (mut checked, mut most) = (0, 0);
+        for py in 0..SIZE.1 {
+            for px in 0..SIZE.0 {
+                let Some(p) = view.ground_point(px, py, 0.0) else { continue };
+                let local: Vec<Vec3> = oriented.iter().map(|m| m.transform_point3(p)).collect();
+                if local.iter().any(|l| (0..3).any(|a| (l[a].abs() - 0.5).abs() < 0.03)) {
+                    continue;
+                }
+                let expected = local.iter().filter(|l| l.abs().cmple(Vec3::splat(0.5)).all()).count();
+                assert_eq!(floor[(py * SIZE.0 + px) as usize][0], expected as f32, "{c:?} floor: pixel ({px},{py}) at {p}");
+                checked += 1;
+                most = most.max(expected);
+            }
+        }
+        assert!(checked > (SIZE.0 * SIZE.1 / 4) as usize && most >= 3, "floor: {checked} pixels checked, at most {most} boxes deep");
     }
 }
 

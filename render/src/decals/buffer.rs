@@ -24,6 +24,18 @@
 //! - **ray queries in compute** (`shaders/decal_pass.comp`), the ray-query tier's counterpart,
 //!   so the two can be compared on one device (lavapipe has both).
 //!
+//! The ray-tracing pipeline's **floor** (`DebugView::DecalFloor`, issue "decals at a million",
+//! item 4): the same ray-generation and intersection shaders with a 4-byte payload and an
+//! any-hit shader that only counts (`COUNT_ONLY`), so the pass's cost can be set against the
+//! cost of enumerating the boxes alone, on the same scatter, in the same build. Made on first
+//! use, since only benchmarks and tests ask for it; its time is `decal_pass_floor` in the stats.
+//!
+//! What the lit pass costs beyond that floor, measured on the lent H100 (docs/BENCHMARKS.md, "The
+//! ray-tracing-pipeline decal pass against its floor"): mostly the per-channel blend state the
+//! any-hit shader reads and writes for every decal, not the textures. Blending into a slot picked
+//! by a runtime index kept that state in addressable memory; the slot is now a constant in each
+//! branch (`BLEND_AT_SLOT` in `shaders/include/blend.glsl`).
+//!
 //! Each pass reads the surface as its pipeline left it (`shaders/include/decal_surface.glsl`):
 //! the G-buffer in the deferred pipeline, the visibility ids in the visibility-buffer pipeline,
 //! and in the forward pipeline the same ids, written by the depth prepass when a decal pass
@@ -40,7 +52,7 @@ use crate::gpu::shaders;
 use crate::graph::targets::{DECAL_BUFFER, DEPTH, GBUFFER_LAYERS, GBUFFER_NORMAL, VISIBILITY};
 use crate::graph::{BufferUse, Frame, ImageUse, PassBuilder, PassKind};
 use crate::scene::gpu::GpuScene;
-use crate::settings::DecalMethod;
+use crate::settings::{DebugView, DecalMethod};
 
 /// Where a decal pass finds the surface at each pixel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -57,6 +69,8 @@ pub struct DecalPasses {
     ray_pipeline: Option<RayTracingPipeline>,
     /// Ray-query compute: [G-buffer, visibility ids].
     ray_query: Option<[vk::Pipeline; 2]>,
+    /// The ray-tracing pipeline's count-only floor (`DebugView::DecalFloor`), made on first use.
+    floor: Option<RayTracingPipeline>,
 }
 
 impl DecalPasses {
@@ -90,23 +104,48 @@ impl DecalPasses {
         } else {
             None
         };
-        Ok(Self { ray_pipeline, ray_query })
+        Ok(Self { ray_pipeline, ray_query, floor: None })
+    }
+
+    /// Makes the count-only floor of the ray-tracing-pipeline pass, the first time it is asked for.
+    fn floor(&mut self, ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<(), RenderError> {
+        if self.floor.is_none() {
+            self.floor = Some(RayTracingPipeline::new(
+                ctx,
+                layout,
+                &RayTracingDesc {
+                    name: "decal pass floor (ray-tracing pipeline, count only)",
+                    raygen: &[shaders::DECAL_PASS_RGEN_COUNT_ONLY, shaders::DECAL_PASS_RGEN_COUNT_ONLY_VISIBILITY],
+                    misses: &[shaders::DECAL_PASS_RMISS],
+                    hit_groups: &[HitGroup::any_hit(shaders::DECAL_PASS_RAHIT_COUNT_ONLY, Some(shaders::DECAL_PASS_RINT))],
+                },
+            )?);
+        }
+        Ok(())
     }
 
     /// Writes the decal buffer for this frame's decals, when the frame's method is a decal pass
     /// and there are decals; otherwise records nothing (the shading passes then read no buffer).
-    pub fn record(&self, f: &mut Frame, scene: &GpuScene, frame: &DecalFrame, source: DecalSurfaceSource) -> Result<(), RenderError> {
+    /// Under `DebugView::DecalFloor` the ray-tracing-pipeline pass only counts the decals at
+    /// each pixel and applies none.
+    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, frame: &DecalFrame, source: DecalSurfaceSource) -> Result<(), RenderError> {
         let Some(traced) = frame.traced.filter(|_| frame.buffered()) else { return Ok(()) };
         let extent = f.graph.extent();
         let variant = source as usize;
+        let count_only = frame.method == DecalMethod::RayPipeline && f.push.debug_view == DebugView::DecalFloor as u32;
         let (name, kind) = match frame.method {
+            DecalMethod::RayPipeline if count_only => ("decal_pass_floor", PassKind::RayTracing),
             DecalMethod::RayPipeline => ("decal_pass_ray_pipeline", PassKind::RayTracing),
             _ => ("decal_pass_ray_query", PassKind::Compute),
         };
+        if count_only && self.ray_pipeline.is_some() {
+            self.floor(f.ctx, f.layout)?;
+        }
         let pass = declare_decal_surface(f.pass(name, kind), scene, source).reads(traced.map(|a| (a, BufferUse::Accel)));
         match frame.method {
             DecalMethod::RayPipeline => {
-                let rt = self.ray_pipeline.as_ref().ok_or_else(|| unsupported(frame.method))?;
+                let rt = if count_only { self.floor.as_ref() } else { self.ray_pipeline.as_ref() };
+                let rt = rt.ok_or_else(|| unsupported(frame.method))?;
                 pass.record(|p| {
                     p.bind(vk::PipelineBindPoint::RAY_TRACING_KHR, rt.pipeline, &p.push);
                     rt.trace(p.ctx, p.cmd, variant, extent);
@@ -125,7 +164,7 @@ impl DecalPasses {
 
     /// Destroys the pipelines; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        if let Some(rt) = self.ray_pipeline {
+        for rt in [self.ray_pipeline, self.floor].into_iter().flatten() {
             rt.destroy(ctx);
         }
         for p in self.ray_query.into_iter().flatten() {
