@@ -11,16 +11,26 @@
 //! - **ray-tracing pipeline** (`shaders/decal_pass.r*`), for devices with ray-tracing pipelines
 //!   but no ray queries (the lent NVIDIA GPUs): a ray-generation shader traces the ray; an
 //!   intersection shader runs the exact oriented-box test and the angle fade on each AABB the
-//!   ray's origin lies in; an any-hit shader tests the receiver layers, samples the decal and
-//!   adds it to the payload's per-channel sums, then ignores the hit so traversal continues.
-//!   Weighted blended OIT is order-independent *within* a channel (sums and products commute),
-//!   and channels are kept apart in the payload and composited in channel order at the end, so
-//!   the arbitrary order of any-hit invocations gives what the ray-query loop gives
-//!   (tests/tests/decals.rs checks this against a CPU reference and against a shuffled spawn
-//!   order). Intersection shaders have no payload, so the two things they need from the pixel
-//!   travel with the ray: its origin is the surface point, and its direction (free for a ray of
-//!   length zero) is the geometric normal the fade needs; the receiver layers, which need the
-//!   payload, are tested in the any-hit shader.
+//!   ray's origin lies in. Intersection shaders have no payload, so the two things they need
+//!   from the pixel travel with the ray: its origin is the surface point, and its direction
+//!   (free for a ray of length zero) is the geometric normal the fade needs.
+//!
+//!   Where the decals are blended is this pass's design choice. The seed blends in the any-hit
+//!   shader, into per-channel sums carried in the payload (hit group 1 here, `DECAL_SBT_BLEND`).
+//!   Here the first trace's any-hit shader (hit group 0, `DECAL_SBT_COLLECT`) only notes each
+//!   decal's slot in a 136-byte payload, and the ray-generation shader then tests, samples and
+//!   blends them, all lanes of a warp running the same code together instead of one hit at a
+//!   time. Only a pixel with more decals than the payload keeps (32) is blended by a second
+//!   trace the seed's way, and a pixel that had that many last frame (the count stays in the
+//!   decal buffer) goes to that trace straight away. Measured on the lent H100 (docs/
+//!   BENCHMARKS.md, "The ray-tracing-pipeline decal pass against its floor"): 5.11 → 3.15 ms at
+//!   100,000 scattered decals, 56.7 → 47.2 ms at 1,000,000.
+//!
+//!   Either way, weighted blended OIT is order-independent *within* a channel (sums and
+//!   products commute) and the channels are composited in channel order at the end, so the
+//!   arbitrary order in which traversal finds the decals gives what the ray-query loop gives
+//!   (tests/tests/decals.rs checks this against a CPU reference, with stacks deeper than the
+//!   payload keeps, and against a shuffled spawn order).
 //! - **ray queries in compute** (`shaders/decal_pass.comp`), the ray-query tier's counterpart,
 //!   so the two can be compared on one device (lavapipe has both).
 //!
@@ -30,11 +40,11 @@
 //! cost of enumerating the boxes alone, on the same scatter, in the same build. Made on first
 //! use, since only benchmarks and tests ask for it; its time is `decal_pass_floor` in the stats.
 //!
-//! What the lit pass costs beyond that floor, measured on the lent H100 (docs/BENCHMARKS.md, "The
-//! ray-tracing-pipeline decal pass against its floor"): mostly the per-channel blend state the
-//! any-hit shader reads and writes for every decal, not the textures. Blending into a slot picked
-//! by a runtime index kept that state in addressable memory; the slot is now a constant in each
-//! branch (`BLEND_AT_SLOT` in `shaders/include/blend.glsl`).
+//! What the seed's any-hit blending cost beyond that floor, measured the same way: mostly the
+//! per-channel blend state the any-hit shader reads and writes for every decal, not the
+//! textures. Blending into a slot picked by a runtime index also kept that state in addressable
+//! memory; the slot is now a constant in each branch (`BLEND_AT_SLOT` in
+//! `shaders/include/blend.glsl`), which every decal method's blending gains from.
 //!
 //! Each pass reads the surface as its pipeline left it (`shaders/include/decal_surface.glsl`):
 //! the G-buffer in the deferred pipeline, the visibility ids in the visibility-buffer pipeline,
@@ -85,7 +95,11 @@ impl DecalPasses {
                     name: "decal pass (ray-tracing pipeline)",
                     raygen: &[shaders::DECAL_PASS_RGEN, shaders::DECAL_PASS_RGEN_VISIBILITY],
                     misses: &[shaders::DECAL_PASS_RMISS],
-                    hit_groups: &[HitGroup::any_hit(shaders::DECAL_PASS_RAHIT, Some(shaders::DECAL_PASS_RINT))],
+                    // DECAL_SBT_COLLECT and DECAL_SBT_BLEND (shaders/include/decal_pass.glsl).
+                    hit_groups: &[
+                        HitGroup::any_hit(shaders::DECAL_PASS_RAHIT_COLLECT, Some(shaders::DECAL_PASS_RINT)),
+                        HitGroup::any_hit(shaders::DECAL_PASS_RAHIT, Some(shaders::DECAL_PASS_RINT)),
+                    ],
                 },
             )?)
         } else {
