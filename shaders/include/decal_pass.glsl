@@ -11,13 +11,11 @@ struct DecalPayload {
     uint tested;   // decals tested (the debug views' count)
 };
 
-// The decals a pixel's first trace collects for its ray-generation shader to blend
-// (decal_pass.rgen), in the payload of hit group DECAL_SBT_COLLECT. 136 bytes: the room for 32
-// decals covers the pixels of every scatter up to a few tens of decals deep; a pixel with more
-// is blended by a second trace through hit group DECAL_SBT_BLEND (DecalPayload).
+// The decals a first trace collects for its ray-generation shader to blend (blend_decals
+// below), in the payload of the COLLECT any-hit shader. 136 bytes: the room for 32 decals
+// covers the pixels of every scatter up to a few tens of decals deep; a pixel with more is
+// blended by a second trace through the blending any-hit shader (DecalPayload).
 #define DECAL_COLLECT_MAX 32u
-#define DECAL_SBT_COLLECT 0
-#define DECAL_SBT_BLEND 1
 // The intersection shader's report (decal_pass.rint): the decal's slot, and where the point lies
 // in its box with the fade there (fade < 0: a candidate only, reported for the debug views).
 struct DecalHit {
@@ -37,5 +35,41 @@ struct DecalCollect {
 bool counting_candidates() {
     return scene.debug_view == DEBUG_DECAL_COUNT || scene.debug_view == DEBUG_DECAL_HEATMAP;
 }
+
+// What a ray-generation shader that blends decals includes (decal_pass.rgen, and the reflection
+// rays' hit points in reflections.glsl), after defining where its shader binding table keeps
+// the two hit groups (DECAL_SBT_COLLECT, DECAL_SBT_BLEND), the decal miss shader
+// (DECAL_MISS) and its two payloads' locations (DECAL_COLLECT_LOCATION, DECAL_BLEND_LOCATION).
+#ifdef DECAL_BLENDING_RAYGEN
+layout(location = DECAL_COLLECT_LOCATION) rayPayloadEXT DecalCollect decal_collected;
+layout(location = DECAL_BLEND_LOCATION) rayPayloadEXT DecalPayload decal_payload;
+
+// The decals at surface view `s`, noted in `decal_collected` (tested and found). The geometric
+// normal travels as the ray's direction: the intersection shader, which has no payload, needs
+// it for the angle fade.
+void collect_decals(DecalSurface s) {
+    decal_collected.tested = 0u;
+    decal_collected.found = 0u;
+    traceRayEXT(accelerationStructureEXT(scene.decal_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF,
+                DECAL_SBT_COLLECT, 0, DECAL_MISS, s.position, 0.0, s.geometric_normal, 0.0, DECAL_COLLECT_LOCATION);
+}
+
+// Blends the decals at `s` into `b`; returns the decals tested. Unless `dense`,
+// `decal_collected` holds what collect_decals found there, blended here when it kept them all.
+// Otherwise (or when it found more than it kept) a trace blends them all in its any-hit shader.
+uint blend_decals(inout DecalBlend b, DecalSurface s, bool dense) {
+    if (!dense && decal_collected.found <= DECAL_COLLECT_MAX) {
+        for (uint i = 0u; i < decal_collected.found; ++i) apply_decal(b, decal_collected.slots[i], s);
+        return decal_collected.tested;
+    }
+    decal_payload.blend = b;
+    decal_payload.surface = s;
+    decal_payload.tested = 0u;
+    traceRayEXT(accelerationStructureEXT(scene.decal_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF,
+                DECAL_SBT_BLEND, 0, DECAL_MISS, s.position, 0.0, s.geometric_normal, 0.0, DECAL_BLEND_LOCATION);
+    b = decal_payload.blend;
+    return dense ? decal_payload.tested : decal_collected.tested;
+}
+#endif
 
 #endif

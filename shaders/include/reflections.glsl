@@ -38,6 +38,7 @@
 #define REFLECTION_SBT_DECALS 1
 #define REFLECTION_SBT_LIGHTS 2
 #define REFLECTION_SBT_SHADOWS 3
+#define REFLECTION_SBT_DECALS_COLLECT 4   // hit group only (its misses are REFLECTION_SBT_DECALS's)
 #include "visbuffer_surface.glsl"
 #include "alpha_mask.glsl"
 #include "brdf.glsl"
@@ -153,10 +154,15 @@ vec3 hit_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found) {
 #define LIGHT_PAYLOAD_LOCATION 2
 #define LIGHT_SBT_OFFSET REFLECTION_SBT_LIGHTS
 #include "ray_pipeline_lights.glsl"
+#define DECAL_BLENDING_RAYGEN   // decal_pass.glsl's collect_decals and blend_decals
+#define DECAL_SBT_COLLECT REFLECTION_SBT_DECALS_COLLECT
+#define DECAL_SBT_BLEND REFLECTION_SBT_DECALS
+#define DECAL_MISS REFLECTION_SBT_DECALS
+#define DECAL_COLLECT_LOCATION 4
+#define DECAL_BLEND_LOCATION 1
 #include "decal_pass.glsl"
 
 layout(location = 0) rayPayloadEXT ReflectionHits reflection_payload;
-layout(location = 1) rayPayloadEXT DecalPayload decal_payload;
 layout(location = 3) rayPayloadEXT vec4 shadow_payload;
 
 ReflectionHits trace_hits(vec3 origin, vec3 dir) {
@@ -167,22 +173,26 @@ ReflectionHits trace_hits(vec3 origin, vec3 dir) {
     return reflection_payload;
 }
 
-// One zero-length ray in the decal TLAS for `view` (decal_pass.rint and .rahit).
-uint trace_decals(DecalSurface view) {
-    decal_payload.surface = view;
-    decal_payload.tested = 0u;
-    traceRayEXT(accelerationStructureEXT(scene.decal_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF,
-                REFLECTION_SBT_DECALS, 0, REFLECTION_SBT_DECALS, view.position, 0.0, view.geometric_normal, 0.0, 1);
-    return decal_payload.tested;
-}
+// Whether the decals at this cell's hit points are likely more than the collecting payload
+// keeps: guessed from the decals the on-screen decal pass found at the tracing pixel, where it
+// ran (a wrong guess costs time, never decals; reflection_cell sets it).
+bool decals_dense = false;
 
+// The decals at the hit point, found by zero-length rays in the decal TLAS and blended here
+// (decal_pass.glsl's collect_decals and blend_decals, as the on-screen decal pass does).
 uint hit_decals(inout SurfaceInputs s) {
     if (scene.decal_count == 0u || scene.decal_tlas == 0ul || (scene.lighting.lighting.reflection_flags & REFLECT_DECALS) == 0u) return 0u;
     DecalSurface surface = decal_world_view(s.position, s.dpdx, s.dpdy, s.geometric_normal, s.normal, s.decal_layers);
-    blend_init(decal_payload.blend);
-    uint tested = trace_decals(surface);
-    if (s.skinned) tested += trace_decals(decal_skin_view(surface, s.rest_position, s.rest_normal));
-    blend_resolve(decal_payload.blend, s.albedo, s.normal, s.roughness, s.metallic, s.emissive);
+    if (!decals_dense) collect_decals(surface);
+    DecalBlend b;
+    blend_init(b);
+    uint tested = blend_decals(b, surface, decals_dense);
+    if (s.skinned) {
+        DecalSurface skin = decal_skin_view(surface, s.rest_position, s.rest_normal);
+        if (!decals_dense) collect_decals(skin);
+        tested += blend_decals(b, skin, decals_dense);
+    }
+    blend_resolve(b, s.albedo, s.normal, s.roughness, s.metallic, s.emissive);
     return tested;
 }
 
@@ -497,6 +507,9 @@ void reflection_cell(ivec2 cell) {
         distance = length(cam.position - s.position);
         float spread = pixel_angle + (s.roughness < REFLECTION_MIRROR ? 0.0 : 0.5 * s.roughness * s.roughness);
         vec3 dir = reflection_direction(n, v, s.roughness, pixel_noise(uvec2(px)));
+#if defined(REFLECTION_RAYGEN) && defined(DECAL_BUFFER)
+        decals_dense = imageLoad(decal_tested, px).r > DECAL_COLLECT_MAX;
+#endif
         r = trace_reflection(shadow_origin(s.position, facing), dir, distance * pixel_angle, spread);
         // Shading lit the surface with the environment's prefiltered radiance (or the ambient
         // colour) in the mirror direction; the ray stores what it brings beyond that.

@@ -25,10 +25,11 @@
 //!    specular part. There are no motion vectors yet, so glossy reflections are filtered in
 //!    space only; the noise pattern is fixed per pixel, so a still frame stays still.
 //!
-//! Both ray-tracing tiers: in compute with ray queries, or as a ray-generation shader with four
+//! Both ray-tracing tiers: in compute with ray queries, or as a ray-generation shader with five
 //! hit groups (the reflection ray's closest hit with an any-hit for masked and blended surfaces,
-//! and the decal pass's, the ray-query lights' and the shadow pass's) on the ray-tracing-pipeline
-//! tier, where the lights found at a hit point by an any-hit shader (which cannot trace) come
+//! the decal pass's two, which blend the decals at a hit point or collect them for the
+//! ray-generation shader to blend, the ray-query lights' and the shadow pass's) on the
+//! ray-tracing-pipeline tier, where the lights found at a hit point by an any-hit shader (which cannot trace) come
 //! back four strongest apart, and those and the sun get their shadow rays from the
 //! ray-generation shader; the rest are unshadowed. Work is per cell (a pixel, or a 2×2 block at
 //! half resolution, traced by its first pixel that reflects), so neither needs shared memory.
@@ -246,6 +247,7 @@ impl Reflections {
                     HitGroup::any_hit(shaders::DECAL_PASS_RAHIT, Some(shaders::DECAL_PASS_RINT)),
                     HitGroup::any_hit(shaders::LIGHT_RAYS_RAHIT_SHADOWED_LIGHTS, Some(shaders::LIGHT_RAYS_RINT)),
                     HitGroup::any_hit(shaders::SHADOWS_RAHIT, None),
+                    HitGroup::any_hit(shaders::DECAL_PASS_RAHIT_COLLECT, Some(shaders::DECAL_PASS_RINT)),
                 ],
             };
             Some(RayTracingPipeline::new(ctx, layout, &desc)?)
