@@ -1,4 +1,4 @@
-// variants: DECAL_SURFACE_VISIBILITY
+// variants: DECAL_SURFACE_VISIBILITY DECAL_SURFACE_DEPTH
 #version 460
 // The decal pass on the ray-query tier, in compute: the same decal buffer as the
 // ray-tracing-pipeline pass (decal_pass.rgen), from the ray-query loop of decals.glsl, so the

@@ -1,4 +1,4 @@
-// variants: DECAL_SURFACE_VISIBILITY
+// variants: DECAL_SURFACE_VISIBILITY DECAL_SURFACE_DEPTH
 #version 460
 // The decal pass of clustered decals (no ray tracing at all): each pixel walks the decal list of
 // its cluster (include/clusters.glsl) with the same test, texture sampling and per-channel
@@ -25,17 +25,23 @@ void main() {
     }
     barrier();
     ivec2 px = ivec2(gl_GlobalInvocationID.xy);
-    DecalSurface s, skin;
-    bool skinned;
-    if (all(lessThan(px, ivec2(scene.camera.camera.viewport_size))) && decal_surface_at(px, s, skinned, skin)) {
-        uvec2 list = cluster_list(uvec2(px), s.position);
+    vec3 position;
+    if (all(lessThan(px, ivec2(scene.camera.camera.viewport_size))) && decal_position_at(px, position)) {
+        // The pixel's cluster first: where its list is empty (most pixels, where decals are
+        // few), the rest of the surface (derivatives, normals, the instance) is never rebuilt.
+        uvec2 list = cluster_list(uvec2(px), position);
         DecalBlend b;
         blend_init(b);
-        uint applied = apply_cluster_list(b, list, s);
-        uint tested = list.y > list.x ? list.y - list.x : 0u;
-        if (skinned) {   // the same list at the rest pose: decals on the skin are binned by their instance's bounds
-            applied += apply_cluster_list(b, list, skin);
-            tested *= 2u;
+        uint applied = 0u, tested = 0u;
+        DecalSurface s, skin;
+        bool skinned;
+        if (list.y > list.x && decal_surface_at(px, s, skinned, skin)) {
+            applied = apply_cluster_list(b, list, s);
+            tested = list.y - list.x;
+            if (skinned) {   // the same list at the rest pose: decals on the skin are binned by their instance's bounds
+                applied += apply_cluster_list(b, list, skin);
+                tested *= 2u;
+            }
         }
         decal_buffer_store(px, b, tested);
         atomicAdd(group_tested, tested);

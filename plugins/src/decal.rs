@@ -174,7 +174,7 @@ impl DistanceFade {
 /// Receiver layers a decal lands on by default (all of them).
 pub const ALL_RECEIVERS: u32 = u32::MAX;
 /// Layers of a mesh without a [`DecalReceiver`] component.
-pub const DEFAULT_RECEIVER_LAYERS: u32 = 1;
+pub const DEFAULT_RECEIVER_LAYERS: u32 = render::layout::DECAL_DEFAULT_LAYERS;
 
 /// A decal projector. Needs a `Transform` (added automatically): translation is the box centre,
 /// rotation orients it (projection along local −Z), scale is the box size.

@@ -552,6 +552,10 @@ layout! {
     /// surface is looked up at its rest-pose position, and world decals only elsewhere. Reserved:
     /// decal and instance layers are the 31 bits below it.
     pub const DECAL_ON_SKIN: u32 = 0x8000_0000;
+    /// The receiver layers of an instance that names none. Where every instance has them and no
+    /// decal is on a skin, a decal pass needs nothing of an instance (`DECAL_SURFACE_DEPTH` in
+    /// `shaders/include/decal_surface.glsl`).
+    pub const DECAL_DEFAULT_LAYERS: u32 = 1;
     /// Clustered decals: the side of a cluster's screen tile, in pixels.
     pub const DECAL_CLUSTER_TILE: u32 = 32;
     /// Clustered decals: depth slices (exponential in view distance, `DECAL_CLUSTER_NEAR_MM` to
@@ -786,9 +790,10 @@ layout! {
     /// Debug view: the ambient occlusion shading multiplies ambient light by, as grey (white
     /// where it is off).
     pub const DEBUG_AMBIENT_OCCLUSION: u32 = 12;
-    /// Debug view: decals whose box holds the pixel's surface point, as a raw count in R,
-    /// counted by the ray-tracing-pipeline decal pass's count-only variant (no decal applied):
-    /// the floor of that pass's enumeration, for benchmarks and tests.
+    /// Debug view: decals whose box holds the pixel's surface point and whose fades leave
+    /// something (at a skinned pixel, in both its views), as a raw count in R, counted by the
+    /// ray-tracing-pipeline decal pass's count-only variant (no decal applied): the floor of
+    /// that pass's enumeration, for benchmarks and tests.
     pub const DEBUG_DECAL_FLOOR: u32 = 13;
 
     /// Culling record flag: the slot holds a live instance.

@@ -427,6 +427,7 @@ impl Renderer {
             present: Present { tonemap, target, overlay, aa, smaa: &res.smaa },
             decal_choice,
             aa,
+            pixel_ids: crate::motion::PixelIds::None,
         };
         let lights = match settings.pipeline {
             PipelineKind::Forward => forward_frame(&mut f, &mut parts, mirror, settings),

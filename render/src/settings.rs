@@ -387,7 +387,7 @@ pub enum DebugView {
     /// The ambient occlusion ambient light is multiplied by, as grey (white where it is off).
     AmbientOcclusion = crate::layout::DEBUG_AMBIENT_OCCLUSION,
     /// With ray-tracing-pipeline decals: the decals whose box holds each pixel's surface point
-    /// as a raw count in R, counted by a variant of the decal pass that only counts and applies
+    /// (and whose angle and distance fades leave something) as a raw count in R, counted by a variant of the decal pass that only counts and applies
     /// nothing (the floor its lit pass is measured against). With other methods, the decals
     /// they tested, as [`DebugView::DecalCount`].
     DecalFloor = crate::layout::DEBUG_DECAL_FLOOR,

@@ -11,9 +11,10 @@
 // - REFLECTION_RAY_QUERY (reflections.comp, the ray-query tier): ray queries for everything,
 //   the hit point's lights with their shadow rays (ray_query_lights.glsl);
 // - REFLECTION_RAYGEN (reflections.rgen, the ray-tracing-pipeline tier): traceRayEXT with four
-//   hit groups and miss shaders (REFLECTION_SBT_*): the reflection ray's closest hit
+//   miss shaders and five hit groups (REFLECTION_SBT_*): the reflection ray's closest hit
 //   (reflections.rchit, with reflections.rahit for masked and blended surfaces), the decal
-//   pass's decal shaders, the ray-query lights' light shaders, the shadow pass's any-hit. The
+//   pass's blending decal shaders, the ray-query lights' light shaders, the shadow pass's
+//   any-hit, and last the decal pass's collecting any-hit (with the decals' miss shader). The
 //   unbounded lights (the sun) send their shadow rays from here; of the lights found in their
 //   TLAS by an any-hit shader, which cannot trace, the LIGHT_SHADOW_SLOTS that contribute most
 //   come back for their shadow rays from here, the rest are added unshadowed.
@@ -174,8 +175,9 @@ ReflectionHits trace_hits(vec3 origin, vec3 dir) {
 }
 
 // Whether the decals at this cell's hit points are likely more than the collecting payload
-// keeps: guessed from the decals the on-screen decal pass found at the tracing pixel, where it
-// ran (a wrong guess costs time, never decals; reflection_cell sets it).
+// keeps: guessed from the count the on-screen decal pass left at the tracing pixel, where it
+// ran (decals found by the ray-tracing pass, the cluster list's length by the clustered one).
+// A wrong guess costs time, never decals; reflection_cell sets it.
 bool decals_dense = false;
 
 // The decals at the hit point, found by zero-length rays in the decal TLAS and blended here

@@ -48,9 +48,11 @@
 //!
 //! Each pass reads the surface as its pipeline left it (`shaders/include/decal_surface.glsl`):
 //! the G-buffer in the deferred pipeline, the visibility ids in the visibility-buffer pipeline,
-//! and in the forward pipeline the same ids, written by the depth prepass when a decal pass
-//! follows (the prepass becomes the visibility pass: the depth is the same, plus 8 bytes a pixel
-//! and no texture fetch; see that include for the normal this gives the decals).
+//! and in the forward pipeline either the same ids, written by the depth prepass when a decal
+//! must know its pixel's instance (or reflections and motion want them anyway: the prepass
+//! becomes the visibility pass, the same depth plus 8 bytes a pixel), or depth alone, which
+//! spares the prepass its ids: on the lent H100 0.74 → 0.27 ms in PEERS.md's scene. See that
+//! include for the normals each source gives the decals.
 
 use ash::vk;
 
@@ -64,21 +66,55 @@ use crate::graph::{BufferUse, Frame, ImageUse, PassBuilder, PassKind};
 use crate::scene::gpu::GpuScene;
 use crate::settings::{DebugView, DecalMethod};
 
-/// Where a decal pass finds the surface at each pixel.
+/// Where a decal pass finds the surface at each pixel (the index of its pipeline variants).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DecalSurfaceSource {
     /// The G-buffer's normal and receiver layers (deferred pipeline).
     GBuffer,
     /// The visibility pass's instance and triangle ids (forward and visibility buffer).
     Visibility,
+    /// Depth alone (forward and Forward+ when no decal needs to know the instance:
+    /// [`crate::SceneMirror::decals_need_instances`]): the prepass then writes no ids.
+    Depth,
+}
+
+impl DecalSurfaceSource {
+    /// Where the forward pipelines' decal pass reads the surface: the ids when the prepass
+    /// writes them anyway (`ids`) or the decals need the instance, else depth alone.
+    pub fn forward(ids: bool, need_instances: bool) -> Self {
+        if ids || need_instances { DecalSurfaceSource::Visibility } else { DecalSurfaceSource::Depth }
+    }
+}
+
+/// One compute pipeline per [`DecalSurfaceSource`], from `(name, SPIR-V)` in its order; none
+/// is left behind when one fails.
+pub(super) fn per_source(
+    ctx: &GpuContext,
+    layout: vk::PipelineLayout,
+    stages: [(&str, &[u8]); 3],
+) -> Result<[vk::Pipeline; 3], RenderError> {
+    let mut made = Vec::with_capacity(3);
+    for (name, spirv) in stages {
+        match create_compute(ctx, layout, name, spirv) {
+            Ok(p) => made.push(p),
+            Err(e) => {
+                for p in made {
+                    // SAFETY: the pipelines are unused.
+                    unsafe { ctx.device.destroy_pipeline(p, None) };
+                }
+                return Err(e);
+            }
+        }
+    }
+    Ok(made.try_into().expect("one per source"))
 }
 
 /// The decal passes this device can run.
 pub struct DecalPasses {
-    /// Ray-generation shader 0 reads the G-buffer, 1 the visibility ids.
+    /// Ray-generation shaders by [`DecalSurfaceSource`]: the G-buffer, the ids, depth.
     ray_pipeline: Option<RayTracingPipeline>,
-    /// Ray-query compute: [G-buffer, visibility ids].
-    ray_query: Option<[vk::Pipeline; 2]>,
+    /// Ray-query compute, by [`DecalSurfaceSource`].
+    ray_query: Option<[vk::Pipeline; 3]>,
     /// The ray-tracing pipeline's count-only floor (`DebugView::DecalFloor`), made on first use.
     floor: Option<RayTracingPipeline>,
 }
@@ -93,7 +129,7 @@ impl DecalPasses {
                 layout,
                 &RayTracingDesc {
                     name: "decal pass (ray-tracing pipeline)",
-                    raygen: &[shaders::DECAL_PASS_RGEN, shaders::DECAL_PASS_RGEN_VISIBILITY],
+                    raygen: &[shaders::DECAL_PASS_RGEN, shaders::DECAL_PASS_RGEN_VISIBILITY, shaders::DECAL_PASS_RGEN_DEPTH],
                     misses: &[shaders::DECAL_PASS_RMISS],
                     // DECAL_SBT_COLLECT and DECAL_SBT_BLEND (shaders/include/decal_pass.glsl).
                     hit_groups: &[
@@ -106,15 +142,15 @@ impl DecalPasses {
             None
         };
         let ray_query = if support.ray_query {
-            let gbuffer = create_compute(ctx, layout, "decal pass (ray query)", shaders::DECAL_PASS_COMP)?;
-            match create_compute(ctx, layout, "decal pass (ray query, visibility)", shaders::DECAL_PASS_COMP_VISIBILITY) {
-                Ok(visibility) => Some([gbuffer, visibility]),
-                Err(e) => {
-                    // SAFETY: the pipeline is unused.
-                    unsafe { ctx.device.destroy_pipeline(gbuffer, None) };
-                    return Err(e);
-                }
-            }
+            Some(per_source(
+                ctx,
+                layout,
+                [
+                    ("decal pass (ray query)", shaders::DECAL_PASS_COMP),
+                    ("decal pass (ray query, visibility)", shaders::DECAL_PASS_COMP_VISIBILITY),
+                    ("decal pass (ray query, depth)", shaders::DECAL_PASS_COMP_DEPTH),
+                ],
+            )?)
         } else {
             None
         };
@@ -129,7 +165,11 @@ impl DecalPasses {
                 layout,
                 &RayTracingDesc {
                     name: "decal pass floor (ray-tracing pipeline, count only)",
-                    raygen: &[shaders::DECAL_PASS_RGEN_COUNT_ONLY, shaders::DECAL_PASS_RGEN_COUNT_ONLY_VISIBILITY],
+                    raygen: &[
+                        shaders::DECAL_PASS_RGEN_COUNT_ONLY,
+                        shaders::DECAL_PASS_RGEN_COUNT_ONLY_VISIBILITY,
+                        shaders::DECAL_PASS_RGEN_COUNT_ONLY_DEPTH,
+                    ],
                     misses: &[shaders::DECAL_PASS_RMISS],
                     hit_groups: &[HitGroup::any_hit(shaders::DECAL_PASS_RAHIT_COUNT_ONLY, Some(shaders::DECAL_PASS_RINT))],
                 },
@@ -196,6 +236,7 @@ pub fn declare_decal_surface<'f, 'a>(pass: PassBuilder<'f, 'a>, scene: &GpuScene
     let pass = match source {
         DecalSurfaceSource::GBuffer => pass.sample(&GBUFFER_NORMAL).sample(&GBUFFER_LAYERS),
         DecalSurfaceSource::Visibility => pass.sample(&VISIBILITY).read(scene.res.meshes, BufferUse::Storage),
+        DecalSurfaceSource::Depth => pass,
     };
     DECAL_BUFFER.iter().fold(pass, |pass, &target| pass.image(target, ImageUse::StorageWrite))
 }

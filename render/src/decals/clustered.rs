@@ -115,8 +115,8 @@ pub struct DecalClusters {
     count: vk::Pipeline,
     scan: vk::Pipeline,
     fill: vk::Pipeline,
-    /// Decal pass: [G-buffer, visibility ids].
-    pass: [vk::Pipeline; 2],
+    /// Decal pass, by [`super::DecalSurfaceSource`].
+    pass: [vk::Pipeline; 3],
     buffer: Option<Buffer>,
     capacity: u32,
     initial_capacity: u32,
@@ -141,10 +141,15 @@ impl DecalClusters {
             count: create_compute(ctx, layout, "decal clusters (count)", shaders::DECAL_CLUSTERS_COMP)?,
             scan: create_compute(ctx, layout, "decal clusters (scan)", shaders::DECAL_CLUSTER_SCAN_COMP)?,
             fill: create_compute(ctx, layout, "decal clusters (fill)", shaders::DECAL_CLUSTERS_COMP_FILL)?,
-            pass: [
-                create_compute(ctx, layout, "decal pass (clustered)", shaders::DECAL_PASS_CLUSTERED_COMP)?,
-                create_compute(ctx, layout, "decal pass (clustered, visibility)", shaders::DECAL_PASS_CLUSTERED_COMP_VISIBILITY)?,
-            ],
+            pass: super::buffer::per_source(
+                ctx,
+                layout,
+                [
+                    ("decal pass (clustered)", shaders::DECAL_PASS_CLUSTERED_COMP),
+                    ("decal pass (clustered, visibility)", shaders::DECAL_PASS_CLUSTERED_COMP_VISIBILITY),
+                    ("decal pass (clustered, depth)", shaders::DECAL_PASS_CLUSTERED_COMP_DEPTH),
+                ],
+            )?,
             buffer: None,
             capacity: 0,
             initial_capacity: initial_capacity.max(1),

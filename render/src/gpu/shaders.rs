@@ -108,6 +108,8 @@ spirv! {
     VISBUFFER_SHADE_FRAG_DECAL_BUFFER = "visbuffer_shade.frag.DECAL_BUFFER";
     DECAL_PASS_RGEN = "decal_pass.rgen";
     DECAL_PASS_RGEN_VISIBILITY = "decal_pass.rgen.DECAL_SURFACE_VISIBILITY";
+    DECAL_PASS_RGEN_DEPTH = "decal_pass.rgen.DECAL_SURFACE_DEPTH";
+    DECAL_PASS_RGEN_COUNT_ONLY_DEPTH = "decal_pass.rgen.COUNT_ONLY+DECAL_SURFACE_DEPTH";
     DECAL_PASS_RMISS = "decal_pass.rmiss";
     DECAL_PASS_RINT = "decal_pass.rint";
     DECAL_PASS_RAHIT = "decal_pass.rahit";
@@ -117,11 +119,13 @@ spirv! {
     DECAL_PASS_RAHIT_COLLECT = "decal_pass.rahit.COLLECT";
     DECAL_PASS_COMP = "decal_pass.comp";
     DECAL_PASS_COMP_VISIBILITY = "decal_pass.comp.DECAL_SURFACE_VISIBILITY";
+    DECAL_PASS_COMP_DEPTH = "decal_pass.comp.DECAL_SURFACE_DEPTH";
     DECAL_CLUSTERS_COMP = "decal_clusters.comp";
     DECAL_CLUSTERS_COMP_FILL = "decal_clusters.comp.FILL";
     DECAL_CLUSTER_SCAN_COMP = "decal_cluster_scan.comp";
     DECAL_PASS_CLUSTERED_COMP = "decal_pass_clustered.comp";
     DECAL_PASS_CLUSTERED_COMP_VISIBILITY = "decal_pass_clustered.comp.DECAL_SURFACE_VISIBILITY";
+    DECAL_PASS_CLUSTERED_COMP_DEPTH = "decal_pass_clustered.comp.DECAL_SURFACE_DEPTH";
     LIGHT_TILE_FRUSTA_COMP = "light_tile_frusta.comp";
     LIGHT_CULL_COMP = "light_cull.comp";
     LIGHT_CULL_COMP_TRANSPARENT = "light_cull.comp.TRANSPARENT";

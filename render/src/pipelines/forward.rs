@@ -5,8 +5,10 @@
 //! [`crate::settings::FrameSettings::decals_in_forward_shading`], found by walking the pixel's
 //! cluster list in the shader, [`crate::decals::clustered`]) are blended into the surface
 //! attributes, then every light is applied with the Frostbite BRDF of seed 000 §2.3. Decal
-//! passes need the ids prepass (they run before shading, from the visibility ids); the
-//! in-shader methods need a depth-only prepass.
+//! passes run before shading, from the prepass's ids where a decal must know the pixel's
+//! instance (receiver layers of its own, decals on a skin) or the ids are written anyway, and
+//! from depth alone otherwise (`crate::decals::DecalSurfaceSource`); the in-shader methods need
+//! a depth-only prepass.
 
 use ash::vk;
 

@@ -70,6 +70,9 @@ pub struct FrameParts<'a> {
     pub decal_choice: DecalChoice,
     /// The anti-aliasing applied ([`crate::settings::AntiAliasing::applied`]).
     pub aa: crate::settings::AntiAliasing,
+    /// Where this frame's motion pass finds each pixel's instance ([`motion_ids`]), set by
+    /// [`begin`].
+    pub pixel_ids: PixelIds,
 }
 
 /// What every frame does before its passes: follow the decals' and lights' changes, upload what
@@ -80,7 +83,8 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     mirror.sort_transparent(mirror.camera().position);
     r.scene.motion_wanted = r.taa.prepare(mirror, s, r.aa, f.graph.extent());
     mirror.set_depth_sample(crate::msaa::Msaa::depth_sample(r.aa.samples(), f.graph.extent()));
-    r.scene.posed_motion_per_pixel = motion_ids(r, s) != PixelIds::None;
+    r.pixel_ids = motion_ids(r, s, mirror);
+    r.scene.posed_motion_per_pixel = r.pixel_ids != PixelIds::None;
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
     r.skinning.prepare(mirror, r.scene);
     let reflections = r.reflections.prepare(f, s, mirror)?;
@@ -101,7 +105,8 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     Ok((decals, lights))
 }
 
-/// Forward: depth prepass (also writing ids when a decal pass or the reflection rays follow),
+/// Forward: depth prepass (also writing ids when the reflection rays follow, or a decal pass
+/// that must know each pixel's instance: otherwise the decal pass reads depth alone),
 /// light culling and shadows when asked for, the decal pass (or, for clustered decals with
 /// `decals_in_forward_shading`, only their binning: the shading walks the lists), shading with
 /// depth EQUAL, the sky, reflections, then the blended surfaces back to front. Under MSAA
@@ -111,13 +116,15 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
 pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let (decals, lights) = begin(f, r, mirror, s)?;
     let (scene, forward) = (&*r.scene, r.forward);
-    let ids = decals.buffered() || lights.reflections() || motion_ids(r, s) == PixelIds::Visibility;
+    let need_instances = mirror.decals_need_instances();
+    let ids = (decals.buffered() && need_instances) || lights.reflections() || r.pixel_ids == PixelIds::Visibility;
+    let source = DecalSurfaceSource::forward(ids, need_instances);
     r.culling.depth_passes(f, scene, |f, draws, phase| forward.prepass(f, scene, &draws, phase, ids))?;
-    motion(f, r, s)?;
+    motion(f, r)?;
     let draws = r.culling.draws();
     transparent_depth(f, r, &draws, mirror, &lights)?;
     r.lighting.record(f, r.scene, &draws, &lights)?;
-    r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
+    r.decals.decal_pass(f, r.scene, &decals, source)?;
     // Under MSAA traced reflections are resolved before the shading, which adds them to each
     // sample from its own surface's pixel; the multisampled target is cleared transparent, so
     // the resolved alpha is the covered fraction of each pixel, which the sky fills
@@ -204,7 +211,7 @@ fn deferred_layer(
         deferred.geometry(f, scene, &r.culling.draws(), glass, s.clear_color, Phase::WHOLE)?;
     } else {
         r.culling.depth_passes(f, scene, |f, draws, phase| deferred.geometry(f, scene, &draws, glass, s.clear_color, phase))?;
-        motion(f, r, s)?;
+        motion(f, r)?;
     }
     let draws = r.culling.draws();
     if again {
@@ -227,7 +234,7 @@ pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirr
     let (decals, lights) = begin(f, r, mirror, s)?;
     let (scene, visbuffer) = (&*r.scene, r.visbuffer);
     r.culling.depth_passes(f, scene, |f, draws, phase| visbuffer.visibility(f, scene, &draws, phase))?;
-    motion(f, r, s)?;
+    motion(f, r)?;
     let draws = r.culling.draws();
     transparent_depth(f, r, &draws, mirror, &lights)?;
     r.lighting.record(f, r.scene, &draws, &lights)?;
@@ -243,24 +250,26 @@ pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirr
 
 /// Motion vectors, when temporal anti-aliasing runs, right after the opaque depth (before any
 /// later layer, glass's, replaces it).
-fn motion(f: &mut Frame, r: &FrameParts, s: &FrameSettings) -> Result<(), RenderError> {
+fn motion(f: &mut Frame, r: &FrameParts) -> Result<(), RenderError> {
     if !r.taa.runs() {
         return Ok(());
     }
-    r.motion.record(f, r.scene, motion_ids(r, s))
+    r.motion.record(f, r.scene, r.pixel_ids)
 }
 
 /// Where this frame's motion pass finds each pixel's instance and triangle, for the motion of
 /// posed meshes' skin per pixel (`crate::motion`): the visibility buffer, the G-buffer's layers,
-/// or, in the forward pipelines under temporal anti-aliasing, the prepass's ids when the
-/// settings ask for a decal pass or reflection rays, which read them too (the prepass then
-/// writes them even in a frame with no decal or reflecting surface, so that the choice is made
-/// before the scene's upload, which must know whether posed meshes are movers). Otherwise the
-/// forward prepass keeps no ids and posed meshes are drawn again as movers.
-fn motion_ids(r: &FrameParts, s: &FrameSettings) -> PixelIds {
-    let decal_pass = r.decal_choice.applied.uses_decal_buffer() && !s.decals_in_forward_shading;
+/// or, in the forward pipelines under temporal anti-aliasing with posed meshes in the scene,
+/// the prepass's ids when the settings ask for reflection rays or a decal pass that reads them
+/// too (the prepass then writes them even in a frame with no reflecting surface, so that the
+/// choice is made before the scene's upload, which must know whether posed meshes are movers).
+/// Otherwise the forward prepass keeps no ids for motion and posed meshes are drawn again as
+/// movers: a scene without posed meshes never pays for ids it has no use for.
+fn motion_ids(r: &FrameParts, s: &FrameSettings, mirror: &SceneMirror) -> PixelIds {
+    let decal_pass = r.decal_choice.applied.uses_decal_buffer() && !s.decals_in_forward_shading && mirror.decals_need_instances();
     let rays = s.reflections.mode != crate::settings::ReflectionMode::Off;
-    let forward_ids = s.pipeline.is_forward() && r.aa == crate::settings::AntiAliasing::Taa && (decal_pass || rays);
+    let taa = r.aa == crate::settings::AntiAliasing::Taa;
+    let forward_ids = s.pipeline.is_forward() && taa && mirror.poses.any_posed() && (decal_pass || rays);
     PixelIds::of(s.pipeline, forward_ids)
 }
 

@@ -423,11 +423,17 @@ impl Reflections {
         if !lights.reflections() {
             return Ok(());
         }
+        // The forward pipelines' prepass writes ids whenever reflections run: the reflections
+        // rebuild their surfaces from them, never from depth alone (the `Depth` arms below are
+        // never taken).
+        if source == Some(DecalSurfaceSource::Depth) {
+            return Err(RenderError::Other("reflections need the G-buffer or the visibility ids, not depth alone".into()));
+        }
         let screen = !lights.traced_reflections();
         let compute = match source {
             Some(source) if screen => Some(self.screen[source as usize].pick(decals)),
             Some(DecalSurfaceSource::GBuffer) => self.gbuffer.as_ref().map(|v| v.pick(decals)),
-            Some(DecalSurfaceSource::Visibility) => self.visibility.as_ref().map(|v| v.pick(decals)),
+            Some(DecalSurfaceSource::Visibility | DecalSurfaceSource::Depth) => self.visibility.as_ref().map(|v| v.pick(decals)),
             None => self.glass,
         };
         let kind = match (compute, &self.rays) {
@@ -453,7 +459,7 @@ impl Reflections {
             Some(DecalSurfaceSource::GBuffer) => {
                 pass.sample(&GBUFFER_ALBEDO).sample(&GBUFFER_NORMAL).sample(&GBUFFER_MATERIAL).sample(&GBUFFER_LAYERS)
             }
-            Some(DecalSurfaceSource::Visibility) => pass.sample(&VISIBILITY),
+            Some(DecalSurfaceSource::Visibility | DecalSurfaceSource::Depth) => pass.sample(&VISIBILITY),
             None => pass,
         };
         // Screen-space rays see the lit image; traced ones the structures.
@@ -466,7 +472,7 @@ impl Reflections {
             Some(DecalSurfaceSource::GBuffer) => usize::from(decals.buffered()),
             Some(DecalSurfaceSource::Visibility) if decals.buffered() => 3,
             Some(DecalSurfaceSource::Visibility) if decals.clusters_in_shading() => 4,
-            Some(DecalSurfaceSource::Visibility) => 2,
+            Some(DecalSurfaceSource::Visibility | DecalSurfaceSource::Depth) => 2,
             None => 5,
         };
         let half = lights.reflection_flags & REFLECT_HALF_RES != 0;

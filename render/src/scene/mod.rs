@@ -17,8 +17,8 @@ use glam::{Mat4, Vec2, Vec3};
 
 pub use crate::layout::{
     CULL_BATCHES, CULL_DOUBLE_SIDED, CULL_LIVE, CULL_MASKED, CULL_TRANSPARENT, DECAL_ALBEDO, DECAL_CHANNEL_SHIFT, DECAL_CHANNELS,
-    DECAL_EMISSIVE, DECAL_METALLIC, DECAL_NORMAL, DECAL_ON_SKIN, DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuCullRecord, GpuDecal,
-    GpuDecalMaterial, GpuDrawCommand, GpuInstance, GpuJointMatrix, GpuLight, GpuMaterial, GpuMeshInfo, GpuMorphDelta, GpuMover,
+    DECAL_DEFAULT_LAYERS, DECAL_EMISSIVE, DECAL_METALLIC, DECAL_NORMAL, DECAL_ON_SKIN, DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuCullRecord,
+    GpuDecal, GpuDecalMaterial, GpuDrawCommand, GpuInstance, GpuJointMatrix, GpuLight, GpuMaterial, GpuMeshInfo, GpuMorphDelta, GpuMover,
     GpuSkinVertex, GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, NO_DECAL, RESERVED_TEXTURES, TEXTURE_FLAT_NORMAL,
     TEXTURE_WHITE,
 };
@@ -281,14 +281,18 @@ pub struct DecalTable {
     pub aabbs: SlotTable<GpuAabb>,
     /// The box of each record slot.
     box_of: Vec<u32>,
+    /// Live decals on a skin (`DECAL_ON_SKIN`).
+    on_skin: u32,
 }
 
 impl DecalTable {
     /// Writes `decal` into `slot` (or a new slot): its record and its box.
     pub fn write(&mut self, slot: Option<u32>, decal: &DecalDesc) -> u32 {
         let record = decal.record();
+        self.on_skin += u32::from(record.receivers & DECAL_ON_SKIN != 0);
         match slot {
             Some(slot) => {
+                self.forget_skin(slot);
                 self.records.write(slot, record);
                 self.aabbs.write(self.box_of[slot as usize], GpuAabb::of_decal(decal, slot));
                 slot
@@ -311,6 +315,7 @@ impl DecalTable {
     /// centre (distinct from the others: see `render::decals::accel` on why).
     pub fn remove(&mut self, slot: u32) {
         let Some(&index) = self.box_of.get(slot as usize).filter(|_| self.records.get(slot).is_some()) else { return };
+        self.forget_skin(slot);
         let last = self.records.len() as u32 - 1;
         let moved = *self.aabbs.get(last).expect("boxes are dense");
         if index != last {
@@ -320,6 +325,17 @@ impl DecalTable {
         self.aabbs.release_with(last, moved.collapsed());
         self.box_of[slot as usize] = NO_DECAL;
         self.records.remove(slot);
+    }
+
+    /// Whether some live decal sits on a skin.
+    pub fn any_on_skin(&self) -> bool {
+        self.on_skin > 0
+    }
+
+    fn forget_skin(&mut self, slot: u32) {
+        if self.records.get(slot).is_some_and(|r| r.receivers & DECAL_ON_SKIN != 0) {
+            self.on_skin -= 1;
+        }
     }
 
     /// Drops the free record slots and box places at the ends of their tables
@@ -747,6 +763,8 @@ pub struct SceneMirror {
     /// Set when an instance was added or removed or changed its mesh or material (not only its
     /// transform): the scene TLAS is then rebuilt rather than updated.
     instances_rearranged: bool,
+    /// Live instances whose receiver layers are not `DECAL_DEFAULT_LAYERS`.
+    layered_instances: u32,
     /// Object-space bounds (minimum and maximum corner) of each mesh, by mesh id: culling's
     /// world bounds come from them, and the transparent sort from their centres.
     mesh_bounds: Vec<(Vec3, Vec3)>,
@@ -836,6 +854,10 @@ impl SceneMirror {
     /// Adds or replaces the draw of an instance slot.
     pub fn set_instance(&mut self, slot: Option<u32>, mut record: GpuInstance, draw: DrawItem) -> u32 {
         record.mesh = draw.mesh.0;
+        if let Some(slot) = slot {
+            self.forget_layers(slot);
+        }
+        self.layered_instances += u32::from(record.decal_layers != DECAL_DEFAULT_LAYERS);
         let cull = self.cull_record(&record.model, draw);
         let slot = match slot {
             Some(slot) => {
@@ -933,6 +955,7 @@ impl SceneMirror {
     /// Frees an instance slot.
     pub fn remove_instance(&mut self, slot: u32) {
         self.instances_rearranged = true;
+        self.forget_layers(slot);
         self.instances.remove(slot);
         self.culls.remove(slot);
         // A slot taken again this frame must not inherit the removed instance's motion.
@@ -943,6 +966,20 @@ impl SceneMirror {
         }
         self.transparent.remove(&slot);
         self.counters.records_written += 1;
+    }
+
+    fn forget_layers(&mut self, slot: u32) {
+        if self.instances.get(slot).is_some_and(|i| i.decal_layers != DECAL_DEFAULT_LAYERS) {
+            self.layered_instances -= 1;
+        }
+    }
+
+    /// Whether a decal pass must know each pixel's instance: some instance has receiver layers
+    /// of its own, or some decal sits on a skin. Otherwise every pixel receives the decals of
+    /// `DECAL_DEFAULT_LAYERS`, and the forward pipelines' decal pass reads depth alone, with no
+    /// ids prepass (`crate::decals::DecalSurfaceSource::Depth`).
+    pub fn decals_need_instances(&self) -> bool {
+        self.layered_instances > 0 || self.decals.any_on_skin()
     }
 
     /// Writes a record into a table, counting it.
@@ -1551,6 +1588,46 @@ mod tests {
             }
         }
         counts
+    }
+
+    #[test]
+    fn decals_need_instances_only_while_some_instance_has_layers_or_some_decal_is_on_a_skin() {
+        let mut m = SceneMirror::new();
+        let mesh = m.add_mesh(MeshData {
+            vertices: [Vec3::ZERO, Vec3::X, Vec3::Y]
+                .map(|p| GpuVertex { position: p.into(), normal: [0.0, 0.0, 1.0], uv: [0.0; 2], tangent: [1.0, 0.0, 0.0, 1.0] })
+                .to_vec(),
+            indices: vec![0, 1, 2],
+            ..Default::default()
+        });
+        let draw = DrawItem { mesh, alpha_mask: false, double_sided: false, transparent: false };
+        let with_layers = |layers| GpuInstance::new(Mat4::IDENTITY, 0, layers);
+        let plain = m.set_instance(None, with_layers(DECAL_DEFAULT_LAYERS), draw);
+        assert!(!m.decals_need_instances(), "default layers");
+        let layered = m.set_instance(None, with_layers(2), draw);
+        assert!(m.decals_need_instances(), "an instance with layers of its own");
+        m.set_instance(Some(layered), with_layers(2), draw);
+        m.set_instance(Some(plain), with_layers(DECAL_DEFAULT_LAYERS), draw);
+        assert_eq!(m.layered_instances, 1, "rewrites count once");
+        m.set_instance(Some(layered), with_layers(DECAL_DEFAULT_LAYERS), draw);
+        assert!(!m.decals_need_instances(), "its layers back to the default");
+        m.set_instance(Some(plain), with_layers(0), draw);
+        m.remove_instance(plain);
+        m.remove_instance(plain);
+        assert!(!m.decals_need_instances(), "a removed layered instance (removed twice) counts no more");
+
+        let world = m.decals.write(None, &desc(0.0));
+        let skin = m.decals.write(None, &DecalDesc { on_skin: Some(layered), ..desc(1.0) });
+        assert!(m.decals_need_instances(), "a decal on a skin");
+        m.decals.write(Some(skin), &DecalDesc { on_skin: Some(layered), ..desc(2.0) });
+        m.decals.write(Some(world), &desc(3.0));
+        m.decals.remove(skin);
+        m.decals.remove(skin);
+        assert!(!m.decals_need_instances(), "moved, then removed");
+        m.decals.write(Some(world), &DecalDesc { on_skin: Some(layered), ..desc(3.0) });
+        assert!(m.decals_need_instances(), "a world decal moved onto a skin");
+        m.decals.write(Some(world), &desc(3.0));
+        assert!(!m.decals_need_instances(), "and off it");
     }
 
     #[test]

@@ -168,6 +168,8 @@ pub struct PoseTable {
     poses: Vec<Option<Pose>>,
     /// Posed meshes set this frame or settling.
     active: Vec<MeshId>,
+    /// Posed meshes (the `Some` entries of `poses`).
+    posed: u32,
     /// This frame's jobs (posed meshes skinned), once [`PoseTable::take_jobs`] has run.
     jobs: Vec<MeshId>,
     /// Their vertices.
@@ -194,6 +196,11 @@ impl PoseTable {
     /// Whether mesh `id` can be posed: it has a skin or morph targets.
     pub fn can_pose(&self, id: MeshId) -> bool {
         self.sources.get(id.0 as usize).is_some_and(Option::is_some)
+    }
+
+    /// Whether some mesh is posed.
+    pub fn any_posed(&self) -> bool {
+        self.posed > 0
     }
 
     /// Whether mesh `id` is a posed mesh.
@@ -223,6 +230,7 @@ impl PoseTable {
         if self.poses.len() <= slot {
             self.poses.resize(slot + 1, None);
         }
+        self.posed += u32::from(self.poses[slot].is_none());
         self.poses[slot] =
             Some(Pose { source, vertices, joints: Vec::new(), weights: Vec::new(), fresh: true, changed: false, settling: false });
         true
@@ -231,7 +239,7 @@ impl PoseTable {
     /// Forgets mesh `id` as a source and as a posed mesh.
     pub(crate) fn remove(&mut self, id: MeshId) {
         if let Some(p) = self.poses.get_mut(id.0 as usize) {
-            *p = None;
+            self.posed -= u32::from(p.take().is_some());
         }
         if let Some(s) = self.sources.get_mut(id.0 as usize) {
             *s = None;
