@@ -59,7 +59,7 @@ use ash::vk;
 use crate::RenderError;
 use crate::decals::DecalFrame;
 use crate::gpu::device::GpuContext;
-use crate::gpu::pipeline::{HitGroup, RayTracingDesc, RayTracingPipeline, create_compute};
+use crate::gpu::pipeline::{HitGroup, RayTracingDesc, RayTracingPipeline, create_computes};
 use crate::gpu::shaders;
 use crate::graph::targets::{DECAL_BUFFER, DEPTH, GBUFFER_LAYERS, GBUFFER_NORMAL, VISIBILITY};
 use crate::graph::{BufferUse, Frame, ImageUse, PassBuilder, PassKind};
@@ -84,29 +84,6 @@ impl DecalSurfaceSource {
     pub fn forward(ids: bool, need_instances: bool) -> Self {
         if ids || need_instances { DecalSurfaceSource::Visibility } else { DecalSurfaceSource::Depth }
     }
-}
-
-/// One compute pipeline per [`DecalSurfaceSource`], from `(name, SPIR-V)` in its order; none
-/// is left behind when one fails.
-pub(super) fn per_source(
-    ctx: &GpuContext,
-    layout: vk::PipelineLayout,
-    stages: [(&str, &[u8]); 3],
-) -> Result<[vk::Pipeline; 3], RenderError> {
-    let mut made = Vec::with_capacity(3);
-    for (name, spirv) in stages {
-        match create_compute(ctx, layout, name, spirv) {
-            Ok(p) => made.push(p),
-            Err(e) => {
-                for p in made {
-                    // SAFETY: the pipelines are unused.
-                    unsafe { ctx.device.destroy_pipeline(p, None) };
-                }
-                return Err(e);
-            }
-        }
-    }
-    Ok(made.try_into().expect("one per source"))
 }
 
 /// The decal passes this device can run.
@@ -142,7 +119,7 @@ impl DecalPasses {
             None
         };
         let ray_query = if support.ray_query {
-            Some(per_source(
+            Some(create_computes(
                 ctx,
                 layout,
                 [

@@ -66,7 +66,7 @@ use crate::RenderError;
 use crate::decals::buffer::DecalSurfaceSource;
 use crate::gpu::device::GpuContext;
 use crate::gpu::memory::{Buffer, Retired};
-use crate::gpu::pipeline::create_compute;
+use crate::gpu::pipeline::{create_compute, create_computes};
 use crate::gpu::shaders;
 use crate::gpu::upload::{Shrink, Upload};
 use crate::graph::readback::StatsReadback;
@@ -141,7 +141,7 @@ impl DecalClusters {
             count: create_compute(ctx, layout, "decal clusters (count)", shaders::DECAL_CLUSTERS_COMP)?,
             scan: create_compute(ctx, layout, "decal clusters (scan)", shaders::DECAL_CLUSTER_SCAN_COMP)?,
             fill: create_compute(ctx, layout, "decal clusters (fill)", shaders::DECAL_CLUSTERS_COMP_FILL)?,
-            pass: super::buffer::per_source(
+            pass: create_computes(
                 ctx,
                 layout,
                 [

@@ -241,6 +241,29 @@ pub fn create_compute(ctx: &GpuContext, layout: vk::PipelineLayout, name: &str, 
     Ok(pipeline)
 }
 
+/// Creates one compute pipeline per `(name, SPIR-V)` of `stages`, in order; when one fails, the
+/// ones made before it are destroyed.
+pub fn create_computes<const N: usize>(
+    ctx: &GpuContext,
+    layout: vk::PipelineLayout,
+    stages: [(&str, &[u8]); N],
+) -> Result<[vk::Pipeline; N], RenderError> {
+    let mut made = Vec::with_capacity(N);
+    for (name, spirv) in stages {
+        match create_compute(ctx, layout, name, spirv) {
+            Ok(p) => made.push(p),
+            Err(e) => {
+                for p in made {
+                    // SAFETY: the pipelines were never used.
+                    unsafe { ctx.device.destroy_pipeline(p, None) };
+                }
+                return Err(e);
+            }
+        }
+    }
+    Ok(made.try_into().unwrap_or_else(|_| unreachable!("one pipeline per stage")))
+}
+
 /// One hit group of a ray-tracing pipeline: its shaders (procedural geometry when it has an
 /// intersection shader, else triangles).
 #[derive(Clone, Copy, Debug, Default)]

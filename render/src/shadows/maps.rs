@@ -36,7 +36,7 @@ use glam::{Mat4, Vec3, Vec4Swizzles};
 use crate::RenderError;
 use crate::culling::Draws;
 use crate::gpu::device::GpuContext;
-use crate::gpu::pipeline::{GraphicsDesc, create_compute, create_graphics};
+use crate::gpu::pipeline::{GraphicsDesc, create_computes, create_graphics};
 use crate::gpu::shaders;
 use crate::graph::targets::{
     DEPTH, DEPTH_FORMAT, SHADOW_DEBUG, SHADOW_MAP_DEPTH, SHADOW_MAP_FILTER, SHADOW_MAP_FILTER_FORMAT, TRANSPARENT_DEPTH,
@@ -96,22 +96,11 @@ impl ShadowMaps {
             ..GraphicsDesc::mesh("shadow maps", Some(shaders::SHADOW_MAP_FRAG), &[SHADOW_MAP_FILTER_FORMAT], DEPTH_FORMAT)
         };
         let raster = create_graphics(ctx, layout, &desc)?;
-        let mut made = vec![raster];
-        for (name, spirv) in
-            [("shadows (maps)", shaders::SHADOWS_MAPPED_COMP), ("glass shadows (maps)", shaders::SHADOWS_MAPPED_COMP_GLASS_LAYER)]
-        {
-            match create_compute(ctx, layout, name, spirv) {
-                Ok(p) => made.push(p),
-                Err(e) => {
-                    for p in made {
-                        // SAFETY: never used.
-                        unsafe { ctx.device.destroy_pipeline(p, None) };
-                    }
-                    return Err(e);
-                }
-            }
-        }
-        let resolve = [made[1], made[2]];
+        let stages = [("shadows (maps)", shaders::SHADOWS_MAPPED_COMP), ("glass shadows (maps)", shaders::SHADOWS_MAPPED_COMP_GLASS_LAYER)];
+        let resolve = create_computes(ctx, layout, stages).inspect_err(|_| {
+            // SAFETY: never used.
+            unsafe { ctx.device.destroy_pipeline(raster, None) };
+        })?;
         Ok(Self { raster, resolve, budget, columns, rows, words: Vec::new() })
     }
 
