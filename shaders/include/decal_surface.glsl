@@ -14,7 +14,9 @@
 //     own and no decal is on a skin: SceneMirror::decals_need_instances): depth alone, so the
 //     prepass writes no ids. Every pixel receives the default layers; both normals are the
 //     geometric normal from depth (facing the camera), as the deferred pipeline's fade uses, so a
-//     decal's normal map is built on the face rather than the interpolated normal.
+//     decal's normal map is built on the face rather than the interpolated normal. (Where both
+//     neighbours on an axis lie on other surfaces, as on features one pixel wide, that normal
+//     is a guess: the decals there may shade flat.)
 // A posed mesh's pixel also gives its skin's view (decal_skin_view): its rest pose from the
 // visibility ids, or in the deferred pipeline from the G-buffer's instance and triangle.
 #ifndef DECAL_SURFACE_GLSL

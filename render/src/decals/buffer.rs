@@ -79,10 +79,11 @@ pub enum DecalSurfaceSource {
 }
 
 impl DecalSurfaceSource {
-    /// Where the forward pipelines' decal pass reads the surface: the ids when the prepass
-    /// writes them anyway (`ids`) or the decals need the instance, else depth alone.
-    pub fn forward(ids: bool, need_instances: bool) -> Self {
-        if ids || need_instances { DecalSurfaceSource::Visibility } else { DecalSurfaceSource::Depth }
+    /// Where the forward pipelines' decal pass reads the surface: the ids when the decals need
+    /// the instance, else depth alone, even in a frame whose prepass writes ids for reflections
+    /// or motion, so that the decals' look (their normal frame) never changes with those.
+    pub fn forward(need_instances: bool) -> Self {
+        if need_instances { DecalSurfaceSource::Visibility } else { DecalSurfaceSource::Depth }
     }
 }
 
@@ -119,15 +120,20 @@ impl DecalPasses {
             None
         };
         let ray_query = if support.ray_query {
-            Some(create_computes(
-                ctx,
-                layout,
-                [
-                    ("decal pass (ray query)", shaders::DECAL_PASS_COMP),
-                    ("decal pass (ray query, visibility)", shaders::DECAL_PASS_COMP_VISIBILITY),
-                    ("decal pass (ray query, depth)", shaders::DECAL_PASS_COMP_DEPTH),
-                ],
-            )?)
+            let stages = [
+                ("decal pass (ray query)", shaders::DECAL_PASS_COMP),
+                ("decal pass (ray query, visibility)", shaders::DECAL_PASS_COMP_VISIBILITY),
+                ("decal pass (ray query, depth)", shaders::DECAL_PASS_COMP_DEPTH),
+            ];
+            match create_computes(ctx, layout, stages) {
+                Ok(pipelines) => Some(pipelines),
+                Err(e) => {
+                    if let Some(rt) = ray_pipeline {
+                        rt.destroy(ctx); // never used
+                    }
+                    return Err(e);
+                }
+            }
         } else {
             None
         };

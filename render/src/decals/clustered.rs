@@ -66,7 +66,7 @@ use crate::RenderError;
 use crate::decals::buffer::DecalSurfaceSource;
 use crate::gpu::device::GpuContext;
 use crate::gpu::memory::{Buffer, Retired};
-use crate::gpu::pipeline::{create_compute, create_computes};
+use crate::gpu::pipeline::create_computes;
 use crate::gpu::shaders;
 use crate::gpu::upload::{Shrink, Upload};
 use crate::graph::readback::StatsReadback;
@@ -136,20 +136,33 @@ impl DecalClusters {
     /// Creates the pipelines and the readback buffers; the cluster buffer waits for first use,
     /// when it gets room for `initial_capacity` entries.
     pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout, initial_capacity: u32) -> Result<Self, RenderError> {
-        let readback = StatsReadback::new(ctx, graph, "decal cluster statistics", DECAL_CLUSTER_HEADER as u64 * 4)?;
+        let [count, scan, fill, gbuffer, visibility, depth] = create_computes(
+            ctx,
+            layout,
+            [
+                ("decal clusters (count)", shaders::DECAL_CLUSTERS_COMP),
+                ("decal clusters (scan)", shaders::DECAL_CLUSTER_SCAN_COMP),
+                ("decal clusters (fill)", shaders::DECAL_CLUSTERS_COMP_FILL),
+                ("decal pass (clustered)", shaders::DECAL_PASS_CLUSTERED_COMP),
+                ("decal pass (clustered, visibility)", shaders::DECAL_PASS_CLUSTERED_COMP_VISIBILITY),
+                ("decal pass (clustered, depth)", shaders::DECAL_PASS_CLUSTERED_COMP_DEPTH),
+            ],
+        )?;
+        let readback = match StatsReadback::new(ctx, graph, "decal cluster statistics", DECAL_CLUSTER_HEADER as u64 * 4) {
+            Ok(readback) => readback,
+            Err(e) => {
+                for p in [count, scan, fill, gbuffer, visibility, depth] {
+                    // SAFETY: the pipelines were never used.
+                    unsafe { ctx.device.destroy_pipeline(p, None) };
+                }
+                return Err(e);
+            }
+        };
         Ok(Self {
-            count: create_compute(ctx, layout, "decal clusters (count)", shaders::DECAL_CLUSTERS_COMP)?,
-            scan: create_compute(ctx, layout, "decal clusters (scan)", shaders::DECAL_CLUSTER_SCAN_COMP)?,
-            fill: create_compute(ctx, layout, "decal clusters (fill)", shaders::DECAL_CLUSTERS_COMP_FILL)?,
-            pass: create_computes(
-                ctx,
-                layout,
-                [
-                    ("decal pass (clustered)", shaders::DECAL_PASS_CLUSTERED_COMP),
-                    ("decal pass (clustered, visibility)", shaders::DECAL_PASS_CLUSTERED_COMP_VISIBILITY),
-                    ("decal pass (clustered, depth)", shaders::DECAL_PASS_CLUSTERED_COMP_DEPTH),
-                ],
-            )?,
+            count,
+            scan,
+            fill,
+            pass: [gbuffer, visibility, depth],
             buffer: None,
             capacity: 0,
             initial_capacity: initial_capacity.max(1),

@@ -4,7 +4,8 @@
 //! instead: in the deferred pipelines MSAA applies as TAA ([`AntiAliasing::applied`]).
 //!
 //! **What is per sample and what per pixel.** The depth prepass rasterises depth (and the ids,
-//! when a decal pass or the reflection rays follow) at every sample, and the shading pass tests
+//! when the reflection rays, motion or a decal that must know the instance read them) at every
+//! sample, and the shading pass tests
 //! each sample against it: coverage, depth and therefore every edge are per sample, and the
 //! shading pass resolves the mean of the samples into the HDR target. The shading itself runs
 //! once per pixel and primitive (not per sample: the cost of MSAA stays near the cost of the

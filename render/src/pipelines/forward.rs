@@ -100,8 +100,8 @@ impl ForwardPasses {
         if self.samples > 1 { [&DEPTH_MS, &HDR_MS, &VISIBILITY_MS] } else { [&DEPTH, &HDR, &VISIBILITY] }
     }
 
-    /// Depth prepass: writes reverse-Z depth (and, when `ids`, the instance and triangle ids a
-    /// decal pass or the reflection rays read) for the instances `draws` holds (one of the
+    /// Depth prepass: writes reverse-Z depth (and, when `ids`, the instance and triangle ids the
+    /// reflection rays, motion or a decal pass that must know the instance read) for the instances `draws` holds (one of the
     /// culling's `phase`s); masked materials discard. Under MSAA both resolve to sample 0 (one
     /// surface per pixel for every per-pixel pass that follows).
     pub fn prepass(&self, f: &mut Frame, scene: &GpuScene, draws: &Draws, phase: Phase, ids: bool) -> Result<(), RenderError> {

@@ -118,7 +118,7 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
     let (scene, forward) = (&*r.scene, r.forward);
     let need_instances = mirror.decals_need_instances();
     let ids = (decals.buffered() && need_instances) || lights.reflections() || r.pixel_ids == PixelIds::Visibility;
-    let source = DecalSurfaceSource::forward(ids, need_instances);
+    let source = DecalSurfaceSource::forward(need_instances);
     r.culling.depth_passes(f, scene, |f, draws, phase| forward.prepass(f, scene, &draws, phase, ids))?;
     motion(f, r)?;
     let draws = r.culling.draws();
@@ -260,13 +260,14 @@ fn motion(f: &mut Frame, r: &FrameParts) -> Result<(), RenderError> {
 /// Where this frame's motion pass finds each pixel's instance and triangle, for the motion of
 /// posed meshes' skin per pixel (`crate::motion`): the visibility buffer, the G-buffer's layers,
 /// or, in the forward pipelines under temporal anti-aliasing with posed meshes in the scene,
-/// the prepass's ids when the settings ask for reflection rays or a decal pass that reads them
-/// too (the prepass then writes them even in a frame with no reflecting surface, so that the
-/// choice is made before the scene's upload, which must know whether posed meshes are movers).
-/// Otherwise the forward prepass keeps no ids for motion and posed meshes are drawn again as
-/// movers: a scene without posed meshes never pays for ids it has no use for.
+/// the prepass's ids when the settings ask for reflection rays or a decal pass (the prepass then
+/// writes them even in a frame with no reflecting surface or decal, so that the choice is made
+/// before the scene's upload, which must know whether posed meshes are movers: at 10,000 foxes
+/// drawing them again as movers costs far more than the ids). Otherwise the forward prepass
+/// keeps no ids for motion and posed meshes are drawn again as movers; a scene without posed
+/// meshes never pays for ids it has no use for.
 fn motion_ids(r: &FrameParts, s: &FrameSettings, mirror: &SceneMirror) -> PixelIds {
-    let decal_pass = r.decal_choice.applied.uses_decal_buffer() && !s.decals_in_forward_shading && mirror.decals_need_instances();
+    let decal_pass = r.decal_choice.applied.uses_decal_buffer() && !s.decals_in_forward_shading;
     let rays = s.reflections.mode != crate::settings::ReflectionMode::Off;
     let taa = r.aa == crate::settings::AntiAliasing::Taa;
     let forward_ids = s.pipeline.is_forward() && taa && mirror.poses.any_posed() && (decal_pass || rays);

@@ -857,7 +857,7 @@ impl SceneMirror {
         if let Some(slot) = slot {
             self.forget_layers(slot);
         }
-        self.layered_instances += u32::from(record.decal_layers != DECAL_DEFAULT_LAYERS);
+        self.layered_instances += u32::from(Self::has_layers(&record, draw));
         let cull = self.cull_record(&record.model, draw);
         let slot = match slot {
             Some(slot) => {
@@ -935,6 +935,10 @@ impl SceneMirror {
         if new == old {
             return;
         }
+        if let Some(record) = self.instances.get(slot) {
+            let (was, is) = (Self::has_layers(record, old), Self::has_layers(record, new));
+            self.layered_instances = self.layered_instances + u32::from(is) - u32::from(was);
+        }
         self.count_batch(Some(old), -1);
         self.count_batch(Some(new), 1);
         self.note_transparency(slot, new.transparent);
@@ -968,8 +972,16 @@ impl SceneMirror {
         self.counters.records_written += 1;
     }
 
+    /// Whether an instance counts in `layered_instances`: opaque (the decal pass sees only the
+    /// prepass's surfaces; glass, which receives no decals by default, takes its decals in its
+    /// own shading) with receiver layers of its own.
+    fn has_layers(record: &GpuInstance, draw: DrawItem) -> bool {
+        !draw.transparent && record.decal_layers != DECAL_DEFAULT_LAYERS
+    }
+
     fn forget_layers(&mut self, slot: u32) {
-        if self.instances.get(slot).is_some_and(|i| i.decal_layers != DECAL_DEFAULT_LAYERS) {
+        let (Some(record), Some(&Some(draw))) = (self.instances.get(slot), self.draws.get(slot as usize)) else { return };
+        if Self::has_layers(record, draw) {
             self.layered_instances -= 1;
         }
     }
@@ -1628,6 +1640,17 @@ mod tests {
         assert!(m.decals_need_instances(), "a world decal moved onto a skin");
         m.decals.write(Some(world), &desc(3.0));
         assert!(!m.decals_need_instances(), "and off it");
+
+        // Glass takes its decals in its own shading: its layers (none, by default) do not count
+        // until it becomes opaque.
+        let glass = m.set_instance(None, with_layers(0), DrawItem { transparent: true, ..draw });
+        assert!(!m.decals_need_instances(), "glass");
+        m.update_draw(glass, |d| d.transparent = false);
+        assert!(m.decals_need_instances(), "the glass made opaque");
+        m.update_draw(glass, |d| d.transparent = true);
+        assert!(!m.decals_need_instances(), "and glass again");
+        m.remove_instance(glass);
+        assert_eq!(m.layered_instances, 0);
     }
 
     #[test]
