@@ -70,8 +70,7 @@ pub struct FrameParts<'a> {
     pub decal_choice: DecalChoice,
     /// The anti-aliasing applied ([`crate::settings::AntiAliasing::applied`]).
     pub aa: crate::settings::AntiAliasing,
-    /// Where this frame's motion pass finds each pixel's instance ([`motion_ids`]), set by
-    /// [`begin`].
+    /// Where this frame's motion pass finds each pixel's instance (`motion_ids`), set by `begin`.
     pub pixel_ids: PixelIds,
 }
 
