@@ -41,7 +41,7 @@ fn main() -> Result<(), engine::app::BoxError> {
     // Play its walk (or first) clip, on the spot.
     let clips = app.world.get::<GltfAnimations>(root).map(|c| c.0.clone()).unwrap_or_default();
     let names = app.world.resource::<Assets<engine::animation::AnimationClip>>();
-    let walk = clips.iter().copied().find(|&c| names.get(c).is_some_and(|clip| clip.name == "Walk")).or(clips.first().copied());
+    let walk = clips.iter().copied().find(|&c| names.get(c).is_some_and(|clip| clip.name() == "Walk")).or(clips.first().copied());
     if let Some(walk) = walk {
         app.world.entity_mut(root).insert(AnimationPlayer::new(walk));
     }

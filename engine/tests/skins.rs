@@ -32,7 +32,7 @@ fn the_fox_loads_its_skin_and_clips_and_walks() {
     let scene = gltf::load(&model("Fox")).unwrap();
     assert_eq!(scene.skins.len(), 1);
     assert_eq!(scene.skins[0].joints.len(), 24);
-    let names: Vec<&str> = scene.animations.iter().map(|a| a.name.as_str()).collect();
+    let names: Vec<&str> = scene.animations.iter().map(|a| a.name()).collect();
     assert_eq!(names, ["Survey", "Walk", "Run"]);
     let (mesh, _) = &scene.meshes[0][0];
     let skin = mesh.skin.as_ref().expect("the fox's mesh is skinned");

@@ -68,7 +68,7 @@ pub fn load_character(world: &mut World, path: &Path) -> Result<GltfPrefab> {
 /// The clip named `name`, or the first.
 pub fn clip_named(world: &World, prefab: &GltfPrefab, name: &str) -> Option<Handle<AnimationClip>> {
     let clips = world.get_resource::<Assets<AnimationClip>>()?;
-    prefab.clips.iter().copied().find(|&c| clips.get(c).is_some_and(|clip| clip.name == name)).or(prefab.clips.first().copied())
+    prefab.clips.iter().copied().find(|&c| clips.get(c).is_some_and(|clip| clip.name() == name)).or(prefab.clips.first().copied())
 }
 
 /// Spawns the character walking a loop of `radius` round `center`, playing its `Walk` clip.

@@ -10,9 +10,24 @@
 //! glTF spawner created, so a clip can drive every instance of a model.
 //!
 //! Time comes from [`Time`], so headless runs with a fixed step animate the same way every
-//! run, frame by frame. Work per frame is proportional to the channels of the playing clips;
-//! a paused or finished (clamped) player writes only values that changed: [`Transform`]s are
-//! written with `set_if_neq`, so a still pose costs neither propagation nor extraction.
+//! run, frame by frame. Work per frame is proportional to the animated nodes of the playing
+//! players; a paused or finished (clamped) player writes only values that changed:
+//! [`Transform`]s are written with `set_if_neq`, so a still pose costs neither propagation nor
+//! extraction.
+//!
+//! **How a crowd is sampled.** Each animated node samples its own channels: [`animate`] first
+//! advances every player's clock (a few words a player), then every target entity reads its
+//! player's clock, finds its channels in the clip by node index and writes its own
+//! `Transform`, in parallel. Everything heavy is worked out once per clip, when it is made, and
+//! shared by every instance of the model: the channels indexed by node, the arc between
+//! successive rotation keyframes (slerp then needs two short sine polynomials and no inverse
+//! cosine, division or normalisation per sample), and whether all channels share their
+//! keyframe times (then a player finds its time's keyframes once for all its nodes, at a guess
+//! from the keyframe rate rather than by binary search). A first design sampled each player
+//! into a buffer of its own and had the targets fetch from it; the targets' reads missed the
+//! cache and the two phases traded cache lines between cores, so that two cores animated 1,000
+//! foxes more slowly than one. Sampling where it is written halved the time (`cargo bench -p
+//! engine --bench animation`, docs/BENCHMARKS.md).
 //!
 //! ```
 //! use engine::prelude::*;
@@ -32,6 +47,7 @@
 
 mod sample;
 
+use bevy_ecs::batching::BatchingStrategy;
 use bevy_ecs::prelude::*;
 use glam::{Quat, Vec3};
 use thiserror::Error;
@@ -84,27 +100,64 @@ impl Keyframes {
     }
 }
 
-/// One animated property of one node.
+/// One animated property of one node. Read-only once made: what sampling needs beyond the
+/// keyframes (the keyframe rate that finds a time's keyframes at a guess, and the arcs between
+/// rotation keyframes) is worked out here, once.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Channel {
-    /// The node it animates: an index into [`AnimationTargets`].
-    pub target: usize,
-    /// Interpolation between keyframes.
-    pub interpolation: Interpolation,
-    /// Keyframe times in seconds, strictly increasing.
-    pub times: Vec<f32>,
-    /// The values.
-    pub keyframes: Keyframes,
+    target: usize,
+    interpolation: Interpolation,
+    times: Vec<f32>,
+    keyframes: Keyframes,
+    /// Keyframes a second, were they evenly spaced from the first to the last (0 with one).
+    rate: f32,
+    /// For linearly interpolated rotations, per interval between keyframes: the shortest arc.
+    arcs: Vec<sample::Arc>,
 }
 
 impl Channel {
-    /// A channel (checked when it joins a clip, [`AnimationClip::new`]).
+    /// A channel of `target`'s property that `keyframes` names, its values at `times` seconds
+    /// (checked when it joins a clip, [`AnimationClip::new`]).
     pub fn new(target: usize, interpolation: Interpolation, times: Vec<f32>, keyframes: Keyframes) -> Self {
-        Self { target, interpolation, times, keyframes }
+        let span = times.last().zip(times.first()).map_or(0.0, |(last, first)| last - first);
+        let rate = if times.len() > 1 && span > 0.0 { (times.len() - 1) as f32 / span } else { 0.0 };
+        let mut keyframes = keyframes;
+        if let Keyframes::Rotation(v) = &mut keyframes {
+            // Unit rotations, as glTF requires (normalised integers come close, not exactly).
+            v.iter_mut().filter(|q| q.length_squared() > 0.0).for_each(|q| *q = q.normalize());
+        }
+        let arcs = match (&keyframes, interpolation) {
+            (Keyframes::Rotation(v), Interpolation::Linear) => v.windows(2).map(|w| sample::Arc::between(w[0], w[1])).collect(),
+            _ => Vec::new(),
+        };
+        Self { target, interpolation, times, keyframes, rate, arcs }
+    }
+
+    /// The node it animates: an index into [`AnimationTargets`].
+    pub fn target(&self) -> usize {
+        self.target
+    }
+
+    /// Interpolation between keyframes.
+    pub fn interpolation(&self) -> Interpolation {
+        self.interpolation
+    }
+
+    /// Keyframe times in seconds (strictly increasing in a clip).
+    pub fn times(&self) -> &[f32] {
+        &self.times
+    }
+
+    /// The values.
+    pub fn keyframes(&self) -> &Keyframes {
+        &self.keyframes
     }
 
     fn check(&self) -> Result<(), AnimationError> {
         let bad = |reason: String| Err(AnimationError::BadChannel { target: self.target, reason });
+        if self.target > MAX_NODE {
+            return bad(format!("a clip animates nodes 0 to {MAX_NODE}"));
+        }
         if self.times.is_empty() {
             return bad("no keyframes".into());
         }
@@ -153,25 +206,101 @@ pub enum AnimationError {
 }
 
 /// An animation: channels over the nodes of one model. An asset in `Assets<AnimationClip>`.
+///
+/// A clip is checked once, when it is made ([`AnimationClip::new`]), and read-only after:
+/// its channels are indexed by node and property then, so that each animated node finds its
+/// own channels without visiting the others. To change a clip, make a new one.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AnimationClip {
-    /// The clip's name (glTF's animation name, or `animation N`).
-    pub name: String,
-    /// The channels.
-    pub channels: Vec<Channel>,
-    /// The last keyframe time over all channels, in seconds.
-    pub duration: f32,
+    name: String,
+    channels: Vec<Channel>,
+    duration: f32,
+    /// Per node up to the last animated one, its channel per [`Property`] (an index into
+    /// `channels`, [`NO_CHANNEL`] where none).
+    nodes: Vec<[u32; 4]>,
+    /// Whether every channel has the same keyframe times (exporters that sample a clip at a
+    /// fixed rate write them so): a player then finds a time's keyframes once for all.
+    shared_times: bool,
+}
+
+/// What a [`Channel`] animates: a node's translation, rotation, scale or morph weights.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Property {
+    /// [`Transform::translation`].
+    Translation,
+    /// [`Transform::rotation`].
+    Rotation,
+    /// [`Transform::scale`].
+    Scale,
+    /// The node's [`MorphWeights`].
+    Weights,
+}
+
+const NO_CHANNEL: u32 = u32::MAX;
+
+/// The highest node index a clip may animate (its channels are indexed by node).
+pub const MAX_NODE: usize = (1 << 24) - 1;
+
+impl Keyframes {
+    /// The property these keyframes animate.
+    pub fn property(&self) -> Property {
+        match self {
+            Keyframes::Translation(_) => Property::Translation,
+            Keyframes::Rotation(_) => Property::Rotation,
+            Keyframes::Scale(_) => Property::Scale,
+            Keyframes::Weights { .. } => Property::Weights,
+        }
+    }
 }
 
 impl AnimationClip {
     /// A clip from checked channels: keyframe times finite and strictly increasing, as many
-    /// values as the interpolation needs, every value finite.
+    /// values as the interpolation needs, every value finite, and no property of a node
+    /// animated twice (glTF 2.0 §3.11: a target and path appear once in an animation).
     pub fn new(name: impl Into<String>, channels: Vec<Channel>) -> Result<Self, AnimationError> {
         for channel in &channels {
             channel.check()?;
         }
         let duration = channels.iter().filter_map(|c| c.times.last().copied()).fold(0.0, f32::max);
-        Ok(Self { name: name.into(), channels, duration })
+        let mut nodes = vec![[NO_CHANNEL; 4]; channels.iter().map(|c| c.target + 1).max().unwrap_or(0)];
+        for (i, channel) in channels.iter().enumerate() {
+            let property = channel.keyframes.property();
+            let slot = &mut nodes[channel.target][property as usize];
+            if *slot != NO_CHANNEL {
+                return Err(AnimationError::BadChannel {
+                    target: channel.target,
+                    reason: format!("its {property:?} is animated by two channels of the clip"),
+                });
+            }
+            *slot = i as u32;
+        }
+        let shared_times = !channels.is_empty() && channels.windows(2).all(|w| w[0].times == w[1].times);
+        Ok(Self { name: name.into(), channels, duration, nodes, shared_times })
+    }
+
+    /// The clip's name (glTF's animation name, or `animation N`).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The channels, in the order they were given.
+    pub fn channels(&self) -> &[Channel] {
+        &self.channels
+    }
+
+    /// The last keyframe time over all channels, in seconds.
+    pub fn duration(&self) -> f32 {
+        self.duration
+    }
+
+    /// The channels animating `node`, per [`Property`] (`None` if the clip leaves it alone).
+    fn channels_of(&self, node: usize) -> Option<[Option<&Channel>; 4]> {
+        Some(self.nodes.get(node)?.map(|c| self.channels.get(c as usize)))
+    }
+
+    /// The channel animating `property` of `node`, if the clip has one.
+    pub fn channel(&self, node: usize, property: Property) -> Option<&Channel> {
+        self.channels_of(node)?[property as usize]
     }
 }
 
@@ -367,30 +496,32 @@ pub fn update_skin_poses(
     });
 }
 
-/// A pose being accumulated for one target: each property with the total weight of the clips
-/// blended into it so far, and its morph weights (a range of [`AnimationOutput::weights`]).
-#[derive(Clone, Copy)]
-struct Pose {
-    translation: Option<(Vec3, f32)>,
-    rotation: Option<(Quat, f32)>,
-    scale: Option<(Vec3, f32)>,
-    /// Start and length of its morph weights in the output, once a clip set them.
-    morph: Option<(u32, u32)>,
-    weights: f32,
+/// What a player's targets sample this frame, set by [`animate`]'s first phase (added with
+/// every [`AnimationPlayer`]): up to two clips (the second while cross-fading), and the
+/// generation of the player's links to its targets.
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct AnimationOutput {
+    layers: [Option<Layer>; 2],
+    /// Raised each time [`link_animation_targets`] links the player's targets: a target linked
+    /// under an older generation is no longer among them.
+    links: u32,
 }
 
-/// What a player sampled this frame, written by [`animate`]'s parallel phase and applied to the
-/// targets by its serial one (added with every [`AnimationPlayer`]; its buffers are reused, so a
-/// steady frame allocates nothing).
-#[derive(Component, Default)]
-pub struct AnimationOutput {
-    poses: Vec<(Entity, Pose)>,
-    /// Per target node, its index in `poses` (`u32::MAX`: none yet).
-    pose_of: Vec<u32>,
-    /// Morph weights of every pose, back to back.
-    weights: Vec<f32>,
-    /// One channel's sampled morph weights.
-    sampled: Vec<f32>,
+/// One clip of a player's pose: the clip, the time in it (after looping or clamping), its
+/// weight in the blend, and the time's keyframes when all the clip's channels share them.
+#[derive(Clone, Copy, Debug)]
+struct Layer {
+    clip: Handle<AnimationClip>,
+    time: f32,
+    weight: f32,
+    keys: Option<sample::Keys>,
+}
+
+impl Layer {
+    fn new(clip_handle: Handle<AnimationClip>, clip: &AnimationClip, time: f32, weight: f32) -> Self {
+        let keys = clip.shared_times.then(|| clip.channels[0].keys(time));
+        Self { clip: clip_handle, time, weight, keys }
+    }
 }
 
 /// What the last [`animate`] did: for statistics (`cpu_ms.animate` in the sandbox's `--stats`).
@@ -402,17 +533,9 @@ pub struct AnimationStats {
     pub players: u32,
 }
 
-/// Advances one player by `dt` and samples its clips (blended while cross-fading) into `out`.
-fn sample_player(
-    player: &mut AnimationPlayer,
-    targets: &AnimationTargets,
-    clips: &Assets<AnimationClip>,
-    dt: f32,
-    out: &mut AnimationOutput,
-) {
-    let AnimationOutput { poses, pose_of, weights, sampled } = out;
-    poses.clear();
-    weights.clear();
+/// Advances one player by `dt`; returns the clips its targets sample (blended while
+/// cross-fading), those with no weight left out.
+fn advance(player: &mut AnimationPlayer, clips: &Assets<AnimationClip>, dt: f32) -> [Option<Layer>; 2] {
     if !player.paused {
         player.time += dt * player.speed;
         if let Some(fade) = &mut player.fade {
@@ -423,71 +546,48 @@ fn sample_player(
             player.fade = None;
         }
     }
-    let Some(clip) = clips.get(player.clip) else { return };
+    let Some(clip) = clips.get(player.clip) else { return [None; 2] };
     let repeat = player.repeat;
     if repeat == Repeat::Clamp && clip.duration > 0.0 {
         // Keep the clock at the end, so that a later switch to Loop starts from there.
         player.time = player.time.clamp(0.0, clip.duration);
     }
     let blend = player.blend();
-    let from = player.fade.and_then(|f| clips.get(f.from).map(|c| (c, wrap(f.from_time, c.duration, repeat), 1.0 - blend)));
-    let layers = [Some((clip, wrap(player.time, clip.duration, repeat), blend)), from];
-    pose_of.clear();
-    pose_of.resize(targets.0.len(), u32::MAX);
-    for (clip, t, weight) in layers.into_iter().flatten().filter(|l| l.2 > 0.0) {
-        for channel in &clip.channels {
-            let Some(&Some(entity)) = targets.0.get(channel.target) else { continue };
-            let slot = &mut pose_of[channel.target];
-            if *slot == u32::MAX {
-                *slot = poses.len() as u32;
-                poses.push((entity, Pose { translation: None, rotation: None, scale: None, morph: None, weights: 0.0 }));
-            }
-            let pose = &mut poses[*slot as usize].1;
-            match sample_channel(channel, t, sampled) {
-                Sampled::Translation(v) => accumulate(&mut pose.translation, v, weight, Vec3::lerp),
-                Sampled::Scale(v) => accumulate(&mut pose.scale, v, weight, Vec3::lerp),
-                Sampled::Rotation(q) => accumulate(&mut pose.rotation, q, weight, Quat::slerp),
-                Sampled::Weights => {
-                    // The first clip sets them, a later one mixes in by its share.
-                    match pose.morph {
-                        None => {
-                            pose.morph = Some((weights.len() as u32, sampled.len() as u32));
-                            weights.extend_from_slice(sampled);
-                        }
-                        Some((start, len)) => {
-                            let share = weight / (pose.weights + weight);
-                            let range = start as usize..(start + len) as usize;
-                            for (a, &b) in weights[range].iter_mut().zip(sampled.iter()) {
-                                *a += (b - *a) * share;
-                            }
-                        }
-                    }
-                    pose.weights += weight;
-                }
-            }
-        }
-    }
+    let playing = Layer::new(player.clip, clip, wrap(player.time, clip.duration, repeat), blend);
+    let from = player.fade.and_then(|f| {
+        let from = clips.get(f.from)?;
+        Some(Layer::new(f.from, from, wrap(f.from_time, from.duration, repeat), 1.0 - blend))
+    });
+    [Some(playing), from].map(|layer| layer.filter(|l| l.weight > 0.0))
 }
 
 /// The player that animates an entity, and which of its [`AnimationTargets`] the entity is
-/// (its node index): how [`animate`] writes poses in parallel, each target fetching its own.
-/// Set by [`link_animation_targets`] when a player's targets are set; an entity two players
-/// target follows the one linked last.
+/// (its node index): how [`animate`] writes poses in parallel, each target sampling its own
+/// channels. Set by [`link_animation_targets`] when a player's targets are set; an entity two
+/// players target follows the one linked last.
 #[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
 pub struct AnimatedBy {
     /// The entity with the [`AnimationPlayer`].
     pub player: Entity,
     /// The entity's index in the player's [`AnimationTargets`].
     pub node: u32,
+    /// The player's link generation when this link was made.
+    links: u32,
 }
 
 /// Links the targets of players whose [`AnimationTargets`] were set to them ([`AnimatedBy`]).
-/// Runs before [`animate`].
-pub fn link_animation_targets(mut commands: Commands, players: Query<(Entity, &AnimationTargets), Changed<AnimationTargets>>) {
-    for (player, targets) in &players {
+/// Runs before [`animate`]. Entities dropped from a player's targets keep an [`AnimatedBy`] of
+/// an older generation, which [`animate`] ignores.
+#[allow(clippy::type_complexity)]
+pub fn link_animation_targets(
+    mut commands: Commands,
+    mut players: Query<(Entity, &AnimationTargets, &mut AnimationOutput), Or<(Changed<AnimationTargets>, Added<AnimationOutput>)>>,
+) {
+    for (player, targets, mut out) in &mut players {
+        out.links = out.links.wrapping_add(1);
         for (node, target) in targets.0.iter().enumerate() {
             if let Some(target) = *target {
-                commands.entity(target).try_insert(AnimatedBy { player, node: node as u32 });
+                commands.entity(target).try_insert(AnimatedBy { player, node: node as u32, links: out.links });
             }
         }
     }
@@ -497,64 +597,131 @@ pub fn link_animation_targets(mut commands: Commands, players: Query<(Entity, &A
 /// [`Transform`]s and [`MorphWeights`]. A property the clip does not animate keeps its value;
 /// during a cross-fade the two clips' values are blended by [`AnimationPlayer::blend`].
 ///
-/// Two parallel phases: the players are advanced and sampled (each into its own
-/// [`AnimationOutput`]: the clips are read-only, so players never contend), then every target
-/// ([`AnimatedBy`]) fetches its pose from its player's output and writes its own `Transform`.
-/// A crowd scales with the cores. Morph weights, rare, are written after, one player at a time.
+/// Two parallel phases. The players advance their clocks and name the clips to sample
+/// ([`AnimationOutput`]); then every target ([`AnimatedBy`]) reads its player's few words,
+/// finds its own channels in the clip (indexed by node when the clip was made) and samples them
+/// into its own `Transform`. The clips are read-only and shared by every instance of a model,
+/// so a crowd's targets read the same few kilobytes of keyframes and nothing per player
+/// beyond its clock; the work scales with the animated nodes and the cores.
 pub fn animate(
     time: Res<Time>,
     clips: Option<Res<Assets<AnimationClip>>>,
-    mut players: Query<(&mut AnimationPlayer, &AnimationTargets, &mut AnimationOutput)>,
-    mut targets: Query<(Entity, &AnimatedBy, &mut Transform)>,
-    mut morphs: Query<&mut MorphWeights>,
+    mut players: Query<(&mut AnimationPlayer, &mut AnimationOutput)>,
+    mut targets: Query<(&AnimatedBy, &mut Transform, Option<&mut MorphWeights>)>,
     stats: Option<ResMut<AnimationStats>>,
 ) {
     let Some(clips) = clips else { return };
     let started = std::time::Instant::now();
     let dt = time.delta_secs();
     let clips = &*clips;
-    players.par_iter_mut().for_each(|(mut player, targets, mut out)| sample_player(&mut player, targets, clips, dt, &mut out));
-    let outputs = &players;
-    targets.par_iter_mut().for_each(|(entity, by, mut transform)| {
-        let Ok((_, links, out)) = outputs.get(by.player) else { return };
-        // Still this player's target, and posed this frame?
-        if links.0.get(by.node as usize) != Some(&Some(entity)) {
-            return;
+    // Batches big enough that a small crowd does not wake every core for a few microseconds'
+    // work (a player's clock is a few nanoseconds; a target's pose about a hundred).
+    players
+        .par_iter_mut()
+        .batching_strategy(BatchingStrategy::new().min_batch_size(1024))
+        .for_each(|(mut player, mut out)| out.layers = advance(&mut player, clips, dt));
+    let players = &players;
+    // A model's nodes sit together in their tables, so a target's player is most often the
+    // previous target's: each batch keeps the last one it fetched.
+    targets.par_iter_mut().batching_strategy(BatchingStrategy::new().min_batch_size(256)).for_each_init(
+        || None,
+        |last: &mut Option<(Entity, AnimationOutput)>, (by, mut transform, morph)| {
+            let out = match *last {
+                Some((player, out)) if player == by.player => out,
+                _ => {
+                    let Ok((_, &out)) = players.get(by.player) else { return };
+                    *last = Some((by.player, out));
+                    out
+                }
+            };
+            // Still this player's target?
+            if out.links == by.links {
+                pose_target(clips, &out.layers, by.node as usize, &mut transform, morph);
+            }
+        },
+    );
+    if let Some(mut stats) = stats {
+        *stats = AnimationStats { cpu_ms: started.elapsed().as_secs_f32() * 1e3, players: players.iter().len() as u32 };
+    }
+}
+
+/// Samples node `node`'s channels in `layers` and writes them: the transform when a clip
+/// animates it (flagged changed only if a value changed), and the morph weights likewise.
+fn pose_target(
+    clips: &Assets<AnimationClip>,
+    layers: &[Option<Layer>; 2],
+    node: usize,
+    transform: &mut Mut<Transform>,
+    morph: Option<Mut<MorphWeights>>,
+) {
+    let mut translation = None;
+    let mut rotation = None;
+    let mut scale = None;
+    // The morph weight channels, with their keyframes and weight.
+    let mut weights: [Option<(&Channel, sample::Keys, f32)>; 2] = [None; 2];
+    for (i, layer) in layers.iter().flatten().enumerate() {
+        let Some([t, r, s, w]) = clips.get(layer.clip).and_then(|clip| clip.channels_of(node)) else { continue };
+        let (time, weight) = (layer.time, layer.weight);
+        let keys = |c: &Channel| layer.keys.unwrap_or_else(|| c.keys(time));
+        if let Some(c @ Channel { keyframes: Keyframes::Translation(v), .. }) = t {
+            accumulate(&mut translation, sample::vec3_at(c.interpolation, v, keys(c)), weight, Vec3::lerp);
         }
-        let Some(&(_, pose)) = out.pose_of.get(by.node as usize).and_then(|&i| out.poses.get(i as usize)) else { return };
-        if pose.translation.is_none() && pose.rotation.is_none() && pose.scale.is_none() {
-            return;
+        if let Some(c @ Channel { keyframes: Keyframes::Rotation(v), .. }) = r {
+            accumulate(&mut rotation, sample::rotation_at(c.interpolation, v, &c.arcs, keys(c)), weight, Quat::slerp);
         }
-        let mut next = *transform;
-        if let Some((v, _)) = pose.translation {
+        if let Some(c @ Channel { keyframes: Keyframes::Scale(v), .. }) = s {
+            accumulate(&mut scale, sample::vec3_at(c.interpolation, v, keys(c)), weight, Vec3::lerp);
+        }
+        weights[i] = w.map(|c| (c, keys(c), weight));
+    }
+    if translation.is_some() || rotation.is_some() || scale.is_some() {
+        let mut next = **transform;
+        if let Some((v, _)) = translation {
             next.translation = v;
         }
-        if let Some((q, _)) = pose.rotation {
-            next.rotation = q.normalize();
+        if let Some((q, _)) = rotation {
+            next.rotation = q;
         }
-        if let Some((v, _)) = pose.scale {
+        if let Some((v, _)) = scale {
             next.scale = v;
         }
         transform.set_if_neq(next);
-    });
-    let mut advanced = 0;
-    for (_, _, out) in &players {
-        advanced += 1;
-        for &(entity, pose) in &out.poses {
-            if let Some((start, len)) = pose.morph
-                && let Ok(mut morph) = morphs.get_mut(entity)
-            {
-                let values = &out.weights[start as usize..(start + len) as usize];
-                // Written (and flagged changed) only when a value changes.
-                if morph.bypass_change_detection().0 != values {
-                    morph.0.clear();
-                    morph.0.extend_from_slice(values);
-                }
-            }
+    }
+    if let Some(mut morph) = morph {
+        write_weights(&mut morph, weights);
+    }
+}
+
+/// Writes the morph weights of up to two clips' channels: the first clip's sets them, the
+/// second mixes in by its share of the weight. The component is flagged changed only when a
+/// value changed, and a steady pose allocates nothing.
+fn write_weights(morph: &mut Mut<MorphWeights>, channels: [Option<(&Channel, sample::Keys, f32)>; 2]) {
+    let at = |(c, keys, _): (&Channel, sample::Keys, f32), j: usize| match &c.keyframes {
+        Keyframes::Weights { targets, values } => (j < *targets).then(|| sample::weight_at(c.interpolation, values, *targets, j, keys)),
+        _ => None,
+    };
+    let (first, second) = match channels {
+        [Some(a), b] => (a, b),
+        [None, Some(b)] => (b, None),
+        [None, None] => return,
+    };
+    let Keyframes::Weights { targets: n, .. } = first.0.keyframes else { return };
+    let share = second.map_or(0.0, |b| b.2 / (first.2 + b.2));
+    let out = &mut morph.bypass_change_detection().0;
+    let mut changed = out.len() != n;
+    out.resize(n, 0.0);
+    for (j, out) in out.iter_mut().enumerate() {
+        let mut v = at(first, j).unwrap_or(0.0);
+        if let Some(b) = second.and_then(|b| at(b, j)) {
+            v += (b - v) * share;
+        }
+        if *out != v {
+            *out = v;
+            changed = true;
         }
     }
-    if let Some(mut stats) = stats {
-        *stats = AnimationStats { cpu_ms: started.elapsed().as_secs_f32() * 1e3, players: advanced };
+    if changed {
+        morph.set_changed();
     }
 }
 
