@@ -123,8 +123,11 @@ impl Channel {
         let rate = if times.len() > 1 && span > 0.0 { (times.len() - 1) as f32 / span } else { 0.0 };
         let mut keyframes = keyframes;
         if let Keyframes::Rotation(v) = &mut keyframes {
-            // Unit rotations, as glTF requires (normalised integers come close, not exactly).
-            v.iter_mut().filter(|q| q.length_squared() > 0.0).for_each(|q| *q = q.normalize());
+            // Unit rotations, as glTF requires (normalised integers come close, not exactly);
+            // a cubic spline's tangents (entries 3k and 3k + 2) are not rotations and keep
+            // their length.
+            let (first, step) = if interpolation == Interpolation::CubicSpline { (1, 3) } else { (0, 1) };
+            v.iter_mut().skip(first).step_by(step).filter(|q| q.length_squared() > 0.0).for_each(|q| *q = q.normalize());
         }
         let arcs = match (&keyframes, interpolation) {
             (Keyframes::Rotation(v), Interpolation::Linear) => v.windows(2).map(|w| sample::Arc::between(w[0], w[1])).collect(),
@@ -238,8 +241,9 @@ pub enum Property {
 
 const NO_CHANNEL: u32 = u32::MAX;
 
-/// The highest node index a clip may animate (its channels are indexed by node).
-pub const MAX_NODE: usize = (1 << 24) - 1;
+/// The highest node index a clip may animate: its channels are indexed by node, 16 bytes a node
+/// up to the highest it animates (16 MiB at most).
+pub const MAX_NODE: usize = (1 << 20) - 1;
 
 impl Keyframes {
     /// The property these keyframes animate.
@@ -607,7 +611,7 @@ pub fn animate(
     time: Res<Time>,
     clips: Option<Res<Assets<AnimationClip>>>,
     mut players: Query<(&mut AnimationPlayer, &mut AnimationOutput)>,
-    mut targets: Query<(&AnimatedBy, &mut Transform, Option<&mut MorphWeights>)>,
+    mut targets: Query<(&AnimatedBy, Option<&mut Transform>, Option<&mut MorphWeights>)>,
     stats: Option<ResMut<AnimationStats>>,
 ) {
     let Some(clips) = clips else { return };
@@ -625,7 +629,7 @@ pub fn animate(
     // previous target's: each batch keeps the last one it fetched.
     targets.par_iter_mut().batching_strategy(BatchingStrategy::new().min_batch_size(256)).for_each_init(
         || None,
-        |last: &mut Option<(Entity, AnimationOutput)>, (by, mut transform, morph)| {
+        |last: &mut Option<(Entity, AnimationOutput)>, (by, transform, morph)| {
             let out = match *last {
                 Some((player, out)) if player == by.player => out,
                 _ => {
@@ -636,7 +640,7 @@ pub fn animate(
             };
             // Still this player's target?
             if out.links == by.links {
-                pose_target(clips, &out.layers, by.node as usize, &mut transform, morph);
+                pose_target(clips, &out.layers, by.node as usize, transform, morph);
             }
         },
     );
@@ -646,12 +650,13 @@ pub fn animate(
 }
 
 /// Samples node `node`'s channels in `layers` and writes them: the transform when a clip
-/// animates it (flagged changed only if a value changed), and the morph weights likewise.
+/// animates it (flagged changed only if a value changed), and the morph weights likewise (an
+/// entity may have either).
 fn pose_target(
     clips: &Assets<AnimationClip>,
     layers: &[Option<Layer>; 2],
     node: usize,
-    transform: &mut Mut<Transform>,
+    transform: Option<Mut<Transform>>,
     morph: Option<Mut<MorphWeights>>,
 ) {
     let mut translation = None;
@@ -674,8 +679,8 @@ fn pose_target(
         }
         weights[i] = w.map(|c| (c, keys(c), weight));
     }
-    if translation.is_some() || rotation.is_some() || scale.is_some() {
-        let mut next = **transform;
+    if let Some(mut transform) = transform.filter(|_| translation.is_some() || rotation.is_some() || scale.is_some()) {
+        let mut next = *transform;
         if let Some((v, _)) = translation {
             next.translation = v;
         }

@@ -255,6 +255,20 @@ mod tests {
     }
 
     #[test]
+    fn cubic_rotations_keep_their_tangents() {
+        // From identity to 90° about Y over 2 s, with an out-tangent of length 0.3 (not a unit
+        // quaternion: normalising it would change the curve). At s = 0.5, h = (0.5, 0.125,
+        // 0.5, -0.125) and the tangents scale by dt = 2.
+        let (v0, v1) = (Quat::IDENTITY, Quat::from_rotation_y(std::f32::consts::FRAC_PI_2));
+        let out0 = Vec4::new(0.0, 0.3, 0.0, 0.0);
+        let keys = vec![Quat::IDENTITY, v0, Quat::from_vec4(out0), Quat::from_vec4(Vec4::ZERO), v1, Quat::IDENTITY];
+        let c = channel(Interpolation::CubicSpline, vec![0.0, 2.0], Keyframes::Rotation(keys));
+        let Sampled::Rotation(q) = sample_channel(&c, 1.0, &mut Vec::new()) else { panic!() };
+        let expected = Quat::from_vec4((Vec4::from(v0) * 0.5 + out0 * (0.125 * 2.0) + Vec4::from(v1) * 0.5).normalize());
+        assert!(apart(q, expected) < 1e-6, "{q} vs {expected}");
+    }
+
+    #[test]
     fn morph_weights_interpolate_per_target() {
         let c = channel(Interpolation::Linear, vec![0.0, 1.0], Keyframes::Weights { targets: 2, values: vec![0.0, 1.0, 1.0, 0.0] });
         let mut w = Vec::new();
