@@ -51,11 +51,17 @@ void main() {
         atomicMax(group_applied_max, applied);
     }
     barrier();
+    // Every group adds its pixels; only groups that tested decals touch the other counters
+    // (where decals are sparse, most groups: fewer atomics on the same few words).
     if (gl_LocalInvocationIndex == 0u && group_pixels > 0u) {
-        add64(STAT_TESTED_LO, group_tested);
-        add64(STAT_APPLIED_LO, group_applied);
         atomicAdd(cluster_words().words[STAT_PIXELS], group_pixels);
-        atomicMax(cluster_words().words[STAT_TESTED_MAX], group_tested_max);
-        atomicMax(cluster_words().words[STAT_APPLIED_MAX], group_applied_max);
+        if (group_tested > 0u) {
+            add64(STAT_TESTED_LO, group_tested);
+            atomicMax(cluster_words().words[STAT_TESTED_MAX], group_tested_max);
+        }
+        if (group_applied > 0u) {
+            add64(STAT_APPLIED_LO, group_applied);
+            atomicMax(cluster_words().words[STAT_APPLIED_MAX], group_applied_max);
+        }
     }
 }

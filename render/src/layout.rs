@@ -516,8 +516,9 @@ layout! {
     /// Binding of the decal buffer's roughness/metallic (`decal_spec`, RGBA16F): decal roughness
     /// and metallic (xy), the weights left to the surface's (zw).
     pub const BINDING_DECAL_SPEC: u32 = 16;
-    /// Binding of the decal buffer's count of decals tested per pixel (`decal_tested`, R32UI;
-    /// the debug views read it).
+    /// Binding of the decal buffer's count of decals tested per pixel (`decal_tested`, R32UI):
+    /// the debug views read it, and the shading reads the other images only where it is not 0
+    /// (a pixel where no decal was tested gets its count alone).
     pub const BINDING_DECAL_TESTED: u32 = 17;
     /// Number of bindless slots the renderer reserves for itself (built-ins and render targets;
     /// scene textures start here).

@@ -257,7 +257,8 @@ pub static DECAL_EMISSIVE: TargetDesc = TargetDesc {
     storage: None,
     multisampled: false,
 };
-/// Decal buffer: decals tested per pixel (debug views).
+/// Decal buffer: decals tested per pixel (debug views; where 0, the other images are not
+/// written and the shading reads nothing more).
 pub static DECAL_TESTED: TargetDesc = TargetDesc {
     name: "decal tested",
     format: DECAL_TESTED_FORMAT,
