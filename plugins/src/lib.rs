@@ -311,6 +311,8 @@ pub struct FrameStats {
     pub pipeline: PipelineKind,
     /// The decal method it used.
     pub decal_method: DecalMethod,
+    /// Where its decal pass read each pixel's surface (`None` when no decal pass ran).
+    pub decal_surface: Option<render::decals::DecalSurfaceSource>,
     /// The light method it used.
     pub light_method: render::LightMethod,
     /// How its shadows were made.
@@ -403,6 +405,12 @@ impl RenderStats {
     pub const MAX_COMPLETED: usize = 256;
     /// The most frames kept waiting for their GPU times (far more than are ever in flight).
     pub const MAX_PENDING: usize = 16;
+
+    /// The statistics of the frame recorded last, whether or not its GPU times are known yet
+    /// (its [`FrameStats::gpu`] is empty until they are).
+    pub fn latest(&self) -> Option<&FrameStats> {
+        self.pending.back().or(self.completed.back())
+    }
 
     fn complete(&mut self, frame: u64, gpu: PassTimes) {
         while let Some(front) = self.pending.front() {
@@ -558,6 +566,7 @@ fn render_frame(
                 frame: report.frame,
                 pipeline: settings.pipeline,
                 decal_method: report.decal_method,
+                decal_surface: report.decal_surface,
                 light_method: report.light_method,
                 shadows: report.shadows,
                 transparency: settings.transparency.effective(settings.pipeline),

@@ -153,8 +153,9 @@ impl DebugOverlay {
         // What the GPU applied, which may differ from the request (a device without ray queries).
         if let Some(last) = self.history.back() {
             ui.label(format!(
-                "decals applied: {}   lights: {}   shadows: {}   ambient occlusion: {}",
+                "decals applied: {} (surface: {})   lights: {}   shadows: {}   ambient occlusion: {}",
                 last.decal_method.name(),
+                last.decal_surface.map_or("none", |s| s.name()),
                 last.light_method.name(),
                 last.shadows.name(),
                 last.occlusion.name()

@@ -83,6 +83,8 @@ pub struct FrameReport {
     /// The decal method applied (after [`DecalMethod::effective`]): what the frame shows, not
     /// what was asked for.
     pub decal_method: DecalMethod,
+    /// Where the decal pass read each pixel's surface (`None` when no decal pass ran).
+    pub decal_surface: Option<crate::decals::DecalSurfaceSource>,
     /// The light method applied (after [`LightMethod::effective`]).
     pub light_method: LightMethod,
     /// How the frame's shadows were made (`None` when none were traced).
@@ -493,6 +495,7 @@ impl Renderer {
         Ok(Some(FrameReport {
             frame,
             decal_method,
+            decal_surface: res.decals.surface(),
             light_method: lights.method,
             shadows: lights.shadows,
             occlusion: lights.occlusion.method,

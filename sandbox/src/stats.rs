@@ -2,7 +2,9 @@
 //!
 //! Keys (stable; later features add keys, none change meaning): `frame`, `pipeline`,
 //! `decal_method` (the method applied, which may differ from the one asked for: `none` when the
-//! device can run no decal method in this pipeline), `tier`,
+//! device can run no decal method in this pipeline), `decal_surface` (where the decal pass read
+//! each pixel's surface: `gbuffer`, `ids` (the prepass's instance and triangle ids) or `depth`;
+//! `null` when no decal pass ran), `tier`,
 //! `device`, `size` `[w, h]`, `gpu_ms` (one key per pass, summed over the times it ran, plus
 //! `total`), `cpu_ms` (`frame`: the whole update up to submission, GPU waits left out;
 //! `extract`; `animate`: sampling animation clips; `record`, and `submit`: the part of `record`
@@ -73,6 +75,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
         "frame": stats.frame,
         "pipeline": stats.pipeline.name(),
         "decal_method": stats.decal_method.name(),
+        "decal_surface": stats.decal_surface.map(|s| s.name()),
         "light_method": stats.light_method.name(),
         "shadows": stats.shadows.name(),
         "transparency": stats.transparency.name(),

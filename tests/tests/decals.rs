@@ -16,6 +16,7 @@
 use engine::prelude::*;
 use plugins::decal::{AngleFade, Decal, DecalLifetime, DecalMaterial, DecalReceiver, DistanceFade};
 use plugins::{MirrorSlots, RenderMirror, RenderSettings, RenderStats};
+use render::decals::DecalSurfaceSource;
 use render::{DebugView, DecalMethod, PipelineKind, Tier};
 use tests::{TopDownView, assert_no_validation_errors, gpu_app_at, renderer};
 
@@ -43,6 +44,24 @@ fn config_app(c: Config, size: (u32, u32), debug_view: DebugView) -> App {
     let mut app = gpu_app_at(size.0, size.1, settings, c.tier);
     assert_eq!(renderer(&mut app).tier(), c.tier, "lavapipe offers every tier");
     app
+}
+
+/// Where `c`'s decal pass should read each pixel's surface: nowhere for in-shader ray queries
+/// (no pass), the G-buffer in deferred, the prepass's ids in the visibility buffer, and in
+/// forward the ids only where a decal needs the instance (`needs_ids`: a receiver with other
+/// layers), depth alone otherwise.
+fn expected_surface(c: Config, needs_ids: bool) -> Option<DecalSurfaceSource> {
+    c.method.uses_decal_buffer().then_some(match c.pipeline {
+        PipelineKind::Deferred => DecalSurfaceSource::GBuffer,
+        PipelineKind::VisBuffer => DecalSurfaceSource::Visibility,
+        _ if needs_ids => DecalSurfaceSource::Visibility,
+        _ => DecalSurfaceSource::Depth,
+    })
+}
+
+/// Where the last frame recorded had its decal pass read the surface.
+fn reported_surface(app: &App) -> Option<DecalSurfaceSource> {
+    app.world.resource::<RenderStats>().latest().expect("a frame was recorded").decal_surface
 }
 
 /// The plane's albedo: sRGB 188/255, which the deferred pipeline's 8-bit sRGB G-buffer holds
@@ -364,6 +383,7 @@ fn containment_follows_the_oriented_box_at_faces_and_corners() {
                 assert_eq!(got.x > 0.9 && got.y < 0.1, expected, "corner ({sx},{sy}) at scale {scale}: {got}");
             }
         }
+        assert_eq!(reported_surface(&app), expected_surface(c, false), "{c:?}: default layers, no skin");
     }
 }
 
@@ -428,6 +448,7 @@ fn receiver_masks_keep_decals_off_other_layers() {
             (!near_edge).then_some(inside && p.x < 0.0)
         });
         assert!(hits > 300 && misses > 300, "{hits} {misses}");
+        assert_eq!(reported_surface(&app), expected_surface(c, true), "{c:?}: the raised plane's layers need the ids");
     }
 }
 

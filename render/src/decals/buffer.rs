@@ -85,6 +85,15 @@ impl DecalSurfaceSource {
     pub fn forward(need_instances: bool) -> Self {
         if need_instances { DecalSurfaceSource::Visibility } else { DecalSurfaceSource::Depth }
     }
+
+    /// Its name in statistics: `gbuffer`, `ids` or `depth`.
+    pub fn name(self) -> &'static str {
+        match self {
+            DecalSurfaceSource::GBuffer => "gbuffer",
+            DecalSurfaceSource::Visibility => "ids",
+            DecalSurfaceSource::Depth => "depth",
+        }
+    }
 }
 
 /// The decal passes this device can run.
@@ -164,9 +173,9 @@ impl DecalPasses {
     /// Writes the decal buffer for this frame's decals, when the frame's method is a decal pass
     /// and there are decals; otherwise records nothing (the shading passes then read no buffer).
     /// Under `DebugView::DecalFloor` the ray-tracing-pipeline pass only counts the decals at
-    /// each pixel and applies none.
-    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, frame: &DecalFrame, source: DecalSurfaceSource) -> Result<(), RenderError> {
-        let Some(traced) = frame.traced.filter(|_| frame.buffered()) else { return Ok(()) };
+    /// each pixel and applies none. Returns whether it recorded a pass.
+    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, frame: &DecalFrame, source: DecalSurfaceSource) -> Result<bool, RenderError> {
+        let Some(traced) = frame.traced.filter(|_| frame.buffered()) else { return Ok(false) };
         let extent = f.graph.extent();
         let variant = source as usize;
         let count_only = frame.method == DecalMethod::RayPipeline && f.push.debug_view == DebugView::DecalFloor as u32;
@@ -186,7 +195,7 @@ impl DecalPasses {
                 pass.record(|p| {
                     p.bind(vk::PipelineBindPoint::RAY_TRACING_KHR, rt.pipeline, &p.push);
                     rt.trace(p.ctx, p.cmd, variant, extent);
-                })
+                })?;
             }
             _ => {
                 let pipelines = self.ray_query.ok_or_else(|| unsupported(frame.method))?;
@@ -194,9 +203,10 @@ impl DecalPasses {
                     p.bind(vk::PipelineBindPoint::COMPUTE, pipelines[variant], &p.push);
                     // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
                     unsafe { p.ctx.device.cmd_dispatch(p.cmd, extent.width.div_ceil(8), extent.height.div_ceil(8), 1) };
-                })
+                })?;
             }
         }
+        Ok(true)
     }
 
     /// Destroys the pipelines; the GPU must be idle.

@@ -272,9 +272,9 @@ impl DecalClusters {
     /// Bins `live` decal boxes into the clusters, runs the decal pass over the surface `source`
     /// (writing the decal buffer) unless there is none (the shading walks the lists itself),
     /// and copies the statistics for the CPU. The push constants must hold
-    /// [`DecalClusters::prepare`]'s result.
-    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, live: u32, source: Option<DecalSurfaceSource>) -> Result<(), RenderError> {
-        let Some(buffer) = self.buffer.as_ref() else { return Ok(()) };
+    /// [`DecalClusters::prepare`]'s result. Returns whether it recorded the decal pass.
+    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, live: u32, source: Option<DecalSurfaceSource>) -> Result<bool, RenderError> {
+        let Some(buffer) = self.buffer.as_ref() else { return Ok(false) };
         let (raw, res, clusters) = (buffer.raw, self.res, self.clusters);
         let prefix = (DECAL_CLUSTER_HEADER as u64 + 3 * clusters as u64) * 4;
         f.pass("decal_clusters_clear", PassKind::Transfer).write(res, BufferUse::Transfer).record(|p| {
@@ -315,7 +315,8 @@ impl DecalClusters {
             })?;
         }
 
-        self.readback.record(f, "decal_clusters_statistics", res, raw)
+        self.readback.record(f, "decal_clusters_statistics", res, raw)?;
+        Ok(source.is_some())
     }
 
     /// Destroys everything; the GPU must be idle.

@@ -36,6 +36,8 @@ pub struct Decals {
     pub boxes: DecalBoxes,
     /// Deferred decals' draw order.
     pub order: DeferredDecalOrder,
+    /// Where this frame's decal pass read the surface (`None` when none ran).
+    surface: Option<DecalSurfaceSource>,
 }
 
 /// The decal method asked for and the one applied (see [`DecalMethod::effective`]).
@@ -104,6 +106,7 @@ impl Decals {
             clusters: DecalClusters::new(ctx, graph, layout, cluster_capacity)?,
             boxes: DecalBoxes::new(ctx, layout)?,
             order: DeferredDecalOrder::default(),
+            surface: None,
         })
     }
 
@@ -127,6 +130,7 @@ impl Decals {
     ) -> Result<DecalFrame, RenderError> {
         let DecalReaders { lists_in_shading, reflections } = readers;
         let method = choice.applied;
+        self.surface = None;
         // Reflection rays find the decals at their hit points in the decal TLAS, whatever the
         // method on screen (unless decals are off).
         let at_hits = reflections && !matches!(method, DecalMethod::Off | DecalMethod::Unavailable);
@@ -162,7 +166,7 @@ impl Decals {
 
     /// Writes the decal buffer when this frame's method is a decal pass ([`buffer`], or
     /// [`clustered`] with its binning passes); bins the clustered decals only, when the shading
-    /// walks their lists itself.
+    /// walks their lists itself. [`Decals::surface`] then says where the pass read the surface.
     pub fn decal_pass(
         &mut self,
         f: &mut Frame,
@@ -170,10 +174,18 @@ impl Decals {
         frame: &DecalFrame,
         source: DecalSurfaceSource,
     ) -> Result<(), RenderError> {
-        if frame.clusters.is_some() {
-            return self.clusters.record(f, scene, frame.count, (!frame.clusters_in_shading()).then_some(source));
-        }
-        self.passes.record(f, scene, frame, source)
+        let ran = match frame.clusters {
+            Some(_) => self.clusters.record(f, scene, frame.count, (!frame.clusters_in_shading()).then_some(source))?,
+            None => self.passes.record(f, scene, frame, source)?,
+        };
+        self.surface = ran.then_some(source);
+        Ok(())
+    }
+
+    /// Where this frame's decal pass read each pixel's surface: the G-buffer, the prepass's ids
+    /// or depth alone (`None` when no decal pass ran: no decals, in-shader or deferred decals).
+    pub fn surface(&self) -> Option<DecalSurfaceSource> {
+        self.surface
     }
 
     /// The deferred decals to draw this frame (none unless they are the method).
