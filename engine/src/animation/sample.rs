@@ -140,29 +140,39 @@ pub(super) fn rotation_at(interpolation: Interpolation, values: &[Quat], arcs: &
     Quat::from_vec4(interpolate(interpolation, |i| Vec4::from(values[i]), keys, Vec4::lerp)).normalize()
 }
 
-/// Morph target `target`'s weight at `keys`, of a channel with `targets` weights a keyframe.
-pub(super) fn weight_at(interpolation: Interpolation, values: &[f32], targets: usize, target: usize, keys: Keys) -> f32 {
-    // Entry i of target j: values[i * targets + j].
-    interpolate(interpolation, |i| values[i * targets + target], keys, |a, b, s| a + (b - a) * s)
+impl Channel {
+    /// Its value at `keys`; a morph weight channel answers [`Sampled::Weights`] and gives its
+    /// weights one at a time ([`Channel::weight_at`]).
+    fn value_at(&self, keys: Keys) -> Sampled {
+        let mode = self.interpolation;
+        match &self.keyframes {
+            Keyframes::Translation(v) => Sampled::Translation(vec3_at(mode, v, keys)),
+            Keyframes::Scale(v) => Sampled::Scale(vec3_at(mode, v, keys)),
+            Keyframes::Rotation(v) => Sampled::Rotation(rotation_at(mode, v, &self.arcs, keys)),
+            Keyframes::Weights { .. } => Sampled::Weights,
+        }
+    }
+
+    /// Morph target `target`'s weight at `keys` (`None` beyond the channel's targets, or for a
+    /// channel of another property).
+    pub(super) fn weight_at(&self, keys: Keys, target: usize) -> Option<f32> {
+        let Keyframes::Weights { targets, values } = &self.keyframes else { return None };
+        // Entry i of target j: values[i * targets + j].
+        (target < *targets).then(|| interpolate(self.interpolation, |i| values[i * targets + target], keys, |a, b, s| a + (b - a) * s))
+    }
 }
 
 /// Samples `channel` at `t` seconds; morph weights go to `weights` (resized to the target
 /// count; no allocation once it has that size).
 pub fn sample_channel(channel: &Channel, t: f32, weights: &mut Vec<f32>) -> Sampled {
     let keys = channel.keys(t);
-    let mode = channel.interpolation;
-    match &channel.keyframes {
-        Keyframes::Translation(v) => Sampled::Translation(vec3_at(mode, v, keys)),
-        Keyframes::Scale(v) => Sampled::Scale(vec3_at(mode, v, keys)),
-        Keyframes::Rotation(v) => Sampled::Rotation(rotation_at(mode, v, &channel.arcs, keys)),
-        Keyframes::Weights { targets, values } => {
-            weights.resize(*targets, 0.0);
-            for (target, out) in weights.iter_mut().enumerate() {
-                *out = weight_at(mode, values, *targets, target, keys);
-            }
-            Sampled::Weights
+    if let Keyframes::Weights { targets, .. } = channel.keyframes {
+        weights.resize(targets, 0.0);
+        for (target, out) in weights.iter_mut().enumerate() {
+            *out = channel.weight_at(keys, target).unwrap_or(0.0);
         }
     }
+    channel.value_at(keys)
 }
 
 #[cfg(test)]
