@@ -837,6 +837,9 @@ layout! {
     pub const CULL_PASS_SHADOW_VIEWS: u32 = 3;
     /// Most levels of the depth pyramid (a 65536-pixel side).
     pub const HIZ_MAX_LEVELS: u32 = 16;
+    /// Depth-pyramid levels one dispatch writes (an 8×8 workgroup's block and the three above it:
+    /// `shaders/include/depth_pyramid_build.glsl`).
+    pub const HIZ_LEVELS_PER_DISPATCH: u32 = 4;
 
     /// The camera as the shaders see it.
     #[layout(std430)]

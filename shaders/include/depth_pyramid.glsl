@@ -27,6 +27,12 @@ uint hiz_offset(uvec2 viewport, uint level) {
     return offset;
 }
 
+// One texel from the 2×2 below it: the nearest (reverse Z: the largest) when `nearest`, else the
+// farthest.
+float pyramid_reduce(vec4 d, bool nearest) {
+    return nearest ? max(max(d.x, d.y), max(d.z, d.w)) : min(min(d.x, d.y), min(d.z, d.w));
+}
+
 // Texel `t` of level `level` of pyramid `h`, from the level below (or the depth target for level
 // 0): the nearest of its 2×2 texels when `nearest`, else the farthest (reverse Z: the largest or
 // the smallest).
@@ -43,7 +49,7 @@ float pyramid_texel(HizRef h, uvec2 viewport, uint level, uvec2 t, bool nearest)
         uvec2 a = min(2u * t, below - 1u), b = min(2u * t + 1u, below - 1u);
         d = vec4(h.depth[o + a.y * below.x + a.x], h.depth[o + a.y * below.x + b.x], h.depth[o + b.y * below.x + a.x], h.depth[o + b.y * below.x + b.x]);
     }
-    return nearest ? max(max(d.x, d.y), max(d.z, d.w)) : min(min(d.x, d.y), min(d.z, d.w));
+    return pyramid_reduce(d, nearest);
 }
 
 #endif

@@ -26,9 +26,11 @@
 //! declarations are the interface, so a compiled graph could replace this one without touching
 //! a pass.
 //!
-//! Nothing outside this module calls `vkCmdPipelineBarrier2`. One barrier here is not derived
-//! from a declaration: an image readback's host-read barrier (buffers read back every frame
-//! declare theirs, [`BufferUse::HostRead`]). The frame's semaphores are stated by the
+//! Nothing outside this module calls `vkCmdPipelineBarrier2`. Two barriers here are not derived
+//! from declarations: an image readback's host-read barrier (buffers read back every frame
+//! declare theirs, [`BufferUse::HostRead`]), and the one between the steps of a chain of
+//! dispatches inside one pass ([`PassContext::compute_to_compute`]: the levels of the depth
+//! pyramids and of bloom, which a pass each would time, bind and fence one by one). The frame's semaphores are stated by the
 //! renderer's submit.
 //!
 //! Known limits: a track remembers which stages have seen the last write, not which kinds of

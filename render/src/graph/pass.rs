@@ -37,8 +37,29 @@ impl PassContext<'_> {
         unsafe {
             d.cmd_bind_pipeline(self.cmd, point, pipeline);
             d.cmd_bind_descriptor_sets(self.cmd, point, self.layout, 0, &[self.bindless], &[]);
-            d.cmd_push_constants(self.cmd, self.layout, vk::ShaderStageFlags::ALL, 0, bytemuck::bytes_of(push));
         }
+        self.set_push(push);
+    }
+
+    /// Sets the push constants alone (the pipeline bound stays): the steps of a chain that
+    /// differ only in them.
+    pub fn set_push(&self, push: &ScenePush) {
+        // SAFETY: `cmd` is recording; the layout is the one every scene pipeline shares.
+        unsafe { self.ctx.device.cmd_push_constants(self.cmd, self.layout, vk::ShaderStageFlags::ALL, 0, bytemuck::bytes_of(push)) };
+    }
+
+    /// Makes what this pass's compute dispatches wrote so far visible to its next dispatch (a
+    /// chain of dispatches in one pass, each reading what the one before wrote: the levels of a
+    /// pyramid). Storage accesses only (a step that samples what the one before wrote needs a
+    /// pass of its own). The graph orders passes; this orders the steps inside one.
+    pub fn compute_to_compute(&self) {
+        let barrier = [vk::MemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+            .src_access_mask(vk::AccessFlags2::SHADER_STORAGE_WRITE)
+            .dst_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+            .dst_access_mask(vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE)];
+        // SAFETY: `cmd` is recording outside a rendering scope.
+        unsafe { self.ctx.device.cmd_pipeline_barrier2(self.cmd, &vk::DependencyInfo::default().memory_barriers(&barrier)) };
     }
 
     /// Begins dynamic rendering into the given attachments over the pass's extent (the graph
