@@ -36,6 +36,13 @@ fn check_scene(scene: SceneSource, min_coverage: f64) {
         for pass in ["prepass", "forward", "tonemap", "total"] {
             assert!(later["gpu_ms"][pass].as_f64().is_some_and(|ms| ms > 0.0), "GPU time for {pass}: {later}");
         }
+        // Passes share their boundary timestamps, so the frame is the sum of its passes.
+        let times = later["gpu_ms"].as_object().expect("gpu_ms is an object");
+        let passes: f64 = times.iter().filter(|(name, _)| *name != "total").filter_map(|(_, ms)| ms.as_f64()).sum();
+        let total = times["total"].as_f64().unwrap();
+        // (Each time is rounded to 1e-4 ms in the statistics.)
+        let rounding = 5e-5 * times.len() as f64;
+        assert!((passes - total).abs() <= rounding + 1e-3 * total, "passes sum to {passes} ms, the frame takes {total}: {later}");
     }
 }
 
