@@ -1407,8 +1407,8 @@ layout! {
         pub draws: u64,
         /// Address of the visibility bits (one per instance slot: drawn last frame).
         pub visibility: u64,
-        /// Address of the depth pyramid: per level its word offset, width and height
-        /// (`HIZ_MAX_LEVELS` × 4 words), then the levels.
+        /// Address of the depth pyramid: its levels one after another
+        /// (`shaders/include/depth_pyramid.glsl`).
         pub hiz: u64,
         /// Address of the blended instances' back-to-front order (instance slots).
         pub order: u64,

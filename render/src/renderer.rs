@@ -570,6 +570,14 @@ impl Renderer {
         res.lighting.tiles.read_back(&self.ctx, &mut res.graph)
     }
 
+    /// The depth pyramid occlusion culling built last (waits for the GPU); `None` without
+    /// occlusion culling.
+    pub fn read_depth_pyramid(&mut self) -> Result<Option<crate::culling::DepthPyramid>, RenderError> {
+        self.ctx.wait_idle();
+        let res = &mut *self.res;
+        res.culling.read_pyramid(&self.ctx, &mut res.graph)
+    }
+
     /// The instance slots the last frame's culling drew, list by list (waits for the GPU);
     /// `None` before any frame.
     pub fn read_culled_lists(&mut self) -> Result<Option<crate::culling::CulledLists>, RenderError> {

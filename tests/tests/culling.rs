@@ -2,7 +2,8 @@
 //! pipeline and with shadow maps; frustum culling counts what a CPU reference counts; a wall
 //! hides the boxes behind it and the statistics say so; whatever it hid shows in the very frame
 //! the wall goes or the camera turns; freezing the culling view keeps culling against it; a
-//! frame where nothing changed uploads nothing.
+//! frame where nothing changed uploads nothing; the depth pyramid equals a CPU reduction of the
+//! depth, level by level, at an odd size.
 //!
 //! Tolerance between culling modes: mean absolute error ≤ 1e-5 and 99th percentile ≤ 1e-4 on
 //! the HDR target (the same instances drawn, only by other commands; measured: 0).
@@ -261,5 +262,52 @@ fn frustum_culling_counts_what_a_cpu_reference_counts() {
     assert_eq!(c.instances, 400);
     assert_eq!(c.after_frustum, expected, "{c:?}");
     assert_eq!(c.after_occlusion, expected, "no occlusion culling in this mode");
+    assert_no_validation_errors(&mut app);
+}
+
+/// The pyramid's level `level` from the one below (`below`, `bw` × `bh`; level 0 from the depth),
+/// each texel the farthest (smallest, reverse Z) of the 2×2 below it, clamped at the edges.
+fn reduce(below: &[f32], bw: usize, bh: usize) -> (Vec<f32>, usize, usize) {
+    let (w, h) = (bw.div_ceil(2), bh.div_ceil(2));
+    let at = |x: usize, y: usize| below[y.min(bh - 1) * bw + x.min(bw - 1)];
+    let level = (0..w * h)
+        .map(|i| (i % w, i / w))
+        .map(|(x, y)| at(2 * x, 2 * y).min(at(2 * x + 1, 2 * y)).min(at(2 * x, 2 * y + 1)).min(at(2 * x + 1, 2 * y + 1)));
+    (level.collect(), w, h)
+}
+
+#[test]
+fn the_depth_pyramid_equals_a_cpu_reduction_of_the_depth() {
+    // An odd size: levels of odd width and height, and more levels than one dispatch writes.
+    let (w, h) = (150, 77);
+    let settings = RenderSettings { aa: render::AntiAliasing::None, culling: CullingMode::Occlusion, ..Default::default() };
+    let mut app = gpu_app(w, h, settings);
+    street(&mut app, false);
+    // A still camera without jitter: by now the second phase draws nothing new, so the depth at
+    // the end of the frame is the depth the pyramid was built from.
+    for _ in 0..4 {
+        app.update();
+    }
+    let depth = renderer(&mut app).read_depth().expect("read back the depth");
+    let pyramid = renderer(&mut app).read_depth_pyramid().expect("read back the pyramid").expect("occlusion culling builds one");
+    assert_eq!((pyramid.width, pyramid.height), (w, h));
+    let pyramid = pyramid.depths;
+    let (mut below, mut bw, mut bh) = (depth, w as usize, h as usize);
+    let (mut offset, mut levels) = (0, 0);
+    loop {
+        let (level, lw, lh) = reduce(&below, bw, bh);
+        let gpu = pyramid.get(offset..offset + level.len()).unwrap_or_else(|| panic!("level {levels} lies inside the pyramid"));
+        if let Some(i) = (0..level.len()).find(|&i| gpu[i] != level[i]) {
+            panic!("level {levels} ({lw}×{lh}), texel ({}, {}): {} on the GPU, {} on the CPU", i % lw, i / lw, gpu[i], level[i]);
+        }
+        offset += level.len();
+        levels += 1;
+        if (lw, lh) == (1, 1) {
+            break;
+        }
+        (below, bw, bh) = (level, lw, lh);
+    }
+    assert_eq!(offset, pyramid.len(), "{levels} levels fill the pyramid");
+    assert!(levels > 4, "more levels ({levels}) than one dispatch writes");
     assert_no_validation_errors(&mut app);
 }

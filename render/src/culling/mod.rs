@@ -375,7 +375,9 @@ impl Culling {
         if two_phase {
             if self.pyramid.as_ref().is_none_or(|(_, e)| *e != extent) {
                 let bytes = hiz_words(extent, levels) * 4;
-                let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+                // TRANSFER_SRC: `read_pyramid` copies it out.
+                let usage =
+                    vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS | vk::BufferUsageFlags::TRANSFER_SRC;
                 let buffer = Buffer::new(ctx, "depth pyramid", bytes, usage, MemoryLocation::GpuOnly)?;
                 if let Some((old, _)) = self.pyramid.replace((buffer, extent)) {
                     f.upload.graveyard.bury(frame_value, Retired::Buffer(old));
@@ -576,6 +578,15 @@ impl Culling {
         Draws { frame: &self.frame, res: self.res.draws, lists, calls: &self.draw_calls, glass: &self.glass_runs }
     }
 
+    /// The depth pyramid the last two-phase frame built (waits for the GPU); `None` without
+    /// occlusion culling.
+    pub fn read_pyramid(&self, ctx: &GpuContext, graph: &mut FrameGraph) -> Result<Option<DepthPyramid>, RenderError> {
+        let Some((buffer, extent)) = self.pyramid.as_ref() else { return Ok(None) };
+        let bytes = graph.read_back_buffer(ctx, self.res.hiz, buffer.raw, buffer.size)?;
+        let depths = bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect();
+        Ok(Some(DepthPyramid { depths, width: extent.width, height: extent.height }))
+    }
+
     /// The lists the last frame's culling wrote, as instance slots (waits for the GPU); `None`
     /// before any frame.
     pub fn read_back(&self, ctx: &GpuContext, graph: &mut FrameGraph) -> Result<Option<CulledLists>, RenderError> {
@@ -624,6 +635,17 @@ impl Culling {
         }
         self.readback.destroy(ctx);
     }
+}
+
+/// A depth pyramid read back ([`crate::Renderer::read_depth_pyramid`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DepthPyramid {
+    /// Its levels one after another, rows top to bottom (`shaders/include/depth_pyramid.glsl`).
+    pub depths: Vec<f32>,
+    /// Width of the depth it was built from, in pixels.
+    pub width: u32,
+    /// Height of the depth it was built from, in pixels.
+    pub height: u32,
 }
 
 /// Records the dispatches of a depth pyramid's `levels` for `extent`, each after `bind` has bound
