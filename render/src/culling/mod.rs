@@ -648,14 +648,14 @@ pub struct DepthPyramid {
     pub height: u32,
 }
 
+// An 8×8 workgroup's block halves three times to one texel (depth_pyramid_build.glsl).
+const _: () = assert!(HIZ_LEVELS_PER_DISPATCH == 4, "the pyramid shader writes an 8×8 block and the three levels above it");
+
 /// Records the dispatches of a depth pyramid's `levels` for `extent`, each after `bind` has bound
 /// its pipeline and push constants for the first level it writes, with a barrier between them
 /// (each reads the level below its first). GPU culling's pyramid and screen-space reflections'
 /// share it: 3 dispatches at 1080p instead of one a level (11), whose binds and barriers cost
 /// the CPU 1.5 µs each on NVIDIA's driver.
-// An 8×8 workgroup's block halves three times to one texel (depth_pyramid_build.glsl).
-const _: () = assert!(HIZ_LEVELS_PER_DISPATCH == 4, "the pyramid shader writes an 8×8 block and the three levels above it");
-
 pub(crate) fn dispatch_pyramid(p: &PassContext, extent: vk::Extent2D, levels: u32, bind: impl Fn(&PassContext, u32)) {
     // Each dispatch writes `HIZ_LEVELS_PER_DISPATCH` levels and reads the one below its first.
     for (i, first) in (0..levels).step_by(HIZ_LEVELS_PER_DISPATCH as usize).enumerate() {

@@ -30,8 +30,8 @@
 //! from declarations: an image readback's host-read barrier (buffers read back every frame
 //! declare theirs, [`BufferUse::HostRead`]), and the one between the steps of a chain of
 //! dispatches inside one pass ([`PassContext::compute_to_compute`]: the levels of the depth
-//! pyramids and of bloom, which a pass each would time, bind and fence one by one). The frame's semaphores are stated by the
-//! renderer's submit.
+//! pyramids and of bloom, which a pass each would time, bind and fence one by one). The frame's
+//! semaphores are stated by the renderer's submit.
 //!
 //! Known limits: a track remembers which stages have seen the last write, not which kinds of
 //! access, so a second read in the same stage by another kind of access (a storage read after a
