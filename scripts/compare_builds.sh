@@ -2,12 +2,12 @@
 # Renders the same frames with two sandbox binaries and compares the screenshots byte for byte:
 # for refactors that must not change a pixel.
 #
-#   scripts/compare_builds.sh OLD_SANDBOX NEW_SANDBOX [SIZE]
+#   [FRAMES=N] scripts/compare_builds.sh OLD_SANDBOX NEW_SANDBOX [SIZE]   (N: frames, default 4)
 #
 # Every pipeline with each of its decal methods, on the default courtyard with 300 scattered
 # decals (their debug boxes drawn once), headless on whatever Vulkan device is present.
 set -euo pipefail
-old=$1 new=$2 size=${3:-320x240}
+old=$1 new=$2 size=${3:-320x240} frames=${FRAMES:-4}
 source "$(dirname "$0")/env.sh"
 out=$(mktemp -d)
 status=0
@@ -17,7 +17,7 @@ for combo in forward:ray_query forward:off deferred:ray_query deferred:deferred 
   [ -n "$boxes" ] && extra=(--decal-boxes)
   for which in old new; do
     bin=$old; [ $which = new ] && bin=$new
-    RENDER_VALIDATION=0 "$bin" --headless --frames 4 --size "$size" --decals 300 --pipeline "$pipeline" --decal-method "$method" \
+    RENDER_VALIDATION=0 "$bin" --headless --frames "$frames" --size "$size" --decals 300 --pipeline "$pipeline" --decal-method "$method" \
       "${extra[@]}" --screenshot "$out/$which-$pipeline-$method$boxes.png" >/dev/null 2>&1
   done
   if cmp -s "$out/old-$pipeline-$method$boxes.png" "$out/new-$pipeline-$method$boxes.png"; then

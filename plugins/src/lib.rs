@@ -102,6 +102,9 @@ pub struct RenderSettings {
     /// Keep culling against the view of the frame this was set in, to fly out and see what it
     /// culled (a debug option: engines call it "freeze culling").
     pub freeze_culling: bool,
+    /// Submit a command buffer again when a frame's commands are exactly those it was recorded
+    /// with (default on; `render::FrameSettings::reuse_commands`).
+    pub reuse_commands: bool,
     /// How many mesh instances, lights and decals the scene tables hold at most.
     pub limits: SceneLimits,
     /// The distance fade of decals without their own ([`decal::Decal::distance_fade`]):
@@ -181,6 +184,7 @@ impl Default for RenderSettings {
             refraction: true,
             culling: render::CullingMode::Occlusion,
             freeze_culling: false,
+            reuse_commands: true,
             limits: SceneLimits::MAX,
             decal_distance_fade: None,
         }
@@ -549,6 +553,7 @@ fn render_frame(
         refraction: settings.refraction,
         culling: settings.culling,
         freeze_culling: settings.freeze_culling,
+        reuse_commands: settings.reuse_commands,
     };
     let result = match window {
         Some(mut window) => {

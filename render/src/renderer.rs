@@ -15,6 +15,7 @@ use crate::culling::Culling;
 use crate::decals::{DecalChoice, Decals};
 use crate::environment::Environments;
 use crate::exposure::Exposure;
+use crate::gpu::commands::{CommandCache, Recorder, Recording};
 use crate::gpu::device::{DeviceSettings, GpuContext, Tier};
 use crate::gpu::memory::Graveyard;
 use crate::gpu::pipeline::{ScenePush, create_layout};
@@ -111,8 +112,8 @@ pub struct FrameReport {
 }
 
 struct FrameSlot {
-    pool: vk::CommandPool,
-    cmd: vk::CommandBuffer,
+    /// The slot's command buffer and the log it was recorded from (`crate::gpu::commands`).
+    commands: CommandCache,
     staging: StagingRing,
     timer: GpuTimer,
     /// Timeline value that marks this slot's last submission done.
@@ -179,19 +180,8 @@ impl Renderer {
         let timeline = unsafe { d.create_semaphore(&vk::SemaphoreCreateInfo::default().push_next(&mut type_info), None) }?;
         let mut frames = Vec::with_capacity(FRAMES_IN_FLIGHT);
         for _ in 0..FRAMES_IN_FLIGHT {
-            // SAFETY: valid create infos; destroyed in Drop.
-            let (pool, cmd) = unsafe {
-                let pool = d.create_command_pool(
-                    &vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family).flags(vk::CommandPoolCreateFlags::TRANSIENT),
-                    None,
-                )?;
-                let cmd =
-                    d.allocate_command_buffers(&vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1))?[0];
-                (pool, cmd)
-            };
             frames.push(FrameSlot {
-                pool,
-                cmd,
+                commands: CommandCache::new(ctx)?,
                 staging: StagingRing::new(ctx, crate::gpu::upload::STAGING_FLOOR)?,
                 timer: GpuTimer::new(ctx)?,
                 value: 0,
@@ -366,18 +356,9 @@ impl Renderer {
         res.graveyard.collect(ctx, completed);
         slot.staging.reset();
         let frame_value = frame + 1;
-        // SAFETY: the slot's previous submission has completed, so its pool may be reset.
-        unsafe {
-            d.reset_command_pool(slot.pool, vk::CommandPoolResetFlags::empty())
-                .and_then(|()| {
-                    d.begin_command_buffer(
-                        slot.cmd,
-                        &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
-                    )
-                })
-                .map_err(|e| RenderError::from(e).in_frame(frame, "beginning the command buffer"))?;
-        }
-        let cmd = slot.cmd;
+        // The slot's previous submission has completed, so its command buffer may be recorded
+        // again or submitted again.
+        let cmd = Recorder::new(ctx, std::mem::take(&mut slot.commands), settings.reuse_commands);
 
         // The display image: the offscreen target, or the acquired swapchain image.
         let (target, tonemap, overlay): (ImageRef, &Tonemap, _) = match (&mut window, &acquired) {
@@ -391,7 +372,7 @@ impl Renderer {
         };
         let mut f = Frame {
             ctx,
-            cmd,
+            cmd: &cmd,
             graph: &mut res.graph,
             timer: &mut slot.timer,
             layout: res.layout,
@@ -436,8 +417,15 @@ impl Renderer {
             PipelineKind::ForwardPlus => forward_plus_frame(&mut f, &mut parts, mirror, settings),
             PipelineKind::Deferred => deferred_frame(&mut f, &mut parts, mirror, settings),
             PipelineKind::VisBuffer => visbuffer_frame(&mut f, &mut parts, mirror, settings),
-        }
-        .map_err(|e| e.in_frame(frame, "uploading the scene and recording the frame's passes"))?;
+        };
+        let lights = match lights {
+            Ok(lights) => lights,
+            Err(e) => {
+                // Nothing is submitted; the slot keeps its pool for the next frame.
+                res.frames[slot_index].commands = cmd.abandon();
+                return Err(e.in_frame(frame, "uploading the scene and recording the frame's passes"));
+            }
+        };
         mirror.counters.buffer_shrinks += f.upload.shrinks;
         mirror.counters.bytes_released += f.upload.bytes_released;
         if let (Some((surface, _)), Some(image)) = (&mut window, &acquired) {
@@ -457,9 +445,16 @@ impl Renderer {
         let decal_method = decal_choice.applied;
 
         let submit_start = Instant::now();
-        // SAFETY: recording is complete; the submit signals the timeline with this frame's value.
+        mirror.counters.command_words = cmd.words() as u64;
+        let (commands, recording) = cmd.finish();
+        let slot = &mut res.frames[slot_index];
+        slot.commands = commands;
+        let recording = recording.map_err(|e| RenderError::from(e).in_frame(frame, "recording the command buffer"))?;
+        mirror.counters.commands_reused = recording == Recording::Reused;
+        let cmd = slot.commands.cmd();
+        // SAFETY: the buffer is recorded (now or by an earlier frame with the same commands, whose
+        // submission has completed); the submit signals the timeline with this frame's value.
         let submitted: Result<(), vk::Result> = unsafe {
-            d.end_command_buffer(cmd)?;
             let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
             // Fixed-size arrays, sliced: a steady-state frame allocates nothing.
             let timeline = vk::SemaphoreSubmitInfo::default()
@@ -696,8 +691,7 @@ impl Drop for Renderer {
         for f in frames {
             f.staging.destroy(ctx);
             f.timer.destroy(ctx);
-            // SAFETY: idle GPU; the pool frees its command buffer.
-            unsafe { ctx.device.destroy_command_pool(f.pool, None) };
+            f.commands.destroy(ctx);
         }
         graveyard.clear(ctx);
         decals.destroy(ctx);
@@ -721,8 +715,8 @@ impl Drop for Renderer {
         scene.destroy(ctx);
         // SAFETY: idle GPU; nothing references these any more.
         unsafe {
-            ctx.device.destroy_pipeline_layout(layout, None);
-            ctx.device.destroy_semaphore(timeline, None);
+            ctx.destroying().destroy_pipeline_layout(layout, None);
+            ctx.destroying().destroy_semaphore(timeline, None);
         }
     }
 }

@@ -842,6 +842,10 @@ pub struct FrameSettings {
     /// Keep culling against the view of the frame this was first set in ("freeze culling"): fly
     /// out and see what that view culled. Visibility is not updated while frozen.
     pub freeze_culling: bool,
+    /// Submit a frame slot's command buffer again when a frame logs exactly the commands it was
+    /// recorded with, instead of recording it again (`crate::gpu::commands`). On by default;
+    /// off records every frame (for comparison).
+    pub reuse_commands: bool,
 }
 
 impl Default for FrameSettings {
@@ -867,6 +871,7 @@ impl Default for FrameSettings {
             refraction: true,
             culling: CullingMode::Occlusion,
             freeze_culling: false,
+            reuse_commands: true,
         }
     }
 }

@@ -32,7 +32,7 @@ fn a_missing_barrier_is_reported() {
     let region = [vk::BufferCopy { src_offset: 0, dst_offset: 0, size: 256 }];
     // A copy writes `b`, the next reads it with no barrier between: a read-after-write hazard
     // only synchronization validation sees.
-    ctx.run_once(|cmd| {
+    ctx.run_once(|_, cmd| {
         // SAFETY: both buffers are live and 256 bytes long; the hazard is deliberate.
         unsafe {
             ctx.device.cmd_copy_buffer(cmd, a.raw, b.raw, &region);

@@ -105,6 +105,8 @@ pub struct HeadlessOptions {
     pub shadow_maps: render::ShadowMapBudget,
     /// How instances are culled.
     pub culling: render::CullingMode,
+    /// Submit a command buffer again when a frame's commands are exactly those it holds.
+    pub reuse_commands: bool,
     /// Run `frames` frames with every culling mode in turn (off, frustum, occlusion).
     pub compare_culling: bool,
     /// What lights the scene from all around (default: the procedural sky).
@@ -306,6 +308,7 @@ impl Default for HeadlessOptions {
             transparency: render::TransparencyMethod::Interlaced,
             shadow_maps: render::ShadowMapBudget::default(),
             culling: render::CullingMode::Occlusion,
+            reuse_commands: true,
             compare_culling: false,
             environment: engine::environment::Environment::default(),
             compare_environment: false,
@@ -377,6 +380,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         reflections: opts.reflections,
         transparency: opts.transparency,
         culling: opts.culling,
+        reuse_commands: opts.reuse_commands,
         tonemapper: opts.tonemapper,
         bloom: opts.bloom,
         occlusion: opts.occlusion,

@@ -174,6 +174,10 @@ struct Cli {
     /// hierarchical-Z).
     #[arg(long, default_value = "occlusion", value_parser = parse_culling)]
     culling: render::CullingMode,
+    /// Record every frame's command buffer, instead of submitting it again when a frame's
+    /// commands are exactly those it holds (for comparison; --stats counters.commands_reused).
+    #[arg(long)]
+    record_every_frame: bool,
     /// Anti-aliasing of the displayed image: none, fxaa (fast approximate, in compute before
     /// tone mapping), smaa (subpixel morphological, 1x, in compute), taa (temporal: jittered frames blended along motion vectors; none under a
     /// debug view), msaa2, msaa4, msaa8 (multisampling in forward and Forward+; taa in the
@@ -428,6 +432,7 @@ fn main() -> Result<()> {
         },
         shadow_maps: render::ShadowMapBudget { tile: cli.shadow_map_size, tiles: cli.shadow_map_tiles, ..Default::default() },
         culling: cli.culling,
+        reuse_commands: !cli.record_every_frame,
         compare_culling: cli.compare_culling,
         environment,
         environment_resolution: cli.environment_resolution,

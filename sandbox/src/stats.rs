@@ -138,6 +138,9 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
         "ao": stats.occlusion.name(),
         "auto_exposure": stats.auto_exposure,
     });
+    // The command buffer: submitted again as recorded, or recorded (`render::gpu::commands`).
+    value["counters"]["commands_reused"] = json!(c.commands_reused);
+    value["counters"]["command_words"] = json!(c.command_words);
     if stats.decal_method == render::DecalMethod::Clustered {
         value["clusters"] = clusters_json(&c.clusters);
     }

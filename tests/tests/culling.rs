@@ -3,7 +3,8 @@
 //! hides the boxes behind it and the statistics say so; whatever it hid shows in the very frame
 //! the wall goes or the camera turns; freezing the culling view keeps culling against it; a
 //! frame where nothing changed uploads nothing; the depth pyramid equals a CPU reduction of the
-//! depth, level by level, at an odd size.
+//! depth, level by level, at an odd size; a frame whose commands repeat submits its command
+//! buffer again (`render::gpu::commands`), and the images equal those of recording every frame.
 //!
 //! Tolerance between culling modes: mean absolute error ≤ 1e-5 and 99th percentile ≤ 1e-4 on
 //! the HDR target (the same instances drawn, only by other commands; measured: 0).
@@ -310,4 +311,54 @@ fn the_depth_pyramid_equals_a_cpu_reduction_of_the_depth() {
     assert_eq!(offset, pyramid.len(), "{levels} levels fill the pyramid");
     assert!(levels > 4, "more levels ({levels}) than one dispatch writes");
     assert_no_validation_errors(&mut app);
+}
+
+/// Renders `frames` frames, moving the camera a little before each when `moving`; returns the
+/// last image and, frame by frame, whether its command buffer was submitted again as recorded.
+fn frames_reused(app: &mut App, camera: Entity, frames: usize, moving: bool) -> (Vec<[f32; 4]>, Vec<bool>) {
+    let mut reused = Vec::new();
+    for _ in 0..frames {
+        if moving {
+            app.world.get_mut::<Transform>(camera).unwrap().translation.x += 0.05;
+        }
+        app.update();
+        reused.push(app.world.resource::<RenderStats>().last.commands_reused);
+    }
+    (hdr(app), reused)
+}
+
+#[test]
+fn a_frame_with_the_same_commands_submits_its_command_buffer_again() {
+    // Two apps, one recording every frame: the images must not tell them apart.
+    let settings = RenderSettings { pipeline: PipelineKind::Deferred, aa: render::AntiAliasing::Taa, ..Default::default() };
+    let mut every = gpu_app(SIZE.0, SIZE.1, RenderSettings { reuse_commands: false, ..settings.clone() });
+    let mut reusing = gpu_app(SIZE.0, SIZE.1, settings);
+    let (e, r) = (street(&mut every, true), street(&mut reusing, true));
+    let both = |every: &mut App, reusing: &mut App, moving: bool| {
+        let recorded = frames_reused(every, e.camera, 6, moving);
+        let reused = frames_reused(reusing, r.camera, 6, moving);
+        assert_eq!(recorded.1, [false; 6], "recording every frame never reuses");
+        assert_eq!(recorded.0, reused.0, "reused and recorded frames give the same image");
+        reused.1
+    };
+    // Each of the two frame slots records twice (the first frame also sets things up) before
+    // its commands repeat.
+    assert_eq!(both(&mut every, &mut reusing, false), [false, false, false, false, true, true], "a still scene reuses");
+
+    // A moving camera changes data (the camera record), not commands: once the frames that
+    // start uploading it have passed (the first two, one a slot, and the third, whose first
+    // barriers follow the second's last uses), frames reuse again.
+    assert_eq!(both(&mut every, &mut reusing, true), [false, false, false, true, true, true], "a moving camera reuses");
+
+    // A change of commands (a despawned wall: tables trimmed and uploaded) records again, and
+    // frames reuse again once it is done.
+    every.world.despawn(e.wall);
+    reusing.world.despawn(r.wall);
+    let reused = both(&mut every, &mut reusing, false);
+    assert!(!reused[0], "the frame the wall went records its uploads");
+    assert_eq!(&reused[4..], [true; 2], "{reused:?}");
+    let words = reusing.world.resource::<RenderStats>().last.command_words;
+    assert!(words > 100, "the log holds the frame's commands ({words} words)");
+    assert_no_validation_errors(&mut every);
+    assert_no_validation_errors(&mut reusing);
 }

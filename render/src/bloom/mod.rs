@@ -114,8 +114,7 @@ impl Bloom {
         let dispatch = |p: &PassContext, level: u32| {
             p.set_push(&ScenePush { texture_index: level, ..p.push });
             let (x, y) = groups(level_size(extent, level));
-            // SAFETY: recording outside a rendering scope with the pipeline bound.
-            unsafe { p.ctx.device.cmd_dispatch(p.cmd, x, y, 1) };
+            p.cmd.dispatch(x, y, 1);
         };
         // Each chain is one pass (its steps ordered inside it): a pass a level cost the CPU its
         // timestamps, barriers and binds 13 times a frame at 1080p.
@@ -154,8 +153,7 @@ impl Bloom {
             .record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
                 let (x, y) = groups((extent.width, extent.height));
-                // SAFETY: as above.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, x, y, 1) };
+                p.cmd.dispatch(x, y, 1);
             })
     }
 
@@ -163,7 +161,7 @@ impl Bloom {
     pub fn destroy(mut self, ctx: &GpuContext) {
         for p in [self.first, self.down, self.up, self.composite] {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
         if let Some((b, _)) = self.pyramid.take() {
             b.destroy(ctx);

@@ -44,6 +44,7 @@ use glam::Mat4;
 use gpu_allocator::MemoryLocation;
 
 use crate::RenderError;
+use crate::gpu::FRAMES_IN_FLIGHT;
 use crate::gpu::device::GpuContext;
 use crate::gpu::memory::{Buffer, Retired};
 use crate::gpu::pipeline::create_compute;
@@ -191,11 +192,15 @@ pub struct Culling {
     latest: CullingStats,
     frozen: Option<Mat4>,
     frame: CullFrame,
-    /// This frame's parameters (addresses filled in by [`Culling::cull`]) and the buffer the
-    /// passes read them from, rewritten only when they change.
+    /// This frame's parameters (addresses filled in by [`Culling::cull`]), and per frame slot
+    /// the host-visible buffer the passes read them from with what it holds, rewritten only
+    /// when they change. Written by the CPU, not copied by a command: the view changes them
+    /// every frame the camera moves, and the frame's commands stay the same
+    /// (`crate::gpu::commands`).
     params: GpuCullParams,
-    params_buffer: Buffer,
-    params_written: Option<GpuCullParams>,
+    params_buffers: Vec<(Buffer, Option<GpuCullParams>)>,
+    /// The address of this frame's parameters.
+    params_address: vk::DeviceAddress,
     glass_runs: Vec<GlassRun>,
     /// Draw calls recorded this frame (an atomic only so the renderer stays `Sync`; one thread
     /// records).
@@ -223,7 +228,7 @@ impl Culling {
                 Ok(hiz) => Ok((cull, hiz)),
                 Err(e) => {
                     // SAFETY: never used.
-                    unsafe { ctx.device.destroy_pipeline(cull, None) };
+                    unsafe { ctx.destroying().destroy_pipeline(cull, None) };
                     Err(e)
                 }
             }
@@ -232,18 +237,17 @@ impl Culling {
             Ok(p) => p,
             Err(e) => {
                 // SAFETY: never used.
-                unsafe { ctx.device.destroy_pipeline_layout(layout, None) };
+                unsafe { ctx.destroying().destroy_pipeline_layout(layout, None) };
                 return Err(e);
             }
         };
         let readback = StatsReadback::new(ctx, graph, "culling statistics", CULL_HEADER as u64 * 4)?;
-        let params_buffer = Buffer::new(
-            ctx,
-            "culling parameters",
-            std::mem::size_of::<GpuCullParams>() as u64,
-            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
-            MemoryLocation::GpuOnly,
-        )?;
+        let mut params_buffers = Vec::with_capacity(FRAMES_IN_FLIGHT);
+        for _ in 0..FRAMES_IN_FLIGHT {
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+            let size = std::mem::size_of::<GpuCullParams>() as u64;
+            params_buffers.push((Buffer::new(ctx, "culling parameters", size, usage, MemoryLocation::CpuToGpu)?, None));
+        }
         let res = CullResources {
             params: graph.resource("culling parameters"),
             draws: graph.resource("draw commands"),
@@ -264,8 +268,8 @@ impl Culling {
             frozen: None,
             frame: CullFrame::default(),
             params: GpuCullParams::default(),
-            params_buffer,
-            params_written: None,
+            params_buffers,
+            params_address: 0,
             glass_runs: Vec::new(),
             draw_calls: AtomicU64::new(0),
             res,
@@ -453,14 +457,10 @@ impl Culling {
 
     fn bind(&self, p: &PassContext, pipeline: vk::Pipeline, params: vk::DeviceAddress, pass: u32, level: u32) {
         let push = GpuCullPush { params, pass, level };
-        let d = &p.ctx.device;
-        // SAFETY: `cmd` is recording outside a rendering scope; the layout is this pipeline's and
-        // its set 0 is the bindless set's layout.
-        unsafe {
-            d.cmd_bind_pipeline(p.cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
-            d.cmd_bind_descriptor_sets(p.cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[p.bindless], &[]);
-            d.cmd_push_constants(p.cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(&push));
-        }
+        // The layout is this pipeline's, and its set 0 is the bindless set's layout.
+        p.cmd.bind_pipeline(vk::PipelineBindPoint::COMPUTE, pipeline);
+        p.cmd.bind_set(vk::PipelineBindPoint::COMPUTE, self.layout, p.bindless);
+        p.cmd.push_constants(self.layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(&push));
     }
 
     /// Records the first phase: the parameters (when they changed) and the counts, then the
@@ -473,30 +473,28 @@ impl Culling {
         self.params.meshes = scene.mesh_table.address();
         self.params.order = scene.glass_order.address();
         self.params.shadow_views = scene.shadow_views.address();
-        let changed = self.params_written != Some(self.params);
-        self.params_written = Some(self.params);
-        let (params_raw, params_bytes) = (self.params_buffer.raw, self.params);
+        // The slot's previous frame has finished: its buffer may be written.
+        let (buffer, holds) = &mut self.params_buffers[(f.upload.frame_value % FRAMES_IN_FLIGHT as u64) as usize];
+        let changed = *holds != Some(self.params);
+        if changed {
+            buffer.mapped().copy_from_slice(bytemuck::bytes_of(&self.params));
+            *holds = Some(self.params);
+        }
+        self.params_address = buffer.address;
         let frame = self.frame;
         let res = self.res;
         let visibility = self.visibility.as_ref().map(|b| b.raw).filter(|_| frame.fresh_visibility);
         f.pass("cull_clear", PassKind::Transfer)
             .write(res.draws, BufferUse::Transfer)
             .when(visibility.is_some(), |p| p.write(res.visibility, BufferUse::Transfer))
-            .when(changed, |p| p.write(res.params, BufferUse::Transfer))
             .record(|p| {
-                // SAFETY: `cmd` is recording outside a rendering scope; the ranges lie in the
-                // buffers; an inline update of 224 bytes is within the 65536 allowed.
-                unsafe {
-                    p.ctx.device.cmd_fill_buffer(p.cmd, frame.draws, 0, frame.header_words as u64 * 4, 0);
-                    if let Some(bits) = visibility {
-                        p.ctx.device.cmd_fill_buffer(p.cmd, bits, 0, vk::WHOLE_SIZE, 0);
-                    }
-                    if changed {
-                        p.ctx.device.cmd_update_buffer(p.cmd, params_raw, 0, bytemuck::bytes_of(&params_bytes));
-                    }
+                // The ranges lie in the buffers.
+                p.cmd.fill_buffer(frame.draws, 0, frame.header_words as u64 * 4, 0);
+                if let Some(bits) = visibility {
+                    p.cmd.fill_buffer(bits, 0, vk::WHOLE_SIZE, 0);
                 }
             })?;
-        let params = self.params_buffer.address;
+        let params = self.params_address;
         f.pass("cull", PassKind::Compute)
             .read(scene.res.tables, BufferUse::Storage)
             .read(res.params, BufferUse::Storage)
@@ -506,8 +504,7 @@ impl Culling {
                 let dispatch = |pass: u32, x: u32, y: u32| {
                     if x > 0 && y > 0 {
                         self.bind(p, self.cull, params, pass, 0);
-                        // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                        unsafe { p.ctx.device.cmd_dispatch(p.cmd, x.div_ceil(64), y, 1) };
+                        p.cmd.dispatch(x.div_ceil(64), y, 1);
                     }
                 };
                 dispatch(CULL_PASS_FIRST, frame.slots, 1);
@@ -546,7 +543,7 @@ impl Culling {
     fn second_phase(&mut self, f: &mut Frame, scene: &GpuScene) -> Result<(), RenderError> {
         let frame = self.frame;
         let res = self.res;
-        let params = self.params_buffer.address;
+        let params = self.params_address;
         f.pass("depth_pyramid", PassKind::Compute)
             .sample(&DEPTH)
             .read(res.params, BufferUse::Storage)
@@ -561,8 +558,7 @@ impl Culling {
             .record(|p| {
                 if frame.slots > 0 {
                     self.bind(p, self.cull, params, CULL_PASS_SECOND, 0);
-                    // SAFETY: as above.
-                    unsafe { p.ctx.device.cmd_dispatch(p.cmd, frame.slots.div_ceil(64), 1, 1) };
+                    p.cmd.dispatch(frame.slots.div_ceil(64), 1, 1);
                 }
             })?;
         self.read_statistics(f)
@@ -625,11 +621,13 @@ impl Culling {
     pub fn destroy(self, ctx: &GpuContext) {
         // SAFETY: the GPU is idle.
         unsafe {
-            ctx.device.destroy_pipeline(self.cull, None);
-            ctx.device.destroy_pipeline(self.hiz, None);
-            ctx.device.destroy_pipeline_layout(self.layout, None);
+            ctx.destroying().destroy_pipeline(self.cull, None);
+            ctx.destroying().destroy_pipeline(self.hiz, None);
+            ctx.destroying().destroy_pipeline_layout(self.layout, None);
         }
-        self.params_buffer.destroy(ctx);
+        for (b, _) in self.params_buffers {
+            b.destroy(ctx);
+        }
         for b in [self.draws, self.visibility, self.pyramid.map(|(b, _)| b)].into_iter().flatten() {
             b.destroy(ctx);
         }
@@ -665,8 +663,7 @@ pub(crate) fn dispatch_pyramid(p: &PassContext, extent: vk::Extent2D, levels: u3
         let shift = first + 1;
         let (w, h) = (extent.width.div_ceil(1 << shift).max(1), extent.height.div_ceil(1 << shift).max(1));
         bind(p, first);
-        // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-        unsafe { p.ctx.device.cmd_dispatch(p.cmd, w.div_ceil(8), h.div_ceil(8), 1) };
+        p.cmd.dispatch(w.div_ceil(8), h.div_ceil(8), 1);
     }
 }
 
@@ -688,12 +685,8 @@ pub(crate) fn hiz_words(extent: vk::Extent2D, levels: u32) -> u64 {
 /// Binds the mesh pool as the vertex and index buffer of a mesh pass (`pool`: the scene's
 /// [`crate::scene::gpu::GpuScene::pool_buffer`] this frame).
 pub(crate) fn bind_mesh_pool(p: &PassContext, pool: vk::Buffer) {
-    // SAFETY: `cmd` is recording inside a rendering scope; the pool lives until the frame
-    // completes (deferred destruction).
-    unsafe {
-        p.ctx.device.cmd_bind_vertex_buffers(p.cmd, 0, &[pool], &[0]);
-        p.ctx.device.cmd_bind_index_buffer(p.cmd, pool, 0, vk::IndexType::UINT32);
-    }
+    // The pool lives until the frame completes (deferred destruction).
+    p.cmd.bind_geometry(pool, 0, 0, vk::IndexType::UINT32);
 }
 
 /// The lists a pass draws this frame, and the calls that draw them. Declare
@@ -721,28 +714,18 @@ impl Draws<'_> {
 
     fn set_cull(p: &PassContext, double_sided: bool) {
         let mode = if double_sided { vk::CullModeFlags::NONE } else { vk::CullModeFlags::BACK };
-        // SAFETY: `cmd` is recording; every pipeline has the cull mode dynamic.
-        unsafe { p.ctx.device.cmd_set_cull_mode(p.cmd, mode) };
+        p.cmd.set_cull_mode(mode);
     }
 
     /// One `vkCmdDrawIndexedIndirectCount` over at most `max` commands from command
     /// `first_command`, its count in header word `count_word`.
     fn draw_count(&self, p: &PassContext, first_command: u32, count_word: u32, max: u32) {
         let f = self.frame;
-        // SAFETY: `cmd` is recording inside a rendering scope with a mesh pipeline bound and the
-        // pool bound; the commands and the count lie in the draw buffer, which the culling
-        // passes wrote before this pass (declared through `reads`).
-        unsafe {
-            p.ctx.device.cmd_draw_indexed_indirect_count(
-                p.cmd,
-                f.draws,
-                f.commands + first_command as u64 * COMMAND_BYTES,
-                f.draws,
-                count_word as u64 * 4,
-                max,
-                COMMAND_BYTES as u32,
-            )
-        };
+        // Inside a rendering scope with a mesh pipeline and the pool bound; the commands and the
+        // count lie in the draw buffer, which the culling passes wrote before this pass
+        // (declared through `reads`).
+        let commands = f.commands + first_command as u64 * COMMAND_BYTES;
+        p.cmd.draw_indexed_indirect_count(f.draws, commands, f.draws, count_word as u64 * 4, max, COMMAND_BYTES as u32);
         self.calls.fetch_add(1, Ordering::Relaxed);
     }
 

@@ -194,15 +194,14 @@ impl DecalPasses {
                 let rt = rt.ok_or_else(|| unsupported(frame.method))?;
                 pass.record(|p| {
                     p.bind(vk::PipelineBindPoint::RAY_TRACING_KHR, rt.pipeline, &p.push);
-                    rt.trace(p.ctx, p.cmd, variant, extent);
+                    rt.trace(p.cmd, variant, extent);
                 })?;
             }
             _ => {
                 let pipelines = self.ray_query.ok_or_else(|| unsupported(frame.method))?;
                 pass.record(|p| {
                     p.bind(vk::PipelineBindPoint::COMPUTE, pipelines[variant], &p.push);
-                    // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                    unsafe { p.ctx.device.cmd_dispatch(p.cmd, extent.width.div_ceil(8), extent.height.div_ceil(8), 1) };
+                    p.cmd.dispatch(extent.width.div_ceil(8), extent.height.div_ceil(8), 1);
                 })?;
             }
         }
@@ -216,7 +215,7 @@ impl DecalPasses {
         }
         for p in self.ray_query.into_iter().flatten() {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
     }
 }

@@ -153,7 +153,7 @@ impl DecalClusters {
             Err(e) => {
                 for p in [count, scan, fill, gbuffer, visibility, depth] {
                     // SAFETY: the pipelines were never used.
-                    unsafe { ctx.device.destroy_pipeline(p, None) };
+                    unsafe { ctx.destroying().destroy_pipeline(p, None) };
                 }
                 return Err(e);
             }
@@ -278,8 +278,7 @@ impl DecalClusters {
         let (raw, res, clusters) = (buffer.raw, self.res, self.clusters);
         let prefix = (DECAL_CLUSTER_HEADER as u64 + 3 * clusters as u64) * 4;
         f.pass("decal_clusters_clear", PassKind::Transfer).write(res, BufferUse::Transfer).record(|p| {
-            // SAFETY: `cmd` is recording outside a rendering scope; the range lies in the buffer.
-            unsafe { p.ctx.device.cmd_fill_buffer(p.cmd, raw, 0, prefix, 0) };
+            p.cmd.fill_buffer(raw, 0, prefix, 0);
         })?;
         // Eight boxes a workgroup (eight lanes each), in rows of DECAL_BIN_ROW workgroups.
         let groups = live.div_ceil(8);
@@ -287,8 +286,7 @@ impl DecalClusters {
         let bin = |f: &mut Frame, name: &'static str, pipeline: vk::Pipeline| {
             f.pass(name, PassKind::Compute).read(scene.res.tables, BufferUse::Storage).write(res, BufferUse::Storage).record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, columns, rows, 1) };
+                p.cmd.dispatch(columns, rows, 1);
             })
         };
         bin(f, "decal_clusters_count", self.count)?;
@@ -297,8 +295,7 @@ impl DecalClusters {
         f.pass("decal_clusters_scan", PassKind::Compute).read(scene.res.tables, BufferUse::Storage).write(res, BufferUse::Storage).record(
             |p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, self.scan, &p.push);
-                // SAFETY: as above.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, clusters.div_ceil(256), 1, 1) };
+                p.cmd.dispatch(clusters.div_ceil(256), 1, 1);
             },
         )?;
         bin(f, "decal_clusters_fill", self.fill)?;
@@ -310,8 +307,7 @@ impl DecalClusters {
                 .write(res, BufferUse::Storage);
             pass.record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-                // SAFETY: as above.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, extent.width.div_ceil(8), extent.height.div_ceil(8), 1) };
+                p.cmd.dispatch(extent.width.div_ceil(8), extent.height.div_ceil(8), 1);
             })?;
         }
 
@@ -323,7 +319,7 @@ impl DecalClusters {
     pub fn destroy(self, ctx: &GpuContext) {
         for p in [self.count, self.scan, self.fill].into_iter().chain(self.pass) {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
         if let Some(b) = self.buffer {
             b.destroy(ctx);

@@ -49,9 +49,7 @@ impl DecalBoxes {
             for mode in [0u32 /* oriented */, 1 /* AABB */] {
                 let push = ScenePush { texture_index: mode, ..p.push };
                 p.bind_graphics(self.pipeline, &push);
-                // SAFETY: `cmd` is recording inside the rendering scope with the pipeline bound;
-                // the box table holds at least `live` boxes.
-                unsafe { p.ctx.device.cmd_draw(p.cmd, 24, live, 0, 0) };
+                p.cmd.draw(24, live, 0, 0);
             }
         })
     }
@@ -59,6 +57,6 @@ impl DecalBoxes {
     /// Destroys the pipeline; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
         // SAFETY: the GPU is idle.
-        unsafe { ctx.device.destroy_pipeline(self.pipeline, None) };
+        unsafe { ctx.destroying().destroy_pipeline(self.pipeline, None) };
     }
 }

@@ -474,8 +474,7 @@ impl Environments {
         f.pass("environment_source", PassKind::Compute).read(tables, BufferUse::Storage).storage_images(images, new_images).record(
             |p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-                // SAFETY: recording outside a rendering scope with the pipeline bound.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, groups(0), groups(0), 6) };
+                p.cmd.dispatch(groups(0), groups(0), 6);
             },
         )?;
         // A pass that samples the radiance cube, writes `written`, gets its level through
@@ -487,8 +486,7 @@ impl Environments {
                 .write(written, BufferUse::Storage)
                 .record(|p| {
                     p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &ScenePush { texture_index: level, ..p.push });
-                    // SAFETY: as above.
-                    unsafe { p.ctx.device.cmd_dispatch(p.cmd, side, side, faces) };
+                    p.cmd.dispatch(side, side, faces);
                 })
         };
         for level in 1..self.source_levels() {
@@ -503,8 +501,7 @@ impl Environments {
             f.pass("brdf_table", PassKind::Compute).write(images, BufferUse::Storage).record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
                 let groups = BRDF_LUT_SIZE.div_ceil(8);
-                // SAFETY: as above.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, groups, groups, 1) };
+                p.cmd.dispatch(groups, groups, 1);
             })?;
         }
         if let Some(texels) = self.texels.take() {
@@ -535,8 +532,7 @@ impl Environments {
             .image(&crate::graph::targets::HDR, ImageUse::StorageWrite)
             .record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-                // SAFETY: as above.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
+                p.cmd.dispatch(p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1);
             })
     }
 
@@ -565,15 +561,15 @@ impl Environments {
     pub fn destroy(mut self, ctx: &GpuContext) {
         for p in [self.source, self.downsample, self.irradiance, self.prefilter, self.lut].into_iter().chain(self.sky) {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
         if let Some(c) = self.cubes.take() {
             // SAFETY: the GPU is idle.
             unsafe {
                 for v in c.level_views {
-                    ctx.device.destroy_image_view(v, None);
+                    ctx.destroying().destroy_image_view(v, None);
                 }
-                ctx.device.destroy_sampler(c.sampler, None);
+                ctx.destroying().destroy_sampler(c.sampler, None);
             }
             c.source.destroy(ctx);
             c.specular.destroy(ctx);

@@ -53,7 +53,7 @@ impl Exposure {
             Ok(p) => p,
             Err(e) => {
                 // SAFETY: never used.
-                unsafe { ctx.device.destroy_pipeline(histogram, None) };
+                unsafe { ctx.destroying().destroy_pipeline(histogram, None) };
                 return Err(e);
             }
         };
@@ -96,8 +96,7 @@ impl Exposure {
         let (raw, res) = (record.raw, self.res);
         if self.reset {
             f.pass("exposure_reset", PassKind::Transfer).write(res, BufferUse::Transfer).record(|p| {
-                // SAFETY: `cmd` is recording outside a rendering scope; the range is the buffer.
-                unsafe { p.ctx.device.cmd_fill_buffer(p.cmd, raw, 0, vk::WHOLE_SIZE, 0) };
+                p.cmd.fill_buffer(raw, 0, vk::WHOLE_SIZE, 0);
             })?;
         }
         let extent = f.graph.extent();
@@ -108,15 +107,13 @@ impl Exposure {
             .write(res, BufferUse::Storage)
             .record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, histogram, &p.push);
-                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, extent.width.div_ceil(16), extent.height.div_ceil(16), 1) };
+                p.cmd.dispatch(extent.width.div_ceil(16), extent.height.div_ceil(16), 1);
             })?;
         let (average, dt) = (self.average, self.dt);
         f.pass("exposure_average", PassKind::Compute).read(scene.res.tables, BufferUse::Storage).write(res, BufferUse::Storage).record(
             |p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, average, &ScenePush { texture_index: dt.to_bits(), ..p.push });
-                // SAFETY: as above.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, 1, 1, 1) };
+                p.cmd.dispatch(1, 1, 1);
             },
         )
     }
@@ -133,7 +130,7 @@ impl Exposure {
     pub fn destroy(mut self, ctx: &GpuContext) {
         for p in [self.histogram, self.average] {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
         if let Some(b) = self.record.take() {
             b.destroy(ctx);

@@ -70,6 +70,7 @@ impl AccelStruct {
     /// Destroys it; the GPU must no longer use it.
     pub fn destroy(self, ctx: &GpuContext) {
         if let Some(rt) = &ctx.ray_tracing {
+            ctx.note_destroyed();
             // SAFETY: the caller guarantees the GPU no longer uses it.
             unsafe { rt.acceleration_structure.destroy_acceleration_structure(self.raw, None) };
         }
@@ -467,6 +468,7 @@ impl AabbAccel {
             .write(res.blas, BufferUse::Accel)
             .write(res.scratch, BufferUse::Accel)
             .record(|p| {
+                let cmd = p.cmd.direct()?;
                 let geometry = aabb_geometry(input.address);
                 let info = build_info(
                     vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
@@ -479,20 +481,23 @@ impl AabbAccel {
                 let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
                 // SAFETY: `cmd` is recording; the box buffer holds at least `count` boxes, made
                 // visible to builds by the pass's declaration; scratch was sized in `prepare`.
-                unsafe { asx.cmd_build_acceleration_structures(p.cmd, &[info], &[&ranges[..]]) };
-            })?;
+                unsafe { asx.cmd_build_acceleration_structures(cmd, &[info], &[&ranges[..]]) };
+                Ok::<(), RenderError>(())
+            })??;
         f.pass(names.tlas_pass, PassKind::AccelBuild)
             .read(res.blas, BufferUse::Accel)
             .write(res.tlas, BufferUse::Accel)
             .write(res.scratch, BufferUse::Accel)
             .record(|p| {
+                let cmd = p.cmd.direct()?;
                 let geometry = one_instance_geometry(instances);
                 let info =
                     build_info(vk::AccelerationStructureTypeKHR::TOP_LEVEL, BOX_TLAS_FLAGS, tlas.raw, false, &geometry, scratch_address);
                 let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(1)];
                 // SAFETY: as above; the instance buffer is host-written before submission.
-                unsafe { asx.cmd_build_acceleration_structures(p.cmd, &[info], &[&ranges[..]]) };
-            })?;
+                unsafe { asx.cmd_build_acceleration_structures(cmd, &[info], &[&ranges[..]]) };
+                Ok::<(), RenderError>(())
+            })??;
         if update {
             self.refitted_since_build += input.changed as u64;
         } else {

@@ -10,12 +10,14 @@
 
 use std::ffi::{CStr, CString, c_void};
 use std::mem::ManuallyDrop;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 use ash::{ext, khr, vk};
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, Allocator, AllocatorCreateDesc};
 
 use crate::RenderError;
+use crate::gpu::commands::{CommandCache, Recorder};
 
 /// What ray tracing the device can do, best first.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -186,6 +188,8 @@ pub struct GpuContext {
     pub memory_budget: Option<u64>,
     /// Size of the device's largest device-local memory heap.
     pub device_local_bytes: u64,
+    /// Vulkan objects destroyed so far ([`GpuContext::objects_destroyed`]).
+    destroyed: AtomicU64,
 }
 
 impl GpuContext {
@@ -368,6 +372,7 @@ impl GpuContext {
             limits: props.limits,
             memory_budget: settings.memory_budget,
             device_local_bytes,
+            destroyed: AtomicU64::new(0),
         })
     }
 
@@ -413,6 +418,25 @@ impl GpuContext {
         })
     }
 
+    /// How many Vulkan objects have been destroyed through [`GpuContext::destroying`] (or noted
+    /// with [`GpuContext::note_destroyed`]). A command buffer recorded before the count last
+    /// changed may name a destroyed object, or one whose handle a new object took: it is never
+    /// submitted again (`crate::gpu::commands`).
+    pub fn objects_destroyed(&self) -> u64 {
+        self.destroyed.load(Ordering::Relaxed)
+    }
+
+    /// The device, for destroying an object with it: counts the destruction.
+    pub fn destroying(&self) -> &ash::Device {
+        self.note_destroyed();
+        &self.device
+    }
+
+    /// Counts the destruction of an object destroyed through an extension's functions.
+    pub fn note_destroyed(&self) {
+        self.destroyed.fetch_add(1, Ordering::Relaxed);
+    }
+
     /// Waits until the GPU is idle. Used before teardown, resizes and screenshots.
     pub fn wait_idle(&self) {
         // SAFETY: the device is valid; waiting has no other precondition.
@@ -421,27 +445,28 @@ impl GpuContext {
         }
     }
 
-    /// Runs `record` in a one-off command buffer and waits for it. For setup work only (never
-    /// per frame).
-    pub fn run_once(&self, record: impl FnOnce(vk::CommandBuffer)) -> Result<(), RenderError> {
+    /// Runs `record` in a one-off command buffer and waits for it. `record` gets the buffer
+    /// both as a [`Recorder`] (recording directly) and raw, for commands the recorder does not
+    /// have. For setup work, readbacks and tests only (never per frame).
+    pub fn run_once(&self, record: impl FnOnce(&Recorder, vk::CommandBuffer)) -> Result<(), RenderError> {
+        let recorder = Recorder::new(self, CommandCache::new(self)?, false);
+        let recorded = recorder.direct().map(|cmd| record(&recorder, cmd));
+        let (cache, finished) = recorder.finish();
+        let result = recorded.and(finished).map_err(RenderError::from).and_then(|_| self.submit_once(cache.cmd()));
+        cache.destroy(self);
+        result
+    }
+
+    fn submit_once(&self, cmd: vk::CommandBuffer) -> Result<(), RenderError> {
         let d = &self.device;
-        // SAFETY: a transient pool and buffer, used and destroyed inside this function; the
-        // fence wait guarantees the GPU finished before destruction.
+        // SAFETY: the buffer is recorded and ended; the fence wait guarantees the GPU finished
+        // before the fence (and, in `run_once`, the pool) is destroyed.
         unsafe {
-            let pool = d.create_command_pool(
-                &vk::CommandPoolCreateInfo::default().queue_family_index(self.queue_family).flags(vk::CommandPoolCreateFlags::TRANSIENT),
-                None,
-            )?;
-            let cmd = d.allocate_command_buffers(&vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1))?[0];
-            d.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))?;
-            record(cmd);
-            d.end_command_buffer(cmd)?;
             let fence = d.create_fence(&vk::FenceCreateInfo::default(), None)?;
             let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
             let submit = vk::SubmitInfo2::default().command_buffer_infos(&cmds);
             let result = d.queue_submit2(self.queue, &[submit], fence).and_then(|_| d.wait_for_fences(&[fence], true, u64::MAX));
             d.destroy_fence(fence, None);
-            d.destroy_command_pool(pool, None);
             result?;
         }
         Ok(())

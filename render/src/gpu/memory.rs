@@ -81,7 +81,7 @@ impl Buffer {
     /// Destroys the buffer now. The caller guarantees the GPU no longer uses it.
     pub fn destroy(mut self, ctx: &GpuContext) {
         // SAFETY: guaranteed by the caller (directly or through the Graveyard).
-        unsafe { ctx.device.destroy_buffer(self.raw, None) };
+        unsafe { ctx.destroying().destroy_buffer(self.raw, None) };
         if let Some(a) = self.allocation.take()
             && let Err(e) = ctx.allocator().free(a)
         {
@@ -241,8 +241,8 @@ impl Image {
     pub fn destroy(mut self, ctx: &GpuContext) {
         // SAFETY: guaranteed by the caller.
         unsafe {
-            ctx.device.destroy_image_view(self.view, None);
-            ctx.device.destroy_image(self.raw, None);
+            ctx.destroying().destroy_image_view(self.view, None);
+            ctx.destroying().destroy_image(self.raw, None);
         }
         if let Some(a) = self.allocation.take()
             && let Err(e) = ctx.allocator().free(a)
@@ -292,6 +292,7 @@ impl Graveyard {
                     Retired::Image(img) => img.destroy(ctx),
                     Retired::AccelerationStructure(raw, buffer) => {
                         if let Some(rt) = &ctx.ray_tracing {
+                            ctx.note_destroyed();
                             // SAFETY: the GPU has passed the last frame that used it.
                             unsafe { rt.acceleration_structure.destroy_acceleration_structure(raw, None) };
                         }

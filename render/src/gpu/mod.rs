@@ -2,6 +2,7 @@
 //! deferred destruction, staging uploads, timestamps, SPIR-V and pipeline creation.
 
 pub mod accel;
+pub mod commands;
 pub mod device;
 pub mod memory;
 pub mod pipeline;

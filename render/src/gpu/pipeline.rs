@@ -4,6 +4,7 @@
 use ash::vk;
 
 use crate::RenderError;
+use crate::gpu::commands::Recorder;
 use crate::gpu::device::GpuContext;
 use crate::gpu::shaders;
 use crate::layout::GpuVertex;
@@ -216,14 +217,10 @@ pub fn create_graphics(ctx: &GpuContext, layout: vk::PipelineLayout, desc: &Grap
 /// Sets a viewport and scissor covering `extent`. The viewport is flipped (negative height,
 /// Vulkan 1.1 core) so clip-space +Y points up as in glam's projections, and counter-clockwise
 /// triangles stay front-facing.
-pub fn set_viewport(ctx: &GpuContext, cmd: vk::CommandBuffer, extent: vk::Extent2D) {
+pub fn set_viewport(cmd: &Recorder, extent: vk::Extent2D) {
     let (w, h) = (extent.width as f32, extent.height as f32);
     let viewport = vk::Viewport { x: 0.0, y: h, width: w, height: -h, min_depth: 0.0, max_depth: 1.0 };
-    // SAFETY: `cmd` is recording.
-    unsafe {
-        ctx.device.cmd_set_viewport(cmd, 0, &[viewport]);
-        ctx.device.cmd_set_scissor(cmd, 0, &[vk::Rect2D { offset: vk::Offset2D::default(), extent }]);
-    }
+    cmd.set_viewport(viewport, vk::Rect2D { offset: vk::Offset2D::default(), extent });
 }
 
 /// Creates a compute pipeline from `spirv` with the shared layout.
@@ -235,7 +232,7 @@ pub fn create_compute(ctx: &GpuContext, layout: vk::PipelineLayout, name: &str, 
     // exists (or failed).
     let result = unsafe { ctx.device.create_compute_pipelines(vk::PipelineCache::null(), &[info], None) };
     // SAFETY: as above.
-    unsafe { ctx.device.destroy_shader_module(module, None) };
+    unsafe { ctx.destroying().destroy_shader_module(module, None) };
     let pipeline = result.map_err(|(_, e)| RenderError::Vulkan(e))?[0];
     tracing::debug!(name, "compute pipeline created");
     Ok(pipeline)
@@ -255,7 +252,7 @@ pub fn create_computes<const N: usize>(
             Err(e) => {
                 for p in made {
                     // SAFETY: the pipelines were never used.
-                    unsafe { ctx.device.destroy_pipeline(p, None) };
+                    unsafe { ctx.destroying().destroy_pipeline(p, None) };
                 }
                 return Err(e);
             }
@@ -361,7 +358,7 @@ impl RayTracingPipeline {
                 Ok(m) => modules.push(m),
                 Err(e) => {
                     // SAFETY: the modules made so far are unused.
-                    modules.iter().for_each(|&m| unsafe { ctx.device.destroy_shader_module(m, None) });
+                    modules.iter().for_each(|&m| unsafe { ctx.destroying().destroy_shader_module(m, None) });
                     return Err(e);
                 }
             }
@@ -379,7 +376,7 @@ impl RayTracingPipeline {
         // SAFETY: the create info points at locals; modules may be destroyed afterwards.
         let result = unsafe { rt.create_ray_tracing_pipelines(vk::DeferredOperationKHR::null(), vk::PipelineCache::null(), &[info], None) };
         // SAFETY: the modules are no longer needed once the pipeline exists (or failed).
-        modules.iter().for_each(|&m| unsafe { ctx.device.destroy_shader_module(m, None) });
+        modules.iter().for_each(|&m| unsafe { ctx.destroying().destroy_shader_module(m, None) });
         let pipeline = result.map_err(|(_, e)| RenderError::Vulkan(e))?[0];
 
         let handle_size = props.shader_group_handle_size as usize;
@@ -389,7 +386,7 @@ impl RayTracingPipeline {
             Ok(h) => h,
             Err(e) => {
                 // SAFETY: the pipeline is unused.
-                unsafe { ctx.device.destroy_pipeline(pipeline, None) };
+                unsafe { ctx.destroying().destroy_pipeline(pipeline, None) };
                 return Err(e.into());
             }
         };
@@ -407,7 +404,7 @@ impl RayTracingPipeline {
             Ok(b) => b,
             Err(e) => {
                 // SAFETY: the pipeline is unused.
-                unsafe { ctx.device.destroy_pipeline(pipeline, None) };
+                unsafe { ctx.destroying().destroy_pipeline(pipeline, None) };
                 return Err(e);
             }
         };
@@ -429,28 +426,16 @@ impl RayTracingPipeline {
     }
 
     /// Dispatches `extent` rays from ray-generation shader `raygen` (the pipeline must be bound).
-    pub fn trace(&self, ctx: &GpuContext, cmd: vk::CommandBuffer, raygen: usize, extent: vk::Extent2D) {
-        let rt = ctx.ray_tracing.as_ref().and_then(|rt| rt.ray_tracing_pipeline.as_ref()).expect("created with ray-tracing pipelines");
-        // SAFETY: `cmd` is recording outside a rendering scope with this pipeline bound; the
-        // table's regions lie inside its live buffer.
-        unsafe {
-            rt.cmd_trace_rays(
-                cmd,
-                &self.raygen[raygen],
-                &self.miss,
-                &self.hit,
-                &vk::StridedDeviceAddressRegionKHR::default(),
-                extent.width,
-                extent.height,
-                1,
-            )
-        };
+    pub fn trace(&self, cmd: &Recorder, raygen: usize, extent: vk::Extent2D) {
+        // The table's regions lie inside its live buffer.
+        let none = vk::StridedDeviceAddressRegionKHR::default();
+        cmd.trace_rays(&self.raygen[raygen], &self.miss, &self.hit, &none, extent.width, extent.height);
     }
 
     /// Destroys the pipeline and its table; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
         // SAFETY: the GPU is idle.
-        unsafe { ctx.device.destroy_pipeline(self.pipeline, None) };
+        unsafe { ctx.destroying().destroy_pipeline(self.pipeline, None) };
         self.sbt.destroy(ctx);
     }
 }

@@ -11,6 +11,7 @@
 use ash::vk;
 
 use crate::RenderError;
+use crate::gpu::commands::Recorder;
 use crate::gpu::device::GpuContext;
 
 /// Most passes one frame can time (a deferred frame with two-phase culling, shadows, decals and
@@ -95,7 +96,7 @@ impl GpuTimer {
     }
 
     /// Opens a timed pass. Passes beyond [`MAX_PASSES`] are not timed.
-    pub fn begin(&mut self, ctx: &GpuContext, cmd: vk::CommandBuffer, name: &'static str) {
+    pub fn begin(&mut self, cmd: &Recorder, name: &'static str) {
         debug_assert!(!self.open, "nested GPU timer scopes");
         if self.len >= MAX_PASSES {
             return;
@@ -103,25 +104,24 @@ impl GpuTimer {
         self.names[self.len] = name;
         self.open = true;
         if self.len == 0 {
-            // SAFETY: `cmd` is recording; the query was reset after its last use.
-            unsafe { ctx.device.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.pool, 0) };
+            // The query was reset after its last use (`collect`).
+            cmd.write_timestamp(vk::PipelineStageFlags2::ALL_COMMANDS, self.pool, 0);
         }
     }
 
     /// Closes the pass opened by `begin`.
-    pub fn end(&mut self, ctx: &GpuContext, cmd: vk::CommandBuffer) {
+    pub fn end(&mut self, cmd: &Recorder) {
         if !self.open {
             return;
         }
         self.open = false;
-        // SAFETY: as in `begin`.
-        unsafe { ctx.device.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.pool, (self.len + 1) as u32) };
+        cmd.write_timestamp(vk::PipelineStageFlags2::ALL_COMMANDS, self.pool, (self.len + 1) as u32);
         self.len += 1;
     }
 
     /// Destroys the pool; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
         // SAFETY: the GPU is idle.
-        unsafe { ctx.device.destroy_query_pool(self.pool, None) };
+        unsafe { ctx.destroying().destroy_query_pool(self.pool, None) };
     }
 }

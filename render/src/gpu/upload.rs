@@ -25,6 +25,7 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use crate::RenderError;
+use crate::gpu::commands::Recorder;
 use crate::gpu::device::GpuContext;
 use crate::gpu::memory::{Buffer, Graveyard, Retired};
 
@@ -204,24 +205,32 @@ impl CopyList {
 
     /// Records every copy. The images must be in TRANSFER_DST_OPTIMAL (the frame graph puts them
     /// there from the upload pass's declaration).
-    pub fn record(&self, ctx: &GpuContext, cmd: vk::CommandBuffer) {
+    pub fn record(&self, ctx: &GpuContext, cmd: &Recorder) -> Result<(), RenderError> {
         let mut start = 0;
         for &(src, dst, end) in &self.buffers {
             if end > start {
-                // SAFETY: `cmd` is recording outside a rendering scope; the regions lie inside
-                // both buffers, which live until the frame completes (graveyard).
-                unsafe { ctx.device.cmd_copy_buffer(cmd, src, dst, &self.regions[start..end]) };
+                // The regions lie inside both buffers, which live until the frame completes
+                // (graveyard).
+                cmd.copy_buffer(src, dst, &self.regions[start..end]);
             }
             start = end;
         }
+        if self.images.is_empty() {
+            return Ok(());
+        }
+        // Image uploads (textures being loaded) are not logged: this frame records directly.
+        let cmd = cmd.direct()?;
         let mut start = 0;
         for &(src, image, _, end) in &self.images {
-            // SAFETY: as above; the image is in TRANSFER_DST_OPTIMAL by the pass's declaration.
+            // SAFETY: `cmd` is recording outside a rendering scope; the regions lie inside both,
+            // which live until the frame completes; the image is in TRANSFER_DST_OPTIMAL by the
+            // pass's declaration.
             unsafe {
                 ctx.device.cmd_copy_buffer_to_image(cmd, src, image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &self.image_regions[start..end])
             };
             start = end;
         }
+        Ok(())
     }
 }
 

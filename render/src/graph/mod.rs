@@ -46,6 +46,7 @@ pub mod targets;
 use ash::vk;
 
 use crate::RenderError;
+use crate::gpu::commands::Recorder;
 use crate::gpu::device::GpuContext;
 use crate::gpu::memory::{Buffer, Image, ImageDesc};
 use crate::gpu::pipeline::ScenePush;
@@ -397,10 +398,10 @@ impl FrameGraph {
         let (raw, extent, aspect) = (e.raw, e.extent, e.range.aspect_mask);
         let size = extent.width as u64 * extent.height as u64 * bytes_per_pixel;
         let mut buffer = Buffer::new(ctx, "readback", size, vk::BufferUsageFlags::TRANSFER_DST, gpu_allocator::MemoryLocation::GpuToCpu)?;
-        let result = ctx.run_once(|cmd| {
+        let result = ctx.run_once(|rec, cmd| {
             self.decls.clear();
             self.decls.push(Decl::Image(ImageRef::Id(id), ImageUse::TransferSrc));
-            self.emit_barriers(ctx, cmd, PassKind::Transfer);
+            self.emit_barriers(rec, PassKind::Transfer);
             let region = vk::BufferImageCopy {
                 image_subresource: vk::ImageSubresourceLayers { aspect_mask: aspect, mip_level: 0, base_array_layer: 0, layer_count: 1 },
                 image_extent: vk::Extent3D { width: extent.width, height: extent.height, depth: 1 },
@@ -409,7 +410,7 @@ impl FrameGraph {
             // SAFETY: `cmd` is recording; the barrier above put the image in TRANSFER_SRC layout
             // and the buffer holds the whole image.
             unsafe { ctx.device.cmd_copy_image_to_buffer(cmd, raw, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, buffer.raw, &[region]) };
-            copy_visible_to_host(ctx, cmd);
+            copy_visible_to_host(rec);
         });
         let bytes = result.map(|_| buffer.mapped()[..size as usize].to_vec());
         buffer.destroy(ctx);
@@ -430,10 +431,10 @@ impl FrameGraph {
         let (width, height) = ((image.extent.width >> level).max(1), (image.extent.height >> level).max(1));
         let size = width as u64 * height as u64 * image.layers as u64 * bytes_per_texel;
         let mut buffer = Buffer::new(ctx, "readback", size, vk::BufferUsageFlags::TRANSFER_DST, gpu_allocator::MemoryLocation::GpuToCpu)?;
-        let result = ctx.run_once(|cmd| {
+        let result = ctx.run_once(|rec, cmd| {
             self.decls.clear();
             self.decls.push(Decl::Resource(resource, BufferUse::Transfer, false));
-            self.emit_barriers(ctx, cmd, PassKind::Transfer);
+            self.emit_barriers(rec, PassKind::Transfer);
             let region = vk::BufferImageCopy {
                 image_subresource: vk::ImageSubresourceLayers {
                     aspect_mask: image.aspect,
@@ -447,7 +448,7 @@ impl FrameGraph {
             // SAFETY: `cmd` is recording; the image stays in GENERAL, the barrier above made its
             // last write visible to copies, and the buffer holds the whole level.
             unsafe { ctx.device.cmd_copy_image_to_buffer(cmd, image.raw, vk::ImageLayout::GENERAL, buffer.raw, &[region]) };
-            copy_visible_to_host(ctx, cmd);
+            copy_visible_to_host(rec);
         });
         let bytes = result.map(|_| buffer.mapped()[..size as usize].to_vec());
         buffer.destroy(ctx);
@@ -459,14 +460,14 @@ impl FrameGraph {
     pub fn read_back_buffer(&mut self, ctx: &GpuContext, resource: ResourceId, src: vk::Buffer, size: u64) -> Result<Vec<u8>, RenderError> {
         let mut buffer =
             Buffer::new(ctx, "readback", size.max(4), vk::BufferUsageFlags::TRANSFER_DST, gpu_allocator::MemoryLocation::GpuToCpu)?;
-        let result = ctx.run_once(|cmd| {
+        let result = ctx.run_once(|rec, _| {
             self.decls.clear();
             self.decls.push(Decl::Resource(resource, BufferUse::Transfer, false));
-            self.emit_barriers(ctx, cmd, PassKind::Transfer);
-            // SAFETY: `cmd` is recording; the barrier above made the buffer's last write visible
-            // to copies, and both buffers hold `size` bytes.
-            unsafe { ctx.device.cmd_copy_buffer(cmd, src, buffer.raw, &[vk::BufferCopy { src_offset: 0, dst_offset: 0, size }]) };
-            copy_visible_to_host(ctx, cmd);
+            self.emit_barriers(rec, PassKind::Transfer);
+            // The barrier above made the buffer's last write visible to copies, and both buffers
+            // hold `size` bytes.
+            rec.copy_buffer(src, buffer.raw, &[vk::BufferCopy { src_offset: 0, dst_offset: 0, size }]);
+            copy_visible_to_host(rec);
         });
         let bytes = result.map(|_| buffer.mapped()[..size as usize].to_vec());
         buffer.destroy(ctx);
@@ -482,7 +483,7 @@ impl FrameGraph {
     }
 
     /// Derives and records the barriers the current declarations need (one call).
-    fn emit_barriers(&mut self, ctx: &GpuContext, cmd: vk::CommandBuffer, kind: PassKind) {
+    fn emit_barriers(&mut self, cmd: &Recorder, kind: PassKind) {
         let mut memory: Option<Dep> = None;
         let mut merge = |dep: Dep| {
             memory = Some(match memory {
@@ -566,10 +567,8 @@ impl FrameGraph {
         if self.image_barriers.is_empty() && memory_barriers.is_empty() {
             return;
         }
-        let info = vk::DependencyInfo::default().image_memory_barriers(&self.image_barriers).memory_barriers(memory_barriers);
-        // SAFETY: `cmd` is recording outside a rendering scope; every barrier names a live image
-        // of this device with a range inside it.
-        unsafe { ctx.device.cmd_pipeline_barrier2(cmd, &info) };
+        // Every barrier names a live image of this device with a range inside it.
+        cmd.barrier(memory_barriers, &self.image_barriers);
     }
 }
 
@@ -612,8 +611,8 @@ fn image_barrier(
 pub struct Frame<'a> {
     /// The device.
     pub ctx: &'a GpuContext,
-    /// The command buffer being recorded.
-    pub cmd: vk::CommandBuffer,
+    /// The frame's commands (`crate::gpu::commands`).
+    pub cmd: &'a Recorder<'a>,
     /// The graph.
     pub graph: &'a mut FrameGraph,
     /// This frame's GPU timer.
@@ -634,7 +633,7 @@ impl<'a> Frame<'a> {
     pub fn hand_over(&mut self, image: ImageId, use_: ImageUse) {
         self.graph.decls.clear();
         self.graph.decls.push(Decl::Image(ImageRef::Id(image), use_));
-        self.graph.emit_barriers(self.ctx, self.cmd, PassKind::Transfer);
+        self.graph.emit_barriers(self.cmd, PassKind::Transfer);
     }
 
     /// Declares a use of `resource` outside any pass (handing a readback buffer to the host):
@@ -642,7 +641,7 @@ impl<'a> Frame<'a> {
     pub fn hand_over_buffer(&mut self, resource: ResourceId, use_: BufferUse) {
         self.graph.decls.clear();
         self.graph.decls.push(Decl::Resource(resource, use_, false));
-        self.graph.emit_barriers(self.ctx, self.cmd, PassKind::Transfer);
+        self.graph.emit_barriers(self.cmd, PassKind::Transfer);
     }
 
     /// Starts declaring a pass.
@@ -762,8 +761,8 @@ impl PassBuilder<'_, '_> {
         let f = self.frame;
         let (ctx, cmd) = (f.ctx, f.cmd);
         // The pass's time includes its barriers (the wait for what it depends on).
-        f.timer.begin(ctx, cmd, self.name);
-        f.graph.emit_barriers(ctx, cmd, self.kind);
+        f.timer.begin(cmd, self.name);
+        f.graph.emit_barriers(cmd, self.kind);
         let graph = &mut *f.graph;
         let mut extent = graph.extent;
         let mut depth = None;
@@ -804,7 +803,7 @@ impl PassBuilder<'_, '_> {
         if rendering {
             p.end_rendering();
         }
-        f.timer.end(ctx, cmd);
+        f.timer.end(cmd);
         Ok(result)
     }
 }
@@ -850,14 +849,13 @@ impl FrameGraph {
 
 /// Makes a readback copy visible to the host, which reads it after the fence (the one barrier
 /// the graph places without a declaration).
-fn copy_visible_to_host(ctx: &GpuContext, cmd: vk::CommandBuffer) {
+fn copy_visible_to_host(cmd: &Recorder) {
     let host = [vk::MemoryBarrier2::default()
         .src_stage_mask(vk::PipelineStageFlags2::COPY)
         .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
         .dst_stage_mask(vk::PipelineStageFlags2::HOST)
         .dst_access_mask(vk::AccessFlags2::HOST_READ)];
-    // SAFETY: `cmd` is recording outside a rendering scope.
-    unsafe { ctx.device.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&host)) };
+    cmd.barrier(&host, &[]);
 }
 
 #[cfg(test)]

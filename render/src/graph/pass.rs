@@ -4,6 +4,7 @@
 
 use ash::vk;
 
+use crate::gpu::commands::Recorder;
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::ScenePush;
 
@@ -12,8 +13,8 @@ use crate::gpu::pipeline::ScenePush;
 pub struct PassContext<'a> {
     /// The device.
     pub ctx: &'a GpuContext,
-    /// The command buffer being recorded.
-    pub cmd: vk::CommandBuffer,
+    /// The frame's commands (`crate::gpu::commands`).
+    pub cmd: &'a Recorder<'a>,
     /// The layout shared by all pipelines.
     pub layout: vk::PipelineLayout,
     /// The bindless set.
@@ -32,20 +33,15 @@ impl PassContext<'_> {
 
     /// Binds a pipeline at `point` with the bindless set and push constants.
     pub fn bind(&self, point: vk::PipelineBindPoint, pipeline: vk::Pipeline, push: &ScenePush) {
-        let d = &self.ctx.device;
-        // SAFETY: `cmd` is recording; pipeline, layout and set are live and compatible.
-        unsafe {
-            d.cmd_bind_pipeline(self.cmd, point, pipeline);
-            d.cmd_bind_descriptor_sets(self.cmd, point, self.layout, 0, &[self.bindless], &[]);
-        }
+        self.cmd.bind_pipeline(point, pipeline);
+        self.cmd.bind_set(point, self.layout, self.bindless);
         self.set_push(push);
     }
 
     /// Sets the push constants alone (the pipeline bound stays): the steps of a chain that
     /// differ only in them.
     pub fn set_push(&self, push: &ScenePush) {
-        // SAFETY: `cmd` is recording; the layout is the one every scene pipeline shares.
-        unsafe { self.ctx.device.cmd_push_constants(self.cmd, self.layout, vk::ShaderStageFlags::ALL, 0, bytemuck::bytes_of(push)) };
+        self.cmd.push_constants(self.layout, vk::ShaderStageFlags::ALL, 0, bytemuck::bytes_of(push));
     }
 
     /// Makes what this pass's compute dispatches wrote so far visible to its next dispatch (a
@@ -58,40 +54,30 @@ impl PassContext<'_> {
             .src_access_mask(vk::AccessFlags2::SHADER_STORAGE_WRITE)
             .dst_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
             .dst_access_mask(vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE)];
-        // SAFETY: `cmd` is recording outside a rendering scope.
-        unsafe { self.ctx.device.cmd_pipeline_barrier2(self.cmd, &vk::DependencyInfo::default().memory_barriers(&barrier)) };
+        self.cmd.barrier(&barrier, &[]);
     }
 
     /// Begins dynamic rendering into the given attachments over the pass's extent (the graph
     /// calls this from the pass's attachment declarations).
     pub(crate) fn begin_rendering(&self, colors: &[vk::RenderingAttachmentInfo], depth: Option<&vk::RenderingAttachmentInfo>) {
         let extent = self.extent;
-        let mut info = vk::RenderingInfo::default()
-            .render_area(vk::Rect2D { offset: vk::Offset2D::default(), extent })
-            .layer_count(1)
-            .color_attachments(colors);
-        if let Some(depth) = depth {
-            info = info.depth_attachment(depth);
-        }
-        // SAFETY: `cmd` is recording outside a rendering scope; the attachments' views are live
-        // and in the layouts the graph's barriers just put them in.
-        unsafe { self.ctx.device.cmd_begin_rendering(self.cmd, &info) };
-        crate::gpu::pipeline::set_viewport(self.ctx, self.cmd, extent);
-        // SAFETY: every pipeline has viewport, scissor and cull mode dynamic; this sets the last
-        // of the three before any draw.
-        unsafe { self.ctx.device.cmd_set_cull_mode(self.cmd, vk::CullModeFlags::NONE) };
+        // The attachments' views are live and in the layouts the graph's barriers just put them
+        // in.
+        self.cmd.begin_rendering(extent, colors, depth);
+        crate::gpu::pipeline::set_viewport(self.cmd, extent);
+        // Every pipeline has viewport, scissor and cull mode dynamic; this sets the last of the
+        // three before any draw.
+        self.cmd.set_cull_mode(vk::CullModeFlags::NONE);
     }
 
     /// Binds `pipeline` with `push` and draws one full-screen triangle.
     pub fn fullscreen(&self, pipeline: vk::Pipeline, push: &ScenePush) {
         self.bind_graphics(pipeline, push);
-        // SAFETY: `cmd` is recording inside a rendering scope with the pipeline just bound.
-        unsafe { self.ctx.device.cmd_draw(self.cmd, 3, 1, 0, 0) };
+        self.cmd.draw(3, 1, 0, 0);
     }
 
     /// Ends dynamic rendering.
     pub(crate) fn end_rendering(&self) {
-        // SAFETY: matches begin_rendering.
-        unsafe { self.ctx.device.cmd_end_rendering(self.cmd) };
+        self.cmd.end_rendering();
     }
 }

@@ -48,8 +48,7 @@ impl StatsReadback {
         let (target, size, res) = (self.slots[slot].0.raw, self.bytes, self.res);
         f.pass(name, PassKind::Transfer).read(source, BufferUse::Transfer).write(res, BufferUse::Transfer).record(|p| {
             let region = vk::BufferCopy { src_offset: 0, dst_offset: 0, size };
-            // SAFETY: `cmd` is recording outside a rendering scope; both ranges lie in their buffers.
-            unsafe { p.ctx.device.cmd_copy_buffer(p.cmd, src, target, &[region]) };
+            p.cmd.copy_buffer(src, target, &[region]);
         })?;
         f.hand_over_buffer(res, BufferUse::HostRead);
         self.slots[slot].1 = Some(f.upload.frame_value);

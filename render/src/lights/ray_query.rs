@@ -184,15 +184,13 @@ impl RayQueryLights {
         let Some(buffer) = self.buffer.as_ref() else { return Ok(()) };
         let (raw, list_offset) = (buffer.raw, self.capacity as u64 * BOX_BYTES);
         f.pass("light_unbounded_clear", PassKind::Transfer).write(self.boxes, BufferUse::Transfer).record(|p| {
-            // SAFETY: `cmd` is recording outside a rendering scope; the count word lies in the buffer.
-            unsafe { p.ctx.device.cmd_fill_buffer(p.cmd, raw, list_offset, 4, 0) };
+            p.cmd.fill_buffer(raw, list_offset, 4, 0);
         })?;
         let (pipeline, count) = (self.box_pass, plan.count);
         f.pass("light_boxes", PassKind::Compute).read(scene.res.tables, BufferUse::Storage).write(self.boxes, BufferUse::Storage).record(
             |p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, count.div_ceil(64), 1, 1) };
+                p.cmd.dispatch(count.div_ceil(64), 1, 1);
             },
         )?;
         self.accel.record(f, &input, &plan)?;
@@ -217,6 +215,6 @@ impl RayQueryLights {
             b.destroy(ctx);
         }
         // SAFETY: the GPU is idle.
-        unsafe { ctx.device.destroy_pipeline(self.box_pass, None) };
+        unsafe { ctx.destroying().destroy_pipeline(self.box_pass, None) };
     }
 }

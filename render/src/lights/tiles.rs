@@ -428,14 +428,12 @@ impl LightTiles {
                 .write(res.frusta, BufferUse::Storage)
                 .record(|p| {
                     p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-                    // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                    unsafe { p.ctx.device.cmd_dispatch(p.cmd, tile_count.div_ceil(64), 1, 1) };
+                    p.cmd.dispatch(tile_count.div_ceil(64), 1, 1);
                 })?;
         }
         let raw = tiles.raw;
         f.pass("light_tiles_clear", PassKind::Transfer).write(res.tiles, BufferUse::Transfer).record(|p| {
-            // SAFETY: `cmd` is recording outside a rendering scope; the range lies in the buffer.
-            unsafe { p.ctx.device.cmd_fill_buffer(p.cmd, raw, 0, LIGHT_TILE_HEADER as u64 * 4, 0) };
+            p.cmd.fill_buffer(raw, 0, LIGHT_TILE_HEADER as u64 * 4, 0);
         })?;
         let pipeline = if frame.transparent { self.cull_transparent_pipeline } else { self.cull_pipeline };
         let pass = f.pass("light_cull", PassKind::Compute).sample(&DEPTH);
@@ -443,8 +441,7 @@ impl LightTiles {
         pass.read(scene.res.tables, BufferUse::Storage).read(res.frusta, BufferUse::Storage).write(res.tiles, BufferUse::Storage).record(
             |p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-                // SAFETY: as above.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, frame.tiles.0, frame.tiles.1, 1) };
+                p.cmd.dispatch(frame.tiles.0, frame.tiles.1, 1);
             },
         )?;
         self.readback.record(f, "light_tiles_statistics", res.tiles, raw)
@@ -467,7 +464,7 @@ impl LightTiles {
     pub fn destroy(self, ctx: &GpuContext) {
         for p in [self.frusta_pipeline, self.cull_pipeline, self.cull_transparent_pipeline] {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
         for b in [self.frusta, self.tiles, self.shadow, self.tints.map(|(b, ..)| b)].into_iter().flatten() {
             b.destroy(ctx);

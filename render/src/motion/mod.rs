@@ -111,8 +111,7 @@ impl Motion {
             .image(&MOTION, ImageUse::StorageWrite)
             .record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, camera, &p.push);
-                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, extent.width.div_ceil(8), extent.height.div_ceil(8), 1) };
+                p.cmd.dispatch(extent.width.div_ceil(8), extent.height.div_ceil(8), 1);
             })?;
         let (count, Some(pool)) = (scene.mover_count, scene.pool_buffer()) else { return Ok(()) };
         if count == 0 {
@@ -130,17 +129,13 @@ impl Motion {
                 let push = p.push;
                 p.bind_graphics(movers, &push);
                 crate::culling::bind_mesh_pool(p, pool);
-                let d = &p.ctx.device;
-                // SAFETY: `cmd` is recording inside a rendering scope with a mesh pipeline bound;
-                // the draws (uploaded with the tables, declared above) live until the frame
+                // The draws (uploaded with the tables, declared above) live until the frame
                 // completes.
-                unsafe {
-                    d.cmd_set_cull_mode(p.cmd, vk::CullModeFlags::NONE);
-                    // A count-draw, its count in the first command's place: on Mesa lavapipe 25 a
-                    // plain indirect draw recorded after a count-draw (the depth passes') took
-                    // its draw count from that earlier draw's count buffer.
-                    d.cmd_draw_indexed_indirect_count(p.cmd, draws, COMMAND_BYTES as u64, draws, 0, count, COMMAND_BYTES);
-                }
+                p.cmd.set_cull_mode(vk::CullModeFlags::NONE);
+                // A count-draw, its count in the first command's place: on Mesa lavapipe 25 a
+                // plain indirect draw recorded after a count-draw (the depth passes') took its
+                // draw count from that earlier draw's count buffer.
+                p.cmd.draw_indexed_indirect_count(draws, COMMAND_BYTES as u64, draws, 0, count, COMMAND_BYTES);
             })
     }
 
@@ -148,7 +143,7 @@ impl Motion {
     pub fn destroy(self, ctx: &GpuContext) {
         for p in self.camera.into_iter().chain([self.movers]) {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
     }
 }

@@ -216,12 +216,9 @@ impl DeferredPasses {
                 let push = p.push;
                 for run in runs {
                     p.bind_graphics(self.decals[(run.flags & 15) as usize], &push);
-                    // SAFETY: `cmd` is recording inside the rendering scope with the pipeline
-                    // bound; the draw order table holds `first + count` entries.
-                    unsafe {
-                        p.ctx.device.cmd_set_cull_mode(p.cmd, vk::CullModeFlags::BACK);
-                        p.ctx.device.cmd_draw(p.cmd, 36, run.count, 0, run.first);
-                    }
+                    // The draw order table holds `first + count` entries.
+                    p.cmd.set_cull_mode(vk::CullModeFlags::BACK);
+                    p.cmd.draw(36, run.count, 0, run.first);
                 }
             })
     }
@@ -256,8 +253,7 @@ impl DeferredPasses {
                 self.lighting_rays.run(p, decals);
             } else if compute {
                 p.bind(vk::PipelineBindPoint::COMPUTE, self.lighting_compute.pick(decals), &push);
-                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
+                p.cmd.dispatch(p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1);
             } else {
                 p.fullscreen(self.lighting.pick(decals), &push);
             }
@@ -268,7 +264,7 @@ impl DeferredPasses {
     pub fn destroy(self, ctx: &GpuContext) {
         for p in [self.gbuffer_opaque, self.gbuffer_mask, self.gbuffer_interlaced, self.gbuffer_glass].into_iter().chain(self.decals) {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
         self.lighting.destroy(ctx);
         self.lighting_compute.destroy(ctx);

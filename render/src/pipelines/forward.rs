@@ -160,7 +160,7 @@ impl ForwardPasses {
     pub fn destroy(self, ctx: &GpuContext) {
         for p in [self.prepass_opaque, self.prepass_mask, self.ids_opaque, self.ids_mask] {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
         self.shade.destroy(ctx);
         if let Some(v) = self.shade_reflected {

@@ -358,7 +358,7 @@ impl ShadeVariants {
     pub fn destroy(self, ctx: &GpuContext) {
         for p in [self.plain, self.decal_buffer].into_iter().chain(self.ray_query).chain(self.clustered) {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
     }
 }
@@ -412,11 +412,10 @@ impl RayLightShading {
     pub fn run(&self, p: &PassContext, decals: &DecalFrame) {
         if let Some(compute) = &self.compute {
             p.bind(vk::PipelineBindPoint::COMPUTE, compute.pick(decals), &p.push);
-            // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-            unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
+            p.cmd.dispatch(p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1);
         } else if let Some(rays) = &self.rays {
             p.bind(vk::PipelineBindPoint::RAY_TRACING_KHR, rays.pipeline, &p.push);
-            rays.trace(p.ctx, p.cmd, usize::from(decals.buffered()), p.extent);
+            rays.trace(p.cmd, usize::from(decals.buffered()), p.extent);
         }
     }
 

@@ -111,8 +111,7 @@ impl VisBufferPasses {
                 self.shade_rays.run(p, decals);
             } else if compute {
                 p.bind(vk::PipelineBindPoint::COMPUTE, self.shade_compute.pick(decals), &push);
-                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
+                p.cmd.dispatch(p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1);
             } else {
                 p.fullscreen(self.shade.pick(decals), &push);
             }
@@ -123,7 +122,7 @@ impl VisBufferPasses {
     pub fn destroy(self, ctx: &GpuContext) {
         for p in [self.ids_opaque, self.ids_mask] {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
         self.shade.destroy(ctx);
         self.shade_compute.destroy(ctx);

@@ -35,7 +35,9 @@ impl Present<'_> {
         }
         self.tonemap.record(f, scene, self.target, self.aa, exposure)?;
         if let Some((egui, frame)) = &mut self.overlay {
-            f.pass("overlay", PassKind::Graphics).color(self.target, Load::Keep).record(|p| egui.record(p.cmd, p.extent, frame))??;
+            f.pass("overlay", PassKind::Graphics)
+                .color(self.target, Load::Keep)
+                .record(|p| egui.record(p.cmd.direct()?, p.extent, frame))??;
         }
         Ok(())
     }

@@ -70,8 +70,7 @@ impl Tonemap {
                 .image(&ANTIALIASED, ImageUse::StorageWrite)
                 .record(|p| {
                     p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-                    // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                    unsafe { p.ctx.device.cmd_dispatch(p.cmd, extent.width.div_ceil(8), extent.height.div_ceil(8), 1) };
+                    p.cmd.dispatch(extent.width.div_ceil(8), extent.height.div_ceil(8), 1);
                 })?;
         }
         let pipeline = self.pipelines[usize::from(antialiased)];
@@ -87,7 +86,7 @@ impl Tonemap {
     pub fn destroy(self, ctx: &GpuContext) {
         for p in self.pipelines.into_iter().chain([self.fxaa]) {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
     }
 }

@@ -136,6 +136,7 @@ impl WindowSurface {
         // and destroyed below after the GPU went idle.
         let swapchain = unsafe { self.swapchain_fn.create_swapchain(&info, None) }?;
         self.destroy_images(ctx);
+        ctx.note_destroyed();
         // SAFETY: the GPU is idle; the old swapchain is no longer used.
         unsafe { self.swapchain_fn.destroy_swapchain(self.swapchain, None) };
         self.swapchain = swapchain;
@@ -169,11 +170,11 @@ impl WindowSurface {
     fn destroy_images(&mut self, ctx: &GpuContext) {
         for v in self.views.drain(..) {
             // SAFETY: the GPU is idle (callers wait first).
-            unsafe { ctx.device.destroy_image_view(v, None) };
+            unsafe { ctx.destroying().destroy_image_view(v, None) };
         }
         for s in self.render_done.drain(..) {
             // SAFETY: as above.
-            unsafe { ctx.device.destroy_semaphore(s, None) };
+            unsafe { ctx.destroying().destroy_semaphore(s, None) };
         }
         self.images.clear();
         self.states.clear();
@@ -233,7 +234,7 @@ impl WindowSurface {
         // SAFETY: the GPU is idle; nothing uses these any more.
         unsafe {
             for s in self.acquired {
-                ctx.device.destroy_semaphore(s, None);
+                ctx.destroying().destroy_semaphore(s, None);
             }
             self.swapchain_fn.destroy_swapchain(self.swapchain, None);
             self.surface_fn.destroy_surface(self.surface, None);

@@ -333,8 +333,7 @@ impl Reflections {
         }
         let (stats, stats_res) = (self.stats.raw, self.stats_res);
         f.pass("reflection_stats_clear", PassKind::Transfer).write(stats_res, BufferUse::Transfer).record(|p| {
-            // SAFETY: `cmd` is recording outside a rendering scope; the range is the buffer.
-            unsafe { p.ctx.device.cmd_fill_buffer(p.cmd, stats, 0, vk::WHOLE_SIZE, 0) };
+            p.cmd.fill_buffer(stats, 0, vk::WHOLE_SIZE, 0);
         })?;
         Ok(ReflectionFrame {
             flags: REFLECT_ON
@@ -491,11 +490,10 @@ impl Reflections {
                 let cells = vk::Extent2D { width: p.extent.width.div_ceil(side), height: p.extent.height.div_ceil(side) };
                 if let Some(pipeline) = compute {
                     p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-                    // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                    unsafe { p.ctx.device.cmd_dispatch(p.cmd, cells.width.div_ceil(8), cells.height.div_ceil(8), 1) };
+                    p.cmd.dispatch(cells.width.div_ceil(8), cells.height.div_ceil(8), 1);
                 } else if let Some(rays) = rays {
                     p.bind(vk::PipelineBindPoint::RAY_TRACING_KHR, rays.pipeline, &p.push);
-                    rays.trace(p.ctx, p.cmd, raygen, cells);
+                    rays.trace(p.cmd, raygen, cells);
                 }
             })?;
         let resolve = match (source, separate) {
@@ -513,8 +511,7 @@ impl Reflections {
             .image(if separate { &REFLECTION_ADDED } else { &HDR }, ImageUse::StorageWrite)
             .record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, resolve, &p.push);
-                // SAFETY: as above.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
+                p.cmd.dispatch(p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1);
             })
     }
 
@@ -528,10 +525,10 @@ impl Reflections {
         }
         for p in [self.resolve, self.resolve_separate, self.resolve_glass].into_iter().chain(self.glass) {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
         // SAFETY: the GPU is idle.
-        unsafe { ctx.device.destroy_pipeline(self.hiz, None) };
+        unsafe { ctx.destroying().destroy_pipeline(self.hiz, None) };
         if let Some((b, _)) = self.pyramid {
             b.destroy(ctx);
         }

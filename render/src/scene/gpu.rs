@@ -936,7 +936,7 @@ impl GpuScene {
             .write(res.tables, BufferUse::Transfer)
             .when(new_meshes, |p| p.write(res.meshes, BufferUse::Transfer))
             .upload_images(res.textures, copies.images())
-            .record(|p| copies.record(p.ctx, p.cmd));
+            .record(|p| copies.record(p.ctx, p.cmd))?;
         self.copies = copies;
         result.map(|()| decal_boxes_changed)
     }
@@ -1266,10 +1266,10 @@ impl GpuScene {
         }
         // SAFETY: the GPU is idle; these objects belong to this device.
         unsafe {
-            ctx.device.destroy_sampler(self.repeat_sampler, None);
-            ctx.device.destroy_sampler(self.clamp_sampler, None);
-            ctx.device.destroy_descriptor_pool(self.pool, None);
-            ctx.device.destroy_descriptor_set_layout(self.set_layout, None);
+            ctx.destroying().destroy_sampler(self.repeat_sampler, None);
+            ctx.destroying().destroy_sampler(self.clamp_sampler, None);
+            ctx.destroying().destroy_descriptor_pool(self.pool, None);
+            ctx.destroying().destroy_descriptor_set_layout(self.set_layout, None);
         }
     }
 }

@@ -489,6 +489,11 @@ pub struct FrameCounters {
     /// Draw commands the CPU recorded this frame, every pass (indirect draws: each covers a
     /// batch of instances).
     pub draw_calls: u64,
+    /// Whether this frame's command buffer was submitted again as an earlier frame recorded it,
+    /// the frame's commands being exactly the same (`crate::gpu::commands`).
+    pub commands_reused: bool,
+    /// Words in the frame's command log (every command and its arguments).
+    pub command_words: u64,
     /// Bytes of the mesh pool's buffer (`crate::scene::pool`).
     pub mesh_pool_bytes: u64,
     /// Posed meshes the skinning pass wrote this frame (`crate::skinning`).

@@ -196,7 +196,7 @@ impl SceneAccel {
             Ok(p) => p,
             Err(e) => {
                 // SAFETY: unused.
-                unsafe { ctx.device.destroy_query_pool(queries, None) };
+                unsafe { ctx.destroying().destroy_query_pool(queries, None) };
                 return Err(e);
             }
         };
@@ -494,6 +494,7 @@ impl SceneAccel {
                 .write(res.blas, BufferUse::Accel)
                 .write(res.scratch, BufferUse::Accel)
                 .record(|p| {
+                    let cmd = p.cmd.direct()?;
                     for &(slot, offset) in &builds {
                         let b = blas[slot].as_ref().expect("listed above");
                         let (vertices, indices, vertex_count) = scene.mesh_geometry(MeshId(slot as u32)).expect("listed above");
@@ -509,19 +510,21 @@ impl SceneAccel {
                         let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(b.primitives)];
                         // SAFETY: `cmd` is recording; the mesh buffer was uploaded earlier this
                         // frame (declared); each build has its own scratch range.
-                        unsafe { asx.cmd_build_acceleration_structures(p.cmd, &[info], &[&ranges[..]]) };
+                        unsafe { asx.cmd_build_acceleration_structures(cmd, &[info], &[&ranges[..]]) };
                     }
-                })?;
+                    Ok::<(), RenderError>(())
+                })??;
             f.pass("scene_blas_query", PassKind::AccelBuild).read(res.blas, BufferUse::Accel).record(|p| {
+                let cmd = p.cmd.direct()?;
                 for &(slot, _) in &builds {
                     let b = blas[slot].as_ref().expect("listed above");
                     let Some(query) = b.query else { continue };
                     // SAFETY: `cmd` is recording outside a rendering scope; the BLAS was built
                     // above (the declaration orders the build before this read).
                     unsafe {
-                        p.ctx.device.cmd_reset_query_pool(p.cmd, queries, query, 1);
+                        p.ctx.device.cmd_reset_query_pool(cmd, queries, query, 1);
                         asx.cmd_write_acceleration_structures_properties(
-                            p.cmd,
+                            cmd,
                             &[b.accel.raw],
                             vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR,
                             queries,
@@ -529,7 +532,8 @@ impl SceneAccel {
                         );
                     }
                 }
-            })?;
+                Ok::<(), RenderError>(())
+            })??;
             counters.scene_blas_builds += builds.len() as u64;
         }
         if !refits.is_empty() {
@@ -539,6 +543,7 @@ impl SceneAccel {
                 .write(res.blas, BufferUse::Accel)
                 .write(res.scratch, BufferUse::Accel)
                 .record(|p| {
+                    let cmd = p.cmd.direct()?;
                     // In batches, from arrays on the stack: a crowd's thousands of refits take a
                     // few calls (one each cost the driver far more) and allocate nothing.
                     for chunk in refits.chunks(REFIT_BATCH) {
@@ -565,9 +570,10 @@ impl SceneAccel {
                         // this frame (declared); each structure was built with ALLOW_UPDATE from
                         // the same geometry; each refit has its own scratch range; only the
                         // chunk's entries are passed.
-                        unsafe { asx.cmd_build_acceleration_structures(p.cmd, &infos[..chunk.len()], &range_refs[..chunk.len()]) };
+                        unsafe { asx.cmd_build_acceleration_structures(cmd, &infos[..chunk.len()], &range_refs[..chunk.len()]) };
                     }
-                })?;
+                    Ok::<(), RenderError>(())
+                })??;
             counters.scene_blas_refits += refits.len() as u64;
         }
         for &(slot, _) in &refits {
@@ -588,6 +594,7 @@ impl SceneAccel {
             self.blas.iter_mut().flatten().filter_map(|b| b.compact_from.take().map(|src| (src, b.accel.raw))).collect();
         if !compactions.is_empty() {
             f.pass("scene_blas_compact", PassKind::AccelBuild).write(res.blas, BufferUse::Accel).record(|p| {
+                let cmd = p.cmd.direct()?;
                 for &(src, dst) in &compactions {
                     let info = vk::CopyAccelerationStructureInfoKHR::default()
                         .src(src)
@@ -595,9 +602,10 @@ impl SceneAccel {
                         .mode(vk::CopyAccelerationStructureModeKHR::COMPACT);
                     // SAFETY: `cmd` is recording; the source is alive until this frame completes
                     // (in the graveyard) and was built by a completed frame.
-                    unsafe { asx.cmd_copy_acceleration_structure(p.cmd, &info) };
+                    unsafe { asx.cmd_copy_acceleration_structure(cmd, &info) };
                 }
-            })?;
+                Ok::<(), RenderError>(())
+            })??;
             counters.scene_blas_compactions += compactions.len() as u64;
         }
 
@@ -611,8 +619,7 @@ impl SceneAccel {
             .write(res.instances, BufferUse::Storage)
             .record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, count.div_ceil(64), 1, 1) };
+                p.cmd.dispatch(count.div_ceil(64), 1, 1);
             })?;
         let update = frame.work == TlasWork::Update;
         let instances = frame.instances;
@@ -622,13 +629,15 @@ impl SceneAccel {
             .write(res.tlas, BufferUse::Accel)
             .write(res.scratch, BufferUse::Accel)
             .record(|p| {
+                let cmd = p.cmd.direct()?;
                 let geometry = [instances_geometry(instances)];
                 let info = build_info(vk::AccelerationStructureTypeKHR::TOP_LEVEL, TLAS_FLAGS, tlas.raw, update, &geometry, scratch);
                 let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
                 // SAFETY: `cmd` is recording; the instance records were written by the pass above
                 // (declared); the TLAS was sized for at least `count` instances.
-                unsafe { asx.cmd_build_acceleration_structures(p.cmd, &[info], &[&ranges[..]]) };
-            })?;
+                unsafe { asx.cmd_build_acceleration_structures(cmd, &[info], &[&ranges[..]]) };
+                Ok::<(), RenderError>(())
+            })??;
         if update {
             counters.scene_tlas_updates += 1;
             self.updated_since_build += self.pending_moved as u64;
@@ -656,8 +665,8 @@ impl SceneAccel {
         self.scratch.destroy(ctx);
         // SAFETY: the GPU is idle.
         unsafe {
-            ctx.device.destroy_query_pool(self.queries, None);
-            ctx.device.destroy_pipeline(self.instance_pass, None);
+            ctx.destroying().destroy_query_pool(self.queries, None);
+            ctx.destroying().destroy_pipeline(self.instance_pass, None);
         }
     }
 }

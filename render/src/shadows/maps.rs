@@ -99,7 +99,7 @@ impl ShadowMaps {
         let stages = [("shadows (maps)", shaders::SHADOWS_MAPPED_COMP), ("glass shadows (maps)", shaders::SHADOWS_MAPPED_COMP_GLASS_LAYER)];
         let resolve = create_computes(ctx, layout, stages).inspect_err(|_| {
             // SAFETY: never used.
-            unsafe { ctx.device.destroy_pipeline(raster, None) };
+            unsafe { ctx.destroying().destroy_pipeline(raster, None) };
         })?;
         Ok(Self { raster, resolve, budget, columns, rows, words: Vec::new() })
     }
@@ -159,12 +159,8 @@ impl ShadowMaps {
                             offset: vk::Offset2D { x: x as i32, y: y as i32 },
                             extent: vk::Extent2D { width: tile, height: tile },
                         };
-                        // SAFETY: `cmd` is recording inside the pass's rendering scope; viewport
-                        // and scissor are dynamic and lie in the atlas.
-                        unsafe {
-                            p.ctx.device.cmd_set_viewport(p.cmd, 0, &[viewport]);
-                            p.ctx.device.cmd_set_scissor(p.cmd, 0, &[scissor]);
-                        }
+                        // Viewport and scissor are dynamic and lie in the atlas.
+                        p.cmd.set_viewport(viewport, scissor);
                         draws.shadow_view(p, v);
                     }
                 })?;
@@ -181,8 +177,7 @@ impl ShadowMaps {
             .when(inputs.debug, |p| p.image(&SHADOW_DEBUG, ImageUse::StorageWrite))
             .record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, resolve, &p.push);
-                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, extent.width.div_ceil(8), extent.height.div_ceil(8), 1) };
+                p.cmd.dispatch(extent.width.div_ceil(8), extent.height.div_ceil(8), 1);
             })
     }
 
@@ -190,7 +185,7 @@ impl ShadowMaps {
     pub fn destroy(self, ctx: &GpuContext) {
         for p in [self.raster].into_iter().chain(self.resolve) {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
     }
 }

@@ -105,7 +105,7 @@ impl ShadowPass {
                 Err(e) => {
                     for p in ray_query.into_iter().flatten() {
                         // SAFETY: unused.
-                        unsafe { ctx.device.destroy_pipeline(p, None) };
+                        unsafe { ctx.destroying().destroy_pipeline(p, None) };
                     }
                     maps.destroy(ctx);
                     return Err(e);
@@ -179,15 +179,14 @@ impl ShadowPass {
                 let rt = self.ray_pipeline.as_ref().ok_or_else(|| unsupported(inputs.method))?;
                 pass.record(|p| {
                     p.bind(vk::PipelineBindPoint::RAY_TRACING_KHR, rt.pipeline, &p.push);
-                    rt.trace(p.ctx, p.cmd, layer, extent);
+                    rt.trace(p.cmd, layer, extent);
                 })
             }
             ShadowMethod::RayQuery => {
                 let pipeline = self.ray_query.ok_or_else(|| unsupported(inputs.method))?[layer];
                 pass.record(|p| {
                     p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-                    // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                    unsafe { p.ctx.device.cmd_dispatch(p.cmd, extent.width.div_ceil(8), extent.height.div_ceil(8), 1) };
+                    p.cmd.dispatch(extent.width.div_ceil(8), extent.height.div_ceil(8), 1);
                 })
             }
             ShadowMethod::Maps | ShadowMethod::None => Ok(()),
@@ -198,7 +197,7 @@ impl ShadowPass {
     pub fn destroy(self, ctx: &GpuContext) {
         for p in self.ray_query.into_iter().flatten() {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
         if let Some(rt) = self.ray_pipeline {
             rt.destroy(ctx);

@@ -366,7 +366,7 @@ impl Skinning {
             Ok(p) => p,
             Err(e) => {
                 // SAFETY: never used.
-                unsafe { ctx.device.destroy_pipeline_layout(layout, None) };
+                unsafe { ctx.destroying().destroy_pipeline_layout(layout, None) };
                 return Err(e);
             }
         };
@@ -405,14 +405,11 @@ impl Skinning {
         let (layout, pipeline, groups, count) = (self.layout, self.pipeline, self.groups, self.jobs);
         f.pass("skinning", PassKind::Compute).read(scene.res.tables, BufferUse::Storage).write(scene.res.meshes, BufferUse::Storage).record(
             |p| {
-                let d = &p.ctx.device;
-                // SAFETY: `cmd` is recording outside a rendering scope; the push constants are
-                // this layout's; y and z split the jobs below the guaranteed 65,535 groups.
-                unsafe {
-                    d.cmd_bind_pipeline(p.cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
-                    d.cmd_push_constants(p.cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(&push));
-                    d.cmd_dispatch(p.cmd, groups, count.min(MAX_ROWS), count.div_ceil(MAX_ROWS));
-                }
+                // The push constants are this layout's; y and z split the jobs below the
+                // guaranteed 65,535 groups.
+                p.cmd.bind_pipeline(vk::PipelineBindPoint::COMPUTE, pipeline);
+                p.cmd.push_constants(layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(&push));
+                p.cmd.dispatch(groups, count.min(MAX_ROWS), count.div_ceil(MAX_ROWS));
             },
         )
     }
@@ -421,8 +418,8 @@ impl Skinning {
     pub fn destroy(self, ctx: &GpuContext) {
         // SAFETY: the GPU is idle.
         unsafe {
-            ctx.device.destroy_pipeline(self.pipeline, None);
-            ctx.device.destroy_pipeline_layout(self.layout, None);
+            ctx.destroying().destroy_pipeline(self.pipeline, None);
+            ctx.destroying().destroy_pipeline_layout(self.layout, None);
         }
     }
 }

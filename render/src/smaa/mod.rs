@@ -50,8 +50,7 @@ impl Smaa {
         };
         let dispatch = |p: &crate::graph::PassContext, pipeline| {
             p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-            // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-            unsafe { p.ctx.device.cmd_dispatch(p.cmd, groups.0, groups.1, 1) };
+            p.cmd.dispatch(groups.0, groups.1, 1);
         };
         f.pass("smaa_edges", PassKind::Compute)
             .sample(&HDR)
@@ -76,7 +75,7 @@ impl Smaa {
     pub fn destroy(self, ctx: &GpuContext) {
         for p in [self.edges, self.weights, self.blend] {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
     }
 }

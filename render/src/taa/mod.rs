@@ -148,8 +148,7 @@ impl Taa {
             .image(history_out, ImageUse::StorageWrite)
             .record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, resolve, &ScenePush { texture_index: flags, ..p.push });
-                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, groups.0, groups.1, 1) };
+                p.cmd.dispatch(groups.0, groups.1, 1);
             })?;
         let word = ((sharpen.clamp(0.0, 1.0) * 65535.0).round() as u32) << TAA_SHARPEN_SHIFT;
         f.pass("taa_output", PassKind::Compute)
@@ -158,8 +157,7 @@ impl Taa {
             .image(&HDR, ImageUse::StorageWrite)
             .record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, output, &ScenePush { texture_index: word, ..p.push });
-                // SAFETY: as above.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, groups.0, groups.1, 1) };
+                p.cmd.dispatch(groups.0, groups.1, 1);
             })?;
         self.read_b = !self.read_b;
         Ok(())
@@ -169,7 +167,7 @@ impl Taa {
     pub fn destroy(self, ctx: &GpuContext) {
         for p in self.resolve.into_iter().chain(self.output) {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
     }
 }

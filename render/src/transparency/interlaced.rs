@@ -64,7 +64,7 @@ impl Interlaced {
     pub fn destroy(self, ctx: &GpuContext) {
         for p in [self.compose, self.compose_pairs] {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
     }
 }

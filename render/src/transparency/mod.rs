@@ -165,7 +165,7 @@ impl TransparencyPasses {
     pub fn destroy(self, ctx: &GpuContext) {
         for p in [self.depth].into_iter().chain(self.shade).chain(self.shade_ray_query.into_iter().flatten()) {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
         self.interlaced.destroy(ctx);
         self.peeling.destroy(ctx);
@@ -182,8 +182,7 @@ fn compute_pass(
 ) -> Result<(), RenderError> {
     declare(f.pass(name, PassKind::Compute)).record(|p| {
         p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-        // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-        unsafe { p.ctx.device.cmd_dispatch(p.cmd, p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1) };
+        p.cmd.dispatch(p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1);
     })
 }
 
@@ -212,17 +211,7 @@ fn copy_target(f: &mut Frame, name: &'static str, from: &'static TargetDesc, to:
             extent: vk::Extent3D { width: p.extent.width, height: p.extent.height, depth: 1 },
             ..Default::default()
         };
-        // SAFETY: `cmd` is recording outside a rendering scope; the graph put both images (same
-        // size and format) in the transfer layouts this names.
-        unsafe {
-            p.ctx.device.cmd_copy_image(
-                p.cmd,
-                src,
-                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                dst,
-                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                &[region],
-            )
-        };
+        // The graph put both images (same size and format) in the transfer layouts this names.
+        p.cmd.copy_image(src, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, dst, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &[region]);
     })
 }

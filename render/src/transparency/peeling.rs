@@ -67,7 +67,7 @@ impl Peeling {
     pub fn destroy(self, ctx: &GpuContext) {
         for p in [self.keep_depth, self.compose] {
             // SAFETY: the GPU is idle.
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
     }
 }

@@ -147,12 +147,11 @@ impl AmbientOcclusion {
         match tracer {
             Tracer::RayGen(rt) => pass.record(|p| {
                 p.bind(vk::PipelineBindPoint::RAY_TRACING_KHR, rt.pipeline, &p.push);
-                rt.trace(p.ctx, p.cmd, 0, extent);
+                rt.trace(p.cmd, 0, extent);
             })?,
             Tracer::Compute(pipeline) => pass.record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, groups.0, groups.1, 1) };
+                p.cmd.dispatch(groups.0, groups.1, 1);
             })?,
         }
         f.pass("occlusion_denoise", PassKind::Compute)
@@ -162,8 +161,7 @@ impl AmbientOcclusion {
             .image(&OCCLUSION, ImageUse::StorageWrite)
             .record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, self.denoise, &p.push);
-                // SAFETY: `cmd` is recording outside a rendering scope with the pipeline bound.
-                unsafe { p.ctx.device.cmd_dispatch(p.cmd, groups.0, groups.1, 1) };
+                p.cmd.dispatch(groups.0, groups.1, 1);
             })
     }
 
@@ -171,7 +169,7 @@ impl AmbientOcclusion {
     pub fn destroy(self, ctx: &GpuContext) {
         for p in [Some(self.screen_space), Some(self.denoise), self.ray_query].into_iter().flatten() {
             // SAFETY: the GPU is idle (or the pipelines were never used).
-            unsafe { ctx.device.destroy_pipeline(p, None) };
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
         if let Some(rt) = self.ray_pipeline {
             rt.destroy(ctx);

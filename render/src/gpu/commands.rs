@@ -1,0 +1,718 @@
+//! Command buffers recorded once and submitted again while the frame stays the same.
+//!
+//! A GPU-driven frame (`crate::culling`) changes its *data* every frame (the camera, the
+//! instances, the lights: buffers the GPU reads) but rarely its *commands*: the same passes bind
+//! the same pipelines, dispatch the same grids and draw through the same indirect buffers. Yet
+//! the driver's fixed costs of recording them (beginning six-attachment renderings, the first
+//! ray-tracing dispatch of a command buffer, resetting the pool, ending the buffer) were most of
+//! issue 24's CPU record time on the lent H100 (`docs/BENCHMARKS.md`, "Where the recording
+//! goes"). Vulkan lets a command buffer be submitted again once its previous submission has
+//! completed (it is recorded without `ONE_TIME_SUBMIT`), so recording it again is work that
+//! follows nothing that changed. The technique is the "static command buffer" of GPU-driven
+//! renderers (Haar and Aaltonen, "GPU-Driven Rendering Pipelines", SIGGRAPH 2015: the CPU's
+//! part of a frame no longer depends on the scene); this module makes it automatic and exact.
+//!
+//! How: every pass records through a [`Recorder`], which writes each command and all its
+//! arguments (handles, counts, push-constant bytes, barriers, attachments) as words into a
+//! log instead of calling the driver. At the end of the frame, [`Recorder::finish`] compares the
+//! log with the one its frame slot's command buffer was recorded from. Equal, and no Vulkan object
+//! destroyed since ([`GpuContext::objects_destroyed`]: a new object may reuse a destroyed one's
+//! handle), the command buffer is submitted as it is; otherwise the pool is reset and the log
+//! replayed into it. A command the log does not hold (acceleration-structure builds, image
+//! uploads, readbacks, the overlay's drawing) asks for [`Recorder::direct`]: the log so far is
+//! replayed, everything after it goes straight to the driver, and that frame's command buffer is
+//! never reused. Data the GPU reads from buffers (staging copies read the staging ring at execution)
+//! never enters the log, so a moving camera still reuses; an upload of a different size, a new
+//! pass, a resized target or another push constant records again.
+
+use std::cell::RefCell;
+
+use ash::vk;
+use ash::vk::Handle;
+
+use crate::gpu::device::GpuContext;
+
+/// A frame slot's command pool and buffer, the log its buffer was recorded from, and this
+/// frame's log. Lives as long as the renderer; a [`Recorder`] holds it for one frame. The
+/// default is an empty placeholder (null handles) for a slot whose cache a recorder holds.
+#[derive(Default)]
+pub struct CommandCache {
+    pool: vk::CommandPool,
+    cmd: vk::CommandBuffer,
+    log: Vec<u64>,
+    recorded: Vec<u64>,
+    /// The destroyed-object count when `recorded` was recorded; `None` when the buffer holds
+    /// commands the log does not (or nothing).
+    recorded_at: Option<u64>,
+    images: Vec<vk::ImageMemoryBarrier2<'static>>,
+    attachments: Vec<vk::RenderingAttachmentInfo<'static>>,
+    regions: Vec<vk::BufferCopy>,
+    image_copies: Vec<vk::ImageCopy>,
+}
+
+impl CommandCache {
+    /// Creates the pool and its one primary command buffer.
+    pub fn new(ctx: &GpuContext) -> Result<Self, vk::Result> {
+        let d = &ctx.device;
+        // SAFETY: valid create infos; destroyed in `destroy`.
+        let (pool, cmd) = unsafe {
+            let pool = d.create_command_pool(&vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family), None)?;
+            let allocate = vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1);
+            match d.allocate_command_buffers(&allocate) {
+                Ok(cmds) => (pool, cmds[0]),
+                Err(e) => {
+                    d.destroy_command_pool(pool, None);
+                    return Err(e);
+                }
+            }
+        };
+        Ok(Self {
+            pool,
+            cmd,
+            log: Vec::new(),
+            recorded: Vec::new(),
+            recorded_at: None,
+            images: Vec::new(),
+            attachments: Vec::new(),
+            regions: Vec::new(),
+            image_copies: Vec::new(),
+        })
+    }
+
+    /// The command buffer (submitted after [`Recorder::finish`]).
+    pub fn cmd(&self) -> vk::CommandBuffer {
+        self.cmd
+    }
+
+    /// Destroys the pool; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        // SAFETY: the GPU is idle, so no submission uses the buffer.
+        unsafe { ctx.destroying().destroy_command_pool(self.pool, None) };
+    }
+}
+
+/// What [`Recorder::finish`] did with the frame's commands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Recording {
+    /// The slot's command buffer already held exactly these commands: submitted again.
+    Reused,
+    /// Recorded from the log (reusable by a later frame with the same commands).
+    Recorded,
+    /// Recorded with commands the log does not hold (not reusable).
+    Direct,
+}
+
+struct State {
+    cache: CommandCache,
+    /// Whether commands go to the driver as they come (the log up to `replayed` is recorded).
+    direct: bool,
+    replayed: usize,
+    /// The driver's refusal to begin the buffer, reported by [`Recorder::finish`].
+    failed: Option<vk::Result>,
+}
+
+/// Records one frame's commands into a log, or straight into the command buffer after
+/// [`Recorder::direct`]. Shared by reference (`&Recorder`) by everything that records.
+pub struct Recorder<'a> {
+    ctx: &'a GpuContext,
+    state: RefCell<State>,
+}
+
+// The log's opcodes.
+const BIND_PIPELINE: u64 = 1;
+const BIND_SET: u64 = 2;
+const PUSH: u64 = 3;
+const BARRIER: u64 = 4;
+const BEGIN_RENDERING: u64 = 5;
+const END_RENDERING: u64 = 6;
+const VIEWPORT: u64 = 7;
+const CULL_MODE: u64 = 8;
+const DRAW: u64 = 9;
+const DRAW_INDIRECT_COUNT: u64 = 10;
+const BIND_GEOMETRY: u64 = 11;
+const DISPATCH: u64 = 12;
+const FILL: u64 = 13;
+const UPDATE: u64 = 14;
+const COPY: u64 = 15;
+const COPY_IMAGE: u64 = 16;
+const TIMESTAMP: u64 = 17;
+const TRACE: u64 = 18;
+
+/// Words an attachment of `BEGIN_RENDERING` takes.
+const ATTACHMENT_WORDS: usize = 7;
+
+fn h(x: impl Handle) -> u64 {
+    x.as_raw()
+}
+
+fn pair(a: u32, b: u32) -> u64 {
+    a as u64 | (b as u64) << 32
+}
+
+fn split(w: u64) -> (u32, u32) {
+    (w as u32, (w >> 32) as u32)
+}
+
+fn flag(f: i32) -> u64 {
+    f as u32 as u64
+}
+
+/// Words of a byte string: its length, then the bytes eight to a word.
+fn push_bytes(log: &mut Vec<u64>, bytes: &[u8]) {
+    log.push(bytes.len() as u64);
+    for chunk in bytes.chunks(8) {
+        let mut w = [0u8; 8];
+        w[..chunk.len()].copy_from_slice(chunk);
+        log.push(u64::from_le_bytes(w));
+    }
+}
+
+fn subresource(log: &mut Vec<u64>, s: vk::ImageSubresourceLayers) {
+    log.extend([pair(s.aspect_mask.as_raw(), s.mip_level), pair(s.base_array_layer, s.layer_count)]);
+}
+
+fn read_subresource(w: &[u64]) -> vk::ImageSubresourceLayers {
+    let ((aspect, mip), (layer, count)) = (split(w[0]), split(w[1]));
+    vk::ImageSubresourceLayers {
+        aspect_mask: vk::ImageAspectFlags::from_raw(aspect),
+        mip_level: mip,
+        base_array_layer: layer,
+        layer_count: count,
+    }
+}
+
+fn offset3(o: vk::Offset3D) -> [u64; 2] {
+    [pair(o.x as u32, o.y as u32), o.z as u32 as u64]
+}
+
+fn read_offset3(w: &[u64]) -> vk::Offset3D {
+    let (x, y) = split(w[0]);
+    vk::Offset3D { x: x as i32, y: y as i32, z: w[1] as u32 as i32 }
+}
+
+fn region(log: &mut Vec<u64>, r: &vk::StridedDeviceAddressRegionKHR) {
+    log.extend([r.device_address, r.stride, r.size]);
+}
+
+fn read_region(w: &[u64]) -> vk::StridedDeviceAddressRegionKHR {
+    vk::StridedDeviceAddressRegionKHR { device_address: w[0], stride: w[1], size: w[2] }
+}
+
+impl<'a> Recorder<'a> {
+    /// Starts a frame's log in `cache` (given back by [`Recorder::finish`]). With `reuse` off,
+    /// every command goes to the driver as it comes (the frame is recorded the ordinary way).
+    pub fn new(ctx: &'a GpuContext, mut cache: CommandCache, reuse: bool) -> Self {
+        cache.log.clear();
+        let r = Self { ctx, state: RefCell::new(State { cache, direct: false, replayed: 0, failed: None }) };
+        if !reuse {
+            // A refusal is kept and reported by `finish`.
+            let _ = r.go_direct();
+        }
+        r
+    }
+
+    /// The command buffer, for commands the log does not hold: what was logged so far is
+    /// recorded first, and the rest of the frame goes straight to the driver (the frame's
+    /// buffer will not be reused). Fails only when the driver cannot begin the buffer.
+    pub fn direct(&self) -> Result<vk::CommandBuffer, vk::Result> {
+        self.go_direct()
+    }
+
+    fn go_direct(&self) -> Result<vk::CommandBuffer, vk::Result> {
+        let mut s = self.state.borrow_mut();
+        if let Some(e) = s.failed {
+            return Err(e);
+        }
+        if !s.direct {
+            if let Err(e) = begin(self.ctx, &mut s.cache) {
+                s.failed = Some(e);
+                return Err(e);
+            }
+            s.direct = true;
+            replay(self.ctx, &mut s);
+        }
+        Ok(s.cache.cmd)
+    }
+
+    /// Words logged so far this frame (every command and its arguments).
+    pub fn words(&self) -> usize {
+        self.state.borrow().cache.log.len()
+    }
+
+    /// Ends the frame's commands: keeps the slot's buffer when it holds exactly them (to be
+    /// submitted again), records them otherwise. Gives the cache back, whose
+    /// [`CommandCache::cmd`] is then ready to submit unless this failed.
+    pub fn finish(self) -> (CommandCache, Result<Recording, vk::Result>) {
+        let ctx = self.ctx;
+        let mut s = self.state.into_inner();
+        let result = Self::end(ctx, &mut s);
+        (s.cache, result)
+    }
+
+    /// Gives the cache back after a frame that failed before its end: nothing is submitted, and
+    /// the buffer is recorded afresh next time.
+    /// (A frame that went direct reset the pool, which cleared `recorded_at`; one that did not
+    /// left the buffer as it was.)
+    pub fn abandon(self) -> CommandCache {
+        self.state.into_inner().cache
+    }
+
+    fn end(ctx: &GpuContext, s: &mut State) -> Result<Recording, vk::Result> {
+        if let Some(e) = s.failed {
+            return Err(e);
+        }
+        let destroyed = ctx.objects_destroyed();
+        let how = if s.direct {
+            Recording::Direct
+        } else if s.cache.recorded_at == Some(destroyed) && s.cache.log == s.cache.recorded {
+            return Ok(Recording::Reused);
+        } else {
+            begin(ctx, &mut s.cache)?;
+            replay(ctx, s);
+            std::mem::swap(&mut s.cache.log, &mut s.cache.recorded);
+            s.cache.recorded_at = Some(destroyed);
+            Recording::Recorded
+        };
+        // SAFETY: the buffer is recording (begun above or at `direct`) outside a rendering scope.
+        unsafe { ctx.device.end_command_buffer(s.cache.cmd) }?;
+        Ok(how)
+    }
+
+    /// Appends one command; in direct mode, records it at once.
+    fn log(&self, write: impl FnOnce(&mut Vec<u64>)) {
+        let mut s = self.state.borrow_mut();
+        write(&mut s.cache.log);
+        if s.direct && s.failed.is_none() {
+            replay(self.ctx, &mut s);
+        }
+    }
+
+    /// Binds `pipeline` at `point`.
+    pub fn bind_pipeline(&self, point: vk::PipelineBindPoint, pipeline: vk::Pipeline) {
+        self.log(|l| l.extend([BIND_PIPELINE, flag(point.as_raw()), h(pipeline)]));
+    }
+
+    /// Binds `set` as set 0 of `layout` (no dynamic offsets).
+    pub fn bind_set(&self, point: vk::PipelineBindPoint, layout: vk::PipelineLayout, set: vk::DescriptorSet) {
+        self.log(|l| l.extend([BIND_SET, flag(point.as_raw()), h(layout), h(set)]));
+    }
+
+    /// Sets push constants (the bytes enter the log: a push that changes records again).
+    pub fn push_constants(&self, layout: vk::PipelineLayout, stages: vk::ShaderStageFlags, offset: u32, bytes: &[u8]) {
+        self.log(|l| {
+            l.extend([PUSH, h(layout), pair(stages.as_raw(), offset)]);
+            push_bytes(l, bytes);
+        });
+    }
+
+    /// A pipeline barrier of at most one global memory barrier and any image barriers (the only
+    /// kinds the graph places; queue-family transfers, `p_next` chains and dependency flags are
+    /// not used).
+    pub fn barrier(&self, memory: &[vk::MemoryBarrier2], images: &[vk::ImageMemoryBarrier2]) {
+        assert!(memory.len() <= 1, "one global memory barrier at most");
+        self.log(|l| {
+            l.extend([BARRIER, pair(memory.len() as u32, images.len() as u32)]);
+            for m in memory {
+                l.extend([m.src_stage_mask.as_raw(), m.src_access_mask.as_raw(), m.dst_stage_mask.as_raw(), m.dst_access_mask.as_raw()]);
+            }
+            for b in images {
+                let r = b.subresource_range;
+                l.extend([
+                    b.src_stage_mask.as_raw(),
+                    b.src_access_mask.as_raw(),
+                    b.dst_stage_mask.as_raw(),
+                    b.dst_access_mask.as_raw(),
+                    pair(b.old_layout.as_raw() as u32, b.new_layout.as_raw() as u32),
+                    h(b.image),
+                    pair(r.aspect_mask.as_raw(), r.base_mip_level),
+                    pair(r.level_count, r.base_array_layer),
+                    r.layer_count as u64,
+                    pair(b.src_queue_family_index, b.dst_queue_family_index),
+                ]);
+            }
+        });
+    }
+
+    /// Begins dynamic rendering over `extent` from the origin, one layer, into `colors` and
+    /// `depth` (attachments without `p_next`; their clear values are copied bit for bit).
+    pub fn begin_rendering(
+        &self,
+        extent: vk::Extent2D,
+        colors: &[vk::RenderingAttachmentInfo],
+        depth: Option<&vk::RenderingAttachmentInfo>,
+    ) {
+        self.log(|l| {
+            l.extend([BEGIN_RENDERING, pair(extent.width, extent.height), pair(colors.len() as u32, depth.is_some() as u32)]);
+            for a in colors.iter().chain(depth) {
+                // SAFETY: a clear value is 16 bytes either way; reading it as four words copies
+                // it bit for bit whichever member was written.
+                let c = unsafe { a.clear_value.color.uint32 };
+                let words: [u64; ATTACHMENT_WORDS] = [
+                    h(a.image_view),
+                    pair(a.image_layout.as_raw() as u32, a.resolve_image_layout.as_raw() as u32),
+                    h(a.resolve_image_view),
+                    a.resolve_mode.as_raw() as u64,
+                    pair(a.load_op.as_raw() as u32, a.store_op.as_raw() as u32),
+                    pair(c[0], c[1]),
+                    pair(c[2], c[3]),
+                ];
+                l.extend(words);
+            }
+        });
+    }
+
+    /// Ends dynamic rendering.
+    pub fn end_rendering(&self) {
+        self.log(|l| l.push(END_RENDERING));
+    }
+
+    /// Sets the viewport and scissor.
+    pub fn set_viewport(&self, viewport: vk::Viewport, scissor: vk::Rect2D) {
+        let v =
+            [viewport.x, viewport.y, viewport.width, viewport.height, viewport.min_depth, viewport.max_depth].map(|x| x.to_bits() as u64);
+        let (o, e) = (scissor.offset, scissor.extent);
+        self.log(|l| {
+            l.push(VIEWPORT);
+            l.extend(v);
+            l.extend([pair(o.x as u32, o.y as u32), pair(e.width, e.height)]);
+        });
+    }
+
+    /// Sets the cull mode.
+    pub fn set_cull_mode(&self, mode: vk::CullModeFlags) {
+        self.log(|l| l.extend([CULL_MODE, mode.as_raw() as u64]));
+    }
+
+    /// Draws without an index buffer.
+    pub fn draw(&self, vertices: u32, instances: u32, first_vertex: u32, first_instance: u32) {
+        self.log(|l| l.extend([DRAW, pair(vertices, instances), pair(first_vertex, first_instance)]));
+    }
+
+    /// `vkCmdDrawIndexedIndirectCount`.
+    pub fn draw_indexed_indirect_count(&self, draws: vk::Buffer, offset: u64, count: vk::Buffer, count_offset: u64, max: u32, stride: u32) {
+        self.log(|l| l.extend([DRAW_INDIRECT_COUNT, h(draws), offset, h(count), count_offset, pair(max, stride)]));
+    }
+
+    /// Binds `buffer` as vertex buffer 0 at `vertex_offset` and as the index buffer at
+    /// `index_offset` (the mesh pool holds both).
+    pub fn bind_geometry(&self, buffer: vk::Buffer, vertex_offset: u64, index_offset: u64, index_type: vk::IndexType) {
+        self.log(|l| l.extend([BIND_GEOMETRY, h(buffer), vertex_offset, index_offset, flag(index_type.as_raw())]));
+    }
+
+    /// Dispatches a compute grid.
+    pub fn dispatch(&self, x: u32, y: u32, z: u32) {
+        self.log(|l| l.extend([DISPATCH, pair(x, y), z as u64]));
+    }
+
+    /// Fills `size` bytes of `buffer` from `offset` with the word `data`.
+    pub fn fill_buffer(&self, buffer: vk::Buffer, offset: u64, size: u64, data: u32) {
+        self.log(|l| l.extend([FILL, h(buffer), offset, size, data as u64]));
+    }
+
+    /// `vkCmdUpdateBuffer` (the bytes enter the log).
+    pub fn update_buffer(&self, buffer: vk::Buffer, offset: u64, bytes: &[u8]) {
+        self.log(|l| {
+            l.extend([UPDATE, h(buffer), offset]);
+            push_bytes(l, bytes);
+        });
+    }
+
+    /// Copies `regions` from `src` to `dst`.
+    pub fn copy_buffer(&self, src: vk::Buffer, dst: vk::Buffer, regions: &[vk::BufferCopy]) {
+        self.log(|l| {
+            l.extend([COPY, h(src), h(dst), regions.len() as u64]);
+            for r in regions {
+                l.extend([r.src_offset, r.dst_offset, r.size]);
+            }
+        });
+    }
+
+    /// Copies `regions` between images.
+    pub fn copy_image(
+        &self,
+        src: vk::Image,
+        src_layout: vk::ImageLayout,
+        dst: vk::Image,
+        dst_layout: vk::ImageLayout,
+        regions: &[vk::ImageCopy],
+    ) {
+        self.log(|l| {
+            l.extend([COPY_IMAGE, h(src), h(dst), pair(src_layout.as_raw() as u32, dst_layout.as_raw() as u32), regions.len() as u64]);
+            for r in regions {
+                subresource(l, r.src_subresource);
+                l.extend(offset3(r.src_offset));
+                subresource(l, r.dst_subresource);
+                l.extend(offset3(r.dst_offset));
+                l.extend([pair(r.extent.width, r.extent.height), r.extent.depth as u64]);
+            }
+        });
+    }
+
+    /// Writes a timestamp at `stage` into query `query` of `pool`.
+    pub fn write_timestamp(&self, stage: vk::PipelineStageFlags2, pool: vk::QueryPool, query: u32) {
+        self.log(|l| l.extend([TIMESTAMP, stage.as_raw(), h(pool), query as u64]));
+    }
+
+    /// Traces `width`×`height` rays through a bound ray-tracing pipeline's shader binding table.
+    pub fn trace_rays(
+        &self,
+        raygen: &vk::StridedDeviceAddressRegionKHR,
+        miss: &vk::StridedDeviceAddressRegionKHR,
+        hit: &vk::StridedDeviceAddressRegionKHR,
+        callable: &vk::StridedDeviceAddressRegionKHR,
+        width: u32,
+        height: u32,
+    ) {
+        self.log(|l| {
+            l.push(TRACE);
+            for r in [raygen, miss, hit, callable] {
+                region(l, r);
+            }
+            l.push(pair(width, height));
+        });
+    }
+}
+
+/// Resets the pool and begins its buffer (reusable: no `ONE_TIME_SUBMIT`).
+fn begin(ctx: &GpuContext, cache: &mut CommandCache) -> Result<(), vk::Result> {
+    // Whatever the buffer held is gone once the pool is reset.
+    cache.recorded_at = None;
+    // SAFETY: the slot's previous submission has completed (the renderer waits for it before
+    // starting a frame), so its pool may be reset and its buffer begun.
+    unsafe {
+        ctx.device.reset_command_pool(cache.pool, vk::CommandPoolResetFlags::empty())?;
+        ctx.device.begin_command_buffer(cache.cmd, &vk::CommandBufferBeginInfo::default())
+    }
+}
+
+/// Records the log from `replayed` to its end into the command buffer.
+fn replay(ctx: &GpuContext, s: &mut State) {
+    let d = &ctx.device;
+    let c = &mut s.cache;
+    let (log, cmd) = (&c.log, c.cmd);
+    let mut i = s.replayed;
+    // SAFETY: (the whole replay) `cmd` is recording (begun by `begin`). Every command was
+    // logged by a `Recorder` method from a pass that names live objects of this device and
+    // records in order (inside a rendering scope or outside one, as each command needs): the
+    // contract each pass documented when it called the driver itself. The words are exactly
+    // those arguments, so replaying them records what the pass asked for, in order.
+    unsafe {
+        while i < log.len() {
+            let w = &log[i + 1..];
+            i += 1 + match log[i] {
+                BIND_PIPELINE => {
+                    let point = vk::PipelineBindPoint::from_raw(w[0] as i32);
+                    d.cmd_bind_pipeline(cmd, point, vk::Pipeline::from_raw(w[1]));
+                    2
+                }
+                BIND_SET => {
+                    let point = vk::PipelineBindPoint::from_raw(w[0] as i32);
+                    d.cmd_bind_descriptor_sets(
+                        cmd,
+                        point,
+                        vk::PipelineLayout::from_raw(w[1]),
+                        0,
+                        &[vk::DescriptorSet::from_raw(w[2])],
+                        &[],
+                    );
+                    3
+                }
+                PUSH => {
+                    let (stages, offset) = split(w[1]);
+                    let len = w[2] as usize;
+                    let words = len.div_ceil(8);
+                    let bytes: &[u8] = bytemuck::cast_slice(&w[3..3 + words]);
+                    let layout = vk::PipelineLayout::from_raw(w[0]);
+                    d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::from_raw(stages), offset, &bytes[..len]);
+                    3 + words
+                }
+                BARRIER => {
+                    let (memory, images) = split(w[0]);
+                    let mut at = 1;
+                    let mut mem = [vk::MemoryBarrier2::default()];
+                    if memory == 1 {
+                        mem[0] = vk::MemoryBarrier2::default()
+                            .src_stage_mask(vk::PipelineStageFlags2::from_raw(w[1]))
+                            .src_access_mask(vk::AccessFlags2::from_raw(w[2]))
+                            .dst_stage_mask(vk::PipelineStageFlags2::from_raw(w[3]))
+                            .dst_access_mask(vk::AccessFlags2::from_raw(w[4]));
+                        at += 4;
+                    }
+                    c.images.clear();
+                    for _ in 0..images {
+                        let b = &w[at..at + 10];
+                        let (old, new) = split(b[4]);
+                        let (src_family, dst_family) = split(b[9]);
+                        let ((aspect, mip), (levels, layer)) = (split(b[6]), split(b[7]));
+                        c.images.push(
+                            vk::ImageMemoryBarrier2::default()
+                                .src_stage_mask(vk::PipelineStageFlags2::from_raw(b[0]))
+                                .src_access_mask(vk::AccessFlags2::from_raw(b[1]))
+                                .dst_stage_mask(vk::PipelineStageFlags2::from_raw(b[2]))
+                                .dst_access_mask(vk::AccessFlags2::from_raw(b[3]))
+                                .old_layout(vk::ImageLayout::from_raw(old as i32))
+                                .new_layout(vk::ImageLayout::from_raw(new as i32))
+                                .image(vk::Image::from_raw(b[5]))
+                                .subresource_range(vk::ImageSubresourceRange {
+                                    aspect_mask: vk::ImageAspectFlags::from_raw(aspect),
+                                    base_mip_level: mip,
+                                    level_count: levels,
+                                    base_array_layer: layer,
+                                    layer_count: b[8] as u32,
+                                })
+                                .src_queue_family_index(src_family)
+                                .dst_queue_family_index(dst_family),
+                        );
+                        at += 10;
+                    }
+                    let info = vk::DependencyInfo::default().memory_barriers(&mem[..memory as usize]).image_memory_barriers(&c.images);
+                    d.cmd_pipeline_barrier2(cmd, &info);
+                    at
+                }
+                BEGIN_RENDERING => {
+                    let (width, height) = split(w[0]);
+                    let (colors, depth) = split(w[1]);
+                    c.attachments.clear();
+                    let mut at = 2;
+                    for _ in 0..colors + depth {
+                        let a = &w[at..at + ATTACHMENT_WORDS];
+                        let (layout, resolve_layout) = split(a[1]);
+                        let mode = a[3] as u32;
+                        let (load, store) = split(a[4]);
+                        let (c0, c1) = split(a[5]);
+                        let (c2, c3) = split(a[6]);
+                        c.attachments.push(
+                            vk::RenderingAttachmentInfo::default()
+                                .image_view(vk::ImageView::from_raw(a[0]))
+                                .image_layout(vk::ImageLayout::from_raw(layout as i32))
+                                .resolve_image_view(vk::ImageView::from_raw(a[2]))
+                                .resolve_image_layout(vk::ImageLayout::from_raw(resolve_layout as i32))
+                                .resolve_mode(vk::ResolveModeFlags::from_raw(mode))
+                                .load_op(vk::AttachmentLoadOp::from_raw(load as i32))
+                                .store_op(vk::AttachmentStoreOp::from_raw(store as i32))
+                                .clear_value(vk::ClearValue { color: vk::ClearColorValue { uint32: [c0, c1, c2, c3] } }),
+                        );
+                        at += ATTACHMENT_WORDS;
+                    }
+                    let extent = vk::Extent2D { width, height };
+                    let mut info = vk::RenderingInfo::default()
+                        .render_area(vk::Rect2D { offset: vk::Offset2D::default(), extent })
+                        .layer_count(1)
+                        .color_attachments(&c.attachments[..colors as usize]);
+                    if depth == 1 {
+                        info = info.depth_attachment(&c.attachments[colors as usize]);
+                    }
+                    d.cmd_begin_rendering(cmd, &info);
+                    at
+                }
+                END_RENDERING => {
+                    d.cmd_end_rendering(cmd);
+                    0
+                }
+                VIEWPORT => {
+                    let f = |x: u64| f32::from_bits(x as u32);
+                    let viewport =
+                        vk::Viewport { x: f(w[0]), y: f(w[1]), width: f(w[2]), height: f(w[3]), min_depth: f(w[4]), max_depth: f(w[5]) };
+                    let (sx, sy) = split(w[6]);
+                    let (sw, sh) = split(w[7]);
+                    let scissor =
+                        vk::Rect2D { offset: vk::Offset2D { x: sx as i32, y: sy as i32 }, extent: vk::Extent2D { width: sw, height: sh } };
+                    d.cmd_set_viewport(cmd, 0, &[viewport]);
+                    d.cmd_set_scissor(cmd, 0, &[scissor]);
+                    8
+                }
+                CULL_MODE => {
+                    d.cmd_set_cull_mode(cmd, vk::CullModeFlags::from_raw(w[0] as u32));
+                    1
+                }
+                DRAW => {
+                    let ((vertices, instances), (first_vertex, first_instance)) = (split(w[0]), split(w[1]));
+                    d.cmd_draw(cmd, vertices, instances, first_vertex, first_instance);
+                    2
+                }
+                DRAW_INDIRECT_COUNT => {
+                    let (max, stride) = split(w[4]);
+                    let (draws, count) = (vk::Buffer::from_raw(w[0]), vk::Buffer::from_raw(w[2]));
+                    d.cmd_draw_indexed_indirect_count(cmd, draws, w[1], count, w[3], max, stride);
+                    5
+                }
+                BIND_GEOMETRY => {
+                    let buffer = vk::Buffer::from_raw(w[0]);
+                    d.cmd_bind_vertex_buffers(cmd, 0, &[buffer], &[w[1]]);
+                    d.cmd_bind_index_buffer(cmd, buffer, w[2], vk::IndexType::from_raw(w[3] as i32));
+                    4
+                }
+                DISPATCH => {
+                    let (x, y) = split(w[0]);
+                    d.cmd_dispatch(cmd, x, y, w[1] as u32);
+                    2
+                }
+                FILL => {
+                    let (data, _) = split(w[3]);
+                    d.cmd_fill_buffer(cmd, vk::Buffer::from_raw(w[0]), w[1], w[2], data);
+                    4
+                }
+                UPDATE => {
+                    let len = w[2] as usize;
+                    let words = len.div_ceil(8);
+                    let bytes: &[u8] = bytemuck::cast_slice(&w[3..3 + words]);
+                    d.cmd_update_buffer(cmd, vk::Buffer::from_raw(w[0]), w[1], &bytes[..len]);
+                    3 + words
+                }
+                COPY => {
+                    let n = w[2] as usize;
+                    c.regions.clear();
+                    c.regions.extend(w[3..3 + 3 * n].chunks(3).map(|r| vk::BufferCopy { src_offset: r[0], dst_offset: r[1], size: r[2] }));
+                    d.cmd_copy_buffer(cmd, vk::Buffer::from_raw(w[0]), vk::Buffer::from_raw(w[1]), &c.regions);
+                    3 + 3 * n
+                }
+                COPY_IMAGE => {
+                    let (src_layout, dst_layout) = split(w[2]);
+                    let n = w[3] as usize;
+                    c.image_copies.clear();
+                    c.image_copies.extend(w[4..4 + 10 * n].chunks(10).map(|r| vk::ImageCopy {
+                        src_subresource: read_subresource(&r[0..2]),
+                        src_offset: read_offset3(&r[2..4]),
+                        dst_subresource: read_subresource(&r[4..6]),
+                        dst_offset: read_offset3(&r[6..8]),
+                        extent: {
+                            let (width, height) = split(r[8]);
+                            vk::Extent3D { width, height, depth: r[9] as u32 }
+                        },
+                    }));
+                    d.cmd_copy_image(
+                        cmd,
+                        vk::Image::from_raw(w[0]),
+                        vk::ImageLayout::from_raw(src_layout as i32),
+                        vk::Image::from_raw(w[1]),
+                        vk::ImageLayout::from_raw(dst_layout as i32),
+                        &c.image_copies,
+                    );
+                    4 + 10 * n
+                }
+                TIMESTAMP => {
+                    d.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::from_raw(w[0]), vk::QueryPool::from_raw(w[1]), w[2] as u32);
+                    3
+                }
+                TRACE => {
+                    let rt = ctx.ray_tracing.as_ref().and_then(|rt| rt.ray_tracing_pipeline.as_ref());
+                    let rt = rt.expect("traces are logged only with ray-tracing pipelines");
+                    let (width, height) = split(w[12]);
+                    rt.cmd_trace_rays(
+                        cmd,
+                        &read_region(&w[0..3]),
+                        &read_region(&w[3..6]),
+                        &read_region(&w[6..9]),
+                        &read_region(&w[9..12]),
+                        width,
+                        height,
+                        1,
+                    );
+                    13
+                }
+                op => unreachable!("unknown command word {op}"),
+            };
+        }
+    }
+    s.replayed = i;
+}
