@@ -76,6 +76,8 @@ pub struct HeadlessOptions {
     pub move_decals_percent: f32,
     /// Decals despawned and respawned (as new entities) every frame (benchmarks extraction).
     pub churn_decals: usize,
+    /// Sway the camera sideways every frame (benchmarks a moving view).
+    pub move_camera: bool,
     /// Replace the scene with one of the seed's benchmark scenarios.
     pub bench_scene: Option<crate::bench::BenchScene>,
     /// Run `frames` frames with every pipeline and decal method in turn (see [`COMPARE_SET`]).
@@ -293,6 +295,7 @@ impl Default for HeadlessOptions {
             debug_view: DebugView::Lit,
             show_decal_boxes: false,
             move_decals_percent: 0.0,
+            move_camera: false,
             churn_decals: 0,
             bench_scene: None,
             compare: false,
@@ -420,6 +423,9 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         }
         app.insert_resource(DecalJitter { percent: opts.move_decals_percent, cursor: 0 });
         app.add_systems(engine::app::Update, jitter_decals);
+    }
+    if opts.move_camera {
+        app.add_systems(engine::app::Update, sway_camera);
     }
     if opts.churn_decals > 0 {
         let decals = app.world.query_filtered::<Entity, With<plugins::decal::Decal>>().iter(&app.world).collect();
@@ -624,6 +630,14 @@ fn churn_decals(world: &mut World) {
             churn.oldest_first.push_back(new.id());
         }
     });
+}
+
+/// Sways every camera sideways, a couple of centimetres a frame at 60 Hz, back and forth.
+fn sway_camera(time: bevy_ecs::system::Res<Time>, mut cameras: bevy_ecs::system::Query<&mut Transform, With<engine::camera::Camera>>) {
+    let step = (time.elapsed_secs() * 0.5).cos() * 1.2 * time.delta_secs();
+    for mut t in &mut cameras {
+        t.translation.x += step;
+    }
 }
 
 /// Moves a rotating window of decals a little every frame, so benchmarks see a steady stream

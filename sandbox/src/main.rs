@@ -72,6 +72,9 @@ struct Cli {
     /// Nudge this percentage of the decals every frame (for refit benchmarks).
     #[arg(long, default_value_t = 0.0)]
     move_decals: f32,
+    /// Sway the camera sideways every frame (for benchmarks of a moving view).
+    #[arg(long)]
+    move_camera: bool,
     /// Every frame, despawn this many of the oldest decals and spawn as many new ones (copies of
     /// them, so the image stays the same): bullet holes coming and going, for CPU benchmarks.
     #[arg(long, default_value_t = 0)]
@@ -402,6 +405,7 @@ fn main() -> Result<()> {
         debug_view: cli.debug_view,
         show_decal_boxes: cli.decal_boxes,
         move_decals_percent: cli.move_decals,
+        move_camera: cli.move_camera,
         churn_decals: cli.churn_decals,
         bench_scene: cli.bench_scene.as_deref().map(sandbox::bench::BenchScene::parse).transpose()?,
         compare: cli.compare,
