@@ -1392,7 +1392,8 @@ layout! {
     }
 
     /// What the culling passes read of a frame: where everything is and how the lists are laid
-    /// out (`shaders/include/culling.glsl`; uploaded only when it changes).
+    /// out (`shaders/include/culling.glsl`; written by the CPU into its frame slot's buffer only
+    /// when it changes).
     #[layout(std430)]
     #[derive(Default)]
     pub struct GpuCullParams {

@@ -480,13 +480,14 @@ impl Renderer {
         };
         let submit_ms = submit_start.elapsed().as_secs_f32() * 1e3;
         submitted.map_err(|e| RenderError::from(e).in_frame(frame, "submitting the frame"))?;
-        if let (Some((surface, _)), Some(image)) = (&mut window, &acquired) {
-            surface.present(ctx, image).map_err(|e| e.in_frame(frame, "presenting the frame"))?;
-        }
+        // Submitted: the slot now waits for this frame, whatever presenting says.
         let slot = &mut res.frames[slot_index];
         slot.value = frame_value;
         slot.frame = frame;
         self.frame_number += 1;
+        if let (Some((surface, _)), Some(image)) = (&mut window, &acquired) {
+            surface.present(ctx, image).map_err(|e| e.in_frame(frame, "presenting the frame"))?;
+        }
         Ok(Some(FrameReport {
             frame,
             decal_method,
@@ -716,7 +717,7 @@ impl Drop for Renderer {
         // SAFETY: idle GPU; nothing references these any more.
         unsafe {
             ctx.destroying().destroy_pipeline_layout(layout, None);
-            ctx.destroying().destroy_semaphore(timeline, None);
+            ctx.device.destroy_semaphore(timeline, None);
         }
     }
 }

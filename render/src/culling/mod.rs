@@ -249,6 +249,8 @@ impl Culling {
             params_buffers.push((Buffer::new(ctx, "culling parameters", size, usage, MemoryLocation::CpuToGpu)?, None));
         }
         let res = CullResources {
+            // Written by the host before the frame's submission (visible to all of it without a
+            // barrier); declared by the passes that read it, to say what they read.
             params: graph.resource("culling parameters"),
             draws: graph.resource("draw commands"),
             visibility: graph.resource("culling visibility"),
@@ -463,10 +465,10 @@ impl Culling {
         p.cmd.push_constants(self.layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(&push));
     }
 
-    /// Records the first phase: the parameters (when they changed) and the counts, then the
-    /// main view's first list, the blended order and the shadow views' lists. Needs this
-    /// frame's upload (the scene's tables and mesh pool as they are now). Returns the bytes of
-    /// parameters sent.
+    /// Writes the parameters into this frame slot's buffer (when they differ from what it
+    /// holds), then records the first phase: the counts cleared, the main view's first list,
+    /// the blended order and the shadow views' lists. Needs this frame's upload (the scene's
+    /// tables and mesh pool as they are now). Returns the bytes of parameters written.
     pub fn cull(&mut self, f: &mut Frame, scene: &GpuScene) -> Result<u64, RenderError> {
         self.frame.pool = scene.pool_buffer();
         self.params.records = scene.culls.address();
@@ -474,10 +476,11 @@ impl Culling {
         self.params.order = scene.glass_order.address();
         self.params.shadow_views = scene.shadow_views.address();
         // The slot's previous frame has finished: its buffer may be written.
-        let (buffer, holds) = &mut self.params_buffers[(f.upload.frame_value % FRAMES_IN_FLIGHT as u64) as usize];
+        let (buffer, holds) = &mut self.params_buffers[f.slot()];
         let changed = *holds != Some(self.params);
         if changed {
-            buffer.mapped().copy_from_slice(bytemuck::bytes_of(&self.params));
+            let bytes = bytemuck::bytes_of(&self.params);
+            buffer.mapped()[..bytes.len()].copy_from_slice(bytes);
             *holds = Some(self.params);
         }
         self.params_address = buffer.address;

@@ -454,9 +454,9 @@ impl AabbAccel {
         if plan.work == BlasWork::None {
             return Ok(());
         }
-        let rt =
-            f.ctx.ray_tracing.as_ref().ok_or_else(|| RenderError::Other(format!("{}: no acceleration structures", self.names.blas)))?;
-        let asx = &rt.acceleration_structure;
+        if f.ctx.ray_tracing.is_none() {
+            return Err(RenderError::Other(format!("{}: no acceleration structures", self.names.blas)));
+        }
         let (Some(blas), Some(tlas), Some(instances)) = (self.blas.as_ref(), self.tlas.as_ref(), self.instances.as_ref()) else {
             return Err(RenderError::Other(format!("{}: recorded without prepare", self.names.blas)));
         };
@@ -468,7 +468,6 @@ impl AabbAccel {
             .write(res.blas, BufferUse::Accel)
             .write(res.scratch, BufferUse::Accel)
             .record(|p| {
-                let cmd = p.cmd.direct()?;
                 let geometry = aabb_geometry(input.address);
                 let info = build_info(
                     vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
@@ -479,25 +478,22 @@ impl AabbAccel {
                     scratch_address,
                 );
                 let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
-                // SAFETY: `cmd` is recording; the box buffer holds at least `count` boxes, made
-                // visible to builds by the pass's declaration; scratch was sized in `prepare`.
-                unsafe { asx.cmd_build_acceleration_structures(cmd, &[info], &[&ranges[..]]) };
-                Ok::<(), RenderError>(())
-            })??;
+                // The box buffer holds at least `count` boxes, made visible to builds by the pass's
+                // declaration; scratch was sized in `prepare`.
+                p.cmd.build_acceleration_structures(&[info], &[&ranges[..]]);
+            })?;
         f.pass(names.tlas_pass, PassKind::AccelBuild)
             .read(res.blas, BufferUse::Accel)
             .write(res.tlas, BufferUse::Accel)
             .write(res.scratch, BufferUse::Accel)
             .record(|p| {
-                let cmd = p.cmd.direct()?;
                 let geometry = one_instance_geometry(instances);
                 let info =
                     build_info(vk::AccelerationStructureTypeKHR::TOP_LEVEL, BOX_TLAS_FLAGS, tlas.raw, false, &geometry, scratch_address);
                 let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(1)];
-                // SAFETY: as above; the instance buffer is host-written before submission.
-                unsafe { asx.cmd_build_acceleration_structures(cmd, &[info], &[&ranges[..]]) };
-                Ok::<(), RenderError>(())
-            })??;
+                // The instance buffer is host-written before submission.
+                p.cmd.build_acceleration_structures(&[info], &[&ranges[..]]);
+            })?;
         if update {
             self.refitted_since_build += input.changed as u64;
         } else {

@@ -48,6 +48,9 @@ pub struct CommandCache {
     attachments: Vec<vk::RenderingAttachmentInfo<'static>>,
     regions: Vec<vk::BufferCopy>,
     image_copies: Vec<vk::ImageCopy>,
+    geometries: Vec<vk::AccelerationStructureGeometryKHR<'static>>,
+    builds: Vec<vk::AccelerationStructureBuildGeometryInfoKHR<'static>>,
+    ranges: Vec<vk::AccelerationStructureBuildRangeInfoKHR>,
 }
 
 impl CommandCache {
@@ -76,6 +79,9 @@ impl CommandCache {
             attachments: Vec::new(),
             regions: Vec::new(),
             image_copies: Vec::new(),
+            geometries: Vec::new(),
+            builds: Vec::new(),
+            ranges: Vec::new(),
         })
     }
 
@@ -87,7 +93,8 @@ impl CommandCache {
     /// Destroys the pool; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
         // SAFETY: the GPU is idle, so no submission uses the buffer.
-        unsafe { ctx.destroying().destroy_command_pool(self.pool, None) };
+        // A pool no log names: not counted (`GpuContext::objects_destroyed`).
+        unsafe { ctx.device.destroy_command_pool(self.pool, None) };
     }
 }
 
@@ -137,6 +144,12 @@ const COPY: u64 = 15;
 const COPY_IMAGE: u64 = 16;
 const TIMESTAMP: u64 = 17;
 const TRACE: u64 = 18;
+const BUILD_ACCEL: u64 = 19;
+
+/// Builds a replayed `vkCmdBuildAccelerationStructuresKHR` passes to the driver at once (a
+/// logged call with more is replayed as several: builds in one call may run concurrently
+/// anyway, so the split orders nothing).
+const BUILDS_PER_CALL: usize = 64;
 
 /// Words an attachment of `BEGIN_RENDERING` takes.
 const ATTACHMENT_WORDS: usize = 7;
@@ -163,8 +176,16 @@ fn push_bytes(log: &mut Vec<u64>, bytes: &[u8]) {
     for chunk in bytes.chunks(8) {
         let mut w = [0u8; 8];
         w[..chunk.len()].copy_from_slice(chunk);
-        log.push(u64::from_le_bytes(w));
+        log.push(u64::from_ne_bytes(w));
     }
+}
+
+/// The byte string [`push_bytes`] wrote at `w`, and the words it takes after its length.
+fn read_bytes(w: &[u64]) -> (&[u8], usize) {
+    let len = w[0] as usize;
+    let words = len.div_ceil(8);
+    let bytes: &[u8] = bytemuck::cast_slice(&w[1..1 + words]);
+    (&bytes[..len], words)
 }
 
 fn subresource(log: &mut Vec<u64>, s: vk::ImageSubresourceLayers) {
@@ -269,12 +290,15 @@ impl<'a> Recorder<'a> {
         } else {
             begin(ctx, &mut s.cache)?;
             replay(ctx, s);
-            std::mem::swap(&mut s.cache.log, &mut s.cache.recorded);
-            s.cache.recorded_at = Some(destroyed);
             Recording::Recorded
         };
         // SAFETY: the buffer is recording (begun above or at `direct`) outside a rendering scope.
         unsafe { ctx.device.end_command_buffer(s.cache.cmd) }?;
+        if how == Recording::Recorded {
+            // Reusable from now on (a buffer whose end failed never is: `begin` cleared this).
+            std::mem::swap(&mut s.cache.log, &mut s.cache.recorded);
+            s.cache.recorded_at = Some(destroyed);
+        }
         Ok(how)
     }
 
@@ -409,8 +433,10 @@ impl<'a> Recorder<'a> {
         self.log(|l| l.extend([FILL, h(buffer), offset, size, data as u64]));
     }
 
-    /// `vkCmdUpdateBuffer` (the bytes enter the log).
+    /// `vkCmdUpdateBuffer` (the bytes enter the log): at most 65,536 bytes, a multiple of 4,
+    /// at an offset that is one too.
     pub fn update_buffer(&self, buffer: vk::Buffer, offset: u64, bytes: &[u8]) {
+        debug_assert!(bytes.len() <= 65536 && bytes.len().is_multiple_of(4) && offset.is_multiple_of(4), "vkCmdUpdateBuffer's limits");
         self.log(|l| {
             l.extend([UPDATE, h(buffer), offset]);
             push_bytes(l, bytes);
@@ -473,6 +499,186 @@ impl<'a> Recorder<'a> {
     }
 }
 
+impl Recorder<'_> {
+    /// `vkCmdBuildAccelerationStructuresKHR` with device addresses, geometries given through
+    /// `p_geometries` (not `pp_geometries`) and no `p_next` chains: what
+    /// [`crate::gpu::accel::build_info`] makes. `ranges[i]` holds one range per geometry of
+    /// `infos[i]`. The addresses enter the log: a refit of the same structures from the same
+    /// buffers every frame (a skinned mesh, moving instances) repeats its commands.
+    pub fn build_acceleration_structures(
+        &self,
+        infos: &[vk::AccelerationStructureBuildGeometryInfoKHR],
+        ranges: &[&[vk::AccelerationStructureBuildRangeInfoKHR]],
+    ) {
+        assert_eq!(infos.len(), ranges.len(), "a range list per build");
+        self.log(|l| {
+            l.extend([BUILD_ACCEL, infos.len() as u64]);
+            for (info, ranges) in infos.iter().zip(ranges) {
+                assert!(info.pp_geometries.is_null() && info.p_next.is_null(), "geometries through p_geometries, no p_next");
+                assert_eq!(ranges.len(), info.geometry_count as usize, "a range per geometry");
+                // SAFETY: the builds run on the device, so the scratch is a device address.
+                let scratch = unsafe { info.scratch_data.device_address };
+                l.extend([
+                    pair(info.ty.as_raw() as u32, info.flags.as_raw()),
+                    info.mode.as_raw() as u32 as u64,
+                    h(info.src_acceleration_structure),
+                    h(info.dst_acceleration_structure),
+                    info.geometry_count as u64,
+                    scratch,
+                ]);
+                let geometries: &[vk::AccelerationStructureGeometryKHR] = if info.geometry_count == 0 {
+                    &[]
+                } else {
+                    // SAFETY: the caller's info points at `geometry_count` live geometries.
+                    unsafe { std::slice::from_raw_parts(info.p_geometries, info.geometry_count as usize) }
+                };
+                for (g, r) in geometries.iter().zip(ranges.iter()) {
+                    assert!(g.p_next.is_null(), "no p_next");
+                    l.extend([pair(g.geometry_type.as_raw() as u32, g.flags.as_raw())]);
+                    // SAFETY: the union member read is the one `geometry_type` names, with device
+                    // addresses (the builds run on the device).
+                    unsafe {
+                        match g.geometry_type {
+                            vk::GeometryTypeKHR::TRIANGLES => {
+                                let t = g.geometry.triangles;
+                                assert!(t.p_next.is_null(), "no p_next");
+                                l.extend([
+                                    pair(t.vertex_format.as_raw() as u32, t.index_type.as_raw() as u32),
+                                    t.vertex_data.device_address,
+                                    t.vertex_stride,
+                                    t.max_vertex as u64,
+                                    t.index_data.device_address,
+                                    t.transform_data.device_address,
+                                ]);
+                            }
+                            vk::GeometryTypeKHR::AABBS => {
+                                let a = g.geometry.aabbs;
+                                assert!(a.p_next.is_null(), "no p_next");
+                                l.extend([a.data.device_address, a.stride]);
+                            }
+                            vk::GeometryTypeKHR::INSTANCES => {
+                                let i = g.geometry.instances;
+                                assert!(i.p_next.is_null(), "no p_next");
+                                l.extend([i.array_of_pointers as u64, i.data.device_address]);
+                            }
+                            other => panic!("geometry type {other:?} is not logged"),
+                        }
+                    }
+                    l.extend([pair(r.primitive_count, r.primitive_offset), pair(r.first_vertex, r.transform_offset)]);
+                }
+            }
+        });
+    }
+}
+
+/// The cache's vectors a replayed build is decoded into (reused: a replay allocates nothing
+/// once they have grown).
+struct Builds<'a> {
+    geometries: &'a mut Vec<vk::AccelerationStructureGeometryKHR<'static>>,
+    builds: &'a mut Vec<vk::AccelerationStructureBuildGeometryInfoKHR<'static>>,
+    ranges: &'a mut Vec<vk::AccelerationStructureBuildRangeInfoKHR>,
+}
+
+/// Decodes a logged `BUILD_ACCEL` (`w` follows the opcode) into the cache's `geometries`,
+/// `builds` and `ranges` and records it; returns the words it took.
+///
+/// # Safety
+///
+/// `cmd` is recording outside a rendering scope on a device with acceleration structures, and
+/// `w` was written by [`Recorder::build_acceleration_structures`] from builds valid to record.
+unsafe fn replay_builds(ctx: &GpuContext, cmd: vk::CommandBuffer, c: Builds, w: &[u64]) -> usize {
+    let count = w[0] as usize;
+    c.geometries.clear();
+    c.builds.clear();
+    c.ranges.clear();
+    let mut at = 1;
+    for _ in 0..count {
+        let b = &w[at..at + 6];
+        at += 6;
+        let (ty, flags) = split(b[0]);
+        let mut info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+            .ty(vk::AccelerationStructureTypeKHR::from_raw(ty as i32))
+            .flags(vk::BuildAccelerationStructureFlagsKHR::from_raw(flags))
+            .mode(vk::BuildAccelerationStructureModeKHR::from_raw(b[1] as u32 as i32))
+            .src_acceleration_structure(vk::AccelerationStructureKHR::from_raw(b[2]))
+            .dst_acceleration_structure(vk::AccelerationStructureKHR::from_raw(b[3]))
+            .scratch_data(vk::DeviceOrHostAddressKHR { device_address: b[5] });
+        // Where its geometries start in `c.geometries` (pointed at once all are decoded: the
+        // vector may move while it grows).
+        info.p_geometries = c.geometries.len() as *const _;
+        info.geometry_count = b[4] as u32;
+        for _ in 0..b[4] {
+            let (ty, flags) = split(w[at]);
+            let ty = vk::GeometryTypeKHR::from_raw(ty as i32);
+            at += 1;
+            let geometry = match ty {
+                vk::GeometryTypeKHR::TRIANGLES => {
+                    let t = &w[at..at + 6];
+                    at += 6;
+                    let (vertex_format, index_type) = split(t[0]);
+                    vk::AccelerationStructureGeometryDataKHR {
+                        triangles: vk::AccelerationStructureGeometryTrianglesDataKHR::default()
+                            .vertex_format(vk::Format::from_raw(vertex_format as i32))
+                            .vertex_data(vk::DeviceOrHostAddressConstKHR { device_address: t[1] })
+                            .vertex_stride(t[2])
+                            .max_vertex(t[3] as u32)
+                            .index_type(vk::IndexType::from_raw(index_type as i32))
+                            .index_data(vk::DeviceOrHostAddressConstKHR { device_address: t[4] })
+                            .transform_data(vk::DeviceOrHostAddressConstKHR { device_address: t[5] }),
+                    }
+                }
+                vk::GeometryTypeKHR::AABBS => {
+                    at += 2;
+                    vk::AccelerationStructureGeometryDataKHR {
+                        aabbs: vk::AccelerationStructureGeometryAabbsDataKHR::default()
+                            .data(vk::DeviceOrHostAddressConstKHR { device_address: w[at - 2] })
+                            .stride(w[at - 1]),
+                    }
+                }
+                _ => {
+                    at += 2;
+                    vk::AccelerationStructureGeometryDataKHR {
+                        instances: vk::AccelerationStructureGeometryInstancesDataKHR::default()
+                            .array_of_pointers(w[at - 2] != 0)
+                            .data(vk::DeviceOrHostAddressConstKHR { device_address: w[at - 1] }),
+                    }
+                }
+            };
+            c.geometries.push(
+                vk::AccelerationStructureGeometryKHR::default()
+                    .geometry_type(ty)
+                    .geometry(geometry)
+                    .flags(vk::GeometryFlagsKHR::from_raw(flags)),
+            );
+            let ((primitive_count, primitive_offset), (first_vertex, transform_offset)) = (split(w[at]), split(w[at + 1]));
+            at += 2;
+            c.ranges.push(vk::AccelerationStructureBuildRangeInfoKHR { primitive_count, primitive_offset, first_vertex, transform_offset });
+        }
+        c.builds.push(info);
+    }
+    let base = c.geometries.as_ptr();
+    for info in c.builds.iter_mut() {
+        // SAFETY: the offset was a count of decoded geometries, inside `c.geometries`.
+        info.p_geometries = unsafe { base.add(info.p_geometries as usize) };
+    }
+    let asx = &ctx.ray_tracing.as_ref().expect("builds are logged only with acceleration structures").acceleration_structure;
+    let (mut build, mut range) = (0, 0);
+    while build < c.builds.len() {
+        let n = (c.builds.len() - build).min(BUILDS_PER_CALL);
+        let mut refs: [&[vk::AccelerationStructureBuildRangeInfoKHR]; BUILDS_PER_CALL] = [&[]; BUILDS_PER_CALL];
+        for (i, info) in c.builds[build..build + n].iter().enumerate() {
+            let len = info.geometry_count as usize;
+            refs[i] = &c.ranges[range..range + len];
+            range += len;
+        }
+        // SAFETY: the caller's contract; the infos point into `c.geometries`, unchanged until
+        // the next replay.
+        unsafe { asx.cmd_build_acceleration_structures(cmd, &c.builds[build..build + n], &refs[..n]) };
+        build += n;
+    }
+    at
+}
+
 /// Resets the pool and begins its buffer (reusable: no `ONE_TIME_SUBMIT`).
 fn begin(ctx: &GpuContext, cache: &mut CommandCache) -> Result<(), vk::Result> {
     // Whatever the buffer held is gone once the pool is reset.
@@ -519,11 +725,9 @@ fn replay(ctx: &GpuContext, s: &mut State) {
                 }
                 PUSH => {
                     let (stages, offset) = split(w[1]);
-                    let len = w[2] as usize;
-                    let words = len.div_ceil(8);
-                    let bytes: &[u8] = bytemuck::cast_slice(&w[3..3 + words]);
+                    let (bytes, words) = read_bytes(&w[2..]);
                     let layout = vk::PipelineLayout::from_raw(w[0]);
-                    d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::from_raw(stages), offset, &bytes[..len]);
+                    d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::from_raw(stages), offset, bytes);
                     3 + words
                 }
                 BARRIER => {
@@ -653,10 +857,8 @@ fn replay(ctx: &GpuContext, s: &mut State) {
                     4
                 }
                 UPDATE => {
-                    let len = w[2] as usize;
-                    let words = len.div_ceil(8);
-                    let bytes: &[u8] = bytemuck::cast_slice(&w[3..3 + words]);
-                    d.cmd_update_buffer(cmd, vk::Buffer::from_raw(w[0]), w[1], &bytes[..len]);
+                    let (bytes, words) = read_bytes(&w[2..]);
+                    d.cmd_update_buffer(cmd, vk::Buffer::from_raw(w[0]), w[1], bytes);
                     3 + words
                 }
                 COPY => {
@@ -709,6 +911,10 @@ fn replay(ctx: &GpuContext, s: &mut State) {
                         1,
                     );
                     13
+                }
+                BUILD_ACCEL => {
+                    let vectors = Builds { geometries: &mut c.geometries, builds: &mut c.builds, ranges: &mut c.ranges };
+                    replay_builds(ctx, cmd, vectors, w)
                 }
                 op => unreachable!("unknown command word {op}"),
             };

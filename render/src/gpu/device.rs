@@ -421,7 +421,10 @@ impl GpuContext {
     /// How many Vulkan objects have been destroyed through [`GpuContext::destroying`] (or noted
     /// with [`GpuContext::note_destroyed`]). A command buffer recorded before the count last
     /// changed may name a destroyed object, or one whose handle a new object took: it is never
-    /// submitted again (`crate::gpu::commands`).
+    /// submitted again (`crate::gpu::commands`). Every object a command can name is counted
+    /// (buffers, images and their views, pipelines and layouts, samplers, descriptor objects,
+    /// query pools, acceleration structures, the swapchain); objects no command names (shader
+    /// modules, semaphores, fences, command pools) are destroyed through `device` directly.
     pub fn objects_destroyed(&self) -> u64 {
         self.destroyed.load(Ordering::Relaxed)
     }

@@ -232,7 +232,7 @@ pub fn create_compute(ctx: &GpuContext, layout: vk::PipelineLayout, name: &str, 
     // exists (or failed).
     let result = unsafe { ctx.device.create_compute_pipelines(vk::PipelineCache::null(), &[info], None) };
     // SAFETY: as above.
-    unsafe { ctx.destroying().destroy_shader_module(module, None) };
+    unsafe { ctx.device.destroy_shader_module(module, None) };
     let pipeline = result.map_err(|(_, e)| RenderError::Vulkan(e))?[0];
     tracing::debug!(name, "compute pipeline created");
     Ok(pipeline)
@@ -358,7 +358,7 @@ impl RayTracingPipeline {
                 Ok(m) => modules.push(m),
                 Err(e) => {
                     // SAFETY: the modules made so far are unused.
-                    modules.iter().for_each(|&m| unsafe { ctx.destroying().destroy_shader_module(m, None) });
+                    modules.iter().for_each(|&m| unsafe { ctx.device.destroy_shader_module(m, None) });
                     return Err(e);
                 }
             }
@@ -376,7 +376,7 @@ impl RayTracingPipeline {
         // SAFETY: the create info points at locals; modules may be destroyed afterwards.
         let result = unsafe { rt.create_ray_tracing_pipelines(vk::DeferredOperationKHR::null(), vk::PipelineCache::null(), &[info], None) };
         // SAFETY: the modules are no longer needed once the pipeline exists (or failed).
-        modules.iter().for_each(|&m| unsafe { ctx.destroying().destroy_shader_module(m, None) });
+        modules.iter().for_each(|&m| unsafe { ctx.device.destroy_shader_module(m, None) });
         let pipeline = result.map_err(|(_, e)| RenderError::Vulkan(e))?[0];
 
         let handle_size = props.shader_group_handle_size as usize;

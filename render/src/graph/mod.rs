@@ -628,6 +628,12 @@ pub struct Frame<'a> {
 }
 
 impl<'a> Frame<'a> {
+    /// An index in `0..FRAMES_IN_FLIGHT`, the same for every frame that uses this frame's slot:
+    /// for resources kept per slot, written while the slot's previous frame is known finished.
+    pub fn slot(&self) -> usize {
+        (self.upload.frame_value % crate::gpu::FRAMES_IN_FLIGHT as u64) as usize
+    }
+
     /// Declares a use of `image` outside any pass (handing a swapchain image to presentation):
     /// records only the barrier it needs.
     pub fn hand_over(&mut self, image: ImageId, use_: ImageUse) {
@@ -818,7 +824,11 @@ fn attachment(view: vk::ImageView, layout: vk::ImageLayout, use_: ImageUse) -> v
         Load::Discard => (vk::AttachmentLoadOp::DONT_CARE, vk::ClearValue::default()),
         Load::Clear(c) => (vk::AttachmentLoadOp::CLEAR, vk::ClearValue { color: vk::ClearColorValue { float32: c } }),
         Load::ClearDepth(d) => {
-            (vk::AttachmentLoadOp::CLEAR, vk::ClearValue { depth_stencil: vk::ClearDepthStencilValue { depth: d, stencil: 0 } })
+            // All 16 bytes defined (the depth value fills 8): the frame's command log copies
+            // them whole (`crate::gpu::commands`).
+            let mut value = vk::ClearValue::default();
+            value.depth_stencil = vk::ClearDepthStencilValue { depth: d, stencil: 0 };
+            (vk::AttachmentLoadOp::CLEAR, value)
         }
     };
     debug_assert!(

@@ -1,4 +1,4 @@
-//! What a pass's body gets: the device, the command buffer being recorded, the shared pipeline
+//! What a pass's body gets: the device, the frame's commands (`crate::gpu::commands`), the shared pipeline
 //! layout with its push constants and the render area; plus the helpers passes share (binding,
 //! full-screen triangles).
 

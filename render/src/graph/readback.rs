@@ -29,22 +29,18 @@ impl StatsReadback {
         Ok(Self { slots, bytes, res: graph.resource(name) })
     }
 
-    fn slot(f: &Frame) -> usize {
-        (f.upload.frame_value % FRAMES_IN_FLIGHT as u64) as usize
-    }
-
     /// The statistics the frame that last used this frame's slot copied, with that frame's
     /// value, once it has finished; each copy is handed out once.
     pub fn take(&mut self, f: &Frame) -> Option<(u64, &[u32])> {
         let completed = f.upload.completed;
-        let (buffer, written_by) = &mut self.slots[Self::slot(f)];
+        let (buffer, written_by) = &mut self.slots[f.slot()];
         let frame = written_by.take().filter(|&v| v <= completed)?;
         Some((frame, bytemuck::cast_slice(&buffer.mapped()[..self.bytes as usize])))
     }
 
     /// Copies the first bytes of `src` (the graph's `source`) for the CPU, as the pass `name`.
     pub fn record(&mut self, f: &mut Frame, name: &'static str, source: ResourceId, src: vk::Buffer) -> Result<(), RenderError> {
-        let slot = Self::slot(f);
+        let slot = f.slot();
         let (target, size, res) = (self.slots[slot].0.raw, self.bytes, self.res);
         f.pass(name, PassKind::Transfer).read(source, BufferUse::Transfer).write(res, BufferUse::Transfer).record(|p| {
             let region = vk::BufferCopy { src_offset: 0, dst_offset: 0, size };

@@ -79,6 +79,6 @@ impl Overlay {
     pub fn destroy(self, ctx: &GpuContext) {
         drop(self.renderer);
         // SAFETY: the GPU is idle.
-        unsafe { ctx.destroying().destroy_command_pool(self.pool, None) };
+        unsafe { ctx.device.destroy_command_pool(self.pool, None) };
     }
 }

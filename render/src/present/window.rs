@@ -174,7 +174,7 @@ impl WindowSurface {
         }
         for s in self.render_done.drain(..) {
             // SAFETY: as above.
-            unsafe { ctx.destroying().destroy_semaphore(s, None) };
+            unsafe { ctx.device.destroy_semaphore(s, None) };
         }
         self.images.clear();
         self.states.clear();
@@ -234,7 +234,7 @@ impl WindowSurface {
         // SAFETY: the GPU is idle; nothing uses these any more.
         unsafe {
             for s in self.acquired {
-                ctx.destroying().destroy_semaphore(s, None);
+                ctx.device.destroy_semaphore(s, None);
             }
             self.swapchain_fn.destroy_swapchain(self.swapchain, None);
             self.surface_fn.destroy_surface(self.surface, None);

@@ -494,7 +494,6 @@ impl SceneAccel {
                 .write(res.blas, BufferUse::Accel)
                 .write(res.scratch, BufferUse::Accel)
                 .record(|p| {
-                    let cmd = p.cmd.direct()?;
                     for &(slot, offset) in &builds {
                         let b = blas[slot].as_ref().expect("listed above");
                         let (vertices, indices, vertex_count) = scene.mesh_geometry(MeshId(slot as u32)).expect("listed above");
@@ -508,12 +507,11 @@ impl SceneAccel {
                             scratch + offset,
                         );
                         let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(b.primitives)];
-                        // SAFETY: `cmd` is recording; the mesh buffer was uploaded earlier this
-                        // frame (declared); each build has its own scratch range.
-                        unsafe { asx.cmd_build_acceleration_structures(cmd, &[info], &[&ranges[..]]) };
+                        // The mesh buffer was uploaded earlier this frame (declared); each build
+                        // has its own scratch range.
+                        p.cmd.build_acceleration_structures(&[info], &[&ranges[..]]);
                     }
-                    Ok::<(), RenderError>(())
-                })??;
+                })?;
             f.pass("scene_blas_query", PassKind::AccelBuild).read(res.blas, BufferUse::Accel).record(|p| {
                 let cmd = p.cmd.direct()?;
                 for &(slot, _) in &builds {
@@ -543,7 +541,6 @@ impl SceneAccel {
                 .write(res.blas, BufferUse::Accel)
                 .write(res.scratch, BufferUse::Accel)
                 .record(|p| {
-                    let cmd = p.cmd.direct()?;
                     // In batches, from arrays on the stack: a crowd's thousands of refits take a
                     // few calls (one each cost the driver far more) and allocate nothing.
                     for chunk in refits.chunks(REFIT_BATCH) {
@@ -566,14 +563,12 @@ impl SceneAccel {
                             });
                         let range_refs: [&[vk::AccelerationStructureBuildRangeInfoKHR]; REFIT_BATCH] =
                             std::array::from_fn(|i| &ranges[i][..]);
-                        // SAFETY: `cmd` is recording; the skinning pass wrote the vertices earlier
-                        // this frame (declared); each structure was built with ALLOW_UPDATE from
-                        // the same geometry; each refit has its own scratch range; only the
-                        // chunk's entries are passed.
-                        unsafe { asx.cmd_build_acceleration_structures(cmd, &infos[..chunk.len()], &range_refs[..chunk.len()]) };
+                        // The skinning pass wrote the vertices earlier this frame (declared); each
+                        // structure was built with ALLOW_UPDATE from the same geometry; each refit
+                        // has its own scratch range; only the chunk's entries are passed.
+                        p.cmd.build_acceleration_structures(&infos[..chunk.len()], &range_refs[..chunk.len()]);
                     }
-                    Ok::<(), RenderError>(())
-                })??;
+                })?;
             counters.scene_blas_refits += refits.len() as u64;
         }
         for &(slot, _) in &refits {
@@ -629,15 +624,13 @@ impl SceneAccel {
             .write(res.tlas, BufferUse::Accel)
             .write(res.scratch, BufferUse::Accel)
             .record(|p| {
-                let cmd = p.cmd.direct()?;
                 let geometry = [instances_geometry(instances)];
                 let info = build_info(vk::AccelerationStructureTypeKHR::TOP_LEVEL, TLAS_FLAGS, tlas.raw, update, &geometry, scratch);
                 let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
-                // SAFETY: `cmd` is recording; the instance records were written by the pass above
-                // (declared); the TLAS was sized for at least `count` instances.
-                unsafe { asx.cmd_build_acceleration_structures(cmd, &[info], &[&ranges[..]]) };
-                Ok::<(), RenderError>(())
-            })??;
+                // The instance records were written by the pass above (declared); the TLAS was
+                // sized for at least `count` instances.
+                p.cmd.build_acceleration_structures(&[info], &[&ranges[..]]);
+            })?;
         if update {
             counters.scene_tlas_updates += 1;
             self.updated_since_build += self.pending_moved as u64;
