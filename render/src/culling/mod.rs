@@ -201,6 +201,9 @@ pub struct Culling {
     params_buffers: Vec<(Buffer, Option<GpuCullParams>)>,
     /// The address of this frame's parameters.
     params_address: vk::DeviceAddress,
+    /// The previous frame's parameters: a change is counted once, in the frame it happens (the
+    /// other slots' copies catch up with data already counted).
+    params_last: Option<GpuCullParams>,
     glass_runs: Vec<GlassRun>,
     /// Draw calls recorded this frame (an atomic only so the renderer stays `Sync`; one thread
     /// records).
@@ -272,6 +275,7 @@ impl Culling {
             params: GpuCullParams::default(),
             params_buffers,
             params_address: 0,
+            params_last: None,
             glass_runs: Vec::new(),
             draw_calls: AtomicU64::new(0),
             res,
@@ -468,7 +472,9 @@ impl Culling {
     /// Writes the parameters into this frame slot's buffer (when they differ from what it
     /// holds), then records the first phase: the counts cleared, the main view's first list,
     /// the blended order and the shadow views' lists. Needs this frame's upload (the scene's
-    /// tables and mesh pool as they are now). Returns the bytes of parameters written.
+    /// tables and mesh pool as they are now). Returns the bytes of parameters sent: their size
+    /// in a frame where they changed, 0 otherwise (a slot's copy catching up with a change
+    /// already counted is not counted again).
     pub fn cull(&mut self, f: &mut Frame, scene: &GpuScene) -> Result<u64, RenderError> {
         self.frame.pool = scene.pool_buffer();
         self.params.records = scene.culls.address();
@@ -477,13 +483,13 @@ impl Culling {
         self.params.shadow_views = scene.shadow_views.address();
         // The slot's previous frame has finished: its buffer may be written.
         let (buffer, holds) = &mut self.params_buffers[f.slot()];
-        let changed = *holds != Some(self.params);
-        if changed {
+        if *holds != Some(self.params) {
             let bytes = bytemuck::bytes_of(&self.params);
             buffer.mapped()[..bytes.len()].copy_from_slice(bytes);
             *holds = Some(self.params);
         }
         self.params_address = buffer.address;
+        let changed = self.params_last.replace(self.params) != Some(self.params);
         let frame = self.frame;
         let res = self.res;
         let visibility = self.visibility.as_ref().map(|b| b.raw).filter(|_| frame.fresh_visibility);

@@ -18,12 +18,18 @@
 //! log with the one its frame slot's command buffer was recorded from. Equal, and no Vulkan object
 //! destroyed since ([`GpuContext::objects_destroyed`]: a new object may reuse a destroyed one's
 //! handle), the command buffer is submitted as it is; otherwise the pool is reset and the log
-//! replayed into it. A command the log does not hold (acceleration-structure builds, image
-//! uploads, readbacks, the overlay's drawing) asks for [`Recorder::direct`]: the log so far is
-//! replayed, everything after it goes straight to the driver, and that frame's command buffer is
-//! never reused. Data the GPU reads from buffers (staging copies read the staging ring at execution)
-//! never enters the log, so a moving camera still reuses; an upload of a different size, a new
-//! pass, a resized target or another push constant records again.
+//! replayed into it. Acceleration-structure builds and refits are logged too, so a skinned
+//! character's refits repeat like the rest. A command the log does not hold (image uploads,
+//! readbacks, a BLAS compaction and its size query, the overlay's drawing) asks for
+//! [`Recorder::direct`]: the log so far is replayed, everything after it goes straight to the
+//! driver, and that frame's command buffer is never reused. Data the GPU reads from buffers
+//! (staging copies read the staging ring at execution, culling's parameters are written by the
+//! host) never enters the log, so a moving camera still reuses; an upload of another shape, a
+//! new pass, a resized target or another push constant records again.
+//!
+//! What it costs: a frame that records writes the log, then replays it into the driver, about
+//! 0.03 ms more than recording directly on the lent H100's host; a reused frame skips the driver
+//! entirely (`docs/BENCHMARKS.md`, "Command buffers submitted again").
 
 use std::cell::RefCell;
 
@@ -92,8 +98,8 @@ impl CommandCache {
 
     /// Destroys the pool; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        // SAFETY: the GPU is idle, so no submission uses the buffer.
-        // A pool no log names: not counted (`GpuContext::objects_destroyed`).
+        // SAFETY: the GPU is idle, so no submission uses the buffer. (A pool no command names:
+        // not counted by `GpuContext::objects_destroyed`.)
         unsafe { ctx.device.destroy_command_pool(self.pool, None) };
     }
 }
@@ -227,7 +233,7 @@ impl<'a> Recorder<'a> {
         let r = Self { ctx, state: RefCell::new(State { cache, direct: false, replayed: 0, failed: None }) };
         if !reuse {
             // A refusal is kept and reported by `finish`.
-            let _ = r.go_direct();
+            let _ = r.direct();
         }
         r
     }
@@ -236,10 +242,6 @@ impl<'a> Recorder<'a> {
     /// recorded first, and the rest of the frame goes straight to the driver (the frame's
     /// buffer will not be reused). Fails only when the driver cannot begin the buffer.
     pub fn direct(&self) -> Result<vk::CommandBuffer, vk::Result> {
-        self.go_direct()
-    }
-
-    fn go_direct(&self) -> Result<vk::CommandBuffer, vk::Result> {
         let mut s = self.state.borrow_mut();
         if let Some(e) = s.failed {
             return Err(e);

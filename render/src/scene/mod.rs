@@ -436,7 +436,8 @@ impl DrawItem {
 /// meaning.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FrameCounters {
-    /// Bytes copied from the CPU to GPU memory this frame (records, meshes, textures).
+    /// Bytes copied from the CPU to GPU memory this frame (records, meshes, textures; culling's
+    /// parameters in the frame they change, though each frame slot's copy of them is written).
     pub bytes_uploaded: u64,
     /// Records (instances, materials, lights, camera, decals) written this frame.
     pub records_written: u64,
