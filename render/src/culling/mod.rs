@@ -199,8 +199,6 @@ pub struct Culling {
     /// (`crate::gpu::commands`).
     params: GpuCullParams,
     params_buffers: Vec<(Buffer, Option<GpuCullParams>)>,
-    /// The address of this frame's parameters.
-    params_address: vk::DeviceAddress,
     /// The previous frame's parameters: a change is counted once, in the frame it happens (the
     /// other slots' copies catch up with data already counted).
     params_last: Option<GpuCullParams>,
@@ -274,7 +272,6 @@ impl Culling {
             frame: CullFrame::default(),
             params: GpuCullParams::default(),
             params_buffers,
-            params_address: 0,
             params_last: None,
             glass_runs: Vec::new(),
             draw_calls: AtomicU64::new(0),
@@ -488,7 +485,7 @@ impl Culling {
             buffer.mapped()[..bytes.len()].copy_from_slice(bytes);
             *holds = Some(self.params);
         }
-        self.params_address = buffer.address;
+        let params = buffer.address;
         let changed = self.params_last.replace(self.params) != Some(self.params);
         let frame = self.frame;
         let res = self.res;
@@ -503,7 +500,6 @@ impl Culling {
                     p.cmd.fill_buffer(bits, 0, vk::WHOLE_SIZE, 0);
                 }
             })?;
-        let params = self.params_address;
         f.pass("cull", PassKind::Compute)
             .read(scene.res.tables, BufferUse::Storage)
             .read(res.params, BufferUse::Storage)
@@ -552,7 +548,7 @@ impl Culling {
     fn second_phase(&mut self, f: &mut Frame, scene: &GpuScene) -> Result<(), RenderError> {
         let frame = self.frame;
         let res = self.res;
-        let params = self.params_address;
+        let params = self.params_buffers[f.slot()].0.address;
         f.pass("depth_pyramid", PassKind::Compute)
             .sample(&DEPTH)
             .read(res.params, BufferUse::Storage)
