@@ -10,10 +10,11 @@
 #include "scene.glsl"
 #include "clusters.glsl"
 
-const uint THREADS = 256u;
+#define SCAN_THREADS 256u
+#include "workgroup_scan.glsl"
+
 layout(local_size_x = 256) in;
 
-shared uint partial[THREADS];
 shared uint base, longest, used;
 
 void main() {
@@ -21,7 +22,6 @@ void main() {
     uint c = gl_GlobalInvocationID.x;
     ClusterWordsRef w = cluster_words();
     uint count = c < cluster_count() ? w.words[counts_at() + c] : 0u;
-    partial[t] = count;
     if (t == 0u) {
         longest = 0u;
         used = 0u;
@@ -31,18 +31,12 @@ void main() {
         atomicMax(longest, count);
         atomicAdd(used, 1u);
     }
-    // Inclusive Hillis–Steele scan of the workgroup's counts.
-    for (uint step = 1u; step < THREADS; step <<= 1) {
-        uint v = t >= step ? partial[t - step] : 0u;
-        barrier();
-        partial[t] += v;
-        barrier();
-    }
-    if (t == THREADS - 1u && partial[t] > 0u) {
-        base = atomicAdd(w.words[STAT_ENTRIES], partial[t]);
+    uint end = workgroup_inclusive_scan(count, t);
+    if (t == SCAN_THREADS - 1u && end > 0u) {
+        base = atomicAdd(w.words[STAT_ENTRIES], end);
         atomicMax(w.words[STAT_CLUSTER_MAX], longest);
         atomicAdd(w.words[STAT_CLUSTERS_USED], used);
     }
     barrier();
-    if (count > 0u) w.words[offsets_at() + c] = base + partial[t] - count;
+    if (count > 0u) w.words[offsets_at() + c] = base + end - count;
 }
