@@ -83,7 +83,7 @@ void main() {
         uint c = cluster_index(uvec2(x, y), s0 + i / (extent.x * extent.y));
 #ifdef FILL
         uint at = w.words[offsets_at() + c] + atomicAdd(w.words[cursors_at() + c], 1u);
-        if (at < scene.decal_cluster_capacity) {
+        if (at < scene.decal_list_capacity) {
             w.words[entries_at() + at] = b.slot;
         } else {
             atomicAdd(w.words[STAT_DROPPED], 1u);

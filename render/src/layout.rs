@@ -571,6 +571,9 @@ layout! {
     /// Clustered decals: 32-bit words of statistics at the start of the cluster buffer (see
     /// `shaders/include/clusters.glsl`).
     pub const DECAL_CLUSTER_HEADER: u32 = 16;
+    /// The ray-tracing-pipeline decal pass's per-pixel lists: 32-bit words of header at the
+    /// start of the list buffer (`shaders/include/decal_lists.glsl`).
+    pub const DECAL_LIST_HEADER: u32 = 8;
 
     /// Light assignment (`GpuLighting::mode`): every pixel loops over every light.
     pub const LIGHTS_ALL: u32 = 0;
@@ -1516,10 +1519,12 @@ layout! {
         pub debug_view: u32,
         /// Live decals (0 skips the decal loop).
         pub decal_count: u32,
-        /// Address of the decal cluster buffer (clustered decals; `shaders/include/clusters.glsl`).
-        pub decal_clusters: u64,
-        /// Cluster entries the decal cluster buffer has room for.
-        pub decal_cluster_capacity: u32,
+        /// Address of the decal list buffer: the cluster buffer with clustered decals
+        /// (`shaders/include/clusters.glsl`), the per-pixel lists with the ray-tracing-pipeline
+        /// decal pass (`shaders/include/decal_lists.glsl`); 0 with neither.
+        pub decal_lists: u64,
+        /// Entries the decal list buffer has room for.
+        pub decal_list_capacity: u32,
         /// Screen tiles of the decal clusters: x in the low 16 bits, y in the high.
         pub decal_cluster_tiles: u32,
         /// Address of the lighting record.

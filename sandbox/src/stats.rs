@@ -144,6 +144,14 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
     if stats.decal_method == render::DecalMethod::Clustered {
         value["clusters"] = clusters_json(&c.clusters);
     }
+    if stats.decal_method == render::DecalMethod::RayPipeline {
+        let l = &c.decal_lists;
+        value["decal_lists"] = json!({ "capacity": l.capacity, "limit": l.limit, "grows": l.grows, "shrinks": l.shrinks });
+        if l.measured_frame != u64::MAX {
+            value["decal_lists"]["measured"] =
+                json!({ "measured_frame": l.measured_frame, "needed": l.needed, "denied": l.denied, "overflowed": l.overflowed });
+        }
+    }
     if stats.light_method == render::LightMethod::Tiled {
         value["light_tiles"] = light_tiles_json(&c.light_tiles);
     }

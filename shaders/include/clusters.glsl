@@ -56,7 +56,7 @@ float view_distance(vec3 world) {
 }
 
 ClusterWordsRef cluster_words() {
-    return ClusterWordsRef(scene.decal_clusters);
+    return ClusterWordsRef(scene.decal_lists);
 }
 
 uint counts_at() { return DECAL_CLUSTER_HEADER; }
@@ -70,7 +70,7 @@ uvec2 cluster_list(uvec2 px, vec3 position) {
     uint c = cluster_index(px / DECAL_CLUSTER_TILE, cluster_slice(view_distance(position)));
     ClusterWordsRef w = cluster_words();
     uint first = w.words[offsets_at() + c];
-    return uvec2(first, min(first + w.words[counts_at() + c], scene.decal_cluster_capacity));
+    return uvec2(first, min(first + w.words[counts_at() + c], scene.decal_list_capacity));
 }
 
 // The blending channels of the decals of `list` that land on surface `s` (their receivers

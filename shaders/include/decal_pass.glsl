@@ -3,6 +3,7 @@
 #define DECAL_PASS_GLSL
 
 #include "decals.glsl"
+#include "decal_lists.glsl"
 
 // The surface and the per-channel sums (blend.glsl) travel with the ray.
 struct DecalPayload {
@@ -11,11 +12,22 @@ struct DecalPayload {
     uint tested;   // decals tested (the debug views' count)
 };
 
-// The decals a first trace collects for its ray-generation shader to blend (blend_decals
-// below), in the payload of the COLLECT any-hit shader. 136 bytes: the room for 32 decals
+// The decals a reflection ray's first trace collects for its ray-generation shader to blend
+// (blend_decals below), in the payload of the COLLECT any-hit shader. 136 bytes: the room for 32 decals
 // covers the pixels of every scatter up to a few tens of decals deep; a pixel with more is
 // blended by a second trace through the blending any-hit shader (DecalPayload).
 #define DECAL_COLLECT_MAX 32u
+
+// What the first trace of the on-screen pass carries (hit group DECAL_SBT_LIST): its any-hit
+// shader writes the decals it finds to the pixel's list in memory (decal_lists.glsl), so the
+// payload stays 16 bytes however many there are.
+struct DecalListed {
+    uint tested;   // any-hit invocations (the debug views' count)
+    uint found;    // decals found; those past `room` are not written
+    uint at;       // the list's first word in the list buffer (entry i: DECAL_LIST_RUN × i after it)
+    uint room;     // decals the list has room for
+};
+
 // The intersection shader's report (decal_pass.rint): the decal's slot, and where the point lies
 // in its box with the fade there (fade < 0: a candidate only, reported for the debug views).
 struct DecalHit {
@@ -38,11 +50,28 @@ bool counting_candidates() {
 
 // What a ray-generation shader that blends decals includes (decal_pass.rgen, and the reflection
 // rays' hit points in reflections.glsl), after defining where its shader binding table keeps
-// the two hit groups (DECAL_SBT_COLLECT, DECAL_SBT_BLEND), the decal miss shader
-// (DECAL_MISS) and its two payloads' locations (DECAL_COLLECT_LOCATION, DECAL_BLEND_LOCATION).
+// the blending hit group (DECAL_SBT_BLEND), the decal miss shader (DECAL_MISS) and the blending
+// payload's location (DECAL_BLEND_LOCATION), and then how it collects decals: in the payload
+// (DECAL_SBT_COLLECT and DECAL_COLLECT_LOCATION: the reflection rays, whose hit points change
+// from frame to frame) or in the pixel's list in memory (DECAL_SBT_LIST and DECAL_LIST_LOCATION:
+// the on-screen pass, decal_lists.glsl).
 #ifdef DECAL_BLENDING_RAYGEN
-layout(location = DECAL_COLLECT_LOCATION) rayPayloadEXT DecalCollect decal_collected;
 layout(location = DECAL_BLEND_LOCATION) rayPayloadEXT DecalPayload decal_payload;
+
+// The seed's way: a trace whose any-hit shader blends every decal at `s` into `b` (hit group
+// DECAL_SBT_BLEND). Returns the decals tested.
+uint blend_decals_in_any_hit(inout DecalBlend b, DecalSurface s) {
+    decal_payload.blend = b;
+    decal_payload.surface = s;
+    decal_payload.tested = 0u;
+    traceRayEXT(accelerationStructureEXT(scene.decal_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF,
+                DECAL_SBT_BLEND, 0, DECAL_MISS, s.position, 0.0, s.geometric_normal, 0.0, DECAL_BLEND_LOCATION);
+    b = decal_payload.blend;
+    return decal_payload.tested;
+}
+
+#ifdef DECAL_SBT_COLLECT
+layout(location = DECAL_COLLECT_LOCATION) rayPayloadEXT DecalCollect decal_collected;
 
 // The decals at surface view `s`, noted in `decal_collected` (tested and found). The geometric
 // normal travels as the ray's direction: the intersection shader, which has no payload, needs
@@ -62,14 +91,34 @@ uint blend_decals(inout DecalBlend b, DecalSurface s, bool dense) {
         for (uint i = 0u; i < decal_collected.found; ++i) apply_decal(b, decal_collected.slots[i], s);
         return decal_collected.tested;
     }
-    decal_payload.blend = b;
-    decal_payload.surface = s;
-    decal_payload.tested = 0u;
-    traceRayEXT(accelerationStructureEXT(scene.decal_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF,
-                DECAL_SBT_BLEND, 0, DECAL_MISS, s.position, 0.0, s.geometric_normal, 0.0, DECAL_BLEND_LOCATION);
-    b = decal_payload.blend;
-    return dense ? decal_payload.tested : decal_collected.tested;
+    uint tested = blend_decals_in_any_hit(b, s);
+    return dense ? tested : decal_collected.tested;
 }
+#endif
+
+#ifdef DECAL_SBT_LIST
+layout(location = DECAL_LIST_LOCATION) rayPayloadEXT DecalListed decal_listed;
+
+// Blends the decals at `s` into `b` through a list with room for `room` decals from word `at`
+// of the list buffer (one every DECAL_LIST_RUN words): a trace writes the decals it finds there (hit group DECAL_SBT_LIST), and
+// they are tested, sampled and blended here, after it; when it found more than the room, a
+// second trace blends them all in its any-hit shader. Returns the decals tested; raises `found`
+// to the decals found, when more.
+uint list_and_blend_decals(inout DecalBlend b, DecalSurface s, uint at, uint room, inout uint found) {
+    decal_listed = DecalListed(0u, 0u, at, room);
+    traceRayEXT(accelerationStructureEXT(scene.decal_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF,
+                DECAL_SBT_LIST, 0, DECAL_MISS, s.position, 0.0, s.geometric_normal, 0.0, DECAL_LIST_LOCATION);
+    uint n = decal_listed.found;
+    found = max(found, n);
+    if (n > room) {
+        atomicAdd(decal_lists().words[LIST_OVERFLOWED], 1u);
+        blend_decals_in_any_hit(b, s);
+    } else {
+        for (uint i = 0u; i < n; ++i) apply_decal(b, decal_lists().words[at + i * DECAL_LIST_RUN], s);
+    }
+    return decal_listed.tested;
+}
+#endif
 #endif
 
 #endif

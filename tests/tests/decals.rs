@@ -203,9 +203,11 @@ fn read_views(app: &mut App) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
 fn random_overlapping_stacks_match_the_cpu_blending_reference() {
     for c in CONFIGS {
         eprintln!("{c:?}");
-        // Seed 4 stacks 40 decals, more than the ray-tracing-pipeline pass collects at a pixel
-        // (32: shaders/include/decal_pass.glsl), so that its pixels take the blending trace, first
-        // after collecting and then (the second view, a frame later) straight away.
+        // Seed 4 stacks 40 decals, more than the reflection rays collect in their payload (32:
+        // shaders/include/decal_pass.glsl). The ray-tracing-pipeline pass lists the decals in
+        // memory, in the room each pixel reserved from the frame before: the first view (the first
+        // frame) has none, so its pixels blend in the second trace's any-hit shader; the second
+        // view blends the lists after the trace (checked below).
         let stacks: &[(u64, usize)] =
             if c.method == DecalMethod::RayPipeline { &[(1, 12), (2, 12), (3, 12), (4, 40)] } else { &[(1, 12), (2, 12), (3, 12)] };
         for &(seed, count) in stacks {
@@ -236,6 +238,21 @@ fn random_overlapping_stacks_match_the_cpu_blending_reference() {
             }
             let (albedo, rm) = read_views(&mut app);
             assert_no_validation_errors(&mut app);
+            if c.method == DecalMethod::RayPipeline {
+                // The statistics of a frame come back two frames later.
+                let lists: Vec<_> = (0..2)
+                    .map(|_| {
+                        app.update();
+                        counters(&app).decal_lists
+                    })
+                    .collect();
+                assert_eq!((lists[0].measured_frame, lists[1].measured_frame), (1, 2), "{lists:?}");
+                assert!(lists[0].overflowed > 0, "the first frame's pixels had no room: {:?}", lists[0]);
+                // (Where the rooms asked for exceed the initial capacity, the pixels past it are
+                // denied a list and blend in the any-hit shader straight away: a third path.)
+                assert!(lists[1].needed > 0 && lists[1].overflowed == 0, "the second blended its lists: {:?}", lists[1]);
+                eprintln!("seed {seed}: lists {:?}", lists[1]);
+            }
 
             let pixel_world = 2.0 * view.transform.translation.y * (view.camera.fov_y * 0.5).tan() / SIZE.1 as f32;
             let (mut checked, mut covered, mut worst, mut deepest) = (0, 0, 0.0f32, 0);

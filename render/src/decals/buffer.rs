@@ -17,14 +17,17 @@
 //!
 //!   Where the decals are blended is this pass's design choice. The seed blends in the any-hit
 //!   shader, into per-channel sums carried in the payload (hit group 1 here, `DECAL_SBT_BLEND`).
-//!   Here the first trace's any-hit shader (hit group 0, `DECAL_SBT_COLLECT`) only notes each
-//!   decal's slot in a 136-byte payload, and the ray-generation shader then tests, samples and
-//!   blends them, all lanes of a warp running the same code together instead of one hit at a
-//!   time. Only a pixel with more decals than the payload keeps (32) is blended by a second
-//!   trace the seed's way, and a pixel that had that many last frame (the count stays in the
-//!   decal buffer) goes to that trace straight away. Measured on the lent H100 (docs/
-//!   BENCHMARKS.md, "The ray-tracing-pipeline decal pass against its floor"): 5.11 → 3.15 ms at
-//!   100,000 scattered decals, 56.7 → 47.2 ms at 1,000,000.
+//!   Here the first trace's any-hit shader (hit group 0, `DECAL_SBT_LIST`) only writes each
+//!   decal's slot into the pixel's list in GPU memory ([`super::lists`]), and the
+//!   ray-generation shader then tests, samples and blends them, all lanes of a warp running the
+//!   same code together instead of one hit at a time. Only a pixel that finds more decals than
+//!   its list has room for (room is reserved from what it found the frame before) is blended
+//!   by a second trace the seed's way. Measured on the lent H100 (docs/BENCHMARKS.md, "The
+//!   ray-tracing-pipeline decal pass against its floor"), with the scattered decals: 5.11 →
+//!   3.15 ms at 100,000 when an earlier round first collected the slots, in a 136-byte payload
+//!   with room for 32 (what the reflection rays still do); then, with the lists in memory,
+//!   3.16 → 2.90 ms at 100,000 and 46.6 → 28.6 ms at 1,000,000, where every pixel had more
+//!   decals than that payload held.
 //!
 //!   Either way, weighted blended OIT is order-independent *within* a channel (sums and
 //!   products commute) and the channels are composited in channel order at the end, so the
@@ -118,9 +121,9 @@ impl DecalPasses {
                     name: "decal pass (ray-tracing pipeline)",
                     raygen: &[shaders::DECAL_PASS_RGEN, shaders::DECAL_PASS_RGEN_VISIBILITY, shaders::DECAL_PASS_RGEN_DEPTH],
                     misses: &[shaders::DECAL_PASS_RMISS],
-                    // DECAL_SBT_COLLECT and DECAL_SBT_BLEND (shaders/include/decal_pass.glsl).
+                    // DECAL_SBT_LIST and DECAL_SBT_BLEND (shaders/decal_pass.rgen).
                     hit_groups: &[
-                        HitGroup::any_hit(shaders::DECAL_PASS_RAHIT_COLLECT, Some(shaders::DECAL_PASS_RINT)),
+                        HitGroup::any_hit(shaders::DECAL_PASS_RAHIT_LIST, Some(shaders::DECAL_PASS_RINT)),
                         HitGroup::any_hit(shaders::DECAL_PASS_RAHIT, Some(shaders::DECAL_PASS_RINT)),
                     ],
                 },
@@ -187,7 +190,10 @@ impl DecalPasses {
         if count_only && self.ray_pipeline.is_some() {
             self.floor(f.ctx, f.layout)?;
         }
-        let pass = declare_decal_surface(f.pass(name, kind), scene, source).reads(traced.map(|a| (a, BufferUse::Accel)));
+        let mut pass = declare_decal_surface(f.pass(name, kind), scene, source).reads(traced.map(|a| (a, BufferUse::Accel)));
+        if let Some(lists) = frame.lists.filter(|_| frame.method == DecalMethod::RayPipeline && !count_only) {
+            pass = pass.write(lists.res, BufferUse::Storage);
+        }
         match frame.method {
             DecalMethod::RayPipeline => {
                 let rt = if count_only { self.floor.as_ref() } else { self.ray_pipeline.as_ref() };

@@ -87,7 +87,7 @@ pub const MEMORY_SHARE: (u64, u64) = (1, 8);
 /// up to a power of two, when the current room is too small; `smaller` (the shrink policy's
 /// verdict) when it has stayed far too large; otherwise the current room (at least
 /// `initial`). Never more than `limit`.
-fn plan_capacity(current: u32, needed: u32, initial: u32, smaller: Option<u64>, limit: u32) -> u32 {
+pub(super) fn plan_capacity(current: u32, needed: u32, initial: u32, smaller: Option<u64>, limit: u32) -> u32 {
     let mut capacity = current.max(initial);
     if needed > capacity {
         capacity = needed.saturating_add(needed / 4).checked_next_power_of_two().unwrap_or(u32::MAX);

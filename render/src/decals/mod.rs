@@ -1,6 +1,6 @@
 //! Decals (seed 000) on the renderer's side: the acceleration structures over decal boxes that
 //! ray-traced decals enumerate (`accel`), the decal passes that write the decal buffer from them
-//! (`buffer`), clustered decals, which write it with no ray tracing (`clustered`), the draw
+//! (`buffer`, with the per-pixel lists of its ray-tracing-pipeline pass in `lists`), clustered decals, which write it with no ray tracing (`clustered`), the draw
 //! order of deferred decals (`deferred`), and the debug view of decal boxes (`debug`). The decal records themselves live in the scene's
 //! tables ([`crate::scene::DecalTable`]) and the shading math in `shaders/include/decals.glsl`.
 
@@ -9,6 +9,7 @@ pub mod buffer;
 pub mod clustered;
 pub mod debug;
 pub mod deferred;
+pub mod lists;
 
 use ash::vk;
 
@@ -17,12 +18,13 @@ use crate::gpu::device::GpuContext;
 use crate::graph::{Frame, FrameGraph, ResourceId};
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
-use crate::settings::{DecalMethod, FrameSettings};
+use crate::settings::{DebugView, DecalMethod, FrameSettings};
 use accel::{DecalAccel, DecalBoxInput};
 pub use buffer::{DecalPasses, DecalSurfaceSource, declare_decal_reads};
 use clustered::{ClusterFrame, DecalClusters};
 use debug::DecalBoxes;
 pub use deferred::{DecalRun, DeferredDecalOrder, plan_deferred_decals};
+use lists::{DecalLists, ListFrame};
 
 /// The renderer's decal state.
 pub struct Decals {
@@ -32,6 +34,8 @@ pub struct Decals {
     pub passes: DecalPasses,
     /// Clustered decals: the binning passes, the cluster buffer and their decal pass.
     pub clusters: DecalClusters,
+    /// The ray-tracing-pipeline decal pass's per-pixel lists.
+    pub lists: DecalLists,
     /// The box-drawing debug pass.
     pub boxes: DecalBoxes,
     /// Deferred decals' draw order.
@@ -73,6 +77,8 @@ pub struct DecalFrame {
     pub count: u32,
     /// The cluster buffer, when clustered decals are applied this frame.
     pub clusters: Option<ClusterFrame>,
+    /// The per-pixel list buffer, when the ray-tracing-pipeline decal pass runs this frame.
+    pub lists: Option<ListFrame>,
     /// Whether the pipeline's shading walks the cluster lists itself (forward and Forward+ with
     /// [`FrameSettings::decals_in_forward_shading`]), so that no decal pass (and no ids
     /// prepass) runs: only the binning.
@@ -104,6 +110,7 @@ impl Decals {
             accel: DecalAccel::new(ctx, graph),
             passes: DecalPasses::new(ctx, layout)?,
             clusters: DecalClusters::new(ctx, graph, layout, cluster_capacity)?,
+            lists: DecalLists::new(ctx, graph, layout)?,
             boxes: DecalBoxes::new(ctx, layout)?,
             order: DeferredDecalOrder::default(),
             surface: None,
@@ -153,12 +160,19 @@ impl Decals {
             self.clusters.idle(&mut f.upload);
             None
         };
+        let lists = if shaded && method == DecalMethod::RayPipeline {
+            Some(self.lists.prepare(f, &mut mirror.counters.decal_lists)?)
+        } else {
+            self.lists.idle(&mut f.upload);
+            None
+        };
         Ok(DecalFrame {
             method,
             traced: if shaded { self.accel.traced() } else { None },
             tlas_address: if shaded || at_hits.is_some() { self.accel.tlas_address() } else { 0 },
             count: if shaded || clustered || at_hits.is_some() { mirror.decals.len() as u32 } else { 0 },
             clusters,
+            lists,
             lists_in_shading,
             at_hits,
         })
@@ -176,6 +190,13 @@ impl Decals {
     ) -> Result<(), RenderError> {
         let ran = match frame.clusters {
             Some(_) => self.clusters.record(f, scene, frame.count, (!frame.clusters_in_shading()).then_some(source))?,
+            // The lists serve the lit pass only: its count-only floor runs without them.
+            None if frame.lists.is_some() && f.push.debug_view != DebugView::DecalFloor as u32 => {
+                self.lists.record_offsets(f)?;
+                let ran = self.passes.record(f, scene, frame, source)?;
+                self.lists.record_statistics(f)?;
+                ran
+            }
             None => self.passes.record(f, scene, frame, source)?,
         };
         self.surface = ran.then_some(source);
@@ -206,6 +227,7 @@ impl Decals {
         self.accel.destroy(ctx);
         self.passes.destroy(ctx);
         self.clusters.destroy(ctx);
+        self.lists.destroy(ctx);
         self.boxes.destroy(ctx);
     }
 }

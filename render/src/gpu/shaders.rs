@@ -117,6 +117,8 @@ spirv! {
     DECAL_PASS_RGEN_COUNT_ONLY_VISIBILITY = "decal_pass.rgen.COUNT_ONLY+DECAL_SURFACE_VISIBILITY";
     DECAL_PASS_RAHIT_COUNT_ONLY = "decal_pass.rahit.COUNT_ONLY";
     DECAL_PASS_RAHIT_COLLECT = "decal_pass.rahit.COLLECT";
+    DECAL_PASS_RAHIT_LIST = "decal_pass.rahit.LIST";
+    DECAL_LIST_OFFSETS_COMP = "decal_list_offsets.comp";
     DECAL_PASS_COMP = "decal_pass.comp";
     DECAL_PASS_COMP_VISIBILITY = "decal_pass.comp.DECAL_SURFACE_VISIBILITY";
     DECAL_PASS_COMP_DEPTH = "decal_pass.comp.DECAL_SURFACE_DEPTH";

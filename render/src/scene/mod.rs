@@ -483,6 +483,9 @@ pub struct FrameCounters {
     pub shadow_maps_missing: u64,
     /// Clustered decals, as measured on the GPU (all zero unless clustered decals ran).
     pub clusters: DecalClusterStats,
+    /// The ray-tracing-pipeline decal pass's per-pixel lists, as measured on the GPU (all zero
+    /// unless that pass ran).
+    pub decal_lists: DecalListStats,
     /// Tiled light culling, as measured on the GPU (all zero unless lights were tiled).
     pub light_tiles: crate::lights::tiles::LightTileStats,
     /// Instance culling for the main view, as measured on the GPU (`crate::culling`).
@@ -549,6 +552,29 @@ pub struct DecalClusterStats {
     pub applied: u64,
     /// Most decals applied at one pixel.
     pub max_applied: u64,
+}
+
+/// The ray-tracing-pipeline decal pass's per-pixel decal lists (`crate::decals::lists`): the
+/// room they asked for and had, and the pixels that had to blend the seed's way.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DecalListStats {
+    /// Frame whose GPU figures these are (`u64::MAX` before any).
+    pub measured_frame: u64,
+    /// Entries the list buffer has room for this frame.
+    pub capacity: u64,
+    /// The most entries it may ever have room for: [`crate::decals::clustered::MEMORY_SHARE`]
+    /// of the renderer's memory.
+    pub limit: u64,
+    /// Entries the pixels' rooms asked for (what each found the frame before, an eighth more).
+    pub needed: u64,
+    /// Pixels whose room did not fit the buffer (they blended their decals the seed's way).
+    pub denied: u64,
+    /// Pixels that found more decals than their room (they traced a second time to blend them).
+    pub overflowed: u64,
+    /// Times the list buffer grew, since the renderer started.
+    pub grows: u64,
+    /// Times the list buffer shrank or was released (unused), since the renderer started.
+    pub shrinks: u64,
 }
 
 /// Records in stable slots with a free list, plus the set of slots written since the last drain.

@@ -1,0 +1,234 @@
+//! Per-pixel decal lists for the ray-tracing-pipeline decal pass (seed 000 §4.2.2, with the
+//! enumeration split from the blending): the first trace's any-hit shader writes each decal it
+//! finds into its pixel's list in GPU memory, and the ray-generation shader blends the list
+//! after the trace (`shaders/decal_pass.rgen`, `shaders/include/decal_lists.glsl`).
+//!
+//! - **Why memory and not the payload**: collecting in the payload (the previous design, kept
+//!   for the reflection rays) makes the payload as large as the room it keeps, and traversal
+//!   carries it: 32 decals cost 136 bytes and a pixel with more had to blend in any-hit.
+//!   Writing to memory keeps a 16-byte payload whatever the depth. Measured on the lent H100 at
+//!   1920×1080 (docs/BENCHMARKS.md, "The ray-tracing-pipeline decal pass against its floor"),
+//!   collecting alone took 2.17 ms in the payload and 1.80 ms in memory at 100,000 decals. An
+//!   intersection shader that writes the list itself, with no any-hit shader at all, was slower
+//!   (1.92 ms): its count must live in memory too, behind an atomic.
+//! - **Room from the last frame**: each frame a compute pass (`decal_list_offsets.comp`) gives
+//!   each run of 8 pixels along a row one block, with room for the most that any of them found
+//!   the frame before (an eighth more and two), its pixels' entries interleaved so that the
+//!   lanes of a warp write and read neighbouring words; the blocks are packed back to back
+//!   with one atomic add per workgroup of 256 pixels, as the decal clusters' lists are
+//!   ([`super::clustered`]). Against lists packed pixel by pixel, each with its own room,
+//!   this took the pass from 3.15 to 2.90 ms at 100,000 decals and from 30.4 to 28.6 ms at
+//!   1,000,000, and cut the pixels that outgrow their room under the jittered view by two
+//!   thirds to three quarters. A pixel that finds more than its room (a
+//!   newly covered pixel, the first frame) is blended by a second trace whose any-hit shader
+//!   blends, the seed's way, so no decal is ever dropped; the statistics count those pixels
+//!   ([`DecalListStats::overflowed`]).
+//! - **Memory**: the buffer holds a header, three words a pixel (the list's first entry, its
+//!   room, the decals found) and the entries. It grows to a quarter more than the entries asked
+//!   for, rounded to a power of two, read back two frames later, and shrinks with the same
+//!   hysteresis as the cluster buffer (never below the initial room; released after a second
+//!   unused). It never takes more than [`MEMORY_SHARE`] of the renderer's memory: a pixel
+//!   whose room does not fit gets none and blends the seed's way ([`DecalListStats::denied`];
+//!   one warning). Measured at 1920×1080 on the courtyard's scatter: 10,000 decals ask for
+//!   3.8 M entries (room for 8.4 M, 32 MiB), 100,000 for 23 M (32 M, 128 MiB), 1,000,000 for
+//!   204 M (268 M, 1 GiB), beside 24 MiB of per-pixel words; the cluster lists of clustered
+//!   decals take 64 and 512 MiB at 100,000 and 1,000,000.
+//! - **What it costs where decals are few**: the allocation pass, 0.033 ms a frame at
+//!   1920×1080 on the H100, whatever the decals; at 10,000 scattered decals the pass went from
+//!   0.60 to 0.62 ms, and in PEERS.md's scene (100 and 1,000 decals) from 0.214 to 0.205 ms
+//!   and 0.310 to 0.302 ms.
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use crate::RenderError;
+use crate::decals::clustered::{MEMORY_SHARE, plan_capacity};
+use crate::gpu::device::GpuContext;
+use crate::gpu::memory::{Buffer, Retired};
+use crate::gpu::pipeline::create_computes;
+use crate::gpu::shaders;
+use crate::gpu::upload::{Shrink, Upload};
+use crate::graph::readback::StatsReadback;
+use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
+use crate::layout::DECAL_LIST_HEADER;
+use crate::scene::DecalListStats;
+
+/// Entries the list buffer starts with room for.
+pub const INITIAL_CAPACITY: u32 = 1 << 16;
+
+/// Header words (`shaders/include/decal_lists.glsl`): the statistics, then the image's size.
+const LIST_NEEDED: usize = 0;
+const LIST_DENIED: usize = 1;
+const LIST_OVERFLOWED: usize = 2;
+const LIST_WIDTH: u64 = 3;
+const LIST_PIXELS: u64 = 4;
+
+/// The list buffer this frame (push constants and the passes that use it).
+#[derive(Clone, Copy, Debug)]
+pub struct ListFrame {
+    /// Its frame-graph resource.
+    pub res: ResourceId,
+    /// Device address of the list buffer.
+    pub address: vk::DeviceAddress,
+    /// Entries it has room for.
+    pub capacity: u32,
+}
+
+/// The list allocation pass, the list buffer and the statistics read back from it.
+pub struct DecalLists {
+    offsets: vk::Pipeline,
+    buffer: Option<Buffer>,
+    capacity: u32,
+    /// The image the buffer's per-pixel words were made for: row width and pixels.
+    image: (u32, u32),
+    /// The per-pixel words are not yet zero (a new buffer).
+    fresh: bool,
+    readback: StatsReadback,
+    grows: u64,
+    shrinks: u64,
+    shrink: Shrink,
+    latest: DecalListStats,
+    warned_at_limit: bool,
+    res: ResourceId,
+}
+
+impl DecalLists {
+    /// Creates the allocation pass and the readback buffers; the list buffer waits for first use.
+    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
+        let [offsets] = create_computes(ctx, layout, [("decal list offsets", shaders::DECAL_LIST_OFFSETS_COMP)])?;
+        let readback = match StatsReadback::new(ctx, graph, "decal list statistics", DECAL_LIST_HEADER as u64 * 4) {
+            Ok(readback) => readback,
+            Err(e) => {
+                // SAFETY: the pipeline was never used.
+                unsafe { ctx.destroying().destroy_pipeline(offsets, None) };
+                return Err(e);
+            }
+        };
+        Ok(Self {
+            offsets,
+            buffer: None,
+            capacity: 0,
+            image: (0, 0),
+            fresh: false,
+            readback,
+            grows: 0,
+            shrinks: 0,
+            shrink: Shrink::default(),
+            latest: DecalListStats { measured_frame: u64::MAX, ..Default::default() },
+            warned_at_limit: false,
+            res: graph.resource("decal lists"),
+        })
+    }
+
+    /// Reads back the statistics of the frame that last used this frame's slot, grows (or
+    /// shrinks) the list buffer to what that frame asked for, and says where the buffer is.
+    /// Call before the frame's push constants are set.
+    pub fn prepare(&mut self, f: &mut Frame, stats: &mut DecalListStats) -> Result<ListFrame, RenderError> {
+        let ctx = f.ctx;
+        let extent = f.graph.extent();
+        let image = (extent.width, extent.width * extent.height);
+        if let Some((frame, words)) = self.readback.take(f) {
+            self.latest = DecalListStats {
+                measured_frame: frame,
+                needed: words[LIST_NEEDED] as u64,
+                denied: words[LIST_DENIED] as u64,
+                overflowed: words[LIST_OVERFLOWED] as u64,
+                ..Default::default()
+            };
+        }
+        let fixed = (DECAL_LIST_HEADER as u64 + 3 * image.1 as u64) * 4;
+        let share = ctx.memory_limit() / MEMORY_SHARE.1 * MEMORY_SHARE.0;
+        let limit = (share.saturating_sub(fixed) / 4).clamp(INITIAL_CAPACITY as u64, u32::MAX as u64 / 2) as u32;
+        let needed = self.latest.needed.min(u32::MAX as u64 / 2) as u32;
+        let smaller = self.shrink.check(self.capacity as u64, (needed + needed / 4) as u64, INITIAL_CAPACITY as u64);
+        let capacity = plan_capacity(self.capacity, needed, INITIAL_CAPACITY, smaller, limit);
+        if needed > limit && self.latest.denied > 0 {
+            if !self.warned_at_limit {
+                self.warned_at_limit = true;
+                tracing::warn!(
+                    "the ray-tracing-pipeline decal pass's lists need {needed} entries, past the ceiling of {limit} (1/{} of {} MiB of GPU memory): {} pixels blend their decals in the any-hit shader instead, which is slower",
+                    MEMORY_SHARE.1,
+                    ctx.memory_limit() >> 20,
+                    self.latest.denied
+                );
+            }
+        } else if needed <= limit {
+            self.warned_at_limit = false;
+        }
+        if self.buffer.is_none() || capacity != self.capacity || image != self.image {
+            let size = fixed + capacity as u64 * 4;
+            let buffer = Buffer::new(ctx, "decal lists", size, crate::gpu::memory::GPU_WRITTEN, MemoryLocation::GpuOnly)?;
+            if let Some(old) = self.buffer.replace(buffer) {
+                if capacity < self.capacity {
+                    self.shrinks += 1;
+                    f.upload.bury_shrunk(old, size);
+                } else {
+                    if capacity > self.capacity {
+                        self.grows += 1;
+                    }
+                    f.upload.graveyard.bury(f.upload.frame_value, Retired::Buffer(old));
+                }
+            }
+            (self.capacity, self.image, self.fresh) = (capacity, image, true);
+            self.shrink.reset();
+        }
+        *stats = DecalListStats { capacity: capacity as u64, limit: limit as u64, grows: self.grows, shrinks: self.shrinks, ..self.latest };
+        let address = self.buffer.as_ref().expect("allocated above").address;
+        Ok(ListFrame { res: self.res, address, capacity })
+    }
+
+    /// A frame without the ray-tracing-pipeline decal pass: after
+    /// [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] of them in a row the list buffer is released.
+    pub fn idle(&mut self, up: &mut Upload) {
+        if self.buffer.is_none() || !self.shrink.unused() {
+            return;
+        }
+        if let Some(old) = self.buffer.take() {
+            up.bury_shrunk(old, 0);
+        }
+        (self.capacity, self.image) = (0, (0, 0));
+        self.latest.needed = 0;
+        self.shrinks += 1;
+    }
+
+    /// Clears the header (and a new buffer's per-pixel words) and reserves each pixel's room.
+    /// Call before the decal pass; the push constants must hold [`DecalLists::prepare`]'s result.
+    pub fn record_offsets(&mut self, f: &mut Frame) -> Result<(), RenderError> {
+        let Some(buffer) = self.buffer.as_ref() else { return Ok(()) };
+        let (raw, res, (width, pixels)) = (buffer.raw, self.res, self.image);
+        // The statistics, the image's size, and (in a new buffer) the rest of the header and
+        // the per-pixel words: ranges that do not overlap, so no barrier is needed between them.
+        let fresh = std::mem::take(&mut self.fresh).then_some((DECAL_LIST_HEADER as u64 + 3 * pixels as u64) * 4);
+        f.pass("decal_lists_clear", PassKind::Transfer).write(res, BufferUse::Transfer).record(|p| {
+            p.cmd.fill_buffer(raw, 0, LIST_WIDTH * 4, 0);
+            p.cmd.fill_buffer(raw, LIST_WIDTH * 4, 4, width);
+            p.cmd.fill_buffer(raw, LIST_PIXELS * 4, 4, pixels);
+            if let Some(end) = fresh {
+                p.cmd.fill_buffer(raw, (LIST_PIXELS + 1) * 4, end - (LIST_PIXELS + 1) * 4, 0);
+            }
+        })?;
+        let extent = f.graph.extent();
+        let pipeline = self.offsets;
+        f.pass("decal_list_offsets", PassKind::Compute).write(res, BufferUse::Storage).record(|p| {
+            p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
+            p.cmd.dispatch(extent.width.div_ceil(16), extent.height.div_ceil(16), 1);
+        })
+    }
+
+    /// Copies the statistics for the CPU; call after the decal pass.
+    pub fn record_statistics(&mut self, f: &mut Frame) -> Result<(), RenderError> {
+        let Some(buffer) = self.buffer.as_ref() else { return Ok(()) };
+        let raw = buffer.raw;
+        self.readback.record(f, "decal_lists_statistics", self.res, raw)
+    }
+
+    /// Destroys everything; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        // SAFETY: the GPU is idle.
+        unsafe { ctx.destroying().destroy_pipeline(self.offsets, None) };
+        if let Some(b) = self.buffer {
+            b.destroy(ctx);
+        }
+        self.readback.destroy(ctx);
+    }
+}
