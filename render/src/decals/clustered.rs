@@ -60,42 +60,24 @@
 //!   methods.
 
 use ash::vk;
-use gpu_allocator::MemoryLocation;
 
 use crate::RenderError;
 use crate::decals::buffer::DecalSurfaceSource;
 use crate::gpu::device::GpuContext;
-use crate::gpu::memory::{Buffer, Retired};
 use crate::gpu::pipeline::create_computes;
 use crate::gpu::shaders;
-use crate::gpu::upload::{Shrink, Upload};
+use crate::gpu::upload::Upload;
 use crate::graph::readback::StatsReadback;
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::{DECAL_BIN_ROW, DECAL_CLUSTER_HEADER, DECAL_CLUSTER_SLICES, DECAL_CLUSTER_TILE};
 use crate::scene::DecalClusterStats;
 use crate::scene::gpu::GpuScene;
 
+use super::room::{ListRoom, MEMORY_SHARE};
+
 /// Entries the cluster buffer starts with room for, unless the renderer's settings say
 /// otherwise.
 pub const INITIAL_CAPACITY: u32 = 1 << 16;
-
-/// The share of the renderer's memory ([`GpuContext::memory_limit`]) the cluster lists may take
-/// at most: one eighth.
-pub const MEMORY_SHARE: (u64, u64) = (1, 8);
-
-/// The room the cluster buffer should have, in entries: a quarter more than `needed`, rounded
-/// up to a power of two, when the current room is too small; `smaller` (the shrink policy's
-/// verdict) when it has stayed far too large; otherwise the current room (at least
-/// `initial`). Never more than `limit`.
-pub(super) fn plan_capacity(current: u32, needed: u32, initial: u32, smaller: Option<u64>, limit: u32) -> u32 {
-    let mut capacity = current.max(initial);
-    if needed > capacity {
-        capacity = needed.saturating_add(needed / 4).checked_next_power_of_two().unwrap_or(u32::MAX);
-    } else if let Some(smaller) = smaller {
-        capacity = smaller.min(u32::MAX as u64) as u32;
-    }
-    capacity.min(limit)
-}
 
 /// The cluster buffer this frame: where it is and what it holds room for (push constants).
 #[derive(Clone, Copy, Debug)]
@@ -117,18 +99,12 @@ pub struct DecalClusters {
     fill: vk::Pipeline,
     /// Decal pass, by [`super::DecalSurfaceSource`].
     pass: [vk::Pipeline; 3],
-    buffer: Option<Buffer>,
-    capacity: u32,
-    initial_capacity: u32,
+    /// The cluster buffer: a header, the cluster table, then the lists' entries.
+    room: ListRoom,
     clusters: u32,
     /// The statistics, read back two frames later.
     readback: StatsReadback,
-    grows: u64,
-    shrinks: u64,
-    shrink: Shrink,
     latest: DecalClusterStats,
-    /// Whether the ceiling's drops were warned about (reset once the need fits again).
-    warned_at_limit: bool,
     res: ResourceId,
 }
 
@@ -163,16 +139,10 @@ impl DecalClusters {
             scan,
             fill,
             pass: [gbuffer, visibility, depth],
-            buffer: None,
-            capacity: 0,
-            initial_capacity: initial_capacity.max(1),
+            room: ListRoom::new("decal clusters", initial_capacity),
             clusters: 0,
             readback,
-            grows: 0,
-            shrinks: 0,
-            shrink: Shrink::default(),
             latest: DecalClusterStats { measured_frame: u64::MAX, ..Default::default() },
-            warned_at_limit: false,
             res: graph.resource("decal clusters"),
         })
     }
@@ -192,11 +162,11 @@ impl DecalClusters {
                 clusters: self.clusters as u64,
                 clusters_used: words[3] as u64,
                 entries: words[0] as u64,
-                capacity: self.capacity as u64,
+                capacity: self.room.capacity as u64,
                 limit: 0, // filled in below
                 dropped: words[1] as u64,
-                grows: self.grows,
-                shrinks: self.shrinks,
+                grows: self.room.grows,
+                shrinks: self.room.shrinks,
                 max_per_cluster: words[2] as u64,
                 pixels: words[7] as u64,
                 tested: wide(4),
@@ -206,51 +176,30 @@ impl DecalClusters {
             };
         }
         // The ceiling in entries: the share of memory, less the header and the cluster table.
-        let share = ctx.memory_limit() / MEMORY_SHARE.1 * MEMORY_SHARE.0;
         let fixed = (DECAL_CLUSTER_HEADER as u64 + 3 * clusters as u64) * 4;
-        let limit = (share.saturating_sub(fixed) / 4).clamp(self.initial_capacity.min(1024) as u64, u32::MAX as u64 / 2) as u32;
-        let needed = self.latest.entries.min(u32::MAX as u64 / 2) as u32;
-        let smaller = self.shrink.check(self.capacity as u64, (needed + needed / 4) as u64, self.initial_capacity as u64);
-        let capacity = plan_capacity(self.capacity, needed, self.initial_capacity, smaller, limit);
-        if needed > limit && self.latest.dropped > 0 {
-            if !self.warned_at_limit {
-                self.warned_at_limit = true;
-                tracing::warn!(
-                    "clustered decals need {needed} cluster entries, past the ceiling of {limit} (1/{} of {} MiB of GPU memory): {} entries are dropped each frame, so some decals are missing where many overlap",
-                    MEMORY_SHARE.1,
-                    ctx.memory_limit() >> 20,
-                    needed - limit
-                );
-            }
-        } else if needed <= limit {
-            self.warned_at_limit = false;
+        let limit = self.room.limit(ctx, fixed);
+        let warning = |needed: u32| {
+            format!(
+                "clustered decals need {needed} cluster entries, past the ceiling of {limit} (1/{} of {} MiB of GPU memory): {} entries are dropped each frame, so some decals are missing where many overlap",
+                MEMORY_SHARE.1,
+                ctx.memory_limit() >> 20,
+                needed - limit
+            )
+        };
+        let need = (self.latest.entries, self.latest.dropped);
+        if self.room.fit(f, need, (fixed, limit), clusters != self.clusters, warning)? {
+            self.clusters = clusters;
         }
-        if self.buffer.is_none() || capacity != self.capacity || clusters != self.clusters {
-            let size = (DECAL_CLUSTER_HEADER as u64 + 3 * clusters as u64 + capacity as u64) * 4;
-            let buffer = Buffer::new(ctx, "decal clusters", size, crate::gpu::memory::GPU_WRITTEN, MemoryLocation::GpuOnly)?;
-            if let Some(old) = self.buffer.replace(buffer) {
-                if capacity < self.capacity {
-                    self.shrinks += 1;
-                    f.upload.bury_shrunk(old, size);
-                } else {
-                    if capacity > self.capacity {
-                        self.grows += 1;
-                    }
-                    f.upload.graveyard.bury(f.upload.frame_value, Retired::Buffer(old));
-                }
-            }
-            (self.capacity, self.clusters) = (capacity, clusters);
-            self.shrink.reset();
-        }
+        let capacity = self.room.capacity;
         *stats = DecalClusterStats {
             clusters: clusters as u64,
             capacity: capacity as u64,
             limit: limit as u64,
-            grows: self.grows,
-            shrinks: self.shrinks,
+            grows: self.room.grows,
+            shrinks: self.room.shrinks,
             ..self.latest
         };
-        let address = self.buffer.as_ref().expect("allocated above").address;
+        let address = self.room.buffer.as_ref().expect("allocated above").address;
         Ok(ClusterFrame { res: self.res, address, capacity, tiles: tiles.0 | tiles.1 << 16 })
     }
 
@@ -258,15 +207,10 @@ impl DecalClusters {
     /// [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] of them in a row the cluster buffer is
     /// released, and the next frame that bins decals starts again from the initial room.
     pub fn idle(&mut self, up: &mut Upload) {
-        if self.buffer.is_none() || !self.shrink.unused() {
-            return;
+        if self.room.idle(up) {
+            self.clusters = 0;
+            self.latest.entries = 0;
         }
-        if let Some(old) = self.buffer.take() {
-            up.bury_shrunk(old, 0);
-        }
-        (self.capacity, self.clusters) = (0, 0);
-        self.latest.entries = 0;
-        self.shrinks += 1;
     }
 
     /// Bins `live` decal boxes into the clusters, runs the decal pass over the surface `source`
@@ -274,7 +218,7 @@ impl DecalClusters {
     /// and copies the statistics for the CPU. The push constants must hold
     /// [`DecalClusters::prepare`]'s result. Returns whether it recorded the decal pass.
     pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, live: u32, source: Option<DecalSurfaceSource>) -> Result<bool, RenderError> {
-        let Some(buffer) = self.buffer.as_ref() else { return Ok(false) };
+        let Some(buffer) = self.room.buffer.as_ref() else { return Ok(false) };
         let (raw, res, clusters) = (buffer.raw, self.res, self.clusters);
         let prefix = (DECAL_CLUSTER_HEADER as u64 + 3 * clusters as u64) * 4;
         f.pass("decal_clusters_clear", PassKind::Transfer).write(res, BufferUse::Transfer).record(|p| {
@@ -321,31 +265,7 @@ impl DecalClusters {
             // SAFETY: the GPU is idle.
             unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
-        if let Some(b) = self.buffer {
-            b.destroy(ctx);
-        }
+        self.room.destroy(ctx);
         self.readback.destroy(ctx);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::plan_capacity;
-
-    #[test]
-    fn the_cluster_room_grows_with_a_quarter_to_spare_shrinks_when_told_and_stops_at_the_ceiling() {
-        // Fits: stays (at least the initial room).
-        assert_eq!(plan_capacity(0, 10, 64, None, 1 << 20), 64);
-        assert_eq!(plan_capacity(4096, 1000, 64, None, 1 << 20), 4096);
-        // Too small: a quarter more, to the next power of two.
-        assert_eq!(plan_capacity(64, 100, 64, None, 1 << 20), 128);
-        assert_eq!(plan_capacity(64, 1000, 64, None, 1 << 20), 2048);
-        // The shrink policy's verdict.
-        assert_eq!(plan_capacity(1 << 16, 10, 64, Some(64), 1 << 20), 64);
-        // The ceiling caps growth, and a room above it (a lowered budget) comes down to it.
-        assert_eq!(plan_capacity(64, 1 << 22, 64, None, 1 << 20), 1 << 20);
-        assert_eq!(plan_capacity(1 << 21, 10, 64, None, 1 << 20), 1 << 20);
-        // Near the top of u32 the growth saturates instead of overflowing, at the ceiling.
-        assert_eq!(plan_capacity(64, u32::MAX / 2, 64, None, u32::MAX / 2), u32::MAX / 2);
     }
 }

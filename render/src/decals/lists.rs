@@ -27,7 +27,7 @@
 //!   room, the decals found) and the entries. It grows to a quarter more than the entries asked
 //!   for, rounded to a power of two, read back two frames later, and shrinks with the same
 //!   hysteresis as the cluster buffer (never below the initial room; released after a second
-//!   unused). It never takes more than [`MEMORY_SHARE`] of the renderer's memory: a pixel
+//!   unused: [`super::room`]). It never takes more than [`MEMORY_SHARE`] of the renderer's memory: a pixel
 //!   whose room does not fit gets none and blends the seed's way ([`DecalListStats::denied`];
 //!   one warning). Measured at 1920×1080 on the courtyard's scatter: 10,000 decals ask for
 //!   3.8 M entries (room for 8.4 M, 32 MiB), 100,000 for 23 M (32 M, 128 MiB), 1,000,000 for
@@ -39,15 +39,13 @@
 //!   and 0.310 to 0.302 ms.
 
 use ash::vk;
-use gpu_allocator::MemoryLocation;
 
+use super::room::{ListRoom, MEMORY_SHARE};
 use crate::RenderError;
-use crate::decals::clustered::{MEMORY_SHARE, plan_capacity};
 use crate::gpu::device::GpuContext;
-use crate::gpu::memory::{Buffer, Retired};
 use crate::gpu::pipeline::create_computes;
 use crate::gpu::shaders;
-use crate::gpu::upload::{Shrink, Upload};
+use crate::gpu::upload::Upload;
 use crate::graph::readback::StatsReadback;
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::DECAL_LIST_HEADER;
@@ -77,18 +75,14 @@ pub struct ListFrame {
 /// The list allocation pass, the list buffer and the statistics read back from it.
 pub struct DecalLists {
     offsets: vk::Pipeline,
-    buffer: Option<Buffer>,
-    capacity: u32,
+    /// The list buffer: a header, three words a pixel, then the entries.
+    room: ListRoom,
     /// The image the buffer's per-pixel words were made for: row width and pixels.
     image: (u32, u32),
     /// The per-pixel words are not yet zero (a new buffer).
     fresh: bool,
     readback: StatsReadback,
-    grows: u64,
-    shrinks: u64,
-    shrink: Shrink,
     latest: DecalListStats,
-    warned_at_limit: bool,
     res: ResourceId,
 }
 
@@ -106,16 +100,11 @@ impl DecalLists {
         };
         Ok(Self {
             offsets,
-            buffer: None,
-            capacity: 0,
+            room: ListRoom::new("decal lists", INITIAL_CAPACITY),
             image: (0, 0),
             fresh: false,
             readback,
-            grows: 0,
-            shrinks: 0,
-            shrink: Shrink::default(),
             latest: DecalListStats { measured_frame: u64::MAX, ..Default::default() },
-            warned_at_limit: false,
             res: graph.resource("decal lists"),
         })
     }
@@ -137,64 +126,43 @@ impl DecalLists {
             };
         }
         let fixed = (DECAL_LIST_HEADER as u64 + 3 * image.1 as u64) * 4;
-        let share = ctx.memory_limit() / MEMORY_SHARE.1 * MEMORY_SHARE.0;
-        let limit = (share.saturating_sub(fixed) / 4).clamp(INITIAL_CAPACITY as u64, u32::MAX as u64 / 2) as u32;
-        let needed = self.latest.needed.min(u32::MAX as u64 / 2) as u32;
-        let smaller = self.shrink.check(self.capacity as u64, (needed + needed / 4) as u64, INITIAL_CAPACITY as u64);
-        let capacity = plan_capacity(self.capacity, needed, INITIAL_CAPACITY, smaller, limit);
-        if needed > limit && self.latest.denied > 0 {
-            if !self.warned_at_limit {
-                self.warned_at_limit = true;
-                tracing::warn!(
-                    "the ray-tracing-pipeline decal pass's lists need {needed} entries, past the ceiling of {limit} (1/{} of {} MiB of GPU memory): {} pixels blend their decals in the any-hit shader instead, which is slower",
-                    MEMORY_SHARE.1,
-                    ctx.memory_limit() >> 20,
-                    self.latest.denied
-                );
-            }
-        } else if needed <= limit {
-            self.warned_at_limit = false;
+        let limit = self.room.limit(ctx, fixed);
+        let denied = self.latest.denied;
+        let warning = |needed: u32| {
+            format!(
+                "the ray-tracing-pipeline decal pass's lists need {needed} entries, past the ceiling of {limit} (1/{} of {} MiB of GPU memory): {denied} pixels blend their decals in the any-hit shader instead, which is slower",
+                MEMORY_SHARE.1,
+                ctx.memory_limit() >> 20,
+            )
+        };
+        if self.room.fit(f, (self.latest.needed, denied), (fixed, limit), image != self.image, warning)? {
+            (self.image, self.fresh) = (image, true);
         }
-        if self.buffer.is_none() || capacity != self.capacity || image != self.image {
-            let size = fixed + capacity as u64 * 4;
-            let buffer = Buffer::new(ctx, "decal lists", size, crate::gpu::memory::GPU_WRITTEN, MemoryLocation::GpuOnly)?;
-            if let Some(old) = self.buffer.replace(buffer) {
-                if capacity < self.capacity {
-                    self.shrinks += 1;
-                    f.upload.bury_shrunk(old, size);
-                } else {
-                    if capacity > self.capacity {
-                        self.grows += 1;
-                    }
-                    f.upload.graveyard.bury(f.upload.frame_value, Retired::Buffer(old));
-                }
-            }
-            (self.capacity, self.image, self.fresh) = (capacity, image, true);
-            self.shrink.reset();
-        }
-        *stats = DecalListStats { capacity: capacity as u64, limit: limit as u64, grows: self.grows, shrinks: self.shrinks, ..self.latest };
-        let address = self.buffer.as_ref().expect("allocated above").address;
+        let capacity = self.room.capacity;
+        *stats = DecalListStats {
+            capacity: capacity as u64,
+            limit: limit as u64,
+            grows: self.room.grows,
+            shrinks: self.room.shrinks,
+            ..self.latest
+        };
+        let address = self.room.buffer.as_ref().expect("allocated above").address;
         Ok(ListFrame { res: self.res, address, capacity })
     }
 
     /// A frame without the ray-tracing-pipeline decal pass: after
     /// [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] of them in a row the list buffer is released.
     pub fn idle(&mut self, up: &mut Upload) {
-        if self.buffer.is_none() || !self.shrink.unused() {
-            return;
+        if self.room.idle(up) {
+            self.image = (0, 0);
+            self.latest.needed = 0;
         }
-        if let Some(old) = self.buffer.take() {
-            up.bury_shrunk(old, 0);
-        }
-        (self.capacity, self.image) = (0, (0, 0));
-        self.latest.needed = 0;
-        self.shrinks += 1;
     }
 
     /// Clears the header (and a new buffer's per-pixel words) and reserves each pixel's room.
     /// Call before the decal pass; the push constants must hold [`DecalLists::prepare`]'s result.
     pub fn record_offsets(&mut self, f: &mut Frame) -> Result<(), RenderError> {
-        let Some(buffer) = self.buffer.as_ref() else { return Ok(()) };
+        let Some(buffer) = self.room.buffer.as_ref() else { return Ok(()) };
         let (raw, res, (width, pixels)) = (buffer.raw, self.res, self.image);
         // The statistics, the image's size, and (in a new buffer) the rest of the header and
         // the per-pixel words: ranges that do not overlap, so no barrier is needed between them.
@@ -217,7 +185,7 @@ impl DecalLists {
 
     /// Copies the statistics for the CPU; call after the decal pass.
     pub fn record_statistics(&mut self, f: &mut Frame) -> Result<(), RenderError> {
-        let Some(buffer) = self.buffer.as_ref() else { return Ok(()) };
+        let Some(buffer) = self.room.buffer.as_ref() else { return Ok(()) };
         let raw = buffer.raw;
         self.readback.record(f, "decal_lists_statistics", self.res, raw)
     }
@@ -226,9 +194,7 @@ impl DecalLists {
     pub fn destroy(self, ctx: &GpuContext) {
         // SAFETY: the GPU is idle.
         unsafe { ctx.destroying().destroy_pipeline(self.offsets, None) };
-        if let Some(b) = self.buffer {
-            b.destroy(ctx);
-        }
+        self.room.destroy(ctx);
         self.readback.destroy(ctx);
     }
 }
