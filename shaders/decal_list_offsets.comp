@@ -34,11 +34,18 @@ void main() {
     barrier();
     uint block = lane == 0u ? run_room[run] * DECAL_LIST_RUN : 0u;
     uint end = workgroup_inclusive_scan(block, t);
-    if (t == SCAN_THREADS - 1u && end > 0u) base = atomicAdd(l.words[LIST_NEEDED], end);
+    if (t == SCAN_THREADS - 1u && end > 0u) {
+        // The need, for the statistics and the renderer's sizing, saturating; room is handed out
+        // only while some is left, so the counter stays within a workgroup's blocks of the
+        // capacity (at most 2³⁰ entries) and never wraps.
+        uint needed = atomicAdd(l.words[LIST_NEEDED], end);
+        if (needed + end < needed) atomicMax(l.words[LIST_NEEDED], 0xFFFFFFFFu);
+        base = l.words[LIST_ALLOCATED] < scene.decal_list_capacity ? atomicAdd(l.words[LIST_ALLOCATED], end) : NO_LIST;
+    }
     barrier();
     if (lane == 0u) {
         uint start = base + end - block;
-        bool fits = block > 0u && start + block <= scene.decal_list_capacity && start + block > start;
+        bool fits = block > 0u && base != NO_LIST && start + block <= scene.decal_list_capacity;
         run_start[run] = fits ? start : NO_LIST;
     }
     barrier();
@@ -47,7 +54,7 @@ void main() {
         l.words[decal_list_start_at() + p] = start == NO_LIST ? NO_LIST : start + lane;
         l.words[decal_list_room_at() + p] = start == NO_LIST ? 0u : run_room[run];
     }
-    if (p != NO_LIST && start == NO_LIST && run_room[run] > 0u) atomicAdd(denied, 1u);
+    if (start == NO_LIST && room > 0u) atomicAdd(denied, 1u);
     barrier();
     if (t == 0u && denied > 0u) atomicAdd(l.words[LIST_DENIED], denied);
 }

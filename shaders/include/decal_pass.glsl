@@ -102,8 +102,8 @@ layout(location = DECAL_LIST_LOCATION) rayPayloadEXT DecalListed decal_listed;
 // Blends the decals at `s` into `b` through a list with room for `room` decals from word `at`
 // of the list buffer (one every DECAL_LIST_RUN words): a trace writes the decals it finds there (hit group DECAL_SBT_LIST), and
 // they are tested, sampled and blended here, after it; when it found more than the room, a
-// second trace blends them all in its any-hit shader. Returns the decals tested; raises `found`
-// to the decals found, when more.
+// second trace blends them all in its any-hit shader (the caller sees it from `found` > `room`).
+// Returns the decals tested; raises `found` to the decals found, when more.
 uint list_and_blend_decals(inout DecalBlend b, DecalSurface s, uint at, uint room, inout uint found) {
     decal_listed = DecalListed(0u, 0u, at, room);
     traceRayEXT(accelerationStructureEXT(scene.decal_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF,
@@ -111,7 +111,6 @@ uint list_and_blend_decals(inout DecalBlend b, DecalSurface s, uint at, uint roo
     uint n = decal_listed.found;
     found = max(found, n);
     if (n > room) {
-        atomicAdd(decal_lists().words[LIST_OVERFLOWED], 1u);
         blend_decals_in_any_hit(b, s);
     } else {
         for (uint i = 0u; i < n; ++i) apply_decal(b, decal_lists().words[at + i * DECAL_LIST_RUN], s);

@@ -199,6 +199,14 @@ fn read_views(app: &mut App) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
     (albedo, rm)
 }
 
+/// The ray-tracing-pipeline decal pass's list statistics after each of two more frames.
+fn list_stats_of_two_more_frames(app: &mut App) -> (render::scene::DecalListStats, render::scene::DecalListStats) {
+    app.update();
+    let first = counters(app).decal_lists;
+    app.update();
+    (first, counters(app).decal_lists)
+}
+
 #[test]
 fn random_overlapping_stacks_match_the_cpu_blending_reference() {
     for c in CONFIGS {
@@ -236,56 +244,63 @@ fn random_overlapping_stacks_match_the_cpu_blending_reference() {
             for d in &decals {
                 spawn_ref_decal(&mut app, d);
             }
-            let (albedo, rm) = read_views(&mut app);
+            let first = read_views(&mut app);
             assert_no_validation_errors(&mut app);
+            let mut views = vec![first];
             if c.method == DecalMethod::RayPipeline {
-                // The statistics of a frame come back two frames later.
-                let lists: Vec<_> = (0..2)
-                    .map(|_| {
-                        app.update();
-                        counters(&app).decal_lists
-                    })
-                    .collect();
-                assert_eq!((lists[0].measured_frame, lists[1].measured_frame), (1, 2), "{lists:?}");
-                assert!(lists[0].overflowed > 0, "the first frame's pixels had no room: {:?}", lists[0]);
-                // (Where the rooms asked for exceed the initial capacity, the pixels past it are
-                // denied a list and blend in the any-hit shader straight away: a third path.)
-                assert!(lists[1].needed > 0 && lists[1].overflowed == 0, "the second blended its lists: {:?}", lists[1]);
-                eprintln!("seed {seed}: lists {:?}", lists[1]);
+                // Frame 1 has no room anywhere: its pixels blend in the second trace's any-hit
+                // shader. Frame 2 blends the lists; where the rooms asked for exceed the initial
+                // capacity, the pixels past it are denied a list and blend in any-hit at once.
+                // Frame 2's need comes back in frame 4, which grows the buffer (keeping what each
+                // pixel found), so frames 5 and 6 blend every pixel's list. The statistics of a
+                // frame come back two frames later.
+                let (one, two) = list_stats_of_two_more_frames(&mut app);
+                assert_eq!((one.measured_frame, two.measured_frame), (1, 2), "{one:?} {two:?}");
+                assert!(one.overflowed > 0, "the first frame's pixels had no room: {one:?}");
+                assert!(two.needed > 0 && two.overflowed == 0, "the second blended its lists: {two:?}");
+                views.push(read_views(&mut app));
+                let (five, six) = list_stats_of_two_more_frames(&mut app);
+                assert_eq!((five.measured_frame, six.measured_frame), (5, 6), "{five:?} {six:?}");
+                for f in [five, six] {
+                    assert!(f.needed > 0 && f.denied == 0 && f.overflowed == 0, "every pixel blended its list: {f:?}");
+                }
+                assert_no_validation_errors(&mut app);
+                eprintln!("seed {seed}: lists {two:?}, then {six:?}");
             }
-
-            let pixel_world = 2.0 * view.transform.translation.y * (view.camera.fov_y * 0.5).tan() / SIZE.1 as f32;
-            let (mut checked, mut covered, mut worst, mut deepest) = (0, 0, 0.0f32, 0);
-            for py in 0..SIZE.1 {
-                for px in 0..SIZE.0 {
-                    let Some(p) = view.ground_point(px, py, 0.0) else { continue };
-                    if distance_to_any_face(p, &decals) < pixel_world {
-                        continue;
-                    }
-                    let depth =
-                        decals.iter().filter(|d| d.to_world.inverse().transform_point3(p).abs().cmple(Vec3::splat(0.5)).all()).count();
-                    deepest = deepest.max(depth);
-                    let (ea, er, em) = reference(p, &decals);
-                    let i = (py * SIZE.0 + px) as usize;
-                    let got_a = Vec3::from_slice(&albedo[i][..3]);
-                    let (got_r, got_m) = (rm[i][0], rm[i][1]);
-                    let err = (got_a - ea).abs().max_element().max((got_r - er).abs()).max((got_m - em).abs());
-                    worst = worst.max(err);
-                    assert!(
-                        err <= 1.5e-3,
-                        "seed {seed} pixel ({px},{py}) at {p}: gpu albedo {got_a} r {got_r} m {got_m}, cpu {ea} {er} {em}"
-                    );
-                    checked += 1;
-                    if ea != SURFACE_ALBEDO || er != SURFACE_ROUGHNESS || em != SURFACE_METALLIC {
-                        covered += 1;
+            for (albedo, rm) in &views {
+                let pixel_world = 2.0 * view.transform.translation.y * (view.camera.fov_y * 0.5).tan() / SIZE.1 as f32;
+                let (mut checked, mut covered, mut worst, mut deepest) = (0, 0, 0.0f32, 0);
+                for py in 0..SIZE.1 {
+                    for px in 0..SIZE.0 {
+                        let Some(p) = view.ground_point(px, py, 0.0) else { continue };
+                        if distance_to_any_face(p, &decals) < pixel_world {
+                            continue;
+                        }
+                        let depth =
+                            decals.iter().filter(|d| d.to_world.inverse().transform_point3(p).abs().cmple(Vec3::splat(0.5)).all()).count();
+                        deepest = deepest.max(depth);
+                        let (ea, er, em) = reference(p, &decals);
+                        let i = (py * SIZE.0 + px) as usize;
+                        let got_a = Vec3::from_slice(&albedo[i][..3]);
+                        let (got_r, got_m) = (rm[i][0], rm[i][1]);
+                        let err = (got_a - ea).abs().max_element().max((got_r - er).abs()).max((got_m - em).abs());
+                        worst = worst.max(err);
+                        assert!(
+                            err <= 1.5e-3,
+                            "seed {seed} pixel ({px},{py}) at {p}: gpu albedo {got_a} r {got_r} m {got_m}, cpu {ea} {er} {em}"
+                        );
+                        checked += 1;
+                        if ea != SURFACE_ALBEDO || er != SURFACE_ROUGHNESS || em != SURFACE_METALLIC {
+                            covered += 1;
+                        }
                     }
                 }
+                // (40 boxes leave fewer pixels clear of every face.)
+                let enough = if count > 12 { 400 } else { 1500 };
+                assert!(covered > enough, "seed {seed}: most checked pixels lie under decals ({covered} of {checked})");
+                assert!(count < 40 || deepest > 32, "seed {seed}: some pixels are more than 32 decals deep (at most {deepest})");
+                eprintln!("seed {seed}: {checked} pixels ({covered} under decals), worst abs error {worst:.5}");
             }
-            // (40 boxes leave fewer pixels clear of every face.)
-            let enough = if count > 12 { 400 } else { 1500 };
-            assert!(covered > enough, "seed {seed}: most checked pixels lie under decals ({covered} of {checked})");
-            assert!(count < 40 || deepest > 32, "seed {seed}: some pixels are more than 32 decals deep (at most {deepest})");
-            eprintln!("seed {seed}: {checked} pixels ({covered} under decals), worst abs error {worst:.5}");
         }
     }
 }

@@ -73,7 +73,7 @@ use crate::layout::{DECAL_BIN_ROW, DECAL_CLUSTER_HEADER, DECAL_CLUSTER_SLICES, D
 use crate::scene::DecalClusterStats;
 use crate::scene::gpu::GpuScene;
 
-use super::room::{ListRoom, MEMORY_SHARE};
+use super::room::{Fitted, ListRoom, MEMORY_SHARE};
 
 /// Entries the cluster buffer starts with room for, unless the renderer's settings say
 /// otherwise.
@@ -187,7 +187,7 @@ impl DecalClusters {
             )
         };
         let need = (self.latest.entries, self.latest.dropped);
-        if self.room.fit(f, need, (fixed, limit), clusters != self.clusters, warning)? {
+        if self.room.fit(f, need, (fixed, limit), clusters != self.clusters, warning)? != Fitted::Kept {
             self.clusters = clusters;
         }
         let capacity = self.room.capacity;

@@ -23,14 +23,16 @@
 //!   newly covered pixel, the first frame) is blended by a second trace whose any-hit shader
 //!   blends, the seed's way, so no decal is ever dropped; the statistics count those pixels
 //!   ([`DecalListStats::overflowed`]).
-//! - **Memory**: the buffer holds a header, three words a pixel (the list's first entry, its
-//!   room, the decals found) and the entries. It grows to a quarter more than the entries asked
-//!   for, rounded to a power of two, read back two frames later, and shrinks with the same
+//! - **Memory**: the buffer holds a header, three words a pixel (the list's first entry, the
+//!   decals found, its room) and the entries. A pixel asks for room for at most
+//!   `DECAL_LIST_MOST` (4,096) decals; one with more blends the seed's way. It grows to a quarter more than the entries asked
+//!   for, rounded to a power of two, read back two frames later (a new buffer takes over the
+//!   decals each pixel found, so the frame after growing needs no second traces), and shrinks with the same
 //!   hysteresis as the cluster buffer (never below the initial room; released after a second
 //!   unused: [`super::room`]). It never takes more than [`MEMORY_SHARE`] of the renderer's memory: a pixel
 //!   whose room does not fit gets none and blends the seed's way ([`DecalListStats::denied`];
 //!   one warning). Measured at 1920×1080 on the courtyard's scatter: 10,000 decals ask for
-//!   3.8 M entries (room for 8.4 M, 32 MiB), 100,000 for 23 M (32 M, 128 MiB), 1,000,000 for
+//!   3.8 M entries (room for 8.4 M, 32 MiB), 100,000 for 23 M (33.6 M, 128 MiB), 1,000,000 for
 //!   204 M (268 M, 1 GiB), beside 24 MiB of per-pixel words; the cluster lists of clustered
 //!   decals take 64 and 512 MiB at 100,000 and 1,000,000.
 //! - **What it costs where decals are few**: the allocation pass, 0.033 ms a frame at
@@ -40,7 +42,7 @@
 
 use ash::vk;
 
-use super::room::{ListRoom, MEMORY_SHARE};
+use super::room::{Fitted, ListRoom, MEMORY_SHARE};
 use crate::RenderError;
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::create_computes;
@@ -54,7 +56,8 @@ use crate::scene::DecalListStats;
 /// Entries the list buffer starts with room for.
 pub const INITIAL_CAPACITY: u32 = 1 << 16;
 
-/// Header words (`shaders/include/decal_lists.glsl`): the statistics, then the image's size.
+/// Header words (`shaders/include/decal_lists.glsl`): the statistics, the image's size, then the
+/// reservation counter.
 const LIST_NEEDED: usize = 0;
 const LIST_DENIED: usize = 1;
 const LIST_OVERFLOWED: usize = 2;
@@ -79,8 +82,11 @@ pub struct DecalLists {
     room: ListRoom,
     /// The image the buffer's per-pixel words were made for: row width and pixels.
     image: (u32, u32),
-    /// The per-pixel words are not yet zero (a new buffer).
+    /// The per-pixel words are not yet zero (a new buffer for a new image).
     fresh: bool,
+    /// The buffer a new one replaced this frame for the same image: the decals each pixel found
+    /// are copied over, so that growing costs no frame of rooms sized from nothing.
+    carry: Option<vk::Buffer>,
     readback: StatsReadback,
     latest: DecalListStats,
     res: ResourceId,
@@ -103,6 +109,7 @@ impl DecalLists {
             room: ListRoom::new("decal lists", INITIAL_CAPACITY),
             image: (0, 0),
             fresh: false,
+            carry: None,
             readback,
             latest: DecalListStats { measured_frame: u64::MAX, ..Default::default() },
             res: graph.resource("decal lists"),
@@ -135,8 +142,9 @@ impl DecalLists {
                 ctx.memory_limit() >> 20,
             )
         };
-        if self.room.fit(f, (self.latest.needed, denied), (fixed, limit), image != self.image, warning)? {
-            (self.image, self.fresh) = (image, true);
+        if let Fitted::New { previous } = self.room.fit(f, (self.latest.needed, denied), (fixed, limit), image != self.image, warning)? {
+            self.carry = previous.filter(|_| image == self.image);
+            (self.image, self.fresh) = (image, self.carry.is_none());
         }
         let capacity = self.room.capacity;
         *stats = DecalListStats {
@@ -164,15 +172,26 @@ impl DecalLists {
     pub fn record_offsets(&mut self, f: &mut Frame) -> Result<(), RenderError> {
         let Some(buffer) = self.room.buffer.as_ref() else { return Ok(()) };
         let (raw, res, (width, pixels)) = (buffer.raw, self.res, self.image);
-        // The statistics, the image's size, and (in a new buffer) the rest of the header and
-        // the per-pixel words: ranges that do not overlap, so no barrier is needed between them.
+        // The statistics, the image's size, and in a new buffer the rest of the header and the
+        // per-pixel words, or the decals each pixel found, from the buffer it replaced: ranges
+        // that do not overlap, so no barrier is needed between them.
         let fresh = std::mem::take(&mut self.fresh).then_some((DECAL_LIST_HEADER as u64 + 3 * pixels as u64) * 4);
+        let carry = self.carry.take();
+        let found = vk::BufferCopy {
+            src_offset: (DECAL_LIST_HEADER as u64 + pixels as u64) * 4,
+            dst_offset: (DECAL_LIST_HEADER as u64 + pixels as u64) * 4,
+            size: pixels as u64 * 4,
+        };
         f.pass("decal_lists_clear", PassKind::Transfer).write(res, BufferUse::Transfer).record(|p| {
             p.cmd.fill_buffer(raw, 0, LIST_WIDTH * 4, 0);
             p.cmd.fill_buffer(raw, LIST_WIDTH * 4, 4, width);
             p.cmd.fill_buffer(raw, LIST_PIXELS * 4, 4, pixels);
+            // The reservation counter and the spare words.
+            p.cmd.fill_buffer(raw, (LIST_PIXELS + 1) * 4, (DECAL_LIST_HEADER as u64 - LIST_PIXELS - 1) * 4, 0);
             if let Some(end) = fresh {
-                p.cmd.fill_buffer(raw, (LIST_PIXELS + 1) * 4, end - (LIST_PIXELS + 1) * 4, 0);
+                p.cmd.fill_buffer(raw, DECAL_LIST_HEADER as u64 * 4, end - DECAL_LIST_HEADER as u64 * 4, 0);
+            } else if let Some(previous) = carry {
+                p.cmd.copy_buffer(previous, raw, &[found]);
             }
         })?;
         let extent = f.graph.extent();

@@ -6,6 +6,7 @@
 //! [`MEMORY_SHARE`] of the renderer's memory, and the first frame whose need stays past that
 //! ceiling is warned about once (again only after the need fitted in between).
 
+use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use crate::RenderError;
@@ -30,6 +31,16 @@ fn plan_capacity(current: u32, needed: u32, initial: u32, smaller: Option<u64>, 
         capacity = smaller.min(u32::MAX as u64) as u32;
     }
     capacity.min(limit)
+}
+
+/// What [`ListRoom::fit`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Fitted {
+    /// The buffer stays.
+    Kept,
+    /// A new buffer replaced `previous` (none the first time), which lives until this frame
+    /// has finished: this frame's commands may still copy from it.
+    New { previous: Option<vk::Buffer> },
 }
 
 /// A buffer of 32-bit list entries after `fixed` bytes of its own, and how its room has changed.
@@ -63,16 +74,17 @@ impl ListRoom {
         }
     }
 
-    /// The most entries the buffer may hold beside its `fixed` bytes.
+    /// The most entries the buffer may hold beside its `fixed` bytes: never past 2³⁰, so that
+    /// every word index a shader forms stays a positive 32-bit integer.
     pub fn limit(&self, ctx: &GpuContext, fixed: u64) -> u32 {
         let share = ctx.memory_limit() / MEMORY_SHARE.1 * MEMORY_SHARE.0;
-        (share.saturating_sub(fixed) / 4).clamp(self.initial.min(1024) as u64, u32::MAX as u64 / 2) as u32
+        (share.saturating_sub(fixed) / 4).clamp(self.initial.min(1024) as u64, 1 << 30) as u32
     }
 
     /// Gives the buffer room for `needed` entries (within `limit`), a new buffer of `fixed`
     /// bytes plus its entries when the room changes or `remake` says the fixed part did.
     /// `dropped` is what the GPU could not fit in the frame that needed that much; past the
-    /// ceiling, `warning` is logged once. Returns whether the buffer is new.
+    /// ceiling, `warning` is logged once.
     pub fn fit(
         &mut self,
         f: &mut Frame,
@@ -80,7 +92,7 @@ impl ListRoom {
         (fixed, limit): (u64, u32),
         remake: bool,
         warning: impl FnOnce(u32) -> String,
-    ) -> Result<bool, RenderError> {
+    ) -> Result<Fitted, RenderError> {
         let needed = needed.min(u32::MAX as u64 / 2) as u32;
         let smaller = self.shrink.check(self.capacity as u64, (needed + needed / 4) as u64, self.initial as u64);
         let capacity = plan_capacity(self.capacity, needed, self.initial, smaller, limit);
@@ -93,10 +105,11 @@ impl ListRoom {
             self.warned_at_limit = false;
         }
         if self.buffer.is_some() && capacity == self.capacity && !remake {
-            return Ok(false);
+            return Ok(Fitted::Kept);
         }
         let size = fixed + capacity as u64 * 4;
         let buffer = Buffer::new(f.ctx, self.name, size, GPU_WRITTEN, MemoryLocation::GpuOnly)?;
+        let previous = self.buffer.as_ref().map(|b| b.raw);
         if let Some(old) = self.buffer.replace(buffer) {
             if capacity < self.capacity {
                 self.shrinks += 1;
@@ -110,7 +123,7 @@ impl ListRoom {
         }
         self.capacity = capacity;
         self.shrink.reset();
-        Ok(true)
+        Ok(Fitted::New { previous })
     }
 
     /// A frame that does not use the buffer: after [`crate::gpu::upload::SHRINK_AFTER_FRAMES`]

@@ -565,9 +565,11 @@ pub struct DecalListStats {
     /// The most entries it may ever have room for: [`crate::decals::room::MEMORY_SHARE`]
     /// of the renderer's memory.
     pub limit: u64,
-    /// Entries the pixels' rooms asked for (what each found the frame before, an eighth more).
+    /// Entries the pixels' lists asked for: each run of 8 pixels along a row, 8 times the most
+    /// that one of them asks for (what it found the frame before, an eighth more and two).
     pub needed: u64,
-    /// Pixels whose room did not fit the buffer (they blended their decals the seed's way).
+    /// Pixels that found decals the frame before but got no room this frame, the buffer being
+    /// full (they blended their decals the seed's way).
     pub denied: u64,
     /// Pixels that found more decals than their room (they traced a second time to blend them).
     pub overflowed: u64,
