@@ -26,7 +26,7 @@
 //!   ray-tracing-pipeline decal pass against its floor"), with the scattered decals: 5.11 →
 //!   3.15 ms at 100,000 when an earlier round first collected the slots, in a 136-byte payload
 //!   with room for 32 (what the reflection rays still do); then, with the lists in memory,
-//!   3.16 → 2.90 ms at 100,000 and 46.6 → 28.6 ms at 1,000,000, where every pixel had more
+//!   3.16 → 2.91 ms at 100,000 and 46.6 → 28.6 ms at 1,000,000, where every pixel had more
 //!   decals than that payload held.
 //!
 //!   Either way, weighted blended OIT is order-independent *within* a channel (sums and
