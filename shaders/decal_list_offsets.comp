@@ -6,10 +6,10 @@
 // asks for (decal_list_room of what it found last frame): a pixel at the edge of a decal, which
 // found none last frame but finds some under a jittered or moving view, has its neighbours'
 // room. Each workgroup of 256 pixels (32 runs) scans its runs' blocks in shared memory and
-// reserves them with one atomic add, as the decal clusters' scan does (decal_cluster_scan.comp).
-// A run whose block ends past the buffer's capacity gets none (NO_LIST) and its pixels are
-// counted; the renderer reads the total asked for back and grows the buffer
-// (render/src/decals/lists.rs).
+// reserves them with one atomic add, as the decal clusters' scan does (decal_cluster_scan.comp),
+// and adds them to the need with another. A run whose block ends past the buffer's capacity gets
+// none (NO_LIST), and those of its pixels that asked for room are counted; the renderer reads
+// the need back and grows the buffer (render/src/decals/lists.rs).
 #include "decal_lists.glsl"
 
 #define SCAN_THREADS 256u
