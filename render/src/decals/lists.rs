@@ -123,6 +123,11 @@ impl DecalLists {
         let ctx = f.ctx;
         let extent = f.graph.extent();
         let image = (extent.width, extent.width * extent.height);
+        // A buffer replaced in a frame that did not record the lists (the floor's debug view) is
+        // gone by now: zero the counts instead of copying them from it.
+        if self.carry.take().is_some() {
+            self.fresh = true;
+        }
         if let Some((frame, words)) = self.readback.take(f) {
             self.latest = DecalListStats {
                 measured_frame: frame,
