@@ -13,6 +13,8 @@
 //! - The improved (5-tap) normals from depth are closer to the true normals than the naive
 //!   (3-tap) ones on a scene with depth discontinuities.
 //! - A tile holding 100 lights keeps them all, and lights them like every-light shading.
+//! - The light list grows when the tiles need more room than it has, and is released a second
+//!   after culling stops.
 //! - A still scene does no acceleration-structure work; a moving instance updates the TLAS; a
 //!   new one rebuilds it.
 //!
@@ -373,6 +375,47 @@ fn a_tile_holding_a_hundred_lights_keeps_them_all() {
     eprintln!("tiled vs every light: mean {mean}, p99 {p99}, centre radiance {peak}");
     assert!(peak > 0.05, "the lights light the plane");
     assert!(mean < 1e-5 && p99 < 1e-4, "tiled shading is every-light shading where no light is missing: mean {mean}, p99 {p99}");
+}
+
+#[test]
+fn the_light_list_grows_when_the_tiles_need_more_room_and_is_released_a_second_after_culling_stops() {
+    let mut app = gpu_app(SIZE.0, SIZE.1, settings(LightSettings { shadows: false, ..Default::default() }));
+    ground(&mut app, 10.0);
+    let view = TopDownView::new(6.0, SIZE);
+    view.spawn(&mut app.world);
+    // 150 lights whose ranges cover the whole view: each of the 48 tiles (16 pixels) lists them
+    // all, 7,200 entries, where the list starts with room for 1,024.
+    for i in 0..150 {
+        let a = i as f32 * 0.7;
+        app.world.spawn((PointLight { color: Vec3::ONE, intensity: 0.01, range: Some(30.0) }, Transform::from_xyz(a.cos(), 1.0, a.sin())));
+    }
+    let tiles = |app: &App| app.world.resource::<RenderStats>().last.light_tiles;
+    let mut seen = Vec::new();
+    for _ in 0..6 {
+        app.update();
+        seen.push(tiles(&app));
+    }
+    assert_no_validation_errors(&mut app);
+    assert_eq!(seen[0].capacity, 1024, "the first frame has the initial room: {:?}", seen[0]);
+    let first = seen.iter().find(|s| s.measured_frame != u64::MAX).expect("statistics come back within a few frames");
+    assert!(first.overflowed > 0 && first.entries >= 48 * 150, "the first measured frame lacked room and says so: {first:?}");
+    let last = *seen.last().unwrap();
+    assert!(last.grows >= 1 && last.capacity >= last.entries && last.overflowed == 0, "the list grew to fit: {last:?}");
+    let lists = renderer(&mut app).read_light_tiles().unwrap().expect("lights were culled");
+    assert_eq!(lists.lights_at(SIZE.0 / 2, SIZE.1 / 2).map(<[u32]>::len), Some(150), "a tile lists every light once grown");
+
+    // Every light, no culling: a second later the list is released.
+    app.world.resource_mut::<RenderSettings>().lights.method = LightMethod::All;
+    for _ in 0..render::gpu::upload::SHRINK_AFTER_FRAMES + 2 {
+        app.update();
+    }
+    let after = tiles(&app);
+    assert!(after.shrinks > last.shrinks, "the unused list went: {after:?}");
+    // Culling again: the list comes back at the initial room, and grows again.
+    app.world.resource_mut::<RenderSettings>().lights.method = LightMethod::Tiled;
+    app.update();
+    assert_eq!(tiles(&app).capacity, 1024, "a new list starts from the initial room: {:?}", tiles(&app));
+    assert_no_validation_errors(&mut app);
 }
 
 #[test]

@@ -73,7 +73,7 @@ use crate::layout::{DECAL_BIN_ROW, DECAL_CLUSTER_HEADER, DECAL_CLUSTER_SLICES, D
 use crate::scene::DecalClusterStats;
 use crate::scene::gpu::GpuScene;
 
-use super::room::{Fitted, ListRoom, MEMORY_SHARE};
+use crate::gpu::room::{Fitted, ListRoom, MEMORY_SHARE};
 
 /// Entries the cluster buffer starts with room for, unless the renderer's settings say
 /// otherwise.

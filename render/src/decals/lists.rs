@@ -29,7 +29,7 @@
 //!   for, rounded to a power of two, read back two frames later (a new buffer takes over the
 //!   decals each pixel found, so the frame after growing needs no second traces), and shrinks with the same
 //!   hysteresis as the cluster buffer (never below the initial room; released after a second
-//!   unused: [`super::room`]). It never takes more than [`MEMORY_SHARE`] of the renderer's memory: a pixel
+//!   unused: [`crate::gpu::room`]). It never takes more than [`MEMORY_SHARE`] of the renderer's memory: a pixel
 //!   whose room does not fit gets none and blends the seed's way ([`DecalListStats::denied`];
 //!   one warning). Measured at 1920×1080 on the courtyard's scatter: 10,000 decals ask for
 //!   3.8 M entries (room for 8.4 M, 32 MiB), 100,000 for 23 M (33.6 M, 128 MiB), 1,000,000 for
@@ -42,10 +42,10 @@
 
 use ash::vk;
 
-use super::room::{Fitted, ListRoom, MEMORY_SHARE};
 use crate::RenderError;
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::create_computes;
+use crate::gpu::room::{Fitted, ListRoom, MEMORY_SHARE};
 use crate::gpu::shaders;
 use crate::gpu::upload::Upload;
 use crate::graph::readback::StatsReadback;

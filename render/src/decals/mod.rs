@@ -10,7 +10,6 @@ pub mod clustered;
 pub mod debug;
 pub mod deferred;
 pub mod lists;
-pub mod room;
 
 use ash::vk;
 

@@ -6,6 +6,7 @@ pub mod commands;
 pub mod device;
 pub mod memory;
 pub mod pipeline;
+pub mod room;
 pub mod shaders;
 pub mod timestamps;
 pub mod upload;

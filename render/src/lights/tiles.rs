@@ -18,7 +18,11 @@
 //!   need (with that quarter) has stayed at or below a quarter of a buffer for a second (60
 //!   frames), the buffer shrinks to its power of two, never below the floors (eight entries a
 //!   tile, a shadow row a tile); after a second without tiled lights, or without shadows, the
-//!   list or the shadow words are released ([`crate::gpu::upload::Shrink`]).
+//!   list or the shadow words are released ([`crate::gpu::upload::Shrink`]). The list is sized
+//!   by the same code as the decals' list buffers ([`crate::gpu::room`]), so it shares their
+//!   ceiling too: it never takes more than [`crate::gpu::room::MEMORY_SHARE`] of the renderer's
+//!   memory, and a need past that is warned about once (the tiles that do not fit loop over
+//!   every light, as above).
 //! - **Every light** ([`LightMethod::All`]) needs no culling; the shadow rows then hold every
 //!   light for every tile, which is affordable up to [`MAX_ALL_LIGHT_SHADOW_BYTES`].
 
@@ -30,6 +34,7 @@ use crate::RenderError;
 use crate::gpu::device::GpuContext;
 use crate::gpu::memory::{Buffer, Retired};
 use crate::gpu::pipeline::create_compute;
+use crate::gpu::room::{Fitted, ListRoom, MEMORY_SHARE};
 use crate::gpu::shaders;
 use crate::gpu::upload::Shrink;
 use crate::graph::readback::StatsReadback;
@@ -158,9 +163,9 @@ pub struct LightTiles {
     frusta: Option<Buffer>,
     /// Projection, view size and tile size the frusta were computed for.
     frusta_key: Option<([u32; 16], u32, u32, u32)>,
-    tiles: Option<Buffer>,
+    /// The light tile buffer: the statistics header, the grid, then the list's entries.
+    list: ListRoom,
     tiles_for: (u32, u32, u32),
-    list_capacity: u32,
     shadow: Option<Buffer>,
     shadow_rows: u32,
     shadow_row_words: u32,
@@ -172,9 +177,9 @@ pub struct LightTiles {
     latest: LightTileStats,
     /// Shadow rows the last measured frame needed.
     rows_needed: u64,
+    /// Times the shadow words and tints grew or shrank (the list counts its own).
     grows: u64,
     shrinks: u64,
-    list_shrink: Shrink,
     shadow_shrink: Shrink,
     warned_all_shadows: bool,
     res: TileResources,
@@ -201,9 +206,8 @@ impl LightTiles {
             cull_transparent_pipeline: create_compute(ctx, layout, "light culling (transparency)", shaders::LIGHT_CULL_COMP_TRANSPARENT)?,
             frusta: None,
             frusta_key: None,
-            tiles: None,
+            list: ListRoom::new("light tiles", 1024),
             tiles_for: (0, 0, 0),
-            list_capacity: 0,
             shadow: None,
             shadow_rows: 0,
             shadow_row_words: 0,
@@ -214,7 +218,6 @@ impl LightTiles {
             rows_needed: 0,
             grows: 0,
             shrinks: 0,
-            list_shrink: Shrink::default(),
             shadow_shrink: Shrink::default(),
             warned_all_shadows: false,
             res: TileResources {
@@ -247,12 +250,12 @@ impl LightTiles {
                 tiles: self.tiles_for.0 as u64 * self.tiles_for.1 as u64,
                 tile_size: self.tiles_for.2 as u64,
                 entries: words[0] as u64,
-                capacity: self.list_capacity as u64,
+                capacity: self.list.capacity as u64,
                 overflowed: words[2] as u64,
                 max_per_tile: words[3] as u64,
                 tiles_used: words[4] as u64,
-                grows: self.grows,
-                shrinks: self.shrinks,
+                grows: self.list.grows + self.grows,
+                shrinks: self.list.shrinks + self.shrinks,
             };
         }
         let frame_value = f.upload.frame_value;
@@ -262,29 +265,20 @@ impl LightTiles {
         if tiled {
             // The list: room for what the last measured frame needed, and at first for eight
             // lights a tile (or every light, when there are fewer).
-            let floor = tile_count.saturating_mul(light_slots.min(8)).max(1024);
-            let needed = self.latest.entries.min(u32::MAX as u64 / 2) as u32;
-            let mut capacity = self.list_capacity.max(floor);
-            let smaller = self.list_shrink.check(self.list_capacity as u64, (needed + needed / 4) as u64, floor as u64);
-            if needed > capacity {
-                capacity = (needed + needed / 4).next_power_of_two();
-            } else if let Some(smaller) = smaller {
-                capacity = smaller as u32;
-            }
-            if self.tiles.is_none() || capacity != self.list_capacity || self.tiles_for != (tiles.0, tiles.1, tile_size) {
-                let size = (LIGHT_TILE_HEADER as u64 + 3 * tile_count as u64 + capacity as u64) * 4;
-                let buffer = Buffer::new(ctx, "light tiles", size, crate::gpu::memory::GPU_WRITTEN, MemoryLocation::GpuOnly)?;
-                if let Some(old) = self.tiles.replace(buffer) {
-                    if capacity < self.list_capacity {
-                        self.shrinks += 1;
-                        f.upload.bury_shrunk(old, size);
-                    } else {
-                        if capacity > self.list_capacity {
-                            self.grows += 1;
-                        }
-                        f.upload.graveyard.bury(frame_value, Retired::Buffer(old));
-                    }
-                }
+            self.list.set_initial(tile_count.saturating_mul(light_slots.min(8)).max(1024));
+            let fixed = (LIGHT_TILE_HEADER as u64 + 3 * tile_count as u64) * 4;
+            let limit = self.list.limit(ctx, fixed);
+            let overflowed = self.latest.overflowed;
+            let warning = |needed: u32| {
+                format!(
+                    "light culling needs {needed} list entries, past the ceiling of {limit} (1/{} of {} MiB of GPU memory): {overflowed} tiles loop over every light, without shadows, instead",
+                    MEMORY_SHARE.1,
+                    ctx.memory_limit() >> 20,
+                )
+            };
+            let remake = self.tiles_for != (tiles.0, tiles.1, tile_size);
+            if let Fitted::New { .. } = self.list.fit(f, (self.latest.entries, overflowed), (fixed, limit), remake, warning)? {
+                // The frusta follow the tiles (their count may have changed with the buffer).
                 let frusta = Buffer::new(
                     ctx,
                     "light tile frusta",
@@ -296,23 +290,22 @@ impl LightTiles {
                     f.upload.graveyard.bury(frame_value, Retired::Buffer(old));
                     self.frusta_key = None;
                 }
-                self.list_capacity = capacity;
-                self.list_shrink.reset();
                 self.tiles_for = (tiles.0, tiles.1, tile_size);
             }
             let key = (proj.to_cols_array().map(f32::to_bits), extent.width, extent.height, tile_size);
             frame.rebuild_frusta = self.frusta_key != Some(key);
             self.frusta_key = Some(key);
-            frame.light_tiles = self.tiles.as_ref().map_or(0, |b| b.address);
+            frame.light_tiles = self.list.buffer.as_ref().map_or(0, |b| b.address);
             frame.tile_frusta = self.frusta.as_ref().map_or(0, |b| b.address);
-            frame.list_capacity = self.list_capacity;
-        } else if self.tiles.is_some() && self.list_shrink.unused() {
-            // A second without tiled lights: the list and the frusta go.
-            for old in [self.tiles.take(), self.frusta.take()].into_iter().flatten() {
+            frame.list_capacity = self.list.capacity;
+        } else if self.list.idle(&mut f.upload) {
+            // A second without tiled lights: the list went, and the frusta go with it.
+            if let Some(old) = self.frusta.take() {
                 f.upload.bury_shrunk(old, 0);
             }
-            (self.list_capacity, self.frusta_key, self.tiles_for) = (0, None, (0, 0, 0));
-            self.shrinks += 1;
+            (self.frusta_key, self.tiles_for) = (None, (0, 0, 0));
+            // The next culling starts again from the initial room, as the decals' lists do.
+            self.latest.entries = 0;
         }
 
         let mut shadow_used = false;
@@ -405,8 +398,8 @@ impl LightTiles {
             tiles: tile_count as u64,
             tile_size: tile_size as u64,
             capacity: frame.list_capacity as u64,
-            grows: self.grows,
-            shrinks: self.shrinks,
+            grows: self.list.grows + self.grows,
+            shrinks: self.list.shrinks + self.shrinks,
             ..self.latest
         };
         Ok(frame)
@@ -418,7 +411,7 @@ impl LightTiles {
         if !frame.tiled {
             return Ok(());
         }
-        let (Some(tiles), Some(_)) = (self.tiles.as_ref(), self.frusta.as_ref()) else { return Ok(()) };
+        let (Some(tiles), Some(_)) = (self.list.buffer.as_ref(), self.frusta.as_ref()) else { return Ok(()) };
         let res = self.res;
         let tile_count = frame.tiles.0 * frame.tiles.1;
         if frame.rebuild_frusta {
@@ -449,9 +442,9 @@ impl LightTiles {
 
     /// The light grid and list the last culling wrote (waits for the GPU); `None` before any.
     pub fn read_back(&self, ctx: &GpuContext, graph: &mut FrameGraph) -> Result<Option<LightTileLists>, RenderError> {
-        let Some(buffer) = self.tiles.as_ref() else { return Ok(None) };
+        let Some(buffer) = self.list.buffer.as_ref() else { return Ok(None) };
         let (tx, ty, tile_size) = self.tiles_for;
-        let size = (LIGHT_TILE_HEADER as u64 + 3 * (tx * ty) as u64 + self.list_capacity as u64) * 4;
+        let size = (LIGHT_TILE_HEADER as u64 + 3 * (tx * ty) as u64 + self.list.capacity as u64) * 4;
         let bytes = graph.read_back_buffer(ctx, self.res.tiles, buffer.raw, size)?;
         let words: &[u32] = bytemuck::cast_slice(&bytes);
         let grid_start = LIGHT_TILE_HEADER as usize;
@@ -466,7 +459,8 @@ impl LightTiles {
             // SAFETY: the GPU is idle.
             unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
-        for b in [self.frusta, self.tiles, self.shadow, self.tints.map(|(b, ..)| b)].into_iter().flatten() {
+        self.list.destroy(ctx);
+        for b in [self.frusta, self.shadow, self.tints.map(|(b, ..)| b)].into_iter().flatten() {
             b.destroy(ctx);
         }
         self.readback.destroy(ctx);

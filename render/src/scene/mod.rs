@@ -531,7 +531,7 @@ pub struct DecalClusterStats {
     pub entries: u64,
     /// Entries the cluster buffer has room for this frame.
     pub capacity: u64,
-    /// The most entries it may ever have room for: [`crate::decals::room::MEMORY_SHARE`]
+    /// The most entries it may ever have room for: [`crate::gpu::room::MEMORY_SHARE`]
     /// of the renderer's memory ([`crate::gpu::device::GpuContext::memory_limit`]).
     pub limit: u64,
     /// Entries that did not fit (their decals were missing from those clusters that frame).
@@ -562,7 +562,7 @@ pub struct DecalListStats {
     pub measured_frame: u64,
     /// Entries the list buffer has room for this frame.
     pub capacity: u64,
-    /// The most entries it may ever have room for: [`crate::decals::room::MEMORY_SHARE`]
+    /// The most entries it may ever have room for: [`crate::gpu::room::MEMORY_SHARE`]
     /// of the renderer's memory.
     pub limit: u64,
     /// Entries the pixels' lists asked for: each run of 8 pixels along a row, 8 times the most

@@ -1,6 +1,7 @@
 //! The room of a buffer of lists that the GPU fills and the CPU sizes from what it reads back
-//! two frames later: the decal clusters' lists ([`super::clustered`]) and the
-//! ray-tracing-pipeline decal pass's per-pixel lists ([`super::lists`]). It grows to a quarter
+//! two frames later: the decal clusters' lists ([`crate::decals::clustered`]), the
+//! ray-tracing-pipeline decal pass's per-pixel lists ([`crate::decals::lists`]) and the light
+//! tiles' index list ([`crate::lights::tiles`]). It grows to a quarter
 //! more than the need, rounded to a power of two; it shrinks with [`Shrink`]'s hysteresis (never
 //! below the initial room) and is released after a second unused; it never takes more than
 //! [`MEMORY_SHARE`] of the renderer's memory, and the first frame whose need stays past that
@@ -35,7 +36,7 @@ fn plan_capacity(current: u32, needed: u32, initial: u32, smaller: Option<u64>, 
 
 /// What [`ListRoom::fit`] did.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum Fitted {
+pub(crate) enum Fitted {
     /// The buffer stays.
     Kept,
     /// A new buffer replaced `previous` (none the first time), which lives until this frame
@@ -44,7 +45,7 @@ pub(super) enum Fitted {
 }
 
 /// A buffer of 32-bit list entries after `fixed` bytes of its own, and how its room has changed.
-pub(super) struct ListRoom {
+pub(crate) struct ListRoom {
     name: &'static str,
     /// The buffer (none before first use, or once released).
     pub buffer: Option<Buffer>,
@@ -72,6 +73,12 @@ impl ListRoom {
             shrink: Shrink::default(),
             warned_at_limit: false,
         }
+    }
+
+    /// Sets the least room the buffer keeps (and a new one gets) from the next [`Self::fit`]
+    /// on, for lists whose floor follows the frame (the light tiles: a few entries a tile).
+    pub fn set_initial(&mut self, initial: u32) {
+        self.initial = initial.max(1);
     }
 
     /// The most entries the buffer may hold beside its `fixed` bytes: never past 2³⁰, so that
