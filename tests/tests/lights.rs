@@ -404,17 +404,29 @@ fn the_light_list_grows_when_the_tiles_need_more_room_and_is_released_a_second_a
     let lists = renderer(&mut app).read_light_tiles().unwrap().expect("lights were culled");
     assert_eq!(lists.lights_at(SIZE.0 / 2, SIZE.1 / 2).map(<[u32]>::len), Some(150), "a tile lists every light once grown");
 
-    // Every light, no culling: a second later the list is released.
+    // Every light, no culling: the list stays for a second (60 frames), then is released.
     app.world.resource_mut::<RenderSettings>().lights.method = LightMethod::All;
-    for _ in 0..render::gpu::upload::SHRINK_AFTER_FRAMES + 2 {
+    let second = render::gpu::upload::SHRINK_AFTER_FRAMES;
+    for _ in 0..second - 2 {
+        app.update();
+    }
+    assert_eq!(tiles(&app).shrinks, last.shrinks, "not released before a second: {:?}", tiles(&app));
+    assert!(renderer(&mut app).read_light_tiles().unwrap().is_some(), "the list is still there before a second");
+    for _ in 0..4 {
         app.update();
     }
     let after = tiles(&app);
     assert!(after.shrinks > last.shrinks, "the unused list went: {after:?}");
-    // Culling again: the list comes back at the initial room, and grows again.
+    assert!(renderer(&mut app).read_light_tiles().unwrap().is_none(), "no list after a second unused");
+    // Culling again: the list comes back at the initial room, and grows to fit again.
     app.world.resource_mut::<RenderSettings>().lights.method = LightMethod::Tiled;
     app.update();
     assert_eq!(tiles(&app).capacity, 1024, "a new list starts from the initial room: {:?}", tiles(&app));
+    for _ in 0..5 {
+        app.update();
+    }
+    let again = tiles(&app);
+    assert!(again.grows > last.grows && again.capacity >= 48 * 150 && again.overflowed == 0, "the list grew again: {again:?}");
     assert_no_validation_errors(&mut app);
 }
 
