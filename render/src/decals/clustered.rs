@@ -44,8 +44,8 @@
 //!   quarter of the room for a second (60 frames), it shrinks to the need's power of two, never
 //!   below the initial room; after a second without clustered decals to bin, it is released.
 //! - **A ceiling**: the lists never take more than [`MEMORY_SHARE`] of the renderer's memory
-//!   (the memory budget, or the largest device-local heap), nor more than 2³¹ − 1 entries
-//!   (8 GiB; [`DecalClusterStats::limit`]). A
+//!   (the memory budget, or the largest device-local heap), nor more than 2³⁰ entries
+//!   (4 GiB; [`DecalClusterStats::limit`]). A
 //!   scene that needs more keeps the ceiling and drops the entries past it, every frame, which
 //!   the statistics count and one warning names (again only after the need fitted in between).
 //!   The growth's two-frame latency also drops entries, but growing ends it, so that is counted

@@ -1,5 +1,6 @@
 //! The Vulkan core every pass builds on: the device and its capability tiers, memory and
-//! deferred destruction, staging uploads, timestamps, SPIR-V and pipeline creation.
+//! deferred destruction, staging uploads, timestamps, SPIR-V and pipeline creation, and the
+//! sizing of GPU-filled list buffers from what they needed (`room`).
 
 pub mod accel;
 pub mod commands;

@@ -61,7 +61,7 @@ pub(crate) struct ListRoom {
 }
 
 impl ListRoom {
-    /// No buffer yet; the first gets room for `initial` entries.
+    /// No buffer yet; the first gets room for `initial` entries (within the ceiling).
     pub fn new(name: &'static str, initial: u32) -> Self {
         Self {
             name,
@@ -75,8 +75,8 @@ impl ListRoom {
         }
     }
 
-    /// Sets the least room the buffer keeps (and a new one gets) from the next [`Self::fit`]
-    /// on, for lists whose floor follows the frame (the light tiles: a few entries a tile).
+    /// Sets the least room the buffer keeps (and a new one gets, within the ceiling) from the
+    /// next [`Self::fit`] on, for lists whose floor follows the frame (the light tiles: a few entries a tile).
     pub fn set_initial(&mut self, initial: u32) {
         self.initial = initial.max(1);
     }

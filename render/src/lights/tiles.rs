@@ -19,10 +19,11 @@
 //!   frames), the buffer shrinks to its power of two, never below the floors (eight entries a
 //!   tile, a shadow row a tile); after a second without tiled lights, or without shadows, the
 //!   list or the shadow words are released ([`crate::gpu::upload::Shrink`]). The list is sized
-//!   by the same code as the decals' list buffers ([`crate::gpu::room`]), so it shares their
-//!   ceiling too: it never takes more than [`crate::gpu::room::MEMORY_SHARE`] of the renderer's
-//!   memory, and a need past that is warned about once (the tiles that do not fit loop over
-//!   every light, as above).
+//!   by the same code as the decals' list buffers ([`crate::gpu::room`]), with the same kind of
+//!   ceiling, its own: it never takes more than [`crate::gpu::room::MEMORY_SHARE`] of the
+//!   renderer's memory (nor 2³⁰ entries), and a need past that is warned about once; the tiles
+//!   that do not fit then loop over every light without shadows in every frame, not just
+//!   until the list grows.
 //! - **Every light** ([`LightMethod::All`]) needs no culling; the shadow rows then hold every
 //!   light for every tile, which is affordable up to [`MAX_ALL_LIGHT_SHADOW_BYTES`].
 
