@@ -12,7 +12,8 @@
 //! `blas_updates`, `tlas_builds`, `instances`, `lights`, `decals`, `transparent`: blended instances drawn,
 //! `shadow_map_views`: atlas tiles drawn, `shadow_maps_missing`: lights the atlas had no room
 //! for), and, in frames that applied
-//! clustered decals, `clusters`: `clusters`, `capacity`, `grows` (this frame's), and what the GPU
+//! clustered decals or still hold their lists (`capacity` > 0: for a second after they last ran),
+//! `clusters`: `clusters`, `capacity`, `grows` (this frame's), and what the GPU
 //! measured in frame `measured_frame` (the one that last used this frame slot; absent until one
 //! has): `entries` (needed), `dropped` (entries that did not fit), `clusters_used`,
 //! `max_per_cluster`, `mean_per_cluster` (entries over used clusters), and, where a decal pass
@@ -37,7 +38,7 @@
 //! `tile_size`, `aabb`, `shadow_ray_culling`, `normals`, `coloured_shadows`), the counters `scene_blas_builds`,
 //! `scene_blas_compactions`, `scene_tlas_builds`, `scene_tlas_updates`, `light_blas_builds`,
 //! `light_blas_updates`, and, in frames with tiled
-//! lights, `light_tiles`: `tiles`, `tile_size`, `capacity`, `grows`, and what the GPU measured in
+//! lights or a light list still held, `light_tiles`: `tiles`, `tile_size`, `capacity`, `grows`, and what the GPU measured in
 //! `measured_frame`: `entries`, `overflowed`, `max_per_tile`, `tiles_used`, `mean_per_tile`
 //! (entries over used tiles).
 //!
@@ -141,10 +142,11 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
     // The command buffer: submitted again as recorded, or recorded (`render::gpu::commands`).
     value["counters"]["commands_reused"] = json!(c.commands_reused);
     value["counters"]["command_words"] = json!(c.command_words);
-    if stats.decal_method == render::DecalMethod::Clustered {
+    // Each list buffer also while it is held unused (for a second after its method last ran).
+    if stats.decal_method == render::DecalMethod::Clustered || c.clusters.capacity > 0 {
         value["clusters"] = clusters_json(&c.clusters);
     }
-    if stats.decal_method == render::DecalMethod::RayPipeline {
+    if stats.decal_method == render::DecalMethod::RayPipeline || c.decal_lists.capacity > 0 {
         let l = &c.decal_lists;
         value["decal_lists"] = json!({ "capacity": l.capacity, "limit": l.limit, "grows": l.grows, "shrinks": l.shrinks });
         if l.measured_frame != u64::MAX {
@@ -152,7 +154,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
                 json!({ "measured_frame": l.measured_frame, "needed": l.needed, "denied": l.denied, "overflowed": l.overflowed });
         }
     }
-    if stats.light_method == render::LightMethod::Tiled {
+    if stats.light_method == render::LightMethod::Tiled || c.light_tiles.capacity > 0 {
         value["light_tiles"] = light_tiles_json(&c.light_tiles);
     }
     value

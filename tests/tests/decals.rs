@@ -306,6 +306,66 @@ fn random_overlapping_stacks_match_the_cpu_blending_reference() {
 }
 
 #[test]
+fn unused_decal_lists_show_the_room_they_hold_and_forget_their_figures_when_released() {
+    // The ray-tracing-pipeline pass's lists while another method runs: held (and shown) for a
+    // second, then released with what they measured, so that the pass starts afresh when it
+    // comes back rather than from figures two frames older than the release.
+    let c = CONFIGS[2];
+    let (mut app, _) = plane_app(c);
+    let mut rng = Lcg(5);
+    for _ in 0..3 {
+        let t = downward(Vec3::new(rng.range(-0.5, 0.5), 0.0, rng.range(-0.5, 0.5)), Vec2::splat(2.0), 1.0, rng.next());
+        let d = RefDecal {
+            to_world: t.compute_matrix(),
+            channel: 0,
+            weight: 1.0,
+            albedo: Some(Vec3::X),
+            alpha: 1.0,
+            roughness: None,
+            metallic: None,
+        };
+        spawn_ref_decal(&mut app, &d);
+    }
+    for _ in 0..4 {
+        app.update();
+    }
+    let used = counters(&app).decal_lists;
+    assert!(used.measured_frame != u64::MAX && used.needed > 0 && used.capacity > 0, "the lists were measured: {used:?}");
+
+    app.world.resource_mut::<RenderSettings>().decal_method = DecalMethod::Off;
+    for _ in 0..render::gpu::upload::SHRINK_AFTER_FRAMES - 2 {
+        app.update();
+    }
+    let unused = counters(&app).decal_lists;
+    assert_eq!((unused.capacity, unused.shrinks), (used.capacity, used.shrinks), "held and shown while unused: {unused:?}");
+    for _ in 0..4 {
+        app.update();
+    }
+    let released = counters(&app).decal_lists;
+    assert!(released.shrinks > used.shrinks, "released a second after the pass stopped: {released:?}");
+    assert_eq!(
+        (released.capacity, released.needed, released.overflowed, released.measured_frame),
+        (0, 0, 0, u64::MAX),
+        "a released buffer holds no room and forgets what it measured: {released:?}"
+    );
+
+    app.world.resource_mut::<RenderSettings>().decal_method = DecalMethod::RayPipeline;
+    app.update();
+    let back = counters(&app).decal_lists;
+    assert_eq!(
+        (back.capacity, back.measured_frame),
+        (render::decals::lists::INITIAL_CAPACITY as u64, u64::MAX),
+        "the pass comes back with the initial room and nothing measured yet: {back:?}"
+    );
+    for _ in 0..3 {
+        app.update();
+    }
+    let again = counters(&app).decal_lists;
+    assert!(again.measured_frame != u64::MAX && again.needed > 0, "measured again: {again:?}");
+    assert_no_validation_errors(&mut app);
+}
+
+#[test]
 fn the_order_of_overlapping_decals_within_a_channel_does_not_change_the_image() {
     // Eight translucent decals overlapping at the origin, in one channel with different weights,
     // spawned in one order and then in the reverse and a shuffled order (other slots, so other

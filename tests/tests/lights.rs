@@ -410,13 +410,20 @@ fn the_light_list_grows_when_the_tiles_need_more_room_and_is_released_a_second_a
     for _ in 0..second - 2 {
         app.update();
     }
-    assert_eq!(tiles(&app).shrinks, last.shrinks, "not released before a second: {:?}", tiles(&app));
+    let unused = tiles(&app);
+    assert_eq!(unused.shrinks, last.shrinks, "not released before a second: {unused:?}");
+    assert_eq!(unused.capacity, last.capacity, "the statistics show the room still held while unused: {unused:?}");
     assert!(renderer(&mut app).read_light_tiles().unwrap().is_some(), "the list is still there before a second");
     for _ in 0..4 {
         app.update();
     }
     let after = tiles(&app);
     assert!(after.shrinks > last.shrinks, "the unused list went: {after:?}");
+    assert_eq!(
+        (after.capacity, after.entries, after.overflowed, after.measured_frame),
+        (0, 0, 0, u64::MAX),
+        "a released list holds no room and forgets what it measured: {after:?}"
+    );
     assert!(renderer(&mut app).read_light_tiles().unwrap().is_none(), "no list after a second unused");
     // Culling again: the list comes back at the initial room, and grows to fit again.
     app.world.resource_mut::<RenderSettings>().lights.method = LightMethod::Tiled;

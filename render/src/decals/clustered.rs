@@ -105,6 +105,8 @@ pub struct DecalClusters {
     /// The statistics, read back two frames later.
     readback: StatsReadback,
     latest: DecalClusterStats,
+    /// The ceiling last computed (it follows the cluster count).
+    limit: u32,
     res: ResourceId,
 }
 
@@ -143,6 +145,7 @@ impl DecalClusters {
             clusters: 0,
             readback,
             latest: DecalClusterStats { measured_frame: u64::MAX, ..Default::default() },
+            limit: 0,
             res: graph.resource("decal clusters"),
         })
     }
@@ -190,15 +193,9 @@ impl DecalClusters {
         if self.room.fit(f, need, (fixed, limit), clusters != self.clusters, warning)? != Fitted::Kept {
             self.clusters = clusters;
         }
+        self.limit = limit;
+        *stats = self.report();
         let capacity = self.room.capacity;
-        *stats = DecalClusterStats {
-            clusters: clusters as u64,
-            capacity: capacity as u64,
-            limit: limit as u64,
-            grows: self.room.grows,
-            shrinks: self.room.shrinks,
-            ..self.latest
-        };
         let address = self.room.buffer.as_ref().expect("allocated above").address;
         Ok(ClusterFrame { res: self.res, address, capacity, tiles: tiles.0 | tiles.1 << 16 })
     }
@@ -206,10 +203,26 @@ impl DecalClusters {
     /// A frame without clustered decals (another method, or no decal): after
     /// [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] of them in a row the cluster buffer is
     /// released, and the next frame that bins decals starts again from the initial room.
-    pub fn idle(&mut self, up: &mut Upload) {
+    /// `stats` shows the room still held (none once released, with what it last measured).
+    pub fn idle(&mut self, up: &mut Upload, stats: &mut DecalClusterStats) {
         if self.room.idle(up) {
             self.clusters = 0;
-            self.latest.entries = 0;
+            self.latest = DecalClusterStats { measured_frame: u64::MAX, ..Default::default() };
+            self.readback.forget();
+        }
+        *stats = self.report();
+    }
+
+    /// The statistics this frame: the clusters and room held and their history, with the last
+    /// measured figures.
+    fn report(&self) -> DecalClusterStats {
+        DecalClusterStats {
+            clusters: self.clusters as u64,
+            capacity: self.room.capacity as u64,
+            limit: self.limit as u64,
+            grows: self.room.grows,
+            shrinks: self.room.shrinks,
+            ..self.latest
         }
     }
 

@@ -89,6 +89,8 @@ pub struct DecalLists {
     carry: Option<vk::Buffer>,
     readback: StatsReadback,
     latest: DecalListStats,
+    /// The ceiling last computed (it follows the image's size).
+    limit: u32,
     res: ResourceId,
 }
 
@@ -112,6 +114,7 @@ impl DecalLists {
             carry: None,
             readback,
             latest: DecalListStats { measured_frame: u64::MAX, ..Default::default() },
+            limit: 0,
             res: graph.resource("decal lists"),
         })
     }
@@ -151,24 +154,34 @@ impl DecalLists {
             self.carry = previous.filter(|_| image == self.image);
             (self.image, self.fresh) = (image, self.carry.is_none());
         }
+        self.limit = limit;
+        *stats = self.report();
         let capacity = self.room.capacity;
-        *stats = DecalListStats {
-            capacity: capacity as u64,
-            limit: limit as u64,
-            grows: self.room.grows,
-            shrinks: self.room.shrinks,
-            ..self.latest
-        };
         let address = self.room.buffer.as_ref().expect("allocated above").address;
         Ok(ListFrame { res: self.res, address, capacity })
     }
 
     /// A frame without the ray-tracing-pipeline decal pass: after
-    /// [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] of them in a row the list buffer is released.
-    pub fn idle(&mut self, up: &mut Upload) {
+    /// [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] of them in a row the list buffer is released,
+    /// with what it last measured. `stats` shows the room still held (none once released).
+    pub fn idle(&mut self, up: &mut Upload, stats: &mut DecalListStats) {
         if self.room.idle(up) {
             self.image = (0, 0);
-            self.latest.needed = 0;
+            // The next frame with the pass starts again from the initial room.
+            self.latest = DecalListStats { measured_frame: u64::MAX, ..Default::default() };
+            self.readback.forget();
+        }
+        *stats = self.report();
+    }
+
+    /// The statistics this frame: the room held and its history, with the last measured figures.
+    fn report(&self) -> DecalListStats {
+        DecalListStats {
+            capacity: self.room.capacity as u64,
+            limit: self.limit as u64,
+            grows: self.room.grows,
+            shrinks: self.room.shrinks,
+            ..self.latest
         }
     }
 

@@ -38,6 +38,14 @@ impl StatsReadback {
         Some((frame, bytemuck::cast_slice(&buffer.mapped()[..self.bytes as usize])))
     }
 
+    /// Drops the copies not yet handed out: what they measured is gone (the buffer they came
+    /// from was released), and must not come back when the pass runs again.
+    pub fn forget(&mut self) {
+        for (_, written_by) in &mut self.slots {
+            *written_by = None;
+        }
+    }
+
     /// Copies the first bytes of `src` (the graph's `source`) for the CPU, as the pass `name`.
     pub fn record(&mut self, f: &mut Frame, name: &'static str, source: ResourceId, src: vk::Buffer) -> Result<(), RenderError> {
         let slot = f.slot();

@@ -305,8 +305,10 @@ impl LightTiles {
                 f.upload.bury_shrunk(old, 0);
             }
             (self.frusta_key, self.tiles_for) = (None, (0, 0, 0));
-            // The next culling starts again from the initial room, as the decals' lists do.
-            self.latest.entries = 0;
+            // The next culling starts again from the initial room, as the decals' lists do, and
+            // what the list last measured goes with it.
+            self.latest = LightTileStats { measured_frame: u64::MAX, ..Default::default() };
+            self.readback.forget();
         }
 
         let mut shadow_used = false;
@@ -398,7 +400,8 @@ impl LightTiles {
         *stats = LightTileStats {
             tiles: tile_count as u64,
             tile_size: tile_size as u64,
-            capacity: frame.list_capacity as u64,
+            // The room held, used this frame or not (none once released).
+            capacity: self.list.capacity as u64,
             grows: self.list.grows + self.grows,
             shrinks: self.list.shrinks + self.shrinks,
             ..self.latest

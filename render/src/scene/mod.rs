@@ -481,12 +481,14 @@ pub struct FrameCounters {
     /// Lights left without a shadow map this frame because the atlas was full
     /// (`RendererSettings::shadow_maps`).
     pub shadow_maps_missing: u64,
-    /// Clustered decals, as measured on the GPU (all zero unless clustered decals ran).
+    /// Clustered decals, as measured on the GPU. Frames without them still show the room held
+    /// (until it is released, a second later) and the last measured figures; a released buffer
+    /// forgets those (all zero, `measured_frame` `u64::MAX`), as before any clustered decals ran.
     pub clusters: DecalClusterStats,
-    /// The ray-tracing-pipeline decal pass's per-pixel lists, as measured on the GPU (all zero
-    /// unless that pass ran).
+    /// The ray-tracing-pipeline decal pass's per-pixel lists, as measured on the GPU; frames
+    /// without that pass as for [`Self::clusters`].
     pub decal_lists: DecalListStats,
-    /// Tiled light culling, as measured on the GPU (all zero unless lights were tiled).
+    /// Tiled light culling, as measured on the GPU; frames without it as for [`Self::clusters`].
     pub light_tiles: crate::lights::tiles::LightTileStats,
     /// Instance culling for the main view, as measured on the GPU (`crate::culling`).
     pub culling: crate::culling::CullingStats,
