@@ -11,15 +11,20 @@
 //! spent in the driver's queue submission), and `counters` (`bytes_uploaded`, `records_written`, `blas_builds`,
 //! `blas_updates`, `tlas_builds`, `instances`, `lights`, `decals`, `transparent`: blended instances drawn,
 //! `shadow_map_views`: atlas tiles drawn, `shadow_maps_missing`: lights the atlas had no room
-//! for), and, in frames that applied
-//! clustered decals or still hold their lists (`capacity` > 0: for a second after they last ran),
-//! `clusters`: `clusters`, `capacity`, `grows` (this frame's), and what the GPU
-//! measured in frame `measured_frame` (the one that last used this frame slot; absent until one
-//! has): `entries` (needed), `dropped` (entries that did not fit), `clusters_used`,
-//! `max_per_cluster`, `mean_per_cluster` (entries over used clusters), and, where a decal pass
-//! walked the lists (not in forward and Forward+, whose shading walks them itself), `pixels` and
-//! per pixel `mean_tested`, `max_tested` (list entries walked) and `mean_applied`, `max_applied`
-//! (decals whose box held the pixel).
+//! for).
+//!
+//! Decal lists. `clusters`, in frames that applied clustered decals or still hold their lists
+//! (`capacity` > 0: for a second after they last ran): `clusters`, `capacity`, `limit` (the
+//! memory ceiling), `grows`, `shrinks` (since the start); and, only in frames that applied them,
+//! what the GPU measured in frame `measured_frame` (the one that last used this frame slot;
+//! absent until one has): `entries` (needed), `dropped` (entries that did not fit),
+//! `clusters_used`, `max_per_cluster`, `mean_per_cluster` (entries over used clusters), and,
+//! where a decal pass walked the lists (not in forward and Forward+, whose shading walks them
+//! itself), `pixels` and per pixel `mean_tested`, `max_tested` (list entries walked) and
+//! `mean_applied`, `max_applied` (decals whose box held the pixel). `decal_lists`, the same way
+//! for the ray-tracing-pipeline decal pass's per-pixel lists: `capacity`, `limit`, `grows`,
+//! `shrinks`, and `measured`: `measured_frame`, `needed` (entries the pixels asked for),
+//! `denied` (pixels given no room), `overflowed` (pixels that found more than their room).
 //!
 //! Transparency: `transparency` (the method applied: `interlaced`, `interlaced_pairs`,
 //! `forward` or `depth_peeling`) and `refraction` (whether glass refracts: interlaced and
@@ -37,10 +42,10 @@
 //! (devices without ray tracing, or `--shadow-maps`), or `none`), `lights` (the settings:
 //! `tile_size`, `aabb`, `shadow_ray_culling`, `normals`, `coloured_shadows`), the counters `scene_blas_builds`,
 //! `scene_blas_compactions`, `scene_tlas_builds`, `scene_tlas_updates`, `light_blas_builds`,
-//! `light_blas_updates`, and, in frames with tiled
-//! lights or a light list still held, `light_tiles`: `tiles`, `tile_size`, `capacity`, `grows`, and what the GPU measured in
-//! `measured_frame`: `entries`, `overflowed`, `max_per_tile`, `tiles_used`, `mean_per_tile`
-//! (entries over used tiles).
+//! `light_blas_updates`, and, in frames with tiled lights or a light list still held,
+//! `light_tiles`: `tiles`, `tile_size`, `capacity`, `grows`, and, only in frames with tiled
+//! lights, what the GPU measured in `measured_frame`: `entries`, `overflowed`, `max_per_tile`,
+//! `tiles_used`, `mean_per_tile` (entries over used tiles).
 //!
 //! Culling (`render/src/culling`): `counters.draw_calls` (draw commands the CPU recorded this
 //! frame, every pass: each indirect draw covers a batch), `counters.mesh_pool_bytes`, and
@@ -142,20 +147,24 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
     // The command buffer: submitted again as recorded, or recorded (`render::gpu::commands`).
     value["counters"]["commands_reused"] = json!(c.commands_reused);
     value["counters"]["command_words"] = json!(c.command_words);
-    // Each list buffer also while it is held unused (for a second after its method last ran).
-    if stats.decal_method == render::DecalMethod::Clustered || c.clusters.capacity > 0 {
-        value["clusters"] = clusters_json(&c.clusters);
+    // Each list buffer also while it is held unused (for a second after its method last ran), with
+    // its room only: what it measured belongs to the frames that used it.
+    let clustered = stats.decal_method == render::DecalMethod::Clustered;
+    if clustered || c.clusters.capacity > 0 {
+        value["clusters"] = clusters_json(&c.clusters, clustered);
     }
-    if stats.decal_method == render::DecalMethod::RayPipeline || c.decal_lists.capacity > 0 {
+    let listed = stats.decal_method == render::DecalMethod::RayPipeline;
+    if listed || c.decal_lists.capacity > 0 {
         let l = &c.decal_lists;
         value["decal_lists"] = json!({ "capacity": l.capacity, "limit": l.limit, "grows": l.grows, "shrinks": l.shrinks });
-        if l.measured_frame != u64::MAX {
+        if listed && l.measured_frame != u64::MAX {
             value["decal_lists"]["measured"] =
                 json!({ "measured_frame": l.measured_frame, "needed": l.needed, "denied": l.denied, "overflowed": l.overflowed });
         }
     }
-    if stats.light_method == render::LightMethod::Tiled || c.light_tiles.capacity > 0 {
-        value["light_tiles"] = light_tiles_json(&c.light_tiles);
+    let tiled = stats.light_method == render::LightMethod::Tiled;
+    if tiled || c.light_tiles.capacity > 0 {
+        value["light_tiles"] = light_tiles_json(&c.light_tiles, tiled);
     }
     value
 }
@@ -191,9 +200,10 @@ fn culling_json(k: &render::CullingStats) -> Value {
     v
 }
 
-fn light_tiles_json(t: &render::lights::tiles::LightTileStats) -> Value {
+/// The light tiles' statistics; what the GPU measured only when `used` this frame.
+fn light_tiles_json(t: &render::lights::tiles::LightTileStats, used: bool) -> Value {
     let mut v = json!({ "tiles": t.tiles, "tile_size": t.tile_size, "capacity": t.capacity, "grows": t.grows });
-    if t.measured_frame != u64::MAX {
+    if used && t.measured_frame != u64::MAX {
         v["measured_frame"] = json!(t.measured_frame);
         v["entries"] = json!(t.entries);
         v["overflowed"] = json!(t.overflowed);
@@ -204,9 +214,10 @@ fn light_tiles_json(t: &render::lights::tiles::LightTileStats) -> Value {
     v
 }
 
-fn clusters_json(k: &render::scene::DecalClusterStats) -> Value {
+/// The decal clusters' statistics; what the GPU measured only when `used` this frame.
+fn clusters_json(k: &render::scene::DecalClusterStats, used: bool) -> Value {
     let mut v = json!({ "clusters": k.clusters, "capacity": k.capacity, "limit": k.limit, "grows": k.grows, "shrinks": k.shrinks });
-    if k.measured_frame != u64::MAX {
+    if used && k.measured_frame != u64::MAX {
         let mean = |sum: u64, n: u64| if n == 0 { 0.0 } else { (sum as f64 / n as f64 * 100.0).round() / 100.0 };
         let mut measured = json!({
             "measured_frame": k.measured_frame,

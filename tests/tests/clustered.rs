@@ -91,6 +91,25 @@ fn the_cluster_buffer_grows_when_a_cluster_holds_more_decals_than_it_has_room_fo
     let after = cluster_stats(&app);
     assert_eq!(after.capacity, 64, "the cluster room returned after the despawn: {after:?}");
     assert!(after.shrinks > last.shrinks && after.dropped == 0, "{after:?}");
+
+    // No decal method: the room is held, and shown, for a second; then released, with what it
+    // measured.
+    app.world.resource_mut::<RenderSettings>().decal_method = DecalMethod::Off;
+    for _ in 0..render::gpu::upload::SHRINK_AFTER_FRAMES - 2 {
+        app.update();
+    }
+    let unused = cluster_stats(&app);
+    assert_eq!((unused.capacity, unused.shrinks), (64, after.shrinks), "held and shown while unused: {unused:?}");
+    for _ in 0..4 {
+        app.update();
+    }
+    let released = cluster_stats(&app);
+    assert!(released.shrinks > after.shrinks, "released a second after binning stopped: {released:?}");
+    assert_eq!(
+        (released.capacity, released.clusters, released.entries, released.measured_frame),
+        (0, 0, 0, u64::MAX),
+        "a released buffer holds no room and forgets what it measured: {released:?}"
+    );
     assert_no_validation_errors(&mut app);
 }
 

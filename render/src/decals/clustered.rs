@@ -66,7 +66,6 @@ use crate::decals::buffer::DecalSurfaceSource;
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::create_computes;
 use crate::gpu::shaders;
-use crate::gpu::upload::Upload;
 use crate::graph::readback::StatsReadback;
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::{DECAL_BIN_ROW, DECAL_CLUSTER_HEADER, DECAL_CLUSTER_SLICES, DECAL_CLUSTER_TILE};
@@ -158,26 +157,7 @@ impl DecalClusters {
         let extent = f.graph.extent();
         let tiles = (extent.width.div_ceil(DECAL_CLUSTER_TILE), extent.height.div_ceil(DECAL_CLUSTER_TILE));
         let clusters = tiles.0 * tiles.1 * DECAL_CLUSTER_SLICES;
-        if let Some((frame, words)) = self.readback.take(f) {
-            let wide = |lo: usize| words[lo] as u64 | (words[lo + 1] as u64) << 32;
-            self.latest = DecalClusterStats {
-                measured_frame: frame,
-                clusters: self.clusters as u64,
-                clusters_used: words[3] as u64,
-                entries: words[0] as u64,
-                capacity: self.room.capacity as u64,
-                limit: 0, // filled in below
-                dropped: words[1] as u64,
-                grows: self.room.grows,
-                shrinks: self.room.shrinks,
-                max_per_cluster: words[2] as u64,
-                pixels: words[7] as u64,
-                tested: wide(4),
-                max_tested: words[6] as u64,
-                applied: wide(8),
-                max_applied: words[10] as u64,
-            };
-        }
+        self.read_back(f);
         // The ceiling in entries: the share of memory, less the header and the cluster table.
         let fixed = (DECAL_CLUSTER_HEADER as u64 + 3 * clusters as u64) * 4;
         let limit = self.room.limit(ctx, fixed);
@@ -203,14 +183,40 @@ impl DecalClusters {
     /// A frame without clustered decals (another method, or no decal): after
     /// [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] of them in a row the cluster buffer is
     /// released, and the next frame that bins decals starts again from the initial room.
-    /// `stats` shows the room still held (none once released, with what it last measured).
-    pub fn idle(&mut self, up: &mut Upload, stats: &mut DecalClusterStats) {
-        if self.room.idle(up) {
+    /// Until then `stats` shows the room still held and the figures of the last frames that
+    /// binned; once released, what it measured is forgotten too.
+    pub fn idle(&mut self, f: &mut Frame, stats: &mut DecalClusterStats) {
+        self.read_back(f);
+        if self.room.idle(&mut f.upload) {
             self.clusters = 0;
             self.latest = DecalClusterStats { measured_frame: u64::MAX, ..Default::default() };
             self.readback.forget();
         }
         *stats = self.report();
+    }
+
+    /// Takes the statistics the frame that last used this frame's slot copied, if any.
+    fn read_back(&mut self, f: &Frame) {
+        if let Some((frame, words)) = self.readback.take(f) {
+            let wide = |lo: usize| words[lo] as u64 | (words[lo + 1] as u64) << 32;
+            self.latest = DecalClusterStats {
+                measured_frame: frame,
+                clusters: self.clusters as u64,
+                clusters_used: words[3] as u64,
+                entries: words[0] as u64,
+                capacity: self.room.capacity as u64,
+                limit: 0, // the report fills in the ceiling
+                dropped: words[1] as u64,
+                grows: self.room.grows,
+                shrinks: self.room.shrinks,
+                max_per_cluster: words[2] as u64,
+                pixels: words[7] as u64,
+                tested: wide(4),
+                max_tested: words[6] as u64,
+                applied: wide(8),
+                max_applied: words[10] as u64,
+            };
+        }
     }
 
     /// The statistics this frame: the clusters and room held and their history, with the last

@@ -47,7 +47,6 @@ use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::create_computes;
 use crate::gpu::room::{Fitted, ListRoom, MEMORY_SHARE};
 use crate::gpu::shaders;
-use crate::gpu::upload::Upload;
 use crate::graph::readback::StatsReadback;
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::DECAL_LIST_HEADER;
@@ -131,15 +130,7 @@ impl DecalLists {
         if self.carry.take().is_some() {
             self.fresh = true;
         }
-        if let Some((frame, words)) = self.readback.take(f) {
-            self.latest = DecalListStats {
-                measured_frame: frame,
-                needed: words[LIST_NEEDED] as u64,
-                denied: words[LIST_DENIED] as u64,
-                overflowed: words[LIST_OVERFLOWED] as u64,
-                ..Default::default()
-            };
-        }
+        self.read_back(f);
         let fixed = (DECAL_LIST_HEADER as u64 + 3 * image.1 as u64) * 4;
         let limit = self.room.limit(ctx, fixed);
         let denied = self.latest.denied;
@@ -161,11 +152,26 @@ impl DecalLists {
         Ok(ListFrame { res: self.res, address, capacity })
     }
 
+    /// Takes the statistics the frame that last used this frame's slot copied, if any.
+    fn read_back(&mut self, f: &Frame) {
+        if let Some((frame, words)) = self.readback.take(f) {
+            self.latest = DecalListStats {
+                measured_frame: frame,
+                needed: words[LIST_NEEDED] as u64,
+                denied: words[LIST_DENIED] as u64,
+                overflowed: words[LIST_OVERFLOWED] as u64,
+                ..Default::default()
+            };
+        }
+    }
+
     /// A frame without the ray-tracing-pipeline decal pass: after
     /// [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] of them in a row the list buffer is released,
-    /// with what it last measured. `stats` shows the room still held (none once released).
-    pub fn idle(&mut self, up: &mut Upload, stats: &mut DecalListStats) {
-        if self.room.idle(up) {
+    /// and what it measured is forgotten. Until then `stats` shows the room still held and the
+    /// figures of the last frames that used it.
+    pub fn idle(&mut self, f: &mut Frame, stats: &mut DecalListStats) {
+        self.read_back(f);
+        if self.room.idle(&mut f.upload) {
             self.image = (0, 0);
             // The next frame with the pass starts again from the initial room.
             self.latest = DecalListStats { measured_frame: u64::MAX, ..Default::default() };

@@ -157,13 +157,13 @@ impl Decals {
         let clusters = if clustered {
             Some(self.clusters.prepare(f, &mut mirror.counters.clusters)?)
         } else {
-            self.clusters.idle(&mut f.upload, &mut mirror.counters.clusters);
+            self.clusters.idle(f, &mut mirror.counters.clusters);
             None
         };
         let lists = if shaded && method == DecalMethod::RayPipeline {
             Some(self.lists.prepare(f, &mut mirror.counters.decal_lists)?)
         } else {
-            self.lists.idle(&mut f.upload, &mut mirror.counters.decal_lists);
+            self.lists.idle(f, &mut mirror.counters.decal_lists);
             None
         };
         Ok(DecalFrame {

@@ -482,8 +482,8 @@ pub struct FrameCounters {
     /// (`RendererSettings::shadow_maps`).
     pub shadow_maps_missing: u64,
     /// Clustered decals, as measured on the GPU. Frames without them still show the room held
-    /// (until it is released, a second later) and the last measured figures; a released buffer
-    /// forgets those (all zero, `measured_frame` `u64::MAX`), as before any clustered decals ran.
+    /// (until it is released, a second later) beside the figures of the last frames that binned;
+    /// a released buffer forgets those figures (zero, `measured_frame` `u64::MAX`).
     pub clusters: DecalClusterStats,
     /// The ray-tracing-pipeline decal pass's per-pixel lists, as measured on the GPU; frames
     /// without that pass as for [`Self::clusters`].
