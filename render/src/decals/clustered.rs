@@ -199,22 +199,19 @@ impl DecalClusters {
     fn read_back(&mut self, f: &Frame) {
         if let Some((frame, words)) = self.readback.take(f) {
             let wide = |lo: usize| words[lo] as u64 | (words[lo + 1] as u64) << 32;
+            // What the GPU measured; the room and its history come from `report`.
             self.latest = DecalClusterStats {
                 measured_frame: frame,
-                clusters: self.clusters as u64,
                 clusters_used: words[3] as u64,
                 entries: words[0] as u64,
-                capacity: self.room.capacity as u64,
-                limit: 0, // the report fills in the ceiling
                 dropped: words[1] as u64,
-                grows: self.room.grows,
-                shrinks: self.room.shrinks,
                 max_per_cluster: words[2] as u64,
                 pixels: words[7] as u64,
                 tested: wide(4),
                 max_tested: words[6] as u64,
                 applied: wide(8),
                 max_applied: words[10] as u64,
+                ..Default::default()
             };
         }
     }
