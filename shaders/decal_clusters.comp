@@ -1,8 +1,9 @@
 // variants: FILL
 #version 460
 // Clustered decals, binning (include/clusters.glsl): BIN_LANES threads per live decal box. The
-// box's eight corners, seen from the camera, give the screen tiles and depth slices it may touch
-// (boxes wholly behind the camera or off screen touch none); the lanes share those clusters out.
+// box's eight corners, seen from the camera, give the screen tiles it may touch and its view
+// distances (boxes wholly behind the camera or off screen touch none); the lanes share those
+// tiles out, and each tile's depth bounds give the box's slices there.
 // Without FILL the pass counts the decals of each cluster; with FILL (after the lists' allocation) it
 // writes their record slots. One thread per box left a big box's hundreds of clusters to one
 // thread: filling the lists of 100 puddles took 0.98 ms on an H200, 8 lanes a box 0.13 ms.
@@ -13,6 +14,11 @@
 #include "clusters.glsl"
 
 const uint BIN_LANES = 8u;
+// How far a box's view distances are widened before they meet a tile's: the corners' distances
+// (from the view-projection) and a pixel's (from its world position) round differently, and a
+// forward fragment, whose position is interpolated at the pixel's centre, sits off the depth
+// target's sample under MSAA (within 1 %, as msaa.glsl's surface pixel allows).
+const float DEPTH_MARGIN = 0.01;
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer OwnerBoundsRef { GpuCullRecord records[]; };
 layout(local_size_x = 64) in;
 
@@ -73,23 +79,30 @@ void main() {
     uvec2 tiles = cluster_tiles();
     uvec2 t0 = uvec2(clamp(smin, vec2(0.0), cam.viewport_size - 1.0)) / DECAL_CLUSTER_TILE;
     uvec2 t1 = min(uvec2(clamp(smax, vec2(0.0), cam.viewport_size - 1.0)) / DECAL_CLUSTER_TILE, tiles - 1u);
-    uint s0 = cluster_slice(zmin), s1 = cluster_slice(zmax);
-    uvec3 extent = uvec3(t1 - t0 + 1u, s1 - s0 + 1u);
-    uint n = extent.x * extent.y * extent.z;
+    // Each tile the box's rectangle covers: the part of the box's distances that the tile's
+    // shaded pixels reach (decal_cluster_bounds.comp), in that tile's slices. A box in front of or
+    // behind everything the tile shows lands in none of its clusters.
+    uvec2 extent = t1 - t0 + 1u;
+    uint n = extent.x * extent.y;
     ClusterWordsRef w = cluster_words();
     for (uint i = lane; i < n; i += BIN_LANES) {
-        uint x = t0.x + i % extent.x;
-        uint y = t0.y + (i / extent.x) % extent.y;
-        uint c = cluster_index(uvec2(x, y), s0 + i / (extent.x * extent.y));
+        uvec2 tile = t0 + uvec2(i % extent.x, i / extent.x);
+        vec2 range = tile_depth(tile.y * tiles.x + tile.x);
+        float lo = max(zmin * (1.0 - DEPTH_MARGIN), range.x), hi = min(zmax * (1.0 + DEPTH_MARGIN), range.y);
+        if (lo > hi) continue;
+        uint last = tile_slice(range, hi);
+        for (uint slice = tile_slice(range, lo); slice <= last; ++slice) {
+            uint c = cluster_index(tile, slice);
 #ifdef FILL
-        uint at = w.words[offsets_at() + c] + atomicAdd(w.words[cursors_at() + c], 1u);
-        if (at < scene.decal_list_capacity) {
-            w.words[entries_at() + at] = b.slot;
-        } else {
-            atomicAdd(w.words[STAT_DROPPED], 1u);
-        }
+            uint at = w.words[offsets_at() + c] + atomicAdd(w.words[cursors_at() + c], 1u);
+            if (at < scene.decal_list_capacity) {
+                w.words[entries_at() + at] = b.slot;
+            } else {
+                atomicAdd(w.words[STAT_DROPPED], 1u);
+            }
 #else
-        atomicAdd(w.words[counts_at() + c], 1u);
+            atomicAdd(w.words[counts_at() + c], 1u);
 #endif
+        }
     }
 }

@@ -559,13 +559,9 @@ layout! {
     pub const DECAL_DEFAULT_LAYERS: u32 = 1;
     /// Clustered decals: the side of a cluster's screen tile, in pixels.
     pub const DECAL_CLUSTER_TILE: u32 = 32;
-    /// Clustered decals: depth slices (exponential in view distance, `DECAL_CLUSTER_NEAR_MM` to
-    /// `DECAL_CLUSTER_FAR_M`; nearer points fall in the first, farther in the last).
+    /// Clustered decals: depth slices of each screen tile, exponential in view distance over the
+    /// distances the tile's shaded pixels reach (none thinner than 2 % of its distance).
     pub const DECAL_CLUSTER_SLICES: u32 = 16;
-    /// Clustered decals: the near bound of the depth slices, in millimetres.
-    pub const DECAL_CLUSTER_NEAR_MM: u32 = 100;
-    /// Clustered decals: the far bound of the depth slices, in metres.
-    pub const DECAL_CLUSTER_FAR_M: u32 = 1000;
     /// Clustered decals: workgroups in a row of the binning dispatch (8 boxes a workgroup).
     pub const DECAL_BIN_ROW: u32 = 4096;
     /// Clustered decals: 32-bit words of statistics at the start of the cluster buffer (see

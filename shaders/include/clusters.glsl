@@ -1,11 +1,15 @@
 // Clustered decals (seed 000 §3.3.2.1: DOOM 2016's clustered shading, which the seed names as
 // the comparison it did not make, §6): view clusters are screen tiles of DECAL_CLUSTER_TILE
-// pixels × DECAL_CLUSTER_SLICES depth slices, exponential in view distance (render/src/decals/
-// clustered.rs says how the sizes were chosen). Each frame compute
-// passes bin every live decal's box into the clusters it touches (count, allocate, fill), and
-// the decal pass walks the list of the pixel's cluster. One buffer holds it all (32-bit words):
+// pixels × DECAL_CLUSTER_SLICES depth slices. The slices of a tile cut the view distances its
+// shaded pixels reach (measured from the depth target each frame), exponentially, so that no
+// list holds decals in front of or behind everything the tile shows (render/src/decals/
+// clustered.rs says how the sizes were chosen and what the bounds gained). Each frame compute
+// passes bound the tiles, bin every live decal's box into the clusters it touches (count,
+// allocate, fill), and the decal pass walks the list of the pixel's cluster. One buffer holds it
+// all (32-bit words):
 //   [0, DECAL_CLUSTER_HEADER)   statistics (below), read back by the CPU
 //   counts[C], offsets[C], cursors[C]   per cluster (C = tiles x × tiles y × slices)
+//   bounds[2T]                  per tile (T = tiles x × tiles y): nearest and farthest distance
 //   entries[capacity]           decal record slots, cluster after cluster
 // Entries past the capacity are dropped and counted (STAT_DROPPED); the renderer grows the buffer
 // when it reads that back, two frames later.
@@ -44,13 +48,6 @@ uint cluster_index(uvec2 tile, uint slice) {
     return (slice * t.y + tile.y) * t.x + tile.x;
 }
 
-// The depth slice of view distance `z` (metres in front of the camera).
-uint cluster_slice(float z) {
-    float near = float(DECAL_CLUSTER_NEAR_MM) * 1e-3;
-    float s = log(max(z, near) / near) / log(float(DECAL_CLUSTER_FAR_M) / near) * float(DECAL_CLUSTER_SLICES);
-    return uint(clamp(s, 0.0, float(DECAL_CLUSTER_SLICES - 1u)));
-}
-
 float view_distance(vec3 world) {
     return -(scene.camera.camera.view * vec4(world, 1.0)).z;
 }
@@ -62,12 +59,33 @@ ClusterWordsRef cluster_words() {
 uint counts_at() { return DECAL_CLUSTER_HEADER; }
 uint offsets_at() { return DECAL_CLUSTER_HEADER + cluster_count(); }
 uint cursors_at() { return DECAL_CLUSTER_HEADER + 2u * cluster_count(); }
-uint entries_at() { return DECAL_CLUSTER_HEADER + 3u * cluster_count(); }
+uint bounds_at() { return DECAL_CLUSTER_HEADER + 3u * cluster_count(); }
+uint entries_at() { uvec2 t = cluster_tiles(); return bounds_at() + 2u * t.x * t.y; }
+
+// The view distances tile `tile` (its index) shows: x nearest, y farthest (x > y: no shaded
+// pixel, and no decal in any of its clusters).
+vec2 tile_depth(uint tile) {
+    ClusterWordsRef w = cluster_words();
+    return vec2(uintBitsToFloat(w.words[bounds_at() + 2u * tile]), uintBitsToFloat(w.words[bounds_at() + 2u * tile + 1u]));
+}
+
+// The depth slice of view distance `z` within a tile's range `range`: exponential in distance
+// from its nearest, the range cut into DECAL_CLUSTER_SLICES but no slice thinner than 2 % of its
+// distance (a tile of one flat surface facing the camera is one slice).
+uint tile_slice(vec2 range, float z) {
+    float thickness = max(log(range.y / range.x) / float(DECAL_CLUSTER_SLICES), 0.0198);   // log(1.02)
+    return uint(clamp(log(z / range.x) / thickness, 0.0, float(DECAL_CLUSTER_SLICES - 1u)));
+}
 
 // The decal list of the cluster that holds world point `position`, seen at pixel `px`: entries
 // [first, end) of cluster_words() (cut at the capacity when the lists overflowed).
 uvec2 cluster_list(uvec2 px, vec3 position) {
-    uint c = cluster_index(px / DECAL_CLUSTER_TILE, cluster_slice(view_distance(position)));
+    uvec2 tile = px / DECAL_CLUSTER_TILE;
+    vec2 range = tile_depth(tile.y * cluster_tiles().x + tile.x);
+    if (range.x > range.y) return uvec2(0u);   // a tile the depth target shows nothing in
+    // A point a little off the tile's range (a forward fragment is interpolated where the depth
+    // target was not sampled) takes the nearest slice; binning's margin keeps its decals there.
+    uint c = cluster_index(tile, tile_slice(range, clamp(view_distance(position), range.x, range.y)));
     ClusterWordsRef w = cluster_words();
     uint first = w.words[offsets_at() + c];
     return uvec2(first, min(first + w.words[counts_at() + c], scene.decal_list_capacity));

@@ -25,12 +25,27 @@
 //!   camera the whole screen: in PEERS.md's decals-and-lights scene at 1,000 decals that was
 //!   144,000 entries and 0.80 ms of binning on the lent H100, now 7,600 entries and 0.11 ms.
 //!
-//! - **Layout**: screen tiles of 32×32 pixels × 16 depth slices, exponential in view distance
-//!   from 0.1 m to 1 km (`DECAL_CLUSTER_*` in `render/src/layout.rs`): 32,640 clusters at
-//!   1920×1080. Chosen by measuring tiles of 16, 32 and 64 pixels and 16, 32 and 64 slices on
-//!   an H200 in two of the seed's scenes (docs/BENCHMARKS.md): finer clusters shorten the lists
-//!   each pixel walks but cost more binning (each decal lands in more clusters) and a longer
-//!   prefix sum; 32 × 16 was fastest over both scenes. The engines game programmers use cap their decals low (Bevy 1,024, Godot 512 by
+//! - **Layout**: screen tiles of 32×32 pixels × 16 depth slices (`DECAL_CLUSTER_*` in
+//!   `render/src/layout.rs`): 32,640 clusters at 1920×1080. Chosen by measuring tiles of 16, 32
+//!   and 64 pixels and 16, 32 and 64 slices on an H200 in two of the seed's scenes
+//!   (docs/BENCHMARKS.md): finer clusters shorten the lists each pixel walks but cost more
+//!   binning (each decal lands in more clusters) and a longer
+//!   prefix sum; 32 × 16 was fastest over both scenes.
+//! - **Depth bounds**: the slices of a tile cut the view distances its shaded pixels reach,
+//!   which a compute pass reads from the depth target each frame (`decal_cluster_bounds.comp`,
+//!   0.01 ms at 1080p), exponentially from the nearest, none thinner than 2 % of its distance.
+//!   The slices were exponential from 0.1 m to 1 km for the whole screen before (DOOM's layout):
+//!   a tile of ground seen at a slant then shared one slice, metres deep, with every decal
+//!   anywhere in it, and a decal hanging in front of a wall was binned wherever its box
+//!   projected. In the courtyard with 1,000,000 scattered decals on the lent H100, the decals a
+//!   pixel tests fell from 1,940 to 960 (139 apply) and the pass from 23.7 to 15.5 ms (2.36 →
+//!   1.59 at 100,000), for 0.02 ms more binning (docs/BENCHMARKS.md, "Clusters bounded by the
+//!   depth"); the lists hold more entries (a box now lands in several thin slices), 7.7 M at
+//!   1,000,000 instead of 3.7 M. Binning widens a
+//!   box's distances by 1 % before it meets a tile's (a forward fragment under MSAA sits that
+//!   far off the depth target's sample); 0.01 % would give 14.3 ms. A forward fragment at an
+//!   MSAA edge whose surface shows at no sample of the tile, more than 1 % off every depth
+//!   there, can miss decals; no other pixel can. The engines game programmers use cap their decals low (Bevy 1,024, Godot 512 by
 //!   default) because each cluster holds a bit mask or a fixed list; here the lists are packed
 //!   back to back (count, allocate, fill), so no decal count is capped and no
 //!   cluster has a budget of its own: the buffer has room for a total number of entries.
@@ -49,9 +64,10 @@
 //!   scene that needs more keeps the ceiling and drops the entries past it, every frame, which
 //!   the statistics count and one warning names (again only after the need fitted in between).
 //!   The growth's two-frame latency also drops entries, but growing ends it, so that is counted
-//!   and not warned about. Measured on an H100 at 1920×1080 (docs/BENCHMARKS.md): the scatter
-//!   of 100,000 decals needs 6.9 M entries and gets room for 16.8 M (64 MiB); 1,000,000 need
-//!   69.9 M and get 134 M (512 MiB), well under the 8 GiB ceiling there.
+//!   and not warned about. Measured on an H100 at 1920×1080 (docs/BENCHMARKS.md,
+//!   "Clusters bounded by the depth"): the scatter of 100,000 decals needs 0.77 M entries and
+//!   gets room for 1.0 M (4 MiB); 1,000,000 need 7.7 M and get 16.8 M (64 MiB), well under
+//!   the 8 GiB ceiling there.
 //! - **CPU work** is none per frame: the binning reads the decal boxes the GPU already holds
 //!   (kept by change detection for the acceleration structures), and the camera, so the lists
 //!   follow the view without any upload.
@@ -67,6 +83,7 @@ use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::create_computes;
 use crate::gpu::shaders;
 use crate::graph::readback::StatsReadback;
+use crate::graph::targets::DEPTH;
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::{DECAL_BIN_ROW, DECAL_CLUSTER_HEADER, DECAL_CLUSTER_SLICES, DECAL_CLUSTER_TILE};
 use crate::scene::DecalClusterStats;
@@ -96,6 +113,8 @@ pub struct DecalClusters {
     count: vk::Pipeline,
     scan: vk::Pipeline,
     fill: vk::Pipeline,
+    /// The tiles' depth bounds (`decal_cluster_bounds.comp`).
+    bounds: vk::Pipeline,
     /// Decal pass, by [`super::DecalSurfaceSource`].
     pass: [vk::Pipeline; 3],
     /// The cluster buffer: a header, the cluster table, then the lists' entries.
@@ -113,7 +132,7 @@ impl DecalClusters {
     /// Creates the pipelines and the readback buffers; the cluster buffer waits for first use,
     /// when it gets room for `initial_capacity` entries.
     pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout, initial_capacity: u32) -> Result<Self, RenderError> {
-        let [count, scan, fill, gbuffer, visibility, depth] = create_computes(
+        let [count, scan, fill, gbuffer, visibility, depth, bounds] = create_computes(
             ctx,
             layout,
             [
@@ -123,12 +142,13 @@ impl DecalClusters {
                 ("decal pass (clustered)", shaders::DECAL_PASS_CLUSTERED_COMP),
                 ("decal pass (clustered, visibility)", shaders::DECAL_PASS_CLUSTERED_COMP_VISIBILITY),
                 ("decal pass (clustered, depth)", shaders::DECAL_PASS_CLUSTERED_COMP_DEPTH),
+                ("decal cluster bounds", shaders::DECAL_CLUSTER_BOUNDS_COMP),
             ],
         )?;
         let readback = match StatsReadback::new(ctx, graph, "decal cluster statistics", DECAL_CLUSTER_HEADER as u64 * 4) {
             Ok(readback) => readback,
             Err(e) => {
-                for p in [count, scan, fill, gbuffer, visibility, depth] {
+                for p in [count, scan, fill, gbuffer, visibility, depth, bounds] {
                     // SAFETY: the pipelines were never used.
                     unsafe { ctx.destroying().destroy_pipeline(p, None) };
                 }
@@ -139,6 +159,7 @@ impl DecalClusters {
             count,
             scan,
             fill,
+            bounds,
             pass: [gbuffer, visibility, depth],
             room: ListRoom::new("decal clusters", initial_capacity),
             clusters: 0,
@@ -159,7 +180,7 @@ impl DecalClusters {
         let clusters = tiles.0 * tiles.1 * DECAL_CLUSTER_SLICES;
         self.read_back(f);
         // The ceiling in entries: the share of memory, less the header and the cluster table.
-        let fixed = (DECAL_CLUSTER_HEADER as u64 + 3 * clusters as u64) * 4;
+        let fixed = (DECAL_CLUSTER_HEADER as u64 + 3 * clusters as u64 + 2 * (tiles.0 * tiles.1) as u64) * 4;
         let limit = self.room.limit(ctx, fixed);
         let warning = |needed: u32| {
             format!(
@@ -236,10 +257,20 @@ impl DecalClusters {
     pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, live: u32, source: Option<DecalSurfaceSource>) -> Result<bool, RenderError> {
         let Some(buffer) = self.room.buffer.as_ref() else { return Ok(false) };
         let (raw, res, clusters) = (buffer.raw, self.res, self.clusters);
+        let extent = f.graph.extent();
+        let tiles = (extent.width.div_ceil(DECAL_CLUSTER_TILE), extent.height.div_ceil(DECAL_CLUSTER_TILE));
         let prefix = (DECAL_CLUSTER_HEADER as u64 + 3 * clusters as u64) * 4;
         f.pass("decal_clusters_clear", PassKind::Transfer).write(res, BufferUse::Transfer).record(|p| {
             p.cmd.fill_buffer(raw, 0, prefix, 0);
         })?;
+        f.pass("decal_clusters_bounds", PassKind::Compute)
+            .sample(&DEPTH)
+            .read(scene.res.tables, BufferUse::Storage)
+            .write(res, BufferUse::Storage)
+            .record(|p| {
+                p.bind(vk::PipelineBindPoint::COMPUTE, self.bounds, &p.push);
+                p.cmd.dispatch(tiles.0, tiles.1, 1);
+            })?;
         // Eight boxes a workgroup (eight lanes each), in rows of DECAL_BIN_ROW workgroups.
         let groups = live.div_ceil(8);
         let (columns, rows) = (groups.min(DECAL_BIN_ROW), groups.div_ceil(DECAL_BIN_ROW));
@@ -277,7 +308,7 @@ impl DecalClusters {
 
     /// Destroys everything; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for p in [self.count, self.scan, self.fill].into_iter().chain(self.pass) {
+        for p in [self.count, self.scan, self.fill, self.bounds].into_iter().chain(self.pass) {
             // SAFETY: the GPU is idle.
             unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }

@@ -125,6 +125,7 @@ spirv! {
     DECAL_CLUSTERS_COMP = "decal_clusters.comp";
     DECAL_CLUSTERS_COMP_FILL = "decal_clusters.comp.FILL";
     DECAL_CLUSTER_SCAN_COMP = "decal_cluster_scan.comp";
+    DECAL_CLUSTER_BOUNDS_COMP = "decal_cluster_bounds.comp";
     DECAL_PASS_CLUSTERED_COMP = "decal_pass_clustered.comp";
     DECAL_PASS_CLUSTERED_COMP_VISIBILITY = "decal_pass_clustered.comp.DECAL_SURFACE_VISIBILITY";
     DECAL_PASS_CLUSTERED_COMP_DEPTH = "decal_pass_clustered.comp.DECAL_SURFACE_DEPTH";
