@@ -1,4 +1,4 @@
-// variants: FILL
+// variants: FILL WIDE FILL+WIDE
 #version 460
 // Clustered decals, binning (include/clusters.glsl): BIN_LANES threads per live decal box. The
 // box's eight corners, seen from the camera, give the screen tiles it may touch and its view
@@ -14,11 +14,17 @@
 #include "clusters.glsl"
 
 const uint BIN_LANES = 8u;
-// How far a box's view distances are widened before they meet a tile's: the corners' distances
-// (from the view-projection) and a pixel's (from its world position) round differently, and a
-// forward fragment, whose position is interpolated at the pixel's centre, sits off the depth
-// target's sample under MSAA (within 1 %, as msaa.glsl's surface pixel allows).
+// How far a box's view distances are widened before they meet a tile's. The corners' distances
+// (from the view-projection) and a pixel's (from its world position) round differently, which
+// 0.01 % covers for a decal pass, whose pixels' positions come from the depth target as the
+// tiles' bounds do. WIDE, for a forward shading pass that walks the lists itself: its fragments
+// take their positions at the pixel's centre, which under MSAA lies up to 1 % off the depth
+// target's sample (as msaa.glsl's surface pixel allows).
+#ifdef WIDE
 const float DEPTH_MARGIN = 0.01;
+#else
+const float DEPTH_MARGIN = 1e-4;
+#endif
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer OwnerBoundsRef { GpuCullRecord records[]; };
 layout(local_size_x = 64) in;
 

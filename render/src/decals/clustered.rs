@@ -38,14 +38,15 @@
 //!   a tile of ground seen at a slant then shared one slice, metres deep, with every decal
 //!   anywhere in it, and a decal hanging in front of a wall was binned wherever its box
 //!   projected. In the courtyard with 1,000,000 scattered decals on the lent H100, the decals a
-//!   pixel tests fell from 1,940 to 960 (139 apply) and the pass from 23.7 to 15.5 ms (2.36 →
-//!   1.59 at 100,000), for 0.02 ms more binning (docs/BENCHMARKS.md, "Clusters bounded by the
-//!   depth"); the lists hold more entries (a box now lands in several thin slices), 7.7 M at
-//!   1,000,000 instead of 3.7 M. Binning widens a
-//!   box's distances by 1 % before it meets a tile's (a forward fragment under MSAA sits that
-//!   far off the depth target's sample); 0.01 % would give 14.3 ms. A forward fragment at an
-//!   MSAA edge whose surface shows at no sample of the tile, more than 1 % off every depth
-//!   there, can miss decals; no other pixel can. The engines game programmers use cap their decals low (Bevy 1,024, Godot 512 by
+//!   pixel tests fell from 1,940 to 840 (139 apply) and the pass from 23.7 to 14.3 ms (2.36 →
+//!   1.48 at 100,000), for 0.02 ms more binning (docs/BENCHMARKS.md, "Clusters bounded by the
+//!   depth"); the lists hold more entries (a box now lands in several thin slices), 6.5 M at
+//!   1,000,000 instead of 3.7 M, in the same room. Binning widens a box's distances a little
+//!   before they meet a tile's (rounding), and by 1 % when the forward shading walks the lists
+//!   (`WIDE` in `decal_clusters.comp`: under MSAA a fragment's position lies that far off the
+//!   depth target's sample), which costs the dense scatters 8 %. Only a forward fragment at an
+//!   MSAA edge whose surface shows at no sample of its tile, more than 1 % off every depth
+//!   there, can miss a decal. The engines game programmers use cap their decals low (Bevy 1,024, Godot 512 by
 //!   default) because each cluster holds a bit mask or a fixed list; here the lists are packed
 //!   back to back (count, allocate, fill), so no decal count is capped and no
 //!   cluster has a budget of its own: the buffer has room for a total number of entries.
@@ -65,8 +66,8 @@
 //!   the statistics count and one warning names (again only after the need fitted in between).
 //!   The growth's two-frame latency also drops entries, but growing ends it, so that is counted
 //!   and not warned about. Measured on an H100 at 1920×1080 (docs/BENCHMARKS.md,
-//!   "Clusters bounded by the depth"): the scatter of 100,000 decals needs 0.77 M entries and
-//!   gets room for 1.0 M (4 MiB); 1,000,000 need 7.7 M and get 16.8 M (64 MiB), well under
+//!   "Clusters bounded by the depth"): the scatter of 100,000 decals needs 0.66 M entries and
+//!   gets room for 1.0 M (4 MiB); 1,000,000 need 6.5 M and get 8.4 M (32 MiB), well under
 //!   the 8 GiB ceiling there.
 //! - **CPU work** is none per frame: the binning reads the decal boxes the GPU already holds
 //!   (kept by change detection for the acceleration structures), and the camera, so the lists
@@ -110,9 +111,11 @@ pub struct ClusterFrame {
 
 /// The clustered-decal pipelines, the cluster buffer and the statistics read back from it.
 pub struct DecalClusters {
-    count: vk::Pipeline,
+    /// Binning's count and fill, with the depth margin a decal pass needs and with the wider
+    /// one of forward shading (`WIDE` in `decal_clusters.comp`).
+    count: [vk::Pipeline; 2],
     scan: vk::Pipeline,
-    fill: vk::Pipeline,
+    fill: [vk::Pipeline; 2],
     /// The tiles' depth bounds (`decal_cluster_bounds.comp`).
     bounds: vk::Pipeline,
     /// Decal pass, by [`super::DecalSurfaceSource`].
@@ -132,13 +135,15 @@ impl DecalClusters {
     /// Creates the pipelines and the readback buffers; the cluster buffer waits for first use,
     /// when it gets room for `initial_capacity` entries.
     pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout, initial_capacity: u32) -> Result<Self, RenderError> {
-        let [count, scan, fill, gbuffer, visibility, depth, bounds] = create_computes(
+        let [count, scan, fill, count_wide, fill_wide, gbuffer, visibility, depth, bounds] = create_computes(
             ctx,
             layout,
             [
                 ("decal clusters (count)", shaders::DECAL_CLUSTERS_COMP),
                 ("decal clusters (scan)", shaders::DECAL_CLUSTER_SCAN_COMP),
                 ("decal clusters (fill)", shaders::DECAL_CLUSTERS_COMP_FILL),
+                ("decal clusters (count, wide)", shaders::DECAL_CLUSTERS_COMP_WIDE),
+                ("decal clusters (fill, wide)", shaders::DECAL_CLUSTERS_COMP_FILL_WIDE),
                 ("decal pass (clustered)", shaders::DECAL_PASS_CLUSTERED_COMP),
                 ("decal pass (clustered, visibility)", shaders::DECAL_PASS_CLUSTERED_COMP_VISIBILITY),
                 ("decal pass (clustered, depth)", shaders::DECAL_PASS_CLUSTERED_COMP_DEPTH),
@@ -148,7 +153,7 @@ impl DecalClusters {
         let readback = match StatsReadback::new(ctx, graph, "decal cluster statistics", DECAL_CLUSTER_HEADER as u64 * 4) {
             Ok(readback) => readback,
             Err(e) => {
-                for p in [count, scan, fill, gbuffer, visibility, depth, bounds] {
+                for p in [count, scan, fill, count_wide, fill_wide, gbuffer, visibility, depth, bounds] {
                     // SAFETY: the pipelines were never used.
                     unsafe { ctx.destroying().destroy_pipeline(p, None) };
                 }
@@ -156,9 +161,9 @@ impl DecalClusters {
             }
         };
         Ok(Self {
-            count,
+            count: [count, count_wide],
             scan,
-            fill,
+            fill: [fill, fill_wide],
             bounds,
             pass: [gbuffer, visibility, depth],
             room: ListRoom::new("decal clusters", initial_capacity),
@@ -280,7 +285,9 @@ impl DecalClusters {
                 p.cmd.dispatch(columns, rows, 1);
             })
         };
-        bin(f, "decal_clusters_count", self.count)?;
+        // The forward shading's fragments need the wider depth margin (decal_clusters.comp).
+        let wide = source.is_none() as usize;
+        bin(f, "decal_clusters_count", self.count[wide])?;
         // One workgroup for each 256 clusters reserves their lists (32,640 clusters at 1080p:
         // 128 workgroups).
         f.pass("decal_clusters_scan", PassKind::Compute).read(scene.res.tables, BufferUse::Storage).write(res, BufferUse::Storage).record(
@@ -289,7 +296,7 @@ impl DecalClusters {
                 p.cmd.dispatch(clusters.div_ceil(256), 1, 1);
             },
         )?;
-        bin(f, "decal_clusters_fill", self.fill)?;
+        bin(f, "decal_clusters_fill", self.fill[wide])?;
 
         if let Some(source) = source {
             let extent = f.graph.extent();
@@ -308,7 +315,7 @@ impl DecalClusters {
 
     /// Destroys everything; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for p in [self.count, self.scan, self.fill, self.bounds].into_iter().chain(self.pass) {
+        for p in [self.scan, self.bounds].into_iter().chain(self.count).chain(self.fill).chain(self.pass) {
             // SAFETY: the GPU is idle.
             unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }

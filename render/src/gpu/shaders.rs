@@ -124,6 +124,8 @@ spirv! {
     DECAL_PASS_COMP_DEPTH = "decal_pass.comp.DECAL_SURFACE_DEPTH";
     DECAL_CLUSTERS_COMP = "decal_clusters.comp";
     DECAL_CLUSTERS_COMP_FILL = "decal_clusters.comp.FILL";
+    DECAL_CLUSTERS_COMP_WIDE = "decal_clusters.comp.WIDE";
+    DECAL_CLUSTERS_COMP_FILL_WIDE = "decal_clusters.comp.FILL+WIDE";
     DECAL_CLUSTER_SCAN_COMP = "decal_cluster_scan.comp";
     DECAL_CLUSTER_BOUNDS_COMP = "decal_cluster_bounds.comp";
     DECAL_PASS_CLUSTERED_COMP = "decal_pass_clustered.comp";
