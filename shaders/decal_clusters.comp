@@ -17,11 +17,11 @@ const uint BIN_LANES = 8u;
 // How far a box's view distances are widened before they meet a tile's. The corners' distances
 // (from the view-projection) and a pixel's (from its world position) round differently, which
 // 0.01 % covers for a decal pass, whose pixels' positions come from the depth target as the
-// tiles' bounds do. WIDE, for a forward shading pass that walks the lists itself: its fragments
-// take their positions at the pixel's centre, which under MSAA lies up to 1 % off the depth
-// target's sample (as msaa.glsl's surface pixel allows).
+// tiles' bounds do. WIDE, for a forward shading pass that walks the lists itself: under MSAA its
+// fragments take their own positions, up to 1 % off the depth of the sample that the depth
+// target keeps (msaa.glsl's surface pixel allows 1 % of the fragment's depth: 1/0.99 of it).
 #ifdef WIDE
-const float DEPTH_MARGIN = 0.01;
+const float DEPTH_MARGIN = 0.0102;
 #else
 const float DEPTH_MARGIN = 1e-4;
 #endif
@@ -88,20 +88,25 @@ void main() {
     // Each tile the box's rectangle covers: the part of the box's distances that the tile's
     // shaded pixels reach (decal_cluster_bounds.comp), in that tile's slices. A box in front of or
     // behind everything the tile shows lands in none of its clusters.
+    // Rounding also grows with the coordinates' size: a world far from its origin widens more.
+    float slack = 1e-5 * length(cam.position);
     uvec2 extent = t1 - t0 + 1u;
     uint n = extent.x * extent.y;
     ClusterWordsRef w = cluster_words();
     for (uint i = lane; i < n; i += BIN_LANES) {
         uvec2 tile = t0 + uvec2(i % extent.x, i / extent.x);
         vec2 range = tile_depth(tile.y * tiles.x + tile.x);
-        float lo = max(zmin * (1.0 - DEPTH_MARGIN), range.x), hi = min(zmax * (1.0 + DEPTH_MARGIN), range.y);
+        float lo = max(zmin * (1.0 - DEPTH_MARGIN) - slack, range.x), hi = min(zmax * (1.0 + DEPTH_MARGIN) + slack, range.y);
         if (lo > hi) continue;
         uint last = tile_slice(range, hi);
         for (uint slice = tile_slice(range, lo); slice <= last; ++slice) {
             uint c = cluster_index(tile, slice);
 #ifdef FILL
-            uint at = w.words[offsets_at() + c] + atomicAdd(w.words[cursors_at() + c], 1u);
-            if (at < scene.decal_list_capacity) {
+            // Within the count of the cluster's list, whatever this compilation's rounding: an
+            // entry the counting pass did not see is dropped, not written into the next list.
+            uint k = atomicAdd(w.words[cursors_at() + c], 1u);
+            uint at = w.words[offsets_at() + c] + k;
+            if (k < w.words[counts_at() + c] && at < scene.decal_list_capacity) {
                 w.words[entries_at() + at] = b.slot;
             } else {
                 atomicAdd(w.words[STAT_DROPPED], 1u);

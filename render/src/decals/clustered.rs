@@ -29,8 +29,12 @@
 //!   `render/src/layout.rs`): 32,640 clusters at 1920×1080. Chosen by measuring tiles of 16, 32
 //!   and 64 pixels and 16, 32 and 64 slices on an H200 in two of the seed's scenes
 //!   (docs/BENCHMARKS.md): finer clusters shorten the lists each pixel walks but cost more
-//!   binning (each decal lands in more clusters) and a longer
-//!   prefix sum; 32 × 16 was fastest over both scenes.
+//!   binning (each decal lands in more clusters) and a longer prefix sum; 32 × 16 was fastest
+//!   over both scenes (with the global slices below, before the depth bounds; not measured
+//!   again since). The engines game programmers use cap their decals low (Bevy 1,024, Godot
+//!   512 by default) because each cluster holds a bit mask or a fixed list; here the lists are
+//!   packed back to back (count, allocate, fill), so no decal count is capped and no cluster
+//!   has a budget of its own: the buffer has room for a total number of entries.
 //! - **Depth bounds**: the slices of a tile cut the view distances its shaded pixels reach,
 //!   which a compute pass reads from the depth target each frame (`decal_cluster_bounds.comp`,
 //!   0.01 ms at 1080p), exponentially from the nearest, none thinner than 2 % of its distance.
@@ -44,12 +48,10 @@
 //!   1,000,000 instead of 3.7 M, in the same room. Binning widens a box's distances a little
 //!   before they meet a tile's (rounding), and by 1 % when the forward shading walks the lists
 //!   (`WIDE` in `decal_clusters.comp`: under MSAA a fragment's position lies that far off the
-//!   depth target's sample), which costs the dense scatters 8 %. Only a forward fragment at an
-//!   MSAA edge whose surface shows at no sample of its tile, more than 1 % off every depth
-//!   there, can miss a decal. The engines game programmers use cap their decals low (Bevy 1,024, Godot 512 by
-//!   default) because each cluster holds a bit mask or a fixed list; here the lists are packed
-//!   back to back (count, allocate, fill), so no decal count is capped and no
-//!   cluster has a budget of its own: the buffer has room for a total number of entries.
+//!   depth target's sample), which costs the dense scatters 8 %. A forward fragment under MSAA
+//!   whose surface is more than that off every sample-0 depth of its tile (at an edge, where
+//!   `msaa.glsl` reads the surface of a neighbouring pixel) can miss a decal; no other pixel
+//!   can.
 //! - **Overflow** never drops decals silently: entries that do not fit are counted
 //!   ([`DecalClusterStats::dropped`]), and when the CPU reads the needed total back (two frames
 //!   later, when that frame's slot comes round again) it grows the buffer to a quarter more than
