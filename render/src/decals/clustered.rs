@@ -182,8 +182,7 @@ impl DecalClusters {
     /// and says where the buffer is. Call before the frame's push constants are set.
     pub fn prepare(&mut self, f: &mut Frame, stats: &mut DecalClusterStats) -> Result<ClusterFrame, RenderError> {
         let ctx = f.ctx;
-        let extent = f.graph.extent();
-        let tiles = (extent.width.div_ceil(DECAL_CLUSTER_TILE), extent.height.div_ceil(DECAL_CLUSTER_TILE));
+        let tiles = screen_tiles(f);
         let clusters = tiles.0 * tiles.1 * DECAL_CLUSTER_SLICES;
         self.read_back(f);
         // The ceiling in entries: the share of memory, less the header and the cluster table.
@@ -265,7 +264,7 @@ impl DecalClusters {
         let Some(buffer) = self.room.buffer.as_ref() else { return Ok(false) };
         let (raw, res, clusters) = (buffer.raw, self.res, self.clusters);
         let extent = f.graph.extent();
-        let tiles = (extent.width.div_ceil(DECAL_CLUSTER_TILE), extent.height.div_ceil(DECAL_CLUSTER_TILE));
+        let tiles = screen_tiles(f);
         let prefix = (DECAL_CLUSTER_HEADER as u64 + 3 * clusters as u64) * 4;
         f.pass("decal_clusters_clear", PassKind::Transfer).write(res, BufferUse::Transfer).record(|p| {
             p.cmd.fill_buffer(raw, 0, prefix, 0);
@@ -301,7 +300,6 @@ impl DecalClusters {
         bin(f, "decal_clusters_fill", self.fill[wide])?;
 
         if let Some(source) = source {
-            let extent = f.graph.extent();
             let pipeline = self.pass[source as usize];
             let pass = super::buffer::declare_decal_surface(f.pass("decal_pass_clustered", PassKind::Compute), scene, source)
                 .write(res, BufferUse::Storage);
@@ -324,4 +322,10 @@ impl DecalClusters {
         self.room.destroy(ctx);
         self.readback.destroy(ctx);
     }
+}
+
+/// The screen tiles across and down at the frame's size (`DECAL_CLUSTER_TILE` pixels each).
+fn screen_tiles(f: &Frame) -> (u32, u32) {
+    let extent = f.graph.extent();
+    (extent.width.div_ceil(DECAL_CLUSTER_TILE), extent.height.div_ceil(DECAL_CLUSTER_TILE))
 }
