@@ -54,7 +54,9 @@ pub enum DecalMethod {
     /// ray queries): the ray-query tier's counterpart of [`DecalMethod::RayPipeline`].
     RayQueryCompute,
     /// A ray-tracing-pipeline pass writes the decal buffer the shading passes apply (needs
-    /// acceleration structures and ray-tracing pipelines, no ray queries).
+    /// acceleration structures and ray-tracing pipelines, no ray queries). Runs only when asked
+    /// for: a device without ray queries falls back to [`DecalMethod::Clustered`] (see
+    /// [`DecalMethod::effective`]).
     RayPipeline,
     /// Clustered decals: compute passes bin the decals into view clusters and a decal pass walks
     /// each pixel's cluster list, writing the decal buffer the shading passes apply. Needs no ray
@@ -140,18 +142,21 @@ impl DecalMethod {
     }
 
     /// The method actually applied with `pipeline` on a device offering `support`: the
-    /// requested one when it can run, else the best one that can (ray queries in the shading
-    /// pass, then the ray-tracing-pipeline decal pass, then clustered decals, which run
-    /// everywhere), so never nothing ([`DecalMethod::Unavailable`] remains for a device that
-    /// could run none).
+    /// requested one when it can run, else the best one that can: ray queries in the shading
+    /// pass, else clustered decals, which run everywhere. So never nothing
+    /// ([`DecalMethod::Unavailable`] remains for a device that could run none).
+    ///
+    /// The ray-tracing-pipeline decal pass is never the fallback. A device with ray-tracing
+    /// pipelines but no ray queries is, as far as we know, one without ray-tracing hardware. The
+    /// only one measured, the lent NVIDIA H100 (it has no RT cores), ran clustered decals faster
+    /// in every pipeline at every density, from 100 to 1,000,000 decals, in a fraction of the
+    /// memory (`docs/BENCHMARKS.md`, "The fallback without ray queries"). Decals in traced
+    /// reflections still come from the decal acceleration structures, whatever the method.
     pub fn effective(self, pipeline: PipelineKind, support: RaySupport) -> DecalMethod {
         if self.runs(pipeline, support) {
             return self;
         }
-        [DecalMethod::RayQuery, DecalMethod::RayPipeline, DecalMethod::Clustered]
-            .into_iter()
-            .find(|m| m.runs(pipeline, support))
-            .unwrap_or(DecalMethod::Unavailable)
+        [DecalMethod::RayQuery, DecalMethod::Clustered].into_iter().find(|m| m.runs(pipeline, support)).unwrap_or(DecalMethod::Unavailable)
     }
 }
 
@@ -940,14 +945,14 @@ mod tests {
             assert_eq!(RayQueryCompute.effective(p, rq), RayQueryCompute);
             assert_eq!(RayPipeline.effective(p, rq), RayPipeline, "a ray-query device with ray-tracing pipelines runs both");
             assert_eq!(RayPipeline.effective(p, rq_only), RayQuery, "the best method this device has");
-            assert_eq!(RayQuery.effective(p, rtp), RayPipeline, "no ray queries: the ray-tracing-pipeline pass, not nothing");
-            assert_eq!(RayQueryCompute.effective(p, rtp), RayPipeline);
+            assert_eq!(RayQuery.effective(p, rtp), Clustered, "no ray queries: clustered decals, the faster there, not nothing");
+            assert_eq!(RayQueryCompute.effective(p, rtp), Clustered);
             assert_eq!(RayPipeline.effective(p, rtp), RayPipeline);
             assert_eq!(Off.effective(p, rq), Off);
         }
         assert_eq!(DeferredDecals.effective(Deferred, rq), DeferredDecals);
         assert_eq!(DeferredDecals.effective(Forward, rq), RayQuery, "deferred decals exist only in the deferred pipeline");
-        assert_eq!(DeferredDecals.effective(Forward, rtp), RayPipeline);
+        assert_eq!(DeferredDecals.effective(Forward, rtp), Clustered);
         assert_eq!(RayQuery.effective(Deferred, none), Clustered, "no acceleration structures: clustered decals");
         assert_eq!(RayPipeline.effective(Forward, none), Clustered, "in every pipeline");
         assert_eq!(DeferredDecals.effective(VisBuffer, none), Clustered);

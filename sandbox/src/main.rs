@@ -48,7 +48,8 @@ struct Cli {
     /// Pipeline: forward, forward_plus, deferred or visbuffer.
     #[arg(long, default_value = "forward", value_parser = parse_pipeline)]
     pipeline: PipelineKind,
-    /// Decal method: ray_query, deferred (deferred pipeline only) or off.
+    /// Decal method: ray_query, ray_query_compute, ray_pipeline, clustered, deferred (deferred
+    /// pipeline only) or off. One the device cannot run falls back to ray_query, else clustered.
     #[arg(long, default_value = "ray_query", value_parser = parse_decal_method)]
     decal_method: DecalMethod,
     /// Highest capability tier to use: ray_query, ray_tracing_pipeline or none.
