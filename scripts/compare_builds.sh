@@ -4,14 +4,17 @@
 #
 #   [FRAMES=N] scripts/compare_builds.sh OLD_SANDBOX NEW_SANDBOX [SIZE]   (N: frames, default 4)
 #
-# Every pipeline with each of its decal methods, on the default courtyard with 300 scattered
-# decals (their debug boxes drawn once), headless on whatever Vulkan device is present.
+# Every pipeline with its decal methods, each named (a method the device cannot run falls back,
+# so the same build pair compares different work on different devices), on the default
+# courtyard with 300 scattered decals (their debug boxes drawn once), headless on whatever
+# Vulkan device is present.
 set -euo pipefail
 old=$1 new=$2 size=${3:-320x240} frames=${FRAMES:-4}
 source "$(dirname "$0")/env.sh"
 out=$(mktemp -d)
 status=0
-for combo in forward:ray_query forward:off deferred:ray_query deferred:deferred deferred:off visbuffer:ray_query visbuffer:off forward:ray_query:boxes; do
+for combo in forward:ray_query forward:off forward_plus:clustered deferred:ray_query deferred:ray_pipeline deferred:clustered deferred:deferred deferred:off \
+  visbuffer:ray_query visbuffer:ray_pipeline visbuffer:off forward:ray_query:boxes; do
   IFS=: read -r pipeline method boxes <<<"$combo"
   extra=()
   [ -n "$boxes" ] && extra=(--decal-boxes)

@@ -60,8 +60,7 @@ pub enum DecalMethod {
     RayPipeline,
     /// Clustered decals: compute passes bin the decals into view clusters and a decal pass walks
     /// each pixel's cluster list, writing the decal buffer the shading passes apply. Needs no ray
-    /// tracing: runs on every device, and is the choice where there are no acceleration
-    /// structures.
+    /// tracing: runs on every device, and is the choice where there are no ray queries.
     Clustered,
     /// Rasterised decal boxes blended into the G-buffer (deferred pipeline only). Needs no ray
     /// tracing at all.
@@ -143,14 +142,14 @@ impl DecalMethod {
 
     /// The method actually applied with `pipeline` on a device offering `support`: the
     /// requested one when it can run, else the best one that can: ray queries in the shading
-    /// pass, else clustered decals, which run everywhere. So never nothing
-    /// ([`DecalMethod::Unavailable`] remains for a device that could run none).
+    /// pass, else clustered decals, which run everywhere, so never nothing
+    /// ([`DecalMethod::Unavailable`] is what `--stats` would report if none could run).
     ///
     /// The ray-tracing-pipeline decal pass is never the fallback. A device with ray-tracing
     /// pipelines but no ray queries is, as far as we know, one without ray-tracing hardware. The
     /// only one measured, the lent NVIDIA H100 (it has no RT cores), ran clustered decals faster
-    /// in every pipeline at every density, from 100 to 1,000,000 decals, in a fraction of the
-    /// memory (`docs/BENCHMARKS.md`, "The fallback without ray queries"). Decals in traced
+    /// everywhere we measured (every pipeline at 100 and 1,000 decals, deferred at 10,000 to
+    /// 1,000,000), in a fraction of the memory (`docs/BENCHMARKS.md`, "The fallback without ray queries"). Decals in traced
     /// reflections still come from the decal acceleration structures, whatever the method.
     pub fn effective(self, pipeline: PipelineKind, support: RaySupport) -> DecalMethod {
         if self.runs(pipeline, support) {

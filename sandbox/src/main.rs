@@ -63,8 +63,8 @@ struct Cli {
     decal_seed: u64,
     /// What to show: lit, decal-heatmap, albedo, normal, roughness-metallic, light-heatmap,
     /// shadow-rays, depth-normals, reflections (the reflection rays' hit distance),
-    /// ambient-occlusion, decal-floor (the ray-tracing-pipeline decal pass only counts the decals
-    /// at each pixel: its floor, for benchmarks).
+    /// ambient-occlusion, decal-floor (with --decal-method ray_pipeline, the ray-tracing-pipeline
+    /// decal pass only counts the decals at each pixel: its floor, for benchmarks).
     #[arg(long, default_value = "lit", value_parser = parse_debug_view)]
     debug_view: DebugView,
     /// Draw every decal's box and AABB.

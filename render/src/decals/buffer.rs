@@ -9,7 +9,8 @@
 //! Three passes write the same buffer: the two ray-traced ones here, and clustered decals
 //! ([`super::clustered`]), which need no ray tracing at all. The ray-traced formulations:
 //! - **ray-tracing pipeline** (`shaders/decal_pass.r*`), for devices with ray-tracing pipelines
-//!   but no ray queries (the lent NVIDIA GPUs): a ray-generation shader traces the ray; an
+//!   but no ray queries (the lent NVIDIA GPUs), when asked for (they fall back to clustered
+//!   decals, the faster there: [`crate::DecalMethod::effective`]): a ray-generation shader traces the ray; an
 //!   intersection shader runs the exact oriented-box test and the angle fade on each AABB the
 //!   ray's origin lies in. Intersection shaders have no payload, so the two things they need
 //!   from the pixel travel with the ray: its origin is the surface point, and its direction

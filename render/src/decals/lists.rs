@@ -34,7 +34,7 @@
 //!   one warning). Measured at 1920×1080 on the courtyard's scatter: 10,000 decals ask for
 //!   3.8 M entries (room for 8.4 M, 32 MiB), 100,000 for 23 M (33.6 M, 128 MiB), 1,000,000 for
 //!   204 M (268 M, 1 GiB), beside 24 MiB of per-pixel words; the cluster lists of clustered
-//!   decals take 64 and 512 MiB at 100,000 and 1,000,000.
+//!   decals take 4 and 32 MiB at 100,000 and 1,000,000 since they are bounded by the depth.
 //! - **What it costs where decals are few**: the allocation pass, 0.038 ms a frame at
 //!   1920×1080 on the H100, whatever the decals; at 10,000 scattered decals the pass went from
 //!   0.60 to 0.62 ms, and in PEERS.md's scene (100 and 1,000 decals) from 0.213 to 0.205 ms
