@@ -149,8 +149,9 @@ impl DecalMethod {
     /// pipelines but no ray queries is, as far as we know, one without ray-tracing hardware. The
     /// only one measured, the lent NVIDIA H100 (it has no RT cores), ran clustered decals faster
     /// everywhere we measured (every pipeline at 100 and 1,000 decals, deferred at 10,000 to
-    /// 1,000,000), in a fraction of the memory (`docs/BENCHMARKS.md`, "The fallback without ray queries"). Decals in traced
-    /// reflections still come from the decal acceleration structures, whatever the method.
+    /// 1,000,000), in a fraction of the memory (`docs/BENCHMARKS.md`, "The fallback without ray
+    /// queries"). Decals in traced reflections still come from the decal acceleration
+    /// structures, whatever the method.
     pub fn effective(self, pipeline: PipelineKind, support: RaySupport) -> DecalMethod {
         if self.runs(pipeline, support) {
             return self;

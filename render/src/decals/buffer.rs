@@ -10,8 +10,8 @@
 //! ([`super::clustered`]), which need no ray tracing at all. The ray-traced formulations:
 //! - **ray-tracing pipeline** (`shaders/decal_pass.r*`), for devices with ray-tracing pipelines
 //!   but no ray queries (the lent NVIDIA GPUs), when asked for (they fall back to clustered
-//!   decals, the faster there: [`crate::DecalMethod::effective`]): a ray-generation shader traces the ray; an
-//!   intersection shader runs the exact oriented-box test and the angle fade on each AABB the
+//!   decals, the faster there: [`crate::DecalMethod::effective`]): a ray-generation shader
+//!   traces the ray; an intersection shader runs the exact oriented-box test and the angle fade on each AABB the
 //!   ray's origin lies in. Intersection shaders have no payload, so the two things they need
 //!   from the pixel travel with the ray: its origin is the surface point, and its direction
 //!   (free for a ray of length zero) is the geometric normal the fade needs.
