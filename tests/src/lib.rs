@@ -313,3 +313,41 @@ pub fn ktx2_file(format: ktx2::Format, width: u32, height: u32, faces: u32, data
     file.extend_from_slice(data);
     file
 }
+
+/// The variable that tells a child process of the test binary which test it runs the body of.
+const OWN_PROCESS: &str = "TESTS_OWN_PROCESS";
+
+/// Runs a test's body in a process of its own, for a test that changes its whole process (its
+/// environment, or a heap count that other tests' allocations would disturb): in the test
+/// binary's first process it starts the binary again running only this test, with `env` added to
+/// its environment, waits, fails if that child failed, and returns `false` (return at once); in
+/// the child it returns `true` (run the body). `module` is the test's `module_path!()` and `name`
+/// its function's name.
+///
+/// # Panics
+///
+/// When the child cannot be started or fails.
+pub fn in_own_process(module: &str, name: &str, env: &[(&str, &str)]) -> bool {
+    // libtest names a test by its path below the crate root.
+    let path = match module.split_once("::") {
+        Some((_, below)) => format!("{below}::{name}"),
+        None => name.to_string(),
+    };
+    if std::env::var(OWN_PROCESS).as_deref() == Ok(path.as_str()) {
+        return true;
+    }
+    let exe = std::env::current_exe().expect("the test binary's path");
+    let child = std::process::Command::new(exe)
+        .args([path.as_str(), "--exact", "--nocapture", "--test-threads=1"])
+        .env(OWN_PROCESS, &path)
+        .envs(env.iter().copied())
+        .stderr(std::process::Stdio::inherit())
+        .output()
+        .expect("the test binary starts again");
+    let stdout = String::from_utf8_lossy(&child.stdout);
+    print!("{stdout}");
+    assert!(child.status.success(), "{path}, run in a process of its own, failed: {}", child.status);
+    // A name that matched no test would pass having run nothing.
+    assert!(stdout.contains("test result: ok. 1 passed"), "{path}: the child process ran no test of that name");
+    false
+}

@@ -5,8 +5,6 @@
 //! (relative precision 2⁻¹¹ ≈ 0.05 %); the rest covers the difference between the rasteriser's
 //! interpolated world position and our exact ray–plane hit at the pixel centre.
 
-#![forbid(unsafe_code)]
-
 use engine::prelude::*;
 use plugins::RenderSettings;
 use tests::{assert_no_validation_errors, gpu_app, renderer};

@@ -5,8 +5,6 @@
 //! distance from it; the lit image is the ambient image × that factor; the frame reports the
 //! method applied (screen space where rays cannot be traced); and switching it off gives 1.
 
-#![forbid(unsafe_code)]
-
 use engine::prelude::*;
 use plugins::{RenderSettings, RenderStats};
 use render::{DebugView, OcclusionMethod, OcclusionSettings, PipelineKind, Tier};

@@ -10,8 +10,6 @@
 //! go to the GPU as 16-bit unorm, so positions may differ by ~1e-5 m; measured: mean ~1e-8,
 //! p99 0). A shadow left in the bind pose (a BLAS not refit) costs several hundred pixels.
 
-#![forbid(unsafe_code)]
-
 use engine::animation::{MorphWeights, Skin};
 use engine::mesh::{MorphTarget, SkinWeights};
 use engine::prelude::*;

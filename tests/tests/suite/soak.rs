@@ -1,19 +1,18 @@
 //! The soak in CI: a short deterministic run of random gameplay, configuration switches,
 //! resizes and tier changes under validation with synchronization validation (see
 //! `sandbox::soak`). Longer runs: `cargo run --release -p sandbox -- --soak --frames 10000`.
-
-#![forbid(unsafe_code)]
+//! It runs in a process of its own, so that the heap it measures is its own.
 
 use sandbox::soak::{SoakConfig, run};
 
-/// Counts the engine's heap for the soak's memory check.
-#[global_allocator]
-static ALLOCATOR: cap::Cap<std::alloc::System> = cap::Cap::new(std::alloc::System, usize::MAX);
-
 #[test]
 fn random_gameplay_stays_valid_finite_and_gives_its_memory_back() {
-    let report = run(&SoakConfig { frames: 2000, cycles: 4, heap_bytes: Some(|| ALLOCATOR.allocated() as u64), ..Default::default() })
-        .expect("the soak runs");
+    if !tests::in_own_process(module_path!(), "random_gameplay_stays_valid_finite_and_gives_its_memory_back", &[]) {
+        return;
+    }
+    let report =
+        run(&SoakConfig { frames: 2000, cycles: 4, heap_bytes: Some(|| crate::ALLOCATOR.allocated() as u64), ..Default::default() })
+            .expect("the soak runs");
     println!("{}", serde_json::to_string_pretty(&report).unwrap());
     assert!(report.cycles.iter().all(|c| c.heap_after > 0), "the heap was counted");
     let failures = report.failures();

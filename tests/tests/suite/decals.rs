@@ -11,8 +11,6 @@
 //! read back and compared per pixel. Pixels within one pixel footprint of any box edge are
 //! skipped: there the GPU's interpolated position and our exact one may fall on different sides.
 
-#![forbid(unsafe_code)]
-
 use engine::prelude::*;
 use plugins::decal::{AngleFade, Decal, DecalLifetime, DecalMaterial, DecalReceiver, DistanceFade};
 use plugins::{MirrorSlots, RenderMirror, RenderSettings, RenderStats};

@@ -2,8 +2,6 @@
 //! one with an unsupported attribute layout each give an error that names the problem; nothing
 //! panics, and the running scene keeps rendering without validation errors.
 
-#![forbid(unsafe_code)]
-
 use std::path::{Path, PathBuf};
 
 use plugins::RenderMirror;

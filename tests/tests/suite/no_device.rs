@@ -1,15 +1,20 @@
 //! Without a usable Vulkan device the render plugin says so and the app ends with that error; it
-//! does not panic. (Its own test binary: it points the Vulkan loader at a driver list that does
-//! not exist, which must not reach the other tests' processes.)
+//! does not panic. It runs in a process of its own whose Vulkan loader is pointed at a driver
+//! list that does not exist, which must not reach the other tests.
 
 use engine::app::AppExit;
 use engine::prelude::*;
 use plugins::{GpuPlugin, GpuRenderer, RenderPlugin, RenderSettings, RenderStats};
 
+const NO_DRIVER: &str = "/nonexistent/no_driver.json";
+
 #[test]
 fn without_a_vulkan_device_the_app_exits_with_an_error_naming_the_problem() {
-    unsafe_env::set("VK_DRIVER_FILES", "/nonexistent/no_driver.json");
-    unsafe_env::set("VK_ICD_FILENAMES", "/nonexistent/no_driver.json");
+    let env = [("VK_DRIVER_FILES", NO_DRIVER), ("VK_ICD_FILENAMES", NO_DRIVER)];
+    if !tests::in_own_process(module_path!(), "without_a_vulkan_device_the_app_exits_with_an_error_naming_the_problem", &env) {
+        return;
+    }
+    assert_eq!(std::env::var("VK_DRIVER_FILES").as_deref(), Ok(NO_DRIVER), "the child sees no driver");
     let mut app = App::new();
     app.add_plugins(RenderPlugin::new(RenderSettings { size: (64, 48), ..Default::default() }));
     app.add_plugins(GpuPlugin::default());
@@ -22,13 +27,4 @@ fn without_a_vulkan_device_the_app_exits_with_an_error_naming_the_problem() {
     assert!(matches!(app.world.get_resource::<AppExit>(), Some(AppExit::Error(e)) if *e == error));
     let ran = app.run();
     assert_eq!(ran.expect_err("run reports the error").to_string(), error);
-}
-
-mod unsafe_env {
-    /// Sets an environment variable for this process.
-    pub fn set(key: &str, value: &str) {
-        // SAFETY: called from this binary's single test before any other thread could read the
-        // environment (the test harness's threads do not).
-        unsafe { std::env::set_var(key, value) };
-    }
 }

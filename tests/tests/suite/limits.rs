@@ -3,8 +3,6 @@
 //! extra entities wait for room with one warning per kind; exhausted memory ends the app with an
 //! error naming the frame, the operation and the allocation, and nothing panics.
 
-#![forbid(unsafe_code)]
-
 use engine::app::AppExit;
 use engine::prelude::*;
 use plugins::decal::{Decal, DecalMaterial};

@@ -6,8 +6,6 @@
 //! Temporal anti-aliasing must also forget what went away: no trail behind a box that moved, a
 //! new decal sharp within 3 frames and no ghost of a despawned one.
 
-#![forbid(unsafe_code)]
-
 use engine::prelude::*;
 use plugins::RenderSettings;
 use plugins::decal::{Decal, DecalMaterial};

@@ -4,8 +4,6 @@
 //! clamped) with exactly one warning naming it, however many frames it stays bad; and the valid
 //! scene around it renders exactly as it does without it.
 
-#![forbid(unsafe_code)]
-
 use engine::image::{ColorSpace, Image};
 use engine::prelude::*;
 use plugins::decal::{Decal, DecalMaterial, DecalUv};

@@ -5,8 +5,6 @@
 //! sees; glass and alpha-masked geometry in a reflection; and a device without ray tracing says
 //! that nothing was reflected.
 
-#![forbid(unsafe_code)]
-
 use engine::prelude::*;
 use plugins::decal::{Decal, DecalMaterial};
 use plugins::{RenderSettings, RenderStats};

@@ -20,8 +20,6 @@
 //!   99th percentile ≤ 0.0013): the decal pass takes texture gradients from neighbouring depths
 //!   where the forward shader has the rasteriser's quad derivatives, and the buffer holds fp16.
 
-#![forbid(unsafe_code)]
-
 use engine::prelude::*;
 use plugins::decal::{Decal, DecalMaterial};
 use plugins::{RenderSettings, RenderStats};

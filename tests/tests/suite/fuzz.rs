@@ -29,8 +29,6 @@
 //! The random seed is fixed, so a run is reproducible; `PROPTEST_RNG_SEED=<u64>` explores other
 //! inputs.
 
-#![forbid(unsafe_code)]
-
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 

@@ -10,7 +10,6 @@
 //! - emissive materials emit in every pipeline, and emissive glass through every way of drawing
 //!   glass (composited as colour × opacity).
 
-#![forbid(unsafe_code)]
 // The published constants are kept as their authors wrote them.
 #![allow(clippy::excessive_precision)]
 

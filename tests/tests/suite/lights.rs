@@ -23,8 +23,6 @@
 //! normals from depth off by 0.039 rad on average (naive) against 0.0051 (improved); the two
 //! tiers' images identical.
 
-#![forbid(unsafe_code)]
-
 use engine::prelude::*;
 use plugins::{MirrorSlots, RenderSettings, RenderStats};
 use render::{DebugView, DecalMethod, DepthNormals, LightMethod, LightSettings, PipelineKind, ReflectionSettings, Tier};

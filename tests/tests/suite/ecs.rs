@@ -1,8 +1,6 @@
 //! Headless ECS tests: no GPU. Extraction must mirror spawns, changes and despawns into stable
 //! slots, and a frame in which nothing changed must write nothing.
 
-#![forbid(unsafe_code)]
-
 use engine::prelude::*;
 use plugins::decal::{Decal, DecalLifetime, DecalMaterial};
 use plugins::{MirrorSlots, RenderMirror, RenderStats};

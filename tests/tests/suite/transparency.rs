@@ -34,8 +34,6 @@
 //! against 0.83 where they overlap), and so does culling lights without the glass's depth (the
 //! point light goes missing from the red pane).
 
-#![forbid(unsafe_code)]
-
 use engine::prelude::*;
 use plugins::{RenderMirror, RenderSettings};
 use render::{DecalMethod, PipelineKind, ReflectionSettings, Tier, TransparencyMethod};

@@ -5,8 +5,6 @@
 //! geometry, from the depth target: the procedural sky fills the rest) and luma variance above
 //! stated floors; and a frame in which nothing changed uploads nothing.
 
-#![forbid(unsafe_code)]
-
 use sandbox::headless::{HeadlessOptions, SceneSource, run};
 use tests::{image_stats, shared_gltf_dir};
 

@@ -4,8 +4,6 @@
 //! `decals.rs` also runs through clustered decals in each pipeline, and `pipelines.rs` compares
 //! clustered images with the ray-traced ones.)
 
-#![forbid(unsafe_code)]
-
 use engine::prelude::*;
 use plugins::decal::{Decal, DecalMaterial};
 use plugins::{RenderSettings, RenderStats};

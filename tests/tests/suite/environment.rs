@@ -13,8 +13,6 @@
 //!   in its direction and orientation, and KTX2 files of the wrong shape or format are clear
 //!   errors.
 
-#![forbid(unsafe_code)]
-
 use std::f32::consts::PI;
 use std::sync::Arc;
 

@@ -7,8 +7,6 @@
 //! Everything but the two GPU tests runs on the ECS alone (`tests::ecs_app`: the render plugin
 //! without a renderer, 64×64, a fixed 16 ms frame). Times are counted in frames, never measured.
 
-#![forbid(unsafe_code)]
-
 use std::f32::consts::FRAC_PI_6;
 
 use engine::prelude::*;

@@ -9,8 +9,6 @@
 //! Tolerance: 2e-4 UV at most (a thirtieth of a pixel at 160×120; measured 6e-5, the RGBA16F
 //! image's rounding), and the view depths within 0.2 %.
 
-#![forbid(unsafe_code)]
-
 use engine::prelude::*;
 use plugins::{RenderMirror, RenderSettings, RenderStats};
 use render::{AntiAliasing, PipelineKind};

@@ -9,8 +9,6 @@
 //! Tolerance between culling modes: mean absolute error ≤ 1e-5 and 99th percentile ≤ 1e-4 on
 //! the HDR target (the same instances drawn, only by other commands; measured: 0).
 
-#![forbid(unsafe_code)]
-
 use engine::prelude::*;
 use plugins::{RenderSettings, RenderStats};
 use render::{CullingMode, CullingStats, PipelineKind, Tier};

@@ -21,8 +21,6 @@
 //!   keep memory at the same level; a scene that keeps 2,000 decals alive under churn (50
 //!   replaced every frame) settles after its first shrinks and then neither shrinks nor grows.
 
-#![forbid(unsafe_code)]
-
 use engine::prelude::*;
 use plugins::decal::{Decal, DecalMaterial};
 use plugins::{RenderSettings, RenderStats};
