@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The test command: installs what is missing (scripts/setup.sh), then runs the gates in order,
 # failing fast: formatting (cargo fmt --check), lints (clippy on every target, warnings are
-# errors), then every test with the Vulkan validation layer on, then every example run headless
+# errors), then every test with the Vulkan validation layer on (built, then run; the build's
+# time and the 20 slowest tests are printed), then every example run headless
 # (scripts/examples.sh), then the docs (cargo doc, warnings are errors; every public item is
 # documented: the workspace lints warn on a missing doc and clippy runs with -D warnings). GPU
 # tests run on Mesa lavapipe when there is no GPU. Extra arguments go to `cargo test`.
@@ -26,8 +27,35 @@ for tool in fmt clippy; do
   fi
 done
 
+# A build from scratch gains nothing from incremental compilation's bookkeeping.
+if [ "${CI:-}" = true ]; then
+  export CARGO_INCREMENTAL=0
+fi
+
 gate format cargo fmt --all --check
 gate clippy cargo clippy --workspace --all-targets --locked -- -D warnings
-gate test cargo test --workspace --locked "$@"
+
+# The tests: built first and timed apart from running them; then run by cargo-nextest where it
+# is installed (every test in a process of its own, both cores busy until the last test, each
+# test's time printed, the 20 slowest listed at the end), by `cargo test` otherwise.
+started=$SECONDS
+gate build cargo test --workspace --locked --no-run "$@"
+echo "test.sh: building the tests took $((SECONDS - started)) s"
+started=$SECONDS
+if cargo nextest --version >/dev/null 2>&1; then
+  log=$(mktemp)
+  run_tests() {
+    cargo nextest run --workspace --locked --no-fail-fast --status-level pass --final-status-level fail "$@" 2>&1 | tee "$log"
+  }
+  gate test run_tests "$@"
+  echo "test.sh: the 20 slowest tests:"
+  sed -n -E 's/^ *PASS \[ *([0-9.]+)s\] *(\([^)]*\) )?(.*)$/\1 s  \3/p' "$log" | sort -rn | head -n 20
+  rm -f "$log"
+  gate doctests cargo test --workspace --locked --doc "$@"
+else
+  echo "test.sh: cargo-nextest is not installed (cargo install cargo-nextest --locked): running the tests with cargo test, without per-test times"
+  gate test cargo test --workspace --locked "$@"
+fi
+echo "test.sh: running the tests took $((SECONDS - started)) s"
 gate examples bash scripts/examples.sh
 gate docs env RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --workspace --locked

@@ -16,12 +16,11 @@ const SIZE: (u32, u32) = (128, 96);
 
 /// Pale posts (when `posts`) and slanted wires (flat albedo, so edges are the only detail)
 /// against a dark sky: about 2.5-pixel posts and 1.5-pixel wires at 128×96. Shown in the albedo
-/// view (flat colours) unless `lit` (flat too: no lights, the flat ambient colour), after
-/// `frames` frames of a still view.
-fn posts_and_wires(w: u32, h: u32, pipeline: PipelineKind, aa: AntiAliasing, posts: bool, lit: bool, frames: usize) -> Vec<u8> {
+/// view (flat colours) unless `lit` (flat too: no lights, the flat ambient colour). Nothing is
+/// drawn yet: [`display_with`] renders it with each anti-aliasing mode in turn.
+fn posts_and_wires_app(w: u32, h: u32, pipeline: PipelineKind, posts: bool, lit: bool) -> App {
     let settings = RenderSettings {
         pipeline,
-        aa,
         debug_view: if lit { DebugView::Lit } else { DebugView::Albedo },
         ambient: Vec3::splat(1.0),
         decal_method: DecalMethod::Off,
@@ -41,11 +40,19 @@ fn posts_and_wires(w: u32, h: u32, pipeline: PipelineKind, aa: AntiAliasing, pos
         app.world.spawn((MeshInstance { mesh: wire, material }, transform));
     }
     app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 0.0, 4.0).looking_at(Vec3::ZERO, Vec3::Y)));
+    app
+}
+
+/// The displayed image of `app`'s still view after `frames` frames with anti-aliasing `aa` (one
+/// app renders every mode in turn: the view is still, and each mode's first frame starts its own
+/// history, as `a_moving_box_leaves_no_trail_under_taa` and the soak's switches check).
+fn display_with(app: &mut App, aa: AntiAliasing, frames: usize) -> Vec<u8> {
+    app.world.resource_mut::<RenderSettings>().aa = aa;
     for _ in 0..frames {
         app.update();
     }
-    assert_no_validation_errors(&mut app);
-    renderer(&mut app).read_display().expect("the display image reads back")
+    assert_no_validation_errors(app);
+    renderer(app).read_display().expect("the display image reads back")
 }
 
 /// The mean of each `factor`×`factor` block of an RGBA8 image `w` pixels wide, in [0, 1].
@@ -95,7 +102,7 @@ fn error(image: &[u8], reference: &[[f32; 3]], flat: &[bool]) -> (f32, f32) {
 /// The 4×4-supersampled reference and which of its pixels are flat (the 4×4 block and its
 /// neighbours' blocks are all sky or all wire: no edge near).
 fn reference(pipeline: PipelineKind, posts: bool, lit: bool) -> (Vec<[f32; 3]>, Vec<bool>) {
-    let big = posts_and_wires(SIZE.0 * 4, SIZE.1 * 4, pipeline, AntiAliasing::None, posts, lit, 1);
+    let big = display_with(&mut posts_and_wires_app(SIZE.0 * 4, SIZE.1 * 4, pipeline, posts, lit), AntiAliasing::None, 1);
     let reference = downsample(&big, SIZE.0 * 4, 4);
     // Flat: the 4×4 block and its neighbours' blocks are all sky or all wire (no edge near).
     let (w, h) = (SIZE.0 as i32, SIZE.1 as i32);
@@ -117,46 +124,47 @@ fn reference(pipeline: PipelineKind, posts: bool, lit: bool) -> (Vec<[f32; 3]>, 
     (reference, flat)
 }
 
-/// The mean error at edges without and with the post-process `aa` in `pipeline` (posts or not),
-/// checking that it leaves flat areas as they are.
-fn edge_errors(pipeline: PipelineKind, posts: bool, aa: AntiAliasing) -> (f32, f32) {
+/// The mean error at edges without anti-aliasing and with each post-process of `modes`, in
+/// `pipeline` (posts or not), from one app and one supersampled reference, checking that each
+/// leaves flat areas as they are.
+fn edge_errors(pipeline: PipelineKind, posts: bool, modes: &[AntiAliasing]) -> (f32, Vec<f32>) {
     let (reference, flat) = reference(pipeline, posts, false);
-    let image = |aa| posts_and_wires(SIZE.0, SIZE.1, pipeline, aa, posts, false, 1);
-    let (plain, plain_flat) = error(&image(AntiAliasing::None), &reference, &flat);
-    let (post, post_flat) = error(&image(aa), &reference, &flat);
-    eprintln!(
-        "{pipeline:?}, posts {posts}: mean error at edges, none {plain:.4}, {} {post:.4} ({:.2}x); flat areas max {plain_flat:.4} / {post_flat:.4}",
-        aa.name(),
-        plain / post
-    );
-    assert!(post_flat <= plain_flat + 0.01, "{pipeline:?}: {aa:?} leaves flat areas alone: {plain_flat} / {post_flat}");
-    (plain, post)
+    let mut app = posts_and_wires_app(SIZE.0, SIZE.1, pipeline, posts, false);
+    let (plain, plain_flat) = error(&display_with(&mut app, AntiAliasing::None, 1), &reference, &flat);
+    let errors = modes
+        .iter()
+        .map(|&aa| {
+            let (post, post_flat) = error(&display_with(&mut app, aa, 1), &reference, &flat);
+            eprintln!(
+                "{pipeline:?}, posts {posts}: mean error at edges, none {plain:.4}, {} {post:.4} ({:.2}x); flat areas max {plain_flat:.4} / {post_flat:.4}",
+                aa.name(),
+                plain / post
+            );
+            assert!(post_flat <= plain_flat + 0.01, "{pipeline:?}: {aa:?} leaves flat areas alone: {plain_flat} / {post_flat}");
+            post
+        })
+        .collect();
+    (plain, errors)
 }
 
+/// FXAA (in the tone-mapping pass) and SMAA (passes of their own) are post-processes over the
+/// displayed image whatever the pipeline drew it: tested in two (the third pipeline's image is
+/// checked against forward's by `all_pipelines_render_the_same_scene_alike_and_the_same_depth`),
+/// both against one reference.
 #[test]
-fn fxaa_brings_slanted_wires_and_posts_closer_to_the_supersampled_image_in_every_pipeline() {
-    for pipeline in [PipelineKind::Forward, PipelineKind::Deferred, PipelineKind::VisBuffer] {
-        // Slanted wires: the stair steps FXAA is made for.
-        let (plain, fxaa) = edge_errors(pipeline, false, AntiAliasing::Fxaa);
-        assert!(fxaa <= plain * 0.8, "{pipeline:?}: FXAA reduces the error along slanted wires by 20 %: none {plain}, FXAA {fxaa}");
-        // With upright posts: their edges are straight columns with no steps to find, which
-        // FXAA leaves as they are, so the gain over the whole image is smaller.
-        let (plain, fxaa) = edge_errors(pipeline, true, AntiAliasing::Fxaa);
-        assert!(fxaa <= plain * 0.93, "{pipeline:?}: FXAA reduces the error with posts by 7 %: none {plain}, FXAA {fxaa}");
-    }
-}
-
-/// SMAA is one post-process over the displayed image whatever the pipeline drew it: tested in
-/// two.
-#[test]
-fn smaa_brings_slanted_wires_and_posts_closer_to_the_supersampled_image() {
+fn fxaa_and_smaa_bring_slanted_wires_and_posts_closer_to_the_supersampled_image() {
     for pipeline in [PipelineKind::Forward, PipelineKind::Deferred] {
-        // Measured 3.2x along slanted wires (FXAA: 1.4x) and 1.16x with the posts, whose
-        // upright edges have no stair steps to find.
-        let (plain, smaa) = edge_errors(pipeline, false, AntiAliasing::Smaa);
-        assert!(smaa <= plain * 0.5, "{pipeline:?}: SMAA halves the error along slanted wires: none {plain}, SMAA {smaa}");
-        let (plain, smaa) = edge_errors(pipeline, true, AntiAliasing::Smaa);
-        assert!(smaa <= plain * 0.9, "{pipeline:?}: SMAA reduces the error with posts by 10 %: none {plain}, SMAA {smaa}");
+        // Slanted wires: the stair steps FXAA and SMAA are made for. SMAA measured 3.2x, FXAA
+        // 1.4x.
+        let (plain, e) = edge_errors(pipeline, false, &[AntiAliasing::Fxaa, AntiAliasing::Smaa]);
+        assert!(e[0] <= plain * 0.8, "{pipeline:?}: FXAA reduces the error along slanted wires by 20 %: none {plain}, FXAA {}", e[0]);
+        assert!(e[1] <= plain * 0.5, "{pipeline:?}: SMAA halves the error along slanted wires: none {plain}, SMAA {}", e[1]);
+        // With upright posts: their edges are straight columns with no steps to find, which
+        // both leave as they are, so the gain over the whole image is smaller (SMAA measured
+        // 1.16x).
+        let (plain, e) = edge_errors(pipeline, true, &[AntiAliasing::Fxaa, AntiAliasing::Smaa]);
+        assert!(e[0] <= plain * 0.93, "{pipeline:?}: FXAA reduces the error with posts by 7 %: none {plain}, FXAA {}", e[0]);
+        assert!(e[1] <= plain * 0.9, "{pipeline:?}: SMAA reduces the error with posts by 10 %: none {plain}, SMAA {}", e[1]);
     }
 }
 
@@ -164,10 +172,10 @@ fn smaa_brings_slanted_wires_and_posts_closer_to_the_supersampled_image() {
 fn taa_after_sixteen_still_frames_comes_closer_to_the_supersampled_image_than_fxaa_in_every_pipeline() {
     for pipeline in [PipelineKind::Forward, PipelineKind::Deferred, PipelineKind::VisBuffer] {
         let (reference, flat) = reference(pipeline, true, true);
-        let image = |aa, frames| posts_and_wires(SIZE.0, SIZE.1, pipeline, aa, true, true, frames);
-        let (plain, plain_flat) = error(&image(AntiAliasing::None, 1), &reference, &flat);
-        let (fxaa, _) = error(&image(AntiAliasing::Fxaa, 1), &reference, &flat);
-        let taa_image = image(AntiAliasing::Taa, 16);
+        let mut app = posts_and_wires_app(SIZE.0, SIZE.1, pipeline, true, true);
+        let (plain, plain_flat) = error(&display_with(&mut app, AntiAliasing::None, 1), &reference, &flat);
+        let (fxaa, _) = error(&display_with(&mut app, AntiAliasing::Fxaa, 1), &reference, &flat);
+        let taa_image = display_with(&mut app, AntiAliasing::Taa, 16);
         let (taa, taa_flat) = error(&taa_image, &reference, &flat);
         eprintln!(
             "{pipeline:?}, lit: mean error at edges, none {plain:.4}, FXAA {fxaa:.4}, TAA {taa:.4} ({:.2}x); flat areas max {plain_flat:.4} / {taa_flat:.4}",
@@ -180,13 +188,15 @@ fn taa_after_sixteen_still_frames_comes_closer_to_the_supersampled_image_than_fx
     }
 }
 
+/// The posts and wires have no light to cull, so forward and Forward+ draw them alike: tested in
+/// Forward+ (the lit corner below runs both).
 #[test]
-fn msaa_comes_closer_to_the_supersampled_image_in_forward_and_forward_plus() {
-    for pipeline in [PipelineKind::Forward, PipelineKind::ForwardPlus] {
+fn msaa_comes_closer_to_the_supersampled_image_in_forward_plus() {
+    for pipeline in [PipelineKind::ForwardPlus] {
         let (reference, flat) = reference(pipeline, true, true);
-        let image = |aa| posts_and_wires(SIZE.0, SIZE.1, pipeline, aa, true, true, 1);
-        let (plain, plain_flat) = error(&image(AntiAliasing::None), &reference, &flat);
-        let (msaa, msaa_flat) = error(&image(AntiAliasing::Msaa4), &reference, &flat);
+        let mut app = posts_and_wires_app(SIZE.0, SIZE.1, pipeline, true, true);
+        let (plain, plain_flat) = error(&display_with(&mut app, AntiAliasing::None, 1), &reference, &flat);
+        let (msaa, msaa_flat) = error(&display_with(&mut app, AntiAliasing::Msaa4, 1), &reference, &flat);
         eprintln!(
             "{pipeline:?}, lit: mean error at edges, none {plain:.4}, MSAA 4x {msaa:.4} ({:.2}x); flat areas max {plain_flat:.4} / {msaa_flat:.4}",
             plain / msaa
@@ -199,9 +209,9 @@ fn msaa_comes_closer_to_the_supersampled_image_in_forward_and_forward_plus() {
 /// A lit corner: a ground with a dark decal (applied by the clustered decal pass, so the prepass
 /// also writes ids), a box that casts a ray-traced shadow over it, a chrome ball that reflects
 /// them (traced reflections), ambient occlusion, a glass pane, and the procedural sky behind;
-/// displayed with `aa`.
-fn lit_corner(w: u32, h: u32, pipeline: PipelineKind, aa: AntiAliasing) -> Vec<u8> {
-    let settings = RenderSettings { pipeline, aa, decal_method: DecalMethod::Clustered, ..Default::default() };
+/// shown with [`display_with`] (two frames a mode).
+fn lit_corner(w: u32, h: u32, pipeline: PipelineKind) -> App {
+    let settings = RenderSettings { pipeline, decal_method: DecalMethod::Clustered, ..Default::default() };
     let renderer_settings =
         render::RendererSettings { shadow_maps: tests::TEST_SHADOW_MAPS, environment_resolution: 32, ..Default::default() };
     let mut app = tests::gpu_app_with(w, h, settings, &renderer_settings);
@@ -232,9 +242,7 @@ fn lit_corner(w: u32, h: u32, pipeline: PipelineKind, aa: AntiAliasing) -> Vec<u
         Transform::default().looking_at(Vec3::new(-0.6, -1.0, -0.2), Vec3::Y),
     ));
     app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 1.6, 4.0).looking_at(Vec3::new(0.0, 0.5, 0.0), Vec3::Y)));
-    app.update();
-    app.update();
-    display(&mut app)
+    app
 }
 
 /// MSAA resolves what the lit corner shows: where the image without anti-aliasing already
@@ -244,9 +252,10 @@ fn lit_corner(w: u32, h: u32, pipeline: PipelineKind, aa: AntiAliasing) -> Vec<u
 #[test]
 fn msaa_keeps_decals_shadows_glass_and_the_sky_and_smooths_their_edges() {
     for pipeline in [PipelineKind::Forward, PipelineKind::ForwardPlus] {
-        let reference = downsample(&lit_corner(SIZE.0 * 4, SIZE.1 * 4, pipeline, AntiAliasing::None), SIZE.0 * 4, 4);
-        let differences = |aa| {
-            let image = downsample(&lit_corner(SIZE.0, SIZE.1, pipeline, aa), SIZE.0, 1);
+        let reference = downsample(&display_with(&mut lit_corner(SIZE.0 * 4, SIZE.1 * 4, pipeline), AntiAliasing::None, 2), SIZE.0 * 4, 4);
+        let mut app = lit_corner(SIZE.0, SIZE.1, pipeline);
+        let mut differences = |aa| {
+            let image = downsample(&display_with(&mut app, aa, 2), SIZE.0, 1);
             image.iter().zip(&reference).map(|(a, b)| (0..3).map(|c| (a[c] - b[c]).abs()).sum::<f32>() / 3.0).collect::<Vec<f32>>()
         };
         let (plain, msaa) = (differences(AntiAliasing::None), differences(AntiAliasing::Msaa4));
