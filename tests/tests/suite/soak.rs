@@ -11,7 +11,7 @@ fn random_gameplay_stays_valid_finite_and_gives_its_memory_back() {
         return;
     }
     let report =
-        run(&SoakConfig { frames: 2000, cycles: 4, heap_bytes: Some(|| crate::ALLOCATOR.allocated() as u64), ..Default::default() })
+        run(&SoakConfig { frames: 1200, cycles: 4, heap_bytes: Some(|| crate::ALLOCATOR.allocated() as u64), ..Default::default() })
             .expect("the soak runs");
     println!("{}", serde_json::to_string_pretty(&report).unwrap());
     assert!(report.cycles.iter().all(|c| c.heap_after > 0), "the heap was counted");
