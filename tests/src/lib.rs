@@ -1,6 +1,7 @@
-//! Shared helpers for the integration tests in `tests/tests/` (run with `cargo test -p tests`):
-//! apps with or without a GPU renderer at a chosen size and tier, validation checks, image
-//! statistics and error measures, the shared glTF models.
+//! Shared helpers for the integration tests in `tests/tests/suite/` (run with
+//! `cargo nextest run -p tests` or `cargo test -p tests`): apps with or without a GPU renderer at
+//! a chosen size and tier, validation checks, image statistics and error measures, the shared
+//! glTF models, and a way for a test to run in a process of its own.
 //!
 //! ```no_run
 //! use engine::prelude::*;

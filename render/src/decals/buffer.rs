@@ -33,7 +33,7 @@
 //!   Either way, weighted blended OIT is order-independent *within* a channel (sums and
 //!   products commute) and the channels are composited in channel order at the end, so the
 //!   arbitrary order in which traversal finds the decals gives what the ray-query loop gives
-//!   (tests/tests/decals.rs checks this against a CPU reference, with stacks deeper than the
+//!   (tests/tests/suite/decals.rs checks this against a CPU reference, with stacks deeper than the
 //!   payload keeps, and against a shuffled spawn order).
 //! - **ray queries in compute** (`shaders/decal_pass.comp`), the ray-query tier's counterpart,
 //!   so the two can be compared on one device (lavapipe has both).

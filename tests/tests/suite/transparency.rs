@@ -55,7 +55,7 @@ fn scene() -> Scene {
     // No shadows and no reflections: the floor references are drawn without the panes, which
     // would otherwise tint the floor's shadows (tested in
     // `glass_casts_shadows_of_its_colour_from_every_light_kind`) and show in its reflection
-    // (tests/tests/reflections.rs).
+    // (tests/tests/suite/reflections.rs).
     let mut settings = RenderSettings {
         decal_method: DecalMethod::Off,
         transparency: TransparencyMethod::Forward,
@@ -587,7 +587,7 @@ fn forward_glass_is_shadowed_like_the_depth_peeled_reference_on_every_tier() {
     let view = TopDownView::new(10.0, SIZE);
     for tier in [Tier::RayQuery, Tier::RayTracingPipeline, Tier::NoRayTracing] {
         // Without reflections: screen-space ones (no ray tracing) reflect the glass of depth
-        // peeling's G-buffer layer but not the forward pass's (tests/tests/reflections.rs).
+        // peeling's G-buffer layer but not the forward pass's (tests/tests/suite/reflections.rs).
         let settings = RenderSettings { decal_method: DecalMethod::Off, reflections: ReflectionSettings::OFF, ..Default::default() };
         let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, tier);
         view.spawn(&mut app.world);
