@@ -164,8 +164,12 @@ impl Lighting {
         let l = &s.lights;
         let method = l.method.effective(s.pipeline, f.ctx.ray_support());
         let enumerated = method == LightMethod::RayQuery;
+        // The scene's structures are kept only while something traces them: shadow rays, traced
+        // ambient occlusion or traced reflections (dormant otherwise: `shadows::accel`).
+        let traced_shadows = l.shadows && !l.shadow_maps && self.shadows.method() != ShadowMethod::Maps;
+        let wanted = traced_shadows || self.occlusion.traces(&s.occlusion) || reflections.traced();
         let accel = match self.accel.as_mut() {
-            Some(a) => a.prepare(f, scene, mirror)?,
+            Some(a) => a.prepare(f, scene, mirror, wanted)?,
             None => SceneAccelFrame::default(),
         };
         let ray_query = match self.ray_query.as_mut() {

@@ -22,6 +22,16 @@
 //! A frame with no change records no acceleration-structure work (`scene_blas_builds`,
 //! `scene_tlas_builds` and `scene_tlas_updates` in the counters say what each frame did).
 //!
+//! **Dormant while nothing traces the scene.** With ray-traced shadows, ray-traced ambient
+//! occlusion and traced reflections all off (the frame's lighting decides: `wanted` in
+//! [`SceneAccel::prepare`]), the structures are *dormant*: no BLAS is built, refit or compacted,
+//! no TLAS built or updated, and none of it recorded, however many skinned characters move (a
+//! crowd of 10,000 foxes refit 10,000 BLASes a frame that nothing read). What changes is still
+//! followed (new and dropped meshes, the instance count), so the frame a consumer comes back
+//! catches up at once: the meshes that arrived are built, every posed mesh is refit to the pose
+//! the skinning pass last wrote (or rebuilt where refits would have degraded it), and the TLAS is
+//! built anew; that frame traces the current scene.
+//!
 //! **Memory.** The TLAS and its instance records follow the instance table's slot count, which
 //! falls when the highest instances go ([`crate::scene::SceneMirror::trim`]): grown to the
 //! count's power of two when it passes the room, shrunk to it (never below 64 instances) when
@@ -164,6 +174,8 @@ pub struct SceneAccel {
     /// This frame's skinned posed meshes, and their refits with scratch offsets (kept to reuse).
     refit_list: Vec<MeshId>,
     refits: Vec<(usize, u64)>,
+    /// No consumer wanted the structures last frame: what moved since is not in them.
+    dormant: bool,
 }
 
 /// Instances the TLAS has room for at the least.
@@ -219,6 +231,7 @@ impl SceneAccel {
             instance_pass,
             refit_list: Vec::new(),
             refits: Vec::new(),
+            dormant: false,
             res: SceneAccelResources {
                 blas: graph.resource("scene blas"),
                 tlas: graph.resource("scene tlas"),
@@ -237,7 +250,16 @@ impl SceneAccel {
     /// change marks): frees dropped meshes' BLASes, creates the new meshes' (their builds are
     /// recorded by [`SceneAccel::record`]), compacts BLASes whose size query has come back, and
     /// makes room for the instances. Returns the addresses the lighting record needs.
-    pub fn prepare(&mut self, f: &mut Frame, scene: &GpuScene, mirror: &mut SceneMirror) -> Result<SceneAccelFrame, RenderError> {
+    ///
+    /// `wanted`: whether any pass traces the scene this frame. Without one the structures stay
+    /// dormant (see the module docs): nothing is planned or recorded and the frame has no TLAS.
+    pub fn prepare(
+        &mut self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        mirror: &mut SceneMirror,
+        wanted: bool,
+    ) -> Result<SceneAccelFrame, RenderError> {
         let ctx = f.ctx;
         let (frame_value, completed) = (f.upload.frame_value, f.upload.completed);
         let graveyard = &mut *f.upload.graveyard;
@@ -306,13 +328,27 @@ impl SceneAccel {
                 posed: Some(posed),
             });
         }
-        // Posed meshes skinned this frame: refit, or rebuilt once refits have degraded them.
+        // Posed meshes skinned this frame (every posed mesh the frame a dormant structure wakes:
+        // any may have moved since): refit, or rebuilt once refits have degraded them.
         self.refit_list.clear();
-        self.refit_list.extend_from_slice(mirror.poses.jobs());
-        for &id in mirror.poses.jobs() {
+        if !wanted {
+            for &id in mirror.poses.jobs() {
+                if let Some(posed) = self.blas.get_mut(id.0 as usize).and_then(Option::as_mut).and_then(|b| b.posed.as_mut()) {
+                    posed.area = mirror.mesh_bounds(id).map_or(0.0, surface_area);
+                }
+            }
+        } else if std::mem::take(&mut self.dormant) {
+            self.refit_list.extend(
+                self.blas.iter().enumerate().filter(|(_, b)| b.as_ref().is_some_and(|b| b.posed.is_some())).map(|(i, _)| MeshId(i as u32)),
+            );
+            self.pending_rearranged = true; // the instances moved unseen: a full build
+        } else {
+            self.refit_list.extend_from_slice(mirror.poses.jobs());
+        }
+        for &id in &self.refit_list {
             let Some(Some(b)) = self.blas.get_mut(id.0 as usize) else { continue };
             let Some(posed) = b.posed.as_mut() else { continue };
-            self.pending_moved += 1;
+            self.pending_moved = self.pending_moved.saturating_add(1);
             posed.area = mirror.mesh_bounds(id).map_or(0.0, surface_area);
             if b.needs_build {
                 continue;
@@ -323,8 +359,9 @@ impl SceneAccel {
                 posed.needs_refit = true;
             }
         }
-        // Compactions whose sizes are known: the copies are recorded this frame.
-        for (slot, entry) in self.blas.iter_mut().enumerate() {
+        // Compactions whose sizes are known: the copies are recorded this frame (not while
+        // dormant: nothing is recorded then, and a compaction replaces the structure at once).
+        for (slot, entry) in self.blas.iter_mut().enumerate().filter(|_| wanted) {
             let Some(b) = entry else { continue };
             let Some(query) = b.query.filter(|_| b.built_in <= completed && !b.needs_build) else { continue };
             let mut size = [0u64];
@@ -365,7 +402,7 @@ impl SceneAccel {
         // shrink replaces).
         let mut shrunk = [(0u64, 0u64); 2];
         self.pending_rearranged |= mirror.take_instances_rearranged() || mirror.materials.dirty_count() > 0;
-        self.pending_moved += mirror.instances.dirty_count() as u32;
+        self.pending_moved = self.pending_moved.saturating_add(mirror.instances.dirty_count() as u32);
         let count = mirror.instances.slot_count();
         if count == 0 {
             // Nothing to trace (the TLAS may name BLASes that are gone): no TLAS until there is.
@@ -408,6 +445,16 @@ impl SceneAccel {
             }
         }
         let work = if self.built.is_none() && count > 0 { TlasWork::Build } else { work };
+        if !wanted {
+            self.dormant = true;
+            return Ok(SceneAccelFrame {
+                blas_table: self.blas_table.as_ref().map_or(0, |b| b.address),
+                instances: self.instances.as_ref().map_or(0, |b| b.address),
+                blas_count: self.blas.len() as u32,
+                instance_count: count,
+                ..SceneAccelFrame::default()
+            });
+        }
         Ok(SceneAccelFrame {
             tlas_address: if self.built.is_some() || work == TlasWork::Build { self.tlas.as_ref().map_or(0, |t| t.address) } else { 0 },
             blas_table: self.blas_table.as_ref().map_or(0, |b| b.address),
@@ -441,6 +488,9 @@ impl SceneAccel {
     ) -> Result<(), RenderError> {
         let ctx = f.ctx;
         let Some(rt) = ctx.ray_tracing.as_ref() else { return Ok(()) };
+        if self.dormant {
+            return Ok(()); // nothing traces the scene: builds and refits wait until something does
+        }
         let asx = &rt.acceleration_structure;
         let frame_value = f.upload.frame_value;
 

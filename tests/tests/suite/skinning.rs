@@ -234,6 +234,45 @@ fn only_changed_poses_are_skinned_and_refit() {
     assert_no_validation_errors(&mut app);
 }
 
+/// With nothing tracing the scene (ray-traced shadows off; ambient occlusion and reflections are
+/// off in the test apps) a moving skin refits nothing and no TLAS is built or updated; the frame
+/// shadows come back on, the structures catch up (the skin's BLAS, built while shadows were on
+/// at first, is refit to the pose it has now) and the shadow shows the current pose, as in an app
+/// whose shadows were never off. On both ray-tracing tiers.
+#[test]
+fn without_a_ray_traced_consumer_nothing_is_refit_and_the_shadow_catches_up_when_one_comes_back() {
+    for tier in [Tier::RayQuery, Tier::RayTracingPipeline] {
+        // `pause`: shadows on in the first frame, off in the next three, on again in the last.
+        let render = |pause: bool| {
+            let settings = RenderSettings { pipeline: PipelineKind::Deferred, ..Default::default() };
+            let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, tier);
+            let bend = scene(&mut app, 0.3);
+            for i in 0..4 {
+                app.world.resource_mut::<RenderSettings>().lights.shadows = !pause || i == 0;
+                let angle = 0.3 + 0.25 * i as f32;
+                app.world.entity_mut(bend.elbow).insert(Transform::from_xyz(0.0, 1.0, 0.0).with_rotation(Quat::from_rotation_z(-angle)));
+                app.update();
+                let c = app.world.resource::<RenderStats>().last;
+                assert_eq!(c.skinned_meshes, 1, "{tier:?}: the skin is posed every frame it moves");
+                if pause && i > 0 {
+                    let work = (c.scene_blas_builds, c.scene_blas_refits, c.scene_tlas_builds, c.scene_tlas_updates);
+                    assert_eq!(work, (0, 0, 0, 0), "{tier:?}, frame {i}: nothing traces the scene, so nothing is built or refit");
+                }
+            }
+            app.world.resource_mut::<RenderSettings>().lights.shadows = true;
+            let hdr = frames(&mut app, 1);
+            assert_no_validation_errors(&mut app);
+            (hdr, app.world.resource::<RenderStats>().last)
+        };
+        let (caught_up, c) = render(true);
+        let work = (c.scene_blas_builds + c.scene_blas_refits, c.scene_tlas_builds);
+        assert_eq!(work, (1, 1), "{tier:?}: the skin's BLAS is refit (or rebuilt) and the TLAS built the frame shadows return");
+        let (always, _) = render(false);
+        let (mean, p99) = error_stats(&caught_up, &always, |_| true);
+        assert!(mean <= 1e-4 && p99 <= 1e-3, "{tier:?}: the caught-up shadow differs from the always-traced one (mean {mean}, p99 {p99})");
+    }
+}
+
 /// The centroid (pixels) and count of the pixels where `pick` holds.
 fn centroid(hdr: &[[f32; 4]], width: u32, pick: impl Fn([f32; 4]) -> bool) -> (Vec2, usize) {
     let mut sum = Vec2::ZERO;

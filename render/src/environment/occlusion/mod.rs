@@ -106,6 +106,12 @@ impl AmbientOcclusion {
         Ok(made)
     }
 
+    /// Whether `settings` ask for traced occlusion on a device that can trace it (the scene's
+    /// structures must then be kept).
+    pub fn traces(&self, settings: &OcclusionSettings) -> bool {
+        settings.runs() && settings.method == OcclusionMethod::RayTraced && (self.ray_query.is_some() || self.ray_pipeline.is_some())
+    }
+
     /// This frame's method for `settings`: traced where the device traces rays and the scene's
     /// TLAS (`traced`, with the meshes) exists, screen space where it cannot trace at all, off
     /// when asked, when the settings cannot occlude, or while there is nothing to trace against.
