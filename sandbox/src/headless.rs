@@ -421,7 +421,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         for e in scattered {
             app.world.entity_mut(e).remove::<Static>();
         }
-        app.insert_resource(DecalJitter { percent: opts.move_decals_percent, cursor: 0 });
+        app.insert_resource(DecalJitter::new(opts.move_decals_percent));
         app.add_systems(engine::app::Update, jitter_decals);
     }
     if opts.move_camera {
@@ -641,31 +641,74 @@ fn sway_camera(time: bevy_ecs::system::Res<Time>, mut cameras: bevy_ecs::system:
 }
 
 /// Moves a rotating window of decals a little every frame, so benchmarks see a steady stream
-/// of refits (and the periodic rebuilds the policy triggers).
+/// of refits (and the periodic rebuilds the policy triggers). A frame visits only the decals it
+/// moves: the decals are listed once, in query order, and listed again only when their count
+/// changes (a decal spawned in the frame another despawns waits for the next change of count).
 #[derive(bevy_ecs::resource::Resource)]
 pub struct DecalJitter {
     /// Percentage of decals moved per frame.
     pub percent: f32,
     cursor: usize,
+    order: Vec<Entity>,
+}
+
+impl DecalJitter {
+    /// Moves `percent` % of the decals a frame.
+    pub fn new(percent: f32) -> Self {
+        Self { percent, cursor: 0, order: Vec::new() }
+    }
 }
 
 fn jitter_decals(
     mut jitter: bevy_ecs::system::ResMut<DecalJitter>,
     time: bevy_ecs::system::Res<Time>,
-    mut decals: bevy_ecs::system::Query<&mut Transform, bevy_ecs::query::With<plugins::decal::Decal>>,
+    mut decals: bevy_ecs::system::Query<(Entity, &mut Transform), With<plugins::decal::Decal>>,
 ) {
+    // The length of an archetypal query is the sum of its tables' lengths: no walk.
     let total = decals.iter().len();
     if total == 0 {
         return;
     }
+    let jitter = &mut *jitter;
+    if jitter.order.len() != total {
+        jitter.order.clear();
+        jitter.order.extend(decals.iter().map(|(entity, _)| entity));
+    }
     let moved = ((total as f32 * jitter.percent / 100.0).ceil() as usize).min(total);
     let start = jitter.cursor % total;
     let wobble = Vec3::new(time.elapsed_secs().sin(), 0.0, time.elapsed_secs().cos()) * 0.002;
-    for (i, mut t) in decals.iter_mut().enumerate() {
-        let offset = (i + total - start) % total;
-        if offset < moved {
+    for k in 0..moved {
+        if let Ok((_, mut t)) = decals.get_mut(jitter.order[(start + k) % total]) {
             t.translation += wobble;
         }
     }
     jitter.cursor = start + moved;
+}
+
+#[cfg(test)]
+mod tests {
+    use bevy_ecs::schedule::Schedule;
+
+    use super::*;
+
+    #[test]
+    fn the_decal_mover_moves_its_share_of_the_decals_in_a_rotating_window() {
+        let mut world = World::new();
+        world.insert_resource(Time::default());
+        world.insert_resource(DecalJitter::new(30.0));
+        let material = Assets::<DecalMaterial>::default().add(DecalMaterial::default());
+        let decals: Vec<Entity> = (0..10).map(|_| world.spawn((plugins::decal::Decal::new(material), Transform::default())).id()).collect();
+        let mut schedule = Schedule::default();
+        schedule.add_systems(jitter_decals);
+        let moved = |world: &World| decals.iter().filter(|&&e| world.get::<Transform>(e).unwrap().translation != Vec3::ZERO).count();
+        // 30 % of 10: three a frame, then the next three, until every decal has moved once.
+        for (frame, expected) in [(1, 3), (2, 6), (3, 9), (4, 10)] {
+            schedule.run(&mut world);
+            assert_eq!(moved(&world), expected, "after frame {frame}");
+        }
+        // A despawned decal is skipped, the list follows the new count.
+        world.despawn(decals[0]);
+        schedule.run(&mut world);
+        assert_eq!(world.resource::<DecalJitter>().order.len(), 9);
+    }
 }
