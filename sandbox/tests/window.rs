@@ -88,7 +88,7 @@ fn windowed_sandbox_shows_scene_and_overlay_survives_a_resize_and_exits_cleanly(
     std::fs::create_dir_all(&workdir).expect("a working directory");
     let mut sandbox = Command::new(env!("CARGO_BIN_EXE_sandbox"))
         .current_dir(&workdir)
-        .args(["--size", "640x400", "--exit-after", "150", "--resize-to", "560x340", "--stats"])
+        .args(["--size", "640x400", "--exit-after", "100", "--resize-to", "560x340", "--stats"])
         .arg(&stats)
         .env("DISPLAY", &x.display)
         .env_remove("WAYLAND_DISPLAY")
@@ -166,7 +166,7 @@ fn windowed_sandbox_shows_scene_and_overlay_survives_a_resize_and_exits_cleanly(
     let lines: Vec<serde_json::Value> =
         std::fs::read_to_string(&stats).expect("the stats file").lines().map(|l| serde_json::from_str(l).expect("JSON")).collect();
     let _ = std::fs::remove_file(&stats);
-    assert!(lines.len() > 100, "most of the 150 frames are in the stats file: {}", lines.len());
+    assert!(lines.len() > 70, "most of the 100 frames are in the stats file: {}", lines.len());
     let frames: Vec<u64> = lines.iter().map(|l| l["frame"].as_u64().expect("a frame number")).collect();
     assert!(frames.windows(2).all(|w| w[0] < w[1]), "in order, each once");
     assert!(lines.iter().any(|l| l["size"] == serde_json::json!([560, 340])), "the resize shows in the stats");

@@ -414,8 +414,7 @@ fn the_order_of_overlapping_decals_within_a_channel_does_not_change_the_image() 
             assert!(da <= 1e-3 && dr <= 1e-3, "{c:?}: another order changes the image by {da} (albedo), {dr} (roughness)");
         }
         // Not vacuous: at the origin all eight blend into something none of them is alone.
-        let (app, view) = plane_app(c);
-        drop(app);
+        let view = TopDownView::new(4.0, SIZE); // plane_app's view
         let (px, py) = pixel_of(&view, Vec3::ZERO);
         let got = Vec3::from_slice(&first_albedo[(py * SIZE.0 + px) as usize][..3]);
         let (expected, _, _) = reference(Vec3::ZERO, &decals);
@@ -556,9 +555,14 @@ fn receiver_masks_keep_decals_off_other_layers() {
 fn angle_fade_follows_the_angle_between_surface_and_projection_axis() {
     for c in COVER {
         eprintln!("{c:?}");
+        // One app a configuration: each tilt's decal replaces the last.
+        let (mut app, view) = plane_app(c);
+        let material = red_material(&mut app);
+        let mut last: Option<Entity> = None;
         for (tilt_deg, expected_alpha) in [(20.0f32, 1.0f32), (45.0, 0.5), (70.0, 0.0)] {
-            let (mut app, view) = plane_app(c);
-            let material = red_material(&mut app);
+            if let Some(old) = last.take() {
+                app.world.despawn(old);
+            }
             let mut decal = Decal::new(material);
             // Fade linear in cos θ between 30° and 60°: at 45° halfway in cos.
             decal.angle_fade = Some(AngleFade { start: 30f32.to_radians(), end: 60f32.to_radians() });
@@ -566,7 +570,7 @@ fn angle_fade_follows_the_angle_between_surface_and_projection_axis() {
             let t = Transform::from_translation(Vec3::ZERO)
                 .with_rotation(tilt * Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2))
                 .with_scale(Vec3::new(1.5, 1.5, 1.5));
-            app.world.spawn((decal, t));
+            last = Some(app.world.spawn((decal, t)).id());
             let (albedo, _) = read_views(&mut app);
             assert_no_validation_errors(&mut app);
             let cos = tilt_deg.to_radians().cos();
@@ -928,17 +932,22 @@ fn decal_normal_maps_rotate_with_the_decal() {
         // A constant tangent-space normal tilted towards +X (decal space): (0.6, 0, 0.8).
         let texel = [((0.6f32 * 0.5 + 0.5) * 255.0).round() as u8, 128, ((0.8f32 * 0.5 + 0.5) * 255.0).round() as u8, 255];
         let ts = Vec3::new(texel[0] as f32, texel[1] as f32, texel[2] as f32) / 255.0 * 2.0 - 1.0;
+        // One app a configuration: each yaw's decal replaces the last.
+        let (mut app, view) = plane_app(c);
+        let image = Image::from_rgba8(4, 4, texel.repeat(16), ColorSpace::Linear).unwrap();
+        let image = app.world.resource_mut::<Assets<Image>>().add(image);
+        let material = app.world.resource_mut::<Assets<DecalMaterial>>().add(DecalMaterial {
+            base_color: None,
+            normal_texture: Some(image),
+            ..Default::default()
+        });
+        app.world.resource_mut::<RenderSettings>().debug_view = DebugView::Normal;
+        let mut last: Option<Entity> = None;
         for yaw in [0.0f32, std::f32::consts::FRAC_PI_2, 2.3] {
-            let (mut app, view) = plane_app(c);
-            let image = Image::from_rgba8(4, 4, texel.repeat(16), ColorSpace::Linear).unwrap();
-            let image = app.world.resource_mut::<Assets<Image>>().add(image);
-            let material = app.world.resource_mut::<Assets<DecalMaterial>>().add(DecalMaterial {
-                base_color: None,
-                normal_texture: Some(image),
-                ..Default::default()
-            });
-            app.world.spawn((Decal::new(material), downward(Vec3::ZERO, Vec2::splat(1.5), 1.0, yaw)));
-            app.world.resource_mut::<RenderSettings>().debug_view = DebugView::Normal;
+            if let Some(old) = last.take() {
+                app.world.despawn(old);
+            }
+            last = Some(app.world.spawn((Decal::new(material), downward(Vec3::ZERO, Vec2::splat(1.5), 1.0, yaw))).id());
             app.update();
             let hdr = renderer(&mut app).read_hdr().unwrap();
             assert_no_validation_errors(&mut app);

@@ -110,16 +110,51 @@ fn mirror_floor_app(tier: Tier, pipeline: PipelineKind, method: DecalMethod, ref
     (app, camera, transform)
 }
 
-/// Renders the mirror floor and counts pixels whose class matches the CPU's, per class.
-fn check_mirror_floor(tier: Tier, pipeline: PipelineKind, method: DecalMethod, half: bool) -> render::reflections::ReflectionStats {
-    let reflections = ReflectionSettings { half_resolution: half, ..Default::default() };
-    let (mut app, camera, transform) = mirror_floor_app(tier, pipeline, method, reflections);
-    // Two frames: the statistics come back once a frame slot comes round.
+/// The mirror-floor scene on one tier, rendered in turn with each pipeline and decal method a test
+/// names (one app: the settings change between renders; reflections keep no history).
+struct MirrorFloor {
+    tier: Tier,
+    app: App,
+    camera: Camera,
+    transform: Transform,
+}
+
+impl MirrorFloor {
+    fn new(tier: Tier) -> Self {
+        let (app, camera, transform) = mirror_floor_app(tier, PipelineKind::Forward, DecalMethod::Clustered, ReflectionSettings::default());
+        Self { tier, app, camera, transform }
+    }
+
+    /// Renders the mirror floor and counts pixels whose class matches the CPU's, per class.
+    fn check(&mut self, pipeline: PipelineKind, method: DecalMethod, half: bool) -> render::reflections::ReflectionStats {
+        let Self { tier, app, camera, transform } = self;
+        let (tier, camera, transform) = (*tier, *camera, *transform);
+        {
+            let mut settings = app.world.resource_mut::<RenderSettings>();
+            settings.pipeline = pipeline;
+            settings.decal_method = method;
+            settings.reflections = ReflectionSettings { half_resolution: half, ..Default::default() };
+        }
+        check_mirror_floor(app, tier, camera, transform, pipeline, method, half)
+    }
+}
+
+/// Renders the mirror floor of `app` and counts pixels whose class matches the CPU's, per class.
+fn check_mirror_floor(
+    app: &mut App,
+    tier: Tier,
+    camera: Camera,
+    transform: Transform,
+    pipeline: PipelineKind,
+    method: DecalMethod,
+    half: bool,
+) -> render::reflections::ReflectionStats {
+    // Three frames: the statistics come back once a frame slot comes round.
     for _ in 0..3 {
         app.update();
     }
-    let hdr = renderer(&mut app).read_hdr().expect("HDR reads back");
-    assert_no_validation_errors(&mut app);
+    let hdr = renderer(app).read_hdr().expect("HDR reads back");
+    assert_no_validation_errors(app);
     let global = GlobalTransform::from(transform);
     let mut counts = [[0usize; 2]; 3]; // [sky, wall, decal] × [expected, matched]
     for y in 0..SIZE.1 {
@@ -174,8 +209,9 @@ fn assert_a_ray_per_block(stats: render::reflections::ReflectionStats) {
 fn a_mirror_floor_reflects_the_wall_and_its_decal_at_their_mirror_images() {
     // Every pipeline, with in-shader ray-query decals on screen (Forward+ runs forward's frame
     // with tiled lights: it is checked on the ray-tracing-pipeline tier below).
+    let mut floor = MirrorFloor::new(Tier::RayQuery);
     for pipeline in [PipelineKind::Forward, PipelineKind::Deferred, PipelineKind::VisBuffer] {
-        let stats = check_mirror_floor(Tier::RayQuery, pipeline, DecalMethod::RayQuery, false);
+        let stats = floor.check(pipeline, DecalMethod::RayQuery, false);
         let pixels = (SIZE.0 * SIZE.1) as u64;
         assert!(stats.rays <= pixels && stats.rays == stats.pixels, "{pipeline:?}: a ray per reflecting pixel: {stats:?}");
     }
@@ -186,52 +222,68 @@ fn a_mirror_floor_reflects_the_wall_and_its_decal_at_their_mirror_images() {
         (PipelineKind::Deferred, DecalMethod::DeferredDecals),
         (PipelineKind::VisBuffer, DecalMethod::Clustered),
     ] {
-        check_mirror_floor(Tier::RayQuery, pipeline, method, false);
+        floor.check(pipeline, method, false);
     }
     // Half resolution: about a ray per 2×2 pixels.
-    let stats = check_mirror_floor(Tier::RayQuery, PipelineKind::Deferred, DecalMethod::RayQuery, true);
+    let stats = floor.check(PipelineKind::Deferred, DecalMethod::RayQuery, true);
     assert_a_ray_per_block(stats);
 }
 
 #[test]
 fn the_ray_tracing_pipeline_tier_reflects_the_wall_and_its_decal_too() {
+    let mut floor = MirrorFloor::new(Tier::RayTracingPipeline);
     for (pipeline, method) in [
         (PipelineKind::ForwardPlus, DecalMethod::RayPipeline),
         (PipelineKind::Deferred, DecalMethod::RayPipeline),
         (PipelineKind::VisBuffer, DecalMethod::Clustered),
         (PipelineKind::Deferred, DecalMethod::DeferredDecals),
     ] {
-        check_mirror_floor(Tier::RayTracingPipeline, pipeline, method, false);
+        floor.check(pipeline, method, false);
     }
-    let stats = check_mirror_floor(Tier::RayTracingPipeline, PipelineKind::VisBuffer, DecalMethod::RayPipeline, true);
+    let stats = floor.check(PipelineKind::VisBuffer, DecalMethod::RayPipeline, true);
     assert_a_ray_per_block(stats);
 }
 
 #[test]
 fn without_ray_tracing_reflections_are_marched_in_screen_space() {
     // The wall and its decal are on screen: the mirror shows them.
+    let mut floor = MirrorFloor::new(Tier::NoRayTracing);
     for pipeline in [PipelineKind::Forward, PipelineKind::Deferred, PipelineKind::VisBuffer] {
-        check_mirror_floor(Tier::NoRayTracing, pipeline, DecalMethod::Clustered, false);
+        floor.check(pipeline, DecalMethod::Clustered, false);
     }
-    check_mirror_floor(Tier::NoRayTracing, PipelineKind::Deferred, DecalMethod::DeferredDecals, true);
+    floor.check(PipelineKind::Deferred, DecalMethod::DeferredDecals, true);
 }
 
-/// Renders the mirror-floor scene of `pipeline` with a slab of `material` (if any) high above the
-/// floor between the camera and the wall, where only the mirror shows it.
-fn with_slab(tier: Tier, pipeline: PipelineKind, material: Option<Material>) -> (Vec<[f32; 4]>, render::reflections::ReflectionStats) {
+/// Renders the mirror-floor scene of `pipeline` once for each of `materials`: with a slab of that
+/// material (if any) high above the floor between the camera and the wall, where only the mirror
+/// shows it. One app renders them all, a new slab each time (reflections keep no history).
+fn with_slabs(
+    tier: Tier,
+    pipeline: PipelineKind,
+    materials: Vec<Option<Material>>,
+) -> Vec<(Vec<[f32; 4]>, render::reflections::ReflectionStats)> {
     let method = if tier == Tier::RayQuery { DecalMethod::RayQuery } else { DecalMethod::RayPipeline };
     let (mut app, ..) = mirror_floor_app(tier, pipeline, method, ReflectionSettings::default());
-    if let Some(material) = material {
-        let material = app.world.resource_mut::<Assets<Material>>().add(material);
-        let mesh = app.world.resource_mut::<Assets<Mesh>>().add(shapes::cuboid(Vec3::new(3.0, 1.4, 0.02), 1.0));
-        app.world.spawn((MeshInstance { mesh, material }, Transform::from_xyz(0.0, 3.3, -2.0)));
-    }
-    for _ in 0..3 {
-        app.update();
-    }
-    let hdr = renderer(&mut app).read_hdr().expect("HDR reads back");
-    assert_no_validation_errors(&mut app);
-    (hdr, app.world.resource::<RenderStats>().last.reflections)
+    let mesh = app.world.resource_mut::<Assets<Mesh>>().add(shapes::cuboid(Vec3::new(3.0, 1.4, 0.02), 1.0));
+    let mut slab: Option<Entity> = None;
+    materials
+        .into_iter()
+        .map(|material| {
+            if let Some(old) = slab.take() {
+                app.world.despawn(old);
+            }
+            if let Some(material) = material {
+                let material = app.world.resource_mut::<Assets<Material>>().add(material);
+                slab = Some(app.world.spawn((MeshInstance { mesh, material }, Transform::from_xyz(0.0, 3.3, -2.0))).id());
+            }
+            for _ in 0..3 {
+                app.update();
+            }
+            let hdr = renderer(&mut app).read_hdr().expect("HDR reads back");
+            assert_no_validation_errors(&mut app);
+            (hdr, app.world.resource::<RenderStats>().last.reflections)
+        })
+        .collect()
 }
 
 #[test]
@@ -244,10 +296,22 @@ fn masked_surfaces_are_alpha_tested_and_glass_is_blended_in_reflections() {
         (Tier::RayTracingPipeline, PipelineKind::Deferred),
     ] {
         let green = Vec4::new(0.0, 1.0, 0.0, 0.2);
-        let (plain, _) = with_slab(tier, pipeline, None);
-        // The slab opaque (alpha above its cutoff): the pixels it changes are all on the floor.
-        let (opaque, _) =
-            with_slab(tier, pipeline, Some(Material { alpha_mode: AlphaMode::Mask(0.1), ..Material::from_color(green, 0.0, 0.9) }));
+        // Without the slab; the slab opaque (alpha above its cutoff); alpha under its cutoff
+        // everywhere; as glass of opacity 0.5.
+        let mut renders = with_slabs(
+            tier,
+            pipeline,
+            vec![
+                None,
+                Some(Material { alpha_mode: AlphaMode::Mask(0.1), ..Material::from_color(green, 0.0, 0.9) }),
+                Some(Material { alpha_mode: AlphaMode::Mask(0.5), ..Material::from_color(green, 0.0, 0.9) }),
+                Some(Material { alpha_mode: AlphaMode::Blend, ..Material::from_color(green.with_w(0.5), 0.0, 0.9) }),
+            ],
+        )
+        .into_iter();
+        let mut next = || renders.next().expect("one render a material");
+        let ((plain, _), (opaque, _), (masked, _), (glass, stats)) = (next(), next(), next(), next());
+        // The opaque slab: the pixels it changes are all on the floor.
         let changed: Vec<usize> = (0..plain.len()).filter(|&i| (0..3).any(|c| (opaque[i][c] - plain[i][c]).abs() > 0.05)).collect();
         assert!(changed.len() > 100, "{tier:?} {pipeline:?}: the mirror shows the slab ({} pixels)", changed.len());
         let on_floor = |i: usize| expected(&camera, &transform, i as u32 % SIZE.0, i as u32 / SIZE.0) != Seen::Unknown;
@@ -258,14 +322,10 @@ fn masked_surfaces_are_alpha_tested_and_glass_is_blended_in_reflections() {
             changed.len()
         );
         // Alpha under its cutoff everywhere: cut away, in reflections too.
-        let (masked, _) =
-            with_slab(tier, pipeline, Some(Material { alpha_mode: AlphaMode::Mask(0.5), ..Material::from_color(green, 0.0, 0.9) }));
         let worst =
             plain.iter().zip(&masked).map(|(a, b)| (0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0f32, f32::max)).fold(0.0f32, f32::max);
         assert!(worst < 1e-3, "{tier:?} {pipeline:?}: a cut-away slab leaves the image as it was (largest difference {worst})");
         // As glass of opacity 0.5 over the sky: green, with half the sky's blue left.
-        let (glass, stats) =
-            with_slab(tier, pipeline, Some(Material { alpha_mode: AlphaMode::Blend, ..Material::from_color(green.with_w(0.5), 0.0, 0.9) }));
         let mean = |img: &[[f32; 4]]| changed.iter().map(|&i| Vec3::from_slice(&img[i][..3])).sum::<Vec3>() / changed.len() as f32;
         let (sky, tinted) = (mean(&plain), mean(&glass));
         eprintln!("{tier:?} {pipeline:?}: where the slab shows, without it {sky}, glass {tinted}, opaque {}", mean(&opaque));
@@ -287,45 +347,43 @@ fn a_mirror_shows_what_a_light_the_camera_does_not_see_lights_and_its_shadow() {
         (Tier::RayQuery, PipelineKind::Deferred),
         (Tier::RayTracingPipeline, PipelineKind::ForwardPlus),
     ] {
-        let render = |light: bool, occluder: bool| {
-            let settings = RenderSettings { pipeline, clear_color: [0.0, 0.0, 0.0, 1.0], ambient: Vec3::splat(0.01), ..Default::default() };
-            let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, tier);
-            let (mirror, panel) = {
-                let mut materials = app.world.resource_mut::<Assets<Material>>();
-                (materials.add(Material::from_color(Vec4::ONE, 1.0, 0.0)), materials.add(Material::from_color(Vec4::splat(0.8), 0.0, 0.9)))
-            };
-            let (wall, square, small) = {
-                let mut meshes = app.world.resource_mut::<Assets<Mesh>>();
-                (
-                    meshes.add(shapes::cuboid(Vec3::new(6.0, 4.0, 0.1), 1.0)),
-                    meshes.add(shapes::cuboid(Vec3::new(1.5, 1.5, 0.1), 1.0)),
-                    meshes.add(shapes::cuboid(Vec3::new(0.3, 0.3, 0.02), 1.0)),
-                )
-            };
-            // A mirror ahead; behind the camera a panel, and a light of 1 m range in front of it,
-            // which reaches nothing the camera sees directly.
-            app.world.spawn((MeshInstance { mesh: wall, material: mirror }, Transform::from_xyz(0.0, 1.0, -3.0)));
-            app.world.spawn((MeshInstance { mesh: square, material: panel }, Transform::from_xyz(0.0, 1.0, 3.0)));
-            if light {
-                app.world
-                    .spawn((PointLight { intensity: 5.0, range: Some(1.0), ..Default::default() }, Transform::from_xyz(0.0, 1.0, 2.4)));
-            }
-            if occluder {
-                // 10 cm in front of the light: its shadow covers the panel; its own image, the
-                // middle of the panel's.
-                app.world.spawn((MeshInstance { mesh: small, material: panel }, Transform::from_xyz(0.0, 1.0, 2.5)));
-            }
-            app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 1.0, 0.0).looking_at(Vec3::new(0.0, 1.0, -3.0), Vec3::Y)));
+        // One app: the panel unlit, then with the light, then with the occluder too.
+        let settings = RenderSettings { pipeline, clear_color: [0.0, 0.0, 0.0, 1.0], ambient: Vec3::splat(0.01), ..Default::default() };
+        let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, tier);
+        let (mirror, panel) = {
+            let mut materials = app.world.resource_mut::<Assets<Material>>();
+            (materials.add(Material::from_color(Vec4::ONE, 1.0, 0.0)), materials.add(Material::from_color(Vec4::splat(0.8), 0.0, 0.9)))
+        };
+        let (wall, square, small) = {
+            let mut meshes = app.world.resource_mut::<Assets<Mesh>>();
+            (
+                meshes.add(shapes::cuboid(Vec3::new(6.0, 4.0, 0.1), 1.0)),
+                meshes.add(shapes::cuboid(Vec3::new(1.5, 1.5, 0.1), 1.0)),
+                meshes.add(shapes::cuboid(Vec3::new(0.3, 0.3, 0.02), 1.0)),
+            )
+        };
+        // A mirror ahead; behind the camera a panel, and (from the second render) a light of 1 m
+        // range in front of it, which reaches nothing the camera sees directly.
+        app.world.spawn((MeshInstance { mesh: wall, material: mirror }, Transform::from_xyz(0.0, 1.0, -3.0)));
+        app.world.spawn((MeshInstance { mesh: square, material: panel }, Transform::from_xyz(0.0, 1.0, 3.0)));
+        app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 1.0, 0.0).looking_at(Vec3::new(0.0, 1.0, -3.0), Vec3::Y)));
+        let render = |app: &mut App| {
             for _ in 0..2 {
                 app.update();
             }
-            let hdr = renderer(&mut app).read_hdr().expect("HDR reads back");
-            assert_no_validation_errors(&mut app);
+            let hdr = renderer(app).read_hdr().expect("HDR reads back");
+            assert_no_validation_errors(app);
             // Four pixels right of the middle: on the panel's image, off the occluder's.
             let at = hdr[(SIZE.1 / 2 * SIZE.0 + SIZE.0 / 2 + 4) as usize];
             Vec3::from_slice(&at[..3])
         };
-        let (dark, lit, shadowed) = (render(false, false), render(true, false), render(true, true));
+        let dark = render(&mut app);
+        app.world.spawn((PointLight { intensity: 5.0, range: Some(1.0), ..Default::default() }, Transform::from_xyz(0.0, 1.0, 2.4)));
+        let lit = render(&mut app);
+        // 10 cm in front of the light: its shadow covers the panel; its own image, the middle of
+        // the panel's.
+        app.world.spawn((MeshInstance { mesh: small, material: panel }, Transform::from_xyz(0.0, 1.0, 2.5)));
+        let shadowed = render(&mut app);
         eprintln!("{tier:?} {pipeline:?}: the panel in the mirror unlit {dark}, lit {lit}, in the occluder's shadow {shadowed}");
         assert!(
             lit.x > 0.1 && lit.x > 10.0 * dark.x,
@@ -346,33 +404,32 @@ fn glass_reflects_what_is_behind_the_camera() {
         (Tier::RayQuery, PipelineKind::Deferred),
         (Tier::RayTracingPipeline, PipelineKind::Forward),
     ] {
-        let render = |reflections: ReflectionSettings| {
-            let settings = RenderSettings {
-                pipeline,
-                reflections,
-                clear_color: [0.0, 0.0, 0.0, 1.0],
-                ambient: Vec3::splat(0.01),
-                ..Default::default()
-            };
-            let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, tier);
-            let (glass, glow) = {
-                let mut materials = app.world.resource_mut::<Assets<Material>>();
-                (
-                    materials
-                        .add(Material { alpha_mode: AlphaMode::Blend, ..Material::from_color(Vec4::new(1.0, 1.0, 1.0, 0.3), 0.0, 0.0) }),
-                    materials.add(Material {
-                        emissive: Vec3::new(20.0, 0.0, 0.0),
-                        ..Material::from_color(Vec4::new(0.0, 0.0, 0.0, 1.0), 0.0, 0.9)
-                    }),
-                )
-            };
-            let (pane, panel) = {
-                let mut meshes = app.world.resource_mut::<Assets<Mesh>>();
-                (meshes.add(shapes::cuboid(Vec3::new(3.0, 3.0, 0.02), 1.0)), meshes.add(shapes::cuboid(Vec3::new(3.0, 3.0, 0.1), 1.0)))
-            };
-            app.world.spawn((MeshInstance { mesh: pane, material: glass }, Transform::from_xyz(0.0, 1.0, -2.0)));
-            app.world.spawn((MeshInstance { mesh: panel, material: glow }, Transform::from_xyz(0.0, 1.0, 3.0)));
-            app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 1.0, 0.0).looking_at(Vec3::new(0.0, 1.0, -3.0), Vec3::Y)));
+        // One app, rendered without reflections, then with them.
+        let settings = RenderSettings {
+            pipeline,
+            reflections: ReflectionSettings::OFF,
+            clear_color: [0.0, 0.0, 0.0, 1.0],
+            ambient: Vec3::splat(0.01),
+            ..Default::default()
+        };
+        let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, tier);
+        let (glass, glow) = {
+            let mut materials = app.world.resource_mut::<Assets<Material>>();
+            (
+                materials.add(Material { alpha_mode: AlphaMode::Blend, ..Material::from_color(Vec4::new(1.0, 1.0, 1.0, 0.3), 0.0, 0.0) }),
+                materials
+                    .add(Material { emissive: Vec3::new(20.0, 0.0, 0.0), ..Material::from_color(Vec4::new(0.0, 0.0, 0.0, 1.0), 0.0, 0.9) }),
+            )
+        };
+        let (pane, panel) = {
+            let mut meshes = app.world.resource_mut::<Assets<Mesh>>();
+            (meshes.add(shapes::cuboid(Vec3::new(3.0, 3.0, 0.02), 1.0)), meshes.add(shapes::cuboid(Vec3::new(3.0, 3.0, 0.1), 1.0)))
+        };
+        app.world.spawn((MeshInstance { mesh: pane, material: glass }, Transform::from_xyz(0.0, 1.0, -2.0)));
+        app.world.spawn((MeshInstance { mesh: panel, material: glow }, Transform::from_xyz(0.0, 1.0, 3.0)));
+        app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 1.0, 0.0).looking_at(Vec3::new(0.0, 1.0, -3.0), Vec3::Y)));
+        let mut render = |reflections: ReflectionSettings| {
+            app.world.resource_mut::<RenderSettings>().reflections = reflections;
             for _ in 0..3 {
                 app.update();
             }
