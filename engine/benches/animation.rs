@@ -1,7 +1,8 @@
 //! CPU cost of animation (no GPU) for 1, 100, 1,000 and 10,000 foxes (the shared `Fox.glb`: 24
 //! joints, its `Walk` clip), each at its own time in the clip: one whole frame (animation,
-//! transform propagation, skin matrices), and the [`engine::animation::animate`] system alone as
-//! it times itself ([`engine::animation::AnimationStats`], the sandbox's `cpu_ms.animate`).
+//! transform propagation, skin matrices), and each of those parts alone as it times itself
+//! ([`engine::animation::AnimationStats`] and [`engine::transform::TransformStats`], the
+//! sandbox's `cpu_ms.animate`, `.propagate` and `.skin`).
 //! Issue 25's target: 1,000 foxes animated in ≤ 1 ms.
 //!
 //! Run: `cargo bench -p engine --bench animation`
@@ -14,6 +15,10 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use engine::animation::{AnimationPlayer, AnimationStats};
 use engine::gltf::{self, GltfAnimations};
 use engine::prelude::*;
+use engine::transform::TransformStats;
+
+/// Reads the milliseconds a part of the frame reported of itself.
+type PartMs = fn(&World) -> f32;
 
 fn foxes(c: &mut Criterion) {
     let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/assets/gltf/Fox/Fox.glb"));
@@ -42,17 +47,26 @@ fn foxes(c: &mut Criterion) {
         }
         app.update();
         group.bench_function(format!("frame/{n}"), |b| b.iter(|| app.update()));
-        // The same frames, timed by what `animate` reports of itself.
-        group.bench_function(format!("animate/{n}"), |b| {
-            b.iter_custom(|iters| {
-                (0..iters)
-                    .map(|_| {
-                        app.update();
-                        Duration::from_secs_f32(app.world.resource::<AnimationStats>().cpu_ms * 1e-3)
-                    })
-                    .sum()
-            })
-        });
+        // The same frames, timed by what each part reports of itself: `animate`, transform
+        // propagation and the skin matrices (the sandbox's `cpu_ms.animate`, `.propagate` and
+        // `.skin`).
+        let parts: [(&str, PartMs); 3] = [
+            ("animate", |w| w.resource::<AnimationStats>().cpu_ms),
+            ("propagate", |w| w.resource::<TransformStats>().cpu_ms),
+            ("skin", |w| w.resource::<AnimationStats>().skin_cpu_ms),
+        ];
+        for (part, ms) in parts {
+            group.bench_function(format!("{part}/{n}"), |b| {
+                b.iter_custom(|iters| {
+                    (0..iters)
+                        .map(|_| {
+                            app.update();
+                            Duration::from_secs_f32(ms(&app.world) * 1e-3)
+                        })
+                        .sum()
+                })
+            });
+        }
     }
     group.finish();
 }

@@ -346,6 +346,12 @@ pub struct FrameStats {
     /// CPU milliseconds animating (sampling clips into joint transforms,
     /// [`engine::animation::AnimationStats`]) in the update that drew the frame.
     pub cpu_animate_ms: f32,
+    /// CPU milliseconds propagating transforms down the hierarchy
+    /// ([`engine::transform::TransformStats`]) in the update that drew the frame.
+    pub cpu_propagate_ms: f32,
+    /// CPU milliseconds computing skinned meshes' joint matrices
+    /// ([`engine::animation::AnimationStats::skin_cpu_ms`]) in the update that drew the frame.
+    pub cpu_skin_ms: f32,
     /// CPU milliseconds uploading and recording (the submission included).
     pub cpu_record_ms: f32,
     /// Of those, CPU milliseconds in the driver's queue submission.
@@ -511,7 +517,11 @@ fn render_frame(
     (window, overlay): (Option<ResMut<WindowTarget>>, Option<ResMut<OverlayInput>>),
     mut mirror: ResMut<RenderMirror>,
     (settings, time): (Res<RenderSettings>, Res<engine::time::Time>),
-    (mut stats, animation): (ResMut<RenderStats>, Option<Res<engine::animation::AnimationStats>>),
+    (mut stats, animation, propagation): (
+        ResMut<RenderStats>,
+        Option<Res<engine::animation::AnimationStats>>,
+        Option<Res<engine::transform::TransformStats>>,
+    ),
     (mut bad_size, mut failed): (Local<Option<(u32, u32)>>, Local<bool>),
     mut commands: Commands,
 ) {
@@ -585,7 +595,9 @@ fn render_frame(
                 size: renderer.0.size(),
                 gpu: PassTimes::default(),
                 cpu_extract_ms: extract_ms,
-                cpu_animate_ms: animation.map_or(0.0, |a| a.cpu_ms),
+                cpu_animate_ms: animation.as_ref().map_or(0.0, |a| a.cpu_ms),
+                cpu_propagate_ms: propagation.map_or(0.0, |p| p.cpu_ms),
+                cpu_skin_ms: animation.map_or(0.0, |a| a.skin_cpu_ms),
                 cpu_record_ms: report.record_ms,
                 cpu_submit_ms: report.submit_ms,
                 visited,

@@ -7,7 +7,8 @@
 //! `null` when no decal pass ran), `tier`,
 //! `device`, `size` `[w, h]`, `gpu_ms` (one key per pass, summed over the times it ran, plus
 //! `total`), `cpu_ms` (`frame`: the whole update up to submission, GPU waits left out;
-//! `extract`; `animate`: sampling animation clips; `record`, and `submit`: the part of `record`
+//! `extract`; `animate`: sampling animation clips; `propagate`: transform propagation; `skin`:
+//! skinned meshes' joint matrices; `record`, and `submit`: the part of `record`
 //! spent in the driver's queue submission), and `counters` (`bytes_uploaded`, `records_written`, `blas_builds`,
 //! `blas_updates`, `tlas_builds`, `instances`, `lights`, `decals`, `transparent`: blended instances drawn,
 //! `shadow_map_views`: atlas tiles drawn, `shadow_maps_missing`: lights the atlas had no room
@@ -102,6 +103,8 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
             "frame": round(stats.cpu_frame_ms),
             "extract": round(stats.cpu_extract_ms),
             "animate": round(stats.cpu_animate_ms),
+            "propagate": round(stats.cpu_propagate_ms),
+            "skin": round(stats.cpu_skin_ms),
             "record": round(stats.cpu_record_ms),
             "submit": round(stats.cpu_submit_ms),
         },

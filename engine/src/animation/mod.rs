@@ -489,15 +489,22 @@ pub struct SkinPose(pub Vec<glam::Mat4>);
 /// Recomputes the [`SkinPose`] of every skinned entity whose pose changed ([`Skin::pose_changed`]),
 /// in parallel across the entities (each reads its joints' global transforms and writes only its
 /// own matrices).
+///
+/// Times itself into [`AnimationStats::skin_cpu_ms`] (`cpu_ms.skin` in the sandbox's `--stats`).
 pub fn update_skin_poses(
     mut skinned: Query<(Ref<Skin>, Ref<crate::transform::GlobalTransform>, &mut SkinPose)>,
     joints: Query<Ref<crate::transform::GlobalTransform>>,
+    stats: Option<ResMut<AnimationStats>>,
 ) {
+    let started = std::time::Instant::now();
     skinned.par_iter_mut().for_each(|(skin, global, mut pose)| {
         if pose.0.len() != skin.joints.len() || Skin::pose_changed(&skin, &global, &joints) {
             skin.joint_matrices(&global, |j| joints.get(j).ok().map(|g| g.0), &mut pose.0);
         }
     });
+    if let Some(mut stats) = stats {
+        stats.skin_cpu_ms = started.elapsed().as_secs_f32() * 1e3;
+    }
 }
 
 /// What a player's targets sample this frame, set by [`animate`]'s first phase (added with
@@ -535,6 +542,8 @@ pub struct AnimationStats {
     pub cpu_ms: f32,
     /// Players it advanced.
     pub players: u32,
+    /// CPU milliseconds [`update_skin_poses`] took: the skinned meshes' joint matrices.
+    pub skin_cpu_ms: f32,
 }
 
 /// Advances one player by `dt`; returns the clips its targets sample (blended while
@@ -645,7 +654,7 @@ pub fn animate(
         },
     );
     if let Some(mut stats) = stats {
-        *stats = AnimationStats { cpu_ms: started.elapsed().as_secs_f32() * 1e3, players: players.iter().len() as u32 };
+        *stats = AnimationStats { cpu_ms: started.elapsed().as_secs_f32() * 1e3, players: players.iter().len() as u32, ..*stats };
     }
 }
 
