@@ -96,38 +96,27 @@ impl DebugOverlay {
         if !self.visible {
             return;
         }
+        // Collapsed to the frame time and its graph, so that the game stays visible (a small
+        // corner of a 1280×720 window); each section opens on a click.
         egui::Window::new("ecs-decals").default_pos([12.0, 12.0]).resizable(false).show(ctx, |ui| {
-            self.timings(ui);
-            ui.separator();
-            self.counts(ui, world);
-            ui.separator();
-            self.controls(ui, world);
-            for e in &mut self.extensions {
-                e.controls(ui, world);
-            }
+            self.summary(ui);
+            egui::CollapsingHeader::new("timings").default_open(false).show(ui, |ui| self.timings(ui));
+            egui::CollapsingHeader::new("scene and work").default_open(false).show(ui, |ui| self.counts(ui, world));
+            egui::CollapsingHeader::new("settings").default_open(false).show(ui, |ui| {
+                self.controls(ui, world);
+                for e in &mut self.extensions {
+                    e.controls(ui, world);
+                }
+            });
             ui.small("F1 hides this overlay");
         });
     }
 
-    fn timings(&self, ui: &mut egui::Ui) {
+    /// The frame time and the graph of the last seconds: what the collapsed overlay shows.
+    fn summary(&self, ui: &mut egui::Ui) {
         let frame = self.frame_ms.back().copied().unwrap_or(0.0);
-        ui.label(format!("frame {frame:.2} ms ({:.0} fps)", if frame > 0.0 { 1000.0 / frame } else { 0.0 }));
-        if let Some(last) = self.history.back() {
-            let passes: Vec<String> = last.gpu.iter().map(|(name, ms)| format!("{name} {ms:.2}")).collect();
-            ui.label(format!("GPU {:.2} ms: {}", last.gpu.total_ms, passes.join(", ")));
-            ui.label(format!(
-                "CPU {:.2} ms a frame (GPU waits excluded): animate {:.2}, propagate {:.2}, skin {:.2}, extract {:.2}, record {:.2}; visited {} instances, {} lights, {} decals",
-                last.cpu_frame_ms,
-                last.cpu_animate_ms,
-                last.cpu_propagate_ms,
-                last.cpu_skin_ms,
-                last.cpu_extract_ms,
-                last.cpu_record_ms,
-                last.visited.instances,
-                last.visited.lights,
-                last.visited.decals
-            ));
-        }
+        let gpu = self.history.back().map_or(String::new(), |s| format!(", GPU {:.2} ms", s.gpu.total_ms));
+        ui.label(format!("frame {frame:.2} ms ({:.0} fps){gpu}", if frame > 0.0 { 1000.0 / frame } else { 0.0 }));
         // A small graph of frame time (white) and GPU time (green) over the last seconds.
         let (rect, _) = ui.allocate_exact_size(egui::vec2(260.0, 60.0), egui::Sense::hover());
         let painter = ui.painter_at(rect);
@@ -148,6 +137,26 @@ impl DebugOverlay {
         plot(&mut self.frame_ms.iter().copied(), self.frame_ms.len(), egui::Color32::WHITE);
         plot(&mut self.history.iter().map(|s| s.gpu.total_ms), self.history.len(), egui::Color32::LIGHT_GREEN);
         ui.small(format!("graph: frame (white) and GPU (green) time, top = {max:.1} ms"));
+    }
+
+    /// The GPU time of each pass and the CPU time of each part of the last finished frame.
+    fn timings(&self, ui: &mut egui::Ui) {
+        if let Some(last) = self.history.back() {
+            let passes: Vec<String> = last.gpu.iter().map(|(name, ms)| format!("{name} {ms:.2}")).collect();
+            ui.label(format!("GPU {:.2} ms: {}", last.gpu.total_ms, passes.join(", ")));
+            ui.label(format!(
+                "CPU {:.2} ms a frame (GPU waits excluded): animate {:.2}, propagate {:.2}, skin {:.2}, extract {:.2}, record {:.2}; visited {} instances, {} lights, {} decals",
+                last.cpu_frame_ms,
+                last.cpu_animate_ms,
+                last.cpu_propagate_ms,
+                last.cpu_skin_ms,
+                last.cpu_extract_ms,
+                last.cpu_record_ms,
+                last.visited.instances,
+                last.visited.lights,
+                last.visited.decals
+            ));
+        }
     }
 
     fn counts(&self, ui: &mut egui::Ui, world: &World) {

@@ -121,7 +121,7 @@ fn windowed_sandbox_shows_scene_and_overlay_survives_a_resize_and_exits_cleanly(
             sky = sky.max(window.iter().filter(|p| blue(p)).count());
             // egui's dark theme fills windows with (20, 20, 20) once blended to sRGB.
             panel = panel.max(window.iter().filter(|p| near(**p, [20, 20, 20], 4)).count());
-            if sky > 20_000 && panel > 20_000 && !pressed_f12 {
+            if sky > 20_000 && panel > 10_000 && !pressed_f12 {
                 // F12, to the window given the focus (there is no window manager to give it),
                 // writes a screenshot.
                 let key = Command::new("xdotool")
@@ -150,7 +150,10 @@ fn windowed_sandbox_shows_scene_and_overlay_survives_a_resize_and_exits_cleanly(
     assert!(output.status.success(), "clean exit, no validation error:\n{stderr}");
     assert!(!stderr.contains("Validation Error"), "{stderr}");
     assert!(sky > 20_000, "the scene (its sky) is visible in the window: {sky} pixels");
-    assert!(panel > 20_000, "the egui overlay is visible: {panel} pixels");
+    eprintln!("sky {sky} pixels, overlay {panel} pixels");
+    assert!(panel > 10_000, "the egui overlay is visible: {panel} pixels");
+    // Collapsed by default: the game stays visible (issue 51 asks for at most a third).
+    assert!(panel < 640 * 400 / 3, "the collapsed overlay covers at most a third of the window: {panel} pixels");
     assert!(title.contains("ecs-decals sandbox | forward | ") && title.contains(" ms"), "the title says what runs: {title:?}");
     let shots: Vec<_> = std::fs::read_dir(&workdir).expect("the working directory").flatten().map(|e| e.path()).collect();
     let shot = shots.iter().find(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("screenshot-"))).unwrap_or_else(|| {
