@@ -139,8 +139,14 @@ pub struct Reflections {
     screen: [ShadeVariants; 2],
     /// The ray passes on the ray-tracing-pipeline tier: one ray-generation shader for each
     /// surface and way of applying the primary surface's decals (G-buffer: plain, decal buffer;
-    /// visibility ids: plain, decal buffer, cluster lists), then the nearest glass's.
+    /// visibility ids: plain, decal buffer, cluster lists), then the nearest glass's. Created
+    /// the first frame that traces reflections there ([`Reflections::ray_pipeline`]).
     rays: Option<RayTracingPipeline>,
+    /// Whether this device traces reflections with [`Reflections::rays`] (the
+    /// ray-tracing-pipeline tier).
+    rays_possible: bool,
+    /// The shared pipeline layout, for creating `rays`.
+    layout: vk::PipelineLayout,
     resolve: vk::Pipeline,
     /// The resolve into its own target, before the shading pass (MSAA: [`Reflections::record_before_shading`]).
     resolve_separate: vk::Pipeline,
@@ -221,59 +227,64 @@ impl Reflections {
             )?
             .with_clustered(shaders::SCREEN_REFLECTIONS_COMP_CLUSTERED_DECALS, screen)?,
         ];
-        let rays = if ctx.tier != Tier::RayQuery && ctx.ray_support().ray_pipeline {
-            let desc = RayTracingDesc {
-                name: "reflection rays (ray-tracing pipeline)",
-                raygen: &[
-                    shaders::REFLECTIONS_RGEN_GBUFFER,
-                    shaders::REFLECTIONS_RGEN_GBUFFER_DECAL_BUFFER,
-                    shaders::REFLECTIONS_RGEN,
-                    shaders::REFLECTIONS_RGEN_DECAL_BUFFER,
-                    shaders::REFLECTIONS_RGEN_CLUSTERED_DECALS,
-                    shaders::REFLECTIONS_RGEN_GLASS_LAYER,
-                ],
-                misses: &[
-                    shaders::REFLECTIONS_RMISS,
-                    shaders::DECAL_PASS_RMISS,
-                    shaders::LIGHT_RAYS_RMISS_SHADOWED_LIGHTS,
-                    shaders::SHADOWS_RMISS,
-                ],
-                hit_groups: &[
-                    HitGroup {
-                        closest_hit: Some(shaders::REFLECTIONS_RCHIT),
-                        any_hit: Some(shaders::REFLECTIONS_RAHIT),
-                        intersection: None,
-                    },
-                    HitGroup::any_hit(shaders::DECAL_PASS_RAHIT, Some(shaders::DECAL_PASS_RINT)),
-                    HitGroup::any_hit(shaders::LIGHT_RAYS_RAHIT_SHADOWED_LIGHTS, Some(shaders::LIGHT_RAYS_RINT)),
-                    HitGroup::any_hit(shaders::SHADOWS_RAHIT, None),
-                    HitGroup::any_hit(shaders::DECAL_PASS_RAHIT_COLLECT, Some(shaders::DECAL_PASS_RINT)),
-                ],
-            };
-            Some(RayTracingPipeline::new(ctx, layout, &desc)?)
-        } else {
-            None
-        };
-        let bytes = REFLECTION_STATS as u64 * 4;
-        let stats = Buffer::new(ctx, "reflection statistics", bytes, crate::gpu::memory::GPU_WRITTEN, MemoryLocation::GpuOnly)?;
         Ok(Self {
             gbuffer,
             visibility,
             screen,
-            rays,
+            rays: None,
+            rays_possible: ctx.tier != Tier::RayQuery && ctx.ray_support().ray_pipeline,
+            layout,
             resolve: create_compute(ctx, layout, "reflection resolve", shaders::REFLECTIONS_RESOLVE_COMP)?,
             resolve_separate: create_compute(ctx, layout, "reflection resolve (separate)", shaders::REFLECTIONS_RESOLVE_COMP_SEPARATE)?,
             glass: if ctx.tier == Tier::RayQuery { Some(compute(shaders::REFLECTIONS_COMP_GLASS_LAYER)?) } else { None },
             resolve_glass: create_compute(ctx, layout, "glass reflection resolve", shaders::REFLECTIONS_RESOLVE_COMP_GLASS_LAYER)?,
-            stats,
+            stats: Buffer::new(
+                ctx,
+                "reflection statistics",
+                REFLECTION_STATS as u64 * 4,
+                crate::gpu::memory::GPU_WRITTEN,
+                MemoryLocation::GpuOnly,
+            )?,
             stats_res: graph.resource("reflection statistics"),
-            readback: StatsReadback::new(ctx, graph, "reflection statistics readback", bytes)?,
+            readback: StatsReadback::new(ctx, graph, "reflection statistics readback", REFLECTION_STATS as u64 * 4)?,
             latest: ReflectionStats { measured_frame: u64::MAX, ..Default::default() },
             smoothest: None,
             hiz: create_compute(ctx, layout, "reflection depth pyramid", shaders::REFLECTION_HIZ_COMP)?,
             pyramid: None,
             hiz_res: graph.resource("reflection depth pyramid"),
         })
+    }
+
+    /// The ray-tracing pipeline of the reflection rays, created the first time a frame traces
+    /// them on a device without ray queries: with 19 shader stages it is the renderer's largest
+    /// (2 s to create on lavapipe, most of a renderer's start there), and a scene with nothing
+    /// smooth never needs it.
+    fn ray_pipeline(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<RayTracingPipeline, RenderError> {
+        let desc = RayTracingDesc {
+            name: "reflection rays (ray-tracing pipeline)",
+            raygen: &[
+                shaders::REFLECTIONS_RGEN_GBUFFER,
+                shaders::REFLECTIONS_RGEN_GBUFFER_DECAL_BUFFER,
+                shaders::REFLECTIONS_RGEN,
+                shaders::REFLECTIONS_RGEN_DECAL_BUFFER,
+                shaders::REFLECTIONS_RGEN_CLUSTERED_DECALS,
+                shaders::REFLECTIONS_RGEN_GLASS_LAYER,
+            ],
+            misses: &[
+                shaders::REFLECTIONS_RMISS,
+                shaders::DECAL_PASS_RMISS,
+                shaders::LIGHT_RAYS_RMISS_SHADOWED_LIGHTS,
+                shaders::SHADOWS_RMISS,
+            ],
+            hit_groups: &[
+                HitGroup { closest_hit: Some(shaders::REFLECTIONS_RCHIT), any_hit: Some(shaders::REFLECTIONS_RAHIT), intersection: None },
+                HitGroup::any_hit(shaders::DECAL_PASS_RAHIT, Some(shaders::DECAL_PASS_RINT)),
+                HitGroup::any_hit(shaders::LIGHT_RAYS_RAHIT_SHADOWED_LIGHTS, Some(shaders::LIGHT_RAYS_RINT)),
+                HitGroup::any_hit(shaders::SHADOWS_RAHIT, None),
+                HitGroup::any_hit(shaders::DECAL_PASS_RAHIT_COLLECT, Some(shaders::DECAL_PASS_RINT)),
+            ],
+        };
+        RayTracingPipeline::new(ctx, layout, &desc)
     }
 
     /// Decides this frame's reflections from `s` (the mode this device runs; none in debug views
@@ -330,6 +341,9 @@ impl Reflections {
         }
         if !on {
             return Ok(ReflectionFrame::default());
+        }
+        if applied == ReflectionMode::RayTraced && self.rays_possible && self.rays.is_none() {
+            self.rays = Some(Self::ray_pipeline(f.ctx, self.layout)?);
         }
         let (stats, stats_res) = (self.stats.raw, self.stats_res);
         f.pass("reflection_stats_clear", PassKind::Transfer).write(stats_res, BufferUse::Transfer).record(|p| {

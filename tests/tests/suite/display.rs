@@ -234,21 +234,27 @@ fn emissive_materials_emit_in_every_pipeline_and_through_every_kind_of_glass() {
     let mut runs: Vec<(PipelineKind, render::TransparencyMethod)> =
         PipelineKind::ALL.iter().map(|&p| (p, render::TransparencyMethod::default())).collect();
     runs.extend([render::TransparencyMethod::Forward, render::TransparencyMethod::DepthPeeling].map(|t| (PipelineKind::Deferred, t)));
+    // One app renders every run: the settings change between them.
+    let settings = RenderSettings { ambient: Vec3::ZERO, bloom: BloomSettings::OFF, ..Default::default() };
+    let mut app = app(w, h, settings, Environment { source: EnvironmentSource::None, ..Default::default() });
+    let square = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(1.5, 1.5, 1, 1.0));
+    let mut materials = app.world.resource_mut::<Assets<Material>>();
+    let glowing = materials.add(Material { emissive: opaque, ..Material::from_color(Vec4::new(0.0, 0.0, 0.0, 1.0), 0.0, 1.0) });
+    let glass = materials.add(Material {
+        emissive: pane,
+        alpha_mode: AlphaMode::Blend,
+        ..Material::from_color(Vec4::new(0.0, 0.0, 0.0, 0.5), 0.0, 1.0)
+    });
+    app.world.spawn((MeshInstance { mesh: square, material: glowing }, Transform::from_xyz(-1.0, 0.0, 0.0)));
+    app.world.spawn((MeshInstance { mesh: square, material: glass }, Transform::from_xyz(1.0, 0.5, 0.0)));
+    let view = tests::TopDownView::new(4.0, (w, h));
+    view.spawn(&mut app.world);
     for (pipeline, transparency) in runs {
-        let settings = RenderSettings { pipeline, transparency, ambient: Vec3::ZERO, bloom: BloomSettings::OFF, ..Default::default() };
-        let mut app = app(w, h, settings, Environment { source: EnvironmentSource::None, ..Default::default() });
-        let square = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(1.5, 1.5, 1, 1.0));
-        let mut materials = app.world.resource_mut::<Assets<Material>>();
-        let glowing = materials.add(Material { emissive: opaque, ..Material::from_color(Vec4::new(0.0, 0.0, 0.0, 1.0), 0.0, 1.0) });
-        let glass = materials.add(Material {
-            emissive: pane,
-            alpha_mode: AlphaMode::Blend,
-            ..Material::from_color(Vec4::new(0.0, 0.0, 0.0, 0.5), 0.0, 1.0)
-        });
-        app.world.spawn((MeshInstance { mesh: square, material: glowing }, Transform::from_xyz(-1.0, 0.0, 0.0)));
-        app.world.spawn((MeshInstance { mesh: square, material: glass }, Transform::from_xyz(1.0, 0.5, 0.0)));
-        let view = tests::TopDownView::new(4.0, (w, h));
-        view.spawn(&mut app.world);
+        {
+            let mut settings = app.world.resource_mut::<RenderSettings>();
+            settings.pipeline = pipeline;
+            settings.transparency = transparency;
+        }
         app.update();
         let hdr = renderer(&mut app).read_hdr().expect("readback");
         assert_no_validation_errors(&mut app);

@@ -287,18 +287,16 @@ fn centroid(hdr: &[[f32; 4]], width: u32, pick: impl Fn([f32; 4]) -> bool) -> (V
 }
 
 #[test]
-fn a_decal_on_the_skin_stays_on_its_surface_point_in_every_pipeline_and_method() {
+fn a_decal_on_the_skin_stays_on_its_surface_point_with_every_method() {
     const BIG: (u32, u32) = (320, 240);
+    // Each decal method once and each way of reading the surface once, as the decal tests'
+    // `COVER` (how a method finds a decal on a skin does not depend on the pipeline; how each
+    // pipeline's surface meets each method is held to the CPU reference in `decals`).
     let configs = [
         (Tier::RayQuery, PipelineKind::Forward, DecalMethod::RayQuery),
-        (Tier::RayQuery, PipelineKind::Deferred, DecalMethod::RayQuery),
-        (Tier::RayQuery, PipelineKind::VisBuffer, DecalMethod::RayQuery),
-        (Tier::RayTracingPipeline, PipelineKind::Forward, DecalMethod::RayPipeline),
-        (Tier::RayTracingPipeline, PipelineKind::Deferred, DecalMethod::RayPipeline),
         (Tier::RayTracingPipeline, PipelineKind::VisBuffer, DecalMethod::RayPipeline),
         (Tier::NoRayTracing, PipelineKind::Forward, DecalMethod::Clustered),
         (Tier::NoRayTracing, PipelineKind::Deferred, DecalMethod::Clustered),
-        (Tier::NoRayTracing, PipelineKind::VisBuffer, DecalMethod::Clustered),
         // Forward+ here walks the clustered lists in its shading pass (decals_in_forward_shading).
         (Tier::NoRayTracing, PipelineKind::ForwardPlus, DecalMethod::Clustered),
     ];
