@@ -27,7 +27,7 @@ if ! [ -r /etc/os-release ] || ! grep -q '^ID=debian' /etc/os-release || ! grep 
   - a Vulkan 1.3 driver (your GPU's, or Mesa lavapipe >= 25 for a CPU device),
   - the Vulkan loader (libvulkan.so.1) and the Khronos validation layers,
   - glslc (from shaderc or the Vulkan SDK),
-  - a Rust toolchain >= 1.85 (rustup.rs),
+  - a Rust toolchain >= 1.95 (rustup.rs),
 then run this command again.
 MSG
   exit 1
