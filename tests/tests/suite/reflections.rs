@@ -125,7 +125,8 @@ impl MirrorFloor {
         Self { tier, app, camera, transform }
     }
 
-    /// Renders the mirror floor and counts pixels whose class matches the CPU's, per class.
+    /// Renders the mirror floor with `pipeline` and `method` (reflections at half resolution
+    /// when `half`) and counts pixels whose class matches the CPU's, per class.
     fn check(&mut self, pipeline: PipelineKind, method: DecalMethod, half: bool) -> render::reflections::ReflectionStats {
         let Self { tier, app, camera, transform } = self;
         let (tier, camera, transform) = (*tier, *camera, *transform);
@@ -135,69 +136,56 @@ impl MirrorFloor {
             settings.decal_method = method;
             settings.reflections = ReflectionSettings { half_resolution: half, ..Default::default() };
         }
-        check_mirror_floor(app, tier, camera, transform, pipeline, method, half)
-    }
-}
-
-/// Renders the mirror floor of `app` and counts pixels whose class matches the CPU's, per class.
-fn check_mirror_floor(
-    app: &mut App,
-    tier: Tier,
-    camera: Camera,
-    transform: Transform,
-    pipeline: PipelineKind,
-    method: DecalMethod,
-    half: bool,
-) -> render::reflections::ReflectionStats {
-    // Three frames: the statistics come back once a frame slot comes round.
-    for _ in 0..3 {
-        app.update();
-    }
-    let hdr = renderer(app).read_hdr().expect("HDR reads back");
-    assert_no_validation_errors(app);
-    let global = GlobalTransform::from(transform);
-    let mut counts = [[0usize; 2]; 3]; // [sky, wall, decal] × [expected, matched]
-    for y in 0..SIZE.1 {
-        for x in 0..SIZE.0 {
-            let want = expected(&camera, &global, x, y);
-            let i = match want {
-                Seen::Unknown => continue,
-                Seen::Sky => 0,
-                Seen::Wall => 1,
-                Seen::Decal => 2,
-            };
-            counts[i][0] += 1;
-            // Half resolution blurs mirror images by a pixel: compare with the neighbourhood.
-            let got = classify(hdr[(y * SIZE.0 + x) as usize]);
-            if got == want {
-                counts[i][1] += 1;
+        // Three frames: the statistics come back once a frame slot comes round.
+        for _ in 0..3 {
+            app.update();
+        }
+        let hdr = renderer(app).read_hdr().expect("HDR reads back");
+        assert_no_validation_errors(app);
+        let global = GlobalTransform::from(transform);
+        let mut counts = [[0usize; 2]; 3]; // [sky, wall, decal] × [expected, matched]
+        for y in 0..SIZE.1 {
+            for x in 0..SIZE.0 {
+                let want = expected(&camera, &global, x, y);
+                let i = match want {
+                    Seen::Unknown => continue,
+                    Seen::Sky => 0,
+                    Seen::Wall => 1,
+                    Seen::Decal => 2,
+                };
+                counts[i][0] += 1;
+                // Half resolution blurs mirror images by a pixel: compare with the neighbourhood.
+                let got = classify(hdr[(y * SIZE.0 + x) as usize]);
+                if got == want {
+                    counts[i][1] += 1;
+                }
             }
         }
+        let label = format!("{tier:?} {pipeline:?} {method:?} half {half}");
+        eprintln!("{label}: [expected, matched] sky/wall/decal {counts:?}");
+        for (i, name) in ["sky", "wall", "decal"].iter().enumerate() {
+            let [n, matched] = counts[i];
+            assert!(n >= 12, "{label}: the view sees the {name} in the mirror ({n} pixels)");
+            // Half resolution blurs the mirror image by a pixel; screen-space rays at half
+            // resolution lose a little more at the wall's foot.
+            let share = match (tier == Tier::NoRayTracing, half) {
+                (_, false) => 0.9,
+                (false, true) => 0.8,
+                (true, true) => 0.75,
+            };
+            assert!(matched as f64 >= share * n as f64, "{label}: the mirror shows the {name} where it should: {matched} of {n} pixels");
+        }
+        let stats = app.world.resource::<RenderStats>().last.reflections;
+        if tier == Tier::NoRayTracing {
+            // Screen space: the decal is on screen, so its reflection is found in the lit image.
+            assert_eq!(stats.applied, ReflectionMode::ScreenSpace, "{label}");
+            assert!(stats.rays > 0 && stats.hits > 0 && stats.decals_tested == 0 && !stats.decals_at_hits, "{label}: {stats:?}");
+        } else {
+            assert_eq!(stats.applied, ReflectionMode::RayTraced, "{label}");
+            assert!(stats.rays > 0 && stats.hits > 0 && stats.decals_tested > 0 && stats.decals_at_hits, "{label}: {stats:?}");
+        }
+        stats
     }
-    let label = format!("{tier:?} {pipeline:?} {method:?} half {half}");
-    eprintln!("{label}: [expected, matched] sky/wall/decal {counts:?}");
-    for (i, name) in ["sky", "wall", "decal"].iter().enumerate() {
-        let [n, matched] = counts[i];
-        assert!(n >= 12, "{label}: the view sees the {name} in the mirror ({n} pixels)");
-        // Half resolution blurs the mirror image by a pixel; screen-space rays at half
-        // resolution lose a little more at the wall's foot.
-        let share = match (tier == Tier::NoRayTracing, half) {
-            (_, false) => 0.9,
-            (false, true) => 0.8,
-            (true, true) => 0.75,
-        };
-        assert!(matched as f64 >= share * n as f64, "{label}: the mirror shows the {name} where it should: {matched} of {n} pixels");
-    }
-    let stats = app.world.resource::<RenderStats>().last.reflections;
-    if tier == Tier::NoRayTracing {
-        // Screen space: the decal is on screen, so its reflection is found in the lit image.
-        assert_eq!(stats.applied, ReflectionMode::ScreenSpace, "{label}");
-        assert!(stats.rays > 0 && stats.hits > 0 && stats.decals_tested == 0 && !stats.decals_at_hits, "{label}: {stats:?}");
-    } else {
-        assert_eq!(stats.applied, ReflectionMode::RayTraced, "{label}");
-        assert!(stats.rays > 0 && stats.hits > 0 && stats.decals_tested > 0 && stats.decals_at_hits, "{label}: {stats:?}");
-    }
-    stats
 }
 
 /// Half resolution traces about a ray per 2×2 pixels that reflect.
