@@ -52,6 +52,6 @@ void main() {
     gb_albedo = vec4(ms.base.rgb, ms.occlusion);
     gb_normal = vec4(n * 0.5 + 0.5, 1.0);
     gb_material = vec4(ms.roughness, ms.metallic, opacity, refraction);
-    gb_layers = uvec2((scene.instances.instances[v_instance].decal_layers & 0xFFu) | (uint(gl_PrimitiveID) << 8), v_skinned ? v_instance + 1u : 0u);
+    gb_layers = uvec2((scene.instances.instances[v_instance].decal_layers & 0xFFu) | ((uint(gl_PrimitiveID) + v_triangle_base) << 8), v_skinned ? v_instance + 1u : 0u);
     out_emissive = vec4(scene.debug_view == DEBUG_LIT ? ms.emissive : vec3(0.0), 1.0);
 }

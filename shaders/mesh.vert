@@ -14,7 +14,8 @@ layout(location = 3) in vec4 a_tangent;
 invariant gl_Position;
 
 void main() {
-    GpuInstance inst = scene.instances.instances[gl_InstanceIndex];
+    uint slot = drawn_slot();
+    GpuInstance inst = scene.instances.instances[slot];
     vec4 world;
     gl_Position = mesh_clip_position(inst.model, a_position, world);
     v_world_pos = world.xyz;
@@ -22,10 +23,12 @@ void main() {
     v_tangent = vec4(mat3(inst.model) * a_tangent.xyz, a_tangent.w);
     v_uv = a_uv;
     v_material = inst.material;
-    v_instance = gl_InstanceIndex;
-    // A posed mesh carries its rest pose along (the same vertex of its source's vertices).
-    // (Field by field: only what is used is fetched, not the whole 64-byte record.)
+    v_instance = slot;
     MeshesRef meshes = MeshesRef(scene.meshes);
+    uint level = drawn_level();
+    v_triangle_base = level == 0u ? 0u : (meshes.meshes[inst.mesh].lod_first[level - 1u] - meshes.meshes[inst.mesh].first_index) / 3u;
+    // A posed mesh carries its rest pose along (the same vertex of its source's vertices).
+    // (Field by field: only what is used is fetched, not the whole record.)
     uint64_t rest_vertices = meshes.meshes[inst.mesh].rest;
     v_skinned_flag = rest_vertices != meshes.meshes[inst.mesh].vertices ? 1u : 0u;
     v_rest_pos = v_world_pos;

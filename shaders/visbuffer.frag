@@ -12,5 +12,5 @@ void main() {
     GpuMaterial m = scene.materials.materials[v_material];
     if (m.base_color.a * sample_texture(m.base_color_tex, v_uv).a < m.alpha_cutoff) discard;
 #endif
-    out_ids = uvec2(v_instance, uint(gl_PrimitiveID));
+    out_ids = uvec2(v_instance, uint(gl_PrimitiveID) + v_triangle_base);
 }

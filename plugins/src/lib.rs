@@ -102,6 +102,9 @@ pub struct RenderSettings {
     /// Keep culling against the view of the frame this was set in, to fly out and see what it
     /// culled (a debug option: engines call it "freeze culling").
     pub freeze_culling: bool,
+    /// Levels of detail (`render::lod`): the most pixels a coarser level's error may cover on
+    /// screen for an instance to draw it (default 1; 0 draws everything in full).
+    pub lod_pixels: f32,
     /// Submit a command buffer again when a frame's commands are exactly those it was recorded
     /// with (default on; `render::FrameSettings::reuse_commands`).
     pub reuse_commands: bool,
@@ -184,6 +187,7 @@ impl Default for RenderSettings {
             refraction: true,
             culling: render::CullingMode::Occlusion,
             freeze_culling: false,
+            lod_pixels: render::lod::DEFAULT_LOD_PIXELS,
             reuse_commands: true,
             limits: SceneLimits::MAX,
             decal_distance_fade: None,
@@ -563,6 +567,7 @@ fn render_frame(
         refraction: settings.refraction,
         culling: settings.culling,
         freeze_culling: settings.freeze_culling,
+        lod_pixels: settings.lod_pixels,
         reuse_commands: settings.reuse_commands,
     };
     let result = match window {

@@ -195,7 +195,10 @@ impl DebugOverlay {
         let measured = if k.measured_frame == u64::MAX {
             "not measured yet".to_string()
         } else {
-            format!("{} tested, {} in the frustum, {} drawn", k.instances, k.after_frustum, k.after_occlusion)
+            format!(
+                "{} tested, {} in the frustum, {} drawn ({} triangles; by level of detail {:?})",
+                k.instances, k.after_frustum, k.after_occlusion, k.triangles, k.lod_instances
+            )
         };
         ui.label(format!("culling {}{}: {measured}; {} draw calls", k.mode.name(), if k.frozen { " (frozen)" } else { "" }, c.draw_calls));
     }
@@ -292,6 +295,7 @@ impl DebugOverlay {
                 ui.selectable_value(&mut settings.culling, m, format!("culling {}", m.name()));
             }
             ui.checkbox(&mut settings.freeze_culling, "freeze culling");
+            ui.add(egui::Slider::new(&mut settings.lod_pixels, 0.0..=8.0).text("level-of-detail error (px, 0: off)"));
         });
     }
 }

@@ -324,7 +324,7 @@ pub fn mesh_data(mesh: &Mesh) -> Result<(MeshData, Option<String>), String> {
         .collect();
     let morph_targets = targets.len() as u32;
     Ok((
-        MeshData { vertices, indices, skin, morphs, morph_targets },
+        MeshData { vertices, indices, skin, morphs, morph_targets, lods: None },
         (!repaired.is_empty()).then(|| format!("had {}", repaired.join(", "))),
     ))
 }

@@ -809,7 +809,7 @@ layout! {
     pub const CULL_BATCHES: u32 = 4;
     /// Words of the draw buffer's header: the per-batch counts of the two phases' lists
     /// (`2 × CULL_BATCHES`), then the statistics (`CULL_STAT_*`), then padding.
-    pub const CULL_HEADER: u32 = 16;
+    pub const CULL_HEADER: u32 = 24;
     /// Header word: instances tested for the main view.
     pub const CULL_STAT_TESTED: u32 = 8;
     /// Header word: instances inside the main view's frustum.
@@ -820,6 +820,18 @@ layout! {
     pub const CULL_STAT_DROPPED: u32 = 11;
     /// Header word: the blended order's length (the count of the glass draws).
     pub const CULL_ORDERED: u32 = 12;
+    /// Header words: instances the main view drew at each level of detail (`LOD_LEVELS + 1`
+    /// words, level 0 first).
+    pub const CULL_STAT_LOD: u32 = 16;
+    /// Header word: triangles the main view's lists draw (at their levels of detail).
+    pub const CULL_STAT_TRIANGLES: u32 = 21;
+    /// Levels of detail a mesh may have after its own triangle list (`render/src/lod`).
+    pub const LOD_LEVELS: u32 = 4;
+    /// A culled draw's `firstInstance` is its instance slot with its level of detail above this
+    /// bit (`gl_InstanceIndex >> LOD_LEVEL_SHIFT`).
+    pub const LOD_LEVEL_SHIFT: u32 = 29;
+    /// The instance slot in a culled draw's `gl_InstanceIndex`.
+    pub const LOD_SLOT_MASK: u32 = 536870911;
     /// Culling mode: every live instance is drawn.
     pub const CULL_MODE_OFF: u32 = 0;
     /// Culling mode: instances outside the view frustum are skipped.
@@ -1290,8 +1302,16 @@ layout! {
         pub morphs: u64,
         /// Number of morph targets.
         pub morph_targets: u32,
-        /// Padding to 16 bytes.
-        pub pad: u32,
+        /// Coarser levels of detail (`render/src/lod`; 0 to `LOD_LEVELS`).
+        pub lod_levels: u32,
+        /// Each coarser level's first index in the mesh pool's buffer (its `firstIndex`); its
+        /// triangles follow level 0's in the mesh's index range.
+        pub lod_first: [u32; 4],
+        /// Each coarser level's number of indices.
+        pub lod_count: [u32; 4],
+        /// Each coarser level's geometric error as a fraction of the diagonal of the mesh's
+        /// bounds.
+        pub lod_error: Vec4,
     }
 
     /// One vertex's offsets in one morph target (glTF 2.0 §3.7.2.2), added in proportion to the
@@ -1414,6 +1434,9 @@ layout! {
         pub order: u64,
         /// Address of the shadow maps' views buffer (`ScenePush::shadow_views`).
         pub shadow_views: u64,
+        /// Address of the level of detail each instance slot drew last (a word per slot; 0 when
+        /// levels of detail are off).
+        pub lods: u64,
         /// Instance slots to visit.
         pub count: u32,
         /// A `CULL_MODE_*` value.
@@ -1442,8 +1465,14 @@ layout! {
         pub batch_capacity: [u32; 4],
         /// 1 while the culling view is frozen: visibility is read, never written.
         pub frozen: u32,
+        /// Levels of detail: the most pixels a level's error may cover on screen (0: level 0
+        /// always).
+        pub lod_pixels: f32,
+        /// Levels of detail: an instance moves to a coarser level only when that level's error
+        /// covers at most this many pixels (hysteresis).
+        pub lod_coarsen_pixels: f32,
         /// Padding to 16 bytes.
-        pub pad: [u32; 5],
+        pub pad: u32,
     }
 
     /// The culling passes' push constants (their pipelines have a layout of their own).

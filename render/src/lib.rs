@@ -27,6 +27,7 @@
 //! | [`decals`] | decal acceleration structures, deferred decals, decal debug views |
 //! | [`lights`] | tiled light culling and the lighting record |
 //! | [`shadows`] | the scene's acceleration structures and ray-traced shadows |
+//! | [`lod`] | levels of detail: simplified triangle lists made at upload, chosen per instance by culling |
 //! | [`skinning`] | posed meshes: skinning in compute, joint matrices, pose bounds |
 //! | [`pipelines`] | forward, Forward+, deferred and visibility-buffer frames |
 //! | [`present`] | tone mapping, overlay, window swapchain |
@@ -44,6 +45,7 @@ pub mod gpu;
 pub mod graph;
 pub mod layout;
 pub mod lights;
+pub mod lod;
 pub mod motion;
 pub mod msaa;
 pub mod pipelines;

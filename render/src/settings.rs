@@ -847,6 +847,9 @@ pub struct FrameSettings {
     /// Keep culling against the view of the frame this was first set in ("freeze culling"): fly
     /// out and see what that view culled. Visibility is not updated while frozen.
     pub freeze_culling: bool,
+    /// Levels of detail ([`crate::lod`]): the most pixels a coarser level's error may cover on
+    /// screen for an instance to draw it (1 by default; 0 draws every instance in full).
+    pub lod_pixels: f32,
     /// Submit a frame slot's command buffer again when a frame logs exactly the commands it was
     /// recorded with, instead of recording it again (`crate::gpu::commands`). On by default;
     /// off records every frame (for comparison).
@@ -876,6 +879,7 @@ impl Default for FrameSettings {
             refraction: true,
             culling: CullingMode::Occlusion,
             freeze_culling: false,
+            lod_pixels: crate::lod::DEFAULT_LOD_PIXELS,
             reuse_commands: true,
         }
     }

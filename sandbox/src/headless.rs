@@ -107,6 +107,10 @@ pub struct HeadlessOptions {
     pub shadow_maps: render::ShadowMapBudget,
     /// How instances are culled.
     pub culling: render::CullingMode,
+    /// Levels of detail: the most pixels a coarser level's error may cover (0: off).
+    pub lod_pixels: f32,
+    /// Run `frames` frames with levels of detail off, on (at `lod_pixels`), then off again.
+    pub compare_lod: bool,
     /// Submit a command buffer again when a frame's commands are exactly those it holds.
     pub reuse_commands: bool,
     /// Run `frames` frames with every culling mode in turn (off, frustum, occlusion).
@@ -192,6 +196,8 @@ pub struct Run {
     pub spot_lights: Option<usize>,
     /// How instances are culled.
     pub culling: render::CullingMode,
+    /// Levels of detail's limit in pixels (0: off).
+    pub lod_pixels: f32,
     /// Reflections.
     pub reflections: render::ReflectionSettings,
     /// The environment, as an index into the comparison's environments (`None`: as it is).
@@ -311,6 +317,8 @@ impl Default for HeadlessOptions {
             transparency: render::TransparencyMethod::Interlaced,
             shadow_maps: render::ShadowMapBudget::default(),
             culling: render::CullingMode::Occlusion,
+            lod_pixels: render::lod::DEFAULT_LOD_PIXELS,
+            compare_lod: false,
             reuse_commands: true,
             compare_culling: false,
             environment: engine::environment::Environment::default(),
@@ -383,6 +391,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         reflections: opts.reflections,
         transparency: opts.transparency,
         culling: opts.culling,
+        lod_pixels: opts.lod_pixels,
         reuse_commands: opts.reuse_commands,
         tonemapper: opts.tonemapper,
         bloom: opts.bloom,
@@ -479,6 +488,7 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
         refraction: true,
         spot_lights: None,
         culling: opts.culling,
+        lod_pixels: opts.lod_pixels,
         reflections: opts.reflections,
         environment: None,
         occlusion: opts.occlusion,
@@ -510,6 +520,10 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
     }
     if opts.compare_culling {
         combos.extend(render::CullingMode::ALL.map(|culling| Run { culling, ..base }));
+    }
+    if opts.compare_lod {
+        // Off first and last: the first run also warms the GPU up.
+        combos.extend([0.0, opts.lod_pixels, 0.0].map(|lod_pixels| Run { lod_pixels, ..base }));
     }
     if opts.compare_reflections {
         // Off first and last: the first run also warms the GPU's clocks up (on the lent H100 the
@@ -546,6 +560,7 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
             settings.transparency = run.transparency;
             settings.refraction = run.refraction;
             settings.culling = run.culling;
+            settings.lod_pixels = run.lod_pixels;
             settings.reflections = run.reflections;
             settings.occlusion = run.occlusion;
             if let Some(i) = run.environment {

@@ -178,6 +178,13 @@ struct Cli {
     /// hierarchical-Z).
     #[arg(long, default_value = "occlusion", value_parser = parse_culling)]
     culling: render::CullingMode,
+    /// Levels of detail: the most pixels a coarser level's error may cover on screen for an
+    /// instance to draw it (0: every instance in full).
+    #[arg(long, default_value_t = render::lod::DEFAULT_LOD_PIXELS, value_parser = parse_lod_pixels)]
+    lod_pixels: f32,
+    /// Run --frames frames with levels of detail off, on (at --lod-pixels), then off again.
+    #[arg(long)]
+    compare_lod: bool,
     /// Record every frame's command buffer, instead of submitting it again when a frame's
     /// commands are exactly those it holds (for comparison; --stats counters.commands_reused).
     #[arg(long)]
@@ -284,6 +291,13 @@ fn parse_occlusion(s: &str) -> Result<render::OcclusionMethod, String> {
 
 fn parse_reflections(s: &str) -> Result<render::ReflectionMode, String> {
     render::ReflectionMode::from_name(s).ok_or_else(|| format!("unknown reflections {s:?} (off, ray_traced, screen_space)"))
+}
+
+fn parse_lod_pixels(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(p) if p.is_finite() && p >= 0.0 => Ok(p),
+        _ => Err(format!("--lod-pixels takes a number of pixels, 0 or more (0: off), not {s:?}")),
+    }
 }
 
 fn parse_culling(s: &str) -> Result<render::CullingMode, String> {
@@ -437,6 +451,8 @@ fn main() -> Result<()> {
         },
         shadow_maps: render::ShadowMapBudget { tile: cli.shadow_map_size, tiles: cli.shadow_map_tiles, ..Default::default() },
         culling: cli.culling,
+        lod_pixels: cli.lod_pixels,
+        compare_lod: cli.compare_lod,
         reuse_commands: !cli.record_every_frame,
         compare_culling: cli.compare_culling,
         environment,
@@ -480,6 +496,7 @@ fn main() -> Result<()> {
             || cli.compare_light_methods
             || cli.compare_transparency
             || cli.compare_culling
+            || cli.compare_lod
             || cli.compare_reflections,
         &cli.stats,
     ) {

@@ -53,7 +53,9 @@
 //! `culling`: `mode` (`off`, `frustum`, `occlusion`), `frozen`, and what the GPU measured for
 //! the main view in `measured_frame` (absent until one has): `instances` (tested),
 //! `after_frustum`, `after_occlusion` (drawn), `dropped` (draws that found their list full:
-//! never expected).
+//! never expected), `lod_instances` (instances drawn at each level of detail, level 0 first:
+//! `render/src/lod`) and `triangles` (what the main view's lists drew at those levels). `lod_pixels`
+//! is the limit the levels were chosen by (0: off).
 //!
 //! Skinning (`render/src/skinning`): `counters.skinned_meshes` and `skinned_vertices` (posed
 //! meshes and vertices the skinning pass wrote this frame), `scene_blas_refits` (their BLASes
@@ -192,13 +194,15 @@ fn reflections_json(k: &render::reflections::ReflectionStats) -> Value {
 }
 
 fn culling_json(k: &render::CullingStats) -> Value {
-    let mut v = json!({ "mode": k.mode.name(), "frozen": k.frozen });
+    let mut v = json!({ "mode": k.mode.name(), "frozen": k.frozen, "lod_pixels": k.lod_pixels });
     if k.measured_frame != u64::MAX {
         v["measured_frame"] = json!(k.measured_frame);
         v["instances"] = json!(k.instances);
         v["after_frustum"] = json!(k.after_frustum);
         v["after_occlusion"] = json!(k.after_occlusion);
         v["dropped"] = json!(k.dropped);
+        v["lod_instances"] = json!(k.lod_instances);
+        v["triangles"] = json!(k.triangles);
     }
     v
 }

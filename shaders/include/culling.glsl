@@ -77,4 +77,27 @@ bool hiz_occluded(mat4 view_proj, vec3 lo, vec3 hi, uint64_t hiz, uvec2 viewport
     return nmax.z < farthest;
 }
 
+// Levels of detail (render/src/lod): pixels on screen per unit of relative error of a mesh whose
+// world bounds are [lo, hi], seen through `view_proj` over a viewport `height` pixels high: the
+// bounds' diagonal scaled by the projection at the box's nearest clip w (conservative). A box
+// reaching the eye plane gets a huge scale (level 0).
+float lod_pixels_per_error(mat4 view_proj, vec3 lo, vec3 hi, float height) {
+    vec4 r1 = matrix_row(view_proj, 1), r3 = matrix_row(view_proj, 3);
+    vec3 c = (lo + hi) * 0.5, e = (hi - lo) * 0.5;
+    float w = dot(r3.xyz, c) - dot(abs(r3.xyz), e) + r3.w;
+    if (w <= 1e-4) return 1e30;
+    return length(hi - lo) * 0.5 * height * length(r1.xyz) / w;
+}
+
+// The coarsest level of mesh `m` whose error covers at most `limit` pixels at `scale` pixels per
+// unit of relative error (0: the mesh itself).
+uint lod_within(GpuMeshInfo m, float scale, float limit) {
+    uint level = 0u;
+    for (uint k = 0u; k < m.lod_levels; k++) {
+        if (m.lod_error[k] * scale > limit) break;
+        level = k + 1u;
+    }
+    return level;
+}
+
 #endif

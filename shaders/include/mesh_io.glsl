@@ -17,5 +17,18 @@ layout(location = 6) IO vec3 v_rest_pos;
 layout(location = 7) IO vec3 v_rest_normal;
 layout(location = 8) flat IO uint v_skinned_flag;
 #define v_skinned (v_skinned_flag != 0u)
+// The first triangle of the level of detail drawn, counted from the mesh's first index
+// (render/src/lod): `gl_PrimitiveID + v_triangle_base` numbers a triangle of any level.
+layout(location = 9) flat IO uint v_triangle_base;
 #undef IO
+#ifdef VERTEX_STAGE
+// A culled draw's instance slot and level of detail: the level rides above the slot in the
+// draw's firstInstance (render/src/lod).
+uint drawn_slot() {
+    return uint(gl_InstanceIndex) & LOD_SLOT_MASK;
+}
+uint drawn_level() {
+    return uint(gl_InstanceIndex) >> LOD_LEVEL_SHIFT;
+}
+#endif
 #endif

@@ -28,11 +28,16 @@
 //!   with an instance count of 0 when culled, and drawn in that order, one draw per run of
 //!   equal cull mode.
 //! - **Shadow maps** get a list per view, every live instance against that view's frustum.
+//! - **Levels of detail** ([`crate::lod`]): the first phase picks each instance's level in
+//!   the frustum (by its error projected at the nearest point of its bounds, with a hysteresis
+//!   band kept in a word per slot), the second phase and the glass draw at the level picked,
+//!   shadow views pick by their own projection; the command's `firstIndex` and index count are
+//!   the level's and its `firstInstance` carries the level above the slot.
 //! - **Ray tracing keeps everything**: the scene TLAS is built from the instance table, so
 //!   instances off screen still cast shadows.
 //!
 //! Memory: 32 bytes of culling record and 40 bytes of commands (two lists of 20) per instance,
-//! one visibility bit, 20 bytes per instance per shadow-map view, and a depth pyramid of about a
+//! one visibility bit, a word for its level of detail, 20 bytes per instance per shadow-map view, and a depth pyramid of about a
 //! third of the depth target's pixels (4 bytes each).
 //!
 //! Statistics ([`CullingStats`]) are read back without waiting, like the light tiles'.
@@ -56,8 +61,8 @@ use crate::graph::targets::DEPTH;
 use crate::graph::{BufferUse, Frame, FrameGraph, Load, PassKind, ResourceId};
 use crate::layout::{
     CULL_BATCHES, CULL_HEADER, CULL_MODE_FRUSTUM, CULL_MODE_OCCLUSION, CULL_MODE_OFF, CULL_ORDERED, CULL_PASS_FIRST, CULL_PASS_ORDERED,
-    CULL_PASS_SECOND, CULL_PASS_SHADOW_VIEWS, CULL_STAT_DROPPED, CULL_STAT_FRUSTUM, CULL_STAT_TESTED, CULL_STAT_VISIBLE, GpuCullParams,
-    GpuCullPush, GpuDrawCommand, HIZ_LEVELS_PER_DISPATCH, HIZ_MAX_LEVELS,
+    CULL_PASS_SECOND, CULL_PASS_SHADOW_VIEWS, CULL_STAT_DROPPED, CULL_STAT_FRUSTUM, CULL_STAT_LOD, CULL_STAT_TESTED, CULL_STAT_TRIANGLES,
+    CULL_STAT_VISIBLE, GpuCullParams, GpuCullPush, GpuDrawCommand, HIZ_LEVELS_PER_DISPATCH, HIZ_MAX_LEVELS, LOD_LEVELS,
 };
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
@@ -70,7 +75,7 @@ const DRAWS_FLOOR: u64 = 16 * 1024;
 
 /// What culling measured on the GPU for the main view, read back two frames later (like
 /// [`crate::lights::tiles::LightTileStats`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CullingStats {
     /// Frame whose GPU figures these are (`u64::MAX` before any).
     pub measured_frame: u64,
@@ -78,6 +83,8 @@ pub struct CullingStats {
     pub mode: CullingMode,
     /// Whether the culling view was frozen this frame.
     pub frozen: bool,
+    /// The limit levels of detail were chosen by this frame, in pixels (0: off).
+    pub lod_pixels: f32,
     /// Live instances tested for the main view (blended ones included).
     pub instances: u64,
     /// Of those, inside the view frustum (all of them with culling off).
@@ -87,6 +94,12 @@ pub struct CullingStats {
     /// Draws lost because a list was full (never expected: the lists have room for every live
     /// instance of their batch).
     pub dropped: u64,
+    /// Instances the main view drew at each level of detail, level 0 (full detail) first
+    /// ([`crate::lod`]; every drawn instance is at level 0 with levels of detail off).
+    pub lod_instances: [u64; LOD_LEVELS as usize + 1],
+    /// Triangles the main view's lists drew (at their levels of detail; every phase and the
+    /// glass).
+    pub triangles: u64,
 }
 
 /// The instance slots culling put in a frame's lists ([`Culling::read_back`], for tests and
@@ -165,6 +178,9 @@ struct CullFrame {
     two_phase: bool,
     reads_visibility: bool,
     fresh_visibility: bool,
+    /// Levels of detail are chosen (their buffer exists).
+    lods: bool,
+    fresh_lods: bool,
     hiz_levels: u32,
     extent: vk::Extent2D,
 }
@@ -175,6 +191,7 @@ struct CullResources {
     params: ResourceId,
     draws: ResourceId,
     visibility: ResourceId,
+    lods: ResourceId,
     hiz: ResourceId,
 }
 
@@ -187,6 +204,8 @@ pub struct Culling {
     draws_shrink: Shrink,
     visibility: Option<Buffer>,
     visibility_shrink: Shrink,
+    lods: Option<Buffer>,
+    lods_shrink: Shrink,
     pyramid: Option<(Buffer, vk::Extent2D)>,
     readback: StatsReadback,
     latest: CullingStats,
@@ -255,6 +274,7 @@ impl Culling {
             params: graph.resource("culling parameters"),
             draws: graph.resource("draw commands"),
             visibility: graph.resource("culling visibility"),
+            lods: graph.resource("levels of detail"),
             hiz: graph.resource("depth pyramid"),
         };
         Ok(Self {
@@ -265,6 +285,8 @@ impl Culling {
             draws_shrink: Shrink::default(),
             visibility: None,
             visibility_shrink: Shrink::default(),
+            lods: None,
+            lods_shrink: Shrink::default(),
             pyramid: None,
             readback,
             latest: CullingStats { measured_frame: u64::MAX, ..Default::default() },
@@ -299,6 +321,8 @@ impl Culling {
                 after_frustum: words[CULL_STAT_FRUSTUM as usize] as u64,
                 after_occlusion: words[CULL_STAT_VISIBLE as usize] as u64,
                 dropped: words[CULL_STAT_DROPPED as usize] as u64,
+                lod_instances: std::array::from_fn(|level| words[CULL_STAT_LOD as usize + level] as u64),
+                triangles: words[CULL_STAT_TRIANGLES as usize] as u64,
                 ..self.latest
             };
         }
@@ -353,28 +377,14 @@ impl Culling {
         // A visibility bit per slot; a new buffer starts cleared (nothing was visible: the second
         // phase finds everything that is).
         let occlusion = s.culling == CullingMode::Occlusion;
-        let words = (mirror.instances.slot_count().div_ceil(32)).max(1) as u64 * 4;
-        let mut fresh_visibility = false;
-        if occlusion {
-            let capacity = self.visibility.as_ref().map_or(0, |b| b.size);
-            let smaller = self.visibility_shrink.check(capacity, words, 256);
-            let size = if words > capacity { words.next_power_of_two().max(256) } else { smaller.unwrap_or(capacity) };
-            if size != capacity {
-                let usage =
-                    vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
-                let buffer = Buffer::new(ctx, "culling visibility", size, usage, MemoryLocation::GpuOnly)?;
-                if let Some(old) = self.visibility.replace(buffer) {
-                    f.upload.bury_shrunk(old, size.min(capacity));
-                }
-                self.visibility_shrink.reset();
-                fresh_visibility = true;
-            }
-        } else if self.visibility.is_some()
-            && self.visibility_shrink.unused()
-            && let Some(old) = self.visibility.take()
-        {
-            f.upload.bury_shrunk(old, 0);
-        }
+        let slots = mirror.instances.slot_count() as u64;
+        let bits = slots.div_ceil(32).max(1) * 4;
+        let fresh_visibility =
+            per_slot_buffer(f, &mut self.visibility, &mut self.visibility_shrink, "culling visibility", occlusion, bits)?;
+        // The level of detail each slot drew last (for the hysteresis); a new buffer starts
+        // cleared (level 0).
+        let lod = s.lod_pixels > 0.0 && s.lod_pixels.is_finite();
+        let fresh_lods = per_slot_buffer(f, &mut self.lods, &mut self.lods_shrink, "levels of detail", lod, slots.max(1) * 4)?;
 
         // The depth pyramid, for the viewport.
         let two_phase = occlusion && !s.freeze_culling;
@@ -423,7 +433,10 @@ impl Culling {
             batch_start,
             batch_capacity: counts,
             frozen: u32::from(s.freeze_culling),
-            pad: [0; 5],
+            lods: self.lods.as_ref().filter(|_| lod).map_or(0, |b| b.address),
+            lod_pixels: if lod { s.lod_pixels } else { 0.0 },
+            lod_coarsen_pixels: if lod { s.lod_pixels * crate::lod::LOD_HYSTERESIS } else { 0.0 },
+            pad: 0,
         };
         scene.glass_order.set(order);
         // Runs of equal cull mode in the blended order (a draw each).
@@ -452,10 +465,12 @@ impl Culling {
             two_phase,
             reads_visibility: occlusion,
             fresh_visibility,
+            lods: lod,
+            fresh_lods,
             hiz_levels: levels,
             extent,
         };
-        Ok(CullingStats { mode: s.culling, frozen: s.freeze_culling, ..self.latest })
+        Ok(CullingStats { mode: s.culling, frozen: s.freeze_culling, lod_pixels: self.params.lod_pixels, ..self.latest })
     }
 
     fn bind(&self, p: &PassContext, pipeline: vk::Pipeline, params: vk::DeviceAddress, pass: u32, level: u32) {
@@ -490,20 +505,23 @@ impl Culling {
         let frame = self.frame;
         let res = self.res;
         let visibility = self.visibility.as_ref().map(|b| b.raw).filter(|_| frame.fresh_visibility);
+        let lods = self.lods.as_ref().map(|b| b.raw).filter(|_| frame.fresh_lods);
         f.pass("cull_clear", PassKind::Transfer)
             .write(res.draws, BufferUse::Transfer)
             .when(visibility.is_some(), |p| p.write(res.visibility, BufferUse::Transfer))
+            .when(lods.is_some(), |p| p.write(res.lods, BufferUse::Transfer))
             .record(|p| {
                 // The ranges lie in the buffers.
                 p.cmd.fill_buffer(frame.draws, 0, frame.header_words as u64 * 4, 0);
-                if let Some(bits) = visibility {
-                    p.cmd.fill_buffer(bits, 0, vk::WHOLE_SIZE, 0);
+                for buffer in [visibility, lods].into_iter().flatten() {
+                    p.cmd.fill_buffer(buffer, 0, vk::WHOLE_SIZE, 0);
                 }
             })?;
         f.pass("cull", PassKind::Compute)
             .read(scene.res.tables, BufferUse::Storage)
             .read(res.params, BufferUse::Storage)
             .when(frame.reads_visibility, |p| p.read(res.visibility, BufferUse::Storage))
+            .when(frame.lods, |p| p.write(res.lods, BufferUse::Storage))
             .write(res.draws, BufferUse::Storage)
             .record(|p| {
                 let dispatch = |pass: u32, x: u32, y: u32| {
@@ -558,6 +576,7 @@ impl Culling {
             .read(scene.res.tables, BufferUse::Storage)
             .read(res.params, BufferUse::Storage)
             .read(res.hiz, BufferUse::Storage)
+            .when(frame.lods, |p| p.read(res.lods, BufferUse::Storage))
             .write(res.visibility, BufferUse::Storage)
             .write(res.draws, BufferUse::Storage)
             .record(|p| {
@@ -633,7 +652,7 @@ impl Culling {
         for (b, _) in self.params_buffers {
             b.destroy(ctx);
         }
-        for b in [self.draws, self.visibility, self.pyramid.map(|(b, _)| b)].into_iter().flatten() {
+        for b in [self.draws, self.visibility, self.lods, self.pyramid.map(|(b, _)| b)].into_iter().flatten() {
             b.destroy(ctx);
         }
         self.readback.destroy(ctx);
@@ -816,4 +835,39 @@ mod tests {
         assert_eq!(hiz_words(e(5, 3), 3), 6 + 2 + 1);
         assert_eq!(hiz_levels(e(1920, 1080)), 11);
     }
+}
+
+/// Keeps a per-slot buffer of at least `bytes` while `wanted` (grown to the next power of two,
+/// shrunk when it has stayed four times too large; released once unwanted for as long).
+/// Returns whether a new buffer was made: its contents are undefined until cleared.
+fn per_slot_buffer(
+    f: &mut Frame,
+    buffer: &mut Option<Buffer>,
+    shrink: &mut Shrink,
+    name: &str,
+    wanted: bool,
+    bytes: u64,
+) -> Result<bool, RenderError> {
+    if !wanted {
+        if buffer.is_some()
+            && shrink.unused()
+            && let Some(old) = buffer.take()
+        {
+            f.upload.bury_shrunk(old, 0);
+        }
+        return Ok(false);
+    }
+    let capacity = buffer.as_ref().map_or(0, |b| b.size);
+    let smaller = shrink.check(capacity, bytes, 256);
+    let size = if bytes > capacity { bytes.next_power_of_two().max(256) } else { smaller.unwrap_or(capacity) };
+    if size == capacity {
+        return Ok(false);
+    }
+    let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+    let new = Buffer::new(f.ctx, name, size, usage, MemoryLocation::GpuOnly)?;
+    if let Some(old) = buffer.replace(new) {
+        f.upload.bury_shrunk(old, size.min(capacity));
+    }
+    shrink.reset();
+    Ok(true)
 }

@@ -29,7 +29,7 @@ use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::memory::{Buffer, Image, ImageDesc, Retired};
 use crate::gpu::upload::{CopyList, Shrink, StagingRing, Upload};
 use crate::graph::{Bind, BufferUse, Frame, FrameGraph, PassKind, ResourceId};
-use crate::layout::{GpuDrawCommand, GpuLighting, GpuMover};
+use crate::layout::{GpuDrawCommand, GpuLighting, GpuMover, LOD_LEVELS};
 use crate::scene::pool::{POOL_FLOOR, RangeAllocator, footprint};
 use crate::scene::{
     GpuAabb, GpuCamera, GpuMeshInfo, GpuSkinVertex, MeshData, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL,
@@ -344,6 +344,10 @@ pub struct GpuMesh {
     pub morph_targets: u32,
     /// The skinned mesh a posed mesh copies.
     pub source: Option<MeshId>,
+    /// Indices of each coarser level of detail (`crate::lod`), which follow level 0's.
+    pub lod_counts: [u32; LOD_LEVELS as usize],
+    /// Each coarser level's error (a fraction of the mesh's bounds' diagonal).
+    pub lod_errors: [f32; LOD_LEVELS as usize],
 }
 
 impl GpuMesh {
@@ -352,9 +356,14 @@ impl GpuMesh {
         self.offset + self.vertex_count as u64 * std::mem::size_of::<crate::scene::GpuVertex>() as u64
     }
 
-    /// Byte offset of the joints and weights of a skinned mesh.
+    /// Indices of every level together (level 0 and the coarser levels after it).
+    fn all_indices(&self) -> u64 {
+        self.index_count as u64 + self.lod_counts.iter().map(|&c| c as u64).sum::<u64>()
+    }
+
+    /// Byte offset of the joints and weights of a skinned mesh (after every level's indices).
     fn skin_offset(&self) -> u64 {
-        (self.index_offset() + self.index_count as u64 * 4).next_multiple_of(16)
+        (self.index_offset() + self.all_indices() * 4).next_multiple_of(16)
     }
 
     /// Byte offset of the morph targets' offsets (after the skin, if any).
@@ -377,7 +386,13 @@ impl GpuMesh {
             skin: if self.skinned { pool + self.skin_offset() } else { 0 },
             morphs: if self.morph_targets > 0 { pool + self.morph_offset() } else { 0 },
             morph_targets: self.morph_targets,
-            pad: 0,
+            lod_levels: self.lod_counts.iter().take_while(|&&c| c > 0).count() as u32,
+            lod_first: std::array::from_fn(|level| {
+                let before: u64 = self.index_count as u64 + self.lod_counts[..level].iter().map(|&c| c as u64).sum::<u64>();
+                (self.index_offset() / 4 + before) as u32
+            }),
+            lod_count: self.lod_counts,
+            lod_error: self.lod_errors.into(),
         }
     }
 
@@ -404,7 +419,7 @@ fn posed_bytes(vertices: u32) -> u64 {
 /// The bytes a mesh takes in the pool: vertices, indices, then (each 16-byte aligned) its skin
 /// and its morph targets.
 fn mesh_bytes(m: &MeshData) -> u64 {
-    let mut bytes = RangeAllocator::mesh_bytes(m.vertices.len(), m.indices.len());
+    let mut bytes = RangeAllocator::mesh_bytes(m.vertices.len(), m.indices.len() + m.lods.as_ref().map_or(0, |l| l.indices.len()));
     if !m.skin.is_empty() {
         bytes = bytes.next_multiple_of(16) + (m.skin.len() * std::mem::size_of::<GpuSkinVertex>()) as u64;
     }
@@ -1070,6 +1085,8 @@ impl GpuScene {
             for (id, data) in &pending {
                 let vbytes: &[u8] = bytemuck::cast_slice(&data.vertices);
                 let ibytes: &[u8] = bytemuck::cast_slice(&data.indices);
+                let lods = data.lods.clone().unwrap_or_default();
+                let lbytes: &[u8] = bytemuck::cast_slice(&lods.indices);
                 let size = mesh_bytes(data);
                 let place = self.ranges.alloc(size).expect("the plan made room for every pending mesh");
                 let mesh = GpuMesh {
@@ -1080,11 +1097,17 @@ impl GpuScene {
                     skinned: !data.skin.is_empty(),
                     morph_targets: data.morph_targets,
                     source: None,
+                    lod_counts: lods.counts,
+                    lod_errors: lods.errors,
                 };
                 let mapped = staging.mapped();
                 let o = offset as usize;
                 mapped[o..o + vbytes.len()].copy_from_slice(vbytes);
-                mapped[o + vbytes.len()..o + vbytes.len() + ibytes.len()].copy_from_slice(ibytes);
+                let o = o + vbytes.len();
+                mapped[o..o + ibytes.len()].copy_from_slice(ibytes);
+                let o = o + ibytes.len();
+                mapped[o..o + lbytes.len()].copy_from_slice(lbytes);
+                let o = offset as usize;
                 // The skin and the morph targets where the mesh's offsets say (relative to it).
                 for (at, bytes) in [
                     (mesh.skin_offset(), bytemuck::cast_slice::<_, u8>(&data.skin)),
@@ -1118,6 +1141,8 @@ impl GpuScene {
                 skinned: false,
                 morph_targets: 0,
                 source: Some(source),
+                lod_counts: [0; LOD_LEVELS as usize],
+                lod_errors: [0.0; LOD_LEVELS as usize],
             };
             self.place(id, mesh, up.frame_value);
         }

@@ -15,6 +15,8 @@ use std::collections::{BTreeSet, BinaryHeap};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec2, Vec3};
 
+use crate::lod::MeshLods;
+
 pub use crate::layout::{
     CULL_BATCHES, CULL_DOUBLE_SIDED, CULL_LIVE, CULL_MASKED, CULL_TRANSPARENT, DECAL_ALBEDO, DECAL_CHANNEL_SHIFT, DECAL_CHANNELS,
     DECAL_DEFAULT_LAYERS, DECAL_EMISSIVE, DECAL_METALLIC, DECAL_NORMAL, DECAL_ON_SKIN, DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuCullRecord,
@@ -373,6 +375,10 @@ pub struct MeshData {
     pub morphs: Vec<GpuMorphDelta>,
     /// Number of morph targets in `morphs`.
     pub morph_targets: u32,
+    /// Coarser levels of detail over the same vertices ([`crate::lod`]): `None` to have
+    /// [`SceneMirror::add_mesh`] make them, `Some` to give them (an empty [`MeshLods`] for
+    /// none).
+    pub lods: Option<MeshLods>,
 }
 
 /// Pixels to upload: RGBA8, a full or partial mip chain, level 0 first.
@@ -1166,6 +1172,18 @@ impl SceneMirror {
         if data.morph_targets == 0 || data.morphs.len() != data.morph_targets as usize * data.vertices.len() {
             data.morphs.clear();
             data.morph_targets = 0;
+        }
+        match &data.lods {
+            // Morph targets move vertices the simplifier never saw move: no levels.
+            None if data.morph_targets > 0 => data.lods = Some(MeshLods::default()),
+            None => data.lods = Some(MeshLods::generate(&data.vertices, &data.indices, &data.skin)),
+            Some(lods) if !lods.fits(data.vertices.len()) => {
+                tracing::warn!(
+                    "mesh {id:?}: its levels of detail do not fit its vertices (an index out of range, or counts that are not whole triangles or do not add up); drawn at full detail only"
+                );
+                data.lods = Some(MeshLods::default());
+            }
+            Some(_) => {}
         }
         let posable = !data.skin.is_empty() || data.morph_targets > 0;
         let source = posable.then(|| {

@@ -27,6 +27,7 @@ mod gameplay;
 mod hostile;
 mod lights;
 mod limits;
+mod lod;
 mod memory;
 mod motion;
 mod no_device;

@@ -20,9 +20,16 @@ use tests::{assert_no_validation_errors, error_stats, gpu_app_at, renderer};
 
 const SIZE: (u32, u32) = (160, 120);
 
+/// The settings of these tests: levels of detail off, because the CPU references are rigid
+/// meshes with levels of their own and these tests check the pose, not the simplification
+/// (`lod.rs` checks that levels of detail follow the skeleton).
+fn full_detail() -> RenderSettings {
+    RenderSettings { lod_pixels: 0.0, ..Default::default() }
+}
+
 /// A capped tube along +Y from 0 to 2 (radius 0.25) whose lower half follows joint 0 and upper
 /// half joint 1, blended linearly over y ∈ [0.6, 1.4].
-fn bendy_cylinder() -> Mesh {
+pub(crate) fn bendy_cylinder() -> Mesh {
     let (segments, rings) = (20u32, 16u32);
     let mut positions = Vec::new();
     let mut normals = Vec::new();
@@ -129,14 +136,20 @@ fn scene(app: &mut App, angle: f32) -> Bend {
         Transform::default().looking_at(Vec3::new(0.9, -1.0, -0.5), Vec3::Z),
     ));
     app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 2.4, 4.5).looking_at(Vec3::new(0.3, 0.6, 0.0), Vec3::Y)));
-    let root = app.world.spawn(Transform::from_xyz(-0.5, 0.0, 0.0)).id();
-    let elbow = app.world.spawn((Transform::from_xyz(0.0, 1.0, 0.0).with_rotation(Quat::from_rotation_z(-angle)), ChildOf(root))).id();
     let mesh = bendy_cylinder();
-    let handle = app.world.resource_mut::<Assets<Mesh>>().add(mesh.clone());
-    let skin = Skin { joints: vec![root, elbow], inverse_bind_matrices: vec![Mat4::IDENTITY, Mat4::from_translation(-Vec3::Y)].into() };
-    let tube = app.world.spawn((MeshInstance { mesh: handle, material: red }, skin, Transform::from_xyz(-0.5, 0.0, 0.0))).id();
+    let (tube, elbow) = spawn_tube(app, mesh.clone(), red, Vec3::new(-0.5, 0.0, 0.0), angle);
     app.world.entity_mut(tube).insert(MorphWeights(vec![BULGE]));
     Bend { tube, elbow, mesh, material: red }
+}
+
+/// Spawns `mesh` (the tube) skinned to two joints standing at `at`, the upper one (the elbow,
+/// 1 m up) bent by `angle` about Z. Returns the tube and the elbow.
+pub(crate) fn spawn_tube(app: &mut App, mesh: Mesh, material: Handle<Material>, at: Vec3, angle: f32) -> (Entity, Entity) {
+    let root = app.world.spawn(Transform::from_translation(at)).id();
+    let elbow = app.world.spawn((Transform::from_xyz(0.0, 1.0, 0.0).with_rotation(Quat::from_rotation_z(-angle)), ChildOf(root))).id();
+    let handle = app.world.resource_mut::<Assets<Mesh>>().add(mesh);
+    let skin = Skin { joints: vec![root, elbow], inverse_bind_matrices: vec![Mat4::IDENTITY, Mat4::from_translation(-Vec3::Y)].into() };
+    (app.world.spawn((MeshInstance { mesh: handle, material }, skin, Transform::from_translation(at))).id(), elbow)
 }
 
 /// The joint matrices the tube is posed with now (what the CPU reference uses).
@@ -160,7 +173,7 @@ fn frames(app: &mut App, n: usize) -> Hdr {
 type Hdr = Vec<[f32; 4]>;
 
 fn skinned_and_reference(pipeline: PipelineKind, tier: Tier, shadow_maps: bool) -> (Hdr, Hdr, Hdr) {
-    let mut settings = RenderSettings { pipeline, ..Default::default() };
+    let mut settings = RenderSettings { pipeline, ..full_detail() };
     settings.lights.shadow_maps = shadow_maps;
     let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, tier);
     assert_eq!(renderer(&mut app).tier(), tier, "lavapipe offers every tier");
@@ -207,7 +220,7 @@ fn its_shadow_follows_the_pose_on_the_ray_tracing_pipeline_tier_and_with_shadow_
 
 #[test]
 fn only_changed_poses_are_skinned_and_refit() {
-    let mut app = gpu_app_at(SIZE.0, SIZE.1, RenderSettings::default(), Tier::RayQuery);
+    let mut app = gpu_app_at(SIZE.0, SIZE.1, full_detail(), Tier::RayQuery);
     let bend = scene(&mut app, 0.3);
     app.update();
     let first = app.world.resource::<RenderStats>().last;
@@ -244,7 +257,7 @@ fn without_a_ray_traced_consumer_nothing_is_refit_and_the_shadow_catches_up_when
     for tier in [Tier::RayQuery, Tier::RayTracingPipeline] {
         // `pause`: shadows on in the first frame, off in the next three, on again in the last.
         let render = |pause: bool| {
-            let settings = RenderSettings { pipeline: PipelineKind::Deferred, ..Default::default() };
+            let settings = RenderSettings { pipeline: PipelineKind::Deferred, ..full_detail() };
             let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, tier);
             let bend = scene(&mut app, 0.3);
             for i in 0..4 {
@@ -303,7 +316,7 @@ fn a_decal_on_the_skin_stays_on_its_surface_point_with_every_method() {
     for (tier, pipeline, method) in configs {
         let in_shading = pipeline == PipelineKind::ForwardPlus;
         let what = format!("{pipeline:?} with {method:?} decals on {tier:?} (in the shading: {in_shading})");
-        let settings = RenderSettings { pipeline, decal_method: method, decals_in_forward_shading: in_shading, ..Default::default() };
+        let settings = RenderSettings { pipeline, decal_method: method, decals_in_forward_shading: in_shading, ..full_detail() };
         let mut app = gpu_app_at(BIG.0, BIG.1, settings, tier);
         let bend = scene(&mut app, 0.0);
         // A green decal on the skin, placed at rest on the tube's front where the weights blend
@@ -355,7 +368,7 @@ fn a_decal_on_the_skin_stays_on_its_surface_point_with_every_method() {
 
 #[test]
 fn a_morph_target_without_a_skin_follows_its_weight() {
-    let mut app = gpu_app_at(SIZE.0, SIZE.1, RenderSettings { pipeline: PipelineKind::VisBuffer, ..Default::default() }, Tier::RayQuery);
+    let mut app = gpu_app_at(SIZE.0, SIZE.1, RenderSettings { pipeline: PipelineKind::VisBuffer, ..full_detail() }, Tier::RayQuery);
     let bend = scene(&mut app, 0.0);
     app.world.despawn(bend.tube);
     // A 1 m sphere whose target pushes its top half 0.4 m up, at weight 0.75.
@@ -397,13 +410,8 @@ fn a_bending_skin_has_the_motion_of_its_joints_in_every_pipeline() {
 
 fn skin_motion(pipeline: PipelineKind, reflections: bool) {
     let reflections = if reflections { render::ReflectionSettings::default() } else { render::ReflectionSettings::OFF };
-    let settings = RenderSettings {
-        pipeline,
-        aa: render::AntiAliasing::Taa,
-        reflections,
-        decal_method: render::DecalMethod::Off,
-        ..Default::default()
-    };
+    let settings =
+        RenderSettings { pipeline, aa: render::AntiAliasing::Taa, reflections, decal_method: render::DecalMethod::Off, ..full_detail() };
     let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, Tier::RayQuery);
     let (a0, a1) = (0.3f32, 0.6f32);
     let bend = scene(&mut app, a0);

@@ -1,0 +1,305 @@
+//! Levels of detail: every mesh gets coarser copies of its triangle list when it is first
+//! uploaded, and the culling pass picks one per instance each frame by the error it would show
+//! on screen. No seed covers this (`../shared/seeds/001` draws every triangle at every
+//! distance); the simplifier is meshoptimizer's (the `meshopt` crate: edge collapses ordered by
+//! quadric error, Garland and Heckbert 1997, that keep attribute seams and report the
+//! geometric error of what they made), and the choice by projected error with a hysteresis band
+//! follows what Unreal's and Bevy's mesh LODs do per instance.
+//!
+//! - **Corners are welded first**: a mesh exported with a vertex per corner (flat shading, as
+//!   the shared Fox is) shares no edge until the corners at one position (with the same joints
+//!   and weights) are made one; the levels name the first corner of each.
+//! - **Levels share the vertices.** A level is a triangle list over the mesh's own vertices,
+//!   simplified from the level before it, so a skinned mesh's levels keep its joints and weights
+//!   (nothing is re-weighted) and its posed copies move every level with the skeleton. The
+//!   levels' indices follow the full list in the mesh pool ([`crate::scene::pool`]), so one
+//!   range holds them all and a triangle of any level has one number counted from the start of
+//!   the mesh's indices.
+//! - **Meshes with morph targets get none**: their targets move vertices the simplifier never
+//!   saw move, so no error it reports would hold.
+//! - **Up to [`LOD_LEVELS`] coarser levels**, each with about half the triangles of the one
+//!   before, while the simplifier can halve it within [`MAX_LEVEL_ERROR`]; meshes of fewer than
+//!   [`MIN_TRIANGLES`] triangles get none.
+//! - **The error of a level** is meshoptimizer's estimate of how far its surface strays from the
+//!   full mesh's (the errors of the steps added up, so it bounds the distance to level 0), as a
+//!   fraction of the diagonal of the mesh's bounds, so the culling pass can scale it by the
+//!   instance's world bounds. For a skinned mesh it is the rest pose's: the joints' weights
+//!   weigh in (vertices where weights blend collapse last), but a bent joint can show more (the
+//!   test's tube, bent by 90°, strays up to 4 pixels from its full silhouette where the stated
+//!   error is 1; `tests/tests/suite/lod.rs`).
+//! - **The choice** (`shaders/cull.comp`, [`crate::culling`]): the coarsest level whose error,
+//!   projected at the nearest point of the instance's world bounds, stays within
+//!   `FrameSettings::lod_pixels` (1 pixel by default: below what TAA's reconstruction shows as a
+//!   pop). An instance moves to a coarser level only when that level's error is within
+//!   [`LOD_HYSTERESIS`] of the limit, so one that sits at a threshold does not flicker between
+//!   two levels; it moves to a finer one as soon as its level's error passes the limit.
+//! - **Who draws levels**: every raster pass that draws the culled lists (depth prepass,
+//!   forward, G-buffer, visibility buffer, shadow maps, glass). The level rides in the draw's
+//!   `firstInstance` above the instance slot ([`LOD_LEVEL_SHIFT`]), so the vertex shader learns
+//!   it without another buffer and hands the fragment stages the level's first triangle (the
+//!   G-buffer and the visibility buffer store triangle numbers). Ray tracing keeps level 0: the
+//!   scene's BLASes are built from the full mesh.
+
+use glam::Vec3;
+
+use crate::layout::{GpuSkinVertex, GpuVertex, LOD_LEVELS};
+
+pub use crate::layout::{LOD_LEVEL_SHIFT, LOD_SLOT_MASK};
+
+/// An instance moves to a coarser level only when that level's projected error is within this
+/// fraction of the limit (`FrameSettings::lod_pixels`).
+pub const LOD_HYSTERESIS: f32 = 0.75;
+
+/// The default limit of a level's projected error, in pixels.
+pub const DEFAULT_LOD_PIXELS: f32 = 1.0;
+
+/// Meshes with fewer triangles get no coarser levels.
+pub const MIN_TRIANGLES: usize = 64;
+
+/// The largest error a level may add to the one before it, relative to the mesh's extent (the
+/// simplifier's own scale): simplification stops where halving would cost more.
+pub const MAX_LEVEL_ERROR: f32 = 0.05;
+
+/// A mesh's coarser levels of detail (level 0 is the mesh's own triangle list).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshLods {
+    /// The coarser levels' indices back to back, level 1 first.
+    pub indices: Vec<u32>,
+    /// Indices of each coarser level (0 past the last level).
+    pub counts: [u32; LOD_LEVELS as usize],
+    /// Each coarser level's geometric error as a fraction of the diagonal of the mesh's bounds
+    /// (growing with the level).
+    pub errors: [f32; LOD_LEVELS as usize],
+}
+
+impl MeshLods {
+    /// Number of coarser levels.
+    pub fn levels(&self) -> usize {
+        self.counts.iter().take_while(|&&c| c > 0).count()
+    }
+
+    /// The indices of coarser level `level` (1 for the first).
+    pub fn level(&self, level: usize) -> &[u32] {
+        if level == 0 || level > self.levels() {
+            return &[];
+        }
+        let start: usize = self.counts[..level - 1].iter().map(|&c| c as usize).sum();
+        &self.indices[start..start + self.counts[level - 1] as usize]
+    }
+
+    /// Whether these levels can be drawn over `vertex_count` vertices: whole triangles, every
+    /// index in range, the counts adding up to the indices, errors finite, not negative and not
+    /// shrinking with the level.
+    pub fn fits(&self, vertex_count: usize) -> bool {
+        let levels = self.levels();
+        self.counts[levels..].iter().all(|&c| c == 0)
+            && self.counts.iter().all(|c| c % 3 == 0)
+            && self.counts.iter().map(|&c| c as usize).sum::<usize>() == self.indices.len()
+            && self.indices.iter().all(|&i| (i as usize) < vertex_count)
+            && self.errors[..levels].iter().all(|e| e.is_finite() && *e >= 0.0)
+            && self.errors[..levels].windows(2).all(|w| w[0] <= w[1])
+    }
+
+    /// Builds the coarser levels of the triangle list `indices` over `vertices` (with their
+    /// joints and weights `skin`, one per vertex, for a skinned mesh; empty otherwise). A mesh
+    /// that is too small, or whose indices or positions the simplifier cannot take (an index
+    /// out of range, a count that is not whole triangles, a position that is not finite), gets
+    /// none.
+    pub fn generate(vertices: &[GpuVertex], indices: &[u32], skin: &[GpuSkinVertex]) -> Self {
+        let mut lods = Self::default();
+        if indices.len() < MIN_TRIANGLES * 3 || !indices.len().is_multiple_of(3) || !usable(vertices, indices) {
+            return lods;
+        }
+        // The simplifier works on the welded corners alone (a corner at the same position but
+        // left out would read to it as a seam it must keep); its indices are mapped back.
+        let (originals, mut previous) = welded(vertices, indices, skin);
+        let compact: Vec<GpuVertex> = originals.iter().map(|&i| vertices[i as usize]).collect();
+        let compact_skin: Vec<GpuSkinVertex> = originals.iter().filter_map(|&i| skin.get(i as usize).copied()).collect();
+        let bytes: &[u8] = bytemuck::cast_slice(&compact);
+        let Ok(adapter) = meshopt::VertexDataAdapter::new(bytes, std::mem::size_of::<GpuVertex>(), 0) else { return lods };
+        let (lo, hi) = compact.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), v| {
+            let p = Vec3::from(v.position);
+            (lo.min(p), hi.max(p))
+        });
+        let diagonal = (hi - lo).length();
+        if diagonal <= 0.0 {
+            return lods;
+        }
+        // Errors come relative to the simplifier's scale (the largest extent); ours are
+        // relative to the diagonal.
+        let to_diagonal = meshopt::simplify_scale(&adapter) / diagonal;
+        // The normal, the texture coordinate and, for a skinned mesh, where its joints' weights
+        // put it weigh in the collapses beside the position, so shading, textures and the
+        // bends of a skin hold up as well as the silhouette.
+        let attributes = attributes(&compact, &compact_skin);
+        let locks = vec![false; compact.len()];
+        let mut error = 0.0f32;
+        for level in 0..LOD_LEVELS as usize {
+            let target = (previous.len() / 6 * 3).max(3);
+            let mut step = 0.0f32;
+            let simplified = meshopt::simplify_with_attributes_and_locks(
+                &previous,
+                &adapter,
+                &attributes,
+                &ATTRIBUTE_WEIGHTS,
+                ATTRIBUTES * std::mem::size_of::<f32>(),
+                &locks,
+                target,
+                MAX_LEVEL_ERROR,
+                meshopt::SimplifyOptions::None,
+                Some(&mut step),
+            );
+            // A level earns its place by saving at least a fifth of the triangles.
+            if simplified.len() < 3 || simplified.len() * 5 > previous.len() * 4 || !step.is_finite() {
+                break;
+            }
+            error += step * to_diagonal;
+            lods.counts[level] = simplified.len() as u32;
+            lods.errors[level] = error;
+            lods.indices.extend(simplified.iter().map(|&i| originals[i as usize]));
+            previous = simplified;
+        }
+        lods
+    }
+}
+
+/// Floats per vertex the simplifier weighs beside the position: the normal, the texture
+/// coordinate and the skin's signature.
+const ATTRIBUTES: usize = 9;
+
+/// How much each attribute weighs against the position (whose error is relative to the mesh's
+/// extent): normals and texture coordinates a little, the skin's signature as much as a
+/// tenth of the mesh's size, so that a collapse across a joint's blend costs what moving the
+/// surface would.
+const ATTRIBUTE_WEIGHTS: [f32; ATTRIBUTES] = [1.0, 1.0, 1.0, 0.1, 0.1, 0.5, 0.5, 0.5, 0.5];
+
+/// Per vertex: its normal, its texture coordinate and its skin's signature, a point in 4D that
+/// each joint pulls towards a fixed direction of its own by the joint's weight. Vertices with
+/// the same weights share a signature; a blend between joints moves it, so the simplifier keeps
+/// the vertices a bend needs though the rest pose is straight there (zero for a rigid mesh).
+fn attributes(vertices: &[GpuVertex], skin: &[GpuSkinVertex]) -> Vec<f32> {
+    let mut out = Vec::with_capacity(vertices.len() * ATTRIBUTES);
+    for (i, v) in vertices.iter().enumerate() {
+        out.extend_from_slice(&v.normal);
+        out.extend_from_slice(&v.uv);
+        let mut signature = [0.0f32; 4];
+        if let Some(s) = skin.get(i) {
+            for (joint, weight) in s.joints().into_iter().zip(s.weights()) {
+                let direction = joint_direction(joint);
+                for (x, d) in signature.iter_mut().zip(direction) {
+                    *x += weight * d;
+                }
+            }
+        }
+        out.extend_from_slice(&signature);
+    }
+    out
+}
+
+/// A fixed unit direction in 4D for joint `joint` (a hash of its index: joints of one skin get
+/// directions far apart from one another with high probability).
+fn joint_direction(joint: u16) -> [f32; 4] {
+    let mut h = (joint as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    let mut d = [0.0f32; 4];
+    for x in &mut d {
+        h ^= h >> 29;
+        h = h.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        *x = (h >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0;
+    }
+    let length = d.iter().map(|x| x * x).sum::<f32>().sqrt().max(1e-6);
+    d.map(|x| x / length)
+}
+
+/// The mesh with its corners welded: the first vertex at each position (with the same joints and
+/// weights), in order, and `indices` over that list. A mesh exported with a vertex per corner
+/// (flat shading, as the shared Fox is) shares no edge the simplifier could collapse until its
+/// corners are welded. A welded corner takes the first corner's normal and texture coordinate,
+/// which at the distance a coarser level is drawn is a pixel's worth of shading.
+fn welded(vertices: &[GpuVertex], indices: &[u32], skin: &[GpuSkinVertex]) -> (Vec<u32>, Vec<u32>) {
+    let mut first = std::collections::HashMap::with_capacity(vertices.len());
+    let mut originals = Vec::new();
+    let local: Vec<u32> = (0..vertices.len())
+        .map(|i| {
+            let p = vertices[i].position.map(f32::to_bits);
+            let s = skin.get(i).map(|s| [s.joints01, s.joints23, s.weights01, s.weights23]);
+            *first.entry((p, s)).or_insert_with(|| {
+                originals.push(i as u32);
+                originals.len() as u32 - 1
+            })
+        })
+        .collect();
+    (originals, indices.iter().map(|&i| local[i as usize]).collect())
+}
+
+/// Whether every index names a vertex and every position is finite.
+fn usable(vertices: &[GpuVertex], indices: &[u32]) -> bool {
+    indices.iter().all(|&i| (i as usize) < vertices.len()) && vertices.iter().all(|v| v.position.iter().all(|c| c.is_finite()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A sphere of `rings` × `segments` quads.
+    fn sphere(rings: u32, segments: u32) -> (Vec<GpuVertex>, Vec<u32>) {
+        let mut vertices = Vec::new();
+        for r in 0..=rings {
+            let theta = std::f32::consts::PI * r as f32 / rings as f32;
+            for s in 0..=segments {
+                let phi = std::f32::consts::TAU * s as f32 / segments as f32;
+                let n = [theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()];
+                vertices.push(GpuVertex {
+                    position: n,
+                    normal: n,
+                    uv: [s as f32 / segments as f32, r as f32 / rings as f32],
+                    tangent: [1.0, 0.0, 0.0, 1.0],
+                });
+            }
+        }
+        let mut indices = Vec::new();
+        for r in 0..rings {
+            for s in 0..segments {
+                let a = r * (segments + 1) + s;
+                let b = a + segments + 1;
+                indices.extend_from_slice(&[a, b, a + 1, a + 1, b, b + 1]);
+            }
+        }
+        (vertices, indices)
+    }
+
+    #[test]
+    fn levels_halve_the_triangles_with_growing_error_over_the_same_vertices() {
+        let (vertices, indices) = sphere(32, 64);
+        let lods = MeshLods::generate(&vertices, &indices, &[]);
+        assert!(lods.levels() >= 3, "a 4,096-triangle sphere simplifies well: {:?}", lods.counts);
+        let mut before = indices.len();
+        let mut error = 0.0;
+        for level in 1..=lods.levels() {
+            let list = lods.level(level);
+            assert_eq!(list.len() % 3, 0);
+            assert!(list.len() * 5 <= before * 4, "level {level} saves a fifth: {} of {before}", list.len());
+            assert!(list.iter().all(|&i| (i as usize) < vertices.len()));
+            let e = lods.errors[level - 1];
+            assert!(e > error && e < 1.0, "level {level}'s error {e} grows and stays a fraction of the size");
+            error = e;
+            before = list.len();
+        }
+        assert_eq!(lods.indices.len(), lods.counts.iter().sum::<u32>() as usize);
+        assert!(lods.fits(vertices.len()));
+        assert!(!lods.fits(vertices.len() / 2), "indices past the vertices do not fit");
+    }
+
+    #[test]
+    fn small_or_broken_meshes_get_no_levels() {
+        let (vertices, indices) = sphere(4, 8); // 64 triangles: too few to bother
+        assert_eq!(MeshLods::generate(&vertices, &indices[..indices.len() - 3], &[]).levels(), 0);
+        let (mut vertices, mut indices) = sphere(32, 64);
+        assert_eq!(MeshLods::generate(&vertices, &indices[..indices.len() - 1], &[]).levels(), 0, "not whole triangles");
+        indices[7] = vertices.len() as u32;
+        assert_eq!(MeshLods::generate(&vertices, &indices, &[]).levels(), 0, "an index out of range");
+        indices[7] = 0;
+        vertices[3].position[1] = f32::NAN;
+        assert_eq!(MeshLods::generate(&vertices, &indices, &[]).levels(), 0, "a position that is not finite");
+        assert_eq!(MeshLods::default().level(1), &[] as &[u32]);
+    }
+}
