@@ -33,6 +33,7 @@ mod no_device;
 mod occlusion;
 mod pipelines;
 mod reflections;
+mod reliability;
 mod scenes;
 mod skinning;
 mod soak;
