@@ -99,44 +99,31 @@ fn named(f: &mut fmt::Formatter<'_>, index: usize, name: &Option<String>) -> fmt
 
 impl fmt::Display for GltfPart {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            GltfPart::Skin { index, name } => {
-                f.write_str("skin ")?;
-                named(f, *index, name)
-            }
+        let (noun, index, name) = match self {
+            GltfPart::Skin { index, name } => ("skin", index, name),
+            GltfPart::Node { index, name } => ("node", index, name),
+            GltfPart::Light { index, name } => ("light", index, name),
+            GltfPart::Camera { index, name } => ("camera", index, name),
+            GltfPart::Material { index, name } => ("material", index, name),
             GltfPart::Joint { skin, skin_name, joint, node } => {
                 write!(f, "joint {joint} (node #{node}) of skin ")?;
-                named(f, *skin, skin_name)
+                return named(f, *skin, skin_name);
             }
             GltfPart::SkinWeights { mesh, mesh_name, primitive } => {
                 write!(f, "joints and weights of primitive {primitive} of mesh ")?;
-                named(f, *mesh, mesh_name)
+                return named(f, *mesh, mesh_name);
             }
             GltfPart::Channel { animation, animation_name, channel, sampler } => {
                 write!(f, "channel {channel} (sampler {sampler}) of animation ")?;
-                named(f, *animation, animation_name)
+                return named(f, *animation, animation_name);
             }
             GltfPart::MorphTarget { mesh, mesh_name, primitive, target } => {
                 write!(f, "morph target {target} of primitive {primitive} of mesh ")?;
-                named(f, *mesh, mesh_name)
+                return named(f, *mesh, mesh_name);
             }
-            GltfPart::Node { index, name } => {
-                f.write_str("node ")?;
-                named(f, *index, name)
-            }
-            GltfPart::Light { index, name } => {
-                f.write_str("light ")?;
-                named(f, *index, name)
-            }
-            GltfPart::Camera { index, name } => {
-                f.write_str("camera ")?;
-                named(f, *index, name)
-            }
-            GltfPart::Material { index, name } => {
-                f.write_str("material ")?;
-                named(f, *index, name)
-            }
-        }
+        };
+        write!(f, "{noun} ")?;
+        named(f, *index, name)
     }
 }
 

@@ -73,27 +73,23 @@ pub(super) fn load_skins(
             }
         }
     }
-    for index in 0..nodes.len() {
-        let Some(skin_index) = nodes[index].skin else { continue };
+    for (index, node) in nodes.iter_mut().enumerate() {
+        let Some(skin_index) = node.skin else { continue };
         let Some(Some(skin)) = skins.get(skin_index) else {
-            nodes[index].skin = None;
+            node.skin = None;
             continue;
         };
         let part = || GltfPart::Skin { index: skin_index, name: skin.name.clone() };
-        let node_name = nodes[index].name.as_deref().map_or_else(|| format!("#{index}"), |n| format!("'{n}' (#{index})"));
+        let node_name = node.name.as_deref().map_or_else(|| format!("#{index}"), |n| format!("'{n}' (#{index})"));
         let fallback = format!("node {node_name}'s mesh is drawn unskinned, in its rest pose");
         if let Some(joint) = skin.joints.iter().position(|&j| j == index) {
             let part = GltfPart::Joint { skin: skin_index, skin_name: skin.name.clone(), joint, node: index };
-            faults.push(
-                part,
-                GltfFaultKind::JointIsSkinnedNode,
-                format!("the joint is node {node_name}, which its skin deforms (a cycle of transforms)"),
-                fallback,
-            );
-            nodes[index].skin = None;
+            let problem = format!("the joint is node {node_name}, which its skin deforms (a cycle of transforms)");
+            faults.push(part, GltfFaultKind::JointIsSkinnedNode, problem, fallback);
+            node.skin = None;
             continue;
         }
-        let Some(mesh) = nodes[index].mesh else { continue };
+        let Some(mesh) = node.mesh else { continue };
         let past = meshes.get(mesh).into_iter().flatten().enumerate().find_map(|(primitive, (mesh_data, _))| {
             let max = mesh_data.skin.as_ref().and_then(|s| s.max_joint())?;
             (max as usize >= skin.joints.len()).then_some((primitive, max))
@@ -104,7 +100,7 @@ pub(super) fn load_skins(
                 skin.joints.len()
             );
             faults.push(part(), GltfFaultKind::JointIndexOutOfRange, problem, fallback);
-            nodes[index].skin = None;
+            node.skin = None;
         }
     }
     skins
