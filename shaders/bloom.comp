@@ -13,6 +13,7 @@
 //   so the blurred copy carries the image's energy and the blend keeps it.
 #include "color.glsl"
 #include "bloom.glsl"
+#include "storable.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 #if !defined(FIRST) && !defined(DOWN) && !defined(UP)
@@ -90,6 +91,6 @@ void main() {
     if (any(greaterThanEqual(px, ivec2(scene.camera.camera.viewport_size)))) return;
     vec3 bloom = bloom_sample(0u, (vec2(p) + 0.5) * scene.camera.camera.inv_viewport_size) / float(scene.lighting.lighting.bloom_levels);
     vec4 hdr = imageLoad(hdr_image, px);
-    imageStore(hdr_image, px, vec4(mix(hdr.rgb, bloom, scene.lighting.lighting.bloom_intensity), hdr.a));
+    imageStore(hdr_image, px, vec4(storable_radiance(mix(hdr.rgb, bloom, scene.lighting.lighting.bloom_intensity)), hdr.a));
 #endif
 }

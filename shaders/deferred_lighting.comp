@@ -22,5 +22,5 @@ void main() {
     SurfaceInputs s;
     if (!deferred_surface(px, s)) return;
     vec4 emitted = imageLoad(hdr_image, px);
-    imageStore(hdr_image, px, vec4(emitted.rgb + shade_surface(s, px).rgb, emitted.a));
+    imageStore(hdr_image, px, vec4(storable_radiance(emitted.rgb + shade_surface(s, px).rgb), emitted.a));
 }

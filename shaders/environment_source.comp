@@ -5,6 +5,7 @@
 // faces stacked in one image (+X, −X, +Y, −Y, +Z, −Z, as KTX2 stores them; bilinear within the
 // face the direction selects, clamped at its edges).
 #include "environment_levels.glsl"
+#include "storable.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 #include "sky.glsl"
@@ -59,6 +60,7 @@ void main() {
     else if (env.mode == ENVIRONMENT_CUBE_MAP) radiance = cube_map_radiance(env, d);
     else if (env.mode == ENVIRONMENT_UNIFORM) radiance = env.color.rgb;
     else radiance = sky_radiance(d, env.sun.xyz, env.sun_color.rgb);
-    // Half floats end at 65504: a brighter texel (an HDR map's sun) is clamped there.
-    imageStore(environment_levels[0], ivec3(texel), vec4(min(radiance, vec3(65504.0)), 1.0));
+    // Half floats end at 65504: a brighter texel (an HDR map's sun) is clamped there, and what is
+    // not a radiance (NaN, negative) is none, so the filtered levels never hold a non-finite value.
+    imageStore(environment_levels[0], ivec3(texel), vec4(max(storable_radiance(radiance), vec3(0.0)), 1.0));
 }

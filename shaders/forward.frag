@@ -57,7 +57,7 @@ void main() {
     ivec2 surface_px = msaa_surface_pixel(ivec2(gl_FragCoord.xy), gl_FragCoord.z);
     out_color = shade_surface(s, surface_px);
 #ifdef REFLECTED
-    out_color.rgb = max(out_color.rgb + imageLoad(reflection_added, surface_px).rgb, vec3(0.0));
+    out_color.rgb = storable_radiance(max(out_color.rgb + imageLoad(reflection_added, surface_px).rgb, vec3(0.0)));
 #endif
 #else
     out_color = shade_surface(s, ivec2(gl_FragCoord.xy));

@@ -15,6 +15,7 @@
 // each sample from the pixel of its own surface.
 #include "scene.glsl"
 #include "depth.glsl"
+#include "storable.glsl"
 
 layout(set = 0, binding = BINDING_REFLECTION, rgba16f) uniform readonly image2D reflection_in;
 layout(set = 0, binding = BINDING_REFLECTION_WEIGHT, rgba16f) uniform readonly image2D weight_in;
@@ -149,7 +150,7 @@ void main() {
         return;
     }
     if (weight.a < 0.0 || all(equal(weight.rgb, vec3(0.0)))) return;
-    hdr.rgb = max(hdr.rgb + weight.rgb * resolve(px, weight, half_res), vec3(0.0));
+    hdr.rgb = storable_radiance(max(hdr.rgb + weight.rgb * resolve(px, weight, half_res), vec3(0.0)));
     imageStore(hdr_image, px, hdr);
 #endif
 }

@@ -7,6 +7,7 @@
 // over the rest.
 #include "environment.glsl"
 #include "depth.glsl"
+#include "storable.glsl"
 
 layout(set = 0, binding = BINDING_ENVIRONMENT_SOURCE) uniform samplerCube environment_source;
 #ifdef COVERAGE
@@ -36,8 +37,8 @@ void main() {
         if (dot(d, env.sun.xyz) >= cos_disc) radiance += env.sun_color.rgb / (2.0 * PI * (1.0 - cos_disc));
     }
 #ifdef COVERAGE
-    imageStore(hdr_image, px, vec4(covered.rgb + radiance * (1.0 - covered.a), 1.0));
+    imageStore(hdr_image, px, vec4(storable_radiance(covered.rgb + radiance * (1.0 - covered.a)), 1.0));
 #else
-    imageStore(hdr_image, px, vec4(radiance, 1.0));
+    imageStore(hdr_image, px, vec4(storable_radiance(radiance), 1.0));
 #endif
 }

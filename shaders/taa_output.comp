@@ -7,6 +7,7 @@
 // compound frame after frame.
 // Variant HISTORY_B follows the resolve variant that wrote history A.
 #include "scene.glsl"
+#include "storable.glsl"
 
 #ifdef HISTORY_B
 layout(set = 0, binding = BINDING_TAA_HISTORY_A_STORAGE, rgba16f) uniform readonly image2D resolved;
@@ -31,5 +32,5 @@ void main() {
         vec3 hi = max(max(max(n, s), max(e, w)), c);
         c = clamp(c + strength * (c - (n + s + e + w) * 0.25), lo, hi);
     }
-    imageStore(hdr_image, px, vec4(c, 1.0));
+    imageStore(hdr_image, px, vec4(storable_radiance(c), 1.0));
 }

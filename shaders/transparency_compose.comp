@@ -26,6 +26,7 @@
 // refraction.
 #include "scene.glsl"
 #include "refraction.glsl"
+#include "storable.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = BINDING_HDR_STORAGE, rgba16f) uniform writeonly image2D hdr_image;
@@ -72,7 +73,7 @@ void main() {
     ivec2 glass_px = ivec2(px.x, px.y | 1), opaque_px = ivec2(px.x, px.y & ~1);
     float pair_alpha = glass_opacity(glass_px);
     vec3 pair = pair_alpha * lit(glass_px) + (1.0 - pair_alpha) * lit(opaque_px);
-    imageStore(hdr_image, px, vec4(pair_alpha >= 1.0 ? own : pair, 1.0));
+    imageStore(hdr_image, px, vec4(storable_radiance(pair_alpha >= 1.0 ? own : pair), 1.0));
     return;
 #endif
 
@@ -100,7 +101,7 @@ void main() {
         }
     }
     if (alpha >= 1.0) {
-        imageStore(hdr_image, px, vec4(own, 1.0));
+        imageStore(hdr_image, px, vec4(storable_radiance(own), 1.0));
         return;
     }
 
@@ -116,5 +117,5 @@ void main() {
         // what the glass shows; the undisplaced background stays.
         if (inside(q) && opaque_behind(q, glass_depth, displaced)) background = displaced;
     }
-    imageStore(hdr_image, px, vec4(alpha * glass + (1.0 - alpha) * background, 1.0));
+    imageStore(hdr_image, px, vec4(storable_radiance(alpha * glass + (1.0 - alpha) * background), 1.0));
 }

@@ -11,6 +11,7 @@
 // position is off the image: the depth check. Every other pixel is already final.
 #include "scene.glsl"
 #include "refraction.glsl"
+#include "storable.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = BINDING_HDR_STORAGE, rgba16f) uniform image2D hdr_image;
@@ -29,5 +30,5 @@ void main() {
     if (off_image || texelFetch(background_depth, q, 0).r >= glass_depth) q = px;
     vec3 background = texelFetch(transparency_source, q, 0).rgb;
     vec3 glass = imageLoad(hdr_image, px).rgb;
-    imageStore(hdr_image, px, vec4(alpha * glass + (1.0 - alpha) * background, 1.0));
+    imageStore(hdr_image, px, vec4(storable_radiance(alpha * glass + (1.0 - alpha) * background), 1.0));
 }

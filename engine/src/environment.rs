@@ -74,6 +74,13 @@ impl HdrImage {
     /// Loads a KTX2 container ([`HdrImage::from_ktx2`]) when the file's extension is `.ktx2`;
     /// otherwise a Radiance `.hdr` (or any format `image` decodes; LDR ones are taken as
     /// linear) as an equirectangular environment.
+    ///
+    /// Texels are made what the GPU's half floats hold, with one warning naming the file and
+    /// counting them when any is changed: components brighter than [`MAX_RADIANCE`] (legal
+    /// RGBE reaches 1.7 × 10³⁸) are clamped to it, and negative or non-finite ones are 0.
+    /// Clamped rather than refused: such texels are a few of a capture's (the sun), and the
+    /// rest of the map is good light; above 65504 a half float is infinite, and infinities
+    /// turn the shading that meets a zero into NaN (a black picture).
     pub fn load(path: impl AsRef<Path>) -> Result<HdrImage, EnvironmentError> {
         let path = path.as_ref();
         let name = path.display().to_string();
@@ -89,7 +96,7 @@ impl HdrImage {
         if width != 2 * height {
             return Err(EnvironmentError::NotEquirectangular { path: name, width, height });
         }
-        let texels: Arc<[[f32; 3]]> = image.pixels().map(|p| p.0.map(|c| if c.is_finite() { c.max(0.0) } else { 0.0 })).collect();
+        let texels = storable_texels(image.pixels().map(|p| p.0), &name);
         Ok(HdrImage { width, height, texels, projection: Projection::Equirectangular })
     }
 
@@ -98,7 +105,7 @@ impl HdrImage {
     /// supercompression), in `R32G32B32A32_SFLOAT`, `R32G32B32_SFLOAT`, `R16G16B16A16_SFLOAT`,
     /// `R16G16B16_SFLOAT`, `B10G11R11_UFLOAT_PACK32` or `E5B9G9R9_UFLOAT_PACK32` (the formats
     /// HDR environment tools write). Other levels are ignored: the renderer filters its own.
-    /// Negative and non-finite texels become 0.
+    /// Texels are made storable as [`HdrImage::load`] says.
     pub fn from_ktx2(bytes: &[u8], name: &str) -> Result<HdrImage, EnvironmentError> {
         let fail = |reason: String| EnvironmentError::Ktx2 { path: name.to_string(), reason };
         let reader = ktx2::Reader::new(bytes).map_err(|e| fail(format!("not a valid KTX2 container ({e})")))?;
@@ -123,10 +130,39 @@ impl HdrImage {
         let texel_count = width as usize * image_height as usize;
         let data =
             level.data.get(..texel_count * bytes_per_texel).ok_or_else(|| fail("its first level is shorter than its size".to_string()))?;
-        let texels: Arc<[[f32; 3]]> =
-            data.chunks_exact(bytes_per_texel).map(|t| decode(t).map(|c| if c.is_finite() { c.max(0.0) } else { 0.0 })).collect();
+        let texels = storable_texels(data.chunks_exact(bytes_per_texel).map(decode), name);
         Ok(HdrImage { width, height: image_height, texels, projection })
     }
+}
+
+/// The brightest radiance an environment texel keeps: the largest finite half float, the format
+/// the GPU filters environments in.
+pub const MAX_RADIANCE: f32 = 65504.0;
+
+/// The texels with every component in `0..=MAX_RADIANCE` (brighter ones clamped, negative and
+/// non-finite ones 0), and one warning naming `name` when any was changed.
+fn storable_texels(texels: impl Iterator<Item = [f32; 3]>, name: &str) -> Arc<[[f32; 3]]> {
+    let (mut clamped, mut zeroed) = (0usize, 0usize);
+    let texels: Arc<[[f32; 3]]> = texels
+        .map(|texel| {
+            if texel.iter().any(|c| c.is_finite() && *c > MAX_RADIANCE) {
+                clamped += 1;
+            }
+            if texel.iter().any(|c| !c.is_finite() || *c < 0.0) {
+                zeroed += 1;
+            }
+            texel.map(|c| if c.is_finite() { c.clamp(0.0, MAX_RADIANCE) } else { 0.0 })
+        })
+        .collect();
+    if clamped + zeroed > 0 {
+        tracing::warn!(
+            file = name,
+            clamped,
+            zeroed,
+            "environment map {name}: {clamped} texels brighter than half floats hold clamped to {MAX_RADIANCE}, {zeroed} negative or not finite set to 0"
+        );
+    }
+    texels
 }
 
 /// A decoder of one texel of `format` to linear RGB, and the texel's size in bytes.

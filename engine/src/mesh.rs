@@ -56,16 +56,45 @@ pub struct SkinWeights {
     pub weights: Vec<[f32; 4]>,
 }
 
+/// How many vertices [`SkinWeights::repaired`] repaired.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct WeightRepairs {
+    /// Vertices with a weight that is not finite.
+    pub non_finite: usize,
+    /// Vertices whose weights (negative ones taken as zero) sum to nothing.
+    pub zero: usize,
+}
+
 impl SkinWeights {
     /// Weights as given, normalised to sum to 1 (files often store sums a little off, and some
     /// well below 1); a vertex whose weights sum to nothing follows its first joint.
-    pub fn normalized(joints: Vec<[u16; 4]>, mut weights: Vec<[f32; 4]>) -> Self {
+    pub fn normalized(joints: Vec<[u16; 4]>, weights: Vec<[f32; 4]>) -> Self {
+        Self::repaired(joints, weights).0
+    }
+
+    /// [`SkinWeights::normalized`], saying how many vertices it repaired: a vertex with a weight
+    /// that is not finite, or whose weights (negative ones taken as zero) sum to nothing, follows
+    /// its first joint alone (weight 1), the joint its weights list first: the vertex stays on
+    /// the skeleton as it moves, near its neighbours (the mesh's own node would leave it behind
+    /// as the skeleton walks away).
+    pub fn repaired(joints: Vec<[u16; 4]>, mut weights: Vec<[f32; 4]>) -> (Self, WeightRepairs) {
+        let mut repairs = WeightRepairs::default();
         for w in &mut weights {
-            let w4 = w.map(|x| if x.is_finite() { x.max(0.0) } else { 0.0 });
+            if w.iter().any(|x| !x.is_finite()) {
+                repairs.non_finite += 1;
+                *w = [1.0, 0.0, 0.0, 0.0];
+                continue;
+            }
+            let w4 = w.map(|x| x.max(0.0));
             let sum: f32 = w4.iter().sum();
-            *w = if sum > 1e-6 { w4.map(|x| x / sum) } else { [1.0, 0.0, 0.0, 0.0] };
+            *w = if sum > 1e-6 {
+                w4.map(|x| x / sum)
+            } else {
+                repairs.zero += 1;
+                [1.0, 0.0, 0.0, 0.0]
+            };
         }
-        Self { joints, weights }
+        (Self { joints, weights }, repairs)
     }
 
     /// The largest joint index used (by a vertex with a non-zero weight on it).

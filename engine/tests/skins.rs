@@ -1,5 +1,6 @@
 //! Skins, morph targets and animations from the shared sample models (`../shared/assets/gltf`:
-//! the tests fail when they are missing), and clear errors for malformed skins.
+//! the tests fail when they are missing), and faults naming malformed skins, which cost their mesh
+//! its pose and nothing else.
 
 #![forbid(unsafe_code)]
 
@@ -8,7 +9,7 @@ use std::time::Duration;
 
 use ::gltf::json::Value;
 use engine::animation::{AnimationPlayer, MorphWeights, Skin};
-use engine::gltf::{self, GltfAnimations, GltfError};
+use engine::gltf::{self, GltfAnimations, GltfFaultKind};
 use engine::prelude::*;
 
 fn model(name: &str) -> PathBuf {
@@ -80,31 +81,37 @@ fn cesium_man_weights_are_normalised_and_the_robot_brings_two_skins_morph_target
 }
 
 #[test]
-fn malformed_skins_are_refused_naming_the_skin_and_the_problem() {
+fn malformed_skins_cost_their_mesh_its_pose_naming_the_skin_and_the_problem() {
     let bytes = std::fs::read(model("Fox")).unwrap();
     let (json, bin) = glb_chunks(&bytes);
     let load = |json: &Value| gltf::load_slice(&gltf::glb_container(&::gltf::json::serialize::to_vec(json).unwrap(), &bin), None);
-    assert!(load(&json).is_ok());
+    let healthy = load(&json).unwrap();
+    assert!(healthy.faults.is_empty(), "the fox is healthy: {:?}", healthy.faults);
+    let skinned = |scene: &gltf::GltfScene| scene.nodes.iter().filter(|n| n.skin.is_some()).count();
+    assert_eq!(skinned(&healthy), 1);
 
-    // Fewer joints than the vertices use.
+    // Each broken skin loads: the mesh stays (unskinned), the clips stay, one fault names the skin.
+    let ibm = json["skins"][0]["inverseBindMatrices"].as_u64().unwrap() as usize;
     let mut few = json.clone();
     let joints = few["skins"][0]["joints"].as_array().unwrap()[..5].to_vec();
     few["skins"][0]["joints"] = joints.into();
-    let ibm = few["skins"][0]["inverseBindMatrices"].as_u64().unwrap() as usize;
     few["accessors"][ibm]["count"] = 5.into();
-    let error = load(&few).unwrap_err();
-    assert!(matches!(error, GltfError::Skin { .. }), "{error}");
-    assert!(error.to_string().contains("but the skin has 5 joints"), "{error}");
-
-    // Inverse bind matrices that do not match the joints.
     let mut mismatched = json.clone();
     mismatched["accessors"][ibm]["count"] = 3.into();
-    let error = load(&mismatched).unwrap_err();
-    assert!(error.to_string().contains("3 inverse bind matrices for 24 joints"), "{error}");
-
-    // Non-float inverse bind matrices.
     let mut ints = json.clone();
     ints["accessors"][ibm]["componentType"] = 5123.into();
-    let error = load(&ints).unwrap_err();
-    assert!(error.to_string().contains("not float MAT4"), "{error}");
+    for (broken, kind, says) in [
+        (few, GltfFaultKind::JointIndexOutOfRange, "but the skin has 5 joints"),
+        (mismatched, GltfFaultKind::InverseBindMatrixCount, "3 inverse bind matrices for 24 joints"),
+        (ints, GltfFaultKind::BadSkin, "not float MAT4"),
+    ] {
+        let scene = load(&broken).unwrap();
+        assert_eq!(scene.faults.len(), 1, "{:?}", scene.faults);
+        let fault = &scene.faults[0];
+        assert_eq!(fault.kind, kind, "{fault}");
+        assert!(matches!(fault.part, gltf::GltfPart::Skin { index: 0, .. }), "{fault}");
+        assert!(fault.to_string().contains(says) && fault.to_string().contains("<memory>"), "{fault}");
+        assert_eq!(skinned(&scene), 0, "the mesh is drawn unskinned");
+        assert_eq!((scene.triangle_count(), scene.animations.len()), (healthy.triangle_count(), 3));
+    }
 }

@@ -1171,8 +1171,9 @@ layout! {
         /// Auto-exposure: adaptation rate per second (the share of the way to the target covered
         /// in one second is 1 − e^−rate).
         pub exposure_rate: f32,
-        /// Padding to 16 bytes.
-        pub exposure_pad: [u32; 2],
+        /// Address of the debug builds' check of the tone mapper's input (a counter of pixels
+        /// that were not finite: `crate::present::check`; 0 in release builds).
+        pub display_check: u64,
         /// Address of this frame's movers (`GpuMover` each: instances that moved or were posed
         /// since the previous frame), which the motion-vector pass draws (`crate::motion`).
         pub movers: u64,

@@ -29,6 +29,7 @@ use crate::pipelines::forward::ForwardPasses;
 use crate::pipelines::visbuffer::VisBufferPasses;
 use crate::pipelines::{FrameParts, deferred_frame, forward_frame, forward_plus_frame, visbuffer_frame};
 use crate::present::Present;
+use crate::present::check::{DisplayCheck, DisplayCheckCounts};
 use crate::present::overlay::{Overlay, OverlayFrame};
 use crate::present::tonemap::Tonemap;
 use crate::present::window::{AcquiredImage, WindowSurface};
@@ -147,6 +148,8 @@ struct Resources {
     lighting: Lighting,
     tonemap: Tonemap,
     window_tonemap: Option<Tonemap>,
+    /// The debug builds' check of the tone mapper's input (`None` in release builds).
+    display_check: Option<DisplayCheck>,
     overlay: Option<(Overlay, vk::Format)>,
     graveyard: Graveyard,
     /// Decal-method fallbacks already logged (one bit per request and pipeline).
@@ -173,7 +176,9 @@ impl Renderer {
         let d = &ctx.device;
         let mut graph = FrameGraph::new(extent);
         let swapchain_image = graph.external_image("swapchain image");
-        let scene = GpuScene::new(ctx, &mut graph)?;
+        let mut scene = GpuScene::new(ctx, &mut graph)?;
+        let display_check = DisplayCheck::new(ctx, &mut graph)?;
+        scene.set_display_check(display_check.as_ref().map_or(0, DisplayCheck::address));
         let layout = create_layout(ctx, scene.set_layout)?;
         let mut type_info = vk::SemaphoreTypeCreateInfo::default().semaphore_type(vk::SemaphoreType::TIMELINE).initial_value(0);
         // SAFETY: valid create info; destroyed in Drop.
@@ -213,6 +218,7 @@ impl Renderer {
             swapchain_image,
             scene,
             window_tonemap: None,
+            display_check,
             overlay: None,
             graveyard: Graveyard::default(),
             warned_fallbacks: 0,
@@ -407,7 +413,7 @@ impl Renderer {
             exposure: &mut res.exposure,
             motion: &res.motion,
             taa: &mut res.taa,
-            present: Present { tonemap, target, overlay, aa, smaa: &res.smaa },
+            present: Present { tonemap, target, overlay, aa, smaa: &res.smaa, check: res.display_check.as_mut() },
             decal_choice,
             aa,
             pixel_ids: crate::motion::PixelIds::None,
@@ -511,6 +517,13 @@ impl Renderer {
         slots.sort_by_key(|s| s.frame);
         let ctx = &self.ctx;
         slots.into_iter().filter_map(|s| s.timer.collect(ctx).map(|gpu| FinishedFrame { frame: s.frame, gpu })).collect()
+    }
+
+    /// What the debug builds' check of the tone mapper's input has counted so far: frames
+    /// checked, and pixels whose HDR value was not finite (`crate::present::check`; a frame's
+    /// count comes back two frames later). `None` in release builds, which leave the check out.
+    pub fn display_check(&self) -> Option<DisplayCheckCounts> {
+        self.res.display_check.as_ref().map(DisplayCheck::counts)
     }
 
     /// The tone-mapped image of the last frame as RGBA8 sRGB rows (waits for the GPU).
@@ -679,12 +692,16 @@ impl Drop for Renderer {
             lighting,
             tonemap,
             window_tonemap,
+            display_check,
             overlay,
             mut graveyard,
             warned_fallbacks: _,
         } = res;
         if let Some(t) = window_tonemap {
             t.destroy(ctx);
+        }
+        if let Some(c) = display_check {
+            c.destroy(ctx);
         }
         if let Some((o, _)) = overlay {
             o.destroy(ctx);

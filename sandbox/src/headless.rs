@@ -452,8 +452,12 @@ pub fn load_scene(world: &mut World, source: &SceneSource, character: Option<&st
         SceneSource::Default => {
             scene::spawn_courtyard(world);
             match character {
+                // The courtyard stands without its walker: a character that cannot be loaded is
+                // reported, not fatal.
                 Some(path) => {
-                    crate::character::spawn_walker(world, path, scene::WALKER_LOOP.0, scene::WALKER_LOOP.1)?;
+                    if let Err(error) = crate::character::spawn_walker(world, path, scene::WALKER_LOOP.0, scene::WALKER_LOOP.1) {
+                        tracing::error!("{error:#}; the courtyard is shown without it");
+                    }
                 }
                 None => {
                     tracing::info!("no character model found (../shared/assets/gltf/Fox/Fox.glb, or --character): the courtyard is empty")
@@ -461,7 +465,17 @@ pub fn load_scene(world: &mut World, source: &SceneSource, character: Option<&st
             }
         }
         SceneSource::Gltf(path) => {
+            // Nothing of the file could be loaded: the only case that ends the run. A broken
+            // part (a skin, a clip, a morph target…) costs that part: the loader has warned
+            // about each, and the rest plays.
             let gltf = engine::gltf::load(path).with_context(|| format!("could not load scene {}", path.display()))?;
+            if !gltf.faults.is_empty() {
+                tracing::warn!(
+                    "scene {} loaded with {} broken parts left out or repaired (each named above); the rest plays",
+                    path.display(),
+                    gltf.faults.len()
+                );
+            }
             let root = gltf.spawn(world);
             let first = world.get::<engine::gltf::GltfAnimations>(root).and_then(|clips| clips.0.first().copied());
             if let Some(clip) = first {

@@ -7,9 +7,22 @@
 #include "scene.glsl"
 #include "color.glsl"
 #include "exposure.glsl"
+#include "storable.glsl"
 
+layout(buffer_reference, std430, buffer_reference_align = 4) buffer DisplayCheckRef { uint non_finite; };
+
+// The debug builds' check of the tone mapper's input (render/src/present/check.rs): counts an HDR
+// value that is not finite (no pass should have written one). Release builds leave the address
+// 0, and ordinary pixels never take the branch.
+void check_display_input(vec3 hdr) {
+    uint64_t address = scene.lighting.lighting.display_check;
+    if (address != 0ul && (any(isnan(hdr)) || any(isinf(hdr)))) atomicAdd(DisplayCheckRef(address).non_finite, 1u);
+}
+
+// Exposed and tone mapped; whatever reaches it is displayed as storable radiance, so the picture
+// is finite even where the check counts.
 vec3 display_color(vec3 hdr) {
-    return tonemap(hdr * display_exposure(), scene.lighting.lighting.tonemapper);
+    return tonemap(storable_radiance(hdr * display_exposure()), scene.lighting.lighting.tonemapper);
 }
 
 // Bilinearly filtered at `uv`.

@@ -24,6 +24,7 @@
 #include "heatmap.glsl"
 #include "light_tiles.glsl"
 #include "environment.glsl"
+#include "storable.glsl"
 
 layout(set = 0, binding = BINDING_SHADOW_DEBUG, rgba16f) uniform readonly image2D shadow_debug_in;
 layout(set = 0, binding = BINDING_OCCLUSION, r32f) uniform readonly image2D occlusion_in;
@@ -206,7 +207,7 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
         color += tint * shade_light(light, brdf, s.position, s.normal, v);
     }
 #endif
-    return vec4(color, 1.0);
+    return vec4(storable_radiance(color), 1.0);
 }
 
 #endif

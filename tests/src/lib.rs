@@ -16,6 +16,8 @@
 
 #![forbid(unsafe_code)]
 
+pub mod gltf_files;
+
 use std::path::PathBuf;
 
 use engine::prelude::*;
@@ -254,12 +256,17 @@ impl WarningLog {
     pub fn capture(app: &mut App) -> Self {
         use bevy_ecs::schedule::SingleThreadedExecutor;
         use engine::app::{PostUpdate, PreUpdate, Render, Startup, Update};
-        use tracing_subscriber::layer::SubscriberExt;
         app.schedule_mut(Startup).set_executor(SingleThreadedExecutor::new());
         app.schedule_mut(PreUpdate).set_executor(SingleThreadedExecutor::new());
         app.schedule_mut(Update).set_executor(SingleThreadedExecutor::new());
         app.schedule_mut(PostUpdate).set_executor(SingleThreadedExecutor::new());
         app.schedule_mut(Render).set_executor(SingleThreadedExecutor::new());
+        Self::capture_thread()
+    }
+
+    /// Starts capturing the warnings logged on this thread (a loader's, without an app).
+    pub fn capture_thread() -> Self {
+        use tracing_subscriber::layer::SubscriberExt;
         let warnings = std::sync::Arc::default();
         let subscriber = tracing_subscriber::registry().with(CaptureLayer(std::sync::Arc::clone(&warnings)));
         Self { warnings, _guard: tracing::subscriber::set_default(subscriber) }

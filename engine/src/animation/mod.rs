@@ -156,7 +156,10 @@ impl Channel {
         &self.keyframes
     }
 
-    fn check(&self) -> Result<(), AnimationError> {
+    /// Checks what [`AnimationClip::new`] checks of each channel: a target within
+    /// [`MAX_NODE`], keyframe times finite and strictly increasing, as many values as the
+    /// interpolation needs, every value finite.
+    pub(crate) fn check(&self) -> Result<(), AnimationError> {
         let bad = |reason: String| Err(AnimationError::BadChannel { target: self.target, reason });
         if self.target > MAX_NODE {
             return bad(format!("a clip animates nodes 0 to {MAX_NODE}"));
@@ -227,7 +230,7 @@ pub struct AnimationClip {
 }
 
 /// What a [`Channel`] animates: a node's translation, rotation, scale or morph weights.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Property {
     /// [`Transform::translation`].
     Translation,
@@ -280,6 +283,11 @@ impl AnimationClip {
         }
         let shared_times = !channels.is_empty() && channels.windows(2).all(|w| w[0].times == w[1].times);
         Ok(Self { name: name.into(), channels, duration, nodes, shared_times })
+    }
+
+    /// A clip without channels: it plays nothing, for its whole duration of zero.
+    pub fn empty(name: impl Into<String>) -> Self {
+        Self { name: name.into(), channels: Vec::new(), duration: 0.0, nodes: Vec::new(), shared_times: false }
     }
 
     /// The clip's name (glTF's animation name, or `animation N`).

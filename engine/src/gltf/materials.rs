@@ -146,6 +146,7 @@ pub(super) fn load_material(
     document: &Document,
     images: &mut ImageLoader<'_>,
     options: &LoadOptions,
+    faults: &mut Faults,
 ) -> Result<(GltfMaterial, Option<UvTransform>), GltfError> {
     let label = match (m.name(), m.index()) {
         (Some(name), Some(index)) => format!("'{name}' (#{index})"),
@@ -222,7 +223,7 @@ pub(super) fn load_material(
         warn!(file = %file, material = %label, textures = %slots.join(", "), %error, "glTF texture could not be loaded; {replacement}");
     }
     let [base_color_texture, metallic_roughness_texture, normal_texture, occlusion_texture, emissive_texture] = loaded;
-    let material = GltfMaterial {
+    let mut material = GltfMaterial {
         name: m.name().map(str::to_owned),
         base_color: Vec4::from(pbr.base_color_factor()),
         base_color_texture,
@@ -244,5 +245,54 @@ pub(super) fn load_material(
         ior: m.ior().unwrap_or(1.5),
         thickness: m.volume().map_or(0.0, |v| v.thickness_factor()),
     };
+    let repaired = repair_factors(&mut material);
+    if let (false, Some(index)) = (repaired.is_empty(), m.index()) {
+        let part = GltfPart::Material { index, name: m.name().map(str::to_owned) };
+        let problem = format!("its {} not finite", repaired.join(", "));
+        faults.push(part, GltfFaultKind::BadMaterial, problem, "each takes glTF's default value");
+    }
     Ok((material, uv_transform))
+}
+
+/// Replaces the material's factors that are not finite by glTF's defaults (base colour,
+/// metallic, roughness, normal scale and occlusion strength 1, emissive 0, alpha cutoff 0.5,
+/// index of refraction 1.5, thickness 0), and names them.
+fn repair_factors(material: &mut GltfMaterial) -> Vec<&'static str> {
+    let mut repaired = Vec::new();
+    let mut repair = |finite: bool, name: &'static str| {
+        if !finite {
+            repaired.push(name);
+        }
+        !finite
+    };
+    if repair(material.base_color.is_finite(), "base colour") {
+        material.base_color = Vec4::ONE;
+    }
+    if repair(material.metallic.is_finite(), "metallic factor") {
+        material.metallic = 1.0;
+    }
+    if repair(material.roughness.is_finite(), "roughness factor") {
+        material.roughness = 1.0;
+    }
+    if repair(material.normal_scale.is_finite(), "normal scale") {
+        material.normal_scale = 1.0;
+    }
+    if repair(material.occlusion_strength.is_finite(), "occlusion strength") {
+        material.occlusion_strength = 1.0;
+    }
+    if repair(material.emissive.is_finite(), "emissive factor (times its strength)") {
+        material.emissive = Vec3::ZERO;
+    }
+    if let AlphaMode::Mask(cutoff) = material.alpha_mode
+        && repair(cutoff.is_finite(), "alpha cutoff")
+    {
+        material.alpha_mode = AlphaMode::Mask(0.5);
+    }
+    if repair(material.ior.is_finite(), "index of refraction") {
+        material.ior = 1.5;
+    }
+    if repair(material.thickness.is_finite(), "thickness") {
+        material.thickness = 0.0;
+    }
+    repaired
 }

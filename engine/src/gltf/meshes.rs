@@ -137,14 +137,26 @@ pub(super) fn is_small_int(data_type: DataType) -> bool {
     matches!(data_type, DataType::I8 | DataType::U8 | DataType::I16 | DataType::U16)
 }
 
-/// `quantized`: the document uses `KHR_mesh_quantization`, so its attribute types are accepted.
-/// `uv_transform`: the material's `KHR_texture_transform`, baked into `TEXCOORD_0`.
+/// Which primitive of which mesh [`load_primitive`] reads, for its faults.
+pub(super) struct PrimitivePart {
+    pub(super) mesh: usize,
+    pub(super) mesh_name: Option<String>,
+    pub(super) primitive: usize,
+}
+
+/// `mesh` labels the primitive in errors, `part` in faults. `quantized`: the document uses
+/// `KHR_mesh_quantization`, so its attribute types are accepted. `uv_transform`: the material's
+/// `KHR_texture_transform`, baked into `TEXCOORD_0`. Joints and weights that cannot be read, and
+/// morph targets that cannot be read or do not fit the mesh, are faults, not errors: the
+/// primitive is drawn rigidly, or the target has no effect.
 pub(super) fn load_primitive(
     primitive: &::gltf::Primitive<'_>,
     buffers: &[Vec<u8>],
     mesh: &str,
+    part: &PrimitivePart,
     quantized: bool,
     uv_transform: Option<UvTransform>,
+    faults: &mut Faults,
 ) -> Result<Mesh, GltfError> {
     let mode = primitive.mode();
     if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
@@ -231,38 +243,83 @@ pub(super) fn load_primitive(
     if let Some(transform) = uv_transform {
         uvs.iter_mut().for_each(|uv| *uv = transform.apply(*uv));
     }
+    let skin_part = || GltfPart::SkinWeights { mesh: part.mesh, mesh_name: part.mesh_name.clone(), primitive: part.primitive };
     let skin = match (attribute(::gltf::Semantic::Joints(0)), attribute(::gltf::Semantic::Weights(0))) {
         (Some(joints), Some(weights)) => {
-            let joints =
-                read_attribute::<4>(&joints, buffers, mesh, "JOINTS_0", |t, norm| !norm && matches!(t, DataType::U8 | DataType::U16))?;
-            let weights = read_attribute::<4>(&weights, buffers, mesh, "WEIGHTS_0", |t, norm| {
-                is_float(t, norm) || (norm && matches!(t, DataType::U8 | DataType::U16))
-            })?;
-            same_count("JOINTS_0", joints.len())?;
-            same_count("WEIGHTS_0", weights.len())?;
-            Some(SkinWeights::normalized(joints.into_iter().map(|j| j.map(|i| i as u16)).collect(), weights))
+            let read = || -> Result<SkinWeights, GltfError> {
+                let joints =
+                    read_attribute::<4>(&joints, buffers, mesh, "JOINTS_0", |t, norm| !norm && matches!(t, DataType::U8 | DataType::U16))?;
+                let weights = read_attribute::<4>(&weights, buffers, mesh, "WEIGHTS_0", |t, norm| {
+                    is_float(t, norm) || (norm && matches!(t, DataType::U8 | DataType::U16))
+                })?;
+                same_count("JOINTS_0", joints.len())?;
+                same_count("WEIGHTS_0", weights.len())?;
+                Ok(SkinWeights { joints: joints.into_iter().map(|j| j.map(|i| i as u16)).collect(), weights })
+            };
+            match read() {
+                Ok(SkinWeights { joints, weights }) => {
+                    let (skin, repaired) = SkinWeights::repaired(joints, weights);
+                    if repaired.non_finite + repaired.zero > 0 {
+                        let problem = format!(
+                            "{} of {n} vertices have weights that are not finite and {} weights that sum to zero",
+                            repaired.non_finite, repaired.zero
+                        );
+                        faults.push(
+                            skin_part(),
+                            GltfFaultKind::DegenerateWeights,
+                            problem,
+                            "each of them follows its first joint alone (weight 1)",
+                        );
+                    }
+                    Some(skin)
+                }
+                Err(error) => {
+                    faults.push(skin_part(), GltfFaultKind::BadSkinWeights, error.to_string(), "the primitive is drawn rigidly, unskinned");
+                    None
+                }
+            }
         }
         (None, None) => None,
-        _ => {
-            return Err(GltfError::BadAccessor {
-                mesh: mesh.to_owned(),
-                attribute: "JOINTS_0".into(),
-                reason: "JOINTS_0 and WEIGHTS_0 must come together".into(),
-            });
+        (joints, _) => {
+            let problem = format!(
+                "{} without {}",
+                if joints.is_some() { "JOINTS_0" } else { "WEIGHTS_0" },
+                if joints.is_some() { "WEIGHTS_0" } else { "JOINTS_0" }
+            );
+            faults.push(skin_part(), GltfFaultKind::BadSkinWeights, problem, "the primitive is drawn rigidly, unskinned");
+            None
         }
     };
     let mut morph_targets = Vec::new();
     for (i, target) in primitive.morph_targets().enumerate() {
         let label = |what: &str| format!("morph target {i} {what}");
-        let read = |accessor: Option<Accessor<'_>>, what: &str| -> Result<Vec<[f32; 3]>, GltfError> {
+        let read = |accessor: Option<Accessor<'_>>, what: &str| -> Result<Vec<[f32; 3]>, (GltfFaultKind, String)> {
             let Some(accessor) = accessor else { return Ok(Vec::new()) };
-            let values = read_attribute::<3>(&accessor, buffers, mesh, &label(what), position_ok)?;
-            same_count(&label(what), values.len())?;
+            let values = read_attribute::<3>(&accessor, buffers, mesh, &label(what), position_ok)
+                .map_err(|e| (GltfFaultKind::BadMorphTarget, e.to_string()))?;
+            if values.len() != n {
+                let problem = format!("its {what} has {} offsets for {n} vertices", values.len());
+                return Err((GltfFaultKind::MorphTargetLength, problem));
+            }
+            if let Some(v) = values.iter().position(|d| !Vec3::from(*d).is_finite()) {
+                return Err((GltfFaultKind::BadMorphTarget, format!("its {what} offset of vertex {v} is not finite")));
+            }
             Ok(values)
         };
-        let positions = read(target.positions(), "POSITION")?;
-        let normals = read(target.normals(), "NORMAL")?;
-        morph_targets.push(MorphTarget { positions: if positions.is_empty() { vec![[0.0; 3]; n] } else { positions }, normals });
+        let read_target = || -> Result<MorphTarget, (GltfFaultKind, String)> {
+            let positions = read(target.positions(), "POSITION")?;
+            let normals = read(target.normals(), "NORMAL")?;
+            Ok(MorphTarget { positions: if positions.is_empty() { vec![[0.0; 3]; n] } else { positions }, normals })
+        };
+        match read_target() {
+            Ok(target) => morph_targets.push(target),
+            Err((kind, problem)) => {
+                let part =
+                    GltfPart::MorphTarget { mesh: part.mesh, mesh_name: part.mesh_name.clone(), primitive: part.primitive, target: i };
+                faults.push(part, kind, problem, "its offsets are zero (it has no effect); the other targets keep their index and apply");
+                morph_targets.push(MorphTarget { positions: vec![[0.0; 3]; n], normals: Vec::new() });
+            }
+        }
     }
     let result = match tangents {
         Some(tangents) => Mesh::from_parts(positions, normals, uvs, tangents, indices).map(|mut mesh| {

@@ -57,6 +57,32 @@
 //! above one of its nodes, which becomes a root; [`GltfNode::parent`] and
 //! [`GltfNode::children`] then describe the same trees. Nothing walks the hierarchy
 //! recursively, so a chain of any depth loads and spawns without overflowing the stack.
+//!
+//! **A broken part costs that part, never the scene.** Skins, animations, morph targets,
+//! lights, cameras and material factors that are broken or degenerate are repaired or left out,
+//! each with one warning naming the file, the object (by index and name) and what was done
+//! instead, and one [`GltfFault`] in [`GltfScene::faults`] (its [`GltfFaultKind`] says which
+//! fault; `docs/RELIABILITY.md` lists them all with their tests):
+//!
+//! - a skin that cannot deform its meshes (no joints, inverse bind matrices unreadable, not
+//!   finite or not one per joint) is dropped: its meshes are drawn unskinned, in their rest
+//!   pose; so is the mesh of a node whose vertices weight a joint past its skin's joints, or
+//!   whose skin lists the node itself as a joint (a cycle of transforms);
+//! - `JOINTS_0`/`WEIGHTS_0` that cannot be read leave their primitive rigid; a vertex whose
+//!   weights are not finite or sum to zero follows its first joint alone (weight 1:
+//!   [`SkinWeights::repaired`] says why that joint);
+//! - an animation channel that cannot be sampled (cubic spline without tangents, sampler input
+//!   and output counts that differ, keyframe times not finite or not increasing, accessors
+//!   unreadable, a property animated twice) is dropped and the rest of its clip plays;
+//!   keyframes whose values are not finite, and rotation keyframes of zero length, are dropped
+//!   from their channel;
+//! - a morph target with the wrong number of offsets, unreadable or not finite has zero
+//!   offsets (no effect), so the other targets keep their index and apply;
+//! - a node's translation, rotation or scale that is not finite (or a rotation of zero length)
+//!   is the identity's, and morph weights that are not finite are 0;
+//! - a light with a colour, intensity, range or cone that is not finite or out of range is left
+//!   out; a camera's bad field of view or near plane is the default's; a material factor that
+//!   is not finite is glTF's default.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -80,12 +106,15 @@ use crate::scene::{MeshInstance, Name};
 use crate::transform::Transform;
 
 mod animations;
+mod faults;
 mod materials;
 mod meshes;
 mod nodes;
 mod skins;
 
 use animations::*;
+use faults::Faults;
+pub use faults::{GltfFault, GltfFaultKind, GltfPart};
 use materials::*;
 pub use meshes::MAX_UNBACKED_COMPONENTS;
 use meshes::*;
@@ -168,23 +197,6 @@ pub enum GltfError {
         mesh: String,
         /// The attribute.
         attribute: String,
-        /// Why.
-        reason: String,
-    },
-    /// A skin cannot deform its mesh: inverse bind matrices that are missing, not finite or
-    /// not one per joint, or a vertex weighted to a joint the skin does not have.
-    #[error("skin {skin}: {reason}")]
-    Skin {
-        /// The skin's name (or index) and the glTF file.
-        skin: String,
-        /// Why.
-        reason: String,
-    },
-    /// An animation's channel cannot be sampled.
-    #[error("animation {animation}: {reason}")]
-    Animation {
-        /// The animation's name (or index) and the glTF file.
-        animation: String,
         /// Why.
         reason: String,
     },
@@ -355,6 +367,11 @@ pub struct GltfScene {
     pub skins: Vec<GltfSkin>,
     /// The animations, as clips over node indices.
     pub animations: Vec<AnimationClip>,
+    /// What was broken in the file and what loading did instead, in the order found: a broken
+    /// skin, channel, morph target, light, camera or material costs only itself (see the
+    /// module docs); each was logged as one warning when the file was loaded. Empty for a
+    /// healthy file.
+    pub faults: Vec<GltfFault>,
 }
 
 /// The animation clips of a spawned glTF model, on its root entity (beside the
@@ -488,9 +505,10 @@ fn load_impl(bytes: &[u8], base: Option<&Path>, file: &Path, name: String, optio
     let quantized = document.extensions_used().chain(document.extensions_required()).any(|e| e == "KHR_mesh_quantization");
     let buffers = load_buffers(&document, blob, base, file)?;
     let mut images = ImageLoader { buffers: &buffers, base, file, images: Vec::new(), slots: HashMap::new(), placeholder: None };
+    let mut faults = Faults::new(file);
     let (mut materials, uv_transforms): (Vec<_>, Vec<_>) = document
         .materials()
-        .map(|m| load_material(&m, &document, &mut images, options))
+        .map(|m| load_material(&m, &document, &mut images, options, &mut faults))
         .collect::<Result<Vec<_>, _>>()?
         .into_iter()
         .unzip();
@@ -504,7 +522,8 @@ fn load_impl(bytes: &[u8], base: Option<&Path>, file: &Path, name: String, optio
                 None => format!("#{} primitive {} in {}", mesh.index(), primitive.index(), file.display()),
             };
             let uv_transform = primitive.material().index().and_then(|i| uv_transforms.get(i).copied().flatten());
-            let converted = load_primitive(&primitive, &buffers, &label, quantized, uv_transform)?;
+            let part = PrimitivePart { mesh: mesh.index(), mesh_name: mesh.name().map(str::to_owned), primitive: primitive.index() };
+            let converted = load_primitive(&primitive, &buffers, &label, &part, quantized, uv_transform, &mut faults)?;
             let material = match primitive.material().index() {
                 Some(index) => index,
                 None => *default_material.get_or_insert_with(|| {
@@ -516,14 +535,15 @@ fn load_impl(bytes: &[u8], base: Option<&Path>, file: &Path, name: String, optio
         }
         meshes.push(primitives);
     }
-    let nodes = load_nodes(&document);
+    let mut nodes = load_nodes(&document, &mut faults);
     let roots = match document.default_scene().or_else(|| document.scenes().next()) {
         Some(scene) => scene.nodes().map(|n| n.index()).collect(),
         None => (0..nodes.len()).filter(|&i| nodes[i].parent.is_none()).collect(),
     };
-    let skins = load_skins(&document, &buffers, file, &nodes, &meshes)?;
-    let animations = load_animations(&document, &buffers, file)?;
-    let scene = GltfScene { name, meshes, materials, images: images.images, nodes, roots, skins, animations };
+    let skins = load_skins(&document, &buffers, file, &mut nodes, &meshes, &mut faults);
+    let animations = load_animations(&document, &buffers, file, &mut faults);
+    let faults = faults.list;
+    let scene = GltfScene { name, meshes, materials, images: images.images, nodes, roots, skins, animations, faults };
     info!(
         file = %file.display(),
         meshes = scene.meshes.len(),
@@ -533,6 +553,7 @@ fn load_impl(bytes: &[u8], base: Option<&Path>, file: &Path, name: String, optio
         nodes = scene.nodes.len(),
         skins = scene.skins.len(),
         animations = scene.animations.len(),
+        faults = scene.faults.len(),
         "loaded glTF"
     );
     Ok(scene)

@@ -296,6 +296,7 @@ impl GpuContext {
             .multi_draw_indirect(true) // GPU culling's indirect draws (crate::culling)
             .draw_indirect_first_instance(true) // their firstInstance is the instance slot
             .shader_int64(true)
+            .fragment_stores_and_atomics(true) // the display check's counter (crate::present::check)
             .fill_mode_non_solid(false);
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
             .buffer_device_address(true)
@@ -535,6 +536,7 @@ fn pick_physical_device(instance: &ash::Instance) -> Result<(vk::PhysicalDevice,
             ("shaderSampledImageArrayNonUniformIndexing", f12.shader_sampled_image_array_non_uniform_indexing),
             ("samplerAnisotropy", base.sampler_anisotropy),
             ("shaderInt64", base.shader_int64),
+            ("fragmentStoresAndAtomics", base.fragment_stores_and_atomics),
             ("independentBlend", base.independent_blend),
             ("geometryShader", base.geometry_shader),
             ("multiDrawIndirect", base.multi_draw_indirect),

@@ -284,8 +284,8 @@ impl Lighting {
             exposure_min_ev100: 0.0,
             exposure_max_ev100: 0.0,
             exposure_rate: 0.0,
-            exposure_pad: [0; 2],
-            movers: 0, // the upload's to set
+            display_check: 0, // the renderer's to set (`GpuScene::set_display_check`)
+            movers: 0,        // the upload's to set
             movers_pad: [0; 2],
         });
         let res = self.tiles.resources();

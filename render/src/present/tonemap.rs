@@ -50,7 +50,8 @@ impl Tonemap {
     /// Reads the HDR target (and auto-exposure's record, `exposure`, when it runs), writes
     /// `display` (the offscreen display target or a swapchain image) with anti-aliasing `aa`:
     /// FXAA runs here; SMAA's passes (`crate::smaa`) ran before, and the display pass copies out
-    /// what either wrote.
+    /// what either wrote. `check` is the debug builds' counter of HDR pixels that are not
+    /// finite (`crate::present::check`), which the display pass adds to.
     pub fn record(
         &self,
         f: &mut Frame,
@@ -58,6 +59,7 @@ impl Tonemap {
         display: impl Into<ImageRef>,
         aa: AntiAliasing,
         exposure: Option<(ResourceId, BufferUse)>,
+        check: Option<(ResourceId, BufferUse)>,
     ) -> Result<(), RenderError> {
         let fxaa = aa == AntiAliasing::Fxaa;
         let antialiased = fxaa || aa == AntiAliasing::Smaa;
@@ -74,8 +76,12 @@ impl Tonemap {
                 })?;
         }
         let pipeline = self.pipelines[usize::from(antialiased)];
-        let pass = f.pass("tonemap", PassKind::Graphics).read(scene.res.tables, BufferUse::Storage).reads(exposure);
-        let pass = if antialiased { pass.sample(&ANTIALIASED) } else { pass.sample(&HDR) };
+        let mut pass = f.pass("tonemap", PassKind::Graphics).read(scene.res.tables, BufferUse::Storage).reads(exposure);
+        if let Some((res, use_)) = check {
+            pass = pass.write(res, use_);
+        }
+        // The HDR target: tone mapped here, or (anti-aliased) checked here.
+        let pass = if antialiased { pass.sample(&ANTIALIASED).sample(&HDR) } else { pass.sample(&HDR) };
         pass.color(display, Load::Discard).record(|p| {
             let push = p.push;
             p.fullscreen(pipeline, &push);

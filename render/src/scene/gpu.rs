@@ -1198,9 +1198,10 @@ impl GpuScene {
         // The bloom pass's to set (`set_bloom`).
         (lighting.bloom, lighting.bloom_levels, lighting.bloom_intensity) =
             (self.lighting_cpu.bloom, self.lighting_cpu.bloom_levels, self.lighting_cpu.bloom_intensity);
-        // And auto-exposure's (`set_exposure`).
+        // And auto-exposure's (`set_exposure`), and the display check's (`set_display_check`).
         let exposure = exposure_fields(&self.lighting_cpu);
         set_exposure_fields(&mut lighting, exposure);
+        lighting.display_check = self.lighting_cpu.display_check;
         if lighting != self.lighting_cpu {
             self.lighting_cpu = lighting;
             self.lighting_dirty = true;
@@ -1224,6 +1225,15 @@ impl GpuScene {
         let fields = (address, [compensation, min_ev100, max_ev100, rate]);
         if exposure_fields(&self.lighting_cpu) != fields {
             set_exposure_fields(&mut self.lighting_cpu, fields);
+            self.lighting_dirty = true;
+        }
+    }
+
+    /// Sets the lighting record's address of the display check's counter
+    /// (`crate::present::check`; 0: no check), which every later lighting record keeps.
+    pub fn set_display_check(&mut self, address: u64) {
+        if self.lighting_cpu.display_check != address {
+            self.lighting_cpu.display_check = address;
             self.lighting_dirty = true;
         }
     }

@@ -1,6 +1,7 @@
 //! Bad input while a scene is running: a malformed glTF, one that references a missing file and
-//! one with an unsupported attribute layout each give an error that names the problem; nothing
-//! panics, and the running scene keeps rendering without validation errors.
+//! one with an unsupported attribute layout each give an error that names the problem; one whose
+//! skin and clip channel are broken loads all the rest; nothing panics, and the running scene
+//! keeps rendering without validation errors.
 
 use std::path::{Path, PathBuf};
 
@@ -82,6 +83,21 @@ fn bad_gltf_files_are_clear_errors_and_tear_nothing_down() {
     load_scene(&mut app.world, &SceneSource::Gltf(valid), None).expect("the valid triangle loads");
     app.update();
     assert_eq!(app.world.resource::<RenderMirror>().0.instances.len(), instances + 1);
+
+    // A file whose skin and one clip channel are broken (issue 55) loads into the same app: its
+    // two triangles draw (the skinned one in its rest pose), its clip plays, the picture is finite.
+    let (mut broken, accessors) = tests::gltf_files::parts_model();
+    broken.json["accessors"][accessors.inverse_binds]["count"] = 1.into();
+    broken.json["animations"][0]["samplers"][1]["interpolation"] = "CUBICSPLINE".into();
+    let broken_path = dir.join("broken_parts.glb");
+    std::fs::write(&broken_path, broken.glb()).unwrap();
+    load_scene(&mut app.world, &SceneSource::Gltf(broken_path), None).expect("a file with broken parts loads");
+    app.update();
+    app.update();
+    assert_eq!(app.world.resource::<RenderMirror>().0.instances.len(), instances + 3);
+    tests::renderer(&mut app).finish();
+    let hdr = tests::renderer(&mut app).read_hdr().expect("read back the HDR target");
+    assert!(hdr.iter().flatten().all(|c| c.is_finite()), "every pixel is finite");
     assert_no_validation_errors(&mut app);
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -4,6 +4,7 @@
 //! clamped) with exactly one warning naming it, however many frames it stays bad; and the valid
 //! scene around it renders exactly as it does without it.
 
+use engine::environment::{Environment, EnvironmentSource, HdrImage, Projection};
 use engine::image::{ColorSpace, Image};
 use engine::prelude::*;
 use plugins::decal::{Decal, DecalMaterial, DecalUv};
@@ -203,6 +204,43 @@ fn hostile_entities_and_assets_are_skipped_with_one_warning_each_and_the_rest_re
     }
     assert_no_validation_errors(&mut app);
     assert!(log.about(bad[0]).len() == 1, "still one warning after switching pipelines");
+}
+
+/// Issue 55: an environment far beyond what half floats hold (and NaN and infinite texels,
+/// which only a map built in code can have: the loaders clamp them), at an intensity of 1e30,
+/// and a light of 1e38 leave every pipeline's picture finite, the tone mapper never sees a
+/// value that is not finite (the debug builds' check), and the lit plane is not black.
+#[test]
+fn a_blinding_environment_and_light_leave_every_pipeline_finite() {
+    let mut app = lit_plane_app();
+    let texels: std::sync::Arc<[[f32; 3]]> = (0..32 * 16)
+        .map(|i| match i % 4 {
+            0 => [1e30; 3],
+            1 => [f32::INFINITY, 1.0, 1.0],
+            2 => [f32::NAN, 0.5, 0.5],
+            _ => [0.5; 3],
+        })
+        .collect();
+    let map = HdrImage { width: 32, height: 16, texels, projection: Projection::Equirectangular };
+    app.insert_resource(Environment { source: EnvironmentSource::Map(map), intensity: 1e30, rotation: 0.0 });
+    app.world.spawn((PointLight { intensity: 1e38, ..Default::default() }, Transform::from_xyz(-0.5, 1.5, 0.5)));
+    for pipeline in PipelineKind::ALL {
+        app.world.resource_mut::<RenderSettings>().pipeline = pipeline;
+        app.update();
+        app.update();
+        hdr(&mut app);
+        let display = renderer(&mut app).read_display().expect("read back the display");
+        let lit = display.chunks_exact(4).filter(|p| p[..3].iter().any(|&c| c > 0)).count();
+        assert!(lit > display.len() / 8, "{pipeline:?}: the picture is not black ({lit} pixels lit)");
+    }
+    // The last frames' counts come back two frames later.
+    for _ in 0..3 {
+        app.update();
+    }
+    let check = renderer(&mut app).display_check().expect("tests run debug builds, which check the tone mapper's input");
+    assert!(check.frames >= 8, "{check:?}");
+    assert_eq!(check.non_finite_pixels, 0, "no pass wrote a value that is not finite");
+    assert_no_validation_errors(&mut app);
 }
 
 #[test]

@@ -34,6 +34,7 @@ mod no_device;
 mod occlusion;
 mod pipelines;
 mod reflections;
+mod reliability;
 mod scenes;
 mod skinning;
 mod soak;
