@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Levels of detail on the crowd of animated foxes, for docs/BENCHMARKS.md:
-#   scripts/bench_lod.sh SANDBOX CHARACTER [COUNT] [LOD_PIXELS]   (COUNT: 10000, LOD_PIXELS: 1)
+#   scripts/bench_lod.sh SANDBOX CHARACTER [COUNT] [LOD_PIXELS] [SCENE]   (10000, 1, foxes)
+# SCENE: foxes (the crowd seen from above) or crowd (from eye height at the plaza's edge).
 # Each configuration runs in one process with --compare-lod: levels of detail off, on (LOD_PIXELS),
 # off again, 60 frames each at 1920×1080; medians of frames 15–49 of each run (`--stats`). The
 # configurations are those of scripts/bench_crowd_ab.sh: the visibility buffer with nothing
@@ -8,14 +9,14 @@
 # shadows, no decals). Then the peer scene's wall time a frame with levels of detail off and on
 # (a 160-frame run less a 60-frame run, over 100).
 set -euo pipefail
-bin=$1 character=$2 count=${3:-10000} pixels=${4:-1}
+bin=$1 character=$2 count=${3:-10000} pixels=${4:-1} bench=${5:-foxes}
 out=$(mktemp -d)
 configs=(
   "nothing_traced:--pipeline visbuffer --no-shadows --ao screen_space --reflections off"
   "every_default:--pipeline deferred"
   "peer:--pipeline forward --decal-method off --no-shadows"
 )
-scene=(--headless --size 1920x1080 --bench-scene foxes --character "$character" --character-clip Run --instances "$count")
+scene=(--headless --size 1920x1080 --bench-scene "$bench" --character "$character" --character-clip Run --instances "$count")
 for c in "${configs[@]}"; do
   name=${c%%:*} args=${c#*:}
   # shellcheck disable=SC2086
@@ -26,11 +27,11 @@ for lod in 0 "$pixels"; do
   t0=$(date +%s.%N); peer 60; t1=$(date +%s.%N); peer 160; t2=$(date +%s.%N)
   echo "$t0 $t1 $t2" >"$out/wall-$lod.txt"
 done
-python3 - "$out" "$count" "$pixels" <<'PY'
+python3 - "$out" "$count" "$pixels" "$bench" <<'PY'
 import json, statistics, sys
-out, count, pixels = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+out, count, pixels, bench = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4]
 fmt = lambda v: "—" if v is None else f"{v:.2f}"
-print(f"{count:,} foxes, 1920×1080, medians of frames 15–49 of each run")
+print(f"--bench-scene {bench}, {count:,} foxes, 1920×1080, medians of frames 15–49 of each run")
 print("| run | levels of detail | GPU frame | biggest passes (GPU ms) | triangles drawn | instances by level | CPU frame |")
 print("| --- | --- | --- | --- | --- | --- | --- |")
 for name in ["nothing_traced", "every_default", "peer"]:

@@ -1177,8 +1177,13 @@ layout! {
         /// Address of this frame's movers (`GpuMover` each: instances that moved or were posed
         /// since the previous frame), which the motion-vector pass draws (`crate::motion`).
         pub movers: u64,
+        /// How far a ray's origin is lifted off the surface, per metre of its distance to the
+        /// camera, beyond the 0.1 % every ray gets: the world size of `lod_pixels` pixels at
+        /// 1 m, the most a level of detail may stray from the full mesh the rays trace
+        /// (`crate::lod`; 0 with levels of detail off).
+        pub lod_lift: f32,
         /// Padding to 16 bytes.
-        pub movers_pad: [u32; 2],
+        pub movers_pad: u32,
     }
 
     /// Auto-exposure's state on the GPU (`crate::exposure`): this frame's luminance histogram

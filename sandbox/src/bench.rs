@@ -51,6 +51,9 @@ pub enum BenchScene {
     BehindWall,
     /// Issue 25: `--instances` animated foxes (the `--character`), each at its own time.
     Foxes,
+    /// The crowd issue's plaza: `--instances` animated foxes seen from eye height at the
+    /// plaza's edge (near ones large, far ones a few pixels), with the sun's shadows.
+    Crowd,
 }
 
 impl BenchScene {
@@ -66,8 +69,9 @@ impl BenchScene {
             "many-instances" => BenchScene::ManyInstances,
             "behind-wall" => BenchScene::BehindWall,
             "foxes" => BenchScene::Foxes,
+            "crowd" => BenchScene::Crowd,
             _ => bail!(
-                "unknown bench scene {name:?} (few-blended-decals, decals-and-lights, many-decals, ten-point-lights, many-lights, transparency, many-instances, behind-wall, foxes)"
+                "unknown bench scene {name:?} (few-blended-decals, decals-and-lights, many-decals, ten-point-lights, many-lights, transparency, many-instances, behind-wall, foxes, crowd)"
             ),
         })
     }
@@ -103,8 +107,8 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
         BenchScene::Transparency => return spawn_transparency_scene(world),
         BenchScene::ManyInstances => return spawn_city(world, MANY_INSTANCES),
         BenchScene::BehindWall => return spawn_behind_wall(world, MANY_INSTANCES),
-        BenchScene::Foxes => {
-            tracing::warn!("the foxes scene needs a character model: spawn it with spawn_foxes");
+        BenchScene::Foxes | BenchScene::Crowd => {
+            tracing::warn!("the foxes and crowd scenes need a character model: spawn them with spawn_foxes");
             return;
         }
         _ => {}
@@ -199,14 +203,16 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
             world.spawn_batch(batch);
         }
         BenchScene::Transparency => unreachable!("spawned above"),
-        BenchScene::ManyInstances | BenchScene::BehindWall | BenchScene::Foxes => unreachable!("spawned above"),
+        BenchScene::ManyInstances | BenchScene::BehindWall | BenchScene::Foxes | BenchScene::Crowd => unreachable!("spawned above"),
     }
 }
 
 /// The skinning benchmark (issue 25): `count` foxes from `character` on a ground, each playing
-/// `clip` (its walk, or PEERS.md's run) from its own time (so every pose differs and is skinned every frame), a sun, and a
-/// camera that sees the whole crowd.
-pub fn spawn_foxes(world: &mut World, character: &std::path::Path, clip: &str, count: usize) -> anyhow::Result<()> {
+/// `clip` (its walk, or PEERS.md's run) from its own time (so every pose differs and is skinned
+/// every frame), a sun, and a camera: above, seeing the whole crowd (`eye_level` false: the
+/// `foxes` scene), or at eye height at the plaza's edge looking across it (`crowd`: near foxes
+/// large, far ones a few pixels, what levels of detail are for).
+pub fn spawn_foxes(world: &mut World, character: &std::path::Path, clip: &str, count: usize, eye_level: bool) -> anyhow::Result<()> {
     use engine::camera::Camera;
     use engine::material::Material;
     use engine::mesh::{Mesh, shapes};
@@ -220,8 +226,13 @@ pub fn spawn_foxes(world: &mut World, character: &std::path::Path, clip: &str, c
         engine::light::DirectionalLight { illuminance: 4.0, ..Default::default() },
         Transform::default().looking_at(Vec3::new(0.3, -1.0, -0.4), Vec3::Z),
     ));
-    let distance = 3.0 + half * 1.6;
-    world.spawn((Camera::default(), Transform::from_xyz(0.0, distance * 0.6, distance).looking_at(Vec3::ZERO, Vec3::Y)));
+    let camera = if eye_level {
+        Transform::from_xyz(0.0, 1.7, half + 3.0).looking_at(Vec3::new(0.0, 0.4, 0.0), Vec3::Y)
+    } else {
+        let distance = 3.0 + half * 1.6;
+        Transform::from_xyz(0.0, distance * 0.6, distance).looking_at(Vec3::ZERO, Vec3::Y)
+    };
+    world.spawn((Camera::default(), camera));
     Ok(())
 }
 

@@ -403,9 +403,10 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
     match opts.bench_scene {
         Some(crate::bench::BenchScene::ManyInstances) => crate::bench::spawn_city(&mut app.world, opts.instances),
         Some(crate::bench::BenchScene::BehindWall) => crate::bench::spawn_behind_wall(&mut app.world, opts.instances),
-        Some(crate::bench::BenchScene::Foxes) => {
-            let path = opts.character.as_deref().context("the foxes scene needs a character (--character PATH)")?;
-            crate::bench::spawn_foxes(&mut app.world, path, &opts.character_clip, opts.instances)?;
+        Some(scene @ (crate::bench::BenchScene::Foxes | crate::bench::BenchScene::Crowd)) => {
+            let path = opts.character.as_deref().context("the foxes and crowd scenes need a character (--character PATH)")?;
+            let eye_level = scene == crate::bench::BenchScene::Crowd;
+            crate::bench::spawn_foxes(&mut app.world, path, &opts.character_clip, opts.instances, eye_level)?;
         }
         Some(scene) => crate::bench::spawn_bench_scene(&mut app.world, scene),
         None => load_scene(&mut app.world, &opts.scene, opts.character.as_deref())?,

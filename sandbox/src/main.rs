@@ -81,7 +81,7 @@ struct Cli {
     #[arg(long, default_value_t = 0)]
     churn_decals: usize,
     /// A benchmark scene instead of --scene: few-blended-decals, decals-and-lights, many-decals,
-    /// ten-point-lights, many-lights, transparency, many-instances, behind-wall, foxes.
+    /// ten-point-lights, many-lights, transparency, many-instances, behind-wall, foxes, crowd (foxes seen from eye height).
     #[arg(long)]
     bench_scene: Option<String>,
     /// Run --frames frames with each pipeline and decal method in turn (with --stats, also a CSV

@@ -60,4 +60,14 @@ vec3 shadow_origin(vec3 p, vec3 n) {
     return p + n * (1e-3 * length(scene.camera.camera.position - p));
 }
 
+// The origin of a ray that leaves a rasterised surface for the scene's acceleration structure:
+// lifted as `shadow_origin` does, and by the world size of the level-of-detail limit there
+// (lod_lift, per metre of distance), so that a coarser level, which lies up to that far inside
+// the full mesh the rays trace, cannot shadow or reflect itself (render/src/lod). Rays from a
+// point the rays themselves found (a reflection's hit) lie on the full mesh and need no more
+// than `shadow_origin`.
+vec3 raster_origin(vec3 p, vec3 n) {
+    return p + n * ((1e-3 + scene.lighting.lighting.lod_lift) * length(scene.camera.camera.position - p));
+}
+
 #endif

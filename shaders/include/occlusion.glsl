@@ -102,7 +102,7 @@ float occlusion_at(ivec2 px, float depth, vec3 p, vec3 n) {
     uint rays = max(l.occlusion_rays, 1u);
     uint first = occlusion_pattern(px) * rays;
     mat3 frame = tangent_frame(n);
-    vec3 origin = shadow_origin(p, n);
+    vec3 origin = raster_origin(p, n);
     float open = 0.0;
     for (uint k = 0u; k < rays; ++k) {
         // Cosine-weighted: a uniform point of the disc lifted onto the hemisphere.

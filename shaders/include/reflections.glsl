@@ -512,7 +512,12 @@ void reflection_cell(ivec2 cell) {
 #if defined(REFLECTION_RAYGEN) && defined(DECAL_BUFFER)
         decals_dense = imageLoad(decal_tested, px).r > DECAL_COLLECT_MAX;
 #endif
-        r = trace_reflection(shadow_origin(s.position, facing), dir, distance * pixel_angle, spread);
+#ifdef REFLECTION_SCREEN_SPACE
+        vec3 origin = shadow_origin(s.position, facing); // marched on screen: no mesh to stray from
+#else
+        vec3 origin = raster_origin(s.position, facing);
+#endif
+        r = trace_reflection(origin, dir, distance * pixel_angle, spread);
         // Shading lit the surface with the environment's prefiltered radiance (or the ambient
         // colour) in the mirror direction; the ray stores what it brings beyond that.
         baseline = ambient_specular(reflect(-v, n), s.roughness);

@@ -17,7 +17,8 @@
 // Rays follow the seed: tmin 0.001, tmax the distance to the light (1000 for directional
 // lights), first hit ends the ray. The origin is lifted off the surface along the
 // reconstructed normal by 0.1 % of its distance to the camera, so that depth quantisation
-// cannot put it under its own surface.
+// cannot put it under its own surface, and by the level-of-detail limit there
+// (`raster_origin`, lighting.glsl).
 #ifndef SHADOW_PASS_GLSL
 #define SHADOW_PASS_GLSL
 
@@ -52,7 +53,7 @@ void shadow_pixel(ivec2 px) {
     uint rays = 0u;
     if (list.rows != NO_SHADOW_ROWS) {
         bool cull = (l.flags & SHADOW_RAY_CULLING) != 0u;
-        vec3 origin = shadow_origin(p, n);
+        vec3 origin = raster_origin(p, n);
         ShadowWordsRef words = ShadowWordsRef(l.shadow_bits);
         uint tints[SHADOW_TINT_SLOTS];
         for (uint s = 0u; s < SHADOW_TINT_SLOTS; ++s) tints[s] = 0u;

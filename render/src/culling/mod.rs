@@ -822,21 +822,6 @@ impl Draws<'_> {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_pyramid_halves_down_to_one_texel() {
-        let e = |width, height| vk::Extent2D { width, height };
-        assert_eq!(hiz_levels(e(1, 1)), 1);
-        assert_eq!(hiz_levels(e(2, 2)), 1, "level 0 is 1×1");
-        assert_eq!(hiz_levels(e(5, 3)), 3, "3×2, 2×1, 1×1");
-        assert_eq!(hiz_words(e(5, 3), 3), 6 + 2 + 1);
-        assert_eq!(hiz_levels(e(1920, 1080)), 11);
-    }
-}
-
 /// Keeps a per-slot buffer of at least `bytes` while `wanted` (grown to the next power of two,
 /// shrunk when it has stayed four times too large; released once unwanted for as long).
 /// Returns whether a new buffer was made: its contents are undefined until cleared.
@@ -870,4 +855,19 @@ fn per_slot_buffer(
     }
     shrink.reset();
     Ok(true)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_pyramid_halves_down_to_one_texel() {
+        let e = |width, height| vk::Extent2D { width, height };
+        assert_eq!(hiz_levels(e(1, 1)), 1);
+        assert_eq!(hiz_levels(e(2, 2)), 1, "level 0 is 1×1");
+        assert_eq!(hiz_levels(e(5, 3)), 3, "3×2, 2×1, 1×1");
+        assert_eq!(hiz_words(e(5, 3), 3), 6 + 2 + 1);
+        assert_eq!(hiz_levels(e(1920, 1080)), 11);
+    }
 }

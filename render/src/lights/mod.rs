@@ -286,7 +286,13 @@ impl Lighting {
             exposure_rate: 0.0,
             display_check: 0, // the renderer's to set (`GpuScene::set_display_check`)
             movers: 0,        // the upload's to set
-            movers_pad: [0; 2],
+            // Only while some instance can be drawn at a coarser level.
+            lod_lift: if mirror.lod_instances > 0 {
+                crate::lod::lift(s.lod_pixels, mirror.camera().proj, f.graph.extent().height)
+            } else {
+                0.0
+            },
+            movers_pad: 0,
         });
         let res = self.tiles.resources();
         let inline_shadows = match self.accel.as_ref() {

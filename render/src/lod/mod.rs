@@ -38,7 +38,15 @@
 //!   `firstInstance` above the instance slot ([`LOD_LEVEL_SHIFT`]), so the vertex shader learns
 //!   it without another buffer and hands the fragment stages the level's first triangle (the
 //!   G-buffer and the visibility buffer store triangle numbers). Ray tracing keeps level 0: the
-//!   scene's BLASes are built from the full mesh.
+//!   scene's BLASes are built from the full mesh. A coarser level lies up to its limit off that
+//!   mesh (inside it, for a convex shape), so every ray that leaves a rasterised surface for the
+//!   scene's acceleration structure (shadows, ambient occlusion, reflections: `raster_origin` in
+//!   `shaders/include/lighting.glsl`) is lifted by the world size of the limit at the surface's
+//!   distance ([`lift`], while some live instance's mesh has levels:
+//!   [`crate::scene::SceneMirror::lod_instances`]) on top of the 0.1 % of the distance every ray gets: a level never
+//!   shadows or reflects itself, at the cost of contact shadows starting that much later (at
+//!   1920×1080 and 60°, 1 px is about 0.1 % of the distance). Not yet lifted: the shadow rays
+//!   of `--lights ray_query` (which shade reflections' hits and primary surfaces alike).
 
 use glam::Vec3;
 
@@ -59,6 +67,16 @@ pub const MIN_TRIANGLES: usize = 64;
 /// The largest error a level may add to the one before it, relative to the mesh's extent (the
 /// simplifier's own scale): simplification stops where halving would cost more.
 pub const MAX_LEVEL_ERROR: f32 = 0.05;
+
+/// The world size of `pixels` pixels at 1 m from a camera projecting with `proj` onto a target
+/// `height` pixels high: how far ray origins are lifted off a surface (per metre of distance,
+/// `GpuLighting::lod_lift`) so that a coarser level, which lies up to its limit off the full mesh
+/// the rays trace (inside it, for a convex shape), does not shadow or reflect itself. 0 with
+/// levels of detail off.
+pub fn lift(pixels: f32, proj: glam::Mat4, height: u32) -> f32 {
+    let scale = proj.y_axis.y.abs() * height.max(1) as f32;
+    if pixels > 0.0 && pixels.is_finite() && scale > 0.0 { 2.0 * pixels / scale } else { 0.0 }
+}
 
 /// A mesh's coarser levels of detail (level 0 is the mesh's own triangle list).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -112,7 +130,7 @@ impl MeshLods {
         }
         // The simplifier works on the welded corners alone (a corner at the same position but
         // left out would read to it as a seam it must keep); its indices are mapped back.
-        let (originals, mut previous) = welded(vertices, indices, skin);
+        let Welded { originals, corner_of, indices: mut previous } = welded(vertices, indices, skin);
         let compact: Vec<GpuVertex> = originals.iter().map(|&i| vertices[i as usize]).collect();
         let compact_skin: Vec<GpuSkinVertex> = originals.iter().filter_map(|&i| skin.get(i as usize).copied()).collect();
         let bytes: &[u8] = bytemuck::cast_slice(&compact);
@@ -132,6 +150,16 @@ impl MeshLods {
         // put it weigh in the collapses beside the position, so shading, textures and the
         // bends of a skin hold up as well as the silhouette.
         let attributes = attributes(&compact, &compact_skin);
+        // A faceted mesh's welded corners disagree about their normal: the one a corner kept is
+        // arbitrary, so normals do not weigh in (the silhouette and the rest still do).
+        let faceted = (0..vertices.len()).zip(&corner_of).any(|(i, &c)| {
+            let (a, b) = (Vec3::from(vertices[i].normal), Vec3::from(compact[c as usize].normal));
+            a.distance_squared(b) > 1e-4
+        });
+        let mut weights = ATTRIBUTE_WEIGHTS;
+        if faceted {
+            weights[..3].fill(0.0);
+        }
         let locks = vec![false; compact.len()];
         let mut error = 0.0f32;
         for level in 0..LOD_LEVELS as usize {
@@ -141,7 +169,7 @@ impl MeshLods {
                 &previous,
                 &adapter,
                 &attributes,
-                &ATTRIBUTE_WEIGHTS,
+                &weights,
                 ATTRIBUTES * std::mem::size_of::<f32>(),
                 &locks,
                 target,
@@ -168,9 +196,10 @@ impl MeshLods {
 const ATTRIBUTES: usize = 9;
 
 /// How much each attribute weighs against the position (whose error is relative to the mesh's
-/// extent): normals and texture coordinates a little, the skin's signature as much as a
-/// tenth of the mesh's size, so that a collapse across a joint's blend costs what moving the
-/// surface would.
+/// extent): the normal as much as the position (a mirror shows a bent normal before a moved
+/// silhouette; not at all for a faceted mesh, whose corners disagree), the texture coordinate a
+/// little, the skin's signature half as much, so that a collapse across a joint's blend costs
+/// about what moving the surface would.
 const ATTRIBUTE_WEIGHTS: [f32; ATTRIBUTES] = [1.0, 1.0, 1.0, 0.1, 0.1, 0.5, 0.5, 0.5, 0.5];
 
 /// Per vertex: its normal, its texture coordinate and its skin's signature, a point in 4D that
@@ -210,15 +239,24 @@ fn joint_direction(joint: u16) -> [f32; 4] {
     d.map(|x| x / length)
 }
 
-/// The mesh with its corners welded: the first vertex at each position (with the same joints and
-/// weights), in order, and `indices` over that list. A mesh exported with a vertex per corner
-/// (flat shading, as the shared Fox is) shares no edge the simplifier could collapse until its
-/// corners are welded. A welded corner takes the first corner's normal and texture coordinate,
-/// which at the distance a coarser level is drawn is a pixel's worth of shading.
-fn welded(vertices: &[GpuVertex], indices: &[u32], skin: &[GpuSkinVertex]) -> (Vec<u32>, Vec<u32>) {
+/// A mesh with its corners welded ([`welded`]).
+struct Welded {
+    /// The first vertex at each position (with the same joints and weights), in order.
+    originals: Vec<u32>,
+    /// By vertex: its place in `originals`.
+    corner_of: Vec<u32>,
+    /// The indices over `originals`.
+    indices: Vec<u32>,
+}
+
+/// The mesh with its corners welded. A mesh exported with a vertex per corner (flat shading, as
+/// the shared Fox is) shares no edge the simplifier could collapse until its corners are welded.
+/// A welded corner takes the first corner's normal and texture coordinate, which at the
+/// distance a coarser level is drawn is a pixel's worth of shading.
+fn welded(vertices: &[GpuVertex], indices: &[u32], skin: &[GpuSkinVertex]) -> Welded {
     let mut first = std::collections::HashMap::with_capacity(vertices.len());
     let mut originals = Vec::new();
-    let local: Vec<u32> = (0..vertices.len())
+    let corner_of: Vec<u32> = (0..vertices.len())
         .map(|i| {
             let p = vertices[i].position.map(f32::to_bits);
             let s = skin.get(i).map(|s| [s.joints01, s.joints23, s.weights01, s.weights23]);
@@ -228,7 +266,8 @@ fn welded(vertices: &[GpuVertex], indices: &[u32], skin: &[GpuSkinVertex]) -> (V
             })
         })
         .collect();
-    (originals, indices.iter().map(|&i| local[i as usize]).collect())
+    let indices = indices.iter().map(|&i| corner_of[i as usize]).collect();
+    Welded { originals, corner_of, indices }
 }
 
 /// Whether every index names a vertex and every position is finite.
@@ -287,6 +326,23 @@ mod tests {
         assert_eq!(lods.indices.len(), lods.counts.iter().sum::<u32>() as usize);
         assert!(lods.fits(vertices.len()));
         assert!(!lods.fits(vertices.len() / 2), "indices past the vertices do not fit");
+    }
+
+    #[test]
+    fn a_faceted_mesh_with_a_vertex_per_corner_is_welded_and_simplified() {
+        let (smooth, indices) = sphere(32, 64);
+        // Every corner its own vertex with its face's normal, as the shared Fox is exported.
+        let mut vertices = Vec::new();
+        for t in indices.chunks(3) {
+            let p: Vec<Vec3> = t.iter().map(|&i| Vec3::from(smooth[i as usize].position)).collect();
+            let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+            vertices.extend(t.iter().map(|&i| GpuVertex { normal: n.into(), ..smooth[i as usize] }));
+        }
+        let corners: Vec<u32> = (0..vertices.len() as u32).collect();
+        let lods = MeshLods::generate(&vertices, &corners, &[]);
+        assert!(lods.levels() >= 3, "welded, the faceted sphere simplifies as the smooth one: {:?}", lods.counts);
+        assert!(lods.fits(vertices.len()));
+        assert!(lods.errors[0] < 0.05, "its first level's error {} is small", lods.errors[0]);
     }
 
     #[test]

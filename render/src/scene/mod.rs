@@ -756,6 +756,11 @@ pub struct SceneMirror {
     /// Live instances in each opaque draw batch ([`DrawItem::batch`]), kept as draws change: the
     /// culling lists are laid out from them without visiting the instances.
     pub batch_counts: [u32; CULL_BATCHES as usize],
+    /// Live instances whose mesh has coarser levels of detail ([`crate::lod`]), kept as draws
+    /// change: while there are none, rays leave surfaces unlifted by the level-of-detail limit.
+    pub lod_instances: u32,
+    /// By mesh id: whether the mesh has coarser levels of detail (a posed mesh: its source).
+    mesh_has_levels: Vec<bool>,
     /// What to draw for each instance slot (`None` for free slots).
     pub draws: Vec<Option<DrawItem>>,
     /// Materials.
@@ -962,6 +967,9 @@ impl SceneMirror {
     }
 
     fn count_batch(&mut self, draw: Option<DrawItem>, delta: i32) {
+        if draw.is_some_and(|d| self.mesh_has_levels.get(d.mesh.0 as usize).copied().unwrap_or(false)) {
+            self.lod_instances = self.lod_instances.saturating_add_signed(delta);
+        }
         if let Some(batch) = draw.and_then(|d| d.batch()) {
             self.batch_counts[batch] = self.batch_counts[batch].wrapping_add_signed(delta);
         }
@@ -1154,7 +1162,15 @@ impl SceneMirror {
             self.mesh_bounds.resize(id.0 as usize + 1, (Vec3::ZERO, Vec3::ZERO));
         }
         self.mesh_bounds[id.0 as usize] = bounds;
+        self.set_has_levels(id, false);
         id
+    }
+
+    fn set_has_levels(&mut self, id: MeshId, levels: bool) {
+        if self.mesh_has_levels.len() <= id.0 as usize {
+            self.mesh_has_levels.resize(id.0 as usize + 1, false);
+        }
+        self.mesh_has_levels[id.0 as usize] = levels;
     }
 
     /// Queues geometry for upload and returns its id. A mesh with joints and weights
@@ -1185,6 +1201,7 @@ impl SceneMirror {
             }
             Some(_) => {}
         }
+        self.set_has_levels(id, data.lods.as_ref().is_some_and(|l| l.levels() > 0));
         let posable = !data.skin.is_empty() || data.morph_targets > 0;
         let source = posable.then(|| {
             let vertices = data.vertices.iter().zip(&data.skin).map(|(v, s)| (Vec3::from(v.position), s.joints(), s.weights()));
@@ -1213,6 +1230,8 @@ impl SceneMirror {
         }
         let bounds = self.mesh_bounds.get(source.0 as usize).copied().unwrap_or((Vec3::ZERO, Vec3::ZERO));
         let id = self.new_mesh_id(bounds);
+        let levels = self.mesh_has_levels.get(source.0 as usize).copied().unwrap_or(false);
+        self.set_has_levels(id, levels);
         self.poses.add(id, source);
         self.pending_posed.push((id, source));
         // Its first skinning is its bind pose: the joint matrices that leave every vertex where

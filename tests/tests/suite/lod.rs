@@ -66,7 +66,7 @@ fn coarser_levels_keep_the_silhouette_within_their_limit_and_follow_the_skeleton
     let mut app = gpu_app(SIZE.0, SIZE.1, RenderSettings { pipeline: PipelineKind::Forward, ..Default::default() });
     let red = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec4::new(0.8, 0.2, 0.1, 1.0), 0.0, 0.5));
     let sphere = app.world.resource_mut::<Assets<Mesh>>().add(sphere());
-    app.world.spawn((MeshInstance { mesh: sphere, material: red.clone() }, Transform::from_xyz(-1.2, 0.6, -6.0)));
+    app.world.spawn((MeshInstance { mesh: sphere, material: red }, Transform::from_xyz(-1.2, 0.6, -6.0)));
     // The tube without its morph target (a mesh with morph targets has no levels), bent by 90°.
     let mut tube = crate::skinning::bendy_cylinder();
     tube.morph_targets.clear();

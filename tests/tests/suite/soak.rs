@@ -11,14 +11,14 @@ fn random_gameplay_stays_valid_finite_and_gives_its_memory_back() {
         return;
     }
     let report =
-        run(&SoakConfig { frames: 1200, cycles: 4, heap_bytes: Some(|| crate::ALLOCATOR.allocated() as u64), ..Default::default() })
+        run(&SoakConfig { frames: 800, cycles: 4, heap_bytes: Some(|| crate::ALLOCATOR.allocated() as u64), ..Default::default() })
             .expect("the soak runs");
     println!("{}", serde_json::to_string_pretty(&report).unwrap());
     assert!(report.cycles.iter().all(|c| c.heap_after > 0), "the heap was counted");
     let failures = report.failures();
     assert!(failures.is_empty(), "the soak failed:\n{}", failures.join("\n"));
     let g = report.gameplay;
-    assert!(g.decals_spawned > 1000 && g.lights_spawned > 100 && g.instances_spawned > 100 && g.assets_removed > 20, "{g:?}");
+    assert!(g.decals_spawned > 1000 && g.lights_spawned > 100 && g.instances_spawned > 100 && g.assets_removed > 8, "{g:?}");
     let s = report.switches;
     assert!(s.pipeline > 10 && s.decal_method > 10 && s.light_method > 10 && s.debug_view > 10 && s.resize > 5 && s.tier >= 3, "{s:?}");
     assert!(s.aa > 5, "anti-aliasing switched: {s:?}");
