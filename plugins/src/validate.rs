@@ -323,10 +323,9 @@ pub fn mesh_data(mesh: &Mesh) -> Result<(MeshData, Option<String>), String> {
         })
         .collect();
     let morph_targets = targets.len() as u32;
-    Ok((
-        MeshData { vertices, indices, skin, morphs, morph_targets, lods: None },
-        (!repaired.is_empty()).then(|| format!("had {}", repaired.join(", "))),
-    ))
+    let mut data = MeshData { vertices, indices, skin, morphs, morph_targets, lods: None };
+    data.lods = Some(render::lod::MeshLods::for_mesh(&data));
+    Ok((data, (!repaired.is_empty()).then(|| format!("had {}", repaired.join(", ")))))
 }
 
 #[cfg(test)]

@@ -286,12 +286,7 @@ impl Lighting {
             exposure_rate: 0.0,
             display_check: 0, // the renderer's to set (`GpuScene::set_display_check`)
             movers: 0,        // the upload's to set
-            // Only while some instance can be drawn at a coarser level.
-            lod_lift: if mirror.lod_instances > 0 {
-                crate::lod::lift(s.lod_pixels, mirror.camera().proj, f.graph.extent().height)
-            } else {
-                0.0
-            },
+            lod_lift: 0.0,    // the frame's to set (`GpuScene::set_lod_lift`)
             movers_pad: 0,
         });
         let res = self.tiles.resources();

@@ -1,6 +1,7 @@
 //! Levels of detail: every mesh gets coarser copies of its triangle list when it is first
-//! uploaded, and the culling pass picks one per instance each frame by the error it would show
-//! on screen. No seed covers this (`../shared/seeds/001` draws every triangle at every
+//! uploaded ([`MeshLods::for_mesh`]; the ECS plugin makes them for every mesh it uploads, a
+//! game that fills the scene mirror itself passes them in `MeshData::lods`), and the culling
+//! pass picks one per instance each frame by the error it would show on screen. No seed covers this (`../shared/seeds/001` draws every triangle at every
 //! distance); the simplifier is meshoptimizer's (the `meshopt` crate: edge collapses ordered by
 //! quadric error, Garland and Heckbert 1997, that keep attribute seams and report the
 //! geometric error of what they made), and the choice by projected error with a hysteresis band
@@ -51,6 +52,8 @@
 use glam::Vec3;
 
 use crate::layout::{GpuSkinVertex, GpuVertex, LOD_LEVELS};
+use crate::scene::MeshData;
+pub use crate::scene::MeshLods;
 
 pub use crate::layout::{LOD_LEVEL_SHIFT, LOD_SLOT_MASK};
 
@@ -78,44 +81,12 @@ pub fn lift(pixels: f32, proj: glam::Mat4, height: u32) -> f32 {
     if pixels > 0.0 && pixels.is_finite() && scale > 0.0 { 2.0 * pixels / scale } else { 0.0 }
 }
 
-/// A mesh's coarser levels of detail (level 0 is the mesh's own triangle list).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct MeshLods {
-    /// The coarser levels' indices back to back, level 1 first.
-    pub indices: Vec<u32>,
-    /// Indices of each coarser level (0 past the last level).
-    pub counts: [u32; LOD_LEVELS as usize],
-    /// Each coarser level's geometric error as a fraction of the diagonal of the mesh's bounds
-    /// (growing with the level).
-    pub errors: [f32; LOD_LEVELS as usize],
-}
-
 impl MeshLods {
-    /// Number of coarser levels.
-    pub fn levels(&self) -> usize {
-        self.counts.iter().take_while(|&&c| c > 0).count()
-    }
-
-    /// The indices of coarser level `level` (1 for the first).
-    pub fn level(&self, level: usize) -> &[u32] {
-        if level == 0 || level > self.levels() {
-            return &[];
-        }
-        let start: usize = self.counts[..level - 1].iter().map(|&c| c as usize).sum();
-        &self.indices[start..start + self.counts[level - 1] as usize]
-    }
-
-    /// Whether these levels can be drawn over `vertex_count` vertices: whole triangles, every
-    /// index in range, the counts adding up to the indices, errors finite, not negative and not
-    /// shrinking with the level.
-    pub fn fits(&self, vertex_count: usize) -> bool {
-        let levels = self.levels();
-        self.counts[levels..].iter().all(|&c| c == 0)
-            && self.counts.iter().all(|c| c % 3 == 0)
-            && self.counts.iter().map(|&c| c as usize).sum::<usize>() == self.indices.len()
-            && self.indices.iter().all(|&i| (i as usize) < vertex_count)
-            && self.errors[..levels].iter().all(|e| e.is_finite() && *e >= 0.0)
-            && self.errors[..levels].windows(2).all(|w| w[0] <= w[1])
+    /// The levels of a mesh about to be uploaded: [`MeshLods::generate`] over its vertices,
+    /// indices and skin, none for a mesh with morph targets (they move vertices the simplifier
+    /// never saw move, so no error it reports would hold).
+    pub fn for_mesh(data: &MeshData) -> Self {
+        if data.morph_targets > 0 { Self::default() } else { Self::generate(&data.vertices, &data.indices, &data.skin) }
     }
 
     /// Builds the coarser levels of the triangle list `indices` over `vertices` (with their

@@ -89,6 +89,10 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     let reflections = r.reflections.prepare(f, s, mirror)?;
     let environment = r.environment.prepare(f, r.scene, mirror)?;
     let lights = r.lighting.prepare(f, r.scene, mirror, s, &reflections, &environment)?;
+    // Rays leave rasterised surfaces lifted by the level-of-detail limit while some instance
+    // can be drawn at a coarser level (crate::lod).
+    let lift = if mirror.lod_instances > 0 { crate::lod::lift(s.lod_pixels, mirror.camera().proj, f.graph.extent().height) } else { 0.0 };
+    r.scene.set_lod_lift(lift);
     mirror.counters.culling = r.culling.prepare(f, r.scene, mirror, s, lights.shadow_map_views())?;
     r.bloom.prepare(f, r.scene, s.bloom)?;
     r.exposure.prepare(f, r.scene, &s.exposure, s.delta_seconds)?;

@@ -1198,10 +1198,12 @@ impl GpuScene {
         // The bloom pass's to set (`set_bloom`).
         (lighting.bloom, lighting.bloom_levels, lighting.bloom_intensity) =
             (self.lighting_cpu.bloom, self.lighting_cpu.bloom_levels, self.lighting_cpu.bloom_intensity);
-        // And auto-exposure's (`set_exposure`), and the display check's (`set_display_check`).
+        // And auto-exposure's (`set_exposure`), the display check's (`set_display_check`) and the
+        // level-of-detail lift (`set_lod_lift`).
         let exposure = exposure_fields(&self.lighting_cpu);
         set_exposure_fields(&mut lighting, exposure);
         lighting.display_check = self.lighting_cpu.display_check;
+        lighting.lod_lift = self.lighting_cpu.lod_lift;
         if lighting != self.lighting_cpu {
             self.lighting_cpu = lighting;
             self.lighting_dirty = true;
@@ -1234,6 +1236,15 @@ impl GpuScene {
     pub fn set_display_check(&mut self, address: u64) {
         if self.lighting_cpu.display_check != address {
             self.lighting_cpu.display_check = address;
+            self.lighting_dirty = true;
+        }
+    }
+
+    /// Sets how far rays are lifted off rasterised surfaces for levels of detail
+    /// (`GpuLighting::lod_lift`, `crate::lod::lift`), which every later lighting record keeps.
+    pub fn set_lod_lift(&mut self, lift: f32) {
+        if self.lighting_cpu.lod_lift != lift {
+            self.lighting_cpu.lod_lift = lift;
             self.lighting_dirty = true;
         }
     }

@@ -15,14 +15,12 @@ use std::collections::{BTreeSet, BinaryHeap};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec2, Vec3};
 
-use crate::lod::MeshLods;
-
 pub use crate::layout::{
     CULL_BATCHES, CULL_DOUBLE_SIDED, CULL_LIVE, CULL_MASKED, CULL_TRANSPARENT, DECAL_ALBEDO, DECAL_CHANNEL_SHIFT, DECAL_CHANNELS,
     DECAL_DEFAULT_LAYERS, DECAL_EMISSIVE, DECAL_METALLIC, DECAL_NORMAL, DECAL_ON_SKIN, DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuCullRecord,
     GpuDecal, GpuDecalMaterial, GpuDrawCommand, GpuInstance, GpuJointMatrix, GpuLight, GpuMaterial, GpuMeshInfo, GpuMorphDelta, GpuMover,
-    GpuSkinVertex, GpuVertex, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, NO_DECAL, RESERVED_TEXTURES, TEXTURE_FLAT_NORMAL,
-    TEXTURE_WHITE,
+    GpuSkinVertex, GpuVertex, LOD_LEVELS, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, NO_DECAL, RESERVED_TEXTURES,
+    TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
 };
 
 impl GpuInstance {
@@ -375,10 +373,52 @@ pub struct MeshData {
     pub morphs: Vec<GpuMorphDelta>,
     /// Number of morph targets in `morphs`.
     pub morph_targets: u32,
-    /// Coarser levels of detail over the same vertices ([`crate::lod`]): `None` to have
-    /// [`SceneMirror::add_mesh`] make them, `Some` to give them (an empty [`MeshLods`] for
-    /// none).
+    /// Coarser levels of detail over the same vertices: `None` draws the mesh in full; make them
+    /// with [`crate::lod`]'s `MeshLods::for_mesh` (the ECS plugin does for every mesh it
+    /// uploads). Levels that do not fit the mesh are dropped with a warning.
     pub lods: Option<MeshLods>,
+}
+
+/// A mesh's coarser levels of detail (level 0 is the mesh's own triangle list), made by
+/// [`crate::lod`] (`MeshLods::generate`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshLods {
+    /// The coarser levels' indices back to back, level 1 first.
+    pub indices: Vec<u32>,
+    /// Indices of each coarser level (0 past the last level).
+    pub counts: [u32; LOD_LEVELS as usize],
+    /// Each coarser level's geometric error as a fraction of the diagonal of the mesh's bounds
+    /// (growing with the level).
+    pub errors: [f32; LOD_LEVELS as usize],
+}
+
+impl MeshLods {
+    /// Number of coarser levels.
+    pub fn levels(&self) -> usize {
+        self.counts.iter().take_while(|&&c| c > 0).count()
+    }
+
+    /// The indices of coarser level `level` (1 for the first).
+    pub fn level(&self, level: usize) -> &[u32] {
+        if level == 0 || level > self.levels() {
+            return &[];
+        }
+        let start: usize = self.counts[..level - 1].iter().map(|&c| c as usize).sum();
+        &self.indices[start..start + self.counts[level - 1] as usize]
+    }
+
+    /// Whether these levels can be drawn over `vertex_count` vertices: whole triangles, every
+    /// index in range, the counts adding up to the indices, errors finite, not negative and not
+    /// shrinking with the level.
+    pub fn fits(&self, vertex_count: usize) -> bool {
+        let levels = self.levels();
+        self.counts[levels..].iter().all(|&c| c == 0)
+            && self.counts.iter().all(|c| c % 3 == 0)
+            && self.counts.iter().map(|&c| c as usize).sum::<usize>() == self.indices.len()
+            && self.indices.iter().all(|&i| (i as usize) < vertex_count)
+            && self.errors[..levels].iter().all(|e| e.is_finite() && *e >= 0.0)
+            && self.errors[..levels].windows(2).all(|w| w[0] <= w[1])
+    }
 }
 
 /// Pixels to upload: RGBA8, a full or partial mip chain, level 0 first.
@@ -1189,17 +1229,11 @@ impl SceneMirror {
             data.morphs.clear();
             data.morph_targets = 0;
         }
-        match &data.lods {
-            // Morph targets move vertices the simplifier never saw move: no levels.
-            None if data.morph_targets > 0 => data.lods = Some(MeshLods::default()),
-            None => data.lods = Some(MeshLods::generate(&data.vertices, &data.indices, &data.skin)),
-            Some(lods) if !lods.fits(data.vertices.len()) => {
-                tracing::warn!(
-                    "mesh {id:?}: its levels of detail do not fit its vertices (an index out of range, or counts that are not whole triangles or do not add up); drawn at full detail only"
-                );
-                data.lods = Some(MeshLods::default());
-            }
-            Some(_) => {}
+        if data.lods.as_ref().is_some_and(|lods| !lods.fits(data.vertices.len())) {
+            tracing::warn!(
+                "mesh {id:?}: its levels of detail do not fit its vertices (an index out of range, or counts that are not whole triangles or do not add up); drawn at full detail only"
+            );
+            data.lods = None;
         }
         self.set_has_levels(id, data.lods.as_ref().is_some_and(|l| l.levels() > 0));
         let posable = !data.skin.is_empty() || data.morph_targets > 0;

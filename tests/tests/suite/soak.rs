@@ -20,7 +20,7 @@ fn random_gameplay_stays_valid_finite_and_gives_its_memory_back() {
     let g = report.gameplay;
     assert!(g.decals_spawned > 1000 && g.lights_spawned > 100 && g.instances_spawned > 100 && g.assets_removed > 8, "{g:?}");
     let s = report.switches;
-    assert!(s.pipeline > 10 && s.decal_method > 10 && s.light_method > 10 && s.debug_view > 10 && s.resize > 5 && s.tier >= 3, "{s:?}");
+    assert!(s.pipeline > 10 && s.decal_method > 10 && s.light_method > 10 && s.debug_view > 6 && s.resize > 5 && s.tier >= 3, "{s:?}");
     assert!(s.aa > 5, "anti-aliasing switched: {s:?}");
     assert!(s.environment > 5 && s.display > 5, "environments and display transforms switched: {s:?}");
     let tiers: std::collections::HashSet<_> = report.cycles.iter().map(|c| c.tier).collect();
