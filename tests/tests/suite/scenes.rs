@@ -79,9 +79,14 @@ fn a_setting_forces_a_lower_capability_tier() {
 fn statistics_report_the_decal_method_actually_applied_on_every_tier() {
     use render::{DecalMethod, PipelineKind, Tier};
     // Ray-query decals run in the shading of every pipeline alike: one pipeline stands for the
-    // ray-query tier; the fallback tiers are checked in each pipeline.
-    for tier in [Tier::RayQuery, Tier::RayTracingPipeline, Tier::NoRayTracing] {
-        let pipelines: &[PipelineKind] = if tier == Tier::RayQuery { &[PipelineKind::Deferred] } else { &PipelineKind::ALL };
+    // ray-query tier; the two fallback tiers share the pipelines between them, so that each
+    // pipeline falls back once.
+    let runs: [(Tier, &[PipelineKind]); 3] = [
+        (Tier::RayQuery, &[PipelineKind::Deferred]),
+        (Tier::RayTracingPipeline, &[PipelineKind::Forward, PipelineKind::Deferred]),
+        (Tier::NoRayTracing, &[PipelineKind::ForwardPlus, PipelineKind::VisBuffer]),
+    ];
+    for (tier, pipelines) in runs {
         for &pipeline in pipelines {
             let opts = HeadlessOptions {
                 frames: 1,
