@@ -17,7 +17,7 @@ cargo build --locked --workspace --examples --profile test
 bin="${CARGO_TARGET_DIR:-target}/debug/examples"
 for example in minimal decals lights; do
   echo "examples.sh: $example"
-  "$bin/$example" --headless --frames 12 --size 160x120
+  "$bin/$example" --headless --frames 6 --size 160x120
 done
 echo "examples.sh: gltf_viewer"
 "$bin/gltf_viewer" "$model" --headless --frames 4 --size 160x120

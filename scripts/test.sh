@@ -49,7 +49,9 @@ if cargo nextest --version >/dev/null 2>&1; then
   }
   gate test run_tests "$@"
   echo "test.sh: the 20 slowest tests:"
-  sed -n -E 's/^ *PASS \[ *([0-9.]+)s\] *(\([^)]*\) )?(.*)$/\1 s  \3/p' "$log" | sort -rn | head -n 20
+  # sed, not head: head would stop reading early and sort would die of SIGPIPE, failing the
+  # pipeline under pipefail.
+  sed -n -E 's/^ *PASS \[ *([0-9.]+)s\] *(\([^)]*\) )?(.*)$/\1 s  \3/p' "$log" | sort -rn | sed -n '1,20p'
   rm -f "$log"
   gate doctests cargo test --workspace --locked --doc "$@"
 else
