@@ -795,6 +795,10 @@ impl CullingMode {
     }
 }
 
+/// The default limit of a coarser level of detail's projected error, in pixels
+/// ([`FrameSettings::lod_pixels`]).
+pub const DEFAULT_LOD_PIXELS: f32 = 1.0;
+
 /// Per-frame choices that may change from one frame to the next.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameSettings {
@@ -847,7 +851,7 @@ pub struct FrameSettings {
     /// Keep culling against the view of the frame this was first set in ("freeze culling"): fly
     /// out and see what that view culled. Visibility is not updated while frozen.
     pub freeze_culling: bool,
-    /// Levels of detail ([`crate::lod`]): the most pixels a coarser level's error may cover on
+    /// Levels of detail (`render/src/lod`): the most pixels a coarser level's error may cover on
     /// screen for an instance to draw it (1 by default; 0 draws every instance in full).
     pub lod_pixels: f32,
     /// Submit a frame slot's command buffer again when a frame logs exactly the commands it was
@@ -879,7 +883,7 @@ impl Default for FrameSettings {
             refraction: true,
             culling: CullingMode::Occlusion,
             freeze_culling: false,
-            lod_pixels: crate::lod::DEFAULT_LOD_PIXELS,
+            lod_pixels: DEFAULT_LOD_PIXELS,
             reuse_commands: true,
         }
     }

@@ -61,8 +61,7 @@ pub use crate::layout::{LOD_LEVEL_SHIFT, LOD_SLOT_MASK};
 /// fraction of the limit (`FrameSettings::lod_pixels`).
 pub const LOD_HYSTERESIS: f32 = 0.75;
 
-/// The default limit of a level's projected error, in pixels.
-pub const DEFAULT_LOD_PIXELS: f32 = 1.0;
+pub use crate::settings::DEFAULT_LOD_PIXELS;
 
 /// Meshes with fewer triangles get no coarser levels.
 pub const MIN_TRIANGLES: usize = 64;

@@ -374,13 +374,13 @@ pub struct MeshData {
     /// Number of morph targets in `morphs`.
     pub morph_targets: u32,
     /// Coarser levels of detail over the same vertices: `None` draws the mesh in full; make them
-    /// with [`crate::lod`]'s `MeshLods::for_mesh` (the ECS plugin does for every mesh it
+    /// with `MeshLods::for_mesh` (`render/src/lod`) (the ECS plugin does for every mesh it
     /// uploads). Levels that do not fit the mesh are dropped with a warning.
     pub lods: Option<MeshLods>,
 }
 
 /// A mesh's coarser levels of detail (level 0 is the mesh's own triangle list), made by
-/// [`crate::lod`] (`MeshLods::generate`).
+/// `MeshLods::generate` (`render/src/lod`).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct MeshLods {
     /// The coarser levels' indices back to back, level 1 first.
@@ -796,7 +796,7 @@ pub struct SceneMirror {
     /// Live instances in each opaque draw batch ([`DrawItem::batch`]), kept as draws change: the
     /// culling lists are laid out from them without visiting the instances.
     pub batch_counts: [u32; CULL_BATCHES as usize],
-    /// Live instances whose mesh has coarser levels of detail ([`crate::lod`]), kept as draws
+    /// Live instances whose mesh has coarser levels of detail (`render/src/lod`), kept as draws
     /// change: while there are none, rays leave surfaces unlifted by the level-of-detail limit.
     pub lod_instances: u32,
     /// By mesh id: whether the mesh has coarser levels of detail (a posed mesh: its source).
