@@ -238,6 +238,56 @@ pub fn create_compute(ctx: &GpuContext, layout: vk::PipelineLayout, name: &str, 
     Ok(pipeline)
 }
 
+/// What makes a [`LazyPipeline`].
+type MakePipeline = dyn Fn(&GpuContext) -> Result<vk::Pipeline, RenderError> + Send + Sync;
+
+/// A pipeline made the first time a frame asks for it ([`LazyPipeline::get`]), not with the
+/// renderer: most of a renderer's variants (each way of applying decals, of lighting, of
+/// tracing reflections) serve settings or scenes a run may never use, and on a software device
+/// (lavapipe) making all of them took most of a renderer's start (about 3 of 4 seconds). A game
+/// pays for a variant once, in the first frame that uses it; [`LazyPipeline::made`] says whether
+/// it exists.
+pub struct LazyPipeline {
+    made: std::sync::OnceLock<vk::Pipeline>,
+    make: Box<MakePipeline>,
+}
+
+impl LazyPipeline {
+    /// A pipeline that `make` creates when it is first asked for.
+    pub fn new(make: impl Fn(&GpuContext) -> Result<vk::Pipeline, RenderError> + Send + Sync + 'static) -> Self {
+        Self { made: std::sync::OnceLock::new(), make: Box::new(make) }
+    }
+
+    /// A compute pipeline of `spirv`, named `name`, made when first asked for.
+    pub fn compute(layout: vk::PipelineLayout, name: &'static str, spirv: &'static [u8]) -> Self {
+        Self::new(move |ctx| create_compute(ctx, layout, name, spirv))
+    }
+
+    /// The pipeline, made now if no frame asked for it before.
+    pub fn get(&self, ctx: &GpuContext) -> Result<vk::Pipeline, RenderError> {
+        if let Some(&made) = self.made.get() {
+            return Ok(made);
+        }
+        let made = (self.make)(ctx)?;
+        // Frames are recorded on one thread: nothing else can have set it since the check.
+        let _ = self.made.set(made);
+        Ok(made)
+    }
+
+    /// Whether a frame has asked for it (and it exists).
+    pub fn made(&self) -> bool {
+        self.made.get().is_some()
+    }
+
+    /// Destroys the pipeline if it was made; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        if let Some(p) = self.made.into_inner() {
+            // SAFETY: the GPU is idle.
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
+        }
+    }
+}
+
 /// Creates one compute pipeline per `(name, SPIR-V)` of `stages`, in order; when one fails, the
 /// ones made before it are destroyed.
 pub fn create_computes<const N: usize>(

@@ -35,7 +35,7 @@ use crate::graph::targets::{
 };
 use crate::graph::{Frame, ImageUse, Load, PassKind};
 use crate::lights::{LightFrame, declare_light_reads};
-use crate::pipelines::{RayLightShading, ShadeVariants};
+use crate::pipelines::{RayLightShading, Shade, ShadeVariants};
 use crate::scene::gpu::GpuScene;
 use crate::scene::{DECAL_ALBEDO, DECAL_METALLIC, DECAL_NORMAL, DECAL_ROUGHNESS};
 use crate::settings::LightMethod;
@@ -76,7 +76,6 @@ impl DeferredPasses {
     /// Creates the pipelines.
     pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
         let geometry = GraphicsDesc::mesh("gbuffer", Some(shaders::GBUFFER_FRAG), &GBUFFER_FORMATS, DEPTH_FORMAT);
-        let hdr = [HDR_FORMAT];
         let decal_formats = [GBUFFER_ALBEDO_FORMAT, GBUFFER_NORMAL_FORMAT, GBUFFER_MATERIAL_FORMAT, HDR_FORMAT];
         let mut decals = Vec::with_capacity(16);
         for flags in 0..16u32 {
@@ -128,14 +127,11 @@ impl DeferredPasses {
                     shaders::DEFERRED_LIGHTING_FRAG_RAY_QUERY_DECALS,
                     shaders::DEFERRED_LIGHTING_FRAG_DECAL_BUFFER,
                 ],
-                |fragment| {
-                    create_graphics(
-                        ctx,
-                        layout,
-                        &GraphicsDesc { blend: Blend::Additive, ..GraphicsDesc::fullscreen("deferred lighting", fragment, &hdr) },
-                    )
+                move |ctx, fragment| {
+                    let desc = GraphicsDesc::fullscreen("deferred lighting", fragment, &[HDR_FORMAT]);
+                    create_graphics(ctx, layout, &GraphicsDesc { blend: Blend::Additive, ..desc })
                 },
-            )?,
+            ),
             lighting_compute: ShadeVariants::new(
                 ctx,
                 [
@@ -143,8 +139,8 @@ impl DeferredPasses {
                     shaders::DEFERRED_LIGHTING_COMP_RAY_QUERY_DECALS,
                     shaders::DEFERRED_LIGHTING_COMP_DECAL_BUFFER,
                 ],
-                |spirv| create_compute(ctx, layout, "deferred lighting (compute)", spirv),
-            )?,
+                move |ctx, spirv| create_compute(ctx, layout, "deferred lighting (compute)", spirv),
+            ),
             lighting_rays: RayLightShading::new(
                 ctx,
                 layout,
@@ -155,7 +151,7 @@ impl DeferredPasses {
                     shaders::DEFERRED_LIGHTING_COMP_RAY_QUERY_LIGHTS_DECAL_BUFFER,
                 ],
                 [shaders::DEFERRED_LIGHTING_RGEN, shaders::DEFERRED_LIGHTING_RGEN_DECAL_BUFFER],
-            )?,
+            ),
             decals,
         })
     }
@@ -236,6 +232,7 @@ impl DeferredPasses {
         lights: &LightFrame,
         compute: bool,
     ) -> Result<(), RenderError> {
+        let ctx = f.ctx;
         let rays = if lights.method == LightMethod::RayQuery { self.lighting_rays.kind() } else { None };
         let kind = rays.unwrap_or(if compute { PassKind::Compute } else { PassKind::Graphics });
         let pass = f
@@ -247,17 +244,12 @@ impl DeferredPasses {
             .sample(&GBUFFER_LAYERS)
             .reads(scene.res.shaded());
         let pass = if kind == PassKind::Graphics { pass.color(&HDR, Load::Keep) } else { pass.image(&HDR, ImageUse::StorageWrite) };
-        declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| {
-            let push = p.push;
-            if rays.is_some() {
-                self.lighting_rays.run(p, decals);
-            } else if compute {
-                p.bind(vk::PipelineBindPoint::COMPUTE, self.lighting_compute.pick(decals), &push);
-                p.cmd.dispatch(p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1);
-            } else {
-                p.fullscreen(self.lighting.pick(decals), &push);
-            }
-        })
+        let shade = match rays {
+            Some(_) => Shade::Rays(self.lighting_rays.pick(ctx, decals)?),
+            None if compute => Shade::Compute(self.lighting_compute.pick(ctx, decals)?),
+            None => Shade::Fullscreen(self.lighting.pick(ctx, decals)?),
+        };
+        declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| shade.run(p, decals))
     }
 
     /// Destroys the pipelines; the GPU must be idle.

@@ -46,7 +46,7 @@ impl ForwardPasses {
         let prepass = GraphicsDesc { samples, ..GraphicsDesc::mesh("prepass", None, &[], DEPTH_FORMAT) };
         let ids_formats = [VISIBILITY_FORMAT];
         let ids = GraphicsDesc { samples, ..GraphicsDesc::mesh("prepass ids", Some(shaders::VISBUFFER_FRAG), &ids_formats, DEPTH_FORMAT) };
-        let shade = |fragment: &[u8]| {
+        let shade = move |ctx: &GpuContext, fragment: &'static [u8]| {
             let desc = GraphicsDesc {
                 name: "forward",
                 fragment: Some(fragment),
@@ -74,7 +74,7 @@ impl ForwardPasses {
                 shaders::FORWARD_FRAG_MSAA_REFLECTED_RAY_QUERY_DECALS,
                 shaders::FORWARD_FRAG_MSAA_REFLECTED_DECAL_BUFFER,
             ];
-            Some(ShadeVariants::new(ctx, variants, shade)?.with_clustered(shaders::FORWARD_FRAG_MSAA_REFLECTED_CLUSTERED_DECALS, shade)?)
+            Some(ShadeVariants::new(ctx, variants, shade).with_clustered(shaders::FORWARD_FRAG_MSAA_REFLECTED_CLUSTERED_DECALS, shade))
         } else {
             None
         };
@@ -84,7 +84,7 @@ impl ForwardPasses {
             prepass_mask: create_graphics(ctx, layout, &GraphicsDesc { fragment: Some(shaders::PREPASS_MASK_FRAG), ..prepass })?,
             ids_opaque: create_graphics(ctx, layout, &ids)?,
             ids_mask: create_graphics(ctx, layout, &GraphicsDesc { fragment: Some(shaders::VISBUFFER_FRAG_ALPHA_MASK), ..ids })?,
-            shade: ShadeVariants::new(ctx, variants, shade)?.with_clustered(clustered, shade)?,
+            shade: ShadeVariants::new(ctx, variants, shade).with_clustered(clustered, shade),
             shade_reflected,
         })
     }
@@ -139,6 +139,7 @@ impl ForwardPasses {
         lights: &LightFrame,
         reflected: bool,
     ) -> Result<(), RenderError> {
+        let ctx = f.ctx;
         let ([depth, hdr, _], ms) = (self.attachments(), self.samples > 1);
         let variants = self.shade_reflected.as_ref().filter(|_| reflected).unwrap_or(&self.shade);
         let pass = f
@@ -149,9 +150,10 @@ impl ForwardPasses {
             .when(reflected, |p| p.image(&REFLECTION_ADDED, ImageUse::StorageRead))
             .reads(scene.res.drawn())
             .reads(draws.reads());
+        let pipeline = variants.pick(ctx, decals)?;
         declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| {
             let push = p.push;
-            p.bind_graphics(variants.pick(decals), &push);
+            p.bind_graphics(pipeline, &push);
             draws.all_opaque(p);
         })
     }

@@ -18,7 +18,7 @@ use crate::decals::{DecalChoice, DecalFrame, DecalReaders, DecalSurfaceSource, D
 use crate::environment::Environments;
 use crate::exposure::Exposure;
 use crate::gpu::device::{GpuContext, Tier};
-use crate::gpu::pipeline::{HitGroup, RayTracingDesc, RayTracingPipeline, ScenePush};
+use crate::gpu::pipeline::{HitGroup, LazyPipeline, RayTracingDesc, RayTracingPipeline, ScenePush};
 use crate::gpu::shaders;
 use crate::graph::pass::PassContext;
 use crate::graph::{Frame, PassKind};
@@ -316,55 +316,59 @@ fn transparent_depth(f: &mut Frame, r: &FrameParts, draws: &Draws, mirror: &Scen
 /// buffer a decal pass wrote, or (the forward shading pass) the clustered decals' lists walked
 /// in the shader ([`DecalFrame::clusters_in_shading`]).
 pub struct ShadeVariants {
-    plain: vk::Pipeline,
-    ray_query: Option<vk::Pipeline>,
-    decal_buffer: vk::Pipeline,
-    clustered: Option<vk::Pipeline>,
+    plain: LazyPipeline,
+    ray_query: Option<LazyPipeline>,
+    decal_buffer: LazyPipeline,
+    clustered: Option<LazyPipeline>,
 }
 
 impl ShadeVariants {
-    /// Creates the variants with `create` from the fragment shaders `[plain, ray query, decal buffer]`.
-    pub fn new(
-        ctx: &GpuContext,
-        [plain, ray_query, decal_buffer]: [&[u8]; 3],
-        create: impl Fn(&[u8]) -> Result<vk::Pipeline, RenderError>,
-    ) -> Result<Self, RenderError> {
-        Ok(Self {
-            plain: create(plain)?,
-            ray_query: if ctx.tier == Tier::RayQuery { Some(create(ray_query)?) } else { None },
-            decal_buffer: create(decal_buffer)?,
+    /// The variants of the shaders `[plain, ray query, decal buffer]`, each made by `make` from
+    /// its SPIR-V the first frame that picks it ([`LazyPipeline`]); the ray-query one only on
+    /// the ray-query tier.
+    pub fn new<M: MakeVariant>(ctx: &GpuContext, [plain, ray_query, decal_buffer]: [&'static [u8]; 3], make: M) -> Self {
+        Self {
+            plain: variant(&make, plain),
+            ray_query: (ctx.tier == Tier::RayQuery).then(|| variant(&make, ray_query)),
+            decal_buffer: variant(&make, decal_buffer),
             clustered: None,
-        })
+        }
     }
 
-    /// Adds the variant that walks the clustered decals' lists itself, made by `create` from
+    /// Adds the variant that walks the clustered decals' lists itself, made by `make` from
     /// `shader`.
-    pub fn with_clustered(
-        mut self,
-        shader: &[u8],
-        create: impl Fn(&[u8]) -> Result<vk::Pipeline, RenderError>,
-    ) -> Result<Self, RenderError> {
-        self.clustered = Some(create(shader)?);
-        Ok(self)
+    pub fn with_clustered<M: MakeVariant>(mut self, shader: &'static [u8], make: M) -> Self {
+        self.clustered = Some(variant(&make, shader));
+        self
     }
 
-    /// The variant that applies this frame's decals.
-    pub fn pick(&self, decals: &DecalFrame) -> vk::Pipeline {
-        match (self.ray_query, self.clustered) {
-            _ if decals.buffered() => self.decal_buffer,
+    /// The variant that applies this frame's decals, made now if no frame used it before.
+    pub fn pick(&self, ctx: &GpuContext, decals: &DecalFrame) -> Result<vk::Pipeline, RenderError> {
+        let variant = match (&self.ray_query, &self.clustered) {
+            _ if decals.buffered() => &self.decal_buffer,
             (_, Some(clustered)) if decals.clusters_in_shading() => clustered,
             (Some(rq), _) if decals.traced.is_some() && decals.method == crate::settings::DecalMethod::RayQuery => rq,
-            _ => self.plain,
-        }
+            _ => &self.plain,
+        };
+        variant.get(ctx)
     }
 
-    /// Destroys the pipelines; the GPU must be idle.
+    /// Destroys the pipelines that were made; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
         for p in [self.plain, self.decal_buffer].into_iter().chain(self.ray_query).chain(self.clustered) {
-            // SAFETY: the GPU is idle.
-            unsafe { ctx.destroying().destroy_pipeline(p, None) };
+            p.destroy(ctx);
         }
     }
+}
+
+/// Makes one of [`ShadeVariants`]' pipelines from its shader's SPIR-V.
+pub trait MakeVariant: Fn(&GpuContext, &'static [u8]) -> Result<vk::Pipeline, RenderError> + Clone + Send + Sync + 'static {}
+
+impl<F: Fn(&GpuContext, &'static [u8]) -> Result<vk::Pipeline, RenderError> + Clone + Send + Sync + 'static> MakeVariant for F {}
+
+fn variant<M: MakeVariant>(make: &M, spirv: &'static [u8]) -> LazyPipeline {
+    let make = make.clone();
+    LazyPipeline::new(move |ctx| make(ctx, spirv))
 }
 
 /// A lighting pass with ray-query lights (`crate::lights::ray_query`): on the ray-query tier
@@ -373,34 +377,29 @@ impl ShadeVariants {
 /// lights come from a traced zero-length ray, shaded in its any-hit shader.
 pub struct RayLightShading {
     compute: Option<ShadeVariants>,
-    rays: Option<RayTracingPipeline>,
+    rays: Option<LazyRays>,
 }
 
 impl RayLightShading {
-    /// Creates what this device can run: the compute shaders `[plain, ray-query decals, decal
+    /// Prepares what this device can run: the compute shaders `[plain, ray-query decals, decal
     /// buffer]` with ray queries, else the ray-generation shaders `raygen` with ray-tracing
-    /// pipelines, else nothing.
+    /// pipelines, else nothing. Each is made the first frame that uses it.
     pub fn new(
         ctx: &GpuContext,
         layout: vk::PipelineLayout,
-        name: &str,
-        compute: [&[u8]; 3],
-        raygen: [&[u8]; 2],
-    ) -> Result<Self, RenderError> {
+        name: &'static str,
+        compute: [&'static [u8]; 3],
+        raygen: [&'static [u8]; 2],
+    ) -> Self {
         if ctx.tier == Tier::RayQuery {
-            let compute = ShadeVariants::new(ctx, compute, |spirv| crate::gpu::pipeline::create_compute(ctx, layout, name, spirv))?;
-            return Ok(Self { compute: Some(compute), rays: None });
+            let compute =
+                ShadeVariants::new(ctx, compute, move |ctx, spirv| crate::gpu::pipeline::create_compute(ctx, layout, name, spirv));
+            return Self { compute: Some(compute), rays: None };
         }
         if !ctx.ray_support().ray_pipeline {
-            return Ok(Self { compute: None, rays: None });
+            return Self { compute: None, rays: None };
         }
-        let desc = RayTracingDesc {
-            name,
-            raygen: &raygen,
-            misses: &[shaders::LIGHT_RAYS_RMISS],
-            hit_groups: &[HitGroup::any_hit(shaders::LIGHT_RAYS_RAHIT, Some(shaders::LIGHT_RAYS_RINT))],
-        };
-        Ok(Self { compute: None, rays: Some(RayTracingPipeline::new(ctx, layout, &desc)?) })
+        Self { compute: None, rays: Some(LazyRays { made: std::sync::OnceLock::new(), layout, name, raygen }) }
     }
 
     /// The kind of pass it records, `None` on a device that has neither.
@@ -412,24 +411,96 @@ impl RayLightShading {
         }
     }
 
-    /// Binds the variant for `decals` and shades every pixel of the pass.
-    pub fn run(&self, p: &PassContext, decals: &DecalFrame) {
+    /// The pipeline that shades with this frame's `decals` (made now if no frame used it
+    /// before), `None` on a device that has neither kind.
+    pub fn pick(&self, ctx: &GpuContext, decals: &DecalFrame) -> Result<Option<RayLightPass<'_>>, RenderError> {
         if let Some(compute) = &self.compute {
-            p.bind(vk::PipelineBindPoint::COMPUTE, compute.pick(decals), &p.push);
-            p.cmd.dispatch(p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1);
-        } else if let Some(rays) = &self.rays {
-            p.bind(vk::PipelineBindPoint::RAY_TRACING_KHR, rays.pipeline, &p.push);
-            rays.trace(p.cmd, usize::from(decals.buffered()), p.extent);
+            return Ok(Some(RayLightPass { pipeline: compute.pick(ctx, decals)?, rays: None }));
         }
+        let Some(lazy) = &self.rays else { return Ok(None) };
+        let rays = match lazy.made.get() {
+            Some(rays) => rays,
+            None => {
+                let desc = RayTracingDesc {
+                    name: lazy.name,
+                    raygen: &lazy.raygen,
+                    misses: &[shaders::LIGHT_RAYS_RMISS],
+                    hit_groups: &[HitGroup::any_hit(shaders::LIGHT_RAYS_RAHIT, Some(shaders::LIGHT_RAYS_RINT))],
+                };
+                let made = RayTracingPipeline::new(ctx, lazy.layout, &desc)?;
+                lazy.made.get_or_init(|| made)
+            }
+        };
+        Ok(Some(RayLightPass { pipeline: rays.pipeline, rays: Some(rays) }))
     }
 
-    /// Destroys the pipelines; the GPU must be idle.
+    /// Destroys the pipelines that were made; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
         if let Some(c) = self.compute {
             c.destroy(ctx);
         }
-        if let Some(r) = self.rays {
+        if let Some(r) = self.rays.and_then(|r| r.made.into_inner()) {
             r.destroy(ctx);
+        }
+    }
+}
+
+/// How a full-screen shading pass (deferred lighting, visibility-buffer shading) runs this
+/// frame, with the pipeline it picked.
+pub enum Shade<'a> {
+    /// Ray-query lights ([`RayLightShading`]).
+    Rays(Option<RayLightPass<'a>>),
+    /// A compute dispatch over the pixels, adding through a storage image.
+    Compute(vk::Pipeline),
+    /// A full-screen fragment pass.
+    Fullscreen(vk::Pipeline),
+}
+
+impl Shade<'_> {
+    /// Shades every pixel of the pass.
+    pub fn run(&self, p: &PassContext, decals: &DecalFrame) {
+        match self {
+            Shade::Rays(rays) => {
+                if let Some(rays) = rays {
+                    rays.run(p, decals);
+                }
+            }
+            Shade::Compute(pipeline) => {
+                p.bind(vk::PipelineBindPoint::COMPUTE, *pipeline, &p.push);
+                p.cmd.dispatch(p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1);
+            }
+            Shade::Fullscreen(pipeline) => p.fullscreen(*pipeline, &p.push),
+        }
+    }
+}
+
+/// The ray-generation pipeline of a [`RayLightShading`], made the first frame that uses it.
+struct LazyRays {
+    made: std::sync::OnceLock<RayTracingPipeline>,
+    layout: vk::PipelineLayout,
+    name: &'static str,
+    raygen: [&'static [u8]; 2],
+}
+
+/// The pipeline a [`RayLightShading`] picked for a frame.
+pub struct RayLightPass<'a> {
+    pipeline: vk::Pipeline,
+    /// The ray-tracing pipeline, when it traces rays (its shader binding table).
+    rays: Option<&'a RayTracingPipeline>,
+}
+
+impl RayLightPass<'_> {
+    /// Binds the pipeline and shades every pixel of the pass.
+    pub fn run(&self, p: &PassContext, decals: &DecalFrame) {
+        match self.rays {
+            None => {
+                p.bind(vk::PipelineBindPoint::COMPUTE, self.pipeline, &p.push);
+                p.cmd.dispatch(p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1);
+            }
+            Some(rays) => {
+                p.bind(vk::PipelineBindPoint::RAY_TRACING_KHR, self.pipeline, &p.push);
+                rays.trace(p.cmd, usize::from(decals.buffered()), p.extent);
+            }
         }
     }
 }

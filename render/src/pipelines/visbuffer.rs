@@ -17,7 +17,7 @@ use crate::gpu::shaders;
 use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT, VISIBILITY, VISIBILITY_FORMAT};
 use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind};
 use crate::lights::{LightFrame, declare_light_reads};
-use crate::pipelines::{RayLightShading, ShadeVariants};
+use crate::pipelines::{RayLightShading, Shade, ShadeVariants};
 use crate::scene::gpu::GpuScene;
 use crate::settings::LightMethod;
 
@@ -36,20 +36,19 @@ impl VisBufferPasses {
     pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
         let formats = [VISIBILITY_FORMAT];
         let ids = GraphicsDesc::mesh("visibility", Some(shaders::VISBUFFER_FRAG), &formats, DEPTH_FORMAT);
-        let hdr = [HDR_FORMAT];
         Ok(Self {
             ids_opaque: create_graphics(ctx, layout, &ids)?,
             ids_mask: create_graphics(ctx, layout, &GraphicsDesc { fragment: Some(shaders::VISBUFFER_FRAG_ALPHA_MASK), ..ids })?,
             shade: ShadeVariants::new(
                 ctx,
                 [shaders::VISBUFFER_SHADE_FRAG, shaders::VISBUFFER_SHADE_FRAG_RAY_QUERY_DECALS, shaders::VISBUFFER_SHADE_FRAG_DECAL_BUFFER],
-                |fragment| create_graphics(ctx, layout, &GraphicsDesc::fullscreen("visibility shading", fragment, &hdr)),
-            )?,
+                move |ctx, fragment| create_graphics(ctx, layout, &GraphicsDesc::fullscreen("visibility shading", fragment, &[HDR_FORMAT])),
+            ),
             shade_compute: ShadeVariants::new(
                 ctx,
                 [shaders::VISBUFFER_SHADE_COMP, shaders::VISBUFFER_SHADE_COMP_RAY_QUERY_DECALS, shaders::VISBUFFER_SHADE_COMP_DECAL_BUFFER],
-                |spirv| create_compute(ctx, layout, "visibility shading (compute)", spirv),
-            )?,
+                move |ctx, spirv| create_compute(ctx, layout, "visibility shading (compute)", spirv),
+            ),
             shade_rays: RayLightShading::new(
                 ctx,
                 layout,
@@ -60,7 +59,7 @@ impl VisBufferPasses {
                     shaders::VISBUFFER_SHADE_COMP_RAY_QUERY_LIGHTS_DECAL_BUFFER,
                 ],
                 [shaders::VISBUFFER_SHADE_RGEN, shaders::VISBUFFER_SHADE_RGEN_DECAL_BUFFER],
-            )?,
+            ),
         })
     }
 
@@ -96,6 +95,7 @@ impl VisBufferPasses {
         lights: &LightFrame,
         compute: bool,
     ) -> Result<(), RenderError> {
+        let ctx = f.ctx;
         let rays = if lights.method == LightMethod::RayQuery { self.shade_rays.kind() } else { None };
         let kind = rays.unwrap_or(if compute { PassKind::Compute } else { PassKind::Graphics });
         let pass = f
@@ -105,17 +105,12 @@ impl VisBufferPasses {
             .reads(scene.res.shaded())
             .read(scene.res.meshes, BufferUse::Storage);
         let pass = if kind == PassKind::Graphics { pass.color(&HDR, Load::Clear(clear)) } else { pass.image(&HDR, ImageUse::StorageWrite) };
-        declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| {
-            let push = p.push;
-            if rays.is_some() {
-                self.shade_rays.run(p, decals);
-            } else if compute {
-                p.bind(vk::PipelineBindPoint::COMPUTE, self.shade_compute.pick(decals), &push);
-                p.cmd.dispatch(p.extent.width.div_ceil(8), p.extent.height.div_ceil(8), 1);
-            } else {
-                p.fullscreen(self.shade.pick(decals), &push);
-            }
-        })
+        let shade = match rays {
+            Some(_) => Shade::Rays(self.shade_rays.pick(ctx, decals)?),
+            None if compute => Shade::Compute(self.shade_compute.pick(ctx, decals)?),
+            None => Shade::Fullscreen(self.shade.pick(ctx, decals)?),
+        };
+        declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| shade.run(p, decals))
     }
 
     /// Destroys the pipelines; the GPU must be idle.

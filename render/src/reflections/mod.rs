@@ -58,7 +58,7 @@ use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::memory::Buffer;
 use crate::gpu::memory::Retired;
 use crate::gpu::pipeline::ScenePush;
-use crate::gpu::pipeline::{HitGroup, RayTracingDesc, RayTracingPipeline, create_compute};
+use crate::gpu::pipeline::{HitGroup, LazyPipeline, RayTracingDesc, RayTracingPipeline, create_compute};
 use crate::gpu::shaders;
 use crate::graph::readback::StatsReadback;
 use crate::graph::targets::{
@@ -147,12 +147,13 @@ pub struct Reflections {
     rays_possible: bool,
     /// The shared pipeline layout, for creating `rays`.
     layout: vk::PipelineLayout,
-    resolve: vk::Pipeline,
+    /// The pipelines below are made the first frame that runs them ([`LazyPipeline`]).
+    resolve: LazyPipeline,
     /// The resolve into its own target, before the shading pass (MSAA: [`Reflections::record_before_shading`]).
-    resolve_separate: vk::Pipeline,
+    resolve_separate: LazyPipeline,
     /// The ray pass over the nearest glass on the ray-query tier, and the resolve for it.
-    glass: Option<vk::Pipeline>,
-    resolve_glass: vk::Pipeline,
+    glass: Option<LazyPipeline>,
+    resolve_glass: LazyPipeline,
     stats: Buffer,
     stats_res: ResourceId,
     readback: StatsReadback,
@@ -160,7 +161,7 @@ pub struct Reflections {
     /// [`ReflectionStats::smoothest`], kept until a material changes.
     smoothest: Option<f32>,
     /// Screen-space reflections' nearest-depth pyramid, its pass and the view size it is for.
-    hiz: vk::Pipeline,
+    hiz: LazyPipeline,
     pyramid: Option<(Buffer, vk::Extent2D)>,
     hiz_res: ResourceId,
 }
@@ -181,7 +182,7 @@ impl Reflections {
     /// Creates the passes (the ray passes only on the ray-query tier) and the statistics
     /// buffers.
     pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
-        let compute = |spirv: &[u8]| create_compute(ctx, layout, "reflection rays", spirv);
+        let compute = move |ctx: &GpuContext, spirv: &'static [u8]| create_compute(ctx, layout, "reflection rays", spirv);
         let (gbuffer, visibility) = if ctx.tier == Tier::RayQuery {
             (
                 Some(ShadeVariants::new(
@@ -192,20 +193,20 @@ impl Reflections {
                         shaders::REFLECTIONS_COMP_GBUFFER_DECAL_BUFFER,
                     ],
                     compute,
-                )?),
+                )),
                 Some(
                     ShadeVariants::new(
                         ctx,
                         [shaders::REFLECTIONS_COMP, shaders::REFLECTIONS_COMP_RAY_QUERY_DECALS, shaders::REFLECTIONS_COMP_DECAL_BUFFER],
                         compute,
-                    )?
-                    .with_clustered(shaders::REFLECTIONS_COMP_CLUSTERED_DECALS, compute)?,
+                    )
+                    .with_clustered(shaders::REFLECTIONS_COMP_CLUSTERED_DECALS, compute),
                 ),
             )
         } else {
             (None, None)
         };
-        let screen = |spirv: &[u8]| create_compute(ctx, layout, "reflection rays (screen space)", spirv);
+        let screen = move |ctx: &GpuContext, spirv: &'static [u8]| create_compute(ctx, layout, "reflection rays (screen space)", spirv);
         let screen = [
             ShadeVariants::new(
                 ctx,
@@ -215,7 +216,7 @@ impl Reflections {
                     shaders::SCREEN_REFLECTIONS_COMP_GBUFFER_DECAL_BUFFER,
                 ],
                 screen,
-            )?,
+            ),
             ShadeVariants::new(
                 ctx,
                 [
@@ -224,8 +225,8 @@ impl Reflections {
                     shaders::SCREEN_REFLECTIONS_COMP_DECAL_BUFFER,
                 ],
                 screen,
-            )?
-            .with_clustered(shaders::SCREEN_REFLECTIONS_COMP_CLUSTERED_DECALS, screen)?,
+            )
+            .with_clustered(shaders::SCREEN_REFLECTIONS_COMP_CLUSTERED_DECALS, screen),
         ];
         Ok(Self {
             gbuffer,
@@ -234,10 +235,11 @@ impl Reflections {
             rays: None,
             rays_possible: ctx.tier != Tier::RayQuery && ctx.ray_support().ray_pipeline,
             layout,
-            resolve: create_compute(ctx, layout, "reflection resolve", shaders::REFLECTIONS_RESOLVE_COMP)?,
-            resolve_separate: create_compute(ctx, layout, "reflection resolve (separate)", shaders::REFLECTIONS_RESOLVE_COMP_SEPARATE)?,
-            glass: if ctx.tier == Tier::RayQuery { Some(compute(shaders::REFLECTIONS_COMP_GLASS_LAYER)?) } else { None },
-            resolve_glass: create_compute(ctx, layout, "glass reflection resolve", shaders::REFLECTIONS_RESOLVE_COMP_GLASS_LAYER)?,
+            resolve: LazyPipeline::compute(layout, "reflection resolve", shaders::REFLECTIONS_RESOLVE_COMP),
+            resolve_separate: LazyPipeline::compute(layout, "reflection resolve (separate)", shaders::REFLECTIONS_RESOLVE_COMP_SEPARATE),
+            glass: (ctx.tier == Tier::RayQuery)
+                .then(|| LazyPipeline::compute(layout, "reflection rays", shaders::REFLECTIONS_COMP_GLASS_LAYER)),
+            resolve_glass: LazyPipeline::compute(layout, "glass reflection resolve", shaders::REFLECTIONS_RESOLVE_COMP_GLASS_LAYER),
             stats: Buffer::new(
                 ctx,
                 "reflection statistics",
@@ -249,7 +251,7 @@ impl Reflections {
             readback: StatsReadback::new(ctx, graph, "reflection statistics readback", REFLECTION_STATS as u64 * 4)?,
             latest: ReflectionStats { measured_frame: u64::MAX, ..Default::default() },
             smoothest: None,
-            hiz: create_compute(ctx, layout, "reflection depth pyramid", shaders::REFLECTION_HIZ_COMP)?,
+            hiz: LazyPipeline::compute(layout, "reflection depth pyramid", shaders::REFLECTION_HIZ_COMP),
             pyramid: None,
             hiz_res: graph.resource("reflection depth pyramid"),
         })
@@ -443,11 +445,14 @@ impl Reflections {
             return Err(RenderError::Other("reflections need the G-buffer or the visibility ids, not depth alone".into()));
         }
         let screen = !lights.traced_reflections();
+        let ctx = f.ctx;
         let compute = match source {
-            Some(source) if screen => Some(self.screen[source as usize].pick(decals)),
-            Some(DecalSurfaceSource::GBuffer) => self.gbuffer.as_ref().map(|v| v.pick(decals)),
-            Some(DecalSurfaceSource::Visibility | DecalSurfaceSource::Depth) => self.visibility.as_ref().map(|v| v.pick(decals)),
-            None => self.glass,
+            Some(source) if screen => Some(self.screen[source as usize].pick(ctx, decals)?),
+            Some(DecalSurfaceSource::GBuffer) => self.gbuffer.as_ref().map(|v| v.pick(ctx, decals)).transpose()?,
+            Some(DecalSurfaceSource::Visibility | DecalSurfaceSource::Depth) => {
+                self.visibility.as_ref().map(|v| v.pick(ctx, decals)).transpose()?
+            }
+            None => self.glass.as_ref().map(|g| g.get(ctx)).transpose()?,
         };
         let kind = match (compute, &self.rays) {
             (Some(_), _) => PassKind::Compute,
@@ -456,7 +461,7 @@ impl Reflections {
         };
         let name = if source.is_some() { "reflection_rays" } else { "glass_reflection_rays" };
         if let Some((_, extent)) = self.pyramid.as_ref().filter(|_| screen && source.is_some()) {
-            let (extent, hiz, hiz_res) = (*extent, self.hiz, self.hiz_res);
+            let (extent, hiz, hiz_res) = (*extent, self.hiz.get(ctx)?, self.hiz_res);
             f.pass("reflection_depth_pyramid", PassKind::Compute)
                 .sample(&DEPTH)
                 .reads(scene.res.shaded())
@@ -511,10 +516,11 @@ impl Reflections {
                 }
             })?;
         let resolve = match (source, separate) {
-            (None, _) => self.resolve_glass,
-            (Some(_), true) => self.resolve_separate,
-            (Some(_), false) => self.resolve,
-        };
+            (None, _) => &self.resolve_glass,
+            (Some(_), true) => &self.resolve_separate,
+            (Some(_), false) => &self.resolve,
+        }
+        .get(ctx)?;
         f.pass(if source.is_some() { "reflection_resolve" } else { "glass_reflection_resolve" }, PassKind::Compute)
             .sample(&DEPTH)
             .reads(scene.res.shaded())
@@ -537,12 +543,9 @@ impl Reflections {
         if let Some(r) = self.rays {
             r.destroy(ctx);
         }
-        for p in [self.resolve, self.resolve_separate, self.resolve_glass].into_iter().chain(self.glass) {
-            // SAFETY: the GPU is idle.
-            unsafe { ctx.destroying().destroy_pipeline(p, None) };
+        for p in [self.resolve, self.resolve_separate, self.resolve_glass, self.hiz].into_iter().chain(self.glass) {
+            p.destroy(ctx);
         }
-        // SAFETY: the GPU is idle.
-        unsafe { ctx.destroying().destroy_pipeline(self.hiz, None) };
         if let Some((b, _)) = self.pyramid {
             b.destroy(ctx);
         }
