@@ -9,6 +9,7 @@ use bevy_ecs::entity::{EntityHashMap, EntityHashSet};
 use bevy_ecs::message::MessageReader;
 use bevy_ecs::prelude::*;
 use bevy_ecs::system::SystemParam;
+use bevy_tasks::ComputeTaskPool;
 use engine::animation::{MorphWeights, Skin, SkinPose};
 use engine::asset::{AssetEvent, Assets, Handle};
 use engine::camera::Camera;
@@ -25,6 +26,7 @@ use render::scene::{
     DrawItem, GpuCamera, GpuInstance, GpuMaterial, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, MeshId, SceneMirror,
     TEXTURE_FLAT_NORMAL, TEXTURE_WHITE, TextureData,
 };
+use render::skinning::PoseSet;
 use std::collections::HashMap;
 
 use crate::decal::{DEFAULT_RECEIVER_LAYERS, Decal, DecalLifetimes, DecalMaterial, DecalReceiver, decal_desc, gpu_decal_material};
@@ -45,6 +47,8 @@ pub struct MirrorSlots {
     posed: EntityHashMap<(MeshId, MeshId)>,
     /// Skinned instances whose posed mesh is new: posed in this frame whatever moved.
     fresh_poses: Vec<Entity>,
+    /// The poses set this frame (kept for its memory).
+    pose_batch: Vec<PoseSet<(Entity, bool)>>,
     /// The slot of the material used when an instance's material is missing.
     pub default_material: u32,
 }
@@ -487,42 +491,60 @@ pub fn extract_poses(
     let mut fresh = std::mem::take(&mut slots.fresh_poses);
     fresh.sort_unstable();
     fresh.dedup();
-    let mut posed = 0;
-    // Sets one instance's pose from its skin matrices and its morph weights (on the glTF node:
-    // its own, or its parent's; looked up only for meshes with morph targets).
-    let mut pose = |mirror: &mut render::SceneMirror, entity: Entity, skin: Option<&SkinPose>| {
-        let Some(&(mesh, source)) = slots.posed.get(&entity) else { return };
-        let weights = (mirror.poses.morph_targets(source) > 0)
-            .then(|| morphs.get(entity).ok().or_else(|| parents.get(entity).ok().and_then(|p| morphs.get(p.parent()).ok())))
-            .flatten();
-        let joints = skin.map_or(&[][..], |p| &p.0[..]);
-        let weights = weights.as_ref().map_or(&[][..], |(_, w, _)| &w.0[..]);
-        if mirror.set_pose(mesh, joints.iter().copied(), weights) {
-            posed += 1;
-            if let Some(&slot) = slots.instances.get(&entity) {
-                mirror.refresh_cull(slot);
-            }
+    // The batch of poses to set: new posed meshes; then the instances whose skin matrices
+    // changed; then those whose morph weights (or their node's) changed. Each list names only
+    // what changed.
+    let mut batch = std::mem::take(&mut slots.pose_batch);
+    batch.clear();
+    let mut add = |entity: Entity| {
+        if let Some(&(mesh, source)) = slots.posed.get(&entity) {
+            batch.push(PoseSet::new(mesh, (entity, mirror.poses.morph_targets(source) > 0)));
         }
     };
-    // New posed meshes; then the instances whose skin matrices changed; then those whose morph
-    // weights (or their node's) changed. Each list names only what changed.
-    for &entity in &fresh {
-        pose(mirror, entity, skins.get(entity).ok().map(|(_, s)| s.into_inner()));
-    }
+    fresh.iter().for_each(|&entity| add(entity));
     for (entity, skin) in &skins {
         if skin.is_changed() && fresh.binary_search(&entity).is_err() {
-            pose(mirror, entity, Some(skin.into_inner()));
+            add(entity);
         }
     }
     for (node, weights, children) in &morphs {
         if weights.is_changed() {
             for entity in std::iter::once(node).chain(children.into_iter().flat_map(|c| c.iter())) {
-                if fresh.binary_search(&entity).is_err() {
-                    pose(mirror, entity, skins.get(entity).ok().map(|(_, s)| s.into_inner()));
+                if fresh.binary_search(&entity).is_err() && !skins.get(entity).is_ok_and(|(_, s)| s.is_changed()) {
+                    add(entity);
                 }
             }
         }
     }
+    // Set on every core: each pose's matrices converted and its bounds found (10,000 foxes'
+    // 240,000 joints took 11 ms of one core).
+    let pose_of = |&(entity, morphed): &(Entity, bool)| {
+        let joints = skins.get(entity).ok().map_or(&[][..], |(_, s)| &s.into_inner().0[..]);
+        // Morph weights are on the glTF node: its own, or its parent's.
+        let weights = morphed
+            .then(|| morphs.get(entity).ok().or_else(|| parents.get(entity).ok().and_then(|p| morphs.get(p.parent()).ok())))
+            .flatten();
+        Some((joints, weights.map_or(&[][..], |(_, w, _)| &w.into_inner().0[..])))
+    };
+    match ComputeTaskPool::try_get().filter(|pool| pool.thread_num() > 1 && batch.len() > 64) {
+        Some(pool) => {
+            pool.scope(|scope| {
+                for chunk in mirror.poses.chunks(&mut batch, pool.thread_num() * 4) {
+                    scope.spawn(async move { chunk.set(pose_of) });
+                }
+            });
+        }
+        None => mirror.poses.chunks(&mut batch, 1).for_each(|chunk| chunk.set(pose_of)),
+    }
+    mirror.finish_poses(&batch);
+    let mut posed = 0;
+    for set in batch.iter().filter(|s| s.was_set()) {
+        posed += 1;
+        if let Some(&slot) = slots.instances.get(&set.item.0) {
+            mirror.refresh_cull(slot);
+        }
+    }
+    slots.pose_batch = batch;
     fresh.clear();
     slots.fresh_poses = fresh;
     stats.visited.poses = posed;

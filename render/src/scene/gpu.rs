@@ -286,6 +286,38 @@ impl WordArray {
     }
 }
 
+/// The skinning pass's input (`crate::skinning`): rewritten whole in each frame that skins,
+/// by the pose table straight into the staging memory, so the poses' matrices are copied once on
+/// the CPU (10,000 foxes: 11.5 MB a frame).
+pub struct SkinInput {
+    /// The GPU copy.
+    pub table: GpuTable,
+    words: usize,
+    dirty: bool,
+}
+
+impl SkinInput {
+    /// Uploads `words` 32-bit words of input with the next sync (none: nothing to upload).
+    pub fn set_len(&mut self, words: usize) {
+        self.words = words;
+        self.dirty = words > 0;
+    }
+
+    /// The buffer's address.
+    pub fn address(&self) -> vk::DeviceAddress {
+        self.table.address()
+    }
+
+    fn plan(&mut self) {
+        // A replaced buffer needs nothing copied over: the input is this frame's alone.
+        self.table.plan(self.words as u32);
+    }
+
+    fn staging_need(&self) -> u64 {
+        if self.dirty { (4 * self.words) as u64 } else { 0 }
+    }
+}
+
 /// Bytes the dirty records of `table` need in the staging ring (worst case: all of them), after
 /// the frame's [`GpuTable::plan`].
 fn staging_need<T: Pod>(table: &SlotTable<T>, gpu: &GpuTable) -> u64 {
@@ -472,7 +504,7 @@ pub struct GpuScene {
     /// The blended instances' back-to-front order (instance slots), culled into ordered draws.
     pub glass_order: WordArray,
     /// This frame's skinning jobs and joint matrices (`crate::skinning`).
-    pub skin_input: WordArray,
+    pub skin_input: SkinInput,
     /// This frame's movers (`GpuMover` each), which the motion-vector pass draws
     /// (`crate::motion`).
     pub movers: GpuTable,
@@ -634,7 +666,7 @@ impl GpuScene {
             shadow_views: WordArray::new(ctx, "shadow map views")?,
             culls: GpuTable::new::<crate::scene::GpuCullRecord>(ctx, "culling records", 64)?,
             glass_order: WordArray::new(ctx, "glass order")?,
-            skin_input: WordArray::new(ctx, "skinning jobs")?,
+            skin_input: SkinInput { table: GpuTable::new::<u32>(ctx, "skinning jobs", 64)?, words: 0, dirty: false },
             movers: GpuTable::new::<GpuMover>(ctx, "movers", 16)?,
             mover_draws: GpuTable::with_usage::<GpuDrawCommand>(ctx, "mover draws", 16, vk::BufferUsageFlags::INDIRECT_BUFFER, false)?,
             mover_count: 0,
@@ -839,9 +871,10 @@ impl GpuScene {
         if self.mesh_table.plan(meshes as u32) {
             self.mesh_info_dirty = true;
         }
-        for words in [&mut self.decal_order, &mut self.shadow_views, &mut self.glass_order, &mut self.skin_input] {
+        for words in [&mut self.decal_order, &mut self.shadow_views, &mut self.glass_order] {
             words.plan();
         }
+        self.skin_input.plan();
         let trimmed_boxes = !mirror.decals.aabbs.trimmed_tail().is_empty();
         if mirror.is_clean()
             && !replaced
@@ -912,10 +945,18 @@ impl GpuScene {
         if std::mem::take(&mut self.mesh_info_dirty) {
             upload_array(up, &mut copies, &mut self.mesh_table, bytemuck::cast_slice(&self.mesh_info))?;
         }
-        for words in [&mut self.decal_order, &mut self.shadow_views, &mut self.glass_order, &mut self.skin_input] {
+        for words in [&mut self.decal_order, &mut self.shadow_views, &mut self.glass_order] {
             if std::mem::take(&mut words.dirty) {
                 upload_array(up, &mut copies, &mut words.table, bytemuck::cast_slice(&words.cpu))?;
             }
+        }
+        if std::mem::take(&mut self.skin_input.dirty) {
+            let table = &mut self.skin_input.table;
+            table.apply(up)?;
+            let len = self.skin_input.words * 4;
+            let src = up.staging.push_with(len, |dst| mirror.poses.write_input(dst));
+            copies.buffer_copy(up.staging_buffer(), table.buffer()).push(src, 0, len as u64);
+            up.bytes += len as u64;
         }
         if movers > 0 {
             self.upload_movers(up, &mut copies, mirror)?;

@@ -1289,6 +1289,18 @@ impl SceneMirror {
         true
     }
 
+    /// Completes a batch of poses set on many threads ([`crate::skinning::PoseTable::chunks`]):
+    /// the poses set wait to be skinned and their meshes' bounds follow them. The caller
+    /// refreshes the culling records of the instances that draw them ([`SceneMirror::refresh_cull`]).
+    pub fn finish_poses<T>(&mut self, batch: &[crate::skinning::PoseSet<T>]) {
+        self.poses.finish(batch);
+        for set in batch {
+            if let (Some(bounds), Some(slot)) = (set.bounds(), self.mesh_bounds.get_mut(set.mesh.0 as usize)) {
+                *slot = bounds;
+            }
+        }
+    }
+
     /// Object-space bounds of mesh `id` (a posed mesh's follow its latest pose).
     pub fn mesh_bounds(&self, id: MeshId) -> Option<(Vec3, Vec3)> {
         self.mesh_bounds.get(id.0 as usize).copied()
@@ -1384,7 +1396,7 @@ impl SceneMirror {
         self.instances_rearranged = false;
         self.pending_meshes.clear();
         self.pending_posed.clear();
-        self.poses.take_jobs(&mut Vec::new());
+        self.poses.take_jobs();
         self.pending_textures.clear();
     }
 
