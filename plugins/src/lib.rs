@@ -360,6 +360,9 @@ pub struct FrameStats {
     pub cpu_record_ms: f32,
     /// Of those, CPU milliseconds in the driver's queue submission.
     pub cpu_submit_ms: f32,
+    /// Of those, CPU milliseconds preparing the frame's data and writing the scene's uploads
+    /// into staging memory, before the passes are recorded.
+    pub cpu_prepare_ms: f32,
     /// CPU milliseconds of the whole app update that drew the frame, every schedule from its
     /// start to the frame's submission, the waits for the GPU excluded.
     pub cpu_frame_ms: f32,
@@ -605,6 +608,7 @@ fn render_frame(
                 cpu_skin_ms: animation.map_or(0.0, |a| a.skin_cpu_ms),
                 cpu_record_ms: report.record_ms,
                 cpu_submit_ms: report.submit_ms,
+                cpu_prepare_ms: report.prepare_ms,
                 visited,
                 cpu_frame_ms: time.update_started().map_or(0.0, |t| (t.elapsed().as_secs_f32() * 1e3 - report.wait_ms).max(0.0)),
                 counters: report.counters,

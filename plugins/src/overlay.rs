@@ -145,13 +145,15 @@ impl DebugOverlay {
             let passes: Vec<String> = last.gpu.iter().map(|(name, ms)| format!("{name} {ms:.2}")).collect();
             ui.label(format!("GPU {:.2} ms: {}", last.gpu.total_ms, passes.join(", ")));
             ui.label(format!(
-                "CPU {:.2} ms a frame (GPU waits excluded): animate {:.2}, propagate {:.2}, skin {:.2}, extract {:.2}, record {:.2}; visited {} instances, {} lights, {} decals",
+                "CPU {:.2} ms a frame (GPU waits excluded): animate {:.2}, propagate {:.2}, skin {:.2}, extract {:.2}, record {:.2} (of it prepare {:.2}, submit {:.2}); visited {} instances, {} lights, {} decals",
                 last.cpu_frame_ms,
                 last.cpu_animate_ms,
                 last.cpu_propagate_ms,
                 last.cpu_skin_ms,
                 last.cpu_extract_ms,
                 last.cpu_record_ms,
+                last.cpu_prepare_ms,
+                last.cpu_submit_ms,
                 last.visited.instances,
                 last.visited.lights,
                 last.visited.decals

@@ -104,6 +104,9 @@ pub struct FrameReport {
     pub record_ms: f32,
     /// Of `record_ms`, the time ending the command buffer and in `vkQueueSubmit2` (the driver's).
     pub submit_ms: f32,
+    /// Of `record_ms`, the time preparing the frame's data (skinning jobs, lights, culling) and
+    /// writing the scene's uploads into staging memory, before any pass is recorded.
+    pub prepare_ms: f32,
     /// CPU time spent waiting for the GPU before recording (the frame slot's previous use and its
     /// timestamps, the swapchain image), in milliseconds: what a whole-frame CPU time should
     /// leave out.
@@ -393,6 +396,7 @@ impl Renderer {
                 bytes: 0,
                 shrinks: 0,
                 bytes_released: 0,
+                prepare_ms: 0.0,
             },
         };
         // Free slots at the ends of the tables go before anything reads a slot count.
@@ -433,6 +437,7 @@ impl Renderer {
             }
         };
         mirror.counters.buffer_shrinks += f.upload.shrinks;
+        let prepare_ms = f.upload.prepare_ms;
         mirror.counters.bytes_released += f.upload.bytes_released;
         if let (Some((surface, _)), Some(image)) = (&mut window, &acquired) {
             f.hand_over(res.swapchain_image, ImageUse::Present);
@@ -505,6 +510,7 @@ impl Renderer {
             counters: mirror.counters,
             record_ms: start.elapsed().as_secs_f32() * 1e3,
             submit_ms,
+            prepare_ms,
             wait_ms,
             finished,
         }))

@@ -8,7 +8,8 @@
 //! `device`, `size` `[w, h]`, `gpu_ms` (one key per pass, summed over the times it ran, plus
 //! `total`), `cpu_ms` (`frame`: the whole update up to submission, GPU waits left out;
 //! `extract`; `animate`: sampling animation clips; `propagate`: transform propagation; `skin`:
-//! skinned meshes' joint matrices; `record`, and `submit`: the part of `record`
+//! skinned meshes' joint matrices; `record`; `prepare`: the part of `record` spent preparing the
+//! frame's data and writing the scene's uploads into staging; and `submit`: the part of `record`
 //! spent in the driver's queue submission), and `counters` (`bytes_uploaded`, `records_written`, `blas_builds`,
 //! `blas_updates`, `tlas_builds`, `instances`, `lights`, `decals`, `transparent`: blended instances drawn,
 //! `shadow_map_views`: atlas tiles drawn, `shadow_maps_missing`: lights the atlas had no room
@@ -109,6 +110,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
             "skin": round(stats.cpu_skin_ms),
             "record": round(stats.cpu_record_ms),
             "submit": round(stats.cpu_submit_ms),
+            "prepare": round(stats.cpu_prepare_ms),
         },
         "visited": {
             "instances": stats.visited.instances,

@@ -112,6 +112,9 @@ pub struct Upload<'a> {
     pub shrinks: u64,
     /// Bytes those shrinks hand back (freed once the GPU has finished the frames that used them).
     pub bytes_released: u64,
+    /// CPU milliseconds the frame spent preparing its data and writing its uploads into this
+    /// ring (set once the scene's upload is recorded).
+    pub prepare_ms: f32,
 }
 
 impl Upload<'_> {

@@ -79,6 +79,7 @@ pub struct FrameParts<'a> {
 /// date, set the push constants, and cull the instances into the first phase's draw lists
 /// (`crate::culling`).
 fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<(DecalFrame, LightFrame), RenderError> {
+    let started = std::time::Instant::now();
     mirror.sort_transparent(mirror.camera().position);
     r.scene.motion_wanted = r.taa.prepare(mirror, s, r.aa, f.graph.extent());
     mirror.set_depth_sample(crate::msaa::Msaa::depth_sample(r.aa.samples(), f.graph.extent()));
@@ -97,6 +98,7 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     r.bloom.prepare(f, r.scene, s.bloom)?;
     r.exposure.prepare(f, r.scene, &s.exposure, s.delta_seconds)?;
     let boxes_changed = r.scene.upload(f, mirror)?;
+    f.upload.prepare_ms = started.elapsed().as_secs_f32() * 1e3;
     r.skinning.record(f, r.scene)?;
     let in_shading = s.pipeline.is_forward() && s.decals_in_forward_shading;
     let readers = DecalReaders { lists_in_shading: in_shading, reflections: lights.traced_reflections() && s.reflections.decals_at_hits };
