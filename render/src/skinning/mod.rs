@@ -184,8 +184,9 @@ pub struct PoseTable {
     palette_len: u32,
     /// Their morph weights.
     weight_len: u32,
-    /// Per job, whether it is its pose's first skinning (read when the jobs are taken).
-    fresh_jobs: Vec<bool>,
+    /// Per job: its header, as the skinning pass reads it (its pose's first joint matrix and
+    /// morph weight in this frame's input, whether it is the pose's first skinning).
+    headers: Vec<GpuSkinJob>,
 }
 
 impl PoseTable {
@@ -307,8 +308,14 @@ impl PoseTable {
         self.palette_len = joints as u32;
         self.weight_len = weights as u32;
         // Each job's `first` flag is read now, before the poses move on.
-        self.fresh_jobs.clear();
-        self.fresh_jobs.extend(self.jobs.iter().map(|id| self.poses[id.0 as usize].as_ref().is_some_and(|p| p.fresh)));
+        self.headers.clear();
+        let (mut palette, mut first_weight) = (0, 0);
+        for &id in &self.jobs {
+            let pose = self.poses[id.0 as usize].as_ref().expect("listed above");
+            self.headers.push(GpuSkinJob { mesh: id.0, palette, first: pose.fresh as u32, weights: first_weight });
+            palette += pose.joints.len() as u32;
+            first_weight += pose.weights.len() as u32;
+        }
         let mut active = std::mem::take(&mut self.active);
         active.retain(|&id| {
             let Some(Some(pose)) = self.poses.get_mut(id.0 as usize) else { return false };
@@ -329,22 +336,49 @@ impl PoseTable {
     }
 
     /// Writes this frame's skinning input ([`PoseTable::input_words`] words) into `dst`, the
-    /// staging memory the upload copies from: the poses' matrices are copied once, here.
+    /// staging memory the upload copies from: the poses' matrices are copied once, here, on
+    /// every core of the process's compute task pool (`bevy_tasks`, which the ECS app that
+    /// drives the renderer starts; on the calling thread alone without one).
     pub fn write_input(&self, dst: &mut [u8]) {
         // `dst` is 16-byte aligned (staging memory), as are the matrices after the 16-byte jobs.
         let (headers, rest) = dst.split_at_mut(self.jobs.len() * std::mem::size_of::<GpuSkinJob>());
         let (palette, weights) = rest.split_at_mut(self.palette_len as usize * std::mem::size_of::<GpuJointMatrix>());
+        bytemuck::cast_slice_mut::<u8, GpuSkinJob>(headers).copy_from_slice(&self.headers);
         let weights: &mut [f32] = bytemuck::cast_slice_mut(weights);
-        let headers: &mut [GpuSkinJob] = bytemuck::cast_slice_mut(headers);
-        let palette: &mut [GpuJointMatrix] = bytemuck::cast_slice_mut(palette);
-        let (mut first, mut first_weight) = (0usize, 0usize);
-        for ((header, &id), &fresh) in headers.iter_mut().zip(&self.jobs).zip(&self.fresh_jobs) {
+        for (header, &id) in self.headers.iter().zip(&self.jobs) {
             let pose = self.poses[id.0 as usize].as_ref().expect("a job's pose");
-            *header = GpuSkinJob { mesh: id.0, palette: first as u32, first: fresh as u32, weights: first_weight as u32 };
-            palette[first..first + pose.joints.len()].copy_from_slice(&pose.joints);
-            weights[first_weight..first_weight + pose.weights.len()].copy_from_slice(&pose.weights);
-            first += pose.joints.len();
-            first_weight += pose.weights.len();
+            let first = header.weights as usize;
+            weights[first..first + pose.weights.len()].copy_from_slice(&pose.weights);
+        }
+        let palette: &mut [GpuJointMatrix] = bytemuck::cast_slice_mut(palette);
+        // Jobs in runs of at least this many share a task.
+        const RUN: usize = 256;
+        let pool = bevy_tasks::ComputeTaskPool::try_get().filter(|pool| pool.thread_num() > 1 && self.jobs.len() >= 2 * RUN);
+        let Some(pool) = pool else {
+            self.write_matrices(0..self.jobs.len(), palette);
+            return;
+        };
+        let run = self.jobs.len().div_ceil(pool.thread_num()).max(RUN);
+        pool.scope(|scope| {
+            let mut palette = palette;
+            for start in (0..self.jobs.len()).step_by(run) {
+                let end = (start + run).min(self.jobs.len());
+                let matrices = self.headers.get(end).map_or(self.palette_len, |h| h.palette) - self.headers[start].palette;
+                let (part, rest) = std::mem::take(&mut palette).split_at_mut(matrices as usize);
+                palette = rest;
+                scope.spawn(async move { self.write_matrices(start..end, part) });
+            }
+        });
+    }
+
+    /// Copies the joint matrices of the jobs `jobs` (consecutive) into `palette`, their place in
+    /// this frame's input.
+    fn write_matrices(&self, jobs: std::ops::Range<usize>, palette: &mut [GpuJointMatrix]) {
+        let mut at = 0;
+        for &id in &self.jobs[jobs] {
+            let joints = &self.poses[id.0 as usize].as_ref().expect("a job's pose").joints;
+            palette[at..at + joints.len()].copy_from_slice(joints);
+            at += joints.len();
         }
     }
 
@@ -637,6 +671,35 @@ mod tests {
             assert!(t.add(MeshId(sources + p), MeshId(p % sources)));
         }
         t
+    }
+
+    #[test]
+    fn a_crowds_input_written_on_many_threads_equals_the_input_written_on_one() {
+        let (sources, joints, posed) = (2, 24, 1_500);
+        let mut t = table(sources, joints, posed);
+        for p in 0..posed {
+            let matrices = (0..joints).map(|j| Mat4::from_translation(Vec3::new(p as f32, j as f32, 0.5)));
+            t.set(MeshId(sources + p), matrices, &[p as f32 * 1e-3]).expect("a posed mesh");
+        }
+        t.take_jobs();
+        assert_eq!(t.jobs().len(), posed as usize);
+        // On the calling thread alone: the reference.
+        let mut one = vec![Vec4::ZERO; t.input_words().div_ceil(4)];
+        let headers = t.jobs().len() * std::mem::size_of::<GpuSkinJob>();
+        let palette = t.palette_len as usize * std::mem::size_of::<GpuJointMatrix>();
+        {
+            let bytes: &mut [u8] = bytemuck::cast_slice_mut(&mut one);
+            bytes[..headers].copy_from_slice(bytemuck::cast_slice(&t.headers));
+            t.write_matrices(0..t.jobs().len(), bytemuck::cast_slice_mut(&mut bytes[headers..headers + palette]));
+        }
+        // On a pool of four threads.
+        bevy_tasks::ComputeTaskPool::get_or_init(|| bevy_tasks::TaskPoolBuilder::new().num_threads(4).build());
+        let many = input(&t);
+        let one: &[u32] = bytemuck::cast_slice(&one);
+        assert_eq!(&many[..(headers + palette) / 4], &one[..(headers + palette) / 4], "the jobs and every joint matrix");
+        let weights: &[f32] = bytemuck::cast_slice(&many[(headers + palette) / 4..]);
+        assert_eq!(weights.len(), posed as usize);
+        assert!(weights.iter().enumerate().all(|(p, &w)| w == p as f32 * 1e-3), "each pose's morph weight in job order");
     }
 
     #[test]
