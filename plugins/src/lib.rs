@@ -105,6 +105,10 @@ pub struct RenderSettings {
     /// Levels of detail (`render::lod`): the most pixels a coarser level's error may cover on
     /// screen for an instance to draw it (default 1; 0 draws everything in full).
     pub lod_pixels: f32,
+    /// Skinned meshes shorter on screen than this many pixels have their ray-tracing structure
+    /// refit every few frames, not every frame (default 48; 0: every frame;
+    /// `render::FrameSettings::refit_pixels`).
+    pub refit_pixels: f32,
     /// Submit a command buffer again when a frame's commands are exactly those it was recorded
     /// with (default on; `render::FrameSettings::reuse_commands`).
     pub reuse_commands: bool,
@@ -188,6 +192,7 @@ impl Default for RenderSettings {
             culling: render::CullingMode::Occlusion,
             freeze_culling: false,
             lod_pixels: render::lod::DEFAULT_LOD_PIXELS,
+            refit_pixels: render::settings::DEFAULT_REFIT_PIXELS,
             reuse_commands: true,
             limits: SceneLimits::MAX,
             decal_distance_fade: None,
@@ -571,6 +576,7 @@ fn render_frame(
         culling: settings.culling,
         freeze_culling: settings.freeze_culling,
         lod_pixels: settings.lod_pixels,
+        refit_pixels: settings.refit_pixels,
         reuse_commands: settings.reuse_commands,
     };
     let result = match window {

@@ -189,8 +189,8 @@ impl DebugOverlay {
         ));
         if c.skinned_meshes > 0 || c.scene_blas_refits > 0 {
             ui.label(format!(
-                "skinning: {} meshes, {} vertices; scene BLAS refits {}",
-                c.skinned_meshes, c.skinned_vertices, c.scene_blas_refits
+                "skinning: {} meshes, {} vertices; scene BLAS refits {}, deferred {} (stalest {} frames behind)",
+                c.skinned_meshes, c.skinned_vertices, c.scene_blas_refits, c.scene_blas_refits_deferred, c.scene_blas_stalest
             ));
         }
         let k = c.culling;
@@ -298,6 +298,7 @@ impl DebugOverlay {
             }
             ui.checkbox(&mut settings.freeze_culling, "freeze culling");
             ui.add(egui::Slider::new(&mut settings.lod_pixels, 0.0..=8.0).text("level-of-detail error (px, 0: off)"));
+            ui.add(egui::Slider::new(&mut settings.refit_pixels, 0.0..=256.0).text("characters refit every frame above (px, 0: all)"));
         });
     }
 }

@@ -799,6 +799,10 @@ impl CullingMode {
 /// ([`FrameSettings::lod_pixels`]).
 pub const DEFAULT_LOD_PIXELS: f32 = 1.0;
 
+/// The default height on screen, in pixels, below which a posed character's acceleration
+/// structure is refit only every few frames ([`FrameSettings::refit_pixels`]).
+pub const DEFAULT_REFIT_PIXELS: f32 = 48.0;
+
 /// Per-frame choices that may change from one frame to the next.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameSettings {
@@ -854,6 +858,11 @@ pub struct FrameSettings {
     /// Levels of detail (`render/src/lod`): the most pixels a coarser level's error may cover on
     /// screen for an instance to draw it (1 by default; 0 draws every instance in full).
     pub lod_pixels: f32,
+    /// Skinned and morphed meshes shorter on screen than this many pixels (48 by default) have
+    /// their ray-tracing structure refit once every few frames instead of each frame their pose
+    /// changes: their shadows, occlusion and reflections lag their drawn pose by at most
+    /// `crate::shadows::accel::MAX_REFIT_STALENESS` frames. 0 refits every one each frame.
+    pub refit_pixels: f32,
     /// Submit a frame slot's command buffer again when a frame logs exactly the commands it was
     /// recorded with, instead of recording it again (`crate::gpu::commands`). On by default;
     /// off records every frame (for comparison).
@@ -884,6 +893,7 @@ impl Default for FrameSettings {
             culling: CullingMode::Occlusion,
             freeze_culling: false,
             lod_pixels: DEFAULT_LOD_PIXELS,
+            refit_pixels: DEFAULT_REFIT_PIXELS,
             reuse_commands: true,
         }
     }

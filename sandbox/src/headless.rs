@@ -109,6 +109,8 @@ pub struct HeadlessOptions {
     pub culling: render::CullingMode,
     /// Levels of detail: the most pixels a coarser level's error may cover (0: off).
     pub lod_pixels: f32,
+    /// Posed meshes shorter on screen than this are refit every few frames (0: every frame).
+    pub refit_pixels: f32,
     /// Run `frames` frames with levels of detail off, on (at `lod_pixels`), then off again.
     pub compare_lod: bool,
     /// Submit a command buffer again when a frame's commands are exactly those it holds.
@@ -318,6 +320,7 @@ impl Default for HeadlessOptions {
             shadow_maps: render::ShadowMapBudget::default(),
             culling: render::CullingMode::Occlusion,
             lod_pixels: render::lod::DEFAULT_LOD_PIXELS,
+            refit_pixels: render::settings::DEFAULT_REFIT_PIXELS,
             compare_lod: false,
             reuse_commands: true,
             compare_culling: false,
@@ -392,6 +395,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         transparency: opts.transparency,
         culling: opts.culling,
         lod_pixels: opts.lod_pixels,
+        refit_pixels: opts.refit_pixels,
         reuse_commands: opts.reuse_commands,
         tonemapper: opts.tonemapper,
         bloom: opts.bloom,

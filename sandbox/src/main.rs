@@ -182,6 +182,10 @@ struct Cli {
     /// instance to draw it (0: every instance in full).
     #[arg(long, default_value_t = render::lod::DEFAULT_LOD_PIXELS, value_parser = parse_lod_pixels)]
     lod_pixels: f32,
+    /// Skinned characters shorter on screen than this many pixels have their ray-tracing
+    /// structure refit every few frames instead of every frame (0: every frame).
+    #[arg(long, default_value_t = render::settings::DEFAULT_REFIT_PIXELS, value_parser = parse_refit_pixels)]
+    refit_pixels: f32,
     /// Run --frames frames with levels of detail off, on (at --lod-pixels), then off again.
     #[arg(long)]
     compare_lod: bool,
@@ -291,6 +295,13 @@ fn parse_occlusion(s: &str) -> Result<render::OcclusionMethod, String> {
 
 fn parse_reflections(s: &str) -> Result<render::ReflectionMode, String> {
     render::ReflectionMode::from_name(s).ok_or_else(|| format!("unknown reflections {s:?} (off, ray_traced, screen_space)"))
+}
+
+fn parse_refit_pixels(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(px) if px.is_finite() && px >= 0.0 => Ok(px),
+        _ => Err(format!("--refit-pixels takes a number of pixels, 0 or more (0: refit every frame), not {s:?}")),
+    }
 }
 
 fn parse_lod_pixels(s: &str) -> Result<f32, String> {
@@ -452,6 +463,7 @@ fn main() -> Result<()> {
         shadow_maps: render::ShadowMapBudget { tile: cli.shadow_map_size, tiles: cli.shadow_map_tiles, ..Default::default() },
         culling: cli.culling,
         lod_pixels: cli.lod_pixels,
+        refit_pixels: cli.refit_pixels,
         compare_lod: cli.compare_lod,
         reuse_commands: !cli.record_every_frame,
         compare_culling: cli.compare_culling,

@@ -60,7 +60,9 @@
 //!
 //! Skinning (`render/src/skinning`): `counters.skinned_meshes` and `skinned_vertices` (posed
 //! meshes and vertices the skinning pass wrote this frame), `scene_blas_refits` (their BLASes
-//! refit; rebuilds count in `scene_blas_builds`), `visited.poses` (skinned instances whose pose
+//! refit; rebuilds count in `scene_blas_builds`), `scene_blas_refits_deferred` and
+//! `scene_blas_stalest` (posed meshes smaller on screen than `--refit-pixels` whose refit waits,
+//! and the most frames one has waited), `visited.poses` (skinned instances whose pose
 //! extraction set), and the `skinning`, `scene_blas_refit` and `scene_blas_build` passes in
 //! `gpu_ms`.
 //!
@@ -154,6 +156,9 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
     // The command buffer: submitted again as recorded, or recorded (`render::gpu::commands`).
     value["counters"]["commands_reused"] = json!(c.commands_reused);
     value["counters"]["command_words"] = json!(c.command_words);
+    // Refits deferred for posed meshes small on screen (`render::shadows::accel`).
+    value["counters"]["scene_blas_refits_deferred"] = json!(c.scene_blas_refits_deferred);
+    value["counters"]["scene_blas_stalest"] = json!(c.scene_blas_stalest);
     // Each list buffer also while it is held unused (for a second after its method last ran), with
     // its room only: what it measured belongs to the frames that used it.
     let clustered = stats.decal_method == render::DecalMethod::Clustered;

@@ -169,7 +169,7 @@ impl Lighting {
         let traced_shadows = l.shadows && !l.shadow_maps && self.shadows.method() != ShadowMethod::Maps;
         let wanted = traced_shadows || self.occlusion.traces(&s.occlusion) || reflections.traced();
         let accel = match self.accel.as_mut() {
-            Some(a) => a.prepare(f, scene, mirror, wanted)?,
+            Some(a) => a.prepare(f, scene, mirror, wanted, s.refit_pixels)?,
             None => SceneAccelFrame::default(),
         };
         let ray_query = match self.ray_query.as_mut() {

@@ -555,8 +555,13 @@ pub struct FrameCounters {
     /// Instances the motion-vector pass drew over the camera's motion this frame: those that
     /// moved or were posed (`crate::motion`; zero unless temporal anti-aliasing runs).
     pub motion_movers: u64,
-    /// Scene BLAS refits (posed meshes skinned this frame).
+    /// Scene BLAS refits (posed meshes skinned this frame, or deferred before).
     pub scene_blas_refits: u64,
+    /// Posed meshes whose refit waits: smaller on screen than `refit_pixels`, their structures
+    /// hold an older pose (`crate::shadows::accel`).
+    pub scene_blas_refits_deferred: u64,
+    /// The most frames one of them has waited (at most `MAX_REFIT_STALENESS`).
+    pub scene_blas_stalest: u64,
     /// Reflections: the mode applied, and what the GPU measured (`crate::reflections`).
     pub reflections: crate::reflections::ReflectionStats,
     /// The environment: sources filtered so far and the cubes' face size (`crate::environment`).

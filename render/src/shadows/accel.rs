@@ -32,6 +32,19 @@
 //! the skinning pass last wrote (or rebuilt where refits would have degraded it), and the TLAS is
 //! built anew; that frame traces the current scene.
 //!
+//! **Small characters wait.** A crowd's far characters cover a few pixels each, and refitting all
+//! of them every frame was the structures' whole cost (10,000 foxes: 3.3 ms of GPU and a
+//! millisecond of recording a frame). A posed mesh shorter on screen than
+//! [`crate::settings::FrameSettings::refit_pixels`] (48 px by default; the height of the sphere
+//! around its instance's bounds) is refit one frame in [`MAX_REFIT_STALENESS`]` + 1`, its turn
+//! spread over the meshes by id, and never later than [`MAX_REFIT_STALENESS`] frames after its
+//! pose changed: its shadow, occlusion and reflections show a pose at most 3 frames (50 ms at 60
+//! frames a second) older than the drawn one, where the pose moves a few pixels at most. Its
+//! vertices are already the new pose's, so a hit reads attributes a frame or three newer than
+//! the box it hit; for a character this small that is below a pixel. Characters off screen are
+//! judged by size too (their shadows may fall in view). The counters say how many refits were
+//! deferred and how far behind the stalest structure is.
+//!
 //! **Memory.** The TLAS and its instance records follow the instance table's slot count, which
 //! falls when the highest instances go ([`crate::scene::SceneMirror::trim`]): grown to the
 //! count's power of two when it passes the room, shrunk to it (never below 64 instances) when
@@ -85,10 +98,19 @@ struct PosedBlas {
     needs_refit: bool,
     /// Scratch bytes a refit needs (asked of the driver once, at creation).
     update_scratch: u64,
+    /// Its pose changed and it waits for a refit (listed in `SceneAccel::waiting`).
+    waiting: bool,
+    /// Frames its structure has held an older pose than the one drawn (deferred refits).
+    stale: u32,
 }
 
 /// Refits recorded per `vkCmdBuildAccelerationStructuresKHR` call.
 const REFIT_BATCH: usize = 64;
+
+/// A posed mesh smaller on screen than [`crate::settings::FrameSettings::refit_pixels`] has its
+/// refit deferred for at most this many frames: its shadow, occlusion and reflection show a pose
+/// at most this many frames older than the one drawn (50 ms at 60 frames a second).
+pub const MAX_REFIT_STALENESS: u32 = 3;
 
 /// A posed BLAS is rebuilt after this many refits at the latest.
 pub const POSED_REBUILD_REFITS: u32 = 240;
@@ -102,6 +124,18 @@ pub const POSED_REBUILD_AREA: f32 = 1.5;
 /// `built` should be rebuilt rather than refit now that its bounds have area `now`.
 pub fn posed_needs_rebuild(refits: u32, built: f32, now: f32) -> bool {
     refits >= POSED_REBUILD_REFITS || now > built * POSED_REBUILD_AREA || now * POSED_REBUILD_AREA < built
+}
+
+/// The height on screen, in pixels, of the sphere around the world-space box `min`..`max` as
+/// `camera` sees it (a perspective camera: at its centre's distance; an orthographic one: at any).
+fn screen_height(camera: &crate::layout::GpuCamera, min: glam::Vec3, max: glam::Vec3) -> f32 {
+    let radius = (max - min).length() * 0.5;
+    let scale = camera.proj.y_axis.y.abs() * camera.viewport_size.y;
+    if camera.proj.w_axis.w == 1.0 {
+        return radius * scale; // orthographic
+    }
+    let distance = camera.view.transform_point3((min + max) * 0.5).z.abs().max(1e-4);
+    if radius >= distance { f32::INFINITY } else { radius * scale / distance }
 }
 
 fn surface_area((lo, hi): (glam::Vec3, glam::Vec3)) -> f32 {
@@ -174,6 +208,13 @@ pub struct SceneAccel {
     /// This frame's skinned posed meshes, and their refits with scratch offsets (kept to reuse).
     refit_list: Vec<MeshId>,
     refits: Vec<(usize, u64)>,
+    /// Posed meshes whose pose changed and whose refit was deferred.
+    waiting: Vec<MeshId>,
+    /// Per mesh id, the largest height on screen (pixels) of the instances drawing it, while
+    /// refits are chosen.
+    sizes: Vec<f32>,
+    /// Frames prepared, to spread the deferred refits over the frames.
+    frames: u64,
     /// No consumer wanted the structures last frame: what moved since is not in them.
     dormant: bool,
 }
@@ -231,6 +272,9 @@ impl SceneAccel {
             instance_pass,
             refit_list: Vec::new(),
             refits: Vec::new(),
+            waiting: Vec::new(),
+            sizes: Vec::new(),
+            frames: 0,
             dormant: false,
             res: SceneAccelResources {
                 blas: graph.resource("scene blas"),
@@ -259,6 +303,7 @@ impl SceneAccel {
         scene: &GpuScene,
         mirror: &mut SceneMirror,
         wanted: bool,
+        refit_pixels: f32,
     ) -> Result<SceneAccelFrame, RenderError> {
         let ctx = f.ctx;
         let (frame_value, completed) = (f.upload.frame_value, f.upload.completed);
@@ -317,7 +362,7 @@ impl SceneAccel {
             )?;
             let area = mirror.mesh_bounds(id).map_or(0.0, surface_area);
             let update_scratch = sizes.update_scratch_size.next_multiple_of(256);
-            let posed = PosedBlas { refits: 0, built_area: area, area, needs_refit: false, update_scratch };
+            let posed = PosedBlas { refits: 0, built_area: area, area, needs_refit: false, update_scratch, waiting: false, stale: 0 };
             self.blas[slot] = Some(MeshBlas {
                 accel,
                 query: None,
@@ -337,17 +382,20 @@ impl SceneAccel {
                     posed.area = mirror.mesh_bounds(id).map_or(0.0, surface_area);
                 }
             }
+            self.forget_waiting(); // the wake refits every posed mesh
         } else if std::mem::take(&mut self.dormant) {
             self.refit_list.extend(
                 self.blas.iter().enumerate().filter(|(_, b)| b.as_ref().is_some_and(|b| b.posed.is_some())).map(|(i, _)| MeshId(i as u32)),
             );
             self.pending_rearranged = true; // the instances moved unseen: a full build
+            self.forget_waiting();
         } else {
-            self.refit_list.extend_from_slice(mirror.poses.jobs());
+            self.choose_refits(mirror, refit_pixels);
         }
         for &id in &self.refit_list {
             let Some(Some(b)) = self.blas.get_mut(id.0 as usize) else { continue };
             let Some(posed) = b.posed.as_mut() else { continue };
+            (posed.waiting, posed.stale) = (false, 0);
             self.pending_moved = self.pending_moved.saturating_add(1);
             posed.area = mirror.mesh_bounds(id).map_or(0.0, surface_area);
             if b.needs_build {
@@ -463,6 +511,66 @@ impl SceneAccel {
             work,
             instance_count: count,
         })
+    }
+
+    /// Lists this frame's refits in `refit_list`: the posed meshes skinned this frame join those
+    /// waiting; each is refit now if it is at least `refit_pixels` tall on screen (every one when
+    /// `refit_pixels` is 0), if its structure is [`MAX_REFIT_STALENESS`] frames behind, or if
+    /// this is its turn (one frame in `MAX_REFIT_STALENESS + 1`, spread over the meshes by id);
+    /// the rest wait a frame more. Counts the deferred refits and the stalest structure.
+    fn choose_refits(&mut self, mirror: &mut SceneMirror, refit_pixels: f32) {
+        self.frames += 1;
+        for &id in mirror.poses.jobs() {
+            if let Some(posed) = self.blas.get_mut(id.0 as usize).and_then(Option::as_mut).and_then(|b| b.posed.as_mut())
+                && !posed.waiting
+            {
+                posed.waiting = true;
+                self.waiting.push(id);
+            }
+        }
+        if self.waiting.is_empty() {
+            return;
+        }
+        // Each posed mesh's height on screen: the largest of the instances that draw it (one,
+        // for a skinned instance), from their culling records' world bounds.
+        self.sizes.clear();
+        if refit_pixels > 0.0 {
+            self.sizes.resize(self.blas.len(), 0.0);
+            let camera = mirror.camera();
+            for slot in 0..mirror.culls.slot_count() {
+                let Some(record) = mirror.culls.get(slot) else { continue };
+                let Some(size) = self.sizes.get_mut(record.mesh as usize) else { continue };
+                *size = size.max(screen_height(camera, record.min, record.max));
+            }
+        }
+        let (mut deferred, mut stalest) = (0, 0);
+        let turn = self.frames % u64::from(MAX_REFIT_STALENESS + 1);
+        let (blas, sizes, refit_list) = (&mut self.blas, &self.sizes, &mut self.refit_list);
+        self.waiting.retain(|&id| {
+            let Some(b) = blas.get_mut(id.0 as usize).and_then(Option::as_mut) else { return false };
+            let Some(posed) = b.posed.as_mut() else { return false };
+            let large = refit_pixels <= 0.0 || sizes.get(id.0 as usize).is_some_and(|&h| h >= refit_pixels);
+            if b.needs_build || large || posed.stale >= MAX_REFIT_STALENESS || u64::from(id.0) % u64::from(MAX_REFIT_STALENESS + 1) == turn
+            {
+                refit_list.push(id);
+                return false;
+            }
+            posed.stale += 1;
+            deferred += 1;
+            stalest = stalest.max(posed.stale);
+            true
+        });
+        mirror.counters.scene_blas_refits_deferred = deferred;
+        mirror.counters.scene_blas_stalest = stalest.into();
+    }
+
+    /// Forgets the deferred refits (the structures are dormant, or every posed mesh is refit).
+    fn forget_waiting(&mut self) {
+        for id in self.waiting.drain(..) {
+            if let Some(posed) = self.blas.get_mut(id.0 as usize).and_then(Option::as_mut).and_then(|b| b.posed.as_mut()) {
+                (posed.waiting, posed.stale) = (false, 0);
+            }
+        }
     }
 
     /// Makes room for mesh `slot`'s BLAS, burying the one it replaces (the table is rewritten).

@@ -286,6 +286,55 @@ fn without_a_ray_traced_consumer_nothing_is_refit_and_the_shadow_catches_up_when
     }
 }
 
+/// A character smaller on screen than `refit_pixels` has its refits deferred: while its pose
+/// changes every frame, its structure is refit at least once every `MAX_REFIT_STALENESS + 1`
+/// frames and never lags more than `MAX_REFIT_STALENESS` frames (the counters say so); once the
+/// pose holds, the structure catches up within that bound, and the shadow is the one an app that
+/// refits every frame shows.
+#[test]
+fn deferred_refits_lag_at_most_their_bound_and_catch_up_when_the_pose_holds() {
+    let bound = render::shadows::accel::MAX_REFIT_STALENESS;
+    let render = |refit_pixels: f32| {
+        let settings = RenderSettings { pipeline: PipelineKind::Deferred, refit_pixels, ..full_detail() };
+        let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, Tier::RayQuery);
+        let bend = scene(&mut app, 0.3);
+        app.update(); // the first pose: the structure is built
+        let (mut refits, mut deferred, mut behind) = (0, 0, 0);
+        for i in 1..=12 {
+            let angle = 0.3 + 0.05 * i as f32;
+            app.world.entity_mut(bend.elbow).insert(Transform::from_xyz(0.0, 1.0, 0.0).with_rotation(Quat::from_rotation_z(-angle)));
+            app.update();
+            let c = app.world.resource::<RenderStats>().last;
+            assert_eq!(c.scene_blas_refits + c.scene_blas_refits_deferred, 1, "frame {i}: the moving skin is refit or waits");
+            assert!(
+                c.scene_blas_stalest <= u64::from(bound),
+                "frame {i}: {} frames behind, beyond the bound {bound}",
+                c.scene_blas_stalest
+            );
+            behind = if c.scene_blas_refits_deferred > 0 { behind + 1 } else { 0 };
+            assert!(behind <= bound, "frame {i}: deferred {behind} frames in a row");
+            (refits, deferred) = (refits + c.scene_blas_refits, deferred + c.scene_blas_refits_deferred);
+        }
+        // The pose holds: within the bound every deferred refit is done.
+        let mut waiting = u64::MAX;
+        for _ in 0..=bound {
+            app.update();
+            waiting = app.world.resource::<RenderStats>().last.scene_blas_refits_deferred;
+        }
+        assert_eq!(waiting, 0, "refit_pixels {refit_pixels}: the structure caught up within {bound} frames of the pose holding");
+        let hdr = frames(&mut app, 1);
+        assert_no_validation_errors(&mut app);
+        (hdr, refits, deferred)
+    };
+    // Every character is "small" under a limit taller than the image.
+    let (caught_up, refits, deferred) = render(10_000.0);
+    assert!(deferred > 0 && refits >= 12 / u64::from(bound + 1), "deferred {deferred}, refit {refits} of 12 moving frames");
+    let (always, refits_always, deferred_always) = render(0.0);
+    assert_eq!((refits_always, deferred_always), (12, 0), "refit_pixels 0 refits every frame the pose changes");
+    let (mean, p99) = error_stats(&caught_up, &always, |_| true);
+    assert!(mean <= 1e-4 && p99 <= 1e-3, "the caught-up shadow differs from the always-refit one (mean {mean}, p99 {p99})");
+}
+
 /// The centroid (pixels) and count of the pixels where `pick` holds.
 fn centroid(hdr: &[[f32; 4]], width: u32, pick: impl Fn([f32; 4]) -> bool) -> (Vec2, usize) {
     let mut sum = Vec2::ZERO;
