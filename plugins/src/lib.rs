@@ -106,7 +106,7 @@ pub struct RenderSettings {
     /// screen for an instance to draw it (default 1; 0 draws everything in full).
     pub lod_pixels: f32,
     /// Skinned meshes shorter on screen than this many pixels have their ray-tracing structure
-    /// refit every few frames, not every frame (default 48; 0: every frame;
+    /// refit every other frame, not every frame (default 48; 0: every frame;
     /// `render::FrameSettings::refit_pixels`).
     pub refit_pixels: f32,
     /// Submit a command buffer again when a frame's commands are exactly those it was recorded

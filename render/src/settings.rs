@@ -800,7 +800,7 @@ impl CullingMode {
 pub const DEFAULT_LOD_PIXELS: f32 = 1.0;
 
 /// The default height on screen, in pixels, below which a posed character's acceleration
-/// structure is refit only every few frames ([`FrameSettings::refit_pixels`]).
+/// structure is refit only every other frame ([`FrameSettings::refit_pixels`]).
 pub const DEFAULT_REFIT_PIXELS: f32 = 48.0;
 
 /// Per-frame choices that may change from one frame to the next.
@@ -859,7 +859,7 @@ pub struct FrameSettings {
     /// screen for an instance to draw it (1 by default; 0 draws every instance in full).
     pub lod_pixels: f32,
     /// Skinned and morphed meshes shorter on screen than this many pixels (48 by default) have
-    /// their ray-tracing structure refit once every few frames instead of each frame their pose
+    /// their ray-tracing structure refit every other frame instead of each frame their pose
     /// changes: their shadows, occlusion and reflections lag their drawn pose by at most
     /// `crate::shadows::accel::MAX_REFIT_STALENESS` frames. 0 refits every one each frame.
     pub refit_pixels: f32,

@@ -109,7 +109,7 @@ pub struct HeadlessOptions {
     pub culling: render::CullingMode,
     /// Levels of detail: the most pixels a coarser level's error may cover (0: off).
     pub lod_pixels: f32,
-    /// Posed meshes shorter on screen than this are refit every few frames (0: every frame).
+    /// Posed meshes shorter on screen than this are refit every other frame (0: every frame).
     pub refit_pixels: f32,
     /// Run `frames` frames with levels of detail off, on (at `lod_pixels`), then off again.
     pub compare_lod: bool,

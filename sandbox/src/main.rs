@@ -183,7 +183,7 @@ struct Cli {
     #[arg(long, default_value_t = render::lod::DEFAULT_LOD_PIXELS, value_parser = parse_lod_pixels)]
     lod_pixels: f32,
     /// Skinned characters shorter on screen than this many pixels have their ray-tracing
-    /// structure refit every few frames instead of every frame (0: every frame).
+    /// structure refit every other frame instead of every frame (0: every frame).
     #[arg(long, default_value_t = render::settings::DEFAULT_REFIT_PIXELS, value_parser = parse_refit_pixels)]
     refit_pixels: f32,
     /// Run --frames frames with levels of detail off, on (at --lod-pixels), then off again.
