@@ -179,15 +179,26 @@ pub enum TlasWork {
 }
 
 /// Chooses the TLAS work: a build when the `instance_count` differs from the `built` one, when
-/// the instances were `rearranged`, or when updates since the last build reach the instance
-/// count; an update when only transforms `moved` instances; else nothing.
-pub fn plan_tlas_work(built: Option<u32>, instance_count: u32, rearranged: bool, moved: u32, updated_since_build: u64) -> TlasWork {
+/// the instances were `rearranged`, or, in a frame of the first frame slot (`first_slot`), when
+/// updates since the last build reach half the instance count; an update when only transforms
+/// `moved` instances; else nothing. Degraded trees are rebuilt only in the first slot's frames so
+/// that a crowd moving every frame builds in one slot and updates in the other, and each slot's
+/// command buffer is submitted again as recorded (`crate::gpu::commands`); a tree is rebuilt at
+/// the latest `FRAMES_IN_FLIGHT` frames after its updates reached the instance count.
+pub fn plan_tlas_work(
+    built: Option<u32>,
+    instance_count: u32,
+    rearranged: bool,
+    moved: u32,
+    updated_since_build: u64,
+    first_slot: bool,
+) -> TlasWork {
     match built {
         _ if instance_count == 0 => TlasWork::None,
         None => TlasWork::Build,
         Some(b) if b != instance_count || rearranged => TlasWork::Build,
         _ if moved == 0 => TlasWork::None,
-        _ if updated_since_build + moved as u64 >= instance_count as u64 => TlasWork::Build,
+        _ if first_slot && 2 * (updated_since_build + moved as u64) >= instance_count as u64 => TlasWork::Build,
         _ => TlasWork::Update,
     }
 }
@@ -462,7 +473,8 @@ impl SceneAccel {
             // Nothing to trace (the TLAS may name BLASes that are gone): no TLAS until there is.
             self.built = None;
         }
-        let work = plan_tlas_work(self.built, count, self.pending_rearranged, self.pending_moved, self.updated_since_build);
+        let first_slot = frame_value % FRAMES_IN_FLIGHT as u64 == 0;
+        let work = plan_tlas_work(self.built, count, self.pending_rearranged, self.pending_moved, self.updated_since_build, first_slot);
         let smaller = self.tlas_shrink.check(self.tlas_capacity as u64, count as u64, TLAS_FLOOR as u64).map(|c| c as u32);
         if count > self.tlas_capacity || smaller.is_some() {
             let capacity = smaller.unwrap_or(count.next_power_of_two().max(TLAS_FLOOR));
@@ -876,12 +888,13 @@ mod tests {
 
     #[test]
     fn tlas_policy() {
-        assert_eq!(plan_tlas_work(None, 0, false, 0, 0), TlasWork::None, "nothing to build over");
-        assert_eq!(plan_tlas_work(None, 5, false, 0, 0), TlasWork::Build, "first use builds");
-        assert_eq!(plan_tlas_work(Some(5), 5, false, 0, 0), TlasWork::None, "a still scene does nothing");
-        assert_eq!(plan_tlas_work(Some(5), 5, false, 1, 0), TlasWork::Update, "a move updates");
-        assert_eq!(plan_tlas_work(Some(5), 6, false, 1, 0), TlasWork::Build, "a spawn rebuilds");
-        assert_eq!(plan_tlas_work(Some(5), 5, true, 1, 0), TlasWork::Build, "a new mesh or material rebuilds");
-        assert_eq!(plan_tlas_work(Some(5), 5, false, 1, 4), TlasWork::Build, "updates degrade the tree: rebuild");
+        assert_eq!(plan_tlas_work(None, 0, false, 0, 0, true), TlasWork::None, "nothing to build over");
+        assert_eq!(plan_tlas_work(None, 5, false, 0, 0, false), TlasWork::Build, "first use builds");
+        assert_eq!(plan_tlas_work(Some(5), 5, false, 0, 0, true), TlasWork::None, "a still scene does nothing");
+        assert_eq!(plan_tlas_work(Some(5), 5, false, 1, 0, true), TlasWork::Update, "a move updates");
+        assert_eq!(plan_tlas_work(Some(5), 6, false, 1, 0, false), TlasWork::Build, "a spawn rebuilds");
+        assert_eq!(plan_tlas_work(Some(5), 5, true, 1, 0, false), TlasWork::Build, "a new mesh or material rebuilds");
+        assert_eq!(plan_tlas_work(Some(10), 10, false, 1, 4, true), TlasWork::Build, "updates degrade the tree: rebuild");
+        assert_eq!(plan_tlas_work(Some(10), 10, false, 1, 40, false), TlasWork::Update, "only in the first slot's frames");
     }
 }
