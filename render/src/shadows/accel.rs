@@ -105,6 +105,8 @@ struct PosedBlas {
     waiting: bool,
     /// Frames its structure has held an older pose than the one drawn (deferred refits).
     stale: u32,
+    /// Tall enough on screen to be refit every frame its pose changes (with hysteresis).
+    large: bool,
 }
 
 /// Refits recorded per `vkCmdBuildAccelerationStructuresKHR` call.
@@ -119,6 +121,10 @@ const REFIT_BATCH: usize = 64;
 /// GPU for 10,000 foxes, but every frame was recorded anew, and the driver took 5.6 ms more of
 /// CPU for it.)
 pub const MAX_REFIT_STALENESS: u32 = FRAMES_IN_FLIGHT as u32 - 1;
+
+/// A posed mesh refit every frame stays so until it is shorter than this fraction of
+/// `refit_pixels` on screen.
+const REFIT_HYSTERESIS: f32 = 0.75;
 
 /// A posed BLAS is rebuilt after this many refits at the latest.
 pub const POSED_REBUILD_REFITS: u32 = 240;
@@ -379,7 +385,8 @@ impl SceneAccel {
             )?;
             let area = mirror.mesh_bounds(id).map_or(0.0, surface_area);
             let update_scratch = sizes.update_scratch_size.next_multiple_of(256);
-            let posed = PosedBlas { refits: 0, built_area: area, area, needs_refit: false, update_scratch, waiting: false, stale: 0 };
+            let posed =
+                PosedBlas { refits: 0, built_area: area, area, needs_refit: false, update_scratch, waiting: false, stale: 0, large: true };
             self.blas[slot] = Some(MeshBlas {
                 accel,
                 query: None,
@@ -567,7 +574,12 @@ impl SceneAccel {
         self.waiting.retain(|&id| {
             let Some(b) = blas.get_mut(id.0 as usize).and_then(Option::as_mut) else { return false };
             let Some(posed) = b.posed.as_mut() else { return false };
-            let large = refit_pixels <= 0.0 || sizes.get(id.0 as usize).is_some_and(|&h| h >= refit_pixels);
+            // Hysteresis: a mesh changes class only well past the limit, so that a crowd whose
+            // poses sway about it keeps the same refits, and the same command buffers, frame to
+            // frame.
+            let size = sizes.get(id.0 as usize).copied().unwrap_or(0.0);
+            posed.large = refit_pixels <= 0.0 || size >= refit_pixels || (posed.large && size >= REFIT_HYSTERESIS * refit_pixels);
+            let large = posed.large;
             if b.needs_build || large || posed.stale >= MAX_REFIT_STALENESS || u64::from(id.0) % FRAMES_IN_FLIGHT as u64 == turn {
                 refit_list.push(id);
                 return false;
