@@ -18,6 +18,7 @@
 #include "mesh_io.glsl"
 #include "material.glsl"
 #include "shading.glsl"
+#include "lod_debug.glsl"
 #ifdef MSAA
 #include "msaa.glsl"
 #endif
@@ -44,6 +45,7 @@ void main() {
     s.geometric_normal = geometric_n;
     s.normal = perturb_normal(geometric_n, v_tangent, ms.tangent_normal, m.normal_scale);
     s.albedo = ms.base.rgb;
+    if (scene.debug_view == DEBUG_LOD) s.albedo = lod_color(lod_level_of(v_instance, uint(gl_PrimitiveID) + v_triangle_base));
     s.roughness = ms.roughness;
     s.metallic = ms.metallic;
     s.occlusion = ms.occlusion;

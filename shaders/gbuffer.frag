@@ -23,6 +23,7 @@
 #include "scene.glsl"
 #include "mesh_io.glsl"
 #include "material.glsl"
+#include "lod_debug.glsl"
 
 layout(location = 0) out vec4 gb_albedo;
 layout(location = 1) out vec4 gb_normal;
@@ -50,6 +51,7 @@ void main() {
     if ((m.flags & MATERIAL_DOUBLE_SIDED) != 0u && !gl_FrontFacing) geometric_n = -geometric_n;
     vec3 n = perturb_normal(geometric_n, v_tangent, ms.tangent_normal, m.normal_scale);
     gb_albedo = vec4(ms.base.rgb, ms.occlusion);
+    if (scene.debug_view == DEBUG_LOD) gb_albedo.rgb = lod_color(lod_level_of(v_instance, uint(gl_PrimitiveID) + v_triangle_base));
     gb_normal = vec4(n * 0.5 + 0.5, 1.0);
     gb_material = vec4(ms.roughness, ms.metallic, opacity, refraction);
     gb_layers = uvec2((scene.instances.instances[v_instance].decal_layers & 0xFFu) | ((uint(gl_PrimitiveID) + v_triangle_base) << 8), v_skinned ? v_instance + 1u : 0u);

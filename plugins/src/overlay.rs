@@ -228,6 +228,7 @@ impl DebugOverlay {
             (DebugView::DepthNormals, "normals from depth"),
             (DebugView::Reflections, "reflection rays"),
             (DebugView::AmbientOcclusion, "ambient occlusion"),
+            (DebugView::Lod, "level of detail"),
         ];
         let current = views.iter().find(|(v, _)| *v == settings.debug_view).map_or("lit", |(_, n)| n);
         egui::ComboBox::from_label("view").selected_text(current).show_ui(ui, |ui| {

@@ -795,6 +795,9 @@ layout! {
     /// ray-tracing-pipeline decal pass's count-only variant (no decal applied): the floor of
     /// that pass's enumeration, for benchmarks and tests.
     pub const DEBUG_DECAL_FLOOR: u32 = 13;
+    /// Debug view: each surface in the colour of the level of detail its instance drew
+    /// (`render/src/lod`): level 0 grey, then blue, green, yellow and red as the levels coarsen.
+    pub const DEBUG_LOD: u32 = 14;
 
     /// Culling record flag: the slot holds a live instance.
     pub const CULL_LIVE: u32 = 1;

@@ -328,9 +328,10 @@ fn parse_debug_view(s: &str) -> Result<DebugView, String> {
         "reflections" => DebugView::Reflections,
         "ambient-occlusion" => DebugView::AmbientOcclusion,
         "decal-floor" => DebugView::DecalFloor,
+        "lod" => DebugView::Lod,
         _ => {
             return Err(format!(
-                "unknown view {s:?} (lit, decal-heatmap, albedo, normal, roughness-metallic, light-heatmap, shadow-rays, depth-normals, reflections, ambient-occlusion, decal-floor)"
+                "unknown view {s:?} (lit, decal-heatmap, albedo, normal, roughness-metallic, light-heatmap, shadow-rays, depth-normals, reflections, ambient-occlusion, decal-floor, lod)"
             ));
         }
     })

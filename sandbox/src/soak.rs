@@ -472,7 +472,7 @@ pub fn resident_bytes() -> u64 {
         .map_or(0, |pages| pages * 4096)
 }
 
-const DEBUG_VIEWS: [DebugView; 11] = [
+const DEBUG_VIEWS: [DebugView; 12] = [
     DebugView::Lit,
     DebugView::DecalHeatmap,
     DebugView::Albedo,
@@ -484,6 +484,7 @@ const DEBUG_VIEWS: [DebugView; 11] = [
     DebugView::Reflections,
     DebugView::AmbientOcclusion,
     DebugView::DecalFloor,
+    DebugView::Lod,
 ];
 
 const SIZES: [(u32, u32); 6] = [(1, 1), (2, 3), (17, 9), (48, 32), (33, 61), (64, 48)];

@@ -128,6 +128,7 @@ uint apply_surface_decals(inout SurfaceInputs s, ivec2 px) {
 
 // `px` is the pixel being shaded (its tile's lights, its shadow bits, its decal buffer texel).
 vec4 shade_surface(SurfaceInputs s, ivec2 px) {
+    if (scene.debug_view == DEBUG_LOD) return vec4(s.albedo, 1.0); // the level's colour, set where the surface was built
     uint decals_tested = apply_surface_decals(s, px);
     if (scene.debug_view == DEBUG_ALBEDO) return vec4(s.albedo, 1.0);
     if (scene.debug_view == DEBUG_NORMAL) return vec4(s.normal * 0.5 + 0.5, 1.0);

@@ -9,6 +9,7 @@
 #include "visibility.glsl"
 #include "material.glsl"
 #include "shading.glsl"
+#include "lod_debug.glsl"
 
 // The shading inputs of a rebuilt surface: its material sampled with its analytic gradients.
 SurfaceInputs surface_inputs(VisibleSurface v) {
@@ -35,7 +36,9 @@ SurfaceInputs surface_inputs(VisibleSurface v) {
 bool visbuffer_surface(ivec2 px, out SurfaceInputs s) {
     float depth = texelFetch(depth_target, px, 0).r;
     if (depth <= 0.0) return false; // sky: the clear colour stays
-    s = surface_inputs(visible_surface(px, texelFetch(visibility_ids, px, 0).rg));
+    uvec2 ids = texelFetch(visibility_ids, px, 0).rg;
+    s = surface_inputs(visible_surface(px, ids));
+    if (scene.debug_view == DEBUG_LOD) s.albedo = lod_color(lod_level_of(ids.x, ids.y));
     return true;
 }
 

@@ -498,7 +498,7 @@ pub struct PoseChunk<'p, T> {
 
 impl<T> PoseChunk<'_, T> {
     /// Sets each pose of the chunk to the joint matrices and morph weights `pose_of` gives for
-    /// its item (as [`PoseTable::set`] does); `None` leaves it as it was.
+    /// its item (as [`crate::scene::SceneMirror::set_pose`] does); `None` leaves it as it was.
     pub fn set<'j>(self, mut pose_of: impl FnMut(&T) -> Option<(&'j [Mat4], &'j [f32])>) {
         for entry in self.batch.iter_mut() {
             let Some(Some(pose)) = (entry.mesh.0 as usize).checked_sub(self.first).and_then(|i| self.poses.get_mut(i)) else { continue };

@@ -6,7 +6,7 @@
 //! than the rest pose's error; a level left in the rest pose would miss the bent half by about
 //! twenty pixels); the visibility
 //! buffer rebuilds a coarser level's triangles (its normals equal forward's, which interpolates
-//! them); and an instance between the two limits of the hysteresis band keeps the level it
+//! them), and the level-of-detail view colours a surface by the level drawn in every pipeline; and an instance between the two limits of the hysteresis band keeps the level it
 //! came with, as the rules of `shaders/cull.comp`, replayed on the CPU, say.
 
 use engine::prelude::*;
@@ -103,7 +103,7 @@ fn coarser_levels_keep_the_silhouette_within_their_limit_and_follow_the_skeleton
 }
 
 #[test]
-fn the_visibility_buffer_rebuilds_a_coarser_levels_triangles_as_forward_draws_them() {
+fn the_visibility_buffer_rebuilds_a_coarser_levels_triangles_and_the_level_view_colours_them_in_every_pipeline() {
     let settings = RenderSettings { debug_view: DebugView::Normal, lod_pixels: 8.0, ..Default::default() };
     let mut app = gpu_app(SIZE.0, SIZE.1, settings);
     let white = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec4::ONE, 0.0, 0.5));
@@ -120,6 +120,27 @@ fn the_visibility_buffer_rebuilds_a_coarser_levels_triangles_as_forward_draws_th
     // A wrong triangle number would rebuild another triangle's normals: errors of order 1.
     let (mean, p99) = error_stats(&images[0], &images[1], |_| true);
     assert!(mean < 2e-3 && p99 < 2e-2, "visibility buffer and forward normals differ (mean {mean}, p99 {p99})");
+    // The level-of-detail view colours the sphere by the level the culling pass chose, in every
+    // pipeline: full detail grey, a coarser level its own colour (`shaders/include/lod_debug.glsl`).
+    const COLORS: [[f32; 3]; 5] = [[0.5, 0.5, 0.5], [0.1, 0.3, 1.0], [0.1, 0.9, 0.2], [1.0, 0.85, 0.1], [1.0, 0.15, 0.1]];
+    app.world.resource_mut::<RenderSettings>().debug_view = DebugView::Lod;
+    for pixels in [0.0, 8.0] {
+        set_lod(&mut app, pixels);
+        for pipeline in [PipelineKind::Forward, PipelineKind::Deferred, PipelineKind::VisBuffer] {
+            app.world.resource_mut::<RenderSettings>().pipeline = pipeline;
+            let (stats, depth) = settle(&mut app);
+            let level = stats.lod_instances.iter().position(|&n| n == 1).expect("the sphere is drawn once");
+            assert_eq!(level > 0, pixels > 0.0, "{pipeline:?} at {pixels} px: level {level}");
+            let hdr = renderer(&mut app).read_hdr().expect("read back the HDR target");
+            let covered: Vec<_> = hdr.iter().zip(&depth).filter(|(_, d)| **d > 0.0).map(|(p, _)| *p).collect();
+            assert!(covered.len() > 500, "{pipeline:?}: the sphere covers {} pixels", covered.len());
+            // Within the G-buffer's 8-bit sRGB albedo in deferred.
+            let off = |p: &&[f32; 4]| (0..3).any(|c| (p[c] - COLORS[level][c]).abs() > 0.01);
+            let wrong = covered.iter().filter(off).count();
+            let first = covered.iter().find(off);
+            assert_eq!(wrong, 0, "{pipeline:?} at {pixels} px: {wrong} of {} pixels not level {level}'s colour ({first:?})", covered.len());
+        }
+    }
     assert_no_validation_errors(&mut app);
 }
 
