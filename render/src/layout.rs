@@ -796,7 +796,8 @@ layout! {
     /// that pass's enumeration, for benchmarks and tests.
     pub const DEBUG_DECAL_FLOOR: u32 = 13;
     /// Debug view: each surface in the colour of the level of detail its instance drew
-    /// (`render/src/lod`): level 0 grey, then blue, green, yellow and red as the levels coarsen.
+    /// (`render/src/lod`): level 0 white, then blue, green, yellow and red as the levels coarsen;
+    /// meshes without levels dark grey.
     pub const DEBUG_LOD: u32 = 14;
 
     /// Culling record flag: the slot holds a live instance.

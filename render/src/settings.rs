@@ -396,8 +396,9 @@ pub enum DebugView {
     /// nothing (the floor its lit pass is measured against). With other methods, the decals
     /// they tested, as [`DebugView::DecalCount`].
     DecalFloor = crate::layout::DEBUG_DECAL_FLOOR,
-    /// Each surface in the colour of the level of detail its instance drew: level 0 grey, then
-    /// blue, green, yellow and red as the levels coarsen (`crate::lod`).
+    /// Each surface in the colour of the level of detail its instance drew: level 0 white, then
+    /// blue, green, yellow and red as the levels coarsen; meshes without levels dark grey
+    /// (`crate::lod`).
     Lod = crate::layout::DEBUG_LOD,
 }
 

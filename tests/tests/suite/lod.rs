@@ -121,8 +121,8 @@ fn the_visibility_buffer_rebuilds_a_coarser_levels_triangles_and_the_level_view_
     let (mean, p99) = error_stats(&images[0], &images[1], |_| true);
     assert!(mean < 2e-3 && p99 < 2e-2, "visibility buffer and forward normals differ (mean {mean}, p99 {p99})");
     // The level-of-detail view colours the sphere by the level the culling pass chose, in every
-    // pipeline: full detail grey, a coarser level its own colour (`shaders/include/lod_debug.glsl`).
-    const COLORS: [[f32; 3]; 5] = [[0.5, 0.5, 0.5], [0.1, 0.3, 1.0], [0.1, 0.9, 0.2], [1.0, 0.85, 0.1], [1.0, 0.15, 0.1]];
+    // pipeline: full detail white, a coarser level its own colour (`shaders/include/lod_debug.glsl`).
+    const COLORS: [[f32; 3]; 5] = [[0.9, 0.9, 0.9], [0.1, 0.3, 1.0], [0.1, 0.9, 0.2], [1.0, 0.85, 0.1], [1.0, 0.15, 0.1]];
     app.world.resource_mut::<RenderSettings>().debug_view = DebugView::Lod;
     for pixels in [0.0, 8.0] {
         set_lod(&mut app, pixels);
