@@ -289,7 +289,7 @@ pub enum ShadowMethod {
     /// Shadow rays from a ray-tracing pipeline.
     RayPipeline,
     /// Shadow maps (devices without ray tracing, or asked for with
-    /// [`LightSettings::shadow_maps`]): [`crate::shadows::maps`].
+    /// [`LightSettings::shadow_maps`]): `shadows::maps`.
     Maps,
     /// No shadows (turned off).
     #[default]

@@ -59,7 +59,7 @@ use crate::layout::{
     ENVIRONMENT_UNIFORM, GpuEnvironment, GpuEnvironmentJob, LIGHT_DIRECTIONAL,
 };
 use crate::lights::LightFrame;
-use crate::renderer::DebugView;
+use crate::settings::DebugView;
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
 
