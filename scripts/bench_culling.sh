@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The GPU-driven scene's benchmark of docs/BENCHMARKS.md (issue 24), run on a GPU machine with
+# The GPU-driven scene's benchmark of docs/experiments/notebook.md (issue 24), run on a GPU machine with
 # a release sandbox:
 #   scripts/bench_culling.sh SANDBOX OUT_DIR [INSTANCES...]
 # The many-instances bench scene (a city of props walled in by buildings, the camera in a

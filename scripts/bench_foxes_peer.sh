@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # PEERS.md's animated-characters scene (Bevy: N foxes running, each at its own time, one sun, no
-# shadows) with a release sandbox, for docs/BENCHMARKS.md:
+# shadows) with a release sandbox, for docs/experiments/notebook.md:
 #   scripts/bench_foxes_peer.sh SANDBOX CHARACTER [COUNTS...]
 # Forward pipeline, no shadows, no decals, the Fox's Run clip, 1920×1080. The wall time of a frame
 # is measured as the difference of a 160-frame and a 60-frame run over their 100 extra frames (so

@@ -7,7 +7,7 @@
 //! then copies into the display image (compute cannot write an sRGB or swapchain image). FXAA
 //! fused into the full-screen tone-mapping fragment pass took that pass from 0.15 to 1.08 ms on
 //! the lent H100, whose fragment shading is slow; in compute it costs a fraction of that
-//! (docs/BENCHMARKS.md, "FXAA").
+//! (docs/experiments/notebook.md, "FXAA").
 
 use ash::vk;
 

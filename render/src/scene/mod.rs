@@ -140,7 +140,7 @@ impl GpuAabb {
     /// How padding is placed decides what a build costs on NVIDIA's builder: parking it all on
     /// one point made builds 2.5–3.5× slower, and on a line of points 1 mm apart near the
     /// decals' centroid (our second version) 6 % of padding still doubled a build of 100,000
-    /// boxes (docs/BENCHMARKS.md). (A despawn leaves the same kind of point: the moved box's
+    /// boxes (docs/experiments/notebook.md). (A despawn leaves the same kind of point: the moved box's
     /// centre.)
     pub fn parking(boxes: &[GpuAabb], first: u32, count: u32) -> impl Iterator<Item = GpuAabb> {
         (0..count).map(move |i| match boxes.len() {
