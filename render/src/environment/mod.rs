@@ -59,9 +59,9 @@ use crate::layout::{
     ENVIRONMENT_UNIFORM, GpuEnvironment, GpuEnvironmentJob, LIGHT_DIRECTIONAL,
 };
 use crate::lights::LightFrame;
-use crate::settings::DebugView;
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
+use crate::settings::DebugView;
 
 /// Format of the environment's cubes.
 const CUBE_FORMAT: vk::Format = vk::Format::R16G16B16A16_SFLOAT;
