@@ -22,11 +22,11 @@ use engine::scene::MeshInstance;
 use engine::time::Time;
 use engine::transform::{GlobalTransform, TransformChanges};
 use glam::{Mat4, Vec2, Vec3};
+use render::scene::poses::PoseSet;
 use render::scene::{
     DrawItem, GpuCamera, GpuInstance, GpuMaterial, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, MeshId, SceneMirror,
     TEXTURE_FLAT_NORMAL, TEXTURE_WHITE, TextureData,
 };
-use render::skinning::PoseSet;
 use std::collections::HashMap;
 
 use crate::decal::{DEFAULT_RECEIVER_LAYERS, Decal, DecalLifetimes, DecalMaterial, DecalReceiver, decal_desc, gpu_decal_material};

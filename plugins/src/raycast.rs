@@ -124,7 +124,7 @@ impl SkinnedShape {
         let skin = mesh.skin.as_ref().filter(|s| s.joints.len() == mesh.positions.len() && s.weights.len() == mesh.positions.len())?;
         let positions: Vec<Vec3> = mesh.positions.iter().map(|&p| Vec3::from(p)).collect();
         let vertices = positions.iter().zip(skin.joints.iter().zip(&skin.weights)).map(|(&p, (&j, &w))| (p, j, w));
-        let joint_bounds = render::skinning::joint_bounds(vertices);
+        let joint_bounds = render::scene::poses::joint_bounds(vertices);
         Some(SkinnedShape {
             positions,
             indices: mesh.indices.clone(),
@@ -152,7 +152,7 @@ impl SkinnedSolid {
     fn pose(&mut self, pose: &SkinPose, global: &GlobalTransform) {
         self.matrices.clone_from(&pose.0);
         self.to_world = global.0;
-        let local = render::skinning::posed_bounds(self.shape.joint_bounds.iter().copied(), self.matrices.iter().copied());
+        let local = render::scene::poses::posed_bounds(self.shape.joint_bounds.iter().copied(), self.matrices.iter().copied());
         self.bounds = local.map(|(lo, hi)| {
             let m = Mat4::from(self.to_world);
             let (center, half) = (m.transform_point3((lo + hi) * 0.5), (hi - lo) * 0.5);

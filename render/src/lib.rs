@@ -23,16 +23,23 @@
 //! | [`gpu`] | the Vulkan core: device, memory, uploads, timestamps, shaders, pipeline creation |
 //! | [`graph`] | the frame graph: passes declare their reads and writes, barriers are derived |
 //! | [`layout`] | the records, push constants and constants Rust and GLSL share, described once |
-//! | [`scene`] | the scene mirror (plain data) and its GPU tables |
+//! | [`scene`] | the scene mirror (plain data: instances, meshes, poses, the environment) and its GPU tables |
+//! | [`stats`] | what the techniques measured, as the frame reports it |
 //! | [`decals`] | decal acceleration structures, deferred decals, decal debug views |
 //! | [`lights`] | tiled light culling and the lighting record |
 //! | [`shadows`] | the scene's acceleration structures and ray-traced shadows |
 //! | [`lod`] | levels of detail: simplified triangle lists made at upload, chosen per instance by culling |
-//! | [`skinning`] | posed meshes: skinning in compute, joint matrices, pose bounds |
+//! | [`skinning`] | posed meshes: skinning in compute (the poses are scene data, [`scene::poses`]) |
 //! | [`pipelines`] | forward, Forward+, deferred and visibility-buffer frames |
 //! | [`present`] | tone mapping, overlay, window swapchain |
 //! | [`renderer`] | frames in flight, submit |
 //! | [`settings`] | per-frame settings: pipeline, decal method, debug view |
+//!
+//! The lower layers (`gpu`, `graph`, `layout`, `settings`, `stats`, `scene`) name no technique:
+//! the scene's counters hold the techniques' statistics as [`stats`] records, and the environment
+//! and the poses a game sets are scene data ([`scene::environment`], [`scene::poses`]). The
+//! techniques still import one another in places (lights builds the lighting record from the
+//! reflections' and the environment's frames, for one); untangling those is open work.
 #![recursion_limit = "256"] // layout! recurses once per record field (GpuLighting is long)
 
 pub mod bloom;
@@ -57,6 +64,7 @@ pub mod settings;
 pub mod shadows;
 pub mod skinning;
 pub mod smaa;
+pub mod stats;
 pub mod taa;
 pub mod transparency;
 

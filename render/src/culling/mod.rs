@@ -62,7 +62,7 @@ use crate::graph::{BufferUse, Frame, FrameGraph, Load, PassKind, ResourceId};
 use crate::layout::{
     CULL_BATCHES, CULL_HEADER, CULL_MODE_FRUSTUM, CULL_MODE_OCCLUSION, CULL_MODE_OFF, CULL_ORDERED, CULL_PASS_FIRST, CULL_PASS_ORDERED,
     CULL_PASS_SECOND, CULL_PASS_SHADOW_VIEWS, CULL_STAT_DROPPED, CULL_STAT_FRUSTUM, CULL_STAT_LOD, CULL_STAT_TESTED, CULL_STAT_TRIANGLES,
-    CULL_STAT_VISIBLE, GpuCullParams, GpuCullPush, GpuDrawCommand, HIZ_LEVELS_PER_DISPATCH, HIZ_MAX_LEVELS, LOD_LEVELS,
+    CULL_STAT_VISIBLE, GpuCullParams, GpuCullPush, GpuDrawCommand, HIZ_LEVELS_PER_DISPATCH, HIZ_MAX_LEVELS,
 };
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
@@ -73,34 +73,7 @@ const COMMAND_BYTES: u64 = std::mem::size_of::<GpuDrawCommand>() as u64;
 /// The smallest draw buffer, in bytes.
 const DRAWS_FLOOR: u64 = 16 * 1024;
 
-/// What culling measured on the GPU for the main view, read back two frames later (like
-/// [`crate::lights::tiles::LightTileStats`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct CullingStats {
-    /// Frame whose GPU figures these are (`u64::MAX` before any).
-    pub measured_frame: u64,
-    /// The mode culled with this frame.
-    pub mode: CullingMode,
-    /// Whether the culling view was frozen this frame.
-    pub frozen: bool,
-    /// The limit levels of detail were chosen by this frame, in pixels (0: off).
-    pub lod_pixels: f32,
-    /// Live instances tested for the main view (blended ones included).
-    pub instances: u64,
-    /// Of those, inside the view frustum (all of them with culling off).
-    pub after_frustum: u64,
-    /// Of those, drawn: not occluded (as many as `after_frustum` without occlusion culling).
-    pub after_occlusion: u64,
-    /// Draws lost because a list was full (never expected: the lists have room for every live
-    /// instance of their batch).
-    pub dropped: u64,
-    /// Instances the main view drew at each level of detail, level 0 (full detail) first
-    /// ([`crate::lod`]; every drawn instance is at level 0 with levels of detail off).
-    pub lod_instances: [u64; LOD_LEVELS as usize + 1],
-    /// Triangles the main view's lists drew (at their levels of detail; every phase and the
-    /// glass).
-    pub triangles: u64,
-}
+pub use crate::stats::CullingStats;
 
 /// The instance slots culling put in a frame's lists ([`Culling::read_back`], for tests and
 /// tools).

@@ -49,31 +49,7 @@ use crate::settings::LightMethod;
 /// every tile); with more lights, shadows need light culling.
 pub const MAX_ALL_LIGHT_SHADOW_BYTES: u64 = 256 << 20;
 
-/// What light culling measured on the GPU, read back two frames later (like
-/// [`crate::scene::DecalClusterStats`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct LightTileStats {
-    /// Frame whose GPU figures these are (`u64::MAX` before any).
-    pub measured_frame: u64,
-    /// Tiles this frame.
-    pub tiles: u64,
-    /// Tile side in pixels this frame.
-    pub tile_size: u64,
-    /// List entries the tiles needed.
-    pub entries: u64,
-    /// List entries the buffer has room for this frame.
-    pub capacity: u64,
-    /// Tiles that did not fit (looped over every light, unshadowed, that frame).
-    pub overflowed: u64,
-    /// Most lights in one tile.
-    pub max_per_tile: u64,
-    /// Tiles holding any light.
-    pub tiles_used: u64,
-    /// Times the buffers grew, since the renderer started.
-    pub grows: u64,
-    /// Times the buffers shrank or were released (unused), since the renderer started.
-    pub shrinks: u64,
-}
+pub use crate::stats::LightTileStats;
 
 /// What a frame asks of light culling.
 #[derive(Clone, Copy, Debug)]

@@ -73,35 +73,7 @@ use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
 use crate::settings::{DebugView, FrameSettings, ReflectionMode};
 
-/// What the reflection pass measured on the GPU, read back once its frame has finished (so a
-/// frame reports the figures of the frame that last used its frame slot, two frames earlier).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct ReflectionStats {
-    /// The mode applied this frame (after [`ReflectionMode::effective`]).
-    pub applied: ReflectionMode,
-    /// Whether the rays were traced at half resolution this frame.
-    pub half_resolution: bool,
-    /// Whether the hit points looked for decals this frame (traced rays only: screen-space ones
-    /// see the decals that are on screen, and no others).
-    pub decals_at_hits: bool,
-    /// Frame whose GPU figures these are (`u64::MAX` before any).
-    pub measured_frame: u64,
-    /// Pixels that reflect (smoother than the cut-off).
-    pub pixels: u64,
-    /// Reflection rays traced.
-    pub rays: u64,
-    /// Rays that hit geometry (the rest saw the sky).
-    pub hits: u64,
-    /// Decal candidates tested at the hit points (zero-length rays in the decal TLAS).
-    pub decals_tested: u64,
-    /// Lights found at the hit points (their TLAS, and the unbounded lights).
-    pub lights_found: u64,
-    /// Rays that crossed glass.
-    pub through_glass: u64,
-    /// The smallest roughness of any material, or of any decal material that blends roughness:
-    /// reflections run only when it is under the cut-off.
-    pub smoothest: f32,
-}
+pub use crate::stats::ReflectionStats;
 
 /// This frame's reflections, decided before the lighting record is written.
 #[derive(Clone, Copy, Debug, Default)]

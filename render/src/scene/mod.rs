@@ -6,8 +6,10 @@
 //! testable without a GPU. The `Gpu*` records and shared constants are defined once in
 //! [`crate::layout`], which also generates their GLSL; they are re-exported here.
 
+pub mod environment;
 pub mod gpu;
 pub mod pool;
+pub mod poses;
 
 use std::cmp::Reverse;
 use std::collections::{BTreeSet, BinaryHeap};
@@ -535,9 +537,9 @@ pub struct FrameCounters {
     /// without that pass as for [`Self::clusters`].
     pub decal_lists: DecalListStats,
     /// Tiled light culling, as measured on the GPU; frames without it as for [`Self::clusters`].
-    pub light_tiles: crate::lights::tiles::LightTileStats,
+    pub light_tiles: crate::stats::LightTileStats,
     /// Instance culling for the main view, as measured on the GPU (`crate::culling`).
-    pub culling: crate::culling::CullingStats,
+    pub culling: crate::stats::CullingStats,
     /// Draw commands the CPU recorded this frame, every pass (indirect draws: each covers a
     /// batch of instances).
     pub draw_calls: u64,
@@ -563,9 +565,9 @@ pub struct FrameCounters {
     /// The most frames one of them has waited (at most `MAX_REFIT_STALENESS`).
     pub scene_blas_stalest: u64,
     /// Reflections: the mode applied, and what the GPU measured (`crate::reflections`).
-    pub reflections: crate::reflections::ReflectionStats,
+    pub reflections: crate::stats::ReflectionStats,
     /// The environment: sources filtered so far and the cubes' face size (`crate::environment`).
-    pub environment: crate::environment::EnvironmentStats,
+    pub environment: crate::stats::EnvironmentStats,
 }
 
 /// What clustered decals measured on the GPU. The GPU writes these into the cluster buffer and
@@ -833,13 +835,13 @@ pub struct SceneMirror {
     /// skinning makes it a mover.
     posed_slots: Vec<u32>,
     /// What lights the scene from all around (`None`: the flat ambient colour).
-    environment: Option<crate::environment::Environment>,
+    environment: Option<environment::Environment>,
     /// Meshes waiting for upload.
     pub pending_meshes: Vec<(MeshId, MeshData)>,
     /// Posed meshes waiting for a place in the pool: (posed mesh, its skinned source).
     pub pending_posed: Vec<(MeshId, MeshId)>,
     /// Skinned meshes' joint bounds and posed meshes' joint matrices.
-    pub poses: crate::skinning::PoseTable,
+    pub poses: poses::PoseTable,
     /// Meshes to free once the GPU is done with them.
     pub released_meshes: Vec<MeshId>,
     /// Textures waiting for upload, by bindless slot.
@@ -1123,13 +1125,13 @@ impl SceneMirror {
 
     /// The environment ([`crate::environment`]); `None` lights with the flat ambient colour
     /// and draws the clear colour behind the scene.
-    pub fn environment(&self) -> Option<&crate::environment::Environment> {
+    pub fn environment(&self) -> Option<&environment::Environment> {
         self.environment.as_ref()
     }
 
     /// Sets the environment. A new source (or, for the procedural sky, a new sun) is filtered
     /// once, on the next frame; intensity and rotation cost nothing.
-    pub fn set_environment(&mut self, environment: Option<crate::environment::Environment>) {
+    pub fn set_environment(&mut self, environment: Option<environment::Environment>) {
         self.environment = environment;
     }
 
@@ -1245,8 +1247,8 @@ impl SceneMirror {
         let source = posable.then(|| {
             let vertices = data.vertices.iter().zip(&data.skin).map(|(v, s)| (Vec3::from(v.position), s.joints(), s.weights()));
             let reach = |target: &[GpuMorphDelta]| target.iter().map(|d| Vec3::from(d.position).length()).fold(0.0, f32::max);
-            crate::skinning::SourceDesc {
-                joint_bounds: crate::skinning::joint_bounds(vertices),
+            poses::SourceDesc {
+                joint_bounds: poses::joint_bounds(vertices),
                 vertices: data.vertices.len() as u32,
                 rest_bounds: bounds,
                 morph_reach: data.morphs.chunks(data.vertices.len().max(1)).map(reach).collect(),
@@ -1294,10 +1296,10 @@ impl SceneMirror {
         true
     }
 
-    /// Completes a batch of poses set on many threads ([`crate::skinning::PoseTable::chunks`]):
+    /// Completes a batch of poses set on many threads ([`poses::PoseTable::chunks`]):
     /// the poses set wait to be skinned and their meshes' bounds follow them. The caller
     /// refreshes the culling records of the instances that draw them ([`SceneMirror::refresh_cull`]).
-    pub fn finish_poses<T>(&mut self, batch: &[crate::skinning::PoseSet<T>]) {
+    pub fn finish_poses<T>(&mut self, batch: &[poses::PoseSet<T>]) {
         self.poses.finish(batch);
         for set in batch {
             if let (Some(bounds), Some(slot)) = (set.bounds(), self.mesh_bounds.get_mut(set.mesh.0 as usize)) {
