@@ -803,6 +803,10 @@ impl CullingMode {
 /// ([`FrameSettings::lod_pixels`]).
 pub const DEFAULT_LOD_PIXELS: f32 = 1.0;
 
+/// An instance moves to a coarser level of detail only when that level's projected error is
+/// within this fraction of the limit ([`FrameSettings::lod_pixels`]).
+pub const LOD_HYSTERESIS: f32 = 0.75;
+
 /// The default height on screen, in pixels, below which a posed character's acceleration
 /// structure is refit only every other frame ([`FrameSettings::refit_pixels`]).
 pub const DEFAULT_REFIT_PIXELS: f32 = 48.0;

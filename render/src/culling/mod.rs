@@ -56,13 +56,14 @@ use crate::gpu::pipeline::create_compute;
 use crate::gpu::shaders;
 use crate::gpu::upload::Shrink;
 use crate::graph::pass::PassContext;
+use crate::graph::pyramid::{dispatch_pyramid, hiz_levels, hiz_words};
 use crate::graph::readback::StatsReadback;
 use crate::graph::targets::DEPTH;
 use crate::graph::{BufferUse, Frame, FrameGraph, Load, PassKind, ResourceId};
 use crate::layout::{
     CULL_BATCHES, CULL_HEADER, CULL_MODE_FRUSTUM, CULL_MODE_OCCLUSION, CULL_MODE_OFF, CULL_ORDERED, CULL_PASS_FIRST, CULL_PASS_ORDERED,
     CULL_PASS_SECOND, CULL_PASS_SHADOW_VIEWS, CULL_STAT_DROPPED, CULL_STAT_FRUSTUM, CULL_STAT_LOD, CULL_STAT_TESTED, CULL_STAT_TRIANGLES,
-    CULL_STAT_VISIBLE, GpuCullParams, GpuCullPush, GpuDrawCommand, HIZ_LEVELS_PER_DISPATCH, HIZ_MAX_LEVELS,
+    CULL_STAT_VISIBLE, GpuCullParams, GpuCullPush, GpuDrawCommand,
 };
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
@@ -408,7 +409,7 @@ impl Culling {
             frozen: u32::from(s.freeze_culling),
             lods: self.lods.as_ref().filter(|_| lod).map_or(0, |b| b.address),
             lod_pixels: if lod { s.lod_pixels } else { 0.0 },
-            lod_coarsen_pixels: if lod { s.lod_pixels * crate::lod::LOD_HYSTERESIS } else { 0.0 },
+            lod_coarsen_pixels: if lod { s.lod_pixels * crate::settings::LOD_HYSTERESIS } else { 0.0 },
             pad: 0,
         };
         scene.glass_order.set(order);
@@ -643,49 +644,6 @@ pub struct DepthPyramid {
     pub height: u32,
 }
 
-// An 8×8 workgroup's block halves three times to one texel (depth_pyramid_build.glsl).
-const _: () = assert!(HIZ_LEVELS_PER_DISPATCH == 4, "the pyramid shader writes an 8×8 block and the three levels above it");
-
-/// Records the dispatches of a depth pyramid's `levels` for `extent`, each after `bind` has bound
-/// its pipeline and push constants for the first level it writes, with a barrier between them
-/// (each reads the level below its first). GPU culling's pyramid and screen-space reflections'
-/// share it: 3 dispatches at 1080p instead of one a level (11), whose binds and barriers cost
-/// the CPU 1.5 µs each on NVIDIA's driver.
-pub(crate) fn dispatch_pyramid(p: &PassContext, extent: vk::Extent2D, levels: u32, bind: impl Fn(&PassContext, u32)) {
-    // Each dispatch writes `HIZ_LEVELS_PER_DISPATCH` levels and reads the one below its first.
-    for (i, first) in (0..levels).step_by(HIZ_LEVELS_PER_DISPATCH as usize).enumerate() {
-        if i > 0 {
-            p.compute_to_compute();
-        }
-        let shift = first + 1;
-        let (w, h) = (extent.width.div_ceil(1 << shift).max(1), extent.height.div_ceil(1 << shift).max(1));
-        bind(p, first);
-        p.cmd.dispatch(w.div_ceil(8), h.div_ceil(8), 1);
-    }
-}
-
-/// Levels of a depth pyramid for `extent` (`shaders/include/depth_pyramid.glsl`): down to the
-/// first 1×1 level, where `shaders/include/depth_pyramid_build.glsl` stops too.
-pub(crate) fn hiz_levels(extent: vk::Extent2D) -> u32 {
-    let mut levels = 1;
-    while levels < HIZ_MAX_LEVELS && (extent.width.div_ceil(1 << levels) > 1 || extent.height.div_ceil(1 << levels) > 1) {
-        levels += 1;
-    }
-    levels
-}
-
-/// Words of a depth pyramid's `levels` for `extent` (`shaders/include/depth_pyramid.glsl`).
-pub(crate) fn hiz_words(extent: vk::Extent2D, levels: u32) -> u64 {
-    (0..levels).map(|l| extent.width.div_ceil(1 << (l + 1)).max(1) as u64 * extent.height.div_ceil(1 << (l + 1)).max(1) as u64).sum()
-}
-
-/// Binds the mesh pool as the vertex and index buffer of a mesh pass (`pool`: the scene's
-/// [`crate::scene::gpu::GpuScene::pool_buffer`] this frame).
-pub(crate) fn bind_mesh_pool(p: &PassContext, pool: vk::Buffer) {
-    // The pool lives until the frame completes (deferred destruction).
-    p.cmd.bind_geometry(pool, 0, 0, vk::IndexType::UINT32);
-}
-
 /// The lists a pass draws this frame, and the calls that draw them. Declare
 /// [`Draws::reads`] on the pass.
 #[derive(Clone, Copy)]
@@ -705,7 +663,7 @@ impl Draws<'_> {
 
     fn bind_pool(&self, p: &PassContext) -> bool {
         let Some(pool) = self.frame.pool else { return false };
-        bind_mesh_pool(p, pool);
+        p.bind_mesh_pool(pool);
         true
     }
 
@@ -828,19 +786,4 @@ fn per_slot_buffer(
     }
     shrink.reset();
     Ok(true)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_pyramid_halves_down_to_one_texel() {
-        let e = |width, height| vk::Extent2D { width, height };
-        assert_eq!(hiz_levels(e(1, 1)), 1);
-        assert_eq!(hiz_levels(e(2, 2)), 1, "level 0 is 1×1");
-        assert_eq!(hiz_levels(e(5, 3)), 3, "3×2, 2×1, 1×1");
-        assert_eq!(hiz_words(e(5, 3), 3), 6 + 2 + 1);
-        assert_eq!(hiz_levels(e(1920, 1080)), 11);
-    }
 }

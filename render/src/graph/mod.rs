@@ -40,6 +40,7 @@
 
 pub mod access;
 pub mod pass;
+pub mod pyramid;
 pub mod readback;
 pub mod targets;
 

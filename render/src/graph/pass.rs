@@ -26,6 +26,12 @@ pub struct PassContext<'a> {
 }
 
 impl PassContext<'_> {
+    /// Binds the mesh pool as the vertex and index buffer of a mesh pass (`pool`: the scene's
+    /// `GpuScene::pool_buffer` this frame, which lives until the frame completes).
+    pub fn bind_mesh_pool(&self, pool: vk::Buffer) {
+        self.cmd.bind_geometry(pool, 0, 0, vk::IndexType::UINT32);
+    }
+
     /// Binds a graphics pipeline with the bindless set and push constants.
     pub fn bind_graphics(&self, pipeline: vk::Pipeline, push: &ScenePush) {
         self.bind(vk::PipelineBindPoint::GRAPHICS, pipeline, push);

@@ -57,11 +57,7 @@ pub use crate::scene::MeshLods;
 
 pub use crate::layout::{LOD_LEVEL_SHIFT, LOD_SLOT_MASK};
 
-/// An instance moves to a coarser level only when that level's projected error is within this
-/// fraction of the limit (`FrameSettings::lod_pixels`).
-pub const LOD_HYSTERESIS: f32 = 0.75;
-
-pub use crate::settings::DEFAULT_LOD_PIXELS;
+pub use crate::settings::{DEFAULT_LOD_PIXELS, LOD_HYSTERESIS};
 
 /// Meshes with fewer triangles get no coarser levels.
 pub const MIN_TRIANGLES: usize = 64;

@@ -128,7 +128,7 @@ impl Motion {
             .record(|p| {
                 let push = p.push;
                 p.bind_graphics(movers, &push);
-                crate::culling::bind_mesh_pool(p, pool);
+                p.bind_mesh_pool(pool);
                 // The draws (uploaded with the tables, declared above) live until the frame
                 // completes.
                 p.cmd.set_cull_mode(vk::CullModeFlags::NONE);

@@ -52,7 +52,6 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use crate::RenderError;
-use crate::culling::{dispatch_pyramid, hiz_levels, hiz_words};
 use crate::decals::{DecalFrame, DecalSurfaceSource, declare_decal_reads};
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::memory::Buffer;
@@ -60,6 +59,7 @@ use crate::gpu::memory::Retired;
 use crate::gpu::pipeline::ScenePush;
 use crate::gpu::pipeline::{HitGroup, LazyPipeline, RayTracingDesc, RayTracingPipeline, create_compute};
 use crate::gpu::shaders;
+use crate::graph::pyramid::{dispatch_pyramid, hiz_levels, hiz_words};
 use crate::graph::readback::StatsReadback;
 use crate::graph::targets::{
     DEPTH, GBUFFER_ALBEDO, GBUFFER_LAYERS, GBUFFER_MATERIAL, GBUFFER_NORMAL, HDR, REFLECTION, REFLECTION_ADDED, REFLECTION_RAYS,
