@@ -56,7 +56,6 @@ use crate::layout::{
     ENVIRONMENT_CUBE_MAP, ENVIRONMENT_MAP, ENVIRONMENT_ON, ENVIRONMENT_SKY, ENVIRONMENT_SPECULAR_VIEWS, ENVIRONMENT_SUN_DISC,
     ENVIRONMENT_UNIFORM, GpuEnvironment, GpuEnvironmentJob, LIGHT_DIRECTIONAL,
 };
-use crate::lights::LightFrame;
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
 use crate::settings::DebugView;
@@ -102,6 +101,12 @@ impl EnvironmentFrame {
     pub fn on(&self) -> bool {
         self.flags & ENVIRONMENT_ON != 0
     }
+}
+
+/// What a pass that samples the environment reads: its images and its record (`environment`:
+/// this frame's, `None` without one).
+pub fn environment_reads(environment: Option<[ResourceId; 2]>) -> impl Iterator<Item = (ResourceId, BufferUse)> {
+    environment.into_iter().flat_map(|[images, record]| [(images, BufferUse::SampledImages), (record, BufferUse::Storage)])
 }
 
 /// One level of an environment cube read back ([`crate::Renderer::read_environment`]).
@@ -423,24 +428,32 @@ impl Environments {
         Ok(())
     }
 
-    /// Whether the sky pass draws this frame: with an environment, in the lit view and the
-    /// reflections' (the other debug views show their values over the clear colour).
-    pub fn draws_sky(&self, lights: &LightFrame, view: DebugView) -> bool {
-        lights.environment.is_some() && matches!(view, DebugView::Lit | DebugView::Reflections)
+    /// Whether the sky pass draws this frame: with an environment (`environment`: its images
+    /// and record this frame, the lighting frame's), in the lit view and the reflections' (the
+    /// other debug views show their values over the clear colour).
+    pub fn draws_sky(&self, environment: Option<[ResourceId; 2]>, view: DebugView) -> bool {
+        environment.is_some() && matches!(view, DebugView::Lit | DebugView::Reflections)
     }
 
     /// The sky pass: where no geometry was drawn, the environment in the view direction (after
     /// the opaque shading, before reflections and glass), when [`Environments::draws_sky`].
     /// `coverage`: the HDR target was resolved from MSAA's samples, its alpha the covered
     /// fraction of each pixel, and the sky fills the rest (`crate::msaa`).
-    pub fn sky(&self, f: &mut Frame, scene: &GpuScene, lights: &LightFrame, view: DebugView, coverage: bool) -> Result<(), RenderError> {
-        if !self.draws_sky(lights, view) {
+    pub fn sky(
+        &self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        environment: Option<[ResourceId; 2]>,
+        view: DebugView,
+        coverage: bool,
+    ) -> Result<(), RenderError> {
+        if !self.draws_sky(environment, view) {
             return Ok(());
         }
         let pipeline = self.sky[usize::from(coverage)];
         f.pass("sky", PassKind::Compute)
             .read(scene.res.tables, BufferUse::Storage)
-            .reads(lights.environment_reads())
+            .reads(environment_reads(environment))
             .when(!coverage, |p| p.sample(&crate::graph::targets::DEPTH))
             .image(&crate::graph::targets::HDR, ImageUse::StorageWrite)
             .record(|p| {

@@ -93,7 +93,7 @@ pub struct LightFrame {
 impl LightFrame {
     /// What a pass that lights surfaces reads of the environment (nothing without one).
     pub fn environment_reads(&self) -> impl Iterator<Item = (ResourceId, BufferUse)> {
-        self.environment.into_iter().flat_map(|[images, record]| [(images, BufferUse::SampledImages), (record, BufferUse::Storage)])
+        crate::environment::environment_reads(self.environment)
     }
 
     /// Whether the reflection pass runs this frame (`crate::reflections`: asked for, and the

@@ -139,7 +139,7 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
     if reflected {
         r.reflections.record_before_shading(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
     }
-    let sky = r.environment.draws_sky(&lights, s.debug_view);
+    let sky = r.environment.draws_sky(lights.environment, s.debug_view);
     let [red, green, blue, _] = s.clear_color;
     let clear = match (msaa, sky) {
         (false, _) => s.clear_color,
@@ -147,7 +147,7 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
         (true, true) => [0.0; 4],
     };
     r.forward.shade(f, r.scene, &draws, clear, &decals, &lights, reflected)?;
-    r.environment.sky(f, r.scene, &lights, s.debug_view, msaa)?;
+    r.environment.sky(f, r.scene, lights.environment, s.debug_view, msaa)?;
     if !reflected {
         r.reflections.record(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
     }
@@ -228,7 +228,7 @@ fn deferred_layer(
     r.deferred.decals(f, r.scene, r.decals.deferred_runs(decals))?;
     r.decals.decal_pass(f, r.scene, decals, DecalSurfaceSource::GBuffer)?;
     r.deferred.lighting(f, r.scene, decals, lights, s.compute_shading)?;
-    r.environment.sky(f, r.scene, lights, s.debug_view, false)?;
+    r.environment.sky(f, r.scene, lights.environment, s.debug_view, false)?;
     r.reflections.record(f, r.scene, DecalSurfaceSource::GBuffer, decals, lights)
 }
 
@@ -245,7 +245,7 @@ pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirr
     r.lighting.record(f, r.scene, &draws, &lights)?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
     r.visbuffer.shade(f, r.scene, s.clear_color, &decals, &lights, s.compute_shading)?;
-    r.environment.sky(f, r.scene, &lights, s.debug_view, false)?;
+    r.environment.sky(f, r.scene, lights.environment, s.debug_view, false)?;
     r.reflections.record(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
     r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
     glass_reflections(f, r, mirror, &decals, &lights)?;
