@@ -95,6 +95,21 @@ impl DecalFrame {
         self.method.uses_decal_buffer() && (self.traced.is_some() || self.clusters.is_some()) && !self.clusters_in_shading()
     }
 
+    /// The shading pipeline variant that applies this frame's decals: the decal buffer, the
+    /// clustered lists walked in the shading, in-shader ray queries, or none.
+    pub fn variant(&self) -> crate::gpu::pipeline::ShadeVariant {
+        use crate::gpu::pipeline::ShadeVariant;
+        if self.buffered() {
+            ShadeVariant::DecalBuffer
+        } else if self.clusters_in_shading() {
+            ShadeVariant::ClusteredDecals
+        } else if self.traced.is_some() && self.method == crate::settings::DecalMethod::RayQuery {
+            ShadeVariant::RayQueryDecals
+        } else {
+            ShadeVariant::Plain
+        }
+    }
+
     /// Whether clustered decals are applied this frame by the shading pass itself, from the
     /// cluster lists.
     pub fn clusters_in_shading(&self) -> bool {

@@ -5,7 +5,7 @@ use ash::vk;
 
 use crate::RenderError;
 use crate::gpu::commands::Recorder;
-use crate::gpu::device::GpuContext;
+use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::shaders;
 use crate::layout::GpuVertex;
 
@@ -488,4 +488,80 @@ impl RayTracingPipeline {
         unsafe { ctx.destroying().destroy_pipeline(self.pipeline, None) };
         self.sbt.destroy(ctx);
     }
+}
+
+/// How a shading pass applies this frame's decals, which picks its pipeline from its
+/// [`ShadeVariants`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShadeVariant {
+    /// No decals in the shading.
+    Plain,
+    /// In-shader ray queries through the decals' structure.
+    RayQueryDecals,
+    /// The decal buffer a decal pass wrote.
+    DecalBuffer,
+    /// The clustered decals' lists, walked in the shader.
+    ClusteredDecals,
+}
+
+/// A shading pass's pipeline in each way it can apply decals: none, in-shader ray queries (on the
+/// ray-query tier only: SPIR-V with ray queries cannot even be loaded elsewhere), the decal
+/// buffer a decal pass wrote, or (the forward shading pass) the clustered decals' lists walked
+/// in the shader (`DecalFrame::clusters_in_shading` in `crate::decals`), each made the first
+/// frame that picks it. The frame's decals say which they want ([`ShadeVariant`]).
+pub struct ShadeVariants {
+    plain: LazyPipeline,
+    ray_query: Option<LazyPipeline>,
+    decal_buffer: LazyPipeline,
+    clustered: Option<LazyPipeline>,
+}
+
+impl ShadeVariants {
+    /// The variants of the shaders `[plain, ray query, decal buffer]`, each made by `make` from
+    /// its SPIR-V the first frame that picks it ([`LazyPipeline`]); the ray-query one only on
+    /// the ray-query tier.
+    pub fn new<M: MakeVariant>(ctx: &GpuContext, [plain, ray_query, decal_buffer]: [&'static [u8]; 3], make: M) -> Self {
+        Self {
+            plain: variant(&make, plain),
+            ray_query: (ctx.tier == Tier::RayQuery).then(|| variant(&make, ray_query)),
+            decal_buffer: variant(&make, decal_buffer),
+            clustered: None,
+        }
+    }
+
+    /// Adds the variant that walks the clustered decals' lists itself, made by `make` from
+    /// `shader`.
+    pub fn with_clustered<M: MakeVariant>(mut self, shader: &'static [u8], make: M) -> Self {
+        self.clustered = Some(variant(&make, shader));
+        self
+    }
+
+    /// The variant `want`, made now if no frame used it before: the plain one where this pass
+    /// has no such variant (no clustered variant, or no ray queries on this tier).
+    pub fn pick(&self, ctx: &GpuContext, want: ShadeVariant) -> Result<vk::Pipeline, RenderError> {
+        let variant = match want {
+            ShadeVariant::DecalBuffer => &self.decal_buffer,
+            ShadeVariant::ClusteredDecals => self.clustered.as_ref().unwrap_or(&self.plain),
+            ShadeVariant::RayQueryDecals => self.ray_query.as_ref().unwrap_or(&self.plain),
+            ShadeVariant::Plain => &self.plain,
+        };
+        variant.get(ctx)
+    }
+
+    /// Destroys the pipelines that were made; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        for p in [self.plain, self.decal_buffer].into_iter().chain(self.ray_query).chain(self.clustered) {
+            p.destroy(ctx);
+        }
+    }
+}
+
+/// Makes one of [`ShadeVariants`]' pipelines from its shader's SPIR-V.
+pub trait MakeVariant: Fn(&GpuContext, &'static [u8]) -> Result<vk::Pipeline, RenderError> + Clone + Send + Sync + 'static {}
+
+impl<F: Fn(&GpuContext, &'static [u8]) -> Result<vk::Pipeline, RenderError> + Clone + Send + Sync + 'static> MakeVariant for F {}
+
+fn variant<M: MakeVariant>(make: &M, spirv: &'static [u8]) -> LazyPipeline {
+    let make = make.clone();
+    LazyPipeline::new(move |ctx| make(ctx, spirv))
 }

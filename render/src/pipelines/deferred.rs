@@ -246,8 +246,8 @@ impl DeferredPasses {
         let pass = if kind == PassKind::Graphics { pass.color(&HDR, Load::Keep) } else { pass.image(&HDR, ImageUse::StorageWrite) };
         let shade = match rays {
             Some(_) => Shade::Rays(self.lighting_rays.pick(ctx, decals)?),
-            None if compute => Shade::Compute(self.lighting_compute.pick(ctx, decals)?),
-            None => Shade::Fullscreen(self.lighting.pick(ctx, decals)?),
+            None if compute => Shade::Compute(self.lighting_compute.pick(ctx, decals.variant())?),
+            None => Shade::Fullscreen(self.lighting.pick(ctx, decals.variant())?),
         };
         declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| shade.run(p, decals))
     }

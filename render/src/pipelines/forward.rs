@@ -16,6 +16,7 @@ use crate::RenderError;
 use crate::culling::{Draws, Phase};
 use crate::decals::{DecalFrame, declare_decal_reads};
 use crate::gpu::device::GpuContext;
+use crate::gpu::pipeline::ShadeVariants;
 use crate::gpu::pipeline::{GraphicsDesc, create_graphics};
 use crate::gpu::shaders;
 use crate::graph::targets::{
@@ -23,7 +24,6 @@ use crate::graph::targets::{
 };
 use crate::graph::{Frame, ImageUse, Load, PassKind};
 use crate::lights::{LightFrame, declare_light_reads};
-use crate::pipelines::ShadeVariants;
 use crate::scene::gpu::GpuScene;
 
 /// Pipelines of the forward renderer, at one count of samples a pixel: 1, or MSAA's
@@ -150,7 +150,7 @@ impl ForwardPasses {
             .when(reflected, |p| p.image(&REFLECTION_ADDED, ImageUse::StorageRead))
             .reads(scene.res.drawn())
             .reads(draws.reads());
-        let pipeline = variants.pick(ctx, decals)?;
+        let pipeline = variants.pick(ctx, decals.variant())?;
         declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| {
             let push = p.push;
             p.bind_graphics(pipeline, &push);

@@ -18,7 +18,8 @@ use crate::decals::{DecalChoice, DecalFrame, DecalReaders, DecalSurfaceSource, D
 use crate::environment::Environments;
 use crate::exposure::Exposure;
 use crate::gpu::device::{GpuContext, Tier};
-use crate::gpu::pipeline::{HitGroup, LazyPipeline, RayTracingDesc, RayTracingPipeline, ScenePush};
+use crate::gpu::pipeline::{HitGroup, RayTracingDesc, RayTracingPipeline, ScenePush};
+pub use crate::gpu::pipeline::{MakeVariant, ShadeVariants};
 use crate::gpu::shaders;
 use crate::graph::pass::PassContext;
 use crate::graph::{Frame, PassKind};
@@ -313,66 +314,6 @@ fn transparent_depth(f: &mut Frame, r: &FrameParts, draws: &Draws, mirror: &Scen
     r.transparency.depth(f, r.scene, draws, mirror.transparent_order())
 }
 
-/// A shading pass's pipeline in each way it can apply decals: none, in-shader ray queries (on the
-/// ray-query tier only: SPIR-V with ray queries cannot even be loaded elsewhere), the decal
-/// buffer a decal pass wrote, or (the forward shading pass) the clustered decals' lists walked
-/// in the shader ([`DecalFrame::clusters_in_shading`]).
-pub struct ShadeVariants {
-    plain: LazyPipeline,
-    ray_query: Option<LazyPipeline>,
-    decal_buffer: LazyPipeline,
-    clustered: Option<LazyPipeline>,
-}
-
-impl ShadeVariants {
-    /// The variants of the shaders `[plain, ray query, decal buffer]`, each made by `make` from
-    /// its SPIR-V the first frame that picks it ([`LazyPipeline`]); the ray-query one only on
-    /// the ray-query tier.
-    pub fn new<M: MakeVariant>(ctx: &GpuContext, [plain, ray_query, decal_buffer]: [&'static [u8]; 3], make: M) -> Self {
-        Self {
-            plain: variant(&make, plain),
-            ray_query: (ctx.tier == Tier::RayQuery).then(|| variant(&make, ray_query)),
-            decal_buffer: variant(&make, decal_buffer),
-            clustered: None,
-        }
-    }
-
-    /// Adds the variant that walks the clustered decals' lists itself, made by `make` from
-    /// `shader`.
-    pub fn with_clustered<M: MakeVariant>(mut self, shader: &'static [u8], make: M) -> Self {
-        self.clustered = Some(variant(&make, shader));
-        self
-    }
-
-    /// The variant that applies this frame's decals, made now if no frame used it before.
-    pub fn pick(&self, ctx: &GpuContext, decals: &DecalFrame) -> Result<vk::Pipeline, RenderError> {
-        let variant = match (&self.ray_query, &self.clustered) {
-            _ if decals.buffered() => &self.decal_buffer,
-            (_, Some(clustered)) if decals.clusters_in_shading() => clustered,
-            (Some(rq), _) if decals.traced.is_some() && decals.method == crate::settings::DecalMethod::RayQuery => rq,
-            _ => &self.plain,
-        };
-        variant.get(ctx)
-    }
-
-    /// Destroys the pipelines that were made; the GPU must be idle.
-    pub fn destroy(self, ctx: &GpuContext) {
-        for p in [self.plain, self.decal_buffer].into_iter().chain(self.ray_query).chain(self.clustered) {
-            p.destroy(ctx);
-        }
-    }
-}
-
-/// Makes one of [`ShadeVariants`]' pipelines from its shader's SPIR-V.
-pub trait MakeVariant: Fn(&GpuContext, &'static [u8]) -> Result<vk::Pipeline, RenderError> + Clone + Send + Sync + 'static {}
-
-impl<F: Fn(&GpuContext, &'static [u8]) -> Result<vk::Pipeline, RenderError> + Clone + Send + Sync + 'static> MakeVariant for F {}
-
-fn variant<M: MakeVariant>(make: &M, spirv: &'static [u8]) -> LazyPipeline {
-    let make = make.clone();
-    LazyPipeline::new(move |ctx| make(ctx, spirv))
-}
-
 /// A lighting pass with ray-query lights (`crate::lights::ray_query`): on the ray-query tier
 /// the compute variants whose lights come from ray queries, in each way they apply decals; on
 /// the ray-tracing-pipeline tier a ray-generation pipeline (`[plain, decal buffer]`) whose
@@ -417,7 +358,7 @@ impl RayLightShading {
     /// before), `None` on a device that has neither kind.
     pub fn pick(&self, ctx: &GpuContext, decals: &DecalFrame) -> Result<Option<RayLightPass<'_>>, RenderError> {
         if let Some(compute) = &self.compute {
-            return Ok(Some(RayLightPass { pipeline: compute.pick(ctx, decals)?, rays: None }));
+            return Ok(Some(RayLightPass { pipeline: compute.pick(ctx, decals.variant())?, rays: None }));
         }
         let Some(lazy) = &self.rays else { return Ok(None) };
         let rays = match lazy.made.get() {

@@ -107,8 +107,8 @@ impl VisBufferPasses {
         let pass = if kind == PassKind::Graphics { pass.color(&HDR, Load::Clear(clear)) } else { pass.image(&HDR, ImageUse::StorageWrite) };
         let shade = match rays {
             Some(_) => Shade::Rays(self.shade_rays.pick(ctx, decals)?),
-            None if compute => Shade::Compute(self.shade_compute.pick(ctx, decals)?),
-            None => Shade::Fullscreen(self.shade.pick(ctx, decals)?),
+            None if compute => Shade::Compute(self.shade_compute.pick(ctx, decals.variant())?),
+            None => Shade::Fullscreen(self.shade.pick(ctx, decals.variant())?),
         };
         declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| shade.run(p, decals))
     }

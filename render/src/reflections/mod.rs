@@ -57,6 +57,7 @@ use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::memory::Buffer;
 use crate::gpu::memory::Retired;
 use crate::gpu::pipeline::ScenePush;
+use crate::gpu::pipeline::ShadeVariants;
 use crate::gpu::pipeline::{HitGroup, LazyPipeline, RayTracingDesc, RayTracingPipeline, create_compute};
 use crate::gpu::shaders;
 use crate::graph::pyramid::{dispatch_pyramid, hiz_levels, hiz_words};
@@ -68,7 +69,6 @@ use crate::graph::targets::{
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassKind, ResourceId};
 use crate::layout::{DECAL_ROUGHNESS, REFLECT_DECALS, REFLECT_HALF_RES, REFLECT_ON, REFLECT_SCREEN_SPACE, REFLECTION_STATS};
 use crate::lights::LightFrame;
-use crate::pipelines::ShadeVariants;
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
 use crate::settings::{DebugView, FrameSettings, ReflectionMode};
@@ -419,10 +419,10 @@ impl Reflections {
         let screen = !lights.traced_reflections();
         let ctx = f.ctx;
         let compute = match source {
-            Some(source) if screen => Some(self.screen[source as usize].pick(ctx, decals)?),
-            Some(DecalSurfaceSource::GBuffer) => self.gbuffer.as_ref().map(|v| v.pick(ctx, decals)).transpose()?,
+            Some(source) if screen => Some(self.screen[source as usize].pick(ctx, decals.variant())?),
+            Some(DecalSurfaceSource::GBuffer) => self.gbuffer.as_ref().map(|v| v.pick(ctx, decals.variant())).transpose()?,
             Some(DecalSurfaceSource::Visibility | DecalSurfaceSource::Depth) => {
-                self.visibility.as_ref().map(|v| v.pick(ctx, decals)).transpose()?
+                self.visibility.as_ref().map(|v| v.pick(ctx, decals.variant())).transpose()?
             }
             None => self.glass.as_ref().map(|g| g.get(ctx)).transpose()?,
         };
