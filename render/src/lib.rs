@@ -35,11 +35,22 @@
 //! | [`renderer`] | frames in flight, submit |
 //! | [`settings`] | per-frame settings: pipeline, decal method, debug view |
 //!
-//! The lower layers (`gpu`, `graph`, `layout`, `settings`, `stats`, `scene`) name no technique:
-//! the scene's counters hold the techniques' statistics as [`stats`] records, and the environment
-//! and the poses a game sets are scene data ([`scene::environment`], [`scene::poses`]). The
-//! techniques still import one another in places (lights builds the lighting record from the
-//! reflections' and the environment's frames, for one); untangling those is open work.
+//! **Layers.** The lower layers (`gpu`, `graph`, `layout`, `settings`, `stats`, `scene`) name no
+//! technique: the scene's counters hold the techniques' statistics as [`stats`] records, the
+//! environment and the poses a game sets are scene data ([`scene::environment`],
+//! [`scene::poses`]), and what several techniques share is a utility of a lower layer (depth
+//! pyramids in [`graph::pyramid`], shading variants in [`gpu::pipeline`]). A technique imports
+//! another where the frame function hands it that technique's typed output:
+//!
+//! 1. `culling::Draws` (the lists a pass draws): lights, shadows, transparency;
+//! 2. `decals::DecalFrame` (how this frame's decals are applied): reflections, transparency;
+//! 3. `lights::LightFrame` (this frame's lights and shadows): reflections, transparency;
+//! 4. the frames the lighting record is built from: `environment::EnvironmentFrame`,
+//!    `environment::occlusion::OcclusionFrame`, `reflections::ReflectionFrame` (lights).
+//!
+//! Three imports are not of that kind and remain open work: `lights` owns the scene's
+//! acceleration structures and the shadow passes (`shadows`), `msaa` owns the multisampled
+//! forward passes (`pipelines::forward`), and `present` borrows SMAA's passes (`smaa`).
 #![recursion_limit = "256"] // layout! recurses once per record field (GpuLighting is long)
 
 pub mod bloom;
