@@ -48,9 +48,10 @@
 //! 4. the frames the lighting record is built from: `environment::EnvironmentFrame`,
 //!    `environment::occlusion::OcclusionFrame`, `reflections::ReflectionFrame` (lights).
 //!
-//! Three imports are not of that kind and remain open work: `lights` owns the scene's
-//! acceleration structures and the shadow passes (`shadows`), `msaa` owns the multisampled
-//! forward passes (`pipelines::forward`), and `present` borrows SMAA's passes (`smaa`).
+//! Two imports are not of that kind and remain open work: `lights` owns the scene's
+//! acceleration structures and the shadow passes (`shadows`), and `present` borrows SMAA's
+//! passes (`smaa`). (MSAA only sets the graph's multisampled targets; the renderer owns the
+//! multisampled forward passes.)
 #![recursion_limit = "256"] // layout! recurses once per record field (GpuLighting is long)
 
 pub mod bloom;

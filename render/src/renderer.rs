@@ -146,6 +146,8 @@ struct Resources {
     motion: crate::motion::Motion,
     taa: crate::taa::Taa,
     msaa: crate::msaa::Msaa,
+    /// The forward pipelines at MSAA's sample count, while it is on (`crate::msaa`).
+    forward_ms: Option<ForwardPasses>,
     smaa: crate::smaa::Smaa,
     decals: Decals,
     lighting: Lighting,
@@ -213,6 +215,7 @@ impl Renderer {
             motion: crate::motion::Motion::new(ctx, layout)?,
             taa: crate::taa::Taa::new(ctx, layout)?,
             msaa: crate::msaa::Msaa::new(ctx),
+            forward_ms: None,
             smaa: crate::smaa::Smaa::new(ctx, layout)?,
             decals: Decals::new(ctx, &mut graph, layout, settings.decal_cluster_capacity)?,
             lighting: Lighting::new(ctx, &mut graph, layout, settings.shadow_maps)?,
@@ -352,7 +355,16 @@ impl Renderer {
         };
         let decal_choice = DecalChoice { requested: settings.decal_method, applied: res.decal_method(ctx, settings) };
         let aa = res.msaa.choose(settings);
-        res.msaa.prepare(ctx, &mut res.graph, res.layout, aa).map_err(|e| e.in_frame(frame, "making the MSAA pipelines"))?;
+        if let Some(samples) = res.msaa.prepare(ctx, &mut res.graph, aa) {
+            // The GPU is idle: a change of sample count waited for it.
+            if let Some(old) = res.forward_ms.take() {
+                old.destroy(ctx);
+            }
+            if samples > 1 {
+                let made = ForwardPasses::new(ctx, res.layout, samples).map_err(|e| e.in_frame(frame, "making the MSAA pipelines"))?;
+                res.forward_ms = Some(made);
+            }
+        }
         let slot = &mut res.frames[slot_index];
         // Reading the slot's timestamps is where some drivers (lavapipe) do their waiting.
         let finished = slot.timer.collect(ctx).map(|gpu| FinishedFrame { frame: slot.frame, gpu });
@@ -407,7 +419,7 @@ impl Renderer {
             skinning: &mut res.skinning,
             decals: &mut res.decals,
             lighting: &mut res.lighting,
-            forward: res.msaa.forward().unwrap_or(&res.forward),
+            forward: res.forward_ms.as_ref().unwrap_or(&res.forward),
             deferred: &res.deferred,
             visbuffer: &res.visbuffer,
             transparency: &res.transparency,
@@ -692,7 +704,8 @@ impl Drop for Renderer {
             exposure,
             motion,
             taa,
-            msaa,
+            msaa: _,
+            forward_ms,
             smaa,
             decals,
             lighting,
@@ -732,7 +745,9 @@ impl Drop for Renderer {
         exposure.destroy(ctx);
         motion.destroy(ctx);
         taa.destroy(ctx);
-        msaa.destroy(ctx);
+        if let Some(f) = forward_ms {
+            f.destroy(ctx);
+        }
         smaa.destroy(ctx);
         tonemap.destroy(ctx);
         graph.destroy(ctx);

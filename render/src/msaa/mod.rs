@@ -46,10 +46,8 @@
 
 use ash::vk;
 
-use crate::RenderError;
 use crate::gpu::device::GpuContext;
 use crate::graph::FrameGraph;
-use crate::pipelines::forward::ForwardPasses;
 use crate::settings::{AntiAliasing, FrameSettings};
 
 /// MSAA's pipelines and the choice of the anti-aliasing a frame applies.
@@ -57,8 +55,8 @@ pub struct Msaa {
     /// The sample counts every attachment MSAA draws into can take on this device (bit `n`:
     /// `n` samples).
     supported: u32,
-    /// The forward pipelines at the sample count in use (none while MSAA is off).
-    passes: Option<ForwardPasses>,
+    /// The sample count in use (1 while MSAA is off).
+    samples: u32,
     /// The fallbacks already logged: (asked for, applied).
     warned: Vec<(AntiAliasing, AntiAliasing)>,
 }
@@ -86,7 +84,7 @@ impl Msaa {
         };
         counts &= ids.map_or(vk::SampleCountFlags::TYPE_1, |p| p.sample_counts);
         tracing::debug!(sample_counts = ?counts, "MSAA");
-        Self { supported: counts.as_raw(), passes: None, warned: Vec::new() }
+        Self { supported: counts.as_raw(), samples: 1, warned: Vec::new() }
     }
 
     /// The sample counts MSAA can use on this device (bit `n`: `n` samples).
@@ -113,31 +111,23 @@ impl Msaa {
         applied
     }
 
-    /// Makes the pipelines (and sets the graph's multisampled targets) for `aa`, before a
-    /// frame is recorded. A change of sample count waits for the GPU.
-    pub fn prepare(
-        &mut self,
-        ctx: &GpuContext,
-        graph: &mut FrameGraph,
-        layout: vk::PipelineLayout,
-        aa: AntiAliasing,
-    ) -> Result<(), RenderError> {
+    /// Sets the graph's multisampled targets for `aa`, before a frame is recorded. A change of
+    /// sample count waits for the GPU and returns the new count: the frame's owner then remakes
+    /// the forward passes for it (`crate::pipelines::forward::ForwardPasses::new`; none at 1).
+    pub fn prepare(&mut self, ctx: &GpuContext, graph: &mut FrameGraph, aa: AntiAliasing) -> Option<u32> {
         let samples = aa.samples();
-        if self.passes.as_ref().map_or(1, ForwardPasses::samples) == samples {
-            return Ok(());
+        if self.samples == samples {
+            return None;
         }
         ctx.wait_idle();
-        if let Some(old) = self.passes.take() {
-            old.destroy(ctx);
-        }
         if samples > 1 {
             graph.set_samples(samples);
-            self.passes = Some(ForwardPasses::new(ctx, layout, samples)?);
         } else {
             graph.drop_multisampled();
         }
         graph.destroy_retired(ctx);
-        Ok(())
+        self.samples = samples;
+        Some(samples)
     }
 
     /// Where the resolved depth of a pixel lies, as an offset from its centre in NDC for a view
@@ -154,18 +144,6 @@ impl Msaa {
         };
         // The viewport is flipped: rows go down, NDC y up.
         (sample_zero - 0.5) * glam::Vec2::new(2.0 / extent.width as f32, -2.0 / extent.height as f32)
-    }
-
-    /// The forward pipelines at MSAA's sample count, while it is on.
-    pub fn forward(&self) -> Option<&ForwardPasses> {
-        self.passes.as_ref()
-    }
-
-    /// Destroys the pipelines; the GPU must be idle.
-    pub fn destroy(self, ctx: &GpuContext) {
-        if let Some(p) = self.passes {
-            p.destroy(ctx);
-        }
     }
 }
 
