@@ -67,6 +67,8 @@ pub struct FrameParts<'a> {
     pub taa: &'a mut crate::taa::Taa,
     /// Tone mapping and overlay into the frame's display image.
     pub present: Present<'a>,
+    /// SMAA's passes, before the tone mapper blends by their weights.
+    pub smaa: &'a crate::smaa::Smaa,
     /// The decal method asked for and the one this device and pipeline apply.
     pub decal_choice: DecalChoice,
     /// The anti-aliasing applied ([`crate::settings::AntiAliasing::applied`]).
@@ -289,6 +291,10 @@ fn present(f: &mut Frame, r: &mut FrameParts, mirror: &SceneMirror, s: &FrameSet
     r.bloom.record(f, r.scene)?;
     r.exposure.record(f, r.scene)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
+    // SMAA finds its edges and weights in the lit image before the tone mapper blends by them.
+    if r.aa == crate::settings::AntiAliasing::Smaa {
+        r.smaa.record(f, r.scene, r.exposure.reads())?;
+    }
     r.present.record(f, r.scene, r.exposure.reads())
 }
 

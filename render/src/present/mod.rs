@@ -24,8 +24,6 @@ pub struct Present<'a> {
     pub overlay: Option<(&'a mut Overlay, &'a OverlayFrame)>,
     /// Anti-aliasing of the displayed image.
     pub aa: AntiAliasing,
-    /// SMAA's passes.
-    pub smaa: &'a crate::smaa::Smaa,
     /// The debug builds' check of the tone mapper's input (`None` in release builds).
     pub check: Option<&'a mut DisplayCheck>,
 }
@@ -36,9 +34,6 @@ impl Present<'_> {
     pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, exposure: Option<(ResourceId, BufferUse)>) -> Result<(), RenderError> {
         if let Some(check) = self.check.as_deref_mut() {
             check.begin(f)?;
-        }
-        if self.aa == AntiAliasing::Smaa {
-            self.smaa.record(f, scene, exposure)?;
         }
         let check = self.check.as_deref().map(DisplayCheck::writes);
         self.tonemap.record(f, scene, self.target, self.aa, exposure, check)?;
