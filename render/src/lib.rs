@@ -48,8 +48,9 @@
 //! 4. the frames the lighting record is built from: `environment::EnvironmentFrame`,
 //!    `environment::occlusion::OcclusionFrame`, `reflections::ReflectionFrame` (lights).
 //!
-//! One import is not of that kind and remains open work: `lights` owns the scene's acceleration
-//! structures and the shadow passes (`shadows`). (MSAA only sets the graph's multisampled
+//! Two imports are not of that kind and remain open work: `lights` owns the scene's acceleration
+//! structures and the shadow passes (`shadows`), and the ambient-occlusion pass
+//! (`environment::occlusion`). (MSAA only sets the graph's multisampled
 //! targets, the renderer owning the multisampled forward passes; the frame function records
 //! SMAA's passes before presenting.)
 #![recursion_limit = "256"] // layout! recurses once per record field (GpuLighting is long)
