@@ -524,7 +524,7 @@ pub fn extract_poses(
         let weights = morphed
             .then(|| morphs.get(entity).ok().or_else(|| parents.get(entity).ok().and_then(|p| morphs.get(p.parent()).ok())))
             .flatten();
-        Some((joints, weights.map_or(&[][..], |(_, w, _)| &w.into_inner().0[..])))
+        (joints, weights.map_or(&[][..], |(_, w, _)| &w.into_inner().0[..]))
     };
     match ComputeTaskPool::try_get().filter(|pool| pool.thread_num() > 1 && batch.len() > 64) {
         Some(pool) => {

@@ -245,8 +245,7 @@ type MakePipeline = dyn Fn(&GpuContext) -> Result<vk::Pipeline, RenderError> + S
 /// renderer: most of a renderer's variants (each way of applying decals, of lighting, of
 /// tracing reflections) serve settings or scenes a run may never use, and on a software device
 /// (lavapipe) making all of them took most of a renderer's start (about 3 of 4 seconds). A game
-/// pays for a variant once, in the first frame that uses it; [`LazyPipeline::made`] says whether
-/// it exists.
+/// pays for a variant once, in the first frame that uses it.
 pub struct LazyPipeline {
     made: std::sync::OnceLock<vk::Pipeline>,
     make: Box<MakePipeline>,
@@ -272,11 +271,6 @@ impl LazyPipeline {
         // Frames are recorded on one thread: nothing else can have set it since the check.
         let _ = self.made.set(made);
         Ok(made)
-    }
-
-    /// Whether a frame has asked for it (and it exists).
-    pub fn made(&self) -> bool {
-        self.made.get().is_some()
     }
 
     /// Destroys the pipeline if it was made; the GPU must be idle.

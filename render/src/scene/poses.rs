@@ -437,12 +437,12 @@ pub struct PoseChunk<'p, T> {
 
 impl<T> PoseChunk<'_, T> {
     /// Sets each pose of the chunk to the joint matrices and morph weights `pose_of` gives for
-    /// its item (as [`crate::scene::SceneMirror::set_pose`] does); `None` leaves it as it was.
-    pub fn set<'j>(self, mut pose_of: impl FnMut(&T) -> Option<(&'j [Mat4], &'j [f32])>) {
+    /// its item (as [`crate::scene::SceneMirror::set_pose`] does).
+    pub fn set<'j>(self, mut pose_of: impl FnMut(&T) -> (&'j [Mat4], &'j [f32])) {
         for entry in self.batch.iter_mut() {
             let Some(Some(pose)) = (entry.mesh.0 as usize).checked_sub(self.first).and_then(|i| self.poses.get_mut(i)) else { continue };
             let Some(source) = self.sources.get(pose.source.0 as usize).and_then(Option::as_ref) else { continue };
-            let Some((joints, weights)) = pose_of(&entry.item) else { continue };
+            let (joints, weights) = pose_of(&entry.item);
             let (bounds, newly_active) = set_pose(pose, source, joints.iter().copied(), weights);
             entry.outcome = Some(bounds);
             entry.newly_active = newly_active;
@@ -575,7 +575,7 @@ mod tests {
             let chunks: Vec<_> = chunked.chunks(&mut batch, parts).collect();
             assert!(chunks.len() <= parts);
             for chunk in chunks {
-                chunk.set(|&i| Some((&poses[i].0[..], &poses[i].1[..])));
+                chunk.set(|&i| (&poses[i].0[..], &poses[i].1[..]));
             }
             chunked.finish(&batch);
             for (&id, expected) in ids.iter().zip(&serial) {
