@@ -329,7 +329,7 @@ pub struct TransformStats {
 /// What one propagation run reads and writes, as system parameters.
 #[derive(SystemParam)]
 pub struct Propagation<'w, 's> {
-    dirty: Query<'w, 's, Entity, Dirty>,
+    dirty: Query<'w, 's, (Entity, Option<&'static ChildOf>), Dirty>,
     parents: Query<'w, 's, &'static ChildOf>,
     nodes: Query<'w, 's, Node>,
     orphaned: RemovedComponents<'w, 's, ChildOf>,
@@ -378,7 +378,7 @@ fn propagate(p: Propagation, pool: Option<&TaskPool>) {
         changes.moved.clear();
     }
     let TransformChanges { pending, moved, .. } = changes;
-    let is_dirty = |entity: Entity| dirty.contains(entity) || pending.contains(&entity);
+    let is_dirty = |entity: Entity| dirty.contains(entity) || (!pending.is_empty() && pending.contains(&entity));
     // Entities that lost their parent and are roots now (unless they are also dirty, in which
     // case the seeds below handle them). Few, and walked first, on this thread: a seed may lie in
     // their subtrees.
@@ -390,12 +390,13 @@ fn propagate(p: Propagation, pool: Option<&TaskPool>) {
     propagate_stack(stack, &mut nodes, moved);
 
     // The seeds: changed entities with no changed ancestor (the ancestor's subtree walk
-    // recomputes them). No seed is another's ancestor, so their subtrees are disjoint.
-    let is_seed = |entity: Entity| {
-        let mut current = entity;
+    // recomputes them). No seed is another's ancestor, so their subtrees are disjoint. The
+    // entity's own parent link comes with it (read in table order, not looked up).
+    let is_seed = |entity: Entity, child_of: Option<&ChildOf>| {
         let mut depth = 0;
-        while let Ok(child_of) = parents.get(current) {
-            current = child_of.parent();
+        let mut parent = child_of.map(ChildOf::parent);
+        while let Some(current) = parent {
+            parent = parents.get(current).ok().map(ChildOf::parent);
             depth += 1;
             if depth > MAX_DEPTH || current == entity {
                 warn!(?entity, "transform hierarchy is cyclic or too deep; not propagated");
@@ -410,8 +411,8 @@ fn propagate(p: Propagation, pool: Option<&TaskPool>) {
     seeds.clear();
     match pool {
         Some(_) => {
-            dirty.par_iter().for_each(|entity| {
-                if is_seed(entity) {
+            dirty.par_iter().for_each(|(entity, child_of)| {
+                if is_seed(entity, child_of) {
                     found.scope(|seeds| seeds.push(entity));
                 }
             });
@@ -419,10 +420,10 @@ fn propagate(p: Propagation, pool: Option<&TaskPool>) {
                 seeds.append(list);
             }
         }
-        None => seeds.extend(dirty.iter().filter(|&entity| is_seed(entity))),
+        None => seeds.extend(dirty.iter().filter(|&(entity, child_of)| is_seed(entity, child_of)).map(|(entity, _)| entity)),
     }
     // Static entities (never also dirty: a seed is listed once).
-    seeds.extend(pending.iter().copied().filter(|&entity| !dirty.contains(entity) && is_seed(entity)));
+    seeds.extend(pending.iter().copied().filter(|&entity| !dirty.contains(entity) && is_seed(entity, parents.get(entity).ok())));
 
     roots.clear();
     roots.extend(seeds.iter().map(|&entity| {
