@@ -299,10 +299,9 @@ const MAX_DEPTH: usize = 1 << 16;
 #[derive(Default)]
 pub struct PropagationScratch {
     stack: Vec<(Entity, Affine3A)>,
-    seeds: Vec<Entity>,
     roots: Vec<(Entity, Affine3A)>,
-    /// The seeds each thread found.
-    found: Parallel<Vec<Entity>>,
+    /// The seeds each thread found, with their parents' global transforms.
+    found: Parallel<Vec<(Entity, Affine3A)>>,
     /// The parallel walk's per-thread stacks and lists.
     walks: parallel::Walks,
     /// The change lists used when the app has no [`TransformChanges`] resource.
@@ -367,7 +366,7 @@ pub fn propagate_transforms_serial(p: Propagation) {
 fn propagate(p: Propagation, pool: Option<&TaskPool>) {
     let started = std::time::Instant::now();
     let Propagation { dirty, parents, mut nodes, mut orphaned, changes, time, stats, mut scratch } = p;
-    let PropagationScratch { stack, seeds, roots, found, walks, changes: own } = &mut *scratch;
+    let PropagationScratch { stack, roots, found, walks, changes: own } = &mut *scratch;
     let changes = match changes {
         Some(changes) => changes.into_inner(),
         None => own,
@@ -391,12 +390,13 @@ fn propagate(p: Propagation, pool: Option<&TaskPool>) {
 
     // The seeds: changed entities with no changed ancestor (the ancestor's subtree walk
     // recomputes them). No seed is another's ancestor, so their subtrees are disjoint. The
-    // entity's own parent link comes with it (read in table order, not looked up).
+    // entity's own parent link comes with it (read in table order, not looked up), and an
+    // ancestor's link is looked up only past a parent that did not change (in a crowd, nearly
+    // every changed joint's parent changed too: one lookup decides it).
     let is_seed = |entity: Entity, child_of: Option<&ChildOf>| {
         let mut depth = 0;
         let mut parent = child_of.map(ChildOf::parent);
         while let Some(current) = parent {
-            parent = parents.get(current).ok().map(ChildOf::parent);
             depth += 1;
             if depth > MAX_DEPTH || current == entity {
                 warn!(?entity, "transform hierarchy is cyclic or too deep; not propagated");
@@ -405,30 +405,34 @@ fn propagate(p: Propagation, pool: Option<&TaskPool>) {
             if is_dirty(current) {
                 return false;
             }
+            parent = parents.get(current).ok().map(ChildOf::parent);
         }
         true
     };
-    seeds.clear();
+    // A seed's walk starts from its parent's global transform (read before any is written).
+    let root = |entity: Entity, child_of: Option<&ChildOf>| {
+        let parent = child_of.and_then(|child_of| nodes.get(child_of.parent()).ok());
+        (entity, parent.map_or(Affine3A::IDENTITY, |(_, global, ..)| global.0))
+    };
+    roots.clear();
     match pool {
         Some(_) => {
             dirty.par_iter().for_each(|(entity, child_of)| {
                 if is_seed(entity, child_of) {
-                    found.scope(|seeds| seeds.push(entity));
+                    found.scope(|roots| roots.push(root(entity, child_of)));
                 }
             });
             for list in found.iter_mut() {
-                seeds.append(list);
+                roots.append(list);
             }
         }
-        None => seeds.extend(dirty.iter().filter(|&(entity, child_of)| is_seed(entity, child_of)).map(|(entity, _)| entity)),
+        None => roots
+            .extend(dirty.iter().filter(|&(entity, child_of)| is_seed(entity, child_of)).map(|(entity, child_of)| root(entity, child_of))),
     }
     // Static entities (never also dirty: a seed is listed once).
-    seeds.extend(pending.iter().copied().filter(|&entity| !dirty.contains(entity) && is_seed(entity, parents.get(entity).ok())));
-
-    roots.clear();
-    roots.extend(seeds.iter().map(|&entity| {
-        let parent = parents.get(entity).ok().and_then(|child_of| nodes.get(child_of.parent()).ok());
-        (entity, parent.map_or(Affine3A::IDENTITY, |(_, global, ..)| global.0))
+    roots.extend(pending.iter().copied().filter(|&entity| !dirty.contains(entity)).filter_map(|entity| {
+        let child_of = parents.get(entity).ok();
+        is_seed(entity, child_of).then(|| root(entity, child_of))
     }));
     match pool {
         Some(pool) => parallel::walk(roots, &mut nodes, moved, walks, pool),
