@@ -1,5 +1,5 @@
 #version 460
-// Ambient occlusion's denoiser (render/src/environment/occlusion): each pixel averages the raw
+// Ambient occlusion's denoiser (render/src/occlusion): each pixel averages the raw
 // occlusion of its 4×4 neighbourhood (the tile of interleaved sample sets, occlusion.glsl),
 // weighting each neighbour by how near it lies to the pixel's tangent plane (relative to the
 // pixel's distance from the camera), so the average stays on one surface and contact shadows

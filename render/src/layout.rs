@@ -602,7 +602,7 @@ layout! {
     /// layer, `GLASS_LAYER` in `shaders/include/shadow_pass.glsl`), so the forward transparency
     /// pass shades the nearest blended surface with its own shadows.
     pub const GLASS_SHADOWS: u32 = 256;
-    /// `GpuLighting::flags`: the ambient occlusion pass ran (`crate::environment::occlusion`):
+    /// `GpuLighting::flags`: the ambient occlusion pass ran (`crate::occlusion`):
     /// shading multiplies ambient light by its image.
     pub const AMBIENT_OCCLUSION: u32 = 512;
     /// Coloured shadows: per pixel, how many lights keep the colour their light crossed glass
@@ -665,7 +665,7 @@ layout! {
     pub const BINDING_DECAL_EMISSIVE: u32 = 30;
     /// Binding of the ambient occlusion the tracing pass leaves (`occlusion_raw`, storage R32F:
     /// the share of short rays that escaped, noisy), which the denoiser reads
-    /// (`crate::environment::occlusion`).
+    /// (`crate::occlusion`).
     pub const BINDING_OCCLUSION_RAW: u32 = 31;
     /// Binding of the denoised ambient occlusion (`occlusion_image`, storage R32F) that shading
     /// multiplies the environment's and the ambient colour's light by.
@@ -1160,7 +1160,7 @@ layout! {
         pub bloom_levels: u32,
         /// Bloom: address of the pyramid (0 without bloom).
         pub bloom: u64,
-        /// Ambient occlusion: how far occluders count, in metres (`crate::environment::occlusion`).
+        /// Ambient occlusion: how far occluders count, in metres (`crate::occlusion`).
         pub occlusion_radius: f32,
         /// Ambient occlusion: rays per pixel (traced occlusion).
         pub occlusion_rays: u32,

@@ -28,6 +28,7 @@
 //! | [`decals`] | decal acceleration structures, deferred decals, decal debug views |
 //! | [`lights`] | tiled light culling and the lighting record |
 //! | [`shadows`] | the scene's acceleration structures and ray-traced shadows |
+//! | [`occlusion`] | ambient occlusion: traced, or from the depth buffer, and its denoiser |
 //! | [`lod`] | levels of detail: simplified triangle lists made at upload, chosen per instance by culling |
 //! | [`skinning`] | posed meshes: skinning in compute (the poses are scene data, [`scene::poses`]) |
 //! | [`pipelines`] | forward, Forward+, deferred and visibility-buffer frames |
@@ -46,11 +47,11 @@
 //! 2. `decals::DecalFrame` (how this frame's decals are applied): reflections, transparency;
 //! 3. `lights::LightFrame` (this frame's lights and shadows): reflections, transparency;
 //! 4. the frames the lighting record is built from: `environment::EnvironmentFrame`,
-//!    `environment::occlusion::OcclusionFrame`, `reflections::ReflectionFrame` (lights).
+//!    `occlusion::OcclusionFrame`, `reflections::ReflectionFrame` (lights).
 //!
 //! Two imports are not of that kind and remain open work: `lights` owns the scene's acceleration
 //! structures and the shadow passes (`shadows`), and the ambient-occlusion pass
-//! (`environment::occlusion`). (MSAA only sets the graph's multisampled
+//! (`occlusion`). (MSAA only sets the graph's multisampled
 //! targets, the renderer owning the multisampled forward passes; the frame function records
 //! SMAA's passes before presenting.)
 #![recursion_limit = "256"] // layout! recurses once per record field (GpuLighting is long)
@@ -68,6 +69,7 @@ pub mod lights;
 pub mod lod;
 pub mod motion;
 pub mod msaa;
+pub mod occlusion;
 pub mod pipelines;
 pub mod present;
 pub mod reflections;

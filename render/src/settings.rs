@@ -623,7 +623,7 @@ impl AutoExposure {
     }
 }
 
-/// How ambient light is occluded (`crate::environment::occlusion`): the environment's and the
+/// How ambient light is occluded (`crate::occlusion`): the environment's and the
 /// ambient colour's light, never the lights'.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum OcclusionMethod {

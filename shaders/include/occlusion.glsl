@@ -1,4 +1,4 @@
-// Ambient occlusion (render/src/environment/occlusion): the share of a pixel's cosine-weighted
+// Ambient occlusion (render/src/occlusion): the share of a pixel's cosine-weighted
 // hemisphere that is open to the environment within `occlusion_radius`, which multiplies the
 // environment's and the ambient colour's light (the material's occlusion and the specular
 // occlusion derived from it, environment.glsl). From depth alone, like the shadow pass, so one

@@ -38,8 +38,6 @@
 //! again; a map's texels, read by the source pass through their address, and freed after the
 //! frame).
 
-pub mod occlusion;
-
 use ash::vk;
 use glam::{Vec2, Vec3, Vec4};
 use gpu_allocator::MemoryLocation;

@@ -305,7 +305,7 @@ pub static REFLECTION_RAYS: TargetDesc = TargetDesc {
     storage: None,
     multisampled: false,
 };
-/// The ambient occlusion's raw (noisy) image (`crate::environment::occlusion`).
+/// The ambient occlusion's raw (noisy) image (`crate::occlusion`).
 pub static OCCLUSION_RAW: TargetDesc = TargetDesc {
     name: "occlusion raw",
     format: OCCLUSION_FORMAT,

@@ -1,7 +1,7 @@
 //! Lights on the renderer's side: which lights each pixel loops over (every light, its tile's
 //! after tiled light culling, [`tiles`], or those a zero-length ray finds, [`ray_query`]), and
 //! their ray-traced shadows ([`crate::shadows`]), and the ambient occlusion of the light that does
-//! not come from them ([`crate::environment::occlusion`]). The
+//! not come from them ([`crate::occlusion`]). The
 //! light records themselves live in the scene's tables, kept by change detection, and the
 //! shading math in `shaders/include/lighting.glsl` and `shading.glsl`.
 //!
@@ -19,7 +19,6 @@ use ash::vk;
 use crate::RenderError;
 use crate::culling::Draws;
 use crate::environment::EnvironmentFrame;
-use crate::environment::occlusion::{AmbientOcclusion, OcclusionFrame};
 use crate::gpu::device::GpuContext;
 use crate::graph::targets::{OCCLUSION, SHADOW_DEBUG};
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassBuilder, ResourceId};
@@ -28,6 +27,7 @@ use crate::layout::{
     LIGHTS_TILED, REFLECT_SCREEN_SPACE, REFRACTION, SHADOW_DEBUG as SHADOW_DEBUG_FLAG, SHADOW_NORMALS_IMPROVED, SHADOW_RAY_CULLING,
     SHADOWS_TRACED,
 };
+use crate::occlusion::{AmbientOcclusion, OcclusionFrame};
 use crate::reflections::ReflectionFrame;
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;

@@ -1,4 +1,4 @@
-//! Ambient occlusion on lavapipe (`render::environment::occlusion`), traced on both ray-tracing
+//! Ambient occlusion on lavapipe (`render::occlusion`), traced on both ray-tracing
 //! tiers and in screen space: a 1 m box on open ground seen from above, under the flat ambient
 //! colour. The occlusion view shows the factor shading multiplies ambient light by: about 1 on
 //! open ground and on the box's top, well below 1 at the foot of its wall, rising with the
