@@ -59,6 +59,12 @@ void emit(GpuCullParams p, uint list, uint batch, GpuCullRecord r, uint slot, ui
     count_drawn(p, level, write_command(p, list * p.list_stride + p.batch_start[batch] + n, r.mesh, slot, 1u, level));
 }
 
+// No finer than the finest level the instance's vertices hold: a posed mesh skinned for its
+// coarser levels only this frame (render/src/skinning) names it in its record's flags.
+uint drawable(GpuCullRecord r, uint level) {
+    return max(level, (r.flags >> CULL_LEVEL_SHIFT) & CULL_LEVEL_MASK);
+}
+
 // The main view's level of detail for slot `slot` (inside the frustum): the coarsest level whose
 // projected error stays within the limit; a coarser level than the one drawn last only when its
 // error is within the tighter limit (hysteresis). Remembered for the second phase and the next
@@ -71,7 +77,7 @@ uint choose_level(GpuCullParams p, GpuCullRecord r, uint slot) {
     uint fits = lod_within(m, scale, p.lod_pixels);
     LodsRef lods = LodsRef(p.lods);
     uint kept = lods.levels[slot];
-    uint level = fits < kept ? fits : max(kept, lod_within(m, scale, p.lod_coarsen_pixels));
+    uint level = drawable(r, fits < kept ? fits : max(kept, lod_within(m, scale, p.lod_coarsen_pixels)));
     if (level != kept) lods.levels[slot] = level;
     return level;
 }
@@ -79,13 +85,13 @@ uint choose_level(GpuCullParams p, GpuCullRecord r, uint slot) {
 // The level the first phase chose for slot `slot` this frame.
 uint chosen_level(GpuCullParams p, GpuCullRecord r, uint slot) {
     if (p.lod_pixels <= 0.0) return 0u;
-    return min(LodsRef(p.lods).levels[slot], MeshesRef(p.meshes).meshes[r.mesh].lod_levels);
+    return drawable(r, min(LodsRef(p.lods).levels[slot], MeshesRef(p.meshes).meshes[r.mesh].lod_levels));
 }
 
 // A level without memory (glass, shadow views): the coarsest within the limit at `scale`.
 uint level_at(GpuCullParams p, GpuCullRecord r, float scale) {
     if (p.lod_pixels <= 0.0) return 0u;
-    return lod_within(MeshesRef(p.meshes).meshes[r.mesh], scale, p.lod_pixels);
+    return drawable(r, lod_within(MeshesRef(p.meshes).meshes[r.mesh], scale, p.lod_pixels));
 }
 
 // Shadow-map texels per unit of relative error for the box [lo, hi] in view `v` (its texel's

@@ -20,6 +20,13 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer PreviousRef
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer MorphsRef { GpuMorphDelta deltas[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer WeightsRef { float weights[]; };
 
+layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer LevelsRef { uint words[]; };
+
+// Vertex `v`'s coarsest level of detail: a byte a vertex, four to a word.
+uint vertex_level(uint64_t levels, uint v) {
+    return (LevelsRef(levels).words[v >> 2u] >> ((v & 3u) * 8u)) & 0xFFu;
+}
+
 // The joint's 3×4 matrix as a mat4x3 (columns: the three axes and the translation).
 mat4x3 joint_matrix(uint index) {
     GpuJointMatrix m = PaletteRef(p.palette).joints[index];
@@ -33,6 +40,12 @@ void main() {
     GpuMeshInfo mesh = MeshesRef(p.meshes).meshes[job.mesh];
     uint v = gl_WorkGroupID.x * 64u + gl_LocalInvocationID.x;
     if (v >= mesh.vertex_count || mesh.rest == 0ul || (mesh.skin == 0ul && mesh.morph_targets == 0u)) return;
+    // A far instance skins only the vertices of the level of detail it will be drawn at
+    // (render/src/skinning); a vertex its last skinning left out has no previous position.
+    uint level = job.levels & SKIN_LEVEL_MASK;
+    uint own = mesh.vertex_levels != 0ul ? vertex_level(mesh.vertex_levels, v) : 0u;
+    if (own < level) return;
+    bool first = (job.levels & SKIN_FIRST) != 0u || own < (job.levels >> SKIN_PREVIOUS_SHIFT & SKIN_LEVEL_MASK);
 
     GpuVertex rest = VerticesRef(mesh.rest).vertices[v];
     for (uint t = 0u; t < mesh.morph_targets; ++t) {
@@ -65,7 +78,7 @@ void main() {
     PosedRef posed = PosedRef(mesh.vertices);
     PreviousRef previous = PreviousRef(mesh.vertices + uint64_t(mesh.vertex_count) * 48ul);
     vec3 position = m * vec4(rest.position, 1.0);
-    previous.positions[v] = vec4(job.first != 0u ? position : posed.vertices[v].position, 1.0);
+    previous.positions[v] = vec4(first ? position : posed.vertices[v].position, 1.0);
     GpuVertex out_v;
     out_v.position = position;
     out_v.normal = nl > 1e-20 ? normal * inversesqrt(nl) : rest.normal;

@@ -109,6 +109,9 @@ pub struct RenderSettings {
     /// refit every other frame, not every frame (default 48; 0: every frame;
     /// `render::FrameSettings::refit_pixels`).
     pub refit_pixels: f32,
+    /// Skin only the vertices of the level of detail a character will be drawn at (default on;
+    /// `render::FrameSettings::skin_levels`).
+    pub skin_levels: bool,
     /// Submit a command buffer again when a frame's commands are exactly those it was recorded
     /// with (default on; `render::FrameSettings::reuse_commands`).
     pub reuse_commands: bool,
@@ -193,6 +196,7 @@ impl Default for RenderSettings {
             freeze_culling: false,
             lod_pixels: render::lod::DEFAULT_LOD_PIXELS,
             refit_pixels: render::settings::DEFAULT_REFIT_PIXELS,
+            skin_levels: true,
             reuse_commands: true,
             limits: SceneLimits::MAX,
             decal_distance_fade: None,
@@ -577,6 +581,7 @@ fn render_frame(
         freeze_culling: settings.freeze_culling,
         lod_pixels: settings.lod_pixels,
         refit_pixels: settings.refit_pixels,
+        skin_levels: settings.skin_levels,
         reuse_commands: settings.reuse_commands,
     };
     let result = match window {

@@ -300,6 +300,7 @@ impl DebugOverlay {
             ui.checkbox(&mut settings.freeze_culling, "freeze culling");
             ui.add(egui::Slider::new(&mut settings.lod_pixels, 0.0..=8.0).text("level-of-detail error (px, 0: off)"));
             ui.add(egui::Slider::new(&mut settings.refit_pixels, 0.0..=256.0).text("characters refit every frame above (px, 0: all)"));
+            ui.checkbox(&mut settings.skin_levels, "skin a far character's level of detail only");
         });
     }
 }

@@ -800,6 +800,13 @@ layout! {
     /// meshes without levels dark grey.
     pub const DEBUG_LOD: u32 = 14;
 
+    /// `GpuSkinJob::levels`: the level of detail whose vertices the job skins.
+    pub const SKIN_LEVEL_MASK: u32 = 255;
+    /// `GpuSkinJob::levels`: where the level of the posed mesh's last skinning sits.
+    pub const SKIN_PREVIOUS_SHIFT: u32 = 8;
+    /// `GpuSkinJob::levels`: the posed mesh's first skinning.
+    pub const SKIN_FIRST: u32 = 1 << 16;
+
     /// Culling record flag: the slot holds a live instance.
     pub const CULL_LIVE: u32 = 1;
     /// Culling record flag: alpha-tested (the masked batches).
@@ -808,6 +815,12 @@ layout! {
     pub const CULL_DOUBLE_SIDED: u32 = 4;
     /// Culling record flag: blended; drawn by the transparency passes only, in their order.
     pub const CULL_TRANSPARENT: u32 = 8;
+    /// Culling record: the finest level of detail the instance may be drawn at sits in the
+    /// flags' bits from here (`CULL_LEVEL_MASK`): a posed mesh skinned only for its coarser
+    /// levels this frame (`render/src/skinning`) holds no finer one.
+    pub const CULL_LEVEL_SHIFT: u32 = 8;
+    /// Culling record: the mask of the finest drawable level, after `CULL_LEVEL_SHIFT`.
+    pub const CULL_LEVEL_MASK: u32 = 7;
     /// Draw batches of the opaque passes: opaque or masked × back-face culled or double-sided
     /// (`batch = 2 × masked + double_sided`).
     pub const CULL_BATCHES: u32 = 4;
@@ -1310,10 +1323,16 @@ layout! {
         /// Device address of the morph targets' offsets (`GpuMorphDelta`, target after target,
         /// `vertex_count` each) of a mesh with morph targets and its posed copies; 0 without.
         pub morphs: u64,
+        /// Device address of each vertex's coarsest level of detail (a byte a vertex, four to a
+        /// word: the vertex belongs to that level and every finer one), for a skinned mesh with
+        /// levels and its posed copies; 0 without.
+        pub vertex_levels: u64,
         /// Number of morph targets.
         pub morph_targets: u32,
         /// Coarser levels of detail (`render/src/lod`; 0 to `LOD_LEVELS`).
         pub lod_levels: u32,
+        /// Padding (the levels' arrays start on 16 bytes).
+        pub pad: [u32; 2],
         /// Each coarser level's first index in the mesh pool's buffer (its `firstIndex`); its
         /// triangles follow level 0's in the mesh's index range.
         pub lod_first: [u32; 4],
@@ -1367,8 +1386,12 @@ layout! {
         pub mesh: u32,
         /// Its first joint matrix in the palette.
         pub palette: u32,
-        /// 1 the first time it is posed: its previous positions are set to the new ones.
-        pub first: u32,
+        /// Which vertices it skins and what its previous positions are: the level of detail
+        /// whose vertices it skins in the low byte (`SKIN_LEVEL_MASK`; 0: every vertex), its last
+        /// skinning's level in the next (`SKIN_PREVIOUS_SHIFT`: a vertex that skinning did not
+        /// write has no previous position), and `SKIN_FIRST` the first time it is posed (its
+        /// previous positions are set to the new ones).
+        pub levels: u32,
         /// Its first morph weight in the weights array (the mesh's `morph_targets` of them).
         pub weights: u32,
     }

@@ -866,6 +866,10 @@ pub struct FrameSettings {
     /// Levels of detail (`render/src/lod`): the most pixels a coarser level's error may cover on
     /// screen for an instance to draw it (1 by default; 0 draws every instance in full).
     pub lod_pixels: f32,
+    /// Skin only the vertices of the coarsest level of detail a posed mesh can be drawn at this
+    /// frame (`render/src/skinning`): a far character skins a few dozen vertices instead of
+    /// every one. On by default; off skins every vertex (for comparison).
+    pub skin_levels: bool,
     /// Skinned and morphed meshes shorter on screen than this many pixels (48 by default) have
     /// their ray-tracing structure refit every other frame instead of each frame their pose
     /// changes: their shadows, occlusion and reflections lag their drawn pose by at most
@@ -901,6 +905,7 @@ impl Default for FrameSettings {
             culling: CullingMode::Occlusion,
             freeze_culling: false,
             lod_pixels: DEFAULT_LOD_PIXELS,
+            skin_levels: true,
             refit_pixels: DEFAULT_REFIT_PIXELS,
             reuse_commands: true,
         }

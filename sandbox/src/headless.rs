@@ -111,6 +111,8 @@ pub struct HeadlessOptions {
     pub lod_pixels: f32,
     /// Posed meshes shorter on screen than this are refit every other frame (0: every frame).
     pub refit_pixels: f32,
+    /// Skin only the vertices of the level of detail a character will be drawn at.
+    pub skin_levels: bool,
     /// Run `frames` frames with levels of detail off, on (at `lod_pixels`), then off again.
     pub compare_lod: bool,
     /// Submit a command buffer again when a frame's commands are exactly those it holds.
@@ -321,6 +323,7 @@ impl Default for HeadlessOptions {
             culling: render::CullingMode::Occlusion,
             lod_pixels: render::lod::DEFAULT_LOD_PIXELS,
             refit_pixels: render::settings::DEFAULT_REFIT_PIXELS,
+            skin_levels: true,
             compare_lod: false,
             reuse_commands: true,
             compare_culling: false,
@@ -396,6 +399,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         culling: opts.culling,
         lod_pixels: opts.lod_pixels,
         refit_pixels: opts.refit_pixels,
+        skin_levels: opts.skin_levels,
         reuse_commands: opts.reuse_commands,
         tonemapper: opts.tonemapper,
         bloom: opts.bloom,

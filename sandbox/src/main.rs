@@ -186,6 +186,10 @@ struct Cli {
     /// structure refit every other frame instead of every frame (0: every frame).
     #[arg(long, default_value_t = render::settings::DEFAULT_REFIT_PIXELS, value_parser = parse_refit_pixels)]
     refit_pixels: f32,
+    /// Skin every vertex of every character, not only those of the level of detail it will be
+    /// drawn at (for comparison).
+    #[arg(long)]
+    full_skinning: bool,
     /// Run --frames frames with levels of detail off, on (at --lod-pixels), then off again.
     #[arg(long)]
     compare_lod: bool,
@@ -465,6 +469,7 @@ fn main() -> Result<()> {
         culling: cli.culling,
         lod_pixels: cli.lod_pixels,
         refit_pixels: cli.refit_pixels,
+        skin_levels: !cli.full_skinning,
         compare_lod: cli.compare_lod,
         reuse_commands: !cli.record_every_frame,
         compare_culling: cli.compare_culling,

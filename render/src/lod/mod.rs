@@ -12,7 +12,8 @@
 //!   and weights) are made one; the levels name the first corner of each.
 //! - **Levels share the vertices.** A level is a triangle list over the mesh's own vertices,
 //!   simplified from the level before it, so a skinned mesh's levels keep its joints and weights
-//!   (nothing is re-weighted) and its posed copies move every level with the skeleton. The
+//!   (nothing is re-weighted) and its posed copies move every level with the skeleton; a far
+//!   character's skinning writes only its level's vertices (`crate::skinning`). The
 //!   levels' indices follow the full list in the mesh pool ([`crate::scene::pool`]), so one
 //!   range holds them all and a triangle of any level has one number counted from the start of
 //!   the mesh's indices.

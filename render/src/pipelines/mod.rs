@@ -93,6 +93,8 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     let reflections = r.reflections.prepare(f, s, mirror)?;
     let environment = r.environment.prepare(f, r.scene, mirror)?;
     let lights = r.lighting.prepare(f, r.scene, mirror, s, &reflections, &environment)?;
+    // How much of each pose to skin, once the refits (which read every vertex) are known.
+    r.skinning.choose_levels(mirror, s, r.lighting.accel.as_ref().map_or(&[], |a| a.refits()));
     // Rays leave rasterised surfaces lifted by the level-of-detail limit while some instance
     // can be drawn at a coarser level (crate::lod).
     let lift = if mirror.lod_instances > 0 { crate::lod::lift(s.lod_pixels, mirror.camera().proj, f.graph.extent().height) } else { 0.0 };

@@ -398,10 +398,24 @@ impl GpuMesh {
         (self.index_offset() + self.all_indices() * 4).next_multiple_of(16)
     }
 
-    /// Byte offset of the morph targets' offsets (after the skin, if any).
-    fn morph_offset(&self) -> u64 {
+    /// Whether each vertex's coarsest level of detail follows the skin: a skinned mesh with
+    /// levels (`crate::skinning` skins a level's vertices alone).
+    fn has_vertex_levels(&self) -> bool {
+        self.skinned && self.lod_counts[0] > 0
+    }
+
+    /// Byte offset of each vertex's coarsest level (a byte a vertex, after the skin).
+    fn vertex_levels_offset(&self) -> u64 {
         let skin = if self.skinned { self.vertex_count as u64 * std::mem::size_of::<GpuSkinVertex>() as u64 } else { 0 };
         (self.skin_offset() + skin).next_multiple_of(16)
+    }
+
+    /// Byte offset of the morph targets' offsets (after the skin and the vertices' levels, if
+    /// any).
+    fn morph_offset(&self) -> u64 {
+        // Whole words: the skinning pass reads four levels at a time.
+        let levels = if self.has_vertex_levels() { (self.vertex_count as u64).next_multiple_of(4) } else { 0 };
+        (self.vertex_levels_offset() + levels).next_multiple_of(16)
     }
 
     /// The table entry of a mesh that is not posed.
@@ -419,12 +433,14 @@ impl GpuMesh {
             morphs: if self.morph_targets > 0 { pool + self.morph_offset() } else { 0 },
             morph_targets: self.morph_targets,
             lod_levels: self.lod_counts.iter().take_while(|&&c| c > 0).count() as u32,
+            pad: [0; 2],
             lod_first: std::array::from_fn(|level| {
                 let before: u64 = self.index_count as u64 + self.lod_counts[..level].iter().map(|&c| c as u64).sum::<u64>();
                 (self.index_offset() / 4 + before) as u32
             }),
             lod_count: self.lod_counts,
             lod_error: self.lod_errors.into(),
+            vertex_levels: if self.has_vertex_levels() { pool + self.vertex_levels_offset() } else { 0 },
         }
     }
 
@@ -454,6 +470,9 @@ fn mesh_bytes(m: &MeshData) -> u64 {
     let mut bytes = RangeAllocator::mesh_bytes(m.vertices.len(), m.indices.len() + m.lods.as_ref().map_or(0, |l| l.indices.len()));
     if !m.skin.is_empty() {
         bytes = bytes.next_multiple_of(16) + (m.skin.len() * std::mem::size_of::<GpuSkinVertex>()) as u64;
+        if m.lods.as_ref().is_some_and(|l| l.levels() > 0) {
+            bytes = bytes.next_multiple_of(16) + (m.vertices.len() as u64).next_multiple_of(4);
+        }
     }
     if !m.morphs.is_empty() {
         bytes = bytes.next_multiple_of(16) + std::mem::size_of_val(m.morphs.as_slice()) as u64;
@@ -1149,9 +1168,12 @@ impl GpuScene {
                 let o = o + ibytes.len();
                 mapped[o..o + lbytes.len()].copy_from_slice(lbytes);
                 let o = offset as usize;
-                // The skin and the morph targets where the mesh's offsets say (relative to it).
+                let vertex_levels = if mesh.has_vertex_levels() { lods.vertex_levels(data.vertices.len()) } else { Vec::new() };
+                // The skin, the vertices' levels and the morph targets where the mesh's offsets
+                // say (relative to it).
                 for (at, bytes) in [
                     (mesh.skin_offset(), bytemuck::cast_slice::<_, u8>(&data.skin)),
+                    (mesh.vertex_levels_offset(), vertex_levels.as_slice()),
                     (mesh.morph_offset(), bytemuck::cast_slice(&data.morphs)),
                 ] {
                     let s = o + (at - place) as usize;

@@ -18,11 +18,11 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec2, Vec3};
 
 pub use crate::layout::{
-    CULL_BATCHES, CULL_DOUBLE_SIDED, CULL_LIVE, CULL_MASKED, CULL_TRANSPARENT, DECAL_ALBEDO, DECAL_CHANNEL_SHIFT, DECAL_CHANNELS,
-    DECAL_DEFAULT_LAYERS, DECAL_EMISSIVE, DECAL_METALLIC, DECAL_NORMAL, DECAL_ON_SKIN, DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuCullRecord,
-    GpuDecal, GpuDecalMaterial, GpuDrawCommand, GpuInstance, GpuJointMatrix, GpuLight, GpuMaterial, GpuMeshInfo, GpuMorphDelta, GpuMover,
-    GpuSkinVertex, GpuVertex, LOD_LEVELS, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, NO_DECAL, RESERVED_TEXTURES,
-    TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
+    CULL_BATCHES, CULL_DOUBLE_SIDED, CULL_LEVEL_MASK, CULL_LEVEL_SHIFT, CULL_LIVE, CULL_MASKED, CULL_TRANSPARENT, DECAL_ALBEDO,
+    DECAL_CHANNEL_SHIFT, DECAL_CHANNELS, DECAL_DEFAULT_LAYERS, DECAL_EMISSIVE, DECAL_METALLIC, DECAL_NORMAL, DECAL_ON_SKIN,
+    DECAL_ROUGHNESS, GpuAabb, GpuCamera, GpuCullRecord, GpuDecal, GpuDecalMaterial, GpuDrawCommand, GpuInstance, GpuJointMatrix, GpuLight,
+    GpuMaterial, GpuMeshInfo, GpuMorphDelta, GpuMover, GpuSkinVertex, GpuVertex, LOD_LEVELS, MATERIAL_ALPHA_MASK, MATERIAL_BLEND,
+    MATERIAL_DOUBLE_SIDED, NO_DECAL, RESERVED_TEXTURES, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE,
 };
 
 impl GpuInstance {
@@ -420,6 +420,22 @@ impl MeshLods {
             && self.indices.iter().all(|&i| (i as usize) < vertex_count)
             && self.errors[..levels].iter().all(|e| e.is_finite() && *e >= 0.0)
             && self.errors[..levels].windows(2).all(|w| w[0] <= w[1])
+    }
+
+    /// Each of `vertex_count` vertices' coarsest level: the last level whose triangles use it (0
+    /// for a vertex only the mesh's own triangles use). A level is simplified from the one
+    /// before it over the same vertices, so a vertex belongs to its coarsest level and every
+    /// finer one.
+    pub fn vertex_levels(&self, vertex_count: usize) -> Vec<u8> {
+        let mut levels = vec![0u8; vertex_count];
+        for level in 1..=self.levels() {
+            for &i in self.level(level) {
+                if let Some(v) = levels.get_mut(i as usize) {
+                    *v = (*v).max(level as u8);
+                }
+            }
+        }
+        levels
     }
 }
 
@@ -1010,7 +1026,38 @@ impl SceneMirror {
         let half = (hi - lo) * 0.5;
         let extent =
             model.x_axis.truncate().abs() * half.x + model.y_axis.truncate().abs() * half.y + model.z_axis.truncate().abs() * half.z;
-        GpuCullRecord { min: center - extent, flags: draw.cull_flags(), max: center + extent, mesh: draw.mesh.0 }
+        GpuCullRecord { min: center - extent, flags: self.cull_flags(draw), max: center + extent, mesh: draw.mesh.0 }
+    }
+
+    /// The culling flags of an instance drawn as `draw`: its batch's, and the finest level of
+    /// detail its posed mesh's vertices hold.
+    fn cull_flags(&self, draw: DrawItem) -> u32 {
+        draw.cull_flags() | self.poses.drawable_level(draw.mesh).min(CULL_LEVEL_MASK) << CULL_LEVEL_SHIFT
+    }
+
+    /// Sets the level of detail whose vertices each of this frame's skinning jobs skins
+    /// ([`poses::PoseTable::set_levels`]: `choose(posed mesh, its culling record, its source's levels)`
+    /// for a job that may skin fewer), and rewrites the culling records of the instances whose
+    /// finest drawable level changed. `changed` is scratch.
+    pub fn set_skin_levels(
+        &mut self,
+        mut choose: impl FnMut(MeshId, Option<&GpuCullRecord>, &poses::SkinLevels) -> u32,
+        changed: &mut Vec<MeshId>,
+    ) {
+        changed.clear();
+        let (poses, culls, posed_slots) = (&mut self.poses, &self.culls, &self.posed_slots);
+        poses.set_levels(
+            |mesh, levels| {
+                let slot = posed_slots.get(mesh.0 as usize).copied().filter(|&s| s != u32::MAX);
+                choose(mesh, slot.and_then(|s| culls.get(s)), levels)
+            },
+            changed,
+        );
+        for &mesh in changed.iter() {
+            if let Some(slot) = self.posed_slot(mesh) {
+                self.refresh_cull(slot);
+            }
+        }
     }
 
     fn count_batch(&mut self, draw: Option<DrawItem>, delta: i32) {
@@ -1041,7 +1088,7 @@ impl SceneMirror {
         self.note_transparency(slot, new.transparent);
         // Culling must draw it in its new batch: only the flags of its record change.
         if let Some(&record) = self.culls.get(slot) {
-            self.culls.write(slot, GpuCullRecord { flags: new.cull_flags(), ..record });
+            self.culls.write(slot, GpuCullRecord { flags: self.cull_flags(new), ..record });
         }
     }
 
@@ -1247,11 +1294,22 @@ impl SceneMirror {
         let source = posable.then(|| {
             let vertices = data.vertices.iter().zip(&data.skin).map(|(v, s)| (Vec3::from(v.position), s.joints(), s.weights()));
             let reach = |target: &[GpuMorphDelta]| target.iter().map(|d| Vec3::from(d.position).length()).fold(0.0, f32::max);
+            // A skinned mesh with levels (and no morph targets, which move vertices the levels
+            // never saw move) can be skinned a level at a time.
+            let levels = data.lods.as_ref().filter(|l| l.levels() > 0 && !data.skin.is_empty() && data.morph_targets == 0).map(|lods| {
+                let of_vertex = lods.vertex_levels(data.vertices.len());
+                poses::SkinLevels {
+                    count: lods.levels() as u32,
+                    errors: lods.errors,
+                    vertices: std::array::from_fn(|level| of_vertex.iter().filter(|&&l| l as usize >= level).count() as u32),
+                }
+            });
             poses::SourceDesc {
                 joint_bounds: poses::joint_bounds(vertices),
                 vertices: data.vertices.len() as u32,
                 rest_bounds: bounds,
                 morph_reach: data.morphs.chunks(data.vertices.len().max(1)).map(reach).collect(),
+                levels,
             }
         });
         self.poses.set_source(id, source);

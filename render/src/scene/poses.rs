@@ -10,7 +10,7 @@ use std::sync::Arc;
 use glam::{Mat4, Vec3, Vec4};
 
 use super::MeshId;
-use crate::layout::{GpuJointMatrix, GpuSkinJob};
+use crate::layout::{GpuJointMatrix, GpuSkinJob, LOD_LEVELS, SKIN_FIRST, SKIN_LEVEL_MASK, SKIN_PREVIOUS_SHIFT};
 
 impl GpuJointMatrix {
     /// The rows of an affine matrix (its last row is dropped).
@@ -76,6 +76,9 @@ struct Pose {
     changed: bool,
     /// Skinned last frame: skinned once more if unchanged, so its previous positions catch up.
     settling: bool,
+    /// The level of detail whose vertices its last skinning wrote (0: every vertex): the finest
+    /// level it can be drawn at ([`PoseTable::drawable_level`]).
+    level: u32,
 }
 
 /// A skinned (or morphed) mesh that posed meshes copy.
@@ -88,6 +91,43 @@ struct Source {
     rest_bounds: (Vec3, Vec3),
     /// Per morph target, the longest position offset: how far a weight of 1 can move a vertex.
     morph_reach: Arc<[f32]>,
+    /// Its levels of detail, when a job can skin fewer vertices for them.
+    levels: Option<SkinLevels>,
+}
+
+/// What skinning needs of a skinned mesh's levels of detail (`crate::lod`) to skin only the
+/// vertices of the level a posed copy will be drawn at.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SkinLevels {
+    /// Number of coarser levels.
+    pub count: u32,
+    /// Each coarser level's error (a fraction of the diagonal of the mesh's bounds).
+    pub errors: [f32; LOD_LEVELS as usize],
+    /// The vertices of each level, level 0 (every vertex) first.
+    pub vertices: [u32; LOD_LEVELS as usize + 1],
+}
+
+impl SkinLevels {
+    /// The coarsest level whose error covers at most `limit` pixels at `scale` pixels per unit
+    /// of relative error (0: the mesh itself): `lod_within` of `shaders/include/culling.glsl`.
+    pub fn coarsest_within(&self, scale: f32, limit: f32) -> u32 {
+        self.errors[..self.count as usize].iter().take_while(|&&e| e * scale <= limit).count() as u32
+    }
+}
+
+/// Pixels on screen per unit of relative error of a mesh whose world bounds are `[lo, hi]`,
+/// seen through `view_proj` over a viewport `height` pixels high: `lod_pixels_per_error` of
+/// `shaders/include/culling.glsl`, which the culling pass picks levels of detail with, for the
+/// CPU to know which levels the GPU may pick (the bounds' diagonal scaled by the projection at
+/// the box's nearest clip w; a box reaching the eye plane gets a huge scale, level 0).
+pub fn lod_pixels_per_error(view_proj: Mat4, lo: Vec3, hi: Vec3, height: f32) -> f32 {
+    let (r1, r3) = (view_proj.row(1), view_proj.row(3));
+    let (c, e) = ((lo + hi) * 0.5, (hi - lo) * 0.5);
+    let w = r3.truncate().dot(c) - r3.truncate().abs().dot(e) + r3.w;
+    if w <= 1e-4 {
+        return 1e30;
+    }
+    (hi - lo).length() * 0.5 * height * r1.truncate().length() / w
 }
 
 /// What posing needs of a mesh that can be posed ([`crate::scene::SceneMirror::add_mesh`]).
@@ -96,6 +136,7 @@ pub(crate) struct SourceDesc {
     pub vertices: u32,
     pub rest_bounds: (Vec3, Vec3),
     pub morph_reach: Vec<f32>,
+    pub levels: Option<SkinLevels>,
 }
 
 /// The CPU side of skinning, kept in the [`super::SceneMirror`]: each skinned source mesh's joint
@@ -135,6 +176,7 @@ impl PoseTable {
             vertices: d.vertices,
             rest_bounds: d.rest_bounds,
             morph_reach: d.morph_reach.into(),
+            levels: d.levels,
         });
     }
 
@@ -176,8 +218,16 @@ impl PoseTable {
             self.poses.resize(slot + 1, None);
         }
         self.posed += u32::from(self.poses[slot].is_none());
-        self.poses[slot] =
-            Some(Pose { source, vertices, joints: Vec::new(), weights: Vec::new(), fresh: true, changed: false, settling: false });
+        self.poses[slot] = Some(Pose {
+            source,
+            vertices,
+            joints: Vec::new(),
+            weights: Vec::new(),
+            fresh: true,
+            changed: false,
+            settling: false,
+            level: 0,
+        });
         true
     }
 
@@ -246,7 +296,8 @@ impl PoseTable {
         let (mut palette, mut first_weight) = (0, 0);
         for &id in &self.jobs {
             let pose = self.poses[id.0 as usize].as_ref().expect("listed above");
-            self.headers.push(GpuSkinJob { mesh: id.0, palette, first: pose.fresh as u32, weights: first_weight });
+            let levels = if pose.fresh { SKIN_FIRST } else { pose.level << SKIN_PREVIOUS_SHIFT };
+            self.headers.push(GpuSkinJob { mesh: id.0, palette, levels, weights: first_weight });
             palette += pose.joints.len() as u32;
             first_weight += pose.weights.len() as u32;
         }
@@ -334,6 +385,41 @@ impl PoseTable {
     /// Whether no pose waits to be skinned.
     pub fn is_clean(&self) -> bool {
         self.active.is_empty()
+    }
+
+    /// The finest level of detail posed mesh `id` can be drawn at: its last skinning wrote the
+    /// vertices of that level and the coarser ones only (0 for every other mesh).
+    pub fn drawable_level(&self, id: MeshId) -> u32 {
+        self.poses.get(id.0 as usize).and_then(Option::as_ref).map_or(0, |p| p.level)
+    }
+
+    /// Sets the level of detail whose vertices each of this frame's jobs skins (once the jobs
+    /// were taken): `choose(posed mesh, its source's levels)` for a job that may skin fewer
+    /// vertices, and 0 (every vertex) for the first skinning of a pose and for the last one of a
+    /// pose that stopped changing, so that a pose at rest always holds every vertex. Counts the
+    /// vertices skinned ([`PoseTable::job_vertices`]) and lists the posed meshes whose level
+    /// changed in `changed` (their culling records name it).
+    pub fn set_levels(&mut self, mut choose: impl FnMut(MeshId, &SkinLevels) -> u32, changed: &mut Vec<MeshId>) {
+        self.job_vertices = 0;
+        for (header, &id) in self.headers.iter_mut().zip(&self.jobs) {
+            let Some(pose) = self.poses.get_mut(id.0 as usize).and_then(Option::as_mut) else { continue };
+            let source = self.sources.get(pose.source.0 as usize).and_then(Option::as_ref);
+            // `settling` now says whether the pose changed this frame (`take_jobs` moved it on).
+            let partial = header.levels & SKIN_FIRST == 0 && pose.settling;
+            let (level, vertices) = match source.and_then(|s| s.levels.as_ref()).filter(|_| partial) {
+                Some(levels) => {
+                    let level = choose(id, levels).min(levels.count);
+                    (level, levels.vertices[level as usize])
+                }
+                None => (0, pose.vertices),
+            };
+            header.levels = (header.levels & !SKIN_LEVEL_MASK) | level;
+            self.job_vertices += vertices as u64;
+            if pose.level != level {
+                pose.level = level;
+                changed.push(id);
+            }
+        }
     }
 }
 
@@ -477,6 +563,7 @@ mod tests {
             vertices: 10,
             rest_bounds: (Vec3::ZERO, Vec3::ONE),
             morph_reach: vec![],
+            levels: None,
         };
         t.set_source(MeshId(0), Some(desc));
         assert!(t.add(MeshId(1), MeshId(0)));
@@ -487,12 +574,47 @@ mod tests {
         assert_eq!(t.jobs(), &[MeshId(1)]);
         let words = input(&t);
         assert_eq!(words.len(), 4 + 12, "one job and one joint matrix");
-        assert_eq!(words[2], 1, "the first skinning sets the previous positions too");
+        assert_eq!(words[2], SKIN_FIRST, "the first skinning sets the previous positions too");
         t.take_jobs();
         assert_eq!(t.jobs(), &[MeshId(1)], "settles once");
         assert_eq!(input(&t)[2], 0);
         t.take_jobs();
         assert!(t.jobs().is_empty() && input(&t).is_empty() && t.is_clean(), "then rests");
+    }
+
+    /// A far pose that keeps changing skins the vertices of the level it is chosen, says the
+    /// level of its last skinning, and when it stops changing is skinned whole once more; the
+    /// first skinning is whole too, and the vertices counted are those skinned.
+    #[test]
+    fn a_moving_pose_skins_its_level_only_and_rests_with_every_vertex() {
+        let mut t = PoseTable::default();
+        let levels = SkinLevels { count: 2, errors: [0.01, 0.05, 0.0, 0.0], vertices: [10, 6, 3, 0, 0] };
+        let desc = SourceDesc {
+            joint_bounds: vec![(Vec3::ZERO, Vec3::ONE)],
+            vertices: 10,
+            rest_bounds: (Vec3::ZERO, Vec3::ONE),
+            morph_reach: vec![],
+            levels: Some(levels),
+        };
+        t.set_source(MeshId(0), Some(desc));
+        assert!(t.add(MeshId(1), MeshId(0)));
+        let mut changed = Vec::new();
+        let mut frame = |t: &mut PoseTable, set: bool, choose: u32| {
+            if set {
+                t.set(MeshId(1), [Mat4::IDENTITY], &[]).expect("a posed mesh");
+            }
+            t.take_jobs();
+            changed.clear();
+            t.set_levels(|_, l| if l == &levels { choose } else { 0 }, &mut changed);
+            let words = input(t);
+            (words.get(2).copied(), t.job_vertices(), t.drawable_level(MeshId(1)), changed.len())
+        };
+        assert_eq!(frame(&mut t, true, 2), (Some(SKIN_FIRST), 10, 0, 0), "the first skinning is whole");
+        assert_eq!(frame(&mut t, true, 2), (Some(2), 3, 2, 1), "then the chosen level's vertices");
+        assert_eq!(frame(&mut t, true, 1), (Some(1 | 2 << SKIN_PREVIOUS_SHIFT), 6, 1, 1), "a finer level knows the last one");
+        assert_eq!(frame(&mut t, true, 7), (Some(2 | 1 << SKIN_PREVIOUS_SHIFT), 3, 2, 1), "no coarser than the mesh's last level");
+        assert_eq!(frame(&mut t, false, 2), (Some(2 << SKIN_PREVIOUS_SHIFT), 10, 0, 1), "settling skins every vertex");
+        assert_eq!(frame(&mut t, false, 2), (None, 0, 0, 0), "and the pose rests whole");
     }
 
     /// This frame's skinning input as the upload writes it, in 16-byte aligned memory.
@@ -512,6 +634,7 @@ mod tests {
                 vertices: 8,
                 rest_bounds: (Vec3::ZERO, Vec3::splat(joints as f32)),
                 morph_reach: vec![0.5],
+                levels: None,
             };
             t.set_source(MeshId(s), Some(desc));
         }

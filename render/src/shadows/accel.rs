@@ -538,6 +538,12 @@ impl SceneAccel {
         })
     }
 
+    /// The posed meshes whose structures are refit (or rebuilt) this frame, once planned: the
+    /// skinning pass skins every vertex of these (`crate::skinning`).
+    pub fn refits(&self) -> &[MeshId] {
+        &self.refit_list
+    }
+
     /// Lists this frame's refits in `refit_list`: the posed meshes skinned this frame join those
     /// waiting; each is refit now if it is at least `refit_pixels` tall on screen (every one when
     /// `refit_pixels` is 0), if its structure is [`MAX_REFIT_STALENESS`] frames behind, or if

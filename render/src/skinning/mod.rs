@@ -15,6 +15,23 @@
 //!   ([`crate::scene::SceneMirror::set_pose`]), plus, once, those posed the frame before, so
 //!   that their previous positions catch up with a pose that stopped changing. A frame in which
 //!   no pose changed dispatches nothing and uploads nothing.
+//! - **A far character skins its level of detail only.** Levels of detail (`crate::lod`) are
+//!   triangle lists over the mesh's own vertices, each over a subset of the one before, so each
+//!   vertex has a coarsest level (a byte a vertex in the mesh pool, `GpuMeshInfo::vertex_levels`).
+//!   Once the acceleration structures know their refits, [`Skinning::choose_levels`] works out on
+//!   the CPU, from the culling record's bounds, the camera and the formula the culling pass uses,
+//!   the coarsest level culling can pick for the instance this frame (within the limit made
+//!   stricter by the hysteresis band, which the GPU's choice never goes below); the job skins the
+//!   vertices of that level alone, and the culling record names it as the finest level the
+//!   instance may be drawn at (`drawable` in `shaders/cull.comp`: shadow views, which pick by
+//!   their own scale, draw no finer). A job skins every vertex the first time, the last time (when
+//!   its pose stops changing, so a pose at rest holds every vertex), when its structure is refit
+//!   this frame (a refit reads every vertex), and with levels of detail off or culling frozen. A
+//!   vertex the last skinning left out gets no motion this frame (its previous position is set
+//!   to its new one). Not covered: a ray that hits a far character between its refits reads the
+//!   attributes of vertices skinned for another frame. `FrameSettings::skin_levels` turns it
+//!   off (the sandbox's `--full-skinning`), and `counters.skinned_vertices` counts the vertices
+//!   skinned.
 //! - **One dispatch.** This frame's jobs (posed mesh, first joint matrix) and joint matrices
 //!   (3×4, 48 bytes a joint) go up in one array with the scene's upload; one dispatch covers
 //!   every job, a row of workgroups per job.
@@ -43,9 +60,11 @@ use crate::gpu::pipeline::create_compute;
 use crate::gpu::shaders;
 use crate::graph::{BufferUse, Frame, PassKind};
 use crate::layout::{GpuJointMatrix, GpuSkinJob, GpuSkinPush, GpuSkinVertex};
-use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
+use crate::scene::poses::lod_pixels_per_error;
 pub use crate::scene::poses::{PoseChunk, PoseChunks, PoseSet, PoseTable, joint_bounds, posed_bounds};
+use crate::scene::{MeshId, SceneMirror};
+use crate::settings::{FrameSettings, LOD_HYSTERESIS};
 
 /// Vertices a skinning workgroup handles.
 const GROUP: u32 = 64;
@@ -83,6 +102,10 @@ pub struct Skinning {
     jobs: u32,
     groups: u32,
     palette_len: u32,
+    /// By mesh id: refit this frame ([`Skinning::choose_levels`]'s scratch, cleared after use).
+    refits: Vec<bool>,
+    /// Posed meshes whose finest drawable level changed (scratch).
+    changed: Vec<MeshId>,
 }
 
 impl Skinning {
@@ -104,7 +127,7 @@ impl Skinning {
                 return Err(e);
             }
         };
-        Ok(Self { layout, pipeline, jobs: 0, groups: 0, palette_len: 0 })
+        Ok(Self { layout, pipeline, jobs: 0, groups: 0, palette_len: 0, refits: Vec::new(), changed: Vec::new() })
     }
 
     /// Before the scene's upload: collects the poses set since last frame into jobs, hands them
@@ -116,6 +139,43 @@ impl Skinning {
         self.groups = most.div_ceil(GROUP);
         scene.skin_input.set_len(if self.jobs > 0 { mirror.poses.input_words() } else { 0 });
         mirror.counters.skinned_meshes = self.jobs as u64;
+        mirror.counters.skinned_vertices = mirror.poses.job_vertices();
+    }
+
+    /// After the acceleration structures chose this frame's refits (`refits`) and before the
+    /// upload: how much of each job to skin. A job may skin only the vertices of the coarsest
+    /// level the culling pass can pick for its instance this frame (the level within the
+    /// limit made stricter by [`crate::settings::LOD_HYSTERESIS`], from the same bounds, camera
+    /// and formula as the GPU's: it never picks finer), unless its structure is refit this frame
+    /// (a refit reads every vertex), the camera used for culling is frozen, levels of detail are
+    /// off, or `s.skin_levels` is off. Counts the vertices skinned.
+    pub fn choose_levels(&mut self, mirror: &mut SceneMirror, s: &FrameSettings, refits: &[MeshId]) {
+        if self.jobs == 0 {
+            return;
+        }
+        let camera = *mirror.camera();
+        let limit = s.lod_pixels * LOD_HYSTERESIS;
+        let on = s.skin_levels && s.lod_pixels > 0.0 && !s.freeze_culling;
+        for &id in refits {
+            let i = id.0 as usize;
+            if self.refits.len() <= i {
+                self.refits.resize(i + 1, false);
+            }
+            self.refits[i] = true;
+        }
+        let refit = &self.refits;
+        mirror.set_skin_levels(
+            |mesh, record, levels| match record {
+                Some(r) if on && !refit.get(mesh.0 as usize).copied().unwrap_or(false) => {
+                    levels.coarsest_within(lod_pixels_per_error(camera.view_proj, r.min, r.max, camera.viewport_size.y), limit)
+                }
+                _ => 0,
+            },
+            &mut self.changed,
+        );
+        for &id in refits {
+            self.refits[id.0 as usize] = false;
+        }
         mirror.counters.skinned_vertices = mirror.poses.job_vertices();
     }
 

@@ -144,6 +144,46 @@ fn the_visibility_buffer_rebuilds_a_coarser_levels_triangles_and_the_level_view_
     assert_no_validation_errors(&mut app);
 }
 
+/// A far skinned tube whose pose changes every frame skins only the vertices of the coarsest
+/// level culling can pick for it (`render/src/skinning`): fewer vertices are skinned, and the
+/// frame is the same, depth and colour, bit for bit, as with every vertex skinned, in forward
+/// and in the visibility buffer (which rebuilds the triangles' attributes from the vertices).
+#[test]
+fn a_far_moving_skin_skins_only_its_levels_vertices_and_draws_the_same() {
+    let settings =
+        RenderSettings { pipeline: PipelineKind::Forward, aa: render::AntiAliasing::None, lod_pixels: 4.0, ..Default::default() };
+    let mut app = gpu_app(SIZE.0, SIZE.1, settings);
+    let red = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec4::new(0.8, 0.2, 0.1, 1.0), 0.0, 0.5));
+    let mut tube = crate::skinning::bendy_cylinder();
+    tube.morph_targets.clear();
+    let (_, elbow) = crate::skinning::spawn_tube(&mut app, tube, red, Vec3::new(0.0, -1.0, -8.0), 0.0);
+    app.world.spawn((DirectionalLight { illuminance: 3.0, ..Default::default() }, Transform::default().looking_at(-Vec3::Y, Vec3::Z)));
+    app.world.spawn((Camera::default(), Transform::default()));
+    // Four frames bending the elbow further each frame: a pose set every frame.
+    let run = |app: &mut App, pipeline: PipelineKind, skin_levels: bool| {
+        let mut s = app.world.resource_mut::<RenderSettings>();
+        (s.pipeline, s.skin_levels) = (pipeline, skin_levels);
+        let mut skinned = 0;
+        for frame in 0..4 {
+            let bend = Quat::from_rotation_z(-1.0 - 0.1 * frame as f32);
+            app.world.get_mut::<Transform>(elbow).unwrap().rotation = bend;
+            app.update();
+            skinned = app.world.resource::<RenderStats>().last.skinned_vertices;
+        }
+        let r = renderer(app);
+        (skinned, r.read_depth().expect("read back the depth"), r.read_hdr().expect("read back the HDR target"))
+    };
+    for pipeline in [PipelineKind::Forward, PipelineKind::VisBuffer] {
+        let (all, all_depth, all_hdr) = run(&mut app, pipeline, false);
+        let (level, depth, hdr) = run(&mut app, pipeline, true);
+        assert!(level > 0 && level < all, "{pipeline:?}: {level} of {all} vertices skinned");
+        assert!(depth.iter().filter(|&&d| d > 0.0).count() > 40, "{pipeline:?}: the tube is on screen");
+        assert!(depth == all_depth, "{pipeline:?}: the depth differs from the fully skinned frame's");
+        assert!(hdr == all_hdr, "{pipeline:?}: the colour differs from the fully skinned frame's");
+    }
+    assert_no_validation_errors(&mut app);
+}
+
 /// The level `shaders/cull.comp` picks for an instance that drew `kept` last, where a level's
 /// error covers `scale × error` pixels: the coarsest within `limit`, but coarser than `kept`
 /// only within the hysteresis band.
