@@ -2,7 +2,8 @@
 # PEERS.md's animated-characters scene (Bevy: N foxes running, each at its own time, one sun, no
 # shadows) with a release sandbox, for docs/experiments/notebook.md:
 #   scripts/bench_foxes_peer.sh SANDBOX CHARACTER [COUNTS...]
-# Forward pipeline, no shadows, no decals, the Fox's Run clip, 1920×1080. The wall time of a frame
+# Forward pipeline (or $PIPELINE: forward, forward_plus, deferred, visbuffer), no shadows, no
+# decals, the Fox's Run clip, 1920×1080. The wall time of a frame
 # is measured as the difference of a 160-frame and a 60-frame run over their 100 extra frames (so
 # loading and the first builds cancel); the GPU and CPU frame, and the CPU frame's parts
 # (`cpu_ms`: animate, propagate, skin, extract, record), are medians of frames 60–159.
@@ -18,7 +19,7 @@ echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"
 for n in "${counts[@]}"; do
   run() {
     "$bin" --headless --frames "$1" --size 1920x1080 --bench-scene foxes --character "$character" --character-clip Run \
-      --instances "$n" --pipeline forward --decal-method off --no-shadows --stats "$out/peer_$1.jsonl" >/dev/null 2>&1
+      --instances "$n" --pipeline "${PIPELINE:-forward}" --decal-method off --no-shadows --stats "$out/peer_$1.jsonl" >/dev/null 2>&1
   }
   t0=$(date +%s.%N); run 60; t1=$(date +%s.%N); run 160; t2=$(date +%s.%N)
   python3 - "$out/peer_160.jsonl" "$n" "$t0" "$t1" "$t2" <<'PY'

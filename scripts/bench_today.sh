@@ -29,8 +29,10 @@ for p in forward_plus deferred visbuffer; do
   run "lights_${p}" --frames 30 --bench-scene many-lights --pipeline "$p" --no-shadows
   run "lights_shadowed_${p}" --frames 30 --bench-scene many-lights --pipeline "$p"
 done
-for n in 1000 10000; do
-  run "foxes_$n" --frames 60 --bench-scene foxes --character "$character" --character-clip Run --instances "$n" \
-    --pipeline forward --decal-method off --no-shadows
+for p in forward visbuffer; do
+  for n in 1000 10000; do
+    run "foxes_${p}_$n" --frames 60 --bench-scene foxes --character "$character" --character-clip Run --instances "$n" \
+      --pipeline "$p" --decal-method off --no-shadows
+  done
 done
 python3 "$(dirname "$0")/today_tables.py" "$out" | tee "$out/today.md"

@@ -79,9 +79,10 @@ for p in ["forward_plus", "deferred", "visbuffer"]:
     shadow = max((k for k in shadowed[-1]["gpu_ms"] if k.startswith("shadows")), key=lambda k: gpu(shadowed, k), default=None)
     print(f"| {NAMES[p]} | {gpu(plain):.2f} | {gpu(shadowed):.2f} | {shadow + ' ' + format(gpu(shadowed, shadow), '.2f') if shadow else '—'} |")
 
-print("\nAnimated foxes (PEERS.md; forward, no shadows, no decals), ms:\n")
-print("| foxes | GPU frame | CPU frame | Bevy GPU |")
-print("| --- | --- | --- | --- |")
+print("\nAnimated foxes (PEERS.md; no shadows, no decals), ms:\n")
+print("| foxes | pipeline | GPU frame | CPU frame | Bevy GPU |")
+print("| --- | --- | --- | --- | --- |")
 for n in (1000, 10000):
-    rows = frames(f"foxes_{n}")
-    print(f"| {n:,} | {gpu(rows):.2f} | {cpu(rows):.2f} | {PEER_FOXES[n]:.2f} |")
+    for p in ("forward", "visbuffer"):
+        rows = frames(f"foxes_{p}_{n}")
+        print(f"| {n:,} | {NAMES[p]} | {gpu(rows):.2f} | {cpu(rows):.2f} | {PEER_FOXES[n]:.2f} |")

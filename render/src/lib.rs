@@ -29,6 +29,7 @@
 //! | [`lights`] | tiled light culling and the lighting record |
 //! | [`shadows`] | the scene's acceleration structures and ray-traced shadows |
 //! | [`occlusion`] | ambient occlusion: traced, or from the depth buffer, and its denoiser |
+//! | [`fxaa`], [`smaa`] | post-process anti-aliasing, each a compute technique of its own |
 //! | [`lod`] | levels of detail: simplified triangle lists made at upload, chosen per instance by culling |
 //! | [`skinning`] | posed meshes: skinning in compute (the poses are scene data, [`scene::poses`]) |
 //! | [`pipelines`] | forward, Forward+, deferred and visibility-buffer frames |
@@ -62,6 +63,7 @@ pub mod decals;
 pub mod environment;
 pub mod error;
 pub mod exposure;
+pub mod fxaa;
 pub mod gpu;
 pub mod graph;
 pub mod layout;

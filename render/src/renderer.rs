@@ -149,6 +149,7 @@ struct Resources {
     /// The forward pipelines at MSAA's sample count, while it is on (`crate::msaa`).
     forward_ms: Option<ForwardPasses>,
     smaa: crate::smaa::Smaa,
+    fxaa: crate::fxaa::Fxaa,
     decals: Decals,
     lighting: Lighting,
     tonemap: Tonemap,
@@ -217,6 +218,7 @@ impl Renderer {
             msaa: crate::msaa::Msaa::new(ctx),
             forward_ms: None,
             smaa: crate::smaa::Smaa::new(ctx, layout)?,
+            fxaa: crate::fxaa::Fxaa::new(ctx, layout)?,
             decals: Decals::new(ctx, &mut graph, layout, settings.decal_cluster_capacity)?,
             lighting: Lighting::new(ctx, &mut graph, layout, settings.shadow_maps)?,
             tonemap: Tonemap::new(ctx, layout, DISPLAY_FORMAT)?,
@@ -431,6 +433,7 @@ impl Renderer {
             taa: &mut res.taa,
             present: Present { tonemap, target, overlay, aa, check: res.display_check.as_mut() },
             smaa: &res.smaa,
+            fxaa: &res.fxaa,
             decal_choice,
             aa,
             pixel_ids: crate::motion::PixelIds::None,
@@ -708,6 +711,7 @@ impl Drop for Renderer {
             msaa: _,
             forward_ms,
             smaa,
+            fxaa,
             decals,
             lighting,
             tonemap,
@@ -750,6 +754,7 @@ impl Drop for Renderer {
             f.destroy(ctx);
         }
         smaa.destroy(ctx);
+        fxaa.destroy(ctx);
         tonemap.destroy(ctx);
         graph.destroy(ctx);
         scene.destroy(ctx);

@@ -437,7 +437,7 @@ pub enum AntiAliasing {
     /// None: every edge shows its stair steps.
     #[default]
     None,
-    /// Fast approximate anti-aliasing (`shaders/include/fxaa.glsl`), a compute pass before the
+    /// Fast approximate anti-aliasing (`crate::fxaa`), a compute pass before the
     /// display pass, in every pipeline: edges found by luma contrast are blended along their
     /// stair steps.
     Fxaa,

@@ -67,8 +67,10 @@ pub struct FrameParts<'a> {
     pub taa: &'a mut crate::taa::Taa,
     /// Tone mapping and overlay into the frame's display image.
     pub present: Present<'a>,
-    /// SMAA's passes, before the tone mapper blends by their weights.
+    /// SMAA's passes, before the display pass copies out what they wrote.
     pub smaa: &'a crate::smaa::Smaa,
+    /// FXAA's pass, likewise.
+    pub fxaa: &'a crate::fxaa::Fxaa,
     /// The decal method asked for and the one this device and pipeline apply.
     pub decal_choice: DecalChoice,
     /// The anti-aliasing applied ([`crate::settings::AntiAliasing::applied`]).
@@ -293,9 +295,12 @@ fn present(f: &mut Frame, r: &mut FrameParts, mirror: &SceneMirror, s: &FrameSet
     r.bloom.record(f, r.scene)?;
     r.exposure.record(f, r.scene)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;
-    // SMAA finds its edges and weights in the lit image before the tone mapper blends by them.
-    if r.aa == crate::settings::AntiAliasing::Smaa {
-        r.smaa.record(f, r.scene, r.exposure.reads())?;
+    // Post-process anti-aliasing writes its own target from the lit image, which the display
+    // pass copies out.
+    match r.aa {
+        crate::settings::AntiAliasing::Smaa => r.smaa.record(f, r.scene, r.exposure.reads())?,
+        crate::settings::AntiAliasing::Fxaa => r.fxaa.record(f, r.scene, r.exposure.reads())?,
+        _ => {}
     }
     r.present.record(f, r.scene, r.exposure.reads())
 }
