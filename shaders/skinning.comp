@@ -20,11 +20,13 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer PreviousRef
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer MorphsRef { GpuMorphDelta deltas[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer WeightsRef { float weights[]; };
 
+// A mesh's table of its levels' vertices (MeshLods::skin_table): per coarser level its first
+// word and its vertex count, each vertex's coarsest level (a byte a vertex), each level's vertices.
 layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer LevelsRef { uint words[]; };
 
-// Vertex `v`'s coarsest level of detail: a byte a vertex, four to a word.
-uint vertex_level(uint64_t levels, uint v) {
-    return (LevelsRef(levels).words[v >> 2u] >> ((v & 3u) * 8u)) & 0xFFu;
+// Vertex `v`'s coarsest level of detail.
+uint vertex_level(LevelsRef table, uint v) {
+    return (table.words[2u * LOD_LEVELS + (v >> 2u)] >> ((v & 3u) * 8u)) & 0xFFu;
 }
 
 // The joint's 3×4 matrix as a mat4x3 (columns: the three axes and the translation).
@@ -39,12 +41,23 @@ void main() {
     GpuSkinJob job = JobsRef(p.jobs).jobs[job_index];
     GpuMeshInfo mesh = MeshesRef(p.meshes).meshes[job.mesh];
     uint v = gl_WorkGroupID.x * 64u + gl_LocalInvocationID.x;
-    if (v >= mesh.vertex_count || mesh.rest == 0ul || (mesh.skin == 0ul && mesh.morph_targets == 0u)) return;
+    if (mesh.rest == 0ul || (mesh.skin == 0ul && mesh.morph_targets == 0u)) return;
     // A far instance skins only the vertices of the level of detail it will be drawn at
-    // (render/src/skinning); a vertex its last skinning left out has no previous position.
+    // (render/src/skinning), the level's own list; a vertex its last skinning left out has no
+    // previous position.
     uint level = job.levels & SKIN_LEVEL_MASK;
-    uint own = mesh.vertex_levels != 0ul ? vertex_level(mesh.vertex_levels, v) : 0u;
-    if (own < level) return;
+    uint own = 0u;
+    if (mesh.vertex_levels != 0ul) {
+        LevelsRef table = LevelsRef(mesh.vertex_levels);
+        if (level > 0u) {
+            if (v >= table.words[LOD_LEVELS + level - 1u]) return;
+            v = table.words[table.words[level - 1u] + v];
+        }
+        if (v >= mesh.vertex_count) return;
+        own = vertex_level(table, v);
+    } else if (v >= mesh.vertex_count) {
+        return;
+    }
     bool first = (job.levels & SKIN_FIRST) != 0u || own < (job.levels >> SKIN_PREVIOUS_SHIFT & SKIN_LEVEL_MASK);
 
     GpuVertex rest = VerticesRef(mesh.rest).vertices[v];

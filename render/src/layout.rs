@@ -1323,9 +1323,10 @@ layout! {
         /// Device address of the morph targets' offsets (`GpuMorphDelta`, target after target,
         /// `vertex_count` each) of a mesh with morph targets and its posed copies; 0 without.
         pub morphs: u64,
-        /// Device address of each vertex's coarsest level of detail (a byte a vertex, four to a
-        /// word: the vertex belongs to that level and every finer one), for a skinned mesh with
-        /// levels and its posed copies; 0 without.
+        /// Device address of the skinning pass's table of the levels of detail's vertices
+        /// (`MeshLods::skin_table`: per level its first word and its vertex count, each
+        /// vertex's coarsest level, then each level's vertices), for a skinned mesh with levels
+        /// and its posed copies; 0 without.
         pub vertex_levels: u64,
         /// Number of morph targets.
         pub morph_targets: u32,

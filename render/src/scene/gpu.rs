@@ -380,6 +380,9 @@ pub struct GpuMesh {
     pub lod_counts: [u32; LOD_LEVELS as usize],
     /// Each coarser level's error (a fraction of the mesh's bounds' diagonal).
     pub lod_errors: [f32; LOD_LEVELS as usize],
+    /// Bytes of the skinning pass's table of its levels' vertices (`MeshLods::skin_table`),
+    /// which follows the skin; 0 without.
+    pub skin_table_bytes: u64,
 }
 
 impl GpuMesh {
@@ -398,24 +401,16 @@ impl GpuMesh {
         (self.index_offset() + self.all_indices() * 4).next_multiple_of(16)
     }
 
-    /// Whether each vertex's coarsest level of detail follows the skin: a skinned mesh with
-    /// levels (`crate::skinning` skins a level's vertices alone).
-    fn has_vertex_levels(&self) -> bool {
-        self.skinned && self.lod_counts[0] > 0
-    }
-
-    /// Byte offset of each vertex's coarsest level (a byte a vertex, after the skin).
-    fn vertex_levels_offset(&self) -> u64 {
+    /// Byte offset of the skinning pass's table of its levels' vertices (after the skin).
+    fn skin_table_offset(&self) -> u64 {
         let skin = if self.skinned { self.vertex_count as u64 * std::mem::size_of::<GpuSkinVertex>() as u64 } else { 0 };
         (self.skin_offset() + skin).next_multiple_of(16)
     }
 
-    /// Byte offset of the morph targets' offsets (after the skin and the vertices' levels, if
+    /// Byte offset of the morph targets' offsets (after the skin and its levels' table, if
     /// any).
     fn morph_offset(&self) -> u64 {
-        // Whole words: the skinning pass reads four levels at a time.
-        let levels = if self.has_vertex_levels() { (self.vertex_count as u64).next_multiple_of(4) } else { 0 };
-        (self.vertex_levels_offset() + levels).next_multiple_of(16)
+        (self.skin_table_offset() + self.skin_table_bytes).next_multiple_of(16)
     }
 
     /// The table entry of a mesh that is not posed.
@@ -440,7 +435,7 @@ impl GpuMesh {
             }),
             lod_count: self.lod_counts,
             lod_error: self.lod_errors.into(),
-            vertex_levels: if self.has_vertex_levels() { pool + self.vertex_levels_offset() } else { 0 },
+            vertex_levels: if self.skin_table_bytes > 0 { pool + self.skin_table_offset() } else { 0 },
         }
     }
 
@@ -466,13 +461,19 @@ fn posed_bytes(vertices: u32) -> u64 {
 
 /// The bytes a mesh takes in the pool: vertices, indices, then (each 16-byte aligned) its skin
 /// and its morph targets.
+/// The skinning pass's table of a skinned mesh's levels (`MeshLods::skin_table`; empty without).
+fn skin_table(m: &MeshData) -> Vec<u32> {
+    match &m.lods {
+        Some(lods) if !m.skin.is_empty() => lods.skin_table(m.vertices.len()),
+        _ => Vec::new(),
+    }
+}
+
 fn mesh_bytes(m: &MeshData) -> u64 {
     let mut bytes = RangeAllocator::mesh_bytes(m.vertices.len(), m.indices.len() + m.lods.as_ref().map_or(0, |l| l.indices.len()));
     if !m.skin.is_empty() {
         bytes = bytes.next_multiple_of(16) + (m.skin.len() * std::mem::size_of::<GpuSkinVertex>()) as u64;
-        if m.lods.as_ref().is_some_and(|l| l.levels() > 0) {
-            bytes = bytes.next_multiple_of(16) + (m.vertices.len() as u64).next_multiple_of(4);
-        }
+        bytes = bytes.next_multiple_of(16) + skin_table(m).len() as u64 * 4;
     }
     if !m.morphs.is_empty() {
         bytes = bytes.next_multiple_of(16) + std::mem::size_of_val(m.morphs.as_slice()) as u64;
@@ -1148,6 +1149,7 @@ impl GpuScene {
                 let lods = data.lods.clone().unwrap_or_default();
                 let lbytes: &[u8] = bytemuck::cast_slice(&lods.indices);
                 let size = mesh_bytes(data);
+                let table = skin_table(data);
                 let place = self.ranges.alloc(size).expect("the plan made room for every pending mesh");
                 let mesh = GpuMesh {
                     offset: place,
@@ -1159,6 +1161,7 @@ impl GpuScene {
                     source: None,
                     lod_counts: lods.counts,
                     lod_errors: lods.errors,
+                    skin_table_bytes: table.len() as u64 * 4,
                 };
                 let mapped = staging.mapped();
                 let o = offset as usize;
@@ -1168,12 +1171,11 @@ impl GpuScene {
                 let o = o + ibytes.len();
                 mapped[o..o + lbytes.len()].copy_from_slice(lbytes);
                 let o = offset as usize;
-                let vertex_levels = if mesh.has_vertex_levels() { lods.vertex_levels(data.vertices.len()) } else { Vec::new() };
-                // The skin, the vertices' levels and the morph targets where the mesh's offsets
-                // say (relative to it).
+                // The skin, its levels' table and the morph targets where the mesh's offsets say
+                // (relative to it).
                 for (at, bytes) in [
                     (mesh.skin_offset(), bytemuck::cast_slice::<_, u8>(&data.skin)),
-                    (mesh.vertex_levels_offset(), vertex_levels.as_slice()),
+                    (mesh.skin_table_offset(), bytemuck::cast_slice(&table)),
                     (mesh.morph_offset(), bytemuck::cast_slice(&data.morphs)),
                 ] {
                     let s = o + (at - place) as usize;
@@ -1206,6 +1208,7 @@ impl GpuScene {
                 source: Some(source),
                 lod_counts: [0; LOD_LEVELS as usize],
                 lod_errors: [0.0; LOD_LEVELS as usize],
+                skin_table_bytes: 0,
             };
             self.place(id, mesh, up.frame_value);
         }

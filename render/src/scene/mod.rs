@@ -422,6 +422,31 @@ impl MeshLods {
             && self.errors[..levels].windows(2).all(|w| w[0] <= w[1])
     }
 
+    /// What the skinning pass reads to skin one level's vertices alone (`crate::skinning`), as
+    /// 32-bit words: each coarser level's first word (levels 1 to `LOD_LEVELS`), then their
+    /// vertex counts, then each vertex's coarsest level ([`MeshLods::vertex_levels`], a byte a
+    /// vertex, four to a word), then each coarser level's vertices in order. Empty without levels
+    /// or for more vertices than a skinning job can name.
+    pub fn skin_table(&self, vertex_count: usize) -> Vec<u32> {
+        let levels = self.levels();
+        if levels == 0 || vertex_count >= 1 << 24 {
+            return Vec::new();
+        }
+        let of_vertex = self.vertex_levels(vertex_count);
+        let header = 2 * LOD_LEVELS as usize;
+        let mut table = vec![0u32; header + vertex_count.div_ceil(4)];
+        for (v, &level) in of_vertex.iter().enumerate() {
+            table[header + v / 4] |= (level as u32) << (8 * (v % 4));
+        }
+        for level in 1..=levels {
+            table[level - 1] = table.len() as u32;
+            let before = table.len();
+            table.extend((0..vertex_count as u32).filter(|&v| of_vertex[v as usize] as usize >= level));
+            table[LOD_LEVELS as usize + level - 1] = (table.len() - before) as u32;
+        }
+        table
+    }
+
     /// Each of `vertex_count` vertices' coarsest level: the last level whose triangles use it (0
     /// for a vertex only the mesh's own triangles use). A level is simplified from the one
     /// before it over the same vertices, so a vertex belongs to its coarsest level and every
@@ -1038,15 +1063,16 @@ impl SceneMirror {
     /// Sets the level of detail whose vertices each of this frame's skinning jobs skins
     /// ([`poses::PoseTable::set_levels`]: `choose(posed mesh, its culling record, its source's levels)`
     /// for a job that may skin fewer), and rewrites the culling records of the instances whose
-    /// finest drawable level changed. `changed` is scratch.
+    /// finest drawable level changed. `changed` is scratch. Returns the most vertices a job
+    /// skins.
     pub fn set_skin_levels(
         &mut self,
         mut choose: impl FnMut(MeshId, Option<&GpuCullRecord>, &poses::SkinLevels) -> u32,
         changed: &mut Vec<MeshId>,
-    ) {
+    ) -> u32 {
         changed.clear();
         let (poses, culls, posed_slots) = (&mut self.poses, &self.culls, &self.posed_slots);
-        poses.set_levels(
+        let most = poses.set_levels(
             |mesh, levels| {
                 let slot = posed_slots.get(mesh.0 as usize).copied().filter(|&s| s != u32::MAX);
                 choose(mesh, slot.and_then(|s| culls.get(s)), levels)
@@ -1058,6 +1084,7 @@ impl SceneMirror {
                 self.refresh_cull(slot);
             }
         }
+        most
     }
 
     fn count_batch(&mut self, draw: Option<DrawItem>, delta: i32) {

@@ -398,9 +398,11 @@ impl PoseTable {
     /// vertices, and 0 (every vertex) for the first skinning of a pose and for the last one of a
     /// pose that stopped changing, so that a pose at rest always holds every vertex. Counts the
     /// vertices skinned ([`PoseTable::job_vertices`]) and lists the posed meshes whose level
-    /// changed in `changed` (their culling records name it).
-    pub fn set_levels(&mut self, mut choose: impl FnMut(MeshId, &SkinLevels) -> u32, changed: &mut Vec<MeshId>) {
+    /// changed in `changed` (their culling records name it). Returns the most vertices a job
+    /// skins.
+    pub fn set_levels(&mut self, mut choose: impl FnMut(MeshId, &SkinLevels) -> u32, changed: &mut Vec<MeshId>) -> u32 {
         self.job_vertices = 0;
+        let mut most = 0;
         for (header, &id) in self.headers.iter_mut().zip(&self.jobs) {
             let Some(pose) = self.poses.get_mut(id.0 as usize).and_then(Option::as_mut) else { continue };
             let source = self.sources.get(pose.source.0 as usize).and_then(Option::as_ref);
@@ -415,11 +417,13 @@ impl PoseTable {
             };
             header.levels = (header.levels & !SKIN_LEVEL_MASK) | level;
             self.job_vertices += vertices as u64;
+            most = most.max(vertices);
             if pose.level != level {
                 pose.level = level;
                 changed.push(id);
             }
         }
+        most
     }
 }
 
@@ -580,6 +584,25 @@ mod tests {
         assert_eq!(input(&t)[2], 0);
         t.take_jobs();
         assert!(t.jobs().is_empty() && input(&t).is_empty() && t.is_clean(), "then rests");
+    }
+
+    /// The skinning table of a mesh's levels: each level's list holds the vertices its triangles
+    /// (and a coarser level's) use, and each vertex's byte says its coarsest level.
+    #[test]
+    fn a_levels_skin_table_lists_its_vertices_and_each_vertexs_coarsest_level() {
+        use crate::scene::MeshLods;
+        let mut counts = [0; LOD_LEVELS as usize];
+        (counts[0], counts[1]) = (6, 3);
+        let lods = MeshLods { indices: vec![0, 2, 4, 2, 3, 4, 0, 2, 4], counts, errors: [0.1, 0.2, 0.0, 0.0] };
+        let table = lods.skin_table(6);
+        let header = 2 * LOD_LEVELS as usize;
+        let level = |v: usize| (table[header + v / 4] >> (8 * (v % 4))) & 0xFF;
+        assert_eq!((0..6).map(level).collect::<Vec<_>>(), [2, 0, 2, 1, 2, 0]);
+        let list = |l: usize| &table[table[l - 1] as usize..][..table[LOD_LEVELS as usize + l - 1] as usize];
+        assert_eq!(list(1), [0, 2, 3, 4]);
+        assert_eq!(list(2), [0, 2, 4]);
+        assert_eq!(table.len(), header + 2 + 4 + 3);
+        assert!(MeshLods::default().skin_table(6).is_empty(), "no levels, no table");
     }
 
     /// A far pose that keeps changing skins the vertices of the level it is chosen, says the

@@ -156,10 +156,12 @@ fn a_far_moving_skin_skins_only_its_levels_vertices_and_draws_the_same() {
     let red = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec4::new(0.8, 0.2, 0.1, 1.0), 0.0, 0.5));
     let mut tube = crate::skinning::bendy_cylinder();
     tube.morph_targets.clear();
-    let (_, elbow) = crate::skinning::spawn_tube(&mut app, tube, red, Vec3::new(0.0, -1.0, -8.0), 0.0);
+    let (tube, elbow) = crate::skinning::spawn_tube(&mut app, tube, red, Vec3::new(0.0, -1.0, -8.0), 0.0);
+    let root = app.world.get::<engine::animation::Skin>(tube).unwrap().joints[0];
     app.world.spawn((DirectionalLight { illuminance: 3.0, ..Default::default() }, Transform::default().looking_at(-Vec3::Y, Vec3::Z)));
     app.world.spawn((Camera::default(), Transform::default()));
-    // Four frames bending the elbow further each frame: a pose set every frame.
+    // Four frames turning the tube's root joint and bending its elbow further each frame: a pose
+    // set every frame that moves every vertex.
     let run = |app: &mut App, pipeline: PipelineKind, skin_levels: bool| {
         let mut s = app.world.resource_mut::<RenderSettings>();
         (s.pipeline, s.skin_levels) = (pipeline, skin_levels);
@@ -167,6 +169,7 @@ fn a_far_moving_skin_skins_only_its_levels_vertices_and_draws_the_same() {
         for frame in 0..4 {
             let bend = Quat::from_rotation_z(-1.0 - 0.1 * frame as f32);
             app.world.get_mut::<Transform>(elbow).unwrap().rotation = bend;
+            app.world.get_mut::<Transform>(root).unwrap().rotation = Quat::from_rotation_y(0.3 * frame as f32);
             app.update();
             skinned = app.world.resource::<RenderStats>().last.skinned_vertices;
         }
