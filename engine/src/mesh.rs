@@ -129,6 +129,10 @@ pub struct Mesh {
     pub skin: Option<SkinWeights>,
     /// Morph targets (blend shapes).
     pub morph_targets: Vec<MorphTarget>,
+    /// Coarser levels of detail made with the mesh, finest first (glTF's `MSFT_lod`): each a
+    /// mesh of its own vertices over the same joints. Empty (the usual case): the renderer makes
+    /// its own levels from this mesh.
+    pub lods: Vec<Mesh>,
 }
 
 impl Mesh {
@@ -148,7 +152,7 @@ impl Mesh {
         tangents: Vec<[f32; 4]>,
         indices: Vec<u32>,
     ) -> Result<Mesh, MeshError> {
-        let mesh = Mesh { positions, normals, uvs, tangents, indices, skin: None, morph_targets: Vec::new() };
+        let mesh = Mesh { positions, normals, uvs, tangents, indices, skin: None, morph_targets: Vec::new(), lods: Vec::new() };
         mesh.validate()?;
         Ok(mesh)
     }
@@ -288,6 +292,7 @@ impl Mesh {
                     normals: t.normals.iter().map(|&d| (normal_matrix * Vec3::from(d)).into()).collect(),
                 })
                 .collect(),
+            lods: self.lods.iter().map(|level| level.transformed(m)).collect(),
         }
     }
 

@@ -324,7 +324,20 @@ pub fn mesh_data(mesh: &Mesh) -> Result<(MeshData, Option<String>), String> {
         .collect();
     let morph_targets = targets.len() as u32;
     let mut data = MeshData { vertices, indices, skin, morphs, morph_targets, lods: None };
-    data.lods = Some(render::lod::MeshLods::for_mesh(&data));
+    if mesh.lods.is_empty() {
+        data.lods = Some(render::lod::MeshLods::for_mesh(&data));
+    } else {
+        // Levels made with the mesh (glTF's MSFT_lod), each checked as a mesh of its own.
+        let levels: Vec<MeshData> = mesh.lods.iter().filter_map(|level| mesh_data(level).ok().map(|(level, _)| level)).collect();
+        if levels.len() < mesh.lods.len() {
+            repaired.push(format!(
+                "{} of its {} authored levels of detail unusable (left out)",
+                mesh.lods.len() - levels.len(),
+                mesh.lods.len()
+            ));
+        }
+        data = render::lod::with_authored_levels(data, levels);
+    }
     Ok((data, (!repaired.is_empty()).then(|| format!("had {}", repaired.join(", ")))))
 }
 

@@ -336,3 +336,64 @@ pub(super) fn load_primitive(
         })
         .map_err(|source| GltfError::Mesh { mesh: mesh.to_owned(), source })
 }
+
+/// Most coarser levels a mesh takes from `MSFT_lod` (the renderer draws up to four).
+pub const MAX_AUTHORED_LODS: usize = 4;
+
+/// Attaches the coarser levels that nodes name with `MSFT_lod` (`{"ids": [node, …]}`, finest
+/// first) to their meshes: primitive `p` of each named node's mesh becomes a level of primitive
+/// `p` of the node's own mesh ([`Mesh::lods`]). A named node without a mesh, a level with another
+/// number of primitives, a level whose skin or morph targets differ from its mesh's, or more than
+/// [`MAX_AUTHORED_LODS`] levels are left out with one warning each; a mesh several nodes name
+/// levels for keeps the first node's. The levels' screen coverages (`MSFT_screencoverage`) are
+/// not read: the renderer picks levels by their geometric error, as it does its own.
+pub(super) fn attach_authored_lods(document: &::gltf::Document, meshes: &mut [Vec<(Mesh, usize)>], file: &Path) {
+    for node in document.nodes() {
+        let Some(ids) = node.extensions().and_then(|e| e.get("MSFT_lod")).and_then(|lod| lod.get("ids")).and_then(|ids| ids.as_array())
+        else {
+            continue;
+        };
+        let Some(mesh) = node.mesh().map(|m| m.index()) else { continue };
+        if meshes[mesh].iter().any(|(m, _)| !m.lods.is_empty()) {
+            continue;
+        }
+        let nodes: Vec<_> = document.nodes().collect();
+        let mut levels = Vec::new();
+        for id in ids {
+            let level = id.as_u64().and_then(|i| nodes.get(i as usize)).and_then(|n| n.mesh()).map(|m| m.index());
+            match level {
+                Some(level) if level != mesh && meshes[level].len() == meshes[mesh].len() => levels.push(level),
+                _ => warn!(
+                    file = %file.display(),
+                    node = node.index(),
+                    "MSFT_lod names {id}, which is not a node whose mesh has as many primitives as this node's; that level is left out"
+                ),
+            }
+        }
+        if levels.len() > MAX_AUTHORED_LODS {
+            warn!(file = %file.display(), node = node.index(), "MSFT_lod names {} levels; the first {MAX_AUTHORED_LODS} are kept", levels.len());
+            levels.truncate(MAX_AUTHORED_LODS);
+        }
+        for p in 0..meshes[mesh].len() {
+            let attached: Vec<Mesh> = levels
+                .iter()
+                .map(|&level| meshes[level][p].0.clone())
+                .filter(|level| {
+                    let base = &meshes[mesh][p].0;
+                    let fits =
+                        level.skin.is_some() == base.skin.is_some() && level.morph_targets.is_empty() && base.morph_targets.is_empty();
+                    if !fits {
+                        warn!(
+                            file = %file.display(),
+                            node = node.index(),
+                            primitive = p,
+                            "an MSFT_lod level's skin or morph targets differ from its mesh's; that level is left out"
+                        );
+                    }
+                    fits
+                })
+                .collect();
+            meshes[mesh][p].0.lods = attached;
+        }
+    }
+}

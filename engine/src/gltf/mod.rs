@@ -10,7 +10,8 @@
 //! and emissive textures, `KHR_materials_emissive_strength`, alpha mask/blend, double-sided,
 //! `KHR_materials_ior` and `KHR_materials_volume`'s thickness for the refraction of blended
 //! materials),
-//! `KHR_lights_punctual`, `KHR_mesh_quantization`, `KHR_texture_transform`, perspective cameras
+//! `KHR_lights_punctual`, `KHR_mesh_quantization`, `KHR_texture_transform`, `MSFT_lod` (a
+//! node's coarser levels of detail become its mesh's [`Mesh::lods`]), perspective cameras
 //! (`zfar` ignored: the projection is infinite reverse-Z), node hierarchies with TRS or matrix
 //! transforms, triangle lists/strips/fans. A document that *requires* any other extension (e.g.
 //! `KHR_draco_mesh_compression`) is refused with [`GltfError::UnsupportedExtension`] naming it.
@@ -116,8 +117,8 @@ use animations::*;
 use faults::Faults;
 pub use faults::{GltfFault, GltfFaultKind, GltfPart};
 use materials::*;
-pub use meshes::MAX_UNBACKED_COMPONENTS;
 use meshes::*;
+pub use meshes::{MAX_AUTHORED_LODS, MAX_UNBACKED_COMPONENTS};
 use nodes::*;
 pub use skins::GltfSkin;
 use skins::*;
@@ -388,6 +389,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_volume",
     "KHR_mesh_quantization",
     "KHR_texture_transform",
+    "MSFT_lod",
 ];
 
 /// How forgiving loading is.
@@ -535,6 +537,7 @@ fn load_impl(bytes: &[u8], base: Option<&Path>, file: &Path, name: String, optio
         }
         meshes.push(primitives);
     }
+    attach_authored_lods(&document, &mut meshes, file);
     let mut nodes = load_nodes(&document, &mut faults);
     let roots = match document.default_scene().or_else(|| document.scenes().next()) {
         Some(scene) => scene.nodes().map(|n| n.index()).collect(),

@@ -17,6 +17,11 @@
 //!   levels' indices follow the full list in the mesh pool ([`crate::scene::pool`]), so one
 //!   range holds them all and a triangle of any level has one number counted from the start of
 //!   the mesh's indices.
+//! - **Levels made by the mesh's author** (glTF's `MSFT_lod`, which the engine's loader attaches
+//!   to the mesh) are used in place of simplified ones ([`with_authored_levels`]): their vertices
+//!   are appended to the mesh's, so a level is still a triangle list over the mesh's vertices,
+//!   and their error is measured, the farthest either surface strays from the other, so the
+//!   culling pass chooses them by the same rule.
 //! - **Meshes with morph targets get none**: their targets move vertices the simplifier never
 //!   saw move, so no error it reports would hold.
 //! - **Up to [`LOD_LEVELS`] coarser levels**, each with about half the triangles of the one
@@ -242,6 +247,104 @@ fn usable(vertices: &[GpuVertex], indices: &[u32]) -> bool {
     indices.iter().all(|&i| (i as usize) < vertices.len()) && vertices.iter().all(|v| v.position.iter().all(|c| c.is_finite()))
 }
 
+/// A mesh with its coarser levels made by its author (glTF's `MSFT_lod`), for the upload: each
+/// level's vertices (and joints and weights) are appended to the mesh's, so that a level is a
+/// triangle list over the mesh's vertices as a simplified one is, and its error is measured:
+/// the farthest a level's surface strays from the full mesh's or the full mesh's from the
+/// level's, as a fraction of the diagonal of the mesh's bounds (the distances from sampled
+/// vertices to the other surface's triangles, at most [`ERROR_SAMPLES`] of each: a sample of the
+/// triangles can only find a farther one, so the error errs on the large side), made to grow
+/// with the level. Levels with morph targets, another kind of skin, no triangles or indices out
+/// of range, beyond [`LOD_LEVELS`], are left out; with none left the mesh gets no levels.
+pub fn with_authored_levels(mut data: MeshData, levels: Vec<MeshData>) -> MeshData {
+    let usable = |l: &MeshData| {
+        l.morph_targets == 0
+            && l.skin.is_empty() == data.skin.is_empty()
+            && !l.indices.is_empty()
+            && l.indices.len().is_multiple_of(3)
+            && l.indices.iter().all(|&i| (i as usize) < l.vertices.len())
+    };
+    let levels: Vec<MeshData> = levels.into_iter().filter(usable).take(LOD_LEVELS as usize).collect();
+    if data.morph_targets > 0 || levels.is_empty() || data.indices.is_empty() {
+        data.lods = Some(MeshLods::default());
+        return data;
+    }
+    let positions = |d: &MeshData| d.vertices.iter().map(|v| Vec3::from(v.position)).collect::<Vec<_>>();
+    let full = positions(&data);
+    let (lo, hi) = full.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let diagonal = (hi - lo).length().max(f32::MIN_POSITIVE);
+    let mut lods = MeshLods::default();
+    let mut error = 0.0f32;
+    for (k, level) in levels.iter().enumerate() {
+        let points = positions(level);
+        let strays = surface_distance(&points, &full, &data.indices).max(surface_distance(&full, &points, &level.indices));
+        error = error.max(strays / diagonal);
+        let offset = data.vertices.len() as u32;
+        lods.indices.extend(level.indices.iter().map(|&i| i + offset));
+        lods.counts[k] = level.indices.len() as u32;
+        lods.errors[k] = error;
+        data.vertices.extend_from_slice(&level.vertices);
+        data.skin.extend_from_slice(&level.skin);
+    }
+    data.lods = Some(lods);
+    data
+}
+
+/// Most vertices and triangles of each surface [`with_authored_levels`] measures against the
+/// other.
+pub const ERROR_SAMPLES: usize = 2048;
+
+/// The farthest any of (a sample of) `points` lies from the triangles `indices` over
+/// `vertices` (a sample of them, if many).
+fn surface_distance(points: &[Vec3], vertices: &[Vec3], indices: &[u32]) -> f32 {
+    let triangles = indices.len() / 3;
+    let step = |n: usize| n.div_ceil(ERROR_SAMPLES).max(1);
+    let tris: Vec<[Vec3; 3]> =
+        (0..triangles).step_by(step(triangles)).map(|t| [0, 1, 2].map(|c| vertices[indices[3 * t + c] as usize])).collect();
+    points
+        .iter()
+        .step_by(step(points.len()))
+        .map(|&p| tris.iter().map(|&[a, b, c]| (closest_on_triangle(p, a, b, c) - p).length_squared()).fold(f32::INFINITY, f32::min))
+        .fold(0.0f32, f32::max)
+        .sqrt()
+}
+
+/// The point of triangle `abc` closest to `p` (Ericson, "Real-Time Collision Detection", §5.1.5).
+fn closest_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    if !denom.is_finite() {
+        return a; // a degenerate triangle: its first corner
+    }
+    a + ab * (vb * denom) + ac * (vc * denom)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -310,6 +413,21 @@ mod tests {
         assert!(lods.levels() >= 3, "welded, the faceted sphere simplifies as the smooth one: {:?}", lods.counts);
         assert!(lods.fits(vertices.len()));
         assert!(lods.errors[0] < 0.05, "its first level's error {} is small", lods.errors[0]);
+    }
+
+    /// The closest point of a triangle: inside it straight below, on an edge, at a corner, and
+    /// a degenerate triangle's corner.
+    #[test]
+    fn the_closest_point_of_a_triangle_is_inside_on_an_edge_or_at_a_corner() {
+        let (a, b, c) = (Vec3::ZERO, Vec3::X, Vec3::Y);
+        assert_eq!(closest_on_triangle(Vec3::new(0.25, 0.25, 3.0), a, b, c), Vec3::new(0.25, 0.25, 0.0));
+        assert_eq!(closest_on_triangle(Vec3::new(0.5, -2.0, 1.0), a, b, c), Vec3::new(0.5, 0.0, 0.0));
+        assert_eq!(closest_on_triangle(Vec3::new(2.0, 2.0, 0.0), a, b, c), Vec3::new(0.5, 0.5, 0.0));
+        assert_eq!(closest_on_triangle(Vec3::new(-1.0, -1.0, 0.0), a, b, c), a);
+        assert_eq!(closest_on_triangle(Vec3::new(3.0, -1.0, 0.0), a, b, c), b);
+        assert!(closest_on_triangle(Vec3::ONE, a, a, a).is_finite());
+        let points = [Vec3::new(0.2, 0.2, 0.5)];
+        assert!((surface_distance(&points, &[a, b, c], &[0, 1, 2]) - 0.5).abs() < 1e-6);
     }
 
     #[test]

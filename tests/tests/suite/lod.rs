@@ -7,7 +7,9 @@
 //! twenty pixels); the visibility
 //! buffer rebuilds a coarser level's triangles (its normals equal forward's, which interpolates
 //! them), and the level-of-detail view colours a surface by the level drawn in every pipeline; and an instance between the two limits of the hysteresis band keeps the level it
-//! came with, as the rules of `shaders/cull.comp`, replayed on the CPU, say.
+//! came with, as the rules of `shaders/cull.comp`, replayed on the CPU, say. A far skinned tube
+//! whose pose changes every frame skins its level's vertices alone and draws bit for bit what it
+//! draws fully skinned; a glTF file's own levels (`MSFT_lod`) are drawn far away.
 
 use engine::prelude::*;
 use plugins::{RenderSettings, RenderStats};
@@ -184,6 +186,63 @@ fn a_far_moving_skin_skins_only_its_levels_vertices_and_draws_the_same() {
         assert!(depth == all_depth, "{pipeline:?}: the depth differs from the fully skinned frame's");
         assert!(hdr == all_hdr, "{pipeline:?}: the colour differs from the fully skinned frame's");
     }
+    assert_no_validation_errors(&mut app);
+}
+
+/// A glTF file whose node 0 (a sphere of `fine` sectors) names node 1 (one of 8 sectors) as its
+/// coarser level with `MSFT_lod`, and, with `bad`, a node 2 that has no mesh.
+fn authored_lods_model(fine: u32, bad: bool) -> tests::gltf_files::Model {
+    let mut b = tests::gltf_files::Builder::default();
+    let mesh = |b: &mut tests::gltf_files::Builder, sectors: u32| {
+        let m = shapes::uv_sphere(1.0, sectors, sectors / 2);
+        let position = b.floats("VEC3", &m.positions);
+        let normal = b.floats("VEC3", &m.normals);
+        let indices: Vec<[u16; 1]> = m.indices.iter().map(|&i| [i as u16]).collect();
+        let indices = b.u16s("SCALAR", &indices);
+        serde_json::json!({ "primitives": [{ "attributes": { "POSITION": position, "NORMAL": normal }, "indices": indices }] })
+    };
+    let (full, coarse) = (mesh(&mut b, fine), mesh(&mut b, 8));
+    let ids: Vec<usize> = if bad { vec![2, 1] } else { vec![1] };
+    let mut nodes = vec![serde_json::json!({ "mesh": 0, "extensions": { "MSFT_lod": { "ids": ids } } }), serde_json::json!({ "mesh": 1 })];
+    if bad {
+        nodes.push(serde_json::json!({}));
+    }
+    b.finish(serde_json::json!({
+        "extensionsUsed": ["MSFT_lod"],
+        "meshes": [full, coarse],
+        "nodes": nodes,
+        "scenes": [{ "nodes": [0] }],
+        "scene": 0,
+    }))
+}
+
+/// A glTF file's own levels of detail (`MSFT_lod`) become its mesh's levels: the loader attaches
+/// them (a named node without a mesh is left out), the upload appends their vertices and
+/// measures their error, and a far instance draws the authored level's triangles, in place of
+/// levels the simplifier would make.
+#[test]
+fn a_gltf_files_own_levels_of_detail_are_drawn_far_away() {
+    let scene = authored_lods_model(64, true).load().expect("the file loads");
+    let (full, _) = &scene.meshes[0][0];
+    let coarse = scene.meshes[1][0].0.triangle_count();
+    assert_eq!(full.lods.len(), 1, "node 2 has no mesh: only node 1's is a level");
+    assert_eq!(full.lods[0].triangle_count(), coarse);
+    let (data, _) = plugins::validate::mesh_data(full).expect("the mesh is valid");
+    let lods = data.lods.as_ref().expect("levels");
+    assert_eq!((lods.levels(), lods.counts[0] as usize), (1, 3 * coarse), "the authored level, not simplified ones");
+    assert!(lods.errors[0] > 0.002 && lods.errors[0] < 0.05, "an eight-sided sphere strays a few percent: {}", lods.errors[0]);
+    assert_eq!(data.vertices.len(), full.positions.len() + full.lods[0].positions.len(), "the level's vertices follow the mesh's");
+
+    let settings = RenderSettings { pipeline: PipelineKind::Forward, aa: render::AntiAliasing::None, ..Default::default() };
+    let mut app = gpu_app(SIZE.0, SIZE.1, settings);
+    let root = authored_lods_model(64, false).load().expect("the file loads").spawn(&mut app.world);
+    app.world.entity_mut(root).insert(Transform::from_xyz(0.0, 0.0, -4.0));
+    app.world.spawn((Camera::default(), Transform::default()));
+    let (near, _) = settle(&mut app);
+    assert_eq!(near.lod_instances[0], 1, "near: the full sphere: {near:?}");
+    app.world.entity_mut(root).insert(Transform::from_xyz(0.0, 0.0, -60.0));
+    let (far, _) = settle(&mut app);
+    assert_eq!((far.lod_instances[1], far.triangles), (1, coarse as u64), "far: the authored level's triangles: {far:?}");
     assert_no_validation_errors(&mut app);
 }
 
