@@ -10,6 +10,7 @@ out = sys.argv[1]
 PEER_DECALS = {"forward_plus": (2.98, 3.13, 4.01), "deferred": (3.06, 3.22, 4.01)}
 PEER_WALL = 2.26
 PEER_FOXES = {1000: 4.13, 10000: 26.34}
+PEER_FOXES_WALL = {1000: 5.8, 10000: 41.7}
 NAMES = {"forward": "forward", "forward_plus": "Forward+", "deferred": "deferred", "visbuffer": "visibility buffer"}
 
 
@@ -80,9 +81,10 @@ for p in ["forward_plus", "deferred", "visbuffer"]:
     print(f"| {NAMES[p]} | {gpu(plain):.2f} | {gpu(shadowed):.2f} | {shadow + ' ' + format(gpu(shadowed, shadow), '.2f') if shadow else '—'} |")
 
 print("\nAnimated foxes (PEERS.md; no shadows, no decals), ms:\n")
-print("| foxes | pipeline | GPU frame | CPU frame | Bevy GPU |")
-print("| --- | --- | --- | --- | --- |")
+print("| foxes | pipeline | GPU frame | CPU frame | wall time a frame | Bevy GPU | Bevy wall time a frame |")
+print("| --- | --- | --- | --- | --- | --- | --- |")
 for n in (1000, 10000):
     for p in ("forward", "visbuffer"):
         rows = frames(f"foxes_{p}_{n}")
-        print(f"| {n:,} | {NAMES[p]} | {gpu(rows):.2f} | {cpu(rows):.2f} | {PEER_FOXES[n]:.2f} |")
+        wall = med(rows, lambda r: r["wall_ms"])
+        print(f"| {n:,} | {NAMES[p]} | {gpu(rows):.2f} | {cpu(rows):.2f} | {wall:.2f} | {PEER_FOXES[n]:.2f} | {PEER_FOXES_WALL[n]} |")

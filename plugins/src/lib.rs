@@ -375,6 +375,9 @@ pub struct FrameStats {
     /// CPU milliseconds of the whole app update that drew the frame, every schedule from its
     /// start to the frame's submission, the waits for the GPU excluded.
     pub cpu_frame_ms: f32,
+    /// Milliseconds from the previous frame's submission to this one's (0 for the first): the
+    /// time a frame takes as the game sees it, CPU, waits for the GPU and all.
+    pub wall_ms: f32,
     /// Entities its extraction visited.
     pub visited: VisitCounts,
     /// Work counters.
@@ -424,6 +427,8 @@ pub struct RenderStats {
     pub visited: VisitCounts,
     extract_started: Option<Instant>,
     extract_ms: f32,
+    /// When the last frame was submitted ([`FrameStats::wall_ms`]).
+    last_submitted: Option<Instant>,
 }
 
 impl RenderStats {
@@ -596,6 +601,8 @@ fn render_frame(
         Ok(Some(report)) => {
             stats.last = report.counters;
             let (extract_ms, visited) = (stats.extract_ms, stats.visited);
+            let now = Instant::now();
+            let wall_ms = stats.last_submitted.replace(now).map_or(0.0, |t| (now - t).as_secs_f32() * 1e3);
             stats.pending.push_back(FrameStats {
                 frame: report.frame,
                 pipeline: settings.pipeline,
@@ -622,6 +629,7 @@ fn render_frame(
                 cpu_prepare_ms: report.prepare_ms,
                 visited,
                 cpu_frame_ms: time.update_started().map_or(0.0, |t| (t.elapsed().as_secs_f32() * 1e3 - report.wait_ms).max(0.0)),
+                wall_ms,
                 counters: report.counters,
             });
             if let Some(done) = report.finished {

@@ -6,7 +6,9 @@
 //! each pixel's surface: `gbuffer`, `ids` (the prepass's instance and triangle ids) or `depth`;
 //! `null` when no decal pass ran), `tier`,
 //! `device`, `size` `[w, h]`, `gpu_ms` (one key per pass, summed over the times it ran, plus
-//! `total`), `cpu_ms` (`frame`: the whole update up to submission, GPU waits left out;
+//! `total`), `wall_ms` (from the previous frame's submission to this one's: the frame time the
+//! game sees, waits for the GPU included; 0 for the first frame), `cpu_ms` (`frame`: the whole
+//! update up to submission, GPU waits left out;
 //! `extract`; `animate`: sampling animation clips; `propagate`: transform propagation; `skin`:
 //! skinned meshes' joint matrices; `record`; `prepare`: the part of `record` spent preparing the
 //! frame's data and writing the scene's uploads into staging; and `submit`: the part of `record`
@@ -104,6 +106,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
         "device": device,
         "size": [stats.size.0, stats.size.1],
         "gpu_ms": gpu,
+        "wall_ms": round(stats.wall_ms),
         "cpu_ms": {
             "frame": round(stats.cpu_frame_ms),
             "extract": round(stats.cpu_extract_ms),
