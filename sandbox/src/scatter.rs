@@ -208,6 +208,7 @@ mod tests {
     use engine::image::Image;
     use engine::material::Material;
     use engine::mesh::shapes;
+    use render::lod::closest_on_triangle;
 
     /// A 10 m ground plane and a rotated, mirrored, scaled, translated cube under a moved parent.
     fn plane_and_cube(world: &mut World) -> Vec<Handle<DecalMaterial>> {
@@ -259,39 +260,6 @@ mod tests {
         out
     }
 
-    /// Closest point on triangle `abc` to `p` (Ericson, Real-Time Collision Detection 5.1.5).
-    fn closest_on_triangle(p: Vec3, [a, b, c]: [Vec3; 3]) -> Vec3 {
-        let (ab, ac, ap) = (b - a, c - a, p - a);
-        let (d1, d2) = (ab.dot(ap), ac.dot(ap));
-        if d1 <= 0.0 && d2 <= 0.0 {
-            return a;
-        }
-        let bp = p - b;
-        let (d3, d4) = (ab.dot(bp), ac.dot(bp));
-        if d3 >= 0.0 && d4 <= d3 {
-            return b;
-        }
-        let vc = d1 * d4 - d3 * d2;
-        if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-            return a + ab * (d1 / (d1 - d3));
-        }
-        let cp = p - c;
-        let (d5, d6) = (ab.dot(cp), ac.dot(cp));
-        if d6 >= 0.0 && d5 <= d6 {
-            return c;
-        }
-        let vb = d5 * d2 - d1 * d6;
-        if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-            return a + ac * (d2 / (d2 - d6));
-        }
-        let va = d3 * d6 - d5 * d4;
-        if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-            return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-        }
-        let denom = 1.0 / (va + vb + vc);
-        a + ab * (vb * denom) + ac * (vc * denom)
-    }
-
     fn decals(world: &mut World) -> Vec<(Entity, Decal, Transform)> {
         let mut v: Vec<_> = world.query::<(Entity, &Decal, &Transform)>().iter(world).map(|(e, d, t)| (e, d.clone(), *t)).collect();
         v.sort_by_key(|(e, _, _)| *e);
@@ -319,7 +287,7 @@ mod tests {
         for (entity, decal, transform) in decals(&mut app.world) {
             let (distance, normal) = triangles
                 .iter()
-                .map(|&(tri, n)| (closest_on_triangle(transform.translation, tri).distance(transform.translation), n))
+                .map(|&(tri, n)| (closest_on_triangle(transform.translation, tri[0], tri[1], tri[2]).distance(transform.translation), n))
                 .min_by(|x, y| x.0.total_cmp(&y.0))
                 .unwrap();
             assert!(distance < 1e-3, "decal at {} is {distance} m off", transform.translation);
@@ -398,7 +366,7 @@ mod tests {
         for (_, _, transform) in decals(&mut world) {
             let distance = cube_only
                 .iter()
-                .map(|(tri, _)| closest_on_triangle(transform.translation, *tri).distance(transform.translation))
+                .map(|(tri, _)| closest_on_triangle(transform.translation, tri[0], tri[1], tri[2]).distance(transform.translation))
                 .fold(f32::INFINITY, f32::min);
             assert!(distance < 1e-3, "decal at {} is not on the cube", transform.translation);
             assert!(transform.translation.x > -1.0, "cube moved by its parent (x ≥ ~-0.6)");

@@ -309,8 +309,9 @@ fn surface_distance(points: &[Vec3], vertices: &[Vec3], indices: &[u32]) -> f32 
         .sqrt()
 }
 
-/// The point of triangle `abc` closest to `p` (Ericson, "Real-Time Collision Detection", §5.1.5).
-fn closest_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+/// The point of triangle `abc` closest to `p` (Ericson, "Real-Time Collision Detection", §5.1.5);
+/// a degenerate triangle's first corner when the barycentric solve has no answer.
+pub fn closest_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
     let (ab, ac, ap) = (b - a, c - a, p - a);
     let (d1, d2) = (ab.dot(ap), ac.dot(ap));
     if d1 <= 0.0 && d2 <= 0.0 {
