@@ -50,11 +50,11 @@
 //! 4. the frames the lighting record is built from: `environment::EnvironmentFrame`,
 //!    `occlusion::OcclusionFrame`, `reflections::ReflectionFrame` (lights).
 //!
-//! Two imports are not of that kind and remain open work: `lights` owns the scene's acceleration
-//! structures and the shadow passes (`shadows`), and the ambient-occlusion pass
-//! (`occlusion`). (MSAA only sets the graph's multisampled
+//! One import is not of that kind and remains open work: `lights` owns the scene's acceleration
+//! structures and the shadow passes (`shadows`). (The frame function owns and records the
+//! ambient occlusion and hands `lights` its `OcclusionFrame`; MSAA only sets the graph's multisampled
 //! targets, the renderer owning the multisampled forward passes; the frame function records
-//! SMAA's passes before presenting.)
+//! SMAA's and FXAA's passes before presenting.)
 #![recursion_limit = "256"] // layout! recurses once per record field (GpuLighting is long)
 
 pub mod bloom;

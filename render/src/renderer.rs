@@ -150,6 +150,7 @@ struct Resources {
     forward_ms: Option<ForwardPasses>,
     smaa: crate::smaa::Smaa,
     fxaa: crate::fxaa::Fxaa,
+    occlusion: crate::occlusion::AmbientOcclusion,
     decals: Decals,
     lighting: Lighting,
     tonemap: Tonemap,
@@ -219,6 +220,7 @@ impl Renderer {
             forward_ms: None,
             smaa: crate::smaa::Smaa::new(ctx, layout)?,
             fxaa: crate::fxaa::Fxaa::new(ctx, layout)?,
+            occlusion: crate::occlusion::AmbientOcclusion::new(ctx, layout)?,
             decals: Decals::new(ctx, &mut graph, layout, settings.decal_cluster_capacity)?,
             lighting: Lighting::new(ctx, &mut graph, layout, settings.shadow_maps)?,
             tonemap: Tonemap::new(ctx, layout, DISPLAY_FORMAT)?,
@@ -421,6 +423,7 @@ impl Renderer {
             skinning: &mut res.skinning,
             decals: &mut res.decals,
             lighting: &mut res.lighting,
+            occlusion: &res.occlusion,
             forward: res.forward_ms.as_ref().unwrap_or(&res.forward),
             deferred: &res.deferred,
             visbuffer: &res.visbuffer,
@@ -712,6 +715,7 @@ impl Drop for Renderer {
             forward_ms,
             smaa,
             fxaa,
+            occlusion,
             decals,
             lighting,
             tonemap,
@@ -755,6 +759,7 @@ impl Drop for Renderer {
         }
         smaa.destroy(ctx);
         fxaa.destroy(ctx);
+        occlusion.destroy(ctx);
         tonemap.destroy(ctx);
         graph.destroy(ctx);
         scene.destroy(ctx);

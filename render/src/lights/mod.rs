@@ -1,14 +1,14 @@
 //! Lights on the renderer's side: which lights each pixel loops over (every light, its tile's
 //! after tiled light culling, [`tiles`], or those a zero-length ray finds, [`ray_query`]), and
-//! their ray-traced shadows ([`crate::shadows`]), and the ambient occlusion of the light that does
-//! not come from them ([`crate::occlusion`]). The
+//! their ray-traced shadows ([`crate::shadows`]); the lighting record names the ambient
+//! occlusion (`crate::occlusion`) that the frame function plans and records. The
 //! light records themselves live in the scene's tables, kept by change detection, and the
 //! shading math in `shaders/include/lighting.glsl` and `shading.glsl`.
 //!
 //! Each frame function calls, in order: [`Lighting::prepare`] before the scene's upload (it sizes
 //! the buffers and writes the lighting record the shaders find them through), [`Lighting::build`]
 //! after it (the scene's and the ray-query lights' acceleration structures), and [`Lighting::record`] once the frame's
-//! depth exists (culling, the shadow pass, the ambient occlusion). The shading passes then declare
+//! depth exists (culling, the shadow pass). The shading passes then declare
 //! [`declare_light_reads`].
 
 pub mod ray_query;
@@ -27,7 +27,7 @@ use crate::layout::{
     LIGHTS_TILED, REFLECT_SCREEN_SPACE, REFRACTION, SHADOW_DEBUG as SHADOW_DEBUG_FLAG, SHADOW_NORMALS_IMPROVED, SHADOW_RAY_CULLING,
     SHADOWS_TRACED,
 };
-use crate::occlusion::{AmbientOcclusion, OcclusionFrame};
+use crate::occlusion::OcclusionFrame;
 use crate::reflections::ReflectionFrame;
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
@@ -49,8 +49,6 @@ pub struct Lighting {
     pub shadows: ShadowPass,
     /// Ray-query lights' boxes and structures (devices with acceleration structures).
     pub ray_query: Option<RayQueryLights>,
-    /// The ambient occlusion passes.
-    pub occlusion: AmbientOcclusion,
 }
 
 /// What this frame does with lights.
@@ -146,12 +144,15 @@ impl Lighting {
             accel: SceneAccel::new(ctx, graph, layout)?,
             shadows: ShadowPass::new(ctx, layout, shadow_maps)?,
             ray_query: RayQueryLights::new(ctx, graph, layout)?,
-            occlusion: AmbientOcclusion::new(ctx, layout)?,
         })
     }
 
     /// Sizes this frame's buffers, follows the scene's changes into its acceleration structures
-    /// (before the upload consumes the change marks), and sets the lighting record.
+    /// (before the upload consumes the change marks), and sets the lighting record. The frame
+    /// function hands in what the ambient occlusion needs of the scene's structures
+    /// (`occlusion_traces`: whether it traces them) and how it plans its frame once their state
+    /// is known (`plan_occlusion`, given the traced structures' resources when they exist).
+    #[allow(clippy::too_many_arguments)]
     pub fn prepare(
         &mut self,
         f: &mut Frame,
@@ -160,6 +161,8 @@ impl Lighting {
         s: &FrameSettings,
         reflections: &ReflectionFrame,
         environment: &EnvironmentFrame,
+        occlusion_traces: bool,
+        plan_occlusion: impl FnOnce(Option<[ResourceId; 2]>) -> OcclusionFrame,
     ) -> Result<LightFrame, RenderError> {
         let l = &s.lights;
         let method = l.method.effective(s.pipeline, f.ctx.ray_support());
@@ -167,7 +170,7 @@ impl Lighting {
         // The scene's structures are kept only while something traces them: shadow rays, traced
         // ambient occlusion or traced reflections (dormant otherwise: `shadows::accel`).
         let traced_shadows = l.shadows && !l.shadow_maps && self.shadows.method() != ShadowMethod::Maps;
-        let wanted = traced_shadows || self.occlusion.traces(&s.occlusion) || reflections.traced();
+        let wanted = traced_shadows || occlusion_traces || reflections.traced();
         let accel = match self.accel.as_mut() {
             Some(a) => a.prepare(f, scene, mirror, wanted, s.refit_pixels)?,
             None => SceneAccelFrame::default(),
@@ -215,7 +218,7 @@ impl Lighting {
         let interlaced = glass && s.transparency.effective(s.pipeline).interlaces();
         let reflect = reflections.on() && (!reflections.traced() || accel.tlas_address != 0);
         let scene_accel = self.accel.as_ref().filter(|_| accel.tlas_address != 0).map(|a| a.traced());
-        let occlusion = self.occlusion.plan(&s.occlusion, scene_accel, scene.res.meshes);
+        let occlusion = plan_occlusion(scene_accel);
         let mut flags = 0;
         for (on, flag) in [
             (l.cull_aabb, LIGHT_CULL_AABB),
@@ -332,8 +335,8 @@ impl Lighting {
         Ok(())
     }
 
-    /// Culls the lights into tiles, makes the shadows (tracing rays, or drawing `draws` into
-    /// shadow maps and reading them) and the ambient occlusion; needs this frame's depth.
+    /// Culls the lights into tiles and makes the shadows (tracing rays, or drawing `draws` into
+    /// shadow maps and reading them); needs this frame's depth.
     pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, draws: &Draws, frame: &LightFrame) -> Result<(), RenderError> {
         self.record_layer(f, scene, draws, frame, frame.shadow_maps)
     }
@@ -354,7 +357,6 @@ impl Lighting {
         maps: ShadowMapPlan,
     ) -> Result<(), RenderError> {
         self.tiles.cull(f, scene, &frame.tiles)?;
-        self.occlusion.record(f, scene, &frame.occlusion)?;
         let Some(shadow_bits) = frame.shadow_bits else { return Ok(()) };
         let traced = match frame.shadows {
             ShadowMethod::Maps => None,
@@ -384,7 +386,6 @@ impl Lighting {
         if let Some(r) = self.ray_query {
             r.destroy(ctx);
         }
-        self.occlusion.destroy(ctx);
     }
 }
 

@@ -45,6 +45,8 @@ pub struct FrameParts<'a> {
     pub decals: &'a mut Decals,
     /// Light culling, the scene's acceleration structures, shadows.
     pub lighting: &'a mut Lighting,
+    /// Ambient occlusion, traced against the lighting's structures or from depth.
+    pub occlusion: &'a crate::occlusion::AmbientOcclusion,
     /// Forward passes.
     pub forward: &'a forward::ForwardPasses,
     /// Deferred passes.
@@ -94,7 +96,9 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     r.skinning.prepare(mirror, r.scene);
     let reflections = r.reflections.prepare(f, s, mirror)?;
     let environment = r.environment.prepare(f, r.scene, mirror)?;
-    let lights = r.lighting.prepare(f, r.scene, mirror, s, &reflections, &environment)?;
+    let (occlusion, meshes) = (r.occlusion, r.scene.res.meshes);
+    let plan_occlusion = |traced| occlusion.plan(&s.occlusion, traced, meshes);
+    let lights = r.lighting.prepare(f, r.scene, mirror, s, &reflections, &environment, occlusion.traces(&s.occlusion), plan_occlusion)?;
     // How much of each pose to skin, once the refits (which read every vertex) are known.
     r.skinning.choose_levels(mirror, s, r.lighting.accel.as_ref().map_or(&[], |a| a.refits()));
     // Rays leave rasterised surfaces lifted by the level-of-detail limit while some instance
@@ -135,6 +139,7 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
     motion(f, r)?;
     let draws = r.culling.draws();
     transparent_depth(f, r, &draws, mirror, &lights)?;
+    r.occlusion.record(f, r.scene, &lights.occlusion)?;
     r.lighting.record(f, r.scene, &draws, &lights)?;
     r.decals.decal_pass(f, r.scene, &decals, source)?;
     // Under MSAA traced reflections are resolved before the shading, which adds them to each
@@ -226,6 +231,8 @@ fn deferred_layer(
         motion(f, r)?;
     }
     let draws = r.culling.draws();
+    // The ambient occlusion of this layer's depth, then its lights and shadows.
+    r.occlusion.record(f, r.scene, &lights.occlusion)?;
     if again {
         r.lighting.record_again(f, r.scene, &draws, lights)?;
     } else {
@@ -249,6 +256,7 @@ pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirr
     motion(f, r)?;
     let draws = r.culling.draws();
     transparent_depth(f, r, &draws, mirror, &lights)?;
+    r.occlusion.record(f, r.scene, &lights.occlusion)?;
     r.lighting.record(f, r.scene, &draws, &lights)?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
     r.visbuffer.shade(f, r.scene, s.clear_color, &decals, &lights, s.compute_shading)?;
