@@ -348,7 +348,8 @@ pub const MAX_AUTHORED_LODS: usize = 4;
 /// levels for keeps the first node's. The levels' screen coverages (`MSFT_screencoverage`) are
 /// not read: the renderer picks levels by their geometric error, as it does its own.
 pub(super) fn attach_authored_lods(document: &::gltf::Document, meshes: &mut [Vec<(Mesh, usize)>], file: &Path) {
-    for node in document.nodes() {
+    let nodes: Vec<_> = document.nodes().collect();
+    for node in &nodes {
         let Some(ids) = node.extensions().and_then(|e| e.get("MSFT_lod")).and_then(|lod| lod.get("ids")).and_then(|ids| ids.as_array())
         else {
             continue;
@@ -357,7 +358,6 @@ pub(super) fn attach_authored_lods(document: &::gltf::Document, meshes: &mut [Ve
         if meshes[mesh].iter().any(|(m, _)| !m.lods.is_empty()) {
             continue;
         }
-        let nodes: Vec<_> = document.nodes().collect();
         let mut levels = Vec::new();
         for id in ids {
             let level = id.as_u64().and_then(|i| nodes.get(i as usize)).and_then(|n| n.mesh()).map(|m| m.index());
