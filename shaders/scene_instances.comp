@@ -1,6 +1,6 @@
 #version 460
 // The scene TLAS's instance records, written on the GPU from the instance table the renderer
-// already keeps (render/src/shadows/accel.rs): instance i is slot i, its custom index the slot,
+// already keeps (render/src/accel/mod.rs): instance i is slot i, its custom index the slot,
 // its BLAS its mesh's (none for a free slot or a mesh without one: such an instance is
 // inactive), opaque unless its material is alpha-masked or blended (their hits run the any-hit
 // test: the mask, or glass filtering the light, shaders/include/alpha_mask.glsl).

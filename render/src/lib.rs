@@ -26,8 +26,9 @@
 //! | [`scene`] | the scene mirror (plain data: instances, meshes, poses, the environment) and its GPU tables |
 //! | [`stats`] | what the techniques measured, as the frame reports it |
 //! | [`decals`] | decal acceleration structures, deferred decals, decal debug views |
-//! | [`lights`] | tiled light culling and the lighting record |
-//! | [`shadows`] | the scene's acceleration structures and ray-traced shadows |
+//! | [`accel`] | the scene's acceleration structures: a BLAS per mesh, refit for posed meshes, and the TLAS |
+//! | [`lights`] | tiled light culling, ray-query lights and the lighting record |
+//! | [`shadows`] | ray-traced shadows and shadow maps |
 //! | [`occlusion`] | ambient occlusion: traced, or from the depth buffer, and its denoiser |
 //! | [`fxaa`], [`smaa`] | post-process anti-aliasing, each a compute technique of its own |
 //! | [`lod`] | levels of detail: simplified triangle lists made at upload, chosen per instance by culling |
@@ -44,19 +45,23 @@
 //! pyramids in [`graph::pyramid`], shading variants in [`gpu::pipeline`]). A technique imports
 //! another where the frame function hands it that technique's typed output:
 //!
-//! 1. `culling::Draws` (the lists a pass draws): lights, shadows, transparency;
+//! 1. `culling::Draws` (the lists a pass draws): shadows, transparency;
 //! 2. `decals::DecalFrame` (how this frame's decals are applied): reflections, transparency;
-//! 3. `lights::LightFrame` (this frame's lights and shadows): reflections, transparency;
-//! 4. the frames the lighting record is built from: `environment::EnvironmentFrame`,
-//!    `occlusion::OcclusionFrame`, `reflections::ReflectionFrame` (lights).
+//! 3. `lights::LightFrame` (this frame's lights, the shadow words and the structures traced):
+//!    shadows, reflections, transparency;
+//! 4. the frames the lighting record is built from: `accel::SceneAccelFrame`,
+//!    `environment::EnvironmentFrame`, `occlusion::OcclusionFrame`,
+//!    `reflections::ReflectionFrame` (lights).
 //!
-//! One import is not of that kind and remains open work: `lights` owns the scene's acceleration
-//! structures and the shadow passes (`shadows`). (The frame function owns and records the
-//! ambient occlusion and hands `lights` its `OcclusionFrame`; MSAA only sets the graph's multisampled
-//! targets, the renderer owning the multisampled forward passes; the frame function records
-//! SMAA's and FXAA's passes before presenting.)
+//! The frame function owns every technique and hands each the others' typed outputs: it
+//! prepares the scene's acceleration structures (`accel`), plans the ambient occlusion against
+//! them, hands both to the lights, which write the lighting record, plans the shadows from the
+//! lights' frame, and records each technique's passes in the order the frame needs them. MSAA only
+//! sets the graph's multisampled targets, the renderer owning the multisampled forward passes;
+//! the frame function records SMAA's and FXAA's passes before presenting.
 #![recursion_limit = "256"] // layout! recurses once per record field (GpuLighting is long)
 
+pub mod accel;
 pub mod bloom;
 pub mod culling;
 pub mod decals;

@@ -153,6 +153,8 @@ struct Resources {
     occlusion: crate::occlusion::AmbientOcclusion,
     decals: Decals,
     lighting: Lighting,
+    accel: Option<crate::accel::SceneAccel>,
+    shadows: crate::shadows::ShadowPass,
     tonemap: Tonemap,
     window_tonemap: Option<Tonemap>,
     /// The debug builds' check of the tone mapper's input (`None` in release builds).
@@ -222,7 +224,9 @@ impl Renderer {
             fxaa: crate::fxaa::Fxaa::new(ctx, layout)?,
             occlusion: crate::occlusion::AmbientOcclusion::new(ctx, layout)?,
             decals: Decals::new(ctx, &mut graph, layout, settings.decal_cluster_capacity)?,
-            lighting: Lighting::new(ctx, &mut graph, layout, settings.shadow_maps)?,
+            lighting: Lighting::new(ctx, &mut graph, layout)?,
+            accel: crate::accel::SceneAccel::new(ctx, &mut graph, layout)?,
+            shadows: crate::shadows::ShadowPass::new(ctx, layout, settings.shadow_maps)?,
             tonemap: Tonemap::new(ctx, layout, DISPLAY_FORMAT)?,
             graph,
             swapchain_image,
@@ -423,6 +427,8 @@ impl Renderer {
             skinning: &mut res.skinning,
             decals: &mut res.decals,
             lighting: &mut res.lighting,
+            accel: res.accel.as_mut(),
+            shadows: &mut res.shadows,
             occlusion: &res.occlusion,
             forward: res.forward_ms.as_ref().unwrap_or(&res.forward),
             deferred: &res.deferred,
@@ -718,6 +724,8 @@ impl Drop for Renderer {
             occlusion,
             decals,
             lighting,
+            accel,
+            shadows,
             tonemap,
             window_tonemap,
             display_check,
@@ -742,6 +750,10 @@ impl Drop for Renderer {
         graveyard.clear(ctx);
         decals.destroy(ctx);
         lighting.destroy(ctx);
+        if let Some(a) = accel {
+            a.destroy(ctx);
+        }
+        shadows.destroy(ctx);
         culling.destroy(ctx);
         skinning.destroy(ctx);
         forward.destroy(ctx);

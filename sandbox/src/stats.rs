@@ -159,7 +159,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
     // The command buffer: submitted again as recorded, or recorded (`render::gpu::commands`).
     value["counters"]["commands_reused"] = json!(c.commands_reused);
     value["counters"]["command_words"] = json!(c.command_words);
-    // Refits deferred for posed meshes small on screen (`render::shadows::accel`).
+    // Refits deferred for posed meshes small on screen (`render::accel`).
     value["counters"]["scene_blas_refits_deferred"] = json!(c.scene_blas_refits_deferred);
     value["counters"]["scene_blas_stalest"] = json!(c.scene_blas_stalest);
     // Each list buffer also while it is held unused (for a second after its method last ran), with

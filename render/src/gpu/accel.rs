@@ -1,5 +1,5 @@
 //! Acceleration structures and their scratch memory, shared by the decal structures
-//! (`crate::decals::accel`), the scene's (`crate::shadows::accel`) and the lights'
+//! (`crate::decals::accel`), the scene's (`crate::accel`) and the lights'
 //! (`crate::lights::ray_query`); and [`AabbAccel`], the one-BLAS-of-boxes structure the decals
 //! and the ray-query lights both enumerate with a zero-length ray, with its rebuild policy
 //! ([`plan_blas_work`]).

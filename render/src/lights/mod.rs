@@ -1,15 +1,17 @@
 //! Lights on the renderer's side: which lights each pixel loops over (every light, its tile's
 //! after tiled light culling, [`tiles`], or those a zero-length ray finds, [`ray_query`]), and
-//! their ray-traced shadows ([`crate::shadows`]); the lighting record names the ambient
-//! occlusion (`crate::occlusion`) that the frame function plans and records. The
-//! light records themselves live in the scene's tables, kept by change detection, and the
-//! shading math in `shaders/include/lighting.glsl` and `shading.glsl`.
+//! the lighting record, which names what the frame function planned before: the scene's
+//! acceleration structures (`crate::accel`), the shadow method (`crate::shadows`, which then
+//! plans its passes from this frame's [`LightFrame`]), the ambient occlusion (`crate::occlusion`),
+//! the reflections and the environment. The light records themselves live in the scene's
+//! tables, kept by change detection, and the shading math in `shaders/include/lighting.glsl`
+//! and `shading.glsl`. Seed 001 §4.2 (tiled light culling), seed 000 §5.2.5 (ray-query lights).
 //!
 //! Each frame function calls, in order: [`Lighting::prepare`] before the scene's upload (it sizes
 //! the buffers and writes the lighting record the shaders find them through), [`Lighting::build`]
-//! after it (the scene's and the ray-query lights' acceleration structures), and [`Lighting::record`] once the frame's
-//! depth exists (culling, the shadow pass). The shading passes then declare
-//! [`declare_light_reads`].
+//! after it (the ray-query lights' acceleration structures), and [`Lighting::record`] once the
+//! frame's depth exists (light culling; the frame function records the shadow pass after it).
+//! The shading passes then declare [`declare_light_reads`].
 
 pub mod ray_query;
 pub mod tiles;
@@ -17,7 +19,7 @@ pub mod tiles;
 use ash::vk;
 
 use crate::RenderError;
-use crate::culling::Draws;
+use crate::accel::SceneAccelFrame;
 use crate::environment::EnvironmentFrame;
 use crate::gpu::device::GpuContext;
 use crate::graph::targets::{OCCLUSION, SHADOW_DEBUG};
@@ -31,22 +33,14 @@ use crate::occlusion::OcclusionFrame;
 use crate::reflections::ReflectionFrame;
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
-use crate::settings::{DepthNormals, FrameSettings, LightMethod, ShadowMapBudget, ShadowMethod, TransparencyMethod};
-use crate::shadows::accel::{SceneAccel, SceneAccelFrame};
-use crate::shadows::maps::ShadowMapPlan;
-use crate::shadows::{ShadowInputs, ShadowPass};
+use crate::settings::{DepthNormals, FrameSettings, LightMethod, ShadowMethod, TransparencyMethod};
 use ray_query::{RayQueryLightFrame, RayQueryLights};
 use tiles::{LightTiles, TileFrame, TileRequest};
 
-/// The renderer's lighting state: light culling, the scene's acceleration structures and the
-/// shadow pass.
+/// The renderer's lighting state: light culling and the ray-query lights.
 pub struct Lighting {
     /// Tiled light culling and the shadow words.
     pub tiles: LightTiles,
-    /// The scene's BLASes and TLAS (devices with acceleration structures).
-    pub accel: Option<SceneAccel>,
-    /// The shadow passes.
-    pub shadows: ShadowPass,
     /// Ray-query lights' boxes and structures (devices with acceleration structures).
     pub ray_query: Option<RayQueryLights>,
 }
@@ -81,10 +75,11 @@ pub struct LightFrame {
     pub environment: Option<[ResourceId; 2]>,
     /// How ambient light is occluded this frame.
     pub occlusion: OcclusionFrame,
+    /// Whether the shadow pass runs again over the transparent depth (the glass layer: blended
+    /// surfaces drawn by the forward transparency pass, with tiled lights).
+    pub glass_layer: bool,
     interlaced: bool,
-    shadow_maps: ShadowMapPlan,
     tiles: TileFrame,
-    accel: SceneAccelFrame,
     ray_query: RayQueryLightFrame,
 }
 
@@ -105,11 +100,6 @@ impl LightFrame {
         self.reflections() && self.reflection_flags & REFLECT_SCREEN_SPACE == 0
     }
 
-    /// Shadow-map views drawn this frame (culling makes a draw list for each).
-    pub fn shadow_map_views(&self) -> u32 {
-        self.shadow_maps.views
-    }
-
     /// Whether light culling or the shadow pass's glass layer reads the transparent depth this
     /// frame (blended instances drawn by the forward transparency pass, with tiled lights or
     /// shadows), so the transparency depth pass must run before them.
@@ -120,7 +110,7 @@ impl LightFrame {
     /// Whether the forward transparency pass shades the nearest blended surface with its own
     /// shadows: the shadow pass ran again over the transparent depth (its glass layer).
     pub fn glass_shadows(&self) -> bool {
-        self.tiles.glass_layer && self.shadow_bits.is_some()
+        self.glass_layer && self.shadow_bits.is_some()
     }
 
     /// Whether the deferred G-buffer interlaces blended surfaces this frame (the deferred
@@ -133,25 +123,14 @@ impl LightFrame {
 
 impl Lighting {
     /// Creates the passes.
-    pub fn new(
-        ctx: &GpuContext,
-        graph: &mut FrameGraph,
-        layout: vk::PipelineLayout,
-        shadow_maps: ShadowMapBudget,
-    ) -> Result<Self, RenderError> {
-        Ok(Self {
-            tiles: LightTiles::new(ctx, graph, layout)?,
-            accel: SceneAccel::new(ctx, graph, layout)?,
-            shadows: ShadowPass::new(ctx, layout, shadow_maps)?,
-            ray_query: RayQueryLights::new(ctx, graph, layout)?,
-        })
+    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
+        Ok(Self { tiles: LightTiles::new(ctx, graph, layout)?, ray_query: RayQueryLights::new(ctx, graph, layout)? })
     }
 
-    /// Sizes this frame's buffers, follows the scene's changes into its acceleration structures
-    /// (before the upload consumes the change marks), and sets the lighting record. The frame
-    /// function hands in what the ambient occlusion needs of the scene's structures
-    /// (`occlusion_traces`: whether it traces them) and how it plans its frame once their state
-    /// is known (`plan_occlusion`, given the traced structures' resources when they exist).
+    /// Sizes this frame's buffers and sets the lighting record, before the scene's upload. The
+    /// frame function hands in what it planned before: the scene's structures (`accel`), this
+    /// device's shadow method (`device_shadows`, `crate::shadows`), the ambient occlusion, the
+    /// reflections and the environment.
     #[allow(clippy::too_many_arguments)]
     pub fn prepare(
         &mut self,
@@ -159,27 +138,20 @@ impl Lighting {
         scene: &mut GpuScene,
         mirror: &mut SceneMirror,
         s: &FrameSettings,
+        accel: &SceneAccelFrame,
+        device_shadows: ShadowMethod,
+        occlusion: OcclusionFrame,
         reflections: &ReflectionFrame,
         environment: &EnvironmentFrame,
-        occlusion_traces: bool,
-        plan_occlusion: impl FnOnce(Option<[ResourceId; 2]>) -> OcclusionFrame,
     ) -> Result<LightFrame, RenderError> {
         let l = &s.lights;
         let method = l.method.effective(s.pipeline, f.ctx.ray_support());
         let enumerated = method == LightMethod::RayQuery;
-        // The scene's structures are kept only while something traces them: shadow rays, traced
-        // ambient occlusion or traced reflections (dormant otherwise: `shadows::accel`).
-        let traced_shadows = l.shadows && !l.shadow_maps && self.shadows.method() != ShadowMethod::Maps;
-        let wanted = traced_shadows || occlusion_traces || reflections.traced();
-        let accel = match self.accel.as_mut() {
-            Some(a) => a.prepare(f, scene, mirror, wanted, s.refit_pixels)?,
-            None => SceneAccelFrame::default(),
-        };
         let ray_query = match self.ray_query.as_mut() {
             Some(r) => r.prepare(f, mirror, enumerated || reflections.traced())?,
             None => RayQueryLightFrame::default(),
         };
-        let traced = match self.shadows.method() {
+        let traced = match device_shadows {
             _ if !l.shadows => ShadowMethod::None,
             ShadowMethod::Maps => ShadowMethod::Maps,
             _ if l.shadow_maps => ShadowMethod::Maps,
@@ -208,17 +180,8 @@ impl Lighting {
             _ => ShadowMethod::None,
         };
         let debug = shadows != ShadowMethod::None && !enumerated && s.debug_view.reads_shadow_debug();
-        let shadow_maps = if shadows == ShadowMethod::Maps {
-            self.shadows.maps.plan(scene, mirror.lights.records(), mirror.camera())
-        } else {
-            ShadowMapPlan::default()
-        };
-        mirror.counters.shadow_map_views = shadow_maps.views as u64;
-        mirror.counters.shadow_maps_missing = shadow_maps.missing as u64;
         let interlaced = glass && s.transparency.effective(s.pipeline).interlaces();
         let reflect = reflections.on() && (!reflections.traced() || accel.tlas_address != 0);
-        let scene_accel = self.accel.as_ref().filter(|_| accel.tlas_address != 0).map(|a| a.traced());
-        let occlusion = plan_occlusion(scene_accel);
         let mut flags = 0;
         for (on, flag) in [
             (l.cull_aabb, LIGHT_CULL_AABB),
@@ -261,8 +224,8 @@ impl Lighting {
             instance_count: mirror.instances.slot_count(),
             blas_count: accel.blas_count,
             light_box_count: ray_query.box_count,
-            shadow_map_tile: self.shadows.maps.tile(),
-            shadow_map_columns: self.shadows.maps.columns(),
+            shadow_map_tile: 0, // the shadows' to set (`GpuScene::set_shadow_maps`)
+            shadow_map_columns: 0,
             clear_color: s.clear_color.into(),
             culls: 0, // the scene's upload sets it
             reflection_stats: if reflect { reflections.stats } else { 0 },
@@ -293,11 +256,8 @@ impl Lighting {
             movers_pad: 0,
         });
         let res = self.tiles.resources();
-        let inline_shadows = match self.accel.as_ref() {
-            Some(a) if enumerated && shadows != ShadowMethod::None => {
-                let [tlas, blas] = a.traced();
-                Some([tlas, blas, scene.res.meshes])
-            }
+        let inline_shadows = match accel.traced {
+            Some([tlas, blas]) if enumerated && shadows != ShadowMethod::None => Some([tlas, blas, scene.res.meshes]),
             _ => None,
         };
         let light_boxes = if ray_query.tlas != 0 { self.ray_query.as_ref().and_then(|r| r.reads()) } else { None };
@@ -311,78 +271,34 @@ impl Lighting {
             light_accel,
             inline_shadows,
             reflection_flags: if reflect { reflections.flags } else { 0 },
-            scene_accel,
+            scene_accel: accel.traced,
             light_boxes,
             environment: environment.reads,
             occlusion,
+            glass_layer: tiles.glass_layer,
             interlaced,
-            shadow_maps,
             tiles,
-            accel,
             ray_query,
         })
     }
 
-    /// Records the scene's and the ray-query lights' acceleration-structure work (after the
-    /// scene's upload).
+    /// Records the ray-query lights' acceleration-structure work (after the scene's upload).
     pub fn build(&mut self, f: &mut Frame, scene: &GpuScene, mirror: &mut SceneMirror, frame: &LightFrame) -> Result<(), RenderError> {
-        if let Some(a) = self.accel.as_mut() {
-            a.record(f, scene, &frame.accel, &mut mirror.counters)?;
-        }
         if let Some(r) = self.ray_query.as_mut() {
             r.record(f, scene, &frame.ray_query, &mut mirror.counters)?;
         }
         Ok(())
     }
 
-    /// Culls the lights into tiles and makes the shadows (tracing rays, or drawing `draws` into
-    /// shadow maps and reading them); needs this frame's depth.
-    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, draws: &Draws, frame: &LightFrame) -> Result<(), RenderError> {
-        self.record_layer(f, scene, draws, frame, frame.shadow_maps)
-    }
-
-    /// [`Lighting::record`] again, over a second layer of depth written since (depth peeling,
-    /// `crate::transparency::peeling`): culls and shadows anew, reading the shadow maps the
-    /// first call drew instead of drawing them twice.
-    pub fn record_again(&mut self, f: &mut Frame, scene: &GpuScene, draws: &Draws, frame: &LightFrame) -> Result<(), RenderError> {
-        self.record_layer(f, scene, draws, frame, ShadowMapPlan { views: 0, ..frame.shadow_maps })
-    }
-
-    fn record_layer(
-        &mut self,
-        f: &mut Frame,
-        scene: &GpuScene,
-        draws: &Draws,
-        frame: &LightFrame,
-        maps: ShadowMapPlan,
-    ) -> Result<(), RenderError> {
-        self.tiles.cull(f, scene, &frame.tiles)?;
-        let Some(shadow_bits) = frame.shadow_bits else { return Ok(()) };
-        let traced = match frame.shadows {
-            ShadowMethod::Maps => None,
-            _ => match self.accel.as_ref() {
-                Some(accel) if frame.accel.tlas_address != 0 => Some(accel.traced()),
-                _ => return Ok(()), // no instance yet: nothing to trace against
-            },
-        };
-        let inputs =
-            ShadowInputs { method: frame.shadows, traced, light_tiles: frame.light_tiles, shadow_bits, debug: frame.debug, glass: false };
-        self.shadows.record(f, scene, draws, maps, &inputs)?;
-        if frame.glass_shadows() {
-            // The glass layer: the same over the transparent depth, reading the maps just drawn.
-            let glass = ShadowInputs { debug: false, glass: true, ..inputs };
-            self.shadows.record(f, scene, draws, ShadowMapPlan { views: 0, ..maps }, &glass)?;
-        }
-        Ok(())
+    /// Culls the lights into tiles; needs this frame's depth (and, for a second layer of depth
+    /// written since, culls anew over it: depth peeling, `crate::transparency::peeling`).
+    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, frame: &LightFrame) -> Result<(), RenderError> {
+        self.tiles.cull(f, scene, &frame.tiles)
     }
 
     /// Destroys everything; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
         self.tiles.destroy(ctx);
-        if let Some(a) = self.accel {
-            a.destroy(ctx);
-        }
-        self.shadows.destroy(ctx);
         if let Some(r) = self.ray_query {
             r.destroy(ctx);
         }

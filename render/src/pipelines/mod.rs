@@ -12,6 +12,7 @@ pub mod visbuffer;
 use ash::vk;
 
 use crate::RenderError;
+use crate::accel::{SceneAccel, SceneAccelFrame};
 use crate::bloom::Bloom;
 use crate::culling::{Culling, Draws, Phase};
 use crate::decals::{DecalChoice, DecalFrame, DecalReaders, DecalSurfaceSource, Decals};
@@ -30,6 +31,7 @@ use crate::reflections::Reflections;
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
 use crate::settings::{FrameSettings, TransparencyMethod};
+use crate::shadows::{ShadowFrame, ShadowPass};
 use crate::transparency::TransparencyPasses;
 use deferred::GBufferGlass;
 
@@ -43,9 +45,13 @@ pub struct FrameParts<'a> {
     pub skinning: &'a mut crate::skinning::Skinning,
     /// Decal acceleration structures, deferred-decal order, debug boxes.
     pub decals: &'a mut Decals,
-    /// Light culling, the scene's acceleration structures, shadows.
+    /// Light culling and the ray-query lights.
     pub lighting: &'a mut Lighting,
-    /// Ambient occlusion, traced against the lighting's structures or from depth.
+    /// The scene's BLASes and TLAS (devices with acceleration structures).
+    pub accel: Option<&'a mut SceneAccel>,
+    /// The shadow passes: rays, or shadow maps.
+    pub shadows: &'a mut ShadowPass,
+    /// Ambient occlusion, traced against the scene's structures or from depth.
     pub occlusion: &'a crate::occlusion::AmbientOcclusion,
     /// Forward passes.
     pub forward: &'a forward::ForwardPasses,
@@ -81,11 +87,19 @@ pub struct FrameParts<'a> {
     pub pixel_ids: PixelIds,
 }
 
-/// What every frame does before its passes: follow the decals' and lights' changes, upload what
-/// changed, skin the posed meshes whose pose changed, bring the acceleration structures up to
-/// date, set the push constants, and cull the instances into the first phase's draw lists
-/// (`crate::culling`).
-fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<(DecalFrame, LightFrame), RenderError> {
+/// What every frame's passes start from: how decals are applied, the lights, the shadows.
+struct Begun {
+    decals: DecalFrame,
+    lights: LightFrame,
+    shadows: ShadowFrame,
+}
+
+/// What every frame does before its passes: follow the decals' and lights' changes, plan the
+/// scene's acceleration structures (kept only while something traces them), the ambient
+/// occlusion, the lights and the shadows, upload what changed, skin the posed meshes whose pose
+/// changed, bring the acceleration structures up to date, set the push constants, and cull the
+/// instances into the first phase's draw lists (`crate::culling`).
+fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<Begun, RenderError> {
     let started = std::time::Instant::now();
     mirror.sort_transparent(mirror.camera().position);
     r.scene.motion_wanted = r.taa.prepare(mirror, s, r.aa, f.graph.extent());
@@ -96,16 +110,22 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     r.skinning.prepare(mirror, r.scene);
     let reflections = r.reflections.prepare(f, s, mirror)?;
     let environment = r.environment.prepare(f, r.scene, mirror)?;
-    let (occlusion, meshes) = (r.occlusion, r.scene.res.meshes);
-    let plan_occlusion = |traced| occlusion.plan(&s.occlusion, traced, meshes);
-    let lights = r.lighting.prepare(f, r.scene, mirror, s, &reflections, &environment, occlusion.traces(&s.occlusion), plan_occlusion)?;
+    let traced = r.shadows.traces(&s.lights) || r.occlusion.traces(&s.occlusion) || reflections.traced();
+    let accel = match r.accel.as_deref_mut() {
+        Some(a) => a.prepare(f, r.scene, mirror, traced, s.refit_pixels)?,
+        None => SceneAccelFrame::default(),
+    };
+    let occlusion = r.occlusion.plan(&s.occlusion, accel.traced, r.scene.res.meshes);
+    let device_shadows = r.shadows.method();
+    let lights = r.lighting.prepare(f, r.scene, mirror, s, &accel, device_shadows, occlusion, &reflections, &environment)?;
+    let shadows = r.shadows.plan(r.scene, mirror, &lights);
     // How much of each pose to skin, once the refits (which read every vertex) are known.
-    r.skinning.choose_levels(mirror, s, r.lighting.accel.as_ref().map_or(&[], |a| a.refits()));
+    r.skinning.choose_levels(mirror, s, r.accel.as_deref().map_or(&[], |a| a.refits()));
     // Rays leave rasterised surfaces lifted by the level-of-detail limit while some instance
     // can be drawn at a coarser level (crate::lod).
     let lift = if mirror.lod_instances > 0 { crate::lod::lift(s.lod_pixels, mirror.camera().proj, f.graph.extent().height) } else { 0.0 };
     r.scene.set_lod_lift(lift);
-    mirror.counters.culling = r.culling.prepare(f, r.scene, mirror, s, lights.shadow_map_views())?;
+    mirror.counters.culling = r.culling.prepare(f, r.scene, mirror, s, shadows.map_views())?;
     r.bloom.prepare(f, r.scene, s.bloom)?;
     r.exposure.prepare(f, r.scene, &s.exposure, s.delta_seconds)?;
     let boxes_changed = r.scene.upload(f, mirror)?;
@@ -116,9 +136,12 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, readers, boxes_changed)?;
     f.push = scene_push(r.scene, mirror, s, &decals);
     r.environment.record(f, r.scene, &environment)?;
+    if let Some(a) = r.accel.as_deref_mut() {
+        a.record(f, r.scene, &accel, &mut mirror.counters)?;
+    }
     r.lighting.build(f, r.scene, mirror, &lights)?;
     mirror.counters.bytes_uploaded += r.culling.cull(f, r.scene)?;
-    Ok((decals, lights))
+    Ok(Begun { decals, lights, shadows })
 }
 
 /// Forward: depth prepass (also writing ids when the reflection rays follow, or a decal pass
@@ -130,7 +153,7 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
 /// (depth and ids to sample 0, radiance to the mean), traced reflections are resolved before the
 /// shading, which adds them per sample, and the sky fills the uncovered samples' share.
 pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
-    let (decals, lights) = begin(f, r, mirror, s)?;
+    let Begun { decals, lights, shadows } = begin(f, r, mirror, s)?;
     let (scene, forward) = (&*r.scene, r.forward);
     let need_instances = mirror.decals_need_instances();
     let ids = (decals.buffered() && need_instances) || lights.reflections() || r.pixel_ids == PixelIds::Visibility;
@@ -140,7 +163,8 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
     let draws = r.culling.draws();
     transparent_depth(f, r, &draws, mirror, &lights)?;
     r.occlusion.record(f, r.scene, &lights.occlusion)?;
-    r.lighting.record(f, r.scene, &draws, &lights)?;
+    r.lighting.record(f, r.scene, &lights)?;
+    r.shadows.record(f, r.scene, &draws, &shadows)?;
     r.decals.decal_pass(f, r.scene, &decals, source)?;
     // Under MSAA traced reflections are resolved before the shading, which adds them to each
     // sample from its own surface's pixel; the multisampled target is cleared transparent, so
@@ -188,38 +212,37 @@ pub fn forward_plus_frame(
 /// Depth peeling runs those layer passes twice, the opaque layer and then the nearest, and
 /// composes the two.
 pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
-    let (decals, lights) = begin(f, r, mirror, s)?;
+    let begun = begin(f, r, mirror, s)?;
+    let (decals, lights) = (&begun.decals, &begun.lights);
     let glass = mirror.transparent_order();
     if s.transparency.effective(s.pipeline) == TransparencyMethod::DepthPeeling && !glass.is_empty() {
-        deferred_layer(f, r, mirror, GBufferGlass::None, s, &decals, &lights, false)?;
+        deferred_layer(f, r, mirror, GBufferGlass::None, s, &begun, false)?;
         r.transparency.peeling.keep_background(f, r.scene)?;
-        deferred_layer(f, r, mirror, GBufferGlass::Full(glass), s, &decals, &lights, true)?;
+        deferred_layer(f, r, mirror, GBufferGlass::Full(glass), s, &begun, true)?;
         r.transparency.peeling.compose(f, r.scene)?;
     } else if lights.interlaced() {
-        deferred_layer(f, r, mirror, GBufferGlass::Interlaced(glass), s, &decals, &lights, false)?;
+        deferred_layer(f, r, mirror, GBufferGlass::Interlaced(glass), s, &begun, false)?;
         r.transparency.interlaced.compose(f, r.scene, s.transparency)?;
     } else {
-        deferred_layer(f, r, mirror, GBufferGlass::None, s, &decals, &lights, false)?;
-        r.transparency.shade(f, r.scene, &r.culling.draws(), glass, &decals, &lights)?;
-        r.reflections.record_glass(f, r.scene, &decals, &lights, !glass.is_empty())?;
+        deferred_layer(f, r, mirror, GBufferGlass::None, s, &begun, false)?;
+        r.transparency.shade(f, r.scene, &r.culling.draws(), glass, decals, lights)?;
+        r.reflections.record_glass(f, r.scene, decals, lights, !glass.is_empty())?;
     }
-    r.reflections.finish(f, &lights)?;
-    present(f, r, mirror, s, &lights)?;
-    Ok(lights)
+    r.reflections.finish(f, lights)?;
+    present(f, r, mirror, s, lights)?;
+    Ok(begun.lights)
 }
 
 /// The deferred pipeline's passes over one G-buffer: geometry (with `glass`), light culling
 /// and shadows (`again`: a second layer this frame, whose shadow maps are drawn), decals,
 /// lighting, reflections.
-#[allow(clippy::too_many_arguments)]
 fn deferred_layer(
     f: &mut Frame,
     r: &mut FrameParts,
     mirror: &SceneMirror,
     glass: GBufferGlass,
     s: &FrameSettings,
-    decals: &DecalFrame,
-    lights: &LightFrame,
+    Begun { decals, lights, shadows }: &Begun,
     again: bool,
 ) -> Result<(), RenderError> {
     let (scene, deferred) = (&*r.scene, r.deferred);
@@ -234,10 +257,12 @@ fn deferred_layer(
     // The ambient occlusion of this layer's depth, then its lights and shadows.
     r.occlusion.record(f, r.scene, &lights.occlusion)?;
     if again {
-        r.lighting.record_again(f, r.scene, &draws, lights)?;
+        r.lighting.record(f, r.scene, lights)?;
+        r.shadows.record_again(f, r.scene, &draws, shadows)?;
     } else {
         transparent_depth(f, r, &draws, mirror, lights)?;
-        r.lighting.record(f, r.scene, &draws, lights)?;
+        r.lighting.record(f, r.scene, lights)?;
+        r.shadows.record(f, r.scene, &draws, shadows)?;
     }
     r.deferred.decals(f, r.scene, r.decals.deferred_runs(decals))?;
     r.decals.decal_pass(f, r.scene, decals, DecalSurfaceSource::GBuffer)?;
@@ -250,14 +275,15 @@ fn deferred_layer(
 /// (compute, or full-screen fragment) that rebuilds and shades, reflections, then the blended
 /// surfaces in a forward pass.
 pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
-    let (decals, lights) = begin(f, r, mirror, s)?;
+    let Begun { decals, lights, shadows } = begin(f, r, mirror, s)?;
     let (scene, visbuffer) = (&*r.scene, r.visbuffer);
     r.culling.depth_passes(f, scene, |f, draws, phase| visbuffer.visibility(f, scene, &draws, phase))?;
     motion(f, r)?;
     let draws = r.culling.draws();
     transparent_depth(f, r, &draws, mirror, &lights)?;
     r.occlusion.record(f, r.scene, &lights.occlusion)?;
-    r.lighting.record(f, r.scene, &draws, &lights)?;
+    r.lighting.record(f, r.scene, &lights)?;
+    r.shadows.record(f, r.scene, &draws, &shadows)?;
     r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
     r.visbuffer.shade(f, r.scene, s.clear_color, &decals, &lights, s.compute_shading)?;
     r.environment.sky(f, r.scene, lights.environment, s.debug_view, false)?;

@@ -1270,6 +1270,8 @@ impl GpuScene {
         set_exposure_fields(&mut lighting, exposure);
         lighting.display_check = self.lighting_cpu.display_check;
         lighting.lod_lift = self.lighting_cpu.lod_lift;
+        // And the shadow maps' atlas layout (`set_shadow_maps`).
+        (lighting.shadow_map_tile, lighting.shadow_map_columns) = (self.lighting_cpu.shadow_map_tile, self.lighting_cpu.shadow_map_columns);
         if lighting != self.lighting_cpu {
             self.lighting_cpu = lighting;
             self.lighting_dirty = true;
@@ -1311,6 +1313,16 @@ impl GpuScene {
     pub fn set_lod_lift(&mut self, lift: f32) {
         if self.lighting_cpu.lod_lift != lift {
             self.lighting_cpu.lod_lift = lift;
+            self.lighting_dirty = true;
+        }
+    }
+
+    /// Sets the lighting record's shadow-map atlas layout (`crate::shadows::maps`): a tile's
+    /// side in texels and the tiles across the atlas, which every later lighting record keeps.
+    pub fn set_shadow_maps(&mut self, tile: u32, columns: u32) {
+        let l = &mut self.lighting_cpu;
+        if (l.shadow_map_tile, l.shadow_map_columns) != (tile, columns) {
+            (l.shadow_map_tile, l.shadow_map_columns) = (tile, columns);
             self.lighting_dirty = true;
         }
     }

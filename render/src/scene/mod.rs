@@ -601,7 +601,7 @@ pub struct FrameCounters {
     /// Scene BLAS refits (posed meshes skinned this frame, or deferred before).
     pub scene_blas_refits: u64,
     /// Posed meshes whose refit waits: smaller on screen than `refit_pixels`, their structures
-    /// hold an older pose (`crate::shadows::accel`).
+    /// hold an older pose (`crate::accel`).
     pub scene_blas_refits_deferred: u64,
     /// The most frames one of them has waited (at most `MAX_REFIT_STALENESS`).
     pub scene_blas_stalest: u64,

@@ -11,7 +11,7 @@
 //! - **Ray-tracing-pipeline tier** (the lent GPUs, which have no ray queries): a ray-generation
 //!   pass (`shaders/shadows.rgen`) whose rays skip closest-hit shaders, end at the first hit, and
 //!   mark themselves unblocked in the miss shader.
-//! - **Alpha-masked materials** are non-opaque instances in the scene TLAS ([`accel`]); their
+//! - **Alpha-masked materials** are non-opaque instances in the scene TLAS (`crate::accel`); their
 //!   candidate hits run the mask test (`shaders/include/alpha_mask.glsl`) in the ray-query loop
 //!   or the any-hit shader.
 //! - **Coloured shadows** (seed 002 §3.2.1, issue item 4, on the ray-tracing tiers): blended
@@ -32,8 +32,11 @@
 //!   surface), into a second layer of bits and tints (variant `GLASS_LAYER`), so the glass is
 //!   shaded with its own shadows. Glass in the deferred G-buffer (interlaced, depth peeling) is
 //!   in the depth target already.
+//!
+//! The frame function asks [`ShadowPass::traces`] whether the scene's structures are needed,
+//! plans the frame with [`ShadowPass::plan`] from the lights' [`LightFrame`] (the method applied,
+//! the shadow words, the light tiles), and records [`ShadowPass::record`] after light culling.
 
-pub mod accel;
 pub mod maps;
 
 use ash::vk;
@@ -45,8 +48,10 @@ use crate::gpu::pipeline::{HitGroup, RayTracingDesc, RayTracingPipeline, create_
 use crate::gpu::shaders;
 use crate::graph::targets::{DEPTH, SHADOW_DEBUG, TRANSPARENT_DEPTH};
 use crate::graph::{BufferUse, Frame, ImageUse, PassKind, ResourceId};
+use crate::lights::LightFrame;
+use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
-use crate::settings::{ShadowMapBudget, ShadowMethod};
+use crate::settings::{LightSettings, ShadowMapBudget, ShadowMethod};
 use maps::{ShadowMapPlan, ShadowMaps};
 
 /// The shadow passes this device can run.
@@ -76,6 +81,25 @@ pub struct ShadowInputs {
     /// transparency pass draws) into the second layer of words and tints, instead of over the
     /// depth target.
     pub glass: bool,
+}
+
+/// What the shadow passes do this frame, planned before the scene's upload.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ShadowFrame {
+    /// The shadow-map views drawn (culling makes a draw list for each).
+    pub maps: ShadowMapPlan,
+    /// The pass's inputs, when it runs (shadows traced or mapped into the shadow words, and a
+    /// structure to trace against when traced).
+    inputs: Option<ShadowInputs>,
+    /// Whether it runs again over the transparent depth (the glass layer).
+    glass: bool,
+}
+
+impl ShadowFrame {
+    /// Shadow-map views drawn this frame.
+    pub fn map_views(&self) -> u32 {
+        self.maps.views
+    }
 }
 
 impl ShadowPass {
@@ -129,6 +153,67 @@ impl ShadowPass {
         }
     }
 
+    /// Whether this frame's shadows, as `lights` asks for them, trace the scene's acceleration
+    /// structures (`crate::accel`, which stay dormant while nothing traces them).
+    pub fn traces(&self, lights: &LightSettings) -> bool {
+        lights.shadows && !lights.shadow_maps && self.method() != ShadowMethod::Maps
+    }
+
+    /// Plans this frame's passes from the lights' frame: draws the shadow maps' views when
+    /// shadows are mapped (handing them to the scene, and sets the lighting record's atlas
+    /// layout), and names what the pass reads and writes. Before the scene's upload.
+    pub fn plan(&mut self, scene: &mut GpuScene, mirror: &mut SceneMirror, lights: &LightFrame) -> ShadowFrame {
+        scene.set_shadow_maps(self.maps.tile(), self.maps.columns());
+        let maps = if lights.shadows == ShadowMethod::Maps {
+            self.maps.plan(scene, mirror.lights.records(), mirror.camera())
+        } else {
+            ShadowMapPlan::default()
+        };
+        mirror.counters.shadow_map_views = maps.views as u64;
+        mirror.counters.shadow_maps_missing = maps.missing as u64;
+        let inputs = lights.shadow_bits.and_then(|shadow_bits| {
+            let traced = match lights.shadows {
+                ShadowMethod::Maps => None,
+                _ => Some(lights.scene_accel?), // no instance yet: nothing to trace against
+            };
+            let method = lights.shadows;
+            Some(ShadowInputs { method, traced, light_tiles: lights.light_tiles, shadow_bits, debug: lights.debug, glass: false })
+        });
+        ShadowFrame { maps, inputs, glass: lights.glass_shadows() }
+    }
+
+    /// Makes this frame's shadows (tracing rays, or drawing `draws` into shadow maps and
+    /// reading them) into the shadow words, and again over the glass layer when it has one.
+    /// Needs this frame's depth and, when lights are tiled, the culled lists.
+    pub fn record(&self, f: &mut Frame, scene: &GpuScene, draws: &Draws, frame: &ShadowFrame) -> Result<(), RenderError> {
+        self.record_layer(f, scene, draws, frame, frame.maps)
+    }
+
+    /// [`ShadowPass::record`] again, over a second layer of depth written since (depth peeling,
+    /// `crate::transparency::peeling`), reading the shadow maps the first call drew instead of
+    /// drawing them twice.
+    pub fn record_again(&self, f: &mut Frame, scene: &GpuScene, draws: &Draws, frame: &ShadowFrame) -> Result<(), RenderError> {
+        self.record_layer(f, scene, draws, frame, ShadowMapPlan { views: 0, ..frame.maps })
+    }
+
+    fn record_layer(
+        &self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        draws: &Draws,
+        frame: &ShadowFrame,
+        maps: ShadowMapPlan,
+    ) -> Result<(), RenderError> {
+        let Some(inputs) = frame.inputs else { return Ok(()) };
+        self.record_pass(f, scene, draws, maps, &inputs)?;
+        if frame.glass {
+            // The glass layer: the same over the transparent depth, reading the maps just drawn.
+            let glass = ShadowInputs { debug: false, glass: true, ..inputs };
+            self.record_pass(f, scene, draws, ShadowMapPlan { views: 0, ..maps }, &glass)?;
+        }
+        Ok(())
+    }
+
     /// Whether this device can trace shadows with `method`.
     pub fn supports(&self, method: ShadowMethod) -> bool {
         match method {
@@ -138,9 +223,9 @@ impl ShadowPass {
         }
     }
 
-    /// Traces this frame's shadow rays (or draws and reads its shadow maps, as `plan` says) into
-    /// the shadow words. Needs this frame's depth and, when lights are tiled, the culled lists.
-    pub fn record(
+    /// Traces one layer's shadow rays (or draws and reads its shadow maps, as `plan` says) into
+    /// the shadow words.
+    fn record_pass(
         &self,
         f: &mut Frame,
         scene: &GpuScene,

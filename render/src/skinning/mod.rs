@@ -53,7 +53,7 @@
 //!   pose's bounds are the union of those boxes moved by their joints (conservative and 24 box
 //!   transforms for a fox, not a pass over its vertices), so culling follows the pose.
 //! - **Acceleration structures.** A posed mesh's BLAS is refit after each skinning and rebuilt
-//!   when the refits have degraded it ([`crate::shadows::accel`]); counters say how many.
+//!   when the refits have degraded it ([`crate::accel`]); counters say how many.
 
 use ash::vk;
 

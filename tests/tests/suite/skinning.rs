@@ -293,7 +293,7 @@ fn without_a_ray_traced_consumer_nothing_is_refit_and_the_shadow_catches_up_when
 /// refits every frame shows.
 #[test]
 fn deferred_refits_lag_at_most_their_bound_and_catch_up_when_the_pose_holds() {
-    let bound = render::shadows::accel::MAX_REFIT_STALENESS;
+    let bound = render::accel::MAX_REFIT_STALENESS;
     let render = |refit_pixels: f32| {
         let settings = RenderSettings { pipeline: PipelineKind::Deferred, refit_pixels, ..full_detail() };
         let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, Tier::RayQuery);

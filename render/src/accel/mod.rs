@@ -1,6 +1,9 @@
-//! The scene's acceleration structures, which shadow rays are traced against (seed 001 §4.3
-//! built them once for a static glTF scene; here change detection keeps them): a triangle BLAS
-//! per mesh and one TLAS over the mesh instances.
+//! The scene's acceleration structures, which shadow rays, traced ambient occlusion and traced
+//! reflections are traced against (seed 001 §4.3 built them once for a static glTF scene; here
+//! change detection keeps them): a triangle BLAS per mesh and one TLAS over the mesh instances.
+//! A technique of its own because several read it: the frame function prepares it, hands its
+//! [`SceneAccelFrame`] to the lights, the shadows, the occlusion and the skinning, and records
+//! its builds after the scene's upload.
 //!
 //! - **BLAS per mesh**, built (`PREFER_FAST_TRACE | ALLOW_COMPACTION`) in the frame that uploads
 //!   the mesh, then compacted: the build writes its compacted size into a query, and when that
@@ -168,6 +171,9 @@ pub struct SceneAccelFrame {
     pub instances: vk::DeviceAddress,
     /// Entries of the BLAS table.
     pub blas_count: u32,
+    /// The graph resources a pass that traces the scene reads (the TLAS and every BLAS), when
+    /// there is a TLAS to trace this frame.
+    pub traced: Option<[ResourceId; 2]>,
     work: TlasWork,
     instance_count: u32,
 }
@@ -528,8 +534,10 @@ impl SceneAccel {
                 ..SceneAccelFrame::default()
             });
         }
+        let tlas_address = if self.built.is_some() || work == TlasWork::Build { self.tlas.as_ref().map_or(0, |t| t.address) } else { 0 };
         Ok(SceneAccelFrame {
-            tlas_address: if self.built.is_some() || work == TlasWork::Build { self.tlas.as_ref().map_or(0, |t| t.address) } else { 0 },
+            tlas_address,
+            traced: (tlas_address != 0).then(|| self.traced()),
             blas_table: self.blas_table.as_ref().map_or(0, |b| b.address),
             instances: self.instances.as_ref().map_or(0, |b| b.address),
             blas_count: self.blas.len() as u32,
