@@ -270,7 +270,7 @@ pub fn extract_materials(
                 warned.report(handle, "material", problem, "repaired (defaults for non-finite values, the rest clamped); drawn");
                 let (gpu, flags) = gpu_material(&material, &slots);
                 let old = slots.materials.get(&handle).copied();
-                let slot = SceneMirror::write(&mut mirror.counters, &mut mirror.materials, old.map(|(s, _)| s), gpu);
+                let slot = SceneMirror::write(&mut mirror.records_written, &mut mirror.materials, old.map(|(s, _)| s), gpu);
                 slots.materials.insert(handle, (slot, flags));
                 if old.is_some_and(|(_, f)| f != flags) {
                     changed_flags.push(handle);
@@ -280,7 +280,7 @@ pub fn extract_materials(
                 warned.forget(handle);
                 if let Some((slot, _)) = slots.materials.remove(&handle) {
                     mirror.materials.remove(slot);
-                    mirror.counters.records_written += 1;
+                    mirror.records_written += 1;
                 }
             }
         }
@@ -584,7 +584,7 @@ pub fn extract_lights(
         waiting.forget(entity);
         if let Some(slot) = slots.lights.remove(&entity) {
             mirror.lights.remove(slot);
-            mirror.counters.records_written += 1;
+            mirror.records_written += 1;
         }
     }
     visit.extend(inserted_point.read().map(|m| m.entity));
@@ -608,7 +608,7 @@ pub fn extract_lights(
                 waiting.forget(entity);
                 if let Some(slot) = slots.lights.remove(&entity) {
                     mirror.lights.remove(slot);
-                    mirror.counters.records_written += 1;
+                    mirror.records_written += 1;
                 }
                 continue;
             }
@@ -616,7 +616,7 @@ pub fn extract_lights(
         if !slots.lights.contains_key(&entity) && !waiting.admit(entity, mirror.lights.len(), limit, "light") {
             continue;
         }
-        let slot = SceneMirror::write(&mut mirror.counters, &mut mirror.lights, slots.lights.get(&entity).copied(), record);
+        let slot = SceneMirror::write(&mut mirror.records_written, &mut mirror.lights, slots.lights.get(&entity).copied(), record);
         slots.lights.insert(entity, slot);
     }
     stats.visited.lights = visited;
@@ -716,13 +716,13 @@ pub fn extract_decal_materials(
             (AssetEvent::Added(_) | AssetEvent::Modified(_), Some(material)) => {
                 let gpu = gpu_decal_material(material, |h, fallback| h.and_then(|h| slots.textures.get(&h).copied()).unwrap_or(fallback));
                 let old = slots.decal_materials.get(&handle).copied();
-                let slot = SceneMirror::write(&mut mirror.counters, &mut mirror.decal_materials, old, gpu);
+                let slot = SceneMirror::write(&mut mirror.records_written, &mut mirror.decal_materials, old, gpu);
                 slots.decal_materials.insert(handle, slot);
             }
             _ => {
                 if let Some(slot) = slots.decal_materials.remove(&handle) {
                     mirror.decal_materials.remove(slot);
-                    mirror.counters.records_written += 1;
+                    mirror.records_written += 1;
                 }
             }
         }
@@ -757,7 +757,7 @@ pub fn extract_decals(
         waiting.forget(entity);
         if let Some(slot) = slots.decals.remove(&entity) {
             mirror.decals.remove(slot);
-            mirror.counters.records_written += 1;
+            mirror.records_written += 1;
         }
     }
     // One visit per changed decal, however many lists name it.
@@ -773,7 +773,7 @@ pub fn extract_decals(
             waiting.forget(entity);
             if let Some(slot) = slots.decals.remove(&entity) {
                 mirror.decals.remove(slot);
-                mirror.counters.records_written += 1;
+                mirror.records_written += 1;
             }
             continue;
         };
@@ -801,7 +801,7 @@ pub fn extract_decals(
             continue;
         }
         let written = mirror.decals.write(slot, &desc);
-        mirror.counters.records_written += 1;
+        mirror.records_written += 1;
         if slot.is_none() {
             slots.decals.insert(entity, written);
         }

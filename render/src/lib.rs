@@ -39,8 +39,9 @@
 //! | [`settings`] | per-frame settings: pipeline, decal method, debug view |
 //!
 //! **Layers.** The lower layers (`gpu`, `graph`, `layout`, `settings`, `stats`, `scene`) name no
-//! technique: the scene's counters hold the techniques' statistics as [`stats`] records, the
-//! environment and the poses a game sets are scene data ([`scene::environment`],
+//! technique: a frame's statistics live with its report ([`stats::FrameCounters`], which the
+//! renderer starts afresh each frame and the frame function hands to each technique; the scene
+//! mirror counts only the records written into it), the environment and the poses a game sets are scene data ([`scene::environment`],
 //! [`scene::poses`]), and what several techniques share is a utility of a lower layer (depth
 //! pyramids in [`graph::pyramid`], shading variants in [`gpu::pipeline`]). A technique imports
 //! another where the frame function hands it that technique's typed output:
@@ -97,8 +98,9 @@ pub use gpu::device::{Capabilities, DeviceSettings, Tier};
 pub use gpu::timestamps::PassTimes;
 pub use present::{overlay, window};
 pub use renderer::{DebugView, DecalMethod, FinishedFrame, FrameReport, FrameSettings, PipelineKind, Renderer, RendererSettings};
-pub use scene::{FrameCounters, SceneMirror};
+pub use scene::SceneMirror;
 pub use settings::{
     AntiAliasing, AutoExposure, BloomSettings, CullingMode, DepthNormals, LightMethod, LightSettings, OcclusionMethod, OcclusionSettings,
     RaySupport, ReflectionMode, ReflectionSettings, ShadowMapBudget, ShadowMethod, Tonemapper, TransparencyMethod,
 };
+pub use stats::FrameCounters;

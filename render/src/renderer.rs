@@ -34,9 +34,10 @@ use crate::present::overlay::{Overlay, OverlayFrame};
 use crate::present::tonemap::Tonemap;
 use crate::present::window::{AcquiredImage, WindowSurface};
 use crate::reflections::Reflections;
+use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
-use crate::scene::{FrameCounters, SceneMirror};
 pub use crate::settings::{DebugView, DecalMethod, FrameSettings, LightMethod, PipelineKind, ShadowMethod};
+use crate::stats::FrameCounters;
 use crate::transparency::TransparencyPasses;
 
 pub use crate::gpu::FRAMES_IN_FLIGHT;
@@ -421,7 +422,10 @@ impl Renderer {
         };
         // Free slots at the ends of the tables go before anything reads a slot count.
         mirror.trim();
+        // This frame's statistics, which the techniques add to through the frame function.
+        let mut counters = FrameCounters::default();
         let mut parts = FrameParts {
+            counters: &mut counters,
             scene: &mut res.scene,
             culling: &mut res.culling,
             skinning: &mut res.skinning,
@@ -461,9 +465,9 @@ impl Renderer {
                 return Err(e.in_frame(frame, "uploading the scene and recording the frame's passes"));
             }
         };
-        mirror.counters.buffer_shrinks += f.upload.shrinks;
+        counters.buffer_shrinks += f.upload.shrinks;
         let prepare_ms = f.upload.prepare_ms;
-        mirror.counters.bytes_released += f.upload.bytes_released;
+        counters.bytes_released += f.upload.bytes_released;
         if let (Some((surface, _)), Some(image)) = (&mut window, &acquired) {
             f.hand_over(res.swapchain_image, ImageUse::Present);
             surface.states[image.index as usize] = res.graph.state(res.swapchain_image);
@@ -472,21 +476,23 @@ impl Renderer {
         for (bind, view) in res.graph.take_new_bindings() {
             res.scene.bind_target(ctx, bind, view);
         }
-        mirror.counters.instances = mirror.instances.len() as u64;
-        mirror.counters.draw_calls = res.culling.draw_calls();
-        mirror.counters.mesh_pool_bytes = res.scene.pool_bytes();
-        mirror.counters.lights = mirror.lights.len() as u64;
-        mirror.counters.environment = res.environment.stats;
-        mirror.counters.decals = mirror.decals.len() as u64;
+        counters.records_written = mirror.records_written;
+        counters.transparent = mirror.transparent_order().len() as u64;
+        counters.instances = mirror.instances.len() as u64;
+        counters.draw_calls = res.culling.draw_calls();
+        counters.mesh_pool_bytes = res.scene.pool_bytes();
+        counters.lights = mirror.lights.len() as u64;
+        counters.environment = res.environment.stats;
+        counters.decals = mirror.decals.len() as u64;
         let decal_method = decal_choice.applied;
 
         let submit_start = Instant::now();
-        mirror.counters.command_words = cmd.words() as u64;
+        counters.command_words = cmd.words() as u64;
         let (commands, recording) = cmd.finish();
         let slot = &mut res.frames[slot_index];
         slot.commands = commands;
         let recording = recording.map_err(|e| RenderError::from(e).in_frame(frame, "recording the command buffer"))?;
-        mirror.counters.commands_reused = recording == Recording::Reused;
+        counters.commands_reused = recording == Recording::Reused;
         let cmd = slot.commands.cmd();
         // SAFETY: the buffer is recorded (now or by an earlier frame with the same commands, whose
         // submission has completed); the submit signals the timeline with this frame's value.
@@ -532,7 +538,7 @@ impl Renderer {
             shadows: lights.shadows,
             occlusion: lights.occlusion.method,
             aa,
-            counters: mirror.counters,
+            counters,
             record_ms: start.elapsed().as_secs_f32() * 1e3,
             submit_ms,
             prepare_ms,

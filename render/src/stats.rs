@@ -1,8 +1,10 @@
-//! What the frame's techniques measured, as the frame reports it
-//! (the counters of `crate::renderer::FrameReport`): plain records, kept here, below the
-//! techniques, so that the scene's counters and the report name them without importing the
+//! What a frame did and what its techniques measured, as the frame reports it: the
+//! [`FrameCounters`] of `crate::renderer::FrameReport`, which the renderer starts afresh each
+//! frame and hands to the techniques through the frame function, and the plain records they
+//! hold. Kept here, below the techniques, so that the report names them without importing the
 //! techniques that fill them (`crate::culling`, `crate::lights::tiles`, `crate::reflections`,
-//! `crate::environment`; each re-exports its own).
+//! `crate::environment`, `crate::decals`; each re-exports its own). The scene mirror holds no
+//! statistics: it counts only the records written into it ([`crate::scene::SceneMirror::records_written`]).
 
 use crate::layout::LOD_LEVELS;
 use crate::settings::{CullingMode, ReflectionMode};
@@ -37,7 +39,7 @@ pub struct CullingStats {
 }
 
 /// What light culling measured on the GPU, read back two frames later (like
-/// [`crate::scene::DecalClusterStats`]).
+/// [`DecalClusterStats`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct LightTileStats {
     /// Frame whose GPU figures these are (`u64::MAX` before any).
@@ -99,4 +101,158 @@ pub struct EnvironmentStats {
     pub filtered: u64,
     /// Face size of the cubes (0 before an environment is first used).
     pub resolution: u32,
+}
+
+/// Work counters for one frame. Tests, `--stats` and the overlay read these; keys never change
+/// meaning.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameCounters {
+    /// Bytes copied from the CPU to GPU memory this frame (records, meshes, textures; culling's
+    /// parameters in the frame they change, though each frame slot's copy of them is written).
+    pub bytes_uploaded: u64,
+    /// Records (instances, materials, lights, camera, decals) written this frame.
+    pub records_written: u64,
+    /// Bottom-level acceleration structure builds.
+    pub blas_builds: u64,
+    /// Bottom-level acceleration structure updates (refits).
+    pub blas_updates: u64,
+    /// Top-level acceleration structure builds.
+    pub tlas_builds: u64,
+    /// Scene BLAS builds (one per mesh loaded).
+    pub scene_blas_builds: u64,
+    /// Scene BLAS compactions (one per mesh, a few frames after its build).
+    pub scene_blas_compactions: u64,
+    /// Scene TLAS builds (instances added or removed, meshes or materials changed).
+    pub scene_tlas_builds: u64,
+    /// Scene TLAS updates (only transforms changed).
+    pub scene_tlas_updates: u64,
+    /// Ray-query lights' BLAS builds (the light slots left the built range, or refits degraded it).
+    pub light_blas_builds: u64,
+    /// Ray-query lights' BLAS refits (lights changed within the built range).
+    pub light_blas_updates: u64,
+    /// GPU buffers and acceleration structures replaced by smaller ones, or released after going
+    /// unused, this frame (record tables, decal and light structures and their scratch, light
+    /// boxes, decal clusters, light tiles, the scene TLAS, staging rings: see
+    /// [`crate::gpu::upload::Shrink`]).
+    pub buffer_shrinks: u64,
+    /// Bytes of GPU memory those shrinks hand back (freed once the GPU has finished the frames
+    /// that used the old buffers).
+    pub bytes_released: u64,
+    /// Live mesh instances.
+    pub instances: u64,
+    /// Live lights.
+    pub lights: u64,
+    /// Live decals.
+    pub decals: u64,
+    /// Blended (transparent) instances drawn back to front this frame.
+    pub transparent: u64,
+    /// Shadow-map views drawn this frame (a spot or directional light's one, a point light's
+    /// six; zero unless shadows came from maps).
+    pub shadow_map_views: u64,
+    /// Lights left without a shadow map this frame because the atlas was full
+    /// (`RendererSettings::shadow_maps`).
+    pub shadow_maps_missing: u64,
+    /// Clustered decals, as measured on the GPU. Frames without them still show the room held
+    /// (until it is released, a second later) beside the figures of the last frames that binned;
+    /// a released buffer forgets those figures (zero, `measured_frame` `u64::MAX`).
+    pub clusters: DecalClusterStats,
+    /// The ray-tracing-pipeline decal pass's per-pixel lists, as measured on the GPU; frames
+    /// without that pass as for [`Self::clusters`].
+    pub decal_lists: DecalListStats,
+    /// Tiled light culling, as measured on the GPU; frames without it as for [`Self::clusters`].
+    pub light_tiles: LightTileStats,
+    /// Instance culling for the main view, as measured on the GPU (`crate::culling`).
+    pub culling: CullingStats,
+    /// Draw commands the CPU recorded this frame, every pass (indirect draws: each covers a
+    /// batch of instances).
+    pub draw_calls: u64,
+    /// Whether this frame's command buffer was submitted again as an earlier frame recorded it,
+    /// the frame's commands being exactly the same (`crate::gpu::commands`).
+    pub commands_reused: bool,
+    /// Words in the frame's command log (every command and its arguments).
+    pub command_words: u64,
+    /// Bytes of the mesh pool's buffer (`crate::scene::pool`).
+    pub mesh_pool_bytes: u64,
+    /// Posed meshes the skinning pass wrote this frame (`crate::skinning`).
+    pub skinned_meshes: u64,
+    /// Vertices it skinned.
+    pub skinned_vertices: u64,
+    /// Instances the motion-vector pass drew over the camera's motion this frame: those that
+    /// moved or were posed (`crate::motion`; zero unless temporal anti-aliasing runs).
+    pub motion_movers: u64,
+    /// Scene BLAS refits (posed meshes skinned this frame, or deferred before).
+    pub scene_blas_refits: u64,
+    /// Posed meshes whose refit waits: smaller on screen than `refit_pixels`, their structures
+    /// hold an older pose (`crate::accel`).
+    pub scene_blas_refits_deferred: u64,
+    /// The most frames one of them has waited (at most `MAX_REFIT_STALENESS`).
+    pub scene_blas_stalest: u64,
+    /// Reflections: the mode applied, and what the GPU measured (`crate::reflections`).
+    pub reflections: ReflectionStats,
+    /// The environment: sources filtered so far and the cubes' face size (`crate::environment`).
+    pub environment: EnvironmentStats,
+}
+
+/// What clustered decals measured on the GPU. The GPU writes these into the cluster buffer and
+/// the CPU reads them once that frame has finished, so a frame reports the statistics of the
+/// frame that last used its frame slot (two frames earlier), beside the capacity and growth of
+/// its own.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DecalClusterStats {
+    /// Frame whose GPU figures these are (`u64::MAX` before any).
+    pub measured_frame: u64,
+    /// Clusters (screen tiles × depth slices).
+    pub clusters: u64,
+    /// Clusters holding at least one decal.
+    pub clusters_used: u64,
+    /// Entries the clusters needed (decal references over every list).
+    pub entries: u64,
+    /// Entries the cluster buffer has room for this frame.
+    pub capacity: u64,
+    /// The most entries it may ever have room for: [`crate::gpu::room::MEMORY_SHARE`]
+    /// of the renderer's memory ([`crate::gpu::device::GpuContext::memory_limit`]).
+    pub limit: u64,
+    /// Entries that did not fit (their decals were missing from those clusters that frame).
+    pub dropped: u64,
+    /// Times the cluster buffer grew, since the renderer started.
+    pub grows: u64,
+    /// Times the cluster buffer shrank or was released (unused), since the renderer started.
+    pub shrinks: u64,
+    /// Most decals in one cluster.
+    pub max_per_cluster: u64,
+    /// Shaded pixels the decal pass visited.
+    pub pixels: u64,
+    /// Decals tested over those pixels (list entries walked).
+    pub tested: u64,
+    /// Most decals tested at one pixel.
+    pub max_tested: u64,
+    /// Decals applied over those pixels (their box held the pixel).
+    pub applied: u64,
+    /// Most decals applied at one pixel.
+    pub max_applied: u64,
+}
+
+/// The ray-tracing-pipeline decal pass's per-pixel decal lists (`crate::decals::lists`): the
+/// room they asked for and had, and the pixels that had to blend the seed's way.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DecalListStats {
+    /// Frame whose GPU figures these are (`u64::MAX` before any).
+    pub measured_frame: u64,
+    /// Entries the list buffer has room for this frame.
+    pub capacity: u64,
+    /// The most entries it may ever have room for: [`crate::gpu::room::MEMORY_SHARE`]
+    /// of the renderer's memory.
+    pub limit: u64,
+    /// Entries the pixels' lists asked for: each run of 8 pixels along a row, 8 times the most
+    /// that one of them asks for (what it found the frame before, an eighth more and two).
+    pub needed: u64,
+    /// Pixels that found decals the frame before but got no room this frame, the buffer being
+    /// full (they blended their decals the seed's way).
+    pub denied: u64,
+    /// Pixels that found more decals than their room (they traced a second time to blend them).
+    pub overflowed: u64,
+    /// Times the list buffer grew, since the renderer started.
+    pub grows: u64,
+    /// Times the list buffer shrank or was released (unused), since the renderer started.
+    pub shrinks: u64,
 }

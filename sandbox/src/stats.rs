@@ -232,7 +232,7 @@ fn light_tiles_json(t: &render::lights::tiles::LightTileStats, used: bool) -> Va
 }
 
 /// The decal clusters' statistics; what the GPU measured only when `used` this frame.
-fn clusters_json(k: &render::scene::DecalClusterStats, used: bool) -> Value {
+fn clusters_json(k: &render::stats::DecalClusterStats, used: bool) -> Value {
     let mut v = json!({ "clusters": k.clusters, "capacity": k.capacity, "limit": k.limit, "grows": k.grows, "shrinks": k.shrinks });
     if used && k.measured_frame != u64::MAX {
         let mean = |sum: u64, n: u64| if n == 0 { 0.0 } else { (sum as f64 / n as f64 * 100.0).round() / 100.0 };

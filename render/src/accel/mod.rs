@@ -70,7 +70,8 @@ use crate::gpu::shaders;
 use crate::gpu::upload::Shrink;
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::scene::gpu::GpuScene;
-use crate::scene::{FrameCounters, GpuVertex, MeshId, SceneMirror};
+use crate::scene::{GpuVertex, MeshId, SceneMirror};
+use crate::stats::FrameCounters;
 
 /// Compacted-size queries that can be pending at once (more new meshes in flight stay
 /// uncompacted).
@@ -333,6 +334,7 @@ impl SceneAccel {
         mirror: &mut SceneMirror,
         wanted: bool,
         refit_pixels: f32,
+        counters: &mut FrameCounters,
     ) -> Result<SceneAccelFrame, RenderError> {
         let ctx = f.ctx;
         let (frame_value, completed) = (f.upload.frame_value, f.upload.completed);
@@ -420,7 +422,7 @@ impl SceneAccel {
             self.pending_rearranged = true; // the instances moved unseen: a full build
             self.forget_waiting();
         } else {
-            self.choose_refits(mirror, refit_pixels, frame_value);
+            self.choose_refits(mirror, refit_pixels, frame_value, counters);
         }
         for &id in &self.refit_list {
             let Some(Some(b)) = self.blas.get_mut(id.0 as usize) else { continue };
@@ -558,7 +560,7 @@ impl SceneAccel {
     /// this is its turn (the frames of one frame slot, spread over the meshes by id; `frame` is
     /// this frame's timeline value); the rest wait a frame more. Counts the deferred refits and
     /// the stalest structure.
-    fn choose_refits(&mut self, mirror: &mut SceneMirror, refit_pixels: f32, frame: u64) {
+    fn choose_refits(&mut self, mirror: &mut SceneMirror, refit_pixels: f32, frame: u64, counters: &mut FrameCounters) {
         for &id in mirror.poses.jobs() {
             if let Some(posed) = self.blas.get_mut(id.0 as usize).and_then(Option::as_mut).and_then(|b| b.posed.as_mut())
                 && !posed.waiting
@@ -603,8 +605,8 @@ impl SceneAccel {
             stalest = stalest.max(posed.stale);
             true
         });
-        mirror.counters.scene_blas_refits_deferred = deferred;
-        mirror.counters.scene_blas_stalest = stalest.into();
+        counters.scene_blas_refits_deferred = deferred;
+        counters.scene_blas_stalest = stalest.into();
     }
 
     /// Forgets the deferred refits (the structures are dormant, or every posed mesh is refit).

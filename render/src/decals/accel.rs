@@ -30,7 +30,7 @@ use crate::RenderError;
 use crate::gpu::accel::{AabbAccel, AabbAccelNames, AabbInput, BlasWork};
 use crate::gpu::device::GpuContext;
 use crate::graph::{Frame, FrameGraph, ResourceId};
-use crate::scene::FrameCounters;
+use crate::stats::FrameCounters;
 
 /// The decal BLAS and TLAS.
 pub struct DecalAccel {

@@ -89,8 +89,8 @@ use crate::graph::readback::StatsReadback;
 use crate::graph::targets::DEPTH;
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::{DECAL_BIN_ROW, DECAL_CLUSTER_HEADER, DECAL_CLUSTER_SLICES, DECAL_CLUSTER_TILE};
-use crate::scene::DecalClusterStats;
 use crate::scene::gpu::GpuScene;
+use crate::stats::DecalClusterStats;
 
 use crate::gpu::room::{Fitted, ListRoom, MEMORY_SHARE};
 

@@ -50,7 +50,7 @@ use crate::gpu::shaders;
 use crate::graph::readback::StatsReadback;
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::DECAL_LIST_HEADER;
-use crate::scene::DecalListStats;
+use crate::stats::DecalListStats;
 
 /// Entries the list buffer starts with room for.
 pub const INITIAL_CAPACITY: u32 = 1 << 16;

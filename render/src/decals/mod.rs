@@ -19,6 +19,7 @@ use crate::graph::{Frame, FrameGraph, ResourceId};
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
 use crate::settings::{DebugView, DecalMethod, FrameSettings};
+use crate::stats::FrameCounters;
 use accel::{DecalAccel, DecalBoxInput};
 pub use buffer::{DecalPasses, DecalSurfaceSource, declare_decal_reads};
 use clustered::{ClusterFrame, DecalClusters};
@@ -141,6 +142,7 @@ impl Decals {
     /// Brings the acceleration structures (or the cluster buffer) up to date (`boxes_changed`
     /// boxes were uploaded this frame) and says what the shading passes apply, for the passes
     /// that `readers` names.
+    #[allow(clippy::too_many_arguments)]
     pub fn build_accel(
         &mut self,
         f: &mut Frame,
@@ -149,6 +151,7 @@ impl Decals {
         choice: DecalChoice,
         readers: DecalReaders,
         boxes_changed: u32,
+        counters: &mut FrameCounters,
     ) -> Result<DecalFrame, RenderError> {
         let DecalReaders { lists_in_shading, reflections } = readers;
         let method = choice.applied;
@@ -165,20 +168,20 @@ impl Decals {
         };
         // The structures follow the decals whenever a ray-traced method is applied (changes made
         // meanwhile wait for the next frame that traces them).
-        self.accel.build(f, input, method.traces() || at_hits, &mut mirror.counters)?;
+        self.accel.build(f, input, method.traces() || at_hits, counters)?;
         let shaded = method.traces() && !mirror.decals.is_empty() && self.accel.traced().is_some();
         let at_hits = (at_hits && !mirror.decals.is_empty()).then(|| self.accel.traced()).flatten();
         let clustered = method == DecalMethod::Clustered && !mirror.decals.is_empty();
         let clusters = if clustered {
-            Some(self.clusters.prepare(f, &mut mirror.counters.clusters)?)
+            Some(self.clusters.prepare(f, &mut counters.clusters)?)
         } else {
-            self.clusters.idle(f, &mut mirror.counters.clusters);
+            self.clusters.idle(f, &mut counters.clusters);
             None
         };
         let lists = if shaded && method == DecalMethod::RayPipeline {
-            Some(self.lists.prepare(f, &mut mirror.counters.decal_lists)?)
+            Some(self.lists.prepare(f, &mut counters.decal_lists)?)
         } else {
-            self.lists.idle(f, &mut mirror.counters.decal_lists);
+            self.lists.idle(f, &mut counters.decal_lists);
             None
         };
         Ok(DecalFrame {

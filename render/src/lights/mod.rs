@@ -34,6 +34,7 @@ use crate::reflections::ReflectionFrame;
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
 use crate::settings::{DepthNormals, FrameSettings, LightMethod, ShadowMethod, TransparencyMethod};
+use crate::stats::FrameCounters;
 use ray_query::{RayQueryLightFrame, RayQueryLights};
 use tiles::{LightTiles, TileFrame, TileRequest};
 
@@ -143,6 +144,7 @@ impl Lighting {
         occlusion: OcclusionFrame,
         reflections: &ReflectionFrame,
         environment: &EnvironmentFrame,
+        counters: &mut FrameCounters,
     ) -> Result<LightFrame, RenderError> {
         let l = &s.lights;
         let method = l.method.effective(s.pipeline, f.ctx.ray_support());
@@ -159,7 +161,7 @@ impl Lighting {
             m => m,
         };
         let light_slots = mirror.lights.slot_count();
-        let mut stats = mirror.counters.light_tiles;
+        let mut stats = counters.light_tiles;
         let glass = !mirror.transparent_order().is_empty();
         let request = TileRequest {
             method,
@@ -171,7 +173,7 @@ impl Lighting {
             tints: glass && l.coloured_shadows,
         };
         let tiles = self.tiles.prepare(f, &request, &mut stats)?;
-        mirror.counters.light_tiles = stats;
+        counters.light_tiles = stats;
         // Ray-query lights trace their shadow rays while shading, with ray queries only.
         let shadows = match traced {
             ShadowMethod::RayQuery if enumerated => ShadowMethod::RayQuery,
@@ -283,9 +285,9 @@ impl Lighting {
     }
 
     /// Records the ray-query lights' acceleration-structure work (after the scene's upload).
-    pub fn build(&mut self, f: &mut Frame, scene: &GpuScene, mirror: &mut SceneMirror, frame: &LightFrame) -> Result<(), RenderError> {
+    pub fn build(&mut self, f: &mut Frame, scene: &GpuScene, frame: &LightFrame, counters: &mut FrameCounters) -> Result<(), RenderError> {
         if let Some(r) = self.ray_query.as_mut() {
-            r.record(f, scene, &frame.ray_query, &mut mirror.counters)?;
+            r.record(f, scene, &frame.ray_query, counters)?;
         }
         Ok(())
     }

@@ -40,8 +40,9 @@ use crate::gpu::shaders;
 use crate::gpu::upload::{Shrink, Upload};
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::GpuAabb;
+use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
-use crate::scene::{FrameCounters, SceneMirror};
+use crate::stats::FrameCounters;
 
 const BOX_BYTES: u64 = std::mem::size_of::<GpuAabb>() as u64;
 

@@ -37,6 +37,8 @@ use deferred::GBufferGlass;
 
 /// The renderer's parts a frame function draws with.
 pub struct FrameParts<'a> {
+    /// This frame's statistics, which each technique adds to.
+    pub counters: &'a mut crate::stats::FrameCounters,
     /// The GPU scene (tables, meshes, textures).
     pub scene: &'a mut GpuScene,
     /// GPU culling and the indirect draws every mesh pass records.
@@ -107,40 +109,40 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     r.pixel_ids = motion_ids(r, s, mirror);
     r.scene.posed_motion_per_pixel = r.pixel_ids != PixelIds::None;
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
-    r.skinning.prepare(mirror, r.scene);
-    let reflections = r.reflections.prepare(f, s, mirror)?;
+    r.skinning.prepare(mirror, r.scene, r.counters);
+    let reflections = r.reflections.prepare(f, s, mirror, r.counters)?;
     let environment = r.environment.prepare(f, r.scene, mirror)?;
     let traced = r.shadows.traces(&s.lights) || r.occlusion.traces(&s.occlusion) || reflections.traced();
     let accel = match r.accel.as_deref_mut() {
-        Some(a) => a.prepare(f, r.scene, mirror, traced, s.refit_pixels)?,
+        Some(a) => a.prepare(f, r.scene, mirror, traced, s.refit_pixels, r.counters)?,
         None => SceneAccelFrame::default(),
     };
     let occlusion = r.occlusion.plan(&s.occlusion, accel.traced, r.scene.res.meshes);
     let device_shadows = r.shadows.method();
-    let lights = r.lighting.prepare(f, r.scene, mirror, s, &accel, device_shadows, occlusion, &reflections, &environment)?;
-    let shadows = r.shadows.plan(r.scene, mirror, &lights);
+    let lights = r.lighting.prepare(f, r.scene, mirror, s, &accel, device_shadows, occlusion, &reflections, &environment, r.counters)?;
+    let shadows = r.shadows.plan(r.scene, mirror, &lights, r.counters);
     // How much of each pose to skin, once the refits (which read every vertex) are known.
-    r.skinning.choose_levels(mirror, s, r.accel.as_deref().map_or(&[], |a| a.refits()));
+    r.skinning.choose_levels(mirror, s, r.accel.as_deref().map_or(&[], |a| a.refits()), r.counters);
     // Rays leave rasterised surfaces lifted by the level-of-detail limit while some instance
     // can be drawn at a coarser level (crate::lod).
     let lift = if mirror.lod_instances > 0 { crate::lod::lift(s.lod_pixels, mirror.camera().proj, f.graph.extent().height) } else { 0.0 };
     r.scene.set_lod_lift(lift);
-    mirror.counters.culling = r.culling.prepare(f, r.scene, mirror, s, shadows.map_views())?;
+    r.counters.culling = r.culling.prepare(f, r.scene, mirror, s, shadows.map_views())?;
     r.bloom.prepare(f, r.scene, s.bloom)?;
     r.exposure.prepare(f, r.scene, &s.exposure, s.delta_seconds)?;
-    let boxes_changed = r.scene.upload(f, mirror)?;
+    let boxes_changed = r.scene.upload(f, mirror, r.counters)?;
     f.upload.prepare_ms = started.elapsed().as_secs_f32() * 1e3;
     r.skinning.record(f, r.scene)?;
     let in_shading = s.pipeline.is_forward() && s.decals_in_forward_shading;
     let readers = DecalReaders { lists_in_shading: in_shading, reflections: lights.traced_reflections() && s.reflections.decals_at_hits };
-    let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, readers, boxes_changed)?;
+    let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, readers, boxes_changed, r.counters)?;
     f.push = scene_push(r.scene, mirror, s, &decals);
     r.environment.record(f, r.scene, &environment)?;
     if let Some(a) = r.accel.as_deref_mut() {
-        a.record(f, r.scene, &accel, &mut mirror.counters)?;
+        a.record(f, r.scene, &accel, r.counters)?;
     }
-    r.lighting.build(f, r.scene, mirror, &lights)?;
-    mirror.counters.bytes_uploaded += r.culling.cull(f, r.scene)?;
+    r.lighting.build(f, r.scene, &lights, r.counters)?;
+    r.counters.bytes_uploaded += r.culling.cull(f, r.scene)?;
     Ok(Begun { decals, lights, shadows })
 }
 

@@ -72,6 +72,7 @@ use crate::lights::LightFrame;
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
 use crate::settings::{DebugView, FrameSettings, ReflectionMode};
+use crate::stats::FrameCounters;
 
 pub use crate::stats::ReflectionStats;
 
@@ -264,8 +265,14 @@ impl Reflections {
     /// Decides this frame's reflections from `s` (the mode this device runs; none in debug views
     /// other than the lit image and the reflection rays, nor when no material is smoother than
     /// the cut-off: no pass, no ids prepass), reads back the statistics of the frame that last
-    /// used this frame's slot into the mirror's counters, and clears this frame's.
-    pub fn prepare(&mut self, f: &mut Frame, s: &FrameSettings, mirror: &mut SceneMirror) -> Result<ReflectionFrame, RenderError> {
+    /// used this frame's slot into the frame's `counters`, and clears this frame's.
+    pub fn prepare(
+        &mut self,
+        f: &mut Frame,
+        s: &FrameSettings,
+        mirror: &mut SceneMirror,
+        counters: &mut FrameCounters,
+    ) -> Result<ReflectionFrame, RenderError> {
         // Recomputed only when a material or decal material changed (before the upload takes
         // the change marks).
         if self.smoothest.is_none() || mirror.materials.dirty_count() > 0 || mirror.decal_materials.dirty_count() > 0 {
@@ -292,7 +299,7 @@ impl Reflections {
         let half = on && s.reflections.half_resolution;
         // Decals at hit points are looked up by traced rays; screen-space ones see what is on screen.
         let decals = on && s.reflections.decals_at_hits && applied == ReflectionMode::RayTraced;
-        mirror.counters.reflections = ReflectionStats {
+        counters.reflections = ReflectionStats {
             applied: if on { applied } else { ReflectionMode::Off },
             half_resolution: half,
             decals_at_hits: decals,

@@ -35,6 +35,7 @@ use crate::scene::{
     GpuAabb, GpuCamera, GpuMeshInfo, GpuSkinVertex, MeshData, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL,
     TEXTURE_WHITE, TextureData,
 };
+use crate::stats::FrameCounters;
 
 /// Bindless array size.
 pub const MAX_TEXTURES: u32 = 4096;
@@ -830,7 +831,7 @@ impl GpuScene {
     /// Brings the GPU scene up to date with `mirror`: prepares copies of what is dirty (only
     /// dirty records, new meshes and new textures) and records them as the frame's `upload`
     /// pass. Returns the number of decal boxes rewritten (they drive the BLAS refit).
-    pub fn upload(&mut self, f: &mut Frame, mirror: &mut SceneMirror) -> Result<u32, RenderError> {
+    pub fn upload(&mut self, f: &mut Frame, mirror: &mut SceneMirror, counters: &mut FrameCounters) -> Result<u32, RenderError> {
         let up = &mut f.upload;
         // Slots whose last user has finished go back to the mirror for reuse.
         let completed = up.completed;
@@ -980,6 +981,7 @@ impl GpuScene {
         }
         if movers > 0 {
             self.upload_movers(up, &mut copies, mirror)?;
+            counters.motion_movers = self.mover_count as u64;
         }
         mirror.movers.clear();
         if self.lighting_cpu.movers != self.movers.address() {
@@ -1004,7 +1006,7 @@ impl GpuScene {
             copies.buffer_copy(up.staging.buffer(), self.lighting.buffer()).push(src, 0, bytes.len() as u64);
             up.bytes += bytes.len() as u64;
         }
-        mirror.counters.bytes_uploaded += std::mem::take(&mut up.bytes);
+        counters.bytes_uploaded += std::mem::take(&mut up.bytes);
 
         let res = self.res;
         let result = f
@@ -1051,7 +1053,6 @@ impl GpuScene {
         }
         self.mover_count = self.mover_records.len() as u32;
         self.mover_commands[0].index_count = self.mover_count;
-        mirror.counters.motion_movers = self.mover_count as u64;
         upload_array(up, copies, &mut self.movers, bytemuck::cast_slice(&self.mover_records))?;
         upload_array(up, copies, &mut self.mover_draws, bytemuck::cast_slice(&self.mover_commands))
     }

@@ -521,160 +521,6 @@ impl DrawItem {
     }
 }
 
-/// Work counters for one frame. Tests, `--stats` and the overlay read these; keys never change
-/// meaning.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct FrameCounters {
-    /// Bytes copied from the CPU to GPU memory this frame (records, meshes, textures; culling's
-    /// parameters in the frame they change, though each frame slot's copy of them is written).
-    pub bytes_uploaded: u64,
-    /// Records (instances, materials, lights, camera, decals) written this frame.
-    pub records_written: u64,
-    /// Bottom-level acceleration structure builds.
-    pub blas_builds: u64,
-    /// Bottom-level acceleration structure updates (refits).
-    pub blas_updates: u64,
-    /// Top-level acceleration structure builds.
-    pub tlas_builds: u64,
-    /// Scene BLAS builds (one per mesh loaded).
-    pub scene_blas_builds: u64,
-    /// Scene BLAS compactions (one per mesh, a few frames after its build).
-    pub scene_blas_compactions: u64,
-    /// Scene TLAS builds (instances added or removed, meshes or materials changed).
-    pub scene_tlas_builds: u64,
-    /// Scene TLAS updates (only transforms changed).
-    pub scene_tlas_updates: u64,
-    /// Ray-query lights' BLAS builds (the light slots left the built range, or refits degraded it).
-    pub light_blas_builds: u64,
-    /// Ray-query lights' BLAS refits (lights changed within the built range).
-    pub light_blas_updates: u64,
-    /// GPU buffers and acceleration structures replaced by smaller ones, or released after going
-    /// unused, this frame (record tables, decal and light structures and their scratch, light
-    /// boxes, decal clusters, light tiles, the scene TLAS, staging rings: see
-    /// [`crate::gpu::upload::Shrink`]).
-    pub buffer_shrinks: u64,
-    /// Bytes of GPU memory those shrinks hand back (freed once the GPU has finished the frames
-    /// that used the old buffers).
-    pub bytes_released: u64,
-    /// Live mesh instances.
-    pub instances: u64,
-    /// Live lights.
-    pub lights: u64,
-    /// Live decals.
-    pub decals: u64,
-    /// Blended (transparent) instances drawn back to front this frame.
-    pub transparent: u64,
-    /// Shadow-map views drawn this frame (a spot or directional light's one, a point light's
-    /// six; zero unless shadows came from maps).
-    pub shadow_map_views: u64,
-    /// Lights left without a shadow map this frame because the atlas was full
-    /// (`RendererSettings::shadow_maps`).
-    pub shadow_maps_missing: u64,
-    /// Clustered decals, as measured on the GPU. Frames without them still show the room held
-    /// (until it is released, a second later) beside the figures of the last frames that binned;
-    /// a released buffer forgets those figures (zero, `measured_frame` `u64::MAX`).
-    pub clusters: DecalClusterStats,
-    /// The ray-tracing-pipeline decal pass's per-pixel lists, as measured on the GPU; frames
-    /// without that pass as for [`Self::clusters`].
-    pub decal_lists: DecalListStats,
-    /// Tiled light culling, as measured on the GPU; frames without it as for [`Self::clusters`].
-    pub light_tiles: crate::stats::LightTileStats,
-    /// Instance culling for the main view, as measured on the GPU (`crate::culling`).
-    pub culling: crate::stats::CullingStats,
-    /// Draw commands the CPU recorded this frame, every pass (indirect draws: each covers a
-    /// batch of instances).
-    pub draw_calls: u64,
-    /// Whether this frame's command buffer was submitted again as an earlier frame recorded it,
-    /// the frame's commands being exactly the same (`crate::gpu::commands`).
-    pub commands_reused: bool,
-    /// Words in the frame's command log (every command and its arguments).
-    pub command_words: u64,
-    /// Bytes of the mesh pool's buffer (`crate::scene::pool`).
-    pub mesh_pool_bytes: u64,
-    /// Posed meshes the skinning pass wrote this frame (`crate::skinning`).
-    pub skinned_meshes: u64,
-    /// Vertices it skinned.
-    pub skinned_vertices: u64,
-    /// Instances the motion-vector pass drew over the camera's motion this frame: those that
-    /// moved or were posed (`crate::motion`; zero unless temporal anti-aliasing runs).
-    pub motion_movers: u64,
-    /// Scene BLAS refits (posed meshes skinned this frame, or deferred before).
-    pub scene_blas_refits: u64,
-    /// Posed meshes whose refit waits: smaller on screen than `refit_pixels`, their structures
-    /// hold an older pose (`crate::accel`).
-    pub scene_blas_refits_deferred: u64,
-    /// The most frames one of them has waited (at most `MAX_REFIT_STALENESS`).
-    pub scene_blas_stalest: u64,
-    /// Reflections: the mode applied, and what the GPU measured (`crate::reflections`).
-    pub reflections: crate::stats::ReflectionStats,
-    /// The environment: sources filtered so far and the cubes' face size (`crate::environment`).
-    pub environment: crate::stats::EnvironmentStats,
-}
-
-/// What clustered decals measured on the GPU. The GPU writes these into the cluster buffer and
-/// the CPU reads them once that frame has finished, so a frame reports the statistics of the
-/// frame that last used its frame slot (two frames earlier), beside the capacity and growth of
-/// its own.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct DecalClusterStats {
-    /// Frame whose GPU figures these are (`u64::MAX` before any).
-    pub measured_frame: u64,
-    /// Clusters (screen tiles × depth slices).
-    pub clusters: u64,
-    /// Clusters holding at least one decal.
-    pub clusters_used: u64,
-    /// Entries the clusters needed (decal references over every list).
-    pub entries: u64,
-    /// Entries the cluster buffer has room for this frame.
-    pub capacity: u64,
-    /// The most entries it may ever have room for: [`crate::gpu::room::MEMORY_SHARE`]
-    /// of the renderer's memory ([`crate::gpu::device::GpuContext::memory_limit`]).
-    pub limit: u64,
-    /// Entries that did not fit (their decals were missing from those clusters that frame).
-    pub dropped: u64,
-    /// Times the cluster buffer grew, since the renderer started.
-    pub grows: u64,
-    /// Times the cluster buffer shrank or was released (unused), since the renderer started.
-    pub shrinks: u64,
-    /// Most decals in one cluster.
-    pub max_per_cluster: u64,
-    /// Shaded pixels the decal pass visited.
-    pub pixels: u64,
-    /// Decals tested over those pixels (list entries walked).
-    pub tested: u64,
-    /// Most decals tested at one pixel.
-    pub max_tested: u64,
-    /// Decals applied over those pixels (their box held the pixel).
-    pub applied: u64,
-    /// Most decals applied at one pixel.
-    pub max_applied: u64,
-}
-
-/// The ray-tracing-pipeline decal pass's per-pixel decal lists (`crate::decals::lists`): the
-/// room they asked for and had, and the pixels that had to blend the seed's way.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct DecalListStats {
-    /// Frame whose GPU figures these are (`u64::MAX` before any).
-    pub measured_frame: u64,
-    /// Entries the list buffer has room for this frame.
-    pub capacity: u64,
-    /// The most entries it may ever have room for: [`crate::gpu::room::MEMORY_SHARE`]
-    /// of the renderer's memory.
-    pub limit: u64,
-    /// Entries the pixels' lists asked for: each run of 8 pixels along a row, 8 times the most
-    /// that one of them asks for (what it found the frame before, an eighth more and two).
-    pub needed: u64,
-    /// Pixels that found decals the frame before but got no room this frame, the buffer being
-    /// full (they blended their decals the seed's way).
-    pub denied: u64,
-    /// Pixels that found more decals than their room (they traced a second time to blend them).
-    pub overflowed: u64,
-    /// Times the list buffer grew, since the renderer started.
-    pub grows: u64,
-    /// Times the list buffer shrank or was released (unused), since the renderer started.
-    pub shrinks: u64,
-}
-
 /// Records in stable slots with a free list, plus the set of slots written since the last drain.
 ///
 /// [`SlotTable::insert`] takes the *lowest* free slot (a min-heap of free slots), so under churn
@@ -893,8 +739,9 @@ pub struct SceneMirror {
     free_meshes: Vec<u32>,
     next_texture: u32,
     free_textures: Vec<u32>,
-    /// This frame's counters; extraction adds `records_written`, the renderer the rest.
-    pub counters: FrameCounters,
+    /// Records written into the tables since [`SceneMirror::begin_frame`] (extraction's and the
+    /// renderer's writes alike); the frame's report counts them (`FrameCounters::records_written`).
+    pub records_written: u64,
     /// Set when an instance was added or removed or changed its mesh or material (not only its
     /// transform): the scene TLAS is then rebuilt rather than updated.
     instances_rearranged: bool,
@@ -1028,7 +875,7 @@ impl SceneMirror {
         }
         self.count_batch(Some(draw), 1);
         self.note_transparency(slot, draw.transparent);
-        self.counters.records_written += 1;
+        self.records_written += 1;
         slot
     }
 
@@ -1039,7 +886,7 @@ impl SceneMirror {
         let cull = self.cull_record(&record.model, draw);
         if self.culls.get(slot) != Some(&cull) {
             self.culls.write(slot, cull);
-            self.counters.records_written += 1;
+            self.records_written += 1;
         }
     }
 
@@ -1140,7 +987,7 @@ impl SceneMirror {
             self.count_batch(old, -1);
         }
         self.transparent.remove(&slot);
-        self.counters.records_written += 1;
+        self.records_written += 1;
     }
 
     /// Whether an instance counts in `layered_instances`: opaque (the decal pass sees only the
@@ -1165,9 +1012,10 @@ impl SceneMirror {
         self.layered_instances > 0 || self.decals.any_on_skin()
     }
 
-    /// Writes a record into a table, counting it.
-    pub fn write<T: Pod>(counters: &mut FrameCounters, table: &mut SlotTable<T>, slot: Option<u32>, record: T) -> u32 {
-        counters.records_written += 1;
+    /// Writes a record into a table, counting it in `records_written` (the mirror's, passed apart
+    /// so that a table of the same mirror can be borrowed beside it).
+    pub fn write<T: Pod>(records_written: &mut u64, table: &mut SlotTable<T>, slot: Option<u32>, record: T) -> u32 {
+        *records_written += 1;
         match slot {
             Some(slot) => {
                 table.write(slot, record);
@@ -1193,7 +1041,7 @@ impl SceneMirror {
         if camera != self.camera {
             self.camera = camera;
             self.camera_dirty = true;
-            self.counters.records_written += 1;
+            self.records_written += 1;
         }
     }
 
@@ -1415,7 +1263,6 @@ impl SceneMirror {
         self.transparent_keys.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
         self.transparent_order.clear();
         self.transparent_order.extend(self.transparent_keys.iter().map(|&(_, slot)| slot));
-        self.counters.transparent = self.transparent_order.len() as u64;
         &self.transparent_order
     }
 
@@ -1455,9 +1302,9 @@ impl SceneMirror {
         self.free_textures.push(slot);
     }
 
-    /// Starts a new frame's counters.
+    /// Starts a new frame's count of records written.
     pub fn begin_frame(&mut self) {
-        self.counters = FrameCounters::default();
+        self.records_written = 0;
     }
 
     /// Drops the free slots at the end of every table ([`SlotTable::trim`]) and the draws past
@@ -1664,7 +1511,7 @@ mod tests {
         let opaque = m.set_instance(None, at(-2.0), DrawItem { transparent: false, ..glass });
         let far = m.set_instance(None, at(-5.0), glass);
         assert_eq!(m.sort_transparent(Vec3::ZERO), &[far, near]);
-        assert_eq!(m.counters.transparent, 2);
+        assert_eq!(m.transparent_order().len(), 2);
         m.update_draw(opaque, |d| d.transparent = true);
         assert_eq!(m.sort_transparent(Vec3::ZERO), &[far, opaque, near]);
         m.update_draw(far, |d| d.transparent = false);
@@ -1699,7 +1546,7 @@ mod tests {
         m.begin_frame();
         m.set_camera(cam);
         assert!(!m.take_camera_dirty());
-        assert_eq!(m.counters.records_written, 0);
+        assert_eq!(m.records_written, 0);
     }
 
     #[test]

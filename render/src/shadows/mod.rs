@@ -52,6 +52,7 @@ use crate::lights::LightFrame;
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
 use crate::settings::{LightSettings, ShadowMapBudget, ShadowMethod};
+use crate::stats::FrameCounters;
 use maps::{ShadowMapPlan, ShadowMaps};
 
 /// The shadow passes this device can run.
@@ -162,15 +163,15 @@ impl ShadowPass {
     /// Plans this frame's passes from the lights' frame: draws the shadow maps' views when
     /// shadows are mapped (handing them to the scene, and sets the lighting record's atlas
     /// layout), and names what the pass reads and writes. Before the scene's upload.
-    pub fn plan(&mut self, scene: &mut GpuScene, mirror: &mut SceneMirror, lights: &LightFrame) -> ShadowFrame {
+    pub fn plan(&mut self, scene: &mut GpuScene, mirror: &SceneMirror, lights: &LightFrame, counters: &mut FrameCounters) -> ShadowFrame {
         scene.set_shadow_maps(self.maps.tile(), self.maps.columns());
         let maps = if lights.shadows == ShadowMethod::Maps {
             self.maps.plan(scene, mirror.lights.records(), mirror.camera())
         } else {
             ShadowMapPlan::default()
         };
-        mirror.counters.shadow_map_views = maps.views as u64;
-        mirror.counters.shadow_maps_missing = maps.missing as u64;
+        counters.shadow_map_views = maps.views as u64;
+        counters.shadow_maps_missing = maps.missing as u64;
         let inputs = lights.shadow_bits.and_then(|shadow_bits| {
             let traced = match lights.shadows {
                 ShadowMethod::Maps => None,

@@ -68,6 +68,7 @@ use crate::scene::poses::lod_pixels_per_error;
 pub use crate::scene::poses::{PoseChunk, PoseChunks, PoseSet, PoseTable, joint_bounds, posed_bounds};
 use crate::scene::{MeshId, SceneMirror};
 use crate::settings::{FrameSettings, LOD_HYSTERESIS};
+use crate::stats::FrameCounters;
 
 /// Vertices a skinning workgroup handles.
 const GROUP: u32 = 64;
@@ -135,14 +136,14 @@ impl Skinning {
 
     /// Before the scene's upload: collects the poses set since last frame into jobs, hands them
     /// to the upload and counts them.
-    pub fn prepare(&mut self, mirror: &mut SceneMirror, scene: &mut GpuScene) {
+    pub fn prepare(&mut self, mirror: &mut SceneMirror, scene: &mut GpuScene, counters: &mut FrameCounters) {
         let most = mirror.poses.take_jobs();
         self.jobs = mirror.poses.jobs().len() as u32;
         self.palette_len = mirror.poses.palette_len();
         self.groups = most.div_ceil(GROUP);
         scene.skin_input.set_len(if self.jobs > 0 { mirror.poses.input_words() } else { 0 });
-        mirror.counters.skinned_meshes = self.jobs as u64;
-        mirror.counters.skinned_vertices = mirror.poses.job_vertices();
+        counters.skinned_meshes = self.jobs as u64;
+        counters.skinned_vertices = mirror.poses.job_vertices();
     }
 
     /// After the acceleration structures chose this frame's refits (`refits`) and before the
@@ -152,7 +153,7 @@ impl Skinning {
     /// and formula as the GPU's: it never picks finer), unless its structure is refit this frame
     /// (a refit reads every vertex), the camera used for culling is frozen, levels of detail are
     /// off, or `s.skin_levels` is off. Counts the vertices skinned.
-    pub fn choose_levels(&mut self, mirror: &mut SceneMirror, s: &FrameSettings, refits: &[MeshId]) {
+    pub fn choose_levels(&mut self, mirror: &mut SceneMirror, s: &FrameSettings, refits: &[MeshId], counters: &mut FrameCounters) {
         if self.jobs == 0 {
             return;
         }
@@ -181,7 +182,7 @@ impl Skinning {
         }
         // The dispatch's rows are as wide as the largest job's vertices (the level's own list).
         self.groups = most.div_ceil(GROUP);
-        mirror.counters.skinned_vertices = mirror.poses.job_vertices();
+        counters.skinned_vertices = mirror.poses.job_vertices();
     }
 
     /// After the upload: skins this frame's jobs into their posed meshes.

@@ -7,7 +7,7 @@
 use engine::prelude::*;
 use plugins::decal::{Decal, DecalMaterial};
 use plugins::{RenderSettings, RenderStats};
-use render::scene::DecalClusterStats;
+use render::stats::DecalClusterStats;
 use render::{DebugView, DecalMethod, PipelineKind, RendererSettings, Tier};
 use tests::{TopDownView, assert_no_validation_errors, gpu_app_with, renderer};
 

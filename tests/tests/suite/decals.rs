@@ -207,7 +207,7 @@ fn read_views(app: &mut App) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
 }
 
 /// The ray-tracing-pipeline decal pass's list statistics after each of two more frames.
-fn list_stats_of_two_more_frames(app: &mut App) -> (render::scene::DecalListStats, render::scene::DecalListStats) {
+fn list_stats_of_two_more_frames(app: &mut App) -> (render::stats::DecalListStats, render::stats::DecalListStats) {
     app.update();
     let first = counters(app).decal_lists;
     app.update();
@@ -699,7 +699,7 @@ fn lifetimes_fade_decals_out_on_the_gpu_clock_and_despawn_them_on_time() {
     let mut seen = Vec::new();
     for frame in 1..=70 {
         app.update();
-        let records = app.world.resource::<RenderMirror>().0.counters.records_written;
+        let records = app.world.resource::<RenderMirror>().0.records_written;
         let visited = app.world.resource::<RenderStats>().visited.decals;
         if app.world.get_entity(e).is_err() {
             seen.push((frame, None, records, visited));
@@ -724,7 +724,7 @@ fn lifetimes_fade_decals_out_on_the_gpu_clock_and_despawn_them_on_time() {
     assert!((60..=61).contains(&last_frame), "despawned after 1 s, at frame {last_frame}");
     assert_eq!(app.world.resource::<RenderMirror>().0.decals.len(), 10, "its slot is freed, the others stay");
     app.update();
-    assert_eq!(app.world.resource::<RenderMirror>().0.counters.records_written, 0, "the clock stops once nothing fades");
+    assert_eq!(app.world.resource::<RenderMirror>().0.records_written, 0, "the clock stops once nothing fades");
 }
 
 #[test]
