@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Two sandbox builds on the crowd of animated foxes, in one process each, for docs/experiments/notebook.md:
+# Two sandbox builds on the crowd of animated foxes, in one process each, for docs/experiments/crowds-first-step.md:
 #   scripts/bench_crowd_ab.sh CHARACTER OLD_SANDBOX NEW_SANDBOX [COUNT]   (COUNT: 10000)
 # Three runs a build at 1920×1080, 60 frames, medians of frames 15–49 (`--stats`): the
 # visibility buffer with nothing ray-traced (no shadows, screen-space AO, no reflections);

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The CPU side of a crowd of animated foxes, for docs/experiments/notebook.md:
+# The CPU side of a crowd of animated foxes, for docs/experiments/crowds-deferred-refits.md:
 #   scripts/bench_crowd_cpu.sh CHARACTER COUNT SANDBOX [SANDBOX...]
 # Each sandbox build runs three configurations of `--bench-scene foxes` (COUNT foxes, the
 # character's Run clip, 1920×1080, 60 frames): the peer scene of ../shared/PEERS.md (forward, no

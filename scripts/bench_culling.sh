@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The GPU-driven scene's benchmark of docs/experiments/notebook.md (issue 24), run on a GPU machine with
-# a release sandbox:
+# The GPU-driven scene's benchmark of docs/experiments/culling-indirect-draws.md and
+# docs/experiments/culling-command-reuse.md (issue 24), run on a GPU machine with a release sandbox:
 #   scripts/bench_culling.sh SANDBOX OUT_DIR [INSTANCES...]
 # The many-instances bench scene (a city of props walled in by buildings, the camera in a
 # street) at 1920×1080 for each instance count (default 1,000 10,000 100,000 1,000,000), in the

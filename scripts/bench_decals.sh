@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The decal benchmarks of docs/experiments/notebook.md, run on a GPU machine with a release sandbox:
+# The decal benchmarks of docs/experiments/ records (decals-ray-pipeline-pass.md, decals-count-exact-blas.md,
+# decals-clustered.md), run on a GPU machine with a release sandbox:
 #   scripts/bench_decals.sh SANDBOX OUT_DIR
 # 1. seed 000's three scenarios at 1920×1080, every pipeline and decal method the device runs in
 #    one process (--compare, 60 frames each), with a screenshot of the last combination;

@@ -3,7 +3,7 @@
 # median cpu_ms (frame, extract, record) of frames 10-29 with 100k and 1M static decals, 1 % of
 # 1M moving, 1,000 spawned and despawned per frame among 100k, and 1k/1M instances, for the
 # binaries .bin/sandbox-before and .bin/sandbox-new (a build from before and after the change;
-# a missing one is skipped). On the lent GPU machine, unpack the loader first (docs/experiments/notebook.md).
+# a missing one is skipped). On the lent GPU machine, unpack the loader first (docs/experiments/cpu-extraction-change-lists.md).
 # Usage: OUT=DIR bash scripts/bench_extraction.sh
 set -u
 : "${OUT:?set OUT to a directory}"

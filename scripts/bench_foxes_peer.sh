@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # PEERS.md's animated-characters scene (Bevy: N foxes running, each at its own time, one sun, no
-# shadows) with a release sandbox, for docs/experiments/notebook.md:
+# shadows) with a release sandbox, for docs/experiments/ records (skinning-peer-foxes.md and the crowds-* ones):
 #   scripts/bench_foxes_peer.sh SANDBOX CHARACTER [COUNTS...]
 # Forward pipeline (or $PIPELINE: forward, forward_plus, deferred, visbuffer), no shadows, no
 # decals, the Fox's Run clip, 1920×1080. The wall time of a frame

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The light-culling and shadow benchmarks of docs/experiments/notebook.md, run on a GPU machine with a
+# The light-culling and shadow benchmarks of docs/experiments/lights-*.md, run on a GPU machine with a
 # release sandbox:
 #   scripts/bench_lights.sh SANDBOX OUT_DIR
 # 1. seed 001 Tables 5.1 and 5.2: the ten-point-lights scene at 1920×1080 with a fixed camera, each

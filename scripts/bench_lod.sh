@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Levels of detail on the crowd of animated foxes, for docs/experiments/notebook.md:
+# Levels of detail on the crowd of animated foxes, for docs/experiments/crowds-lod.md:
 #   scripts/bench_lod.sh SANDBOX CHARACTER [COUNT] [LOD_PIXELS] [SCENE]   (10000, 1, foxes)
 # SCENE: foxes (the crowd seen from above) or crowd (from eye height at the plaza's edge).
 # Each configuration runs in one process with --compare-lod: levels of detail off, on (LOD_PIXELS),

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The skinning benchmark of docs/experiments/notebook.md (issue 25), run on a GPU machine with a release
+# The skinning benchmark of docs/experiments/skinning-gpu.md (issue 25), run on a GPU machine with a release
 # sandbox and a skinned character (the shared Fox):
 #   scripts/bench_skinning.sh SANDBOX CHARACTER OUT_DIR [COUNTS...]
 # The foxes bench scene (COUNT foxes, each walking from its own time, so every pose changes

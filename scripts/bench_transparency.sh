@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The transparency benchmarks of docs/experiments/notebook.md (seed 002 Tables 4.2 to 4.5), run on a
+# The transparency benchmarks of docs/experiments/transparency-*.md (seed 002 Tables 4.2 to 4.5), run on a
 # GPU machine with a release sandbox:
 #   scripts/bench_transparency.sh SANDBOX OUT_DIR
 # The transparency bench scene (seed 002 §4.2's polygon counts, spot lights only) at 1920×1080,

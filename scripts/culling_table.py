@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The culling table of docs/experiments/notebook.md from scripts/bench_culling.sh's --stats files:
+"""The culling table of docs/experiments/culling-indirect-draws.md from scripts/bench_culling.sh's --stats files:
 for each file (pipeline, instance count) and culling mode, the medians over frames 10-39 of
 each mode's 40 frames of CPU record time, CPU extract time, the GPU frame, the culling passes
 (cull_clear, cull, depth_pyramid, cull_second), draw calls, and what the GPU drew."""

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The skinning table of docs/experiments/notebook.md from scripts/bench_skinning.sh's stats files:
+"""The skinning table of docs/experiments/skinning-gpu.md from scripts/bench_skinning.sh's stats files:
 medians of frames 20-59 (the first frames build every posed mesh's BLAS)."""
 import json
 import statistics

@@ -149,8 +149,8 @@ impl DecalMethod {
     /// pipelines but no ray queries is, as far as we know, one without ray-tracing hardware. The
     /// only one measured, the lent NVIDIA H100 (it has no RT cores), ran clustered decals faster
     /// everywhere we measured (every pipeline at 100 and 1,000 decals, deferred at 10,000 to
-    /// 1,000,000), in a fraction of the memory (`docs/experiments/notebook.md`, "The fallback without ray
-    /// queries"). Decals in traced reflections still come from the decal acceleration
+    /// 1,000,000), in a fraction of the memory (`docs/experiments/decals-fallback-clustered.md`).
+    /// Decals in traced reflections still come from the decal acceleration
     /// structures, whatever the method.
     pub fn effective(self, pipeline: PipelineKind, support: RaySupport) -> DecalMethod {
         if self.runs(pipeline, support) {
@@ -834,7 +834,7 @@ pub struct FrameSettings {
     /// Off by default: on the lent H100, whose fragment shading is slow, Forward+ measured
     /// +0.89 ms at 100 decals of PEERS.md's scene (with the decal pass and its ids prepass:
     /// +0.86), +1.93 ms at 1,000 (+0.87) and 290 ms a frame at 100,000 decals on the courtyard
-    /// (7 ms); docs/experiments/notebook.md, "Decals in PEERS.md's scene".
+    /// (7 ms); docs/experiments/decals-in-forward-shading.md.
     pub decals_in_forward_shading: bool,
     /// Anti-aliasing of the displayed image.
     pub aa: AntiAliasing,

@@ -139,7 +139,7 @@ struct Cli {
     #[arg(long)]
     fragment_shading: bool,
     /// Forward and Forward+ apply clustered decals in their shading pass (no decal pass, no ids
-    /// prepass); slower on the lent H100 (docs/experiments/notebook.md)
+    /// prepass); slower on the lent H100 (docs/experiments/decals-in-forward-shading.md)
     #[arg(long)]
     decals_in_forward_shading: bool,
     /// Blended (glass) surfaces: interlaced into the deferred G-buffer (seed 002; deferred

@@ -27,7 +27,7 @@
 //! into a buffer of its own and had the targets fetch from it; the targets' reads missed the
 //! cache and the two phases traded cache lines between cores, so that two cores animated 1,000
 //! foxes more slowly than one. Sampling where it is written halved the time (`cargo bench -p
-//! engine --bench animation`, docs/experiments/notebook.md).
+//! engine --bench animation`, docs/experiments/animation-cpu.md).
 //!
 //! ```
 //! use engine::prelude::*;

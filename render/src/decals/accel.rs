@@ -11,7 +11,7 @@
 //! until the count leaves the built range, and a build costs what a build of the live boxes
 //! costs (padding under 1/8). Our first version built over the table's power-of-two capacity
 //! with every free slot parked: at 100,000 decals (131,072 built) an H100 took 1.33 ms per build
-//! against 0.49 ms for a standalone build of the same boxes (docs/experiments/notebook.md). Padding
+//! against 0.49 ms for a standalone build of the same boxes (docs/experiments/decals-accel-structures.md). Padding
 //! boxes are zero-size points at decal centres ([`crate::scene::GpuAabb::parking`]): where they
 //! lie matters to NVIDIA's builder far more than how many there are.
 //!

@@ -23,8 +23,8 @@
 //!   ray-generation shader then tests, samples and blends them, all lanes of a warp running the
 //!   same code together instead of one hit at a time. Only a pixel that finds more decals than
 //!   its list has room for (room is reserved from what it found the frame before) is blended
-//!   by a second trace the seed's way. Measured on the lent H100 (docs/experiments/notebook.md, "The
-//!   ray-tracing-pipeline decal pass against its floor"), with the scattered decals: 5.11 →
+//!   by a second trace the seed's way. Measured on the lent H100 (docs/experiments/decals-rt-floor.md,
+//!   docs/experiments/decals-rt-lists.md), with the scattered decals: 5.11 →
 //!   3.15 ms at 100,000 when an earlier round first collected the slots, in a 136-byte payload
 //!   with room for 32 (what the reflection rays still do); then, with the lists in memory,
 //!   3.16 → 2.91 ms at 100,000 and 46.6 → 28.6 ms at 1,000,000, where every pixel had more

@@ -18,7 +18,7 @@
 //!   (the same lighting costs 25× more in the forward fragment pass than in deferred compute),
 //!   the decal pass with its ids prepass is faster: about equal at 100 decals of PEERS.md's
 //!   scene, 1 ms faster at 1,000, and 7 against 290 ms a frame at 100,000 decals on the
-//!   courtyard (docs/experiments/notebook.md, "Decals in PEERS.md's scene"). The per-pixel statistics (tested,
+//!   courtyard (docs/experiments/decals-in-forward-shading.md). The per-pixel statistics (tested,
 //!   applied) come only from the decal pass: the forward shading counts nothing.
 //! - **Binning** bounds a box by its part in front of the camera's near plane (its corners
 //!   there and where its edges cross the plane). It used to give any box reaching behind the
@@ -28,7 +28,7 @@
 //! - **Layout**: screen tiles of 32×32 pixels × 16 depth slices (`DECAL_CLUSTER_*` in
 //!   `render/src/layout.rs`): 32,640 clusters at 1920×1080. Chosen by measuring tiles of 16, 32
 //!   and 64 pixels and 16, 32 and 64 slices on an H200 in two of the seed's scenes
-//!   (docs/experiments/notebook.md): finer clusters shorten the lists each pixel walks but cost more
+//!   (docs/experiments/decals-cluster-size.md): finer clusters shorten the lists each pixel walks but cost more
 //!   binning (each decal lands in more clusters) and a longer prefix sum; 32 × 16 was fastest
 //!   over both scenes (with the global slices below, before the depth bounds; not measured
 //!   again since). The engines game programmers use cap their decals low (Bevy 1,024, Godot
@@ -43,8 +43,8 @@
 //!   anywhere in it, and a decal hanging in front of a wall was binned wherever its box
 //!   projected. In the courtyard with 1,000,000 scattered decals on the lent H100, the decals a
 //!   pixel tests fell from 1,940 to 840 (139 apply) and the pass from 23.7 to 14.3 ms (2.36 →
-//!   1.48 at 100,000), for 0.02 ms more binning (docs/experiments/notebook.md, "Clusters bounded by the
-//!   depth"); the lists hold more entries (a box now lands in several thin slices), 6.5 M at
+//!   1.48 at 100,000), for 0.02 ms more binning (docs/experiments/decals-cluster-depth-bounds.md);
+//!   the lists hold more entries (a box now lands in several thin slices), 6.5 M at
 //!   1,000,000 instead of 3.7 M, in the same room. Binning widens a box's distances a little
 //!   before they meet a tile's (rounding), and by 1 % when the forward shading walks the lists
 //!   (`WIDE` in `decal_clusters.comp`: under MSAA a fragment's position lies that far off the
@@ -67,8 +67,8 @@
 //!   scene that needs more keeps the ceiling and drops the entries past it, every frame, which
 //!   the statistics count and one warning names (again only after the need fitted in between).
 //!   The growth's two-frame latency also drops entries, but growing ends it, so that is counted
-//!   and not warned about. Measured on an H100 at 1920×1080 (docs/experiments/notebook.md,
-//!   "Clusters bounded by the depth"): the scatter of 100,000 decals needs 0.66 M entries and
+//!   and not warned about. Measured on an H100 at 1920×1080
+//!   (docs/experiments/decals-cluster-depth-bounds.md): the scatter of 100,000 decals needs 0.66 M entries and
 //!   gets room for 1.0 M (4 MiB); 1,000,000 need 6.5 M and get 8.4 M (32 MiB), well under
 //!   the 8 GiB ceiling there.
 //! - **CPU work** is none per frame: the binning reads the decal boxes the GPU already holds

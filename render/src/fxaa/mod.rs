@@ -6,7 +6,7 @@
 //!
 //! **Why compute.** FXAA fused into the full-screen tone-mapping fragment pass took that pass
 //! from 0.15 to 1.08 ms on the lent H100, whose fragment shading is slow; in compute it costs a
-//! fraction of that (docs/experiments/notebook.md, "FXAA").
+//! fraction of that (docs/experiments/aa-fxaa.md).
 
 use ash::vk;
 

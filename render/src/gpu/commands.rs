@@ -5,8 +5,8 @@
 //! the same pipelines, dispatch the same grids and draw through the same indirect buffers. Yet
 //! the driver's fixed costs of recording them (beginning six-attachment renderings, the first
 //! ray-tracing dispatch of a command buffer, resetting the pool, ending the buffer) were most of
-//! issue 24's CPU record time on the lent H100 (`docs/experiments/notebook.md`, "Where the recording
-//! goes"). Vulkan lets a command buffer be submitted again once its previous submission has
+//! issue 24's CPU record time on the lent H100 (`docs/experiments/culling-record-cuts.md`).
+//! Vulkan lets a command buffer be submitted again once its previous submission has
 //! completed (it is recorded without `ONE_TIME_SUBMIT`), so recording it again is work that
 //! follows nothing that changed. The technique is the "static command buffer" of GPU-driven
 //! renderers (Haar and Aaltonen, "GPU-Driven Rendering Pipelines", SIGGRAPH 2015: the CPU's
@@ -29,7 +29,7 @@
 //!
 //! What it costs: a frame that records writes the log, then replays it into the driver, about
 //! 0.03 ms more than recording directly on the lent H100's host; a reused frame skips the driver
-//! entirely (`docs/experiments/notebook.md`, "Command buffers submitted again").
+//! entirely (`docs/experiments/culling-command-reuse.md`).
 
 use std::cell::RefCell;
 

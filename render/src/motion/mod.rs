@@ -26,7 +26,7 @@
 //! Drawing posed meshes again costs what drawing them cost: 10,000 animated foxes (all visible)
 //! took 12.4 ms in the movers pass on the lent H100 against 22.4 ms for the G-buffer pass; found
 //! per pixel from the ids, their motion costs the first pass a triangle fetch per skin pixel
-//! (docs/experiments/notebook.md, "Temporal anti-aliasing").
+//! (docs/experiments/aa-taa.md).
 //!
 //! Blended surfaces never write motion: glass does not replace the motion of what is behind it
 //! (the ghosting of Godot #108664). The record (`shaders/include/motion.glsl`) also keeps the

@@ -39,7 +39,7 @@
 //! only in other samples at a silhouette could be culled for that frame (not observed).
 //!
 //! Cost: on the lent H100 MSAA 4× adds 5.5 ms to the courtyard's frame (the depth prepass and
-//! the shading pass grow with the samples; docs/experiments/notebook.md, "MSAA"), where TAA costs 0.17.
+//! the shading pass grow with the samples; docs/experiments/aa-msaa.md), where TAA costs 0.17.
 //!
 //! The pipelines are made for one sample count; changing the count waits for the GPU once and
 //! makes them again (with the multisampled targets), and switching MSAA off frees both.

@@ -3,7 +3,7 @@
 //! applies decals and the pixel's lights (its tile's after culling) with their shadows. The
 //! lighting runs in compute by default, adding to the HDR target through a storage binding: on
 //! the lent H100 the same shading as a full-screen fragment pass took 4.6 ms against 0.17 ms
-//! (docs/experiments/notebook.md); the fragment pass remains, selectable, and gives the same image.
+//! (docs/experiments/lights-compute-lighting.md); the fragment pass remains, selectable, and gives the same image.
 //!
 //! Decal normals: the seed transformed deferred decals' normals with the decal's
 //! inverse-transpose and notes that this is wrong when the decal is oriented unlike the surface.
