@@ -329,7 +329,7 @@ pub struct FrameStats {
     /// The decal method it used.
     pub decal_method: DecalMethod,
     /// Where its decal pass read each pixel's surface (`None` when no decal pass ran).
-    pub decal_surface: Option<render::decals::DecalSurfaceSource>,
+    pub decal_surface: Option<render::graph::targets::Surface>,
     /// The light method it used.
     pub light_method: render::LightMethod,
     /// How its shadows were made.

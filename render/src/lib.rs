@@ -54,6 +54,11 @@
 //!    `environment::EnvironmentFrame`, `occlusion::OcclusionFrame`,
 //!    `reflections::ReflectionFrame` (lights).
 //!
+//! What the render targets hold between passes is typed in the lower layer, so it flows
+//! through the frame function without a technique import: the depth stage's
+//! [`graph::targets::Surface`] (the G-buffer, the visibility ids or depth alone) and the motion
+//! pass's [`graph::targets::MotionVectors`].
+//!
 //! The frame function owns every technique and hands each the others' typed outputs: it
 //! prepares the scene's acceleration structures (`accel`), plans the ambient occlusion against
 //! them, hands both to the lights, which write the lighting record, plans the shadows from the
@@ -72,6 +77,8 @@ pub mod exposure;
 pub mod fxaa;
 pub mod gpu;
 pub mod graph;
+#[cfg(test)]
+mod layering;
 pub mod layout;
 pub mod lights;
 pub mod lod;

@@ -87,7 +87,7 @@ pub struct FrameReport {
     /// what was asked for.
     pub decal_method: DecalMethod,
     /// Where the decal pass read each pixel's surface (`None` when no decal pass ran).
-    pub decal_surface: Option<crate::decals::DecalSurfaceSource>,
+    pub decal_surface: Option<crate::graph::targets::Surface>,
     /// The light method applied (after [`LightMethod::effective`]).
     pub light_method: LightMethod,
     /// How the frame's shadows were made (`None` when none were traced).

@@ -523,12 +523,12 @@ impl Culling {
     /// pass) in the culling's phases: with two-phase occlusion, once over the first list, then
     /// the depth pyramid and the second phase, then again over the newly visible instances;
     /// otherwise once.
-    pub fn depth_passes(
+    pub fn depth_passes<T>(
         &mut self,
         f: &mut Frame,
         scene: &GpuScene,
-        mut pass: impl FnMut(&mut Frame, Draws<'_>, Phase) -> Result<(), RenderError>,
-    ) -> Result<(), RenderError> {
+        mut pass: impl FnMut(&mut Frame, Draws<'_>, Phase) -> Result<T, RenderError>,
+    ) -> Result<T, RenderError> {
         if !self.frame.two_phase {
             return pass(f, self.draws(), Phase::WHOLE);
         }

@@ -65,46 +65,16 @@ use crate::decals::DecalFrame;
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::{HitGroup, RayTracingDesc, RayTracingPipeline, create_computes};
 use crate::gpu::shaders;
-use crate::graph::targets::{DECAL_BUFFER, DEPTH, GBUFFER_LAYERS, GBUFFER_NORMAL, VISIBILITY};
+use crate::graph::targets::{DECAL_BUFFER, DEPTH, GBUFFER_LAYERS, GBUFFER_NORMAL, Surface, VISIBILITY};
 use crate::graph::{BufferUse, Frame, ImageUse, PassBuilder, PassKind};
 use crate::scene::gpu::GpuScene;
 use crate::settings::{DebugView, DecalMethod};
 
-/// Where a decal pass finds the surface at each pixel (the index of its pipeline variants).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum DecalSurfaceSource {
-    /// The G-buffer's normal and receiver layers (deferred pipeline).
-    GBuffer,
-    /// The visibility pass's instance and triangle ids (forward and visibility buffer).
-    Visibility,
-    /// Depth alone (forward and Forward+ when no decal needs to know the instance:
-    /// [`crate::SceneMirror::decals_need_instances`]): the prepass then writes no ids.
-    Depth,
-}
-
-impl DecalSurfaceSource {
-    /// Where the forward pipelines' decal pass reads the surface: the ids when the decals need
-    /// the instance, else depth alone, even in a frame whose prepass writes ids for reflections
-    /// or motion, so that the decals' look (their normal frame) never changes with those.
-    pub fn forward(need_instances: bool) -> Self {
-        if need_instances { DecalSurfaceSource::Visibility } else { DecalSurfaceSource::Depth }
-    }
-
-    /// Its name in statistics: `gbuffer`, `ids` or `depth`.
-    pub fn name(self) -> &'static str {
-        match self {
-            DecalSurfaceSource::GBuffer => "gbuffer",
-            DecalSurfaceSource::Visibility => "ids",
-            DecalSurfaceSource::Depth => "depth",
-        }
-    }
-}
-
 /// The decal passes this device can run.
 pub struct DecalPasses {
-    /// Ray-generation shaders by [`DecalSurfaceSource`]: the G-buffer, the ids, depth.
+    /// Ray-generation shaders by [`Surface`]: the G-buffer, the ids, depth.
     ray_pipeline: Option<RayTracingPipeline>,
-    /// Ray-query compute, by [`DecalSurfaceSource`].
+    /// Ray-query compute, by [`Surface`].
     ray_query: Option<[vk::Pipeline; 3]>,
     /// The ray-tracing pipeline's count-only floor (`DebugView::DecalFloor`), made on first use.
     floor: Option<RayTracingPipeline>,
@@ -178,7 +148,7 @@ impl DecalPasses {
     /// and there are decals; otherwise records nothing (the shading passes then read no buffer).
     /// Under `DebugView::DecalFloor` the ray-tracing-pipeline pass only counts the decals at
     /// each pixel and applies none. Returns whether it recorded a pass.
-    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, frame: &DecalFrame, source: DecalSurfaceSource) -> Result<bool, RenderError> {
+    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, frame: &DecalFrame, source: Surface) -> Result<bool, RenderError> {
         let Some(traced) = frame.traced.filter(|_| frame.buffered()) else { return Ok(false) };
         let extent = f.graph.extent();
         let variant = source as usize;
@@ -230,12 +200,12 @@ impl DecalPasses {
 /// Declares what every decal pass reads and writes: the surface from `source` (depth, and the
 /// G-buffer or the visibility ids with the meshes), the decal records and textures, and the decal
 /// buffer it writes.
-pub fn declare_decal_surface<'f, 'a>(pass: PassBuilder<'f, 'a>, scene: &GpuScene, source: DecalSurfaceSource) -> PassBuilder<'f, 'a> {
+pub fn declare_decal_surface<'f, 'a>(pass: PassBuilder<'f, 'a>, scene: &GpuScene, source: Surface) -> PassBuilder<'f, 'a> {
     let pass = pass.sample(&DEPTH).reads(scene.res.shaded());
     let pass = match source {
-        DecalSurfaceSource::GBuffer => pass.sample(&GBUFFER_NORMAL).sample(&GBUFFER_LAYERS),
-        DecalSurfaceSource::Visibility => pass.sample(&VISIBILITY).read(scene.res.meshes, BufferUse::Storage),
-        DecalSurfaceSource::Depth => pass,
+        Surface::GBuffer => pass.sample(&GBUFFER_NORMAL).sample(&GBUFFER_LAYERS),
+        Surface::Visibility => pass.sample(&VISIBILITY).read(scene.res.meshes, BufferUse::Storage),
+        Surface::Depth => pass,
     };
     DECAL_BUFFER.iter().fold(pass, |pass, &target| pass.image(target, ImageUse::StorageWrite))
 }

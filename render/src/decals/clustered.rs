@@ -81,12 +81,12 @@
 use ash::vk;
 
 use crate::RenderError;
-use crate::decals::buffer::DecalSurfaceSource;
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::create_computes;
 use crate::gpu::shaders;
 use crate::graph::readback::StatsReadback;
 use crate::graph::targets::DEPTH;
+use crate::graph::targets::Surface;
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::{DECAL_BIN_ROW, DECAL_CLUSTER_HEADER, DECAL_CLUSTER_SLICES, DECAL_CLUSTER_TILE};
 use crate::scene::gpu::GpuScene;
@@ -120,7 +120,7 @@ pub struct DecalClusters {
     fill: [vk::Pipeline; 2],
     /// The tiles' depth bounds (`decal_cluster_bounds.comp`).
     bounds: vk::Pipeline,
-    /// Decal pass, by [`super::DecalSurfaceSource`].
+    /// Decal pass, by [`super::Surface`].
     pass: [vk::Pipeline; 3],
     /// The cluster buffer: a header, the cluster table, then the lists' entries.
     room: ListRoom,
@@ -260,7 +260,7 @@ impl DecalClusters {
     /// (writing the decal buffer) unless there is none (the shading walks the lists itself),
     /// and copies the statistics for the CPU. The push constants must hold
     /// [`DecalClusters::prepare`]'s result. Returns whether it recorded the decal pass.
-    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, live: u32, source: Option<DecalSurfaceSource>) -> Result<bool, RenderError> {
+    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, live: u32, source: Option<Surface>) -> Result<bool, RenderError> {
         let Some(buffer) = self.room.buffer.as_ref() else { return Ok(false) };
         let (raw, res, clusters) = (buffer.raw, self.res, self.clusters);
         let extent = f.graph.extent();

@@ -15,13 +15,14 @@ use ash::vk;
 
 use crate::RenderError;
 use crate::gpu::device::GpuContext;
+use crate::graph::targets::Surface;
 use crate::graph::{Frame, FrameGraph, ResourceId};
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
 use crate::settings::{DebugView, DecalMethod, FrameSettings};
 use crate::stats::FrameCounters;
 use accel::{DecalAccel, DecalBoxInput};
-pub use buffer::{DecalPasses, DecalSurfaceSource, declare_decal_reads};
+pub use buffer::{DecalPasses, declare_decal_reads};
 use clustered::{ClusterFrame, DecalClusters};
 use debug::DecalBoxes;
 pub use deferred::{DecalRun, DeferredDecalOrder, plan_deferred_decals};
@@ -42,7 +43,7 @@ pub struct Decals {
     /// Deferred decals' draw order.
     pub order: DeferredDecalOrder,
     /// Where this frame's decal pass read the surface (`None` when none ran).
-    surface: Option<DecalSurfaceSource>,
+    surface: Option<Surface>,
 }
 
 /// The decal method asked for and the one applied (see [`DecalMethod::effective`]).
@@ -199,13 +200,7 @@ impl Decals {
     /// Writes the decal buffer when this frame's method is a decal pass ([`buffer`], or
     /// [`clustered`] with its binning passes); bins the clustered decals only, when the shading
     /// walks their lists itself. [`Decals::surface`] then says where the pass read the surface.
-    pub fn decal_pass(
-        &mut self,
-        f: &mut Frame,
-        scene: &GpuScene,
-        frame: &DecalFrame,
-        source: DecalSurfaceSource,
-    ) -> Result<(), RenderError> {
+    pub fn decal_pass(&mut self, f: &mut Frame, scene: &GpuScene, frame: &DecalFrame, source: Surface) -> Result<(), RenderError> {
         let ran = match frame.clusters {
             Some(_) => self.clusters.record(f, scene, frame.count, (!frame.clusters_in_shading()).then_some(source))?,
             // The lists serve the lit pass only: its count-only floor runs without them.
@@ -223,7 +218,7 @@ impl Decals {
 
     /// Where this frame's decal pass read each pixel's surface: the G-buffer, the prepass's ids
     /// or depth alone (`None` when no decal pass ran: no decals, in-shader or deferred decals).
-    pub fn surface(&self) -> Option<DecalSurfaceSource> {
+    pub fn surface(&self) -> Option<Surface> {
         self.surface
     }
 

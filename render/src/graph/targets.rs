@@ -6,6 +6,49 @@
 
 use ash::vk;
 
+/// What a pipeline's depth stage wrote: the typed output its pass returns (the forward prepass,
+/// the deferred G-buffer, the visibility pass) and the frame function hands to every pass that
+/// rebuilds the opaque surface at a pixel from it (the decal pass, reflections). It is also the
+/// index of those passes' pipeline variants.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Surface {
+    /// The G-buffer (deferred pipeline): depth, normal, albedo, material, receiver layers.
+    GBuffer,
+    /// Depth and each pixel's instance and triangle ids (the visibility buffer, or the forward
+    /// prepass when it writes ids).
+    Visibility,
+    /// Depth alone (the forward prepass without ids).
+    Depth,
+}
+
+impl Surface {
+    /// Where the forward pipelines' decal pass reads the surface: the ids when the decals need
+    /// the instance ([`crate::scene::SceneMirror::decals_need_instances`]: the prepass then
+    /// writes them), else depth alone, even in a frame whose prepass writes ids for reflections
+    /// or motion, so that the decals' look (their normal frame) never changes with those.
+    pub fn forward_decals(need_instances: bool) -> Self {
+        if need_instances { Surface::Visibility } else { Surface::Depth }
+    }
+
+    /// Its name in statistics: `gbuffer`, `ids` or `depth`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Surface::GBuffer => "gbuffer",
+            Surface::Visibility => "ids",
+            Surface::Depth => "depth",
+        }
+    }
+}
+
+/// The motion vectors of this frame ([`MOTION`]), as the motion-vector pass returns them to the
+/// frame function, which hands them to temporal anti-aliasing: a pass that reads them takes
+/// this value, so it cannot be recorded in a frame that did not write them.
+#[derive(Clone, Copy, Debug)]
+pub struct MotionVectors {
+    /// The target they are in.
+    pub target: &'static TargetDesc,
+}
+
 /// HDR colour format.
 pub const HDR_FORMAT: vk::Format = vk::Format::R16G16B16A16_SFLOAT;
 /// Depth format.

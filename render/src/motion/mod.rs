@@ -38,7 +38,7 @@ use crate::RenderError;
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::{GraphicsDesc, create_compute, create_graphics};
 use crate::gpu::shaders;
-use crate::graph::targets::{DEPTH, DEPTH_FORMAT, GBUFFER_LAYERS, HDR_FORMAT, MOTION, VISIBILITY};
+use crate::graph::targets::{DEPTH, DEPTH_FORMAT, GBUFFER_LAYERS, HDR_FORMAT, MOTION, MotionVectors, VISIBILITY};
 use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind};
 use crate::scene::gpu::GpuScene;
 
@@ -100,7 +100,7 @@ impl Motion {
     /// Writes this frame's motion vectors into the motion target: the camera's motion from the
     /// opaque depth (and posed meshes' from the pixels' `ids`), then the movers the scene's upload
     /// listed. Call once the opaque depth is final.
-    pub fn record(&self, f: &mut Frame, scene: &GpuScene, ids: PixelIds) -> Result<(), RenderError> {
+    pub fn record(&self, f: &mut Frame, scene: &GpuScene, ids: PixelIds) -> Result<MotionVectors, RenderError> {
         let (camera, extent) = (self.camera[ids as usize], f.graph.extent());
         f.pass("motion_camera", PassKind::Compute)
             .read(scene.res.tables, BufferUse::Storage)
@@ -113,9 +113,10 @@ impl Motion {
                 p.bind(vk::PipelineBindPoint::COMPUTE, camera, &p.push);
                 p.cmd.dispatch(extent.width.div_ceil(8), extent.height.div_ceil(8), 1);
             })?;
-        let (count, Some(pool)) = (scene.mover_count, scene.pool_buffer()) else { return Ok(()) };
+        let written = MotionVectors { target: &MOTION };
+        let (count, Some(pool)) = (scene.mover_count, scene.pool_buffer()) else { return Ok(written) };
         if count == 0 {
-            return Ok(());
+            return Ok(written);
         }
         let (movers, draws) = (self.movers, scene.mover_draws.buffer());
         f.pass("motion_movers", PassKind::Graphics)
@@ -136,7 +137,8 @@ impl Motion {
                 // plain indirect draw recorded after a count-draw (the depth passes') took its
                 // draw count from that earlier draw's count buffer.
                 p.cmd.draw_indexed_indirect_count(draws, COMMAND_BYTES as u64, draws, 0, count, COMMAND_BYTES);
-            })
+            })?;
+        Ok(written)
     }
 
     /// Destroys the pipelines; the GPU must be idle.

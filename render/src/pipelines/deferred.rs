@@ -29,6 +29,7 @@ use crate::decals::{DecalFrame, DecalRun, declare_decal_reads};
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::{Blend, GraphicsDesc, create_compute, create_graphics};
 use crate::gpu::shaders;
+use crate::graph::targets::Surface;
 use crate::graph::targets::{
     DEPTH, DEPTH_FORMAT, GBUFFER_ALBEDO, GBUFFER_ALBEDO_FORMAT, GBUFFER_LAYERS, GBUFFER_LAYERS_FORMAT, GBUFFER_MATERIAL,
     GBUFFER_MATERIAL_FORMAT, GBUFFER_NORMAL, GBUFFER_NORMAL_FORMAT, HDR, HDR_FORMAT,
@@ -158,7 +159,8 @@ impl DeferredPasses {
 
     /// Geometry pass: depth and every attribute of the instances `draws` holds (one of the
     /// culling's `phase`s), emitted radiance into the HDR target; then, in the last phase, the
-    /// blended instances `glass` names, with their opacity and refraction.
+    /// blended instances `glass` names, with their opacity and refraction. Returns what it wrote:
+    /// the G-buffer.
     pub fn geometry(
         &self,
         f: &mut Frame,
@@ -167,7 +169,7 @@ impl DeferredPasses {
         glass: GBufferGlass,
         clear: [f32; 4],
         phase: Phase,
-    ) -> Result<(), RenderError> {
+    ) -> Result<Surface, RenderError> {
         f.pass("gbuffer", PassKind::Graphics)
             .image(&DEPTH, ImageUse::DepthWrite(phase.depth_load()))
             .color(&GBUFFER_ALBEDO, phase.color_load([0.0; 4]))
@@ -192,7 +194,8 @@ impl DeferredPasses {
                     p.bind_graphics(pipeline, &push);
                     draws.glass(p);
                 }
-            })
+            })?;
+        Ok(Surface::GBuffer)
     }
 
     /// Deferred decals: the boxes of `runs`, blended into the G-buffer.

@@ -7,7 +7,7 @@
 //! attributes, then every light is applied with the Frostbite BRDF of seed 000 §2.3. Decal
 //! passes run before shading, from the prepass's ids where a decal must know the pixel's
 //! instance (receiver layers of its own, decals on a skin) or the ids are written anyway, and
-//! from depth alone otherwise (`crate::decals::DecalSurfaceSource`); the in-shader methods need
+//! from depth alone otherwise (`crate::decals::Surface`); the in-shader methods need
 //! a depth-only prepass.
 
 use ash::vk;
@@ -19,6 +19,7 @@ use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::ShadeVariants;
 use crate::gpu::pipeline::{GraphicsDesc, create_graphics};
 use crate::gpu::shaders;
+use crate::graph::targets::Surface;
 use crate::graph::targets::{
     DEPTH, DEPTH_FORMAT, DEPTH_MS, HDR, HDR_FORMAT, HDR_MS, REFLECTION_ADDED, TargetDesc, VISIBILITY, VISIBILITY_FORMAT, VISIBILITY_MS,
 };
@@ -103,8 +104,8 @@ impl ForwardPasses {
     /// Depth prepass: writes reverse-Z depth (and, when `ids`, the instance and triangle ids the
     /// reflection rays, motion or a decal pass that must know the instance read) for the instances `draws` holds (one of the
     /// culling's `phase`s); masked materials discard. Under MSAA both resolve to sample 0 (one
-    /// surface per pixel for every per-pixel pass that follows).
-    pub fn prepass(&self, f: &mut Frame, scene: &GpuScene, draws: &Draws, phase: Phase, ids: bool) -> Result<(), RenderError> {
+    /// surface per pixel for every per-pixel pass that follows). Returns what it wrote.
+    pub fn prepass(&self, f: &mut Frame, scene: &GpuScene, draws: &Draws, phase: Phase, ids: bool) -> Result<Surface, RenderError> {
         let ([depth, _, ids_target], ms) = (self.attachments(), self.samples > 1);
         let (opaque, mask) = if ids { (self.ids_opaque, self.ids_mask) } else { (self.prepass_opaque, self.prepass_mask) };
         f.pass("prepass", PassKind::Graphics)
@@ -119,7 +120,8 @@ impl ForwardPasses {
                 draws.opaque(p);
                 p.bind_graphics(mask, &push);
                 draws.masked(p);
-            })
+            })?;
+        Ok(if ids { Surface::Visibility } else { Surface::Depth })
     }
 
     /// Shading: every visible pixel once, lit by every light, into the HDR target (cleared to

@@ -4,6 +4,13 @@
 //! debug overlays, tone mapping and the egui overlay. Each returns what it did
 //! with lights, for the frame's report. Every pass is declared on the frame graph ([`crate::graph`]), which derives
 //! the barriers between them.
+//!
+//! The data flow is in the values each function hands on: `begin` plans the scene's
+//! acceleration structures, the occlusion, the lights and the shadows, each from what the one
+//! before returned, and returns the decals', lights' and shadows' frames; the depth stage returns
+//! what it wrote ([`Surface`]: the G-buffer, the visibility ids or depth alone), which the decal
+//! pass and the reflections take; the motion-vector pass returns the [`MotionVectors`] that
+//! temporal anti-aliasing takes.
 
 pub mod deferred;
 pub mod forward;
@@ -15,7 +22,7 @@ use crate::RenderError;
 use crate::accel::{SceneAccel, SceneAccelFrame};
 use crate::bloom::Bloom;
 use crate::culling::{Culling, Draws, Phase};
-use crate::decals::{DecalChoice, DecalFrame, DecalReaders, DecalSurfaceSource, Decals};
+use crate::decals::{DecalChoice, DecalFrame, DecalReaders, Decals};
 use crate::environment::Environments;
 use crate::exposure::Exposure;
 use crate::gpu::device::{GpuContext, Tier};
@@ -23,13 +30,14 @@ use crate::gpu::pipeline::{HitGroup, RayTracingDesc, RayTracingPipeline, ScenePu
 pub use crate::gpu::pipeline::{MakeVariant, ShadeVariants};
 use crate::gpu::shaders;
 use crate::graph::pass::PassContext;
+use crate::graph::targets::{MotionVectors, Surface};
 use crate::graph::{Frame, PassKind};
 use crate::lights::{LightFrame, Lighting};
 use crate::motion::PixelIds;
 use crate::present::Present;
 use crate::reflections::Reflections;
 use crate::scene::SceneMirror;
-use crate::scene::gpu::GpuScene;
+use crate::scene::gpu::{GpuScene, MotionUpload};
 use crate::settings::{FrameSettings, TransparencyMethod};
 use crate::shadows::{ShadowFrame, ShadowPass};
 use crate::transparency::TransparencyPasses;
@@ -104,10 +112,10 @@ struct Begun {
 fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<Begun, RenderError> {
     let started = std::time::Instant::now();
     mirror.sort_transparent(mirror.camera().position);
-    r.scene.motion_wanted = r.taa.prepare(mirror, s, r.aa, f.graph.extent());
+    let motion_wanted = r.taa.prepare(mirror, s, r.aa, f.graph.extent());
     mirror.set_depth_sample(crate::msaa::Msaa::depth_sample(r.aa.samples(), f.graph.extent()));
     r.pixel_ids = motion_ids(r, s, mirror);
-    r.scene.posed_motion_per_pixel = r.pixel_ids != PixelIds::None;
+    let motion_upload = MotionUpload { wanted: motion_wanted, posed_per_pixel: r.pixel_ids != PixelIds::None };
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
     r.skinning.prepare(mirror, r.scene, r.counters);
     let reflections = r.reflections.prepare(f, s, mirror, r.counters)?;
@@ -130,7 +138,7 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     r.counters.culling = r.culling.prepare(f, r.scene, mirror, s, shadows.map_views())?;
     r.bloom.prepare(f, r.scene, s.bloom)?;
     r.exposure.prepare(f, r.scene, &s.exposure, s.delta_seconds)?;
-    let boxes_changed = r.scene.upload(f, mirror, r.counters)?;
+    let boxes_changed = r.scene.upload(f, mirror, motion_upload, r.counters)?;
     f.upload.prepare_ms = started.elapsed().as_secs_f32() * 1e3;
     r.skinning.record(f, r.scene)?;
     let in_shading = s.pipeline.is_forward() && s.decals_in_forward_shading;
@@ -159,9 +167,11 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
     let (scene, forward) = (&*r.scene, r.forward);
     let need_instances = mirror.decals_need_instances();
     let ids = (decals.buffered() && need_instances) || lights.reflections() || r.pixel_ids == PixelIds::Visibility;
-    let source = DecalSurfaceSource::forward(need_instances);
-    r.culling.depth_passes(f, scene, |f, draws, phase| forward.prepass(f, scene, &draws, phase, ids))?;
-    motion(f, r)?;
+    let prepass = r.culling.depth_passes(f, scene, |f, draws, phase| forward.prepass(f, scene, &draws, phase, ids))?;
+    let motion = motion(f, r)?;
+    // The decals read the ids when they need the instance (the prepass wrote them then), else
+    // depth alone; the reflections read what the prepass wrote (the ids whenever they run).
+    let source = Surface::forward_decals(need_instances);
     let draws = r.culling.draws();
     transparent_depth(f, r, &draws, mirror, &lights)?;
     r.occlusion.record(f, r.scene, &lights.occlusion)?;
@@ -175,7 +185,7 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
     let msaa = r.forward.samples() > 1;
     let reflected = msaa && Reflections::before_shading(&lights, s.debug_view);
     if reflected {
-        r.reflections.record_before_shading(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
+        r.reflections.record_before_shading(f, r.scene, prepass, &decals, &lights)?;
     }
     let sky = r.environment.draws_sky(lights.environment, s.debug_view);
     let [red, green, blue, _] = s.clear_color;
@@ -187,11 +197,11 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
     r.forward.shade(f, r.scene, &draws, clear, &decals, &lights, reflected)?;
     r.environment.sky(f, r.scene, lights.environment, s.debug_view, msaa)?;
     if !reflected {
-        r.reflections.record(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
+        r.reflections.record(f, r.scene, prepass, &decals, &lights)?;
     }
     r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
     glass_reflections(f, r, mirror, &decals, &lights)?;
-    present(f, r, mirror, s, &lights)?;
+    present(f, r, mirror, s, &lights, motion)?;
     Ok(lights)
 }
 
@@ -217,27 +227,30 @@ pub fn deferred_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirro
     let begun = begin(f, r, mirror, s)?;
     let (decals, lights) = (&begun.decals, &begun.lights);
     let glass = mirror.transparent_order();
-    if s.transparency.effective(s.pipeline) == TransparencyMethod::DepthPeeling && !glass.is_empty() {
-        deferred_layer(f, r, mirror, GBufferGlass::None, s, &begun, false)?;
+    let motion = if s.transparency.effective(s.pipeline) == TransparencyMethod::DepthPeeling && !glass.is_empty() {
+        let motion = deferred_layer(f, r, mirror, GBufferGlass::None, s, &begun, false)?;
         r.transparency.peeling.keep_background(f, r.scene)?;
         deferred_layer(f, r, mirror, GBufferGlass::Full(glass), s, &begun, true)?;
         r.transparency.peeling.compose(f, r.scene)?;
+        motion
     } else if lights.interlaced() {
-        deferred_layer(f, r, mirror, GBufferGlass::Interlaced(glass), s, &begun, false)?;
+        let motion = deferred_layer(f, r, mirror, GBufferGlass::Interlaced(glass), s, &begun, false)?;
         r.transparency.interlaced.compose(f, r.scene, s.transparency)?;
+        motion
     } else {
-        deferred_layer(f, r, mirror, GBufferGlass::None, s, &begun, false)?;
+        let motion = deferred_layer(f, r, mirror, GBufferGlass::None, s, &begun, false)?;
         r.transparency.shade(f, r.scene, &r.culling.draws(), glass, decals, lights)?;
         r.reflections.record_glass(f, r.scene, decals, lights, !glass.is_empty())?;
-    }
+        motion
+    };
     r.reflections.finish(f, lights)?;
-    present(f, r, mirror, s, lights)?;
+    present(f, r, mirror, s, lights, motion)?;
     Ok(begun.lights)
 }
 
 /// The deferred pipeline's passes over one G-buffer: geometry (with `glass`), light culling
 /// and shadows (`again`: a second layer this frame, whose shadow maps are drawn), decals,
-/// lighting, reflections.
+/// lighting, reflections. Returns the motion vectors when the first layer wrote them.
 fn deferred_layer(
     f: &mut Frame,
     r: &mut FrameParts,
@@ -246,15 +259,16 @@ fn deferred_layer(
     s: &FrameSettings,
     Begun { decals, lights, shadows }: &Begun,
     again: bool,
-) -> Result<(), RenderError> {
+) -> Result<Option<MotionVectors>, RenderError> {
     let (scene, deferred) = (&*r.scene, r.deferred);
-    if again {
+    let (gbuffer, motion) = if again {
         // The second layer draws what the first phase and the second found.
-        deferred.geometry(f, scene, &r.culling.draws(), glass, s.clear_color, Phase::WHOLE)?;
+        (deferred.geometry(f, scene, &r.culling.draws(), glass, s.clear_color, Phase::WHOLE)?, None)
     } else {
-        r.culling.depth_passes(f, scene, |f, draws, phase| deferred.geometry(f, scene, &draws, glass, s.clear_color, phase))?;
-        motion(f, r)?;
-    }
+        let gbuffer =
+            r.culling.depth_passes(f, scene, |f, draws, phase| deferred.geometry(f, scene, &draws, glass, s.clear_color, phase))?;
+        (gbuffer, motion(f, r)?)
+    };
     let draws = r.culling.draws();
     // The ambient occlusion of this layer's depth, then its lights and shadows.
     r.occlusion.record(f, r.scene, &lights.occlusion)?;
@@ -267,10 +281,11 @@ fn deferred_layer(
         r.shadows.record(f, r.scene, &draws, shadows)?;
     }
     r.deferred.decals(f, r.scene, r.decals.deferred_runs(decals))?;
-    r.decals.decal_pass(f, r.scene, decals, DecalSurfaceSource::GBuffer)?;
+    r.decals.decal_pass(f, r.scene, decals, gbuffer)?;
     r.deferred.lighting(f, r.scene, decals, lights, s.compute_shading)?;
     r.environment.sky(f, r.scene, lights.environment, s.debug_view, false)?;
-    r.reflections.record(f, r.scene, DecalSurfaceSource::GBuffer, decals, lights)
+    r.reflections.record(f, r.scene, gbuffer, decals, lights)?;
+    Ok(motion)
 }
 
 /// Visibility buffer: ids and depth, light culling and shadows, the decal pass, one pass
@@ -279,30 +294,30 @@ fn deferred_layer(
 pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
     let Begun { decals, lights, shadows } = begin(f, r, mirror, s)?;
     let (scene, visbuffer) = (&*r.scene, r.visbuffer);
-    r.culling.depth_passes(f, scene, |f, draws, phase| visbuffer.visibility(f, scene, &draws, phase))?;
-    motion(f, r)?;
+    let visibility = r.culling.depth_passes(f, scene, |f, draws, phase| visbuffer.visibility(f, scene, &draws, phase))?;
+    let motion = motion(f, r)?;
     let draws = r.culling.draws();
     transparent_depth(f, r, &draws, mirror, &lights)?;
     r.occlusion.record(f, r.scene, &lights.occlusion)?;
     r.lighting.record(f, r.scene, &lights)?;
     r.shadows.record(f, r.scene, &draws, &shadows)?;
-    r.decals.decal_pass(f, r.scene, &decals, DecalSurfaceSource::Visibility)?;
+    r.decals.decal_pass(f, r.scene, &decals, visibility)?;
     r.visbuffer.shade(f, r.scene, s.clear_color, &decals, &lights, s.compute_shading)?;
     r.environment.sky(f, r.scene, lights.environment, s.debug_view, false)?;
-    r.reflections.record(f, r.scene, DecalSurfaceSource::Visibility, &decals, &lights)?;
+    r.reflections.record(f, r.scene, visibility, &decals, &lights)?;
     r.transparency.shade(f, r.scene, &draws, mirror.transparent_order(), &decals, &lights)?;
     glass_reflections(f, r, mirror, &decals, &lights)?;
-    present(f, r, mirror, s, &lights)?;
+    present(f, r, mirror, s, &lights, motion)?;
     Ok(lights)
 }
 
 /// Motion vectors, when temporal anti-aliasing runs, right after the opaque depth (before any
 /// later layer, glass's, replaces it).
-fn motion(f: &mut Frame, r: &FrameParts) -> Result<(), RenderError> {
+fn motion(f: &mut Frame, r: &FrameParts) -> Result<Option<MotionVectors>, RenderError> {
     if !r.taa.runs() {
-        return Ok(());
+        return Ok(None);
     }
-    r.motion.record(f, r.scene, r.pixel_ids)
+    r.motion.record(f, r.scene, r.pixel_ids).map(Some)
 }
 
 /// Where this frame's motion pass finds each pixel's instance and triangle, for the motion of
@@ -325,9 +340,16 @@ fn motion_ids(r: &FrameParts, s: &FrameSettings, mirror: &SceneMirror) -> PixelI
 /// The end of every frame: temporal anti-aliasing, bloom over the finished HDR image,
 /// auto-exposure's measurement of it, the decal boxes when shown (not blurred, not measured),
 /// then tone mapping into the display image and the overlay.
-fn present(f: &mut Frame, r: &mut FrameParts, mirror: &SceneMirror, s: &FrameSettings, lights: &LightFrame) -> Result<(), RenderError> {
+fn present(
+    f: &mut Frame,
+    r: &mut FrameParts,
+    mirror: &SceneMirror,
+    s: &FrameSettings,
+    lights: &LightFrame,
+    motion: Option<MotionVectors>,
+) -> Result<(), RenderError> {
     let interlaced = s.pipeline == crate::settings::PipelineKind::Deferred && lights.interlaced() && !mirror.transparent_order().is_empty();
-    r.taa.record(f, r.scene, interlaced, s.taa_sharpen)?;
+    r.taa.record(f, r.scene, motion, interlaced, s.taa_sharpen)?;
     r.bloom.record(f, r.scene)?;
     r.exposure.record(f, r.scene)?;
     r.decals.draw_boxes(f, r.scene, mirror, s)?;

@@ -14,6 +14,7 @@ use crate::decals::{DecalFrame, declare_decal_reads};
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::{GraphicsDesc, create_compute, create_graphics};
 use crate::gpu::shaders;
+use crate::graph::targets::Surface;
 use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT, VISIBILITY, VISIBILITY_FORMAT};
 use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind};
 use crate::lights::{LightFrame, declare_light_reads};
@@ -64,8 +65,8 @@ impl VisBufferPasses {
     }
 
     /// Writes depth and the instance/triangle ids of the instances `draws` holds (one of the
-    /// culling's `phase`s).
-    pub fn visibility(&self, f: &mut Frame, scene: &GpuScene, draws: &Draws, phase: Phase) -> Result<(), RenderError> {
+    /// culling's `phase`s). Returns what it wrote.
+    pub fn visibility(&self, f: &mut Frame, scene: &GpuScene, draws: &Draws, phase: Phase) -> Result<Surface, RenderError> {
         f.pass("visibility", PassKind::Graphics)
             .image(&DEPTH, ImageUse::DepthWrite(phase.depth_load()))
             .color(&VISIBILITY, phase.color_load([0.0; 4]))
@@ -77,7 +78,8 @@ impl VisBufferPasses {
                 draws.opaque(p);
                 p.bind_graphics(self.ids_mask, &push);
                 draws.masked(p);
-            })
+            })?;
+        Ok(Surface::Visibility)
     }
 
     /// Rebuilds and shades every covered pixel into the HDR target, with this frame's `decals`

@@ -52,7 +52,7 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use crate::RenderError;
-use crate::decals::{DecalFrame, DecalSurfaceSource, declare_decal_reads};
+use crate::decals::{DecalFrame, declare_decal_reads};
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::memory::Buffer;
 use crate::gpu::memory::Retired;
@@ -62,6 +62,7 @@ use crate::gpu::pipeline::{HitGroup, LazyPipeline, RayTracingDesc, RayTracingPip
 use crate::gpu::shaders;
 use crate::graph::pyramid::{dispatch_pyramid, hiz_levels, hiz_words};
 use crate::graph::readback::StatsReadback;
+use crate::graph::targets::Surface;
 use crate::graph::targets::{
     DEPTH, GBUFFER_ALBEDO, GBUFFER_LAYERS, GBUFFER_MATERIAL, GBUFFER_NORMAL, HDR, REFLECTION, REFLECTION_ADDED, REFLECTION_RAYS,
     REFLECTION_WEIGHT, VISIBILITY,
@@ -348,7 +349,7 @@ impl Reflections {
         &mut self,
         f: &mut Frame,
         scene: &GpuScene,
-        source: DecalSurfaceSource,
+        source: Surface,
         decals: &DecalFrame,
         lights: &LightFrame,
     ) -> Result<(), RenderError> {
@@ -370,7 +371,7 @@ impl Reflections {
         &mut self,
         f: &mut Frame,
         scene: &GpuScene,
-        source: DecalSurfaceSource,
+        source: Surface,
         decals: &DecalFrame,
         lights: &LightFrame,
     ) -> Result<(), RenderError> {
@@ -409,7 +410,7 @@ impl Reflections {
         &mut self,
         f: &mut Frame,
         scene: &GpuScene,
-        source: Option<DecalSurfaceSource>,
+        source: Option<Surface>,
         decals: &DecalFrame,
         lights: &LightFrame,
         separate: bool,
@@ -420,17 +421,15 @@ impl Reflections {
         // The forward pipelines' prepass writes ids whenever reflections run: the reflections
         // rebuild their surfaces from them, never from depth alone (the `Depth` arms below are
         // never taken).
-        if source == Some(DecalSurfaceSource::Depth) {
+        if source == Some(Surface::Depth) {
             return Err(RenderError::Other("reflections need the G-buffer or the visibility ids, not depth alone".into()));
         }
         let screen = !lights.traced_reflections();
         let ctx = f.ctx;
         let compute = match source {
             Some(source) if screen => Some(self.screen[source as usize].pick(ctx, decals.variant())?),
-            Some(DecalSurfaceSource::GBuffer) => self.gbuffer.as_ref().map(|v| v.pick(ctx, decals.variant())).transpose()?,
-            Some(DecalSurfaceSource::Visibility | DecalSurfaceSource::Depth) => {
-                self.visibility.as_ref().map(|v| v.pick(ctx, decals.variant())).transpose()?
-            }
+            Some(Surface::GBuffer) => self.gbuffer.as_ref().map(|v| v.pick(ctx, decals.variant())).transpose()?,
+            Some(Surface::Visibility | Surface::Depth) => self.visibility.as_ref().map(|v| v.pick(ctx, decals.variant())).transpose()?,
             None => self.glass.as_ref().map(|g| g.get(ctx)).transpose()?,
         };
         let kind = match (compute, &self.rays) {
@@ -453,10 +452,10 @@ impl Reflections {
         }
         let pass = f.pass(name, kind).sample(&DEPTH).reads(scene.res.shaded()).read(scene.res.meshes, BufferUse::Storage);
         let pass = match source {
-            Some(DecalSurfaceSource::GBuffer) => {
+            Some(Surface::GBuffer) => {
                 pass.sample(&GBUFFER_ALBEDO).sample(&GBUFFER_NORMAL).sample(&GBUFFER_MATERIAL).sample(&GBUFFER_LAYERS)
             }
-            Some(DecalSurfaceSource::Visibility | DecalSurfaceSource::Depth) => pass.sample(&VISIBILITY),
+            Some(Surface::Visibility | Surface::Depth) => pass.sample(&VISIBILITY),
             None => pass,
         };
         // Screen-space rays see the lit image; traced ones the structures.
@@ -466,10 +465,10 @@ impl Reflections {
         let accel = |ids: Option<[ResourceId; 2]>| ids.into_iter().flatten().map(|a| (a, BufferUse::Accel));
         // The ray-generation shader for this surface and decal method (in `rays`' order).
         let raygen = match source {
-            Some(DecalSurfaceSource::GBuffer) => usize::from(decals.buffered()),
-            Some(DecalSurfaceSource::Visibility) if decals.buffered() => 3,
-            Some(DecalSurfaceSource::Visibility) if decals.clusters_in_shading() => 4,
-            Some(DecalSurfaceSource::Visibility | DecalSurfaceSource::Depth) => 2,
+            Some(Surface::GBuffer) => usize::from(decals.buffered()),
+            Some(Surface::Visibility) if decals.buffered() => 3,
+            Some(Surface::Visibility) if decals.clusters_in_shading() => 4,
+            Some(Surface::Visibility | Surface::Depth) => 2,
             None => 5,
         };
         let half = lights.reflection_flags & REFLECT_HALF_RES != 0;

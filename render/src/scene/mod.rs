@@ -365,7 +365,7 @@ impl SceneMirror {
     /// Whether a decal pass must know each pixel's instance: some instance has receiver layers
     /// of its own, or some decal sits on a skin. Otherwise every pixel receives the decals of
     /// `DECAL_DEFAULT_LAYERS`, and the forward pipelines' decal pass reads depth alone, with no
-    /// ids prepass (`crate::decals::DecalSurfaceSource::Depth`).
+    /// ids prepass (`crate::decals::Surface::Depth`).
     pub fn decals_need_instances(&self) -> bool {
         self.layered_instances > 0 || self.decals.any_on_skin()
     }

@@ -34,7 +34,7 @@ use crate::RenderError;
 use crate::gpu::device::GpuContext;
 use crate::gpu::pipeline::{ScenePush, create_compute};
 use crate::gpu::shaders;
-use crate::graph::targets::{HDR, MOTION, TAA_HISTORY_A, TAA_HISTORY_B};
+use crate::graph::targets::{HDR, MotionVectors, TAA_HISTORY_A, TAA_HISTORY_B};
 use crate::graph::{BufferUse, Frame, ImageUse, PassKind};
 use crate::layout::{TAA_INTERLACED, TAA_RESET, TAA_SHARPEN_SHIFT};
 use crate::scene::SceneMirror;
@@ -130,11 +130,22 @@ impl Taa {
     }
 
     /// Resolves this frame's HDR image against the history and writes the result back into it,
-    /// sharpened by `sharpen` (0–1). `interlaced`: odd rows held glass in depth this frame.
-    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, interlaced: bool, sharpen: f32) -> Result<(), RenderError> {
+    /// sharpened by `sharpen` (0–1), reprojecting by this frame's `motion` vectors (written
+    /// whenever it runs). `interlaced`: odd rows held glass in depth this frame.
+    pub fn record(
+        &mut self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        motion: Option<MotionVectors>,
+        interlaced: bool,
+        sharpen: f32,
+    ) -> Result<(), RenderError> {
         if !self.runs {
             return Ok(());
         }
+        let Some(motion) = motion else {
+            return Err(RenderError::Other("temporal anti-aliasing ran in a frame without motion vectors".into()));
+        };
         let b = usize::from(self.read_b);
         let (history_in, history_out) = if self.read_b { (&TAA_HISTORY_B, &TAA_HISTORY_A) } else { (&TAA_HISTORY_A, &TAA_HISTORY_B) };
         let flags = if self.reset { TAA_RESET } else { 0 } | if interlaced { TAA_INTERLACED } else { 0 };
@@ -143,7 +154,7 @@ impl Taa {
         f.pass("taa", PassKind::Compute)
             .read(scene.res.tables, BufferUse::Storage)
             .sample(&HDR)
-            .image(&MOTION, ImageUse::StorageRead)
+            .image(motion.target, ImageUse::StorageRead)
             .sample(history_in)
             .image(history_out, ImageUse::StorageWrite)
             .record(|p| {

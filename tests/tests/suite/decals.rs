@@ -17,7 +17,7 @@
 use engine::prelude::*;
 use plugins::decal::{AngleFade, Decal, DecalLifetime, DecalMaterial, DecalReceiver, DistanceFade};
 use plugins::{MirrorSlots, RenderMirror, RenderSettings, RenderStats};
-use render::decals::DecalSurfaceSource;
+use render::graph::targets::Surface;
 use render::{DebugView, DecalMethod, PipelineKind, Tier};
 use tests::{TopDownView, assert_no_validation_errors, gpu_app_at, renderer};
 
@@ -57,17 +57,17 @@ fn config_app(c: Config, size: (u32, u32), debug_view: DebugView) -> App {
 /// (no pass), the G-buffer in deferred, the prepass's ids in the visibility buffer, and in
 /// forward the ids only where a decal needs the instance (`needs_ids`: a receiver with other
 /// layers), depth alone otherwise.
-fn expected_surface(c: Config, needs_ids: bool) -> Option<DecalSurfaceSource> {
+fn expected_surface(c: Config, needs_ids: bool) -> Option<Surface> {
     c.method.uses_decal_buffer().then_some(match c.pipeline {
-        PipelineKind::Deferred => DecalSurfaceSource::GBuffer,
-        PipelineKind::VisBuffer => DecalSurfaceSource::Visibility,
-        _ if needs_ids => DecalSurfaceSource::Visibility,
-        _ => DecalSurfaceSource::Depth,
+        PipelineKind::Deferred => Surface::GBuffer,
+        PipelineKind::VisBuffer => Surface::Visibility,
+        _ if needs_ids => Surface::Visibility,
+        _ => Surface::Depth,
     })
 }
 
 /// Where the last frame recorded had its decal pass read the surface.
-fn reported_surface(app: &App) -> Option<DecalSurfaceSource> {
+fn reported_surface(app: &App) -> Option<Surface> {
     app.world.resource::<RenderStats>().latest().expect("a frame was recorded").decal_surface
 }
 

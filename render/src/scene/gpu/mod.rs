@@ -56,6 +56,16 @@ pub use tables::{GpuTable, SkinInput, WordArray};
 use textures::*;
 pub use textures::{MAX_TEXTURES, TARGET_BINDINGS};
 
+/// What the frame's motion-vector pass needs of the upload (`crate::motion`), decided before it.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct MotionUpload {
+    /// Whether this frame draws motion vectors: only then are movers uploaded.
+    pub wanted: bool,
+    /// Whether this frame's pipeline finds posed meshes' motion per pixel: then they are movers
+    /// only when they moved as a whole.
+    pub posed_per_pixel: bool,
+}
+
 /// The frame-graph resources the GPU scene is tracked as.
 #[derive(Clone, Copy, Debug)]
 pub struct SceneResources {
@@ -123,12 +133,6 @@ pub struct GpuScene {
     pub mover_draws: GpuTable,
     /// Movers uploaded this frame.
     pub mover_count: u32,
-    /// Whether this frame draws motion vectors (set before the upload): only then are movers
-    /// uploaded.
-    pub motion_wanted: bool,
-    /// Whether this frame's pipeline finds posed meshes' motion per pixel (`crate::motion`):
-    /// then they are movers only when they moved as a whole.
-    pub posed_motion_per_pixel: bool,
     mover_records: Vec<GpuMover>,
     mover_commands: Vec<GpuDrawCommand>,
     /// Meshes by [`MeshId`], placed in the pool.
@@ -265,8 +269,6 @@ impl GpuScene {
             movers: GpuTable::new::<GpuMover>(ctx, "movers", 16)?,
             mover_draws: GpuTable::with_usage::<GpuDrawCommand>(ctx, "mover draws", 16, vk::BufferUsageFlags::INDIRECT_BUFFER, false)?,
             mover_count: 0,
-            motion_wanted: false,
-            posed_motion_per_pixel: false,
             mover_records: Vec::new(),
             mover_commands: Vec::new(),
             meshes: Vec::new(),
@@ -300,7 +302,13 @@ impl GpuScene {
     /// Brings the GPU scene up to date with `mirror`: prepares copies of what is dirty (only
     /// dirty records, new meshes and new textures) and records them as the frame's `upload`
     /// pass. Returns the number of decal boxes rewritten (they drive the BLAS refit).
-    pub fn upload(&mut self, f: &mut Frame, mirror: &mut SceneMirror, counters: &mut FrameCounters) -> Result<u32, RenderError> {
+    pub fn upload(
+        &mut self,
+        f: &mut Frame,
+        mirror: &mut SceneMirror,
+        motion: MotionUpload,
+        counters: &mut FrameCounters,
+    ) -> Result<u32, RenderError> {
         let up = &mut f.upload;
         // Slots whose last user has finished go back to the mirror for reuse.
         let completed = up.completed;
@@ -350,8 +358,8 @@ impl GpuScene {
             replaced |= gpu.plan(slots);
         }
         self.mover_count = 0;
-        let posed_movers = if self.posed_motion_per_pixel { 0 } else { mirror.poses.jobs().len() };
-        let movers = if self.motion_wanted { (mirror.movers.len() + posed_movers) as u32 } else { 0 };
+        let posed_movers = if motion.posed_per_pixel { 0 } else { mirror.poses.jobs().len() };
+        let movers = if motion.wanted { (mirror.movers.len() + posed_movers) as u32 } else { 0 };
         if movers > 0 {
             self.movers.plan(movers);
             self.mover_draws.plan(movers + 1);
