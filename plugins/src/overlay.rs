@@ -102,6 +102,7 @@ impl DebugOverlay {
             self.summary(ui);
             egui::CollapsingHeader::new("timings").default_open(false).show(ui, |ui| self.timings(ui));
             egui::CollapsingHeader::new("scene and work").default_open(false).show(ui, |ui| self.counts(ui, world));
+            egui::CollapsingHeader::new("GPU memory").default_open(false).show(ui, |ui| memory(ui, world));
             egui::CollapsingHeader::new("settings").default_open(false).show(ui, |ui| {
                 self.controls(ui, world);
                 for e in &mut self.extensions {
@@ -302,5 +303,18 @@ impl DebugOverlay {
             ui.add(egui::Slider::new(&mut settings.refit_pixels, 0.0..=256.0).text("characters refit every frame above (px, 0: all)"));
             ui.checkbox(&mut settings.skin_levels, "skin a far character's level of detail only");
         });
+    }
+}
+
+/// GPU memory at the end of the last frame, by what it holds (`render::gpu::memory`), in MiB.
+fn memory(ui: &mut egui::Ui, world: &World) {
+    let m = world.resource::<RenderStats>().last.memory;
+    let mib = |bytes: u64| bytes as f64 / (1024.0 * 1024.0);
+    ui.label(format!("{:.1} MiB in all", mib(m.total())));
+    for kind in render::gpu::memory::MemoryKind::ALL {
+        ui.label(format!("{}: {:.1} MiB", kind.name().replace('_', " "), mib(m.of(kind))));
+    }
+    for (format, bytes) in m.texture_formats() {
+        ui.label(format!("   textures {format:?}: {:.1} MiB", mib(bytes)));
     }
 }

@@ -260,6 +260,12 @@ impl Renderer {
         self.ctx.ray_support()
     }
 
+    /// The bytes of GPU memory the allocator says are allocated now: the total the frame's
+    /// `counters.memory` adds up to (asking the allocator allocates: not for every frame).
+    pub fn allocator_bytes(&self) -> u64 {
+        self.ctx.allocator_bytes()
+    }
+
     /// The render size.
     pub fn size(&self) -> (u32, u32) {
         let e = self.res.graph.extent();
@@ -477,6 +483,7 @@ impl Renderer {
             res.scene.bind_target(ctx, bind, view);
         }
         counters.records_written = mirror.records_written;
+        counters.memory = ctx.memory();
         counters.transparent = mirror.transparent_order().len() as u64;
         counters.instances = mirror.instances.len() as u64;
         counters.draw_calls = res.culling.draw_calls();

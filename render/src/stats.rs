@@ -191,6 +191,9 @@ pub struct FrameCounters {
     pub reflections: ReflectionStats,
     /// The environment: sources filtered so far and the cubes' face size (`crate::environment`).
     pub environment: EnvironmentStats,
+    /// GPU memory allocated at the end of the frame, by what it holds, textures also by format
+    /// (`crate::gpu::memory`).
+    pub memory: crate::gpu::memory::MemoryCounts,
 }
 
 /// What clustered decals measured on the GPU. The GPU writes these into the cluster buffer and

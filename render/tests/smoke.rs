@@ -1,7 +1,7 @@
 //! A lit quad through the whole forward pipeline, built from plain data (no ECS): the device is
 //! described truthfully, the frame has the requested size, the quad is lit where the camera looks
-//! at it, the sky around it is the clear colour, and a frame in which nothing changed uploads
-//! nothing.
+//! at it, the sky around it is the clear colour, a frame in which nothing changed uploads
+//! nothing, and the memory report accounts for every byte the allocator holds.
 
 #![forbid(unsafe_code)]
 
@@ -64,6 +64,19 @@ fn lit_quad_renders_and_quiet_frames_upload_nothing() {
     assert_eq!(quiet.frame, 1);
     assert_eq!(quiet.counters.bytes_uploaded, 0, "a frame with no change uploads nothing");
     assert_eq!(quiet.counters.records_written, 0, "a frame with no change writes no record");
+
+    // Where the bytes go: every allocation counted by kind. The allocator's total also holds the
+    // padding it leaves between allocations to align them, a few bytes each.
+    let (memory, allocator) = (quiet.counters.memory, r.allocator_bytes());
+    let padding = allocator.checked_sub(memory.total()).unwrap_or_else(|| panic!("more counted than allocated: {memory:?}, {allocator}"));
+    assert!(padding * 200 <= allocator, "the report's total {} is the allocator's {allocator} but for padding", memory.total());
+    use render::gpu::memory::MemoryKind;
+    for kind in [MemoryKind::Textures, MemoryKind::MeshPool, MemoryKind::Targets, MemoryKind::Buffers, MemoryKind::HostVisible] {
+        assert!(memory.of(kind) > 0, "{} hold memory: {memory:?}", kind.name());
+    }
+    let by_format: u64 = memory.texture_formats().map(|(_, bytes)| bytes).sum();
+    assert_eq!(by_format, memory.of(MemoryKind::Textures), "the textures' bytes by format add up: {memory:?}");
+    assert!(memory.texture_formats().any(|(f, _)| f == ash::vk::Format::R8G8B8A8_UNORM), "the built-in textures are RGBA8: {memory:?}");
 
     let hdr = r.read_hdr().expect("readback");
     let depth = r.read_depth().expect("depth readback");

@@ -15,7 +15,10 @@
 //! spent in the driver's queue submission), and `counters` (`bytes_uploaded`, `records_written`, `blas_builds`,
 //! `blas_updates`, `tlas_builds`, `instances`, `lights`, `decals`, `transparent`: blended instances drawn,
 //! `shadow_map_views`: atlas tiles drawn, `shadow_maps_missing`: lights the atlas had no room
-//! for).
+//! for), and `memory` (GPU memory allocated at the frame's end, in bytes: `textures`,
+//! `mesh_pool`, `acceleration_structures`, `targets`, `buffers` (record tables and the lists the
+//! GPU writes), `host_visible` (staging, readbacks), their `total`, and `textures_by_format`,
+//! keyed by Vulkan format name, e.g. `R8G8B8A8_SRGB`).
 //!
 //! Decal lists. `clusters`, in frames that applied clustered decals or still hold their lists
 //! (`capacity` > 0: for a second after they last ran): `clusters`, `capacity`, `limit` (the
@@ -181,7 +184,21 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
     if tiled || c.light_tiles.capacity > 0 {
         value["light_tiles"] = light_tiles_json(&c.light_tiles, tiled);
     }
+    value["memory"] = memory_json(&c.memory);
     value
+}
+
+/// GPU memory at the end of the frame: bytes by kind, their `total`, and `textures_by_format`
+/// keyed by Vulkan format name.
+fn memory_json(m: &render::gpu::memory::MemoryCounts) -> Value {
+    let mut v = Map::new();
+    for kind in render::gpu::memory::MemoryKind::ALL {
+        v.insert(kind.name().into(), json!(m.of(kind)));
+    }
+    v.insert("total".into(), json!(m.total()));
+    let formats: Map<String, Value> = m.texture_formats().map(|(f, bytes)| (format!("{f:?}"), json!(bytes))).collect();
+    v.insert("textures_by_format".into(), Value::Object(formats));
+    Value::Object(v)
 }
 
 fn reflections_json(k: &render::reflections::ReflectionStats) -> Value {

@@ -44,7 +44,7 @@ use gpu_allocator::MemoryLocation;
 
 use crate::RenderError;
 use crate::gpu::device::GpuContext;
-use crate::gpu::memory::{Buffer, GPU_WRITTEN, Image, ImageDesc, Retired};
+use crate::gpu::memory::{Buffer, GPU_WRITTEN, Image, ImageDesc, MemoryKind, Retired};
 use crate::gpu::pipeline::{ScenePush, create_compute};
 use crate::gpu::shaders;
 use crate::graph::targets::f16_to_f32;
@@ -218,13 +218,29 @@ impl Environments {
         if self.cubes.is_none() {
             let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::SAMPLED;
             let extent = vk::Extent2D { width: self.resolution, height: self.resolution };
-            let desc = |name, mip_levels| ImageDesc { name, format: CUBE_FORMAT, extent, mip_levels, usage, samples: 1 };
+            let desc = |name, mip_levels| ImageDesc {
+                name,
+                format: CUBE_FORMAT,
+                extent,
+                mip_levels,
+                usage,
+                samples: 1,
+                kind: MemoryKind::Textures,
+            };
             let source = Image::cube(ctx, &desc("environment radiance", self.source_levels()))?;
             let specular = Image::cube(ctx, &desc("environment specular", self.specular_levels()))?;
             let lut_extent = vk::Extent2D { width: BRDF_LUT_SIZE, height: BRDF_LUT_SIZE };
             let lut = Image::new(
                 ctx,
-                &ImageDesc { name: "brdf table", format: vk::Format::R16G16_SFLOAT, extent: lut_extent, mip_levels: 1, usage, samples: 1 },
+                &ImageDesc {
+                    name: "brdf table",
+                    format: vk::Format::R16G16_SFLOAT,
+                    extent: lut_extent,
+                    mip_levels: 1,
+                    usage,
+                    samples: 1,
+                    kind: MemoryKind::Textures,
+                },
             )?;
             let mut level_views = Vec::new();
             for level in 0..source.mip_levels {

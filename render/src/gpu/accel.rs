@@ -18,7 +18,7 @@ use gpu_allocator::MemoryLocation;
 
 use crate::RenderError;
 use crate::gpu::device::GpuContext;
-use crate::gpu::memory::{Buffer, Graveyard, Retired};
+use crate::gpu::memory::{Buffer, Graveyard, MemoryKind, Retired};
 use crate::gpu::upload::{Shrink, Upload};
 use crate::graph::{BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::GpuAabb;
@@ -176,12 +176,13 @@ impl Scratch {
     }
 
     fn create(ctx: &GpuContext, name: &str, size: u64) -> Result<Buffer, RenderError> {
-        Buffer::new(
+        Buffer::of_kind(
             ctx,
             name,
             size,
             vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
             MemoryLocation::GpuOnly,
+            MemoryKind::AccelerationStructures,
         )
     }
 

@@ -18,6 +18,7 @@ use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, Allocator, Allocat
 
 use crate::RenderError;
 use crate::gpu::commands::{CommandCache, Recorder};
+use crate::gpu::memory::{MemoryCounts, MemoryKind, MemoryLedger};
 
 /// What ray tracing the device can do, best first.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -167,6 +168,8 @@ pub struct GpuContext {
     pub queue_family: u32,
     /// Memory for buffers and images.
     pub allocator: ManuallyDrop<Arc<Mutex<Allocator>>>,
+    /// What the allocations hold ([`GpuContext::memory`]).
+    ledger: Mutex<MemoryLedger>,
     /// Device name as the driver reports it.
     pub device_name: String,
     /// Extensions the device offers.
@@ -362,6 +365,7 @@ impl GpuContext {
             queue,
             queue_family,
             allocator: ManuallyDrop::new(Arc::new(Mutex::new(allocator))),
+            ledger: Mutex::new(MemoryLedger::default()),
             device_name,
             capabilities: caps,
             tier,
@@ -397,9 +401,39 @@ impl GpuContext {
         self.memory_budget.unwrap_or(self.device_local_bytes)
     }
 
-    /// Allocates memory through the allocator, within [`GpuContext::memory_budget`]. Running out
+    /// Allocates memory through the allocator, within [`GpuContext::memory_budget`], and counts
+    /// it as `kind` (of `format`, for a texture) in the [`GpuContext::memory`] ledger. Running out
     /// (of the budget or of the device) is [`RenderError::OutOfMemory`] naming the allocation.
-    pub fn allocate(&self, desc: &AllocationCreateDesc<'_>) -> Result<Allocation, RenderError> {
+    pub fn allocate(&self, desc: &AllocationCreateDesc<'_>, kind: MemoryKind, format: vk::Format) -> Result<Allocation, RenderError> {
+        let allocation = self.allocate_uncounted(desc)?;
+        self.ledger().add(kind, format, allocation.size(), false);
+        Ok(allocation)
+    }
+
+    /// Frees what [`GpuContext::allocate`] gave for `kind` and `format`.
+    pub fn free(&self, allocation: Allocation, kind: MemoryKind, format: vk::Format) -> Result<(), gpu_allocator::AllocationError> {
+        let bytes = allocation.size();
+        self.allocator().free(allocation)?;
+        self.ledger().add(kind, format, bytes, true);
+        Ok(())
+    }
+
+    /// The bytes allocated now, by kind ([`MemoryLedger`]).
+    pub fn memory(&self) -> MemoryCounts {
+        self.ledger().counts()
+    }
+
+    /// The bytes the allocator says are allocated (its report allocates: for tests and checks,
+    /// not for every frame).
+    pub fn allocator_bytes(&self) -> u64 {
+        self.allocator().generate_report().total_allocated_bytes
+    }
+
+    fn ledger(&self) -> std::sync::MutexGuard<'_, MemoryLedger> {
+        self.ledger.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn allocate_uncounted(&self, desc: &AllocationCreateDesc<'_>) -> Result<Allocation, RenderError> {
         let mut allocator = self.allocator();
         let out_of_memory = |allocator: &Allocator, budget| RenderError::OutOfMemory {
             what: desc.name.to_owned(),

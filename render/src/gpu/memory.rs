@@ -3,6 +3,13 @@
 //! Anything the GPU may still read when the CPU lets go of it goes into [`Graveyard`] with the
 //! timeline value of the last frame that could use it, and is destroyed once the GPU has passed
 //! that value.
+//!
+//! **Where the bytes go.** Every allocation is counted by what it holds ([`MemoryKind`]) in the
+//! context's [`MemoryLedger`] as it is made and freed, textures also by format, so the frame's
+//! report says where GPU memory goes without asking the allocator (whose report allocates).
+//! The ledger counts the bytes each allocation asked for; the allocator's total adds the few
+//! bytes of padding it leaves between sub-allocations to align them (a test holds the two within
+//! half a percent).
 
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -21,11 +28,136 @@ pub const GPU_WRITTEN: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
         | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS.as_raw(),
 );
 
+/// What a piece of GPU memory holds, for the memory report.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MemoryKind {
+    /// Sampled images the scene or a technique uploads or filters: material and decal textures,
+    /// the environment's cubes, lookup tables.
+    Textures,
+    /// The mesh pool: every mesh's vertices and indices, skins, morph targets and posed copies.
+    MeshPool,
+    /// Acceleration structures (the scene's, the decals', the lights'), their scratch and
+    /// instance records.
+    AccelerationStructures,
+    /// Render targets: depth, the G-buffer, HDR, histories, the techniques' images.
+    Targets,
+    /// Device-local buffers: the scene's record tables and the lists the GPU writes (light
+    /// tiles, decal clusters and lists, draw commands, pyramids, statistics).
+    Buffers,
+    /// Host-visible memory: staging rings, readbacks, per-frame parameters, shader binding tables.
+    HostVisible,
+}
+
+impl MemoryKind {
+    /// Every kind, in report order.
+    pub const ALL: [MemoryKind; 6] = [
+        MemoryKind::Textures,
+        MemoryKind::MeshPool,
+        MemoryKind::AccelerationStructures,
+        MemoryKind::Targets,
+        MemoryKind::Buffers,
+        MemoryKind::HostVisible,
+    ];
+
+    /// Its key in statistics.
+    pub fn name(self) -> &'static str {
+        match self {
+            MemoryKind::Textures => "textures",
+            MemoryKind::MeshPool => "mesh_pool",
+            MemoryKind::AccelerationStructures => "acceleration_structures",
+            MemoryKind::Targets => "targets",
+            MemoryKind::Buffers => "buffers",
+            MemoryKind::HostVisible => "host_visible",
+        }
+    }
+
+    /// What a buffer of `usage` in `location` holds: host-visible memory, the mesh pool (the one
+    /// index buffer), an acceleration structure or its build input (instance records, decal
+    /// boxes), or a device-local table or list.
+    pub fn of_buffer(usage: vk::BufferUsageFlags, location: MemoryLocation) -> Self {
+        if location != MemoryLocation::GpuOnly {
+            MemoryKind::HostVisible
+        } else if usage.contains(vk::BufferUsageFlags::INDEX_BUFFER) {
+            MemoryKind::MeshPool
+        } else if usage.intersects(
+            vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR
+                | vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR,
+        ) {
+            MemoryKind::AccelerationStructures
+        } else {
+            MemoryKind::Buffers
+        }
+    }
+}
+
+/// Texture formats the ledger tells apart (more are counted with the last).
+pub const TEXTURE_FORMATS: usize = 8;
+
+/// Bytes of GPU memory by [`MemoryKind`], and the textures' by format: a plain copy for the
+/// frame's report.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MemoryCounts {
+    /// Bytes by kind, in [`MemoryKind::ALL`]'s order.
+    pub by_kind: [u64; 6],
+    /// The textures' bytes by format, the formats in the order they first appeared
+    /// (`UNDEFINED`: unused).
+    pub textures_by_format: [(vk::Format, u64); TEXTURE_FORMATS],
+}
+
+impl MemoryCounts {
+    /// Bytes of `kind`.
+    pub fn of(&self, kind: MemoryKind) -> u64 {
+        self.by_kind[kind as usize]
+    }
+
+    /// Bytes of every kind.
+    pub fn total(&self) -> u64 {
+        self.by_kind.iter().sum()
+    }
+
+    /// The texture formats in use with their bytes.
+    pub fn texture_formats(&self) -> impl Iterator<Item = (vk::Format, u64)> + '_ {
+        self.textures_by_format.iter().copied().filter(|&(f, b)| f != vk::Format::UNDEFINED && b > 0)
+    }
+}
+
+/// The context's count of allocated bytes by kind (see the module docs).
+#[derive(Debug, Default)]
+pub struct MemoryLedger {
+    counts: MemoryCounts,
+}
+
+impl MemoryLedger {
+    /// Counts `bytes` of `kind` (of `format`, for a texture) as allocated, or as `freed`.
+    pub fn add(&mut self, kind: MemoryKind, format: vk::Format, bytes: u64, freed: bool) {
+        let change = |v: &mut u64| *v = if freed { v.saturating_sub(bytes) } else { *v + bytes };
+        change(&mut self.counts.by_kind[kind as usize]);
+        if kind == MemoryKind::Textures {
+            let formats = &mut self.counts.textures_by_format;
+            let at = formats
+                .iter()
+                .position(|&(f, _)| f == format)
+                .or_else(|| formats.iter().position(|&(f, _)| f == vk::Format::UNDEFINED))
+                .unwrap_or(TEXTURE_FORMATS - 1);
+            if formats[at].0 == vk::Format::UNDEFINED {
+                formats[at].0 = format;
+            }
+            change(&mut formats[at].1);
+        }
+    }
+
+    /// The bytes allocated now.
+    pub fn counts(&self) -> MemoryCounts {
+        self.counts
+    }
+}
+
 /// A buffer and its memory.
 pub struct Buffer {
     /// The Vulkan buffer.
     pub raw: vk::Buffer,
     allocation: Option<Allocation>,
+    kind: MemoryKind,
     /// Size in bytes.
     pub size: u64,
     /// Device address (0 unless created with `SHADER_DEVICE_ADDRESS`).
@@ -33,7 +165,7 @@ pub struct Buffer {
 }
 
 impl Buffer {
-    /// Creates a buffer of `size` bytes in `location`.
+    /// Creates a buffer of `size` bytes in `location`, counted as [`MemoryKind::of_buffer`] says.
     pub fn new(
         ctx: &GpuContext,
         name: &str,
@@ -41,19 +173,30 @@ impl Buffer {
         usage: vk::BufferUsageFlags,
         location: MemoryLocation,
     ) -> Result<Buffer, RenderError> {
+        Self::of_kind(ctx, name, size, usage, location, MemoryKind::of_buffer(usage, location))
+    }
+
+    /// [`Buffer::new`], counted as `kind` (a buffer whose usage does not say what it holds:
+    /// acceleration-structure scratch).
+    pub fn of_kind(
+        ctx: &GpuContext,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+        kind: MemoryKind,
+    ) -> Result<Buffer, RenderError> {
         let d = &ctx.device;
         let size = size.max(16);
         // SAFETY: a valid create info; the buffer is bound to memory below before any use.
         let raw = unsafe { d.create_buffer(&vk::BufferCreateInfo::default().size(size).usage(usage), None) }?;
         // SAFETY: `raw` is a live buffer of this device.
         let requirements = unsafe { d.get_buffer_memory_requirements(raw) };
-        let allocation = ctx.allocate(&AllocationCreateDesc {
-            name,
-            requirements,
-            location,
-            linear: true,
-            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-        });
+        let allocation = ctx.allocate(
+            &AllocationCreateDesc { name, requirements, location, linear: true, allocation_scheme: AllocationScheme::GpuAllocatorManaged },
+            kind,
+            vk::Format::UNDEFINED,
+        );
         let allocation = match allocation {
             Ok(a) => a,
             Err(e) => {
@@ -70,7 +213,7 @@ impl Buffer {
         } else {
             0
         };
-        Ok(Buffer { raw, allocation: Some(allocation), size, address })
+        Ok(Buffer { raw, allocation: Some(allocation), kind, size, address })
     }
 
     /// The CPU view of a host-visible buffer.
@@ -83,7 +226,7 @@ impl Buffer {
         // SAFETY: guaranteed by the caller (directly or through the Graveyard).
         unsafe { ctx.destroying().destroy_buffer(self.raw, None) };
         if let Some(a) = self.allocation.take()
-            && let Err(e) = ctx.allocator().free(a)
+            && let Err(e) = ctx.free(a, self.kind, vk::Format::UNDEFINED)
         {
             tracing::error!("freeing buffer memory failed: {e}");
         }
@@ -105,6 +248,8 @@ pub struct ImageDesc<'a> {
     pub usage: vk::ImageUsageFlags,
     /// Samples a pixel (1 but for multisampled render targets).
     pub samples: u32,
+    /// What it holds, for the memory report: a texture or a render target.
+    pub kind: MemoryKind,
 }
 
 /// A 2D image (or a cube map: six layers), its memory and a view of all its mips.
@@ -114,6 +259,7 @@ pub struct Image {
     /// A view of every mip level.
     pub view: vk::ImageView,
     allocation: Option<Allocation>,
+    kind: MemoryKind,
     /// Texel format.
     pub format: vk::Format,
     /// Size of level 0.
@@ -156,13 +302,17 @@ impl Image {
         let raw = unsafe { d.create_image(&info, None) }?;
         // SAFETY: `raw` is a live image of this device.
         let requirements = unsafe { d.get_image_memory_requirements(raw) };
-        let allocation = ctx.allocate(&AllocationCreateDesc {
-            name: desc.name,
-            requirements,
-            location: MemoryLocation::GpuOnly,
-            linear: false,
-            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-        });
+        let allocation = ctx.allocate(
+            &AllocationCreateDesc {
+                name: desc.name,
+                requirements,
+                location: MemoryLocation::GpuOnly,
+                linear: false,
+                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+            },
+            desc.kind,
+            desc.format,
+        );
         let allocation = match allocation {
             Ok(a) => a,
             Err(e) => {
@@ -191,6 +341,7 @@ impl Image {
                     raw,
                     view: vk::ImageView::null(),
                     allocation: Some(allocation),
+                    kind: desc.kind,
                     format: desc.format,
                     extent: desc.extent,
                     mip_levels: 0,
@@ -205,6 +356,7 @@ impl Image {
             raw,
             view,
             allocation: Some(allocation),
+            kind: desc.kind,
             format: desc.format,
             extent: desc.extent,
             mip_levels: desc.mip_levels,
@@ -245,7 +397,7 @@ impl Image {
             ctx.destroying().destroy_image(self.raw, None);
         }
         if let Some(a) = self.allocation.take()
-            && let Err(e) = ctx.allocator().free(a)
+            && let Err(e) = ctx.free(a, self.kind, self.format)
         {
             tracing::error!("freeing image memory failed: {e}");
         }

@@ -49,7 +49,7 @@ use ash::vk;
 use crate::RenderError;
 use crate::gpu::commands::Recorder;
 use crate::gpu::device::GpuContext;
-use crate::gpu::memory::{Buffer, Image, ImageDesc};
+use crate::gpu::memory::{Buffer, Image, ImageDesc, MemoryKind};
 use crate::gpu::pipeline::ScenePush;
 use crate::gpu::timestamps::GpuTimer;
 use crate::gpu::upload::Upload;
@@ -327,8 +327,18 @@ impl FrameGraph {
         let desc = self.images[i].desc.expect("targets have a description");
         let extent = self.images[i].fixed.unwrap_or(self.extent);
         let samples = if desc.multisampled { self.samples } else { 1 };
-        let image =
-            Image::new(ctx, &ImageDesc { name: desc.name, format: desc.format, extent, mip_levels: 1, usage: desc.usage, samples })?;
+        let image = Image::new(
+            ctx,
+            &ImageDesc {
+                name: desc.name,
+                format: desc.format,
+                extent,
+                mip_levels: 1,
+                usage: desc.usage,
+                samples,
+                kind: MemoryKind::Targets,
+            },
+        )?;
         let e = &mut self.images[i];
         (e.raw, e.view, e.extent, e.range) = (image.raw, image.view, image.extent, image.full_range());
         e.depth = image.aspect.contains(vk::ImageAspectFlags::DEPTH);

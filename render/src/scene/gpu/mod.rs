@@ -39,7 +39,7 @@ use gpu_allocator::MemoryLocation;
 
 use crate::RenderError;
 use crate::gpu::device::{GpuContext, Tier};
-use crate::gpu::memory::{Buffer, Image, ImageDesc, Retired};
+use crate::gpu::memory::{Buffer, Image, ImageDesc, MemoryKind, Retired};
 use crate::gpu::upload::{CopyList, Shrink, StagingRing, Upload};
 use crate::graph::{Bind, BufferUse, Frame, FrameGraph, PassKind, ResourceId};
 use crate::layout::{GpuDrawCommand, GpuLighting, GpuMover, LOD_LEVELS};

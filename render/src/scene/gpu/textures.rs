@@ -139,6 +139,7 @@ impl GpuScene {
                 mip_levels: data.mips.len() as u32,
                 usage: vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
                 samples: 1,
+                kind: MemoryKind::Textures,
             },
         )?;
         copies.image_copy(src, image.raw, image.full_range(), regions);
