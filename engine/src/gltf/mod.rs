@@ -11,7 +11,8 @@
 //! `KHR_materials_ior` and `KHR_materials_volume`'s thickness for the refraction of blended
 //! materials),
 //! `KHR_lights_punctual`, `KHR_mesh_quantization`, `KHR_texture_transform`, `MSFT_lod` (a
-//! node's coarser levels of detail become its mesh's [`Mesh::lods`]), perspective cameras
+//! node's coarser levels of detail become its mesh's [`Mesh::lods`]), `EXT_meshopt_compression`
+//! (compressed buffer views decoded as the buffers load, `ext_meshopt.rs`), perspective cameras
 //! (`zfar` ignored: the projection is infinite reverse-Z), node hierarchies with TRS or matrix
 //! transforms, triangle lists/strips/fans. A document that *requires* any other extension (e.g.
 //! `KHR_draco_mesh_compression`) is refused with [`GltfError::UnsupportedExtension`] naming it.
@@ -107,6 +108,7 @@ use crate::scene::{MeshInstance, Name};
 use crate::transform::Transform;
 
 mod animations;
+mod ext_meshopt;
 mod faults;
 mod materials;
 mod meshes;
@@ -390,6 +392,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_mesh_quantization",
     "KHR_texture_transform",
     "MSFT_lod",
+    ext_meshopt::EXTENSION,
 ];
 
 /// How forgiving loading is.
@@ -755,9 +758,13 @@ fn read_uri(uri: &str, base: Option<&Path>) -> Result<Vec<u8>, GltfError> {
 }
 
 fn load_buffers(document: &Document, mut blob: Option<Vec<u8>>, base: Option<&Path>, file: &Path) -> Result<Vec<Vec<u8>>, GltfError> {
-    document
+    let mut buffers = document
         .buffers()
         .map(|buffer| {
+            if ext_meshopt::is_fallback(&buffer) {
+                // Its views are decoded from compressed ones below; a URI, if any, is ignored.
+                return Ok(vec![0; buffer.length()]);
+            }
             let (data, what) = match buffer.source() {
                 ::gltf::buffer::Source::Bin => (
                     blob.take().ok_or_else(|| GltfError::BadBuffer {
@@ -778,7 +785,9 @@ fn load_buffers(document: &Document, mut blob: Option<Vec<u8>>, base: Option<&Pa
             }
             Ok(data)
         })
-        .collect()
+        .collect::<Result<Vec<_>, GltfError>>()?;
+    ext_meshopt::decode_views(document, &mut buffers, file)?;
+    Ok(buffers)
 }
 
 #[cfg(test)]

@@ -24,7 +24,7 @@
 //! 240,000), which one core walked alone. Both halves of the work now run on the compute task
 //! pool: finding the changed entities that have no changed ancestor (read-only, a parallel query)
 //! and walking the subtrees below them (disjoint, so one task a batch of subtrees:
-//! [`parallel`], the one module of the crate allowed `unsafe`, says why that is sound). Bevy's
+//! [`parallel`], one of the two modules of the crate allowed `unsafe`, says why that is sound). Bevy's
 //! `bevy_transform` walks in parallel the same way, but it could not be taken as a dependency:
 //! it brings its own transform components and has no [`Static`] entities, [`Joint`]s or
 //! [`TransformChanges`] lists. [`propagate_transforms_serial`] is the one-thread reference the
