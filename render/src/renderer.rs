@@ -488,6 +488,7 @@ impl Renderer {
         counters.instances = mirror.instances.len() as u64;
         counters.draw_calls = res.culling.draw_calls();
         counters.mesh_pool_bytes = res.scene.pool_bytes();
+        counters.posed_mesh_bytes = res.scene.posed_bytes();
         counters.lights = mirror.lights.len() as u64;
         counters.environment = res.environment.stats;
         counters.decals = mirror.decals.len() as u64;

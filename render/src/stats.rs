@@ -173,6 +173,8 @@ pub struct FrameCounters {
     pub command_words: u64,
     /// Bytes of the mesh pool's buffer (`crate::scene::pool`).
     pub mesh_pool_bytes: u64,
+    /// Of those, the bytes posed meshes' copies hold (`crate::skinning`).
+    pub posed_mesh_bytes: u64,
     /// Posed meshes the skinning pass wrote this frame (`crate::skinning`).
     pub skinned_meshes: u64,
     /// Vertices it skinned.

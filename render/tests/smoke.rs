@@ -71,7 +71,9 @@ fn lit_quad_renders_and_quiet_frames_upload_nothing() {
     let padding = allocator.checked_sub(memory.total()).unwrap_or_else(|| panic!("more counted than allocated: {memory:?}, {allocator}"));
     assert!(padding * 200 <= allocator, "the report's total {} is the allocator's {allocator} but for padding", memory.total());
     use render::gpu::memory::MemoryKind;
-    for kind in [MemoryKind::Textures, MemoryKind::MeshPool, MemoryKind::Targets, MemoryKind::Buffers, MemoryKind::HostVisible] {
+    for kind in
+        [MemoryKind::Textures, MemoryKind::MeshPool, MemoryKind::Targets, MemoryKind::Tables, MemoryKind::Lists, MemoryKind::HostVisible]
+    {
         assert!(memory.of(kind) > 0, "{} hold memory: {memory:?}", kind.name());
     }
     let by_format: u64 = memory.texture_formats().map(|(_, bytes)| bytes).sum();

@@ -16,9 +16,10 @@
 //! `blas_updates`, `tlas_builds`, `instances`, `lights`, `decals`, `transparent`: blended instances drawn,
 //! `shadow_map_views`: atlas tiles drawn, `shadow_maps_missing`: lights the atlas had no room
 //! for), and `memory` (GPU memory allocated at the frame's end, in bytes: `textures`,
-//! `mesh_pool`, `acceleration_structures`, `targets`, `buffers` (record tables and the lists the
-//! GPU writes), `host_visible` (staging, readbacks), their `total`, and `textures_by_format`,
-//! keyed by Vulkan format name, e.g. `R8G8B8A8_SRGB`).
+//! `mesh_pool` (of which `posed_meshes`: the posed copies), `acceleration_structures`, `targets`,
+//! `tables` (the scene's records), `lists` (other device-local buffers, most written by the GPU),
+//! `host_visible` (staging, readbacks), their `total` (`posed_meshes` aside), and
+//! `textures_by_format`, keyed by Vulkan format name, e.g. `R8G8B8A8_SRGB`).
 //!
 //! Decal lists. `clusters`, in frames that applied clustered decals or still hold their lists
 //! (`capacity` > 0: for a second after they last ran): `clusters`, `capacity`, `limit` (the
@@ -185,6 +186,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
         value["light_tiles"] = light_tiles_json(&c.light_tiles, tiled);
     }
     value["memory"] = memory_json(&c.memory);
+    value["memory"]["posed_meshes"] = json!(c.posed_mesh_bytes);
     value
 }
 

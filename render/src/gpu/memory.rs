@@ -41,21 +41,25 @@ pub enum MemoryKind {
     AccelerationStructures,
     /// Render targets: depth, the G-buffer, HDR, histories, the techniques' images.
     Targets,
-    /// Device-local buffers: the scene's record tables and the lists the GPU writes (light
-    /// tiles, decal clusters and lists, draw commands, pyramids, statistics).
-    Buffers,
+    /// The scene's record tables: instances, materials, lights, the camera, decals and their
+    /// boxes, the mesh table, draw orders, the skinning input, movers.
+    Tables,
+    /// Other device-local buffers, most of them written by the GPU: light tiles, decal clusters
+    /// and lists, culling records and draw commands, depth pyramids, bloom, statistics.
+    Lists,
     /// Host-visible memory: staging rings, readbacks, per-frame parameters, shader binding tables.
     HostVisible,
 }
 
 impl MemoryKind {
     /// Every kind, in report order.
-    pub const ALL: [MemoryKind; 6] = [
+    pub const ALL: [MemoryKind; 7] = [
         MemoryKind::Textures,
         MemoryKind::MeshPool,
         MemoryKind::AccelerationStructures,
         MemoryKind::Targets,
-        MemoryKind::Buffers,
+        MemoryKind::Tables,
+        MemoryKind::Lists,
         MemoryKind::HostVisible,
     ];
 
@@ -66,14 +70,15 @@ impl MemoryKind {
             MemoryKind::MeshPool => "mesh_pool",
             MemoryKind::AccelerationStructures => "acceleration_structures",
             MemoryKind::Targets => "targets",
-            MemoryKind::Buffers => "buffers",
+            MemoryKind::Tables => "tables",
+            MemoryKind::Lists => "lists",
             MemoryKind::HostVisible => "host_visible",
         }
     }
 
     /// What a buffer of `usage` in `location` holds: host-visible memory, the mesh pool (the one
-    /// index buffer), an acceleration structure or its build input (instance records, decal
-    /// boxes), or a device-local table or list.
+    /// index buffer), an acceleration structure or its build input (instance records), or a
+    /// device-local list (record tables say so themselves: [`Buffer::of_kind`]).
     pub fn of_buffer(usage: vk::BufferUsageFlags, location: MemoryLocation) -> Self {
         if location != MemoryLocation::GpuOnly {
             MemoryKind::HostVisible
@@ -85,7 +90,7 @@ impl MemoryKind {
         ) {
             MemoryKind::AccelerationStructures
         } else {
-            MemoryKind::Buffers
+            MemoryKind::Lists
         }
     }
 }
@@ -98,7 +103,7 @@ pub const TEXTURE_FORMATS: usize = 8;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct MemoryCounts {
     /// Bytes by kind, in [`MemoryKind::ALL`]'s order.
-    pub by_kind: [u64; 6],
+    pub by_kind: [u64; MemoryKind::ALL.len()],
     /// The textures' bytes by format, the formats in the order they first appeared
     /// (`UNDEFINED`: unused).
     pub textures_by_format: [(vk::Format, u64); TEXTURE_FORMATS],
@@ -177,7 +182,7 @@ impl Buffer {
     }
 
     /// [`Buffer::new`], counted as `kind` (a buffer whose usage does not say what it holds:
-    /// acceleration-structure scratch).
+    /// record tables, acceleration-structure scratch).
     pub fn of_kind(
         ctx: &GpuContext,
         name: &str,

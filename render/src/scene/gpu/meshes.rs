@@ -323,8 +323,14 @@ impl GpuScene {
         if self.mesh_info.len() <= slot {
             self.mesh_info.resize(slot + 1, GpuMeshInfo::default());
         }
+        if mesh.source.is_some() {
+            self.posed_bytes += mesh.bytes;
+        }
         if let Some(old) = self.meshes[slot].replace(mesh) {
             self.released_ranges.push((frame_value, old.offset, old.bytes));
+            if old.source.is_some() {
+                self.posed_bytes -= old.bytes;
+            }
         }
     }
 
@@ -356,6 +362,12 @@ impl GpuScene {
     /// The mesh pool's buffer, which every mesh draw binds as its vertex and index buffer.
     pub fn pool_buffer(&self) -> Option<vk::Buffer> {
         self.mesh_pool.as_ref().map(|b| b.raw)
+    }
+
+    /// Bytes of the mesh pool that posed meshes' copies hold (their vertices and previous
+    /// positions).
+    pub fn posed_bytes(&self) -> u64 {
+        self.posed_bytes
     }
 
     /// Bytes of the mesh pool's buffer (0 without one).

@@ -137,6 +137,8 @@ pub struct GpuScene {
     mover_commands: Vec<GpuDrawCommand>,
     /// Meshes by [`MeshId`], placed in the pool.
     pub meshes: Vec<Option<GpuMesh>>,
+    /// Bytes of the pool the posed meshes among them hold.
+    posed_bytes: u64,
     /// The mesh pool's buffer (none before the first mesh, or after a while without any).
     mesh_pool: Option<Buffer>,
     ranges: RangeAllocator,
@@ -272,6 +274,7 @@ impl GpuScene {
             mover_records: Vec::new(),
             mover_commands: Vec::new(),
             meshes: Vec::new(),
+            posed_bytes: 0,
             mesh_pool: None,
             ranges: RangeAllocator::default(),
             released_ranges: Vec::new(),
@@ -330,6 +333,9 @@ impl GpuScene {
         for id in mirror.released_meshes.drain(..) {
             if let Some(mesh) = self.meshes.get_mut(id.0 as usize).and_then(Option::take) {
                 self.released_ranges.push((up.frame_value, mesh.offset, mesh.bytes));
+                if mesh.source.is_some() {
+                    self.posed_bytes -= mesh.bytes;
+                }
                 self.mesh_info[id.0 as usize] = GpuMeshInfo::default();
                 self.mesh_info_dirty = true;
                 released_source |= mesh.skinned || mesh.morph_targets > 0;

@@ -40,7 +40,7 @@ impl GpuTable {
     }
 
     pub(super) fn create(ctx: &GpuContext, name: &str, size: u64, extra_usage: vk::BufferUsageFlags) -> Result<Buffer, RenderError> {
-        Buffer::new(
+        Buffer::of_kind(
             ctx,
             name,
             size,
@@ -49,6 +49,7 @@ impl GpuTable {
                 | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
                 | extra_usage,
             MemoryLocation::GpuOnly,
+            MemoryKind::Tables,
         )
     }
 
