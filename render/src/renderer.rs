@@ -260,10 +260,11 @@ impl Renderer {
         self.ctx.ray_support()
     }
 
-    /// The bytes of GPU memory the allocator says are allocated now: the total the frame's
-    /// `counters.memory` adds up to (asking the allocator allocates: not for every frame).
-    pub fn allocator_bytes(&self) -> u64 {
-        self.ctx.allocator_bytes()
+    /// GPU memory allocated now, by what it holds (the frame's `counters.memory` is this at the
+    /// frame's end); its total is [`Renderer::gpu_memory_in_use`] but for the allocator's
+    /// alignment padding.
+    pub fn gpu_memory(&self) -> crate::gpu::memory::MemoryCounts {
+        self.ctx.memory()
     }
 
     /// The render size.
@@ -282,9 +283,10 @@ impl Renderer {
         self.ctx.validation.take_errors()
     }
 
-    /// Bytes of GPU memory allocated through the allocator (for leak checks).
+    /// Bytes of GPU memory allocated through the allocator (for leak checks; asking the
+    /// allocator allocates, so not for every frame: [`Renderer::gpu_memory`] is free).
     pub fn gpu_memory_in_use(&self) -> u64 {
-        self.ctx.allocator().generate_report().total_allocated_bytes
+        self.ctx.allocator_bytes()
     }
 
     /// Bytes of GPU memory allocated through the allocator, summed by allocation name, largest

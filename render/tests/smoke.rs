@@ -67,7 +67,7 @@ fn lit_quad_renders_and_quiet_frames_upload_nothing() {
 
     // Where the bytes go: every allocation counted by kind. The allocator's total also holds the
     // padding it leaves between allocations to align them, a few bytes each.
-    let (memory, allocator) = (quiet.counters.memory, r.allocator_bytes());
+    let (memory, allocator) = (quiet.counters.memory, r.gpu_memory_in_use());
     let padding = allocator.checked_sub(memory.total()).unwrap_or_else(|| panic!("more counted than allocated: {memory:?}, {allocator}"));
     assert!(padding * 200 <= allocator, "the report's total {} is the allocator's {allocator} but for padding", memory.total());
     use render::gpu::memory::MemoryKind;
