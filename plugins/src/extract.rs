@@ -155,7 +155,13 @@ impl MirrorSlots {
 }
 
 fn texture_data(image: &Image) -> TextureData {
-    TextureData { width: image.width, height: image.height, srgb: image.color_space == ColorSpace::Srgb, mips: image.mips.clone() }
+    TextureData {
+        width: image.width,
+        height: image.height,
+        srgb: image.color_space == ColorSpace::Srgb,
+        format: render::scene::TexelFormat::Rgba8,
+        mips: image.mips.clone(),
+    }
 }
 
 /// Uploads new images, re-uploads modified ones, frees removed ones.

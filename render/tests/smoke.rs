@@ -6,7 +6,7 @@
 #![forbid(unsafe_code)]
 
 use glam::{Mat4, Vec2, Vec3};
-use render::scene::{DrawItem, GpuCamera, GpuInstance, GpuLight, GpuMaterial, GpuVertex, MeshData, SceneMirror};
+use render::scene::{DrawItem, GpuCamera, GpuInstance, GpuLight, GpuMaterial, GpuVertex, MeshData, SceneMirror, TexelFormat, TextureData};
 use render::{FrameSettings, Renderer, RendererSettings, Tier};
 
 fn quad() -> MeshData {
@@ -95,6 +95,40 @@ fn lit_quad_renders_and_quiet_frames_upload_nothing() {
     let clear = settings.clear_color;
     assert!(corner[..3].iter().zip(&clear).all(|(c, k)| (c - k).abs() < 1e-3), "corner pixel {corner:?} is the clear colour {clear:?}");
     assert_eq!(depth[0], 0.0, "nothing covers the corner (reverse-Z far plane)");
+
+    // A block-compressed texture is sampled as it is: a BC1 texture of solid cyan (8×8 with its
+    // mips, the last ones smaller than a block) shades the quad as the same colour in RGBA8 does.
+    assert!(r.capabilities().texture_compression_bc, "every device this renderer runs on samples BC textures");
+    {
+        let cyan_block = [0xFF, 0x07, 0xFF, 0x07, 0, 0, 0, 0]; // colour0 = colour1 = 0x07FF (R5 0, G6 63, B5 31)
+        let bc1 = TextureData {
+            width: 8,
+            height: 8,
+            srgb: true,
+            format: TexelFormat::Bc1,
+            mips: vec![cyan_block.repeat(4), cyan_block.to_vec(), cyan_block.to_vec(), cyan_block.to_vec()],
+        };
+        let rgba = TextureData {
+            width: 8,
+            height: 8,
+            srgb: true,
+            format: TexelFormat::Rgba8,
+            mips: [8usize, 4, 2, 1].iter().map(|n| [0, 255, 255, 255].repeat(n * n)).collect(),
+        };
+        let mut shade_with = |texture: TextureData| {
+            let slot = m.add_texture(texture);
+            let material = GpuMaterial { base_color_tex: slot, ..*m.materials.get(mat).expect("the material") };
+            m.materials.write(mat, material);
+            for _ in 0..2 {
+                m.begin_frame();
+                r.render(&mut m, &settings).expect("frame");
+            }
+            r.read_hdr().expect("readback")[centre_index]
+        };
+        let (compressed, plain) = (shade_with(bc1), shade_with(rgba));
+        assert!(compressed[0] < 0.05 * compressed[1] && compressed[1] > 0.01, "the BC1 texture shades cyan: {compressed:?}");
+        assert!(compressed.iter().zip(&plain).all(|(a, b)| (a - b).abs() < 1e-4), "BC1 {compressed:?} against RGBA8 {plain:?}");
+    }
     let errors = r.take_validation_errors();
     assert!(errors.is_empty(), "validation errors: {errors:#?}");
     eprintln!("centre {centre:?} corner {corner:?} device {} tier {}", r.device_name(), tier.name());

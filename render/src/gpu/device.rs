@@ -56,6 +56,8 @@ pub struct Capabilities {
     pub ray_query: bool,
     /// `VK_KHR_ray_tracing_pipeline`.
     pub ray_tracing_pipeline: bool,
+    /// `textureCompressionBC`: block-compressed textures (BC1 to BC7) can be sampled.
+    pub texture_compression_bc: bool,
 }
 
 impl Capabilities {
@@ -300,7 +302,8 @@ impl GpuContext {
             .draw_indirect_first_instance(true) // their firstInstance is the instance slot
             .shader_int64(true)
             .fragment_stores_and_atomics(true) // the display check's counter (crate::present::check)
-            .fill_mode_non_solid(false);
+            .fill_mode_non_solid(false)
+            .texture_compression_bc(caps.texture_compression_bc); // block-compressed textures (crate::scene::TexelFormat)
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
             .buffer_device_address(true)
             .descriptor_indexing(true)
@@ -594,6 +597,7 @@ fn pick_physical_device(instance: &ash::Instance) -> Result<(vk::PhysicalDevice,
             acceleration_structure: has(khr::acceleration_structure::NAME) && has(khr::deferred_host_operations::NAME),
             ray_query: has(khr::ray_query::NAME),
             ray_tracing_pipeline: has(khr::ray_tracing_pipeline::NAME),
+            texture_compression_bc: base.texture_compression_bc == vk::TRUE,
         };
         let score = match props.device_type {
             vk::PhysicalDeviceType::DISCRETE_GPU => 3,

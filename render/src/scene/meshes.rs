@@ -108,7 +108,43 @@ impl MeshLods {
     }
 }
 
-/// Pixels to upload: RGBA8, a full or partial mip chain, level 0 first.
+/// How a texture's texels are stored: 8-bit RGBA, or one of the block-compressed formats (4×4
+/// texels a block) the GPU samples as they are.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TexelFormat {
+    /// Four bytes a texel.
+    #[default]
+    Rgba8,
+    /// BC1: RGB (and 1-bit alpha), 8 bytes a block.
+    Bc1,
+    /// BC3: RGBA, 16 bytes a block.
+    Bc3,
+    /// BC4: one channel, 8 bytes a block.
+    Bc4,
+    /// BC5: two channels (normal maps' X and Y), 16 bytes a block.
+    Bc5,
+    /// BC7: RGBA at high quality, 16 bytes a block.
+    Bc7,
+}
+
+impl TexelFormat {
+    /// Bytes of one level of `width` × `height` texels.
+    pub fn level_bytes(self, width: u32, height: u32) -> u64 {
+        let blocks = |n: u32| n.div_ceil(4) as u64;
+        match self {
+            TexelFormat::Rgba8 => width as u64 * height as u64 * 4,
+            TexelFormat::Bc1 | TexelFormat::Bc4 => blocks(width) * blocks(height) * 8,
+            TexelFormat::Bc3 | TexelFormat::Bc5 | TexelFormat::Bc7 => blocks(width) * blocks(height) * 16,
+        }
+    }
+
+    /// Whether it is block-compressed.
+    pub fn compressed(self) -> bool {
+        self != TexelFormat::Rgba8
+    }
+}
+
+/// Pixels to upload: a full or partial mip chain, level 0 first.
 #[derive(Clone, Debug)]
 pub struct TextureData {
     /// Width of level 0.
@@ -117,7 +153,9 @@ pub struct TextureData {
     pub height: u32,
     /// Whether texels are sRGB-encoded colour (sampled as linear by the hardware).
     pub srgb: bool,
-    /// One RGBA8 buffer per mip level.
+    /// How the texels are stored.
+    pub format: TexelFormat,
+    /// One buffer per mip level, of [`TexelFormat::level_bytes`] each.
     pub mips: Vec<Vec<u8>>,
 }
 
