@@ -102,7 +102,40 @@ pub enum ImageError {
     },
 }
 
-/// An RGBA8 image with its full mip chain.
+/// How an image's texels are stored: 8-bit RGBA (what decoding PNG and JPEG gives), or a
+/// block-compressed format (4×4 texels a block) that the GPU samples as it is.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TexelFormat {
+    /// Four bytes a texel.
+    #[default]
+    Rgba8,
+    /// BC1: RGB (and 1-bit alpha), 8 bytes a block.
+    Bc1,
+    /// BC3: RGBA, 16 bytes a block.
+    Bc3,
+    /// BC4: one channel, 8 bytes a block.
+    Bc4,
+    /// BC5: two channels, 16 bytes a block.
+    Bc5,
+    /// BC7: RGBA, 16 bytes a block.
+    Bc7,
+}
+
+impl TexelFormat {
+    /// Bytes of one level of `width` × `height` texels (`None` past `usize`).
+    pub fn level_bytes(self, width: u32, height: u32) -> Option<usize> {
+        let (w, h) = (width as usize, height as usize);
+        let blocks = w.div_ceil(4).checked_mul(h.div_ceil(4));
+        match self {
+            TexelFormat::Rgba8 => w.checked_mul(h)?.checked_mul(4),
+            TexelFormat::Bc1 | TexelFormat::Bc4 => blocks?.checked_mul(8),
+            TexelFormat::Bc3 | TexelFormat::Bc5 | TexelFormat::Bc7 => blocks?.checked_mul(16),
+        }
+    }
+}
+
+/// An image with its mip chain: RGBA8, with every level, when decoded from PNG or JPEG; or
+/// block-compressed levels as a container file held them ([`Image::from_blocks`]).
 #[derive(Clone, PartialEq)]
 pub struct Image {
     /// Width of level 0 in pixels.
@@ -111,7 +144,10 @@ pub struct Image {
     pub height: u32,
     /// Encoding of the RGB channels.
     pub color_space: ColorSpace,
-    /// Tightly packed RGBA8 rows per level, level 0 first, down to 1×1.
+    /// How the texels are stored.
+    pub format: TexelFormat,
+    /// Each level's texels (tightly packed rows, or blocks), level 0 first, down to 1×1 when
+    /// complete.
     pub mips: Vec<Vec<u8>>,
 }
 
@@ -121,6 +157,7 @@ impl std::fmt::Debug for Image {
             .field("width", &self.width)
             .field("height", &self.height)
             .field("color_space", &self.color_space)
+            .field("format", &self.format)
             .field("mip_count", &self.mips.len())
             .finish()
     }
@@ -134,7 +171,30 @@ impl Image {
             return Err(ImageError::InvalidSize { width, height, expected: expected.unwrap_or(0), actual: data.len() });
         }
         let mips = build_mips(width, height, data, color_space);
-        Ok(Image { width, height, color_space, mips })
+        Ok(Image { width, height, color_space, format: TexelFormat::Rgba8, mips })
+    }
+
+    /// An image of `format` from its levels as a container holds them (level 0 first, each of
+    /// [`TexelFormat::level_bytes`]; at most a full chain).
+    pub fn from_blocks(
+        width: u32,
+        height: u32,
+        color_space: ColorSpace,
+        format: TexelFormat,
+        mips: Vec<Vec<u8>>,
+    ) -> Result<Image, ImageError> {
+        let full_chain = 32 - width.max(height).max(1).leading_zeros();
+        if width == 0 || height == 0 || mips.is_empty() || mips.len() as u32 > full_chain {
+            return Err(ImageError::InvalidSize { width, height, expected: 0, actual: mips.len() });
+        }
+        for (level, data) in mips.iter().enumerate() {
+            let (w, h) = mip_size(width, height, level as u32);
+            let expected = format.level_bytes(w, h).unwrap_or(0);
+            if data.len() != expected {
+                return Err(ImageError::InvalidSize { width: w, height: h, expected, actual: data.len() });
+            }
+        }
+        Ok(Image { width, height, color_space, format, mips })
     }
 
     /// Reads and decodes a PNG or JPEG file (see the module docs for the limits and the
@@ -152,7 +212,7 @@ impl Image {
 
     /// A 1×1 image of one colour.
     pub fn solid(rgba: [u8; 4], color_space: ColorSpace) -> Image {
-        Image { width: 1, height: 1, color_space, mips: vec![rgba.to_vec()] }
+        Image { width: 1, height: 1, color_space, format: TexelFormat::Rgba8, mips: vec![rgba.to_vec()] }
     }
 
     /// The stand-in for a colour texture that could not be loaded: a 16×16 sRGB checker of 4×4
@@ -347,6 +407,19 @@ fn build_mips(width: u32, height: u32, level0: Vec<u8>, color_space: ColorSpace)
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn block_compressed_levels_are_checked_against_their_size() {
+        let block = vec![0u8; 8];
+        // 8×8 in BC1: 2×2 blocks, then 1, 1, 1.
+        let chain = vec![block.repeat(4), block.clone(), block.clone(), block.clone()];
+        let image = Image::from_blocks(8, 8, ColorSpace::Srgb, TexelFormat::Bc1, chain).expect("a full BC1 chain");
+        assert_eq!((image.format, image.mip_count()), (TexelFormat::Bc1, 4));
+        assert_eq!(TexelFormat::Bc7.level_bytes(5, 3), Some(32), "partial blocks count whole");
+        assert!(Image::from_blocks(8, 8, ColorSpace::Srgb, TexelFormat::Bc1, vec![block.clone()]).is_err(), "a level one block short");
+        assert!(Image::from_blocks(4, 4, ColorSpace::Srgb, TexelFormat::Bc1, vec![block.clone(); 4]).is_err(), "more levels than 4×4 has");
+        assert!(Image::from_blocks(0, 4, ColorSpace::Srgb, TexelFormat::Bc1, vec![block]).is_err(), "no texels");
+    }
 
     #[test]
     fn odd_sizes_follow_vulkan_mip_rule() {

@@ -25,7 +25,7 @@ use glam::{Mat4, Vec2, Vec3};
 use render::scene::poses::PoseSet;
 use render::scene::{
     DrawItem, GpuCamera, GpuInstance, GpuMaterial, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, MeshId, SceneMirror,
-    TEXTURE_FLAT_NORMAL, TEXTURE_WHITE, TextureData,
+    TEXTURE_FLAT_NORMAL, TEXTURE_WHITE, TexelFormat, TextureData,
 };
 use std::collections::HashMap;
 
@@ -159,7 +159,14 @@ fn texture_data(image: &Image) -> TextureData {
         width: image.width,
         height: image.height,
         srgb: image.color_space == ColorSpace::Srgb,
-        format: render::scene::TexelFormat::Rgba8,
+        format: match image.format {
+            engine::image::TexelFormat::Rgba8 => TexelFormat::Rgba8,
+            engine::image::TexelFormat::Bc1 => TexelFormat::Bc1,
+            engine::image::TexelFormat::Bc3 => TexelFormat::Bc3,
+            engine::image::TexelFormat::Bc4 => TexelFormat::Bc4,
+            engine::image::TexelFormat::Bc5 => TexelFormat::Bc5,
+            engine::image::TexelFormat::Bc7 => TexelFormat::Bc7,
+        },
         mips: image.mips.clone(),
     }
 }

@@ -146,14 +146,15 @@ pub fn image_problem(image: &Image) -> Option<String> {
     if w == 0 || h == 0 || w > MAX_IMAGE_DIMENSION || h > MAX_IMAGE_DIMENSION {
         return Some(format!("has size {w}x{h}, outside 1..={MAX_IMAGE_DIMENSION}"));
     }
-    if image.mips.is_empty() || image.mips.len() as u32 > image.mip_count() {
-        return Some(format!("has {} mip levels where a {w}x{h} image has 1..={}", image.mips.len(), image.mip_count()));
+    let full_chain = 32 - w.max(h).leading_zeros();
+    if image.mips.is_empty() || image.mips.len() as u32 > full_chain {
+        return Some(format!("has {} mip levels where a {w}x{h} image has 1..={full_chain}", image.mips.len()));
     }
     for (level, data) in image.mips.iter().enumerate() {
         let (lw, lh) = image.mip_size(level as u32);
-        let expected = lw as usize * lh as usize * 4;
+        let expected = image.format.level_bytes(lw, lh).unwrap_or(0);
         if data.len() != expected {
-            return Some(format!("has {} bytes in mip level {level} where {lw}x{lh} RGBA8 needs {expected}", data.len()));
+            return Some(format!("has {} bytes in mip level {level} where {lw}x{lh} {:?} needs {expected}", data.len(), image.format));
         }
     }
     None

@@ -980,7 +980,7 @@ fn decal_textures_are_sampled_at_the_mip_level_their_footprint_needs() {
             level_colors.get(level as usize).copied().unwrap_or([255; 4]).repeat(texels)
         })
         .collect();
-    let image = Image { width: 64, height: 64, color_space: ColorSpace::Linear, mips };
+    let image = Image { width: 64, height: 64, color_space: ColorSpace::Linear, format: engine::image::TexelFormat::Rgba8, mips };
     for c in COVER {
         eprintln!("{c:?}");
         let (mut app, view) = plane_app(c);

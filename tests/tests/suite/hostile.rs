@@ -5,7 +5,7 @@
 //! scene around it renders exactly as it does without it.
 
 use engine::environment::{Environment, EnvironmentSource, HdrImage, Projection};
-use engine::image::{ColorSpace, Image};
+use engine::image::{ColorSpace, Image, TexelFormat};
 use engine::prelude::*;
 use plugins::decal::{Decal, DecalMaterial, DecalUv};
 use plugins::{RenderMirror, RenderSettings};
@@ -152,13 +152,24 @@ fn hostile_entities_and_assets_are_skipped_with_one_warning_each_and_the_rest_re
 
     // Images built field by field (decoded images are checked by the loader).
     let mut images = app.world.resource_mut::<Assets<Image>>();
-    let zero = images.add(Image { width: 0, height: 0, color_space: ColorSpace::Srgb, mips: vec![] });
-    let short = images.add(Image { width: 4, height: 4, color_space: ColorSpace::Srgb, mips: vec![vec![255; 3]] });
-    let absurd = images.add(Image { width: 1 << 30, height: 1, color_space: ColorSpace::Srgb, mips: vec![vec![0; 4]] });
-    let bad_images = [zero, short, absurd];
+    let zero = images.add(Image { width: 0, height: 0, color_space: ColorSpace::Srgb, format: TexelFormat::Rgba8, mips: vec![] });
+    let short =
+        images.add(Image { width: 4, height: 4, color_space: ColorSpace::Srgb, format: TexelFormat::Rgba8, mips: vec![vec![255; 3]] });
+    let absurd =
+        images.add(Image { width: 1 << 30, height: 1, color_space: ColorSpace::Srgb, format: TexelFormat::Rgba8, mips: vec![vec![0; 4]] });
+    // Block-compressed ones: an 8×8 BC1 level needs four blocks, and a 4×4 image has three levels.
+    let block = [0xFF, 0x07, 0xFF, 0x07, 0, 0, 0, 0];
+    let bc1 = |w, h, mips| Image { width: w, height: h, color_space: ColorSpace::Srgb, format: TexelFormat::Bc1, mips };
+    let short_blocks = images.add(bc1(8, 8, vec![block.to_vec()]));
+    let deep = images.add(bc1(4, 4, vec![block.to_vec(); 4]));
+    let compressed = images.add(bc1(8, 8, vec![block.repeat(4), block.to_vec(), block.to_vec(), block.to_vec()]));
+    let bad_images = [zero, short, absurd, short_blocks, deep];
     let textured = Material { base_color_texture: Some(zero), ..Material::from_color(Vec4::ONE, 0.0, 0.5) };
     let textured = app.world.resource_mut::<Assets<Material>>().add(textured);
     fine.push(app.world.spawn((MeshInstance { mesh: cube, material: textured }, Transform::from_xyz(100.0, 0.0, 0.0))).id());
+    let bc_textured = Material { base_color_texture: Some(compressed), ..Material::from_color(Vec4::ONE, 0.0, 0.5) };
+    let bc_textured = app.world.resource_mut::<Assets<Material>>().add(bc_textured);
+    fine.push(app.world.spawn((MeshInstance { mesh: cube, material: bc_textured }, Transform::from_xyz(100.0, 2.0, 0.0))).id());
 
     // Several frames in which every hostile entity changes again: still one warning each.
     for _ in 0..3 {
