@@ -91,6 +91,16 @@ pub enum ImageError {
         /// Which limit it exceeds, with the numbers.
         limit: String,
     },
+    /// A KTX2 container this loader cannot use: not a valid container, supercompressed, a
+    /// universal (Basis) format to transcode, or a texel format other than BC1, BC3, BC4, BC5,
+    /// BC7 and RGBA8.
+    #[error("cannot use KTX2 image {what}: {reason}")]
+    Ktx2 {
+        /// The file path, or a description of the in-memory source.
+        what: String,
+        /// Why.
+        reason: String,
+    },
     /// The bytes are not a decodable PNG or JPEG (unknown format, truncated or corrupt data, or
     /// the decoder's allocation limit was reached).
     #[error("cannot decode image {what}: {source}")]
@@ -208,6 +218,36 @@ impl Image {
     /// to RGBA8); errors name it `<N bytes in memory>`.
     pub fn from_encoded(bytes: &[u8], color_space: ColorSpace) -> Result<Image, ImageError> {
         decode(bytes, color_space, || format!("<{} bytes in memory>", bytes.len()))
+    }
+
+    /// Reads a KTX2 container of a 2D texture in BC1, BC3, BC4, BC5, BC7 or RGBA8 (its levels
+    /// used as they are, as many as it holds); `color_space` is how the material uses it (the
+    /// blocks are the same either way). Supercompressed and Basis Universal containers are
+    /// refused with the reason (transcoding them is not implemented yet); errors name `what`.
+    pub fn from_ktx2(bytes: &[u8], color_space: ColorSpace, what: &str) -> Result<Image, ImageError> {
+        use ktx2::Format as F;
+        let fail = |reason: String| ImageError::Ktx2 { what: what.to_string(), reason };
+        let reader = ktx2::Reader::new(bytes).map_err(|e| fail(format!("not a valid KTX2 container ({e})")))?;
+        let header = reader.header();
+        if let Some(scheme) = header.supercompression_scheme {
+            return Err(fail(format!("supercompressed ({scheme:?}): Basis Universal and zstd are not transcoded yet")));
+        }
+        if header.layer_count > 1 || header.face_count > 1 || header.pixel_depth > 1 {
+            return Err(fail("an array, cube or volume texture, not a 2D one".to_string()));
+        }
+        let format = match header.format {
+            Some(F::BC1_RGB_UNORM_BLOCK | F::BC1_RGB_SRGB_BLOCK | F::BC1_RGBA_UNORM_BLOCK | F::BC1_RGBA_SRGB_BLOCK) => TexelFormat::Bc1,
+            Some(F::BC3_UNORM_BLOCK | F::BC3_SRGB_BLOCK) => TexelFormat::Bc3,
+            Some(F::BC4_UNORM_BLOCK) => TexelFormat::Bc4,
+            Some(F::BC5_UNORM_BLOCK) => TexelFormat::Bc5,
+            Some(F::BC7_UNORM_BLOCK | F::BC7_SRGB_BLOCK) => TexelFormat::Bc7,
+            Some(F::R8G8B8A8_UNORM | F::R8G8B8A8_SRGB) => TexelFormat::Rgba8,
+            None => return Err(fail("a universal format (Basis Universal) to transcode, which is not implemented yet".to_string())),
+            Some(other) => return Err(fail(format!("its format {other:?} is not BC1, BC3, BC4, BC5, BC7 or RGBA8"))),
+        };
+        let (width, height) = (header.pixel_width, header.pixel_height.max(1));
+        let mips = reader.levels().map(|level| level.data.to_vec()).collect();
+        Image::from_blocks(width, height, color_space, format, mips).map_err(|e| fail(e.to_string()))
     }
 
     /// A 1×1 image of one colour.

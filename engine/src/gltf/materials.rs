@@ -3,9 +3,22 @@
 //! module's docs).
 
 use super::*;
+use crate::image::{ImageError, TexelFormat};
+
+/// `KHR_texture_basisu`: a texture's image in a KTX2 container (`source` in the extension),
+/// beside or instead of a PNG/JPEG one.
+pub(super) const TEXTURE_BASISU: &str = "KHR_texture_basisu";
+
+/// The image a texture samples: its `KHR_texture_basisu` KTX2 image when it has one, else its
+/// own `source` (`None`: neither, a broken document).
+pub(super) fn texture_image<'a>(texture: &::gltf::Texture<'a>, document: &'a Document) -> Option<::gltf::Image<'a>> {
+    let ktx2 = texture.extension_value(TEXTURE_BASISU).and_then(|e| e.get("source")).and_then(::gltf::json::Value::as_u64);
+    ktx2.and_then(|i| document.images().nth(i as usize)).or_else(|| texture.source())
+}
 
 /// Decodes the images materials use, once per (image, colour space).
 pub(super) struct ImageLoader<'a> {
+    pub(super) document: &'a Document,
     pub(super) buffers: &'a [Vec<u8>],
     pub(super) base: Option<&'a Path>,
     /// The glTF file, for messages about embedded images.
@@ -28,7 +41,35 @@ impl ImageLoader<'_> {
         if tex_coord != 0 {
             warn!(texture = info.index(), tex_coord, "only TEXCOORD_0 is supported; using it");
         }
-        let source = info.source();
+        // A KTX2 image this loader cannot use (Basis Universal, supercompressed) falls back to the
+        // texture's own PNG/JPEG source when it has one, with a warning; without one the
+        // texture gets the placeholder, as an undecodable PNG does.
+        let ktx2 = texture_image(info, self.document).filter(|image| info.source().is_none_or(|s| s.index() != image.index()));
+        let fallback = info.source();
+        let source = match (ktx2, fallback) {
+            (Some(ktx2), fallback) => match self.get_image(&ktx2, cs) {
+                Ok(slot) => return Ok(slot),
+                Err(error) => match fallback {
+                    Some(fallback) => {
+                        warn!(texture = info.index(), %error, "the texture's KTX2 image cannot be used; using its other source");
+                        fallback
+                    }
+                    None => return Err(error),
+                },
+            },
+            (None, Some(source)) => source,
+            (None, None) => {
+                return Err(GltfError::Image {
+                    uri_or_index: format!("of texture #{} in {}", info.index(), self.file.display()),
+                    source: ImageError::Ktx2 { what: format!("texture #{}", info.index()), reason: "the texture names no image".into() },
+                });
+            }
+        };
+        self.get_image(&source, cs)
+    }
+
+    /// Decodes `source` (a PNG, JPEG or KTX2 image) in colour space `cs`, once.
+    fn get_image(&mut self, source: &::gltf::Image<'_>, cs: ColorSpace) -> Result<usize, GltfError> {
         let index = source.index();
         if let Some(&slot) = self.slots.get(&(index, cs)) {
             return Ok(slot);
@@ -38,10 +79,14 @@ impl ImageLoader<'_> {
             ColorSpace::Srgb => ColorSpace::Linear,
             ColorSpace::Linear => ColorSpace::Srgb,
         };
-        let describe = || describe_image(&source, self.file);
+        let describe = || describe_image(source, self.file);
         let image = if let Some(&slot) = self.slots.get(&(index, other)) {
             let decoded = &self.images[slot];
-            Image::from_rgba8(decoded.width, decoded.height, decoded.mips[0].clone(), cs)
+            match decoded.format {
+                TexelFormat::Rgba8 => Image::from_rgba8(decoded.width, decoded.height, decoded.mips[0].clone(), cs),
+                // Blocks are the same in either colour space: only the sampling differs.
+                _ => Ok(Image { color_space: cs, ..decoded.clone() }),
+            }
         } else {
             let bytes = match source.source() {
                 ::gltf::image::Source::Uri { uri, .. } => read_uri(uri, self.base)?,
@@ -52,7 +97,7 @@ impl ImageLoader<'_> {
                     })?
                     .to_vec(),
             };
-            Image::from_encoded(&bytes, cs)
+            if bytes.starts_with(KTX2_IDENTIFIER) { Image::from_ktx2(&bytes, cs, &describe()) } else { Image::from_encoded(&bytes, cs) }
         }
         .map_err(|source| GltfError::Image { uri_or_index: describe(), source })?;
         self.images.push(image);
@@ -61,6 +106,9 @@ impl ImageLoader<'_> {
         Ok(slot)
     }
 }
+
+/// The first bytes of every KTX2 file.
+const KTX2_IDENTIFIER: &[u8] = &[0xAB, 0x4B, 0x54, 0x58, 0x20, 0x32, 0x30, 0xBB, 0x0D, 0x0A, 0x1A, 0x0A];
 
 /// An image's URI, or its index and name in `file` when embedded.
 pub(super) fn describe_image(image: &::gltf::Image<'_>, file: &Path) -> String {
@@ -202,7 +250,8 @@ pub(super) fn load_material(
         match images.get(&slot.texture, slot.tex_coord, slot.color_space) {
             Ok(index) => *out = Some(index),
             Err(error) if !options.strict_textures && is_forgivable(&error) => {
-                let file = describe_image(&slot.texture.source(), images.file);
+                let file = texture_image(&slot.texture, images.document)
+                    .map_or_else(|| format!("texture #{}", slot.texture.index()), |image| describe_image(&image, images.file));
                 match failures.iter_mut().find(|(f, _, _)| *f == file) {
                     Some((_, _, slots)) => slots.push(slot.slot),
                     None => failures.push((file, error.to_string(), vec![slot.slot])),

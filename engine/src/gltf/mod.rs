@@ -12,7 +12,10 @@
 //! materials),
 //! `KHR_lights_punctual`, `KHR_mesh_quantization`, `KHR_texture_transform`, `MSFT_lod` (a
 //! node's coarser levels of detail become its mesh's [`Mesh::lods`]), `EXT_meshopt_compression`
-//! (compressed buffer views decoded as the buffers load, `ext_meshopt.rs`), perspective cameras
+//! (compressed buffer views decoded as the buffers load, `ext_meshopt.rs`), `KHR_texture_basisu`
+//! (KTX2 images in BC1, BC3, BC4, BC5, BC7 or RGBA8 used as their blocks are,
+//! [`crate::image::Image::from_ktx2`]; a Basis Universal or supercompressed one is not transcoded
+//! yet: the texture's PNG/JPEG source is used instead, or the placeholder), perspective cameras
 //! (`zfar` ignored: the projection is infinite reverse-Z), node hierarchies with TRS or matrix
 //! transforms, triangle lists/strips/fans. A document that *requires* any other extension (e.g.
 //! `KHR_draco_mesh_compression`) is refused with [`GltfError::UnsupportedExtension`] naming it.
@@ -393,6 +396,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_texture_transform",
     "MSFT_lod",
     ext_meshopt::EXTENSION,
+    materials::TEXTURE_BASISU,
 ];
 
 /// How forgiving loading is.
@@ -509,7 +513,8 @@ fn load_impl(bytes: &[u8], base: Option<&Path>, file: &Path, name: String, optio
     let Gltf { document, blob } = parse(bytes, file)?;
     let quantized = document.extensions_used().chain(document.extensions_required()).any(|e| e == "KHR_mesh_quantization");
     let buffers = load_buffers(&document, blob, base, file)?;
-    let mut images = ImageLoader { buffers: &buffers, base, file, images: Vec::new(), slots: HashMap::new(), placeholder: None };
+    let mut images =
+        ImageLoader { document: &document, buffers: &buffers, base, file, images: Vec::new(), slots: HashMap::new(), placeholder: None };
     let mut faults = Faults::new(file);
     let (mut materials, uv_transforms): (Vec<_>, Vec<_>) = document
         .materials()

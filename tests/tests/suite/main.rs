@@ -24,6 +24,7 @@ mod ecs;
 mod environment;
 mod fuzz;
 mod gameplay;
+mod gltf_textures;
 mod hostile;
 mod lights;
 mod limits;
