@@ -125,9 +125,42 @@ fn lit_quad_renders_and_quiet_frames_upload_nothing() {
             }
             r.read_hdr().expect("readback")[centre_index]
         };
-        let (compressed, plain) = (shade_with(bc1), shade_with(rgba));
+        let (compressed, plain) = (shade_with(bc1), shade_with(rgba.clone()));
         assert!(compressed[0] < 0.05 * compressed[1] && compressed[1] > 0.01, "the BC1 texture shades cyan: {compressed:?}");
         assert!(compressed.iter().zip(&plain).all(|(a, b)| (a - b).abs() < 1e-4), "BC1 {compressed:?} against RGBA8 {plain:?}");
+
+        // A BC5 normal map holds X and Y only (blue samples as 0): Z is rebuilt, so a flat one
+        // shades as the RGBA8 flat normal does, not as a normal pointing into the surface.
+        let flat_xy = [128, 128, 0, 0, 0, 0, 0, 0, 128, 128, 0, 0, 0, 0, 0, 0];
+        let bc5 = TextureData {
+            width: 4,
+            height: 4,
+            srgb: false,
+            format: TexelFormat::Bc5,
+            mips: vec![flat_xy.to_vec(), flat_xy.to_vec(), flat_xy.to_vec()],
+        };
+        let rgba_flat = TextureData {
+            width: 4,
+            height: 4,
+            srgb: false,
+            mips: [4usize, 2, 1].iter().map(|n| [128, 128, 255, 255].repeat(n * n)).collect(),
+            ..rgba
+        };
+        let mut normals_from = |texture: TextureData| {
+            let slot = m.add_texture(texture);
+            let material = GpuMaterial { normal_tex: slot, normal_scale: 1.0, ..*m.materials.get(mat).expect("the material") };
+            m.materials.write(mat, material);
+            for _ in 0..2 {
+                m.begin_frame();
+                r.render(&mut m, &settings).expect("frame");
+            }
+            r.read_hdr().expect("readback")[centre_index]
+        };
+        let (two_channel, three_channel) = (normals_from(bc5), normals_from(rgba_flat));
+        assert!(
+            two_channel.iter().zip(&three_channel).all(|(a, b)| (a - b).abs() < 2e-3 * b.abs().max(1.0)),
+            "BC5 normals {two_channel:?} against RGBA8 {three_channel:?}"
+        );
     }
     let errors = r.take_validation_errors();
     assert!(errors.is_empty(), "validation errors: {errors:#?}");

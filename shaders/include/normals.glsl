@@ -20,8 +20,13 @@ vec3 safe_normalize(vec3 v, vec3 fallback) {
     return l2 > 1e-12 ? v * inversesqrt(l2) : fallback;
 }
 
+// A tangent-space normal from a normal map's texel. A two-channel map (BC5, which samples its
+// blue channel as 0) holds only X and Y: Z is rebuilt from them. A three-channel texel never has
+// blue 0 (it would point straight into the surface), so it decodes as it always did.
 vec3 decode_normal_texel(vec3 texel) {
-    return texel * 2.0 - 1.0;
+    vec3 n = texel * 2.0 - 1.0;
+    if (texel.z == 0.0) n.z = sqrt(max(0.0, 1.0 - dot(n.xy, n.xy)));
+    return n;
 }
 
 // An orthonormal frame whose third column is the unit vector `n` (tangent, bitangent, n).
