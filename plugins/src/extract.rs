@@ -14,7 +14,7 @@ use engine::animation::{MorphWeights, Skin, SkinPose};
 use engine::asset::{AssetEvent, Assets, Handle};
 use engine::camera::Camera;
 use engine::changes::Inserted;
-use engine::image::{ColorSpace, Image};
+use engine::image::{ColorSpace, Image, TexelFormat};
 use engine::light::{DirectionalLight, PointLight, SpotLight};
 use engine::material::{AlphaMode, Material};
 use engine::mesh::Mesh;
@@ -25,7 +25,7 @@ use glam::{Mat4, Vec2, Vec3};
 use render::scene::poses::PoseSet;
 use render::scene::{
     DrawItem, GpuCamera, GpuInstance, GpuMaterial, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, MeshId, SceneMirror,
-    TEXTURE_FLAT_NORMAL, TEXTURE_WHITE, TexelFormat, TextureData,
+    TEXTURE_FLAT_NORMAL, TEXTURE_WHITE, TextureData,
 };
 use std::collections::HashMap;
 
@@ -155,19 +155,25 @@ impl MirrorSlots {
 }
 
 fn texture_data(image: &Image) -> TextureData {
-    TextureData {
-        width: image.width,
-        height: image.height,
-        srgb: image.color_space == ColorSpace::Srgb,
-        format: match image.format {
-            engine::image::TexelFormat::Rgba8 => TexelFormat::Rgba8,
-            engine::image::TexelFormat::Bc1 => TexelFormat::Bc1,
-            engine::image::TexelFormat::Bc3 => TexelFormat::Bc3,
-            engine::image::TexelFormat::Bc4 => TexelFormat::Bc4,
-            engine::image::TexelFormat::Bc5 => TexelFormat::Bc5,
-            engine::image::TexelFormat::Bc7 => TexelFormat::Bc7,
-        },
-        mips: image.mips.clone(),
+    TextureData { width: image.width, height: image.height, format: vk_format(image.format, image.color_space), mips: image.mips.clone() }
+}
+
+/// The Vulkan format the renderer samples an image of `format` in `color_space` as (one- and
+/// two-channel data is never sRGB).
+fn vk_format(format: TexelFormat, color_space: ColorSpace) -> ash::vk::Format {
+    use ash::vk::Format as F;
+    let srgb = color_space == ColorSpace::Srgb;
+    match format {
+        TexelFormat::Rgba8 if srgb => F::R8G8B8A8_SRGB,
+        TexelFormat::Rgba8 => F::R8G8B8A8_UNORM,
+        TexelFormat::Bc1 if srgb => F::BC1_RGBA_SRGB_BLOCK,
+        TexelFormat::Bc1 => F::BC1_RGBA_UNORM_BLOCK,
+        TexelFormat::Bc3 if srgb => F::BC3_SRGB_BLOCK,
+        TexelFormat::Bc3 => F::BC3_UNORM_BLOCK,
+        TexelFormat::Bc4 => F::BC4_UNORM_BLOCK,
+        TexelFormat::Bc5 => F::BC5_UNORM_BLOCK,
+        TexelFormat::Bc7 if srgb => F::BC7_SRGB_BLOCK,
+        TexelFormat::Bc7 => F::BC7_UNORM_BLOCK,
     }
 }
 

@@ -6,7 +6,7 @@
 #![forbid(unsafe_code)]
 
 use glam::{Mat4, Vec2, Vec3};
-use render::scene::{DrawItem, GpuCamera, GpuInstance, GpuLight, GpuMaterial, GpuVertex, MeshData, SceneMirror, TexelFormat, TextureData};
+use render::scene::{DrawItem, GpuCamera, GpuInstance, GpuLight, GpuMaterial, GpuVertex, MeshData, SceneMirror, TextureData};
 use render::{FrameSettings, Renderer, RendererSettings, Tier};
 
 fn quad() -> MeshData {
@@ -104,15 +104,13 @@ fn lit_quad_renders_and_quiet_frames_upload_nothing() {
         let bc1 = TextureData {
             width: 8,
             height: 8,
-            srgb: true,
-            format: TexelFormat::Bc1,
+            format: ash::vk::Format::BC1_RGBA_SRGB_BLOCK,
             mips: vec![cyan_block.repeat(4), cyan_block.to_vec(), cyan_block.to_vec(), cyan_block.to_vec()],
         };
         let rgba = TextureData {
             width: 8,
             height: 8,
-            srgb: true,
-            format: TexelFormat::Rgba8,
+            format: ash::vk::Format::R8G8B8A8_SRGB,
             mips: [8usize, 4, 2, 1].iter().map(|n| [0, 255, 255, 255].repeat(n * n)).collect(),
         };
         let mut shade_with = |texture: TextureData| {
@@ -125,7 +123,7 @@ fn lit_quad_renders_and_quiet_frames_upload_nothing() {
             }
             r.read_hdr().expect("readback")[centre_index]
         };
-        let (compressed, plain) = (shade_with(bc1), shade_with(rgba.clone()));
+        let (compressed, plain) = (shade_with(bc1), shade_with(rgba));
         assert!(compressed[0] < 0.05 * compressed[1] && compressed[1] > 0.01, "the BC1 texture shades cyan: {compressed:?}");
         assert!(compressed.iter().zip(&plain).all(|(a, b)| (a - b).abs() < 1e-4), "BC1 {compressed:?} against RGBA8 {plain:?}");
 
@@ -135,16 +133,14 @@ fn lit_quad_renders_and_quiet_frames_upload_nothing() {
         let bc5 = TextureData {
             width: 4,
             height: 4,
-            srgb: false,
-            format: TexelFormat::Bc5,
+            format: ash::vk::Format::BC5_UNORM_BLOCK,
             mips: vec![flat_xy.to_vec(), flat_xy.to_vec(), flat_xy.to_vec()],
         };
         let rgba_flat = TextureData {
             width: 4,
             height: 4,
-            srgb: false,
+            format: ash::vk::Format::R8G8B8A8_UNORM,
             mips: [4usize, 2, 1].iter().map(|n| [128, 128, 255, 255].repeat(n * n)).collect(),
-            ..rgba
         };
         let mut normals_from = |texture: TextureData| {
             let slot = m.add_texture(texture);

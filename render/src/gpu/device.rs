@@ -303,7 +303,7 @@ impl GpuContext {
             .shader_int64(true)
             .fragment_stores_and_atomics(true) // the display check's counter (crate::present::check)
             .fill_mode_non_solid(false)
-            .texture_compression_bc(caps.texture_compression_bc); // block-compressed textures (crate::scene::TexelFormat)
+            .texture_compression_bc(caps.texture_compression_bc); // block-compressed textures (crate::scene::level_bytes)
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
             .buffer_device_address(true)
             .descriptor_indexing(true)

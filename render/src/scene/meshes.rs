@@ -108,39 +108,17 @@ impl MeshLods {
     }
 }
 
-/// How a texture's texels are stored: 8-bit RGBA, or one of the block-compressed formats (4×4
-/// texels a block) the GPU samples as they are.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum TexelFormat {
-    /// Four bytes a texel.
-    #[default]
-    Rgba8,
-    /// BC1: RGB (and 1-bit alpha), 8 bytes a block.
-    Bc1,
-    /// BC3: RGBA, 16 bytes a block.
-    Bc3,
-    /// BC4: one channel, 8 bytes a block.
-    Bc4,
-    /// BC5: two channels (normal maps' X and Y), 16 bytes a block.
-    Bc5,
-    /// BC7: RGBA at high quality, 16 bytes a block.
-    Bc7,
-}
-
-impl TexelFormat {
-    /// Bytes of one level of `width` × `height` texels.
-    pub fn level_bytes(self, width: u32, height: u32) -> u64 {
-        let blocks = |n: u32| n.div_ceil(4) as u64;
-        match self {
-            TexelFormat::Rgba8 => width as u64 * height as u64 * 4,
-            TexelFormat::Bc1 | TexelFormat::Bc4 => blocks(width) * blocks(height) * 8,
-            TexelFormat::Bc3 | TexelFormat::Bc5 | TexelFormat::Bc7 => blocks(width) * blocks(height) * 16,
-        }
-    }
-
-    /// Whether it is block-compressed.
-    pub fn compressed(self) -> bool {
-        self != TexelFormat::Rgba8
+/// Bytes of one level of `width` × `height` texels of a texture `format` the renderer samples:
+/// RGBA8 (UNORM or sRGB), or the block-compressed BC1, BC3, BC4, BC5 and BC7 (4×4 texels a
+/// block). `None` for any other format.
+pub fn level_bytes(format: ash::vk::Format, width: u32, height: u32) -> Option<u64> {
+    use ash::vk::Format as F;
+    let blocks = width.div_ceil(4) as u64 * height.div_ceil(4) as u64;
+    match format {
+        F::R8G8B8A8_UNORM | F::R8G8B8A8_SRGB => Some(width as u64 * height as u64 * 4),
+        F::BC1_RGBA_UNORM_BLOCK | F::BC1_RGBA_SRGB_BLOCK | F::BC4_UNORM_BLOCK => Some(blocks * 8),
+        F::BC3_UNORM_BLOCK | F::BC3_SRGB_BLOCK | F::BC5_UNORM_BLOCK | F::BC7_UNORM_BLOCK | F::BC7_SRGB_BLOCK => Some(blocks * 16),
+        _ => None,
     }
 }
 
@@ -151,11 +129,10 @@ pub struct TextureData {
     pub width: u32,
     /// Height of level 0.
     pub height: u32,
-    /// Whether texels are sRGB-encoded colour (sampled as linear by the hardware).
-    pub srgb: bool,
-    /// How the texels are stored.
-    pub format: TexelFormat,
-    /// One buffer per mip level, of [`TexelFormat::level_bytes`] each.
+    /// How the texels are stored (sRGB formats are sampled as linear by the hardware): one that
+    /// [`level_bytes`] knows.
+    pub format: ash::vk::Format,
+    /// One buffer per mip level, of [`level_bytes`] each.
     pub mips: Vec<Vec<u8>>,
 }
 

@@ -46,7 +46,7 @@ use crate::layout::{GpuDrawCommand, GpuLighting, GpuMover, LOD_LEVELS};
 use crate::scene::pool::{POOL_FLOOR, RangeAllocator, footprint};
 use crate::scene::{
     GpuAabb, GpuCamera, GpuMeshInfo, GpuSkinVertex, MeshData, MeshId, RESERVED_TEXTURES, SceneMirror, SlotTable, TEXTURE_FLAT_NORMAL,
-    TEXTURE_WHITE, TexelFormat, TextureData,
+    TEXTURE_WHITE, TextureData,
 };
 use crate::stats::FrameCounters;
 pub use meshes::GpuMesh;
@@ -296,7 +296,7 @@ impl GpuScene {
             mesh_usage,
         };
         // The built-in textures go up with the first frame's upload, like any other texture.
-        let texel = |rgba: [u8; 4]| TextureData { width: 1, height: 1, srgb: false, format: TexelFormat::Rgba8, mips: vec![rgba.to_vec()] };
+        let texel = |rgba: [u8; 4]| TextureData { width: 1, height: 1, format: vk::Format::R8G8B8A8_UNORM, mips: vec![rgba.to_vec()] };
         let (white, flat_normal) = (texel([255; 4]), texel([128, 128, 255, 255]));
         scene.builtins = vec![(TEXTURE_WHITE, white), (TEXTURE_FLAT_NORMAL, flat_normal)];
         Ok(scene)

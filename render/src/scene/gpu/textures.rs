@@ -102,17 +102,19 @@ impl GpuScene {
         if slot >= MAX_TEXTURES {
             return Err(RenderError::Other(format!("texture slot {slot} exceeds the bindless array ({MAX_TEXTURES})")));
         }
-        if data.format.compressed() && !ctx.capabilities.texture_compression_bc {
+        let rgba8 = matches!(data.format, vk::Format::R8G8B8A8_UNORM | vk::Format::R8G8B8A8_SRGB);
+        if !rgba8 && !ctx.capabilities.texture_compression_bc {
             // No device this renderer runs on lacks BC; one that did would need a CPU decoder.
             return Err(RenderError::Other(format!("a {:?} texture on a device without BC texture compression", data.format)));
         }
         // A block-compressed copy's offset must be a multiple of the block's bytes: each level
         // of such a texture starts 16-byte aligned (RGBA8 levels are multiples of 4 as they are).
-        let align = if data.format.compressed() { 16 } else { 4 };
+        let align = if rgba8 { 4 } else { 16 };
         let mut offset = 0usize;
         for (level, mip) in data.mips.iter().enumerate() {
             let (w, h) = ((data.width >> level).max(1), (data.height >> level).max(1));
-            let expected = data.format.level_bytes(w, h);
+            let expected = crate::scene::level_bytes(data.format, w, h)
+                .ok_or_else(|| RenderError::Other(format!("textures in {:?} are not sampled by this renderer", data.format)))?;
             if mip.len() as u64 != expected {
                 return Err(RenderError::Other(format!("texture mip {level} has {} bytes, expected {expected}", mip.len())));
             }
@@ -143,7 +145,7 @@ impl GpuScene {
             ctx,
             &ImageDesc {
                 name: "texture",
-                format: vk_format(data.format, data.srgb),
+                format: data.format,
                 extent: vk::Extent2D { width: data.width, height: data.height },
                 mip_levels: data.mips.len() as u32,
                 usage: vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
@@ -162,23 +164,5 @@ impl GpuScene {
             old.destroy(ctx); // only reachable for built-ins during setup
         }
         Ok(())
-    }
-}
-
-/// The Vulkan format of a texture stored as `format`, sRGB-encoded or not.
-fn vk_format(format: TexelFormat, srgb: bool) -> vk::Format {
-    use vk::Format as F;
-    match (format, srgb) {
-        (TexelFormat::Rgba8, true) => F::R8G8B8A8_SRGB,
-        (TexelFormat::Rgba8, false) => F::R8G8B8A8_UNORM,
-        (TexelFormat::Bc1, true) => F::BC1_RGBA_SRGB_BLOCK,
-        (TexelFormat::Bc1, false) => F::BC1_RGBA_UNORM_BLOCK,
-        (TexelFormat::Bc3, true) => F::BC3_SRGB_BLOCK,
-        (TexelFormat::Bc3, false) => F::BC3_UNORM_BLOCK,
-        // One or two channels of data: never sRGB.
-        (TexelFormat::Bc4, _) => F::BC4_UNORM_BLOCK,
-        (TexelFormat::Bc5, _) => F::BC5_UNORM_BLOCK,
-        (TexelFormat::Bc7, true) => F::BC7_SRGB_BLOCK,
-        (TexelFormat::Bc7, false) => F::BC7_UNORM_BLOCK,
     }
 }
