@@ -119,8 +119,11 @@ pub enum TexelFormat {
     /// Four bytes a texel.
     #[default]
     Rgba8,
-    /// BC1: RGB (and 1-bit alpha), 8 bytes a block.
+    /// BC1 with 1-bit alpha, 8 bytes a block (a three-colour block's fourth index is
+    /// transparent).
     Bc1,
+    /// BC1 without alpha (a three-colour block's fourth index is opaque black).
+    Bc1Rgb,
     /// BC3: RGBA, 16 bytes a block.
     Bc3,
     /// BC4: one channel, 8 bytes a block.
@@ -138,7 +141,7 @@ impl TexelFormat {
         let blocks = w.div_ceil(4).checked_mul(h.div_ceil(4));
         match self {
             TexelFormat::Rgba8 => w.checked_mul(h)?.checked_mul(4),
-            TexelFormat::Bc1 | TexelFormat::Bc4 => blocks?.checked_mul(8),
+            TexelFormat::Bc1 | TexelFormat::Bc1Rgb | TexelFormat::Bc4 => blocks?.checked_mul(8),
             TexelFormat::Bc3 | TexelFormat::Bc5 | TexelFormat::Bc7 => blocks?.checked_mul(16),
         }
     }
@@ -173,6 +176,17 @@ impl std::fmt::Debug for Image {
     }
 }
 
+/// A size and level count [`Image::from_blocks`] accepts: 1 to [`MAX_IMAGE_DIMENSION`] texels a
+/// side, and 1 to the full chain's levels.
+fn check_size(width: u32, height: u32, levels: usize) -> Result<(), ImageError> {
+    let full_chain = 32 - width.max(height).max(1).leading_zeros();
+    let sides = (1..=MAX_IMAGE_DIMENSION).contains(&width) && (1..=MAX_IMAGE_DIMENSION).contains(&height);
+    if !sides || levels == 0 || levels as u32 > full_chain {
+        return Err(ImageError::InvalidSize { width, height, expected: full_chain as usize, actual: levels });
+    }
+    Ok(())
+}
+
 impl Image {
     /// Builds an image and its mip chain from tightly packed RGBA8 level-0 data.
     pub fn from_rgba8(width: u32, height: u32, data: Vec<u8>, color_space: ColorSpace) -> Result<Image, ImageError> {
@@ -193,15 +207,14 @@ impl Image {
         format: TexelFormat,
         mips: Vec<Vec<u8>>,
     ) -> Result<Image, ImageError> {
-        let full_chain = 32 - width.max(height).max(1).leading_zeros();
-        if width == 0 || height == 0 || mips.is_empty() || mips.len() as u32 > full_chain {
-            return Err(ImageError::InvalidSize { width, height, expected: 0, actual: mips.len() });
-        }
+        check_size(width, height, mips.len())?;
         for (level, data) in mips.iter().enumerate() {
             let (w, h) = mip_size(width, height, level as u32);
-            let expected = format.level_bytes(w, h).unwrap_or(0);
-            if data.len() != expected {
-                return Err(ImageError::InvalidSize { width: w, height: h, expected, actual: data.len() });
+            match format.level_bytes(w, h) {
+                Some(expected) if data.len() == expected => {}
+                expected => {
+                    return Err(ImageError::InvalidSize { width: w, height: h, expected: expected.unwrap_or(0), actual: data.len() });
+                }
             }
         }
         Ok(Image { width, height, color_space, format, mips })
@@ -236,7 +249,8 @@ impl Image {
             return Err(fail("an array, cube or volume texture, not a 2D one".to_string()));
         }
         let format = match header.format {
-            Some(F::BC1_RGB_UNORM_BLOCK | F::BC1_RGB_SRGB_BLOCK | F::BC1_RGBA_UNORM_BLOCK | F::BC1_RGBA_SRGB_BLOCK) => TexelFormat::Bc1,
+            Some(F::BC1_RGB_UNORM_BLOCK | F::BC1_RGB_SRGB_BLOCK) => TexelFormat::Bc1Rgb,
+            Some(F::BC1_RGBA_UNORM_BLOCK | F::BC1_RGBA_SRGB_BLOCK) => TexelFormat::Bc1,
             Some(F::BC3_UNORM_BLOCK | F::BC3_SRGB_BLOCK) => TexelFormat::Bc3,
             Some(F::BC4_UNORM_BLOCK) => TexelFormat::Bc4,
             Some(F::BC5_UNORM_BLOCK) => TexelFormat::Bc5,
@@ -246,6 +260,15 @@ impl Image {
             Some(other) => return Err(fail(format!("its format {other:?} is not BC1, BC3, BC4, BC5, BC7 or RGBA8"))),
         };
         let (width, height) = (header.pixel_width, header.pixel_height.max(1));
+        // Every level checked against its size before any is copied: a container may declare
+        // many levels over the same bytes.
+        check_size(width, height, header.level_count.max(1) as usize).map_err(|e| fail(e.to_string()))?;
+        for (level, data) in reader.levels().enumerate() {
+            let (w, h) = mip_size(width, height, level as u32);
+            if Some(data.data.len()) != format.level_bytes(w, h) {
+                return Err(fail(format!("level {level} holds {} bytes, not a {w}×{h} {format:?} level's", data.data.len())));
+            }
+        }
         let mips = reader.levels().map(|level| level.data.to_vec()).collect();
         Image::from_blocks(width, height, color_space, format, mips).map_err(|e| fail(e.to_string()))
     }

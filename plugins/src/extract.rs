@@ -168,6 +168,8 @@ fn vk_format(format: TexelFormat, color_space: ColorSpace) -> ash::vk::Format {
         TexelFormat::Rgba8 => F::R8G8B8A8_UNORM,
         TexelFormat::Bc1 if srgb => F::BC1_RGBA_SRGB_BLOCK,
         TexelFormat::Bc1 => F::BC1_RGBA_UNORM_BLOCK,
+        TexelFormat::Bc1Rgb if srgb => F::BC1_RGB_SRGB_BLOCK,
+        TexelFormat::Bc1Rgb => F::BC1_RGB_UNORM_BLOCK,
         TexelFormat::Bc3 if srgb => F::BC3_SRGB_BLOCK,
         TexelFormat::Bc3 => F::BC3_UNORM_BLOCK,
         TexelFormat::Bc4 => F::BC4_UNORM_BLOCK,

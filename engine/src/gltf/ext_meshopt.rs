@@ -150,9 +150,12 @@ impl Compressed {
     }
 }
 
-/// Decodes every compressed buffer view of `document` into its place in `buffers` (fallback
-/// buffers come zeroed from the loader). A view that cannot be decoded is an error naming it.
+/// Decodes every compressed buffer view of `document` into its place in `buffers`. Fallback
+/// buffers come empty from the loader and grow to hold the views decoded into them, so what is
+/// allocated follows the compressed bytes present, never a length the file merely declares. A
+/// view that cannot be decoded is an error naming it.
 pub(super) fn decode_views(document: &Document, buffers: &mut [Vec<u8>], file: &Path) -> Result<(), GltfError> {
+    let fallback: Vec<bool> = document.buffers().map(|b| is_fallback(&b)).collect();
     for view in document.views() {
         let Some(extension) = view.extension_value(EXTENSION) else { continue };
         let bad =
@@ -162,15 +165,25 @@ pub(super) fn decode_views(document: &Document, buffers: &mut [Vec<u8>], file: &
             .get(compressed.buffer)
             .and_then(|b| b.get(compressed.offset..compressed.offset.checked_add(compressed.length)?))
             .ok_or_else(|| bad(format!("its compressed bytes lie outside buffer {}", compressed.buffer)))?;
-        let decoded = compressed.decode(source).map_err(bad)?;
-        if decoded.len() != view.length() {
-            return Err(bad(format!("it decodes to {} bytes where the view holds {}", decoded.len(), view.length())));
+        let decoded_length = compressed.count.checked_mul(compressed.stride);
+        if decoded_length != Some(view.length()) {
+            return Err(bad(format!("its count × byteStride is not the {} bytes its view holds", view.length())));
         }
-        let target = view.buffer().index();
-        let place = buffers
-            .get_mut(target)
-            .and_then(|b| b.get_mut(view.offset()..view.offset().checked_add(view.length())?))
-            .ok_or_else(|| bad(format!("its place lies outside buffer {target}")))?;
+        // The codecs expand data by a bounded factor: a larger claim is a broken file, refused
+        // before anything is allocated for it.
+        let expansion = if compressed.mode == Mode::Attributes { 1024 } else { 64 };
+        if view.length() > compressed.length.saturating_mul(expansion) {
+            return Err(bad(format!("{} compressed bytes cannot decode to {}", compressed.length, view.length())));
+        }
+        let (target, end) = (view.buffer().index(), view.offset().checked_add(view.length()));
+        let declared = document.buffers().nth(target).map_or(0, |b| b.length());
+        let end = end.filter(|&end| end <= declared).ok_or_else(|| bad(format!("its place lies outside buffer {target}")))?;
+        let decoded = compressed.decode(source).map_err(bad)?;
+        let buffer = &mut buffers[target];
+        if fallback[target] && buffer.len() < end {
+            buffer.resize(end, 0);
+        }
+        let place = buffer.get_mut(view.offset()..end).ok_or_else(|| bad(format!("its place lies outside buffer {target}")))?;
         place.copy_from_slice(&decoded);
     }
     Ok(())
@@ -195,8 +208,9 @@ mod tests {
     }
 
     /// The grid as a GLB: uncompressed, or with both views compressed into buffer 0 (the BIN
-    /// chunk) and decoded into a fallback buffer 1; `corrupt` damages the compressed vertices.
-    fn grid_glb(compressed: bool, corrupt: bool) -> Vec<u8> {
+    /// chunk) and decoded into a fallback buffer 1; `corrupt` damages the compressed vertices;
+    /// `claim` declares that many vertices (in the view and the fallback buffer) instead.
+    fn grid_glb(compressed: bool, corrupt: bool, claim: Option<usize>) -> Vec<u8> {
         let (positions, indices) = grid(12);
         let raw_positions: &[u8] = bytemuck::cast_slice(&positions);
         let raw_indices: &[u8] = bytemuck::cast_slice(&indices);
@@ -219,6 +233,8 @@ mod tests {
             );
             return glb_container(json.as_bytes(), &[raw_positions, raw_indices].concat());
         }
+        let claimed = claim.unwrap_or(vertex_count);
+        let (claimed_bytes, fallback_length) = (claimed * 12, claimed * 12 + raw_indices.len());
         let mut vertices = meshopt::encode_vertex_buffer(&positions).unwrap();
         if corrupt {
             vertices.truncate(vertices.len() / 2);
@@ -231,15 +247,14 @@ mod tests {
         bin.resize(bin.len().next_multiple_of(4), 0);
         let json = format!(
             r#"{{"asset":{{"version":"2.0"}},"extensionsUsed":["{EXTENSION}"],"extensionsRequired":["{EXTENSION}"],
-              "buffers":[{{"byteLength":{}}},{{"byteLength":{raw_length},"extensions":{{"{EXTENSION}":{{"fallback":true}}}}}}],
+              "buffers":[{{"byteLength":{}}},{{"byteLength":{fallback_length},"extensions":{{"{EXTENSION}":{{"fallback":true}}}}}}],
               "bufferViews":[
-                {{"buffer":1,"byteOffset":0,"byteLength":{},"byteStride":12,"extensions":{{"{EXTENSION}":
-                  {{"buffer":0,"byteOffset":0,"byteLength":{},"byteStride":12,"count":{vertex_count},"mode":"ATTRIBUTES"}}}}}},
+                {{"buffer":1,"byteOffset":0,"byteLength":{claimed_bytes},"byteStride":12,"extensions":{{"{EXTENSION}":
+                  {{"buffer":0,"byteOffset":0,"byteLength":{},"byteStride":12,"count":{claimed},"mode":"ATTRIBUTES"}}}}}},
                 {{"buffer":1,"byteOffset":{},"byteLength":{},"extensions":{{"{EXTENSION}":
                   {{"buffer":0,"byteOffset":{triangles_at},"byteLength":{},"byteStride":4,"count":{index_count},"mode":"TRIANGLES"}}}}}}],
               {accessors}}}"#,
             bin.len(),
-            raw_positions.len(),
             vertices.len(),
             raw_positions.len(),
             raw_indices.len(),
@@ -250,8 +265,8 @@ mod tests {
 
     #[test]
     fn a_meshopt_compressed_mesh_loads_as_its_uncompressed_original() {
-        let plain = load_slice(&grid_glb(false, false), None).expect("the uncompressed grid loads");
-        let packed = load_slice(&grid_glb(true, false), None).expect("the compressed grid loads");
+        let plain = load_slice(&grid_glb(false, false, None), None).expect("the uncompressed grid loads");
+        let packed = load_slice(&grid_glb(true, false, None), None).expect("the compressed grid loads");
         let (a, b) = (&plain.meshes[0][0].0, &packed.meshes[0][0].0);
         assert_eq!(b.indices, a.indices, "the triangles decode exactly");
         assert_eq!(b.positions.len(), 144);
@@ -261,9 +276,17 @@ mod tests {
 
     #[test]
     fn a_damaged_compressed_view_is_an_error_naming_it() {
-        let error = load_slice(&grid_glb(true, true), None).expect_err("damaged vertices cannot load");
+        let error = load_slice(&grid_glb(true, true, None), None).expect_err("damaged vertices cannot load");
         let message = error.to_string();
         assert!(message.contains("view #0 (EXT_meshopt_compression)") && message.contains("does not decode"), "{message}");
+    }
+
+    #[test]
+    fn a_view_claiming_more_than_its_bytes_can_decode_to_is_refused_before_allocating() {
+        // 2^40 vertices (12 TiB) from a few hundred compressed bytes: refused, not allocated.
+        let error = load_slice(&grid_glb(true, false, Some(1 << 40)), None).expect_err("an impossible claim");
+        let message = error.to_string();
+        assert!(message.contains("view #0") && message.contains("cannot decode to"), "{message}");
     }
 
     #[test]

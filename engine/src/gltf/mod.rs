@@ -767,8 +767,9 @@ fn load_buffers(document: &Document, mut blob: Option<Vec<u8>>, base: Option<&Pa
         .buffers()
         .map(|buffer| {
             if ext_meshopt::is_fallback(&buffer) {
-                // Its views are decoded from compressed ones below; a URI, if any, is ignored.
-                return Ok(vec![0; buffer.length()]);
+                // Its views are decoded from compressed ones below, and it grows to hold them; a
+                // URI, if any, is ignored.
+                return Ok(Vec::new());
             }
             let (data, what) = match buffer.source() {
                 ::gltf::buffer::Source::Bin => (
