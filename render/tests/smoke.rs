@@ -113,17 +113,18 @@ fn lit_quad_renders_and_quiet_frames_upload_nothing() {
             format: ash::vk::Format::R8G8B8A8_SRGB,
             mips: [8usize, 4, 2, 1].iter().map(|n| [0, 255, 255, 255].repeat(n * n)).collect(),
         };
-        let mut shade_with = |texture: TextureData| {
+        // The centre pixel once the material samples `texture` where `bind` puts it.
+        let mut shade_with = |texture: TextureData, bind: fn(GpuMaterial, u32) -> GpuMaterial| {
             let slot = m.add_texture(texture);
-            let material = GpuMaterial { base_color_tex: slot, ..*m.materials.get(mat).expect("the material") };
-            m.materials.write(mat, material);
+            m.materials.write(mat, bind(*m.materials.get(mat).expect("the material"), slot));
             for _ in 0..2 {
                 m.begin_frame();
                 r.render(&mut m, &settings).expect("frame");
             }
             r.read_hdr().expect("readback")[centre_index]
         };
-        let (compressed, plain) = (shade_with(bc1), shade_with(rgba));
+        let base_colour = |m: GpuMaterial, slot: u32| GpuMaterial { base_color_tex: slot, ..m };
+        let (compressed, plain) = (shade_with(bc1, base_colour), shade_with(rgba, base_colour));
         assert!(compressed[0] < 0.05 * compressed[1] && compressed[1] > 0.01, "the BC1 texture shades cyan: {compressed:?}");
         assert!(compressed.iter().zip(&plain).all(|(a, b)| (a - b).abs() < 1e-4), "BC1 {compressed:?} against RGBA8 {plain:?}");
 
@@ -142,17 +143,8 @@ fn lit_quad_renders_and_quiet_frames_upload_nothing() {
             format: ash::vk::Format::R8G8B8A8_UNORM,
             mips: [4usize, 2, 1].iter().map(|n| [128, 128, 255, 255].repeat(n * n)).collect(),
         };
-        let mut normals_from = |texture: TextureData| {
-            let slot = m.add_texture(texture);
-            let material = GpuMaterial { normal_tex: slot, normal_scale: 1.0, ..*m.materials.get(mat).expect("the material") };
-            m.materials.write(mat, material);
-            for _ in 0..2 {
-                m.begin_frame();
-                r.render(&mut m, &settings).expect("frame");
-            }
-            r.read_hdr().expect("readback")[centre_index]
-        };
-        let (two_channel, three_channel) = (normals_from(bc5), normals_from(rgba_flat));
+        let normals = |m: GpuMaterial, slot: u32| GpuMaterial { normal_tex: slot, normal_scale: 1.0, ..m };
+        let (two_channel, three_channel) = (shade_with(bc5, normals), shade_with(rgba_flat, normals));
         assert!(
             two_channel.iter().zip(&three_channel).all(|(a, b)| (a - b).abs() < 2e-3 * b.abs().max(1.0)),
             "BC5 normals {two_channel:?} against RGBA8 {three_channel:?}"
