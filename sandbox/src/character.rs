@@ -61,7 +61,7 @@ pub fn walk_loops(time: Res<Time>, mut walkers: Query<(&mut Walker, &mut Transfo
 
 /// Loads a character model once (its assets shared by every copy spawned from it).
 pub fn load_character(world: &mut World, path: &Path) -> Result<GltfPrefab> {
-    let scene = engine::gltf::load(path).with_context(|| format!("could not load the character {}", path.display()))?;
+    let scene = crate::assets::load_gltf(world, path).with_context(|| format!("could not load the character {}", path.display()))?;
     Ok(scene.into_prefab(world))
 }
 

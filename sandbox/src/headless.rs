@@ -51,6 +51,9 @@ pub struct HeadlessOptions {
     /// The character that walks the default scene, and the model of the `foxes` benchmark
     /// scene (`None`: no character).
     pub character: Option<PathBuf>,
+    /// How glTF files are loaded: textures compressed through the user's cache by default
+    /// (`--textures`, `--asset-cache`).
+    pub import: engine::gltf::LoadOptions,
     /// The clip the `foxes` benchmark scene plays (the first when the model has none of that
     /// name).
     pub character_clip: String,
@@ -294,6 +297,7 @@ impl Default for HeadlessOptions {
             size: (320, 240),
             scene: SceneSource::Default,
             character: crate::character::default_character(),
+            import: engine::gltf::LoadOptions::default(),
             character_clip: "Walk".to_owned(),
             screenshot: None,
             stats: None,
@@ -408,6 +412,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         ..Default::default()
     }));
     app.insert_resource(opts.environment.clone());
+    app.insert_resource(crate::assets::ImportOptions(opts.import.clone()));
     match opts.bench_scene {
         Some(crate::bench::BenchScene::ManyInstances) => crate::bench::spawn_city(&mut app.world, opts.instances),
         Some(crate::bench::BenchScene::BehindWall) => crate::bench::spawn_behind_wall(&mut app.world, opts.instances),
@@ -477,7 +482,7 @@ pub fn load_scene(world: &mut World, source: &SceneSource, character: Option<&st
             // Nothing of the file could be loaded: the only case that ends the run. A broken
             // part (a skin, a clip, a morph target…) costs that part: the loader has warned
             // about each, and the rest plays.
-            let gltf = engine::gltf::load(path).with_context(|| format!("could not load scene {}", path.display()))?;
+            let gltf = crate::assets::load_gltf(world, path).with_context(|| format!("could not load scene {}", path.display()))?;
             if !gltf.faults.is_empty() {
                 tracing::warn!(
                     "scene {} loaded with {} broken parts left out or repaired (each named above); the rest plays",
@@ -621,9 +626,12 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
 fn drain_stats(app: &mut App, out: &mut Vec<serde_json::Value>) {
     let renderer = &app.world.resource::<GpuRenderer>().0;
     let (tier, device) = (renderer.tier().name(), renderer.device_name().to_string());
+    let imports = app.world.get_resource::<crate::assets::ImportTotals>().copied().unwrap_or_default().0;
     let mut stats = app.world.resource_mut::<RenderStats>();
     while let Some(s) = stats.completed.pop_front() {
-        out.push(crate::stats::frame_json(&s, tier, &device));
+        let mut value = crate::stats::frame_json(&s, tier, &device);
+        crate::stats::add_import_counters(&mut value, &imports);
+        out.push(value);
     }
 }
 

@@ -16,6 +16,7 @@
 
 #![forbid(unsafe_code)]
 
+pub mod assets;
 pub mod bench;
 pub mod character;
 pub mod charts;

@@ -283,6 +283,33 @@ struct Cli {
     /// Instances of --bench-scene many-instances (props) and behind-wall (boxes behind the wall).
     #[arg(long, default_value_t = sandbox::bench::MANY_INSTANCES)]
     instances: usize,
+    /// How glTF textures are imported: `bc` (block-compressed by role, with mips, cached) or
+    /// `rgba8` (decoded at every load, 4 bytes a texel).
+    #[arg(long, default_value = "bc", global = true)]
+    textures: String,
+    /// Folder of the compressed-texture cache (default `$XDG_CACHE_HOME/ecs-decals/textures`,
+    /// else `~/.cache/ecs-decals/textures`; `off`: compress at every load).
+    #[arg(long, global = true)]
+    asset_cache: Option<PathBuf>,
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+/// Commands besides playing.
+#[derive(clap::Subcommand, Debug)]
+enum Command {
+    /// Compress the textures of glTF files into the texture cache ahead of time (what their
+    /// first load would do), or with `--measure` time RGBA8, first and cached loads and report
+    /// their texture bytes as JSON.
+    Bake {
+        /// The .gltf/.glb files.
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+        /// Measure instead: each file loaded as RGBA8, compressed into an empty scratch cache,
+        /// then from that cache.
+        #[arg(long)]
+        measure: bool,
+    },
 }
 
 fn parse_aa(s: &str) -> Result<render::AntiAliasing, String> {
@@ -387,6 +414,18 @@ fn main() -> Result<()> {
         .with_writer(std::io::stderr)
         .init();
     let cli = Cli::parse();
+    let import = sandbox::assets::import_options(&cli.textures, cli.asset_cache.as_deref(), true)?;
+    if let Some(Command::Bake { files, measure }) = &cli.command {
+        for file in files {
+            if *measure {
+                let report = sandbox::assets::measure_import(file, &std::env::temp_dir())?;
+                println!("{}", serde_json::to_string(&report)?);
+            } else {
+                println!("{}", sandbox::assets::bake(file, &import)?);
+            }
+        }
+        return Ok(());
+    }
     if cli.soak {
         let size = if std::env::args().any(|a| a.starts_with("--size")) { cli.size } else { (48, 32) };
         let mut config =
@@ -426,6 +465,7 @@ fn main() -> Result<()> {
             None => sandbox::character::default_character(),
         },
         character_clip: cli.character_clip.clone(),
+        import,
         screenshot: screenshot.clone(),
         stats: cli.stats.clone(),
         pipeline: cli.pipeline,

@@ -190,6 +190,18 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
     value
 }
 
+/// What the run's glTF imports did to their textures, since the start: `counters.texture_cache_hits`
+/// (read compressed from the cache), `textures_compressed` (cache misses), `textures_rebuilt`
+/// (cached files that could not be used), `textures_rgba8` and `textures_ktx2`.
+pub fn add_import_counters(value: &mut Value, imports: &engine::gltf::TextureImportStats) {
+    let counters = &mut value["counters"];
+    counters["texture_cache_hits"] = json!(imports.cache_hits);
+    counters["textures_compressed"] = json!(imports.compressed);
+    counters["textures_rebuilt"] = json!(imports.rebuilt);
+    counters["textures_rgba8"] = json!(imports.rgba8 + imports.reused);
+    counters["textures_ktx2"] = json!(imports.ktx2);
+}
+
 /// GPU memory at the end of the frame: bytes by kind, their `total`, and `textures_by_format`
 /// keyed by Vulkan format name.
 fn memory_json(m: &render::gpu::memory::MemoryCounts) -> Value {

@@ -3,7 +3,7 @@
 //! module's docs).
 
 use super::*;
-use crate::image::{ImageError, TexelFormat};
+use crate::image::{CacheOutcome, ImageError, TexelFormat};
 
 /// `KHR_texture_basisu`: a texture's image in a KTX2 container (`source` in the extension),
 /// beside or instead of a PNG/JPEG one.
@@ -16,20 +16,76 @@ pub(super) fn texture_image<'a>(texture: &::gltf::Texture<'a>, document: &'a Doc
     ktx2.and_then(|i| document.images().nth(i as usize)).or_else(|| texture.source())
 }
 
-/// Decodes the images materials use, once per (image, colour space).
+/// Loads the images materials use, once per (image, role): KTX2 images as they are, PNG and
+/// JPEG ones compressed through the cache or decoded to RGBA8 ([`LoadOptions::textures`]).
 pub(super) struct ImageLoader<'a> {
-    pub(super) document: &'a Document,
-    pub(super) buffers: &'a [Vec<u8>],
-    pub(super) base: Option<&'a Path>,
+    document: &'a Document,
+    buffers: &'a [Vec<u8>],
+    base: Option<&'a Path>,
     /// The glTF file, for messages about embedded images.
-    pub(super) file: &'a Path,
+    file: &'a Path,
     pub(super) images: Vec<Image>,
-    pub(super) slots: HashMap<(usize, ColorSpace), usize>,
+    slots: HashMap<(usize, TextureRole), usize>,
     /// The slot of [`Image::missing_texture`], once a base colour texture needed it.
-    pub(super) placeholder: Option<usize>,
+    placeholder: Option<usize>,
+    /// `Some` when PNG and JPEG images are compressed; the cache, when there is one.
+    compress: Option<Option<TextureCache>>,
+    /// Images some material uses as its metallic-roughness texture: as occlusion too they stay
+    /// BC7 data (one texture for both) rather than becoming a second, BC4 one.
+    metallic_roughness: std::collections::HashSet<usize>,
+    progress: Option<TextureProgress>,
+    /// How many (image, role) pairs the materials use, and how many are done.
+    total: usize,
+    pub(super) stats: TextureImportStats,
 }
 
-impl ImageLoader<'_> {
+impl<'a> ImageLoader<'a> {
+    pub(super) fn new(
+        document: &'a Document,
+        buffers: &'a [Vec<u8>],
+        base: Option<&'a Path>,
+        file: &'a Path,
+        options: &LoadOptions,
+    ) -> ImageLoader<'a> {
+        let metallic_roughness = document
+            .materials()
+            .filter_map(|m| m.pbr_metallic_roughness().metallic_roughness_texture())
+            .flat_map(|info| [texture_image(&info.texture(), document).map(|i| i.index()), info.texture().source().map(|i| i.index())])
+            .flatten()
+            .collect();
+        let compress = match &options.textures {
+            TextureImport::Rgba8 => None,
+            TextureImport::Compressed(location) => Some(location.cache()),
+        };
+        let mut loader = ImageLoader {
+            document,
+            buffers,
+            base,
+            file,
+            images: Vec::new(),
+            slots: HashMap::new(),
+            placeholder: None,
+            compress,
+            metallic_roughness,
+            progress: options.progress.clone(),
+            total: 0,
+            stats: TextureImportStats::default(),
+        };
+        let pairs: std::collections::HashSet<(usize, TextureRole)> = document
+            .materials()
+            .flat_map(|m| material_textures(&m))
+            .filter_map(|(texture, role)| texture_image(&texture, document).map(|image| (image.index(), loader.role(role, image.index()))))
+            .collect();
+        loader.total = pairs.len();
+        loader
+    }
+
+    /// The role an image is loaded in for a slot of `role`: occlusion that shares the
+    /// metallic-roughness image is data.
+    fn role(&self, role: TextureRole, image: usize) -> TextureRole {
+        if role == TextureRole::Mask && self.metallic_roughness.contains(&image) { TextureRole::Data } else { role }
+    }
+
     fn placeholder(&mut self) -> usize {
         *self.placeholder.get_or_insert_with(|| {
             self.images.push(Image::missing_texture());
@@ -37,7 +93,7 @@ impl ImageLoader<'_> {
         })
     }
 
-    fn get(&mut self, info: &::gltf::Texture<'_>, tex_coord: u32, cs: ColorSpace) -> Result<usize, GltfError> {
+    fn get(&mut self, info: &::gltf::Texture<'_>, tex_coord: u32, role: TextureRole) -> Result<usize, GltfError> {
         if tex_coord != 0 {
             warn!(texture = info.index(), tex_coord, "only TEXCOORD_0 is supported; using it");
         }
@@ -47,7 +103,7 @@ impl ImageLoader<'_> {
         let ktx2 = texture_image(info, self.document).filter(|image| info.source().is_none_or(|s| s.index() != image.index()));
         let fallback = info.source();
         let source = match (ktx2, fallback) {
-            (Some(ktx2), fallback) => match self.get_image(&ktx2, cs) {
+            (Some(ktx2), fallback) => match self.get_image(&ktx2, role) {
                 Ok(slot) => return Ok(slot),
                 Err(error) => match fallback {
                     Some(fallback) => {
@@ -65,44 +121,70 @@ impl ImageLoader<'_> {
                 });
             }
         };
-        self.get_image(&source, cs)
+        self.get_image(&source, role)
     }
 
-    /// Decodes `source` (a PNG, JPEG or KTX2 image) in colour space `cs`, once.
-    fn get_image(&mut self, source: &::gltf::Image<'_>, cs: ColorSpace) -> Result<usize, GltfError> {
-        let index = source.index();
-        if let Some(&slot) = self.slots.get(&(index, cs)) {
+    /// Loads `source` (a PNG, JPEG or KTX2 image) for `role`, once.
+    fn get_image(&mut self, source: &::gltf::Image<'_>, role: TextureRole) -> Result<usize, GltfError> {
+        let (index, role) = (source.index(), self.role(role, source.index()));
+        if let Some(&slot) = self.slots.get(&(index, role)) {
             return Ok(slot);
         }
-        // The same image in the other colour space: reuse the decoded level 0.
-        let other = match cs {
-            ColorSpace::Srgb => ColorSpace::Linear,
-            ColorSpace::Linear => ColorSpace::Srgb,
-        };
-        let describe = || describe_image(source, self.file);
-        let image = if let Some(&slot) = self.slots.get(&(index, other)) {
-            let decoded = &self.images[slot];
-            match decoded.format {
-                TexelFormat::Rgba8 => Image::from_rgba8(decoded.width, decoded.height, decoded.mips[0].clone(), cs),
-                // Blocks are the same in either colour space: only the sampling differs.
-                _ => Ok(Image { color_space: cs, ..decoded.clone() }),
-            }
+        let describe = describe_image(source, self.file);
+        let error = |source| GltfError::Image { uri_or_index: describe.clone(), source };
+        // As RGBA8, the same image in another role reuses the decoded level 0.
+        let decoded = self
+            .slots
+            .iter()
+            .filter(|((i, _), _)| *i == index)
+            .map(|(_, &slot)| &self.images[slot])
+            .find(|image| image.format == TexelFormat::Rgba8 && self.compress.is_none());
+        let (image, how) = if let Some(decoded) = decoded {
+            let image = Image::from_rgba8_for(decoded.width, decoded.height, decoded.mips[0].clone(), role).map_err(error)?;
+            (image, TextureSource::Reused)
         } else {
             let bytes = match source.source() {
                 ::gltf::image::Source::Uri { uri, .. } => read_uri(uri, self.base)?,
                 ::gltf::image::Source::View { view, .. } => view_bytes(&view, self.buffers)
                     .ok_or_else(|| GltfError::BadBuffer {
                         buffer: format!("#{} of {}", view.buffer().index(), self.file.display()),
-                        reason: format!("view {} of image {} lies outside the buffer", view.index(), describe()),
+                        reason: format!("view {} of image {describe} lies outside the buffer", view.index()),
                     })?
                     .to_vec(),
             };
-            if bytes.starts_with(KTX2_IDENTIFIER) { Image::from_ktx2(&bytes, cs, &describe()) } else { Image::from_encoded(&bytes, cs) }
-        }
-        .map_err(|source| GltfError::Image { uri_or_index: describe(), source })?;
+            let decode = || Image::decode_rgba8(&bytes);
+            if bytes.starts_with(KTX2_IDENTIFIER) {
+                (Image::from_ktx2(&bytes, role.color_space(), &describe).map_err(error)?, TextureSource::Ktx2)
+            } else {
+                match &self.compress {
+                    None => {
+                        let (width, height, rgba) = decode().map_err(error)?;
+                        (Image::from_rgba8_for(width, height, rgba, role).map_err(error)?, TextureSource::Rgba8)
+                    }
+                    Some(None) => {
+                        let (width, height, rgba) = decode().map_err(error)?;
+                        (Image::compress(width, height, rgba, role).map_err(error)?, TextureSource::Compressed)
+                    }
+                    Some(Some(cache)) => {
+                        let (image, outcome) = cache.load_or_compress(&bytes, role, &describe, decode).map_err(error)?;
+                        let how = match outcome {
+                            CacheOutcome::Hit => TextureSource::CacheHit,
+                            CacheOutcome::Compressed => TextureSource::Compressed,
+                            CacheOutcome::Rebuilt(_) => TextureSource::Rebuilt,
+                        };
+                        (image, how)
+                    }
+                }
+            }
+        };
         self.images.push(image);
         let slot = self.images.len() - 1;
-        self.slots.insert((index, cs), slot);
+        self.slots.insert((index, role), slot);
+        self.stats.count(how);
+        if let Some(progress) = &self.progress {
+            let done = self.slots.len();
+            progress(&TextureEvent { done, total: self.total.max(done), image: &describe, import: how });
+        }
         Ok(slot)
     }
 }
@@ -157,7 +239,7 @@ pub(super) struct TextureSlot<'a> {
     texture: ::gltf::Texture<'a>,
     tex_coord: u32,
     transform: Option<UvTransform>,
-    color_space: ColorSpace,
+    role: TextureRole,
 }
 
 impl<'a> TextureSlot<'a> {
@@ -167,20 +249,35 @@ impl<'a> TextureSlot<'a> {
         texture: ::gltf::Texture<'a>,
         tex_coord: u32,
         transform: Option<(UvTransform, Option<u32>)>,
-        color_space: ColorSpace,
+        role: TextureRole,
     ) -> Self {
         let tex_coord = transform.and_then(|(_, set)| set).unwrap_or(tex_coord);
-        TextureSlot { slot, texture, tex_coord, transform: transform.map(|(t, _)| t), color_space }
+        TextureSlot { slot, texture, tex_coord, transform: transform.map(|(t, _)| t), role }
     }
 
-    fn from_info(slot: &'static str, info: Option<::gltf::texture::Info<'a>>, color_space: ColorSpace) -> Option<Self> {
+    fn from_info(slot: &'static str, info: Option<::gltf::texture::Info<'a>>, role: TextureRole) -> Option<Self> {
         info.map(|i| {
             let transform = i
                 .texture_transform()
                 .map(|t| (UvTransform { offset: t.offset(), rotation: t.rotation(), scale: t.scale() }, t.tex_coord()));
-            TextureSlot::new(slot, i.texture(), i.tex_coord(), transform, color_space)
+            TextureSlot::new(slot, i.texture(), i.tex_coord(), transform, role)
         })
     }
+}
+
+/// A material's textures and the role each is loaded in (occlusion as a lone mask; see
+/// [`ImageLoader::role`]).
+fn material_textures<'a>(m: &::gltf::Material<'a>) -> impl Iterator<Item = (::gltf::Texture<'a>, TextureRole)> + use<'a> {
+    let pbr = m.pbr_metallic_roughness();
+    [
+        pbr.base_color_texture().map(|i| (i.texture(), TextureRole::Color)),
+        pbr.metallic_roughness_texture().map(|i| (i.texture(), TextureRole::Data)),
+        m.normal_texture().map(|n| (n.texture(), TextureRole::Normal)),
+        m.occlusion_texture().map(|o| (o.texture(), TextureRole::Mask)),
+        m.emissive_texture().map(|i| (i.texture(), TextureRole::Color)),
+    ]
+    .into_iter()
+    .flatten()
 }
 
 /// Whether a texture error may be replaced by a placeholder (the image's bytes are missing,
@@ -223,11 +320,11 @@ pub(super) fn load_material(
     let normal = m.normal_texture();
     let occlusion = m.occlusion_texture();
     let slots: [Option<TextureSlot<'_>>; 5] = [
-        TextureSlot::from_info("base colour", pbr.base_color_texture(), ColorSpace::Srgb),
-        TextureSlot::from_info("metallic-roughness", pbr.metallic_roughness_texture(), ColorSpace::Linear),
-        normal.as_ref().map(|n| TextureSlot::new("normal", n.texture(), n.tex_coord(), normal_transform, ColorSpace::Linear)),
-        occlusion.as_ref().map(|o| TextureSlot::new("occlusion", o.texture(), o.tex_coord(), occlusion_transform, ColorSpace::Linear)),
-        TextureSlot::from_info("emissive", m.emissive_texture(), ColorSpace::Srgb),
+        TextureSlot::from_info("base colour", pbr.base_color_texture(), TextureRole::Color),
+        TextureSlot::from_info("metallic-roughness", pbr.metallic_roughness_texture(), TextureRole::Data),
+        normal.as_ref().map(|n| TextureSlot::new("normal", n.texture(), n.tex_coord(), normal_transform, TextureRole::Normal)),
+        occlusion.as_ref().map(|o| TextureSlot::new("occlusion", o.texture(), o.tex_coord(), occlusion_transform, TextureRole::Mask)),
+        TextureSlot::from_info("emissive", m.emissive_texture(), TextureRole::Color),
     ];
 
     // One UV set serves every texture: bake the shared transform, or the first slot's (base
@@ -247,7 +344,7 @@ pub(super) fn load_material(
     let mut loaded = [None; 5];
     for (out, slot) in loaded.iter_mut().zip(&slots) {
         let Some(slot) = slot else { continue };
-        match images.get(&slot.texture, slot.tex_coord, slot.color_space) {
+        match images.get(&slot.texture, slot.tex_coord, slot.role) {
             Ok(index) => *out = Some(index),
             Err(error) if !options.strict_textures && is_forgivable(&error) => {
                 let file = texture_image(&slot.texture, images.document)

@@ -103,7 +103,7 @@ use tracing::{info, warn};
 use crate::animation::{AnimationClip, AnimationTargets, MorphWeights, Skin};
 use crate::asset::{Assets, Handle};
 use crate::camera::Camera;
-use crate::image::{ColorSpace, Image, ImageError};
+use crate::image::{Image, ImageError, TextureCache, TextureRole};
 use crate::light::{DirectionalLight, PointLight, SpotLight};
 use crate::material::{AlphaMode, Material};
 use crate::mesh::{Mesh, MeshError, MorphTarget, SkinWeights, smooth_normals};
@@ -363,8 +363,10 @@ pub struct GltfScene {
     pub meshes: Vec<Vec<(Mesh, usize)>>,
     /// The file's materials, plus a default material appended when a primitive has none.
     pub materials: Vec<GltfMaterial>,
-    /// Decoded images with mips, one per (glTF image, colour space) pair that materials use.
+    /// Images with mips, one per (glTF image, [`TextureRole`]) pair that materials use.
     pub images: Vec<Image>,
+    /// How the images were imported (cache hits, compressions, …).
+    pub texture_import: TextureImportStats,
     /// All nodes of the file, indexed as in the file.
     pub nodes: Vec<GltfNode>,
     /// The nodes of the default (or first) scene; all parentless nodes if there is no scene.
@@ -399,18 +401,137 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     materials::TEXTURE_BASISU,
 ];
 
-/// How forgiving loading is.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// How loading treats textures: how forgiving it is, and whether images are compressed.
+#[derive(Clone, Default)]
 pub struct LoadOptions {
     /// Refuse the model when a texture image is missing or undecodable (the pre-forgiving
     /// behaviour, with the same error). Off by default: such a texture is replaced (see the
     /// module docs) and a warning names the file and the material.
     pub strict_textures: bool,
+    /// How PNG and JPEG images become textures: block-compressed through the user's cache by
+    /// default.
+    pub textures: TextureImport,
+    /// Called after each texture image is imported, with how far the import is (for a progress
+    /// bar on a long first import).
+    pub progress: Option<TextureProgress>,
+}
+
+impl std::fmt::Debug for LoadOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LoadOptions")
+            .field("strict_textures", &self.strict_textures)
+            .field("textures", &self.textures)
+            .field("progress", &self.progress.as_ref().map(|_| "…"))
+            .finish()
+    }
 }
 
 impl LoadOptions {
     /// Every texture must load.
-    pub const STRICT: LoadOptions = LoadOptions { strict_textures: true };
+    pub const STRICT: LoadOptions =
+        LoadOptions { strict_textures: true, textures: TextureImport::Compressed(CacheLocation::User), progress: None };
+}
+
+/// How the PNG and JPEG images of a glTF become textures (KTX2 images are used as they are
+/// either way).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum TextureImport {
+    /// Decoded to RGBA8 with mips at every load, 4 bytes a texel.
+    Rgba8,
+    /// Block-compressed by role ([`TextureRole`]: BC7 colour and data, BC5 normals, BC4 lone
+    /// occlusion), with mips, through a cache that later loads read directly
+    /// ([`crate::image::TextureCache`]).
+    Compressed(CacheLocation),
+}
+
+impl Default for TextureImport {
+    fn default() -> TextureImport {
+        TextureImport::Compressed(CacheLocation::User)
+    }
+}
+
+/// Where compressed textures are cached.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum CacheLocation {
+    /// The user's cache folder ([`TextureCache::user`]); no cache when it has none.
+    User,
+    /// This folder.
+    At(PathBuf),
+    /// No cache: textures are compressed at every load.
+    Off,
+}
+
+impl CacheLocation {
+    fn cache(&self) -> Option<TextureCache> {
+        match self {
+            CacheLocation::User => TextureCache::user(),
+            CacheLocation::At(dir) => Some(TextureCache::new(dir)),
+            CacheLocation::Off => None,
+        }
+    }
+}
+
+/// A callback told of each texture image as it is imported.
+pub type TextureProgress = std::sync::Arc<dyn Fn(&TextureEvent<'_>) + Send + Sync>;
+
+/// One texture image imported.
+#[derive(Clone, Debug)]
+pub struct TextureEvent<'a> {
+    /// How many of the model's texture images are done, this one included.
+    pub done: usize,
+    /// How many texture images the model's materials use.
+    pub total: usize,
+    /// The image (its URI, or its index and name in the file).
+    pub image: &'a str,
+    /// How it was imported.
+    pub import: TextureSource,
+}
+
+/// How one texture image was imported.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TextureSource {
+    /// Read compressed from the cache.
+    CacheHit,
+    /// Decoded and compressed (and cached).
+    Compressed,
+    /// A cached file could not be used; decoded and compressed again.
+    Rebuilt,
+    /// Decoded to RGBA8 ([`TextureImport::Rgba8`]).
+    Rgba8,
+    /// A KTX2 image used as it is.
+    Ktx2,
+    /// Made from another slot's image already loaded (the same PNG in another role, as RGBA8).
+    Reused,
+}
+
+/// What happened to a model's texture images at load: one count per [`TextureSource`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TextureImportStats {
+    /// Read compressed from the cache.
+    pub cache_hits: u32,
+    /// Decoded and compressed (cache misses).
+    pub compressed: u32,
+    /// Cached files that could not be used, compressed again.
+    pub rebuilt: u32,
+    /// Decoded to RGBA8.
+    pub rgba8: u32,
+    /// KTX2 images used as they are.
+    pub ktx2: u32,
+    /// Made from an image already loaded for another slot.
+    pub reused: u32,
+}
+
+impl TextureImportStats {
+    pub(super) fn count(&mut self, source: TextureSource) {
+        *match source {
+            TextureSource::CacheHit => &mut self.cache_hits,
+            TextureSource::Compressed => &mut self.compressed,
+            TextureSource::Rebuilt => &mut self.rebuilt,
+            TextureSource::Rgba8 => &mut self.rgba8,
+            TextureSource::Ktx2 => &mut self.ktx2,
+            TextureSource::Reused => &mut self.reused,
+        } += 1;
+    }
 }
 
 /// Packs a glTF JSON document and its binary chunk into a GLB container (version 2), padding
@@ -513,8 +634,7 @@ fn load_impl(bytes: &[u8], base: Option<&Path>, file: &Path, name: String, optio
     let Gltf { document, blob } = parse(bytes, file)?;
     let quantized = document.extensions_used().chain(document.extensions_required()).any(|e| e == "KHR_mesh_quantization");
     let buffers = load_buffers(&document, blob, base, file)?;
-    let mut images =
-        ImageLoader { document: &document, buffers: &buffers, base, file, images: Vec::new(), slots: HashMap::new(), placeholder: None };
+    let mut images = ImageLoader::new(&document, &buffers, base, file, options);
     let mut faults = Faults::new(file);
     let (mut materials, uv_transforms): (Vec<_>, Vec<_>) = document
         .materials()
@@ -554,7 +674,8 @@ fn load_impl(bytes: &[u8], base: Option<&Path>, file: &Path, name: String, optio
     let skins = load_skins(&document, &buffers, file, &mut nodes, &meshes, &mut faults);
     let animations = load_animations(&document, &buffers, file, &mut faults);
     let faults = faults.list;
-    let scene = GltfScene { name, meshes, materials, images: images.images, nodes, roots, skins, animations, faults };
+    let texture_import = images.stats;
+    let scene = GltfScene { name, meshes, materials, images: images.images, texture_import, nodes, roots, skins, animations, faults };
     info!(
         file = %file.display(),
         meshes = scene.meshes.len(),

@@ -23,8 +23,16 @@ fn decode_limits() -> ::image::Limits {
     limits
 }
 
-/// Reads the header, checks the declared size against the limits, then decodes to RGBA8.
+/// Reads the header, checks the declared size against the limits, then decodes to RGBA8 and
+/// builds the mip chain.
 pub(super) fn decode(bytes: &[u8], color_space: ColorSpace, what: impl Fn() -> String) -> Result<Image, ImageError> {
+    let (width, height, rgba) = decode_rgba8(bytes, what)?;
+    Image::from_rgba8(width, height, rgba, color_space)
+}
+
+/// Reads the header, checks the declared size against the limits, then decodes level 0 to
+/// RGBA8: width, height and texels.
+pub(super) fn decode_rgba8(bytes: &[u8], what: impl Fn() -> String) -> Result<(u32, u32, Vec<u8>), ImageError> {
     let decode_error = |source| ImageError::Decode { what: what(), source };
     let mut reader = ::image::ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
@@ -54,7 +62,7 @@ pub(super) fn decode(bytes: &[u8], color_space: ColorSpace, what: impl Fn() -> S
     limits.reserve(decoded_bytes).map_err(decode_error)?;
     decoder.set_limits(limits).map_err(decode_error)?;
     let rgba = ::image::DynamicImage::from_decoder(decoder).map_err(decode_error)?.into_rgba8();
-    Image::from_rgba8(width, height, rgba.into_raw(), color_space)
+    Ok((width, height, rgba.into_raw()))
 }
 
 #[cfg(test)]

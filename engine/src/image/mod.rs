@@ -228,6 +228,13 @@ impl Image {
         decode::decode(bytes, color_space, || format!("<{} bytes in memory>", bytes.len()))
     }
 
+    /// Decodes an in-memory PNG or JPEG to its RGBA8 level 0 alone (width, height, texels),
+    /// under the same limits as [`Image::from_encoded`]: for callers that filter or compress the
+    /// mip chain themselves ([`Image::compress`]).
+    pub fn decode_rgba8(bytes: &[u8]) -> Result<(u32, u32, Vec<u8>), ImageError> {
+        decode::decode_rgba8(bytes, || format!("<{} bytes in memory>", bytes.len()))
+    }
+
     /// A 1×1 image of one colour.
     pub fn solid(rgba: [u8; 4], color_space: ColorSpace) -> Image {
         Image { width: 1, height: 1, color_space, format: TexelFormat::Rgba8, mips: vec![rgba.to_vec()] }

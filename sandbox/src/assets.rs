@@ -1,0 +1,166 @@
+//! Loading glTF files the way the sandbox was told to import textures (`--textures`,
+//! `--asset-cache`), the running count of what the imports did (for `--stats`), and the `bake`
+//! command: compress a model's textures into the cache ahead of time, or measure what importing
+//! costs (`bake --measure`).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use bevy_ecs::prelude::{Resource, World};
+use engine::gltf::{CacheLocation, GltfScene, LoadOptions, TextureImport, TextureImportStats};
+
+/// How the sandbox loads glTF files (a resource; the default when absent).
+#[derive(Resource, Clone, Debug, Default)]
+pub struct ImportOptions(pub LoadOptions);
+
+/// What every glTF import of this run did to its textures, summed (a resource).
+#[derive(Resource, Clone, Copy, Debug, Default)]
+pub struct ImportTotals(pub TextureImportStats);
+
+impl ImportTotals {
+    fn add(&mut self, stats: &TextureImportStats) {
+        let t = &mut self.0;
+        t.cache_hits += stats.cache_hits;
+        t.compressed += stats.compressed;
+        t.rebuilt += stats.rebuilt;
+        t.rgba8 += stats.rgba8;
+        t.ktx2 += stats.ktx2;
+        t.reused += stats.reused;
+    }
+}
+
+/// Loads a glTF file with the world's [`ImportOptions`], adding what its texture import did to
+/// [`ImportTotals`].
+pub fn load_gltf(world: &mut World, path: &Path) -> Result<GltfScene, engine::gltf::GltfError> {
+    let options = world.get_resource::<ImportOptions>().cloned().unwrap_or_default();
+    let scene = engine::gltf::load_with(path, &options.0)?;
+    world.get_resource_or_insert_with(ImportTotals::default).add(&scene.texture_import);
+    Ok(scene)
+}
+
+/// The import options the command line asks for: `rgba8` or compressed textures (`bc`), cached
+/// in `cache` (the user's cache folder when `None`; `off`: no cache), and a progress bar on the
+/// terminal while textures are compressed.
+pub fn import_options(textures: &str, cache: Option<&Path>, progress: bool) -> Result<LoadOptions> {
+    let location = match cache {
+        Some(dir) if dir == Path::new("off") => CacheLocation::Off,
+        Some(dir) => CacheLocation::At(dir.to_owned()),
+        None => CacheLocation::User,
+    };
+    let textures = match textures {
+        "bc" => TextureImport::Compressed(location),
+        "rgba8" => TextureImport::Rgba8,
+        other => anyhow::bail!("unknown texture import {other:?} (bc, rgba8)"),
+    };
+    Ok(LoadOptions { textures, progress: progress.then(progress_bar), ..Default::default() })
+}
+
+/// A progress line on standard error while a model's textures are compressed (shown only when
+/// one needs compressing: a cached load stays silent).
+fn progress_bar() -> engine::gltf::TextureProgress {
+    use std::io::{IsTerminal, Write};
+    let started = Instant::now();
+    std::sync::Arc::new(move |event: &engine::gltf::TextureEvent<'_>| {
+        let compressing = matches!(event.import, engine::gltf::TextureSource::Compressed | engine::gltf::TextureSource::Rebuilt);
+        if !compressing || !std::io::stderr().is_terminal() {
+            return;
+        }
+        let width = 30;
+        let filled = event.done * width / event.total.max(1);
+        let mut err = std::io::stderr().lock();
+        let _ = write!(
+            err,
+            "\rcompressing textures [{}{}] {}/{} {:.1} s {}\x1b[K",
+            "#".repeat(filled),
+            " ".repeat(width - filled),
+            event.done,
+            event.total,
+            started.elapsed().as_secs_f32(),
+            event.image
+        );
+        if event.done == event.total {
+            let _ = writeln!(err);
+        }
+    })
+}
+
+/// What importing one file cost (`bake --measure`).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ImportMeasure {
+    /// The file.
+    pub file: PathBuf,
+    /// Texture images the file's materials use (image, role pairs).
+    pub images: usize,
+    /// Load time with RGBA8 textures (PNG/JPEG decoded, mips filtered), seconds.
+    pub rgba8_seconds: f64,
+    /// Load time with an empty cache (decoded, filtered, compressed, written), seconds.
+    pub first_seconds: f64,
+    /// Load time from the cache, seconds.
+    pub cached_seconds: f64,
+    /// Bytes of every texture level as RGBA8.
+    pub rgba8_bytes: u64,
+    /// Bytes of every texture level compressed.
+    pub compressed_bytes: u64,
+    /// Texture bytes by format, compressed.
+    pub compressed_by_format: std::collections::BTreeMap<String, u64>,
+}
+
+fn texture_bytes(scene: &GltfScene) -> u64 {
+    scene.images.iter().flat_map(|image| &image.mips).map(|level| level.len() as u64).sum()
+}
+
+/// Loads `file` three ways (RGBA8; compressed into an empty cache under `scratch`; compressed
+/// from that cache) and reports the times and texture bytes of each.
+pub fn measure_import(file: &Path, scratch: &Path) -> Result<ImportMeasure> {
+    let load = |options: &LoadOptions| -> Result<(GltfScene, f64)> {
+        let started = Instant::now();
+        let scene = engine::gltf::load_with(file, options).with_context(|| format!("loading {}", file.display()))?;
+        Ok((scene, started.elapsed().as_secs_f64()))
+    };
+    let cache = scratch.join(format!("bake-measure-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&cache);
+    let compressed = LoadOptions { textures: TextureImport::Compressed(CacheLocation::At(cache.clone())), ..Default::default() };
+    let (rgba8, rgba8_seconds) = load(&LoadOptions { textures: TextureImport::Rgba8, ..Default::default() })?;
+    let (first, first_seconds) = load(&compressed)?;
+    let (cached, cached_seconds) = load(&compressed)?;
+    let _ = std::fs::remove_dir_all(&cache);
+    anyhow::ensure!(
+        cached.texture_import.compressed + cached.texture_import.rebuilt == 0,
+        "the second load did not read every texture from the cache: {:?}",
+        cached.texture_import
+    );
+    let mut by_format = std::collections::BTreeMap::new();
+    for image in &first.images {
+        *by_format.entry(format!("{:?}", image.format)).or_default() += image.mips.iter().map(|l| l.len() as u64).sum::<u64>();
+    }
+    Ok(ImportMeasure {
+        file: file.to_owned(),
+        images: first.images.len(),
+        rgba8_seconds,
+        first_seconds,
+        cached_seconds,
+        rgba8_bytes: texture_bytes(&rgba8),
+        compressed_bytes: texture_bytes(&first),
+        compressed_by_format: by_format,
+    })
+}
+
+/// Compresses the textures of `file` into the cache `options` name (what its first load would
+/// do) and says what it did.
+pub fn bake(file: &Path, options: &LoadOptions) -> Result<String> {
+    let started = Instant::now();
+    let scene = engine::gltf::load_with(file, options).with_context(|| format!("loading {}", file.display()))?;
+    let s = scene.texture_import;
+    Ok(format!(
+        "{}: {} texture images in {:.2} s: {} compressed, {} already cached, {} rebuilt, {} KTX2 used as they are, {} MiB of textures",
+        file.display(),
+        scene.images.len(),
+        started.elapsed().as_secs_f64(),
+        s.compressed,
+        s.cache_hits,
+        s.rebuilt,
+        s.ktx2,
+        texture_bytes(&scene) as f64 / (1024.0 * 1024.0)
+    ))
+}
