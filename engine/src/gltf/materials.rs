@@ -154,7 +154,7 @@ impl<'a> ImageLoader<'a> {
             };
             let decode = || Image::decode_rgba8(&bytes);
             if bytes.starts_with(KTX2_IDENTIFIER) {
-                (Image::from_ktx2(&bytes, role.color_space(), &describe).map_err(error)?, TextureSource::Ktx2)
+                (Image::from_ktx2_for(&bytes, role, &describe).map_err(error)?, TextureSource::Ktx2)
             } else {
                 match &self.compress {
                     None => {

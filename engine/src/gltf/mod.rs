@@ -13,9 +13,10 @@
 //! `KHR_lights_punctual`, `KHR_mesh_quantization`, `KHR_texture_transform`, `MSFT_lod` (a
 //! node's coarser levels of detail become its mesh's [`Mesh::lods`]), `EXT_meshopt_compression`
 //! (compressed buffer views decoded as the buffers load, `ext_meshopt.rs`), `KHR_texture_basisu`
-//! (KTX2 images in BC1, BC3, BC4, BC5, BC7 or RGBA8 used as their blocks are,
-//! [`crate::image::Image::from_ktx2`]; a Basis Universal or supercompressed one is not transcoded
-//! yet: the texture's PNG/JPEG source is used instead, or the placeholder), perspective cameras
+//! (KTX2 images in BC1, BC3, BC4, BC5, BC7 or RGBA8 used as their blocks are, Basis Universal
+//! ones transcoded to the BC format of their role, [`crate::image::Image::from_ktx2_for`]; one
+//! that cannot be read falls back to the texture's PNG/JPEG source, or the placeholder),
+//! perspective cameras
 //! (`zfar` ignored: the projection is infinite reverse-Z), node hierarchies with TRS or matrix
 //! transforms, triangle lists/strips/fans. A document that *requires* any other extension (e.g.
 //! `KHR_draco_mesh_compression`) is refused with [`GltfError::UnsupportedExtension`] naming it.
@@ -35,6 +36,14 @@
 //! primitive's `TEXCOORD_0`, since a material has one UV set for all its textures: when every
 //! texture of the material has the same transform it is exact; otherwise the base colour's
 //! transform (or the first textured slot's) is baked and one warning names the material.
+//!
+//! **Textures are block-compressed at import** ([`LoadOptions::textures`], on by default): each
+//! PNG/JPEG image is compressed for the role its material slot gives it ([`TextureRole`]: BC7
+//! for base colour, emissive and metallic-roughness, BC5 for normal maps, BC4 for an occlusion
+//! map no metallic-roughness slot shares) with a full mip chain, through the user's texture
+//! cache ([`crate::image::TextureCache`]), so that only the first load of a model pays for it;
+//! [`GltfScene::texture_import`] counts what each load did, and [`LoadOptions::progress`] is told
+//! of each image. [`TextureImport::Rgba8`] decodes to RGBA8 at every load instead.
 //!
 //! **Textures that cannot be loaded** (the file is missing or unreadable, or the bytes do not
 //! decode) do not fail the model by default: the model loads and one warning per material and

@@ -1,7 +1,16 @@
 //! KTX2 containers (Khronos, KTX 2.0 specification): 2D textures read with their levels used as
-//! they are, and written (the texture import cache's files, [`super::cache`]). The `ktx2` crate
-//! parses and validates containers and serialises their header, level index and data format
-//! descriptor; this module lays them out.
+//! they are, Basis Universal ones transcoded, and containers written (the texture import
+//! cache's files, [`super::cache`]). The `ktx2` crate parses and validates containers and
+//! serialises their header, level index and data format descriptor; this module lays them out.
+//!
+//! **Basis Universal** (`KHR_texture_basisu`'s payload: ETC1S with BasisLZ supercompression, or
+//! UASTC, raw or Zstandard-supercompressed) is transcoded at load by the `basisu` crate, a
+//! pure-Rust port of Binomial's reference transcoder that its author verified byte for byte
+//! against it, to the format the texture's [`TextureRole`] asks for: BC7 for colour and data,
+//! BC5 for two-channel normal maps (Basis Universal's layout, X in RGB and Y in alpha, which
+//! `KHR_texture_basisu` recommends; BC7 for a three-channel one), BC4 for a lone occlusion map. The
+//! `basis-universal` crate (bindings to the C++ library) was the alternative; its 0.3 bindings
+//! transcode `.basis` files only, not KTX2 containers, and would add a C++ build to every CI run.
 
 use super::*;
 use ::ktx2::Format as F;
@@ -26,17 +35,65 @@ fn ktx2_format(format: TexelFormat, color_space: ColorSpace) -> F {
     }
 }
 
+/// Transcodes a Basis Universal KTX2 container (a universal format: ETC1S or UASTC) to the BC
+/// format of `role`, every level it holds.
+fn transcode_basis(bytes: &[u8], role: TextureRole, what: &str) -> Result<Image, ImageError> {
+    let fail = |reason: String| ImageError::Ktx2 { what: what.to_string(), reason };
+    let transcoder =
+        ::basisu::Transcoder::new(bytes).map_err(|e| fail(format!("not a Basis Universal texture the transcoder can read ({e:?})")))?;
+    if transcoder.layer_count() > 1 || transcoder.face_count() > 1 || transcoder.is_video() {
+        return Err(fail("a Basis Universal array, cube map or video, not a 2D texture".to_string()));
+    }
+    let (width, height) = transcoder.base_dimensions();
+    let levels = transcoder.level_count().max(1);
+    check_size(width, height, levels as usize).map_err(|e| fail(e.to_string()))?;
+    // A two-channel normal map follows Basis Universal's layout (X in RGB, Y in alpha), which the
+    // transcoder's BC5 reads; one without alpha holds X, Y and Z in RGB and stays BC7.
+    let (target, format) = match role {
+        TextureRole::Normal if transcoder.has_alpha() => (::basisu::TargetFormat::Bc5Rg, TexelFormat::Bc5),
+        TextureRole::Color | TextureRole::Data | TextureRole::Normal => (::basisu::TargetFormat::Bc7Rgba, TexelFormat::Bc7),
+        TextureRole::Mask => (::basisu::TargetFormat::Bc4R, TexelFormat::Bc4),
+    };
+    let mips = (0..levels)
+        .map(|level| {
+            transcoder
+                .transcode(level, target, ::basisu::DecodeFlags::HIGH_QUALITY)
+                .map_err(|e| fail(format!("level {level} cannot be transcoded to {target:?} ({e:?})")))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Image::from_blocks(width, height, role.color_space(), format, mips).map_err(|e| fail(e.to_string()))
+}
+
 impl Image {
     /// Reads a KTX2 container of a 2D texture in BC1, BC3, BC4, BC5, BC7 or RGBA8 (its levels
-    /// used as they are, as many as it holds); `color_space` is how the material uses it (the
-    /// blocks are the same either way). Supercompressed and Basis Universal containers are
-    /// refused with the reason (transcoding them is not implemented yet); errors name `what`.
+    /// used as they are, as many as it holds) or in Basis Universal (transcoded to BC7);
+    /// `color_space` is how the material uses it (the blocks are the same either way). Other
+    /// formats and supercompressed non-Basis containers are refused with the reason; errors
+    /// name `what`.
     pub fn from_ktx2(bytes: &[u8], color_space: ColorSpace, what: &str) -> Result<Image, ImageError> {
+        let role = match color_space {
+            ColorSpace::Srgb => TextureRole::Color,
+            ColorSpace::Linear => TextureRole::Data,
+        };
+        Image::from_ktx2_for(bytes, role, what)
+    }
+
+    /// [`Image::from_ktx2`] for a texture of `role`: BC and RGBA8 levels are used as they are
+    /// (in the role's colour space); Basis Universal ones are transcoded to the role's format
+    /// (see the module docs).
+    pub fn from_ktx2_for(bytes: &[u8], role: TextureRole, what: &str) -> Result<Image, ImageError> {
+        let color_space = role.color_space();
         let fail = |reason: String| ImageError::Ktx2 { what: what.to_string(), reason };
         let reader = ::ktx2::Reader::new(bytes).map_err(|e| fail(format!("not a valid KTX2 container ({e})")))?;
         let header = reader.header();
+        if header.format.is_none() {
+            return transcode_basis(bytes, role, what);
+        }
         if let Some(scheme) = header.supercompression_scheme {
-            return Err(fail(format!("supercompressed ({scheme:?}): Basis Universal and zstd are not transcoded yet")));
+            return Err(fail(format!(
+                "a {:?} level supercompressed with {scheme:?}, which only Basis Universal containers may be",
+                header.format
+            )));
         }
         if header.layer_count > 1 || header.face_count > 1 || header.pixel_depth > 1 {
             return Err(fail("an array, cube or volume texture, not a 2D one".to_string()));
@@ -49,7 +106,7 @@ impl Image {
             Some(F::BC5_UNORM_BLOCK) => TexelFormat::Bc5,
             Some(F::BC7_UNORM_BLOCK | F::BC7_SRGB_BLOCK) => TexelFormat::Bc7,
             Some(F::R8G8B8A8_UNORM | F::R8G8B8A8_SRGB) => TexelFormat::Rgba8,
-            None => return Err(fail("a universal format (Basis Universal) to transcode, which is not implemented yet".to_string())),
+            None => unreachable!("universal formats are transcoded above"),
             Some(other) => return Err(fail(format!("its format {other:?} is not BC1, BC3, BC4, BC5, BC7 or RGBA8"))),
         };
         let (width, height) = (header.pixel_width, header.pixel_height.max(1));

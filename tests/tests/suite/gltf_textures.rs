@@ -90,6 +90,12 @@ fn ktx2_textures_load_as_their_blocks_or_fall_back() {
     let image = base_colour(&scene);
     assert_eq!((image.format, image.width), (TexelFormat::Bc7, 2), "the fallback PNG: {image:?}");
 
+    // A Basis Universal image (UASTC, Zstandard-supercompressed) is transcoded to BC7.
+    let scene = textured_triangle(&basis_asset("colour_uastc.ktx2"), None);
+    let image = base_colour(&scene);
+    assert_eq!((image.format, image.width, image.mip_count()), (TexelFormat::Bc7, 32, 6), "the transcoded UASTC: {image:?}");
+    assert_eq!(scene.texture_import.ktx2, 1);
+
     // Without a PNG source the texture gets the placeholder, and the rest of the file loads.
     let scene = textured_triangle(&bc1_ktx2(true), None);
     let image = base_colour(&scene);
@@ -126,10 +132,17 @@ fn test_texture(role: TextureRole) -> Vec<u8> {
         .collect()
 }
 
-/// Each role's texture, compressed, shades the floor as its RGBA8 original does. The floor runs
-/// from the camera's feet to the horizon, so that its far half samples the small mips.
+/// A test texture of `assets/tests/basis` (see its `PROVENANCE.md`); a missing file fails.
+fn basis_asset(name: &str) -> Vec<u8> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/tests/basis").join(name);
+    std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// Each role's texture compressed at import, and Basis Universal textures (ETC1S and UASTC)
+/// transcoded, shade the floor as their RGBA8 originals do. The floor runs from the camera's
+/// feet to the horizon, so that its far half samples the small mips.
 #[test]
-fn compressed_textures_render_as_their_originals() {
+fn compressed_and_basis_textures_render_as_their_originals() {
     let size = (96u32, 64u32);
     let settings = RenderSettings { ambient: Vec3::splat(0.4), ..Default::default() };
     let mut app = gpu_app(size.0, size.1, settings);
@@ -156,26 +169,49 @@ fn compressed_textures_render_as_their_originals() {
         app.update();
         renderer(&mut app).read_hdr().expect("readback")
     };
-    // The stated errors, relative to the image's mean brightness: mean and 99th percentile over
-    // every pixel and channel. Measured on lavapipe: colour 0.99 % and 11.8 % (the texture's
-    // per-texel noise is what BC7's 4×4 blocks smooth), metallic-roughness 0.32 % and 3.2 %,
-    // occlusion 0.13 % and 1.1 %, normals 0.22 % and 1.9 %.
-    for (role, mean_bound, p99_bound) in [
-        (TextureRole::Color, 0.015, 0.15),
-        (TextureRole::Data, 0.005, 0.05),
-        (TextureRole::Mask, 0.002, 0.02),
-        (TextureRole::Normal, 0.004, 0.03),
-    ] {
-        let texels = test_texture(role);
-        let original = render(Image::from_rgba8_for(64, 64, texels.clone(), role).unwrap(), role);
-        let compressed = Image::compress(64, 64, texels, role).unwrap();
-        assert_eq!((compressed.format, compressed.mip_count()), (role.compressed_format(), 7));
-        let compressed = render(compressed, role);
+    // Mean and 99th-percentile error over every pixel and channel, relative to the original's
+    // mean brightness.
+    let mut compare = |what: &str, original: Image, compressed: Image, role: TextureRole, bounds: (f32, f32)| {
+        let (original, compressed) = (render(original, role), render(compressed, role));
         let brightness = original.iter().flat_map(|p| &p[..3]).sum::<f32>() / (original.len() * 3) as f32;
         let (mean, p99) = error_stats(&original, &compressed, |_| true);
         let (mean, p99) = (mean / brightness, p99 / brightness);
-        eprintln!("{role:?}: mean error {:.2} %, 99th percentile {:.2} % of the mean brightness {brightness:.3}", mean * 100.0, p99 * 100.0);
-        assert!(mean <= mean_bound && p99 <= p99_bound, "{role:?} compressed: mean error {mean:.4}, 99th percentile {p99:.4}");
+        eprintln!("{what}: mean error {:.2} %, 99th percentile {:.2} % of the mean brightness {brightness:.3}", mean * 100.0, p99 * 100.0);
+        assert!(mean <= bounds.0 && p99 <= bounds.1, "{what}: mean error {mean:.4}, 99th percentile {p99:.4}, over {bounds:?}");
+    };
+
+    // Compressed at import. Measured on lavapipe: colour 0.99 % and 11.8 % (the texture's
+    // per-texel noise is what BC7's 4×4 blocks smooth), metallic-roughness 0.32 % and 3.2 %,
+    // occlusion 0.13 % and 1.1 %, normals 0.22 % and 1.9 %.
+    for (role, bounds) in [
+        (TextureRole::Color, (0.015, 0.15)),
+        (TextureRole::Data, (0.005, 0.05)),
+        (TextureRole::Mask, (0.002, 0.02)),
+        (TextureRole::Normal, (0.004, 0.03)),
+    ] {
+        let texels = test_texture(role);
+        let original = Image::from_rgba8_for(64, 64, texels.clone(), role).unwrap();
+        let compressed = Image::compress(64, 64, texels, role).unwrap();
+        assert_eq!((compressed.format, compressed.mip_count()), (role.compressed_format(), 7));
+        compare(&format!("{role:?} compressed"), original, compressed, role, bounds);
+    }
+
+    // Basis Universal, transcoded to BC7 (colour) and BC5 (two-channel normal maps), against
+    // the PNG the files were encoded from. ETC1S is the smaller, lossier payload by design (its
+    // level 0 decodes 4.2 sRGB codes from the source on average, UASTC's 0.34), and the files'
+    // mips are the encoder's own filter, not ours. Measured on lavapipe: ETC1S colour 5.9 % and
+    // 53 % (the checker's edges), UASTC colour 1.5 % and 15 %; normals 0.87 % and 11 % (ETC1S),
+    // 0.56 % and 5.1 % (UASTC).
+    for (file, source, role, format, bounds) in [
+        ("colour_etc1s.ktx2", "colour.png", TextureRole::Color, TexelFormat::Bc7, (0.08, 0.65)),
+        ("colour_uastc.ktx2", "colour.png", TextureRole::Color, TexelFormat::Bc7, (0.025, 0.22)),
+        ("normal_etc1s.ktx2", "normal.png", TextureRole::Normal, TexelFormat::Bc5, (0.015, 0.16)),
+        ("normal_uastc.ktx2", "normal.png", TextureRole::Normal, TexelFormat::Bc5, (0.01, 0.08)),
+    ] {
+        let transcoded = Image::from_ktx2_for(&basis_asset(file), role, file).expect("the Basis texture transcodes");
+        assert_eq!((transcoded.format, transcoded.width, transcoded.mip_count()), (format, 32, 6), "{file}");
+        let (w, h, texels) = Image::decode_rgba8(&basis_asset(source)).expect("the source PNG");
+        compare(file, Image::from_rgba8_for(w, h, texels, role).unwrap(), transcoded, role, bounds);
     }
     assert_no_validation_errors(&mut app);
 }
