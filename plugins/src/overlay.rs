@@ -308,9 +308,19 @@ impl DebugOverlay {
 
 /// GPU memory at the end of the last frame, by what it holds (`render::gpu::memory`), in MiB.
 fn memory(ui: &mut egui::Ui, world: &World) {
-    let m = world.resource::<RenderStats>().last.memory;
+    let last = &world.resource::<RenderStats>().last;
+    let (m, budget) = (last.memory, last.texture_budget);
     let mib = |bytes: u64| bytes as f64 / (1024.0 * 1024.0);
     ui.label(format!("{:.1} MiB in all", mib(m.total())));
+    if budget.budget > 0 {
+        ui.label(format!(
+            "scene textures {:.1} of a {:.1} MiB budget; {} finest levels ({:.1} MiB) dropped to fit",
+            mib(budget.resident),
+            mib(budget.budget),
+            budget.levels_dropped,
+            mib(budget.bytes_dropped)
+        ));
+    }
     for kind in render::gpu::memory::MemoryKind::ALL {
         ui.label(format!("{}: {:.1} MiB", kind.name().replace('_', " "), mib(m.of(kind))));
     }

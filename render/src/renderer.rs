@@ -56,6 +56,10 @@ pub struct RendererSettings {
     /// an equirectangular map of 2048 texels across): what the sky and mirror reflections of
     /// an environment map show at most, and what filtering a new source costs.
     pub environment_resolution: u32,
+    /// Bytes the scene's textures may hold on the GPU (0: no budget, the default). A scene over
+    /// budget drops the finest levels of its largest textures as they upload, with one warning
+    /// (see [`crate::scene::gpu`]'s texture budget); `counters.texture_budget` says what it did.
+    pub texture_budget: u64,
 }
 
 impl Default for RendererSettings {
@@ -65,6 +69,7 @@ impl Default for RendererSettings {
             decal_cluster_capacity: crate::decals::clustered::INITIAL_CAPACITY,
             shadow_maps: Default::default(),
             environment_resolution: 512,
+            texture_budget: 0,
         }
     }
 }
@@ -189,6 +194,7 @@ impl Renderer {
         let mut scene = GpuScene::new(ctx, &mut graph)?;
         let display_check = DisplayCheck::new(ctx, &mut graph)?;
         scene.set_display_check(display_check.as_ref().map_or(0, DisplayCheck::address));
+        scene.set_texture_budget(settings.texture_budget);
         let layout = create_layout(ctx, scene.set_layout)?;
         let mut type_info = vk::SemaphoreTypeCreateInfo::default().semaphore_type(vk::SemaphoreType::TIMELINE).initial_value(0);
         // SAFETY: valid create info; destroyed in Drop.
@@ -281,6 +287,12 @@ impl Renderer {
     /// Validation errors reported since the last call (always empty when validation is off).
     pub fn take_validation_errors(&self) -> Vec<String> {
         self.ctx.validation.take_errors()
+    }
+
+    /// Sets the texture budget in bytes (0: none; see [`RendererSettings::texture_budget`]):
+    /// textures uploaded from now on are fitted to it.
+    pub fn set_texture_budget(&mut self, bytes: u64) {
+        self.res.scene.set_texture_budget(bytes);
     }
 
     /// Bytes of GPU memory allocated through the allocator (for leak checks; asking the
@@ -491,6 +503,7 @@ impl Renderer {
         counters.draw_calls = res.culling.draw_calls();
         counters.mesh_pool_bytes = res.scene.pool_bytes();
         counters.posed_mesh_bytes = res.scene.posed_bytes();
+        counters.texture_budget = res.scene.texture_budget_report();
         counters.lights = mirror.lights.len() as u64;
         counters.environment = res.environment.stats;
         counters.decals = mirror.decals.len() as u64;

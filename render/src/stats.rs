@@ -175,6 +175,9 @@ pub struct FrameCounters {
     pub mesh_pool_bytes: u64,
     /// Of those, the bytes posed meshes' copies hold (`crate::skinning`).
     pub posed_mesh_bytes: u64,
+    /// The texture budget: its bytes, the scene textures' bytes on the GPU, and the levels (and
+    /// their bytes) dropped to fit it since the start.
+    pub texture_budget: crate::scene::gpu::TextureBudgetReport,
     /// Posed meshes the skinning pass wrote this frame (`crate::skinning`).
     pub skinned_meshes: u64,
     /// Vertices it skinned.

@@ -51,6 +51,8 @@ pub struct HeadlessOptions {
     /// The character that walks the default scene, and the model of the `foxes` benchmark
     /// scene (`None`: no character).
     pub character: Option<PathBuf>,
+    /// Bytes the scene's textures may hold on the GPU (0: no budget; `--texture-budget`).
+    pub texture_budget: u64,
     /// How glTF files are loaded: textures compressed through the user's cache by default
     /// (`--textures`, `--asset-cache`).
     pub import: engine::gltf::LoadOptions,
@@ -298,6 +300,7 @@ impl Default for HeadlessOptions {
             scene: SceneSource::Default,
             character: crate::character::default_character(),
             import: engine::gltf::LoadOptions::default(),
+            texture_budget: 0,
             character_clip: "Walk".to_owned(),
             screenshot: None,
             stats: None,
@@ -364,6 +367,7 @@ pub fn build_app(opts: &HeadlessOptions) -> Result<App> {
         device: DeviceSettings { max_tier: opts.max_tier, ..Default::default() },
         shadow_maps: opts.shadow_maps,
         environment_resolution: opts.environment_resolution,
+        texture_budget: opts.texture_budget,
         ..Default::default()
     };
     build_app_with(opts, &settings)

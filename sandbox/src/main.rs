@@ -291,6 +291,10 @@ struct Cli {
     /// else `~/.cache/ecs-decals/textures`; `off`: compress at every load).
     #[arg(long, global = true)]
     asset_cache: Option<PathBuf>,
+    /// MiB the scene's textures may hold on the GPU: over it, the finest levels of the largest
+    /// textures are dropped as they upload, with one warning (default: no budget).
+    #[arg(long)]
+    texture_budget: Option<f64>,
     #[command(subcommand)]
     command: Option<Command>,
 }
@@ -466,6 +470,7 @@ fn main() -> Result<()> {
         },
         character_clip: cli.character_clip.clone(),
         import,
+        texture_budget: cli.texture_budget.map_or(0, |mib| (mib * 1024.0 * 1024.0) as u64),
         screenshot: screenshot.clone(),
         stats: cli.stats.clone(),
         pipeline: cli.pipeline,

@@ -18,8 +18,11 @@
 //! for), and `memory` (GPU memory allocated at the frame's end, in bytes: `textures`,
 //! `mesh_pool` (of which `posed_meshes`: the posed copies), `acceleration_structures`, `targets`,
 //! `tables` (the scene's records), `lists` (other device-local buffers, most written by the GPU),
-//! `host_visible` (staging, readbacks), their `total` (`posed_meshes` aside), and
-//! `textures_by_format`, keyed by Vulkan format name, e.g. `R8G8B8A8_SRGB`).
+//! `host_visible` (staging, readbacks), their `total` (`posed_meshes` aside),
+//! `textures_by_format`, keyed by Vulkan format name, e.g. `R8G8B8A8_SRGB`, and `texture_budget`:
+//! `budget` (0: none), `resident` (the scene's textures), `levels_dropped` and `bytes_dropped`
+//! to fit it, since the start). The run's glTF imports add `counters.texture_cache_hits`,
+//! `textures_compressed`, `textures_rebuilt`, `textures_rgba8` and `textures_ktx2`.
 //!
 //! Decal lists. `clusters`, in frames that applied clustered decals or still hold their lists
 //! (`capacity` > 0: for a second after they last ran): `clusters`, `capacity`, `limit` (the
@@ -187,6 +190,9 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
     }
     value["memory"] = memory_json(&c.memory);
     value["memory"]["posed_meshes"] = json!(c.posed_mesh_bytes);
+    let b = &c.texture_budget;
+    value["memory"]["texture_budget"] =
+        json!({ "budget": b.budget, "resident": b.resident, "levels_dropped": b.levels_dropped, "bytes_dropped": b.bytes_dropped });
     value
 }
 

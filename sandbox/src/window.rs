@@ -39,6 +39,7 @@ pub fn run_windowed(opts: WindowOptions) -> Result<()> {
         device,
         shadow_maps: opts.base.shadow_maps,
         environment_resolution: opts.base.environment_resolution,
+        texture_budget: opts.base.texture_budget,
         ..Default::default()
     };
     app.add_plugins(GpuPlugin { settings });

@@ -138,6 +138,23 @@ fn basis_asset(name: &str) -> Vec<u8> {
     std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
+/// The floor's pixels shaded with `image` in the slot `role` fills.
+fn shade_floor(app: &mut App, floor: Entity, mesh: &Handle<Mesh>, image: Image, role: TextureRole) -> Vec<[f32; 4]> {
+    let image = app.world.resource_mut::<Assets<Image>>().add(image);
+    let base = Material::from_color(Vec4::ONE, 0.0, 0.6);
+    let material = match role {
+        TextureRole::Color => Material { base_color_texture: Some(image), ..base },
+        TextureRole::Data => Material { metallic: 1.0, roughness: 1.0, metallic_roughness_texture: Some(image), ..base },
+        TextureRole::Normal => Material { normal_texture: Some(image), ..base },
+        TextureRole::Mask => Material { occlusion_texture: Some(image), ..base },
+    };
+    let material = app.world.resource_mut::<Assets<Material>>().add(material);
+    app.world.entity_mut(floor).insert(MeshInstance { mesh: mesh.clone(), material });
+    app.update();
+    app.update();
+    renderer(app).read_hdr().expect("readback")
+}
+
 /// Each role's texture compressed at import, and Basis Universal textures (ETC1S and UASTC)
 /// transcoded, shade the floor as their RGBA8 originals do. The floor runs from the camera's
 /// feet to the horizon, so that its far half samples the small mips.
@@ -153,33 +170,16 @@ fn compressed_and_basis_textures_render_as_their_originals() {
         DirectionalLight { illuminance: 3.0, ..Default::default() },
         Transform::IDENTITY.looking_at(Vec3::new(0.3, -1.0, -0.6), Vec3::Y),
     ));
-    // The floor's pixels shaded with `image` in the slot `role` fills.
-    let mut render = |image: Image, role: TextureRole| {
-        let image = app.world.resource_mut::<Assets<Image>>().add(image);
-        let base = Material::from_color(Vec4::ONE, 0.0, 0.6);
-        let material = match role {
-            TextureRole::Color => Material { base_color_texture: Some(image), ..base },
-            TextureRole::Data => Material { metallic: 1.0, roughness: 1.0, metallic_roughness_texture: Some(image), ..base },
-            TextureRole::Normal => Material { normal_texture: Some(image), ..base },
-            TextureRole::Mask => Material { occlusion_texture: Some(image), ..base },
-        };
-        let material = app.world.resource_mut::<Assets<Material>>().add(material);
-        app.world.entity_mut(floor).insert(MeshInstance { mesh, material });
-        app.update();
-        app.update();
-        renderer(&mut app).read_hdr().expect("readback")
-    };
     // Mean and 99th-percentile error over every pixel and channel, relative to the original's
     // mean brightness.
-    let mut compare = |what: &str, original: Image, compressed: Image, role: TextureRole, bounds: (f32, f32)| {
-        let (original, compressed) = (render(original, role), render(compressed, role));
+    let compare = |app: &mut App, what: &str, original: Image, compressed: Image, role: TextureRole, bounds: (f32, f32)| {
+        let (original, compressed) = (shade_floor(app, floor, &mesh, original, role), shade_floor(app, floor, &mesh, compressed, role));
         let brightness = original.iter().flat_map(|p| &p[..3]).sum::<f32>() / (original.len() * 3) as f32;
         let (mean, p99) = error_stats(&original, &compressed, |_| true);
         let (mean, p99) = (mean / brightness, p99 / brightness);
         eprintln!("{what}: mean error {:.2} %, 99th percentile {:.2} % of the mean brightness {brightness:.3}", mean * 100.0, p99 * 100.0);
         assert!(mean <= bounds.0 && p99 <= bounds.1, "{what}: mean error {mean:.4}, 99th percentile {p99:.4}, over {bounds:?}");
     };
-
     // Compressed at import. Measured on lavapipe: colour 0.99 % and 11.8 % (the texture's
     // per-texel noise is what BC7's 4×4 blocks smooth), metallic-roughness 0.32 % and 3.2 %,
     // occlusion 0.13 % and 1.1 %, normals 0.22 % and 1.9 %.
@@ -193,7 +193,7 @@ fn compressed_and_basis_textures_render_as_their_originals() {
         let original = Image::from_rgba8_for(64, 64, texels.clone(), role).unwrap();
         let compressed = Image::compress(64, 64, texels, role).unwrap();
         assert_eq!((compressed.format, compressed.mip_count()), (role.compressed_format(), 7));
-        compare(&format!("{role:?} compressed"), original, compressed, role, bounds);
+        compare(&mut app, &format!("{role:?} compressed"), original, compressed, role, bounds);
     }
 
     // Basis Universal, transcoded to BC7 (colour) and BC5 (two-channel normal maps), against
@@ -211,8 +211,22 @@ fn compressed_and_basis_textures_render_as_their_originals() {
         let transcoded = Image::from_ktx2_for(&basis_asset(file), role, file).expect("the Basis texture transcodes");
         assert_eq!((transcoded.format, transcoded.width, transcoded.mip_count()), (format, 32, 6), "{file}");
         let (w, h, texels) = Image::decode_rgba8(&basis_asset(source)).expect("the source PNG");
-        compare(file, Image::from_rgba8_for(w, h, texels, role).unwrap(), transcoded, role, bounds);
+        compare(&mut app, file, Image::from_rgba8_for(w, h, texels, role).unwrap(), transcoded, role, bounds);
     }
+
+    // A texture budget: a 256² RGBA8 texture (349,524 bytes with its mips) arriving with 100 KiB
+    // of room left loses its finest levels until it fits (the 256² level goes: the 87,380 bytes
+    // of 128² and down stay), and says so once.
+    let warnings = tests::WarningLog::capture(&mut app);
+    let resident = app.world.resource::<plugins::RenderStats>().last.texture_budget.resident;
+    renderer(&mut app).set_texture_budget(resident + 100 * 1024);
+    let big = Image::from_rgba8_for(256, 256, vec![200; 256 * 256 * 4], TextureRole::Color).unwrap();
+    shade_floor(&mut app, floor, &mesh, big, TextureRole::Color);
+    let budget = app.world.resource::<plugins::RenderStats>().last.texture_budget;
+    assert_eq!((budget.levels_dropped, budget.bytes_dropped), (1, 4 * 256 * 256), "{budget:?}");
+    assert!(budget.resident <= budget.budget, "{budget:?}");
+    let over = warnings.warnings().into_iter().filter(|w| w.message.contains("texture budget")).count();
+    assert_eq!(over, 1, "one warning: {:?}", warnings.warnings());
     assert_no_validation_errors(&mut app);
 }
 

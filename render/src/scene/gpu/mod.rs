@@ -32,6 +32,7 @@ mod lighting;
 mod meshes;
 mod tables;
 mod textures;
+pub use textures::TextureBudgetReport;
 
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
@@ -159,6 +160,12 @@ pub struct GpuScene {
     copies: CopyList,
     /// Built-in textures, uploaded with the first frame.
     builtins: Vec<(u32, TextureData)>,
+    /// The texture budget and what it did (`textures.rs`).
+    texture_budget: textures::TextureBudgetReport,
+    /// Bytes of each scene texture slot on the GPU.
+    texture_sizes: Vec<u64>,
+    /// Whether the budget has warned (it warns once).
+    budget_warned: bool,
     /// The graph resources the scene's buffers and textures are tracked as.
     pub res: SceneResources,
     mesh_usage: vk::BufferUsageFlags,
@@ -288,6 +295,9 @@ impl GpuScene {
             released_textures: Vec::new(),
             copies: CopyList::default(),
             builtins: Vec::new(),
+            texture_budget: Default::default(),
+            texture_sizes: Vec::new(),
+            budget_warned: false,
             res: SceneResources {
                 tables: graph.resource("scene tables"),
                 meshes: graph.resource("meshes"),
@@ -426,7 +436,9 @@ impl GpuScene {
             self.prepare_texture(up, &mut copies, slot, &data)?;
         }
         up.bytes = scene_bytes; // the renderer's own textures are not the scene's uploads
-        for (slot, data) in std::mem::take(&mut mirror.pending_textures) {
+        let mut pending = std::mem::take(&mut mirror.pending_textures);
+        self.apply_texture_budget(&mut pending);
+        for (slot, data) in pending {
             self.prepare_texture(up, &mut copies, slot, &data)?;
         }
         // Boxes rewritten, counting the places a trim dropped (re-parked below), as a refit

@@ -1,5 +1,15 @@
 //! The bindless set: the material and decal textures' array (set 0, binding 0) and the
 //! render targets bound after it, and how a texture is uploaded into its slot.
+//!
+//! **The texture budget** ([`crate::RendererSettings::texture_budget`]): when the scene's
+//! textures (the material and decal textures, not the renderer's own or the environment's)
+//! would take more than the budget, the textures being uploaded lose their finest levels, the
+//! largest texture's first, one level at a time, until they fit: with no record of how many
+//! pixels each texture covers, the finest level of the largest texture is both the most bytes
+//! and the level least likely to be seen in full (it is sampled only where a texel is larger
+//! than a pixel). Textures already on the GPU keep their levels; a texture is never cut below
+//! one level, so a scene whose textures cannot fit even so stays over budget. One warning says
+//! so, the first time; [`TextureBudgetReport`] counts what was dropped.
 
 use super::*;
 
@@ -42,7 +52,84 @@ pub(super) fn descriptor_count(binding: u32) -> u32 {
     }
 }
 
+/// What the texture budget did since the renderer started.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TextureBudgetReport {
+    /// The budget, in bytes (0: none).
+    pub budget: u64,
+    /// Bytes the scene's textures hold on the GPU now.
+    pub resident: u64,
+    /// Finest levels dropped to fit the budget.
+    pub levels_dropped: u64,
+    /// Bytes those levels held.
+    pub bytes_dropped: u64,
+}
+
+/// The bytes of every level of a texture.
+fn texture_bytes(data: &TextureData) -> u64 {
+    data.mips.iter().map(|m| m.len() as u64).sum()
+}
+
+/// Drops the finest levels of `textures` (the largest texture's first) until they hold at most
+/// `room` bytes or every one is down to a single level; returns the levels and bytes dropped.
+pub fn fit_textures(textures: &mut [(u32, TextureData)], room: u64) -> (u64, u64) {
+    let mut total: u64 = textures.iter().map(|(_, t)| texture_bytes(t)).sum();
+    let (mut levels, mut bytes) = (0, 0);
+    while total > room {
+        let Some((_, largest)) = textures.iter_mut().filter(|(_, t)| t.mips.len() > 1).max_by_key(|(_, t)| t.mips[0].len()) else {
+            break;
+        };
+        let finest = largest.mips.remove(0);
+        largest.width = (largest.width / 2).max(1);
+        largest.height = (largest.height / 2).max(1);
+        total -= finest.len() as u64;
+        bytes += finest.len() as u64;
+        levels += 1;
+    }
+    (levels, bytes)
+}
+
 impl GpuScene {
+    /// Fits the textures about to be uploaded into the budget (see the module docs), warning
+    /// once when it drops levels or cannot fit them.
+    pub(super) fn apply_texture_budget(&mut self, pending: &mut [(u32, TextureData)]) {
+        let budget = self.texture_budget.budget;
+        if budget == 0 || pending.is_empty() {
+            return;
+        }
+        // Slots being replaced free what they hold.
+        let replaced: u64 = pending.iter().filter_map(|(slot, _)| self.texture_sizes.get(*slot as usize).copied()).sum();
+        let resident = self.texture_budget.resident.saturating_sub(replaced);
+        let needed = resident + pending.iter().map(|(_, t)| texture_bytes(t)).sum::<u64>();
+        if needed <= budget {
+            return;
+        }
+        let (levels, bytes) = fit_textures(pending, budget.saturating_sub(resident));
+        self.texture_budget.levels_dropped += levels;
+        self.texture_budget.bytes_dropped += bytes;
+        if !self.budget_warned {
+            self.budget_warned = true;
+            let mib = |b: u64| b as f64 / (1024.0 * 1024.0);
+            tracing::warn!(
+                "the scene's textures need {:.1} MiB, over the texture budget of {:.1} MiB: {levels} finest levels ({:.1} MiB) were dropped{}",
+                mib(needed),
+                mib(budget),
+                mib(bytes),
+                if needed - bytes > budget { ", and the textures still do not fit" } else { "" }
+            );
+        }
+    }
+
+    /// Sets the texture budget in bytes (0: none), for the uploads that follow.
+    pub fn set_texture_budget(&mut self, bytes: u64) {
+        self.texture_budget.budget = bytes;
+    }
+
+    /// What the texture budget did ([`TextureBudgetReport`]).
+    pub fn texture_budget_report(&self) -> TextureBudgetReport {
+        self.texture_budget
+    }
+
     /// Writes a render target's `view` into its bindless slot, with the clamp sampler. Only for
     /// slots no pending frame samples. Depth is sampled in `DEPTH_READ_ONLY_OPTIMAL`, so it can be
     /// a read-only depth attachment in the same pass.
@@ -169,6 +256,38 @@ impl GpuScene {
         if let Some(old) = self.textures[slot as usize].replace(image) {
             old.destroy(ctx); // only reachable for built-ins during setup
         }
+        if slot >= RESERVED_TEXTURES {
+            if self.texture_sizes.len() <= slot as usize {
+                self.texture_sizes.resize(slot as usize + 1, 0);
+            }
+            let old = std::mem::replace(&mut self.texture_sizes[slot as usize], texture_bytes(data));
+            self.texture_budget.resident = self.texture_budget.resident - old + texture_bytes(data);
+        }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn texture(size: u32) -> TextureData {
+        let levels = 32 - size.leading_zeros();
+        let mips = (0..levels).map(|l| vec![0u8; ((size >> l).max(1) * (size >> l).max(1) * 4) as usize]).collect();
+        TextureData { width: size, height: size, format: vk::Format::R8G8B8A8_SRGB, mips }
+    }
+
+    #[test]
+    fn the_largest_texture_loses_its_finest_levels_first() {
+        let mut textures = vec![(10, texture(64)), (11, texture(16))];
+        let total: u64 = textures.iter().map(|(_, t)| texture_bytes(t)).sum();
+        // Room for all but most of the 64² level 0: one level of the largest goes.
+        let (levels, bytes) = fit_textures(&mut textures, total - 64 * 64 * 4 + 100);
+        assert_eq!((levels, bytes), (1, 64 * 64 * 4));
+        assert_eq!((textures[0].1.width, textures[0].1.mips.len(), textures[1].1.mips.len()), (32, 6, 5));
+        // No room at all: every texture ends at one level, and the loop stops.
+        let (levels, _) = fit_textures(&mut textures, 0);
+        assert_eq!(levels, 5 + 4);
+        assert!(textures.iter().all(|(_, t)| t.mips.len() == 1 && t.width == 1));
     }
 }
