@@ -139,7 +139,7 @@ fn basis_asset(name: &str) -> Vec<u8> {
 }
 
 /// The floor's pixels shaded with `image` in the slot `role` fills.
-fn shade_floor(app: &mut App, floor: Entity, mesh: &Handle<Mesh>, image: Image, role: TextureRole) -> Vec<[f32; 4]> {
+fn shade_floor(app: &mut App, floor: Entity, mesh: Handle<Mesh>, image: Image, role: TextureRole) -> Vec<[f32; 4]> {
     let image = app.world.resource_mut::<Assets<Image>>().add(image);
     let base = Material::from_color(Vec4::ONE, 0.0, 0.6);
     let material = match role {
@@ -149,7 +149,7 @@ fn shade_floor(app: &mut App, floor: Entity, mesh: &Handle<Mesh>, image: Image, 
         TextureRole::Mask => Material { occlusion_texture: Some(image), ..base },
     };
     let material = app.world.resource_mut::<Assets<Material>>().add(material);
-    app.world.entity_mut(floor).insert(MeshInstance { mesh: mesh.clone(), material });
+    app.world.entity_mut(floor).insert(MeshInstance { mesh, material });
     app.update();
     app.update();
     renderer(app).read_hdr().expect("readback")
@@ -173,7 +173,7 @@ fn compressed_and_basis_textures_render_as_their_originals() {
     // Mean and 99th-percentile error over every pixel and channel, relative to the original's
     // mean brightness.
     let compare = |app: &mut App, what: &str, original: Image, compressed: Image, role: TextureRole, bounds: (f32, f32)| {
-        let (original, compressed) = (shade_floor(app, floor, &mesh, original, role), shade_floor(app, floor, &mesh, compressed, role));
+        let (original, compressed) = (shade_floor(app, floor, mesh, original, role), shade_floor(app, floor, mesh, compressed, role));
         let brightness = original.iter().flat_map(|p| &p[..3]).sum::<f32>() / (original.len() * 3) as f32;
         let (mean, p99) = error_stats(&original, &compressed, |_| true);
         let (mean, p99) = (mean / brightness, p99 / brightness);
@@ -221,7 +221,7 @@ fn compressed_and_basis_textures_render_as_their_originals() {
     let resident = app.world.resource::<plugins::RenderStats>().last.texture_budget.resident;
     renderer(&mut app).set_texture_budget(resident + 100 * 1024);
     let big = Image::from_rgba8_for(256, 256, vec![200; 256 * 256 * 4], TextureRole::Color).unwrap();
-    shade_floor(&mut app, floor, &mesh, big, TextureRole::Color);
+    shade_floor(&mut app, floor, mesh, big, TextureRole::Color);
     let budget = app.world.resource::<plugins::RenderStats>().last.texture_budget;
     assert_eq!((budget.levels_dropped, budget.bytes_dropped), (1, 4 * 256 * 256), "{budget:?}");
     assert!(budget.resident <= budget.budget, "{budget:?}");
@@ -239,7 +239,7 @@ fn the_import_cache_is_hit_and_missed_as_the_sources_change() {
     let options = LoadOptions { textures: TextureImport::Compressed(CacheLocation::At(dir.clone())), ..Default::default() };
     let png = |seed: u8| {
         let mut bytes = Vec::new();
-        let image = image::RgbaImage::from_fn(8, 8, |x, y| image::Rgba([x as u8 * 30 ^ seed, y as u8 * 30, seed, 255]));
+        let image = image::RgbaImage::from_fn(8, 8, |x, y| image::Rgba([(x as u8 * 30) ^ seed, y as u8 * 30, seed, 255]));
         image.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png).unwrap();
         bytes
     };
