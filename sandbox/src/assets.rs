@@ -1,7 +1,8 @@
 //! Loading glTF files the way the sandbox was told to import textures (`--textures`,
-//! `--asset-cache`), the running count of what the imports did (for `--stats`), and the `bake`
-//! command: compress a model's textures into the cache ahead of time, or measure what importing
-//! costs (`bake --measure`).
+//! `--asset-cache`), the same for the textures the sandbox generates (the courtyard's and the
+//! built-in decals', [`import_generated`]), the running count of what the imports did (for
+//! `--stats`), and the `bake` command: compress a model's textures into the cache ahead of time,
+//! or measure what importing costs (`bake --measure`).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -19,6 +20,12 @@ pub struct ImportOptions(pub LoadOptions);
 pub struct ImportTotals(pub TextureImportStats);
 
 impl ImportTotals {
+    fn count(&mut self, source: engine::gltf::TextureSource) {
+        let mut one = TextureImportStats::default();
+        one.count(source);
+        self.add(&one);
+    }
+
     fn add(&mut self, stats: &TextureImportStats) {
         let t = &mut self.0;
         t.cache_hits += stats.cache_hits;
@@ -37,6 +44,52 @@ pub fn load_gltf(world: &mut World, path: &Path) -> Result<GltfScene, engine::gl
     let scene = engine::gltf::load_with(path, &options.0)?;
     world.get_resource_or_insert_with(ImportTotals::default).add(&scene.texture_import);
     Ok(scene)
+}
+
+/// A texture the sandbox generated (RGBA8 with mips), imported as the world's [`ImportOptions`]
+/// import glTF textures: compressed for `role` through the cache (keyed by its texels, so a
+/// generator that changes misses), or kept as it is. Counted in [`ImportTotals`].
+pub fn import_generated(
+    world: &mut World,
+    image: engine::image::Image,
+    role: engine::image::TextureRole,
+    name: &str,
+) -> engine::image::Image {
+    use engine::gltf::TextureSource;
+    use engine::image::{CacheOutcome, Image};
+    let options = world.get_resource::<ImportOptions>().cloned().unwrap_or_default();
+    let TextureImport::Compressed(location) = &options.0.textures else {
+        return image;
+    };
+    let (width, height) = (image.width, image.height);
+    let Some(level0) = image.mips.first().filter(|_| image.format == engine::image::TexelFormat::Rgba8).cloned() else {
+        return image;
+    };
+    let compressed = match location.cache() {
+        Some(cache) => {
+            let mut source = format!("generated {width}x{height} rgba8:").into_bytes();
+            source.extend_from_slice(&level0);
+            cache.load_or_compress(&source, role, name, || Ok((width, height, level0.clone()))).map(|(image, outcome)| {
+                let how = match outcome {
+                    CacheOutcome::Hit => TextureSource::CacheHit,
+                    CacheOutcome::Compressed => TextureSource::Compressed,
+                    CacheOutcome::Rebuilt(_) => TextureSource::Rebuilt,
+                };
+                (image, how)
+            })
+        }
+        None => Image::compress(width, height, level0.clone(), role).map(|image| (image, TextureSource::Compressed)),
+    };
+    match compressed {
+        Ok((compressed, how)) => {
+            world.get_resource_or_insert_with(ImportTotals::default).count(how);
+            compressed
+        }
+        Err(error) => {
+            tracing::warn!(texture = name, %error, "a generated texture could not be compressed; it stays RGBA8");
+            image
+        }
+    }
 }
 
 /// The import options the command line asks for: `rgba8` or compressed textures (`bc`), cached

@@ -20,7 +20,7 @@
 use anyhow::{Result, bail};
 use bevy_ecs::prelude::*;
 use engine::asset::{Assets, Handle};
-use engine::image::Image;
+
 use engine::light::{DirectionalLight, PointLight, SpotLight};
 use engine::transform::{Static, Transform};
 use glam::{Quat, Vec3};
@@ -78,7 +78,7 @@ impl BenchScene {
 }
 
 fn material(world: &mut World, set: decal_textures::DecalTextureSet) -> Handle<DecalMaterial> {
-    let m = decal_textures::decal_material(&set, &mut world.resource_mut::<Assets<Image>>());
+    let m = decal_textures::decal_material(&set, world);
     world.resource_mut::<Assets<DecalMaterial>>().add(m)
 }
 

@@ -27,6 +27,7 @@
 //! cargo run -p sandbox --bin gen_decal_textures -- out/dir  # or into another directory
 //! ```
 
+use bevy_ecs::world::World;
 use std::f32::consts::{PI, TAU};
 use std::path::{Path, PathBuf};
 
@@ -576,7 +577,9 @@ pub fn all() -> Vec<DecalTextureSet> {
     vec![bullet_hole(), footprint(), puddle(), leaves(), sigil()]
 }
 
-/// Adds the set's images to `images` and returns a material that uses them:
+/// Adds the set's images to the world's `Assets<Image>` (compressed as the world's
+/// [`crate::assets::ImportOptions`] say, [`crate::assets::import_generated`]) and returns a
+/// material that uses them:
 ///
 /// | set | albedo (factor) | normal | roughness | emission |
 /// |---|---|---|---|---|
@@ -588,10 +591,15 @@ pub fn all() -> Vec<DecalTextureSet> {
 ///
 /// Metallic is never set. A set with another name gets its albedo at factor 1 and its normal
 /// and metallic-roughness maps if present (roughness 1 × G with the latter).
-pub fn decal_material(set: &DecalTextureSet, images: &mut Assets<Image>) -> DecalMaterial {
-    let albedo = images.add(set.albedo.clone());
-    let normal = set.normal.as_ref().map(|n| images.add(n.clone()));
-    let mr = set.metallic_roughness.as_ref().map(|m| images.add(m.clone()));
+pub fn decal_material(set: &DecalTextureSet, world: &mut World) -> DecalMaterial {
+    use engine::image::TextureRole;
+    let mut add = |image: &Image, role: TextureRole| {
+        let image = crate::assets::import_generated(world, image.clone(), role, set.name);
+        world.get_resource_or_init::<Assets<Image>>().add(image)
+    };
+    let albedo = add(&set.albedo, TextureRole::Color);
+    let normal = set.normal.as_ref().map(|n| add(n, TextureRole::Normal));
+    let mr = set.metallic_roughness.as_ref().map(|m| add(m, TextureRole::Data));
     let (base_color, normal_scale) = match set.name {
         FOOTPRINT => (Vec4::new(1.0, 1.0, 1.0, 0.9), 0.8),
         PUDDLE => (Vec4::new(0.6, 0.6, 0.65, 0.8), 1.0),
@@ -612,10 +620,16 @@ pub fn decal_material(set: &DecalTextureSet, images: &mut Assets<Image>) -> Deca
     }
 }
 
-/// Generates every built-in set, adds its images to `images` and its material to `materials`;
-/// returns the material handles in the order of [`all`].
-pub fn add_builtin_materials(images: &mut Assets<Image>, materials: &mut Assets<DecalMaterial>) -> Vec<Handle<DecalMaterial>> {
-    all().iter().map(|set| materials.add(decal_material(set, images))).collect()
+/// Generates every built-in set, adds its images and its material to the world's `Assets`
+/// (created if missing); returns the material handles in the order of [`all`].
+pub fn add_builtin_materials(world: &mut World) -> Vec<Handle<DecalMaterial>> {
+    all()
+        .iter()
+        .map(|set| {
+            let material = decal_material(set, world);
+            world.get_resource_or_init::<Assets<DecalMaterial>>().add(material)
+        })
+        .collect()
 }
 
 /// Encodes level 0 of `image` as an RGBA8 PNG (best compression).
@@ -767,18 +781,26 @@ mod tests {
         assert!(mr.mips[0].chunks_exact(4).all(|t| t[2] == 0));
         let corner = texel(2, 2);
         assert!(corner[1] as f32 / 255.0 > 0.5, "rim roughness {}", corner[1]);
-        let mut images = Assets::default();
-        let material = decal_material(&set, &mut images);
+        let material = decal_material(&set, &mut rgba8_world());
         let effective = material.roughness.unwrap() * centre[1] as f32 / 255.0;
         assert!(effective < 0.1 && effective > 0.0);
     }
 
+    /// A world whose generated textures stay RGBA8.
+    fn rgba8_world() -> World {
+        let mut world = World::new();
+        let options = engine::gltf::LoadOptions { textures: engine::gltf::TextureImport::Rgba8, ..Default::default() };
+        world.insert_resource(crate::assets::ImportOptions(options));
+        world
+    }
+
     #[test]
     fn materials_reference_the_added_images() {
-        let mut images = Assets::default();
+        let mut world = rgba8_world();
         for set in all() {
-            let before = images.len();
-            let m = decal_material(&set, &mut images);
+            let before = world.get_resource_or_init::<Assets<Image>>().len();
+            let m = decal_material(&set, &mut world);
+            let images = world.resource::<Assets<Image>>();
             let added = 1 + set.normal.is_some() as usize + set.metallic_roughness.is_some() as usize;
             assert_eq!(images.len(), before + added, "{}", set.name);
             assert_eq!(images.get(m.base_color_texture.unwrap()), Some(&set.albedo));
@@ -789,12 +811,29 @@ mod tests {
             assert_eq!(m.emissive.is_some(), set.name == SIGIL);
             assert_eq!(m.emissive_texture, m.emissive.and(m.base_color_texture));
         }
-        let puddle = decal_material(&puddle(), &mut images);
+        let puddle = decal_material(&puddle(), &mut world);
         assert_eq!(puddle.base_color, Some(Vec4::new(0.6, 0.6, 0.65, 0.8)));
-        let mut materials = Assets::default();
-        let handles = add_builtin_materials(&mut images, &mut materials);
+        let handles = add_builtin_materials(&mut world);
         assert_eq!(handles.len(), 5);
+        let materials = world.resource::<Assets<DecalMaterial>>();
         assert!(handles.iter().all(|&h| materials.contains(h)));
+    }
+
+    #[test]
+    fn generated_textures_are_compressed_when_imports_are() {
+        let mut world = World::new();
+        let options = engine::gltf::LoadOptions {
+            textures: engine::gltf::TextureImport::Compressed(engine::gltf::CacheLocation::Off),
+            ..Default::default()
+        };
+        world.insert_resource(crate::assets::ImportOptions(options));
+        let m = decal_material(&bullet_hole(), &mut world);
+        let images = world.resource::<Assets<Image>>();
+        let format = |h: Option<Handle<Image>>| h.and_then(|h| images.get(h)).map(|i| i.format);
+        assert_eq!(format(m.base_color_texture), Some(engine::image::TexelFormat::Bc7));
+        assert_eq!(format(m.normal_texture), Some(engine::image::TexelFormat::Bc5));
+        let totals = world.resource::<crate::assets::ImportTotals>().0;
+        assert_eq!(totals.compressed, 2, "{totals:?}");
     }
 
     #[test]

@@ -10,12 +10,9 @@ use bevy_ecs::entity::Entity;
 use bevy_ecs::query::With;
 use bevy_ecs::world::World;
 use engine::app::App;
-use engine::asset::Assets;
-use engine::image::Image;
 use engine::time::Time;
 use engine::transform::{Static, Transform};
 use glam::Vec3;
-use plugins::decal::DecalMaterial;
 use plugins::{GpuRenderer, RenderPlugin, RenderSettings, RenderStats, finish_frames};
 use render::{
     DebugView, DecalMethod, DepthNormals, DeviceSettings, LightMethod, LightSettings, PipelineKind, Renderer, RendererSettings, Tier,
@@ -435,9 +432,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         }
     }
     if opts.decals > 0 {
-        let materials = app.world.resource_scope(|world, mut materials: bevy_ecs::world::Mut<Assets<DecalMaterial>>| {
-            crate::decal_textures::add_builtin_materials(&mut world.resource_mut::<Assets<Image>>(), &mut materials)
-        });
+        let materials = crate::decal_textures::add_builtin_materials(&mut app.world);
         let placed = crate::scatter::scatter_decals(&mut app.world, opts.decals, opts.decal_seed, &materials);
         tracing::info!(requested = opts.decals, placed, "scattered decals");
     }
@@ -746,7 +741,7 @@ mod tests {
         let mut world = World::new();
         world.insert_resource(Time::default());
         world.insert_resource(DecalJitter::new(30.0));
-        let material = Assets::<DecalMaterial>::default().add(DecalMaterial::default());
+        let material = engine::asset::Assets::<plugins::decal::DecalMaterial>::default().add(Default::default());
         let decals: Vec<Entity> = (0..10).map(|_| world.spawn((plugins::decal::Decal::new(material), Transform::default())).id()).collect();
         let mut schedule = Schedule::default();
         schedule.add_systems(jitter_decals);

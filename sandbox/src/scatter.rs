@@ -205,7 +205,6 @@ pub fn scatter_decals(world: &mut World, count: usize, seed: u64, materials: &[H
 mod tests {
     use super::*;
     use engine::app::App;
-    use engine::image::Image;
     use engine::material::Material;
     use engine::mesh::shapes;
     use render::lod::closest_on_triangle;
@@ -401,8 +400,7 @@ mod tests {
     fn hundred_thousand_decals_on_the_courtyard() {
         let mut app = App::new();
         crate::scene::spawn_courtyard(&mut app.world);
-        let mut images = app.world.resource_mut::<Assets<Image>>();
-        let material = crate::decal_textures::decal_material(&crate::decal_textures::sigil(), &mut images);
+        let material = crate::decal_textures::decal_material(&crate::decal_textures::sigil(), &mut app.world);
         let handle = app.world.get_resource_or_init::<Assets<DecalMaterial>>().add(material);
         let start = std::time::Instant::now();
         assert_eq!(scatter_decals(&mut app.world, 100_000, 5, &[handle]), 100_000);

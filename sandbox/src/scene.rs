@@ -48,13 +48,17 @@ pub const WALKER_LOOP: (Vec3, f32) = (Vec3::new(-13.0, 0.0, 13.0), 2.0);
 /// Spawns the courtyard into `world` (creating the `Assets` resources if missing).
 pub fn spawn_courtyard(world: &mut World) -> CourtyardInfo {
     let textures = {
-        let mut images = world.get_resource_or_init::<Assets<Image>>();
-        let mut add = |(albedo, normal): (Image, Image)| (images.add(albedo), images.add(normal));
+        let mut add = |name: &str, (albedo, normal): (Image, Image)| {
+            let albedo = crate::assets::import_generated(world, albedo, engine::image::TextureRole::Color, name);
+            let normal = crate::assets::import_generated(world, normal, engine::image::TextureRole::Normal, name);
+            let mut images = world.get_resource_or_init::<Assets<Image>>();
+            (images.add(albedo), images.add(normal))
+        };
         Textures {
-            stone: add(textures::stone_tiles(TEXTURE_SIZE)),
-            brick: add(textures::bricks(TEXTURE_SIZE)),
-            sandstone: add(textures::sandstone(TEXTURE_SIZE)),
-            wood: add(textures::crate_wood(TEXTURE_SIZE)),
+            stone: add("stone tiles", textures::stone_tiles(TEXTURE_SIZE)),
+            brick: add("bricks", textures::bricks(TEXTURE_SIZE)),
+            sandstone: add("sandstone", textures::sandstone(TEXTURE_SIZE)),
+            wood: add("crate wood", textures::crate_wood(TEXTURE_SIZE)),
         }
     };
     let materials = {
@@ -475,8 +479,11 @@ mod tests {
     use engine::transform::GlobalTransform;
     use std::f32::consts::PI;
 
+    /// The courtyard, its generated textures kept RGBA8 (the tests read their texels).
     fn spawn() -> (World, CourtyardInfo) {
         let mut world = World::new();
+        let options = engine::gltf::LoadOptions { textures: engine::gltf::TextureImport::Rgba8, ..Default::default() };
+        world.insert_resource(crate::assets::ImportOptions(options));
         let info = spawn_courtyard(&mut world);
         (world, info)
     }

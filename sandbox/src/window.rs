@@ -4,14 +4,12 @@
 //! lights.
 
 use anyhow::{Context, Result, anyhow};
-use bevy_ecs::prelude::{Component, Entity, IntoScheduleConfigs, Mut, Res, ResMut, Resource, With, World};
-use engine::asset::Assets;
-use engine::image::Image;
+use bevy_ecs::prelude::{Component, Entity, IntoScheduleConfigs, Res, ResMut, Resource, With, World};
 use engine::light::PointLight;
 use engine::transform::Transform;
 use glam::Vec3;
 use plugins::GpuPlugin;
-use plugins::decal::{Decal, DecalMaterial};
+use plugins::decal::Decal;
 use plugins::overlay::{OverlayExtension, OverlayPlugin};
 use plugins::window::WindowPlugin;
 use render::{DeviceSettings, RendererSettings};
@@ -136,9 +134,7 @@ fn despawn_all<C: Component>(world: &mut World) {
 
 impl SandboxOverlay {
     fn spawn_decals(&mut self, world: &mut World) {
-        let materials = world.resource_scope(|world, mut materials: Mut<Assets<DecalMaterial>>| {
-            crate::decal_textures::add_builtin_materials(&mut world.resource_mut::<Assets<Image>>(), &mut materials)
-        });
+        let materials = crate::decal_textures::add_builtin_materials(world);
         self.seed += 1;
         crate::scatter::scatter_decals(world, self.spawn_count, self.seed, &materials);
     }

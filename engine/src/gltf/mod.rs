@@ -471,7 +471,8 @@ pub enum CacheLocation {
 }
 
 impl CacheLocation {
-    fn cache(&self) -> Option<TextureCache> {
+    /// The cache this location names (`None`: off, or no user cache folder).
+    pub fn cache(&self) -> Option<TextureCache> {
         match self {
             CacheLocation::User => TextureCache::user(),
             CacheLocation::At(dir) => Some(TextureCache::new(dir)),
@@ -531,7 +532,8 @@ pub struct TextureImportStats {
 }
 
 impl TextureImportStats {
-    pub(super) fn count(&mut self, source: TextureSource) {
+    /// Counts one image imported as `source`.
+    pub fn count(&mut self, source: TextureSource) {
         *match source {
             TextureSource::CacheHit => &mut self.cache_hits,
             TextureSource::Compressed => &mut self.compressed,

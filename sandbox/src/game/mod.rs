@@ -148,11 +148,12 @@ impl GameAssets {
         }
         world.init_resource::<Assets<Image>>();
         world.init_resource::<Assets<DecalMaterial>>();
-        let assets = world.resource_scope(|world, mut materials: Mut<Assets<DecalMaterial>>| {
-            let mut images = world.resource_mut::<Assets<Image>>();
-            let mut add = |set| materials.add(crate::decal_textures::decal_material(&set, &mut images));
-            GameAssets { bullet_hole: add(crate::decal_textures::bullet_hole()), footprint: add(crate::decal_textures::footprint()) }
-        });
+        let mut add = |set| {
+            let material = crate::decal_textures::decal_material(&set, world);
+            world.resource_mut::<Assets<DecalMaterial>>().add(material)
+        };
+        let assets =
+            GameAssets { bullet_hole: add(crate::decal_textures::bullet_hole()), footprint: add(crate::decal_textures::footprint()) };
         world.insert_resource(assets);
         assets
     }

@@ -1029,10 +1029,7 @@ fn a_gameplay_system_spawns_a_bullet_hole_that_shows_in_the_same_frame() {
         eprintln!("{c:?}");
         let (mut app, view) = plane_app(c);
         let set = sandbox::decal_textures::bullet_hole();
-        let material = {
-            let mut images = app.world.resource_mut::<Assets<Image>>();
-            sandbox::decal_textures::decal_material(&set, &mut images)
-        };
+        let material = sandbox::decal_textures::decal_material(&set, &mut app.world);
         let material = app.world.resource_mut::<Assets<DecalMaterial>>().add(material);
         app.insert_resource(BulletHole(material)).insert_resource(ShotAt::default());
         app.add_systems(Update, shoot);

@@ -33,9 +33,7 @@ const SIZE: (u32, u32) = (160, 120);
 fn courtyard_app() -> App {
     let mut app = gpu_app(SIZE.0, SIZE.1, RenderSettings::default());
     let info = sandbox::scene::spawn_courtyard(&mut app.world);
-    let materials = app.world.resource_scope(|world, mut materials: Mut<Assets<DecalMaterial>>| {
-        sandbox::decal_textures::add_builtin_materials(&mut world.resource_mut::<Assets<Image>>(), &mut materials)
-    });
+    let materials = sandbox::decal_textures::add_builtin_materials(&mut app.world);
     assert_eq!(sandbox::scatter::scatter_decals(&mut app.world, 300, 3, &materials), 300);
     // A lattice: 8×8 texels, alternate ones transparent, masked at 0.5.
     let lattice: Vec<u8> = (0..64).flat_map(|i| if (i % 8 + i / 8) % 2 == 0 { [200, 60, 40, 255] } else { [0, 0, 0, 0] }).collect();
