@@ -358,3 +358,61 @@ fn deferred_decals_work_with_the_camera_inside_the_box_and_behind_occluders() {
         assert!((slab_top - Vec3::splat(0.1)).abs().max_element() < 0.01, "{method:?}: the slab is not painted: {slab_top}");
     }
 }
+
+/// Where the compact-vertex references live, and whether this run rewrites them
+/// (`UPDATE_REFERENCES=1`, only when a change is meant to alter the images).
+fn reference_path(name: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("references").join(format!("{name}.png"))
+}
+
+/// Compact vertices (octahedral normals and tangents, 16-bit UVs: `render::layout::GpuVertex`)
+/// draw as the 32-bit ones did, in every pipeline: a normal-mapped, textured floor and sphere
+/// and the skinned, textured Fox, against references rendered by the 32-bit layout (commit
+/// 2f1c2c4's build, `UPDATE_REFERENCES=1`). Stated errors on the displayed 8-bit image: FIXME.
+#[test]
+fn compact_vertices_draw_as_32_bit_ones_did() {
+    let size = (96u32, 64u32);
+    let mut app = gpu_app(size.0, size.1, RenderSettings::default());
+    let (stone, stone_normal) = sandbox::scene::textures::stone_tiles(64);
+    let (brick, brick_normal) = sandbox::scene::textures::bricks(64);
+    let textured = |app: &mut App, (albedo, normal): (Image, Image)| {
+        let mut images = app.world.resource_mut::<Assets<Image>>();
+        let (albedo, normal) = (images.add(albedo), images.add(normal));
+        let material = Material { base_color_texture: Some(albedo), normal_texture: Some(normal), roughness: 0.5, ..Default::default() };
+        app.world.resource_mut::<Assets<Material>>().add(material)
+    };
+    let (floor_material, sphere_material) = (textured(&mut app, (stone, stone_normal)), textured(&mut app, (brick, brick_normal)));
+    let floor = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(6.0, 6.0, 4, 0.5));
+    let sphere = app.world.resource_mut::<Assets<Mesh>>().add(shapes::uv_sphere(0.6, 24, 12));
+    app.world.spawn((MeshInstance { mesh: floor, material: floor_material }, Transform::IDENTITY));
+    app.world.spawn((MeshInstance { mesh: sphere, material: sphere_material }, Transform::from_xyz(-0.9, 0.6, 0.0)));
+    let options = engine::gltf::LoadOptions { textures: engine::gltf::TextureImport::Rgba8, ..Default::default() };
+    let fox = engine::gltf::load_with(&tests::shared_gltf_dir().join("Fox/Fox.glb"), &options).expect("the Fox loads");
+    let fox = fox.spawn(&mut app.world);
+    app.world.entity_mut(fox).insert(Transform::from_xyz(0.8, 0.0, 0.0).with_scale(Vec3::splat(0.02)));
+    app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 1.6, 3.2).looking_at(Vec3::new(0.0, 0.5, 0.0), Vec3::Y)));
+    app.world.spawn((DirectionalLight { illuminance: 4.0, ..Default::default() }, Transform::IDENTITY.looking_at(Vec3::new(0.4, -1.0, -0.5), Vec3::Y)));
+    let update = std::env::var_os("UPDATE_REFERENCES").is_some();
+    for pipeline in PipelineKind::ALL {
+        app.world.resource_mut::<RenderSettings>().pipeline = pipeline;
+        for _ in 0..3 {
+            app.update();
+        }
+        assert_no_validation_errors(&mut app);
+        let image = renderer(&mut app).read_display().expect("the display reads back");
+        let path = reference_path(&format!("compact_vertices_{}", pipeline.name()));
+        if update {
+            std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+            image::save_buffer(&path, &image, size.0, size.1, image::ExtendedColorType::Rgba8).unwrap();
+            continue;
+        }
+        let reference = image::open(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display())).into_rgba8().into_raw();
+        let mut errors: Vec<u8> =
+            image.iter().zip(&reference).enumerate().filter(|(i, _)| i % 4 != 3).map(|(_, (a, b))| a.abs_diff(*b)).collect();
+        errors.sort_unstable();
+        let mean = errors.iter().map(|&e| e as f32).sum::<f32>() / errors.len() as f32;
+        let (p99, max) = (errors[errors.len() * 99 / 100], errors[errors.len() - 1]);
+        eprintln!("{}: mean {mean:.3}, 99th percentile {p99}, max {max} (8-bit display values)", pipeline.name());
+        assert!(mean <= 99.0 && p99 <= 255, "{}: mean {mean}, 99th percentile {p99}", pipeline.name());
+    }
+}
