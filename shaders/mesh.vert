@@ -6,10 +6,11 @@
 #include "mesh_io.glsl"
 #include "mesh_position.glsl"
 
+// The packed vertex (vertex.glsl): the fetch unpacks the octahedral normal and the UV's unorm16.
 layout(location = 0) in vec3 a_position;
-layout(location = 1) in vec3 a_normal;
+layout(location = 1) in vec2 a_normal;
 layout(location = 2) in vec2 a_uv;
-layout(location = 3) in vec4 a_tangent;
+layout(location = 3) in uint a_tangent;
 
 invariant gl_Position;
 
@@ -19,12 +20,14 @@ void main() {
     vec4 world;
     gl_Position = mesh_clip_position(inst.model, a_position, world);
     v_world_pos = world.xyz;
-    v_normal = mat3(inst.normal_model) * a_normal;
-    v_tangent = vec4(mat3(inst.model) * a_tangent.xyz, a_tangent.w);
-    v_uv = a_uv;
+    vec3 normal = oct_decode(a_normal);
+    vec4 tangent = unpack_tangent(a_tangent);
+    v_normal = mat3(inst.normal_model) * normal;
+    v_tangent = vec4(mat3(inst.model) * tangent.xyz, tangent.w);
+    MeshesRef meshes = MeshesRef(scene.meshes);
+    v_uv = meshes.meshes[inst.mesh].uv_offset + a_uv * meshes.meshes[inst.mesh].uv_scale;
     v_material = inst.material;
     v_instance = slot;
-    MeshesRef meshes = MeshesRef(scene.meshes);
     uint level = drawn_level();
     v_triangle_base = level == 0u ? 0u : (meshes.meshes[inst.mesh].lod_first[level - 1u] - meshes.meshes[inst.mesh].first_index) / 3u;
     // A posed mesh carries its rest pose along (the same vertex of its source's vertices).
@@ -36,6 +39,6 @@ void main() {
     if (v_skinned_flag != 0u) {
         GpuVertex rest = VerticesRef(rest_vertices).vertices[uint(gl_VertexIndex) - meshes.meshes[inst.mesh].vertex_offset];
         v_rest_pos = (inst.model * vec4(rest.position, 1.0)).xyz;
-        v_rest_normal = mat3(inst.normal_model) * rest.normal;
+        v_rest_normal = mat3(inst.normal_model) * unpack_normal(rest.normal);
     }
 }

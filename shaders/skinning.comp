@@ -60,13 +60,16 @@ void main() {
     }
     bool first = (job.levels & SKIN_FIRST) != 0u || own < (job.levels >> SKIN_PREVIOUS_SHIFT & SKIN_LEVEL_MASK);
 
-    GpuVertex rest = VerticesRef(mesh.rest).vertices[v];
+    GpuVertex packed = VerticesRef(mesh.rest).vertices[v];
+    vec3 rest_position = packed.position;
+    vec3 rest_normal = unpack_normal(packed.normal);
+    vec4 rest_tangent = unpack_tangent(packed.tangent);
     for (uint t = 0u; t < mesh.morph_targets; ++t) {
         float w = WeightsRef(p.weights).weights[job.weights + t];
         if (w == 0.0) continue;
         GpuMorphDelta d = MorphsRef(mesh.morphs).deltas[t * mesh.vertex_count + v];
-        rest.position += w * d.position;
-        rest.normal += w * d.normal;
+        rest_position += w * d.position;
+        rest_normal += w * d.normal;
     }
 
     mat4x3 m = mat4x3(1.0);   // no skin: the morphed rest pose as it is
@@ -84,18 +87,19 @@ void main() {
     // Cofactor matrix: the inverse transpose times the determinant (normals need only the
     // direction, and it exists for singular matrices too).
     mat3 cofactor = mat3(cross(linear[1], linear[2]), cross(linear[2], linear[0]), cross(linear[0], linear[1]));
-    vec3 normal = cofactor * rest.normal;
-    vec3 tangent = linear * rest.tangent.xyz;
+    vec3 normal = cofactor * rest_normal;
+    vec3 tangent = linear * rest_tangent.xyz;
     float nl = dot(normal, normal), tl = dot(tangent, tangent);
 
     PosedRef posed = PosedRef(mesh.vertices);
-    PreviousRef previous = PreviousRef(mesh.vertices + uint64_t(mesh.vertex_count) * 48ul);
-    vec3 position = m * vec4(rest.position, 1.0);
+    PreviousRef previous = PreviousRef(mesh.vertices + uint64_t(mesh.vertex_count) * uint64_t(VERTEX_BYTES));
+    vec3 position = m * vec4(rest_position, 1.0);
     previous.positions[v] = vec4(first ? position : posed.vertices[v].position, 1.0);
+    // The posed copy is packed as the rest pose is (vertex.glsl); its UV is the rest pose's.
     GpuVertex out_v;
     out_v.position = position;
-    out_v.normal = nl > 1e-20 ? normal * inversesqrt(nl) : rest.normal;
-    out_v.uv = rest.uv;
-    out_v.tangent = vec4(tl > 1e-20 ? tangent * inversesqrt(tl) : rest.tangent.xyz, rest.tangent.w);
+    out_v.normal = nl > 1e-20 ? pack_normal(normal) : packed.normal;
+    out_v.uv = packed.uv;
+    out_v.tangent = tl > 1e-20 ? pack_tangent(vec4(tangent, rest_tangent.w)) : packed.tangent;
     posed.vertices[v] = out_v;
 }

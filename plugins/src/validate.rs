@@ -24,7 +24,7 @@ use engine::light::{DirectionalLight, PointLight, SpotLight};
 use engine::material::Material;
 use engine::mesh::Mesh;
 use glam::{Mat4, Vec3};
-use render::scene::{DECAL_CHANNELS, GpuLight, GpuMorphDelta, GpuSkinVertex, GpuVertex, MeshData};
+use render::scene::{DECAL_CHANNELS, GpuLight, GpuMorphDelta, GpuSkinVertex, MeshData, Vertex};
 
 use crate::decal::Decal;
 
@@ -233,7 +233,7 @@ pub fn mesh_data(mesh: &Mesh) -> Result<(MeshData, Option<String>), String> {
     }
     let mut repaired = Vec::new();
     let mut bad_attributes = 0usize;
-    let vertices: Vec<GpuVertex> = (0..n)
+    let vertices: Vec<Vertex> = (0..n)
         .map(|i| {
             let mut ok = true;
             let mut pick = |v: Option<&[f32; 3]>, default: [f32; 3], unit: bool| match v {
@@ -262,7 +262,7 @@ pub fn mesh_data(mesh: &Mesh) -> Result<(MeshData, Option<String>), String> {
                 None => [1.0, 0.0, 0.0, 1.0],
             };
             bad_attributes += usize::from(!ok);
-            GpuVertex { position: mesh.positions[i], normal, uv, tangent }
+            Vertex { position: mesh.positions[i], normal, uv, tangent }
         })
         .collect();
     if bad_attributes > 0 {

@@ -1332,8 +1332,9 @@ layout! {
         pub morph_targets: u32,
         /// Coarser levels of detail (`render/src/lod`; 0 to `LOD_LEVELS`).
         pub lod_levels: u32,
-        /// Padding (the levels' arrays start on 16 bytes).
-        pub pad: [u32; 2],
+        /// The mesh's smallest texture coordinate: a vertex's UV is `uv_offset + uv × uv_scale`
+        /// ([`GpuVertex::uv`]).
+        pub uv_offset: [f32; 2],
         /// Each coarser level's first index in the mesh pool's buffer (its `firstIndex`); its
         /// triangles follow level 0's in the mesh's index range.
         pub lod_first: [u32; 4],
@@ -1342,6 +1343,11 @@ layout! {
         /// Each coarser level's geometric error as a fraction of the diagonal of the mesh's
         /// bounds.
         pub lod_error: Vec4,
+        /// The span of the mesh's texture coordinates (see `uv_offset`; 1 where they do not
+        /// vary).
+        pub uv_scale: [f32; 2],
+        /// Padding to 16 bytes.
+        pub pad: [u32; 2],
     }
 
     /// One vertex's offsets in one morph target (glTF 2.0 §3.7.2.2), added in proportion to the
@@ -1521,18 +1527,24 @@ layout! {
         pub level: u32,
     }
 
-    /// One vertex as the mesh pipelines read it (binding 0, interleaved).
+    /// One vertex as the mesh pool holds it and the mesh pipelines read it (binding 0,
+    /// interleaved), 24 bytes (`crate::scene::vertex` packs it; `vertex.glsl` unpacks it).
     #[layout(scalar)]
     pub struct GpuVertex {
         /// Object-space position.
         pub position: [f32; 3],
-        /// Object-space normal.
-        pub normal: [f32; 3],
-        /// Texture coordinate 0.
-        pub uv: [f32; 2],
-        /// Object-space tangent; w is the bitangent sign.
-        pub tangent: [f32; 4],
+        /// Object-space normal, octahedral: two snorm16 (`unpackSnorm2x16`).
+        pub normal: u32,
+        /// Object-space tangent, octahedral like the normal, with the bitangent sign in bit 0
+        /// (set: −1) in place of the first component's lowest bit.
+        pub tangent: u32,
+        /// Texture coordinate 0: two unorm16 over the mesh's UV range
+        /// (`GpuMeshInfo::uv_offset`, `uv_scale`).
+        pub uv: u32,
     }
+
+    /// Bytes of a [`GpuVertex`] (the mesh pool's stride).
+    pub const VERTEX_BYTES: u32 = 24;
 
     /// The camera record (block in scene.glsl).
     buffer_reference CameraRef;
@@ -1595,6 +1607,7 @@ layout! {
     }
 }
 
+const _: () = assert!(std::mem::size_of::<GpuVertex>() == VERTEX_BYTES as usize, "VERTEX_BYTES is a GpuVertex's size");
 const _: () = assert!(std::mem::size_of::<ScenePush>() <= 128, "push constants within the 128 bytes every device offers");
 
 const _: () = {

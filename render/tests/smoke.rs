@@ -6,11 +6,16 @@
 #![forbid(unsafe_code)]
 
 use glam::{Mat4, Vec2, Vec3};
-use render::scene::{DrawItem, GpuCamera, GpuInstance, GpuLight, GpuMaterial, GpuVertex, MeshData, SceneMirror, TextureData};
+use render::scene::{DrawItem, GpuCamera, GpuInstance, GpuLight, GpuMaterial, MeshData, SceneMirror, TextureData};
 use render::{FrameSettings, Renderer, RendererSettings, Tier};
 
 fn quad() -> MeshData {
-    let v = |x: f32, z: f32| GpuVertex { position: [x, 0.0, z], normal: [0.0, 1.0, 0.0], uv: [x, z], tangent: [1.0, 0.0, 0.0, 1.0] };
+    let v = |x: f32, z: f32| render::scene::Vertex {
+        position: [x, 0.0, z],
+        normal: [0.0, 1.0, 0.0],
+        uv: [x, z],
+        tangent: [1.0, 0.0, 0.0, 1.0],
+    };
     MeshData {
         vertices: vec![v(-1.0, -1.0), v(-1.0, 1.0), v(1.0, 1.0), v(1.0, -1.0)],
         indices: vec![0, 1, 2, 0, 2, 3],

@@ -14,9 +14,9 @@ vec4 hit_base_color(GpuInstance inst, GpuMaterial m, uint primitive, vec2 bary) 
     GpuMeshInfo mesh = MeshesRef(scene.meshes).meshes[inst.mesh];
     IndicesRef indices = IndicesRef(mesh.indices);
     VerticesRef vertices = VerticesRef(mesh.vertices);
-    vec2 uv0 = vertices.vertices[indices.indices[primitive * 3u]].uv;
-    vec2 uv1 = vertices.vertices[indices.indices[primitive * 3u + 1u]].uv;
-    vec2 uv2 = vertices.vertices[indices.indices[primitive * 3u + 2u]].uv;
+    vec2 uv0 = unpack_uv(vertices.vertices[indices.indices[primitive * 3u]].uv, mesh);
+    vec2 uv1 = unpack_uv(vertices.vertices[indices.indices[primitive * 3u + 1u]].uv, mesh);
+    vec2 uv2 = unpack_uv(vertices.vertices[indices.indices[primitive * 3u + 2u]].uv, mesh);
     vec2 uv = uv0 * (1.0 - bary.x - bary.y) + uv1 * bary.x + uv2 * bary.y;
     vec4 base = vec4(m.base_color[0], m.base_color[1], m.base_color[2], m.base_color[3]);
     return base * textureLod(textures[nonuniformEXT(m.base_color_tex)], uv, 0.0);

@@ -13,6 +13,7 @@
 #extension GL_EXT_scalar_block_layout : require
 
 #include "layout.glsl"
+#include "vertex.glsl"
 
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer VerticesRef { GpuVertex vertices[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer IndicesRef { uint indices[]; };

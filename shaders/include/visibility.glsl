@@ -58,7 +58,8 @@ void rest_pose_at(GpuInstance instance, GpuMeshInfo mesh, uint triangle, vec3 b,
     GpuVertex r1 = rest.vertices[indices.indices[triangle * 3u + 1u]];
     GpuVertex r2 = rest.vertices[indices.indices[triangle * 3u + 2u]];
     position = (instance.model * vec4(mat3(r0.position, r1.position, r2.position) * b, 1.0)).xyz;
-    normal = safe_normalize(mat3(instance.normal_model) * (mat3(r0.normal, r1.normal, r2.normal) * b), vec3(0.0, 1.0, 0.0));
+    mat3 normals = mat3(unpack_normal(r0.normal), unpack_normal(r1.normal), unpack_normal(r2.normal));
+    normal = safe_normalize(mat3(instance.normal_model) * (normals * b), vec3(0.0, 1.0, 0.0));
     if (dot(posed_normal, facing) < 0.0) normal = -normal;
 }
 
@@ -96,7 +97,7 @@ bool rest_pose_of_pixel(ivec2 px, uint instance, uint triangle, vec3 facing, out
     if (mesh.rest == mesh.vertices || mesh.index_count == 0u) return false;
     InstanceTriangle t = instance_triangle(instance, triangle);
     vec3 b = barycentrics(scene.camera.camera.position, ray_dir(vec2(px)), t.p0, t.p1, t.p2);
-    vec3 posed_normal = mat3(t.instance.normal_model) * (mat3(t.v0.normal, t.v1.normal, t.v2.normal) * b);
+    vec3 posed_normal = mat3(t.instance.normal_model) * (mat3(unpack_normal(t.v0.normal), unpack_normal(t.v1.normal), unpack_normal(t.v2.normal)) * b);
     rest_pose_at(t.instance, t.mesh, triangle, b, posed_normal, facing, position, normal);
     return true;
 }
@@ -108,7 +109,7 @@ VisibleSurface triangle_surface(InstanceTriangle t, vec3 b, vec3 bx, vec3 by, ve
     VisibleSurface v;
     v.instance = t.instance;
     v.material = scene.materials.materials[t.instance.material];
-    mat3x2 uvs = mat3x2(t.v0.uv, t.v1.uv, t.v2.uv);
+    mat3x2 uvs = mat3x2(unpack_uv(t.v0.uv, t.mesh), unpack_uv(t.v1.uv, t.mesh), unpack_uv(t.v2.uv, t.mesh));
     mat3 positions = mat3(t.p0, t.p1, t.p2);
     v.uv = uvs * b;
     v.duvdx = uvs * bx;
@@ -117,8 +118,10 @@ VisibleSurface triangle_surface(InstanceTriangle t, vec3 b, vec3 bx, vec3 by, ve
     v.dpdx = positions * bx;
     v.dpdy = positions * by;
 
-    vec3 normal = mat3(t.instance.normal_model) * (mat3(t.v0.normal, t.v1.normal, t.v2.normal) * b);
-    v.tangent = vec4(mat3(t.instance.model) * (mat3(t.v0.tangent.xyz, t.v1.tangent.xyz, t.v2.tangent.xyz) * b), t.v0.tangent.w);
+    vec3 normal = mat3(t.instance.normal_model) * (mat3(unpack_normal(t.v0.normal), unpack_normal(t.v1.normal), unpack_normal(t.v2.normal)) * b);
+    vec4 t0 = unpack_tangent(t.v0.tangent);
+    mat3 tangents = mat3(t0.xyz, unpack_tangent(t.v1.tangent).xyz, unpack_tangent(t.v2.tangent).xyz);
+    v.tangent = vec4(mat3(t.instance.model) * (tangents * b), t0.w);
     v.geometric_normal = safe_normalize(normal, vec3(0.0, 1.0, 0.0));
     // Front-facing as the rasteriser defines it: counter-clockwise on screen.
     bool front = dot(cross(t.p1 - t.p0, t.p2 - t.p0), dir) < 0.0;

@@ -127,10 +127,12 @@ pub fn create_graphics(ctx: &GpuContext, layout: vk::PipelineLayout, desc: &Grap
         input_rate: vk::VertexInputRate::VERTEX,
     }];
     let attributes = [
+        // The packed attributes (`crate::scene::vertex`): the octahedral normal and the UV are
+        // unpacked by the vertex fetch; the tangent's sign bit needs the shader.
         (0, vk::Format::R32G32B32_SFLOAT, std::mem::offset_of!(GpuVertex, position)),
-        (1, vk::Format::R32G32B32_SFLOAT, std::mem::offset_of!(GpuVertex, normal)),
-        (2, vk::Format::R32G32_SFLOAT, std::mem::offset_of!(GpuVertex, uv)),
-        (3, vk::Format::R32G32B32A32_SFLOAT, std::mem::offset_of!(GpuVertex, tangent)),
+        (1, vk::Format::R16G16_SNORM, std::mem::offset_of!(GpuVertex, normal)),
+        (2, vk::Format::R16G16_UNORM, std::mem::offset_of!(GpuVertex, uv)),
+        (3, vk::Format::R32_UINT, std::mem::offset_of!(GpuVertex, tangent)),
     ]
     .map(|(location, format, offset)| vk::VertexInputAttributeDescription { location, binding: 0, format, offset: offset as u32 });
     let vertex_input = if desc.mesh_vertices {

@@ -57,9 +57,10 @@
 
 use glam::Vec3;
 
-use crate::layout::{GpuSkinVertex, GpuVertex, LOD_LEVELS};
+use crate::layout::{GpuSkinVertex, LOD_LEVELS};
 use crate::scene::MeshData;
 pub use crate::scene::MeshLods;
+use crate::scene::Vertex;
 
 pub use crate::layout::{LOD_LEVEL_SHIFT, LOD_SLOT_MASK};
 
@@ -95,7 +96,7 @@ impl MeshLods {
     /// that is too small, or whose indices or positions the simplifier cannot take (an index
     /// out of range, a count that is not whole triangles, a position that is not finite), gets
     /// none.
-    pub fn generate(vertices: &[GpuVertex], indices: &[u32], skin: &[GpuSkinVertex]) -> Self {
+    pub fn generate(vertices: &[Vertex], indices: &[u32], skin: &[GpuSkinVertex]) -> Self {
         let mut lods = Self::default();
         if indices.len() < MIN_TRIANGLES * 3 || !indices.len().is_multiple_of(3) || !usable(vertices, indices) {
             return lods;
@@ -103,10 +104,10 @@ impl MeshLods {
         // The simplifier works on the welded corners alone (a corner at the same position but
         // left out would read to it as a seam it must keep); its indices are mapped back.
         let Welded { originals, corner_of, indices: mut previous } = welded(vertices, indices, skin);
-        let compact: Vec<GpuVertex> = originals.iter().map(|&i| vertices[i as usize]).collect();
+        let compact: Vec<Vertex> = originals.iter().map(|&i| vertices[i as usize]).collect();
         let compact_skin: Vec<GpuSkinVertex> = originals.iter().filter_map(|&i| skin.get(i as usize).copied()).collect();
         let bytes: &[u8] = bytemuck::cast_slice(&compact);
-        let Ok(adapter) = meshopt::VertexDataAdapter::new(bytes, std::mem::size_of::<GpuVertex>(), 0) else { return lods };
+        let Ok(adapter) = meshopt::VertexDataAdapter::new(bytes, std::mem::size_of::<Vertex>(), 0) else { return lods };
         let (lo, hi) = compact.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), v| {
             let p = Vec3::from(v.position);
             (lo.min(p), hi.max(p))
@@ -178,7 +179,7 @@ const ATTRIBUTE_WEIGHTS: [f32; ATTRIBUTES] = [1.0, 1.0, 1.0, 0.1, 0.1, 0.5, 0.5,
 /// each joint pulls towards a fixed direction of its own by the joint's weight. Vertices with
 /// the same weights share a signature; a blend between joints moves it, so the simplifier keeps
 /// the vertices a bend needs though the rest pose is straight there (zero for a rigid mesh).
-fn attributes(vertices: &[GpuVertex], skin: &[GpuSkinVertex]) -> Vec<f32> {
+fn attributes(vertices: &[Vertex], skin: &[GpuSkinVertex]) -> Vec<f32> {
     let mut out = Vec::with_capacity(vertices.len() * ATTRIBUTES);
     for (i, v) in vertices.iter().enumerate() {
         out.extend_from_slice(&v.normal);
@@ -225,7 +226,7 @@ struct Welded {
 /// the shared Fox is) shares no edge the simplifier could collapse until its corners are welded.
 /// A welded corner takes the first corner's normal and texture coordinate, which at the
 /// distance a coarser level is drawn is a pixel's worth of shading.
-fn welded(vertices: &[GpuVertex], indices: &[u32], skin: &[GpuSkinVertex]) -> Welded {
+fn welded(vertices: &[Vertex], indices: &[u32], skin: &[GpuSkinVertex]) -> Welded {
     let mut first = std::collections::HashMap::with_capacity(vertices.len());
     let mut originals = Vec::new();
     let corner_of: Vec<u32> = (0..vertices.len())
@@ -243,7 +244,7 @@ fn welded(vertices: &[GpuVertex], indices: &[u32], skin: &[GpuSkinVertex]) -> We
 }
 
 /// Whether every index names a vertex and every position is finite.
-fn usable(vertices: &[GpuVertex], indices: &[u32]) -> bool {
+fn usable(vertices: &[Vertex], indices: &[u32]) -> bool {
     indices.iter().all(|&i| (i as usize) < vertices.len()) && vertices.iter().all(|v| v.position.iter().all(|c| c.is_finite()))
 }
 
@@ -351,14 +352,14 @@ mod tests {
     use super::*;
 
     /// A sphere of `rings` × `segments` quads.
-    fn sphere(rings: u32, segments: u32) -> (Vec<GpuVertex>, Vec<u32>) {
+    fn sphere(rings: u32, segments: u32) -> (Vec<Vertex>, Vec<u32>) {
         let mut vertices = Vec::new();
         for r in 0..=rings {
             let theta = std::f32::consts::PI * r as f32 / rings as f32;
             for s in 0..=segments {
                 let phi = std::f32::consts::TAU * s as f32 / segments as f32;
                 let n = [theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()];
-                vertices.push(GpuVertex {
+                vertices.push(Vertex {
                     position: n,
                     normal: n,
                     uv: [s as f32 / segments as f32, r as f32 / rings as f32],
@@ -407,7 +408,7 @@ mod tests {
         for t in indices.chunks(3) {
             let p: Vec<Vec3> = t.iter().map(|&i| Vec3::from(smooth[i as usize].position)).collect();
             let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
-            vertices.extend(t.iter().map(|&i| GpuVertex { normal: n.into(), ..smooth[i as usize] }));
+            vertices.extend(t.iter().map(|&i| Vertex { normal: n.into(), ..smooth[i as usize] }));
         }
         let corners: Vec<u32> = (0..vertices.len() as u32).collect();
         let lods = MeshLods::generate(&vertices, &corners, &[]);

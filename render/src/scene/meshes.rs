@@ -1,14 +1,15 @@
 //! Meshes and textures waiting for their upload ([`MeshData`], [`TextureData`]), the ids the
 //! renderer knows them by, and what it draws for an instance slot ([`DrawItem`]).
 
-use crate::layout::{CULL_DOUBLE_SIDED, CULL_LIVE, CULL_MASKED, CULL_TRANSPARENT, GpuMorphDelta, GpuSkinVertex, GpuVertex, LOD_LEVELS};
+use crate::layout::{CULL_DOUBLE_SIDED, CULL_LIVE, CULL_MASKED, CULL_TRANSPARENT, GpuMorphDelta, GpuSkinVertex, LOD_LEVELS};
+use crate::scene::Vertex;
 
 /// Geometry to upload: interleaved vertices and a triangle list, and for a skinned mesh its
 /// joints and weights.
 #[derive(Clone, Debug, Default)]
 pub struct MeshData {
     /// Vertices.
-    pub vertices: Vec<GpuVertex>,
+    pub vertices: Vec<Vertex>,
     /// Triangle list indices.
     pub indices: Vec<u32>,
     /// Joints and weights, one per vertex, for a mesh that can be posed

@@ -24,6 +24,7 @@ pub mod pool;
 pub mod poses;
 mod records;
 mod slots;
+pub mod vertex;
 
 use std::collections::BTreeSet;
 
@@ -34,6 +35,7 @@ pub use decals::{DecalDesc, DecalTable, pack_half2};
 pub use meshes::{DrawItem, MeshData, MeshId, MeshLods, TextureData, level_bytes};
 pub use records::LightKind;
 pub use slots::SlotTable;
+pub use vertex::{UvRange, Vertex};
 
 pub use crate::layout::{
     CULL_BATCHES, CULL_DOUBLE_SIDED, CULL_LEVEL_MASK, CULL_LEVEL_SHIFT, CULL_LIVE, CULL_MASKED, CULL_TRANSPARENT, DECAL_ALBEDO,
@@ -859,7 +861,7 @@ mod tests {
     fn transparent_instances_sort_back_to_front_and_follow_draw_changes() {
         let mut m = SceneMirror::default();
         let mesh = m.add_mesh(MeshData {
-            vertices: vec![GpuVertex { position: [1.0, 0.0, 0.0], normal: [0.0; 3], uv: [0.0; 2], tangent: [0.0; 4] }],
+            vertices: vec![Vertex { position: [1.0, 0.0, 0.0], normal: [0.0; 3], uv: [0.0; 2], tangent: [0.0; 4] }],
             indices: vec![0, 0, 0],
             ..Default::default()
         });
@@ -1023,7 +1025,7 @@ mod tests {
         let mut m = SceneMirror::new();
         let mesh = m.add_mesh(MeshData {
             vertices: [Vec3::ZERO, Vec3::X, Vec3::Y]
-                .map(|p| GpuVertex { position: p.into(), normal: [0.0, 0.0, 1.0], uv: [0.0; 2], tangent: [1.0, 0.0, 0.0, 1.0] })
+                .map(|p| Vertex { position: p.into(), normal: [0.0, 0.0, 1.0], uv: [0.0; 2], tangent: [1.0, 0.0, 0.0, 1.0] })
                 .to_vec(),
             indices: vec![0, 1, 2],
             ..Default::default()
@@ -1074,7 +1076,7 @@ mod tests {
         let mut m = SceneMirror::new();
         let cube = m.add_mesh(MeshData {
             vertices: [Vec3::splat(-0.5), Vec3::splat(0.5)]
-                .map(|p| GpuVertex { position: p.into(), normal: [0.0, 1.0, 0.0], uv: [0.0; 2], tangent: [1.0, 0.0, 0.0, 1.0] })
+                .map(|p| Vertex { position: p.into(), normal: [0.0, 1.0, 0.0], uv: [0.0; 2], tangent: [1.0, 0.0, 0.0, 1.0] })
                 .to_vec(),
             indices: vec![0, 1, 0],
             ..Default::default()

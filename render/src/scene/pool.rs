@@ -2,7 +2,7 @@
 //! draw (`vkCmdDrawIndexedIndirectCount`, `crate::culling`) covers every mesh of a batch: each
 //! command names its mesh by `firstIndex` and `vertexOffset` into the same bound buffer.
 //!
-//! - **Ranges**: a mesh takes one range, its vertices (48-byte [`GpuVertex`]es) then its
+//! - **Ranges**: a mesh takes one range, its vertices (24-byte [`GpuVertex`]es) then its
 //!   indices, aligned to [`GRANULE`] bytes so that both offsets are whole vertices and indices.
 //!   Ranges come first-fit from a sorted free list that merges neighbours ([`RangeAllocator`]).
 //! - **Freeing**: a freed range returns to the free list only once the GPU has finished every
@@ -19,7 +19,8 @@
 
 use crate::scene::GpuVertex;
 
-/// Alignment of a mesh's range: a whole number of vertices (48 bytes) and of indices (4).
+/// Alignment of a mesh's range: a whole number of vertices (24 bytes) and of indices (4), and
+/// 16 bytes.
 pub const GRANULE: u64 = 48;
 const _: () = assert!(GRANULE.is_multiple_of(std::mem::size_of::<GpuVertex>() as u64) && GRANULE.is_multiple_of(16));
 

@@ -368,7 +368,10 @@ fn reference_path(name: &str) -> std::path::PathBuf {
 /// Compact vertices (octahedral normals and tangents, 16-bit UVs: `render::layout::GpuVertex`)
 /// draw as the 32-bit ones did, in every pipeline: a normal-mapped, textured floor and sphere
 /// and the skinned, textured Fox, against references rendered by the 32-bit layout (commit
-/// 2f1c2c4's build, `UPDATE_REFERENCES=1`). Stated errors on the displayed 8-bit image: FIXME.
+/// 203aa25, with `UPDATE_REFERENCES=1`). Stated errors on the displayed 8-bit image, every
+/// channel: mean ≤ 0.1, 99th percentile ≤ 2, largest ≤ 8 (measured: means 0.007 to 0.017, 99th
+/// percentiles 0 to 1, largest 2 to 3; the visibility buffer, which unpacks every attribute
+/// per pixel, the most).
 #[test]
 fn compact_vertices_draw_as_32_bit_ones_did() {
     let size = (96u32, 64u32);
@@ -391,7 +394,10 @@ fn compact_vertices_draw_as_32_bit_ones_did() {
     let fox = fox.spawn(&mut app.world);
     app.world.entity_mut(fox).insert(Transform::from_xyz(0.8, 0.0, 0.0).with_scale(Vec3::splat(0.02)));
     app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 1.6, 3.2).looking_at(Vec3::new(0.0, 0.5, 0.0), Vec3::Y)));
-    app.world.spawn((DirectionalLight { illuminance: 4.0, ..Default::default() }, Transform::IDENTITY.looking_at(Vec3::new(0.4, -1.0, -0.5), Vec3::Y)));
+    app.world.spawn((
+        DirectionalLight { illuminance: 4.0, ..Default::default() },
+        Transform::IDENTITY.looking_at(Vec3::new(0.4, -1.0, -0.5), Vec3::Y),
+    ));
     let update = std::env::var_os("UPDATE_REFERENCES").is_some();
     for pipeline in PipelineKind::ALL {
         app.world.resource_mut::<RenderSettings>().pipeline = pipeline;
@@ -413,6 +419,6 @@ fn compact_vertices_draw_as_32_bit_ones_did() {
         let mean = errors.iter().map(|&e| e as f32).sum::<f32>() / errors.len() as f32;
         let (p99, max) = (errors[errors.len() * 99 / 100], errors[errors.len() - 1]);
         eprintln!("{}: mean {mean:.3}, 99th percentile {p99}, max {max} (8-bit display values)", pipeline.name());
-        assert!(mean <= 99.0 && p99 <= 255, "{}: mean {mean}, 99th percentile {p99}", pipeline.name());
+        assert!(mean <= 0.1 && p99 <= 2 && max <= 8, "{}: mean {mean}, 99th percentile {p99}, largest {max}", pipeline.name());
     }
 }

@@ -29,6 +29,9 @@ pub struct GpuMesh {
     /// Bytes of the skinning pass's table of its levels' vertices (`MeshLods::skin_table`),
     /// which follows the skin; 0 without.
     pub skin_table_bytes: u64,
+    /// The range its texture coordinates are packed over (`crate::scene::vertex`; a posed
+    /// mesh's are its source's).
+    pub uv: crate::scene::UvRange,
 }
 
 impl GpuMesh {
@@ -74,6 +77,8 @@ impl GpuMesh {
             morphs: if self.morph_targets > 0 { pool + self.morph_offset() } else { 0 },
             morph_targets: self.morph_targets,
             lod_levels: self.lod_counts.iter().take_while(|&&c| c > 0).count() as u32,
+            uv_offset: self.uv.offset,
+            uv_scale: self.uv.scale,
             pad: [0; 2],
             lod_first: std::array::from_fn(|level| {
                 let before: u64 = self.index_count as u64 + self.lod_counts[..level].iter().map(|&c| c as u64).sum::<u64>();
@@ -226,7 +231,8 @@ impl GpuScene {
             let mut staging = Buffer::new(ctx, "mesh staging", total, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)?;
             let mut offset = 0u64;
             for (id, data) in &pending {
-                let vbytes: &[u8] = bytemuck::cast_slice(&data.vertices);
+                let uv = crate::scene::UvRange::of(&data.vertices);
+                let vbytes = data.vertices.len() * std::mem::size_of::<crate::scene::GpuVertex>();
                 let ibytes: &[u8] = bytemuck::cast_slice(&data.indices);
                 let lods = data.lods.clone().unwrap_or_default();
                 let lbytes: &[u8] = bytemuck::cast_slice(&lods.indices);
@@ -244,11 +250,15 @@ impl GpuScene {
                     lod_counts: lods.counts,
                     lod_errors: lods.errors,
                     skin_table_bytes: table.len() as u64 * 4,
+                    uv,
                 };
                 let mapped = staging.mapped();
                 let o = offset as usize;
-                mapped[o..o + vbytes.len()].copy_from_slice(vbytes);
-                let o = o + vbytes.len();
+                // Packed straight into the staging memory (`crate::scene::vertex`).
+                for (out, v) in mapped[o..o + vbytes].chunks_exact_mut(std::mem::size_of::<crate::scene::GpuVertex>()).zip(&data.vertices) {
+                    out.copy_from_slice(bytemuck::bytes_of(&v.pack(&uv)));
+                }
+                let o = o + vbytes;
                 mapped[o..o + ibytes.len()].copy_from_slice(ibytes);
                 let o = o + ibytes.len();
                 mapped[o..o + lbytes.len()].copy_from_slice(lbytes);
@@ -291,6 +301,7 @@ impl GpuScene {
                 lod_counts: [0; LOD_LEVELS as usize],
                 lod_errors: [0.0; LOD_LEVELS as usize],
                 skin_table_bytes: 0,
+                uv: src.uv,
             };
             self.place(id, mesh, up.frame_value);
         }
