@@ -1635,7 +1635,8 @@ mod tests {
         let offsets = |s: &Struct| s.fields.iter().map(|f| f.offset).collect::<Vec<_>>();
         assert_eq!(offsets(&GpuLight::LAYOUT), [0, 12, 16, 28, 32, 44, 48, 52, 56, 60]);
         assert_eq!(GpuLight::LAYOUT.size, 64);
-        assert_eq!(offsets(&GpuVertex::LAYOUT), [0, 12, 24, 32]);
+        assert_eq!(offsets(&GpuVertex::LAYOUT), [0, 12, 16, 20]);
+        assert_eq!(GpuVertex::LAYOUT.size, VERTEX_BYTES as usize);
         assert_eq!(offsets(&GpuMaterial::LAYOUT)[..3], [0, 16, 28]);
         assert_eq!(offsets(&ScenePush::LAYOUT)[10..], [80, 84, 88, 92, 96, 104, 108, 112, 120]);
     }
