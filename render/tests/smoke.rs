@@ -23,20 +23,9 @@ fn quad() -> MeshData {
     }
 }
 
-#[test]
-fn lit_quad_renders_and_quiet_frames_upload_nothing() {
-    let (w, h) = (64, 48);
-    let mut r = Renderer::new(&RendererSettings::default(), w, h).expect("renderer");
-    assert!(r.validation_enabled(), "tests run with the validation layer");
-    assert!(!r.device_name().trim().is_empty(), "the device has a name");
-    let tier = r.tier();
-    assert!(
-        [Tier::NoRayTracing, Tier::RayTracingPipeline, Tier::RayQuery].contains(&tier) && Tier::from_name(tier.name()) == Some(tier),
-        "the tier in use is a known tier: {tier:?}"
-    );
-    assert_eq!(tier, r.capabilities().best_tier(), "without a cap the device's best tier is used");
-    assert_eq!(r.size(), (w, h), "the renderer has the requested size");
-
+/// A 4 m quad lit by a point light, seen from above at an angle by a `w`×`h` camera; returns the
+/// mirror and the quad's material.
+fn lit_quad(w: u32, h: u32) -> (SceneMirror, u32) {
     let mut m = SceneMirror::new();
     let mesh = m.add_mesh(quad());
     let mat = m.materials.insert(GpuMaterial::default());
@@ -59,6 +48,24 @@ fn lit_quad_renders_and_quiet_frames_upload_nothing() {
         inv_viewport_size: Vec2::new(1.0 / w as f32, 1.0 / h as f32),
         ..Default::default()
     });
+    (m, mat)
+}
+
+#[test]
+fn lit_quad_renders_and_quiet_frames_upload_nothing() {
+    let (w, h) = (64, 48);
+    let mut r = Renderer::new(&RendererSettings::default(), w, h).expect("renderer");
+    assert!(r.validation_enabled(), "tests run with the validation layer");
+    assert!(!r.device_name().trim().is_empty(), "the device has a name");
+    let tier = r.tier();
+    assert!(
+        [Tier::NoRayTracing, Tier::RayTracingPipeline, Tier::RayQuery].contains(&tier) && Tier::from_name(tier.name()) == Some(tier),
+        "the tier in use is a known tier: {tier:?}"
+    );
+    assert_eq!(tier, r.capabilities().best_tier(), "without a cap the device's best tier is used");
+    assert_eq!(r.size(), (w, h), "the renderer has the requested size");
+
+    let (mut m, mat) = lit_quad(w, h);
     let settings = FrameSettings::default();
     let first = r.render(&mut m, &settings).expect("frame");
     assert_eq!(first.frame, 0, "frames are numbered from 0");
@@ -158,4 +165,36 @@ fn lit_quad_renders_and_quiet_frames_upload_nothing() {
     let errors = r.take_validation_errors();
     assert!(errors.is_empty(), "validation errors: {errors:#?}");
     eprintln!("centre {centre:?} corner {corner:?} device {} tier {}", r.device_name(), tier.name());
+}
+
+/// A device that cannot sample BC textures (as `without_texture_compression` pretends) gets
+/// them decoded to RGBA8: the BC1 cyan texture shades the quad cyan, and no BC image exists.
+#[test]
+fn without_bc_textures_are_decoded_to_rgba8() {
+    let (w, h) = (32, 24);
+    let device = render::DeviceSettings { without_texture_compression: true, ..Default::default() };
+    let mut r = Renderer::new(&RendererSettings { device, ..Default::default() }, w, h).expect("renderer");
+    assert!(!r.capabilities().texture_compression_bc);
+    let (mut m, mat) = lit_quad(w, h);
+    let cyan_block = [0xFF, 0x07, 0xFF, 0x07, 0, 0, 0, 0];
+    let bc1 = TextureData {
+        width: 8,
+        height: 8,
+        format: ash::vk::Format::BC1_RGBA_SRGB_BLOCK,
+        mips: vec![cyan_block.repeat(4), cyan_block.to_vec(), cyan_block.to_vec(), cyan_block.to_vec()],
+    };
+    let slot = m.add_texture(bc1);
+    m.materials.write(mat, GpuMaterial { base_color_tex: slot, ..*m.materials.get(mat).expect("the material") });
+    let settings = FrameSettings::default();
+    for _ in 0..2 {
+        r.render(&mut m, &settings).expect("frame");
+        m.begin_frame();
+    }
+    let centre = r.read_hdr().expect("readback")[(h / 2 * w + w / 2) as usize];
+    assert!(centre[0] < 0.05 * centre[1] && centre[1] > 0.01, "the decoded BC1 texture shades cyan: {centre:?}");
+    let memory = r.gpu_memory();
+    let bc = memory.texture_formats().filter(|(f, _)| format!("{f:?}").starts_with("BC")).count();
+    assert_eq!(bc, 0, "no BC image on a device without BC: {memory:?}");
+    let errors = r.take_validation_errors();
+    assert!(errors.is_empty(), "validation errors: {errors:#?}");
 }

@@ -89,6 +89,10 @@ pub struct DeviceSettings {
     /// only the device limits. For sharing a GPU with other work, and for testing the
     /// out-of-memory path.
     pub memory_budget: Option<u64>,
+    /// Use the device as if it could not sample block-compressed (BC) textures: they are then
+    /// decoded to RGBA8 as they upload (`crate::scene::bc`). For testing that path, which no
+    /// device this renderer runs on needs.
+    pub without_texture_compression: bool,
 }
 
 impl Default for DeviceSettings {
@@ -98,7 +102,13 @@ impl Default for DeviceSettings {
             Ok(_) => true,
             Err(_) => cfg!(debug_assertions),
         };
-        Self { validation, max_tier: Tier::RayQuery, surface_extensions: Vec::new(), memory_budget: None }
+        Self {
+            validation,
+            max_tier: Tier::RayQuery,
+            surface_extensions: Vec::new(),
+            memory_budget: None,
+            without_texture_compression: false,
+        }
     }
 }
 
@@ -265,7 +275,8 @@ impl GpuContext {
             None
         };
 
-        let (physical, queue_family, caps, device_name) = pick_physical_device(&instance)?;
+        let (physical, queue_family, mut caps, device_name) = pick_physical_device(&instance)?;
+        caps.texture_compression_bc &= !settings.without_texture_compression;
         let tier = caps.best_tier().min(settings.max_tier);
         // SAFETY: `physical` came from this instance.
         let props = unsafe { instance.get_physical_device_properties(physical) };

@@ -16,6 +16,7 @@
 //! | [`poses`], [`environment`] | the poses and the environment a game sets |
 //! | [`gpu`], [`pool`] | the GPU side: tables, the mesh pool, bindless textures |
 
+pub mod bc;
 mod decals;
 pub mod environment;
 pub mod gpu;

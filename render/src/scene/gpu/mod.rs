@@ -166,6 +166,8 @@ pub struct GpuScene {
     texture_sizes: Vec<u64>,
     /// Whether the budget has warned (it warns once).
     budget_warned: bool,
+    /// Whether decoding block-compressed textures for a device without BC has warned (once).
+    decode_warned: bool,
     /// The graph resources the scene's buffers and textures are tracked as.
     pub res: SceneResources,
     mesh_usage: vk::BufferUsageFlags,
@@ -298,6 +300,7 @@ impl GpuScene {
             texture_budget: Default::default(),
             texture_sizes: Vec::new(),
             budget_warned: false,
+            decode_warned: false,
             res: SceneResources {
                 tables: graph.resource("scene tables"),
                 meshes: graph.resource("meshes"),

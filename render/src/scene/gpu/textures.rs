@@ -191,14 +191,16 @@ impl GpuScene {
         }
         let rgba8 = matches!(data.format, vk::Format::R8G8B8A8_UNORM | vk::Format::R8G8B8A8_SRGB);
         if !rgba8 && !ctx.capabilities.texture_compression_bc {
-            // No device this renderer runs on lacks BC; one that did would need a CPU decoder.
-            // The texture samples white instead, and the frame (with the meshes uploaded before
-            // it) goes on.
-            tracing::warn!(slot, format = ?data.format, "a block-compressed texture on a device without BC texture compression: it samples white");
-            if let Some(white) = self.textures.get(TEXTURE_WHITE as usize).and_then(Option::as_ref) {
-                self.write_descriptor(ctx, slot, white.view, self.repeat_sampler);
+            // No device this renderer runs on lacks BC: one that did gets the texture decoded
+            // to RGBA8 (four times the memory), with one warning.
+            let Some(decoded) = crate::scene::bc::decode_to_rgba8(data) else {
+                return Err(RenderError::Other(format!("textures in {:?} are not sampled by this renderer", data.format)));
+            };
+            if !self.decode_warned {
+                self.decode_warned = true;
+                tracing::warn!(format = ?data.format, "the device cannot sample block-compressed textures: they are decoded to RGBA8 as they upload, at four to eight times the memory");
             }
-            return Ok(());
+            return self.prepare_texture(up, copies, slot, &decoded);
         }
         // A block-compressed copy's offset must be a multiple of the block's bytes: each level
         // of such a texture starts 16-byte aligned (RGBA8 levels are multiples of 4 as they are).
