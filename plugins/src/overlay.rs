@@ -323,6 +323,9 @@ fn memory(ui: &mut egui::Ui, world: &World) {
     }
     for kind in render::gpu::memory::MemoryKind::ALL {
         ui.label(format!("{}: {:.1} MiB", kind.name().replace('_', " "), mib(m.of(kind))));
+        if kind == render::gpu::memory::MemoryKind::MeshPool && last.posed_mesh_bytes > 0 {
+            ui.label(format!("   of which posed copies: {:.1} MiB", mib(last.posed_mesh_bytes)));
+        }
     }
     for (format, bytes) in m.texture_formats() {
         ui.label(format!("   textures {format:?}: {:.1} MiB", mib(bytes)));
