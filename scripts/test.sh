@@ -10,6 +10,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 source scripts/env.sh
+# The texture import cache of the tests' glTF loads and generated textures
+# (engine::image::cache): inside the target folder, not the user's cache, so that a test run
+# neither reads nor leaves the user's files (`cargo clean` empties it).
+export XDG_CACHE_HOME="${CARGO_TARGET_DIR:-$PWD/target}/test-cache"
 
 gate() {
   local name="$1"

@@ -35,7 +35,7 @@ bool skin_before(ivec2 px, out vec4 before) {
     InstanceTriangle t = instance_triangle(instance, triangle);
     vec3 b = barycentrics(scene.camera.camera.position, ray_dir(vec2(px)), t.p0, t.p1, t.p2);
     IndicesRef indices = IndicesRef(mesh.indices);
-    PreviousPositionsRef previous = PreviousPositionsRef(mesh.vertices + uint64_t(mesh.vertex_count) * uint64_t(VERTEX_BYTES));
+    PreviousPositionsRef previous = PreviousPositionsRef(previous_positions(mesh.vertices, mesh.vertex_count));
     mat3 corners = mat3(previous.positions[indices.indices[triangle * 3u]].xyz, previous.positions[indices.indices[triangle * 3u + 1u]].xyz,
                         previous.positions[indices.indices[triangle * 3u + 2u]].xyz);
     before = inst.model * vec4(corners * b, 1.0);

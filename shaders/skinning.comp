@@ -92,7 +92,7 @@ void main() {
     float nl = dot(normal, normal), tl = dot(tangent, tangent);
 
     PosedRef posed = PosedRef(mesh.vertices);
-    PreviousRef previous = PreviousRef(mesh.vertices + uint64_t(mesh.vertex_count) * uint64_t(VERTEX_BYTES));
+    PreviousRef previous = PreviousRef(previous_positions(mesh.vertices, mesh.vertex_count));
     vec3 position = m * vec4(rest_position, 1.0);
     previous.positions[v] = vec4(first ? position : posed.vertices[v].position, 1.0);
     // The posed copy is packed as the rest pose is (vertex.glsl); its UV is the rest pose's.

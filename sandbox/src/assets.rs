@@ -113,26 +113,32 @@ pub fn import_options(textures: &str, cache: Option<&Path>, progress: bool) -> R
 /// one needs compressing: a cached load stays silent).
 fn progress_bar() -> engine::gltf::TextureProgress {
     use std::io::{IsTerminal, Write};
+    use std::sync::atomic::{AtomicBool, Ordering};
     let started = Instant::now();
+    let shown = AtomicBool::new(false);
     std::sync::Arc::new(move |event: &engine::gltf::TextureEvent<'_>| {
-        let compressing = matches!(event.import, engine::gltf::TextureSource::Compressed | engine::gltf::TextureSource::Rebuilt);
-        if !compressing || !std::io::stderr().is_terminal() {
+        if !std::io::stderr().is_terminal() {
             return;
         }
-        let width = 30;
-        let filled = event.done * width / event.total.max(1);
+        let compressing = matches!(event.import, engine::gltf::TextureSource::Compressed | engine::gltf::TextureSource::Rebuilt);
         let mut err = std::io::stderr().lock();
-        let _ = write!(
-            err,
-            "\rcompressing textures [{}{}] {}/{} {:.1} s {}\x1b[K",
-            "#".repeat(filled),
-            " ".repeat(width - filled),
-            event.done,
-            event.total,
-            started.elapsed().as_secs_f32(),
-            event.image
-        );
-        if event.done == event.total {
+        if compressing {
+            shown.store(true, Ordering::Relaxed);
+            let width = 30;
+            let filled = event.done * width / event.total.max(1);
+            let _ = write!(
+                err,
+                "\rcompressing textures [{}{}] {}/{} {:.1} s {}\x1b[K",
+                "#".repeat(filled),
+                " ".repeat(width - filled),
+                event.done,
+                event.total,
+                started.elapsed().as_secs_f32(),
+                event.image
+            );
+        }
+        // The line ends with the model's last image, whatever it was.
+        if event.done == event.total && shown.swap(false, Ordering::Relaxed) {
             let _ = writeln!(err);
         }
     })

@@ -38,6 +38,13 @@ uint pack_tangent(vec4 t) {
     return (packSnorm2x16(oct_encode(t.xyz)) & ~1u) | (t.w < 0.0 ? 1u : 0u);
 }
 
+// Where a posed mesh's previous positions (a vec4 a vertex) start: after its vertices, on the
+// next 16 bytes (an odd number of 24-byte vertices ends 8 bytes short of it);
+// `previous_positions_offset` in render/src/scene/vertex.rs.
+uint64_t previous_positions(uint64_t vertices, uint vertex_count) {
+    return vertices + ((uint64_t(vertex_count) * uint64_t(VERTEX_BYTES) + 15ul) & ~15ul);
+}
+
 // A vertex's UV: the mesh's UV range applied to its two unorm16.
 vec2 unpack_uv(uint packed, GpuMeshInfo mesh) {
     return mesh.uv_offset + unpackUnorm2x16(packed) * mesh.uv_scale;

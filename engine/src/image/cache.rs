@@ -5,9 +5,9 @@
 //! JPEG as the glTF holds it, so a renamed or moved file still hits and an edited one misses)
 //! and the settings that shaped it: the [`TextureRole`] and [`CACHE_VERSION`] (bumped whenever the
 //! encoder, its profile or the mip filter change). The whole key is also written into the
-//! file's metadata (`ecs-decals.key`), and a read checks it, the format the role asks for and a
-//! full mip chain: a truncated, corrupt or mismatched file is never used; it is rebuilt with a
-//! warning and overwritten.
+//! file's metadata (`ecs-decals.key`) with the BLAKE3 hash of its levels (`ecs-decals.blocks`),
+//! and a read checks both, the format the role asks for and a full mip chain: a truncated,
+//! corrupt or mismatched file is never used; it is rebuilt with a warning and overwritten.
 //!
 //! **Where.** [`TextureCache::user`] is `$XDG_CACHE_HOME/ecs-decals/textures`, else
 //! `~/.cache/ecs-decals/textures`; any folder can be given instead ([`TextureCache::new`]; the
@@ -27,6 +27,18 @@ pub const CACHE_VERSION: u32 = 1;
 
 /// The metadata key holding a cached file's full cache key.
 const KEY_METADATA: &str = "ecs-decals.key";
+
+/// The metadata key holding the BLAKE3 hash of a cached file's levels (level 0 first).
+const BLOCKS_METADATA: &str = "ecs-decals.blocks";
+
+/// The hash of an image's levels, level 0 first.
+fn blocks_hash(image: &Image) -> String {
+    let mut hasher = blake3::Hasher::new();
+    for level in &image.mips {
+        hasher.update(level);
+    }
+    hasher.finalize().to_hex().to_string()
+}
 
 /// A folder of compressed textures, keyed by source content and settings (see the module docs).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -103,7 +115,8 @@ impl TextureCache {
         };
         let (width, height, rgba) = decode()?;
         let image = Image::compress(width, height, rgba, role)?;
-        if let Err(error) = self.write(&path, &image.to_ktx2(&[(KEY_METADATA, &key)])) {
+        let blocks = blocks_hash(&image);
+        if let Err(error) = self.write(&path, &image.to_ktx2(&[(KEY_METADATA, &key), (BLOCKS_METADATA, &blocks)])) {
             tracing::warn!(folder = %self.dir.display(), %error, "the texture cache cannot be written; the texture will be compressed again next time");
         }
         Ok((image, outcome))
@@ -129,6 +142,9 @@ fn read_cached(bytes: &[u8], key: &str, role: TextureRole, what: &str) -> Result
         Some(stored) if stored == key => {}
         Some(stored) => return Err(format!("it was made for key {stored}")),
         None => return Err("it names no cache key".to_owned()),
+    }
+    if Image::ktx2_value(bytes, BLOCKS_METADATA).is_none_or(|stored| stored != blocks_hash(&image)) {
+        return Err("its blocks do not match the hash it was written with".to_owned());
     }
     let full_chain = 32 - image.width.max(image.height).leading_zeros();
     if image.format != role.compressed_format() || image.mip_count() != full_chain {
@@ -198,6 +214,13 @@ mod tests {
         assert!(matches!(outcome, CacheOutcome::Rebuilt(_)), "{outcome:?}");
         assert_eq!(rebuilt, image);
         assert_eq!(std::fs::read(&path).unwrap(), bytes, "the file was rewritten whole");
+
+        // One flipped byte in the last level's blocks: the container is valid, its hash is not.
+        let mut flipped = bytes.clone();
+        *flipped.last_mut().unwrap() ^= 0x40;
+        std::fs::write(&path, &flipped).unwrap();
+        let (_, outcome) = cache.load_or_compress(source, TextureRole::Normal, "test", || Ok(texels(3))).unwrap();
+        assert!(matches!(&outcome, CacheOutcome::Rebuilt(reason) if reason.contains("hash")), "{outcome:?}");
 
         // A valid container made for another key (another image's file copied over this one).
         let other = b"another image".as_slice();

@@ -1,12 +1,14 @@
 //! CPU-side images with a full mip chain: RGBA8 decoded from PNG/JPEG or built in code, and
 //! block-compressed (BCn) levels read from KTX2 or compressed here for the GPU.
 //!
-//! - [`decode`](self::decode): PNG and JPEG into RGBA8, never panicking and never allocating in
-//!   proportion to a size the file merely declares (the limits are [`MAX_IMAGE_DIMENSION`] and
+//! - `decode.rs`: PNG and JPEG into RGBA8, never panicking and never allocating in proportion to
+//!   a size the file merely declares (the limits are [`MAX_IMAGE_DIMENSION`] and
 //!   [`MAX_DECODE_BYTES`]).
-//! - [`mips`](self::mips): mip chains that follow Vulkan's size rule, filtered in linear space.
-//! - [`ktx2`](self::ktx2): KTX2 containers read ([`Image::from_ktx2`]) and written
-//!   ([`Image::to_ktx2`]).
+//! - `mips.rs`: mip chains that follow Vulkan's size rule, filtered in linear space.
+//! - `ktx2.rs`: KTX2 containers read ([`Image::from_ktx2`], [`Image::from_ktx2_for`], Basis
+//!   Universal transcoded) and written ([`Image::to_ktx2`]).
+//! - `compress.rs`: block compression by [`TextureRole`] ([`Image::compress`]).
+//! - `cache.rs`: the texture import cache ([`TextureCache`]).
 
 use std::path::{Path, PathBuf};
 

@@ -7,7 +7,7 @@
 //! | position | 3 × f32 | 3 × f32, as it is | exact (the acceleration structures build from it) |
 //! | normal | 3 × f32 | octahedral, 2 × snorm16 | within 0.004° |
 //! | tangent, bitangent sign | 4 × f32 | octahedral, 2 × snorm16, the sign in bit 0 | within 0.008° |
-//! | UV | 2 × f32 | 2 × unorm16 over the mesh's UV range | the range / 65,535: 1/65,535 for UVs in [0, 1], 0.03 of a texel at 2048 |
+//! | UV | 2 × f32 | 2 × unorm16 over the mesh's UV range | the range / 65,535: 1/65,535 for UVs in [0, 1] (0.03 of a texel at 2048²); a mesh tiling its texture 16 times keeps 1/4,096 of a tile |
 //!
 //! Octahedral encoding (Meyer et al., "On floating-point normal vectors", 2010; Cigolle et al.,
 //! JCGT 2014, "A survey of efficient representations for independent unit vectors") folds the
@@ -15,7 +15,11 @@
 //! and rebuilding Z loses the sign of Z and precision near the equator. UVs are normalised per
 //! mesh (`GpuMeshInfo::uv_offset`, `uv_scale`) rather than stored as half floats: a half's step
 //! at UVs in [0.5, 1) is 1/2048, a whole texel of a 2048² texture, where 16 bits over the
-//! mesh's own range keep every texture within a thirtieth of a texel.
+//! mesh's own range keep a texture used once within a thirtieth of a texel. The cost falls on
+//! meshes that tile a texture many times: precision is the span over 65,535, so a mesh whose UVs
+//! span more than [`WIDE_UV_SPAN`] is warned about as it uploads (a terrain tiling a 2048²
+//! texture 1,000 times would be off by 31 texels). A zero tangent decodes as +Z (meshes from
+//! the engine always carry unit tangents, `engine::mesh`).
 //!
 //! The packing here and the unpacking in `shaders/include/vertex.glsl` follow GLSL's
 //! `packSnorm2x16`/`unpackSnorm2x16` and `packUnorm2x16`/`unpackUnorm2x16` rules; the skinning
@@ -24,6 +28,17 @@
 use bytemuck::{Pod, Zeroable};
 
 use crate::layout::GpuVertex;
+
+/// A UV span above which 16-bit UVs lose more than 1/4,096 of a tile (half a texel of a 2048²
+/// texture): such a mesh is warned about as it uploads.
+pub const WIDE_UV_SPAN: f32 = 16.0;
+
+/// Bytes from a posed mesh's first vertex to its previous positions (a vec4 a vertex, read as
+/// 16-byte aligned): its vertices, rounded up to 16 bytes (`previous_positions` in
+/// `vertex.glsl`). Mesh ranges start 16-byte aligned ([`crate::scene::pool::GRANULE`]).
+pub fn previous_positions_offset(vertex_count: u32) -> u64 {
+    (vertex_count as u64 * std::mem::size_of::<GpuVertex>() as u64).next_multiple_of(16)
+}
 
 /// One vertex as meshes arrive on the CPU: full-precision attributes, packed into a
 /// [`GpuVertex`] as the mesh uploads.
@@ -62,9 +77,16 @@ impl UvRange {
                 }
             }
         }
-        let offset = std::array::from_fn(|c| if lo[c].is_finite() { lo[c] } else { 0.0 });
-        let scale = std::array::from_fn(|c| if hi[c] > lo[c] { hi[c] - lo[c] } else { 1.0 });
+        // A span too wide for f32 (UVs near ±3.4e38) is not packed at all: offset 0, scale 1.
+        let usable = |c: usize| lo[c].is_finite() && (hi[c] - lo[c]).is_finite();
+        let offset = std::array::from_fn(|c| if usable(c) { lo[c] } else { 0.0 });
+        let scale = std::array::from_fn(|c| if usable(c) && hi[c] > lo[c] { hi[c] - lo[c] } else { 1.0 });
         UvRange { offset, scale }
+    }
+
+    /// The largest step between two representable UVs: the wider span / 65,535.
+    pub fn step(&self) -> f32 {
+        self.scale[0].max(self.scale[1]) / 65535.0
     }
 }
 
@@ -199,5 +221,7 @@ mod tests {
         }
         let nan = [Vertex { uv: [f32::NAN, 0.0], ..Default::default() }];
         assert_eq!(UvRange::of(&nan), UvRange { offset: [0.0, 0.0], scale: [1.0, 1.0] }, "non-finite UVs are ignored");
+        let huge = [Vertex { uv: [-3e38, 0.0], ..Default::default() }, Vertex { uv: [3e38, 0.0], ..Default::default() }];
+        assert_eq!(UvRange::of(&huge).scale, [1.0, 1.0], "a span past f32's range is not packed");
     }
 }

@@ -4,9 +4,12 @@
 //!   originals do, within the errors stated at each assertion, on a floor that recedes so that
 //!   its far half samples the small mips; the import cache is hit on a second load and missed
 //!   when the image or the settings change.
+//! - Basis Universal files (ETC1S and UASTC, `assets/tests/basis`) transcode and render as the
+//!   PNG they were encoded from does, within stated errors.
 //! - KTX2 containers (`KHR_texture_basisu`): block-compressed levels are used as they are; a
-//!   container this loader cannot use yet (Basis Universal) falls back to the texture's PNG
-//!   source, or without one to the placeholder, and the rest of the file loads.
+//!   container the loader cannot read (here a universal format over bytes that are not Basis
+//!   Universal) falls back to the texture's PNG source, or without one to the placeholder, and
+//!   the rest of the file loads.
 
 use engine::gltf::{CacheLocation, GltfScene, LoadOptions, TextureImport, glb_container, load_slice};
 use engine::image::{Image, TexelFormat, TextureRole};
@@ -84,8 +87,8 @@ fn ktx2_textures_load_as_their_blocks_or_fall_back() {
     assert_eq!((image.format, image.width, image.height, image.mip_count()), (TexelFormat::Bc1, 8, 8, 1), "{image:?}");
     assert_eq!(image.mips[0].len(), 32, "four 8-byte blocks");
 
-    // A universal format (Basis Universal) is not transcoded yet: the PNG source is used,
-    // compressed as every PNG is by default.
+    // A universal format over bytes the Basis Universal transcoder cannot read: the PNG source
+    // is used, compressed as every PNG is by default.
     let scene = textured_triangle(&bc1_ktx2(true), Some(&png()));
     let image = base_colour(&scene);
     assert_eq!((image.format, image.width), (TexelFormat::Bc7, 2), "the fallback PNG: {image:?}");

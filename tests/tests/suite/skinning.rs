@@ -226,9 +226,11 @@ fn only_changed_poses_are_skinned_and_refit() {
     let first = app.world.resource::<RenderStats>().last;
     assert_eq!(first.skinned_meshes, 1, "a new posed mesh is skinned in its first frame");
     assert_eq!(first.skinned_vertices, bend.mesh.positions.len() as u64);
-    // Its copy in the mesh pool: a vertex and a previous position (16 bytes) each.
-    let vertex = std::mem::size_of::<render::scene::GpuVertex>() as u64 + 16;
-    assert_eq!(first.posed_mesh_bytes, bend.mesh.positions.len() as u64 * vertex, "the memory report counts the posed copy");
+    // Its copy in the mesh pool: its vertices, then (16-byte aligned) a previous position (16
+    // bytes) each.
+    let n = bend.mesh.positions.len() as u32;
+    let copy = render::scene::vertex::previous_positions_offset(n) + n as u64 * 16;
+    assert_eq!(first.posed_mesh_bytes, copy, "the memory report counts the posed copy");
     app.update(); // settles: its previous positions catch up
     assert_eq!(app.world.resource::<RenderStats>().last.skinned_meshes, 1);
     for _ in 0..2 {

@@ -105,9 +105,10 @@ impl GpuMesh {
     }
 }
 
-/// The bytes a posed mesh of `vertices` takes: its vertices and a previous position (vec4) each.
+/// The bytes a posed mesh of `vertices` takes: its vertices and, 16-byte aligned after them, a
+/// previous position (vec4) each.
 pub(super) fn posed_bytes(vertices: u32) -> u64 {
-    vertices as u64 * (std::mem::size_of::<crate::scene::GpuVertex>() as u64 + 16)
+    crate::scene::vertex::previous_positions_offset(vertices) + vertices as u64 * 16
 }
 
 /// The skinning pass's table of a skinned mesh's levels (`MeshLods::skin_table`; empty without).
@@ -232,6 +233,15 @@ impl GpuScene {
             let mut offset = 0u64;
             for (id, data) in &pending {
                 let uv = crate::scene::UvRange::of(&data.vertices);
+                if uv.scale[0].max(uv.scale[1]) > crate::scene::vertex::WIDE_UV_SPAN {
+                    tracing::warn!(
+                        mesh = id.0,
+                        span = uv.scale[0].max(uv.scale[1]),
+                        step = uv.step(),
+                        "a mesh's texture coordinates span more than {} tiles: their 16-bit vertex form keeps steps of the span / 65,535",
+                        crate::scene::vertex::WIDE_UV_SPAN
+                    );
+                }
                 let vbytes = data.vertices.len() * std::mem::size_of::<crate::scene::GpuVertex>();
                 let ibytes: &[u8] = bytemuck::cast_slice(&data.indices);
                 let lods = data.lods.clone().unwrap_or_default();

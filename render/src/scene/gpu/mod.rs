@@ -340,6 +340,7 @@ impl GpuScene {
             if let Some(img) = self.textures.get_mut(slot as usize).and_then(Option::take) {
                 up.graveyard.bury(up.frame_value, Retired::Image(img));
             }
+            self.release_texture_bytes(slot);
             self.released_textures.push((up.frame_value, slot));
         }
         let mut released_source = false;
@@ -440,7 +441,7 @@ impl GpuScene {
         }
         up.bytes = scene_bytes; // the renderer's own textures are not the scene's uploads
         let mut pending = std::mem::take(&mut mirror.pending_textures);
-        self.apply_texture_budget(&mut pending);
+        self.apply_texture_budget(&mut pending, up.ctx.capabilities.texture_compression_bc);
         for (slot, data) in pending {
             self.prepare_texture(up, &mut copies, slot, &data)?;
         }
@@ -527,7 +528,6 @@ impl GpuScene {
         // The first command's place holds the count (the draw is a count-draw: see
         // `crate::motion`).
         self.mover_commands.push(GpuDrawCommand::zeroed());
-        let vertex_bytes = std::mem::size_of::<crate::scene::GpuVertex>() as u64;
         let posed =
             mirror.poses.jobs().iter().filter_map(|&mesh| mirror.posed_slot(mesh)).filter(|&slot| mirror.movers.prev_model(slot).is_none());
         let still = |slot: u32| mirror.instances.get(slot).map(|i| i.model);
@@ -539,7 +539,11 @@ impl GpuScene {
             if info.index_count == 0 {
                 continue;
             }
-            let previous = if mirror.poses.is_posed(draw.mesh) { info.vertices + info.vertex_count as u64 * vertex_bytes } else { 0 };
+            let previous = if mirror.poses.is_posed(draw.mesh) {
+                info.vertices + crate::scene::vertex::previous_positions_offset(info.vertex_count)
+            } else {
+                0
+            };
             self.mover_commands.push(GpuDrawCommand {
                 index_count: info.index_count,
                 instance_count: 1,

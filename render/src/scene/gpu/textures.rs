@@ -92,10 +92,19 @@ pub fn fit_textures(textures: &mut [(u32, TextureData)], room: u64) -> (u64, u64
 impl GpuScene {
     /// Fits the textures about to be uploaded into the budget (see the module docs), warning
     /// once when it drops levels or cannot fit them.
-    pub(super) fn apply_texture_budget(&mut self, pending: &mut [(u32, TextureData)]) {
+    /// On a device without BC sampling the block-compressed ones are decoded first, so that
+    /// the budget weighs what the GPU will hold.
+    pub(super) fn apply_texture_budget(&mut self, pending: &mut [(u32, TextureData)], bc: bool) {
         let budget = self.texture_budget.budget;
         if budget == 0 || pending.is_empty() {
             return;
+        }
+        if !bc {
+            for (_, texture) in pending.iter_mut() {
+                if let Some(decoded) = crate::scene::bc::decode_to_rgba8(texture) {
+                    *texture = decoded;
+                }
+            }
         }
         // Slots being replaced free what they hold.
         let replaced: u64 = pending.iter().filter_map(|(slot, _)| self.texture_sizes.get(*slot as usize).copied()).sum();
@@ -117,6 +126,13 @@ impl GpuScene {
                 mib(bytes),
                 if needed - bytes > budget { ", and the textures still do not fit" } else { "" }
             );
+        }
+    }
+
+    /// Forgets the bytes a released texture slot held.
+    pub(super) fn release_texture_bytes(&mut self, slot: u32) {
+        if let Some(size) = self.texture_sizes.get_mut(slot as usize) {
+            self.texture_budget.resident -= std::mem::take(size);
         }
     }
 
