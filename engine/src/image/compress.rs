@@ -17,7 +17,7 @@
 //! column (the padded texels fall outside the texture and are never sampled). Rows of blocks are
 //! compressed on every core (`std::thread::scope`).
 
-use super::mips::{MipFilter, build_mips};
+use super::mips::MipFilter;
 use super::*;
 
 /// What a texture holds, which decides how it is filtered and compressed (see the module docs).
@@ -71,12 +71,7 @@ impl Image {
     /// An RGBA8 image with the mip chain `role` asks for (normal maps renormalised per level),
     /// not compressed: what a device without BC support samples.
     pub fn from_rgba8_for(width: u32, height: u32, data: Vec<u8>, role: TextureRole) -> Result<Image, ImageError> {
-        let expected = (width as usize).checked_mul(height as usize).and_then(|n| n.checked_mul(4)).filter(|&n| n > 0);
-        if expected != Some(data.len()) {
-            return Err(ImageError::InvalidSize { width, height, expected: expected.unwrap_or(0), actual: data.len() });
-        }
-        let mips = build_mips(width, height, data, role.color_space(), role.mip_filter());
-        Ok(Image { width, height, color_space: role.color_space(), format: TexelFormat::Rgba8, mips })
+        Image::with_mips(width, height, data, role.color_space(), role.mip_filter())
     }
 
     /// Compresses an RGBA8 level 0 for `role` (see the module docs): the full mip chain is

@@ -187,11 +187,16 @@ fn check_size(width: u32, height: u32, levels: usize) -> Result<(), ImageError> 
 impl Image {
     /// Builds an image and its mip chain from tightly packed RGBA8 level-0 data.
     pub fn from_rgba8(width: u32, height: u32, data: Vec<u8>, color_space: ColorSpace) -> Result<Image, ImageError> {
+        Image::with_mips(width, height, data, color_space, mips::MipFilter::Plain)
+    }
+
+    /// An RGBA8 image from tightly packed level-0 data, its mip chain filtered as `filter` says.
+    fn with_mips(width: u32, height: u32, data: Vec<u8>, color_space: ColorSpace, filter: mips::MipFilter) -> Result<Image, ImageError> {
         let expected = (width as usize).checked_mul(height as usize).and_then(|n| n.checked_mul(4)).filter(|&n| n > 0);
         if expected != Some(data.len()) {
             return Err(ImageError::InvalidSize { width, height, expected: expected.unwrap_or(0), actual: data.len() });
         }
-        let mips = mips::build_mips(width, height, data, color_space, mips::MipFilter::Plain);
+        let mips = mips::build_mips(width, height, data, color_space, filter);
         Ok(Image { width, height, color_space, format: TexelFormat::Rgba8, mips })
     }
 
