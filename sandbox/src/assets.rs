@@ -223,3 +223,40 @@ pub fn bake(file: &Path, options: &LoadOptions) -> Result<String> {
         texture_bytes(&scene) as f64 / (1024.0 * 1024.0)
     ))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The shared Fox (one 1024² PNG base colour); a missing file fails the test.
+    fn fox() -> PathBuf {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets/gltf/Fox/Fox.glb");
+        assert!(path.exists(), "{} is missing (the shared models live beside the project)", path.display());
+        path
+    }
+
+    #[test]
+    fn measuring_an_import_loads_three_ways_and_counts_a_quarter_of_the_bytes() {
+        let scratch = std::env::temp_dir().join(format!("ecs-decals-measure-{}", std::process::id()));
+        let m = measure_import(&fox(), &scratch).expect("the Fox imports");
+        assert_eq!(m.images, 1);
+        // BC7: a byte a texel where RGBA8 takes four, but for the levels smaller than a block.
+        assert_eq!(m.rgba8_bytes, 5_592_404);
+        assert_eq!(m.compressed_bytes, 1_398_128);
+        assert_eq!(m.compressed_by_format.get("Bc7"), Some(&1_398_128));
+        let _ = std::fs::remove_dir_all(&scratch);
+    }
+
+    #[test]
+    fn baking_fills_the_cache_the_next_load_reads() {
+        let dir = std::env::temp_dir().join(format!("ecs-decals-bake-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let options = import_options("bc", Some(&dir), false).expect("valid options");
+        let first = bake(&fox(), &options).expect("the Fox bakes");
+        assert!(first.contains("1 compressed, 0 already cached"), "{first}");
+        let second = bake(&fox(), &options).expect("the Fox bakes again");
+        assert!(second.contains("0 compressed, 1 already cached"), "{second}");
+        assert!(import_options("astc", None, false).is_err(), "an unknown import is refused");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -239,7 +239,13 @@ fn compressed_and_basis_textures_render_as_their_originals() {
 fn the_import_cache_is_hit_and_missed_as_the_sources_change() {
     let dir = std::env::temp_dir().join(format!("ecs-decals-import-cache-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let options = LoadOptions { textures: TextureImport::Compressed(CacheLocation::At(dir.clone())), ..Default::default() };
+    // The progress callback hears of each image: how far, and how it was imported.
+    let events = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let heard = events.clone();
+    let progress: engine::gltf::TextureProgress =
+        std::sync::Arc::new(move |e: &engine::gltf::TextureEvent<'_>| heard.lock().unwrap().push((e.done, e.total, e.import)));
+    let options =
+        LoadOptions { textures: TextureImport::Compressed(CacheLocation::At(dir.clone())), progress: Some(progress), ..Default::default() };
     let png = |seed: u8| {
         let mut bytes = Vec::new();
         let image = image::RgbaImage::from_fn(8, 8, |x, y| image::Rgba([(x as u8 * 30) ^ seed, y as u8 * 30, seed, 255]));
@@ -275,5 +281,8 @@ fn the_import_cache_is_hit_and_missed_as_the_sources_change() {
     assert_eq!((edited.compressed, edited.cache_hits), (1, 0), "an edited image is compressed again: {edited:?}");
     let normal = model(&png(1), "normal");
     assert_eq!((normal.compressed, normal.cache_hits), (1, 0), "another role is another setting: {normal:?}");
+    use engine::gltf::TextureSource::{CacheHit, Compressed};
+    let expected = [(1, 1, Compressed), (1, 1, CacheHit), (1, 1, Compressed), (1, 1, Compressed)];
+    assert_eq!(*events.lock().unwrap(), expected, "one event an image, in order");
     let _ = std::fs::remove_dir_all(&dir);
 }
