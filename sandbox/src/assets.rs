@@ -21,19 +21,11 @@ pub struct ImportTotals(pub TextureImportStats);
 
 impl ImportTotals {
     fn count(&mut self, source: engine::gltf::TextureSource) {
-        let mut one = TextureImportStats::default();
-        one.count(source);
-        self.add(&one);
+        self.0.count(source);
     }
 
     fn add(&mut self, stats: &TextureImportStats) {
-        let t = &mut self.0;
-        t.cache_hits += stats.cache_hits;
-        t.compressed += stats.compressed;
-        t.rebuilt += stats.rebuilt;
-        t.rgba8 += stats.rgba8;
-        t.ktx2 += stats.ktx2;
-        t.reused += stats.reused;
+        self.0 += stats;
     }
 }
 
@@ -56,7 +48,7 @@ pub fn import_generated(
     name: &str,
 ) -> engine::image::Image {
     use engine::gltf::TextureSource;
-    use engine::image::{CacheOutcome, Image};
+    use engine::image::Image;
     let options = world.get_resource::<ImportOptions>().cloned().unwrap_or_default();
     let TextureImport::Compressed(location) = &options.0.textures else {
         return image;
@@ -69,14 +61,9 @@ pub fn import_generated(
         Some(cache) => {
             let mut source = format!("generated {width}x{height} rgba8:").into_bytes();
             source.extend_from_slice(&level0);
-            cache.load_or_compress(&source, role, name, || Ok((width, height, level0.clone()))).map(|(image, outcome)| {
-                let how = match outcome {
-                    CacheOutcome::Hit => TextureSource::CacheHit,
-                    CacheOutcome::Compressed => TextureSource::Compressed,
-                    CacheOutcome::Rebuilt(_) => TextureSource::Rebuilt,
-                };
-                (image, how)
-            })
+            cache
+                .load_or_compress(&source, role, name, || Ok((width, height, level0.clone())))
+                .map(|(image, outcome)| (image, TextureSource::from(&outcome)))
         }
         None => Image::compress(width, height, level0.clone(), role).map(|image| (image, TextureSource::Compressed)),
     };

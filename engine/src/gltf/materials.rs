@@ -3,7 +3,7 @@
 //! module's docs).
 
 use super::*;
-use crate::image::{CacheOutcome, ImageError, TexelFormat};
+use crate::image::{ImageError, TexelFormat};
 
 /// `KHR_texture_basisu`: a texture's image in a KTX2 container (`source` in the extension),
 /// beside or instead of a PNG/JPEG one.
@@ -167,12 +167,7 @@ impl<'a> ImageLoader<'a> {
                     }
                     Some(Some(cache)) => {
                         let (image, outcome) = cache.load_or_compress(&bytes, role, &describe, decode).map_err(error)?;
-                        let how = match outcome {
-                            CacheOutcome::Hit => TextureSource::CacheHit,
-                            CacheOutcome::Compressed => TextureSource::Compressed,
-                            CacheOutcome::Rebuilt(_) => TextureSource::Rebuilt,
-                        };
-                        (image, how)
+                        (image, TextureSource::from(&outcome))
                     }
                 }
             }

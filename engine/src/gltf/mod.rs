@@ -531,6 +531,27 @@ pub struct TextureImportStats {
     pub reused: u32,
 }
 
+impl From<&crate::image::CacheOutcome> for TextureSource {
+    fn from(outcome: &crate::image::CacheOutcome) -> TextureSource {
+        match outcome {
+            crate::image::CacheOutcome::Hit => TextureSource::CacheHit,
+            crate::image::CacheOutcome::Compressed => TextureSource::Compressed,
+            crate::image::CacheOutcome::Rebuilt(_) => TextureSource::Rebuilt,
+        }
+    }
+}
+
+impl std::ops::AddAssign<&TextureImportStats> for TextureImportStats {
+    fn add_assign(&mut self, other: &TextureImportStats) {
+        self.cache_hits += other.cache_hits;
+        self.compressed += other.compressed;
+        self.rebuilt += other.rebuilt;
+        self.rgba8 += other.rgba8;
+        self.ktx2 += other.ktx2;
+        self.reused += other.reused;
+    }
+}
+
 impl TextureImportStats {
     /// Counts one image imported as `source`.
     pub fn count(&mut self, source: TextureSource) {
