@@ -43,6 +43,8 @@ pub struct MirrorSlots {
     lights: EntityHashMap<u32>,
     decals: EntityHashMap<u32>,
     decal_materials: HashMap<Handle<DecalMaterial>, u32>,
+    /// Particle emitters (`crate::particles`).
+    pub(crate) emitters: EntityHashMap<u32>,
     /// Skinned instances' posed meshes (and the skinned mesh each copies).
     posed: EntityHashMap<(MeshId, MeshId)>,
     /// Skinned instances whose posed mesh is new: posed in this frame whatever moved.

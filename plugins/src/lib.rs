@@ -28,6 +28,7 @@
 pub mod decal;
 pub mod extract;
 pub mod overlay;
+pub mod particles;
 pub mod raycast;
 pub mod run;
 pub mod validate;
@@ -299,6 +300,7 @@ pub fn reset_mirror(world: &mut World) {
     list_all::<engine::light::SpotLight>(world);
     list_all::<engine::light::DirectionalLight>(world);
     list_all::<decal::Decal>(world);
+    list_all::<particles::ParticleEmitter>(world);
 }
 
 /// The CPU copy of the GPU scene that extraction writes.
@@ -407,6 +409,8 @@ pub struct VisitCounts {
     pub decals: u64,
     /// Skinned instances posed (their joints or they moved).
     pub poses: u64,
+    /// Particle emitters inserted (spawned or edited; moves are not counted).
+    pub emitters: u64,
 }
 
 /// Counters of the last frame and a queue of finished frames' statistics.
@@ -504,6 +508,7 @@ impl Plugin for RenderPlugin {
                 extract::extract_instances,
                 extract::extract_poses,
                 extract::extract_decals,
+                particles::extract_emitters,
                 extract::extract_lights,
                 extract::extract_camera,
                 extract::extract_environment,
@@ -516,6 +521,7 @@ impl Plugin for RenderPlugin {
         app.insert_resource(engine::asset::Assets::<decal::DecalMaterial>::default());
         app.add_message::<engine::changes::Inserted<decal::Decal>>();
         app.add_message::<engine::changes::Inserted<decal::DecalReceiver>>();
+        app.add_message::<engine::changes::Inserted<particles::ParticleEmitter>>();
         app.world.init_resource::<decal::DecalLifetimes>();
         app.world.init_resource::<engine::environment::Environment>();
         app.add_systems(engine::app::Update, decal::expire_decals);

@@ -10,7 +10,7 @@ const LOWER: [&str; 7] = ["gpu", "graph", "scene", "layout", "settings", "stats"
 /// Not techniques: the frame functions, which own every technique, and the renderer.
 const ABOVE: [&str; 3] = ["pipelines", "renderer", "lib"];
 /// The technique imports the crate docs list: each for a frame function's typed output.
-const ALLOWED: [(&str, &str); 9] = [
+const ALLOWED: [(&str, &str); 10] = [
     ("shadows", "culling"),
     ("transparency", "culling"),
     ("reflections", "decals"),
@@ -18,6 +18,7 @@ const ALLOWED: [(&str, &str); 9] = [
     ("shadows", "lights"),
     ("reflections", "lights"),
     ("transparency", "lights"),
+    ("particles", "lights"),
     ("lights", "accel"),
     ("lights", "environment"),
 ];

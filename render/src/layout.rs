@@ -732,6 +732,20 @@ layout! {
     pub const TONEMAP_AGX: u32 = 2;
     /// Most levels of the bloom pyramid (the first at half resolution).
     pub const BLOOM_MAX_LEVELS: u32 = 7;
+    /// `GpuEmitter::contact`: a particle that touches a surface dies there.
+    pub const PARTICLE_CONTACT_DIE: u32 = 0;
+    /// `GpuEmitter::contact`: a particle that touches a surface bounces off it.
+    pub const PARTICLE_CONTACT_BOUNCE: u32 = 1;
+    /// `GpuEmitter::contact`: a particle that touches a surface stays where it touched.
+    pub const PARTICLE_CONTACT_STICK: u32 = 2;
+    /// `GpuEmitter::contact`: a particle passes through surfaces.
+    pub const PARTICLE_CONTACT_NONE: u32 = 3;
+    /// `GpuParticle::flags`: the particle has touched a surface and stays on it.
+    pub const PARTICLE_STUCK: u32 = 1;
+    /// `GpuParticle::flags`: the particle has touched a surface (it was counted as landed).
+    pub const PARTICLE_LANDED: u32 = 2;
+    /// Invocations of a particle workgroup (emission, simulation).
+    pub const PARTICLE_GROUP: u32 = 64;
     /// Auto-exposure: bins of the luminance histogram (`GpuExposure`); bin 0 holds black and
     /// what is darker than 2^−`EXPOSURE_LOG2_OFFSET`, the others split the `EXPOSURE_LOG2_RANGE`
     /// stops above it.
@@ -1201,6 +1215,145 @@ layout! {
         pub lod_lift: f32,
         /// Padding to 16 bytes.
         pub movers_pad: u32,
+        /// Address of the particle system's state (`GpuParticleState`, `crate::particles`; 0
+        /// while no emitter or particle exists).
+        pub particles: u64,
+        /// Padding to 16 bytes.
+        pub particles_pad: [u32; 2],
+    }
+
+    /// One particle of the pool (`crate::particles`). A slot whose `lifetime` is 0 is free.
+    #[layout(std430)]
+    #[derive(Default)]
+    pub struct GpuParticle {
+        /// World position, metres.
+        pub position: Vec3,
+        /// Seconds since it was emitted.
+        pub age: f32,
+        /// World velocity, metres per second.
+        pub velocity: Vec3,
+        /// Seconds it lives (0: a free slot).
+        pub lifetime: f32,
+        /// The emitter slot whose parameters it follows.
+        pub emitter: u32,
+        /// Its random seed (size and colour variation, flipbook start).
+        pub seed: u32,
+        /// `PARTICLE_*` flags.
+        pub flags: u32,
+        /// The normal of the surface it touched last, octahedral (two snorm16; 0: none).
+        pub contact_normal: u32,
+    }
+
+    /// An emitter's parameters (`crate::particles::EmitterDesc`), by emitter slot.
+    #[layout(std430)]
+    #[derive(Default)]
+    pub struct GpuEmitter {
+        /// Where particles are born: the emitter's world transform (the cone's axis is its +Y).
+        pub transform: Mat4,
+        /// Colour at birth, premultiplied: rgb is the linear radiance added where the sprite
+        /// covers (above 1 glows and blooms; × the light taken when `lit`), alpha how much of
+        /// what is behind it hides (0: light added, nothing hidden).
+        pub color_start: Vec4,
+        /// Colour at death (the colour moves linearly from one to the other over the life).
+        pub color_end: Vec4,
+        /// Acceleration, m/s² (gravity and wind).
+        pub acceleration: Vec3,
+        /// Drag: the share of velocity lost per second is 1 − e^−drag.
+        pub drag: f32,
+        /// Quad side at birth, metres.
+        pub size_start: f32,
+        /// Quad side at death, metres.
+        pub size_end: f32,
+        /// Slowest launch speed, m/s.
+        pub speed_min: f32,
+        /// Fastest launch speed, m/s.
+        pub speed_max: f32,
+        /// Shortest life, seconds.
+        pub lifetime_min: f32,
+        /// Longest life, seconds.
+        pub lifetime_max: f32,
+        /// Cosine of the launch cone's half-angle around +Y (1: straight up, −1: every way).
+        pub cone_cos: f32,
+        /// Radius of the sphere particles are born in, metres (0: at the origin).
+        pub spawn_radius: f32,
+        /// `PARTICLE_CONTACT_*`.
+        pub contact: u32,
+        /// The share of speed along the normal kept by a bounce.
+        pub restitution: f32,
+        /// The share of speed along the surface kept by a bounce.
+        pub friction: f32,
+        /// Bindless texture slot of the sprite (`TEXTURE_WHITE`: a soft round dot).
+        pub texture: u32,
+        /// Flipbook frames across and down the texture (1×1: a single image), x in the low 16
+        /// bits and y in the high.
+        pub flipbook: u32,
+        /// How far (metres) behind the surface in front of it a particle fades out (soft
+        /// particles; 0: a hard edge).
+        pub softness: f32,
+        /// How much of the scene's light it takes (0: emissive only, 1: lit like a matte
+        /// surface facing the light).
+        pub lit: f32,
+        /// Padding to 16 bytes.
+        pub pad: u32,
+    }
+
+    /// One emitter's share of a frame's new particles: invocations [`first`, `first + count`)
+    /// of the emission pass start particles of `emitter`.
+    #[layout(std430)]
+    #[derive(Default)]
+    pub struct GpuEmission {
+        /// Emitter slot.
+        pub emitter: u32,
+        /// The first invocation of the job.
+        pub first: u32,
+        /// Particles it starts.
+        pub count: u32,
+        /// Seed of its random numbers (different every frame).
+        pub seed: u32,
+    }
+
+    /// The particle system's state (`crate::particles`): the frame's input, which the CPU writes,
+    /// then what the GPU counts. One buffer, whose address the lighting record holds; the jobs
+    /// follow it.
+    #[layout(std430)]
+    #[derive(Default)]
+    pub struct GpuParticleState {
+        /// Address of the particle pool (`GpuParticle` × `capacity`).
+        pub pool: u64,
+        /// Address of the free list (`capacity` slots; the first `free_count` are free).
+        pub free_list: u64,
+        /// Address of the drawn list (the slots alive after this frame's simulation).
+        pub alive_list: u64,
+        /// Address of the emitter table (`GpuEmitter` per emitter slot).
+        pub emitters: u64,
+        /// Slots of the pool.
+        pub capacity: u32,
+        /// This frame's emission jobs (`GpuEmission`, after this record).
+        pub job_count: u32,
+        /// This frame's new particles (the emission pass's invocations).
+        pub spawn_count: u32,
+        /// Seconds since the previous frame.
+        pub delta: f32,
+        /// The emission pass's indirect dispatch: workgroups along x, y, z.
+        pub emit_groups: [u32; 3],
+        /// Whether the simulation collides with the depth buffer (1) or not (0).
+        pub depth_collision: u32,
+        /// GPU-written from here: free slots in the free list (signed while the emission pass
+        /// pops).
+        pub free_count: u32,
+        /// Particles started since the system was created.
+        pub spawned: u32,
+        /// Particles that touched a surface since the system was created (once each).
+        pub landed: u32,
+        /// Particles not started because the pool was full, since the system was created.
+        pub dropped: u32,
+        /// Draws of the drawing pass (1; the count of its `vkCmdDrawIndirectCount`).
+        pub draw_count: u32,
+        /// Padding.
+        pub counters_pad: [u32; 3],
+        /// The drawing pass's indirect draw: vertices (6), instances (the particles alive after
+        /// the simulation, the drawn list's length), first vertex, first instance.
+        pub draw: [u32; 4],
     }
 
     /// Auto-exposure's state on the GPU (`crate::exposure`): this frame's luminance histogram

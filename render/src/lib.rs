@@ -41,15 +41,15 @@
 //! **Layers.** The lower layers (`gpu`, `graph`, `layout`, `settings`, `stats`, `scene`) name no
 //! technique: a frame's statistics live with its report ([`stats::FrameCounters`], which the
 //! renderer starts afresh each frame and the frame function hands to each technique; the scene
-//! mirror counts only the records written into it), the environment and the poses a game sets are scene data ([`scene::environment`],
-//! [`scene::poses`]), and what several techniques share is a utility of a lower layer (depth
+//! mirror counts only the records written into it), the environment, the poses and the particle emitters a game sets are scene data
+//! ([`scene::environment`], [`scene::poses`], [`scene::emitters`]), and what several techniques share is a utility of a lower layer (depth
 //! pyramids in [`graph::pyramid`], shading variants in [`gpu::pipeline`]). A technique imports
 //! another where the frame function hands it that technique's typed output:
 //!
 //! 1. `culling::Draws` (the lists a pass draws): shadows, transparency;
 //! 2. `decals::DecalFrame` (how this frame's decals are applied): reflections, transparency;
 //! 3. `lights::LightFrame` (this frame's lights, the shadow words and the structures traced):
-//!    shadows, reflections, transparency;
+//!    shadows, reflections, transparency, particles;
 //! 4. the frames the lighting record is built from: `accel::SceneAccelFrame`,
 //!    `environment::EnvironmentFrame`, `occlusion::OcclusionFrame`,
 //!    `reflections::ReflectionFrame` (lights).
@@ -85,6 +85,7 @@ pub mod lod;
 pub mod motion;
 pub mod msaa;
 pub mod occlusion;
+pub mod particles;
 pub mod pipelines;
 pub mod present;
 pub mod reflections;

@@ -60,6 +60,10 @@ pub struct RendererSettings {
     /// budget drops the finest levels of its largest textures as they upload, with one warning
     /// (see [`crate::scene::gpu`]'s texture budget); `counters.texture_budget` says what it did.
     pub texture_budget: u64,
+    /// Particles the pool holds at once (default [`crate::particles::DEFAULT_CAPACITY`],
+    /// 65,536: 3.7 MB, made the first frame an emitter exists). Particles started while it is
+    /// full are dropped and counted (`counters.particles.dropped`).
+    pub particle_capacity: u32,
 }
 
 impl Default for RendererSettings {
@@ -70,6 +74,7 @@ impl Default for RendererSettings {
             shadow_maps: Default::default(),
             environment_resolution: 512,
             texture_budget: 0,
+            particle_capacity: crate::particles::DEFAULT_CAPACITY,
         }
     }
 }
@@ -158,6 +163,7 @@ struct Resources {
     fxaa: crate::fxaa::Fxaa,
     occlusion: crate::occlusion::AmbientOcclusion,
     decals: Decals,
+    particles: crate::particles::Particles,
     lighting: Lighting,
     accel: Option<crate::accel::SceneAccel>,
     shadows: crate::shadows::ShadowPass,
@@ -231,6 +237,7 @@ impl Renderer {
             fxaa: crate::fxaa::Fxaa::new(ctx, layout)?,
             occlusion: crate::occlusion::AmbientOcclusion::new(ctx, layout)?,
             decals: Decals::new(ctx, &mut graph, layout, settings.decal_cluster_capacity)?,
+            particles: crate::particles::Particles::new(ctx, &mut graph, layout, settings.particle_capacity)?,
             lighting: Lighting::new(ctx, &mut graph, layout)?,
             accel: crate::accel::SceneAccel::new(ctx, &mut graph, layout)?,
             shadows: crate::shadows::ShadowPass::new(ctx, layout, settings.shadow_maps)?,
@@ -450,6 +457,7 @@ impl Renderer {
             culling: &mut res.culling,
             skinning: &mut res.skinning,
             decals: &mut res.decals,
+            particles: &mut res.particles,
             lighting: &mut res.lighting,
             accel: res.accel.as_mut(),
             shadows: &mut res.shadows,
@@ -752,6 +760,7 @@ impl Drop for Renderer {
             fxaa,
             occlusion,
             decals,
+            particles,
             lighting,
             accel,
             shadows,
@@ -778,6 +787,7 @@ impl Drop for Renderer {
         }
         graveyard.clear(ctx);
         decals.destroy(ctx);
+        particles.destroy(ctx);
         lighting.destroy(ctx);
         if let Some(a) = accel {
             a.destroy(ctx);

@@ -192,6 +192,9 @@ pub struct FrameCounters {
     pub scene_blas_refits_deferred: u64,
     /// The most frames one of them has waited (at most `MAX_REFIT_STALENESS`).
     pub scene_blas_stalest: u64,
+    /// Particles: what the GPU counted in the last frame whose counts came back
+    /// (`crate::particles`).
+    pub particles: ParticleCounts,
     /// Reflections: the mode applied, and what the GPU measured (`crate::reflections`).
     pub reflections: ReflectionStats,
     /// The environment: sources filtered so far and the cubes' face size (`crate::environment`).
@@ -263,4 +266,22 @@ pub struct DecalListStats {
     pub grows: u64,
     /// Times the list buffer shrank or was released (unused), since the renderer started.
     pub shrinks: u64,
+}
+
+/// What the particle system measured in one frame (`crate::particles`, read back two frames
+/// later).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ParticleCounts {
+    /// The frame that measured them (`u64::MAX`: none yet).
+    pub measured_frame: u64,
+    /// Particles alive after that frame's simulation.
+    pub alive: u32,
+    /// Particles started since the system was created.
+    pub spawned: u32,
+    /// Particles that touched a surface since the system was created (once each).
+    pub landed: u32,
+    /// Particles not started because the pool was full, since the system was created.
+    pub dropped: u32,
+    /// Slots of the pool (0 before the first emitter).
+    pub capacity: u32,
 }

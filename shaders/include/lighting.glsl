@@ -12,26 +12,31 @@ float distance_window(float dist2, float range) {
     return s * s;
 }
 
+// The radiance `light` brings to point `p` from direction `l` (unit, towards the light), before
+// any cosine: its colour by the distance window and the inverse square, and the spot's cone.
+vec3 light_incidence(GpuLight light, vec3 p, out vec3 l) {
+    if (light.kind == LIGHT_DIRECTIONAL) {
+        l = -light.direction;
+        return light.color;
+    }
+    vec3 to_light = light.position - p;
+    float dist2 = dot(to_light, to_light);
+    l = to_light * inversesqrt(max(dist2, 1e-8));
+    float attenuation = distance_window(dist2, light.range) / max(dist2, 1e-4);
+    if (light.kind == LIGHT_SPOT) {
+        float cd = dot(light.direction, -l);
+        float a = clamp(cd * light.spot_scale + light.spot_offset, 0.0, 1.0);
+        attenuation *= a * a;
+    }
+    return light.color * attenuation;
+}
+
 // Radiance reflected towards v from one light.
 vec3 shade_light(GpuLight light, SurfaceBrdf s, vec3 p, vec3 n, vec3 v) {
     vec3 l;
-    float attenuation;
-    if (light.kind == LIGHT_DIRECTIONAL) {
-        l = -light.direction;
-        attenuation = 1.0;
-    } else {
-        vec3 to_light = light.position - p;
-        float dist2 = dot(to_light, to_light);
-        l = to_light * inversesqrt(max(dist2, 1e-8));
-        attenuation = distance_window(dist2, light.range) / max(dist2, 1e-4);
-        if (light.kind == LIGHT_SPOT) {
-            float cd = dot(light.direction, -l);
-            float a = clamp(cd * light.spot_scale + light.spot_offset, 0.0, 1.0);
-            attenuation *= a * a;
-        }
-    }
-    if (attenuation <= 0.0) return vec3(0.0);
-    return brdf_cos(s, n, v, l) * light.color * attenuation;
+    vec3 incident = light_incidence(light, p, l);
+    if (all(lessThanEqual(incident, vec3(0.0)))) return vec3(0.0);
+    return brdf_cos(s, n, v, l) * incident;
 }
 
 // The direction to `light` from `p` and the ray's length; false when the light cannot reach p.

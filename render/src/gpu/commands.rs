@@ -151,6 +151,7 @@ const COPY_IMAGE: u64 = 16;
 const TIMESTAMP: u64 = 17;
 const TRACE: u64 = 18;
 const BUILD_ACCEL: u64 = 19;
+const DRAW_INDIRECT_ONE: u64 = 20;
 
 /// Builds a replayed `vkCmdBuildAccelerationStructuresKHR` passes to the driver at once (a
 /// logged call with more is replayed as several: builds in one call may run concurrently
@@ -417,6 +418,13 @@ impl<'a> Recorder<'a> {
     /// `vkCmdDrawIndexedIndirectCount`.
     pub fn draw_indexed_indirect_count(&self, draws: vk::Buffer, offset: u64, count: vk::Buffer, count_offset: u64, max: u32, stride: u32) {
         self.log(|l| l.extend([DRAW_INDIRECT_COUNT, h(draws), offset, h(count), count_offset, pair(max, stride)]));
+    }
+
+    /// One non-indexed draw whose arguments (`VkDrawIndirectCommand`) are at `offset` in `args`,
+    /// drawn if the word at `count_offset` in `count` is 1 (`vkCmdDrawIndirectCount` with at most
+    /// one draw: lavapipe 25.0's `vkCmdDrawIndirect` draws nothing).
+    pub fn draw_indirect_one(&self, args: vk::Buffer, offset: u64, count: vk::Buffer, count_offset: u64) {
+        self.log(|l| l.extend([DRAW_INDIRECT_ONE, h(args), offset, h(count), count_offset]));
     }
 
     /// Binds `buffer` as vertex buffer 0 at `vertex_offset` and as the index buffer at
@@ -841,6 +849,11 @@ fn replay(ctx: &GpuContext, s: &mut State) {
                     let (draws, count) = (vk::Buffer::from_raw(w[0]), vk::Buffer::from_raw(w[2]));
                     d.cmd_draw_indexed_indirect_count(cmd, draws, w[1], count, w[3], max, stride);
                     5
+                }
+                DRAW_INDIRECT_ONE => {
+                    let (args, count) = (vk::Buffer::from_raw(w[0]), vk::Buffer::from_raw(w[2]));
+                    d.cmd_draw_indirect_count(cmd, args, w[1], count, w[3], 1, 16);
+                    4
                 }
                 BIND_GEOMETRY => {
                     let buffer = vk::Buffer::from_raw(w[0]);

@@ -64,6 +64,10 @@ pub enum Blend {
     /// [`Blend::Alpha`] into every attachment but the last, which [`Blend::Additive`] adds to
     /// (deferred decals: attributes into the G-buffer, emission into the HDR target).
     AlphaThenAdditive,
+    /// `src.rgb + dst.rgb · (1 − src.a)`: colour premultiplied by its opacity, so one output
+    /// covers (alpha 1) or glows (alpha 0) or anything between (particles); the attachment's
+    /// alpha is kept.
+    Premultiplied,
 }
 
 impl<'a> GraphicsDesc<'a> {
@@ -168,6 +172,14 @@ pub fn create_graphics(ctx: &GpuContext, layout: vk::PipelineLayout, desc: &Grap
                     .blend_enable(true)
                     .src_color_blend_factor(vk::BlendFactor::ONE)
                     .dst_color_blend_factor(vk::BlendFactor::ONE)
+                    .color_blend_op(vk::BlendOp::ADD)
+                    .src_alpha_blend_factor(vk::BlendFactor::ZERO)
+                    .dst_alpha_blend_factor(vk::BlendFactor::ONE)
+                    .alpha_blend_op(vk::BlendOp::ADD),
+                Blend::Premultiplied => state
+                    .blend_enable(true)
+                    .src_color_blend_factor(vk::BlendFactor::ONE)
+                    .dst_color_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)
                     .color_blend_op(vk::BlendOp::ADD)
                     .src_alpha_blend_factor(vk::BlendFactor::ZERO)
                     .dst_alpha_blend_factor(vk::BlendFactor::ONE)

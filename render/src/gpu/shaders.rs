@@ -15,6 +15,11 @@ macro_rules! spirv {
 }
 
 spirv! {
+    PARTICLES_INIT_COMP = "particles_init.comp";
+    PARTICLES_EMIT_COMP = "particles_emit.comp";
+    PARTICLES_SIMULATE_COMP = "particles_simulate.comp";
+    PARTICLE_VERT = "particle.vert";
+    PARTICLE_FRAG = "particle.frag";
     MESH_VERT = "mesh.vert";
     CULL_COMP = "cull.comp";
     SKINNING_COMP = "skinning.comp";

@@ -256,6 +256,8 @@ impl Lighting {
             movers: 0,        // the upload's to set
             lod_lift: 0.0,    // the frame's to set (`GpuScene::set_lod_lift`)
             movers_pad: 0,
+            particles: 0, // the particles' to set (`GpuScene::set_particles`)
+            particles_pad: [0; 2],
         });
         let res = self.tiles.resources();
         let inline_shadows = match accel.traced {

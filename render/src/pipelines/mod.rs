@@ -55,6 +55,8 @@ pub struct FrameParts<'a> {
     pub skinning: &'a mut crate::skinning::Skinning,
     /// Decal acceleration structures, deferred-decal order, debug boxes.
     pub decals: &'a mut Decals,
+    /// GPU particles: emitted and moved once depth exists, drawn before the image is finished.
+    pub particles: &'a mut crate::particles::Particles,
     /// Light culling and the ray-query lights.
     pub lighting: &'a mut Lighting,
     /// The scene's BLASes and TLAS (devices with acceleration structures).
@@ -117,6 +119,7 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     r.pixel_ids = motion_ids(r, s, mirror);
     let motion_upload = MotionUpload { wanted: motion_wanted, posed_per_pixel: r.pixel_ids != PixelIds::None };
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
+    r.particles.prepare(f, r.scene, &mut mirror.emitters, s.delta_seconds, r.counters)?;
     r.skinning.prepare(mirror, r.scene, r.counters);
     let reflections = r.reflections.prepare(f, s, mirror, r.counters)?;
     let environment = r.environment.prepare(f, r.scene, mirror)?;
@@ -169,6 +172,7 @@ pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror
     let ids = (decals.buffered() && need_instances) || lights.reflections() || r.pixel_ids == PixelIds::Visibility;
     let prepass = r.culling.depth_passes(f, scene, |f, draws, phase| forward.prepass(f, scene, &draws, phase, ids))?;
     let motion = motion(f, r)?;
+    r.particles.simulate(f, r.scene)?;
     // The decals read the ids when they need the instance (the prepass wrote them then), else
     // depth alone; the reflections read what the prepass wrote (the ids whenever they run).
     let source = Surface::forward_decals(need_instances);
@@ -267,7 +271,9 @@ fn deferred_layer(
     } else {
         let gbuffer =
             r.culling.depth_passes(f, scene, |f, draws, phase| deferred.geometry(f, scene, &draws, glass, s.clear_color, phase))?;
-        (gbuffer, motion(f, r)?)
+        let motion = motion(f, r)?;
+        r.particles.simulate(f, r.scene)?;
+        (gbuffer, motion)
     };
     let draws = r.culling.draws();
     // The ambient occlusion of this layer's depth, then its lights and shadows.
@@ -296,6 +302,7 @@ pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirr
     let (scene, visbuffer) = (&*r.scene, r.visbuffer);
     let visibility = r.culling.depth_passes(f, scene, |f, draws, phase| visbuffer.visibility(f, scene, &draws, phase))?;
     let motion = motion(f, r)?;
+    r.particles.simulate(f, r.scene)?;
     let draws = r.culling.draws();
     transparent_depth(f, r, &draws, mirror, &lights)?;
     r.occlusion.record(f, r.scene, &lights.occlusion)?;
@@ -337,7 +344,8 @@ fn motion_ids(r: &FrameParts, s: &FrameSettings, mirror: &SceneMirror) -> PixelI
     PixelIds::of(s.pipeline, forward_ids)
 }
 
-/// The end of every frame: temporal anti-aliasing, bloom over the finished HDR image,
+/// The end of every frame: the particles over the shaded image, temporal anti-aliasing, bloom
+/// over the finished HDR image,
 /// auto-exposure's measurement of it, the decal boxes when shown (not blurred, not measured),
 /// then tone mapping into the display image and the overlay.
 fn present(
@@ -348,6 +356,7 @@ fn present(
     lights: &LightFrame,
     motion: Option<MotionVectors>,
 ) -> Result<(), RenderError> {
+    r.particles.draw(f, r.scene, lights)?;
     let interlaced = s.pipeline == crate::settings::PipelineKind::Deferred && lights.interlaced() && !mirror.transparent_order().is_empty();
     r.taa.record(f, r.scene, motion, interlaced, s.taa_sharpen)?;
     r.bloom.record(f, r.scene)?;

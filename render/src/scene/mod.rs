@@ -18,6 +18,7 @@
 
 pub mod bc;
 mod decals;
+pub mod emitters;
 pub mod environment;
 pub mod gpu;
 mod meshes;
@@ -72,6 +73,8 @@ pub struct SceneMirror {
     pub decals: DecalTable,
     /// Decal materials.
     pub decal_materials: SlotTable<GpuDecalMaterial>,
+    /// Particle emitters (`crate::particles` moves and draws their particles).
+    pub emitters: emitters::Emitters,
     camera: GpuCamera,
     camera_dirty: bool,
     /// Temporal anti-aliasing's part of the camera record: this frame's jitter (NDC) and the

@@ -33,6 +33,7 @@ mod memory;
 mod motion;
 mod no_device;
 mod occlusion;
+mod particles;
 mod pipelines;
 mod reflections;
 mod reliability;

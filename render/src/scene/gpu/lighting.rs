@@ -17,10 +17,21 @@ impl GpuScene {
         set_exposure_fields(&mut lighting, exposure);
         lighting.display_check = self.lighting_cpu.display_check;
         lighting.lod_lift = self.lighting_cpu.lod_lift;
+        // And the particle system's state (`set_particles`).
+        lighting.particles = self.lighting_cpu.particles;
         // And the shadow maps' atlas layout (`set_shadow_maps`).
         (lighting.shadow_map_tile, lighting.shadow_map_columns) = (self.lighting_cpu.shadow_map_tile, self.lighting_cpu.shadow_map_columns);
         if lighting != self.lighting_cpu {
             self.lighting_cpu = lighting;
+            self.lighting_dirty = true;
+        }
+    }
+
+    /// Sets the address of the particle system's state (`crate::particles`; 0: none). An
+    /// unchanged address uploads nothing.
+    pub fn set_particles(&mut self, address: u64) {
+        if self.lighting_cpu.particles != address {
+            self.lighting_cpu.particles = address;
             self.lighting_dirty = true;
         }
     }

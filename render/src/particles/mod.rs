@@ -1,0 +1,409 @@
+//! GPU particles: sparks, dust and debris that live, move, collide and draw without a trip
+//! through the CPU. None of the seeds treats effects; seed 000 §3.2 and §5.1.2 give the
+//! screen-space surface reconstruction (positions and normals from depth) that the collision
+//! uses, and the drawing reads the tiled light lists of seed 001 §4.2.
+//!
+//! **What the CPU does.** Emitters live in the scene mirror ([`Emitters`], written by the ECS
+//! extraction when an emitter is spawned, edited, moved or despawned). Each frame the CPU turns
+//! their rates and bursts into a few *emission jobs* (one per emitting emitter: how many
+//! particles, which invocations), and writes them with the frame's time step into a small
+//! host-visible record of its frame slot. Nothing on the CPU is per particle: a frame costs the
+//! same at 100 particles as at a million (the counters say so: `bytes_uploaded` is the jobs
+//! and, when they change, the emitters).
+//!
+//! **What the GPU does** (one buffer for the state, one for the pool; `shaders/particles_*`):
+//!
+//! 1. *Input*: the record is copied into the state (only when it changed), and this frame's
+//!    drawn list is emptied.
+//! 2. *Emission* (`particles_emit.comp`, one invocation per new particle): each pops a slot off
+//!    the free list (a stack with an atomic count; a pop that finds it empty counts a `dropped`
+//!    particle) and starts it: position in the emitter's sphere, direction in its cone about +Y,
+//!    speed and life between their bounds, from a hash of the job's seed.
+//! 3. *Simulation* (`particles_simulate.comp`, one invocation per pool slot, after the frame's
+//!    opaque depth exists): ageing, a step of [`step`] (acceleration, drag), and collision with
+//!    the depth buffer: a particle whose new position lies behind the visible surface, by less
+//!    than a thickness (twice its step, at least 10 cm, so it does not collide with what merely
+//!    hides it), touched that surface; the contact point is where its step crosses the surface's
+//!    plane, whose normal is rebuilt from depth (`depth_normals.glsl`). It then dies, bounces
+//!    (restitution along the normal, friction along the surface) or sticks, as its emitter says.
+//!    The dead are pushed back on the free list; the living are appended to the drawn list,
+//!    counted by subgroup so that the count's atomic is taken once a subgroup.
+//! 4. *Drawing* (`particle.vert`, `particle.frag`): one indirect draw of camera-facing quads over
+//!    the drawn list, after every surface is shaded and before temporal anti-aliasing, bloom and
+//!    exposure, so sparks glow and bloom like any bright surface. Colour and size follow the
+//!    particle's age; the colour is premultiplied radiance (alpha 0 adds light, alpha 1 covers:
+//!    [`crate::gpu::pipeline::Blend::Premultiplied`]), so glowing sparks need no sorting and smoke
+//!    blends "over". Particles are depth-tested against the opaque depth, fade out near the
+//!    surface behind them (soft particles), and take the lights of their pixel's tile (a matte
+//!    sprite facing each light) as much as their emitter's `lit` says.
+//!
+//! **Statistics.** The GPU counts particles started, landed (first contact with a surface),
+//! dropped (pool full) and alive; they come back two frames later with the frame that measured
+//! them ([`ParticleCounts`], `counters.particles`).
+//!
+//! **Not yet.** Collision is with what the depth buffer shows: particles off screen or behind
+//! other surfaces fly through (ray-traced collision against the scene's structure would land
+//! them there). Particles write no motion vectors: under temporal anti-aliasing a fast particle
+//! leaves a short trail. Blended glass is drawn before the particles, so a particle behind glass
+//! is drawn over it.
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+pub use crate::scene::emitters::{Emitter, Emitters, step};
+
+use crate::RenderError;
+use crate::gpu::FRAMES_IN_FLIGHT;
+use crate::gpu::device::GpuContext;
+use crate::gpu::memory::{Buffer, Retired};
+use crate::gpu::pipeline::{Blend, GraphicsDesc, create_compute, create_graphics};
+use crate::gpu::shaders;
+use crate::graph::readback::StatsReadback;
+use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT};
+use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, Load, PassKind, ResourceId};
+use crate::layout::{GpuEmission, GpuEmitter, GpuParticle, GpuParticleState, PARTICLE_GROUP};
+use crate::lights::{LightFrame, declare_light_reads};
+use crate::scene::gpu::GpuScene;
+use crate::stats::{FrameCounters, ParticleCounts};
+
+/// Pool slots when the settings name none.
+pub const DEFAULT_CAPACITY: u32 = 1 << 16;
+
+/// Jobs the state's job array holds at first (it doubles when a frame has more).
+const FIRST_JOB_ROOM: u32 = 64;
+
+/// The GPU side: the state (frame input, counters, jobs, emitter table) and the pool (particles,
+/// free list, drawn list), made the first frame an emitter exists.
+struct ParticleBuffers {
+    state: Buffer,
+    pool: Buffer,
+    /// Host-visible copies of the input, one per frame slot.
+    inputs: Vec<Buffer>,
+    job_room: u32,
+    emitter_room: u32,
+    /// The pool's slots have not been put on the free list yet.
+    fresh: bool,
+}
+
+impl ParticleBuffers {
+    fn new(ctx: &GpuContext, capacity: u32, job_room: u32, emitter_room: u32) -> Result<Self, RenderError> {
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER
+            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
+            | vk::BufferUsageFlags::TRANSFER_DST
+            | vk::BufferUsageFlags::TRANSFER_SRC;
+        let input_bytes = input_bytes(job_room, emitter_room);
+        let state =
+            Buffer::new(ctx, "particle state", input_bytes, usage | vk::BufferUsageFlags::INDIRECT_BUFFER, MemoryLocation::GpuOnly)?;
+        let pool_bytes = capacity as u64 * (std::mem::size_of::<GpuParticle>() as u64 + 8);
+        let pool = Buffer::new(ctx, "particle pool", pool_bytes, usage, MemoryLocation::GpuOnly)?;
+        let mut inputs = Vec::with_capacity(FRAMES_IN_FLIGHT);
+        for _ in 0..FRAMES_IN_FLIGHT {
+            inputs.push(Buffer::new(ctx, "particle input", input_bytes, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)?);
+        }
+        Ok(Self { state, pool, inputs, job_room, emitter_room, fresh: true })
+    }
+
+    fn retire(self, f: &mut Frame) {
+        for b in [self.state, self.pool].into_iter().chain(self.inputs) {
+            f.upload.graveyard.bury(f.upload.frame_value, Retired::Buffer(b));
+        }
+    }
+
+    fn destroy(self, ctx: &GpuContext) {
+        for b in [self.state, self.pool].into_iter().chain(self.inputs) {
+            b.destroy(ctx);
+        }
+    }
+}
+
+/// Bytes of the state: the record, the jobs, the emitter table.
+fn input_bytes(job_room: u32, emitter_room: u32) -> u64 {
+    emitters_offset(job_room) + emitter_room as u64 * std::mem::size_of::<GpuEmitter>() as u64
+}
+
+fn jobs_offset() -> u64 {
+    std::mem::size_of::<GpuParticleState>() as u64
+}
+
+fn emitters_offset(job_room: u32) -> u64 {
+    (jobs_offset() + job_room as u64 * std::mem::size_of::<GpuEmission>() as u64).next_multiple_of(16)
+}
+
+/// Bytes of the record the CPU writes: up to the GPU's counters.
+const RECORD_INPUT_BYTES: u64 = std::mem::offset_of!(GpuParticleState, free_count) as u64;
+
+/// This frame's plan, from [`Particles::prepare`].
+#[derive(Clone, Copy, Debug, Default)]
+struct Plan {
+    active: bool,
+    spawn: u32,
+    jobs: u32,
+    /// The record or the jobs differ from what the state holds.
+    copy_record: bool,
+    /// The emitter table was rewritten.
+    copy_emitters: u32,
+}
+
+/// The particle passes and their buffers.
+pub struct Particles {
+    init: vk::Pipeline,
+    emit: vk::Pipeline,
+    simulate: vk::Pipeline,
+    draw: vk::Pipeline,
+    capacity: u32,
+    gpu: Option<ParticleBuffers>,
+    readback: StatsReadback,
+    res: ResourceId,
+    jobs: Vec<GpuEmission>,
+    /// The record the state holds (its CPU-written part).
+    record: GpuParticleState,
+    plan: Plan,
+    seed: u32,
+    last: ParticleCounts,
+}
+
+impl Particles {
+    /// Creates the pipelines; the buffers (`capacity` pool slots) are made the first frame an
+    /// emitter exists.
+    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout, capacity: u32) -> Result<Self, RenderError> {
+        let compute = |name, spirv| create_compute(ctx, layout, name, spirv);
+        let desc = GraphicsDesc {
+            name: "particles",
+            vertex: shaders::PARTICLE_VERT,
+            fragment: Some(shaders::PARTICLE_FRAG),
+            mesh_vertices: false,
+            color_formats: &[HDR_FORMAT],
+            depth_format: Some(DEPTH_FORMAT),
+            depth_compare: Some(vk::CompareOp::GREATER_OR_EQUAL),
+            depth_write: false,
+            topology: vk::PrimitiveTopology::TRIANGLE_LIST,
+            blend: Blend::Premultiplied,
+            write_masks: &[],
+            samples: 1,
+        };
+        let counters = std::mem::size_of::<GpuParticleState>() as u64;
+        Ok(Self {
+            init: compute("particle pool init", shaders::PARTICLES_INIT_COMP)?,
+            emit: compute("particle emission", shaders::PARTICLES_EMIT_COMP)?,
+            simulate: compute("particle simulation", shaders::PARTICLES_SIMULATE_COMP)?,
+            draw: create_graphics(ctx, layout, &desc)?,
+            capacity: capacity.max(PARTICLE_GROUP),
+            gpu: None,
+            readback: StatsReadback::new(ctx, graph, "particle statistics", counters)?,
+            res: graph.resource("particles"),
+            jobs: Vec::new(),
+            record: GpuParticleState::default(),
+            plan: Plan::default(),
+            seed: 0,
+            last: ParticleCounts { measured_frame: u64::MAX, ..Default::default() },
+        })
+    }
+
+    /// Before the scene's upload: advances the emitters by `delta` seconds into this frame's
+    /// jobs, makes the buffers the first time an emitter exists (and grows the job and emitter
+    /// arrays when they no longer fit), writes the frame's record into its slot's input and
+    /// puts the state's address in the lighting record. Adds what came back from the GPU to
+    /// `counters`.
+    pub fn prepare(
+        &mut self,
+        f: &mut Frame,
+        scene: &mut GpuScene,
+        emitters: &mut Emitters,
+        delta: f32,
+        counters: &mut FrameCounters,
+    ) -> Result<(), RenderError> {
+        self.read_counts(f);
+        counters.particles = self.last;
+        self.plan = Plan::default();
+        if self.gpu.is_none() && emitters.slot_count() == 0 {
+            scene.set_particles(0);
+            return Ok(());
+        }
+        self.seed = self.seed.wrapping_add(1);
+        let spawn = emitters.advance(delta, self.seed, &mut self.jobs);
+        if !emitters.active() && spawn == 0 {
+            // No particle can be alive: nothing to move or draw, nothing written (what changed
+            // waits in the emitters until a frame has particles).
+            return Ok(());
+        }
+        let jobs = self.jobs.len() as u32;
+        let (job_room, emitter_room) = match &self.gpu {
+            Some(g) => (g.job_room, g.emitter_room),
+            None => (FIRST_JOB_ROOM, 16),
+        };
+        let need = (jobs.max(1).next_power_of_two().max(job_room), emitters.slot_count().next_power_of_two().max(emitter_room));
+        if self.gpu.is_none() || need != (job_room, emitter_room) {
+            // Jobs or emitters outgrew their room (rare): the state and the pool are made again
+            // and the particles alive are lost.
+            if let Some(old) = self.gpu.take() {
+                old.retire(f);
+            }
+            self.gpu = Some(ParticleBuffers::new(f.ctx, self.capacity, need.0, need.1)?);
+            self.readback.forget();
+            emitters.mark_all_dirty();
+            self.record = GpuParticleState::default();
+        }
+        let gpu = self.gpu.as_mut().expect("made above");
+        let pool = gpu.pool.address;
+        let particle_bytes = self.capacity as u64 * std::mem::size_of::<GpuParticle>() as u64;
+        let record = GpuParticleState {
+            pool,
+            free_list: pool + particle_bytes,
+            alive_list: pool + particle_bytes + self.capacity as u64 * 4,
+            emitters: gpu.state.address + emitters_offset(gpu.job_room),
+            capacity: self.capacity,
+            job_count: jobs,
+            spawn_count: spawn,
+            delta: delta.max(0.0),
+            emit_groups: [spawn.div_ceil(PARTICLE_GROUP), 1, 1],
+            depth_collision: 1,
+            ..Default::default()
+        };
+        let input = gpu.inputs[f.slot()].mapped();
+        let mut copy_emitters = 0;
+        if let Some(records) = emitters.take_dirty() {
+            let at = emitters_offset(gpu.job_room) as usize;
+            let room = gpu.emitter_room as usize * std::mem::size_of::<GpuEmitter>();
+            let dst: &mut [GpuEmitter] = bytemuck::cast_slice_mut(&mut input[at..at + room]);
+            for (d, r) in dst.iter_mut().zip(records) {
+                *d = r;
+                copy_emitters += 1;
+            }
+        }
+        let copy_record = jobs > 0 || record != self.record;
+        let job_bytes = self.jobs.len() * std::mem::size_of::<GpuEmission>();
+        if copy_record {
+            input[..RECORD_INPUT_BYTES as usize].copy_from_slice(&bytemuck::bytes_of(&record)[..RECORD_INPUT_BYTES as usize]);
+            let at = jobs_offset() as usize;
+            input[at..at + job_bytes].copy_from_slice(bytemuck::cast_slice(&self.jobs));
+            self.record = record;
+            counters.bytes_uploaded += RECORD_INPUT_BYTES + job_bytes as u64;
+        }
+        counters.bytes_uploaded += copy_emitters as u64 * std::mem::size_of::<GpuEmitter>() as u64;
+        self.plan = Plan { active: true, spawn, jobs, copy_record, copy_emitters };
+        scene.set_particles(gpu.state.address);
+        Ok(())
+    }
+
+    /// Whether this frame has particles to move or draw.
+    pub fn active(&self) -> bool {
+        self.plan.active && self.gpu.is_some()
+    }
+
+    /// Once the frame's opaque depth exists: copies the frame's input into the state, starts
+    /// this frame's particles, moves every particle (colliding with the depth buffer) and lists
+    /// the living for drawing; copies the counters for the CPU. Records nothing while no
+    /// particle can be alive.
+    pub fn simulate(&mut self, f: &mut Frame, scene: &GpuScene) -> Result<(), RenderError> {
+        if !self.active() {
+            return Ok(());
+        }
+        let gpu = self.gpu.as_mut().expect("active");
+        let (plan, res, slot) = (self.plan, self.res, f.slot());
+        let (state, pool, input) = (gpu.state.raw, gpu.pool.raw, gpu.inputs[slot].raw);
+        let emitters_at = emitters_offset(gpu.job_room);
+        let fresh = std::mem::take(&mut gpu.fresh);
+        let pool_bytes = gpu.pool.size;
+        let draw_at = std::mem::offset_of!(GpuParticleState, draw_count) as u64;
+        f.pass("particles_input", PassKind::Transfer).write(res, BufferUse::Transfer).record(|p| {
+            let mut regions = Vec::with_capacity(2);
+            if plan.copy_record {
+                let jobs = plan.jobs as u64 * std::mem::size_of::<GpuEmission>() as u64;
+                regions.push(vk::BufferCopy { src_offset: 0, dst_offset: 0, size: RECORD_INPUT_BYTES });
+                if jobs > 0 {
+                    regions.push(vk::BufferCopy { src_offset: jobs_offset(), dst_offset: jobs_offset(), size: jobs });
+                }
+            }
+            if plan.copy_emitters > 0 {
+                let size = plan.copy_emitters as u64 * std::mem::size_of::<GpuEmitter>() as u64;
+                regions.push(vk::BufferCopy { src_offset: emitters_at, dst_offset: emitters_at, size });
+            }
+            if !regions.is_empty() {
+                p.cmd.copy_buffer(input, state, &regions);
+            }
+            if fresh {
+                // Every slot free (lifetime 0), the counters zero.
+                p.cmd.fill_buffer(pool, 0, pool_bytes, 0);
+                p.cmd.fill_buffer(state, RECORD_INPUT_BYTES, draw_at - RECORD_INPUT_BYTES, 0);
+            }
+            // This frame's drawn list starts empty: one draw of six vertices a quad, no instance
+            // yet.
+            p.cmd.update_buffer(state, draw_at, bytemuck::bytes_of(&[1u32, 0, 0, 0, 6, 0, 0, 0]));
+        })?;
+        let groups = self.capacity.div_ceil(PARTICLE_GROUP);
+        let pass = |f: &mut Frame, name, pipeline, groups: u32| {
+            f.pass(name, PassKind::Compute).read(scene.res.tables, BufferUse::Storage).write(res, BufferUse::Storage).record(|p| {
+                let push = p.push;
+                p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &push);
+                p.cmd.dispatch(groups, 1, 1);
+            })
+        };
+        if fresh {
+            pass(f, "particles_init", self.init, groups)?;
+        }
+        if plan.spawn > 0 {
+            pass(f, "particles_emit", self.emit, plan.spawn.div_ceil(PARTICLE_GROUP))?;
+        }
+        let simulate = self.simulate;
+        f.pass("particles_simulate", PassKind::Compute)
+            .sample(&DEPTH)
+            .read(scene.res.tables, BufferUse::Storage)
+            .write(res, BufferUse::Storage)
+            .record(|p| {
+                let push = p.push;
+                p.bind(vk::PipelineBindPoint::COMPUTE, simulate, &push);
+                p.cmd.dispatch(groups, 1, 1);
+            })?;
+        self.readback.record(f, "particles_statistics", res, state)
+    }
+
+    /// Draws the living particles over the HDR target (before temporal anti-aliasing and bloom),
+    /// lit by `lights`. Records nothing while no particle can be alive.
+    pub fn draw(&self, f: &mut Frame, scene: &GpuScene, lights: &LightFrame) -> Result<(), RenderError> {
+        if !self.active() {
+            return Ok(());
+        }
+        let gpu = self.gpu.as_ref().expect("active");
+        let (pipeline, args, at) = (self.draw, gpu.state.raw, std::mem::offset_of!(GpuParticleState, draw) as u64);
+        let pass = f
+            .pass("particles", PassKind::Graphics)
+            .image(&DEPTH, ImageUse::DepthTestSampled)
+            .color(&HDR, Load::Keep)
+            .read(scene.res.tables, BufferUse::Storage)
+            .read(scene.res.textures, BufferUse::SampledImages)
+            .read(self.res, BufferUse::Storage)
+            .read(self.res, BufferUse::Indirect);
+        let count_at = std::mem::offset_of!(GpuParticleState, draw_count) as u64;
+        declare_light_reads(pass, lights).record(|p| {
+            let push = p.push;
+            p.bind_graphics(pipeline, &push);
+            p.cmd.set_cull_mode(vk::CullModeFlags::NONE);
+            p.cmd.draw_indirect_one(args, at, args, count_at);
+        })
+    }
+
+    /// What the GPU counted in the frame whose statistics came back last.
+    pub fn counts(&self) -> ParticleCounts {
+        self.last
+    }
+
+    fn read_counts(&mut self, f: &Frame) {
+        let Some((frame, words)) = self.readback.take(f) else { return };
+        let state: GpuParticleState = bytemuck::pod_read_unaligned(bytemuck::cast_slice(words));
+        let (spawned, landed, dropped, alive) = (state.spawned, state.landed, state.dropped, state.draw[1]);
+        // The readback names the frame by its timeline value, one past its number.
+        self.last = ParticleCounts { measured_frame: frame.saturating_sub(1), alive, spawned, landed, dropped, capacity: self.capacity };
+    }
+
+    /// Destroys the pipelines and buffers; the GPU must be idle.
+    pub fn destroy(self, ctx: &GpuContext) {
+        for p in [self.init, self.emit, self.simulate, self.draw] {
+            // SAFETY: the GPU is idle.
+            unsafe { ctx.destroying().destroy_pipeline(p, None) };
+        }
+        if let Some(g) = self.gpu {
+            g.destroy(ctx);
+        }
+        self.readback.destroy(ctx);
+    }
+}

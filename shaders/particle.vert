@@ -1,0 +1,37 @@
+#version 460
+// Particles (render/src/particles): instance i draws the i-th particle of the drawn list as a
+// quad facing the camera, its size and colour interpolated over its life, its sprite's cell
+// of the emitter's flipbook chosen by age.
+#include "particles.glsl"
+
+layout(location = 0) out vec4 v_color;
+layout(location = 1) out vec2 v_uv;
+layout(location = 2) out vec3 v_world;
+layout(location = 3) flat out uint v_texture;
+layout(location = 4) flat out vec2 v_soft_lit;
+
+// Two triangles, corners in quad units (x right, y up).
+const vec2 CORNERS[6] = vec2[6](vec2(-0.5, -0.5), vec2(0.5, -0.5), vec2(0.5, 0.5), vec2(-0.5, -0.5), vec2(0.5, 0.5), vec2(-0.5, 0.5));
+
+void main() {
+    ParticleStateRef st = particle_state();
+    uint slot = ParticleSlotsRef(st.state.alive_list).slots[gl_InstanceIndex];
+    GpuParticle p = ParticlesRef(st.state.pool).particles[slot];
+    GpuEmitter e = particle_emitter(st, p.emitter);
+    float t = particle_life(p);
+    GpuCamera cam = scene.camera.camera;
+    // The view matrix's rows are the camera's axes in the world.
+    vec3 right = vec3(cam.view[0][0], cam.view[1][0], cam.view[2][0]);
+    vec3 up = vec3(cam.view[0][1], cam.view[1][1], cam.view[2][1]);
+    vec2 corner = CORNERS[gl_VertexIndex];
+    v_world = p.position + (right * corner.x + up * corner.y) * mix(e.size_start, e.size_end, t);
+    gl_Position = cam.view_proj * vec4(v_world, 1.0);
+    v_color = mix(e.color_start, e.color_end, t);
+    // Flipbook: frames left to right, top to bottom, through the particle's life.
+    uvec2 cells = max(uvec2(e.flipbook & 0xFFFFu, e.flipbook >> 16u), uvec2(1u));
+    uint frame = min(uint(t * float(cells.x * cells.y)), cells.x * cells.y - 1u);
+    vec2 cell = vec2(frame % cells.x, frame / cells.x);
+    v_uv = (cell + vec2(corner.x + 0.5, 0.5 - corner.y)) / vec2(cells);
+    v_texture = e.texture;
+    v_soft_lit = vec2(e.softness, e.lit);
+}
