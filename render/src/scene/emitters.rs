@@ -222,7 +222,7 @@ mod tests {
         assert!(e.active(), "its particle lives 0.5 s");
         let b = e.insert(emitter(0.0, 0, 1.0));
         assert_ne!(a, b, "the slot is still read by the removed emitter's particles");
-        for _ in 0..5 {
+        for _ in 0..6 {
             e.advance(0.1, 0, &mut jobs);
         }
         assert_eq!(e.insert(emitter(0.0, 0, 1.0)), a, "free once its particles are gone");
