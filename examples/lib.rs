@@ -6,7 +6,9 @@
 //! - `decals`: click to shoot bullet holes that fade out; a decal riding on a moving crate;
 //! - `lights`: hundreds of moving coloured lights;
 //! - `gltf_viewer`: any glTF or GLB, framed at any scale, with orbit controls;
-//! - `headless_test`: the pattern for testing a game's own systems without a window.
+//! - `headless_test`: the pattern for testing a game's own systems without a window;
+//! - `sparks`: GPU particles from gameplay: a stream of sparks off a spinning crate, and a click
+//!   throws a burst that bounces on the floor.
 //!
 //! `cargo run --example NAME` opens a window; `-- --headless [--frames N] [--size WxH]
 //! [--screenshot PATH]` renders offscreen instead (how CI runs them all). This crate depends only

@@ -31,5 +31,9 @@ fox=../shared/assets/gltf/Fox/Fox.glb
 out=$("$bin/skinned_decals" "$fox" --headless --frames 30 --size 160x120)
 echo "$out"
 grep -qE ", ([4-9]|[1-9][0-9]+) decals" <<<"$out" || { echo "examples.sh: skinned_decals left too few holes" >&2; exit 1; }
+echo "examples.sh: sparks (a click on the floor: a burst of 60 beside the grinder's stream)"
+out=$("$bin/sparks" --headless --frames 8 --size 160x120 --click 80,100)
+echo "$out"
+grep -qE ", ([6-9][0-9]|[1-9][0-9]{2,}) particles started" <<<"$out" || { echo "examples.sh: sparks started too few particles" >&2; exit 1; }
 echo "examples.sh: headless_test"
 "$bin/headless_test"

@@ -24,7 +24,17 @@ void main() {
     vec3 right = vec3(cam.view[0][0], cam.view[1][0], cam.view[2][0]);
     vec3 up = vec3(cam.view[0][1], cam.view[1][1], cam.view[2][1]);
     vec2 corner = CORNERS[gl_VertexIndex];
-    v_world = p.position + (right * corner.x + up * corner.y) * mix(e.size_start, e.size_end, t);
+    float size = mix(e.size_start, e.size_end, t);
+    vec3 across = right * size, along = up * size;
+    // A streak: the quad's long side along the motion on screen, as long as `stretch` seconds of it.
+    vec3 moving = mat3(cam.view) * p.velocity;
+    float on_screen = length(moving.xy);
+    if (e.stretch > 0.0 && on_screen > 1e-4) {
+        vec2 d = moving.xy / on_screen;
+        across = (right * d.x + up * d.y) * (size + on_screen * e.stretch);
+        along = (right * -d.y + up * d.x) * size;
+    }
+    v_world = p.position + across * corner.x + along * corner.y;
     gl_Position = cam.view_proj * vec4(v_world, 1.0);
     v_color = mix(e.color_start, e.color_end, t);
     // Flipbook: frames left to right, top to bottom, through the particle's life.

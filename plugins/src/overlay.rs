@@ -165,6 +165,13 @@ impl DebugOverlay {
     fn counts(&self, ui: &mut egui::Ui, world: &World) {
         let c = world.resource::<RenderStats>().last;
         ui.label(format!("instances {}   lights {}   decals {}", c.instances, c.lights, c.decals));
+        if c.particles.capacity > 0 {
+            let p = c.particles;
+            ui.label(format!(
+                "particles {} alive of {}   {} started, {} landed, {} dropped (frame {})",
+                p.alive, p.capacity, p.spawned, p.landed, p.dropped, p.measured_frame
+            ));
+        }
         // What the GPU applied, which may differ from the request (a device without ray queries).
         if let Some(last) = self.history.back() {
             ui.label(format!(

@@ -93,6 +93,9 @@ pub struct ParticleEmitter {
     /// How much of the scene's light it takes, 0 to 1 (0: its colour alone, as for sparks; 1:
     /// lit like a matte sprite facing each light, as for dust).
     pub lit: f32,
+    /// Streaks: each quad is drawn along its particle's motion on screen, as long as the
+    /// distance it covers in this many seconds plus its size (0: square quads; sparks 0.02).
+    pub stretch: f32,
 }
 
 impl Default for ParticleEmitter {
@@ -113,6 +116,7 @@ impl Default for ParticleEmitter {
             contact: Contact::Bounce { restitution: 0.4, friction: 0.8 },
             softness: 0.05,
             lit: 1.0,
+            stretch: 0.0,
         }
     }
 }
@@ -133,6 +137,7 @@ impl ParticleEmitter {
             contact: Contact::Bounce { restitution: 0.35, friction: 0.7 },
             softness: 0.0,
             lit: 0.0,
+            stretch: 0.02,
             ..Self::default()
         }
     }
@@ -198,7 +203,7 @@ impl ParticleEmitter {
                 flipbook: cells_x | cells_y << 16,
                 softness: finite_or(self.softness, 0.0).max(0.0),
                 lit: finite_or(self.lit, 0.0).clamp(0.0, 1.0),
-                pad: 0,
+                stretch: finite_or(self.stretch, 0.0).max(0.0),
             },
             rate: finite_or(self.rate, 0.0).max(0.0),
             burst: self.burst,

@@ -86,7 +86,8 @@ impl HeadlessPlugin {
             return Err(format!("{} Vulkan validation errors, first: {first}", errors.len()).into());
         }
         let c = app.world.resource::<RenderStats>().last;
-        println!("headless: {} frames, {} instances, {} lights, {} decals", self.frames, c.instances, c.lights, c.decals);
+        let particles = if c.particles.capacity > 0 { format!(", {} particles started", c.particles.spawned) } else { String::new() };
+        println!("headless: {} frames, {} instances, {} lights, {} decals{particles}", self.frames, c.instances, c.lights, c.decals);
         Ok(())
     }
 }

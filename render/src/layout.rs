@@ -1293,8 +1293,9 @@ layout! {
         /// How much of the scene's light it takes (0: emissive only, 1: lit like a matte
         /// surface facing the light).
         pub lit: f32,
-        /// Padding to 16 bytes.
-        pub pad: u32,
+        /// Streaks: the quad is drawn along the particle's motion on screen, as long as the
+        /// distance it covers in this many seconds (plus its size; 0: a square).
+        pub stretch: f32,
     }
 
     /// One emitter's share of a frame's new particles: invocations [`first`, `first + count`)

@@ -54,6 +54,9 @@ pub enum BenchScene {
     /// The crowd issue's plaza: `--instances` animated foxes seen from eye height at the
     /// plaza's edge (near ones large, far ones a few pixels), with the sun's shadows.
     Crowd,
+    /// The particles issue's fountain: the courtyard with an emitter keeping `--particles`
+    /// particles alive, bouncing on the ground ([`crate::effects::fountain`]).
+    Particles,
 }
 
 impl BenchScene {
@@ -70,8 +73,9 @@ impl BenchScene {
             "behind-wall" => BenchScene::BehindWall,
             "foxes" => BenchScene::Foxes,
             "crowd" => BenchScene::Crowd,
+            "particles" => BenchScene::Particles,
             _ => bail!(
-                "unknown bench scene {name:?} (few-blended-decals, decals-and-lights, many-decals, ten-point-lights, many-lights, transparency, many-instances, behind-wall, foxes, crowd)"
+                "unknown bench scene {name:?} (few-blended-decals, decals-and-lights, many-decals, ten-point-lights, many-lights, transparency, many-instances, behind-wall, foxes, crowd, particles)"
             ),
         })
     }
@@ -111,6 +115,7 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
             tracing::warn!("the foxes and crowd scenes need a character model: spawn them with spawn_foxes");
             return;
         }
+        BenchScene::Particles => return spawn_particles(world, PARTICLES),
         _ => {}
     }
     let info = spawn_courtyard(world);
@@ -203,7 +208,9 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
             world.spawn_batch(batch);
         }
         BenchScene::Transparency => unreachable!("spawned above"),
-        BenchScene::ManyInstances | BenchScene::BehindWall | BenchScene::Foxes | BenchScene::Crowd => unreachable!("spawned above"),
+        BenchScene::ManyInstances | BenchScene::BehindWall | BenchScene::Foxes | BenchScene::Crowd | BenchScene::Particles => {
+            unreachable!("spawned above")
+        }
     }
 }
 
@@ -372,6 +379,19 @@ pub fn spawn_behind_wall(world: &mut World, boxes: usize) {
         Transform::default().looking_at(Vec3::new(0.3, -1.0, -0.4), Vec3::Z),
     ));
     world.spawn((Camera::default(), Transform::from_xyz(0.0, 1.7, 0.0).looking_at(Vec3::new(0.0, 1.5, -10.0), Vec3::Y)));
+}
+
+/// Particles the particle scene keeps alive when no count is given.
+pub const PARTICLES: u32 = 100_000;
+
+/// The particle benchmark: the courtyard, its camera looking at a fountain of `alive`
+/// particles in front of it ([`crate::effects::fountain`]).
+pub fn spawn_particles(world: &mut World, alive: u32) {
+    let info = spawn_courtyard(world);
+    let camera = *world.get::<Transform>(info.camera).expect("courtyard camera");
+    let ahead = camera.forward().with_y(0.0).normalize_or_zero();
+    let at = (camera.translation + ahead * 6.0).with_y(0.2);
+    world.spawn((crate::effects::fountain(alive), Transform::from_translation(at)));
 }
 
 /// Seed 002 §4.2's polygon counts: opaque and transparent triangles.

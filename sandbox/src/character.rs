@@ -80,6 +80,10 @@ pub fn spawn_walker(world: &mut World, path: &Path, center: Vec3, radius: f32) -
     if let Some(walk) = clip_named(world, &prefab, "Walk") {
         world.entity_mut(root).insert(AnimationPlayer::new(walk));
     }
+    if crate::effects::effects_on(world) {
+        // Dust at its feet, following it as its child.
+        world.spawn((crate::effects::footstep_dust(), Transform::default(), bevy_ecs::hierarchy::ChildOf(root)));
+    }
     tracing::info!(character = %path.display(), "a character walks the courtyard");
     Ok(root)
 }

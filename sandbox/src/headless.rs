@@ -146,6 +146,11 @@ pub struct HeadlessOptions {
     pub compare_reflections: bool,
     /// Instances of the `many-instances` bench scene.
     pub instances: usize,
+    /// Particles the `particles` bench scene keeps alive (and the pool's least capacity).
+    pub particles: u32,
+    /// Particle effects: sparks from shots, dust from the walking character (`--no-particles`
+    /// turns them off).
+    pub effects: bool,
 }
 
 /// The light configurations `--compare-lights` runs, in order, named after the rows of seed 001's
@@ -342,6 +347,8 @@ impl Default for HeadlessOptions {
             environment_resolution: RendererSettings::default().environment_resolution,
             compare_reflections: false,
             instances: crate::bench::MANY_INSTANCES,
+            particles: crate::bench::PARTICLES,
+            effects: true,
         }
     }
 }
@@ -365,9 +372,17 @@ pub fn build_app(opts: &HeadlessOptions) -> Result<App> {
         shadow_maps: opts.shadow_maps,
         environment_resolution: opts.environment_resolution,
         texture_budget: opts.texture_budget,
+        particle_capacity: particle_capacity(opts),
         ..Default::default()
     };
     build_app_with(opts, &settings)
+}
+
+/// The particle pool's room: the default, or the particle scene's count when it needs more.
+pub fn particle_capacity(opts: &HeadlessOptions) -> u32 {
+    let scene = opts.bench_scene == Some(crate::bench::BenchScene::Particles);
+    let need = if scene { opts.particles.saturating_add(opts.particles / 8) } else { 0 };
+    need.next_power_of_two().max(render::particles::DEFAULT_CAPACITY)
 }
 
 /// [`build_app`] with explicit renderer settings.
@@ -413,10 +428,13 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         ..Default::default()
     }));
     app.insert_resource(opts.environment.clone());
+    app.insert_resource(crate::effects::Effects(opts.effects));
+    app.add_systems(engine::app::Update, crate::effects::expire_effects);
     app.insert_resource(crate::assets::ImportOptions(opts.import.clone()));
     match opts.bench_scene {
         Some(crate::bench::BenchScene::ManyInstances) => crate::bench::spawn_city(&mut app.world, opts.instances),
         Some(crate::bench::BenchScene::BehindWall) => crate::bench::spawn_behind_wall(&mut app.world, opts.instances),
+        Some(crate::bench::BenchScene::Particles) => crate::bench::spawn_particles(&mut app.world, opts.particles),
         Some(scene @ (crate::bench::BenchScene::Foxes | crate::bench::BenchScene::Crowd)) => {
             let path = opts.character.as_deref().context("the foxes and crowd scenes need a character (--character PATH)")?;
             let eye_level = scene == crate::bench::BenchScene::Crowd;

@@ -21,6 +21,7 @@ pub mod bench;
 pub mod character;
 pub mod charts;
 pub mod decal_textures;
+pub mod effects;
 pub mod game;
 pub mod headless;
 pub mod scatter;

@@ -81,7 +81,8 @@ struct Cli {
     #[arg(long, default_value_t = 0)]
     churn_decals: usize,
     /// A benchmark scene instead of --scene: few-blended-decals, decals-and-lights, many-decals,
-    /// ten-point-lights, many-lights, transparency, many-instances, behind-wall, foxes, crowd (foxes seen from eye height).
+    /// ten-point-lights, many-lights, transparency, many-instances, behind-wall, foxes, crowd (foxes seen from eye height),
+    /// particles (a fountain of --particles particles).
     #[arg(long)]
     bench_scene: Option<String>,
     /// Run --frames frames with each pipeline and decal method in turn (with --stats, also a CSV
@@ -283,6 +284,12 @@ struct Cli {
     /// Instances of --bench-scene many-instances (props) and behind-wall (boxes behind the wall).
     #[arg(long, default_value_t = sandbox::bench::MANY_INSTANCES)]
     instances: usize,
+    /// Particles --bench-scene particles keeps alive (the pool is made at least this large).
+    #[arg(long, default_value_t = sandbox::bench::PARTICLES)]
+    particles: u32,
+    /// No particle effects: no sparks from shots, no dust from the walking character.
+    #[arg(long)]
+    no_particles: bool,
     /// How glTF textures are imported: `bc` (block-compressed by role, with mips, cached) or
     /// `rgba8` (decoded at every load, 4 bytes a texel).
     #[arg(long, default_value = "bc", global = true)]
@@ -528,6 +535,8 @@ fn main() -> Result<()> {
         exposure: render::AutoExposure { enabled: cli.auto_exposure, compensation: cli.exposure_compensation, ..Default::default() },
         ev100: cli.ev100,
         instances: cli.instances,
+        particles: cli.particles,
+        effects: !cli.no_particles,
     };
     if windowed {
         let window_opts = sandbox::window::WindowOptions { base: opts, exit_after: cli.exit_after, resize_to: cli.resize_to };

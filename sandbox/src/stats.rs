@@ -78,6 +78,13 @@
 //! Temporal anti-aliasing (`render/src/taa`, `render/src/motion`): `counters.motion_movers`
 //! (instances drawn over the camera's motion because they moved or were posed), and the
 //! `motion_camera`, `motion_movers`, `taa` and `taa_output` passes in `gpu_ms`.
+//!
+//! Particles (`render/src/particles`), once an emitter has existed: `particles`: `capacity` (the
+//! pool), and what the GPU counted in `measured_frame` (two frames back): `alive` (after its
+//! simulation), and since the start `spawned`, `landed` (touched a surface, once each) and
+//! `dropped` (not started: the pool was full); `visited.emitters` (emitters inserted this
+//! frame); the `particles_emit`, `particles_simulate` and `particles` (drawing) passes in
+//! `gpu_ms`.
 
 use plugins::FrameStats;
 use serde_json::{Map, Value, json};
@@ -188,6 +195,20 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
     if tiled || c.light_tiles.capacity > 0 {
         value["light_tiles"] = light_tiles_json(&c.light_tiles, tiled);
     }
+    // Particles, as the GPU counted them in the frame named (two frames before this one), once
+    // an emitter has existed (`render::particles`).
+    let p = &c.particles;
+    if p.capacity > 0 {
+        value["particles"] = json!({
+            "measured_frame": p.measured_frame,
+            "alive": p.alive,
+            "spawned": p.spawned,
+            "landed": p.landed,
+            "dropped": p.dropped,
+            "capacity": p.capacity,
+        });
+    }
+    value["visited"]["emitters"] = json!(stats.visited.emitters);
     value["memory"] = memory_json(&c.memory);
     value["memory"]["posed_meshes"] = json!(c.posed_mesh_bytes);
     let b = &c.texture_budget;

@@ -38,6 +38,7 @@ pub fn run_windowed(opts: WindowOptions) -> Result<()> {
         shadow_maps: opts.base.shadow_maps,
         environment_resolution: opts.base.environment_resolution,
         texture_budget: opts.base.texture_budget,
+        particle_capacity: crate::headless::particle_capacity(&opts.base),
         ..Default::default()
     };
     app.add_plugins(GpuPlugin { settings });

@@ -356,7 +356,10 @@ fn present(
     lights: &LightFrame,
     motion: Option<MotionVectors>,
 ) -> Result<(), RenderError> {
-    r.particles.draw(f, r.scene, lights)?;
+    // Debug views show the surfaces' attributes: particles would cover them.
+    if matches!(s.debug_view, crate::settings::DebugView::Lit) {
+        r.particles.draw(f, r.scene, lights)?;
+    }
     let interlaced = s.pipeline == crate::settings::PipelineKind::Deferred && lights.interlaced() && !mirror.transparent_order().is_empty();
     r.taa.record(f, r.scene, motion, interlaced, s.taa_sharpen)?;
     r.bloom.record(f, r.scene)?;

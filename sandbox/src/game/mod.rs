@@ -97,6 +97,9 @@ pub struct GameSettings {
     pub decal_depth: f32,
     /// Longest shot, in metres.
     pub max_shot_distance: f32,
+    /// Sparks a shot throws where it hits (0: none; none either with effects off,
+    /// [`crate::effects::Effects`]).
+    pub sparks: u32,
     /// Intensity of dropped lights, in candela.
     pub light_intensity: f32,
     /// How far in front of the surface a dropped light floats, in metres.
@@ -117,6 +120,7 @@ impl Default for GameSettings {
             bullet_hole_size: 0.25,
             decal_depth: 0.2,
             max_shot_distance: 200.0,
+            sparks: 40,
             light_intensity: 15.0,
             light_offset: 1.0,
             light_fallback_distance: 3.0,
@@ -223,6 +227,11 @@ impl Plugin for GamePlugin {
         app.add_systems(Update, player::move_player.in_set(GameSystems::Move));
         app.add_systems(Update, (footprints::lay_footprints, shooting::shoot, lights::drop_light).chain().in_set(GameSystems::Act));
         app.add_systems(Update, (decal_cap::enforce_decal_cap, decal_cap::enforce_light_cap).chain().in_set(GameSystems::Recycle));
+        if !app.world.contains_resource::<crate::effects::Effects>() {
+            // Headless apps add it with the effects' expiry; a game app alone adds both here.
+            app.world.insert_resource(crate::effects::Effects::default());
+            app.add_systems(Update, crate::effects::expire_effects);
+        }
     }
 }
 

@@ -1,5 +1,6 @@
 //! Shooting: a left click casts a ray from the player's camera through the [`Crosshair`] and
-//! spawns a bullet-hole decal where it hits.
+//! spawns a bullet-hole decal where it hits, and throws sparks off the surface there
+//! ([`crate::effects::sparks`]).
 //!
 //! The ray goes through the crosshair's point on the screen as the renderer projects it (the
 //! camera's projection at the aspect ratio of `RenderSettings::size`). The raycaster ignores the
@@ -78,7 +79,8 @@ pub fn bullet_hole_transform(hit: &Hit, size: f32, depth: f32, angle: f32) -> Tr
 }
 
 /// On a left click, shoots from the player's camera through the [`Crosshair`] and spawns a
-/// [`BulletHole`] decal at the hit (see the module docs). Counts shots and hits in
+/// [`BulletHole`] decal at the hit (see the module docs), and a burst of
+/// [`GameSettings::sparks`] sparks there. Counts shots and hits in
 /// [`GameStats`].
 #[allow(clippy::too_many_arguments)]
 pub fn shoot(
@@ -94,6 +96,7 @@ pub fn shoot(
     mut stats: ResMut<GameStats>,
     players: Query<(&Camera, &Transform), With<Player>>,
     globals: Query<&GlobalTransform>,
+    (time, effects): (Res<engine::time::Time>, Option<Res<crate::effects::Effects>>),
 ) {
     if !input.button_just_pressed(MouseButton::Left) {
         return;
@@ -110,6 +113,11 @@ pub fn shoot(
         return;
     };
     stats.hits += 1;
+    if settings.sparks > 0 && effects.is_none_or(|e| e.0) {
+        let (emitter, transform, keep) = crate::effects::sparks(hit.point, hit.normal, settings.sparks);
+        let until = time.elapsed_secs() + keep;
+        commands.spawn((emitter, transform, crate::effects::Expires { until }, Name::new("Sparks")));
+    }
     let angle = rng.0.range_f32(0.0, std::f32::consts::TAU);
     let mut decal = Decal::new(assets.bullet_hole);
     decal.receivers = GAME_DECAL_RECEIVERS;

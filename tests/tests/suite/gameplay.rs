@@ -441,6 +441,7 @@ fn a_headless_scripted_run_writes_the_screenshot_and_the_game_statistics() {
     assert_eq!(last["hits"], 1);
     assert_eq!(last["live_decals"], 3, "a bullet hole and two footprints");
     assert_eq!(last["live_lights"], 1);
+    assert_eq!(lines.last().unwrap()["particles"]["spawned"], 40, "the shot's sparks (GameSettings::sparks)");
     assert!(last["script_line"].is_null());
     assert!(lines[0]["game"]["script_line"] == 1);
     std::fs::remove_dir_all(&dir).ok();
