@@ -1,14 +1,17 @@
 #version 460
 // Particles (render/src/particles): instance i draws the i-th particle of the drawn list as a
 // quad facing the camera, its size and colour interpolated over its life, its sprite's cell
-// of the emitter's flipbook chosen by age.
+// of the emitter's flipbook chosen by age, its colour multiplied by the light
+// particles_light.comp found for it.
 #include "particles.glsl"
 
 layout(location = 0) out vec4 v_color;
 layout(location = 1) out vec2 v_uv;
-layout(location = 2) out vec3 v_world;
+layout(location = 2) out float v_distance;
 layout(location = 3) flat out uint v_texture;
-layout(location = 4) flat out vec2 v_soft_lit;
+layout(location = 4) flat out float v_softness;
+
+layout(buffer_reference, std430, buffer_reference_align = 8) readonly buffer ParticleLightRef { uvec2 light[]; };
 
 // Two triangles, corners in quad units (x right, y up).
 const vec2 CORNERS[6] = vec2[6](vec2(-0.5, -0.5), vec2(0.5, -0.5), vec2(0.5, 0.5), vec2(-0.5, -0.5), vec2(0.5, 0.5), vec2(-0.5, 0.5));
@@ -34,14 +37,18 @@ void main() {
         across = (right * d.x + up * d.y) * (size + on_screen * e.stretch);
         along = (right * -d.y + up * d.x) * size;
     }
-    v_world = p.position + across * corner.x + along * corner.y;
-    gl_Position = cam.view_proj * vec4(v_world, 1.0);
-    v_color = mix(e.color_start, e.color_end, t);
+    vec3 world = p.position + across * corner.x + along * corner.y;
+    gl_Position = cam.view_proj * vec4(world, 1.0);
+    // The view distance along the camera's axis, for soft particles (the depth target's unit).
+    v_distance = -(cam.view * vec4(world, 1.0)).z;
+    // The light particles_light.comp found for it.
+    uvec2 light = ParticleLightRef(st.state.light_list).light[gl_InstanceIndex];
+    v_color = mix(e.color_start, e.color_end, t) * vec4(unpackHalf2x16(light.x), unpackHalf2x16(light.y).x, 1.0);
     // Flipbook: frames left to right, top to bottom, through the particle's life.
     uvec2 cells = max(uvec2(e.flipbook & 0xFFFFu, e.flipbook >> 16u), uvec2(1u));
     uint frame = min(uint(t * float(cells.x * cells.y)), cells.x * cells.y - 1u);
     vec2 cell = vec2(frame % cells.x, frame / cells.x);
     v_uv = (cell + vec2(corner.x + 0.5, 0.5 - corner.y)) / vec2(cells);
     v_texture = e.texture;
-    v_soft_lit = vec2(e.softness, e.lit);
+    v_softness = e.softness;
 }

@@ -1325,6 +1325,9 @@ layout! {
         pub free_list: u64,
         /// Address of the drawn list (the slots alive after this frame's simulation).
         pub alive_list: u64,
+        /// Address of the drawn particles' light, by drawn-list entry (RGB as three halves and
+        /// a spare half: `particles_light.comp` writes it, the drawing reads it).
+        pub light_list: u64,
         /// Address of the emitter table (`GpuEmitter` per emitter slot).
         pub emitters: u64,
         /// Slots of the pool.

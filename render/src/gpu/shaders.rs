@@ -16,6 +16,7 @@ macro_rules! spirv {
 
 spirv! {
     PARTICLES_INIT_COMP = "particles_init.comp";
+    PARTICLES_LIGHT_COMP = "particles_light.comp";
     PARTICLES_EMIT_COMP = "particles_emit.comp";
     PARTICLES_SIMULATE_COMP = "particles_simulate.comp";
     PARTICLE_VERT = "particle.vert";

@@ -94,7 +94,8 @@ impl ParticleBuffers {
         let input_bytes = input_bytes(job_room, emitter_room);
         let state =
             Buffer::new(ctx, "particle state", input_bytes, usage | vk::BufferUsageFlags::INDIRECT_BUFFER, MemoryLocation::GpuOnly)?;
-        let pool_bytes = capacity as u64 * (std::mem::size_of::<GpuParticle>() as u64 + 8);
+        // Particles, then the free list, the drawn list (a word each) and the light (two words).
+        let pool_bytes = capacity as u64 * (std::mem::size_of::<GpuParticle>() as u64 + 16);
         let pool = Buffer::new(ctx, "particle pool", pool_bytes, usage, MemoryLocation::GpuOnly)?;
         let mut inputs = Vec::with_capacity(FRAMES_IN_FLIGHT);
         for _ in 0..FRAMES_IN_FLIGHT {
@@ -147,6 +148,7 @@ struct Plan {
 /// The particle passes and their buffers.
 pub struct Particles {
     init: vk::Pipeline,
+    light: vk::Pipeline,
     emit: vk::Pipeline,
     simulate: vk::Pipeline,
     draw: vk::Pipeline,
@@ -184,6 +186,7 @@ impl Particles {
         let counters = std::mem::size_of::<GpuParticleState>() as u64;
         Ok(Self {
             init: compute("particle pool init", shaders::PARTICLES_INIT_COMP)?,
+            light: compute("particle light", shaders::PARTICLES_LIGHT_COMP)?,
             emit: compute("particle emission", shaders::PARTICLES_EMIT_COMP)?,
             simulate: compute("particle simulation", shaders::PARTICLES_SIMULATE_COMP)?,
             draw: create_graphics(ctx, layout, &desc)?,
@@ -250,6 +253,7 @@ impl Particles {
             pool,
             free_list: pool + particle_bytes,
             alive_list: pool + particle_bytes + self.capacity as u64 * 4,
+            light_list: pool + particle_bytes + self.capacity as u64 * 8,
             emitters: gpu.state.address + emitters_offset(gpu.job_room),
             capacity: self.capacity,
             job_count: jobs,
@@ -357,12 +361,20 @@ impl Particles {
         self.readback.record(f, "particles_statistics", res, state)
     }
 
-    /// Draws the living particles over the HDR target (before temporal anti-aliasing and bloom),
-    /// lit by `lights`. Records nothing while no particle can be alive.
+    /// Lights the living particles by `lights` (in compute, a particle at a time), then draws
+    /// them over the HDR target (before temporal anti-aliasing and bloom). Records nothing while
+    /// no particle can be alive.
     pub fn draw(&self, f: &mut Frame, scene: &GpuScene, lights: &LightFrame) -> Result<(), RenderError> {
         if !self.active() {
             return Ok(());
         }
+        let (light, groups, res) = (self.light, self.capacity.div_ceil(PARTICLE_GROUP), self.res);
+        let pass = f.pass("particles_light", PassKind::Compute).reads(scene.res.shaded()).write(res, BufferUse::Storage);
+        declare_light_reads(pass, lights).record(|p| {
+            let push = p.push;
+            p.bind(vk::PipelineBindPoint::COMPUTE, light, &push);
+            p.cmd.dispatch(groups, 1, 1);
+        })?;
         let gpu = self.gpu.as_ref().expect("active");
         let (pipeline, args, at) = (self.draw, gpu.state.raw, std::mem::offset_of!(GpuParticleState, draw) as u64);
         let pass = f
@@ -397,7 +409,7 @@ impl Particles {
 
     /// Destroys the pipelines and buffers; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for p in [self.init, self.emit, self.simulate, self.draw] {
+        for p in [self.init, self.light, self.emit, self.simulate, self.draw] {
             // SAFETY: the GPU is idle.
             unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }
