@@ -1,16 +1,26 @@
+// variants: MOTION
 #version 460
 // Particles (render/src/particles): the sprite's coverage (a soft round dot without a texture),
 // faded where the opaque surface behind comes close (soft particles: the gap between the two
 // view distances, the surface's from reverse-Z depth as near / depth), times the particle's
 // lit colour (particles_light.comp lit it once, not per pixel), written premultiplied: alpha 0
-// only adds light (sparks), alpha 1 covers (smoke, debris).
+// only adds light (sparks), alpha 1 covers (smoke, debris). MOTION: where the sprite covers more
+// than half of a pixel, the particle's motion replaces the surface's behind it (so temporal
+// anti-aliasing follows a spark instead of smearing it along the background's motion).
 #include "scene.glsl"
+#ifdef MOTION
+#include "motion.glsl"
+#endif
 
 layout(location = 0) in vec4 v_color;
 layout(location = 1) in vec2 v_uv;
 layout(location = 2) in float v_distance;
 layout(location = 3) flat in uint v_texture;
 layout(location = 4) flat in float v_softness;
+#ifdef MOTION
+layout(location = 5) in vec4 v_now;
+layout(location = 6) in vec4 v_before;
+#endif
 layout(location = 0) out vec4 out_color;
 
 void main() {
@@ -24,6 +34,11 @@ void main() {
         float behind = depth > 0.0 ? scene.camera.camera.proj[3][2] / depth : 1e30;
         coverage *= clamp((behind - v_distance) / v_softness, 0.0, 1.0);
     }
+#ifdef MOTION
+    if (coverage <= 0.5) discard;
+    out_color = motion_record(v_now, v_before, abs(v_now.w), abs(v_before.w));
+    return;
+#endif
     if (coverage < 1.0 / 512.0) discard;
     // Premultiplied: the colour is added where the sprite covers, and hides as much of what is
     // behind as its opacity says (0: light added, nothing hidden).

@@ -1,8 +1,11 @@
+// variants: MOTION
 #version 460
 // Particles (render/src/particles): instance i draws the i-th particle of the drawn list as a
 // quad facing the camera, its size and colour interpolated over its life, its sprite's cell
 // of the emitter's flipbook chosen by age, its colour multiplied by the light
-// particles_light.comp found for it.
+// particles_light.comp found for it. MOTION: the same quad for the motion vectors, also where
+// it was a frame before (each point moved back by the particle's velocity over the frame's
+// step, which is exactly the step's own motion: particles.glsl moves by the new velocity).
 #include "particles.glsl"
 
 layout(location = 0) out vec4 v_color;
@@ -10,6 +13,11 @@ layout(location = 1) out vec2 v_uv;
 layout(location = 2) out float v_distance;
 layout(location = 3) flat out uint v_texture;
 layout(location = 4) flat out float v_softness;
+
+#ifdef MOTION
+layout(location = 5) out vec4 v_now;
+layout(location = 6) out vec4 v_before;
+#endif
 
 layout(buffer_reference, std430, buffer_reference_align = 8) readonly buffer ParticleLightRef { uvec2 light[]; };
 
@@ -51,4 +59,9 @@ void main() {
     v_uv = (cell + vec2(corner.x + 0.5, 0.5 - corner.y)) / vec2(cells);
     v_texture = e.texture;
     v_softness = e.softness;
+#ifdef MOTION
+    vec3 before = world - p.velocity * st.state.delta;
+    v_now = cam.motion_view_proj * vec4(world, 1.0);
+    v_before = cam.prev_view_proj * vec4(before, 1.0);
+#endif
 }

@@ -21,6 +21,8 @@ spirv! {
     PARTICLES_SIMULATE_COMP = "particles_simulate.comp";
     PARTICLE_VERT = "particle.vert";
     PARTICLE_FRAG = "particle.frag";
+    PARTICLE_VERT_MOTION = "particle.vert.MOTION";
+    PARTICLE_FRAG_MOTION = "particle.frag.MOTION";
     MESH_VERT = "mesh.vert";
     CULL_COMP = "cull.comp";
     SKINNING_COMP = "skinning.comp";

@@ -41,11 +41,16 @@
 //! dropped (pool full) and alive; they come back two frames later with the frame that measured
 //! them ([`ParticleCounts`], `counters.particles`).
 //!
+//! 5. *Motion* (under temporal anti-aliasing, `particle.frag`'s `MOTION` variant): where a sprite
+//!    covers more than half a pixel, the particle's own motion (its quad now, and moved back by
+//!    its velocity over the frame's step, which is exactly what the step moved it) replaces the
+//!    motion of the surface behind, so the anti-aliasing follows a fast spark instead of
+//!    smearing it along the background.
+//!
 //! **Not yet.** Collision is with what the depth buffer shows: particles off screen or behind
 //! other surfaces fly through (ray-traced collision against the scene's structure would land
-//! them there). Particles write no motion vectors: under temporal anti-aliasing a fast particle
-//! leaves a short trail. Blended glass is drawn before the particles, so a particle behind glass
-//! is drawn over it.
+//! them there). Blended glass is drawn before the particles, so a particle behind glass is
+//! drawn over it. Particles leave no decals yet.
 
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -59,7 +64,7 @@ use crate::gpu::memory::{Buffer, Retired};
 use crate::gpu::pipeline::{Blend, GraphicsDesc, create_compute, create_graphics};
 use crate::gpu::shaders;
 use crate::graph::readback::StatsReadback;
-use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT};
+use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT, MotionVectors};
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, Load, PassKind, ResourceId};
 use crate::layout::{GpuEmission, GpuEmitter, GpuParticle, GpuParticleState, PARTICLE_GROUP};
 use crate::lights::{LightFrame, declare_light_reads};
@@ -152,6 +157,8 @@ pub struct Particles {
     emit: vk::Pipeline,
     simulate: vk::Pipeline,
     draw: vk::Pipeline,
+    /// The drawing's motion-vector variant (under temporal anti-aliasing).
+    motion: vk::Pipeline,
     capacity: u32,
     gpu: Option<ParticleBuffers>,
     readback: StatsReadback,
@@ -190,6 +197,17 @@ impl Particles {
             emit: compute("particle emission", shaders::PARTICLES_EMIT_COMP)?,
             simulate: compute("particle simulation", shaders::PARTICLES_SIMULATE_COMP)?,
             draw: create_graphics(ctx, layout, &desc)?,
+            motion: create_graphics(
+                ctx,
+                layout,
+                &GraphicsDesc {
+                    name: "particle motion",
+                    vertex: shaders::PARTICLE_VERT_MOTION,
+                    fragment: Some(shaders::PARTICLE_FRAG_MOTION),
+                    blend: Blend::Replace,
+                    ..desc
+                },
+            )?,
             capacity: capacity.max(PARTICLE_GROUP),
             gpu: None,
             readback: StatsReadback::new(ctx, graph, "particle statistics", counters)?,
@@ -394,6 +412,31 @@ impl Particles {
         })
     }
 
+    /// Under temporal anti-aliasing, once the motion vectors exist: where a particle covers
+    /// more than half a pixel, its own motion replaces the surface's (`motion`, which the
+    /// anti-aliasing then reads). Records nothing while no particle can be alive.
+    pub fn motion(&self, f: &mut Frame, scene: &GpuScene, motion: MotionVectors) -> Result<(), RenderError> {
+        if !self.active() {
+            return Ok(());
+        }
+        let gpu = self.gpu.as_ref().expect("active");
+        let (pipeline, args) = (self.motion, gpu.state.raw);
+        let (at, count_at) =
+            (std::mem::offset_of!(GpuParticleState, draw) as u64, std::mem::offset_of!(GpuParticleState, draw_count) as u64);
+        f.pass("particles_motion", PassKind::Graphics)
+            .image(&DEPTH, ImageUse::DepthTestSampled)
+            .color(motion.target, Load::Keep)
+            .read(scene.res.tables, BufferUse::Storage)
+            .read(scene.res.textures, BufferUse::SampledImages)
+            .read(self.res, BufferUse::Storage)
+            .read(self.res, BufferUse::Indirect)
+            .record(|p| {
+                let push = p.push;
+                p.bind_graphics(pipeline, &push);
+                p.cmd.draw_indirect_one(args, at, args, count_at);
+            })
+    }
+
     /// What the GPU counted in the frame whose statistics came back last.
     pub fn counts(&self) -> ParticleCounts {
         self.last
@@ -409,7 +452,7 @@ impl Particles {
 
     /// Destroys the pipelines and buffers; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for p in [self.init, self.light, self.emit, self.simulate, self.draw] {
+        for p in [self.init, self.light, self.emit, self.simulate, self.draw, self.motion] {
             // SAFETY: the GPU is idle.
             unsafe { ctx.destroying().destroy_pipeline(p, None) };
         }

@@ -359,6 +359,9 @@ fn present(
     // Debug views show the surfaces' attributes: particles would cover them.
     if matches!(s.debug_view, crate::settings::DebugView::Lit) {
         r.particles.draw(f, r.scene, lights)?;
+        if let Some(motion) = motion {
+            r.particles.motion(f, r.scene, motion)?;
+        }
     }
     let interlaced = s.pipeline == crate::settings::PipelineKind::Deferred && lights.interlaced() && !mirror.transparent_order().is_empty();
     r.taa.record(f, r.scene, motion, interlaced, s.taa_sharpen)?;
