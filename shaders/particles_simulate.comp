@@ -1,10 +1,11 @@
+// variants: RAY_QUERY_COLLISION
 #version 460
-// Particle simulation (render/src/particles): one invocation per pool slot, once the frame's
-// opaque depth exists. A living particle ages, takes a step (particles.glsl), and collides with
-// the surface the depth buffer shows: a step ending behind the visible surface by less than a
-// thickness crossed it, and its emitter says whether it then dies, bounces or sticks. The dead
-// go back on the free list; the living are appended to the drawn list, whose length is the
-// indirect draw's instance count.
+// Particle simulation (render/src/particles, particle_simulate.glsl): one invocation per pool
+// slot, once the frame's opaque depth exists. A step ending behind the surface the depth buffer
+// shows, by less than a thickness, crossed it; with RAY_QUERY_COLLISION (the ray-query tier,
+// when the frame has the scene's structure) the step is a ray query against the scene instead.
+// The living are appended to the drawn list, whose length is the indirect draw's instance
+// count, with one atomic a subgroup.
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_ballot : require
 #include "particles.glsl"
@@ -12,6 +13,25 @@
 
 layout(local_size_x = PARTICLE_GROUP) in;
 
+#ifdef RAY_QUERY_COLLISION
+#extension GL_EXT_ray_query : require
+#include "particle_rays.glsl"
+
+bool particle_contact(vec3 a, vec3 b, out vec3 hit, out vec3 n) {
+    hit = b;
+    n = vec3(0.0, 1.0, 0.0);
+    float len = distance(a, b);
+    if (len <= 0.0) return false;
+    vec3 dir = (b - a) / len;
+    rayQueryEXT q;
+    rayQueryInitializeEXT(q, accelerationStructureEXT(scene.lighting.lighting.scene_tlas), gl_RayFlagsOpaqueEXT, 0xFF, a, 0.0, dir, len);
+    while (rayQueryProceedEXT(q)) {}
+    if (rayQueryGetIntersectionTypeEXT(q, true) != gl_RayQueryCommittedIntersectionTriangleEXT) return false;
+    ray_contact(rayQueryGetIntersectionInstanceCustomIndexEXT(q, true), rayQueryGetIntersectionPrimitiveIndexEXT(q, true), a, dir,
+                rayQueryGetIntersectionTEXT(q, true), hit, n);
+    return true;
+}
+#else
 // Where the step from `a` to `b` went behind the surface the depth buffer shows, if it did:
 // the point where it crossed the surface's plane and the surface's normal. A step ending
 // more than `thickness` metres behind the surface passed behind something, not into it.
@@ -41,51 +61,17 @@ bool depth_contact(vec3 a, vec3 b, float thickness, out vec3 hit, out vec3 n) {
     return true;
 }
 
+bool particle_contact(vec3 a, vec3 b, out vec3 hit, out vec3 n) {
+    return depth_contact(a, b, max(0.1, 2.0 * distance(a, b)), hit, n);
+}
+#endif
+
+#include "particle_simulate.glsl"
+
 void main() {
     ParticleStateRef st = particle_state();
-    ParticlesRef pool = ParticlesRef(st.state.pool);
     uint i = gl_GlobalInvocationID.x;
-    bool alive = false;
-    if (i < st.state.capacity) {
-        GpuParticle p = pool.particles[i];
-        if (p.lifetime > 0.0) {
-            float dt = st.state.delta;
-            GpuEmitter e = particle_emitter(st, p.emitter);
-            p.age += dt;
-            alive = p.age < p.lifetime;
-            if (alive && (p.flags & PARTICLE_STUCK) == 0u) {
-                vec3 before = p.position;
-                particle_step(p.position, p.velocity, e.acceleration, e.drag, dt);
-                vec3 hit, n;
-                float thickness = max(0.1, 2.0 * distance(before, p.position));
-                if (e.contact != PARTICLE_CONTACT_NONE && st.state.depth_collision != 0u
-                    && depth_contact(before, p.position, thickness, hit, n)) {
-                    if ((p.flags & PARTICLE_LANDED) == 0u) atomicAdd(st.state.landed, 1u);
-                    p.flags |= PARTICLE_LANDED;
-                    p.contact_normal = pack_normal(n);
-                    // Lifted 2 mm off the surface, so that the next step starts in front of it.
-                    p.position = hit + n * 0.002;
-                    if (e.contact == PARTICLE_CONTACT_DIE) {
-                        alive = false;
-                    } else if (e.contact == PARTICLE_CONTACT_STICK) {
-                        p.velocity = vec3(0.0);
-                        p.flags |= PARTICLE_STUCK;
-                    } else {
-                        float vn = dot(p.velocity, n);
-                        vec3 along = p.velocity - vn * n;
-                        p.velocity = along * e.friction - min(vn, 0.0) * e.restitution * n + max(vn, 0.0) * n;
-                    }
-                }
-            }
-            if (alive) {
-                pool.particles[i] = p;
-            } else {
-                pool.particles[i].lifetime = 0.0;
-                uint at = atomicAdd(st.state.free_count, 1u);
-                ParticleSlotsRef(st.state.free_list).slots[at] = i;
-            }
-        }
-    }
+    bool alive = simulate_particle(st, i);
     // The living, appended to the drawn list: one atomic a subgroup.
     uvec4 ballot = subgroupBallot(alive);
     uint count = subgroupBallotBitCount(ballot);

@@ -1340,8 +1340,9 @@ layout! {
         pub delta: f32,
         /// The emission pass's indirect dispatch: workgroups along x, y, z.
         pub emit_groups: [u32; 3],
-        /// Whether the simulation collides with the depth buffer (1) or not (0).
-        pub depth_collision: u32,
+        /// Whether particles collide with surfaces (1: the depth buffer's, or the scene's
+        /// structure's when the frame traces it) or pass through everything (0).
+        pub collide: u32,
         /// GPU-written from here: free slots in the free list (signed while the emission pass
         /// pops).
         pub free_count: u32,

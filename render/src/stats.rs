@@ -284,4 +284,7 @@ pub struct ParticleCounts {
     pub dropped: u32,
     /// Slots of the pool (0 before the first emitter).
     pub capacity: u32,
+    /// This frame's particles collided with the scene's acceleration structure (on a
+    /// ray-tracing tier, in a frame that traces it), not with the depth buffer.
+    pub ray_traced: bool,
 }

@@ -16,6 +16,10 @@ macro_rules! spirv {
 
 spirv! {
     PARTICLES_INIT_COMP = "particles_init.comp";
+    PARTICLES_SIMULATE_COMP_RAY_QUERY_COLLISION = "particles_simulate.comp.RAY_QUERY_COLLISION";
+    PARTICLES_SIMULATE_RGEN = "particles_simulate.rgen";
+    PARTICLES_RCHIT = "particles.rchit";
+    PARTICLES_RMISS = "particles.rmiss";
     PARTICLES_LIGHT_COMP = "particles_light.comp";
     PARTICLES_EMIT_COMP = "particles_emit.comp";
     PARTICLES_SIMULATE_COMP = "particles_simulate.comp";

@@ -19,15 +19,24 @@
 //!    the free list (a stack with an atomic count; a pop that finds it empty counts a `dropped`
 //!    particle) and starts it: position in the emitter's sphere, direction in its cone about +Y,
 //!    speed and life between their bounds, from a hash of the job's seed.
-//! 3. *Simulation* (`particles_simulate.comp`, one invocation per pool slot, after the frame's
-//!    opaque depth exists): ageing, a step of [`step`] (acceleration, drag), and collision with
-//!    the depth buffer: a particle whose new position lies behind the visible surface, by less
-//!    than a thickness (twice its step, at least 10 cm, so it does not collide with what merely
-//!    hides it), touched that surface; the contact point is where its step crosses the surface's
-//!    plane, whose normal is rebuilt from depth (`depth_normals.glsl`). It then dies, bounces
-//!    (restitution along the normal, friction along the surface) or sticks, as its emitter says.
-//!    The dead are pushed back on the free list; the living are appended to the drawn list,
-//!    counted by subgroup so that the count's atomic is taken once a subgroup.
+//! 3. *Simulation* (`particle_simulate.glsl`, one invocation per pool slot, after the frame's
+//!    opaque depth exists): ageing, a step of [`step`] (acceleration, drag), and collision:
+//!    - *with the scene's acceleration structure*, on the ray-tracing tiers in a frame that
+//!      traces it anyway (shadows, ambient occlusion or reflections: particles alone never wake
+//!      the structure, whose refits a crowd pays for): the step is a ray, its first hit the
+//!      contact, the hit triangle's normal the surface's (`particle_rays.glsl`; a ray query in
+//!      `particles_simulate.comp`'s `RAY_QUERY_COLLISION` variant, a traced ray from
+//!      `particles_simulate.rgen` on the lent GPUs, which have no ray queries). Particles land on
+//!      what is off screen or hidden too;
+//!    - *with the depth buffer* otherwise: a particle whose new position lies behind the visible
+//!      surface, by less than a thickness (twice its step, at least 10 cm, so it does not collide
+//!      with what merely hides it), touched that surface; the contact point is where its step
+//!      crosses the surface's plane, whose normal is rebuilt from depth (`depth_normals.glsl`).
+//!
+//!    It then dies, bounces (restitution along the normal, friction along the surface) or
+//!    sticks, as its emitter says. The dead are pushed back on the free list; the living are
+//!    appended to the drawn list (in compute counted by subgroup, so that the count's atomic is
+//!    taken once a subgroup). `counters.particles.ray_traced` says which collision a frame used.
 //! 4. *Drawing* (`particle.vert`, `particle.frag`): one indirect draw of camera-facing quads over
 //!    the drawn list, after every surface is shaded and before temporal anti-aliasing, bloom and
 //!    exposure, so sparks glow and bloom like any bright surface. Colour and size follow the
@@ -47,9 +56,8 @@
 //!    motion of the surface behind, so the anti-aliasing follows a fast spark instead of
 //!    smearing it along the background.
 //!
-//! **Not yet.** Collision is with what the depth buffer shows: particles off screen or behind
-//! other surfaces fly through (ray-traced collision against the scene's structure would land
-//! them there). Blended glass is drawn before the particles, so a particle behind glass is
+//! **Not yet.** Without ray tracing, collision is with what the depth buffer shows: particles
+//! off screen or behind other surfaces fly through. Blended glass is drawn before the particles, so a particle behind glass is
 //! drawn over it. Particles leave no decals yet.
 
 use ash::vk;
@@ -59,9 +67,9 @@ pub use crate::scene::emitters::{Emitter, Emitters, step};
 
 use crate::RenderError;
 use crate::gpu::FRAMES_IN_FLIGHT;
-use crate::gpu::device::GpuContext;
+use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::memory::{Buffer, Retired};
-use crate::gpu::pipeline::{Blend, GraphicsDesc, create_compute, create_graphics};
+use crate::gpu::pipeline::{Blend, GraphicsDesc, HitGroup, RayTracingDesc, RayTracingPipeline, create_compute, create_graphics};
 use crate::gpu::shaders;
 use crate::graph::readback::StatsReadback;
 use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT, MotionVectors};
@@ -156,6 +164,11 @@ pub struct Particles {
     light: vk::Pipeline,
     emit: vk::Pipeline,
     simulate: vk::Pipeline,
+    /// The simulation with ray-query collision (the ray-query tier).
+    simulate_ray_query: Option<vk::Pipeline>,
+    /// The simulation as a ray-generation pass (the ray-tracing-pipeline tier), made the first
+    /// frame that traces; its layout.
+    simulate_rays: Option<(std::sync::OnceLock<RayTracingPipeline>, vk::PipelineLayout)>,
     draw: vk::Pipeline,
     /// The drawing's motion-vector variant (under temporal anti-aliasing).
     motion: vk::Pipeline,
@@ -196,6 +209,11 @@ impl Particles {
             light: compute("particle light", shaders::PARTICLES_LIGHT_COMP)?,
             emit: compute("particle emission", shaders::PARTICLES_EMIT_COMP)?,
             simulate: compute("particle simulation", shaders::PARTICLES_SIMULATE_COMP)?,
+            simulate_ray_query: match ctx.tier {
+                Tier::RayQuery => Some(compute("particle simulation (ray queries)", shaders::PARTICLES_SIMULATE_COMP_RAY_QUERY_COLLISION)?),
+                _ => None,
+            },
+            simulate_rays: (ctx.tier != Tier::RayQuery && ctx.ray_support().ray_pipeline).then(|| (std::sync::OnceLock::new(), layout)),
             draw: create_graphics(ctx, layout, &desc)?,
             motion: create_graphics(
                 ctx,
@@ -278,7 +296,7 @@ impl Particles {
             spawn_count: spawn,
             delta: delta.max(0.0),
             emit_groups: [spawn.div_ceil(PARTICLE_GROUP), 1, 1],
-            depth_collision: 1,
+            collide: 1,
             ..Default::default()
         };
         let input = gpu.inputs[f.slot()].mapped();
@@ -313,10 +331,17 @@ impl Particles {
     }
 
     /// Once the frame's opaque depth exists: copies the frame's input into the state, starts
-    /// this frame's particles, moves every particle (colliding with the depth buffer) and lists
-    /// the living for drawing; copies the counters for the CPU. Records nothing while no
-    /// particle can be alive.
-    pub fn simulate(&mut self, f: &mut Frame, scene: &GpuScene) -> Result<(), RenderError> {
+    /// this frame's particles, moves every particle and lists the living for drawing; copies the
+    /// counters for the CPU. Particles collide with the scene's structure when the frame traces
+    /// it (`traced`: the TLAS and BLAS resources) and the device traces rays, else with the depth
+    /// buffer. Records nothing while no particle can be alive.
+    pub fn simulate(
+        &mut self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        traced: Option<[ResourceId; 2]>,
+        counters: &mut FrameCounters,
+    ) -> Result<(), RenderError> {
         if !self.active() {
             return Ok(());
         }
@@ -366,16 +391,51 @@ impl Particles {
         if plan.spawn > 0 {
             pass(f, "particles_emit", self.emit, plan.spawn.div_ceil(PARTICLE_GROUP))?;
         }
-        let simulate = self.simulate;
-        f.pass("particles_simulate", PassKind::Compute)
-            .sample(&DEPTH)
-            .read(scene.res.tables, BufferUse::Storage)
-            .write(res, BufferUse::Storage)
-            .record(|p| {
-                let push = p.push;
-                p.bind(vk::PipelineBindPoint::COMPUTE, simulate, &push);
-                p.cmd.dispatch(groups, 1, 1);
-            })?;
+        let accel = traced.into_iter().flatten().map(|r| (r, BufferUse::Accel));
+        let rays = match (&self.simulate_rays, traced) {
+            (Some((made, layout)), Some(_)) => Some(match made.get() {
+                Some(rays) => rays,
+                None => {
+                    let desc = RayTracingDesc {
+                        name: "particle simulation (rays)",
+                        raygen: &[shaders::PARTICLES_SIMULATE_RGEN],
+                        misses: &[shaders::PARTICLES_RMISS],
+                        hit_groups: &[HitGroup { closest_hit: Some(shaders::PARTICLES_RCHIT), any_hit: None, intersection: None }],
+                    };
+                    let rays = RayTracingPipeline::new(f.ctx, *layout, &desc)?;
+                    made.get_or_init(|| rays)
+                }
+            }),
+            _ => None,
+        };
+        let capacity = self.capacity;
+        if let Some(rays) = rays {
+            f.pass("particles_simulate", PassKind::RayTracing)
+                .read(scene.res.tables, BufferUse::Storage)
+                .read(scene.res.meshes, BufferUse::Storage)
+                .reads(accel)
+                .write(res, BufferUse::Storage)
+                .record(|p| {
+                    let push = p.push;
+                    p.bind(vk::PipelineBindPoint::RAY_TRACING_KHR, rays.pipeline, &push);
+                    rays.trace(p.cmd, 0, vk::Extent2D { width: capacity, height: 1 });
+                })?;
+        } else {
+            let queries = self.simulate_ray_query.filter(|_| traced.is_some());
+            let pipeline = queries.unwrap_or(self.simulate);
+            f.pass("particles_simulate", PassKind::Compute)
+                .sample(&DEPTH)
+                .read(scene.res.tables, BufferUse::Storage)
+                .when(queries.is_some(), |p| p.read(scene.res.meshes, BufferUse::Storage))
+                .reads(accel)
+                .write(res, BufferUse::Storage)
+                .record(|p| {
+                    let push = p.push;
+                    p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &push);
+                    p.cmd.dispatch(groups, 1, 1);
+                })?;
+        }
+        counters.particles.ray_traced = traced.is_some() && (self.simulate_ray_query.is_some() || self.simulate_rays.is_some());
         self.readback.record(f, "particles_statistics", res, state)
     }
 
@@ -447,14 +507,25 @@ impl Particles {
         let state: GpuParticleState = bytemuck::pod_read_unaligned(bytemuck::cast_slice(words));
         let (spawned, landed, dropped, alive) = (state.spawned, state.landed, state.dropped, state.draw[1]);
         // The readback names the frame by its timeline value, one past its number.
-        self.last = ParticleCounts { measured_frame: frame.saturating_sub(1), alive, spawned, landed, dropped, capacity: self.capacity };
+        self.last = ParticleCounts {
+            measured_frame: frame.saturating_sub(1),
+            alive,
+            spawned,
+            landed,
+            dropped,
+            capacity: self.capacity,
+            ray_traced: false,
+        };
     }
 
     /// Destroys the pipelines and buffers; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for p in [self.init, self.light, self.emit, self.simulate, self.draw, self.motion] {
+        for p in [self.init, self.light, self.emit, self.simulate, self.draw, self.motion].into_iter().chain(self.simulate_ray_query) {
             // SAFETY: the GPU is idle.
             unsafe { ctx.destroying().destroy_pipeline(p, None) };
+        }
+        if let Some(rays) = self.simulate_rays.and_then(|(made, _)| made.into_inner()) {
+            rays.destroy(ctx);
         }
         if let Some(g) = self.gpu {
             g.destroy(ctx);

@@ -104,6 +104,8 @@ struct Begun {
     decals: DecalFrame,
     lights: LightFrame,
     shadows: ShadowFrame,
+    /// The scene's structure, when this frame traces it (particles collide with it then).
+    scene_traced: Option<[crate::graph::ResourceId; 2]>,
 }
 
 /// What every frame does before its passes: follow the decals' and lights' changes, plan the
@@ -154,7 +156,7 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     }
     r.lighting.build(f, r.scene, &lights, r.counters)?;
     r.counters.bytes_uploaded += r.culling.cull(f, r.scene)?;
-    Ok(Begun { decals, lights, shadows })
+    Ok(Begun { decals, lights, shadows, scene_traced: accel.traced })
 }
 
 /// Forward: depth prepass (also writing ids when the reflection rays follow, or a decal pass
@@ -166,13 +168,13 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
 /// (depth and ids to sample 0, radiance to the mean), traced reflections are resolved before the
 /// shading, which adds them per sample, and the sky fills the uncovered samples' share.
 pub fn forward_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
-    let Begun { decals, lights, shadows } = begin(f, r, mirror, s)?;
+    let Begun { decals, lights, shadows, scene_traced } = begin(f, r, mirror, s)?;
     let (scene, forward) = (&*r.scene, r.forward);
     let need_instances = mirror.decals_need_instances();
     let ids = (decals.buffered() && need_instances) || lights.reflections() || r.pixel_ids == PixelIds::Visibility;
     let prepass = r.culling.depth_passes(f, scene, |f, draws, phase| forward.prepass(f, scene, &draws, phase, ids))?;
     let motion = motion(f, r)?;
-    r.particles.simulate(f, r.scene)?;
+    r.particles.simulate(f, r.scene, scene_traced, r.counters)?;
     // The decals read the ids when they need the instance (the prepass wrote them then), else
     // depth alone; the reflections read what the prepass wrote (the ids whenever they run).
     let source = Surface::forward_decals(need_instances);
@@ -261,7 +263,7 @@ fn deferred_layer(
     mirror: &SceneMirror,
     glass: GBufferGlass,
     s: &FrameSettings,
-    Begun { decals, lights, shadows }: &Begun,
+    Begun { decals, lights, shadows, scene_traced }: &Begun,
     again: bool,
 ) -> Result<Option<MotionVectors>, RenderError> {
     let (scene, deferred) = (&*r.scene, r.deferred);
@@ -272,7 +274,7 @@ fn deferred_layer(
         let gbuffer =
             r.culling.depth_passes(f, scene, |f, draws, phase| deferred.geometry(f, scene, &draws, glass, s.clear_color, phase))?;
         let motion = motion(f, r)?;
-        r.particles.simulate(f, r.scene)?;
+        r.particles.simulate(f, r.scene, *scene_traced, r.counters)?;
         (gbuffer, motion)
     };
     let draws = r.culling.draws();
@@ -298,11 +300,11 @@ fn deferred_layer(
 /// (compute, or full-screen fragment) that rebuilds and shades, reflections, then the blended
 /// surfaces in a forward pass.
 pub fn visbuffer_frame(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameSettings) -> Result<LightFrame, RenderError> {
-    let Begun { decals, lights, shadows } = begin(f, r, mirror, s)?;
+    let Begun { decals, lights, shadows, scene_traced } = begin(f, r, mirror, s)?;
     let (scene, visbuffer) = (&*r.scene, r.visbuffer);
     let visibility = r.culling.depth_passes(f, scene, |f, draws, phase| visbuffer.visibility(f, scene, &draws, phase))?;
     let motion = motion(f, r)?;
-    r.particles.simulate(f, r.scene)?;
+    r.particles.simulate(f, r.scene, scene_traced, r.counters)?;
     let draws = r.culling.draws();
     transparent_depth(f, r, &draws, mirror, &lights)?;
     r.occlusion.record(f, r.scene, &lights.occlusion)?;

@@ -14,7 +14,7 @@ use engine::prelude::*;
 use plugins::particles::{Contact, ParticleEmitter};
 use plugins::{RenderMirror, RenderSettings, RenderStats};
 use render::PipelineKind;
-use tests::{assert_no_validation_errors, gpu_app, gpu_app_with, renderer};
+use tests::{assert_no_validation_errors, gpu_app, gpu_app_at, gpu_app_with, renderer};
 
 const SIZE: (u32, u32) = (160, 120);
 const DT: f32 = 0.016;
@@ -84,14 +84,20 @@ fn magenta_centroids(hdr: &[[f32; 4]], near: &[Vec2]) -> Vec<Vec2> {
 }
 
 #[test]
-fn bursts_land_where_the_cpu_integration_says_in_every_pipeline() {
+fn bursts_land_where_the_cpu_integration_says_in_every_pipeline_and_tier() {
     let launches = [
         (Vec3::new(-0.8, 0.6, 0.0), Vec3::new(1.2, 0.5, 0.3)),
         (Vec3::new(0.5, 0.4, -0.3), Vec3::new(0.0, 1.5, 0.9)),
         (Vec3::new(0.2, 0.8, 0.6), Vec3::new(-1.0, -0.5, 0.0)),
     ];
-    for pipeline in [PipelineKind::Forward, PipelineKind::Deferred, PipelineKind::VisBuffer] {
-        let mut app = gpu_app(SIZE.0, SIZE.1, RenderSettings { pipeline, ..Default::default() });
+    // Each pipeline on another tier: collision with the depth buffer, ray queries, traced rays.
+    let runs = [
+        (PipelineKind::Forward, render::Tier::NoRayTracing),
+        (PipelineKind::Deferred, render::Tier::RayQuery),
+        (PipelineKind::VisBuffer, render::Tier::RayTracingPipeline),
+    ];
+    for (pipeline, tier) in runs {
+        let mut app = gpu_app_at(SIZE.0, SIZE.1, RenderSettings { pipeline, ..Default::default() }, tier);
         floor_scene(&mut app);
         for &(at, velocity) in &launches {
             app.world.spawn(launcher(at, velocity, 4));
@@ -103,6 +109,7 @@ fn bursts_land_where_the_cpu_integration_says_in_every_pipeline() {
         assert_no_validation_errors(&mut app);
         let counts = app.world.resource::<RenderStats>().last.particles;
         assert_eq!((counts.spawned, counts.landed, counts.alive, counts.dropped), (12, 12, 12, 0), "{pipeline:?}: {counts:?}");
+        assert_eq!(counts.ray_traced, tier != render::Tier::NoRayTracing, "{tier:?}: how the particles collided");
         assert!(counts.measured_frame >= 36, "{pipeline:?}: counts come back two frames late: {counts:?}");
         let view_proj = app.world.resource::<RenderMirror>().0.camera().view_proj;
         let pixel = |p: Vec3| {
@@ -200,4 +207,45 @@ fn a_moving_particle_writes_its_own_motion_vectors() {
     let (fx, fy) = pixel(project(camera.motion_view_proj, Vec3::new(0.0, 0.0, 1.5)));
     let [fx_m, fy_m, _, _] = motion[(fy * SIZE.0 + fx) as usize];
     assert!(Vec2::new(fx_m, fy_m).length() < 1e-5, "the floor does not move: {fx_m}, {fy_m}");
+}
+
+/// Particles dropped onto a box behind the camera: on the ray-tracing tiers they stop on it (the
+/// scene's structure holds it), then show there once the camera turns to it; without ray
+/// tracing they fall through what the depth buffer does not show.
+#[test]
+fn particles_land_on_what_is_off_screen_on_the_ray_tracing_tiers() {
+    for tier in [render::Tier::RayQuery, render::Tier::RayTracingPipeline, render::Tier::NoRayTracing] {
+        let mut app = gpu_app_at(SIZE.0, SIZE.1, RenderSettings::default(), tier);
+        floor_scene(&mut app);
+        let grey = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec4::new(0.3, 0.3, 0.3, 1.0), 0.0, 0.9));
+        let cube = app.world.resource_mut::<Assets<Mesh>>().add(shapes::cuboid(Vec3::ONE, 1.0));
+        // Behind the camera (at z = 3, looking towards −z).
+        let top = Vec3::new(0.0, 1.0, 6.0);
+        app.world.spawn((MeshInstance { mesh: cube, material: grey }, Transform::from_translation(top - Vec3::Y * 0.5)));
+        app.world.spawn((DirectionalLight::default(), Transform::default().looking_at(Vec3::new(0.3, -1.0, -0.2), Vec3::Z)));
+        app.world.spawn(launcher(top + Vec3::Y * 0.8, Vec3::new(0.0, -1.0, 0.0), 4));
+        for _ in 0..30 {
+            app.update();
+        }
+        let counts = app.world.resource::<RenderStats>().last.particles;
+        if tier == render::Tier::NoRayTracing {
+            assert_eq!((counts.landed, counts.ray_traced), (0, false), "{tier:?}: the depth buffer does not hold the box: {counts:?}");
+            assert_no_validation_errors(&mut app);
+            continue;
+        }
+        assert_eq!((counts.landed, counts.alive, counts.ray_traced), (4, 4, true), "{tier:?}: {counts:?}");
+        // Turned to the box: the particles sit on its top.
+        let mut q = app.world.query_filtered::<&mut Transform, With<Camera>>();
+        *q.single_mut(&mut app.world).unwrap() = Transform::from_xyz(0.0, 2.5, 9.0).looking_at(top, Vec3::Y);
+        for _ in 0..2 {
+            app.update();
+        }
+        assert_no_validation_errors(&mut app);
+        let view_proj = app.world.resource::<RenderMirror>().0.camera().view_proj;
+        let ndc = view_proj.project_point3(top);
+        let expected = Vec2::new((ndc.x * 0.5 + 0.5) * SIZE.0 as f32, (0.5 - ndc.y * 0.5) * SIZE.1 as f32);
+        let hdr = renderer(&mut app).read_hdr().expect("read back the image");
+        let found = magenta_centroids(&hdr, &[expected])[0];
+        assert!(expected.distance(found) < 1.5, "{tier:?}: on the box at pixel {found}, its top's centre is at {expected}");
+    }
 }
