@@ -2,10 +2,29 @@
 // ray-tracing tiers: a step's segment is a ray, and its first hit (every surface opaque) is the
 // contact, with the hit triangle's geometric normal turned against the step. Unlike the depth
 // buffer, the structure holds what is off screen and what hides behind other surfaces.
+//
+// Most steps need no ray: one that ends on screen in front of the surface the depth buffer
+// shows there has nothing in its way (what is in front of that surface would be the surface),
+// short of a feature thinner than a pixel. Only the others are traced: off screen, behind a
+// visible surface, or into it (1,000,000 particles on the H200: 0.84 ms with a ray each, and
+// what the depth test leaves costs little more than depth collision).
 #ifndef PARTICLE_RAYS_GLSL
 #define PARTICLE_RAYS_GLSL
 
 #include "visibility.glsl"
+#include "depth.glsl"
+
+// Whether point `b` is on screen and in front of (or as near as) the visible surface there.
+bool in_front_of_depth(vec3 b) {
+    GpuCamera cam = scene.camera.camera;
+    vec4 clip = cam.view_proj * vec4(b, 1.0);
+    if (clip.w <= 0.0) return false;
+    vec3 ndc = clip.xyz / clip.w;
+    if (any(greaterThan(abs(ndc.xy), vec2(1.0)))) return false;
+    ivec2 px = clamp(ivec2(vec2(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * cam.viewport_size), ivec2(0), ivec2(cam.viewport_size) - 1);
+    // Reverse-Z: nearer is larger; the sky's 0 is behind everything.
+    return ndc.z > depth_at(px);
+}
 
 // The contact on triangle `triangle` of instance slot `instance`, `t` along the step from `a`
 // (unit direction `dir`).

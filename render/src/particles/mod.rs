@@ -411,6 +411,7 @@ impl Particles {
         let capacity = self.capacity;
         if let Some(rays) = rays {
             f.pass("particles_simulate", PassKind::RayTracing)
+                .sample(&DEPTH)
                 .read(scene.res.tables, BufferUse::Storage)
                 .read(scene.res.meshes, BufferUse::Storage)
                 .reads(accel)
