@@ -35,7 +35,7 @@ fn shoot(
     let (Some(cursor), true, Ok((camera, eye))) = (input.cursor, input.button_just_pressed(MouseButton::Left), cameras.single()) else {
         return;
     };
-    let Some(hit) = camera.ray(eye, cursor, view.viewport()).and_then(|(from, dir)| scene.cast(from, dir, f32::INFINITY)) else { return };
+    let Some(hit) = scene.cast_from_cursor(camera, eye, cursor, view.viewport()) else { return };
     let at = Transform::from_translation(hit.point).looking_at(hit.point - hit.normal, hit.normal.any_orthonormal_vector());
     commands.spawn((Decal::new(hole.0), at.with_scale(Vec3::splat(0.02 * hit.t)), DecalLifetime::new(10.0, 2.0)));
 }

@@ -86,7 +86,7 @@ fn shoot(
         None
     };
     let (Some(cursor), Ok((camera, eye))) = (aim, cameras.single()) else { return };
-    let Some(hit) = camera.ray(eye, cursor, viewport).and_then(|(from, dir)| scene.cast(from, dir, f32::INFINITY)) else { return };
+    let Some(hit) = scene.cast_from_cursor(camera, eye, cursor, viewport) else { return };
     let size = 0.04 * hit.t;
     let decal = Decal::new(gun.hole);
     match (hit.rest, globals.get(hit.entity)) {

@@ -46,7 +46,7 @@ fn throw_sparks(
     let (Some(cursor), true, Ok((camera, eye))) = (input.cursor, input.button_just_pressed(MouseButton::Left), cameras.single()) else {
         return;
     };
-    let Some(hit) = camera.ray(eye, cursor, view.viewport()).and_then(|(from, dir)| scene.cast(from, dir, f32::INFINITY)) else { return };
+    let Some(hit) = scene.cast_from_cursor(camera, eye, cursor, view.viewport()) else { return };
     let axis = Quat::from_rotation_arc(Vec3::Y, hit.normal);
     commands.spawn((ParticleEmitter::sparks(60), Transform::from_translation(hit.point + hit.normal * 0.02).with_rotation(axis)));
 }

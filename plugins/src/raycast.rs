@@ -56,7 +56,7 @@ use engine::asset::{Assets, Handle};
 use engine::mesh::Mesh;
 use engine::scene::MeshInstance;
 use engine::transform::{GlobalTransform, TransformSystems, propagate_transforms};
-use glam::{Affine3A, Mat4, Vec3, Vec3A};
+use glam::{Affine3A, Mat4, Vec2, Vec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
@@ -331,6 +331,13 @@ impl SceneRaycaster {
         // Reorder once so traversal indexes the triangles without the indirection.
         let triangles = bvh.primitive_indices.iter().map(|&i| triangles[i as usize]).collect();
         SceneRaycaster { bvh, triangles, entities, ..Default::default() }
+    }
+
+    /// The nearest hit under the cursor: the ray through pixel position `cursor` (origin
+    /// top-left) of a `viewport` seen by `camera` at `eye` ([`Camera::ray`]), as far as it goes.
+    /// What a click in a game hits.
+    pub fn cast_from_cursor(&self, camera: &engine::camera::Camera, eye: &GlobalTransform, cursor: Vec2, viewport: Vec2) -> Option<Hit> {
+        camera.ray(eye, cursor, viewport).and_then(|(from, dir)| self.cast(from, dir, f32::INFINITY))
     }
 
     /// The nearest hit of the ray from `origin` along `direction` (normalised here, so `t` is
