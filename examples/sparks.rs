@@ -23,10 +23,16 @@ fn main() -> Result<(), engine::app::BoxError> {
     let grinder = ParticleEmitter { rate: 300.0, burst: 0, ..ParticleEmitter::sparks(0) };
     world.spawn((grinder, Transform::from_xyz(0.5, 0.5, 0.5).with_rotation(Quat::from_rotation_z(-0.8)), ChildOf(spinner)));
     world.spawn((PointLight { intensity: 20.0, ..Default::default() }, Transform::from_xyz(2.0, 3.0, 2.0)));
+    // One emitter for the clicks: each click inserts it again where it hit, which starts its burst.
+    let clicks = world.spawn((ParticleEmitter { rate: 0.0, ..ParticleEmitter::sparks(0) }, Transform::default())).id();
+    world.insert_resource(Clicks(clicks));
     world.spawn((Camera::default(), Transform::from_xyz(3.0, 2.5, 4.0).looking_at(Vec3::new(0.0, 0.5, 0.0), Vec3::Y)));
     app.add_systems(Update, (spin, throw_sparks));
     app.run()
 }
+
+#[derive(Resource)]
+struct Clicks(Entity);
 
 /// Turns every mesh above the floor a quarter turn a second.
 fn spin(time: Res<Time>, mut meshes: Query<&mut Transform, (With<MeshInstance>, Without<ChildOf>)>) {
@@ -38,6 +44,7 @@ fn spin(time: Res<Time>, mut meshes: Query<&mut Transform, (With<MeshInstance>, 
 /// A click throws 60 sparks off the surface under the cursor (its normal is the cone's axis).
 fn throw_sparks(
     mut commands: Commands,
+    clicks: Res<Clicks>,
     input: Res<Input>,
     view: Res<RenderSettings>,
     scene: Res<SceneRaycaster>,
@@ -48,5 +55,6 @@ fn throw_sparks(
     };
     let Some(hit) = scene.cast_from_cursor(camera, eye, cursor, view.viewport()) else { return };
     let axis = Quat::from_rotation_arc(Vec3::Y, hit.normal);
-    commands.spawn((ParticleEmitter::sparks(60), Transform::from_translation(hit.point + hit.normal * 0.02).with_rotation(axis)));
+    let at = Transform::from_translation(hit.point + hit.normal * 0.02).with_rotation(axis);
+    commands.entity(clicks.0).insert((ParticleEmitter::sparks(60), at));
 }

@@ -21,7 +21,7 @@ bool particle_contact(vec3 a, vec3 b, out vec3 hit, out vec3 n) {
     hit = b;
     n = vec3(0.0, 1.0, 0.0);
     float len = distance(a, b);
-    if (len <= 0.0 || in_front_of_depth(b)) return false;
+    if (len <= 0.0 || (in_front_of_depth(a) && in_front_of_depth(b))) return false;
     vec3 dir = (b - a) / len;
     rayQueryEXT q;
     rayQueryInitializeEXT(q, accelerationStructureEXT(scene.lighting.lighting.scene_tlas), gl_RayFlagsOpaqueEXT, 0xFF, a, 0.0, dir, len);

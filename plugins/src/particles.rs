@@ -5,8 +5,10 @@
 //! Like decals and lights, an emitter is an immutable component: to change one, insert a new
 //! one (a hook lists the entity for extraction, which visits only the emitters that changed or
 //! moved). Inserting an emitter with a `burst` starts the burst; inserting it again starts it
-//! again. Despawning an emitter (or removing the component) stops it; its particles live out
-//! their lives.
+//! again (so does a renderer restart, which starts every emitter afresh with an empty pool).
+//! Despawning an emitter (or removing the component) stops it; its particles live out their
+//! lives. A sprite texture whose image arrives later, or is replaced, is picked up when it
+//! uploads.
 //!
 //! ```
 //! use engine::prelude::*;
@@ -224,6 +226,7 @@ type MovedEmitters = (With<ParticleEmitter>, Changed<GlobalTransform>);
 pub fn extract_emitters(
     mut inserted: MessageReader<Inserted<ParticleEmitter>>,
     emitters: Query<(&ParticleEmitter, &GlobalTransform)>,
+    textured: Query<(Entity, &ParticleEmitter)>,
     moved: Query<(Entity, &GlobalTransform), MovedEmitters>,
     mut removed: RemovedComponents<ParticleEmitter>,
     (mut mirror, mut slots): (ResMut<RenderMirror>, ResMut<MirrorSlots>),
@@ -256,6 +259,13 @@ pub fn extract_emitters(
         if let Some(&slot) = slots.emitters.get(&entity) {
             mirror.emitters.set_transform(slot, global.compute_matrix());
         }
+    }
+    // A sprite whose image arrived after its emitter, or was replaced (its bindless slot then
+    // changes): a look-up per textured emitter, which are few.
+    for (entity, emitter) in &textured {
+        let (Some(texture), Some(&slot)) = (emitter.texture, slots.emitters.get(&entity)) else { continue };
+        let now = slots.texture(texture).unwrap_or(TEXTURE_WHITE);
+        mirror.emitters.set_texture(slot, now);
     }
     stats.visited.emitters = visited;
 }

@@ -490,6 +490,7 @@ impl Renderer {
             Err(e) => {
                 // Nothing is submitted; the slot keeps its pool for the next frame.
                 res.frames[slot_index].commands = cmd.abandon();
+                res.particles.abandon(&mut mirror.emitters);
                 return Err(e.in_frame(frame, "uploading the scene and recording the frame's passes"));
             }
         };

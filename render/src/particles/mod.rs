@@ -57,7 +57,10 @@
 //!    smearing it along the background.
 //!
 //! **Not yet.** Without ray tracing, collision is with what the depth buffer shows: particles
-//! off screen or behind other surfaces fly through. Blended glass is drawn before the particles, so a particle behind glass is
+//! off screen or behind other surfaces fly through. In the deferred pipeline with glass, the
+//! depth the particles are tested, faded and (without ray tracing) collided against holds the
+//! glass too (on its odd rows when interlaced, whole when depth-peeled), so a particle behind
+//! glass is hidden there. Elsewhere blended glass is drawn before the particles, so a particle behind glass is
 //! drawn over it. Particles leave no decals yet.
 
 use ash::vk;
@@ -182,6 +185,11 @@ pub struct Particles {
     plan: Plan,
     seed: u32,
     last: ParticleCounts,
+    /// Particles the CPU did not ask for because a frame wanted more than the pool holds
+    /// (counted as dropped).
+    cut: u64,
+    /// This frame recorded the new pool's initialisation.
+    init_recorded: bool,
 }
 
 impl Particles {
@@ -235,6 +243,8 @@ impl Particles {
             plan: Plan::default(),
             seed: 0,
             last: ParticleCounts { measured_frame: u64::MAX, ..Default::default() },
+            cut: 0,
+            init_recorded: false,
         })
     }
 
@@ -251,6 +261,7 @@ impl Particles {
         delta: f32,
         counters: &mut FrameCounters,
     ) -> Result<(), RenderError> {
+        self.init_recorded = false;
         self.read_counts(f);
         counters.particles = self.last;
         self.plan = Plan::default();
@@ -259,7 +270,8 @@ impl Particles {
             return Ok(());
         }
         self.seed = self.seed.wrapping_add(1);
-        let spawn = emitters.advance(delta, self.seed, &mut self.jobs);
+        let (spawn, cut) = emitters.advance(delta, self.seed, self.capacity, &mut self.jobs);
+        self.cut += cut;
         if !emitters.active() && spawn == 0 {
             // No particle can be alive: nothing to move or draw, nothing written (what changed
             // waits in the emitters until a frame has particles).
@@ -350,6 +362,7 @@ impl Particles {
         let (state, pool, input) = (gpu.state.raw, gpu.pool.raw, gpu.inputs[slot].raw);
         let emitters_at = emitters_offset(gpu.job_room);
         let fresh = std::mem::take(&mut gpu.fresh);
+        self.init_recorded = fresh;
         let pool_bytes = gpu.pool.size;
         let draw_at = std::mem::offset_of!(GpuParticleState, draw_count) as u64;
         f.pass("particles_input", PassKind::Transfer).write(res, BufferUse::Transfer).record(|p| {
@@ -498,6 +511,17 @@ impl Particles {
             })
     }
 
+    /// A frame that was recorded but never submitted (an error after [`Particles::prepare`]):
+    /// what it would have written into the state is written again by the next frame (the
+    /// record, every emitter, and a new pool's initialisation).
+    pub fn abandon(&mut self, emitters: &mut Emitters) {
+        self.record = GpuParticleState::default();
+        emitters.mark_all_dirty();
+        if let Some(gpu) = self.gpu.as_mut().filter(|_| std::mem::take(&mut self.init_recorded)) {
+            gpu.fresh = true;
+        }
+    }
+
     /// What the GPU counted in the frame whose statistics came back last.
     pub fn counts(&self) -> ParticleCounts {
         self.last
@@ -506,7 +530,8 @@ impl Particles {
     fn read_counts(&mut self, f: &Frame) {
         let Some((frame, words)) = self.readback.take(f) else { return };
         let state: GpuParticleState = bytemuck::pod_read_unaligned(bytemuck::cast_slice(words));
-        let (spawned, landed, dropped, alive) = (state.spawned, state.landed, state.dropped, state.draw[1]);
+        let (spawned, landed, alive) = (state.spawned, state.landed, state.draw[1]);
+        let dropped = (state.dropped as u64 + self.cut).min(u32::MAX as u64) as u32;
         // The readback names the frame by its timeline value, one past its number.
         self.last = ParticleCounts {
             measured_frame: frame.saturating_sub(1),
