@@ -150,6 +150,11 @@ impl MirrorSlots {
         self.materials.get(&handle).map(|(slot, _)| *slot)
     }
 
+    /// The emitter slot of `entity`, if it is mirrored (`crate::particles`).
+    pub fn emitter(&self, entity: Entity) -> Option<u32> {
+        self.emitters.get(&entity).copied()
+    }
+
     /// The bindless texture slot of `handle`, if it is mirrored.
     pub fn texture(&self, handle: Handle<Image>) -> Option<u32> {
         self.textures.get(&handle).copied()

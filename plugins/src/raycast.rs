@@ -334,8 +334,8 @@ impl SceneRaycaster {
     }
 
     /// The nearest hit under the cursor: the ray through pixel position `cursor` (origin
-    /// top-left) of a `viewport` seen by `camera` at `eye` ([`Camera::ray`]), as far as it goes.
-    /// What a click in a game hits.
+    /// top-left) of a `viewport` seen by `camera` at `eye` ([`engine::camera::Camera::ray`]),
+    /// as far as it goes. What a click in a game hits.
     pub fn cast_from_cursor(&self, camera: &engine::camera::Camera, eye: &GlobalTransform, cursor: Vec2, viewport: Vec2) -> Option<Hit> {
         camera.ray(eye, cursor, viewport).and_then(|(from, dir)| self.cast(from, dir, f32::INFINITY))
     }

@@ -1338,11 +1338,11 @@ layout! {
         pub spawn_count: u32,
         /// Seconds since the previous frame.
         pub delta: f32,
-        /// The emission pass's indirect dispatch: workgroups along x, y, z.
-        pub emit_groups: [u32; 3],
         /// Whether particles collide with surfaces (1: the depth buffer's, or the scene's
         /// structure's when the frame traces it) or pass through everything (0).
         pub collide: u32,
+        /// Padding to 8 bytes.
+        pub record_pad: u32,
         /// GPU-written from here: free slots in the free list (signed while the emission pass
         /// pops).
         pub free_count: u32,

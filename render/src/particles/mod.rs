@@ -307,7 +307,6 @@ impl Particles {
             job_count: jobs,
             spawn_count: spawn,
             delta: delta.max(0.0),
-            emit_groups: [spawn.div_ceil(PARTICLE_GROUP), 1, 1],
             collide: 1,
             ..Default::default()
         };

@@ -249,3 +249,22 @@ fn particles_land_on_what_is_off_screen_on_the_ray_tracing_tiers() {
         assert!(expected.distance(found) < 1.5, "{tier:?}: on the box at pixel {found}, its top's centre is at {expected}");
     }
 }
+
+/// An emitter's sprite follows its image: when the image goes, the emitter falls back to the
+/// soft dot rather than sampling a freed bindless slot (extraction alone, no GPU).
+#[test]
+fn an_emitter_lets_go_of_a_removed_sprite() {
+    let mut app = tests::ecs_app();
+    let sprite = app.world.resource_mut::<Assets<Image>>().add(Image::solid([255, 200, 100, 255], ColorSpace::Srgb));
+    let emitter = app.world.spawn((ParticleEmitter { texture: Some(sprite), ..ParticleEmitter::default() }, Transform::default())).id();
+    app.update();
+    let record_texture = |app: &App| {
+        let slot = app.world.resource::<plugins::MirrorSlots>().emitter(emitter).expect("mirrored");
+        app.world.resource::<RenderMirror>().0.emitters.record(slot).expect("live").texture
+    };
+    let uploaded = app.world.resource::<plugins::MirrorSlots>().texture(sprite).expect("uploaded");
+    assert_eq!(record_texture(&app), uploaded);
+    app.world.resource_mut::<Assets<Image>>().remove(sprite);
+    app.update();
+    assert_eq!(record_texture(&app), render::layout::TEXTURE_WHITE, "slot {uploaded} was freed with its image");
+}
