@@ -4,7 +4,8 @@
 // (GREATER_OR_EQUAL, reverse-Z), so occluded boxes are rejected early. When the camera is inside
 // a box (or within the near distance of it) its front faces are clipped away: that box is drawn
 // inside-out instead (winding reversed, so its back faces pass the cull) and pinned to the near
-// plane, so the depth test always passes and the box still covers its pixels.
+// plane, so the depth test always passes and the box still covers its pixels. Draws of the
+// particles' decal ring (DECAL_RING_DRAW) take instance i as the ring's place i.
 #include "scene.glsl"
 #include "decals.glsl"
 
@@ -21,7 +22,20 @@ const float NEAR_MARGIN = 0.1; // world units; more than the camera's near dista
 
 void main() {
     uint slot = DecalOrderRef(scene.decal_order).slots[gl_InstanceIndex];
-    GpuDecal d = DecalsRef(scene.decals).decals[slot];
+    if ((scene.texture_index & DECAL_RING_DRAW) != 0u) {
+        // The particles' decal ring (render/src/particles): place i, drawn by the draw of its
+        // material's attribute set (a place whose decal has another, or none yet, collapses to
+        // a point and draws nothing).
+        slot = GPU_DECAL | uint(gl_InstanceIndex);
+        GpuDecal r = decal_record(slot);
+        uint flags = DecalMaterialsRef(scene.decal_materials).decal_materials[decal_material(r)].flags & 15u;
+        if (r.receivers == 0u || flags != (scene.texture_index & 15u)) {
+            gl_Position = vec4(0.0, 0.0, 0.0, 1.0);
+            v_slot = NO_DECAL;
+            return;
+        }
+    }
+    GpuDecal d = decal_record(slot);
     GpuCamera cam = scene.camera.camera;
     vec3 eye = (d.world_to_decal * vec4(cam.position, 1.0)).xyz;
     // The margin in decal units along each axis is NEAR_MARGIN × the length of that row of the

@@ -21,7 +21,7 @@ void main() {
         return;
     }
     if (scene.texture_index == 0u) {
-        GpuDecal d = DecalsRef(scene.decals).decals[b.slot];
+        GpuDecal d = decal_record(b.slot);
         world = (inverse(d.world_to_decal) * vec4(unit - 0.5, 1.0)).xyz;
         v_color = vec3(0.1, 1.0, 0.2);
     } else {

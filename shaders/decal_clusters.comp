@@ -46,7 +46,21 @@ void main() {
     uint box = group * (64u / BIN_LANES) + gl_LocalInvocationID.x / BIN_LANES;
     uint lane = gl_LocalInvocationID.x % BIN_LANES;
     if (box >= scene.decal_count) return;
-    GpuAabb b = DecalBoxesRef(scene.decal_aabbs).boxes[box];
+    // The scene's boxes, then those of the particles' decal ring (render/src/particles), which
+    // `decal_count` counts in when there is one.
+    GpuLighting l = scene.lighting.lighting;
+    uint scene_boxes = scene.decal_count - l.decal_ring_room;
+    GpuAabb b;
+    if (box < scene_boxes) {
+        b = DecalBoxesRef(scene.decal_aabbs).boxes[box];
+    } else {
+        ParticleDecalBoxesRef ring = ParticleDecalBoxesRef(l.decal_ring_boxes);
+        uint place = ring_place(box - scene_boxes);
+        b.min = ring.boxes[place].min;
+        b.max = ring.boxes[place].max;
+        b.slot = ring.boxes[place].slot;
+        b.owner = 0u;
+    }
     if (b.slot == NO_DECAL) return;
     GpuCamera cam = scene.camera.camera;
     vec3 lo = vec3(b.min[0], b.min[1], b.min[2]);

@@ -33,7 +33,7 @@ void main() {
     DecalBlend b;
     blend_init(b);
     apply_decal(b, v_slot, s);
-    uint c = decal_channel(DecalsRef(scene.decals).decals[v_slot]);
+    uint c = decal_channel(decal_record(v_slot));
     // One decal in its channel: sum / weight is its value, 1 − visibility its alpha.
     vec4 w = b.weight[c];
     if (w.x + w.y + w.z + w.w <= 0.0 && all(equal(b.emissive, vec3(0.0)))) discard;

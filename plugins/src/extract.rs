@@ -150,6 +150,17 @@ impl MirrorSlots {
         self.materials.get(&handle).map(|(slot, _)| *slot)
     }
 
+    /// The decal material slot of `handle`, if it is mirrored.
+    pub fn decal_material(&self, handle: Handle<DecalMaterial>) -> Option<u32> {
+        self.decal_materials.get(&handle).copied()
+    }
+
+    /// The decal material mirrored in `slot`, if any (a search: for reading back, not for
+    /// every frame).
+    pub fn decal_material_handle(&self, slot: u32) -> Option<Handle<DecalMaterial>> {
+        self.decal_materials.iter().find(|&(_, &s)| s == slot).map(|(h, _)| *h)
+    }
+
     /// The emitter slot of `entity`, if it is mirrored (`crate::particles`).
     pub fn emitter(&self, entity: Entity) -> Option<u32> {
         self.emitters.get(&entity).copied()
@@ -669,7 +680,8 @@ pub fn extract_camera(
     (mut warned, mut clock): (Local<WarnOnce<(Entity, bool)>>, Local<f32>),
     mut shown: Local<Option<Entity>>,
 ) {
-    if lifetimes.fading() {
+    // Decals that landing particles leave fade on the GPU by this clock too.
+    if lifetimes.fading() || mirror.0.emitters.leaves_decals() {
         *clock = time.elapsed_secs();
     }
     let Some((entity, camera, global)) = cameras.iter().find(|(_, c, _)| c.active) else {

@@ -168,8 +168,8 @@ impl DebugOverlay {
         if c.particles.capacity > 0 {
             let p = c.particles;
             ui.label(format!(
-                "particles {} alive of {}   {} started, {} landed, {} dropped (frame {})",
-                p.alive, p.capacity, p.spawned, p.landed, p.dropped, p.measured_frame
+                "particles {} alive of {}   {} started, {} landed, {} dropped, {} decals left (frame {})",
+                p.alive, p.capacity, p.spawned, p.landed, p.dropped, p.decals_born, p.measured_frame
             ));
         }
         // What the GPU applied, which may differ from the request (a device without ray queries).

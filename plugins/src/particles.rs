@@ -28,8 +28,10 @@ use engine::image::Image;
 use engine::transform::GlobalTransform;
 use glam::{Vec3, Vec4};
 use render::layout::{
-    GpuEmitter, PARTICLE_CONTACT_BOUNCE, PARTICLE_CONTACT_DIE, PARTICLE_CONTACT_NONE, PARTICLE_CONTACT_STICK, TEXTURE_WHITE,
+    GpuEmitter, NO_DECAL, PARTICLE_CONTACT_BOUNCE, PARTICLE_CONTACT_DIE, PARTICLE_CONTACT_NONE, PARTICLE_CONTACT_STICK, TEXTURE_WHITE,
 };
+
+use crate::decal::DecalMaterial;
 use render::particles::Emitter;
 
 use crate::{MirrorSlots, RenderMirror, RenderStats};
@@ -51,6 +53,32 @@ pub enum Contact {
     },
     /// It stops where it touched and stays for the rest of its life.
     Stick,
+}
+
+/// The decal a landing particle leaves where it first touches a surface
+/// ([`ParticleEmitter::leaves`]): scorch marks from sparks, wet spots from rain. The GPU writes
+/// it into a ring of `RendererSettings::particle_decals` places (the oldest overwritten first),
+/// and every decal method applies it from the same frame on, like any decal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LeftDecal {
+    /// What it applies (a decal material of `Assets<DecalMaterial>`).
+    pub material: Handle<DecalMaterial>,
+    /// Its box's side along the surface, metres (turned about the normal at random).
+    pub size: f32,
+    /// Its box's depth across the surface, metres.
+    pub depth: f32,
+    /// Seconds it lives, its fade included (0: until the ring overwrites it).
+    pub lifetime: f32,
+    /// Seconds over which it fades out at the end of its life.
+    pub fade: f32,
+}
+
+impl LeftDecal {
+    /// A decal of `material`, `size` metres across, as deep as wide, fading out over the last
+    /// quarter of `lifetime` seconds.
+    pub fn new(material: Handle<DecalMaterial>, size: f32, lifetime: f32) -> Self {
+        Self { material, size, depth: size, lifetime, fade: lifetime * 0.25 }
+    }
 }
 
 /// Starts particles where its entity's transform puts it: at a rate, in bursts, or both. The
@@ -98,6 +126,8 @@ pub struct ParticleEmitter {
     /// Streaks: each quad is drawn along its particle's motion on screen, as long as the
     /// distance it covers in this many seconds plus its size (0: square quads; sparks 0.02).
     pub stretch: f32,
+    /// The decal each particle leaves where it first touches a surface (`None`: none).
+    pub leaves: Option<LeftDecal>,
 }
 
 impl Default for ParticleEmitter {
@@ -119,6 +149,7 @@ impl Default for ParticleEmitter {
             softness: 0.05,
             lit: 1.0,
             stretch: 0.0,
+            leaves: None,
         }
     }
 }
@@ -164,9 +195,10 @@ impl ParticleEmitter {
     }
 
     /// The renderer's record of this emitter at `transform` (`texture`: the sprite's bindless
-    /// slot). Out-of-range values are clamped: negative times, speeds and sizes count as 0,
+    /// slot; `decal_material`: the slot of [`ParticleEmitter::leaves`]' material, `None` for no
+    /// decal). Out-of-range values are clamped: negative times, speeds and sizes count as 0,
     /// bounds given the wrong way round are swapped, `lit` is kept within 0 to 1.
-    pub fn emitter(&self, transform: glam::Mat4, texture: u32) -> Emitter {
+    pub fn emitter(&self, transform: glam::Mat4, texture: u32, decal_material: Option<u32>) -> Emitter {
         let ordered = |(a, b): (f32, f32)| {
             let (a, b) = (finite_or(a, 0.0).max(0.0), finite_or(b, 0.0).max(0.0));
             (a.min(b), a.max(b))
@@ -206,6 +238,12 @@ impl ParticleEmitter {
                 softness: finite_or(self.softness, 0.0).max(0.0),
                 lit: finite_or(self.lit, 0.0).clamp(0.0, 1.0),
                 stretch: finite_or(self.stretch, 0.0).max(0.0),
+                decal_material: decal_material.filter(|_| self.leaves.is_some()).unwrap_or(NO_DECAL),
+                decal_size: self.leaves.map_or(0.0, |d| finite_or(d.size, 0.0).max(0.0)),
+                decal_depth: self.leaves.map_or(0.0, |d| finite_or(d.depth, 0.0).max(0.0)),
+                decal_lifetime: self.leaves.map_or(0.0, |d| finite_or(d.lifetime, 0.0).max(0.0)),
+                decal_fade: self.leaves.map_or(0.0, |d| finite_or(d.fade, 0.0).max(0.0)),
+                decal_pad: [0; 3],
             },
             rate: finite_or(self.rate, 0.0).max(0.0),
             burst: self.burst,
@@ -246,7 +284,8 @@ pub fn extract_emitters(
         let Ok((emitter, global)) = emitters.get(message.entity) else { continue };
         visited += 1;
         let texture = emitter.texture.and_then(|t| slots.texture(t)).unwrap_or(TEXTURE_WHITE);
-        let record = emitter.emitter(global.compute_matrix(), texture);
+        let decal_material = emitter.leaves.and_then(|d| slots.decal_material(d.material));
+        let record = emitter.emitter(global.compute_matrix(), texture, decal_material);
         match slots.emitters.get(&message.entity) {
             Some(&slot) => mirror.emitters.write(slot, record),
             None => {
@@ -270,6 +309,50 @@ pub fn extract_emitters(
     stats.visited.emitters = visited;
 }
 
+/// A decal landing particles left, as read back from the GPU by [`read_left_decals`]: enough
+/// to keep it (in a save) or to make it a CPU decal of its own.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LeftDecalState {
+    /// Where the particle landed, world space.
+    pub position: Vec3,
+    /// The surface's normal there.
+    pub normal: Vec3,
+    /// The box's +X along the surface (turned about the normal at random).
+    pub tangent: Vec3,
+    /// Its box's side along the surface, metres ([`LeftDecal::size`]).
+    pub size: f32,
+    /// Its box's depth across the surface, metres ([`LeftDecal::depth`]).
+    pub depth: f32,
+    /// Its material (`None` if that material has since been removed).
+    pub material: Option<Handle<DecalMaterial>>,
+    /// When it has faded out, seconds on the app's clock (`Time::elapsed_secs`, the renderer's
+    /// decal clock); `None`: it lasts until newer decals overwrite it.
+    pub expires: Option<f32>,
+}
+
+/// The decals landing particles left that the GPU's ring still holds (the newest
+/// `RendererSettings::particle_decals` of them, expired ones included: compare
+/// [`LeftDecalState::expires`] with the clock), oldest first. Waits for the GPU, so call it
+/// on request (saving a game), not every frame. Empty without a renderer or before any
+/// particle left a decal.
+pub fn read_left_decals(world: &mut World) -> Result<Vec<LeftDecalState>, render::RenderError> {
+    let Some(mut renderer) = world.get_resource_mut::<crate::GpuRenderer>() else { return Ok(Vec::new()) };
+    let born = renderer.0.read_particle_decals()?;
+    let slots = world.resource::<MirrorSlots>();
+    Ok(born
+        .into_iter()
+        .map(|d| LeftDecalState {
+            position: d.position,
+            normal: d.normal,
+            tangent: d.tangent,
+            size: d.size,
+            depth: d.depth,
+            material: slots.decal_material_handle(d.material),
+            expires: d.expires,
+        })
+        .collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -287,7 +370,7 @@ mod tests {
             flipbook: (0, 70_000),
             ..ParticleEmitter::default()
         }
-        .emitter(glam::Mat4::IDENTITY, 5);
+        .emitter(glam::Mat4::IDENTITY, 5, Some(3));
         let r = e.record;
         assert_eq!((e.rate, r.lifetime_min, r.lifetime_max), (0.0, 0.0, 3.0));
         assert_eq!((r.speed_min, r.speed_max), (0.0, 2.0));

@@ -746,6 +746,12 @@ layout! {
     pub const PARTICLE_LANDED: u32 = 2;
     /// Invocations of a particle workgroup (emission, simulation).
     pub const PARTICLE_GROUP: u32 = 64;
+    /// The bit of a decal slot that names a GPU-born decal (`crate::particles`): the rest is its
+    /// place in the particles' decal ring, whose records and boxes the GPU writes.
+    pub const GPU_DECAL: u32 = 0x4000_0000;
+    /// `ScenePush::texture_index` of a deferred-decal draw of the particles' decal ring: this
+    /// bit, and in the low four bits the `DECAL_*` attribute flags of the decals it draws.
+    pub const DECAL_RING_DRAW: u32 = 0x100;
     /// Auto-exposure: bins of the luminance histogram (`GpuExposure`); bin 0 holds black and
     /// what is darker than 2^−`EXPOSURE_LOG2_OFFSET`, the others split the `EXPOSURE_LOG2_RANGE`
     /// stops above it.
@@ -1218,8 +1224,19 @@ layout! {
         /// Address of the particle system's state (`GpuParticleState`, `crate::particles`; 0
         /// while no emitter or particle exists).
         pub particles: u64,
+        /// Address of the particles' decal ring's records (`GpuDecal` per place); without a
+        /// ring, this record's own (a valid address: shaders read its place 0 then, so that no
+        /// load, hoisted out of its branch by a compiler, reads from address 0).
+        pub decal_ring: u64,
+        /// Address of the ring's boxes (`GpuAabb` per place); without a ring, this record's.
+        pub decal_ring_boxes: u64,
+        /// Address of the ring's TLAS (0: none), traced after the scene's decal TLAS.
+        pub decal_ring_tlas: u64,
+        /// Places of the ring (0: none), whose boxes the decal enumeration takes after the
+        /// scene's decals'.
+        pub decal_ring_room: u32,
         /// Padding to 16 bytes.
-        pub particles_pad: [u32; 2],
+        pub decal_ring_pad: [u32; 3],
     }
 
     /// One particle of the pool (`crate::particles`). A slot whose `lifetime` is 0 is free.
@@ -1296,6 +1313,18 @@ layout! {
         /// Streaks: the quad is drawn along the particle's motion on screen, as long as the
         /// distance it covers in this many seconds (plus its size; 0: a square).
         pub stretch: f32,
+        /// The decal a landing particle leaves: its decal material slot (`NO_DECAL`: none).
+        pub decal_material: u32,
+        /// The left decal's box: side along the surface, metres.
+        pub decal_size: f32,
+        /// The left decal's box: depth across the surface, metres.
+        pub decal_depth: f32,
+        /// Seconds the left decal lives, its fade included (0: until the ring overwrites it).
+        pub decal_lifetime: f32,
+        /// Seconds over which the left decal fades out at the end of its life.
+        pub decal_fade: f32,
+        /// Padding to 16 bytes.
+        pub decal_pad: [u32; 3],
     }
 
     /// One emitter's share of a frame's new particles: invocations [`first`, `first + count`)
@@ -1328,6 +1357,12 @@ layout! {
         /// Address of the drawn particles' light, by drawn-list entry (RGB as three halves and
         /// a spare half: `particles_light.comp` writes it, the drawing reads it).
         pub light_list: u64,
+        /// Address of the GPU-born decals' records (`GpuDecal` × `decal_room`): the ring a
+        /// landing particle's decal is written into, oldest overwritten first.
+        pub decals: u64,
+        /// Address of the GPU-born decals' boxes (`GpuAabb` × `decal_room`, slot `GPU_DECAL |
+        /// i`; `NO_DECAL` until written).
+        pub decal_boxes: u64,
         /// Address of the emitter table (`GpuEmitter` per emitter slot).
         pub emitters: u64,
         /// Slots of the pool.
@@ -1341,8 +1376,8 @@ layout! {
         /// Whether particles collide with surfaces (1: the depth buffer's, or the scene's
         /// structure's when the frame traces it) or pass through everything (0).
         pub collide: u32,
-        /// Padding to 8 bytes.
-        pub record_pad: u32,
+        /// Places in the decal ring.
+        pub decal_room: u32,
         /// GPU-written from here: free slots in the free list (signed while the emission pass
         /// pops).
         pub free_count: u32,
@@ -1352,10 +1387,13 @@ layout! {
         pub landed: u32,
         /// Particles not started because the pool was full, since the system was created.
         pub dropped: u32,
+        /// Decals left by landing particles since the system was created (the ring's place of
+        /// the next is this modulo `decal_room`).
+        pub decals_born: u32,
         /// Draws of the drawing pass (1; the count of its `vkCmdDrawIndirectCount`).
         pub draw_count: u32,
         /// Padding.
-        pub counters_pad: [u32; 3],
+        pub counters_pad: [u32; 2],
         /// The drawing pass's indirect draw: vertices (6), instances (the particles alive after
         /// the simulation, the drawn list's length), first vertex, first instance.
         pub draw: [u32; 4],

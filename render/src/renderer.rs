@@ -64,6 +64,9 @@ pub struct RendererSettings {
     /// 65,536: 3.7 MB, made the first frame an emitter exists). Particles started while it is
     /// full are dropped and counted (`counters.particles.dropped`).
     pub particle_capacity: u32,
+    /// Places in the ring of decals that landing particles leave (default
+    /// [`crate::particles::DEFAULT_DECAL_ROOM`], 4,096: 640 KB); the oldest is overwritten first.
+    pub particle_decals: u32,
 }
 
 impl Default for RendererSettings {
@@ -75,6 +78,7 @@ impl Default for RendererSettings {
             environment_resolution: 512,
             texture_budget: 0,
             particle_capacity: crate::particles::DEFAULT_CAPACITY,
+            particle_decals: crate::particles::DEFAULT_DECAL_ROOM,
         }
     }
 }
@@ -237,7 +241,7 @@ impl Renderer {
             fxaa: crate::fxaa::Fxaa::new(ctx, layout)?,
             occlusion: crate::occlusion::AmbientOcclusion::new(ctx, layout)?,
             decals: Decals::new(ctx, &mut graph, layout, settings.decal_cluster_capacity)?,
-            particles: crate::particles::Particles::new(ctx, &mut graph, layout, settings.particle_capacity)?,
+            particles: crate::particles::Particles::new(ctx, &mut graph, layout, settings.particle_capacity, settings.particle_decals)?,
             lighting: Lighting::new(ctx, &mut graph, layout)?,
             accel: crate::accel::SceneAccel::new(ctx, &mut graph, layout)?,
             shadows: crate::shadows::ShadowPass::new(ctx, layout, settings.shadow_maps)?,
@@ -662,6 +666,15 @@ impl Renderer {
         self.ctx.wait_idle();
         let res = &mut *self.res;
         res.culling.read_back(&self.ctx, &mut res.graph)
+    }
+
+    /// The decals landing particles left that the GPU's ring still holds, oldest first
+    /// ([`crate::particles::BornDecal`]; waits for the GPU): for a game that keeps them, for
+    /// example in a save. Empty before any particle left one.
+    pub fn read_particle_decals(&mut self) -> Result<Vec<crate::particles::BornDecal>, RenderError> {
+        self.ctx.wait_idle();
+        let res = &mut *self.res;
+        res.particles.read_decals(&self.ctx, &mut res.graph)
     }
 
     /// Resizes the targets (waits for the GPU); they are created at the new size when next used.

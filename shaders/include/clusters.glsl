@@ -100,7 +100,7 @@ uint landing_channels(uvec2 list, DecalSurface s) {
     for (uint i = list.x; i < list.y; ++i) {
         uint index = w.words[entries_at() + i];
         if (index == NO_DECAL) continue;
-        GpuDecal d = DecalsRef(scene.decals).decals[index];
+        GpuDecal d = decal_record(index);
         vec3 local;
         float fade;
         if (decal_receives(d, s.layers) && decal_locate(d, s.position, s.geometric_normal, local, fade)) channels |= 1u << decal_channel(d);
@@ -114,7 +114,7 @@ void apply_cluster_channel(inout DecalBlend b, uvec2 list, DecalSurface s, uint 
     for (uint i = list.x; i < list.y; ++i) {
         uint index = w.words[entries_at() + i];
         if (index == NO_DECAL) continue;
-        GpuDecal d = DecalsRef(scene.decals).decals[index];
+        GpuDecal d = decal_record(index);
         if (decal_channel(d) == channel) apply_decal_record(b, d, s);
     }
 }

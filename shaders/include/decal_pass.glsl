@@ -55,6 +55,20 @@ bool counting_candidates() {
 // (DECAL_SBT_COLLECT and DECAL_COLLECT_LOCATION: the reflection rays, whose hit points change
 // from frame to frame) or in the pixel's list in memory (DECAL_SBT_LIST and DECAL_LIST_LOCATION:
 // the on-screen pass, decal_lists.glsl).
+// A zero-length ray at surface view `s` through the scene's decal TLAS, then through the
+// particles' decal ring's (each where there is one), into the payload at `location` with hit
+// group `sbt`: the any-hit shaders accumulate into the payload, so the second trace adds to the
+// first. The geometric normal travels as the ray's direction (the intersection shader's angle
+// fade needs it).
+#define TRACE_DECALS(sbt, location, s) {                                                                                  \
+        for (uint decal_structure = 0u; decal_structure < 2u; ++decal_structure) {                                      \
+            uint64_t decal_tlas = decal_structure == 0u ? scene.decal_tlas : particle_decal_tlas();                     \
+            if (decal_tlas == 0ul) continue;                                                                            \
+            traceRayEXT(accelerationStructureEXT(decal_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, \
+                        0xFF, sbt, 0, DECAL_MISS, s.position, 0.0, s.geometric_normal, 0.0, location);                   \
+        }                                                                                                               \
+    }
+
 #ifdef DECAL_BLENDING_RAYGEN
 layout(location = DECAL_BLEND_LOCATION) rayPayloadEXT DecalPayload decal_payload;
 
@@ -64,8 +78,7 @@ uint blend_decals_in_any_hit(inout DecalBlend b, DecalSurface s) {
     decal_payload.blend = b;
     decal_payload.surface = s;
     decal_payload.tested = 0u;
-    traceRayEXT(accelerationStructureEXT(scene.decal_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF,
-                DECAL_SBT_BLEND, 0, DECAL_MISS, s.position, 0.0, s.geometric_normal, 0.0, DECAL_BLEND_LOCATION);
+    TRACE_DECALS(DECAL_SBT_BLEND, DECAL_BLEND_LOCATION, s);
     b = decal_payload.blend;
     return decal_payload.tested;
 }
@@ -79,8 +92,7 @@ layout(location = DECAL_COLLECT_LOCATION) rayPayloadEXT DecalCollect decal_colle
 void collect_decals(DecalSurface s) {
     decal_collected.tested = 0u;
     decal_collected.found = 0u;
-    traceRayEXT(accelerationStructureEXT(scene.decal_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF,
-                DECAL_SBT_COLLECT, 0, DECAL_MISS, s.position, 0.0, s.geometric_normal, 0.0, DECAL_COLLECT_LOCATION);
+    TRACE_DECALS(DECAL_SBT_COLLECT, DECAL_COLLECT_LOCATION, s);
 }
 
 // Blends the decals at `s` into `b`; returns the decals tested. Unless `dense`,
@@ -106,8 +118,7 @@ layout(location = DECAL_LIST_LOCATION) rayPayloadEXT DecalListed decal_listed;
 // Returns the decals tested; raises `found` to the decals found, when more.
 uint list_and_blend_decals(inout DecalBlend b, DecalSurface s, uint at, uint room, inout uint found) {
     decal_listed = DecalListed(0u, 0u, at, room);
-    traceRayEXT(accelerationStructureEXT(scene.decal_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF,
-                DECAL_SBT_LIST, 0, DECAL_MISS, s.position, 0.0, s.geometric_normal, 0.0, DECAL_LIST_LOCATION);
+    TRACE_DECALS(DECAL_SBT_LIST, DECAL_LIST_LOCATION, s);
     uint n = decal_listed.found;
     found = max(found, n);
     if (n > room) {

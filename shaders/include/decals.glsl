@@ -19,6 +19,7 @@
 #define DECALS_GLSL
 
 #include "scene.glsl"
+#include "particles.glsl"
 #include "blend.glsl"
 #include "normals.glsl"
 
@@ -26,6 +27,21 @@
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer DecalsRef { GpuDecal decals[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer DecalMaterialsRef { GpuDecalMaterial decal_materials[]; };
 layout(buffer_reference, scalar, buffer_reference_align = 4) readonly buffer DecalBoxesRef { GpuAabb boxes[]; };
+
+// Place `i` of the particles' decal ring, kept in it (0 without a ring, whose address then names
+// the lighting record): a load a compiler hoists out of its branch stays in bounds.
+uint ring_place(uint i) {
+    uint room = scene.lighting.lighting.decal_ring_room;
+    return room == 0u ? 0u : min(i, room - 1u);
+}
+
+// The record of decal slot `slot`: the decal table's, or, for a decal a landing particle left
+// (GPU_DECAL), the particles' decal ring's (render/src/particles).
+GpuDecal decal_record(uint slot) {
+    GpuLighting l = scene.lighting.lighting;
+    if ((slot & GPU_DECAL) != 0u) return ParticleDecalsRef(l.decal_ring).decals[ring_place(slot & ~GPU_DECAL)];
+    return DecalsRef(scene.decals).decals[slot];
+}
 
 // GpuDecal::material_channel: the material slot in the low DECAL_CHANNEL_SHIFT bits, the
 // blending channel above them (render/src/scene/mod.rs, GpuDecal::pack_material_channel).
@@ -42,9 +58,22 @@ float decal_distance_fade(GpuDecal d, vec3 position) {
     return distance < fade.y ? 1.0 : 0.0;
 }
 
-// The decal record of a BLAS primitive (the box table is dense; NO_DECAL for padding boxes).
-uint decal_of_box(uint primitive) {
+// The decal slot of primitive `primitive` of the decal structure instance `instance` (its
+// custom index): the scene's decal BLAS (0; its box table is dense, NO_DECAL for padding boxes)
+// or the particles' decal ring's (1; render/src/particles).
+uint decal_of_box(uint instance, uint primitive) {
+    if (instance == 1u) return ParticleDecalBoxesRef(scene.lighting.lighting.decal_ring_boxes).boxes[ring_place(primitive)].slot;
     return DecalBoxesRef(scene.decal_aabbs).boxes[primitive].slot;
+}
+
+// The particles' decal ring's TLAS (0: none), traced after the scene's decal TLAS.
+uint64_t particle_decal_tlas() {
+    return scene.lighting.lighting.decal_ring_tlas;
+}
+
+// Whether ray-traced decals have a structure to trace: the scene's or the particles' ring's.
+bool decals_traced() {
+    return scene.decal_tlas != 0ul || particle_decal_tlas() != 0ul;
 }
 
 // The surface as decals see it.
@@ -168,7 +197,7 @@ bool apply_decal_record(inout DecalBlend b, GpuDecal d, DecalSurface s) {
 // apply_decal_record for decal slot `index` (NO_DECAL: none).
 bool apply_decal(inout DecalBlend b, uint index, DecalSurface s) {
     if (index == NO_DECAL) return false;
-    return apply_decal_record(b, DecalsRef(scene.decals).decals[index], s);
+    return apply_decal_record(b, decal_record(index), s);
 }
 
 #if defined(RAY_QUERY_DECALS) || defined(DECALS_AT_HITS)
@@ -176,16 +205,23 @@ bool apply_decal(inout DecalBlend b, uint index, DecalSurface s) {
 
 // Listing 4.1: a ray of length zero at the surface point; every AABB containing the point is a
 // candidate, confirmed by apply_decal's box test. Returns the number of candidates (heat map).
+// The scene's decals, then the particles' decal ring (each structure where there is one), in
+// one traversal loop (one inlined query: lavapipe compiles each query site into the shader).
+// The instance (0: the scene's, 1: the ring's) is known here rather than asked of the query
+// (lavapipe 25.0 crashes asking for it in a fragment shader).
 uint gather_decals(inout DecalBlend b, DecalSurface s) {
     if (scene.decal_count == 0u) return 0u;
-    rayQueryEXT query;
-    rayQueryInitializeEXT(query, accelerationStructureEXT(scene.decal_tlas),
-                          gl_RayFlagsSkipClosestHitShaderEXT | gl_RayFlagsOpaqueEXT,
-                          0xFF, s.position, 0.0, vec3(1.0, 0.0, 0.0), 0.0);
     uint tested = 0u;
-    while (rayQueryProceedEXT(query)) {
-        tested += 1u;
-        apply_decal(b, decal_of_box(uint(rayQueryGetIntersectionPrimitiveIndexEXT(query, false))), s);
+    for (uint instance = 0u; instance < 2u; ++instance) {
+        uint64_t tlas = instance == 0u ? scene.decal_tlas : particle_decal_tlas();
+        if (tlas == 0ul) continue;
+        rayQueryEXT query;
+        rayQueryInitializeEXT(query, accelerationStructureEXT(tlas), gl_RayFlagsSkipClosestHitShaderEXT | gl_RayFlagsOpaqueEXT,
+                              0xFF, s.position, 0.0, vec3(1.0, 0.0, 0.0), 0.0);
+        while (rayQueryProceedEXT(query)) {
+            tested += 1u;
+            apply_decal(b, decal_of_box(instance, uint(rayQueryGetIntersectionPrimitiveIndexEXT(query, false))), s);
+        }
     }
     return tested;
 }

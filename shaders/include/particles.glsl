@@ -15,6 +15,9 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer ParticlesRe
 // The free list and the drawn list: pool slots.
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer ParticleSlotsRef { uint slots[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer EmittersRef { GpuEmitter emitters[]; };
+// The decal ring (GPU-born decals): records and their boxes.
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer ParticleDecalsRef { GpuDecal decals[]; };
+layout(buffer_reference, scalar, buffer_reference_align = 4) buffer ParticleDecalBoxesRef { GpuAabb boxes[]; };
 
 ParticleStateRef particle_state() {
     return ParticleStateRef(scene.lighting.lighting.particles);

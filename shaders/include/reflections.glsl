@@ -183,7 +183,7 @@ bool decals_dense = false;
 // The decals at the hit point, found by zero-length rays in the decal TLAS and blended here
 // (decal_pass.glsl's collect_decals and blend_decals, as the on-screen decal pass does).
 uint hit_decals(inout SurfaceInputs s) {
-    if (scene.decal_count == 0u || scene.decal_tlas == 0ul || (scene.lighting.lighting.reflection_flags & REFLECT_DECALS) == 0u) return 0u;
+    if (scene.decal_count == 0u || !decals_traced() || (scene.lighting.lighting.reflection_flags & REFLECT_DECALS) == 0u) return 0u;
     DecalSurface surface = decal_world_view(s.position, s.dpdx, s.dpdy, s.geometric_normal, s.normal, s.decal_layers);
     if (!decals_dense) collect_decals(surface);
     DecalBlend b;

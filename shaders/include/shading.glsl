@@ -72,7 +72,7 @@ vec3 enumerated_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found
 // 000 §4.2.2), those of the world and, on a skin, those at its rest pose; returns the decals
 // tested. The primary surface's ray-query decals and the reflection rays' hit points share it.
 uint traced_decals(inout SurfaceInputs s) {
-    if (scene.decal_count == 0u || scene.decal_tlas == 0ul) return 0u;
+    if (scene.decal_count == 0u || !decals_traced()) return 0u;
     DecalSurface surface = decal_world_view(s.position, s.dpdx, s.dpdy, s.geometric_normal, s.normal, s.decal_layers);
     DecalBlend blend;
     blend_init(blend);

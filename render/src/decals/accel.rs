@@ -66,6 +66,7 @@ impl DecalAccel {
             build_pass: "blas_build",
             update_pass: "blas_update",
             tlas_pass: "tlas_build",
+            custom_index: 0,
         };
         Self { accel: AabbAccel::new(ctx, graph, names), pending_changes: 0 }
     }

@@ -214,6 +214,9 @@ pub fn declare_decal_surface<'f, 'a>(pass: PassBuilder<'f, 'a>, scene: &GpuScene
 /// decal pass wrote it, the cluster lists when it walks them itself, the acceleration
 /// structures when it traces ray queries itself.
 pub fn declare_decal_reads<'f, 'a>(pass: PassBuilder<'f, 'a>, frame: &DecalFrame) -> PassBuilder<'f, 'a> {
+    // The particles' decal ring's records, which the decals' records lead to, and its
+    // structures where decals are traced.
+    let pass = pass.reads(frame.ring_reads());
     if frame.buffered() {
         DECAL_BUFFER.iter().fold(pass, |pass, &target| pass.image(target, ImageUse::StorageRead))
     } else if let Some(clusters) = frame.clusters.filter(|_| frame.clusters_in_shading()) {

@@ -260,7 +260,14 @@ impl DecalClusters {
     /// (writing the decal buffer) unless there is none (the shading walks the lists itself),
     /// and copies the statistics for the CPU. The push constants must hold
     /// [`DecalClusters::prepare`]'s result. Returns whether it recorded the decal pass.
-    pub fn record(&mut self, f: &mut Frame, scene: &GpuScene, live: u32, source: Option<Surface>) -> Result<bool, RenderError> {
+    pub fn record(
+        &mut self,
+        f: &mut Frame,
+        scene: &GpuScene,
+        live: u32,
+        ring: Option<ResourceId>,
+        source: Option<Surface>,
+    ) -> Result<bool, RenderError> {
         let Some(buffer) = self.room.buffer.as_ref() else { return Ok(false) };
         let (raw, res, clusters) = (buffer.raw, self.res, self.clusters);
         let extent = f.graph.extent();
@@ -281,10 +288,14 @@ impl DecalClusters {
         let groups = live.div_ceil(8);
         let (columns, rows) = (groups.min(DECAL_BIN_ROW), groups.div_ceil(DECAL_BIN_ROW));
         let bin = |f: &mut Frame, name: &'static str, pipeline: vk::Pipeline| {
-            f.pass(name, PassKind::Compute).read(scene.res.tables, BufferUse::Storage).write(res, BufferUse::Storage).record(|p| {
-                p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
-                p.cmd.dispatch(columns, rows, 1);
-            })
+            f.pass(name, PassKind::Compute)
+                .read(scene.res.tables, BufferUse::Storage)
+                .reads(ring.map(|r| (r, BufferUse::Storage)))
+                .write(res, BufferUse::Storage)
+                .record(|p| {
+                    p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
+                    p.cmd.dispatch(columns, rows, 1);
+                })
         };
         // The forward shading's fragments need the wider depth margin (decal_clusters.comp).
         let wide = source.is_none() as usize;
@@ -302,6 +313,7 @@ impl DecalClusters {
         if let Some(source) = source {
             let pipeline = self.pass[source as usize];
             let pass = super::buffer::declare_decal_surface(f.pass("decal_pass_clustered", PassKind::Compute), scene, source)
+                .reads(ring.map(|r| (r, BufferUse::Storage)))
                 .write(res, BufferUse::Storage);
             pass.record(|p| {
                 p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);

@@ -18,6 +18,7 @@ use crate::gpu::device::GpuContext;
 use crate::graph::targets::Surface;
 use crate::graph::{Frame, FrameGraph, ResourceId};
 use crate::scene::SceneMirror;
+use crate::scene::emitters::DecalRing;
 use crate::scene::gpu::GpuScene;
 use crate::settings::{DebugView, DecalMethod, FrameSettings};
 use crate::stats::FrameCounters;
@@ -44,6 +45,22 @@ pub struct Decals {
     pub order: DeferredDecalOrder,
     /// Where this frame's decal pass read the surface (`None` when none ran).
     surface: Option<Surface>,
+    /// The attribute sets (`DECAL_*` flags, a bit each) of the materials the particles' decal
+    /// ring has been given: deferred decals draw the ring once for each.
+    ring_flags: u16,
+    /// Places of the particles' decal ring this frame (0: none).
+    ring_room: u32,
+}
+
+/// Deferred decals' draws of the particles' decal ring ([`Decals::deferred_ring`]).
+#[derive(Clone, Copy, Debug)]
+pub struct DeferredRing {
+    /// Places of the ring (the draws' instances).
+    pub room: u32,
+    /// The attribute sets of its materials, a bit per `DECAL_*` flags value: a draw each.
+    pub flags: u16,
+    /// The graph resource holding its records and boxes.
+    pub res: ResourceId,
 }
 
 /// The decal method asked for and the one applied (see [`DecalMethod::effective`]).
@@ -63,6 +80,9 @@ pub struct DecalReaders {
     pub lists_in_shading: bool,
     /// The reflection rays look for decals at their hit points (`crate::reflections`).
     pub reflections: bool,
+    /// The ring of decals landing particles leave (`crate::particles`), once there is one: its
+    /// boxes follow the scene's decals' in the enumeration.
+    pub ring: Option<DecalRing>,
 }
 
 /// What this frame does with decals, once the acceleration structures are up to date.
@@ -89,6 +109,11 @@ pub struct DecalFrame {
     /// (`crate::reflections`), whatever the on-screen method, when reflections run and there
     /// are decals.
     pub at_hits: Option<[ResourceId; 2]>,
+    /// The particles' decal ring, when there is one: `count` includes its places (the decal
+    /// slots past the scene's are `GPU_DECAL` ones), and every pass that applies decals reads
+    /// its records (and, where decals are traced, its structures: ray-traced decals trace its
+    /// TLAS after the scene's).
+    pub ring: Option<DecalRing>,
 }
 
 impl DecalFrame {
@@ -112,6 +137,15 @@ impl DecalFrame {
         }
     }
 
+    /// What a pass that applies this frame's decals reads of the particles' decal ring: its
+    /// records and boxes, and its TLAS and BLAS once built.
+    pub fn ring_reads(&self) -> impl Iterator<Item = (ResourceId, crate::graph::BufferUse)> + use<> {
+        let ring = self.ring;
+        let records = ring.map(|r| (r.res, crate::graph::BufferUse::Storage));
+        let traced = ring.and_then(|r| r.traced).into_iter().flatten().map(|a| (a, crate::graph::BufferUse::Accel));
+        records.into_iter().chain(traced)
+    }
+
     /// Whether clustered decals are applied this frame by the shading pass itself, from the
     /// cluster lists.
     pub fn clusters_in_shading(&self) -> bool {
@@ -131,6 +165,8 @@ impl Decals {
             boxes: DecalBoxes::new(ctx, layout)?,
             order: DeferredDecalOrder::default(),
             surface: None,
+            ring_flags: 0,
+            ring_room: 0,
         })
     }
 
@@ -154,7 +190,7 @@ impl Decals {
         boxes_changed: u32,
         counters: &mut FrameCounters,
     ) -> Result<DecalFrame, RenderError> {
-        let DecalReaders { lists_in_shading, reflections } = readers;
+        let DecalReaders { lists_in_shading, reflections, ring } = readers;
         let method = choice.applied;
         self.surface = None;
         // Reflection rays find the decals at their hit points in the decal TLAS, whatever the
@@ -170,9 +206,22 @@ impl Decals {
         // The structures follow the decals whenever a ray-traced method is applied (changes made
         // meanwhile wait for the next frame that traces them).
         self.accel.build(f, input, method.traces() || at_hits, counters)?;
-        let shaded = method.traces() && !mirror.decals.is_empty() && self.accel.traced().is_some();
-        let at_hits = (at_hits && !mirror.decals.is_empty()).then(|| self.accel.traced()).flatten();
-        let clustered = method == DecalMethod::Clustered && !mirror.decals.is_empty();
+        // The scene's decals' structures, and the particles' decal ring's: either may be traced
+        // alone.
+        let scene_traced = (!mirror.decals.is_empty()).then(|| self.accel.traced()).flatten();
+        let ring_traced = ring.and_then(|r| r.traced);
+        let shaded = method.traces() && (scene_traced.is_some() || ring_traced.is_some());
+        let at_hits = at_hits.then(|| scene_traced.or(ring_traced)).flatten();
+        let ring_room = ring.map_or(0, |r| r.room);
+        self.ring_room = ring_room;
+        if ring.is_some() {
+            for material in mirror.emitters.decal_materials() {
+                if let Some(m) = mirror.decal_materials.get(material) {
+                    self.ring_flags |= 1 << (m.flags & 15);
+                }
+            }
+        }
+        let clustered = method == DecalMethod::Clustered && (!mirror.decals.is_empty() || ring_room > 0);
         let clusters = if clustered {
             Some(self.clusters.prepare(f, &mut counters.clusters)?)
         } else {
@@ -187,13 +236,14 @@ impl Decals {
         };
         Ok(DecalFrame {
             method,
-            traced: if shaded { self.accel.traced() } else { None },
-            tlas_address: if shaded || at_hits.is_some() { self.accel.tlas_address() } else { 0 },
-            count: if shaded || clustered || at_hits.is_some() { mirror.decals.len() as u32 } else { 0 },
+            traced: if shaded { scene_traced.or(ring_traced) } else { None },
+            tlas_address: if (shaded || at_hits.is_some()) && scene_traced.is_some() { self.accel.tlas_address() } else { 0 },
+            count: if shaded || clustered || at_hits.is_some() { mirror.decals.len() as u32 + ring_room } else { 0 },
             clusters,
             lists,
             lists_in_shading,
             at_hits,
+            ring,
         })
     }
 
@@ -202,7 +252,9 @@ impl Decals {
     /// walks their lists itself. [`Decals::surface`] then says where the pass read the surface.
     pub fn decal_pass(&mut self, f: &mut Frame, scene: &GpuScene, frame: &DecalFrame, source: Surface) -> Result<(), RenderError> {
         let ran = match frame.clusters {
-            Some(_) => self.clusters.record(f, scene, frame.count, (!frame.clusters_in_shading()).then_some(source))?,
+            Some(_) => {
+                self.clusters.record(f, scene, frame.count, frame.ring.map(|r| r.res), (!frame.clusters_in_shading()).then_some(source))?
+            }
             // The lists serve the lit pass only: its count-only floor runs without them.
             None if frame.lists.is_some() && f.push.debug_view != DebugView::DecalFloor as u32 => {
                 self.lists.record_offsets(f)?;
@@ -225,6 +277,14 @@ impl Decals {
     /// The deferred decals to draw this frame (none unless they are the method).
     pub fn deferred_runs(&self, frame: &DecalFrame) -> &[DecalRun] {
         if frame.method == DecalMethod::DeferredDecals { &self.order.runs } else { &[] }
+    }
+
+    /// Deferred decals' draws of the particles' decal ring, when it is applied this frame: its
+    /// places, the attribute sets its materials have (a bit per `DECAL_*` flags value), and its
+    /// graph resource.
+    pub fn deferred_ring(&self, frame: &DecalFrame) -> Option<DeferredRing> {
+        let res = frame.ring.filter(|_| frame.method == DecalMethod::DeferredDecals)?.res;
+        Some(DeferredRing { room: self.ring_room, flags: self.ring_flags, res })
     }
 
     /// The debug view of every decal's box and AABB, when asked for.

@@ -194,11 +194,12 @@ impl Scratch {
     }
 }
 
-/// The 64-byte instance record of a TLAS build holding one instance of `blas`, opaque.
-pub fn single_instance(blas: vk::DeviceAddress) -> vk::AccelerationStructureInstanceKHR {
+/// The 64-byte instance record of a TLAS build holding one instance of `blas`, opaque, with
+/// `custom_index` (what shaders tell the structure's hits apart by).
+pub fn single_instance(blas: vk::DeviceAddress, custom_index: u32) -> vk::AccelerationStructureInstanceKHR {
     vk::AccelerationStructureInstanceKHR {
         transform: vk::TransformMatrixKHR { matrix: [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0] },
-        instance_custom_index_and_mask: vk::Packed24_8::new(0, 0xff),
+        instance_custom_index_and_mask: vk::Packed24_8::new(custom_index, 0xff),
         instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(
             0,
             vk::GeometryInstanceFlagsKHR::FORCE_OPAQUE.as_raw() as u8,
@@ -291,6 +292,9 @@ pub struct AabbAccelNames {
     pub update_pass: &'static str,
     /// The TLAS build pass.
     pub tlas_pass: &'static str,
+    /// The instance's custom index (0 for the scene's decals and the lights; 1 for the
+    /// particles' decal ring, whose hits shaders tell apart by it).
+    pub custom_index: u32,
 }
 
 /// The frame-graph resources of an [`AabbAccel`].
@@ -389,7 +393,7 @@ impl AabbAccel {
         {
             let size = blas_sizes.acceleration_structure_size;
             let blas = AccelStruct::new(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, size, self.names.blas)?;
-            let instance = Self::instance_buffer(ctx, blas.address, self.names.tlas)?;
+            let instance = Self::instance_buffer(ctx, blas.address, self.names.custom_index, self.names.tlas)?;
             if let Some(old) = self.blas.replace(blas) {
                 if shrink {
                     tracing::debug!(blas = self.names.blas, from = self.sized_for, to = count, "box BLAS shrinks");
@@ -506,8 +510,8 @@ impl AabbAccel {
 
     /// A new host-written buffer holding the one instance of `blas` (new rather than rewritten:
     /// a frame in flight may be reading the old one).
-    fn instance_buffer(ctx: &GpuContext, blas: vk::DeviceAddress, name: &str) -> Result<Buffer, RenderError> {
-        let instance = single_instance(blas);
+    fn instance_buffer(ctx: &GpuContext, blas: vk::DeviceAddress, custom_index: u32, name: &str) -> Result<Buffer, RenderError> {
+        let instance = single_instance(blas, custom_index);
         let mut buffer = Buffer::new(
             ctx,
             name,

@@ -469,6 +469,19 @@ impl FrameGraph {
     /// Copies the first `size` bytes of `src`, tracked as `resource`, to the host (waits for the
     /// GPU). For tests and tools: it submits and waits on its own.
     pub fn read_back_buffer(&mut self, ctx: &GpuContext, resource: ResourceId, src: vk::Buffer, size: u64) -> Result<Vec<u8>, RenderError> {
+        self.read_back_buffer_range(ctx, resource, src, 0, size)
+    }
+
+    /// Copies `size` bytes of `src` from `offset`, tracked as `resource`, to the host (waits for
+    /// the GPU): [`FrameGraph::read_back_buffer`] for a part of a buffer.
+    pub fn read_back_buffer_range(
+        &mut self,
+        ctx: &GpuContext,
+        resource: ResourceId,
+        src: vk::Buffer,
+        offset: u64,
+        size: u64,
+    ) -> Result<Vec<u8>, RenderError> {
         let mut buffer =
             Buffer::new(ctx, "readback", size.max(4), vk::BufferUsageFlags::TRANSFER_DST, gpu_allocator::MemoryLocation::GpuToCpu)?;
         let result = ctx.run_once(|rec, _| {
@@ -476,8 +489,8 @@ impl FrameGraph {
             self.decls.push(Decl::Resource(resource, BufferUse::Transfer, false));
             self.emit_barriers(rec, PassKind::Transfer);
             // The barrier above made the buffer's last write visible to copies, and both buffers
-            // hold `size` bytes.
-            rec.copy_buffer(src, buffer.raw, &[vk::BufferCopy { src_offset: 0, dst_offset: 0, size }]);
+            // hold `size` bytes (the source from `offset`).
+            rec.copy_buffer(src, buffer.raw, &[vk::BufferCopy { src_offset: offset, dst_offset: 0, size }]);
             copy_visible_to_host(rec);
         });
         let bytes = result.map(|_| buffer.mapped()[..size as usize].to_vec());

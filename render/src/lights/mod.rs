@@ -256,8 +256,12 @@ impl Lighting {
             movers: 0,        // the upload's to set
             lod_lift: 0.0,    // the frame's to set (`GpuScene::set_lod_lift`)
             movers_pad: 0,
-            particles: 0, // the particles' to set (`GpuScene::set_particles`)
-            particles_pad: [0; 2],
+            particles: 0, // the particles' to set (`GpuScene::set_particles`, `set_decal_ring`)
+            decal_ring: 0,
+            decal_ring_boxes: 0,
+            decal_ring_tlas: 0,
+            decal_ring_room: 0,
+            decal_ring_pad: [0; 3],
         });
         let res = self.tiles.resources();
         let inline_shadows = match accel.traced {

@@ -89,6 +89,7 @@ impl RayQueryLights {
             build_pass: "light_blas_build",
             update_pass: "light_blas_update",
             tlas_pass: "light_tlas_build",
+            custom_index: 0,
         };
         Ok(Some(Self {
             buffer: None,

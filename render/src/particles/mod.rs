@@ -66,10 +66,11 @@
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-pub use crate::scene::emitters::{Emitter, Emitters, step};
+pub use crate::scene::emitters::{DecalRing, Emitter, Emitters, step};
 
 use crate::RenderError;
 use crate::gpu::FRAMES_IN_FLIGHT;
+use crate::gpu::accel::{AabbAccel, AabbAccelNames, AabbInput, AabbPlan, BlasWork};
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::memory::{Buffer, Retired};
 use crate::gpu::pipeline::{Blend, GraphicsDesc, HitGroup, RayTracingDesc, RayTracingPipeline, create_compute, create_graphics};
@@ -77,13 +78,60 @@ use crate::gpu::shaders;
 use crate::graph::readback::StatsReadback;
 use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT, MotionVectors};
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, Load, PassKind, ResourceId};
-use crate::layout::{GpuEmission, GpuEmitter, GpuParticle, GpuParticleState, PARTICLE_GROUP};
+use crate::layout::{GpuAabb, GpuDecal, GpuEmission, GpuEmitter, GpuParticle, GpuParticleState, PARTICLE_GROUP};
 use crate::lights::{LightFrame, declare_light_reads};
 use crate::scene::gpu::GpuScene;
 use crate::stats::{FrameCounters, ParticleCounts};
 
+/// A decal a landing particle left, as read back from the ring ([`Particles::read_decals`]):
+/// what a game needs to keep it (to save it, or to make it a decal of its own).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BornDecal {
+    /// Where the particle landed (the box's centre), world space.
+    pub position: glam::Vec3,
+    /// The surface's normal there (the box's +Z, pointing out of the surface).
+    pub normal: glam::Vec3,
+    /// The box's local +X (turned about the normal at random), unit length.
+    pub tangent: glam::Vec3,
+    /// The box's side along the surface, metres.
+    pub size: f32,
+    /// The box's depth across the surface, metres.
+    pub depth: f32,
+    /// Its decal material's slot (`GpuEmitter::decal_material`).
+    pub material: u32,
+    /// When it has faded out, on the scene's clock (`GpuCamera::time`, seconds); `None`: it
+    /// lasts until the ring overwrites it.
+    pub expires: Option<f32>,
+}
+
+impl BornDecal {
+    /// What a ring record says (`leave_decal` in `shaders/include/particle_simulate.glsl`
+    /// writes it).
+    fn from_record(r: &GpuDecal) -> Self {
+        let to_world = r.world_to_decal.inverse();
+        let (x, z) = (to_world.x_axis.truncate(), to_world.z_axis.truncate());
+        // life = saturate(time × scale + offset) reaches 0 at −offset / scale.
+        let expires = (r.life_scale < 0.0).then(|| -r.life_offset / r.life_scale);
+        BornDecal {
+            position: to_world.w_axis.truncate(),
+            normal: z.normalize_or_zero(),
+            tangent: x.normalize_or_zero(),
+            size: x.length(),
+            depth: z.length(),
+            material: r.material_channel & ((1 << crate::layout::DECAL_CHANNEL_SHIFT) - 1),
+            expires,
+        }
+    }
+}
+
 /// Pool slots when the settings name none.
 pub const DEFAULT_CAPACITY: u32 = 1 << 16;
+
+/// Places in the GPU-born decals' ring when the settings name none.
+pub const DEFAULT_DECAL_ROOM: u32 = 4096;
+
+/// Bytes of one place of the decal ring: its record and its box.
+const DECAL_BYTES: u64 = (std::mem::size_of::<GpuDecal>() + std::mem::size_of::<GpuAabb>()) as u64;
 
 /// Jobs the state's job array holds at first (it doubles when a frame has more).
 const FIRST_JOB_ROOM: u32 = 64;
@@ -102,7 +150,7 @@ struct ParticleBuffers {
 }
 
 impl ParticleBuffers {
-    fn new(ctx: &GpuContext, capacity: u32, job_room: u32, emitter_room: u32) -> Result<Self, RenderError> {
+    fn new(ctx: &GpuContext, capacity: u32, decal_room: u32, job_room: u32, emitter_room: u32) -> Result<Self, RenderError> {
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER
             | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
             | vk::BufferUsageFlags::TRANSFER_DST
@@ -110,9 +158,15 @@ impl ParticleBuffers {
         let input_bytes = input_bytes(job_room, emitter_room);
         let state =
             Buffer::new(ctx, "particle state", input_bytes, usage | vk::BufferUsageFlags::INDIRECT_BUFFER, MemoryLocation::GpuOnly)?;
-        // Particles, then the free list, the drawn list (a word each) and the light (two words).
-        let pool_bytes = capacity as u64 * (std::mem::size_of::<GpuParticle>() as u64 + 16);
-        let pool = Buffer::new(ctx, "particle pool", pool_bytes, usage, MemoryLocation::GpuOnly)?;
+        // Particles, then the free list, the drawn list (a word each) and the light (two words);
+        // then the decal ring's records and boxes.
+        let pool_bytes = capacity as u64 * (std::mem::size_of::<GpuParticle>() as u64 + 16) + decal_room as u64 * DECAL_BYTES;
+        // The decal ring's boxes are its structures' build input.
+        let build_input = match ctx.ray_tracing {
+            Some(_) => vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR,
+            None => vk::BufferUsageFlags::empty(),
+        };
+        let pool = Buffer::new(ctx, "particle pool", pool_bytes, usage | build_input, MemoryLocation::GpuOnly)?;
         let mut inputs = Vec::with_capacity(FRAMES_IN_FLIGHT);
         for _ in 0..FRAMES_IN_FLIGHT {
             inputs.push(Buffer::new(ctx, "particle input", input_bytes, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)?);
@@ -146,6 +200,18 @@ fn emitters_offset(job_room: u32) -> u64 {
     (jobs_offset() + job_room as u64 * std::mem::size_of::<GpuEmission>() as u64).next_multiple_of(16)
 }
 
+/// The decal ring's boxes as its structures' builds read them: every place, always (a place
+/// no decal has taken yet holds a zero-size box of no decal).
+fn ring_input(res: ResourceId, address: vk::DeviceAddress, room: u32) -> AabbInput {
+    AabbInput { boxes: res, address, live: room, capacity: room, changed: 0 }
+}
+
+/// Address of the decal ring's boxes in the pool at `pool` (after the particles, their three
+/// lists and the ring's records).
+fn ring_boxes(pool: vk::DeviceAddress, capacity: u32, decal_room: u32) -> vk::DeviceAddress {
+    pool + capacity as u64 * (std::mem::size_of::<GpuParticle>() as u64 + 16) + decal_room as u64 * std::mem::size_of::<GpuDecal>() as u64
+}
+
 /// Bytes of the record the CPU writes: up to the GPU's counters.
 const RECORD_INPUT_BYTES: u64 = std::mem::offset_of!(GpuParticleState, free_count) as u64;
 
@@ -176,6 +242,8 @@ pub struct Particles {
     /// The drawing's motion-vector variant (under temporal anti-aliasing).
     motion: vk::Pipeline,
     capacity: u32,
+    /// Places in the GPU-born decals' ring.
+    decal_room: u32,
     gpu: Option<ParticleBuffers>,
     readback: StatsReadback,
     res: ResourceId,
@@ -190,12 +258,29 @@ pub struct Particles {
     cut: u64,
     /// This frame recorded the new pool's initialisation.
     init_recorded: bool,
+    /// A frame was abandoned after writing the record: the next copies it whatever it holds.
+    force_copy: bool,
+    /// The decal ring's BLAS and TLAS (devices with acceleration structures), and this frame's
+    /// work on them (planned in `prepare`, recorded after the simulation wrote the boxes).
+    ring_accel: Option<AabbAccel>,
+    ring_plan: Option<AabbPlan>,
+    /// Decals born, as last read back: the growth since is what a refit counts as changed.
+    born_seen: u32,
+    /// Frames moved particles while the ring's structures were not followed (nothing traced
+    /// decals): the next frame that traces them rebuilds them.
+    ring_stale: bool,
 }
 
 impl Particles {
     /// Creates the pipelines; the buffers (`capacity` pool slots) are made the first frame an
     /// emitter exists.
-    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout, capacity: u32) -> Result<Self, RenderError> {
+    pub fn new(
+        ctx: &GpuContext,
+        graph: &mut FrameGraph,
+        layout: vk::PipelineLayout,
+        capacity: u32,
+        decal_room: u32,
+    ) -> Result<Self, RenderError> {
         let compute = |name, spirv| create_compute(ctx, layout, name, spirv);
         let desc = GraphicsDesc {
             name: "particles",
@@ -235,6 +320,7 @@ impl Particles {
                 },
             )?,
             capacity: capacity.max(PARTICLE_GROUP),
+            decal_room: decal_room.max(1),
             gpu: None,
             readback: StatsReadback::new(ctx, graph, "particle statistics", counters)?,
             res: graph.resource("particles"),
@@ -245,6 +331,22 @@ impl Particles {
             last: ParticleCounts { measured_frame: u64::MAX, ..Default::default() },
             cut: 0,
             init_recorded: false,
+            force_copy: false,
+            ring_accel: ctx.ray_tracing.is_some().then(|| {
+                let names = AabbAccelNames {
+                    blas: "particle decal blas",
+                    tlas: "particle decal tlas",
+                    scratch: "particle decal as scratch",
+                    build_pass: "particle_decal_blas_build",
+                    update_pass: "particle_decal_blas_update",
+                    tlas_pass: "particle_decal_tlas_build",
+                    custom_index: 1,
+                };
+                AabbAccel::new(ctx, graph, names)
+            }),
+            ring_plan: None,
+            born_seen: 0,
+            ring_stale: false,
         })
     }
 
@@ -252,19 +354,38 @@ impl Particles {
     /// jobs, makes the buffers the first time an emitter exists (and grows the job and emitter
     /// arrays when they no longer fit), writes the frame's record into its slot's input and
     /// puts the state's address in the lighting record. Adds what came back from the GPU to
-    /// `counters`.
+    /// `counters`. The decal ring's structures are refit after the simulation only when
+    /// `decals_traced` (a ray-traced decal method, or reflections that show decals); a frame
+    /// that traces them after frames that did not rebuilds them first.
     pub fn prepare(
         &mut self,
         f: &mut Frame,
         scene: &mut GpuScene,
         emitters: &mut Emitters,
         delta: f32,
+        decals_traced: bool,
         counters: &mut FrameCounters,
     ) -> Result<(), RenderError> {
         self.init_recorded = false;
         self.read_counts(f);
         counters.particles = self.last;
         self.plan = Plan::default();
+        self.ring_plan = None;
+        let result = self.plan_frame(f, scene, emitters, delta, decals_traced, counters);
+        scene.set_decal_ring(self.ring_fields());
+        result
+    }
+
+    /// [`Particles::prepare`] but for the lighting record's decal ring.
+    fn plan_frame(
+        &mut self,
+        f: &mut Frame,
+        scene: &mut GpuScene,
+        emitters: &mut Emitters,
+        delta: f32,
+        decals_traced: bool,
+        counters: &mut FrameCounters,
+    ) -> Result<(), RenderError> {
         if self.gpu.is_none() && emitters.slot_count() == 0 {
             scene.set_particles(0);
             return Ok(());
@@ -274,8 +395,9 @@ impl Particles {
         self.cut += cut;
         if !emitters.active() && spawn == 0 {
             // No particle can be alive: nothing to move or draw, nothing written (what changed
-            // waits in the emitters until a frame has particles).
-            return Ok(());
+            // waits in the emitters until a frame has particles). The decal ring's structures
+            // may still have to catch up with boxes written while nothing traced them.
+            return self.plan_ring(f, emitters.leaves_decals(), decals_traced, false);
         }
         let jobs = self.jobs.len() as u32;
         let (job_room, emitter_room) = match &self.gpu {
@@ -289,11 +411,16 @@ impl Particles {
             if let Some(old) = self.gpu.take() {
                 old.retire(f);
             }
-            self.gpu = Some(ParticleBuffers::new(f.ctx, self.capacity, need.0, need.1)?);
+            self.gpu = Some(ParticleBuffers::new(f.ctx, self.capacity, self.decal_room, need.0, need.1)?);
             self.readback.forget();
             emitters.mark_all_dirty();
             self.record = GpuParticleState::default();
+            if let Some(accel) = self.ring_accel.as_mut() {
+                accel.forget();
+            }
         }
+        // The ring's structures, refit after this frame's simulation (which may write boxes).
+        self.plan_ring(f, emitters.leaves_decals(), decals_traced, true)?;
         let gpu = self.gpu.as_mut().expect("made above");
         let pool = gpu.pool.address;
         let particle_bytes = self.capacity as u64 * std::mem::size_of::<GpuParticle>() as u64;
@@ -302,6 +429,10 @@ impl Particles {
             free_list: pool + particle_bytes,
             alive_list: pool + particle_bytes + self.capacity as u64 * 4,
             light_list: pool + particle_bytes + self.capacity as u64 * 8,
+            decals: pool + particle_bytes + self.capacity as u64 * 16,
+            decal_boxes: ring_boxes(pool, self.capacity, self.decal_room),
+            // The ring is enumerated (and its boxes binned) once some emitter leaves decals.
+            decal_room: if emitters.leaves_decals() { self.decal_room } else { 0 },
             emitters: gpu.state.address + emitters_offset(gpu.job_room),
             capacity: self.capacity,
             job_count: jobs,
@@ -321,7 +452,7 @@ impl Particles {
                 copy_emitters += 1;
             }
         }
-        let copy_record = jobs > 0 || record != self.record;
+        let copy_record = jobs > 0 || record != self.record || std::mem::take(&mut self.force_copy);
         let job_bytes = self.jobs.len() * std::mem::size_of::<GpuEmission>();
         if copy_record {
             input[..RECORD_INPUT_BYTES as usize].copy_from_slice(&bytemuck::bytes_of(&record)[..RECORD_INPUT_BYTES as usize]);
@@ -334,6 +465,53 @@ impl Particles {
         self.plan = Plan { active: true, spawn, jobs, copy_record, copy_emitters };
         scene.set_particles(gpu.state.address);
         Ok(())
+    }
+
+    /// Plans this frame's work on the decal ring's structures (recorded after the simulation
+    /// by [`Particles::simulate`]): none while no emitter leaves decals; while nothing traces
+    /// decals, none (the structures are released after a while, like the scene's decal
+    /// structures) but the ring is marked stale when particles `moving` may write boxes; while
+    /// decals are traced, a refit each frame particles move (a rebuild once the boxes changed
+    /// enough, [`plan_blas_work`](crate::gpu::accel::plan_blas_work)), and a rebuild the first
+    /// frame after boxes were written unseen.
+    fn plan_ring(&mut self, f: &mut Frame, leaves_decals: bool, decals_traced: bool, moving: bool) -> Result<(), RenderError> {
+        let (Some(accel), Some(gpu)) = (self.ring_accel.as_mut(), self.gpu.as_ref()) else { return Ok(()) };
+        if !leaves_decals {
+            return Ok(());
+        }
+        if !decals_traced {
+            self.ring_stale |= moving;
+            accel.idle(&mut f.upload);
+            return Ok(());
+        }
+        if !moving && !self.ring_stale {
+            return Ok(());
+        }
+        let input = ring_input(self.res, ring_boxes(gpu.pool.address, self.capacity, self.decal_room), self.decal_room);
+        // What the GPU counted two frames back grew by (at least one: this frame's simulation
+        // may write boxes); every place after frames that did not follow them.
+        let born = self.last.decals_born;
+        let changed = if self.ring_stale { self.decal_room } else { born.saturating_sub(self.born_seen).max(1) };
+        self.born_seen = born;
+        self.ring_stale = false;
+        self.ring_plan = Some(accel.prepare(f, &AabbInput { changed, ..input })?);
+        Ok(())
+    }
+
+    /// The ring of decals that landing particles leave, once some emitter has left decals
+    /// ([`DecalRing`]), which every pass that applies decals reads.
+    pub fn decal_ring(&self) -> Option<DecalRing> {
+        // What the state holds (the record copied by the last frame that moved particles), so
+        // that the CPU's decal count and the GPU's ring agree.
+        let traced = self.ring_accel.as_ref().and_then(AabbAccel::traced);
+        (self.gpu.is_some() && self.record.decal_room > 0).then_some(DecalRing { room: self.record.decal_room, res: self.res, traced })
+    }
+
+    /// The decal ring as the lighting record names it: records, boxes, TLAS and places.
+    fn ring_fields(&self) -> Option<(u64, u64, u64, u32)> {
+        let r = &self.record;
+        let tlas = self.ring_accel.as_ref().filter(|a| a.traced().is_some()).map_or(0, AabbAccel::tlas_address);
+        (self.gpu.is_some() && r.decal_room > 0).then_some((r.decals, r.decal_boxes, tlas, r.decal_room))
     }
 
     /// Whether this frame has particles to move or draw.
@@ -354,7 +532,8 @@ impl Particles {
         counters: &mut FrameCounters,
     ) -> Result<(), RenderError> {
         if !self.active() {
-            return Ok(());
+            // No particle moves, but the decal ring's structures may catch up.
+            return self.record_ring(f, counters);
         }
         let gpu = self.gpu.as_mut().expect("active");
         let (plan, res, slot) = (self.plan, self.res, f.slot());
@@ -365,20 +544,25 @@ impl Particles {
         let pool_bytes = gpu.pool.size;
         let draw_at = std::mem::offset_of!(GpuParticleState, draw_count) as u64;
         f.pass("particles_input", PassKind::Transfer).write(res, BufferUse::Transfer).record(|p| {
-            let mut regions = Vec::with_capacity(2);
+            // At most three regions, on the stack (a steady frame allocates nothing).
+            let mut regions = [vk::BufferCopy::default(); 3];
+            let mut n = 0;
+            let mut region = |src_offset, size| {
+                regions[n] = vk::BufferCopy { src_offset, dst_offset: src_offset, size };
+                n += 1;
+            };
             if plan.copy_record {
                 let jobs = plan.jobs as u64 * std::mem::size_of::<GpuEmission>() as u64;
-                regions.push(vk::BufferCopy { src_offset: 0, dst_offset: 0, size: RECORD_INPUT_BYTES });
+                region(0, RECORD_INPUT_BYTES);
                 if jobs > 0 {
-                    regions.push(vk::BufferCopy { src_offset: jobs_offset(), dst_offset: jobs_offset(), size: jobs });
+                    region(jobs_offset(), jobs);
                 }
             }
             if plan.copy_emitters > 0 {
-                let size = plan.copy_emitters as u64 * std::mem::size_of::<GpuEmitter>() as u64;
-                regions.push(vk::BufferCopy { src_offset: emitters_at, dst_offset: emitters_at, size });
+                region(emitters_at, plan.copy_emitters as u64 * std::mem::size_of::<GpuEmitter>() as u64);
             }
-            if !regions.is_empty() {
-                p.cmd.copy_buffer(input, state, &regions);
+            if n > 0 {
+                p.cmd.copy_buffer(input, state, &regions[..n]);
             }
             if fresh {
                 // Every slot free (lifetime 0), the counters zero.
@@ -387,7 +571,7 @@ impl Particles {
             }
             // This frame's drawn list starts empty: one draw of six vertices a quad, no instance
             // yet.
-            p.cmd.update_buffer(state, draw_at, bytemuck::bytes_of(&[1u32, 0, 0, 0, 6, 0, 0, 0]));
+            p.cmd.update_buffer(state, draw_at, bytemuck::bytes_of(&[1u32, 0, 0, 6, 0, 0, 0]));
         })?;
         let groups = self.capacity.div_ceil(PARTICLE_GROUP);
         let pass = |f: &mut Frame, name, pipeline, groups: u32| {
@@ -398,7 +582,7 @@ impl Particles {
             })
         };
         if fresh {
-            pass(f, "particles_init", self.init, groups)?;
+            pass(f, "particles_init", self.init, groups.max(self.decal_room.div_ceil(PARTICLE_GROUP)))?;
         }
         if plan.spawn > 0 {
             pass(f, "particles_emit", self.emit, plan.spawn.div_ceil(PARTICLE_GROUP))?;
@@ -449,7 +633,24 @@ impl Particles {
                 })?;
         }
         counters.particles.ray_traced = traced.is_some() && (self.simulate_ray_query.is_some() || self.simulate_rays.is_some());
+        // The ring's structures follow the boxes the simulation just wrote.
+        self.record_ring(f, counters)?;
         self.readback.record(f, "particles_statistics", res, state)
+    }
+
+    /// Records the decal ring's structures' work planned by [`Particles::prepare`], if any.
+    fn record_ring(&mut self, f: &mut Frame, counters: &mut FrameCounters) -> Result<(), RenderError> {
+        let (Some(accel), Some(plan), Some(gpu)) = (self.ring_accel.as_mut(), self.ring_plan.take(), self.gpu.as_ref()) else {
+            return Ok(());
+        };
+        let input = ring_input(self.res, ring_boxes(gpu.pool.address, self.capacity, self.decal_room), self.decal_room);
+        accel.record(f, &input, &plan)?;
+        if plan.work != BlasWork::None {
+            counters.blas_updates += u64::from(plan.work == BlasWork::Update);
+            counters.blas_builds += u64::from(plan.work == BlasWork::Build);
+            counters.tlas_builds += 1;
+        }
+        Ok(())
     }
 
     /// Lights the living particles by `lights` (in compute, a particle at a time), then draws
@@ -514,7 +715,7 @@ impl Particles {
     /// what it would have written into the state is written again by the next frame (the
     /// record, every emitter, and a new pool's initialisation).
     pub fn abandon(&mut self, emitters: &mut Emitters) {
-        self.record = GpuParticleState::default();
+        self.force_copy = true;
         emitters.mark_all_dirty();
         if let Some(gpu) = self.gpu.as_mut().filter(|_| std::mem::take(&mut self.init_recorded)) {
             gpu.fresh = true;
@@ -529,7 +730,7 @@ impl Particles {
     fn read_counts(&mut self, f: &Frame) {
         let Some((frame, words)) = self.readback.take(f) else { return };
         let state: GpuParticleState = bytemuck::pod_read_unaligned(bytemuck::cast_slice(words));
-        let (spawned, landed, alive) = (state.spawned, state.landed, state.draw[1]);
+        let (spawned, landed, alive, decals_born) = (state.spawned, state.landed, state.draw[1], state.decals_born);
         let dropped = (state.dropped as u64 + self.cut).min(u32::MAX as u64) as u32;
         // The readback names the frame by its timeline value, one past its number.
         self.last = ParticleCounts {
@@ -540,7 +741,38 @@ impl Particles {
             dropped,
             capacity: self.capacity,
             ray_traced: false,
+            decals_born,
         };
+    }
+
+    /// The decals landing particles left that the ring still holds, oldest first, read back
+    /// from the GPU (the GPU must be idle: [`crate::Renderer::read_particle_decals`] waits).
+    /// Empty before any particle left one.
+    pub fn read_decals(&self, ctx: &GpuContext, graph: &mut FrameGraph) -> Result<Vec<BornDecal>, RenderError> {
+        let Some(gpu) = self.gpu.as_ref().filter(|_| self.record.decal_room > 0) else { return Ok(Vec::new()) };
+        let state = graph.read_back_buffer(ctx, self.res, gpu.state.raw, std::mem::size_of::<GpuParticleState>() as u64)?;
+        let born = bytemuck::pod_read_unaligned::<GpuParticleState>(&state).decals_born;
+        let room = self.decal_room;
+        let at = self.capacity as u64 * (std::mem::size_of::<GpuParticle>() as u64 + 16);
+        let bytes = graph.read_back_buffer_range(ctx, self.res, gpu.pool.raw, at, room as u64 * DECAL_BYTES)?;
+        let (records, boxes) = bytes.split_at(room as usize * std::mem::size_of::<GpuDecal>());
+        let held = born.min(room);
+        // The oldest held is at the next place to be written once the ring has wrapped.
+        let first = if born > room { born % room } else { 0 };
+        let place = |i: u32| (first + i) % room;
+        Ok((0..held)
+            .map(place)
+            .filter(|&k| {
+                let b: GpuAabb =
+                    bytemuck::pod_read_unaligned(&boxes[k as usize * std::mem::size_of::<GpuAabb>()..][..std::mem::size_of::<GpuAabb>()]);
+                b.slot == (crate::layout::GPU_DECAL | k)
+            })
+            .map(|k| {
+                BornDecal::from_record(&bytemuck::pod_read_unaligned(
+                    &records[k as usize * std::mem::size_of::<GpuDecal>()..][..std::mem::size_of::<GpuDecal>()],
+                ))
+            })
+            .collect())
     }
 
     /// Destroys the pipelines and buffers; the GPU must be idle.
@@ -554,6 +786,9 @@ impl Particles {
         }
         if let Some(g) = self.gpu {
             g.destroy(ctx);
+        }
+        if let Some(a) = self.ring_accel {
+            a.destroy(ctx);
         }
         self.readback.destroy(ctx);
     }

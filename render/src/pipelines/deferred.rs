@@ -25,16 +25,17 @@ use ash::vk;
 
 use crate::RenderError;
 use crate::culling::{Draws, Phase};
-use crate::decals::{DecalFrame, DecalRun, declare_decal_reads};
+use crate::decals::{DecalFrame, DecalRun, DeferredRing, declare_decal_reads};
 use crate::gpu::device::GpuContext;
-use crate::gpu::pipeline::{Blend, GraphicsDesc, create_compute, create_graphics};
+use crate::gpu::pipeline::{Blend, GraphicsDesc, ScenePush, create_compute, create_graphics};
 use crate::gpu::shaders;
 use crate::graph::targets::Surface;
 use crate::graph::targets::{
     DEPTH, DEPTH_FORMAT, GBUFFER_ALBEDO, GBUFFER_ALBEDO_FORMAT, GBUFFER_LAYERS, GBUFFER_LAYERS_FORMAT, GBUFFER_MATERIAL,
     GBUFFER_MATERIAL_FORMAT, GBUFFER_NORMAL, GBUFFER_NORMAL_FORMAT, HDR, HDR_FORMAT,
 };
-use crate::graph::{Frame, ImageUse, Load, PassKind};
+use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind};
+use crate::layout::DECAL_RING_DRAW;
 use crate::lights::{LightFrame, declare_light_reads};
 use crate::pipelines::{RayLightShading, Shade, ShadeVariants};
 use crate::scene::gpu::GpuScene;
@@ -198,9 +199,11 @@ impl DeferredPasses {
         Ok(Surface::GBuffer)
     }
 
-    /// Deferred decals: the boxes of `runs`, blended into the G-buffer.
-    pub fn decals(&self, f: &mut Frame, scene: &GpuScene, runs: &[DecalRun]) -> Result<(), RenderError> {
-        if runs.is_empty() {
+    /// Deferred decals: the boxes of `runs`, then those of the particles' decal `ring` (a draw
+    /// of all its places for each attribute set its materials have, each place's vertices
+    /// collapsed unless its decal has that set), blended into the G-buffer.
+    pub fn decals(&self, f: &mut Frame, scene: &GpuScene, runs: &[DecalRun], ring: Option<DeferredRing>) -> Result<(), RenderError> {
+        if runs.is_empty() && ring.is_none() {
             return Ok(());
         }
         f.pass("deferred_decals", PassKind::Graphics)
@@ -211,6 +214,7 @@ impl DeferredPasses {
             .color(&GBUFFER_MATERIAL, Load::Keep)
             .color(&HDR, Load::Keep)
             .reads(scene.res.shaded())
+            .reads(ring.map(|r| (r.res, BufferUse::Storage)))
             .record(|p| {
                 let push = p.push;
                 for run in runs {
@@ -218,6 +222,12 @@ impl DeferredPasses {
                     // The draw order table holds `first + count` entries.
                     p.cmd.set_cull_mode(vk::CullModeFlags::BACK);
                     p.cmd.draw(36, run.count, 0, run.first);
+                }
+                let Some(ring) = ring else { return };
+                for flags in (0..16u32).filter(|f| ring.flags & (1 << f) != 0) {
+                    p.bind_graphics(self.decals[flags as usize], &ScenePush { texture_index: DECAL_RING_DRAW | flags, ..push });
+                    p.cmd.set_cull_mode(vk::CullModeFlags::BACK);
+                    p.cmd.draw(36, ring.room, 0, 0);
                 }
             })
     }

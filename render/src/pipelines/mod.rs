@@ -121,9 +121,11 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     r.pixel_ids = motion_ids(r, s, mirror);
     let motion_upload = MotionUpload { wanted: motion_wanted, posed_per_pixel: r.pixel_ids != PixelIds::None };
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
-    r.particles.prepare(f, r.scene, &mut mirror.emitters, s.delta_seconds, r.counters)?;
     r.skinning.prepare(mirror, r.scene, r.counters);
     let reflections = r.reflections.prepare(f, s, mirror, r.counters)?;
+    // The particles' decal ring keeps its structures up to date only while decals are traced.
+    let decals_traced = r.decal_choice.applied.traces() || (reflections.traced() && s.reflections.decals_at_hits);
+    r.particles.prepare(f, r.scene, &mut mirror.emitters, s.delta_seconds, decals_traced, r.counters)?;
     let environment = r.environment.prepare(f, r.scene, mirror)?;
     let traced = r.shadows.traces(&s.lights) || r.occlusion.traces(&s.occlusion) || reflections.traced();
     let accel = match r.accel.as_deref_mut() {
@@ -147,7 +149,11 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     f.upload.prepare_ms = started.elapsed().as_secs_f32() * 1e3;
     r.skinning.record(f, r.scene)?;
     let in_shading = s.pipeline.is_forward() && s.decals_in_forward_shading;
-    let readers = DecalReaders { lists_in_shading: in_shading, reflections: lights.traced_reflections() && s.reflections.decals_at_hits };
+    let readers = DecalReaders {
+        lists_in_shading: in_shading,
+        reflections: lights.traced_reflections() && s.reflections.decals_at_hits,
+        ring: r.particles.decal_ring(),
+    };
     let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, readers, boxes_changed, r.counters)?;
     f.push = scene_push(r.scene, mirror, s, &decals);
     r.environment.record(f, r.scene, &environment)?;
@@ -288,7 +294,7 @@ fn deferred_layer(
         r.lighting.record(f, r.scene, lights)?;
         r.shadows.record(f, r.scene, &draws, shadows)?;
     }
-    r.deferred.decals(f, r.scene, r.decals.deferred_runs(decals))?;
+    r.deferred.decals(f, r.scene, r.decals.deferred_runs(decals), r.decals.deferred_ring(decals))?;
     r.decals.decal_pass(f, r.scene, decals, gbuffer)?;
     r.deferred.lighting(f, r.scene, decals, lights, s.compute_shading)?;
     r.environment.sky(f, r.scene, lights.environment, s.debug_view, false)?;

@@ -475,6 +475,7 @@ impl Reflections {
         let rays = self.rays.as_ref();
         let pass = if source.is_some() { declare_decal_reads(pass, decals) } else { pass };
         pass.reads(accel(decals_at_hits))
+            .reads(decals_at_hits.map(|_| decals.ring_reads()).into_iter().flatten())
             .reads(lights.environment_reads())
             .reads(accel(scene_accel))
             .reads(accel(light_boxes.map(|[tlas, blas, _]| [tlas, blas])))

@@ -8,6 +8,20 @@ use glam::Vec3;
 use crate::layout::GpuEmission;
 use crate::layout::GpuEmitter;
 
+/// The ring of decals that landing particles leave (`crate::particles`), as the decal passes
+/// enumerate it after the scene's decals: its places (`GPU_DECAL` slots), the graph resource
+/// holding its records and boxes, and, where decals are traced, its own acceleration structures
+/// (a TLAS whose one instance has custom index 1, and its BLAS).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DecalRing {
+    /// Places of the ring.
+    pub room: u32,
+    /// The graph resource holding its records and boxes.
+    pub res: crate::graph::ResourceId,
+    /// Its TLAS and BLAS resources, on devices with acceleration structures once built.
+    pub traced: Option<[crate::graph::ResourceId; 2]>,
+}
+
 /// One emitter: its parameters as the GPU reads them, how many particles a second it starts,
 /// and a burst to start once.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -50,6 +64,9 @@ pub struct Emitters {
     /// Some particle lived before this frame's step (so the step must run).
     alive_before: bool,
     live: usize,
+    /// Some emitter has left decals where its particles land (`GpuEmitter::decal_material`):
+    /// from then on the decal ring is enumerated with the scene's decals.
+    leaves_decals: bool,
 }
 
 impl Emitters {
@@ -57,6 +74,7 @@ impl Emitters {
     pub fn insert(&mut self, emitter: Emitter) -> u32 {
         let slot = Slot { emitter, owed: 0.0, burst: emitter.burst, alive_for: 0.0, retiring: false };
         self.dirty = true;
+        self.leaves_decals |= emitter.record.decal_material != crate::layout::NO_DECAL;
         self.live += 1;
         match self.slots.iter().position(Option::is_none) {
             Some(i) => {
@@ -76,6 +94,7 @@ impl Emitters {
             if s.emitter.record != emitter.record {
                 self.dirty = true;
             }
+            self.leaves_decals |= emitter.record.decal_material != crate::layout::NO_DECAL;
             s.emitter = emitter;
             s.burst = emitter.burst;
         }
@@ -128,6 +147,17 @@ impl Emitters {
     /// Whether no emitter is live.
     pub fn is_empty(&self) -> bool {
         self.live == 0
+    }
+
+    /// Whether some emitter has left decals where its particles land: from then on the ring of
+    /// decals they leave is enumerated with the scene's decals (`crate::particles`).
+    pub fn leaves_decals(&self) -> bool {
+        self.leaves_decals
+    }
+
+    /// The decal material slots the emitters' particles leave (live and removed emitters alike).
+    pub fn decal_materials(&self) -> impl Iterator<Item = u32> + '_ {
+        self.slots.iter().flatten().map(|s| s.emitter.record.decal_material).filter(|&m| m != crate::layout::NO_DECAL)
     }
 
     /// Slots the table spans (the GPU table's length).
@@ -216,7 +246,8 @@ mod tests {
     const ROOM: u32 = 1 << 16;
 
     fn emitter(rate: f32, burst: u32, life: f32) -> Emitter {
-        Emitter { record: GpuEmitter { lifetime_min: life, lifetime_max: life, ..Default::default() }, rate, burst }
+        let record = GpuEmitter { lifetime_min: life, lifetime_max: life, decal_material: crate::layout::NO_DECAL, ..Default::default() };
+        Emitter { record, rate, burst }
     }
 
     #[test]

@@ -151,7 +151,7 @@ impl TransparencyPasses {
             .reads(draws.reads())
             .when(lights.glass_shadows(), |p| p.sample(&TRANSPARENT_DEPTH));
         let pass = match ray_query {
-            Some(_) => pass.reads(decals.traced.into_iter().flatten().map(|a| (a, BufferUse::Accel))),
+            Some(_) => pass.reads(decals.traced.into_iter().flatten().map(|a| (a, BufferUse::Accel))).reads(decals.ring_reads()),
             None => pass,
         };
         declare_light_reads(pass, lights).record(|p| {

@@ -268,3 +268,155 @@ fn an_emitter_lets_go_of_a_removed_sprite() {
     app.update();
     assert_eq!(record_texture(&app), render::layout::TEXTURE_WHITE, "slot {uploaded} was freed with its image");
 }
+
+/// Dark pixels (below a third of the floor's brightness) near `at`, and their centroid.
+fn dark_near(hdr: &[[f32; 4]], at: Vec2, floor: f32) -> (usize, Vec2) {
+    let (mut n, mut sum) = (0, Vec2::ZERO);
+    for y in 0..SIZE.1 {
+        for x in 0..SIZE.0 {
+            let p = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+            let [r, g, b, _] = hdr[(y * SIZE.0 + x) as usize];
+            if p.distance(at) < 10.0 && (r + g + b) / 3.0 < floor / 3.0 {
+                n += 1;
+                sum += p;
+            }
+        }
+    }
+    (n, if n > 0 { sum / n as f32 } else { Vec2::NAN })
+}
+
+/// Particles that die where they land leave a decal each, written by the GPU, at the contact
+/// point, in every decal method (each on the tier and in a pipeline it runs in), the frame they
+/// land; the decals fade out and expire with their lifetime.
+#[test]
+fn landing_particles_leave_decals_in_every_decal_method() {
+    use plugins::decal::DecalMaterial;
+    use plugins::particles::LeftDecal;
+    use render::{DecalMethod, Tier};
+    let runs = [
+        (PipelineKind::Forward, DecalMethod::RayQuery, Tier::RayQuery),
+        (PipelineKind::VisBuffer, DecalMethod::RayPipeline, Tier::RayTracingPipeline),
+        (PipelineKind::Forward, DecalMethod::Clustered, Tier::NoRayTracing),
+        (PipelineKind::Deferred, DecalMethod::DeferredDecals, Tier::RayQuery),
+    ];
+    let spots = [Vec3::new(-0.8, 0.0, 0.2), Vec3::new(0.4, 0.0, -0.3), Vec3::new(0.9, 0.0, 0.7)];
+    for (pipeline, decal_method, tier) in runs {
+        let settings = RenderSettings { pipeline, decal_method, ambient: Vec3::splat(0.6), ..Default::default() };
+        let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, tier);
+        let (grey, ground) = {
+            let grey = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec4::new(0.8, 0.8, 0.8, 1.0), 0.0, 0.9));
+            (grey, app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(8.0, 8.0, 1, 1.0)))
+        };
+        app.world.spawn((MeshInstance { mesh: ground, material: grey }, Transform::default()));
+        app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 3.0, 3.0).looking_at(Vec3::new(0.0, 0.0, 0.3), Vec3::Y)));
+        let soot = DecalMaterial { base_color: Some(Vec4::new(0.0, 0.0, 0.0, 1.0)), ..Default::default() };
+        let soot = app.world.resource_mut::<Assets<DecalMaterial>>().add(soot);
+        for &spot in &spots {
+            let (mut emitter, transform) = launcher(spot + Vec3::Y * 0.5, Vec3::new(0.0, -2.0, 0.0), 1);
+            emitter.contact = Contact::Die;
+            emitter.lifetime = (0.3, 0.3);
+            emitter.leaves = Some(LeftDecal { material: soot, size: 0.25, depth: 0.2, lifetime: 0.5, fade: 0.1 });
+            app.world.spawn((emitter, transform));
+        }
+        // They land after about 0.18 s (11 frames of 16 ms). Ray-query decals switch to
+        // clustered ones after two frames (the ring's structures built over no decal yet), and
+        // back once every particle is gone (0.3 s): the structures, not followed while nothing
+        // traced them, must catch up the frame ray-query decals are on again.
+        let late_tracing = decal_method == DecalMethod::RayQuery;
+        for frame in 0..if late_tracing { 22 } else { 16 } {
+            if late_tracing && (frame == 2 || frame == 21) {
+                let method = if frame == 2 { DecalMethod::Clustered } else { decal_method };
+                app.world.resource_mut::<RenderSettings>().decal_method = method;
+            }
+            app.update();
+        }
+        assert_no_validation_errors(&mut app);
+        let counts = app.world.resource::<RenderStats>().last.particles;
+        assert_eq!((counts.landed, counts.decals_born, counts.alive), (3, 3, 0), "{decal_method:?}: {counts:?}");
+        let view_proj = app.world.resource::<RenderMirror>().0.camera().view_proj;
+        let pixel = |p: Vec3| {
+            let ndc = view_proj.project_point3(p);
+            Vec2::new((ndc.x * 0.5 + 0.5) * SIZE.0 as f32, (0.5 - ndc.y * 0.5) * SIZE.1 as f32)
+        };
+        let hdr = renderer(&mut app).read_hdr().expect("read back the image");
+        let floor = {
+            let [r, g, b, _] = hdr[(SIZE.1 / 2 * SIZE.0 + 4) as usize];
+            (r + g + b) / 3.0
+        };
+        for &spot in &spots {
+            let (n, centre) = dark_near(&hdr, pixel(spot), floor);
+            assert!(n >= 4, "{decal_method:?}: no decal at {spot} (pixel {})", pixel(spot));
+            assert!(centre.distance(pixel(spot)) < 1.5, "{decal_method:?}: the decal at {centre}, the particle landed at {}", pixel(spot));
+        }
+        // A game can read them back (to save them): one per landing, where it landed, as left.
+        let left = plugins::particles::read_left_decals(&mut app.world).expect("read back the left decals");
+        let now = app.world.resource::<engine::time::Time>().elapsed_secs();
+        assert_eq!(left.len(), 3, "{decal_method:?}: {left:?}");
+        for &spot in &spots {
+            let d =
+                left.iter().find(|d| d.position.distance(spot) < 0.02).unwrap_or_else(|| panic!("no decal read back at {spot}: {left:?}"));
+            assert!(d.normal.dot(Vec3::Y) > 0.999 && (d.size - 0.25).abs() < 1e-4 && (d.depth - 0.2).abs() < 1e-4, "{d:?}");
+            assert_eq!(d.material, Some(soot));
+            let left_for = d.expires.expect("a decal with a lifetime expires") - now;
+            assert!(left_for > 0.0 && left_for <= 0.5, "{decal_method:?}: {left_for} s of its 0.5 s left");
+        }
+        // 0.5 s after they landed, the decals are gone.
+        for _ in 0..30 {
+            app.update();
+        }
+        let hdr = renderer(&mut app).read_hdr().expect("read back the image");
+        for &spot in &spots {
+            assert_eq!(dark_near(&hdr, pixel(spot), floor).0, 0, "{decal_method:?}: the decal at {spot} outlived its lifetime");
+        }
+        assert_no_validation_errors(&mut app);
+    }
+}
+
+/// The decal ring wraps: with room for two, three landings leave three decals of which the
+/// newest two show (the oldest overwritten), and nothing leaks.
+#[test]
+fn the_decal_ring_keeps_the_newest() {
+    use plugins::decal::DecalMaterial;
+    use plugins::particles::LeftDecal;
+    let renderer_settings = render::RendererSettings {
+        particle_decals: 2,
+        device: render::DeviceSettings { max_tier: render::Tier::NoRayTracing, ..Default::default() },
+        ..Default::default()
+    };
+    let settings = RenderSettings { decal_method: render::DecalMethod::Clustered, ambient: Vec3::splat(0.6), ..Default::default() };
+    let mut app = gpu_app_with(SIZE.0, SIZE.1, settings, &renderer_settings);
+    let grey = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec4::new(0.8, 0.8, 0.8, 1.0), 0.0, 0.9));
+    let ground = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(8.0, 8.0, 1, 1.0));
+    app.world.spawn((MeshInstance { mesh: ground, material: grey }, Transform::default()));
+    app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 3.0, 3.0).looking_at(Vec3::new(0.0, 0.0, 0.3), Vec3::Y)));
+    let soot = app
+        .world
+        .resource_mut::<Assets<DecalMaterial>>()
+        .add(DecalMaterial { base_color: Some(Vec4::new(0.0, 0.0, 0.0, 1.0)), ..Default::default() });
+    let spots = [Vec3::new(-0.8, 0.0, 0.2), Vec3::new(0.4, 0.0, -0.3), Vec3::new(0.9, 0.0, 0.7)];
+    for (i, &spot) in spots.iter().enumerate() {
+        // One after the other, a frame apart: the first lands first.
+        let (mut emitter, transform) = launcher(spot + Vec3::Y * (0.3 + 0.05 * i as f32), Vec3::new(0.0, -2.0, 0.0), 1);
+        emitter.contact = Contact::Die;
+        emitter.leaves = Some(LeftDecal { material: soot, size: 0.25, depth: 0.2, lifetime: 0.0, fade: 0.0 });
+        app.world.spawn((emitter, transform));
+    }
+    for _ in 0..16 {
+        app.update();
+    }
+    assert_no_validation_errors(&mut app);
+    let counts = app.world.resource::<RenderStats>().last.particles;
+    assert_eq!((counts.landed, counts.decals_born), (3, 3), "{counts:?}");
+    let view_proj = app.world.resource::<RenderMirror>().0.camera().view_proj;
+    let pixel = |p: Vec3| {
+        let ndc = view_proj.project_point3(p);
+        Vec2::new((ndc.x * 0.5 + 0.5) * SIZE.0 as f32, (0.5 - ndc.y * 0.5) * SIZE.1 as f32)
+    };
+    let hdr = renderer(&mut app).read_hdr().expect("read back the image");
+    let floor = {
+        let [r, g, b, _] = hdr[(SIZE.1 / 2 * SIZE.0 + 4) as usize];
+        (r + g + b) / 3.0
+    };
+    let shown: Vec<bool> = spots.iter().map(|&s| dark_near(&hdr, pixel(s), floor).0 >= 4).collect();
+    assert_eq!(shown, [false, true, true], "the oldest was overwritten");
+}

@@ -17,8 +17,11 @@ impl GpuScene {
         set_exposure_fields(&mut lighting, exposure);
         lighting.display_check = self.lighting_cpu.display_check;
         lighting.lod_lift = self.lighting_cpu.lod_lift;
-        // And the particle system's state (`set_particles`).
+        // And the particle system's state and decal ring (`set_particles`, `set_decal_ring`).
         lighting.particles = self.lighting_cpu.particles;
+        let l = &self.lighting_cpu;
+        (lighting.decal_ring, lighting.decal_ring_boxes, lighting.decal_ring_tlas, lighting.decal_ring_room) =
+            (l.decal_ring, l.decal_ring_boxes, l.decal_ring_tlas, l.decal_ring_room);
         // And the shadow maps' atlas layout (`set_shadow_maps`).
         (lighting.shadow_map_tile, lighting.shadow_map_columns) = (self.lighting_cpu.shadow_map_tile, self.lighting_cpu.shadow_map_columns);
         if lighting != self.lighting_cpu {
@@ -32,6 +35,19 @@ impl GpuScene {
     pub fn set_particles(&mut self, address: u64) {
         if self.lighting_cpu.particles != address {
             self.lighting_cpu.particles = address;
+            self.lighting_dirty = true;
+        }
+    }
+
+    /// Sets the particles' decal ring (`crate::particles`): its records, boxes, TLAS and places
+    /// (`None`: no ring; the addresses then name this lighting record, which always exists,
+    /// so that a load a shader compiler hoists out of its branch reads valid memory). An
+    /// unchanged ring uploads nothing.
+    pub fn set_decal_ring(&mut self, ring: Option<(u64, u64, u64, u32)>) {
+        let fields = ring.unwrap_or((self.lighting.address(), self.lighting.address(), 0, 0));
+        let l = &mut self.lighting_cpu;
+        if (l.decal_ring, l.decal_ring_boxes, l.decal_ring_tlas, l.decal_ring_room) != fields {
+            (l.decal_ring, l.decal_ring_boxes, l.decal_ring_tlas, l.decal_ring_room) = fields;
             self.lighting_dirty = true;
         }
     }
