@@ -1,6 +1,7 @@
 //! The sandbox's particle effects (`plugins::particles`): sparks where a shot hits, dust at the
-//! walking character's feet, and the particle benchmark's fountain. `--no-particles` (the
-//! [`Effects`] resource set to off) spawns none of them.
+//! walking character's feet, rain that leaves wet spots (`--rain`), and the particle
+//! benchmark's fountain. `--no-particles` (the [`Effects`] resource set to off) spawns none of
+//! them.
 
 use bevy_ecs::prelude::*;
 use engine::time::Time;
@@ -74,4 +75,82 @@ pub fn fountain(alive: u32) -> ParticleEmitter {
         lit: 0.3,
         ..ParticleEmitter::default()
     }
+}
+
+/// Rain emitters along each side of the square they cover ([`spawn_rain`]): each cell has one
+/// of drops that only fall and die where they land, and one of drops that also leave a wet spot
+/// ([`wet_spot`]) that dries over the last third of its 45 seconds.
+const RAIN_GRID: usize = 4;
+/// Drops a second each rain emitter starts.
+const RAIN_RATE: f32 = 250.0;
+/// Drops a second each wet-spot emitter starts, after a first burst that wets the ground at once.
+const WET_RATE: f32 = 5.0;
+/// The wet-spot emitters' first burst each.
+const WET_BURST: u32 = 200;
+
+/// Rain (`--rain`): drops falling over the `half`-metre square around `centre` (the courtyard),
+/// streaked along their motion, dying where they land; some leave wet spots (a decal of low
+/// roughness, so that the ray-traced reflections show the sky in them), made on the GPU where
+/// the drop lands (`plugins::particles::LeftDecal`). Returns the emitters' entities.
+pub fn spawn_rain(world: &mut World, centre: Vec3, half: f32) -> Vec<Entity> {
+    let wet = wet_spot(world);
+    let cell = 2.0 * half / RAIN_GRID as f32;
+    // +Y (the launch cone's axis) pointing down.
+    let down = Quat::from_rotation_x(std::f32::consts::PI);
+    let drops = ParticleEmitter {
+        rate: RAIN_RATE,
+        lifetime: (2.5, 2.5),
+        speed: (7.0, 9.0),
+        cone_angle: 0.05,
+        spawn_radius: 0.6 * cell,
+        acceleration: Vec3::new(0.0, -9.81, 0.0),
+        drag: 1.0,
+        size: (0.012, 0.012),
+        // Premultiplied: a pale grey-blue at a quarter coverage.
+        color: (glam::Vec4::new(0.15, 0.16, 0.19, 0.25), glam::Vec4::new(0.15, 0.16, 0.19, 0.25)),
+        contact: Contact::Die,
+        softness: 0.02,
+        lit: 0.6,
+        stretch: 0.04,
+        ..ParticleEmitter::default()
+    };
+    let wetting = ParticleEmitter {
+        rate: WET_RATE,
+        burst: WET_BURST,
+        leaves: Some(plugins::particles::LeftDecal { material: wet, size: 0.9, depth: 0.4, lifetime: 45.0, fade: 15.0 }),
+        ..drops.clone()
+    };
+    let mut spawned = Vec::with_capacity(2 * RAIN_GRID * RAIN_GRID);
+    for i in 0..RAIN_GRID {
+        for j in 0..RAIN_GRID {
+            let at = centre + Vec3::new(-half + (i as f32 + 0.5) * cell, 14.0, -half + (j as f32 + 0.5) * cell);
+            let transform = Transform::from_translation(at).with_rotation(down);
+            spawned.push(world.spawn((drops.clone(), transform, bevy_ecs::name::Name::new("Rain"))).id());
+            spawned.push(world.spawn((wetting.clone(), transform, bevy_ecs::name::Name::new("Rain (wet spots)"))).id());
+        }
+    }
+    spawned
+}
+
+/// The wet spot rain leaves: a soft round patch (its coverage falls off towards the rim, with a
+/// little noise) that leaves the albedo alone and lowers the roughness to 0.05.
+pub fn wet_spot(world: &mut World) -> engine::asset::Handle<plugins::decal::DecalMaterial> {
+    const SIDE: u32 = 64;
+    let mut texels = Vec::with_capacity((SIDE * SIDE * 4) as usize);
+    for y in 0..SIDE {
+        for x in 0..SIDE {
+            let p = glam::Vec2::new(x as f32 + 0.5, y as f32 + 0.5) / SIDE as f32 * 2.0 - glam::Vec2::ONE;
+            // A rim that wanders a little with the angle, so the spots are not perfect discs.
+            let angle = p.y.atan2(p.x);
+            let rim = 0.85 + 0.08 * (3.0 * angle).sin() + 0.05 * (7.0 * angle + 1.3).sin();
+            let t = ((rim - p.length()) / 0.3).clamp(0.0, 1.0);
+            let coverage = t * t * (3.0 - 2.0 * t);
+            texels.extend_from_slice(&[255, 255, 255, (coverage * 255.0).round() as u8]);
+        }
+    }
+    let image =
+        engine::image::Image::from_rgba8(SIDE, SIDE, texels, engine::image::ColorSpace::Linear).expect("a 64×64 image of 64×64×4 bytes");
+    let texture = world.resource_mut::<engine::asset::Assets<engine::image::Image>>().add(image);
+    let material = plugins::decal::DecalMaterial { base_color_texture: Some(texture), roughness: Some(0.05), ..Default::default() };
+    world.resource_mut::<engine::asset::Assets<plugins::decal::DecalMaterial>>().add(material)
 }

@@ -151,6 +151,12 @@ pub struct HeadlessOptions {
     /// Particle effects: sparks from shots, dust from the walking character (`--no-particles`
     /// turns them off).
     pub effects: bool,
+    /// Rain over the courtyard, leaving wet spots ([`crate::effects::spawn_rain`]; needs
+    /// `effects`).
+    pub rain: bool,
+    /// The particle scene's fountain leaves a small decal where each particle first lands
+    /// (`--particle-decals`: GPU-born decals at the rate particles land).
+    pub particle_decals: bool,
 }
 
 /// The light configurations `--compare-lights` runs, in order, named after the rows of seed 001's
@@ -349,6 +355,8 @@ impl Default for HeadlessOptions {
             instances: crate::bench::MANY_INSTANCES,
             particles: crate::bench::PARTICLES,
             effects: true,
+            rain: false,
+            particle_decals: false,
         }
     }
 }
@@ -434,7 +442,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
     match opts.bench_scene {
         Some(crate::bench::BenchScene::ManyInstances) => crate::bench::spawn_city(&mut app.world, opts.instances),
         Some(crate::bench::BenchScene::BehindWall) => crate::bench::spawn_behind_wall(&mut app.world, opts.instances),
-        Some(crate::bench::BenchScene::Particles) => crate::bench::spawn_particles(&mut app.world, opts.particles),
+        Some(crate::bench::BenchScene::Particles) => crate::bench::spawn_particles(&mut app.world, opts.particles, opts.particle_decals),
         Some(scene @ (crate::bench::BenchScene::Foxes | crate::bench::BenchScene::Crowd)) => {
             let path = opts.character.as_deref().context("the foxes and crowd scenes need a character (--character PATH)")?;
             let eye_level = scene == crate::bench::BenchScene::Crowd;
@@ -444,6 +452,9 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         None => load_scene(&mut app.world, &opts.scene, opts.character.as_deref())?,
     }
     app.add_systems(engine::app::Update, crate::character::walk_loops);
+    if opts.rain && opts.effects {
+        crate::effects::spawn_rain(&mut app.world, Vec3::ZERO, crate::scene::HALF_COURT);
+    }
     if let Some(ev100) = opts.ev100 {
         for mut camera in app.world.query::<&mut engine::camera::Camera>().iter_mut(&mut app.world) {
             camera.exposure = engine::camera::Camera::exposure_from_ev100(ev100);

@@ -287,9 +287,16 @@ struct Cli {
     /// Particles --bench-scene particles keeps alive (the pool is made at least this large).
     #[arg(long, default_value_t = sandbox::bench::PARTICLES)]
     particles: u32,
-    /// No particle effects: no sparks from shots, no dust from the walking character.
+    /// No particle effects: no sparks from shots, no dust from the walking character, no rain.
     #[arg(long)]
     no_particles: bool,
+    /// Rain over the courtyard: streaked drops, some leaving wet spots that the reflections
+    /// show the sky in (GPU-born decals).
+    #[arg(long)]
+    rain: bool,
+    /// --bench-scene particles: each particle leaves a small decal where it first lands.
+    #[arg(long)]
+    particle_decals: bool,
     /// How glTF textures are imported: `bc` (block-compressed by role, with mips, cached) or
     /// `rgba8` (decoded at every load, 4 bytes a texel).
     #[arg(long, default_value = "bc", global = true)]
@@ -537,6 +544,8 @@ fn main() -> Result<()> {
         instances: cli.instances,
         particles: cli.particles,
         effects: !cli.no_particles,
+        rain: cli.rain,
+        particle_decals: cli.particle_decals,
     };
     if windowed {
         let window_opts = sandbox::window::WindowOptions { base: opts, exit_after: cli.exit_after, resize_to: cli.resize_to };

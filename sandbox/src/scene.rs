@@ -39,7 +39,7 @@ pub struct CourtyardInfo {
 const TEXTURE_SIZE: u32 = 256;
 
 /// Half the distance between opposite walls, in metres.
-const HALF_COURT: f32 = 20.0;
+pub const HALF_COURT: f32 = 20.0;
 
 /// Where the character walks ([`crate::character`]): centre and radius of its loop, in the open
 /// corner in front of the camera.

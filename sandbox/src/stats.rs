@@ -82,7 +82,8 @@
 //! Particles (`render/src/particles`), once an emitter has existed: `particles`: `capacity` (the
 //! pool), and what the GPU counted in `measured_frame` (two frames back): `alive` (after its
 //! simulation), and since the start `spawned`, `landed` (touched a surface, once each) and
-//! `dropped` (not started: the pool was full); `visited.emitters` (emitters inserted this
+//! `dropped` (not started: the pool was full), `decals_born` (decals landing particles left,
+//! `plugins::particles::LeftDecal`; the ring keeps the newest); `visited.emitters` (emitters inserted this
 //! frame); the `particles_emit`, `particles_simulate` and `particles` (drawing) passes in
 //! `gpu_ms`.
 
@@ -205,6 +206,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
             "spawned": p.spawned,
             "landed": p.landed,
             "dropped": p.dropped,
+            "decals_born": p.decals_born,
             "capacity": p.capacity,
         });
     }

@@ -1,6 +1,7 @@
 //! Shooting: a left click casts a ray from the player's camera through the [`Crosshair`] and
 //! spawns a bullet-hole decal where it hits, and throws sparks off the surface there
-//! ([`crate::effects::sparks`]).
+//! ([`crate::effects::sparks`]), each leaving a small scorch mark where it first lands (a decal
+//! the GPU writes: `plugins::particles::LeftDecal`).
 //!
 //! The ray goes through the crosshair's point on the screen as the renderer projects it (the
 //! camera's projection at the aspect ratio of `RenderSettings::size`). The raycaster ignores the
@@ -114,7 +115,9 @@ pub fn shoot(
     };
     stats.hits += 1;
     if settings.sparks > 0 && effects.is_none_or(|e| e.0) {
-        let (emitter, transform, keep) = crate::effects::sparks(hit.point, hit.normal, settings.sparks);
+        let (mut emitter, transform, keep) = crate::effects::sparks(hit.point, hit.normal, settings.sparks);
+        // Each spark scorches where it first lands: a small dark mark, made on the GPU.
+        emitter.leaves = Some(plugins::particles::LeftDecal::new(assets.bullet_hole, 0.035, 6.0));
         let until = time.elapsed_secs() + keep;
         commands.spawn((emitter, transform, crate::effects::Expires { until }, Name::new("Sparks")));
     }
