@@ -395,8 +395,8 @@ pub fn spawn_particles(world: &mut World, alive: u32, decals: bool) {
     let at = (camera.translation + ahead * 6.0).with_y(0.2);
     let mut fountain = crate::effects::fountain(alive);
     if decals {
-        let wet = crate::effects::wet_spot(world);
-        fountain.leaves = Some(plugins::particles::LeftDecal::new(wet, 0.05, 10.0));
+        let soot = crate::effects::soot_spot(world);
+        fountain.leaves = Some(plugins::particles::LeftDecal::new(soot, 0.05, 10.0));
     }
     world.spawn((fountain, Transform::from_translation(at)));
 }

@@ -4,9 +4,12 @@
 //! them.
 
 use bevy_ecs::prelude::*;
+use engine::asset::{Assets, Handle};
+use engine::image::{ColorSpace, Image};
 use engine::time::Time;
 use engine::transform::Transform;
 use glam::{Quat, Vec3};
+use plugins::decal::DecalMaterial;
 use plugins::particles::{Contact, ParticleEmitter};
 
 /// Whether the sandbox spawns particle effects (default on; `--no-particles` turns them off).
@@ -132,15 +135,36 @@ pub fn spawn_rain(world: &mut World, centre: Vec3, half: f32) -> Vec<Entity> {
     spawned
 }
 
-/// The wet spot rain leaves: a soft round patch (its coverage falls off towards the rim, with a
-/// little noise) that leaves the albedo alone and lowers the roughness to 0.05.
-pub fn wet_spot(world: &mut World) -> engine::asset::Handle<plugins::decal::DecalMaterial> {
+/// The wet spot rain leaves: a soft round patch ([`spot_texture`]) that darkens the surface and
+/// lowers its roughness to 0.1, so that the reflections show in it.
+pub fn wet_spot(world: &mut World) -> Handle<DecalMaterial> {
+    let texture = spot_texture(world);
+    let material = DecalMaterial {
+        base_color_texture: Some(texture),
+        // Wet stone is darker, and smooth: the reflections take over.
+        base_color: Some(glam::Vec4::new(0.1, 0.1, 0.1, 1.0)),
+        roughness: Some(0.1),
+        ..Default::default()
+    };
+    world.resource_mut::<Assets<DecalMaterial>>().add(material)
+}
+
+/// A dark spot of soot: the patch of [`spot_texture`] in near black, roughness untouched.
+pub fn soot_spot(world: &mut World) -> Handle<DecalMaterial> {
+    let texture = spot_texture(world);
+    let material =
+        DecalMaterial { base_color_texture: Some(texture), base_color: Some(glam::Vec4::new(0.02, 0.02, 0.02, 1.0)), ..Default::default() };
+    world.resource_mut::<Assets<DecalMaterial>>().add(material)
+}
+
+/// A soft round patch, 64×64: its coverage (alpha) falls off towards a rim that wanders a
+/// little with the angle, so that the spots are not perfect discs; white.
+pub fn spot_texture(world: &mut World) -> Handle<Image> {
     const SIDE: u32 = 64;
     let mut texels = Vec::with_capacity((SIDE * SIDE * 4) as usize);
     for y in 0..SIDE {
         for x in 0..SIDE {
             let p = glam::Vec2::new(x as f32 + 0.5, y as f32 + 0.5) / SIDE as f32 * 2.0 - glam::Vec2::ONE;
-            // A rim that wanders a little with the angle, so the spots are not perfect discs.
             let angle = p.y.atan2(p.x);
             let rim = 0.85 + 0.08 * (3.0 * angle).sin() + 0.05 * (7.0 * angle + 1.3).sin();
             let t = ((rim - p.length()) / 0.3).clamp(0.0, 1.0);
@@ -148,9 +172,6 @@ pub fn wet_spot(world: &mut World) -> engine::asset::Handle<plugins::decal::Deca
             texels.extend_from_slice(&[255, 255, 255, (coverage * 255.0).round() as u8]);
         }
     }
-    let image =
-        engine::image::Image::from_rgba8(SIDE, SIDE, texels, engine::image::ColorSpace::Linear).expect("a 64×64 image of 64×64×4 bytes");
-    let texture = world.resource_mut::<engine::asset::Assets<engine::image::Image>>().add(image);
-    let material = plugins::decal::DecalMaterial { base_color_texture: Some(texture), roughness: Some(0.05), ..Default::default() };
-    world.resource_mut::<engine::asset::Assets<plugins::decal::DecalMaterial>>().add(material)
+    let image = Image::from_rgba8(SIDE, SIDE, texels, ColorSpace::Linear).expect("a 64×64 image of 64×64×4 bytes");
+    world.resource_mut::<Assets<Image>>().add(image)
 }

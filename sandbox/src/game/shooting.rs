@@ -117,7 +117,7 @@ pub fn shoot(
     if settings.sparks > 0 && effects.is_none_or(|e| e.0) {
         let (mut emitter, transform, keep) = crate::effects::sparks(hit.point, hit.normal, settings.sparks);
         // Each spark scorches where it first lands: a small dark mark, made on the GPU.
-        emitter.leaves = Some(plugins::particles::LeftDecal::new(assets.bullet_hole, 0.035, 6.0));
+        emitter.leaves = Some(plugins::particles::LeftDecal::new(assets.bullet_hole, 0.06, 8.0));
         let until = time.elapsed_secs() + keep;
         commands.spawn((emitter, transform, crate::effects::Expires { until }, Name::new("Sparks")));
     }
