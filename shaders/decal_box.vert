@@ -21,8 +21,11 @@ const uint CUBE[36] = uint[36](
 const float NEAR_MARGIN = 0.1; // world units; more than the camera's near distance
 
 void main() {
-    uint slot = DecalOrderRef(scene.decal_order).slots[gl_InstanceIndex];
-    if ((scene.texture_index & DECAL_RING_DRAW) != 0u) {
+    bool ring = (scene.texture_index & DECAL_RING_DRAW) != 0u;
+    // A ring draw's instances are the ring's places, not the order table's entries: its load
+    // stays at entry 0, in bounds.
+    uint slot = DecalOrderRef(scene.decal_order).slots[ring ? 0u : uint(gl_InstanceIndex)];
+    if (ring) {
         // The particles' decal ring (render/src/particles): place i, drawn by the draw of its
         // material's attribute set (a place whose decal has another, or none yet, collapses to
         // a point and draws nothing).

@@ -63,7 +63,8 @@ pub enum Contact {
 pub struct LeftDecal {
     /// What it applies (a decal material of `Assets<DecalMaterial>`).
     pub material: Handle<DecalMaterial>,
-    /// Its box's side along the surface, metres (turned about the normal at random).
+    /// Its box's side along the surface, metres (turned about the normal at random; 0: no
+    /// decal).
     pub size: f32,
     /// Its box's depth across the surface, metres.
     pub depth: f32,

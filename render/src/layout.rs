@@ -1315,7 +1315,8 @@ layout! {
         pub stretch: f32,
         /// The decal a landing particle leaves: its decal material slot (`NO_DECAL`: none).
         pub decal_material: u32,
-        /// The left decal's box: side along the surface, metres.
+        /// The left decal's box: side along the surface, metres (0: no decal, so that a
+        /// zeroed record leaves none).
         pub decal_size: f32,
         /// The left decal's box: depth across the surface, metres.
         pub decal_depth: f32,
@@ -1376,7 +1377,7 @@ layout! {
         /// Whether particles collide with surfaces (1: the depth buffer's, or the scene's
         /// structure's when the frame traces it) or pass through everything (0).
         pub collide: u32,
-        /// Places in the decal ring.
+        /// Places in the decal ring (a power of two).
         pub decal_room: u32,
         /// GPU-written from here: free slots in the free list (signed while the emission pass
         /// pops).
@@ -1387,8 +1388,8 @@ layout! {
         pub landed: u32,
         /// Particles not started because the pool was full, since the system was created.
         pub dropped: u32,
-        /// Decals left by landing particles since the system was created (the ring's place of
-        /// the next is this modulo `decal_room`).
+        /// Decals left by landing particles since the pool was made (the ring's place of the
+        /// next is this modulo `decal_room`, a power of two).
         pub decals_born: u32,
         /// Draws of the drawing pass (1; the count of its `vkCmdDrawIndirectCount`).
         pub draw_count: u32,

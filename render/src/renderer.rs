@@ -65,7 +65,8 @@ pub struct RendererSettings {
     /// full are dropped and counted (`counters.particles.dropped`).
     pub particle_capacity: u32,
     /// Places in the ring of decals that landing particles leave (default
-    /// [`crate::particles::DEFAULT_DECAL_ROOM`], 4,096: 640 KB); the oldest is overwritten first.
+    /// [`crate::particles::DEFAULT_DECAL_ROOM`], 4,096: 640 KB; rounded up to a power of two);
+    /// the oldest is overwritten first.
     pub particle_decals: u32,
 }
 

@@ -284,8 +284,9 @@ pub struct ParticleCounts {
     pub dropped: u32,
     /// Slots of the pool (0 before the first emitter).
     pub capacity: u32,
-    /// Decals landing particles left since the system was created (the ring keeps the latest
-    /// `RendererSettings::particle_decals` of them).
+    /// Decals landing particles left since the pool was made (the ring keeps the latest
+    /// `RendererSettings::particle_decals` of them; a pool made again, when the emitters
+    /// outgrow its tables, starts with an empty ring).
     pub decals_born: u32,
     /// This frame's particles collided with the scene's acceleration structure (on a
     /// ray-tracing tier, in a frame that traces it), not with the depth buffer.

@@ -65,7 +65,7 @@ bool simulate_particle(ParticleStateRef st, uint i) {
         if (e.contact != PARTICLE_CONTACT_NONE && st.state.collide != 0u && particle_contact(before, p.position, hit, n)) {
             if ((p.flags & PARTICLE_LANDED) == 0u) {
                 atomicAdd(st.state.landed, 1u);
-                if (e.decal_material != NO_DECAL) leave_decal(st, e, hit, n, p.seed);
+                if (e.decal_material != NO_DECAL && e.decal_size > 0.0) leave_decal(st, e, hit, n, p.seed);
             }
             p.flags |= PARTICLE_LANDED;
             p.contact_normal = pack_normal(n);

@@ -27,7 +27,7 @@
 use ash::vk;
 
 use crate::RenderError;
-use crate::gpu::accel::{AabbAccel, AabbAccelNames, AabbInput, BlasWork};
+use crate::gpu::accel::{AabbAccel, AabbAccelDesc, AabbInput, BlasWork};
 use crate::gpu::device::GpuContext;
 use crate::graph::{Frame, FrameGraph, ResourceId};
 use crate::stats::FrameCounters;
@@ -59,7 +59,7 @@ pub struct DecalBoxInput {
 impl DecalAccel {
     /// Empty; nothing is allocated until the first decal appears.
     pub fn new(ctx: &GpuContext, graph: &mut FrameGraph) -> Self {
-        let names = AabbAccelNames {
+        let names = AabbAccelDesc {
             blas: "decal blas",
             tlas: "decal tlas",
             scratch: "decal as scratch",
@@ -67,6 +67,8 @@ impl DecalAccel {
             update_pass: "blas_update",
             tlas_pass: "tlas_build",
             custom_index: 0,
+            rebuild_fraction: crate::gpu::accel::REBUILD_AFTER_REFIT_FRACTION,
+            fast_build: false,
         };
         Self { accel: AabbAccel::new(ctx, graph, names), pending_changes: 0 }
     }

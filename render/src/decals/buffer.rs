@@ -161,7 +161,10 @@ impl DecalPasses {
         if count_only && self.ray_pipeline.is_some() {
             self.floor(f.ctx, f.layout)?;
         }
-        let mut pass = declare_decal_surface(f.pass(name, kind), scene, source).reads(traced.map(|a| (a, BufferUse::Accel)));
+        // The scene's decal structures, and the particles' decal ring (its records, boxes and
+        // structures, which the simulation and the ring's builds wrote this frame).
+        let mut pass =
+            declare_decal_surface(f.pass(name, kind), scene, source).reads(traced.map(|a| (a, BufferUse::Accel))).reads(frame.ring_reads());
         if let Some(lists) = frame.lists.filter(|_| frame.method == DecalMethod::RayPipeline && !count_only) {
             pass = pass.write(lists.res, BufferUse::Storage);
         }

@@ -249,12 +249,12 @@ pub enum BlasWork {
 /// it), and when the boxes refitted since the last build add up to
 /// [`REBUILD_AFTER_REFIT_FRACTION`] of the built count (a refit keeps the tree's topology, so as
 /// boxes move away from where they were built its nodes grow and overlap, and traversal slows).
-pub fn plan_blas_work(built: Option<u32>, live: u32, changed: u32, refitted_since_build: u64) -> BlasWork {
+pub fn plan_blas_work(built: Option<u32>, live: u32, changed: u32, refitted_since_build: u64, fraction: f32) -> BlasWork {
     match built {
         None => BlasWork::Build,
         Some(b) if live > b || live + 2 * build_granule(live) < b => BlasWork::Build,
         _ if changed == 0 => BlasWork::None,
-        Some(b) if (refitted_since_build + changed as u64) as f32 > b as f32 * REBUILD_AFTER_REFIT_FRACTION => BlasWork::Build,
+        Some(b) if (refitted_since_build + changed as u64) as f32 > b as f32 * fraction => BlasWork::Build,
         _ => BlasWork::Update,
     }
 }
@@ -274,12 +274,13 @@ pub struct AabbAccel {
     /// When the storage holds far more than the builds need, or nothing uses it.
     shrink: Shrink,
     res: AabbAccelResources,
-    names: AabbAccelNames,
+    names: AabbAccelDesc,
 }
 
-/// Debug names of an [`AabbAccel`]'s parts and passes.
+/// What an [`AabbAccel`] is: its parts' and passes' debug names, its instance's custom index,
+/// and its rebuild policy.
 #[derive(Clone, Copy, Debug)]
-pub struct AabbAccelNames {
+pub struct AabbAccelDesc {
     /// The BLAS (also its buffer's name).
     pub blas: &'static str,
     /// The TLAS.
@@ -295,6 +296,12 @@ pub struct AabbAccelNames {
     /// The instance's custom index (0 for the scene's decals and the lights; 1 for the
     /// particles' decal ring, whose hits shaders tell apart by it).
     pub custom_index: u32,
+    /// The share of the built boxes refitted since the last build past which a refit becomes
+    /// a rebuild ([`REBUILD_AFTER_REFIT_FRACTION`] for structures whose boxes move now and
+    /// then; 0 rebuilds whenever a box changed).
+    pub rebuild_fraction: f32,
+    /// Builds prefer a fast build to a fast trace (a structure rebuilt most frames).
+    pub fast_build: bool,
 }
 
 /// The frame-graph resources of an [`AabbAccel`].
@@ -333,7 +340,7 @@ pub struct AabbInput {
 
 impl AabbAccel {
     /// Empty; nothing is allocated until the first build.
-    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, names: AabbAccelNames) -> Self {
+    pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, names: AabbAccelDesc) -> Self {
         Self {
             blas: None,
             tlas: None,
@@ -370,7 +377,7 @@ impl AabbAccel {
     pub fn prepare(&mut self, f: &mut Frame, input: &AabbInput) -> Result<AabbPlan, RenderError> {
         let need = build_count(input.live, input.capacity);
         let shrink = self.blas.is_some() && self.shrink.check(self.sized_for as u64, need as u64, 0).is_some();
-        let mut work = plan_blas_work(self.built, input.live, input.changed, self.refitted_since_build);
+        let mut work = plan_blas_work(self.built, input.live, input.changed, self.refitted_since_build, self.names.rebuild_fraction);
         // A refit covers what the last build covered, which the box table must still hold.
         if shrink || self.built.is_some_and(|built| built > input.capacity) {
             work = BlasWork::Build;
@@ -386,7 +393,7 @@ impl AabbAccel {
         let ctx = f.ctx;
         let up = &mut f.upload;
         let geometry = aabb_geometry(input.address);
-        let blas_sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, BOX_BLAS_FLAGS, &geometry, &[count]);
+        let blas_sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, self.blas_flags(), &geometry, &[count]);
         let tlas_sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::TOP_LEVEL, BOX_TLAS_FLAGS, &one_instance_geometry(0), &[1]);
         let scratch_need = blas_sizes.build_scratch_size.max(blas_sizes.update_scratch_size).max(tlas_sizes.build_scratch_size);
         if work == BlasWork::Build && (shrink || self.blas.as_ref().is_none_or(|b| b.buffer.size < blas_sizes.acceleration_structure_size))
@@ -467,21 +474,15 @@ impl AabbAccel {
         };
         let (count, scratch_address, instances) = (plan.count, plan.scratch, instances.address);
         let update = plan.work == BlasWork::Update;
-        let (res, names) = (self.res, self.names);
+        let (res, names, blas_flags) = (self.res, self.names, self.blas_flags());
         f.pass(if update { names.update_pass } else { names.build_pass }, PassKind::AccelBuild)
             .read(input.boxes, BufferUse::BuildInput)
             .write(res.blas, BufferUse::Accel)
             .write(res.scratch, BufferUse::Accel)
             .record(|p| {
                 let geometry = aabb_geometry(input.address);
-                let info = build_info(
-                    vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
-                    BOX_BLAS_FLAGS,
-                    blas.raw,
-                    update,
-                    &geometry,
-                    scratch_address,
-                );
+                let info =
+                    build_info(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, blas_flags, blas.raw, update, &geometry, scratch_address);
                 let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
                 // The box buffer holds at least `count` boxes, made visible to builds by the pass's
                 // declaration; scratch was sized in `prepare`.
@@ -506,6 +507,17 @@ impl AabbAccel {
             self.built = Some(count);
         }
         Ok(())
+    }
+
+    /// Flags of its BLAS builds: updatable, and preferring a fast trace or (`fast_build`) a
+    /// fast build.
+    fn blas_flags(&self) -> vk::BuildAccelerationStructureFlagsKHR {
+        let prefer = if self.names.fast_build {
+            vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_BUILD
+        } else {
+            vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE
+        };
+        prefer | vk::BuildAccelerationStructureFlagsKHR::ALLOW_UPDATE
     }
 
     /// A new host-written buffer holding the one instance of `blas` (new rather than rewritten:
@@ -536,10 +548,6 @@ impl AabbAccel {
     }
 }
 
-/// Flags of box BLAS builds.
-const BOX_BLAS_FLAGS: vk::BuildAccelerationStructureFlagsKHR = vk::BuildAccelerationStructureFlagsKHR::from_raw(
-    vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE.as_raw() | vk::BuildAccelerationStructureFlagsKHR::ALLOW_UPDATE.as_raw(),
-);
 /// Flags of the one-instance TLAS builds.
 const BOX_TLAS_FLAGS: vk::BuildAccelerationStructureFlagsKHR = vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE;
 
@@ -579,15 +587,27 @@ mod tests {
 
     #[test]
     fn rebuild_policy() {
-        assert_eq!(plan_blas_work(None, 50, 0, 0), BlasWork::Build, "first use builds");
-        assert_eq!(plan_blas_work(Some(64), 50, 0, 10), BlasWork::None, "no change, no work");
-        assert_eq!(plan_blas_work(Some(64), 50, 3, 0), BlasWork::Update, "moves refit");
-        assert_eq!(plan_blas_work(Some(64), 64, 1, 0), BlasWork::Update, "a spawn into the padding refits");
-        assert_eq!(plan_blas_work(Some(64), 65, 1, 0), BlasWork::Build, "growing past the built range rebuilds");
-        assert_eq!(plan_blas_work(Some(64), 60, 8, 8), BlasWork::Update, "16 of 64 refitted: still a refit");
-        assert_eq!(plan_blas_work(Some(64), 60, 9, 8), BlasWork::Build, "beyond a quarter: rebuild");
-        assert_eq!(plan_blas_work(Some(4096), 3900, 1, 0), BlasWork::Update, "a despawn within the range refits");
-        assert_eq!(plan_blas_work(Some(4096), 3000, 1, 0), BlasWork::Build, "far below the range: rebuild smaller");
+        assert_eq!(plan_blas_work(None, 50, 0, 0, REBUILD_AFTER_REFIT_FRACTION), BlasWork::Build, "first use builds");
+        assert_eq!(plan_blas_work(Some(64), 50, 0, 10, REBUILD_AFTER_REFIT_FRACTION), BlasWork::None, "no change, no work");
+        assert_eq!(plan_blas_work(Some(64), 50, 3, 0, REBUILD_AFTER_REFIT_FRACTION), BlasWork::Update, "moves refit");
+        assert_eq!(plan_blas_work(Some(64), 64, 1, 0, REBUILD_AFTER_REFIT_FRACTION), BlasWork::Update, "a spawn into the padding refits");
+        assert_eq!(
+            plan_blas_work(Some(64), 65, 1, 0, REBUILD_AFTER_REFIT_FRACTION),
+            BlasWork::Build,
+            "growing past the built range rebuilds"
+        );
+        assert_eq!(plan_blas_work(Some(64), 60, 8, 8, REBUILD_AFTER_REFIT_FRACTION), BlasWork::Update, "16 of 64 refitted: still a refit");
+        assert_eq!(plan_blas_work(Some(64), 60, 9, 8, REBUILD_AFTER_REFIT_FRACTION), BlasWork::Build, "beyond a quarter: rebuild");
+        assert_eq!(
+            plan_blas_work(Some(4096), 3900, 1, 0, REBUILD_AFTER_REFIT_FRACTION),
+            BlasWork::Update,
+            "a despawn within the range refits"
+        );
+        assert_eq!(
+            plan_blas_work(Some(4096), 3000, 1, 0, REBUILD_AFTER_REFIT_FRACTION),
+            BlasWork::Build,
+            "far below the range: rebuild smaller"
+        );
     }
 
     #[test]
@@ -596,7 +616,11 @@ mod tests {
             let count = build_count(live, u32::MAX);
             assert!(count >= live && count - live < build_granule(live), "{live} live: {count} built");
             assert!(live < 1024 || count as f32 <= live as f32 * 1.125, "{live} live: {count} built, over 1/8 padding");
-            assert_eq!(plan_blas_work(Some(count), live, 1, 0), BlasWork::Update, "{live}: a build's own count refits");
+            assert_eq!(
+                plan_blas_work(Some(count), live, 1, 0, REBUILD_AFTER_REFIT_FRACTION),
+                BlasWork::Update,
+                "{live}: a build's own count refits"
+            );
         }
         assert_eq!(build_count(100_000, 100_352), 100_352, "never past the table");
     }

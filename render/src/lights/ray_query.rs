@@ -32,7 +32,7 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use crate::RenderError;
-use crate::gpu::accel::{AabbAccel, AabbAccelNames, AabbInput, AabbPlan, BlasWork, build_count};
+use crate::gpu::accel::{AabbAccel, AabbAccelDesc, AabbInput, AabbPlan, BlasWork, build_count};
 use crate::gpu::device::GpuContext;
 use crate::gpu::memory::{Buffer, Retired};
 use crate::gpu::pipeline::create_compute;
@@ -82,7 +82,7 @@ impl RayQueryLights {
         if ctx.ray_tracing.is_none() {
             return Ok(None);
         }
-        let names = AabbAccelNames {
+        let names = AabbAccelDesc {
             blas: "light blas",
             tlas: "light tlas",
             scratch: "light as scratch",
@@ -90,6 +90,8 @@ impl RayQueryLights {
             update_pass: "light_blas_update",
             tlas_pass: "light_tlas_build",
             custom_index: 0,
+            rebuild_fraction: crate::gpu::accel::REBUILD_AFTER_REFIT_FRACTION,
+            fast_build: false,
         };
         Ok(Some(Self {
             buffer: None,

@@ -70,7 +70,7 @@ pub use crate::scene::emitters::{DecalRing, Emitter, Emitters, step};
 
 use crate::RenderError;
 use crate::gpu::FRAMES_IN_FLIGHT;
-use crate::gpu::accel::{AabbAccel, AabbAccelNames, AabbInput, AabbPlan, BlasWork};
+use crate::gpu::accel::{AabbAccel, AabbAccelDesc, AabbInput, AabbPlan, BlasWork};
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::memory::{Buffer, Retired};
 use crate::gpu::pipeline::{Blend, GraphicsDesc, HitGroup, RayTracingDesc, RayTracingPipeline, create_compute, create_graphics};
@@ -263,7 +263,10 @@ pub struct Particles {
     /// The decal ring's BLAS and TLAS (devices with acceleration structures), and this frame's
     /// work on them (planned in `prepare`, recorded after the simulation wrote the boxes).
     ring_accel: Option<AabbAccel>,
-    ring_plan: Option<AabbPlan>,
+    /// The planned work and the boxes it counts as changed.
+    ring_plan: Option<(AabbPlan, u32)>,
+    /// Some emitter has left decals: the ring is enumerated with the scene's decals.
+    ring_on: bool,
     /// Decals born, as last read back: the growth since is what a refit counts as changed.
     born_seen: u32,
     /// Frames moved particles while the ring's structures were not followed (nothing traced
@@ -320,7 +323,7 @@ impl Particles {
                 },
             )?,
             capacity: capacity.max(PARTICLE_GROUP),
-            decal_room: decal_room.max(1),
+            decal_room: decal_room.max(1).next_power_of_two(),
             gpu: None,
             readback: StatsReadback::new(ctx, graph, "particle statistics", counters)?,
             res: graph.resource("particles"),
@@ -333,7 +336,7 @@ impl Particles {
             init_recorded: false,
             force_copy: false,
             ring_accel: ctx.ray_tracing.is_some().then(|| {
-                let names = AabbAccelNames {
+                let names = AabbAccelDesc {
                     blas: "particle decal blas",
                     tlas: "particle decal tlas",
                     scratch: "particle decal as scratch",
@@ -341,10 +344,16 @@ impl Particles {
                     update_pass: "particle_decal_blas_update",
                     tlas_pass: "particle_decal_tlas_build",
                     custom_index: 1,
+                    // Rebuilt once a quarter of the ring was refitted since the last build (a
+                    // refit keeps a tree fitted to boxes long overwritten), quickly: the ring
+                    // changes most frames.
+                    rebuild_fraction: crate::gpu::accel::REBUILD_AFTER_REFIT_FRACTION,
+                    fast_build: true,
                 };
                 AabbAccel::new(ctx, graph, names)
             }),
             ring_plan: None,
+            ring_on: false,
             born_seen: 0,
             ring_stale: false,
         })
@@ -390,6 +399,7 @@ impl Particles {
             scene.set_particles(0);
             return Ok(());
         }
+        self.ring_on |= emitters.leaves_decals() && self.gpu.is_some();
         self.seed = self.seed.wrapping_add(1);
         let (spawn, cut) = emitters.advance(delta, self.seed, self.capacity, &mut self.jobs);
         self.cut += cut;
@@ -415,10 +425,13 @@ impl Particles {
             self.readback.forget();
             emitters.mark_all_dirty();
             self.record = GpuParticleState::default();
+            // The new pool's ring is empty, its count starts again.
+            self.born_seen = 0;
             if let Some(accel) = self.ring_accel.as_mut() {
                 accel.forget();
             }
         }
+        self.ring_on |= emitters.leaves_decals();
         // The ring's structures, refit after this frame's simulation (which may write boxes).
         self.plan_ring(f, emitters.leaves_decals(), decals_traced, true)?;
         let gpu = self.gpu.as_mut().expect("made above");
@@ -431,8 +444,7 @@ impl Particles {
             light_list: pool + particle_bytes + self.capacity as u64 * 8,
             decals: pool + particle_bytes + self.capacity as u64 * 16,
             decal_boxes: ring_boxes(pool, self.capacity, self.decal_room),
-            // The ring is enumerated (and its boxes binned) once some emitter leaves decals.
-            decal_room: if emitters.leaves_decals() { self.decal_room } else { 0 },
+            decal_room: self.decal_room,
             emitters: gpu.state.address + emitters_offset(gpu.job_room),
             capacity: self.capacity,
             job_count: jobs,
@@ -484,7 +496,8 @@ impl Particles {
             accel.idle(&mut f.upload);
             return Ok(());
         }
-        if !moving && !self.ring_stale {
+        // Nothing wrote boxes since the structures followed them (which still exist).
+        if !moving && !self.ring_stale && accel.traced().is_some() {
             return Ok(());
         }
         let input = ring_input(self.res, ring_boxes(gpu.pool.address, self.capacity, self.decal_room), self.decal_room);
@@ -494,7 +507,7 @@ impl Particles {
         let changed = if self.ring_stale { self.decal_room } else { born.saturating_sub(self.born_seen).max(1) };
         self.born_seen = born;
         self.ring_stale = false;
-        self.ring_plan = Some(accel.prepare(f, &AabbInput { changed, ..input })?);
+        self.ring_plan = Some((accel.prepare(f, &AabbInput { changed, ..input })?, changed));
         Ok(())
     }
 
@@ -504,14 +517,14 @@ impl Particles {
         // What the state holds (the record copied by the last frame that moved particles), so
         // that the CPU's decal count and the GPU's ring agree.
         let traced = self.ring_accel.as_ref().and_then(AabbAccel::traced);
-        (self.gpu.is_some() && self.record.decal_room > 0).then_some(DecalRing { room: self.record.decal_room, res: self.res, traced })
+        (self.gpu.is_some() && self.ring_on).then_some(DecalRing { room: self.decal_room, res: self.res, traced })
     }
 
     /// The decal ring as the lighting record names it: records, boxes, TLAS and places.
     fn ring_fields(&self) -> Option<(u64, u64, u64, u32)> {
         let r = &self.record;
         let tlas = self.ring_accel.as_ref().filter(|a| a.traced().is_some()).map_or(0, AabbAccel::tlas_address);
-        (self.gpu.is_some() && r.decal_room > 0).then_some((r.decals, r.decal_boxes, tlas, r.decal_room))
+        (self.gpu.is_some() && self.ring_on && r.decal_room > 0).then_some((r.decals, r.decal_boxes, tlas, r.decal_room))
     }
 
     /// Whether this frame has particles to move or draw.
@@ -640,11 +653,11 @@ impl Particles {
 
     /// Records the decal ring's structures' work planned by [`Particles::prepare`], if any.
     fn record_ring(&mut self, f: &mut Frame, counters: &mut FrameCounters) -> Result<(), RenderError> {
-        let (Some(accel), Some(plan), Some(gpu)) = (self.ring_accel.as_mut(), self.ring_plan.take(), self.gpu.as_ref()) else {
+        let (Some(accel), Some((plan, changed)), Some(gpu)) = (self.ring_accel.as_mut(), self.ring_plan.take(), self.gpu.as_ref()) else {
             return Ok(());
         };
         let input = ring_input(self.res, ring_boxes(gpu.pool.address, self.capacity, self.decal_room), self.decal_room);
-        accel.record(f, &input, &plan)?;
+        accel.record(f, &AabbInput { changed, ..input }, &plan)?;
         if plan.work != BlasWork::None {
             counters.blas_updates += u64::from(plan.work == BlasWork::Update);
             counters.blas_builds += u64::from(plan.work == BlasWork::Build);
@@ -715,6 +728,12 @@ impl Particles {
     /// what it would have written into the state is written again by the next frame (the
     /// record, every emitter, and a new pool's initialisation).
     pub fn abandon(&mut self, emitters: &mut Emitters) {
+        // Its ring work may not have run: the next frame that traces decals rebuilds.
+        self.ring_plan = None;
+        self.ring_stale = true;
+        if let Some(accel) = self.ring_accel.as_mut() {
+            accel.forget();
+        }
         self.force_copy = true;
         emitters.mark_all_dirty();
         if let Some(gpu) = self.gpu.as_mut().filter(|_| std::mem::take(&mut self.init_recorded)) {
@@ -749,7 +768,7 @@ impl Particles {
     /// from the GPU (the GPU must be idle: [`crate::Renderer::read_particle_decals`] waits).
     /// Empty before any particle left one.
     pub fn read_decals(&self, ctx: &GpuContext, graph: &mut FrameGraph) -> Result<Vec<BornDecal>, RenderError> {
-        let Some(gpu) = self.gpu.as_ref().filter(|_| self.record.decal_room > 0) else { return Ok(Vec::new()) };
+        let Some(gpu) = self.gpu.as_ref().filter(|_| self.ring_on) else { return Ok(Vec::new()) };
         let state = graph.read_back_buffer(ctx, self.res, gpu.state.raw, std::mem::size_of::<GpuParticleState>() as u64)?;
         let born = bytemuck::pod_read_unaligned::<GpuParticleState>(&state).decals_born;
         let room = self.decal_room;

@@ -69,12 +69,20 @@ pub struct Emitters {
     leaves_decals: bool,
 }
 
+impl Emitter {
+    /// Whether its particles leave decals where they land: a decal material and a size (a
+    /// zeroed record leaves none).
+    pub fn leaves_decals(&self) -> bool {
+        self.record.decal_material != crate::layout::NO_DECAL && self.record.decal_size > 0.0
+    }
+}
+
 impl Emitters {
     /// Adds an emitter and returns its slot.
     pub fn insert(&mut self, emitter: Emitter) -> u32 {
         let slot = Slot { emitter, owed: 0.0, burst: emitter.burst, alive_for: 0.0, retiring: false };
         self.dirty = true;
-        self.leaves_decals |= emitter.record.decal_material != crate::layout::NO_DECAL;
+        self.leaves_decals |= emitter.leaves_decals();
         self.live += 1;
         match self.slots.iter().position(Option::is_none) {
             Some(i) => {
@@ -94,7 +102,7 @@ impl Emitters {
             if s.emitter.record != emitter.record {
                 self.dirty = true;
             }
-            self.leaves_decals |= emitter.record.decal_material != crate::layout::NO_DECAL;
+            self.leaves_decals |= emitter.leaves_decals();
             s.emitter = emitter;
             s.burst = emitter.burst;
         }
@@ -157,7 +165,7 @@ impl Emitters {
 
     /// The decal material slots the emitters' particles leave (live and removed emitters alike).
     pub fn decal_materials(&self) -> impl Iterator<Item = u32> + '_ {
-        self.slots.iter().flatten().map(|s| s.emitter.record.decal_material).filter(|&m| m != crate::layout::NO_DECAL)
+        self.slots.iter().flatten().filter(|s| s.emitter.leaves_decals()).map(|s| s.emitter.record.decal_material)
     }
 
     /// Slots the table spans (the GPU table's length).
@@ -246,7 +254,7 @@ mod tests {
     const ROOM: u32 = 1 << 16;
 
     fn emitter(rate: f32, burst: u32, life: f32) -> Emitter {
-        let record = GpuEmitter { lifetime_min: life, lifetime_max: life, decal_material: crate::layout::NO_DECAL, ..Default::default() };
+        let record = GpuEmitter { lifetime_min: life, lifetime_max: life, ..Default::default() };
         Emitter { record, rate, burst }
     }
 

@@ -373,7 +373,8 @@ fn landing_particles_leave_decals_in_every_decal_method() {
 }
 
 /// The decal ring wraps: with room for two, three landings leave three decals of which the
-/// newest two show (the oldest overwritten), and nothing leaks.
+/// newest two show (the oldest overwritten) and read back, oldest first. The pool was made
+/// before any emitter left decals: its ring's places still start empty (binned nowhere).
 #[test]
 fn the_decal_ring_keeps_the_newest() {
     use plugins::decal::DecalMaterial;
@@ -393,6 +394,12 @@ fn the_decal_ring_keeps_the_newest() {
         .world
         .resource_mut::<Assets<DecalMaterial>>()
         .add(DecalMaterial { base_color: Some(Vec4::new(0.0, 0.0, 0.0, 1.0)), ..Default::default() });
+    // A plain emitter first: the pool is made without a ring in use.
+    let (plain, at) = launcher(Vec3::new(-2.0, 0.5, 0.0), Vec3::Y, 1);
+    app.world.spawn((plain, at));
+    for _ in 0..3 {
+        app.update();
+    }
     let spots = [Vec3::new(-0.8, 0.0, 0.2), Vec3::new(0.4, 0.0, -0.3), Vec3::new(0.9, 0.0, 0.7)];
     for (i, &spot) in spots.iter().enumerate() {
         // One after the other, a frame apart: the first lands first.
@@ -401,12 +408,22 @@ fn the_decal_ring_keeps_the_newest() {
         emitter.leaves = Some(LeftDecal { material: soot, size: 0.25, depth: 0.2, lifetime: 0.0, fade: 0.0 });
         app.world.spawn((emitter, transform));
     }
-    for _ in 0..16 {
+    // Before any lands (they take about 0.15 s), the ring is binned but holds no decal.
+    for _ in 0..6 {
+        app.update();
+    }
+    let clusters = app.world.resource::<RenderStats>().last.clusters;
+    assert!(clusters.measured_frame != u64::MAX && clusters.entries == 0, "empty places binned: {clusters:?}");
+    for _ in 0..10 {
         app.update();
     }
     assert_no_validation_errors(&mut app);
     let counts = app.world.resource::<RenderStats>().last.particles;
     assert_eq!((counts.landed, counts.decals_born), (3, 3), "{counts:?}");
+    let left = plugins::particles::read_left_decals(&mut app.world).expect("read back the left decals");
+    let at: Vec<Vec3> = left.iter().map(|d| d.position).collect();
+    assert!(at.len() == 2 && at[0].distance(spots[1]) < 0.02 && at[1].distance(spots[2]) < 0.02, "the newest two, oldest first: {at:?}");
+    assert!(left.iter().all(|d| d.expires.is_none()), "a lifetime of 0 lasts until overwritten");
     let view_proj = app.world.resource::<RenderMirror>().0.camera().view_proj;
     let pixel = |p: Vec3| {
         let ndc = view_proj.project_point3(p);
