@@ -395,7 +395,11 @@ impl AabbAccel {
         let geometry = aabb_geometry(input.address);
         let blas_sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, self.blas_flags(), &geometry, &[count]);
         let tlas_sizes = build_sizes(ctx, vk::AccelerationStructureTypeKHR::TOP_LEVEL, BOX_TLAS_FLAGS, &one_instance_geometry(0), &[1]);
-        let scratch_need = blas_sizes.build_scratch_size.max(blas_sizes.update_scratch_size).max(tlas_sizes.build_scratch_size);
+        let scratch_need = blas_sizes
+            .build_scratch_size
+            .max(blas_sizes.update_scratch_size)
+            .max(tlas_sizes.build_scratch_size)
+            .max(tlas_sizes.update_scratch_size);
         if work == BlasWork::Build && (shrink || self.blas.as_ref().is_none_or(|b| b.buffer.size < blas_sizes.acceleration_structure_size))
         {
             let size = blas_sizes.acceleration_structure_size;
@@ -461,7 +465,8 @@ impl AabbAccel {
     }
 
     /// Records the planned work over the boxes of `input` (which must hold `plan.count` valid
-    /// boxes by then): the BLAS build or refit pass, then the TLAS build pass.
+    /// boxes by then): the BLAS build or refit pass, then the TLAS pass (a build after a
+    /// build, an update after a refit).
     pub fn record(&mut self, f: &mut Frame, input: &AabbInput, plan: &AabbPlan) -> Result<(), RenderError> {
         if plan.work == BlasWork::None {
             return Ok(());
@@ -494,8 +499,10 @@ impl AabbAccel {
             .write(res.scratch, BufferUse::Accel)
             .record(|p| {
                 let geometry = one_instance_geometry(instances);
+                // After a refit the TLAS is updated in place (its one instance's BLAS is the
+                // one it was built over); after a build it is built.
                 let info =
-                    build_info(vk::AccelerationStructureTypeKHR::TOP_LEVEL, BOX_TLAS_FLAGS, tlas.raw, false, &geometry, scratch_address);
+                    build_info(vk::AccelerationStructureTypeKHR::TOP_LEVEL, BOX_TLAS_FLAGS, tlas.raw, update, &geometry, scratch_address);
                 let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(1)];
                 // The instance buffer is host-written before submission.
                 p.cmd.build_acceleration_structures(&[info], &[&ranges[..]]);
@@ -548,8 +555,10 @@ impl AabbAccel {
     }
 }
 
-/// Flags of the one-instance TLAS builds.
-const BOX_TLAS_FLAGS: vk::BuildAccelerationStructureFlagsKHR = vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE;
+/// Flags of the one-instance TLAS builds (updatable: a BLAS refit updates it).
+const BOX_TLAS_FLAGS: vk::BuildAccelerationStructureFlagsKHR = vk::BuildAccelerationStructureFlagsKHR::from_raw(
+    vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE.as_raw() | vk::BuildAccelerationStructureFlagsKHR::ALLOW_UPDATE.as_raw(),
+);
 
 /// The geometry of a build over [`GpuAabb`] boxes from `address`. Its any-hit shaders
 /// accumulate (decals blend, lights add), so each box must reach them once per ray: without
