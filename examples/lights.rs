@@ -44,7 +44,7 @@ fn main() -> Result<(), BoxError> {
             Vec3::new(turn, turn + std::f32::consts::TAU / 3.0, turn + 2.0 * std::f32::consts::TAU / 3.0).map(|a| 0.5 + 0.5 * a.cos());
         let orbit =
             Orbit { radius: 2.0 + 16.0 * f, height: 0.4 + (i % 5) as f32 * 0.3, speed: 0.2 + (i % 7) as f32 * 0.05, phase: i as f32 };
-        world.spawn((PointLight { color: hue, intensity: 3.0, range: Some(3.0) }, Transform::default(), orbit));
+        world.spawn((PointLight { color: hue, intensity: 3.0, range: Some(3.0), ..Default::default() }, Transform::default(), orbit));
     }
     world.spawn((Camera::default(), Transform::from_xyz(0.0, 14.0, 22.0).looking_at(Vec3::ZERO, Vec3::Y)));
 

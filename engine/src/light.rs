@@ -33,11 +33,15 @@ pub struct PointLight {
     pub intensity: f32,
     /// Explicit range in metres; `None` derives it from the intensity.
     pub range: Option<f32>,
+    /// Radius of the light's sphere in metres (0: a point, hard shadows). Ray-traced shadows
+    /// aim each pixel's ray at a point of the sphere that changes from frame to frame, so that
+    /// temporal anti-aliasing resolves a penumbra as wide as the sphere casts.
+    pub radius: f32,
 }
 
 impl Default for PointLight {
     fn default() -> Self {
-        PointLight { color: Vec3::ONE, intensity: 10.0, range: None }
+        PointLight { color: Vec3::ONE, intensity: 10.0, range: None, radius: 0.0 }
     }
 }
 
@@ -66,11 +70,21 @@ pub struct SpotLight {
     pub inner_angle: f32,
     /// Angle from the axis (radians) beyond which there is no light (glTF `outerConeAngle`).
     pub outer_angle: f32,
+    /// Radius of the light's sphere in metres (0: a point, hard shadows), as for
+    /// [`PointLight::radius`].
+    pub radius: f32,
 }
 
 impl Default for SpotLight {
     fn default() -> Self {
-        SpotLight { color: Vec3::ONE, intensity: 10.0, range: None, inner_angle: 0.0, outer_angle: std::f32::consts::FRAC_PI_4 }
+        SpotLight {
+            color: Vec3::ONE,
+            intensity: 10.0,
+            range: None,
+            inner_angle: 0.0,
+            outer_angle: std::f32::consts::FRAC_PI_4,
+            radius: 0.0,
+        }
     }
 }
 
@@ -93,11 +107,19 @@ pub struct DirectionalLight {
     pub color: Vec3,
     /// Illuminance in lux on a surface facing the light.
     pub illuminance: f32,
+    /// Angular diameter of the light's disc in radians (0: hard shadows; the sun's is
+    /// [`SUN_ANGULAR_DIAMETER`], the default). Ray-traced shadows aim each pixel's ray at a
+    /// point of the disc that changes from frame to frame, so that temporal anti-aliasing
+    /// resolves the penumbra.
+    pub angular_diameter: f32,
 }
+
+/// The sun's angular diameter seen from the earth, radians (0.53°).
+pub const SUN_ANGULAR_DIAMETER: f32 = 0.53 * std::f32::consts::PI / 180.0;
 
 impl Default for DirectionalLight {
     fn default() -> Self {
-        DirectionalLight { color: Vec3::ONE, illuminance: 5.0 }
+        DirectionalLight { color: Vec3::ONE, illuminance: 5.0, angular_diameter: SUN_ANGULAR_DIAMETER }
     }
 }
 

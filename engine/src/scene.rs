@@ -104,11 +104,11 @@ pub fn frame_scene(world: &mut World) -> FramedScene {
         && world.query::<&DirectionalLight>().iter(world).next().is_none();
     if lights_spawned {
         world.spawn((
-            DirectionalLight { color: Vec3::new(1.0, 0.96, 0.9), illuminance: 3.0 },
+            DirectionalLight { color: Vec3::new(1.0, 0.96, 0.9), illuminance: 3.0, ..Default::default() },
             Transform::from_translation(centre).looking_at(centre + Vec3::new(-0.4, -1.0, -0.6), Vec3::Y),
         ));
         world.spawn((
-            PointLight { color: Vec3::new(0.6, 0.7, 1.0), intensity: 4.0 * radius * radius, range: None },
+            PointLight { color: Vec3::new(0.6, 0.7, 1.0), intensity: 4.0 * radius * radius, range: None, ..Default::default() },
             Transform::from_translation(centre + Vec3::new(-1.2, 0.6, 1.2) * radius),
         ));
     }

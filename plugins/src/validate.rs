@@ -116,14 +116,16 @@ pub fn light_record(
         let inner = l.inner_angle.clamp(0.0, outer);
         let clamped =
             (outer != l.outer_angle || inner != l.inner_angle).then_some("has cone angles out of range (0 ≤ inner ≤ outer ≤ π); clamped");
-        let record = GpuLight::spot(position, direction, l.color * l.intensity, range, inner, outer);
-        Ok((record, clamped))
+        let (radius, bad_radius) = size_or_zero(l.radius);
+        let record = GpuLight::spot(position, direction, l.color * l.intensity, range, inner, outer).with_size(radius);
+        Ok((record, clamped.or(bad_radius)))
     } else if let Some(l) = point {
         if !intensity_ok(l.intensity) || !finite_non_negative(l.color) {
             return Err("has a NaN, infinite or negative intensity or colour");
         }
         let range = range_of(l.range, l.intensity)?;
-        Ok((GpuLight::point(position, l.color * l.intensity, range), None))
+        let (radius, bad_radius) = size_or_zero(l.radius);
+        Ok((GpuLight::point(position, l.color * l.intensity, range).with_size(radius), bad_radius))
     } else if let Some(l) = dir {
         if !intensity_ok(l.illuminance) || !finite_non_negative(l.color) {
             return Err("has a NaN, infinite or negative illuminance or colour");
@@ -131,10 +133,22 @@ pub fn light_record(
         if !direction_ok {
             return Err("has no direction (zero or degenerate rotation)");
         }
-        Ok((GpuLight::directional(direction, l.color * l.illuminance), None))
+        let (angle, bad_angle) = size_or_zero(l.angular_diameter);
+        let half = (0.5 * angle).min(MAX_SUN_HALF_ANGLE);
+        let clamped = bad_angle.or((half < 0.5 * angle).then_some("has an angular diameter above 60°; clamped"));
+        Ok((GpuLight::directional(direction, l.color * l.illuminance).with_size(half.tan()), clamped))
     } else {
         Err("has no light component")
     }
+}
+
+/// The largest half-angle of a directional light's disc (30°): past it a "sun" lights a
+/// hemisphere, which its disc sampling does not model.
+const MAX_SUN_HALF_ANGLE: f32 = std::f32::consts::FRAC_PI_6;
+
+/// A light's size (a radius or an angle), or 0 and why when it is negative or not finite.
+fn size_or_zero(size: f32) -> (f32, Option<&'static str>) {
+    if size.is_finite() && size >= 0.0 { (size, None) } else { (0.0, Some("has a negative or non-finite size; 0 (a point) instead")) }
 }
 
 /// Why an image asset cannot become a texture, if it cannot: a zero size, a size past

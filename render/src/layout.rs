@@ -1016,8 +1016,10 @@ layout! {
         pub cone_cos: f32,
         /// Sine of the spot cone's outer half-angle.
         pub cone_sin: f32,
-        /// Padding to 16 bytes.
-        pub pad: u32,
+        /// The light's size (0: a point; hard shadows): its sphere's radius in metres (point,
+        /// spot), or the tangent of its disc's angular radius (directional). Ray-traced
+        /// shadows aim at a point of it that changes from pixel to pixel and frame to frame.
+        pub size: f32,
     }
 
     /// One decal projector (seed 000 §4.1, "reduced form for shading"). The decal's box is

@@ -152,7 +152,7 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
                 let angle = i as f32 / 23.0 * std::f32::consts::TAU;
                 let colour = Vec3::new(1.0, 0.75 + 0.2 * (i % 3) as f32 / 2.0, 0.5 + 0.4 * (i % 2) as f32);
                 world.spawn((
-                    PointLight { color: colour, intensity: 12.0, range: None },
+                    PointLight { color: colour, intensity: 12.0, range: None, ..Default::default() },
                     Transform::from_xyz(angle.cos() * 15.0, 2.6, angle.sin() * 15.0),
                 ));
             }
@@ -182,7 +182,7 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
                 let intensity = rng.range_f32(5.0, 60.0);
                 let range = if i % 3 == 0 { Some(rng.range_f32(6.0, 14.0)) } else { None };
                 world.spawn((
-                    PointLight { color: colour, intensity, range },
+                    PointLight { color: colour, intensity, range, ..Default::default() },
                     Transform::from_xyz(angle.cos() * radius, rng.range_f32(0.8, 3.5), angle.sin() * radius),
                 ));
             }
@@ -192,7 +192,7 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
             let batch: Vec<_> = (0..MANY_LIGHTS)
                 .map(|i| {
                     let colour = Vec3::new(rng.range_f32(0.3, 1.0), rng.range_f32(0.3, 1.0), rng.range_f32(0.3, 1.0));
-                    let light = PointLight { color: colour, intensity: rng.range_f32(0.05, 0.4), range: None };
+                    let light = PointLight { color: colour, intensity: rng.range_f32(0.05, 0.4), range: None, ..Default::default() };
                     // Two in three over the ground, the rest along the walls.
                     let at = if i % 3 != 2 {
                         Vec3::new(rng.range_f32(-21.0, 21.0), rng.range_f32(0.2, 1.5), rng.range_f32(-21.0, 21.0))
@@ -488,7 +488,8 @@ pub fn set_spot_lights(world: &mut World, count: usize) {
             let at = Vec3::new(rng.range_f32(-10.0, 10.0), rng.range_f32(4.0, 6.0), rng.range_f32(-6.0, 9.0));
             let target = at + Vec3::new(rng.range_f32(-3.0, 3.0), -at.y, rng.range_f32(-3.0, 3.0));
             let colour = Vec3::new(rng.range_f32(0.6, 1.0), rng.range_f32(0.6, 1.0), rng.range_f32(0.6, 1.0));
-            let light = SpotLight { color: colour, intensity: 60.0, range: Some(14.0), inner_angle: 0.3, outer_angle: 0.6 };
+            let light =
+                SpotLight { color: colour, intensity: 60.0, range: Some(14.0), inner_angle: 0.3, outer_angle: 0.6, ..Default::default() };
             (light, Transform::from_translation(at).looking_at(target, Vec3::Z), BenchSpot)
         })
         .collect();

@@ -157,6 +157,8 @@ pub struct HeadlessOptions {
     /// The particle scene's fountain leaves a small decal where each particle first lands
     /// (`--particle-decals`: GPU-born decals at the rate particles land).
     pub particle_decals: bool,
+    /// Every point and spot light's radius, metres (`--light-radius`; `None`: as spawned).
+    pub light_radius: Option<f32>,
 }
 
 /// The light configurations `--compare-lights` runs, in order, named after the rows of seed 001's
@@ -357,6 +359,7 @@ impl Default for HeadlessOptions {
             effects: true,
             rain: false,
             particle_decals: false,
+            light_radius: None,
         }
     }
 }
@@ -452,6 +455,10 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         None => load_scene(&mut app.world, &opts.scene, opts.character.as_deref())?,
     }
     app.add_systems(engine::app::Update, crate::character::walk_loops);
+    if let Some(radius) = opts.light_radius {
+        app.insert_resource(crate::light_size::LightRadius(radius));
+        app.add_systems(engine::app::Update, crate::light_size::apply_light_radius);
+    }
     if opts.rain && opts.effects {
         crate::effects::spawn_rain(&mut app.world, Vec3::ZERO, crate::scene::HALF_COURT);
     }

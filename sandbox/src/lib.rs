@@ -24,6 +24,7 @@ pub mod decal_textures;
 pub mod effects;
 pub mod game;
 pub mod headless;
+pub mod light_size;
 pub mod scatter;
 pub mod scene;
 pub mod soak;

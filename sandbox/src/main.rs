@@ -297,6 +297,9 @@ struct Cli {
     /// --bench-scene particles: each particle leaves a small decal where it first lands.
     #[arg(long)]
     particle_decals: bool,
+    /// Every point and spot light's radius in metres (soft ray-traced shadows; 0: hard).
+    #[arg(long, value_parser = parse_light_radius)]
+    light_radius: Option<f32>,
     /// How glTF textures are imported: `bc` (block-compressed by role, with mips, cached) or
     /// `rgba8` (decoded at every load, 4 bytes a texel).
     #[arg(long, default_value = "bc", global = true)]
@@ -350,6 +353,13 @@ fn parse_refit_pixels(s: &str) -> Result<f32, String> {
     match s.parse::<f32>() {
         Ok(px) if px.is_finite() && px >= 0.0 => Ok(px),
         _ => Err(format!("--refit-pixels takes a number of pixels, 0 or more (0: refit every frame), not {s:?}")),
+    }
+}
+
+fn parse_light_radius(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(r) if r.is_finite() && r >= 0.0 => Ok(r),
+        _ => Err(format!("--light-radius takes metres, 0 or more (0: hard shadows), not {s:?}")),
     }
 }
 
@@ -546,6 +556,7 @@ fn main() -> Result<()> {
         effects: !cli.no_particles,
         rain: cli.rain,
         particle_decals: cli.particle_decals,
+        light_radius: cli.light_radius,
     };
     if windowed {
         let window_opts = sandbox::window::WindowOptions { base: opts, exit_after: cli.exit_after, resize_to: cli.resize_to };

@@ -234,7 +234,7 @@ fn spawn_lights(scene: &mut SceneBuilder<'_>) -> usize {
     let parent = scene.parent;
     let world = &mut *scene.world;
     world.spawn((
-        DirectionalLight { color: Vec3::new(1.0, 0.95, 0.86), illuminance: 4.0 },
+        DirectionalLight { color: Vec3::new(1.0, 0.95, 0.86), illuminance: 4.0, ..Default::default() },
         Transform::from_xyz(18.0, 25.0, 12.0).looking_at(Vec3::ZERO, Vec3::Y),
         Name::new("Sun"),
         ChildOf(parent),
@@ -243,14 +243,21 @@ fn spawn_lights(scene: &mut SceneBuilder<'_>) -> usize {
     let intensities = [30.0, 25.0, 40.0];
     for (i, ((&position, color), intensity)) in LAMPS.iter().zip(colours).zip(intensities).enumerate() {
         world.spawn((
-            PointLight { color, intensity, range: None },
+            PointLight { color, intensity, range: None, ..Default::default() },
             Transform::from_translation(position),
             Name::new(format!("Lamp {i}")),
             ChildOf(parent),
         ));
     }
     world.spawn((
-        SpotLight { color: Vec3::new(1.0, 0.97, 0.9), intensity: 60.0, range: None, inner_angle: 0.25, outer_angle: 0.4 },
+        SpotLight {
+            color: Vec3::new(1.0, 0.97, 0.9),
+            intensity: 60.0,
+            range: None,
+            inner_angle: 0.25,
+            outer_angle: 0.4,
+            ..Default::default()
+        },
         Transform::from_xyz(-8.0, 7.0, 8.0).looking_at(Vec3::new(0.0, 1.0, 0.0), Vec3::Y),
         Name::new("Fountain spot"),
         ChildOf(parent),

@@ -420,13 +420,14 @@ pub fn soak_gameplay(
         let range = s.chance(0.5).then(|| s.rng.range_f32(0.5, 8.0));
         let intensity = s.rng.range_f32(0.5, 40.0);
         match s.below(10) {
-            0 => commands.spawn((DirectionalLight { color, illuminance: s.rng.range_f32(0.1, 3.0) }, at, Soaked)),
+            0 => commands.spawn((DirectionalLight { color, illuminance: s.rng.range_f32(0.1, 3.0), ..Default::default() }, at, Soaked)),
             1..=4 => {
                 let outer = s.rng.range_f32(0.1, 1.5);
-                let light = SpotLight { color, intensity, range, inner_angle: outer * s.rng.next_f32(), outer_angle: outer };
+                let light =
+                    SpotLight { color, intensity, range, inner_angle: outer * s.rng.next_f32(), outer_angle: outer, ..Default::default() };
                 commands.spawn((light, at, Soaked))
             }
-            _ => commands.spawn((PointLight { color, intensity, range }, at, Soaked)),
+            _ => commands.spawn((PointLight { color, intensity, range, ..Default::default() }, at, Soaked)),
         };
         s.counts.lights_spawned += 1;
     }

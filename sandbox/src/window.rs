@@ -146,7 +146,11 @@ impl SandboxOverlay {
         for _ in 0..self.spawn_count.min(256) {
             let colour = Vec3::new(rng.range_f32(0.2, 1.0), rng.range_f32(0.2, 1.0), rng.range_f32(0.2, 1.0));
             let at = Vec3::new(rng.range_f32(-20.0, 20.0), rng.range_f32(0.5, 4.0), rng.range_f32(-20.0, 20.0));
-            world.spawn((PointLight { color: colour, intensity: 10.0, range: None }, Transform::from_translation(at), OverlayLight));
+            world.spawn((
+                PointLight { color: colour, intensity: 10.0, range: None, ..Default::default() },
+                Transform::from_translation(at),
+                OverlayLight,
+            ));
         }
     }
 }

@@ -5,6 +5,8 @@
 
 #include "scene.glsl"
 #include "brdf.glsl"
+#include "normals.glsl"
+#include "random.glsl"
 
 float distance_window(float dist2, float range) {
     float f = dist2 / (range * range);
@@ -56,6 +58,39 @@ bool shadow_ray_towards(GpuLight light, vec3 p, out vec3 dir, out float tmax) {
     dir = to / d;
     tmax = d;
     return light.kind != LIGHT_SPOT || dot(light.direction, -dir) * light.spot_scale + light.spot_offset > 0.0;
+}
+
+// shadow_ray_towards aimed at a point of the light's shape (GpuLight::size): a uniform point,
+// chosen by `u` in [0, 1)², of the disc that faces `p`: the sphere's silhouette (radius `size`,
+// through the light's position) or the directional light's disc (angular radius atan(size)).
+// Averaged over many `u`, the shadow rays' visibility is the fraction of the light a point sees:
+// the penumbra. A light of size 0 is the point shadow_ray_towards aims at.
+bool shadow_ray_sampled(GpuLight light, vec3 p, vec2 u, out vec3 dir, out float tmax) {
+    if (!shadow_ray_towards(light, p, dir, tmax)) return false;
+    if (!(light.size > 0.0)) return true;
+    mat3 frame = tangent_frame(dir);
+    float r = sqrt(u.x), phi = 6.28318531 * u.y;
+    vec3 offset = light.size * r * (frame[0] * cos(phi) + frame[1] * sin(phi));
+    if (light.kind == LIGHT_DIRECTIONAL) {
+        dir = normalize(dir + offset);
+        return true;
+    }
+    vec3 to = dir * tmax + offset;
+    tmax = length(to);
+    dir = to / tmax;
+    return true;
+}
+
+// The `u` of shadow_ray_sampled for pixel `px` and light slot `slot`: a hash of both and of
+// temporal anti-aliasing's jitter, which moves every frame, so that the accumulated history
+// averages many points of the light (without temporal anti-aliasing a pixel keeps its point:
+// the penumbra is a fixed dither).
+vec2 shadow_sample(ivec2 px, uint slot) {
+    vec2 jitter = scene.camera.camera.jitter;
+    uint seed = pcg_hash(uint(px.x) * 73856093u ^ uint(px.y) * 19349663u ^ slot * 83492791u
+                         ^ pcg_hash(floatBitsToUint(jitter.x) ^ (floatBitsToUint(jitter.y) * 2654435761u)));
+    float a = random01(seed);
+    return vec2(a, random01(seed));
 }
 
 // A shadow ray's origin for surface point `p` with normal `n` (facing the camera): lifted along

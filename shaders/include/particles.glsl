@@ -5,6 +5,7 @@
 #define PARTICLES_GLSL
 
 #include "scene.glsl"
+#include "random.glsl"
 
 // The state buffer: the frame's record (CPU-written), the counters (GPU-written), the jobs.
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer ParticleStateRef {
@@ -25,20 +26,6 @@ ParticleStateRef particle_state() {
 
 GpuEmitter particle_emitter(ParticleStateRef st, uint slot) {
     return EmittersRef(st.state.emitters).emitters[slot];
-}
-
-// PCG's output permutation of an LCG step (Jarzynski and Olano 2020, "Hash Functions for GPU
-// Rendering"): a well-mixed 32-bit hash.
-uint pcg_hash(uint v) {
-    uint state = v * 747796405u + 2891336453u;
-    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
-    return (word >> 22u) ^ word;
-}
-
-// A uniform number in [0, 1) from `seed`, which moves on.
-float random01(inout uint seed) {
-    seed = pcg_hash(seed);
-    return float(seed >> 8u) * (1.0 / 16777216.0);
 }
 
 // One step of `dt` seconds: the velocity takes the acceleration and loses its drag, then the

@@ -1,4 +1,4 @@
-// Ray-traced hard shadows (seed 001 §4.3), per pixel and from depth alone, so one pass serves
+// Ray-traced shadows (seed 001 §4.3; soft where a light has a size), per pixel and from depth alone, so one pass serves
 // every pipeline: the world position from depth (seed alg. 4.1, `world_from_depth`), the normal
 // from depth (depth_normals.glsl, naive or improved), then for each light of the pixel's list
 // one shadow ray towards it, unless no light reaches the point (out of range, outside a spot's
@@ -15,7 +15,9 @@
 // A ray that crossed glass keeps its colour in one of the pixel's tint slots (light_tiles.glsl)
 // when there is one free; otherwise its bit says whether more than half the light got through.
 // Rays follow the seed: tmin 0.001, tmax the distance to the light (1000 for directional
-// lights), first hit ends the ray. The origin is lifted off the surface along the
+// lights), first hit ends the ray; a light with a size (a sphere's radius, a sun's disc) is aimed
+// at a point of its disc that changes per pixel and per frame (shadow_ray_sampled, lighting.glsl),
+// so that temporal anti-aliasing resolves the penumbra (beyond the seed, whose shadows are hard). The origin is lifted off the surface along the
 // reconstructed normal by 0.1 % of its distance to the camera, so that depth quantisation
 // cannot put it under its own surface, and by the level-of-detail limit there
 // (`raster_origin`, lighting.glsl).
@@ -62,14 +64,20 @@ void shadow_pixel(ivec2 px) {
             uint word = 0u;
             uint here = min(32u, list.count - base);
             for (uint k = 0u; k < here; ++k) {
-                GpuLight light = scene.lights.lights[light_slot(list, base + k)];
+                uint slot = light_slot(list, base + k);
+                GpuLight light = scene.lights.lights[slot];
                 vec3 dir;
                 float tmax;
+#ifdef SHADOW_MAPS
                 if (!shadow_ray_towards(light, p, dir, tmax)) continue;
+#else
+                // Towards a point of the light's shape (the light's size: soft shadows).
+                if (!shadow_ray_sampled(light, p, shadow_sample(px, slot), dir, tmax)) continue;
+#endif
                 if (cull && dot(n, dir) <= 0.0) continue;
                 ++rays;
 #ifdef SHADOW_MAPS
-                vec3 t = shadow_map_transmittance(light_slot(list, base + k), light, p, n, dir);
+                vec3 t = shadow_map_transmittance(slot, light, p, n, dir);
 #else
                 vec3 t = shadow_ray_transmittance(origin, dir, 1e-3, tmax);
 #endif

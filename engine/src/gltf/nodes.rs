@@ -33,8 +33,8 @@ fn node_transform(node: &::gltf::Node<'_>) -> (Transform, Vec<&'static str>) {
     (Transform { translation, rotation, scale }, repaired)
 }
 
-/// The light, or why it cannot shine: a colour, intensity or range not finite or negative, or a
-/// cone not within 0 ≤ inner < outer ≤ 90°.
+/// The light, or why it cannot shine: a colour, intensity, range or size (`extras`) not finite
+/// or negative, or a cone not within 0 ≤ inner < outer ≤ 90°.
 fn node_light(light: &::gltf::khr_lights_punctual::Light<'_>) -> Result<GltfLight, String> {
     let color = Vec3::from(light.color());
     let intensity = light.intensity();
@@ -47,8 +47,24 @@ fn node_light(light: &::gltf::khr_lights_punctual::Light<'_>) -> Result<GltfLigh
     if let Some(range) = light.range().filter(|r| !r.is_finite() || *r <= 0.0) {
         return Err(format!("its range {range} is not finite and positive"));
     }
+    // Sizes are not in KHR_lights_punctual: a light's `extras` may give its sphere's `radius`
+    // (metres) or, for a directional light, its disc's `angular_diameter` (radians); 0 (hard
+    // shadows) without.
+    let size = |key: &str| -> Result<f32, String> {
+        let Some(raw) = light.extras() else { return Ok(0.0) };
+        let value: serde_json::Value = serde_json::from_str(raw.get()).map_err(|e| format!("its extras are not JSON: {e}"))?;
+        match value.get(key) {
+            None => Ok(0.0),
+            Some(v) => match v.as_f64().map(|v| v as f32).filter(|v| v.is_finite() && *v >= 0.0) {
+                Some(v) => Ok(v),
+                None => Err(format!("its extras' {key} {v} is not a finite non-negative number")),
+            },
+        }
+    };
     Ok(match light.kind() {
-        ::gltf::khr_lights_punctual::Kind::Point => GltfLight::Point(PointLight { color, intensity, range: light.range() }),
+        ::gltf::khr_lights_punctual::Kind::Point => {
+            GltfLight::Point(PointLight { color, intensity, range: light.range(), radius: size("radius")? })
+        }
         ::gltf::khr_lights_punctual::Kind::Spot { inner_cone_angle, outer_cone_angle } => {
             let ordered = 0.0 <= inner_cone_angle && inner_cone_angle < outer_cone_angle && outer_cone_angle <= std::f32::consts::FRAC_PI_2;
             if !ordered {
@@ -60,9 +76,12 @@ fn node_light(light: &::gltf::khr_lights_punctual::Light<'_>) -> Result<GltfLigh
                 range: light.range(),
                 inner_angle: inner_cone_angle,
                 outer_angle: outer_cone_angle,
+                radius: size("radius")?,
             })
         }
-        ::gltf::khr_lights_punctual::Kind::Directional => GltfLight::Directional(DirectionalLight { color, illuminance: intensity }),
+        ::gltf::khr_lights_punctual::Kind::Directional => {
+            GltfLight::Directional(DirectionalLight { color, illuminance: intensity, angular_diameter: size("angular_diameter")? })
+        }
     })
 }
 

@@ -79,6 +79,12 @@ impl GpuLight {
         }
     }
 
+    /// This light with size `size` ([`GpuLight::size`]: a sphere's radius, or a disc's angular
+    /// radius's tangent); a negative or non-finite size counts as 0.
+    pub fn with_size(self, size: f32) -> Self {
+        Self { size: if size.is_finite() { size.max(0.0) } else { 0.0 }, ..self }
+    }
+
     /// A directional light travelling along `direction`.
     pub fn directional(direction: Vec3, color: Vec3) -> Self {
         Self {

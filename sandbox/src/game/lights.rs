@@ -68,7 +68,7 @@ pub fn drop_light(
         return;
     };
     let position = light_position(&raycaster, &settings, origin, direction);
-    let light = PointLight { color: vivid_colour(&mut rng.0), intensity: settings.light_intensity, range: None };
+    let light = PointLight { color: vivid_colour(&mut rng.0), intensity: settings.light_intensity, range: None, ..Default::default() };
     let transform = Transform::from_translation(position);
     let entity = commands.spawn((light, transform, GlobalTransform::from(transform), GameLight, Name::new("Dropped light"))).id();
     order.push(entity);

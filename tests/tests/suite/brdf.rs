@@ -52,7 +52,8 @@ fn check_plane(base: Vec3, metallic: f32, roughness: f32) {
     app.world.spawn((MeshInstance { mesh, material }, Transform::default()));
     let light_pos = Vec3::new(0.4, 1.5, 0.2);
     let (light_color, intensity, range) = (Vec3::new(1.0, 0.9, 0.7), 3.0, 6.0);
-    app.world.spawn((PointLight { color: light_color, intensity, range: Some(range) }, Transform::from_translation(light_pos)));
+    app.world
+        .spawn((PointLight { color: light_color, intensity, range: Some(range), radius: 0.0 }, Transform::from_translation(light_pos)));
     let eye = Vec3::new(0.0, 2.5, 3.5);
     let camera = Camera::default();
     app.world.spawn((camera, Transform::from_translation(eye).looking_at(Vec3::ZERO, Vec3::Y)));

@@ -50,7 +50,8 @@ fn bloom_keeps_the_energy_of_the_image_it_blurs() {
             ));
             app.world.spawn((MeshInstance { mesh, material }, Transform::from_xyz(i as f32 - 1.0, 0.0, 0.0)));
         }
-        app.world.spawn((PointLight { color: Vec3::ONE, intensity: 6.0, range: Some(6.0) }, Transform::from_xyz(0.0, 1.5, 1.5)));
+        app.world
+            .spawn((PointLight { color: Vec3::ONE, intensity: 6.0, range: Some(6.0), radius: 0.0 }, Transform::from_xyz(0.0, 1.5, 1.5)));
         app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 0.3, 3.0).looking_at(Vec3::ZERO, Vec3::Y)));
         app.update();
         app.update();

@@ -40,7 +40,10 @@ fn spawn_change_despawn_and_respawn_reach_the_mirror() {
     let (mesh, material) = quad_assets(&mut app);
     let a = app.world.spawn((MeshInstance { mesh, material }, Transform::from_xyz(0.0, 0.0, 0.0))).id();
     let b = app.world.spawn((MeshInstance { mesh, material }, Transform::from_xyz(3.0, 0.0, 0.0))).id();
-    let light = app.world.spawn((PointLight { color: Vec3::ONE, intensity: 8.0, range: None }, Transform::from_xyz(0.0, 4.0, 0.0))).id();
+    let light = app
+        .world
+        .spawn((PointLight { color: Vec3::ONE, intensity: 8.0, range: None, radius: 0.0 }, Transform::from_xyz(0.0, 4.0, 0.0)))
+        .id();
     app.update();
 
     let slots = app.world.resource::<MirrorSlots>();
@@ -89,7 +92,7 @@ fn a_frame_without_changes_writes_nothing() {
     for i in 0..10 {
         app.world.spawn((MeshInstance { mesh, material }, Transform::from_xyz(i as f32, 0.0, 0.0)));
     }
-    app.world.spawn((DirectionalLight { color: Vec3::ONE, illuminance: 2.0 }, Transform::default()));
+    app.world.spawn((DirectionalLight { color: Vec3::ONE, illuminance: 2.0, angular_diameter: 0.0 }, Transform::default()));
     app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 1.0, 5.0)));
     app.update();
     let first = app.world.resource::<RenderStats>().last;
@@ -223,7 +226,9 @@ fn instance_and_light_extraction_visits_only_what_changed_and_equals_a_full_re_e
         (0..4).map(|i| app.world.spawn((MeshInstance { mesh, material }, Transform::from_xyz(i as f32, 1.0, 0.0))).id()).collect();
     let lights: Vec<Entity> = (0..4)
         .map(|i| {
-            app.world.spawn((PointLight { color: Vec3::ONE, intensity: 1.0, range: None }, Transform::from_xyz(i as f32, 3.0, 0.0))).id()
+            app.world
+                .spawn((PointLight { color: Vec3::ONE, intensity: 1.0, range: None, radius: 0.0 }, Transform::from_xyz(i as f32, 3.0, 0.0)))
+                .id()
         })
         .collect();
     app.update();
@@ -250,7 +255,7 @@ fn instance_and_light_extraction_visits_only_what_changed_and_equals_a_full_re_e
     for i in 0..2 {
         app.world.spawn((MeshInstance { mesh, material: blue }, Transform::from_xyz(i as f32, 5.0, 0.0), Static));
     }
-    app.world.entity_mut(lights[0]).insert(PointLight { color: Vec3::X, intensity: 4.0, range: Some(2.0) });
+    app.world.entity_mut(lights[0]).insert(PointLight { color: Vec3::X, intensity: 4.0, range: Some(2.0), radius: 0.0 });
     app.world.get_mut::<Transform>(lights[1]).unwrap().translation.z = 1.0;
     app.update();
     assert_eq!(visited(&app), (2 + 1 + 2 + 2, 2), "only the changed instances and lights are visited");

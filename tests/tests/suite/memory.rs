@@ -47,7 +47,7 @@ fn base_scene() -> (App, Handle<Material>, Handle<Mesh>, Handle<DecalMaterial>) 
     let grey = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec4::new(0.5, 0.5, 0.5, 1.0), 0.0, 0.8));
     app.world.spawn((MeshInstance { mesh: plane, material: grey }, Transform::default()));
     let sun = Transform::default().looking_at(Vec3::new(0.3, -1.0, 0.2), Vec3::Y);
-    app.world.spawn((DirectionalLight { color: Vec3::ONE, illuminance: 2.0 }, sun));
+    app.world.spawn((DirectionalLight { color: Vec3::ONE, illuminance: 2.0, angular_diameter: 0.0 }, sun));
     TopDownView::new(8.0, SIZE).spawn(&mut app.world);
     let cube = app.world.resource_mut::<Assets<Mesh>>().add(shapes::cuboid(Vec3::splat(0.1), 1.0));
     let red = app
@@ -107,7 +107,7 @@ fn gpu_memory_returns_to_the_base_scene_after_despawning_everything() {
         }
         for i in 0..LIGHTS {
             let (x, z) = ((i % 60) as f32 * 0.2 - 6.0, (i / 60) as f32 * 0.2 - 5.0);
-            let light = PointLight { color: Vec3::ONE, intensity: 0.2, range: Some(0.5) };
+            let light = PointLight { color: Vec3::ONE, intensity: 0.2, range: Some(0.5), radius: 0.0 };
             spawned.push(app.world.spawn((light, Transform::from_xyz(x, 0.3, z))).id());
         }
         for i in 0..INSTANCES {

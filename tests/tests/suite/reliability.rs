@@ -151,6 +151,12 @@ fn cases() -> Vec<Case> {
             fallback: |scene| assert_eq!(scene.nodes[4].light, None, "the lamp has no light"),
         },
         Case {
+            kind: GltfFaultKind::BadLight,
+            breaks: |m, _| m.json["extensions"]["KHR_lights_punctual"]["lights"][0]["extras"] = serde_json::json!({ "radius": -0.5 }),
+            object: "light 'Lamp' (#0)",
+            fallback: |scene| assert_eq!(scene.nodes[4].light, None, "the lamp has no light"),
+        },
+        Case {
             kind: GltfFaultKind::BadCamera,
             breaks: |m, _| m.json["cameras"][0]["perspective"]["yfov"] = 1e39.into(),
             object: "camera 'Eye' (#0)",
@@ -212,6 +218,15 @@ fn the_parts_model_loads_healthy_without_a_word_and_poses_finitely() {
     assert_eq!(scene.meshes[1][0].0.morph_targets.len(), 2);
     assert!(scene.nodes[4].light.is_some() && scene.nodes[5].camera.is_some());
     assert_finite_poses(scene, 0, 4);
+    // A light's size comes from its extras (radius 0 without).
+    let radius = |scene: &GltfScene| match scene.nodes[4].light {
+        Some(engine::gltf::GltfLight::Point(p)) => p.radius,
+        ref other => panic!("the lamp is a point light: {other:?}"),
+    };
+    assert_eq!(radius(&model.load().unwrap()), 0.0);
+    let mut sized = model.clone();
+    sized.json["extensions"]["KHR_lights_punctual"]["lights"][0]["extras"] = serde_json::json!({ "radius": 0.25 });
+    assert_eq!(radius(&sized.load().unwrap()), 0.25);
 }
 
 #[test]
