@@ -736,6 +736,8 @@ fn camera_record(view: Mat4, proj: Mat4, view_proj: Mat4, position: Vec3, exposu
         decal_fade: Vec2::INFINITY,
         // The renderer's to set (temporal anti-aliasing: `SceneMirror::gpu_camera`).
         jitter: Vec2::ZERO,
+        taa_frame: 0,
+        taa_pad: [0; 3],
         motion_view_proj: view_proj,
         prev_view_proj: view_proj,
     }

@@ -118,7 +118,12 @@ pub fn light_record(
             (outer != l.outer_angle || inner != l.inner_angle).then_some("has cone angles out of range (0 ≤ inner ≤ outer ≤ π); clamped");
         let (radius, bad_radius) = size_or_zero(l.radius);
         let record = GpuLight::spot(position, direction, l.color * l.intensity, range, inner, outer).with_size(radius);
-        Ok((record, clamped.or(bad_radius)))
+        // Both warnings, where both apply.
+        let warning = match (clamped, bad_radius) {
+            (Some(_), Some(_)) => Some("has cone angles out of range (clamped) and a negative or non-finite size (0 instead)"),
+            (a, b) => a.or(b),
+        };
+        Ok((record, warning))
     } else if let Some(l) = point {
         if !intensity_ok(l.intensity) || !finite_non_negative(l.color) {
             return Err("has a NaN, infinite or negative intensity or colour");

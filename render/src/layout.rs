@@ -920,6 +920,12 @@ layout! {
         /// Temporal anti-aliasing's sub-pixel offset this frame, in NDC units: `proj`,
         /// `view_proj` and `inv_view_proj` include it (0 without temporal anti-aliasing).
         pub jitter: Vec2,
+        /// Temporal anti-aliasing's frame count (it never repeats; 0 without temporal
+        /// anti-aliasing): what stochastic passes whose result the history averages seed
+        /// their samples with (soft shadows' points on a light).
+        pub taa_frame: u32,
+        /// Padding to 16 bytes.
+        pub taa_pad: [u32; 3],
         /// World to clip without the jitter: where motion vectors measure from.
         pub motion_view_proj: Mat4,
         /// The previous frame's `motion_view_proj` (this frame's when there is no history).

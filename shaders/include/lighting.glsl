@@ -60,35 +60,46 @@ bool shadow_ray_towards(GpuLight light, vec3 p, out vec3 dir, out float tmax) {
     return light.kind != LIGHT_SPOT || dot(light.direction, -dir) * light.spot_scale + light.spot_offset > 0.0;
 }
 
-// shadow_ray_towards aimed at a point of the light's shape (GpuLight::size): a uniform point,
-// chosen by `u` in [0, 1)², of the disc that faces `p`: the sphere's silhouette (radius `size`,
-// through the light's position) or the directional light's disc (angular radius atan(size)).
-// Averaged over many `u`, the shadow rays' visibility is the fraction of the light a point sees:
-// the penumbra. A light of size 0 is the point shadow_ray_towards aims at.
+// shadow_ray_towards aimed at a point of the light's shape (GpuLight::size), where temporal
+// anti-aliasing averages frames (GpuCamera::taa_frame; without it a light has no size: a fixed
+// dither would swim as the view moves): a direction uniform in the solid angle the light covers
+// from `p`, chosen by `u` in [0, 1)²: the cone of the sphere (radius `size`) seen from p, or of
+// the directional light's disc (angular radius atan(size)). Averaged over many `u`, the shadow
+// rays' visibility is the share of the light p sees (each direction weighted alike, the cosine
+// across the light's small cone ignored): the penumbra. A point inside the sphere sees it all.
 bool shadow_ray_sampled(GpuLight light, vec3 p, vec2 u, out vec3 dir, out float tmax) {
     if (!shadow_ray_towards(light, p, dir, tmax)) return false;
-    if (!(light.size > 0.0)) return true;
-    mat3 frame = tangent_frame(dir);
-    float r = sqrt(u.x), phi = 6.28318531 * u.y;
-    vec3 offset = light.size * r * (frame[0] * cos(phi) + frame[1] * sin(phi));
+    if (!(light.size > 0.0) || scene.camera.camera.taa_frame == 0u) return true;
+    float cos_max;
     if (light.kind == LIGHT_DIRECTIONAL) {
-        dir = normalize(dir + offset);
-        return true;
+        cos_max = inversesqrt(1.0 + light.size * light.size);
+    } else {
+        if (tmax <= light.size) {
+            tmax = 1e-3;   // inside the light: nothing between (a ray as long as the shadow rays' tmin)
+            return true;
+        }
+        float s = light.size / tmax;
+        cos_max = sqrt(max(1.0 - s * s, 0.0));
     }
-    vec3 to = dir * tmax + offset;
-    tmax = length(to);
-    dir = to / tmax;
+    float cos_t = 1.0 - u.x * (1.0 - cos_max);
+    float sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
+    float phi = 6.28318531 * u.y;
+    vec3 centre = dir;
+    dir = tangent_frame(centre) * vec3(sin_t * cos(phi), sin_t * sin(phi), cos_t);
+    if (light.kind != LIGHT_DIRECTIONAL) {
+        // To where the ray meets the sphere (its near side).
+        float d = tmax, along = d * cos_t;
+        tmax = along - sqrt(max(light.size * light.size - d * d * (1.0 - cos_t * cos_t), 0.0));
+    }
     return true;
 }
 
 // The `u` of shadow_ray_sampled for pixel `px` and light slot `slot`: a hash of both and of
-// temporal anti-aliasing's jitter, which moves every frame, so that the accumulated history
-// averages many points of the light (without temporal anti-aliasing a pixel keeps its point:
-// the penumbra is a fixed dither).
+// temporal anti-aliasing's frame count, which never repeats, so that the history averages ever
+// new points of the light.
 vec2 shadow_sample(ivec2 px, uint slot) {
-    vec2 jitter = scene.camera.camera.jitter;
     uint seed = pcg_hash(uint(px.x) * 73856093u ^ uint(px.y) * 19349663u ^ slot * 83492791u
-                         ^ pcg_hash(floatBitsToUint(jitter.x) ^ (floatBitsToUint(jitter.y) * 2654435761u)));
+                         ^ pcg_hash(scene.camera.camera.taa_frame));
     float a = random01(seed);
     return vec2(a, random01(seed));
 }

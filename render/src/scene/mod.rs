@@ -79,7 +79,7 @@ pub struct SceneMirror {
     camera_dirty: bool,
     /// Temporal anti-aliasing's part of the camera record: this frame's jitter (NDC) and the
     /// previous frame's unjittered view-projection ([`SceneMirror::set_camera_temporal`]).
-    temporal: (Vec2, Option<Mat4>),
+    temporal: (Vec2, Option<Mat4>, u32),
     /// Where (NDC, from the pixel's centre) the depth target's value of a pixel was taken:
     /// MSAA resolves depth to sample 0 ([`SceneMirror::set_depth_sample`]).
     depth_sample: Vec2,
@@ -427,7 +427,7 @@ impl SceneMirror {
     /// pixel's centre, or MSAA's sample 0).
     pub fn gpu_camera(&self) -> GpuCamera {
         let c = self.camera;
-        let (jitter, prev) = self.temporal;
+        let (jitter, prev, taa_frame) = self.temporal;
         let shift = Mat4::from_translation(jitter.extend(0.0));
         let view_proj = shift * c.view_proj;
         let inv_view_proj = match (jitter, self.depth_sample) {
@@ -439,18 +439,19 @@ impl SceneMirror {
             view_proj,
             inv_view_proj,
             jitter,
+            taa_frame,
             motion_view_proj: c.view_proj,
             prev_view_proj: prev.unwrap_or(c.view_proj),
             ..c
         }
     }
 
-    /// Sets temporal anti-aliasing's part of the camera record: the sub-pixel `jitter` (NDC)
-    /// and the previous frame's unjittered view-projection (`None`: no history). Uploads only
-    /// when it changed.
-    pub fn set_camera_temporal(&mut self, jitter: Vec2, prev_view_proj: Option<Mat4>) {
-        if self.temporal != (jitter, prev_view_proj) {
-            self.temporal = (jitter, prev_view_proj);
+    /// Sets temporal anti-aliasing's part of the camera record: the sub-pixel `jitter` (NDC),
+    /// the previous frame's unjittered view-projection (`None`: no history) and its frame
+    /// count (`GpuCamera::taa_frame`; 0 without it). Uploads only when it changed.
+    pub fn set_camera_temporal(&mut self, jitter: Vec2, prev_view_proj: Option<Mat4>, frame: u32) {
+        if self.temporal != (jitter, prev_view_proj, frame) {
+            self.temporal = (jitter, prev_view_proj, frame);
             self.camera_dirty = true;
         }
     }

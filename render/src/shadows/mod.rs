@@ -1,4 +1,6 @@
-//! Ray-traced hard shadows (seed 001 §4.3) for point, spot and directional lights, as one pass
+//! Ray-traced shadows (seed 001 §4.3; hard there, soft here where a light has a size and
+//! temporal anti-aliasing averages the rays: `shadow_ray_sampled` in
+//! `shaders/include/lighting.glsl`) for point, spot and directional lights, as one pass
 //! that serves every pipeline because it works from depth alone: per pixel, the world position
 //! and the normal come from depth (naive 3-tap or improved 5-tap reconstruction, §4.3.1), and a
 //! shadow ray goes towards each light of the pixel's list that can reach it, unless shadow-ray

@@ -39,7 +39,7 @@ use crate::graph::{BufferUse, Frame, ImageUse, PassKind};
 use crate::layout::{TAA_INTERLACED, TAA_RESET, TAA_SHARPEN_SHIFT};
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
-use crate::settings::{AntiAliasing, FrameSettings, PipelineKind};
+use crate::settings::{AntiAliasing, DebugView, FrameSettings, PipelineKind};
 
 /// Positions of the jitter sequence before it repeats.
 pub const JITTER_PHASES: u32 = 8;
@@ -109,17 +109,23 @@ impl Taa {
     pub fn prepare(&mut self, mirror: &mut SceneMirror, s: &FrameSettings, aa: AntiAliasing, extent: vk::Extent2D) -> bool {
         let cut = mirror.take_camera_cut();
         self.runs = aa == AntiAliasing::Taa;
+        // The frame count moves on (never 0, which says there is no accumulation) whenever
+        // temporal anti-aliasing is asked for, also in the debug views it does not resolve: they
+        // show each frame's samples of what it would average (soft shadows' rays).
+        let asked = self.runs || s.aa.applied(s.pipeline, DebugView::Lit, u32::MAX) == AntiAliasing::Taa;
+        if asked {
+            self.frame = self.frame.wrapping_add(1).max(1);
+        }
         if !self.runs {
             (self.made_with, self.last_view_proj) = (None, None);
-            mirror.set_camera_temporal(Vec2::ZERO, None);
+            mirror.set_camera_temporal(Vec2::ZERO, None, if asked { self.frame } else { 0 });
             return false;
         }
         self.reset = cut || self.made_with != Some((extent, s.pipeline));
         self.made_with = Some((extent, s.pipeline));
-        self.frame = self.frame.wrapping_add(1);
         let jitter = jitter_pixels(self.frame) * 2.0 / Vec2::new(extent.width as f32, extent.height as f32);
         let prev = if self.reset { None } else { self.last_view_proj };
-        mirror.set_camera_temporal(jitter, prev);
+        mirror.set_camera_temporal(jitter, prev, self.frame);
         self.last_view_proj = Some(mirror.camera().view_proj);
         true
     }
