@@ -285,6 +285,19 @@ fn dark_near(hdr: &[[f32; 4]], at: Vec2, floor: f32) -> (usize, Vec2) {
     (n, if n > 0 { sum / n as f32 } else { Vec2::NAN })
 }
 
+/// The last frame's image, the brightness of the floor at its left edge's middle, and where a
+/// world point shows in it (pixels).
+fn floor_image(app: &mut App) -> (Vec<[f32; 4]>, f32, impl Fn(Vec3) -> Vec2 + use<>) {
+    let view_proj = app.world.resource::<RenderMirror>().0.camera().view_proj;
+    let pixel = move |p: Vec3| {
+        let ndc = view_proj.project_point3(p);
+        Vec2::new((ndc.x * 0.5 + 0.5) * SIZE.0 as f32, (0.5 - ndc.y * 0.5) * SIZE.1 as f32)
+    };
+    let hdr = renderer(app).read_hdr().expect("read back the image");
+    let [r, g, b, _] = hdr[(SIZE.1 / 2 * SIZE.0 + 4) as usize];
+    (hdr, (r + g + b) / 3.0, pixel)
+}
+
 /// Particles that die where they land leave a decal each, written by the GPU, at the contact
 /// point, in every decal method (each on the tier and in a pipeline it runs in), the frame they
 /// land; the decals fade out and expire with their lifetime.
@@ -333,16 +346,7 @@ fn landing_particles_leave_decals_in_every_decal_method() {
         assert_no_validation_errors(&mut app);
         let counts = app.world.resource::<RenderStats>().last.particles;
         assert_eq!((counts.landed, counts.decals_born, counts.alive), (3, 3, 0), "{decal_method:?}: {counts:?}");
-        let view_proj = app.world.resource::<RenderMirror>().0.camera().view_proj;
-        let pixel = |p: Vec3| {
-            let ndc = view_proj.project_point3(p);
-            Vec2::new((ndc.x * 0.5 + 0.5) * SIZE.0 as f32, (0.5 - ndc.y * 0.5) * SIZE.1 as f32)
-        };
-        let hdr = renderer(&mut app).read_hdr().expect("read back the image");
-        let floor = {
-            let [r, g, b, _] = hdr[(SIZE.1 / 2 * SIZE.0 + 4) as usize];
-            (r + g + b) / 3.0
-        };
+        let (hdr, floor, pixel) = floor_image(&mut app);
         for &spot in &spots {
             let (n, centre) = dark_near(&hdr, pixel(spot), floor);
             assert!(n >= 4, "{decal_method:?}: no decal at {spot} (pixel {})", pixel(spot));
@@ -424,16 +428,7 @@ fn the_decal_ring_keeps_the_newest() {
     let at: Vec<Vec3> = left.iter().map(|d| d.position).collect();
     assert!(at.len() == 2 && at[0].distance(spots[1]) < 0.02 && at[1].distance(spots[2]) < 0.02, "the newest two, oldest first: {at:?}");
     assert!(left.iter().all(|d| d.expires.is_none()), "a lifetime of 0 lasts until overwritten");
-    let view_proj = app.world.resource::<RenderMirror>().0.camera().view_proj;
-    let pixel = |p: Vec3| {
-        let ndc = view_proj.project_point3(p);
-        Vec2::new((ndc.x * 0.5 + 0.5) * SIZE.0 as f32, (0.5 - ndc.y * 0.5) * SIZE.1 as f32)
-    };
-    let hdr = renderer(&mut app).read_hdr().expect("read back the image");
-    let floor = {
-        let [r, g, b, _] = hdr[(SIZE.1 / 2 * SIZE.0 + 4) as usize];
-        (r + g + b) / 3.0
-    };
+    let (hdr, floor, pixel) = floor_image(&mut app);
     let shown: Vec<bool> = spots.iter().map(|&s| dark_near(&hdr, pixel(s), floor).0 >= 4).collect();
     assert_eq!(shown, [false, true, true], "the oldest was overwritten");
 }
