@@ -5,8 +5,8 @@
 # 1,000 a frame at the headless 60 frames a second), 1920×1080, every other setting the
 # sandbox's default, run without and then with `--particle-decals` (each particle leaves a
 # decal where it first lands). Prints the medians of frames 90–179 of 180-frame runs: decals
-# born a frame (from the GPU's count), the simulation pass (which writes them), the ring's BLAS
-# build or refit and TLAS build (medians; then the mean a frame of the three and the share of
+# born a frame (from the GPU's count), the simulation pass (which writes them), the ring's BLAS call
+# (segments rebuilt or refit) and TLAS update (medians; then the mean a frame of the three and the share of
 # frames that rebuilt), the GPU frame and the CPU frame; then, per count, the passes
 # whose medians grew most with the decals (building them, and applying them).
 set -euo pipefail

@@ -749,6 +749,11 @@ layout! {
     /// The bit of a decal slot that names a GPU-born decal (`crate::particles`): the rest is its
     /// place in the particles' decal ring, whose records and boxes the GPU writes.
     pub const GPU_DECAL: u32 = 0x4000_0000;
+    /// Places of the particles' decal ring in one BLAS of its structure (a power of two; a ring
+    /// with less room is one BLAS): instance k of the ring's TLAS holds places from k × this on,
+    /// so that a frame rebuilds only the stretches of the ring that filled
+    /// (`crate::particles::ring_accel`).
+    pub const DECAL_RING_SEGMENT: u32 = 256;
     /// `ScenePush::texture_index` of a deferred-decal draw of the particles' decal ring: this
     /// bit, and in the low four bits the `DECAL_*` attribute flags of the decals it draws.
     pub const DECAL_RING_DRAW: u32 = 0x100;
@@ -1243,8 +1248,11 @@ layout! {
         /// Places of the ring (0: none), whose boxes the decal enumeration takes after the
         /// scene's decals'.
         pub decal_ring_room: u32,
+        /// Places of the ring in one BLAS of its structure: instance k of the ring's TLAS holds
+        /// the places from k × this on (`crate::particles::ring_accel`).
+        pub decal_ring_segment: u32,
         /// Padding to 16 bytes.
-        pub decal_ring_pad: [u32; 3],
+        pub decal_ring_pad: [u32; 2],
     }
 
     /// One particle of the pool (`crate::particles`). A slot whose `lifetime` is 0 is free.

@@ -58,11 +58,15 @@ float decal_distance_fade(GpuDecal d, vec3 position) {
     return distance < fade.y ? 1.0 : 0.0;
 }
 
-// The decal slot of primitive `primitive` of the decal structure instance `instance` (its
-// custom index): the scene's decal BLAS (0; its box table is dense, NO_DECAL for padding boxes)
-// or the particles' decal ring's (1; render/src/particles).
-uint decal_of_box(uint instance, uint primitive) {
-    if (instance == 1u) return ParticleDecalBoxesRef(scene.lighting.lighting.decal_ring_boxes).boxes[ring_place(primitive)].slot;
+// The decal slot of primitive `primitive` of instance `instance` of the decal structure
+// `structure` (its instances' custom index): the scene's decal BLAS (0; one instance; its box
+// table is dense, NO_DECAL for padding boxes) or the particles' decal ring's (1; instance k is
+// the BLAS of the ring's places from k × decal_ring_segment on, render/src/particles/ring_accel.rs).
+uint decal_of_box(uint structure, uint instance, uint primitive) {
+    if (structure == 1u) {
+        uint place = instance * scene.lighting.lighting.decal_ring_segment + primitive;
+        return ParticleDecalBoxesRef(scene.lighting.lighting.decal_ring_boxes).boxes[ring_place(place)].slot;
+    }
     return DecalBoxesRef(scene.decal_aabbs).boxes[primitive].slot;
 }
 
@@ -207,20 +211,22 @@ bool apply_decal(inout DecalBlend b, uint index, DecalSurface s) {
 // candidate, confirmed by apply_decal's box test. Returns the number of candidates (heat map).
 // The scene's decals, then the particles' decal ring (each structure where there is one), in
 // one traversal loop (one inlined query: lavapipe compiles each query site into the shader).
-// The instance (0: the scene's, 1: the ring's) is known here rather than asked of the query
-// (lavapipe 25.0 crashes asking for it in a fragment shader).
+// The structure (0: the scene's, 1: the ring's) is known here rather than asked of the query
+// for the custom index (lavapipe 25.0 crashes asking for it in a fragment shader); the ring's
+// instance (its segment) is asked for.
 uint gather_decals(inout DecalBlend b, DecalSurface s) {
     if (scene.decal_count == 0u) return 0u;
     uint tested = 0u;
-    for (uint instance = 0u; instance < 2u; ++instance) {
-        uint64_t tlas = instance == 0u ? scene.decal_tlas : particle_decal_tlas();
+    for (uint structure = 0u; structure < 2u; ++structure) {
+        uint64_t tlas = structure == 0u ? scene.decal_tlas : particle_decal_tlas();
         if (tlas == 0ul) continue;
         rayQueryEXT query;
         rayQueryInitializeEXT(query, accelerationStructureEXT(tlas), gl_RayFlagsSkipClosestHitShaderEXT | gl_RayFlagsOpaqueEXT,
                               0xFF, s.position, 0.0, vec3(1.0, 0.0, 0.0), 0.0);
         while (rayQueryProceedEXT(query)) {
             tested += 1u;
-            apply_decal(b, decal_of_box(instance, uint(rayQueryGetIntersectionPrimitiveIndexEXT(query, false))), s);
+            uint instance = structure == 0u ? 0u : uint(rayQueryGetIntersectionInstanceIdEXT(query, false));
+            apply_decal(b, decal_of_box(structure, instance, uint(rayQueryGetIntersectionPrimitiveIndexEXT(query, false))), s);
         }
     }
     return tested;

@@ -66,9 +66,6 @@ impl DecalAccel {
             build_pass: "blas_build",
             update_pass: "blas_update",
             tlas_pass: "tlas_build",
-            custom_index: 0,
-            rebuild_fraction: crate::gpu::accel::REBUILD_AFTER_REFIT_FRACTION,
-            fast_build: false,
         };
         Self { accel: AabbAccel::new(ctx, graph, names), pending_changes: 0 }
     }

@@ -154,6 +154,11 @@ impl Scratch {
         Ok(self.buffer.as_ref().expect("allocated above").address.next_multiple_of(self.alignment))
     }
 
+    /// The alignment the device asks of scratch addresses.
+    pub fn alignment(&self) -> u64 {
+        self.alignment
+    }
+
     /// Replaces the buffer by one for `size` bytes when that needs at most a quarter of it (its
     /// owner has shrunk); the old one waits in the graveyard.
     pub fn shrink_to(&mut self, up: &mut Upload, size: u64) -> Result<(), RenderError> {
@@ -277,8 +282,7 @@ pub struct AabbAccel {
     names: AabbAccelDesc,
 }
 
-/// What an [`AabbAccel`] is: its parts' and passes' debug names, its instance's custom index,
-/// and its rebuild policy.
+/// What an [`AabbAccel`] is: its parts' and passes' debug names.
 #[derive(Clone, Copy, Debug)]
 pub struct AabbAccelDesc {
     /// The BLAS (also its buffer's name).
@@ -293,15 +297,6 @@ pub struct AabbAccelDesc {
     pub update_pass: &'static str,
     /// The TLAS build pass.
     pub tlas_pass: &'static str,
-    /// The instance's custom index (0 for the scene's decals and the lights; 1 for the
-    /// particles' decal ring, whose hits shaders tell apart by it).
-    pub custom_index: u32,
-    /// The share of the built boxes refitted since the last build past which a refit becomes
-    /// a rebuild ([`REBUILD_AFTER_REFIT_FRACTION`] for structures whose boxes move now and
-    /// then; 0 rebuilds whenever a box changed).
-    pub rebuild_fraction: f32,
-    /// Builds prefer a fast build to a fast trace (a structure rebuilt most frames).
-    pub fast_build: bool,
 }
 
 /// The frame-graph resources of an [`AabbAccel`].
@@ -377,7 +372,7 @@ impl AabbAccel {
     pub fn prepare(&mut self, f: &mut Frame, input: &AabbInput) -> Result<AabbPlan, RenderError> {
         let need = build_count(input.live, input.capacity);
         let shrink = self.blas.is_some() && self.shrink.check(self.sized_for as u64, need as u64, 0).is_some();
-        let mut work = plan_blas_work(self.built, input.live, input.changed, self.refitted_since_build, self.names.rebuild_fraction);
+        let mut work = plan_blas_work(self.built, input.live, input.changed, self.refitted_since_build, REBUILD_AFTER_REFIT_FRACTION);
         // A refit covers what the last build covered, which the box table must still hold.
         if shrink || self.built.is_some_and(|built| built > input.capacity) {
             work = BlasWork::Build;
@@ -404,7 +399,7 @@ impl AabbAccel {
         {
             let size = blas_sizes.acceleration_structure_size;
             let blas = AccelStruct::new(ctx, vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, size, self.names.blas)?;
-            let instance = Self::instance_buffer(ctx, blas.address, self.names.custom_index, self.names.tlas)?;
+            let instance = Self::instance_buffer(ctx, blas.address, self.names.tlas)?;
             if let Some(old) = self.blas.replace(blas) {
                 if shrink {
                     tracing::debug!(blas = self.names.blas, from = self.sized_for, to = count, "box BLAS shrinks");
@@ -516,21 +511,15 @@ impl AabbAccel {
         Ok(())
     }
 
-    /// Flags of its BLAS builds: updatable, and preferring a fast trace or (`fast_build`) a
-    /// fast build.
+    /// Flags of its BLAS builds: updatable, preferring a fast trace.
     fn blas_flags(&self) -> vk::BuildAccelerationStructureFlagsKHR {
-        let prefer = if self.names.fast_build {
-            vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_BUILD
-        } else {
-            vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE
-        };
-        prefer | vk::BuildAccelerationStructureFlagsKHR::ALLOW_UPDATE
+        vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE | vk::BuildAccelerationStructureFlagsKHR::ALLOW_UPDATE
     }
 
     /// A new host-written buffer holding the one instance of `blas` (new rather than rewritten:
     /// a frame in flight may be reading the old one).
-    fn instance_buffer(ctx: &GpuContext, blas: vk::DeviceAddress, custom_index: u32, name: &str) -> Result<Buffer, RenderError> {
-        let instance = single_instance(blas, custom_index);
+    fn instance_buffer(ctx: &GpuContext, blas: vk::DeviceAddress, name: &str) -> Result<Buffer, RenderError> {
+        let instance = single_instance(blas, 0);
         let mut buffer = Buffer::new(
             ctx,
             name,
@@ -564,7 +553,7 @@ const BOX_TLAS_FLAGS: vk::BuildAccelerationStructureFlagsKHR = vk::BuildAccelera
 /// accumulate (decals blend, lights add), so each box must reach them once per ray: without
 /// `NO_DUPLICATE_ANY_HIT_INVOCATION` the specification lets an implementation run any-hit twice
 /// for one primitive, and a decal would be blended twice.
-fn aabb_geometry(address: vk::DeviceAddress) -> [vk::AccelerationStructureGeometryKHR<'static>; 1] {
+pub fn aabb_geometry(address: vk::DeviceAddress) -> [vk::AccelerationStructureGeometryKHR<'static>; 1] {
     [vk::AccelerationStructureGeometryKHR::default()
         .geometry_type(vk::GeometryTypeKHR::AABBS)
         .geometry(vk::AccelerationStructureGeometryDataKHR {

@@ -261,7 +261,8 @@ impl Lighting {
             decal_ring_boxes: 0,
             decal_ring_tlas: 0,
             decal_ring_room: 0,
-            decal_ring_pad: [0; 3],
+            decal_ring_segment: 0,
+            decal_ring_pad: [0; 2],
         });
         let res = self.tiles.resources();
         let inline_shadows = match accel.traced {

@@ -89,9 +89,6 @@ impl RayQueryLights {
             build_pass: "light_blas_build",
             update_pass: "light_blas_update",
             tlas_pass: "light_tlas_build",
-            custom_index: 0,
-            rebuild_fraction: crate::gpu::accel::REBUILD_AFTER_REFIT_FRACTION,
-            fast_build: false,
         };
         Ok(Some(Self {
             buffer: None,

@@ -68,9 +68,12 @@ use gpu_allocator::MemoryLocation;
 
 pub use crate::scene::emitters::{DecalRing, Emitter, Emitters, step};
 
+mod ring_accel;
+
+use ring_accel::{RingAccel, RingPlan};
+
 use crate::RenderError;
 use crate::gpu::FRAMES_IN_FLIGHT;
-use crate::gpu::accel::{AabbAccel, AabbAccelDesc, AabbInput, AabbPlan, BlasWork};
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::memory::{Buffer, Retired};
 use crate::gpu::pipeline::{Blend, GraphicsDesc, HitGroup, RayTracingDesc, RayTracingPipeline, create_compute, create_graphics};
@@ -80,7 +83,7 @@ use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT, MotionVectors}
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, Load, PassKind, ResourceId};
 use crate::layout::{GpuAabb, GpuDecal, GpuEmission, GpuEmitter, GpuParticle, GpuParticleState, PARTICLE_GROUP};
 use crate::lights::{LightFrame, declare_light_reads};
-use crate::scene::gpu::GpuScene;
+use crate::scene::gpu::{DecalRingFields, GpuScene};
 use crate::stats::{FrameCounters, ParticleCounts};
 
 /// A decal a landing particle left, as read back from the ring ([`Particles::read_decals`]):
@@ -200,12 +203,6 @@ fn emitters_offset(job_room: u32) -> u64 {
     (jobs_offset() + job_room as u64 * std::mem::size_of::<GpuEmission>() as u64).next_multiple_of(16)
 }
 
-/// The decal ring's boxes as its structures' builds read them: every place, always (a place
-/// no decal has taken yet holds a zero-size box of no decal).
-fn ring_input(res: ResourceId, address: vk::DeviceAddress, room: u32) -> AabbInput {
-    AabbInput { boxes: res, address, live: room, capacity: room, changed: 0 }
-}
-
 /// Address of the decal ring's boxes in the pool at `pool` (after the particles, their three
 /// lists and the ring's records).
 fn ring_boxes(pool: vk::DeviceAddress, capacity: u32, decal_room: u32) -> vk::DeviceAddress {
@@ -260,15 +257,13 @@ pub struct Particles {
     init_recorded: bool,
     /// A frame was abandoned after writing the record: the next copies it whatever it holds.
     force_copy: bool,
-    /// The decal ring's BLAS and TLAS (devices with acceleration structures), and this frame's
-    /// work on them (planned in `prepare`, recorded after the simulation wrote the boxes).
-    ring_accel: Option<AabbAccel>,
-    /// The planned work and the boxes it counts as changed.
-    ring_plan: Option<(AabbPlan, u32)>,
+    /// The decal ring's BLASes and TLAS (devices with acceleration structures), and this
+    /// frame's work on them (planned in `prepare`, recorded after the simulation wrote the
+    /// boxes).
+    ring_accel: Option<RingAccel>,
+    ring_plan: Option<RingPlan>,
     /// Some emitter has left decals: the ring is enumerated with the scene's decals.
     ring_on: bool,
-    /// Decals born, as last read back: the growth since is what a refit counts as changed.
-    born_seen: u32,
     /// Frames moved particles while the ring's structures were not followed (nothing traced
     /// decals): the next frame that traces them rebuilds them.
     ring_stale: bool,
@@ -335,29 +330,11 @@ impl Particles {
             cut: 0,
             init_recorded: false,
             force_copy: false,
-            ring_accel: ctx.ray_tracing.is_some().then(|| {
-                let names = AabbAccelDesc {
-                    blas: "particle decal blas",
-                    tlas: "particle decal tlas",
-                    scratch: "particle decal as scratch",
-                    build_pass: "particle_decal_blas_build",
-                    update_pass: "particle_decal_blas_update",
-                    tlas_pass: "particle_decal_tlas_build",
-                    custom_index: 1,
-                    // Rebuilt once a quarter of the ring was refitted since the last build: a
-                    // refit keeps a tree fitted to boxes long overwritten, which slows the rays
-                    // (docs/experiments/particles-gpu.md measured this rule and a rebuild after
-                    // every place was refitted: at 988 decals a frame 0.142 ms of building and
-                    // 0.016 ms more for the reflection rays, against 0.075 and 0.148). Built for
-                    // a fast build: the ring changes most frames.
-                    rebuild_fraction: crate::gpu::accel::REBUILD_AFTER_REFIT_FRACTION,
-                    fast_build: true,
-                };
-                AabbAccel::new(ctx, graph, names)
-            }),
+            // The ring's structures: segments rebuilt as the ring fills them, refit between
+            // (`ring_accel`, which says why).
+            ring_accel: ctx.ray_tracing.is_some().then(|| RingAccel::new(ctx, graph, decal_room.max(1).next_power_of_two())),
             ring_plan: None,
             ring_on: false,
-            born_seen: 0,
             ring_stale: false,
         })
     }
@@ -429,9 +406,8 @@ impl Particles {
             emitters.mark_all_dirty();
             self.record = GpuParticleState::default();
             // The new pool's ring is empty, its count starts again.
-            self.born_seen = 0;
             if let Some(accel) = self.ring_accel.as_mut() {
-                accel.forget();
+                accel.forget(0);
             }
         }
         self.ring_on |= emitters.leaves_decals();
@@ -486,11 +462,10 @@ impl Particles {
     /// by [`Particles::simulate`]): none while no emitter leaves decals; while nothing traces
     /// decals, none (the structures are released after a while, like the scene's decal
     /// structures) but the ring is marked stale when particles `moving` may write boxes; while
-    /// decals are traced, a refit each frame particles move (a rebuild once the boxes changed
-    /// enough, [`plan_blas_work`](crate::gpu::accel::plan_blas_work)), and a rebuild the first
-    /// frame after boxes were written unseen.
+    /// decals are traced, a refit each frame particles move with the segments the ring filled
+    /// rebuilt ([`ring_accel`]), and a rebuild the first frame after boxes were written unseen.
     fn plan_ring(&mut self, f: &mut Frame, leaves_decals: bool, decals_traced: bool, moving: bool) -> Result<(), RenderError> {
-        let (Some(accel), Some(gpu)) = (self.ring_accel.as_mut(), self.gpu.as_ref()) else { return Ok(()) };
+        let (Some(accel), true) = (self.ring_accel.as_mut(), self.gpu.is_some()) else { return Ok(()) };
         if !leaves_decals {
             return Ok(());
         }
@@ -503,14 +478,9 @@ impl Particles {
         if !moving && !self.ring_stale && accel.traced().is_some() {
             return Ok(());
         }
-        let input = ring_input(self.res, ring_boxes(gpu.pool.address, self.capacity, self.decal_room), self.decal_room);
-        // What the GPU counted two frames back grew by (at least one: this frame's simulation
-        // may write boxes); every place after frames that did not follow them.
-        let born = self.last.decals_born;
-        let changed = if self.ring_stale { self.decal_room } else { born.saturating_sub(self.born_seen).max(1) };
-        self.born_seen = born;
-        self.ring_stale = false;
-        self.ring_plan = Some((accel.prepare(f, &AabbInput { changed, ..input })?, changed));
+        // Segments the ring filled since (by what the GPU counted a frame or two back) are
+        // rebuilt, the others refit; every one after frames that did not follow the boxes.
+        self.ring_plan = Some(accel.prepare(f, self.last.decals_born, std::mem::take(&mut self.ring_stale))?);
         Ok(())
     }
 
@@ -519,15 +489,22 @@ impl Particles {
     pub fn decal_ring(&self) -> Option<DecalRing> {
         // What the state holds (the record copied by the last frame that moved particles), so
         // that the CPU's decal count and the GPU's ring agree.
-        let traced = self.ring_accel.as_ref().and_then(AabbAccel::traced);
+        let traced = self.ring_accel.as_ref().and_then(RingAccel::traced);
         (self.gpu.is_some() && self.ring_on).then_some(DecalRing { room: self.decal_room, res: self.res, traced })
     }
 
-    /// The decal ring as the lighting record names it: records, boxes, TLAS and places.
-    fn ring_fields(&self) -> Option<(u64, u64, u64, u32)> {
+    /// The decal ring as the lighting record names it: records, boxes, TLAS, places and the
+    /// places of a segment of its structure.
+    fn ring_fields(&self) -> Option<DecalRingFields> {
         let r = &self.record;
-        let tlas = self.ring_accel.as_ref().filter(|a| a.traced().is_some()).map_or(0, AabbAccel::tlas_address);
-        (self.gpu.is_some() && self.ring_on && r.decal_room > 0).then_some((r.decals, r.decal_boxes, tlas, r.decal_room))
+        let (tlas, segment) = self.ring_accel.as_ref().map_or((0, r.decal_room), |a| (a.tlas_address(), a.segment()));
+        (self.gpu.is_some() && self.ring_on && r.decal_room > 0).then_some(DecalRingFields {
+            records: r.decals,
+            boxes: r.decal_boxes,
+            tlas,
+            room: r.decal_room,
+            segment,
+        })
     }
 
     /// Whether this frame has particles to move or draw.
@@ -656,16 +633,13 @@ impl Particles {
 
     /// Records the decal ring's structures' work planned by [`Particles::prepare`], if any.
     fn record_ring(&mut self, f: &mut Frame, counters: &mut FrameCounters) -> Result<(), RenderError> {
-        let (Some(accel), Some((plan, changed)), Some(gpu)) = (self.ring_accel.as_mut(), self.ring_plan.take(), self.gpu.as_ref()) else {
+        let (Some(accel), Some(plan), Some(gpu)) = (self.ring_accel.as_mut(), self.ring_plan.take(), self.gpu.as_ref()) else {
             return Ok(());
         };
-        let input = ring_input(self.res, ring_boxes(gpu.pool.address, self.capacity, self.decal_room), self.decal_room);
-        accel.record(f, &AabbInput { changed, ..input }, &plan)?;
-        if plan.work != BlasWork::None {
-            counters.blas_updates += u64::from(plan.work == BlasWork::Update);
-            counters.blas_builds += u64::from(plan.work == BlasWork::Build);
-            counters.tlas_builds += 1;
-        }
+        accel.record(f, self.res, ring_boxes(gpu.pool.address, self.capacity, self.decal_room), &plan)?;
+        counters.blas_builds += u64::from(plan.rebuilt);
+        counters.blas_updates += u64::from(accel.segments() - plan.rebuilt);
+        counters.tlas_builds += 1;
         Ok(())
     }
 
@@ -735,7 +709,7 @@ impl Particles {
         self.ring_plan = None;
         self.ring_stale = true;
         if let Some(accel) = self.ring_accel.as_mut() {
-            accel.forget();
+            accel.forget(self.last.decals_born);
         }
         self.force_copy = true;
         emitters.mark_all_dirty();

@@ -11,7 +11,7 @@ use crate::layout::GpuEmitter;
 /// The ring of decals that landing particles leave (`crate::particles`), as the decal passes
 /// enumerate it after the scene's decals: its places (`GPU_DECAL` slots), the graph resource
 /// holding its records and boxes, and, where decals are traced, its own acceleration structures
-/// (a TLAS whose one instance has custom index 1, and its BLAS).
+/// (a TLAS whose instances, of custom index 1, are its segments' BLASes).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DecalRing {
     /// Places of the ring.

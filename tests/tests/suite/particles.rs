@@ -432,3 +432,57 @@ fn the_decal_ring_keeps_the_newest() {
     let shown: Vec<bool> = spots.iter().map(|&s| dark_near(&hdr, pixel(s), floor).0 >= 4).collect();
     assert_eq!(shown, [false, true, true], "the oldest was overwritten");
 }
+
+/// The ring's structure is cut into segments of 256 places, each its own BLAS (a frame rebuilds
+/// only those the ring filled): decals past the first segment are traced at their contact
+/// points too, by ray queries and by the ray-tracing pipeline. 257 particles land first where
+/// the camera does not see, then three in view take places 257 to 259.
+#[test]
+fn decals_past_the_first_segment_of_the_ring_are_traced() {
+    use plugins::decal::DecalMaterial;
+    use plugins::particles::LeftDecal;
+    use render::{DecalMethod, Tier};
+    for (pipeline, decal_method, tier) in [
+        (PipelineKind::Forward, DecalMethod::RayQuery, Tier::RayQuery),
+        (PipelineKind::VisBuffer, DecalMethod::RayPipeline, Tier::RayTracingPipeline),
+    ] {
+        let device = render::DeviceSettings { max_tier: tier, ..Default::default() };
+        let renderer_settings = render::RendererSettings { particle_decals: 512, device, ..Default::default() };
+        let settings = RenderSettings { pipeline, decal_method, ambient: Vec3::splat(0.6), ..Default::default() };
+        let mut app = gpu_app_with(SIZE.0, SIZE.1, settings, &renderer_settings);
+        let grey = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec4::new(0.8, 0.8, 0.8, 1.0), 0.0, 0.9));
+        let ground = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(8.0, 8.0, 1, 1.0));
+        app.world.spawn((MeshInstance { mesh: ground, material: grey }, Transform::default()));
+        app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 3.0, 3.0).looking_at(Vec3::new(0.0, 0.0, 0.3), Vec3::Y)));
+        let soot = app
+            .world
+            .resource_mut::<Assets<DecalMaterial>>()
+            .add(DecalMaterial { base_color: Some(Vec4::new(0.0, 0.0, 0.0, 1.0)), ..Default::default() });
+        let leaves = Some(LeftDecal { material: soot, size: 0.25, depth: 0.2, lifetime: 0.0, fade: 0.0 });
+        // Behind the camera: the first segment's 256 places and one more.
+        let (mut unseen, at) = launcher(Vec3::new(0.0, 0.3, 3.8), Vec3::new(0.0, -2.0, 0.0), 257);
+        (unseen.contact, unseen.leaves) = (Contact::Die, leaves);
+        app.world.spawn((unseen, at));
+        for _ in 0..14 {
+            app.update();
+        }
+        let spots = [Vec3::new(-0.8, 0.0, 0.2), Vec3::new(0.4, 0.0, -0.3), Vec3::new(0.9, 0.0, 0.7)];
+        for &spot in &spots {
+            let (mut emitter, transform) = launcher(spot + Vec3::Y * 0.3, Vec3::new(0.0, -2.0, 0.0), 1);
+            (emitter.contact, emitter.leaves) = (Contact::Die, leaves);
+            app.world.spawn((emitter, transform));
+        }
+        for _ in 0..14 {
+            app.update();
+        }
+        assert_no_validation_errors(&mut app);
+        let counts = app.world.resource::<RenderStats>().last.particles;
+        assert_eq!(counts.decals_born, 260, "{decal_method:?}: {counts:?}");
+        let (hdr, floor, pixel) = floor_image(&mut app);
+        for &spot in &spots {
+            let (n, centre) = dark_near(&hdr, pixel(spot), floor);
+            assert!(n >= 4, "{decal_method:?}: no decal at {spot} (pixel {})", pixel(spot));
+            assert!(centre.distance(pixel(spot)) < 1.5, "{decal_method:?}: the decal at {centre}, the particle landed at {}", pixel(spot));
+        }
+    }
+}

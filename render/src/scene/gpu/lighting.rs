@@ -4,6 +4,21 @@
 
 use super::*;
 
+/// The particles' decal ring as the lighting record names it ([`GpuScene::set_decal_ring`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DecalRingFields {
+    /// Address of its records (`GpuDecal` per place).
+    pub records: u64,
+    /// Address of its boxes (`GpuAabb` per place).
+    pub boxes: u64,
+    /// Address of its TLAS (0: none).
+    pub tlas: u64,
+    /// Places of the ring.
+    pub room: u32,
+    /// Places in one BLAS of its structure.
+    pub segment: u32,
+}
+
 impl GpuScene {
     /// Sets the lighting record; it is uploaded with the next sync only when it differs.
     pub fn set_lighting(&mut self, mut lighting: GpuLighting) {
@@ -20,8 +35,8 @@ impl GpuScene {
         // And the particle system's state and decal ring (`set_particles`, `set_decal_ring`).
         lighting.particles = self.lighting_cpu.particles;
         let l = &self.lighting_cpu;
-        (lighting.decal_ring, lighting.decal_ring_boxes, lighting.decal_ring_tlas, lighting.decal_ring_room) =
-            (l.decal_ring, l.decal_ring_boxes, l.decal_ring_tlas, l.decal_ring_room);
+        (lighting.decal_ring, lighting.decal_ring_boxes, lighting.decal_ring_tlas, lighting.decal_ring_room, lighting.decal_ring_segment) =
+            (l.decal_ring, l.decal_ring_boxes, l.decal_ring_tlas, l.decal_ring_room, l.decal_ring_segment);
         // And the shadow maps' atlas layout (`set_shadow_maps`).
         (lighting.shadow_map_tile, lighting.shadow_map_columns) = (self.lighting_cpu.shadow_map_tile, self.lighting_cpu.shadow_map_columns);
         if lighting != self.lighting_cpu {
@@ -39,15 +54,16 @@ impl GpuScene {
         }
     }
 
-    /// Sets the particles' decal ring (`crate::particles`): its records, boxes, TLAS and places
-    /// (`None`: no ring; the addresses then name this lighting record, which always exists,
-    /// so that a load a shader compiler hoists out of its branch reads valid memory). An
-    /// unchanged ring uploads nothing.
-    pub fn set_decal_ring(&mut self, ring: Option<(u64, u64, u64, u32)>) {
-        let fields = ring.unwrap_or((self.lighting.address(), self.lighting.address(), 0, 0));
+    /// Sets the particles' decal ring (`crate::particles`; `None`: no ring, and the addresses
+    /// then name this lighting record, which always exists, so that a load a shader compiler
+    /// hoists out of its branch reads valid memory). An unchanged ring uploads nothing.
+    pub fn set_decal_ring(&mut self, ring: Option<DecalRingFields>) {
+        let here = self.lighting.address();
+        let r = ring.unwrap_or(DecalRingFields { records: here, boxes: here, tlas: 0, room: 0, segment: 0 });
+        let fields = (r.records, r.boxes, r.tlas, r.room, r.segment);
         let l = &mut self.lighting_cpu;
-        if (l.decal_ring, l.decal_ring_boxes, l.decal_ring_tlas, l.decal_ring_room) != fields {
-            (l.decal_ring, l.decal_ring_boxes, l.decal_ring_tlas, l.decal_ring_room) = fields;
+        if (l.decal_ring, l.decal_ring_boxes, l.decal_ring_tlas, l.decal_ring_room, l.decal_ring_segment) != fields {
+            (l.decal_ring, l.decal_ring_boxes, l.decal_ring_tlas, l.decal_ring_room, l.decal_ring_segment) = fields;
             self.lighting_dirty = true;
         }
     }

@@ -50,6 +50,7 @@ use crate::scene::{
     TEXTURE_WHITE, TextureData,
 };
 use crate::stats::FrameCounters;
+pub use lighting::DecalRingFields;
 pub use meshes::GpuMesh;
 use meshes::*;
 use tables::*;
