@@ -749,10 +749,10 @@ layout! {
     /// The bit of a decal slot that names a GPU-born decal (`crate::particles`): the rest is its
     /// place in the particles' decal ring, whose records and boxes the GPU writes.
     pub const GPU_DECAL: u32 = 0x4000_0000;
-    /// Places of the particles' decal ring in one BLAS of its structure (a power of two; a ring
-    /// with less room is one BLAS): instance k of the ring's TLAS holds places from k × this on,
-    /// so that a frame rebuilds only the stretches of the ring that filled
-    /// (`crate::particles::ring_accel`).
+    /// Places of the particles' decal ring in one BLAS of its structure, for rings of up to 64
+    /// times this (a ring with less room is one BLAS, a larger one has longer segments: shaders
+    /// read `GpuLighting::decal_ring_segment`), so that a frame rebuilds only the stretches of
+    /// the ring that filled (`crate::particles::ring_accel`).
     pub const DECAL_RING_SEGMENT: u32 = 256;
     /// `ScenePush::texture_index` of a deferred-decal draw of the particles' decal ring: this
     /// bit, and in the low four bits the `DECAL_*` attribute flags of the decals it draws.

@@ -528,7 +528,14 @@ impl Renderer {
         let (commands, recording) = cmd.finish();
         let slot = &mut res.frames[slot_index];
         slot.commands = commands;
-        let recording = recording.map_err(|e| RenderError::from(e).in_frame(frame, "recording the command buffer"))?;
+        let recording = match recording {
+            Ok(r) => r,
+            Err(e) => {
+                // What the particles' passes would have written is written again next frame.
+                res.particles.abandon(&mut mirror.emitters);
+                return Err(RenderError::from(e).in_frame(frame, "recording the command buffer"));
+            }
+        };
         counters.commands_reused = recording == Recording::Reused;
         let cmd = slot.commands.cmd();
         // SAFETY: the buffer is recorded (now or by an earlier frame with the same commands, whose
@@ -558,7 +565,10 @@ impl Renderer {
             d.queue_submit2(ctx.queue, &[submit], vk::Fence::null())
         };
         let submit_ms = submit_start.elapsed().as_secs_f32() * 1e3;
-        submitted.map_err(|e| RenderError::from(e).in_frame(frame, "submitting the frame"))?;
+        if let Err(e) = submitted {
+            res.particles.abandon(&mut mirror.emitters);
+            return Err(RenderError::from(e).in_frame(frame, "submitting the frame"));
+        }
         // Submitted: the slot now waits for this frame, whatever presenting says.
         let slot = &mut res.frames[slot_index];
         slot.value = frame_value;

@@ -1,6 +1,6 @@
 //! Acceleration structures and their scratch memory, shared by the decal structures
-//! (`crate::decals::accel`), the scene's (`crate::accel`) and the lights'
-//! (`crate::lights::ray_query`); and [`AabbAccel`], the one-BLAS-of-boxes structure the decals
+//! (`crate::decals::accel`), the scene's (`crate::accel`), the lights'
+//! (`crate::lights::ray_query`) and the particles' decal ring's (`crate::particles`); and [`AabbAccel`], the one-BLAS-of-boxes structure the decals
 //! and the ray-query lights both enumerate with a zero-length ray, with its rebuild policy
 //! ([`plan_blas_work`]).
 //!
@@ -266,7 +266,8 @@ pub fn plan_blas_work(built: Option<u32>, live: u32, changed: u32, refitted_sinc
 
 /// One BLAS of AABB geometry ([`GpuAabb`] boxes, stride 32) and a TLAS holding one instance of
 /// it: what a zero-length ray enumerates decals or lights in. Built with `PREFER_FAST_TRACE |
-/// ALLOW_UPDATE`; the TLAS (one instance: microseconds) is rebuilt whenever the BLAS changed.
+/// ALLOW_UPDATE`; the TLAS (one instance) is built after a BLAS build and updated in place
+/// after a refit.
 pub struct AabbAccel {
     blas: Option<AccelStruct>,
     tlas: Option<AccelStruct>,

@@ -675,15 +675,17 @@ unsafe fn replay_builds(ctx: &GpuContext, cmd: vk::CommandBuffer, c: Builds, w: 
     let (mut build, mut range) = (0, 0);
     while build < c.builds.len() {
         let n = (c.builds.len() - build).min(BUILDS_PER_CALL);
-        let mut refs: [&[vk::AccelerationStructureBuildRangeInfoKHR]; BUILDS_PER_CALL] = [&[]; BUILDS_PER_CALL];
+        // Pointers to each build's ranges, in a fixed array: ash's wrapper collects them into a
+        // vector, and a replay allocates nothing.
+        let mut refs: [*const vk::AccelerationStructureBuildRangeInfoKHR; BUILDS_PER_CALL] = [std::ptr::null(); BUILDS_PER_CALL];
         for (i, info) in c.builds[build..build + n].iter().enumerate() {
             let len = info.geometry_count as usize;
-            refs[i] = &c.ranges[range..range + len];
+            refs[i] = c.ranges[range..range + len].as_ptr();
             range += len;
         }
-        // SAFETY: the caller's contract; the infos point into `c.geometries`, unchanged until
-        // the next replay.
-        unsafe { asx.cmd_build_acceleration_structures(cmd, &c.builds[build..build + n], &refs[..n]) };
+        // SAFETY: the caller's contract; the infos point into `c.geometries` and each range
+        // pointer into `c.ranges` (geometry_count ranges each), unchanged until the next replay.
+        unsafe { (asx.fp().cmd_build_acceleration_structures_khr)(cmd, n as u32, c.builds[build..].as_ptr(), refs.as_ptr()) };
         build += n;
     }
     at

@@ -114,10 +114,14 @@ pub struct RingAccel {
     count: u32,
     /// Every segment is built and the TLAS over them; the refits have followed the boxes.
     built: bool,
-    /// Segments to rebuild in the next recorded frame (the ring passed their end).
+    /// Segments the ring passed the end of since their last build: rebuilt together once
+    /// enough wait ([`REBUILD_WHEN_WAITING`], [`MAX_WAIT_FRAMES`]).
     rebuild: [bool; MAX_SEGMENTS],
     /// The ring's count (decals born) up to which filled segments were marked for a rebuild.
     born_seen: u32,
+    /// The count the next full build starts from, when [`RingAccel::forget`] named one (a new
+    /// pool's ring starts at 0 while the statistics still name the old pool's count).
+    restart: Option<u32>,
     /// Frames planned since the first of the waiting segments was marked.
     waited: u32,
     shrink: Shrink,
@@ -142,6 +146,7 @@ impl RingAccel {
             rebuild: [false; MAX_SEGMENTS],
             born_seen: 0,
             waited: 0,
+            restart: None,
             shrink: Shrink::default(),
             res: [
                 graph.resource("particle decal tlas"),
@@ -176,7 +181,7 @@ impl RingAccel {
     /// builds every segment, and the ring's count starts again from `born`.
     pub fn forget(&mut self, born: u32) {
         self.built = false;
-        self.born_seen = born;
+        self.restart = Some(born);
     }
 
     /// A frame that does not follow the ring's boxes (nothing traces decals). After
@@ -186,6 +191,11 @@ impl RingAccel {
             return;
         }
         tracing::debug!("unused particle decal structures released");
+        self.release(up);
+    }
+
+    /// Lets everything go (into the graveyard); the next [`RingAccel::prepare`] makes them anew.
+    fn release(&mut self, up: &mut Upload) {
         for a in self.segments.drain(..).chain(self.tlas.take()) {
             up.count_shrink(a.buffer.size, 0);
             a.bury(up.graveyard, up.frame_value);
@@ -199,20 +209,26 @@ impl RingAccel {
 
     /// Plans the frame's work, the GPU having counted `born` decals by the last statistics that
     /// came back: every segment built when the structures are not built (or `stale`: boxes
-    /// were written while nothing followed them), else every segment refit and those the count
-    /// passed the end of since the last frame rebuilt. Makes the structures on first use; after
-    /// this the TLAS address is final for the frame.
+    /// were written while nothing followed them), else every segment refit, and the segments
+    /// the count passed the end of marked, then rebuilt together once enough are marked or the
+    /// first has waited long enough. Makes the structures on first use; after this the TLAS
+    /// address is final for the frame.
     pub fn prepare(&mut self, f: &mut Frame, born: u32, stale: bool) -> Result<RingPlan, RenderError> {
         self.shrink.reset();
         if stale {
             self.built = false;
         }
-        if self.segments.is_empty() {
-            self.allocate(f)?;
+        if self.tlas.is_none() {
+            // All or nothing: a failed allocation leaves nothing behind, and the next frame
+            // tries again.
             self.built = false;
+            if let Err(e) = self.allocate(f) {
+                self.release(&mut f.upload);
+                return Err(e);
+            }
         }
         if !self.built {
-            self.born_seen = born;
+            self.born_seen = self.restart.take().unwrap_or(born);
             return Ok(RingPlan { rebuilt: self.count, build_tlas: true });
         }
         // A count below the last seen is a new pool's (the statistics may name the old one's
@@ -263,13 +279,14 @@ impl RingAccel {
             dst.copy_from_slice(instance_bytes(r));
         }
         self.instances = Some(instances);
+        self.scratch.ensure(ctx, f.upload.graveyard, f.upload.frame_value, self.scratch_need)?;
+        // Last: a TLAS means everything is made.
         self.tlas = Some(AccelStruct::new(
             ctx,
             vk::AccelerationStructureTypeKHR::TOP_LEVEL,
             tlas_sizes.acceleration_structure_size,
             "particle decal tlas",
         )?);
-        self.scratch.ensure(ctx, f.upload.graveyard, f.upload.frame_value, self.scratch_need)?;
         Ok(())
     }
 

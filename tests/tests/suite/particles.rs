@@ -436,7 +436,8 @@ fn the_decal_ring_keeps_the_newest() {
 /// The ring's structure is cut into segments of 256 places, each its own BLAS (a frame rebuilds
 /// only those the ring filled): decals past the first segment are traced at their contact
 /// points too, by ray queries and by the ray-tracing pipeline. 257 particles land first where
-/// the camera does not see, then three in view take places 257 to 259.
+/// the camera does not see, then three in view take places 257 to 259. The filled first
+/// segment is rebuilt while the second is refit, validation clean.
 #[test]
 fn decals_past_the_first_segment_of_the_ring_are_traced() {
     use plugins::decal::DecalMaterial;
@@ -484,5 +485,14 @@ fn decals_past_the_first_segment_of_the_ring_are_traced() {
             assert!(n >= 4, "{decal_method:?}: no decal at {spot} (pixel {})", pixel(spot));
             assert!(centre.distance(pixel(spot)) < 1.5, "{decal_method:?}: the decal at {centre}, the particle landed at {}", pixel(spot));
         }
+        // The first segment, filled, waits at most 30 frames for its rebuild, in the same call
+        // that refits the second: a frame both builds and refits.
+        let mixed = (0..24).any(|_| {
+            app.update();
+            let c = app.world.resource::<RenderStats>().last;
+            c.blas_builds > 0 && c.blas_updates > 0
+        });
+        assert!(mixed, "{decal_method:?}: no frame rebuilt the filled segment");
+        assert_no_validation_errors(&mut app);
     }
 }
