@@ -31,27 +31,16 @@ uint cube_face(vec3 d) {
     return d.z > 0.0 ? 4u : 5u;
 }
 
-// What reaches point p (normal n, `to_light` the unit direction towards the light) from the
-// light in `slot`: 0 behind an opaque surface, the glass colour × (1 − opacity) behind glass,
-// 1 in the open or without a map. Two texels are read, the point's and the one in the other row
-// of its pair: the one with more opacity is the opaque surface, the other the glass (eq. 3.1).
-// The point is moved off its surface by 1.5 texels along the normal and one towards the
-// light (texels at its distance), against self-shadowing.
-vec3 shadow_map_transmittance(uint slot, GpuLight light, vec3 p, vec3 n, vec3 to_light) {
-    uint first = shadow_first_view(slot);
-    if (first == NO_SHADOW_MAP) return vec3(1.0);
-    uint v = light.kind == LIGHT_POINT ? first + cube_face(p - light.position) : first;
-    GpuShadowView sv = shadow_view(v);
-    float texel = sv.ortho != 0u ? sv.texel : sv.texel * distance(p, light.position);
-    vec3 q = p + n * (1.5 * texel) + to_light * texel;
-    vec4 clip = sv.view_proj * vec4(q, 1.0);
-    if (clip.w <= 0.0) return vec3(1.0);
-    vec3 ndc = clip.xyz / clip.w;
-    if (any(greaterThan(abs(ndc.xy), vec2(1.0))) || ndc.z > 1.0) return vec3(1.0);
+// The view of light `slot` (whose first view is `first`) that sees world point `x`.
+uint shadow_view_of(uint first, GpuLight light, vec3 x) {
+    return light.kind == LIGHT_POINT ? first + cube_face(x - light.position) : first;
+}
+
+// Texel `t` of view `v`'s tile and the one in the other row of its pair: the opaque surface's
+// depth (the texel with more opacity), the glass's depth and its colour and opacity (eq. 3.1).
+void shadow_map_texels(uint v, ivec2 t, out float opaque_depth, out float glass_depth, out vec4 glass) {
     GpuLighting l = scene.lighting.lighting;
-    int size = int(l.shadow_map_tile);
-    ivec2 origin = ivec2(v % l.shadow_map_columns, v / l.shadow_map_columns) * size;
-    ivec2 t = clamp(ivec2(vec2(0.5 + 0.5 * ndc.x, 0.5 - 0.5 * ndc.y) * float(size)), ivec2(0), ivec2(size - 1));
+    ivec2 origin = ivec2(v % l.shadow_map_columns, v / l.shadow_map_columns) * int(l.shadow_map_tile);
     ivec2 a = origin + t;
     ivec2 b = origin + ivec2(t.x, t.y ^ 1);
     float da = texelFetch(shadow_map_depth, a, 0).r;
@@ -59,13 +48,115 @@ vec3 shadow_map_transmittance(uint slot, GpuLight light, vec3 p, vec3 n, vec3 to
     vec4 fa = texelFetch(shadow_map_filter, a, 0);
     vec4 fb = texelFetch(shadow_map_filter, b, 0);
     bool a_is_glass = fa.a < fb.a;
-    float opaque_depth = a_is_glass ? db : da;
-    float glass_depth = a_is_glass ? da : db;
-    vec4 glass = a_is_glass ? fa : fb;
+    opaque_depth = a_is_glass ? db : da;
+    glass_depth = a_is_glass ? da : db;
+    glass = a_is_glass ? fa : fb;
+}
+
+// World point `x` in view `v`: its tile texel and reverse-Z depth; false outside the view.
+bool shadow_map_locate(uint v, vec3 x, out ivec2 t, out float depth) {
+    GpuShadowView sv = shadow_view(v);
+    vec4 clip = sv.view_proj * vec4(x, 1.0);
+    if (clip.w <= 0.0) return false;
+    vec3 ndc = clip.xyz / clip.w;
+    // Outside the map: beside it, nearer the light than its near plane, or beyond its far one.
+    if (any(greaterThan(abs(ndc.xy), vec2(1.0))) || ndc.z > 1.0 || ndc.z < 0.0) return false;
+    int size = int(scene.lighting.lighting.shadow_map_tile);
+    t = clamp(ivec2(vec2(0.5 + 0.5 * ndc.x, 0.5 - 0.5 * ndc.y) * float(size)), ivec2(0), ivec2(size - 1));
+    depth = ndc.z;
+    return true;
+}
+
+// Point p (normal n, `to_light` the unit direction towards the light's centre) moved off its
+// surface by 1.5 texels along the normal and one towards the light (texels at its distance),
+// against self-shadowing; the view that sees it in `v`.
+vec3 shadow_map_point(uint first, GpuLight light, vec3 p, vec3 n, vec3 to_light, out uint v) {
+    v = shadow_view_of(first, light, p);
+    GpuShadowView sv = shadow_view(v);
+    float texel = sv.ortho != 0u ? sv.texel : sv.texel * distance(p, light.position);
+    return p + n * (1.5 * texel) + to_light * texel;
+}
+
+// What reaches point p (normal n, `to_light` the unit direction towards the light) from the
+// light in `slot`: 0 behind an opaque surface, the glass colour × (1 − opacity) behind glass,
+// 1 in the open or without a map. Two texels are read, the point's and the one in the other row
+// of its pair: the one with more opacity is the opaque surface, the other the glass (eq. 3.1).
+vec3 shadow_map_transmittance(uint slot, GpuLight light, vec3 p, vec3 n, vec3 to_light) {
+    uint first = shadow_first_view(slot);
+    if (first == NO_SHADOW_MAP) return vec3(1.0);
+    uint v;
+    vec3 q = shadow_map_point(first, light, p, n, to_light, v);
+    ivec2 t;
+    float depth, opaque_depth, glass_depth;
+    vec4 glass;
+    if (!shadow_map_locate(v, q, t, depth)) return vec3(1.0);
+    shadow_map_texels(v, t, opaque_depth, glass_depth, glass);
     // Reverse-Z: a larger depth is nearer the light.
-    if (opaque_depth > ndc.z) return vec3(0.0);
-    if (glass.a < 1.0 && glass_depth > ndc.z) return glass.rgb * (1.0 - glass.a);
+    if (opaque_depth > depth) return vec3(0.0);
+    if (glass.a < 1.0 && glass_depth > depth) return glass.rgb * (1.0 - glass.a);
     return vec3(1.0);
+}
+
+// Steps of a sampled shadow-map ray (shadow_map_transmittance_sampled).
+#define SHADOW_MAP_RAY_STEPS 16
+// A directional light whose rays stray less than two texels across its map over this many
+// metres keeps the hard lookup: its penumbrae would be finer than the map resolves.
+#define SHADOW_MAP_SOFT_REACH 10.0
+
+// The light in `slot` seen from p along `dir`, towards a point of the light's shape `tmax`
+// away (shadow_ray_sampled; `to_centre` towards the light's centre): the segment is marched
+// through the light's maps, each step looked up in the view that sees it, and it is blocked
+// where a step lies behind the opaque surface the map holds there by less than the depth change
+// to the next step (the segment crosses that surface before it: a step far behind it lies in
+// the shadow of what the light's centre sees without touching it, as the inner penumbra does),
+// or where the last step is still behind a surface (it has not left that shadow). Towards a
+// sphere or spot light the steps are spaced evenly up to the light; towards a directional light
+// (whose map is as deep as the shadows reach) each moves the ray at most a texel across the
+// map, 2 × SHADOW_MAP_RAY_STEPS of them, so that a short crossing under an edge is not stepped
+// over. Steps start at the point lifted half a texel off its surface, then advance by `jitter`
+// (0..1, per pixel and frame) of a step, so that temporal anti-aliasing averages the gaps away.
+// A sun whose rays stray less than two texels over SHADOW_MAP_SOFT_REACH keeps the hard lookup.
+// Glass is looked up at the point, as for a hard shadow.
+vec3 shadow_map_transmittance_sampled(uint slot, GpuLight light, vec3 p, vec3 n, vec3 to_centre, vec3 dir, float tmax, float jitter) {
+    uint first = shadow_first_view(slot);
+    if (first == NO_SHADOW_MAP) return vec3(1.0);
+    vec3 at_point = shadow_map_transmittance(slot, light, p, n, to_centre);
+    uint v = shadow_view_of(first, light, p);
+    GpuShadowView sv = shadow_view(v);
+    vec3 q = p + n * (0.5 * (sv.ortho != 0u ? sv.texel : sv.texel * distance(p, light.position)));
+    float span = tmax;
+    int steps = SHADOW_MAP_RAY_STEPS;
+    if (light.kind == LIGHT_DIRECTIONAL) {
+        // To where the map's depth reaches its near plane (1) along the ray, at most a texel
+        // across the map a step.
+        float z0 = (sv.view_proj * vec4(q, 1.0)).z;
+        vec4 along = sv.view_proj * vec4(dir, 0.0);
+        span = along.z > 0.0 ? (1.0 - z0) / along.z : 0.0;
+        float texels = length(along.xy) * 0.5 * float(scene.lighting.lighting.shadow_map_tile);
+        if (texels * min(span, SHADOW_MAP_SOFT_REACH) < 2.0) return at_point;
+        steps = 2 * SHADOW_MAP_RAY_STEPS;
+        span = min(span, float(steps) / texels);
+    }
+    vec3 glass = at_point == vec3(0.0) ? vec3(1.0) : at_point;
+    vec3 step = dir * (span / float(steps));
+    bool behind = false;
+    for (int i = 0; i < steps; ++i) {
+        vec3 x = q + step * (float(i) + jitter);
+        uint vx = shadow_view_of(first, light, x);
+        ivec2 t;
+        float depth, opaque_depth, glass_depth;
+        vec4 glass_texel;
+        behind = false;
+        if (!shadow_map_locate(vx, x, t, depth)) continue;
+        shadow_map_texels(vx, t, opaque_depth, glass_depth, glass_texel);
+        // The depth change to the next step in this view (reverse-Z: towards the light it
+        // grows, and faster nearer the light).
+        vec4 next = shadow_view(vx).view_proj * vec4(x + step, 1.0);
+        float thickness = next.w > 0.0 ? abs(next.z / next.w - depth) : 0.0;
+        behind = opaque_depth > depth;
+        if (behind && opaque_depth - depth <= thickness) return vec3(0.0);
+    }
+    return behind ? vec3(0.0) : glass;
 }
 
 #endif

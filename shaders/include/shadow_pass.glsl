@@ -5,7 +5,8 @@
 // cone) or, with shadow-ray culling, the normal faces away from it. Bit k of a row's word is
 // set when entry 32·row + k reaches the pixel unblocked (light_tiles.glsl).
 //
-// With SHADOW_MAPS defined the light's shadow map answers instead (shadow_maps.glsl).
+// With SHADOW_MAPS defined the light's shadow map answers instead (shadow_maps.glsl): a lookup
+// at the point, or, for a light with a size, a march of the same sampled ray through the maps.
 // GLASS_LAYER: the same over the transparent depth (the nearest blended surface drawn by the
 // forward transparency pass), into the glass layer's words and tints (light_tiles.glsl); it
 // writes no debug image.
@@ -68,16 +69,17 @@ void shadow_pixel(ivec2 px) {
                 GpuLight light = scene.lights.lights[slot];
                 vec3 dir;
                 float tmax;
-#ifdef SHADOW_MAPS
-                if (!shadow_ray_towards(light, p, dir, tmax)) continue;
-#else
                 // Towards a point of the light's shape (the light's size: soft shadows).
-                if (!shadow_ray_sampled(light, p, shadow_sample(px, slot), dir, tmax)) continue;
-#endif
+                vec2 u = shadow_sample(px, slot);
+                if (!shadow_ray_sampled(light, p, u, dir, tmax)) continue;
                 if (cull && dot(n, dir) <= 0.0) continue;
                 ++rays;
 #ifdef SHADOW_MAPS
-                vec3 t = shadow_map_transmittance(slot, light, p, n, dir);
+                vec3 centre;
+                float centre_tmax;
+                shadow_ray_towards(light, p, centre, centre_tmax);
+                vec3 t = centre == dir ? shadow_map_transmittance(slot, light, p, n, dir)
+                                       : shadow_map_transmittance_sampled(slot, light, p, n, centre, dir, tmax, fract(u.x * 61.0 + u.y));
 #else
                 vec3 t = shadow_ray_transmittance(origin, dir, 1e-3, tmax);
 #endif

@@ -754,11 +754,12 @@ fn cone_visibility(p: Vec3, centre: Option<Vec3>, towards: Vec3, size: f32, lo: 
 
 #[test]
 /// Lights with a size cast soft shadows (issue 52): a sphere light 0.8 m across and a sun 30°
-/// across, over a plate's straight edge, on both ray-tracing tiers, with temporal anti-aliasing
-/// asked for (so each frame's rays aim at new points of the light). The shadow debug view shows
-/// each frame's rays; over 8 frames, the lit share of every 2-column band across the penumbra
-/// is within 0.07 of the CPU's integration of the same cone (about three standard deviations of
-/// its 700-odd samples; 0.021 measured), 0.03 on average; the penumbra (where
+/// across, over a plate's straight edge, on both ray-tracing tiers and from shadow maps, with
+/// temporal anti-aliasing asked for (so each frame's rays aim at new points of the light). The
+/// shadow debug view shows each frame's rays; over 8 frames, the lit share of every 2-column
+/// band across the penumbra is within 0.07 of the CPU's integration of the same cone (about
+/// three standard deviations of its 700-odd samples; 0.021 measured with rays, 0.049 from
+/// shadow maps), 0.03 on average with rays and 0.04 from maps; the penumbra (where
 /// the reference is between 5 % and 95 %) is wider than 6 pixels, so that it is measured; and
 /// the 8 frames' average of a pixel is nearer its band's than one frame's (the rays move on).
 fn a_light_with_a_size_casts_the_penumbra_its_size_predicts() {
@@ -769,8 +770,13 @@ fn a_light_with_a_size_casts_the_penumbra_its_size_predicts() {
     let view = TopDownView::new(3.0, SIZE);
     let settings = RenderSettings { aa: render::AntiAliasing::Taa, ..settings(LightSettings::default()) };
     const FRAMES: usize = 8;
-    for tier in [Tier::RayQuery, Tier::RayTracingPipeline] {
-        let mut app = gpu_app_at(SIZE.0, SIZE.1, settings.clone(), tier);
+    for tier in [Tier::RayQuery, Tier::RayTracingPipeline, Tier::NoRayTracing] {
+        // Without ray tracing, shadow maps whose texels (under a centimetre) are far finer than
+        // the penumbrae (30 cm).
+        let shadow_maps = render::ShadowMapBudget { tile: 1024, tiles: 6, directional_distance: 4.0 };
+        let device = render::DeviceSettings { max_tier: tier, ..Default::default() };
+        let mut app =
+            tests::gpu_app_with(SIZE.0, SIZE.1, settings.clone(), &render::RendererSettings { device, shadow_maps, ..Default::default() });
         let grey = ground(&mut app, 10.0);
         let plate = mesh(&mut app, shapes::cuboid(hi - lo, 1.0));
         app.world.spawn((MeshInstance { mesh: plate, material: grey }, Transform::from_translation((lo + hi) * 0.5)));
@@ -836,8 +842,12 @@ fn a_light_with_a_size_casts_the_penumbra_its_size_predicts() {
                 mean(&spread_once)
             );
             assert!(penumbra > 6, "{tier:?}, {name}: a penumbra of {penumbra} pixels is too narrow to measure");
+            // Shadow maps march the sampled ray in steps (shadow_maps.glsl): a step can miss a
+            // short crossing under the plate's edge, or take one near it for a hit (the sphere
+            // measured 0.030 on average, the sun 0.007).
+            let mean_bound = if tier == Tier::NoRayTracing { 0.04 } else { 0.03 };
             assert!(
-                worst <= 0.07 && mean(&errors) <= 0.03,
+                worst <= 0.07 && mean(&errors) <= mean_bound,
                 "{tier:?}, {name}: lit share off the reference by {worst} at worst, {} on average",
                 mean(&errors)
             );
