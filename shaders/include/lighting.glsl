@@ -104,6 +104,16 @@ vec2 shadow_sample(ivec2 px, uint slot) {
     return vec2(a, random01(seed));
 }
 
+// The `u` of shadow_ray_sampled for a surface point `p` and light slot `slot`, for passes that
+// know the point rather than the pixel (the ray-query lights): a hash of the point's bits, the
+// light and temporal anti-aliasing's frame count.
+vec2 shadow_sample_at(vec3 p, uint slot) {
+    uvec3 b = floatBitsToUint(p);
+    uint seed = pcg_hash(b.x ^ pcg_hash(b.y ^ pcg_hash(b.z ^ slot * 83492791u)) ^ pcg_hash(scene.camera.camera.taa_frame));
+    float a = random01(seed);
+    return vec2(a, random01(seed));
+}
+
 // A shadow ray's origin for surface point `p` with normal `n` (facing the camera): lifted along
 // n by 0.1 % of its distance to the camera, so that depth quantisation cannot put it under its
 // own surface.

@@ -12,14 +12,15 @@
 #include "light_boxes.glsl"
 #include "shadow_ray_query.glsl"
 
-// One light's radiance at the surface, zero when its shadow ray is blocked or culled, filtered
-// by the glass it crossed.
-vec3 lit_by(GpuLight light, SurfaceBrdf brdf, SurfaceInputs s, vec3 v, vec3 facing, bool shadows, bool cull) {
+// The radiance of the light in `slot` at the surface, zero when its shadow ray is blocked or
+// culled, filtered by the glass it crossed. The ray aims at a point of the light's shape (soft
+// shadows where it has a size, as the shadow pass does), chosen by a hash of the surface point.
+vec3 lit_by(GpuLight light, uint slot, SurfaceBrdf brdf, SurfaceInputs s, vec3 v, vec3 facing, bool shadows, bool cull) {
     vec3 c = shade_light(light, brdf, s.position, s.normal, v);
     if (!shadows || all(equal(c, vec3(0.0)))) return c;
     vec3 dir;
     float tmax;
-    if (!shadow_ray_towards(light, s.position, dir, tmax)) return vec3(0.0);
+    if (!shadow_ray_sampled(light, s.position, shadow_sample_at(s.position, slot), dir, tmax)) return vec3(0.0);
     if (cull && dot(facing, dir) <= 0.0) return vec3(0.0);
     return c * shadow_ray_transmittance(shadow_origin(s.position, facing), dir, 1e-3, tmax);
 }
@@ -35,17 +36,19 @@ vec3 enumerated_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found
     UnboundedLightsRef unbounded = UnboundedLightsRef(l.unbounded_lights);
     uint unbounded_count = unbounded.count;
     for (uint k = 0u; k < unbounded_count; ++k) {
-        color += lit_by(scene.lights.lights[unbounded.slots[k]], brdf, s, v, facing, shadows, cull);
+        uint slot = unbounded.slots[k];
+        color += lit_by(scene.lights.lights[slot], slot, brdf, s, v, facing, shadows, cull);
     }
     found = unbounded_count;
     rayQueryEXT query;
     rayQueryInitializeEXT(query, accelerationStructureEXT(l.light_tlas), gl_RayFlagsSkipClosestHitShaderEXT | gl_RayFlagsOpaqueEXT, 0xFF,
                           s.position, 0.0, vec3(1.0, 0.0, 0.0), 0.0);
     while (rayQueryProceedEXT(query)) {
-        GpuLight light = scene.lights.lights[rayQueryGetIntersectionPrimitiveIndexEXT(query, false)];
+        uint slot = uint(rayQueryGetIntersectionPrimitiveIndexEXT(query, false));
+        GpuLight light = scene.lights.lights[slot];
         if (!light_box_holds(light, s.position)) continue;
         ++found;
-        color += lit_by(light, brdf, s, v, facing, shadows, cull);
+        color += lit_by(light, slot, brdf, s, v, facing, shadows, cull);
     }
     return color;
 }
