@@ -17,6 +17,7 @@ layout(location = 1) in vec2 v_uv;
 layout(location = 2) in float v_distance;
 layout(location = 3) flat in uint v_texture;
 layout(location = 4) flat in float v_softness;
+layout(location = 7) in vec2 v_local;
 #ifdef MOTION
 layout(location = 5) in vec4 v_now;
 layout(location = 6) in vec4 v_before;
@@ -24,8 +25,10 @@ layout(location = 6) in vec4 v_before;
 layout(location = 0) out vec4 out_color;
 
 void main() {
+    // The triangle around the quad reaches past it (particle.vert): nothing there.
+    if (any(lessThan(v_local, vec2(0.0))) || any(greaterThan(v_local, vec2(1.0)))) discard;
     vec4 sprite = v_texture == TEXTURE_WHITE
-        ? vec4(1.0, 1.0, 1.0, 1.0 - smoothstep(0.15, 0.5, length(v_uv - 0.5)))
+        ? vec4(1.0, 1.0, 1.0, 1.0 - smoothstep(0.15, 0.5, length(v_local - 0.5)))
         : sample_texture(v_texture, v_uv);
     float coverage = sprite.a;
     if (v_softness > 0.0) {

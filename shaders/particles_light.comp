@@ -32,7 +32,10 @@ vec3 particle_light(ivec2 px, vec3 p) {
 void main() {
     ParticleStateRef st = particle_state();
     uint i = gl_GlobalInvocationID.x;
-    if (i >= st.state.draw[1]) return;
+    uint drawn = st.state.draw[1];
+    // The drawing's indirect draw: PARTICLE_SPRITE_VERTICES a drawn particle, one instance.
+    if (i == 0u) st.state.sprites = uint[4](PARTICLE_SPRITE_VERTICES * drawn, 1u, 0u, 0u);
+    if (i >= drawn) return;
     uint slot = ParticleSlotsRef(st.state.alive_list).slots[i];
     GpuParticle p = ParticlesRef(st.state.pool).particles[slot];
     GpuEmitter e = particle_emitter(st, p.emitter);

@@ -746,6 +746,9 @@ layout! {
     pub const PARTICLE_LANDED: u32 = 2;
     /// Invocations of a particle workgroup (emission, simulation).
     pub const PARTICLE_GROUP: u32 = 64;
+    /// Vertices a drawn particle's sprite takes (`particle.vert`): one triangle around its
+    /// quad or round dot.
+    pub const PARTICLE_SPRITE_VERTICES: u32 = 3;
     /// The bit of a decal slot that names a GPU-born decal (`crate::particles`): the rest is its
     /// place in the particles' decal ring, whose records and boxes the GPU writes.
     pub const GPU_DECAL: u32 = 0x4000_0000;
@@ -1411,9 +1414,13 @@ layout! {
         pub draw_count: u32,
         /// Padding.
         pub counters_pad: [u32; 2],
-        /// The drawing pass's indirect draw: vertices (6), instances (the particles alive after
-        /// the simulation, the drawn list's length), first vertex, first instance.
+        /// The particles alive after the simulation, the drawn list's length, in [1] (the
+        /// simulation counts them with atomics; the other words are 6, 0, 0).
         pub draw: [u32; 4],
+        /// The drawing passes' indirect draw, written by `particles_light.comp` from the drawn
+        /// list's length: `PARTICLE_SPRITE_VERTICES` a particle in one instance (the vertex
+        /// shader finds the particle from the vertex index), first vertex, first instance.
+        pub sprites: [u32; 4],
     }
 
     /// Auto-exposure's state on the GPU (`crate::exposure`): this frame's luminance histogram
