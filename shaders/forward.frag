@@ -14,6 +14,7 @@
 // own surface (msaa.glsl); the REFLECTED ones add the reflections' term resolved before them the
 // same way (the reflection resolve's SEPARATE variant), so each sample reflects what its surface
 // does.
+#define FRAGMENT_SHADER
 #include "scene.glsl"
 #include "mesh_io.glsl"
 #include "material.glsl"

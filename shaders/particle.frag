@@ -25,12 +25,13 @@ layout(location = 6) in vec4 v_before;
 layout(location = 0) out vec4 out_color;
 
 void main() {
-    // The triangle around the quad reaches past it (particle.vert): nothing there.
-    if (any(lessThan(v_local, vec2(0.0))) || any(greaterThan(v_local, vec2(1.0)))) discard;
     vec4 sprite = v_texture == TEXTURE_WHITE
         ? vec4(1.0, 1.0, 1.0, 1.0 - smoothstep(0.15, 0.5, length(v_local - 0.5)))
         : sample_texture(v_texture, v_uv);
-    float coverage = sprite.a;
+    // The triangle around the quad reaches past it (particle.vert): nothing there (sampled
+    // first: the texture's derivatives need every lane).
+    bool inside = all(greaterThanEqual(v_local, vec2(0.0))) && all(lessThanEqual(v_local, vec2(1.0)));
+    float coverage = inside ? sprite.a : 0.0;
     if (v_softness > 0.0) {
         float depth = texelFetch(depth_target, ivec2(gl_FragCoord.xy), 0).r;
         // The projection is infinite reverse-Z: depth = near / view distance; its [3][2] is near.

@@ -1415,7 +1415,7 @@ layout! {
         /// Padding.
         pub counters_pad: [u32; 2],
         /// The particles alive after the simulation, the drawn list's length, in [1] (the
-        /// simulation counts them with atomics; the other words are 6, 0, 0).
+        /// simulation counts them with atomics; the other words are 0).
         pub draw: [u32; 4],
         /// The drawing passes' indirect draw, written by `particles_light.comp` from the drawn
         /// list's length: `PARTICLE_SPRITE_VERTICES` a particle in one instance (the vertex

@@ -212,10 +212,15 @@ bool apply_decal(inout DecalBlend b, uint index, DecalSurface s) {
 // The scene's decals, then the particles' decal ring (each structure where there is one), in
 // one traversal loop (one inlined query: lavapipe compiles each query site into the shader).
 // The structure (0: the scene's, 1: the ring's) is known here rather than asked of the query
-// for the custom index (lavapipe 25.0 crashes asking for it in a fragment shader); the ring's
-// instance (its segment) is asked for.
+// for the custom index; the ring's instance (its segment) is asked for. A fragment shader
+// (FRAGMENT_SHADER defined before the includes) skips the queries in helper invocations:
+// lavapipe 25.0 crashes reading a candidate's instance there, and decals take their texture
+// gradients from their own UV map (textureGrad), not from neighbouring lanes.
 uint gather_decals(inout DecalBlend b, DecalSurface s) {
     if (scene.decal_count == 0u) return 0u;
+#ifdef FRAGMENT_SHADER
+    if (gl_HelperInvocation) return 0u;
+#endif
     uint tested = 0u;
     for (uint structure = 0u; structure < 2u; ++structure) {
         uint64_t tlas = structure == 0u ? scene.decal_tlas : particle_decal_tlas();

@@ -99,8 +99,9 @@ vec3 shadow_map_transmittance(uint slot, GpuLight light, vec3 p, vec3 n, vec3 to
 
 // Steps of a sampled shadow-map ray (shadow_map_transmittance_sampled).
 #define SHADOW_MAP_RAY_STEPS 16
-// A directional light whose rays stray less than two texels across its map over this many
-// metres keeps the hard lookup: its penumbrae would be finer than the map resolves.
+// A directional light's ray that strays less than two texels across its map over this many
+// metres takes the hard lookup: its penumbra would be finer than the map resolves (the real
+// sun's 0.53° strays under half a texel over 10 m of a map of 10 cm texels).
 #define SHADOW_MAP_SOFT_REACH 10.0
 
 // The light in `slot` seen from p along `dir`, towards a point of the light's shape `tmax`
@@ -109,19 +110,21 @@ vec3 shadow_map_transmittance(uint slot, GpuLight light, vec3 p, vec3 n, vec3 to
 // where a step lies behind the opaque surface the map holds there by less than the depth change
 // to the next step (the segment crosses that surface before it: a step far behind it lies in
 // the shadow of what the light's centre sees without touching it, as the inner penumbra does),
-// or where the last step is still behind a surface (it has not left that shadow). Towards a
-// sphere or spot light the steps are spaced evenly up to the light; towards a directional light
-// (whose map is as deep as the shadows reach) each moves the ray at most a texel across the
-// map, 2 × SHADOW_MAP_RAY_STEPS of them, so that a short crossing under an edge is not stepped
-// over. Steps start at the point lifted half a texel off its surface, then advance by `jitter`
-// (0..1, per pixel and frame) of a step, so that temporal anti-aliasing averages the gaps away.
-// A sun whose rays stray less than two texels over SHADOW_MAP_SOFT_REACH keeps the hard lookup.
-// Glass is looked up at the point, as for a hard shadow.
+// or where the last step is still behind a surface (it has not left that shadow). The first
+// step is the point as the hard lookup moves it off its surface (against self-shadowing), the
+// next start from the point lifted half a texel and advance by `jitter` (0..1, per pixel and
+// frame) of a step, so that temporal anti-aliasing averages the gaps away. Towards a sphere or
+// spot light the steps are spaced evenly up to the light; towards a directional light (whose
+// map is as deep as the shadows reach) each moves the ray at most a texel across the map,
+// 2 × SHADOW_MAP_RAY_STEPS of them: occluders beyond that drift take the centre's answer (the
+// last step still behind one). A ray of a sun that strays less than two texels across the map
+// over SHADOW_MAP_SOFT_REACH takes the hard lookup. Glass in front of the point tints what gets
+// through, as for a hard shadow.
 vec3 shadow_map_transmittance_sampled(uint slot, GpuLight light, vec3 p, vec3 n, vec3 to_centre, vec3 dir, float tmax, float jitter) {
     uint first = shadow_first_view(slot);
     if (first == NO_SHADOW_MAP) return vec3(1.0);
-    vec3 at_point = shadow_map_transmittance(slot, light, p, n, to_centre);
-    uint v = shadow_view_of(first, light, p);
+    uint v;
+    vec3 moved = shadow_map_point(first, light, p, n, to_centre, v);
     GpuShadowView sv = shadow_view(v);
     vec3 q = p + n * (0.5 * (sv.ortho != 0u ? sv.texel : sv.texel * distance(p, light.position)));
     float span = tmax;
@@ -133,15 +136,16 @@ vec3 shadow_map_transmittance_sampled(uint slot, GpuLight light, vec3 p, vec3 n,
         vec4 along = sv.view_proj * vec4(dir, 0.0);
         span = along.z > 0.0 ? (1.0 - z0) / along.z : 0.0;
         float texels = length(along.xy) * 0.5 * float(scene.lighting.lighting.shadow_map_tile);
-        if (texels * min(span, SHADOW_MAP_SOFT_REACH) < 2.0) return at_point;
+        if (texels * min(span, SHADOW_MAP_SOFT_REACH) < 2.0) return shadow_map_transmittance(slot, light, p, n, to_centre);
         steps = 2 * SHADOW_MAP_RAY_STEPS;
         span = min(span, float(steps) / texels);
     }
-    vec3 glass = at_point == vec3(0.0) ? vec3(1.0) : at_point;
+    vec3 glass = vec3(1.0);
     vec3 step = dir * (span / float(steps));
     bool behind = false;
-    for (int i = 0; i < steps; ++i) {
-        vec3 x = q + step * (float(i) + jitter);
+    for (int i = 0; i <= steps; ++i) {
+        vec3 x = i == 0 ? moved : q + step * (float(i - 1) + jitter);
+        vec3 next = q + step * (float(i) + jitter);
         uint vx = shadow_view_of(first, light, x);
         ivec2 t;
         float depth, opaque_depth, glass_depth;
@@ -149,10 +153,11 @@ vec3 shadow_map_transmittance_sampled(uint slot, GpuLight light, vec3 p, vec3 n,
         behind = false;
         if (!shadow_map_locate(vx, x, t, depth)) continue;
         shadow_map_texels(vx, t, opaque_depth, glass_depth, glass_texel);
+        if (i == 0 && glass_texel.a < 1.0 && glass_depth > depth) glass = glass_texel.rgb * (1.0 - glass_texel.a);
         // The depth change to the next step in this view (reverse-Z: towards the light it
         // grows, and faster nearer the light).
-        vec4 next = shadow_view(vx).view_proj * vec4(x + step, 1.0);
-        float thickness = next.w > 0.0 ? abs(next.z / next.w - depth) : 0.0;
+        vec4 ahead = shadow_view(vx).view_proj * vec4(next, 1.0);
+        float thickness = ahead.w > 0.0 ? abs(ahead.z / ahead.w - depth) : 0.0;
         behind = opaque_depth > depth;
         if (behind && opaque_depth - depth <= thickness) return vec3(0.0);
     }

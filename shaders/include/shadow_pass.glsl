@@ -78,7 +78,10 @@ void shadow_pixel(ivec2 px) {
                 vec3 centre;
                 float centre_tmax;
                 shadow_ray_towards(light, p, centre, centre_tmax);
-                vec3 t = centre == dir ? shadow_map_transmittance(slot, light, p, n, dir)
+                // Inside a light with a size nothing is between (as for the rays); a light without
+                // one (or without temporal anti-aliasing) takes the hard lookup.
+                vec3 t = tmax <= 1e-3 ? vec3(1.0)
+                       : centre == dir ? shadow_map_transmittance(slot, light, p, n, dir)
                                        : shadow_map_transmittance_sampled(slot, light, p, n, centre, dir, tmax, fract(u.x * 61.0 + u.y));
 #else
                 vec3 t = shadow_ray_transmittance(origin, dir, 1e-3, tmax);

@@ -565,8 +565,8 @@ impl Particles {
                 p.cmd.fill_buffer(state, RECORD_INPUT_BYTES, draw_at - RECORD_INPUT_BYTES, 0);
             }
             // This frame's drawn list starts empty (the simulation counts it in `draw[1]`; the
-            // light pass turns that into the drawing's six vertices a particle).
-            p.cmd.update_buffer(state, draw_at, bytemuck::bytes_of(&[1u32, 0, 0, 6, 0, 0, 0]));
+            // light pass turns that into the drawing's vertex count, `sprites`).
+            p.cmd.update_buffer(state, draw_at, bytemuck::bytes_of(&[1u32, 0, 0, 0, 0, 0, 0]));
         })?;
         let groups = self.capacity.div_ceil(PARTICLE_GROUP);
         let pass = |f: &mut Frame, name, pipeline, groups: u32| {

@@ -19,14 +19,16 @@
 //! - **The resolve** (`shaders/shadows_mapped.comp`): the shadow pass's per-pixel loop
 //!   (`shadow_pass.glsl`), each ray replaced by a lookup of two texels, the point's and its
 //!   pair row's (`shadow_maps.glsl`): the more opaque is the occluder, the other the glass
-//!   (eq. 3.1). The glass filters light by colour × (1 − opacity), as the traced any-hit does,
+//!   (eq. 3.1). Towards a light with a size the sampled ray is marched through the maps instead
+//!   (soft shadows: `docs/lights-and-shadows.md`). The glass filters light by colour ×
+//!   (1 − opacity), as the traced any-hit does,
 //!   rather than the seed's `min(I_L, C)` (eq. 3.2): the same for white light, and the tiers
 //!   agree.
 //!
 //! Why one resolve pass instead of the seed's lighting pass per light: every pipeline here
 //! shades all of a pixel's lights in one pass from the shadow bits, so the maps answer the same
-//! question the rays do, and shading does not know which answered. Left out: filtering (the
-//! lookups are hard, like the traced shadows), caching maps of lights and casters that did not
+//! question the rays do, and shading does not know which answered. Left out: filtering (a
+//! light without a size casts hard shadows, as with rays), caching maps of lights and casters that did not
 //! move (every map is drawn every frame), occlusion culling of casters per view, and cascades (one fitted
 //! map per directional light).
 
