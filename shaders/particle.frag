@@ -25,12 +25,13 @@ layout(location = 6) in vec4 v_before;
 layout(location = 0) out vec4 out_color;
 
 void main() {
-    vec4 sprite = v_texture == TEXTURE_WHITE
-        ? vec4(1.0, 1.0, 1.0, 1.0 - smoothstep(0.15, 0.5, length(v_local - 0.5)))
-        : sample_texture(v_texture, v_uv);
-    // The triangle around the quad reaches past it (particle.vert): nothing there (sampled
-    // first: the texture's derivatives need every lane).
+    // The triangle around the sprite reaches past its quad (particle.vert): nothing there. The
+    // untextured dot leaves at once (within the quad, its circle); a texture is sampled first
+    // (its derivatives need every lane).
+    float dot_edge = length(v_local - 0.5);
+    if (v_texture == TEXTURE_WHITE && dot_edge >= 0.5) discard;
     bool inside = all(greaterThanEqual(v_local, vec2(0.0))) && all(lessThanEqual(v_local, vec2(1.0)));
+    vec4 sprite = v_texture == TEXTURE_WHITE ? vec4(1.0, 1.0, 1.0, 1.0 - smoothstep(0.15, 0.5, dot_edge)) : sample_texture(v_texture, v_uv);
     float coverage = inside ? sprite.a : 0.0;
     if (v_softness > 0.0) {
         float depth = texelFetch(depth_target, ivec2(gl_FragCoord.xy), 0).r;
