@@ -1414,7 +1414,7 @@ layout! {
         pub draw_count: u32,
         /// Padding.
         pub counters_pad: [u32; 2],
-        /// The particles alive after the simulation, the drawn list's length, in [1] (the
+        /// The particles alive after the simulation, the drawn list's length, in word 1 (the
         /// simulation counts them with atomics; the other words are 0).
         pub draw: [u32; 4],
         /// The drawing passes' indirect draw, written by `particles_light.comp` from the drawn
