@@ -298,12 +298,22 @@ fn floor_image(app: &mut App) -> (Vec<[f32; 4]>, f32, impl Fn(Vec3) -> Vec2 + us
     (hdr, (r + g + b) / 3.0, pixel)
 }
 
+/// A light grey floor seen from above at an angle, for landing particles to leave decals on;
+/// returns the black decal material they leave.
+fn soot_floor(app: &mut App) -> Handle<plugins::decal::DecalMaterial> {
+    let grey = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec4::new(0.8, 0.8, 0.8, 1.0), 0.0, 0.9));
+    let ground = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(8.0, 8.0, 1, 1.0));
+    app.world.spawn((MeshInstance { mesh: ground, material: grey }, Transform::default()));
+    app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 3.0, 3.0).looking_at(Vec3::new(0.0, 0.0, 0.3), Vec3::Y)));
+    let soot = plugins::decal::DecalMaterial { base_color: Some(Vec4::new(0.0, 0.0, 0.0, 1.0)), ..Default::default() };
+    app.world.resource_mut::<Assets<plugins::decal::DecalMaterial>>().add(soot)
+}
+
 /// Particles that die where they land leave a decal each, written by the GPU, at the contact
 /// point, in every decal method (each on the tier and in a pipeline it runs in), the frame they
 /// land; the decals fade out and expire with their lifetime.
 #[test]
 fn landing_particles_leave_decals_in_every_decal_method() {
-    use plugins::decal::DecalMaterial;
     use plugins::particles::LeftDecal;
     use render::{DecalMethod, Tier};
     let runs = [
@@ -316,14 +326,7 @@ fn landing_particles_leave_decals_in_every_decal_method() {
     for (pipeline, decal_method, tier) in runs {
         let settings = RenderSettings { pipeline, decal_method, ambient: Vec3::splat(0.6), ..Default::default() };
         let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, tier);
-        let (grey, ground) = {
-            let grey = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec4::new(0.8, 0.8, 0.8, 1.0), 0.0, 0.9));
-            (grey, app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(8.0, 8.0, 1, 1.0)))
-        };
-        app.world.spawn((MeshInstance { mesh: ground, material: grey }, Transform::default()));
-        app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 3.0, 3.0).looking_at(Vec3::new(0.0, 0.0, 0.3), Vec3::Y)));
-        let soot = DecalMaterial { base_color: Some(Vec4::new(0.0, 0.0, 0.0, 1.0)), ..Default::default() };
-        let soot = app.world.resource_mut::<Assets<DecalMaterial>>().add(soot);
+        let soot = soot_floor(&mut app);
         for &spot in &spots {
             let (mut emitter, transform) = launcher(spot + Vec3::Y * 0.5, Vec3::new(0.0, -2.0, 0.0), 1);
             emitter.contact = Contact::Die;
@@ -381,7 +384,6 @@ fn landing_particles_leave_decals_in_every_decal_method() {
 /// before any emitter left decals: its ring's places still start empty (binned nowhere).
 #[test]
 fn the_decal_ring_keeps_the_newest() {
-    use plugins::decal::DecalMaterial;
     use plugins::particles::LeftDecal;
     let renderer_settings = render::RendererSettings {
         particle_decals: 2,
@@ -390,14 +392,7 @@ fn the_decal_ring_keeps_the_newest() {
     };
     let settings = RenderSettings { decal_method: render::DecalMethod::Clustered, ambient: Vec3::splat(0.6), ..Default::default() };
     let mut app = gpu_app_with(SIZE.0, SIZE.1, settings, &renderer_settings);
-    let grey = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec4::new(0.8, 0.8, 0.8, 1.0), 0.0, 0.9));
-    let ground = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(8.0, 8.0, 1, 1.0));
-    app.world.spawn((MeshInstance { mesh: ground, material: grey }, Transform::default()));
-    app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 3.0, 3.0).looking_at(Vec3::new(0.0, 0.0, 0.3), Vec3::Y)));
-    let soot = app
-        .world
-        .resource_mut::<Assets<DecalMaterial>>()
-        .add(DecalMaterial { base_color: Some(Vec4::new(0.0, 0.0, 0.0, 1.0)), ..Default::default() });
+    let soot = soot_floor(&mut app);
     // A plain emitter first: the pool is made without a ring in use.
     let (plain, at) = launcher(Vec3::new(-2.0, 0.5, 0.0), Vec3::Y, 1);
     app.world.spawn((plain, at));
@@ -440,7 +435,6 @@ fn the_decal_ring_keeps_the_newest() {
 /// segment is rebuilt while the second is refit, validation clean.
 #[test]
 fn decals_past_the_first_segment_of_the_ring_are_traced() {
-    use plugins::decal::DecalMaterial;
     use plugins::particles::LeftDecal;
     use render::{DecalMethod, Tier};
     for (pipeline, decal_method, tier) in [
@@ -451,14 +445,7 @@ fn decals_past_the_first_segment_of_the_ring_are_traced() {
         let renderer_settings = render::RendererSettings { particle_decals: 512, device, ..Default::default() };
         let settings = RenderSettings { pipeline, decal_method, ambient: Vec3::splat(0.6), ..Default::default() };
         let mut app = gpu_app_with(SIZE.0, SIZE.1, settings, &renderer_settings);
-        let grey = app.world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec4::new(0.8, 0.8, 0.8, 1.0), 0.0, 0.9));
-        let ground = app.world.resource_mut::<Assets<Mesh>>().add(shapes::plane(8.0, 8.0, 1, 1.0));
-        app.world.spawn((MeshInstance { mesh: ground, material: grey }, Transform::default()));
-        app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 3.0, 3.0).looking_at(Vec3::new(0.0, 0.0, 0.3), Vec3::Y)));
-        let soot = app
-            .world
-            .resource_mut::<Assets<DecalMaterial>>()
-            .add(DecalMaterial { base_color: Some(Vec4::new(0.0, 0.0, 0.0, 1.0)), ..Default::default() });
+        let soot = soot_floor(&mut app);
         let leaves = Some(LeftDecal { material: soot, size: 0.25, depth: 0.2, lifetime: 0.0, fade: 0.0 });
         // Behind the camera: the first segment's 256 places and one more.
         let (mut unseen, at) = launcher(Vec3::new(0.0, 0.3, 3.8), Vec3::new(0.0, -2.0, 0.0), 257);
