@@ -254,12 +254,12 @@ pub enum BlasWork {
 /// it), and when the boxes refitted since the last build add up to
 /// [`REBUILD_AFTER_REFIT_FRACTION`] of the built count (a refit keeps the tree's topology, so as
 /// boxes move away from where they were built its nodes grow and overlap, and traversal slows).
-pub fn plan_blas_work(built: Option<u32>, live: u32, changed: u32, refitted_since_build: u64, fraction: f32) -> BlasWork {
+pub fn plan_blas_work(built: Option<u32>, live: u32, changed: u32, refitted_since_build: u64) -> BlasWork {
     match built {
         None => BlasWork::Build,
         Some(b) if live > b || live + 2 * build_granule(live) < b => BlasWork::Build,
         _ if changed == 0 => BlasWork::None,
-        Some(b) if (refitted_since_build + changed as u64) as f32 > b as f32 * fraction => BlasWork::Build,
+        Some(b) if (refitted_since_build + changed as u64) as f32 > b as f32 * REBUILD_AFTER_REFIT_FRACTION => BlasWork::Build,
         _ => BlasWork::Update,
     }
 }
@@ -373,7 +373,7 @@ impl AabbAccel {
     pub fn prepare(&mut self, f: &mut Frame, input: &AabbInput) -> Result<AabbPlan, RenderError> {
         let need = build_count(input.live, input.capacity);
         let shrink = self.blas.is_some() && self.shrink.check(self.sized_for as u64, need as u64, 0).is_some();
-        let mut work = plan_blas_work(self.built, input.live, input.changed, self.refitted_since_build, REBUILD_AFTER_REFIT_FRACTION);
+        let mut work = plan_blas_work(self.built, input.live, input.changed, self.refitted_since_build);
         // A refit covers what the last build covered, which the box table must still hold.
         if shrink || self.built.is_some_and(|built| built > input.capacity) {
             work = BlasWork::Build;
@@ -586,27 +586,15 @@ mod tests {
 
     #[test]
     fn rebuild_policy() {
-        assert_eq!(plan_blas_work(None, 50, 0, 0, REBUILD_AFTER_REFIT_FRACTION), BlasWork::Build, "first use builds");
-        assert_eq!(plan_blas_work(Some(64), 50, 0, 10, REBUILD_AFTER_REFIT_FRACTION), BlasWork::None, "no change, no work");
-        assert_eq!(plan_blas_work(Some(64), 50, 3, 0, REBUILD_AFTER_REFIT_FRACTION), BlasWork::Update, "moves refit");
-        assert_eq!(plan_blas_work(Some(64), 64, 1, 0, REBUILD_AFTER_REFIT_FRACTION), BlasWork::Update, "a spawn into the padding refits");
-        assert_eq!(
-            plan_blas_work(Some(64), 65, 1, 0, REBUILD_AFTER_REFIT_FRACTION),
-            BlasWork::Build,
-            "growing past the built range rebuilds"
-        );
-        assert_eq!(plan_blas_work(Some(64), 60, 8, 8, REBUILD_AFTER_REFIT_FRACTION), BlasWork::Update, "16 of 64 refitted: still a refit");
-        assert_eq!(plan_blas_work(Some(64), 60, 9, 8, REBUILD_AFTER_REFIT_FRACTION), BlasWork::Build, "beyond a quarter: rebuild");
-        assert_eq!(
-            plan_blas_work(Some(4096), 3900, 1, 0, REBUILD_AFTER_REFIT_FRACTION),
-            BlasWork::Update,
-            "a despawn within the range refits"
-        );
-        assert_eq!(
-            plan_blas_work(Some(4096), 3000, 1, 0, REBUILD_AFTER_REFIT_FRACTION),
-            BlasWork::Build,
-            "far below the range: rebuild smaller"
-        );
+        assert_eq!(plan_blas_work(None, 50, 0, 0), BlasWork::Build, "first use builds");
+        assert_eq!(plan_blas_work(Some(64), 50, 0, 10), BlasWork::None, "no change, no work");
+        assert_eq!(plan_blas_work(Some(64), 50, 3, 0), BlasWork::Update, "moves refit");
+        assert_eq!(plan_blas_work(Some(64), 64, 1, 0), BlasWork::Update, "a spawn into the padding refits");
+        assert_eq!(plan_blas_work(Some(64), 65, 1, 0), BlasWork::Build, "growing past the built range rebuilds");
+        assert_eq!(plan_blas_work(Some(64), 60, 8, 8), BlasWork::Update, "16 of 64 refitted: still a refit");
+        assert_eq!(plan_blas_work(Some(64), 60, 9, 8), BlasWork::Build, "beyond a quarter: rebuild");
+        assert_eq!(plan_blas_work(Some(4096), 3900, 1, 0), BlasWork::Update, "a despawn within the range refits");
+        assert_eq!(plan_blas_work(Some(4096), 3000, 1, 0), BlasWork::Build, "far below the range: rebuild smaller");
     }
 
     #[test]
@@ -615,11 +603,7 @@ mod tests {
             let count = build_count(live, u32::MAX);
             assert!(count >= live && count - live < build_granule(live), "{live} live: {count} built");
             assert!(live < 1024 || count as f32 <= live as f32 * 1.125, "{live} live: {count} built, over 1/8 padding");
-            assert_eq!(
-                plan_blas_work(Some(count), live, 1, 0, REBUILD_AFTER_REFIT_FRACTION),
-                BlasWork::Update,
-                "{live}: a build's own count refits"
-            );
+            assert_eq!(plan_blas_work(Some(count), live, 1, 0), BlasWork::Update, "{live}: a build's own count refits");
         }
         assert_eq!(build_count(100_000, 100_352), 100_352, "never past the table");
     }
