@@ -18,6 +18,7 @@ def summarise(path):
     for line in open(path):
         row = json.loads(line)
         lights = row.get("lights", {})
+        lights = dict(lights, direct_light=row.get("direct_light", "none"))
         key = (row["pipeline"], row["decal_method"], row.get("light_method", "all"), row.get("shadows", "none"),
                json.dumps(lights, sort_keys=True))
         if not runs or runs[-1][0] != key:

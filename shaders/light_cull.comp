@@ -149,6 +149,7 @@ void main() {
     LightTileWordsRef w = light_tile_words();
     uint count = s_count;
     if (lane == 0u) {
+        if (tile == 0u) atomicAdd(w.words[LSTAT_FRAME], 1u);
         uint g = grid_at(tile);
         uint offset = 0u, rows = NO_SHADOW_ROWS;
         bool fits = true;

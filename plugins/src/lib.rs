@@ -336,6 +336,8 @@ pub struct FrameStats {
     pub light_method: render::LightMethod,
     /// How its shadows were made.
     pub shadows: render::ShadowMethod,
+    /// How the traced shadows of its light lists were made (`None`: none were).
+    pub direct_light: Option<render::DirectLight>,
     /// How its blended surfaces were drawn (the method applied).
     pub transparency: render::TransparencyMethod,
     /// Whether glass refracted (interlaced and depth-peeled transparency refract).
@@ -617,6 +619,7 @@ fn render_frame(
                 decal_surface: report.decal_surface,
                 light_method: report.light_method,
                 shadows: report.shadows,
+                direct_light: report.direct_light,
                 transparency: settings.transparency.effective(settings.pipeline),
                 refraction: settings.refraction && settings.transparency.effective(settings.pipeline).refracts(),
                 aa: report.aa,

@@ -175,11 +175,12 @@ impl DebugOverlay {
         // What the GPU applied, which may differ from the request (a device without ray queries).
         if let Some(last) = self.history.back() {
             ui.label(format!(
-                "decals applied: {} (surface: {})   lights: {}   shadows: {}   ambient occlusion: {}",
+                "decals applied: {} (surface: {})   lights: {}   shadows: {} (direct light: {})   ambient occlusion: {}",
                 last.decal_method.name(),
                 last.decal_surface.map_or("none", |s| s.name()),
                 last.light_method.name(),
                 last.shadows.name(),
+                last.direct_light.map_or("none", |d| d.name()),
                 last.occlusion.name()
             ));
         }
@@ -291,6 +292,9 @@ impl DebugOverlay {
         });
         ui.horizontal(|ui| {
             ui.checkbox(&mut settings.lights.shadows, "shadows");
+            for d in render::DirectLight::ALL {
+                ui.selectable_value(&mut settings.lights.direct_light, d, d.name());
+            }
             ui.checkbox(&mut settings.lights.shadow_ray_culling, "shadow-ray culling");
             ui.checkbox(&mut settings.lights.cull_aabb, "tile AABB");
             ui.checkbox(&mut settings.compute_shading, "compute shading");

@@ -696,6 +696,22 @@ layout! {
     /// shading pass adds it to each sample from the pixel of the sample's own surface
     /// (`crate::msaa`).
     pub const BINDING_REFLECTION_ADDED: u32 = 40;
+    /// Binding of the sampled shadows (`shadow_samples`, storage RGBA16F,
+    /// `crate::lights::sampling`): per pixel that sampled its lights, the light that got through
+    /// along its one shadow ray (rgb: 1 unblocked, 0 blocked, a colour through glass) and log2
+    /// of the estimate of its unshadowed light the ray's light was drawn from (a; below
+    /// `SAMPLED_NONE` where the pixel sampled nothing).
+    pub const BINDING_SHADOW_SAMPLES: u32 = 41;
+    /// Binding of the denoised shadow ratio (`shadow_ratio`, storage RGBA16F): the share of the
+    /// unshadowed light that reaches each sampling pixel (rgb), which shading multiplies its
+    /// lights' unshadowed sum by.
+    pub const BINDING_SHADOW_RATIO: u32 = 42;
+    /// Direct lighting: the most lights a sampling pixel draws from (its whole list up to this
+    /// length; beyond, one from each of this many equal strata of it).
+    pub const DIRECT_LIGHT_CANDIDATES: u32 = 64;
+    /// Direct lighting: the most directional lights a sampling pixel traces apart
+    /// (`GpuLighting::suns`).
+    pub const DIRECT_LIGHT_SUNS: u32 = 4;
     /// Temporal anti-aliasing's push word (`ScenePush::texture_index`): its history is thrown
     /// away this frame (the first frame, a resize, a pipeline switch, a camera cut).
     pub const TAA_RESET: u32 = 1;
@@ -1235,8 +1251,11 @@ layout! {
         /// 1 m, the most a level of detail may stray from the full mesh the rays trace
         /// (`crate::lod`; 0 with levels of detail off).
         pub lod_lift: f32,
-        /// Padding to 16 bytes.
-        pub movers_pad: u32,
+        /// Direct lighting (`crate::lights::sampling`): a pixel whose light list holds more
+        /// lights than this samples their shadows (one ray to a light drawn in proportion to its
+        /// unshadowed light, `shaders/include/direct_sampling.glsl`) instead of a ray per light;
+        /// `u32::MAX` while no pixel samples.
+        pub sampled_lights_above: u32,
         /// Address of the particle system's state (`GpuParticleState`, `crate::particles`; 0
         /// while no emitter or particle exists).
         pub particles: u64,
@@ -1254,8 +1273,13 @@ layout! {
         /// Places of the ring in one BLAS of its structure: instance k of the ring's TLAS holds
         /// the places from k × this on (`crate::particles::ring_accel`).
         pub decal_ring_segment: u32,
-        /// Padding to 16 bytes.
-        pub decal_ring_pad: [u32; 2],
+        /// Padding.
+        pub sun_pad: u32,
+        /// Direct lighting: how many of `suns` hold a directional light's slot.
+        pub sun_count: u32,
+        /// Direct lighting: the slots of the first `DIRECT_LIGHT_SUNS` directional lights, which a
+        /// sampling pixel traces a ray to each rather than sampling them with the rest.
+        pub suns: [u32; 4],
     }
 
     /// One particle of the pool (`crate::particles`). A slot whose `lifetime` is 0 is free.

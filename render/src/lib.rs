@@ -108,7 +108,7 @@ pub use present::{overlay, window};
 pub use renderer::{DebugView, DecalMethod, FinishedFrame, FrameReport, FrameSettings, PipelineKind, Renderer, RendererSettings};
 pub use scene::SceneMirror;
 pub use settings::{
-    AntiAliasing, AutoExposure, BloomSettings, CullingMode, DepthNormals, LightMethod, LightSettings, OcclusionMethod, OcclusionSettings,
-    RaySupport, ReflectionMode, ReflectionSettings, ShadowMapBudget, ShadowMethod, Tonemapper, TransparencyMethod,
+    AntiAliasing, AutoExposure, BloomSettings, CullingMode, DepthNormals, DirectLight, LightMethod, LightSettings, OcclusionMethod,
+    OcclusionSettings, RaySupport, ReflectionMode, ReflectionSettings, ShadowMapBudget, ShadowMethod, Tonemapper, TransparencyMethod,
 };
 pub use stats::FrameCounters;

@@ -107,6 +107,9 @@ pub struct FrameReport {
     pub light_method: LightMethod,
     /// How the frame's shadows were made (`None` when none were traced).
     pub shadows: ShadowMethod,
+    /// How the traced shadows of the pixels' light lists were made: a ray per light, or
+    /// sampled (`crate::lights::sampling`); `None` when no list's shadows were traced.
+    pub direct_light: Option<crate::settings::DirectLight>,
     /// How the frame's ambient light was occluded (`Off` when it was not).
     pub occlusion: crate::settings::OcclusionMethod,
     /// The anti-aliasing applied ([`crate::settings::AntiAliasing::applied`]: MSAA is TAA in the
@@ -583,6 +586,7 @@ impl Renderer {
             decal_surface: res.decals.surface(),
             light_method: lights.method,
             shadows: lights.shadows,
+            direct_light: lights.direct_light,
             occlusion: lights.occlusion.method,
             aa,
             counters,

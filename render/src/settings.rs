@@ -308,6 +308,48 @@ impl ShadowMethod {
     }
 }
 
+/// How the traced shadows of a pixel's lights are found (`crate::lights::sampling`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum DirectLight {
+    /// A shadow ray towards every light of the pixel's list (seed 001 §4.3): exact, and as
+    /// costly as the lights a pixel has.
+    Exhaustive,
+    /// One shadow ray a pixel, towards a light drawn from its list in proportion to its
+    /// unshadowed light; the lights are shaded unshadowed and scaled by the denoised share that
+    /// got through (the ratio estimator of Heitz et al. 2018). Noisy where it is not averaged.
+    Stochastic,
+    /// Exhaustive where a pixel's list holds at most [`DirectLight::AUTO_EXHAUSTIVE_UP_TO`]
+    /// lights, sampled where it holds more.
+    #[default]
+    Auto,
+}
+
+impl DirectLight {
+    /// `Auto`: the most lights a pixel's list may hold and still get a ray each.
+    pub const AUTO_EXHAUSTIVE_UP_TO: u32 = 32;
+
+    /// Every method.
+    pub const ALL: [DirectLight; 3] = [DirectLight::Exhaustive, DirectLight::Stochastic, DirectLight::Auto];
+
+    /// The name used in `--stats` and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            DirectLight::Exhaustive => "exhaustive",
+            DirectLight::Stochastic => "stochastic",
+            DirectLight::Auto => "auto",
+        }
+    }
+
+    /// The largest list length a pixel traces a ray per light for (`u32::MAX`: every list).
+    pub fn exhaustive_up_to(self) -> u32 {
+        match self {
+            DirectLight::Exhaustive => u32::MAX,
+            DirectLight::Stochastic => 0,
+            DirectLight::Auto => Self::AUTO_EXHAUSTIVE_UP_TO,
+        }
+    }
+}
+
 /// Light culling and shadows, per frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LightSettings {
@@ -329,6 +371,10 @@ pub struct LightSettings {
     /// colour × (1 − opacity) (seed 002 §3.2.1). False: glass blocks light like an opaque
     /// surface (the cheaper shadows of seed 002 Table 4.3).
     pub coloured_shadows: bool,
+    /// Traced shadows towards every light of a pixel's list, or towards one sampled light
+    /// (ray-traced shadows with tiled or every-light lists; ray-query lights and shadow maps are
+    /// always exhaustive).
+    pub direct_light: DirectLight,
 }
 
 impl Default for LightSettings {
@@ -342,6 +388,7 @@ impl Default for LightSettings {
             shadow_ray_culling: true,
             normals: DepthNormals::Improved,
             coloured_shadows: true,
+            direct_light: DirectLight::Auto,
         }
     }
 }

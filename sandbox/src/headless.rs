@@ -134,6 +134,8 @@ pub struct HeadlessOptions {
     pub occlusion: render::OcclusionSettings,
     /// Run `frames` frames with every ambient occlusion method in turn.
     pub compare_occlusion: bool,
+    /// Run `frames` frames with each direct-light method, then exhaustive again.
+    pub compare_direct_light: bool,
     /// Auto-exposure.
     pub exposure: render::AutoExposure,
     /// The camera's exposure as an EV100 (`None`: the scene's).
@@ -181,6 +183,8 @@ pub const LIGHT_COMPARE_SET: [(&str, LightSettings); 9] = {
             normals,
             coloured_shadows: true,
             shadow_maps: false,
+            // The seed's tables trace a ray per light.
+            direct_light: render::DirectLight::Exhaustive,
         }
     }
     use DepthNormals::{Improved, Naive};
@@ -350,6 +354,7 @@ impl Default for HeadlessOptions {
             bloom: render::BloomSettings::default(),
             occlusion: render::OcclusionSettings::default(),
             compare_occlusion: false,
+            compare_direct_light: false,
             exposure: render::AutoExposure::default(),
             ev100: None,
             environment_resolution: RendererSettings::default().environment_resolution,
@@ -611,6 +616,11 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
         // Off first and last: the first run also warms the GPU up.
         let runs = render::OcclusionMethod::ALL.into_iter().chain([render::OcclusionMethod::Off]);
         combos.extend(runs.map(|method| Run { occlusion: render::OcclusionSettings { method, ..opts.occlusion }, ..base }));
+    }
+    if opts.compare_direct_light {
+        // Exhaustive first and last: the first run also warms the GPU up.
+        let runs = render::DirectLight::ALL.into_iter().chain([render::DirectLight::Exhaustive]);
+        combos.extend(runs.map(|direct_light| Run { lights: LightSettings { direct_light, ..opts.lights }, ..base }));
     }
     let total = opts.frames as usize * combos.len().max(1);
     let mut frames = Vec::with_capacity(total);

@@ -152,6 +152,15 @@ struct Cli {
     /// Normals from depth for the shadow pass: naive or improved.
     #[arg(long, default_value = "improved", value_parser = parse_depth_normals)]
     depth_normals: render::DepthNormals,
+    /// Traced shadows of the lights' lists: exhaustive (a ray per light), stochastic (one ray a
+    /// pixel to a sampled light, denoised ratio) or auto (stochastic where a list holds more
+    /// than 32 lights).
+    #[arg(long, default_value = "auto", value_parser = parse_direct_light)]
+    direct_light: render::DirectLight,
+    /// Run --frames frames with each direct-light method (exhaustive, stochastic, auto), then
+    /// exhaustive again, in --pipeline with the other settings as given.
+    #[arg(long)]
+    compare_direct_light: bool,
     /// Headless: play this script (see sandbox::game::script) with the game's systems.
     #[arg(long)]
     script: Option<PathBuf>,
@@ -427,6 +436,13 @@ fn parse_depth_normals(s: &str) -> Result<render::DepthNormals, String> {
     }
 }
 
+fn parse_direct_light(s: &str) -> Result<render::DirectLight, String> {
+    render::DirectLight::ALL
+        .into_iter()
+        .find(|d| d.name() == s)
+        .ok_or_else(|| format!("unknown direct-light method {s:?} (exhaustive, stochastic, auto)"))
+}
+
 fn parse_decal_method(s: &str) -> Result<DecalMethod, String> {
     DecalMethod::from_name(s)
         .ok_or_else(|| format!("unknown decal method {s:?} (ray_query, ray_query_compute, ray_pipeline, clustered, deferred, off)"))
@@ -533,6 +549,7 @@ fn main() -> Result<()> {
             normals: cli.depth_normals,
             coloured_shadows: !cli.opaque_glass_shadows,
             shadow_maps: cli.shadow_maps,
+            direct_light: cli.direct_light,
         },
         shadow_maps: render::ShadowMapBudget { tile: cli.shadow_map_size, tiles: cli.shadow_map_tiles, ..Default::default() },
         culling: cli.culling,
@@ -549,6 +566,7 @@ fn main() -> Result<()> {
         bloom: render::BloomSettings { enabled: !cli.no_bloom, intensity: cli.bloom_intensity },
         occlusion: render::OcclusionSettings { method: cli.ao, radius: cli.ao_radius, rays: cli.ao_rays },
         compare_occlusion: cli.compare_ao,
+        compare_direct_light: cli.compare_direct_light,
         exposure: render::AutoExposure { enabled: cli.auto_exposure, compensation: cli.exposure_compensation, ..Default::default() },
         ev100: cli.ev100,
         instances: cli.instances,
@@ -589,7 +607,8 @@ fn main() -> Result<()> {
             || cli.compare_transparency
             || cli.compare_culling
             || cli.compare_lod
-            || cli.compare_reflections,
+            || cli.compare_reflections
+            || cli.compare_direct_light,
         &cli.stats,
     ) {
         let (csv, svg) = sandbox::charts::write(stats, &sandbox::charts::run_medians(&summary.frames))?;

@@ -49,7 +49,8 @@
 //! refilters nothing leaves it unchanged) and `resolution` (the cubes' face size; 0 before an
 //! environment was first used).
 //!
-//! Lights: `light_method` (applied: `all`, `tiled` or `ray_query`), `shadows` (`ray_query`, `ray_pipeline`, `maps`
+//! Lights: `light_method` (applied: `all`, `tiled` or `ray_query`), `direct_light` (applied: `exhaustive`,
+//! `stochastic`, `auto`, or `none` without traced shadows of light lists), `shadows` (`ray_query`, `ray_pipeline`, `maps`
 //! (devices without ray tracing, or `--shadow-maps`), or `none`), `lights` (the settings:
 //! `tile_size`, `aabb`, `shadow_ray_culling`, `normals`, `coloured_shadows`), the counters `scene_blas_builds`,
 //! `scene_blas_compactions`, `scene_tlas_builds`, `scene_tlas_updates`, `light_blas_builds`,
@@ -172,6 +173,8 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
         "auto_exposure": stats.auto_exposure,
     });
     // The command buffer: submitted again as recorded, or recorded (`render::gpu::commands`).
+    // How the traced shadows of the light lists were made (`crate::lights::sampling`).
+    value["direct_light"] = json!(stats.direct_light.map_or("none", |d| d.name()));
     value["counters"]["commands_reused"] = json!(c.commands_reused);
     value["counters"]["command_words"] = json!(c.command_words);
     // Refits deferred for posed meshes small on screen (`render::accel`).

@@ -8,7 +8,8 @@
 // any.
 // Lights come from the pixel's list (its tile's after light culling, or every light; see
 // light_tiles.glsl), each weighted by the shadow pass's bit when shadows were traced (the
-// visibility term V of seed 001 eq. 4.4). With ray-query lights (ENUMERATED_LIGHTS: the
+// visibility term V of seed 001 eq. 4.4), or, where the pixel sampled them, unshadowed and
+// scaled by the sampled share that got through (direct_sampling.glsl). With ray-query lights (ENUMERATED_LIGHTS: the
 // including shader defines `enumerated_lights`, ray_query_lights.glsl or
 // ray_pipeline_lights.glsl) the lights come from a zero-length ray instead of a list.
 #ifndef SHADING_GLSL
@@ -25,9 +26,11 @@
 #include "light_tiles.glsl"
 #include "environment.glsl"
 #include "storable.glsl"
+#include "direct_sampling.glsl"
 
 layout(set = 0, binding = BINDING_SHADOW_DEBUG, rgba16f) uniform readonly image2D shadow_debug_in;
 layout(set = 0, binding = BINDING_OCCLUSION, r32f) uniform readonly image2D occlusion_in;
+layout(set = 0, binding = BINDING_SHADOW_RATIO, rgba16f) uniform readonly image2D shadow_ratio_in;
 
 // The ambient occlusion at pixel `px` (occlusion.glsl; 1 where its passes did not run). Blended
 // surfaces are not in the depth it was made from: they are not occluded.
@@ -194,19 +197,41 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
         return vec4(reconstructed ? rebuilt : s.normal * 0.5 + 0.5, 1.0);
     }
 
+    // A pixel that sampled its lights' shadows (direct_sampling.glsl) sums them unshadowed and
+    // takes the denoised share that got through; blended surfaces never sample (their glass
+    // layer is exhaustive).
+#ifdef TRANSPARENT
+    bool sampled = false;
+#else
+    bool sampled = shadowed && samples_lights(list);
+#endif
+    // The suns' bits, which a sampling pixel keeps in its first shadow word.
+    uint sun_bits = sampled ? shadow_words.words[layer_words + shadow_word_at(list, 0u, px)] : 0u;
+    Suns suns = sampling_suns();
+    if (!sampled) suns.count = 0u;
+    if (sampled) shadowed = false;
     uint tints[SHADOW_TINT_SLOTS];
     bool tinted = shadowed && scene.lighting.lighting.shadow_tints != 0ul;
     ShadowTintsRef tint_words = ShadowTintsRef(scene.lighting.lighting.shadow_tints);
     for (uint t = 0u; t < SHADOW_TINT_SLOTS; ++t) tints[t] = tinted ? tint_words.words[layer_tints + shadow_tint_at(px) + t] : 0u;
     uint word = 0xFFFFFFFFu;
+    vec3 direct = vec3(0.0);
     for (uint j = 0u; j < list.count; ++j) {
         if (shadowed && j % 32u == 0u) word = shadow_words.words[layer_words + shadow_word_at(list, j, px)];
         if ((word & (1u << (j % 32u))) == 0u) continue;
         GpuLight light = scene.lights.lights[light_slot(list, j)];
         if (light.kind == LIGHT_NONE) continue;
         vec3 tint = tinted ? shadow_tint(tints, j) : vec3(1.0);
-        color += tint * shade_light(light, brdf, s.position, s.normal, v);
+        vec3 lit = tint * shade_light(light, brdf, s.position, s.normal, v);
+        int sun = -1;
+        if (suns.count > 0u && light.kind == LIGHT_DIRECTIONAL) sun = sun_index(suns, light_slot(list, j));
+        if (sun < 0) {
+            direct += lit;
+        } else if ((sun_bits & (1u << uint(sun))) != 0u) {
+            color += lit;
+        }
     }
+    color += sampled ? direct * imageLoad(shadow_ratio_in, px).rgb : direct;
 #endif
     return vec4(storable_radiance(color), 1.0);
 }

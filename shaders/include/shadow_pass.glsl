@@ -15,6 +15,10 @@
 //   vec3 shadow_ray_transmittance(vec3 origin, vec3 dir, float tmin, float tmax);
 // A ray that crossed glass keeps its colour in one of the pixel's tint slots (light_tiles.glsl)
 // when there is one free; otherwise its bit says whether more than half the light got through.
+// Pixels whose list holds more lights than GpuLighting::sampled_lights_above trace one ray
+// instead, to a light drawn from the list (direct_sampling.glsl), into the sampled shadows'
+// image; the rest write a mark there that they sampled nothing. Not over the glass layer, nor
+// with shadow maps: those are exhaustive.
 // Rays follow the seed: tmin 0.001, tmax the distance to the light (1000 for directional
 // lights), first hit ends the ray; a light with a size (a sphere's radius, a sun's disc) is aimed
 // at a point of its disc that changes per pixel and per frame (shadow_ray_sampled, lighting.glsl),
@@ -39,6 +43,44 @@ layout(set = 0, binding = BINDING_SHADOW_DEBUG, rgba16f) uniform writeonly image
 vec3 shadow_ray_transmittance(vec3 origin, vec3 dir, float tmin, float tmax);
 #endif
 
+#if !defined(SHADOW_MAPS) && !defined(GLASS_LAYER)
+#define SAMPLES_LIGHTS
+#include "direct_sampling.glsl"
+layout(set = 0, binding = BINDING_SHADOW_SAMPLES, rgba16f) uniform writeonly image2D shadow_samples_out;
+
+// One shadow ray towards a light drawn from `list` (direct_sampling.glsl); writes what got
+// through and log2 of the unshadowed estimate it was drawn from; and one ray to each of the
+// suns, whose bits (bit k: sun k reaches the pixel) go to the pixel's first shadow word. Returns
+// the rays traced.
+uint sample_shadow(ivec2 px, LightList list, vec3 p, vec3 n, vec3 origin, bool cull) {
+    GpuLighting l = scene.lighting.lighting;
+    uint sun_bits = 0u, rays = 0u;
+    for (uint k = 0u; k < l.sun_count; ++k) {
+        GpuLight sun = scene.lights.lights[l.suns[k]];
+        vec3 dir;
+        float tmax;
+        if (!shadow_ray_sampled(sun, p, shadow_sample(px, l.suns[k]), dir, tmax) || (cull && dot(n, dir) <= 0.0)) continue;
+        ++rays;
+        if (luminance(shadow_ray_transmittance(origin, dir, 1e-3, tmax)) > 0.5) sun_bits |= 1u << k;
+    }
+    ShadowWordsRef(l.shadow_bits).words[shadow_word_at(list, 0u, px)] = sun_bits;
+    uint seed = light_draw_seed(px);
+    LightSample chosen = draw_light(list, p, n, seed);
+    vec3 through = vec3(0.0);
+    if (chosen.slot != NO_SLOT) {
+        GpuLight light = scene.lights.lights[chosen.slot];
+        vec3 dir;
+        float tmax;
+        if (shadow_ray_sampled(light, p, shadow_sample(px, chosen.slot), dir, tmax) && !(cull && dot(n, dir) <= 0.0)) {
+            through = shadow_ray_transmittance(origin, dir, 1e-3, tmax);
+            ++rays;
+        }
+    }
+    imageStore(shadow_samples_out, px, vec4(through, chosen.estimate > 0.0 ? max(log2(chosen.estimate), SAMPLED_NONE + 1.0) : SAMPLED_NONE));
+    return rays;
+}
+#endif
+
 void shadow_pixel(ivec2 px) {
     GpuLighting l = scene.lighting.lighting;
     if (!pixel_inside(px)) return;
@@ -54,6 +96,13 @@ void shadow_pixel(ivec2 px) {
                                                         : normal_from_depth_naive(px, depth, p);
     LightList list = light_list(px);
     uint rays = 0u;
+#ifdef SAMPLES_LIGHTS
+    bool sampled = samples_lights(list);
+    if (!sampled && l.sampled_lights_above != 0xFFFFFFFFu) imageStore(shadow_samples_out, px, vec4(1.0, 1.0, 1.0, SAMPLED_NONE));
+    if (sampled) {
+        rays = sample_shadow(px, list, p, n, raster_origin(p, n), (l.flags & SHADOW_RAY_CULLING) != 0u);
+    } else
+#endif
     if (list.rows != NO_SHADOW_ROWS) {
         bool cull = (l.flags & SHADOW_RAY_CULLING) != 0u;
         vec3 origin = raster_origin(p, n);

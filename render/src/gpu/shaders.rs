@@ -160,6 +160,7 @@ spirv! {
     OCCLUSION_COMP_SCREEN_SPACE = "occlusion.comp.SCREEN_SPACE";
     OCCLUSION_RGEN = "occlusion.rgen";
     OCCLUSION_DENOISE_COMP = "occlusion_denoise.comp";
+    SHADOW_DENOISE_COMP = "shadow_denoise.comp";
     MOTION_CAMERA_COMP = "motion_camera.comp";
     MOTION_CAMERA_COMP_VISIBILITY = "motion_camera.comp.VISIBILITY";
     MOTION_CAMERA_COMP_GBUFFER = "motion_camera.comp.GBUFFER";

@@ -76,9 +76,9 @@ pub use crate::layout::{
     BINDING_DECAL_EMISSIVE, BINDING_DECAL_NORMAL, BINDING_DECAL_SPEC, BINDING_DECAL_TESTED, BINDING_DEPTH, BINDING_GBUFFER_ALBEDO,
     BINDING_GBUFFER_LAYERS, BINDING_GBUFFER_MATERIAL, BINDING_GBUFFER_NORMAL, BINDING_HDR, BINDING_HDR_STORAGE, BINDING_MOTION,
     BINDING_OCCLUSION, BINDING_OCCLUSION_RAW, BINDING_REFLECTION, BINDING_REFLECTION_ADDED, BINDING_REFLECTION_RAYS,
-    BINDING_REFLECTION_WEIGHT, BINDING_SHADOW_DEBUG, BINDING_SHADOW_MAP_DEPTH, BINDING_SHADOW_MAP_FILTER, BINDING_SMAA_EDGES,
-    BINDING_SMAA_WEIGHTS, BINDING_TAA_HISTORY_A, BINDING_TAA_HISTORY_A_STORAGE, BINDING_TAA_HISTORY_B, BINDING_TAA_HISTORY_B_STORAGE,
-    BINDING_TRANSPARENCY_SOURCE, BINDING_TRANSPARENT_DEPTH, BINDING_VISIBILITY,
+    BINDING_REFLECTION_WEIGHT, BINDING_SHADOW_DEBUG, BINDING_SHADOW_MAP_DEPTH, BINDING_SHADOW_MAP_FILTER, BINDING_SHADOW_RATIO,
+    BINDING_SHADOW_SAMPLES, BINDING_SMAA_EDGES, BINDING_SMAA_WEIGHTS, BINDING_TAA_HISTORY_A, BINDING_TAA_HISTORY_A_STORAGE,
+    BINDING_TAA_HISTORY_B, BINDING_TAA_HISTORY_B_STORAGE, BINDING_TRANSPARENCY_SOURCE, BINDING_TRANSPARENT_DEPTH, BINDING_VISIBILITY,
 };
 
 /// Where a target is bound for sampling: its descriptor binding in set 0 (`BINDING_*`).
@@ -316,6 +316,26 @@ pub static SHADOW_DEBUG: TargetDesc = TargetDesc {
     format: DECAL_BUFFER_FORMAT,
     usage: STORAGE,
     bind: Some(Bind::Storage(BINDING_SHADOW_DEBUG)),
+    storage: None,
+    multisampled: false,
+};
+/// The sampled shadows' raw image: per sampling pixel, what its one shadow ray let through and
+/// the unshadowed estimate it was drawn from (`crate::lights::sampling`).
+pub static SHADOW_SAMPLES: TargetDesc = TargetDesc {
+    name: "shadow samples",
+    format: HDR_FORMAT,
+    usage: STORAGE,
+    bind: Some(Bind::Storage(BINDING_SHADOW_SAMPLES)),
+    storage: None,
+    multisampled: false,
+};
+/// The sampled shadows, denoised: the share of each sampling pixel's unshadowed light that
+/// reaches it, which shading reads.
+pub static SHADOW_RATIO: TargetDesc = TargetDesc {
+    name: "shadow ratio",
+    format: HDR_FORMAT,
+    usage: STORAGE,
+    bind: Some(Bind::Storage(BINDING_SHADOW_RATIO)),
     storage: None,
     multisampled: false,
 };

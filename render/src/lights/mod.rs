@@ -14,6 +14,7 @@
 //! The shading passes then declare [`declare_light_reads`].
 
 pub mod ray_query;
+pub mod sampling;
 pub mod tiles;
 
 use ash::vk;
@@ -22,7 +23,7 @@ use crate::RenderError;
 use crate::accel::SceneAccelFrame;
 use crate::environment::EnvironmentFrame;
 use crate::gpu::device::GpuContext;
-use crate::graph::targets::{OCCLUSION, SHADOW_DEBUG};
+use crate::graph::targets::{OCCLUSION, SHADOW_DEBUG, SHADOW_RATIO};
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassBuilder, ResourceId};
 use crate::layout::{
     AMBIENT_OCCLUSION, COLOURED_SHADOWS, GLASS_SHADOWS, GpuLighting, INTERLACED, LIGHT_CULL_AABB, LIGHTS_ALL, LIGHTS_RAY_QUERY,
@@ -33,7 +34,7 @@ use crate::occlusion::OcclusionFrame;
 use crate::reflections::ReflectionFrame;
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
-use crate::settings::{DepthNormals, FrameSettings, LightMethod, ShadowMethod, TransparencyMethod};
+use crate::settings::{DepthNormals, DirectLight, FrameSettings, LightMethod, ShadowMethod, TransparencyMethod};
 use crate::stats::FrameCounters;
 use ray_query::{RayQueryLightFrame, RayQueryLights};
 use tiles::{LightTiles, TileFrame, TileRequest};
@@ -44,6 +45,8 @@ pub struct Lighting {
     pub tiles: LightTiles,
     /// Ray-query lights' boxes and structures (devices with acceleration structures).
     pub ray_query: Option<RayQueryLights>,
+    /// The directional lights sampling pixels trace apart, found again when lights change.
+    suns: sampling::SunSearch,
 }
 
 /// What this frame does with lights.
@@ -59,6 +62,11 @@ pub struct LightFrame {
     pub shadow_bits: Option<ResourceId>,
     /// Whether the shadow pass writes (and shading reads) the shadow debug image.
     pub debug: bool,
+    /// Pixels whose list holds more lights than this sample their shadows ([`sampling`];
+    /// `u32::MAX`: none does).
+    pub sampled_lights_above: u32,
+    /// How the traced shadows of light lists were made (`None`: none were).
+    pub direct_light: Option<DirectLight>,
     /// With ray-query lights: the lights' TLAS, BLAS and box buffer (its unbounded-light list).
     pub light_accel: Option<[ResourceId; 3]>,
     /// When shading traces shadow rays itself (ray-query lights on the ray-query tier): the
@@ -88,6 +96,12 @@ impl LightFrame {
     /// What a pass that lights surfaces reads of the environment (nothing without one).
     pub fn environment_reads(&self) -> impl Iterator<Item = (ResourceId, BufferUse)> {
         crate::environment::environment_reads(self.environment)
+    }
+
+    /// Whether some pixels may sample their lights' shadows this frame: the shadow pass writes
+    /// the sampled shadows, the denoiser runs and shading reads its ratio.
+    pub fn samples(&self) -> bool {
+        self.sampled_lights_above != u32::MAX
     }
 
     /// Whether the reflection pass runs this frame (`crate::reflections`: asked for, and the
@@ -125,7 +139,11 @@ impl LightFrame {
 impl Lighting {
     /// Creates the passes.
     pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
-        Ok(Self { tiles: LightTiles::new(ctx, graph, layout)?, ray_query: RayQueryLights::new(ctx, graph, layout)? })
+        Ok(Self {
+            tiles: LightTiles::new(ctx, graph, layout)?,
+            ray_query: RayQueryLights::new(ctx, graph, layout)?,
+            suns: Default::default(),
+        })
     }
 
     /// Sizes this frame's buffers and sets the lighting record, before the scene's upload. The
@@ -182,6 +200,11 @@ impl Lighting {
             _ => ShadowMethod::None,
         };
         let debug = shadows != ShadowMethod::None && !enumerated && s.debug_view.reads_shadow_debug();
+        let listed = shadows != ShadowMethod::None && !enumerated;
+        let sampled_lights_above = sampling::sampled_lights_above(l.direct_light, shadows, listed);
+        let rays = matches!(shadows, ShadowMethod::RayQuery | ShadowMethod::RayPipeline);
+        let suns = if sampled_lights_above == u32::MAX { sampling::Suns::default() } else { self.suns.find(&mirror.lights) };
+        let direct_light = sampling::applied(sampled_lights_above, listed && rays);
         let interlaced = glass && s.transparency.effective(s.pipeline).interlaces();
         let reflect = reflections.on() && (!reflections.traced() || accel.tlas_address != 0);
         let mut flags = 0;
@@ -255,14 +278,16 @@ impl Lighting {
             display_check: 0, // the renderer's to set (`GpuScene::set_display_check`)
             movers: 0,        // the upload's to set
             lod_lift: 0.0,    // the frame's to set (`GpuScene::set_lod_lift`)
-            movers_pad: 0,
+            sampled_lights_above,
             particles: 0, // the particles' to set (`GpuScene::set_particles`, `set_decal_ring`)
             decal_ring: 0,
             decal_ring_boxes: 0,
             decal_ring_tlas: 0,
             decal_ring_room: 0,
             decal_ring_segment: 0,
-            decal_ring_pad: [0; 2],
+            sun_pad: 0,
+            sun_count: suns.count,
+            suns: suns.slots,
         });
         let res = self.tiles.resources();
         let inline_shadows = match accel.traced {
@@ -277,6 +302,8 @@ impl Lighting {
             light_tiles: (method == LightMethod::Tiled).then_some(res.tiles),
             shadow_bits: (shadows != ShadowMethod::None && !enumerated).then_some(res.shadow),
             debug,
+            sampled_lights_above,
+            direct_light,
             light_accel,
             inline_shadows,
             reflection_flags: if reflect { reflections.flags } else { 0 },
@@ -315,7 +342,8 @@ impl Lighting {
 }
 
 /// Declares what a shading pass reads to light this frame: the light tile buffer when lights
-/// are tiled, the shadow words when shadows were traced, the shadow debug image in its views;
+/// are tiled, the shadow words when shadows were traced, the sampled shadows' ratio when pixels
+/// may sample, the shadow debug image in its views;
 /// with ray-query lights their structures and list, and the scene's when it traces shadows; the
 /// environment, and the ambient occlusion when it ran.
 pub fn declare_light_reads<'f, 'a>(pass: PassBuilder<'f, 'a>, frame: &LightFrame) -> PassBuilder<'f, 'a> {
@@ -328,6 +356,7 @@ pub fn declare_light_reads<'f, 'a>(pass: PassBuilder<'f, 'a>, frame: &LightFrame
         .reads(accel(frame.inline_shadows))
         .reads(storage(frame.inline_shadows))
         .when(frame.debug, |p| p.image(&SHADOW_DEBUG, ImageUse::StorageRead))
+        .when(frame.samples(), |p| p.image(&SHADOW_RATIO, ImageUse::StorageRead))
         .reads(frame.environment_reads())
         .when(frame.occlusion.on(), |p| p.image(&OCCLUSION, ImageUse::StorageRead))
 }

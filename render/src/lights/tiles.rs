@@ -406,7 +406,8 @@ impl LightTiles {
         }
         let raw = tiles.raw;
         f.pass("light_tiles_clear", PassKind::Transfer).write(res.tiles, BufferUse::Transfer).record(|p| {
-            p.cmd.fill_buffer(raw, 0, LIGHT_TILE_HEADER as u64 * 4, 0);
+            // Not the last word: the GPU's frame count (`LSTAT_FRAME` in light_tiles.glsl).
+            p.cmd.fill_buffer(raw, 0, (LIGHT_TILE_HEADER as u64 - 1) * 4, 0);
         })?;
         let pipeline = if frame.transparent { self.cull_transparent_pipeline } else { self.cull_pipeline };
         let pass = f.pass("light_cull", PassKind::Compute).sample(&DEPTH);

@@ -48,9 +48,10 @@ use crate::culling::Draws;
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::pipeline::{HitGroup, RayTracingDesc, RayTracingPipeline, create_compute};
 use crate::gpu::shaders;
-use crate::graph::targets::{DEPTH, SHADOW_DEBUG, TRANSPARENT_DEPTH};
+use crate::graph::targets::{DEPTH, SHADOW_DEBUG, SHADOW_SAMPLES, TRANSPARENT_DEPTH};
 use crate::graph::{BufferUse, Frame, ImageUse, PassKind, ResourceId};
 use crate::lights::LightFrame;
+use crate::lights::sampling::ShadowSampling;
 use crate::scene::SceneMirror;
 use crate::scene::gpu::GpuScene;
 use crate::settings::{LightSettings, ShadowMapBudget, ShadowMethod};
@@ -65,6 +66,8 @@ pub struct ShadowPass {
     ray_pipeline: Option<RayTracingPipeline>,
     /// Shadow maps (every device).
     pub maps: ShadowMaps,
+    /// The sampled shadows' denoiser.
+    sampling: ShadowSampling,
 }
 
 /// What the shadow pass reads and writes this frame.
@@ -78,6 +81,9 @@ pub struct ShadowInputs {
     pub light_tiles: Option<ResourceId>,
     /// The shadow words it writes.
     pub shadow_bits: ResourceId,
+    /// Whether it also writes the sampled shadows (pixels with many lights sample them,
+    /// `crate::lights::sampling`), which the denoiser then averages.
+    pub sampled: bool,
     /// Whether it also writes the shadow debug image.
     pub debug: bool,
     /// The glass layer: over the transparent depth (the nearest blended surface the forward
@@ -109,6 +115,13 @@ impl ShadowPass {
     /// Creates the passes the device supports.
     pub fn new(ctx: &GpuContext, layout: vk::PipelineLayout, budget: ShadowMapBudget) -> Result<Self, RenderError> {
         let maps = ShadowMaps::new(ctx, layout, budget)?;
+        let sampling = match ShadowSampling::new(ctx, layout) {
+            Ok(s) => s,
+            Err(e) => {
+                maps.destroy(ctx);
+                return Err(e);
+            }
+        };
         let ray_query = if ctx.tier == Tier::RayQuery {
             Some([
                 create_compute(ctx, layout, "shadows (ray query)", shaders::SHADOWS_COMP)?,
@@ -135,13 +148,14 @@ impl ShadowPass {
                         unsafe { ctx.destroying().destroy_pipeline(p, None) };
                     }
                     maps.destroy(ctx);
+                    sampling.destroy(ctx);
                     return Err(e);
                 }
             }
         } else {
             None
         };
-        Ok(Self { ray_query, ray_pipeline, maps })
+        Ok(Self { ray_query, ray_pipeline, maps, sampling })
     }
 
     /// How this device makes shadows by default: ray queries where it has them, else the
@@ -180,7 +194,8 @@ impl ShadowPass {
                 _ => Some(lights.scene_accel?), // no instance yet: nothing to trace against
             };
             let method = lights.shadows;
-            Some(ShadowInputs { method, traced, light_tiles: lights.light_tiles, shadow_bits, debug: lights.debug, glass: false })
+            let sampled = lights.samples();
+            Some(ShadowInputs { method, traced, light_tiles: lights.light_tiles, shadow_bits, sampled, debug: lights.debug, glass: false })
         });
         ShadowFrame { maps, inputs, glass: lights.glass_shadows() }
     }
@@ -211,7 +226,7 @@ impl ShadowPass {
         self.record_pass(f, scene, draws, maps, &inputs)?;
         if frame.glass {
             // The glass layer: the same over the transparent depth, reading the maps just drawn.
-            let glass = ShadowInputs { debug: false, glass: true, ..inputs };
+            let glass = ShadowInputs { debug: false, sampled: false, glass: true, ..inputs };
             self.record_pass(f, scene, draws, ShadowMapPlan { views: 0, ..maps }, &glass)?;
         }
         Ok(())
@@ -261,6 +276,7 @@ impl ShadowPass {
             .reads(inputs.traced.into_iter().flatten().map(|a| (a, BufferUse::Accel)))
             .reads(inputs.light_tiles.map(|t| (t, BufferUse::Storage)))
             .write(inputs.shadow_bits, BufferUse::Storage)
+            .when(inputs.sampled, |p| p.image(&SHADOW_SAMPLES, ImageUse::StorageWrite))
             .when(inputs.debug, |p| p.image(&SHADOW_DEBUG, ImageUse::StorageWrite));
         match inputs.method {
             ShadowMethod::RayPipeline => {
@@ -268,17 +284,21 @@ impl ShadowPass {
                 pass.record(|p| {
                     p.bind(vk::PipelineBindPoint::RAY_TRACING_KHR, rt.pipeline, &p.push);
                     rt.trace(p.cmd, layer, extent);
-                })
+                })?;
             }
             ShadowMethod::RayQuery => {
                 let pipeline = self.ray_query.ok_or_else(|| unsupported(inputs.method))?[layer];
                 pass.record(|p| {
                     p.bind(vk::PipelineBindPoint::COMPUTE, pipeline, &p.push);
                     p.cmd.dispatch(extent.width.div_ceil(8), extent.height.div_ceil(8), 1);
-                })
+                })?;
             }
-            ShadowMethod::Maps | ShadowMethod::None => Ok(()),
+            ShadowMethod::Maps | ShadowMethod::None => {}
         }
+        if inputs.sampled {
+            self.sampling.record(f, scene, inputs.light_tiles)?;
+        }
+        Ok(())
     }
 
     /// Destroys the pipelines; the GPU must be idle.
@@ -291,6 +311,7 @@ impl ShadowPass {
             rt.destroy(ctx);
         }
         self.maps.destroy(ctx);
+        self.sampling.destroy(ctx);
     }
 }
 

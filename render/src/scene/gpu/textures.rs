@@ -35,7 +35,7 @@ pub(super) const SAMPLED_LATE: [u32; 5] = [
     crate::layout::BINDING_TAA_HISTORY_A,
     crate::layout::BINDING_TAA_HISTORY_B,
 ];
-pub(super) const BINDINGS: usize = 1 + crate::layout::BINDING_REFLECTION_ADDED as usize;
+pub(super) const BINDINGS: usize = 1 + crate::layout::BINDING_SHADOW_RATIO as usize;
 
 /// The descriptor type of a binding of set 0.
 pub(super) fn descriptor_type(binding: u32) -> vk::DescriptorType {
