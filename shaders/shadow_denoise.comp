@@ -1,7 +1,7 @@
 #version 460
 // The sampled shadows' denoiser (render/src/lights/sampling): the ratio estimator of Heitz et
 // al. 2018 over a 3×3 neighbourhood (5×5 blurred the shadows' edges: 1.8 times the error against
-// a ray per light, in the test of render/src/lights/sampling). Each pixel that sampled its lights averages its
+// a ray per light, in tests/tests/suite/lights.rs's `sampled_shadows_averaged_over_blocks_…`). Each pixel that sampled its lights averages its
 // neighbours' shadow-ray visibility V, each weighted by the neighbour's estimate S of its
 // unshadowed light (so the ratio is ΣSV / ΣS, the share of the light that got through) and by
 // how near it lies to the pixel's tangent plane (as ambient occlusion's denoiser weighs, so the
@@ -20,7 +20,11 @@ void main() {
     ivec2 px = ivec2(gl_GlobalInvocationID.xy);
     if (!pixel_inside(px)) return;
     float depth = texelFetch(depth_target, px, 0).r;
-    if (depth <= 0.0) return;
+    if (depth <= 0.0) {
+        // Nothing to shade here; but a multisampled edge may shade a sample of this pixel.
+        imageStore(shadow_ratio_out, px, vec4(1.0));
+        return;
+    }
     // Only pixels that sampled are read by shading (with `auto`, tiles of few lights did not).
     if (!samples_lights(light_list(px))) return;
     vec4 own = imageLoad(shadow_samples_in, px);
@@ -40,7 +44,10 @@ void main() {
             vec4 sampled = imageLoad(shadow_samples_in, q);
             if (!(sampled.a > SAMPLED_NONE)) continue;
             float off_plane = dot(n, world_from_depth(vec2(q), d) - p) / tolerance;
-            float w = exp(-off_plane * off_plane) * exp2(clamp(sampled.a - reference, -60.0, 60.0));
+            // A neighbour counts by its light, up to 64 times the pixel's own either way: a
+            // neighbour off the pixel's plane with far more light would otherwise outweigh the
+            // plane's test and carry its shadow across a silhouette.
+            float w = exp(-off_plane * off_plane) * exp2(clamp(sampled.a - reference, -6.0, 6.0));
             sum += sampled.rgb * w;
             weights += w;
         }

@@ -699,8 +699,8 @@ layout! {
     /// Binding of the sampled shadows (`shadow_samples`, storage RGBA16F,
     /// `crate::lights::sampling`): per pixel that sampled its lights, the light that got through
     /// along its one shadow ray (rgb: 1 unblocked, 0 blocked, a colour through glass) and log2
-    /// of the estimate of its unshadowed light the ray's light was drawn from (a; below
-    /// `SAMPLED_NONE` where the pixel sampled nothing).
+    /// of the estimate of its unshadowed light the ray's light was drawn from (a; exactly
+    /// `SAMPLED_NONE` in `direct_sampling.glsl` where the pixel sampled nothing).
     pub const BINDING_SHADOW_SAMPLES: u32 = 41;
     /// Binding of the denoised shadow ratio (`shadow_ratio`, storage RGBA16F): the share of the
     /// unshadowed light that reaches each sampling pixel (rgb), which shading multiplies its

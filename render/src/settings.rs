@@ -314,9 +314,10 @@ pub enum DirectLight {
     /// A shadow ray towards every light of the pixel's list (seed 001 §4.3): exact, and as
     /// costly as the lights a pixel has.
     Exhaustive,
-    /// One shadow ray a pixel, towards a light drawn from its list in proportion to its
-    /// unshadowed light; the lights are shaded unshadowed and scaled by the denoised share that
-    /// got through (the ratio estimator of Heitz et al. 2018). Noisy where it is not averaged.
+    /// One shadow ray a pixel towards a light drawn from its list in proportion to its
+    /// unshadowed light, and one to each of the first four directional lights; the drawn lights
+    /// are shaded unshadowed and scaled by the denoised share that got through (the ratio
+    /// estimator of Heitz et al. 2018). Noisy where it is not averaged.
     Stochastic,
     /// Exhaustive where a pixel's list holds at most [`DirectLight::AUTO_EXHAUSTIVE_UP_TO`]
     /// lights, sampled where it holds more.

@@ -18,7 +18,8 @@
 #include "lighting.glsl"
 #include "light_tiles.glsl"
 
-// log2 of the estimate S below this: the pixel sampled nothing (no candidate reached it).
+// log2 of the estimate S, exactly this: the pixel sampled nothing (no candidate reached it, or
+// its list was exhaustive); a sampling pixel's is above it.
 const float SAMPLED_NONE = -120.0;
 
 // Whether the pixel with light list `list` samples its lights' shadows (the shadow pass and
@@ -73,7 +74,8 @@ float unshadowed_weight(GpuLight light, vec3 p, vec3 n) {
 // and S is the list's unshadowed light itself, so the visibility V of one draw is an unbiased
 // estimate of the share that gets through, and so are its averages over neighbours and frames.
 // Longer lists give one candidate from each of DIRECT_LIGHT_CANDIDATES equal strata (a shared
-// random offset: systematic sampling, so every light is visited over frames), weighted by the
+// random offset: systematic sampling, so every light is visited over frames where the draws
+// change), weighted by the
 // stratum's length: S is then an unbiased estimate, and V a ratio of two random sums, biased dark
 // by a share that shrinks as the candidates grow (with eight candidates a test pixel whose lights
 // were 2 % shadowed came out 27 % too dark).
@@ -98,9 +100,10 @@ LightSample draw_light(LightList list, vec3 p, vec3 n, inout uint seed) {
 
 // The seed of pixel `px`'s draw: new every frame where lights are tiled (the frame count light
 // culling keeps, LSTAT_FRAME), so that temporal anti-aliasing's history, or any average over
-// frames, averages the draws; fixed with every-light lists.
+// frames, averages the draws; with every-light lists, new every frame where temporal
+// anti-aliasing counts frames (GpuCamera::taa_frame), fixed without it.
 uint light_draw_seed(ivec2 px) {
-    uint frame = scene.lighting.lighting.mode == LIGHTS_TILED ? light_tile_words().words[LSTAT_FRAME] : 0u;
+    uint frame = scene.lighting.lighting.mode == LIGHTS_TILED ? light_tile_words().words[LSTAT_FRAME] : scene.camera.camera.taa_frame;
     return pcg_hash(uint(px.x) * 2654435761u ^ uint(px.y) * 40503u ^ pcg_hash(frame));
 }
 

@@ -56,7 +56,9 @@ uint sample_shadow(ivec2 px, LightList list, vec3 p, vec3 n, vec3 origin, bool c
     GpuLighting l = scene.lighting.lighting;
     uint sun_bits = 0u, rays = 0u;
     for (uint k = 0u; k < l.sun_count; ++k) {
+        if (l.suns[k] >= scene.light_count) continue;
         GpuLight sun = scene.lights.lights[l.suns[k]];
+        if (sun.kind != LIGHT_DIRECTIONAL) continue;
         vec3 dir;
         float tmax;
         if (!shadow_ray_sampled(sun, p, shadow_sample(px, l.suns[k]), dir, tmax) || (cull && dot(n, dir) <= 0.0)) continue;

@@ -203,7 +203,9 @@ impl Lighting {
         let listed = shadows != ShadowMethod::None && !enumerated;
         let sampled_lights_above = sampling::sampled_lights_above(l.direct_light, shadows, listed);
         let rays = matches!(shadows, ShadowMethod::RayQuery | ShadowMethod::RayPipeline);
-        let suns = if sampled_lights_above == u32::MAX { sampling::Suns::default() } else { self.suns.find(&mirror.lights) };
+        // Searched every frame (a comparison while lights are still), so that no change is missed.
+        let found = self.suns.find(&mirror.lights);
+        let suns = if sampled_lights_above == u32::MAX { sampling::Suns::default() } else { found };
         let direct_light = sampling::applied(sampled_lights_above, listed && rays);
         let interlaced = glass && s.transparency.effective(s.pipeline).interlaces();
         let reflect = reflections.on() && (!reflections.traced() || accel.tlas_address != 0);
