@@ -198,12 +198,15 @@ uint hit_decals(inout SurfaceInputs s) {
     return tested;
 }
 
-// Light `light`'s radiance `c` at `p` (facing `facing`), through its shadow ray when `shadows`.
-vec3 shadowed_light(GpuLight light, vec3 c, vec3 p, vec3 facing, bool shadows) {
+// Light `light`'s (in slot `slot`) radiance `c` at `p` (facing `facing`), through its shadow ray
+// when `shadows`: aimed at a point of the light's shape, as the ray-query lights aim theirs
+// (`shadow_sample_at`: a hash of the point, the light and the frame), so that a light with a
+// size casts soft shadows in reflections too.
+vec3 shadowed_light(GpuLight light, uint slot, vec3 c, vec3 p, vec3 facing, bool shadows) {
     vec3 dir;
     float tmax;
     if (!shadows || all(equal(c, vec3(0.0)))) return c;
-    if (!shadow_ray_towards(light, p, dir, tmax)) return vec3(0.0);
+    if (!shadow_ray_sampled(light, p, shadow_sample_at(p, slot), dir, tmax)) return vec3(0.0);
     shadow_payload = vec4(1.0, 1.0, 1.0, 0.0);
     traceRayEXT(accelerationStructureEXT(scene.lighting.lighting.scene_tlas), gl_RayFlagsTerminateOnFirstHitEXT | gl_RayFlagsSkipClosestHitShaderEXT,
                 0xFF, REFLECTION_SBT_SHADOWS, 0, REFLECTION_SBT_SHADOWS, shadow_origin(p, facing), 1e-3, dir, tmax, 3);
@@ -220,8 +223,9 @@ vec3 hit_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found) {
     UnboundedLightsRef unbounded = UnboundedLightsRef(l.unbounded_lights);
     uint unbounded_count = unbounded.count;
     for (uint k = 0u; k < unbounded_count; ++k) {
-        GpuLight light = scene.lights.lights[unbounded.slots[k]];
-        color += shadowed_light(light, shade_light(light, brdf, s.position, s.normal, v), s.position, facing, shadows);
+        uint slot = unbounded.slots[k];
+        GpuLight light = scene.lights.lights[slot];
+        color += shadowed_light(light, slot, shade_light(light, brdf, s.position, s.normal, v), s.position, facing, shadows);
     }
     found = unbounded_count;
     light_payload.brdf = brdf;
@@ -240,7 +244,7 @@ vec3 hit_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found) {
     for (uint i = 0u; i < LIGHT_SHADOW_SLOTS; ++i) {
         if (light_payload.slots[i] == NO_SHADOWED_LIGHT) continue;
         GpuLight light = scene.lights.lights[light_payload.slots[i]];
-        color += shadowed_light(light, light_payload.slot_color[i], s.position, facing, shadows);
+        color += shadowed_light(light, light_payload.slots[i], light_payload.slot_color[i], s.position, facing, shadows);
     }
     return color;
 }

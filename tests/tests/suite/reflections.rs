@@ -378,6 +378,21 @@ fn a_mirror_shows_what_a_light_the_camera_does_not_see_lights_and_its_shadow() {
             "{tier:?} {pipeline:?}: the light behind the camera lights the panel in the mirror: {dark} / {lit}"
         );
         assert!(shadowed.x < 0.1 * lit.x, "{tier:?} {pipeline:?}: the hit point's shadow ray finds the occluder: {lit} / {shadowed}");
+        // The light as a 0.5 m sphere, whose rays temporal anti-aliasing averages: the panel
+        // sees most of it around the occluder, in the mirror too.
+        let light = app.world.query_filtered::<Entity, With<PointLight>>().single(&app.world).expect("one light");
+        let sphere = PointLight { radius: 0.5, ..*app.world.get::<PointLight>(light).expect("a point light") };
+        app.world.entity_mut(light).insert(sphere);
+        app.world.resource_mut::<RenderSettings>().aa = render::AntiAliasing::Taa;
+        for _ in 0..6 {
+            app.update();
+        }
+        let soft = render(&mut app);
+        eprintln!("{tier:?} {pipeline:?}: the panel in the mirror, the light a 0.5 m sphere: {soft}");
+        assert!(
+            soft.x > 0.3 * lit.x && soft.x < lit.x,
+            "{tier:?} {pipeline:?}: the hit point's shadow rays aim at points of the sphere: {lit} / {soft}"
+        );
     }
 }
 
