@@ -165,6 +165,8 @@ void main() {
             if (!fits || (shadows && rows == NO_SHADOW_ROWS)) atomicAdd(w.words[LSTAT_OVERFLOWED], 1u);
             atomicMax(w.words[LSTAT_MAX], count);
             atomicAdd(w.words[LSTAT_TILES_USED], 1u);
+            // The shadow pass and shading compare the same count (samples_lights).
+            if (fits && rows != NO_SHADOW_ROWS && count > l.sampled_lights_above) atomicAdd(w.words[LSTAT_SAMPLED], 1u);
         }
         w.words[g] = offset;
         w.words[g + 1u] = fits ? count : (count | LIGHT_TILE_OVERFLOW);

@@ -58,6 +58,9 @@ pub struct LightTileStats {
     pub max_per_tile: u64,
     /// Tiles holding any light.
     pub tiles_used: u64,
+    /// Tiles whose pixels sampled their lights' shadows instead of tracing a ray per light
+    /// (`crate::lights::sampling`; with `DirectLight::Auto`, those listing more than 32 lights).
+    pub sampled_tiles: u64,
     /// Times the buffers grew, since the renderer started.
     pub grows: u64,
     /// Times the buffers shrank or were released (unused), since the renderer started.

@@ -57,7 +57,8 @@
 //! `light_blas_updates`, and, in frames with tiled lights or a light list still held,
 //! `light_tiles`: `tiles`, `tile_size`, `capacity`, `grows`, and, only in frames with tiled
 //! lights, what the GPU measured in `measured_frame`: `entries`, `overflowed`, `max_per_tile`,
-//! `tiles_used`, `mean_per_tile` (entries over used tiles).
+//! `tiles_used`, `mean_per_tile` (entries over used tiles), `sampled_tiles` (tiles whose pixels
+//! sampled their lights' shadows: `direct_light`).
 //!
 //! Culling (`render/src/culling`): `counters.draw_calls` (draw commands the CPU recorded this
 //! frame, every pass: each indirect draw covers a batch), `counters.mesh_pool_bytes`, and
@@ -289,6 +290,7 @@ fn light_tiles_json(t: &render::lights::tiles::LightTileStats, used: bool) -> Va
         v["overflowed"] = json!(t.overflowed);
         v["max_per_tile"] = json!(t.max_per_tile);
         v["tiles_used"] = json!(t.tiles_used);
+        v["sampled_tiles"] = json!(t.sampled_tiles);
         v["mean_per_tile"] = json!(if t.tiles_used == 0 { 0.0 } else { (t.entries as f64 / t.tiles_used as f64 * 100.0).round() / 100.0 });
     }
     v

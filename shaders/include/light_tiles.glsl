@@ -32,6 +32,7 @@ const uint LSTAT_ROWS = 1u;         // shadow rows the tiles needed
 const uint LSTAT_OVERFLOWED = 2u;   // tiles whose list or shadow rows did not fit
 const uint LSTAT_MAX = 3u;          // most lights in one tile
 const uint LSTAT_TILES_USED = 4u;   // tiles holding any light
+const uint LSTAT_SAMPLED = 5u;      // tiles whose pixels sample their lights' shadows (direct_sampling.glsl)
 // Raised by every cull and never cleared (the header's last word): a frame count the GPU keeps,
 // which the sampled shadows' draws hash (direct_sampling.glsl) without an upload a frame.
 const uint LSTAT_FRAME = LIGHT_TILE_HEADER - 1u;

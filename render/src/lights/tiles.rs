@@ -231,6 +231,7 @@ impl LightTiles {
                 overflowed: words[2] as u64,
                 max_per_tile: words[3] as u64,
                 tiles_used: words[4] as u64,
+                sampled_tiles: words[5] as u64,
                 grows: self.list.grows + self.grows,
                 shrinks: self.list.shrinks + self.shrinks,
             };

@@ -968,6 +968,11 @@ fn sampled_shadows_averaged_over_blocks_match_a_ray_per_light_in_every_pipeline_
             // Sampled, the draws change every frame: frames that never change sampled nothing.
             let sampling = lights.shadows && lights.direct_light == DirectLight::Stochastic;
             assert!(changed || !sampling || frames < 2, "{tier:?} {pipeline:?}: the sampled shadows change from frame to frame");
+            if frames > 2 {
+                // Light culling counts the tiles that sample (measured two frames late).
+                let sampled_tiles = app.world.resource::<RenderStats>().last.light_tiles.sampled_tiles;
+                assert_eq!(sampled_tiles > 0, sampling, "{tier:?} {pipeline:?}: {sampled_tiles} tiles sampled");
+            }
             assert_no_validation_errors(app);
             let applied = app.world.resource::<RenderStats>().completed.back().map(|s| s.direct_light);
             let expected = if lights.shadows { Some(lights.direct_light) } else { None };
@@ -1061,6 +1066,11 @@ fn sampled_shadows_averaged_over_blocks_match_a_ray_per_light_in_every_pipeline_
         let longest = counts.iter().map(|p| p[0]).fold(0.0, f32::max);
         assert!((1.0..=32.0).contains(&longest), "{tier:?}: every list short enough to trace ({longest} lights at most)");
         let (auto, _) = image(&mut app, PipelineKind::Forward, LightSettings { direct_light: DirectLight::Auto, ..exhaustive }, 1);
+        for _ in 0..2 {
+            app.update();
+        }
+        let sampled_tiles = app.world.resource::<RenderStats>().last.light_tiles.sampled_tiles;
+        assert_eq!(sampled_tiles, 0, "{tier:?}: auto samples no tile of short lists");
         let (mean, p99) = error_stats(&auto, &reference, |_| true);
         assert!(mean == 0.0 && p99 == 0.0, "{tier:?}: auto with short lists traces every light: mean {mean}, p99 {p99}");
     }
