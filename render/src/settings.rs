@@ -464,7 +464,8 @@ pub struct ShadowMapBudget {
     /// A tile's side in texels (one view: a spot light, a cube face, a directional light).
     pub tile: u32,
     /// Tiles in the atlas. A spot or directional light takes one, a point light six; lights
-    /// past the budget (in slot order) are unshadowed and counted (`shadow_maps_missing`).
+    /// past the budget are unshadowed and counted (`shadow_maps_missing`): the atlas goes to the
+    /// lights that bring what the camera sees the most light (`shadows::maps::map_priority`).
     pub tiles: u32,
     /// How far from the camera directional lights' maps reach, in metres (a map fitted to
     /// the view up to this distance).

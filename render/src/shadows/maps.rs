@@ -8,8 +8,12 @@
 //!   orthographic view fitted to the camera's view up to
 //!   [`ShadowMapBudget::directional_distance`] (a bounding sphere of that slice of the view
 //!   frustum, so the map's size does not change as the camera turns, and its position snapped
-//!   to whole texels, so its edges do not crawl as the camera moves). Lights take views in slot
-//!   order until the atlas is full; the rest are unshadowed and counted.
+//!   to whole texels, so its edges do not crawl as the camera moves). Lights take views in the
+//!   order of the light they bring to what the camera sees ([`map_priority`]: directional
+//!   lights first, then intensity times the share of the view the light's range can reach)
+//!   until the atlas is full; the rest are unshadowed and counted. Issue 52 item 4 asks for
+//!   the maps to go to the lights that contribute most; until then they went in slot order, so
+//!   the first lights spawned took them, however dim or far.
 //! - **The atlas**: one depth target and one filter target (RGBA8), a tile per view, drawn in
 //!   one pass (`shaders/shadow_map.vert`, `shadow_map.frag`): per tile, a viewport and the
 //!   instances inside that view's frustum (one indirect draw of the list `crate::culling`
@@ -75,6 +79,8 @@ pub struct ShadowMaps {
     rows: u32,
     /// The views buffer's words, rebuilt each frame into the same vector.
     words: Vec<u32>,
+    /// The lights ranked by [`map_priority`], rebuilt each frame into the same vector.
+    ranked: Vec<(f32, u32)>,
 }
 
 impl ShadowMaps {
@@ -103,7 +109,7 @@ impl ShadowMaps {
             // SAFETY: never used.
             unsafe { ctx.destroying().destroy_pipeline(raster, None) };
         })?;
-        Ok(Self { raster, resolve, budget, columns, rows, words: Vec::new() })
+        Ok(Self { raster, resolve, budget, columns, rows, words: Vec::new(), ranked: Vec::new() })
     }
 
     /// A tile's side in texels.
@@ -119,7 +125,7 @@ impl ShadowMaps {
     /// Plans this frame's views for `lights` (by slot) seen from `camera`, and hands them to
     /// the scene (uploaded with its next sync, only when they changed).
     pub fn plan(&mut self, scene: &mut GpuScene, lights: &[GpuLight], camera: &GpuCamera) -> ShadowMapPlan {
-        let plan = plan_views(&mut self.words, lights, camera, &self.budget);
+        let plan = plan_views(&mut self.words, &mut self.ranked, lights, camera, &self.budget);
         scene.shadow_views.set(&self.words);
         plan
     }
@@ -231,30 +237,110 @@ fn directional_view(dir: Vec3, camera: &GpuCamera, distance: f32, tile: u32) -> 
     GpuShadowView { view_proj: proj * view, texel, ortho: 1, pad: [0; 2] }
 }
 
+/// Moves the `k` highest-ranked of `ranked` to its front, in rank order (highest
+/// [`map_priority`] first, ties by slot), without sorting the rest.
+fn best_first(ranked: &mut [(f32, u32)], k: usize) {
+    let order = |a: &(f32, u32), b: &(f32, u32)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
+    if k == 0 {
+        return;
+    }
+    if k < ranked.len() {
+        ranked.select_nth_unstable_by(k - 1, order);
+    }
+    ranked[..k].sort_unstable_by(order);
+}
+
+/// Moves the entries that satisfy `keep` to the front of `items` (in no particular order);
+/// returns how many there are.
+fn partition<T>(items: &mut [T], keep: impl Fn(&T) -> bool) -> usize {
+    let mut front = 0;
+    for i in 0..items.len() {
+        if keep(&items[i]) {
+            items.swap(front, i);
+            front += 1;
+        }
+    }
+    front
+}
+
+/// How much light `light` brings to what a camera at `eye` sees, to rank the lights for the
+/// atlas: directional lights first (they reach everything); a point or spot light by its
+/// intensity (the luminance of the record's colour) times the share of the view its range can
+/// reach, the size of its range sphere from the eye (all of it when the eye is inside).
+pub fn map_priority(light: &GpuLight, eye: Vec3) -> f32 {
+    if light.kind == LIGHT_DIRECTIONAL {
+        return f32::INFINITY;
+    }
+    let intensity = light.color.dot(Vec3::new(0.2126, 0.7152, 0.0722)).max(0.0);
+    let distance = light.position.distance(eye).max(1e-3);
+    let reach = if light.range.is_finite() { (light.range / distance).min(1.0) } else { 1.0 };
+    intensity * reach * reach
+}
+
 /// Plans the shadow views of `lights` (indexed by slot) into `words` (the layout of
-/// `shaders/include/shadow_maps.glsl`): in slot order, each light takes the tiles its kind
-/// needs while the budget lasts.
-pub fn plan_views(words: &mut Vec<u32>, lights: &[GpuLight], camera: &GpuCamera, budget: &ShadowMapBudget) -> ShadowMapPlan {
+/// `shaders/include/shadow_maps.glsl`): the lights in order of [`map_priority`] (ties in slot
+/// order), each taking the tiles its kind needs if they still fit. Only the `budget.tiles`
+/// highest-ranked lights are considered (each takes a tile at least), found without sorting
+/// them all; `ranked` is reused between frames.
+pub fn plan_views(
+    words: &mut Vec<u32>,
+    ranked: &mut Vec<(f32, u32)>,
+    lights: &[GpuLight],
+    camera: &GpuCamera,
+    budget: &ShadowMapBudget,
+) -> ShadowMapPlan {
     let slots = lights.len();
     let views_at = (SHADOW_VIEWS_HEADER as usize + slots).next_multiple_of(4);
     words.clear();
     words.resize(views_at, 0);
+    words[SHADOW_VIEWS_HEADER as usize..SHADOW_VIEWS_HEADER as usize + slots].fill(NO_SHADOW_MAP);
     let mut plan = ShadowMapPlan::default();
     let push = |words: &mut Vec<u32>, view: GpuShadowView| words.extend_from_slice(bytemuck::cast_slice(&[view]));
-    for (slot, light) in lights.iter().enumerate() {
-        let first = &mut words[SHADOW_VIEWS_HEADER as usize + slot];
-        *first = NO_SHADOW_MAP;
-        let needs = match light.kind {
-            LIGHT_POINT => 6,
-            LIGHT_SPOT | LIGHT_DIRECTIONAL => 1,
-            _ => continue,
-        };
-        if plan.views + needs > budget.tiles {
-            plan.missing += 1;
+    ranked.clear();
+    ranked.extend(
+        lights
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| matches!(l.kind, LIGHT_POINT | LIGHT_SPOT | LIGHT_DIRECTIONAL))
+            .map(|(slot, l)| (map_priority(l, camera.position), slot as u32)),
+    );
+    let shadowable = ranked.len();
+    // The `tiles` best first (each light takes a tile at least, so no other can be needed while
+    // they all fit). A cube that no longer fits leaves fewer than six tiles: then only spot and
+    // directional lights can take them, the best of those that are left.
+    let first = (budget.tiles as usize).min(shadowable);
+    best_first(ranked, first);
+    let take = |slot: u32, views: &mut u32, words: &mut Vec<u32>| {
+        let needs = if lights[slot as usize].kind == LIGHT_POINT { 6 } else { 1 };
+        let fits = *views + needs <= budget.tiles;
+        if fits {
+            words[SHADOW_VIEWS_HEADER as usize + slot as usize] = *views;
+            *views += needs;
+        }
+        fits
+    };
+    let mut chosen = 0;
+    for &(_, slot) in &ranked[..first] {
+        chosen += usize::from(take(slot, &mut plan.views, words));
+    }
+    let mut more = 0;
+    if plan.views < budget.tiles && first < shadowable {
+        let rest = &mut ranked[first..];
+        let singles = partition(rest, |&(_, slot)| lights[slot as usize].kind != LIGHT_POINT);
+        more = ((budget.tiles - plan.views) as usize).min(singles);
+        best_first(&mut rest[..singles], more);
+        for &(_, slot) in &rest[..more] {
+            take(slot, &mut plan.views, words);
+        }
+        chosen += more;
+    }
+    plan.missing = (shadowable - chosen) as u32;
+    // The views, in the order their tiles were handed out.
+    for &(_, slot) in ranked[..first + more].iter() {
+        if words[SHADOW_VIEWS_HEADER as usize + slot as usize] == NO_SHADOW_MAP {
             continue;
         }
-        *first = plan.views;
-        plan.views += needs;
+        let light = &lights[slot as usize];
         let far = if light.range.is_finite() && light.range > NEAR { light.range } else { FAR_UNBOUNDED };
         match light.kind {
             LIGHT_POINT => {
@@ -304,7 +390,7 @@ mod tests {
     }
 
     #[test]
-    fn lights_take_tiles_in_slot_order_until_the_budget_is_spent() {
+    fn lights_take_tiles_in_order_of_their_light_until_the_budget_is_spent() {
         let lights = [
             GpuLight::spot(Vec3::new(0.0, 3.0, 0.0), Vec3::NEG_Y, Vec3::ONE, 10.0, 0.2, 0.5),
             bytemuck::Zeroable::zeroed(), // a free slot
@@ -313,25 +399,27 @@ mod tests {
             GpuLight::directional(Vec3::new(0.3, -1.0, 0.2), Vec3::ONE),
         ];
         let budget = ShadowMapBudget { tile: 256, tiles: 8, directional_distance: 20.0 };
-        let mut words = Vec::new();
-        let plan = plan_views(&mut words, &lights, &camera(), &budget);
-        // Spot 1 + point 6 = 7; the second point light does not fit, the directional one does.
+        let (mut words, mut ranked) = (Vec::new(), Vec::new());
+        let plan = plan_views(&mut words, &mut ranked, &lights, &camera(), &budget);
+        // The directional light first; the others reach the whole view with the same intensity,
+        // so they go in slot order: spot 1 + point 6 = 7 after it, and the second point light
+        // does not fit.
         assert_eq!(plan, ShadowMapPlan { views: 8, missing: 1 });
         let first: Vec<u32> = words[4..9].to_vec();
-        assert_eq!(first, [0, NO_SHADOW_MAP, 1, NO_SHADOW_MAP, 7]);
+        assert_eq!(first, [1, NO_SHADOW_MAP, 2, NO_SHADOW_MAP, 0]);
         assert_eq!(words[0] % 4, 0);
         assert_eq!(words.len(), words[0] as usize + 8 * std::mem::size_of::<GpuShadowView>() / 4);
         // The spot light's view sees the point under it at its centre, nearer than its range.
-        let spot = view_of(&words, 0).view_proj.project_point3(Vec3::new(0.0, 0.0, 0.0));
+        let spot = view_of(&words, 1).view_proj.project_point3(Vec3::new(0.0, 0.0, 0.0));
         assert!(spot.x.abs() < 1e-4 && spot.y.abs() < 1e-4 && spot.z > 0.0 && spot.z < 1.0, "{spot}");
         // Each cube face sees the point in its direction at its centre.
         for (face, dir) in CUBE_FACES.into_iter().enumerate() {
-            let p = view_of(&words, 1 + face as u32).view_proj.project_point3(Vec3::new(1.0, 2.0, 0.0) + dir);
+            let p = view_of(&words, 2 + face as u32).view_proj.project_point3(Vec3::new(1.0, 2.0, 0.0) + dir);
             assert!(p.x.abs() < 1e-4 && p.y.abs() < 1e-4 && p.z > 0.0 && p.z < 1.0, "face {face}: {p}");
         }
         // The directional light's view holds what the camera sees up to its distance, and the
         // casters towards the light.
-        let sun = view_of(&words, 7);
+        let sun = view_of(&words, 0);
         assert_eq!(sun.ortho, 1);
         for p in [Vec3::ZERO, Vec3::new(0.0, 2.0, 5.0), Vec3::new(0.0, 0.0, -10.0), Vec3::new(-0.3, 30.0, -0.2)] {
             let q = sun.view_proj.project_point3(p);
@@ -340,16 +428,44 @@ mod tests {
     }
 
     #[test]
+    fn the_atlas_goes_to_the_lights_that_bring_the_view_most_light() {
+        let eye = camera().position;
+        let (mut words, mut ranked) = (Vec::new(), Vec::new());
+        // One point light's cube fits; the dim one was spawned first.
+        let budget = ShadowMapBudget { tile: 256, tiles: 6, directional_distance: 20.0 };
+        let dim = GpuLight::point(Vec3::new(0.0, 2.0, 0.0), Vec3::splat(0.5), 8.0);
+        let bright = GpuLight::point(Vec3::new(1.0, 2.0, 0.0), Vec3::splat(20.0), 8.0);
+        let plan = plan_views(&mut words, &mut ranked, &[dim, bright], &camera(), &budget);
+        assert_eq!(plan, ShadowMapPlan { views: 6, missing: 1 });
+        assert_eq!(words[4..6], [NO_SHADOW_MAP, 0], "the bright light takes the cube");
+        // As bright, but far from the eye with a short range: it reaches a sliver of the view.
+        let far = GpuLight::point(eye + Vec3::new(0.0, 0.0, -40.0), Vec3::splat(20.0), 2.0);
+        let near = GpuLight::point(eye + Vec3::new(0.0, 0.0, -3.0), Vec3::splat(20.0), 2.0);
+        assert!(map_priority(&near, eye) > 100.0 * map_priority(&far, eye));
+        plan_views(&mut words, &mut ranked, &[far, near], &camera(), &budget);
+        assert_eq!(words[4..6], [NO_SHADOW_MAP, 0], "the light whose range the view is in takes the cube");
+        // Fewer tiles than lights: only the best `tiles` are ranked, and a spot light that fits
+        // after a cube that does not still gets its tile.
+        let budget = ShadowMapBudget { tiles: 2, ..budget };
+        let spot = GpuLight::spot(Vec3::new(0.0, 3.0, 0.0), Vec3::NEG_Y, Vec3::splat(5.0), 10.0, 0.2, 0.5);
+        let lights = [dim, spot, bright, GpuLight::directional(Vec3::NEG_Y, Vec3::ONE)];
+        let plan = plan_views(&mut words, &mut ranked, &lights, &camera(), &budget);
+        assert_eq!(plan, ShadowMapPlan { views: 2, missing: 2 });
+        assert_eq!(words[4..8], [NO_SHADOW_MAP, 1, NO_SHADOW_MAP, 0]);
+        assert!(ranked.capacity() >= 4, "the ranking keeps its room for the next frame");
+    }
+
+    #[test]
     fn the_directional_view_moves_in_whole_texels() {
         let budget = ShadowMapBudget { tile: 512, tiles: 1, directional_distance: 30.0 };
         let lights = [GpuLight::directional(Vec3::new(0.4, -1.0, 0.3), Vec3::ONE)];
-        let (mut a, mut b) = (Vec::new(), Vec::new());
-        plan_views(&mut a, &lights, &camera(), &budget);
+        let (mut a, mut b, mut ranked) = (Vec::new(), Vec::new(), Vec::new());
+        plan_views(&mut a, &mut ranked, &lights, &camera(), &budget);
         let mut moved = camera();
         moved.position += Vec3::new(0.013, 0.0, 0.021);
         moved.view = Mat4::look_at_rh(moved.position, Vec3::new(0.013, 0.0, 0.021), Vec3::Y);
         moved.inv_view_proj = (moved.proj * moved.view).inverse();
-        plan_views(&mut b, &lights, &moved, &budget);
+        plan_views(&mut b, &mut ranked, &lights, &moved, &budget);
         let (va, vb) = (view_of(&a, 0), view_of(&b, 0));
         assert!((va.texel - vb.texel).abs() < 1e-6, "the map's size does not change as the camera moves");
         // A fixed world point lands on the same texel grid: its texel coordinates differ by
