@@ -35,7 +35,8 @@
 //!   what is unshadowed stays exact. With tiled lights the draws change every frame (they hash
 //!   a frame count light culling keeps on the GPU, so nothing is uploaded for it): temporal
 //!   anti-aliasing's history averages them where it runs; without it the sampled shadows
-//!   shimmer. With every-light lists the draws stay put.
+//!   shimmer. With every-light lists they change with temporal anti-aliasing's frame count,
+//!   and stay put without it.
 //! - **Suns apart.** A sampling pixel traces one ray to each of the first four directional
 //!   lights as well ([`Suns`], its first shadow word holds their bits) and samples only the
 //!   rest: a sun is in every list and often the strongest light, so among 455 lights a tile it
