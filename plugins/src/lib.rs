@@ -29,6 +29,7 @@ pub mod decal;
 pub mod extract;
 pub mod overlay;
 pub mod particles;
+pub mod pipelined;
 pub mod raycast;
 pub mod run;
 pub mod validate;
@@ -116,6 +117,12 @@ pub struct RenderSettings {
     /// Submit a command buffer again when a frame's commands are exactly those it was recorded
     /// with (default on; `render::FrameSettings::reuse_commands`).
     pub reuse_commands: bool,
+    /// Record and submit each frame on a render thread while the main thread simulates the next
+    /// one (default off; the sandbox's `--pipelined`). The CPU frame is then the longer of the
+    /// simulation with extraction and the recording, not their sum; the renderer and the mirror
+    /// are out of the world between updates, and statistics arrive an update later
+    /// ([`pipelined`] says what else changes).
+    pub pipelined: bool,
     /// How many mesh instances, lights and decals the scene tables hold at most.
     pub limits: SceneLimits,
     /// The distance fade of decals without their own ([`decal::Decal::distance_fade`]):
@@ -199,6 +206,7 @@ impl Default for RenderSettings {
             refit_pixels: render::settings::DEFAULT_REFIT_PIXELS,
             skin_levels: true,
             reuse_commands: true,
+            pipelined: false,
             limits: SceneLimits::MAX,
             decal_distance_fade: None,
         }
@@ -228,7 +236,7 @@ pub struct GpuPlugin {
 impl Plugin for GpuPlugin {
     fn build(&self, app: &mut App) {
         app.insert_resource(RendererConfig(self.settings.clone()));
-        app.add_systems(Render, start_offscreen_renderer.before(RenderSystems::Extract));
+        app.add_systems(Render, start_offscreen_renderer.after(RenderSystems::Collect).before(RenderSystems::Extract));
     }
 }
 
@@ -377,8 +385,14 @@ pub struct FrameStats {
     /// into staging memory, before the passes are recorded.
     pub cpu_prepare_ms: f32,
     /// CPU milliseconds of the whole app update that drew the frame, every schedule from its
-    /// start to the frame's submission, the waits for the GPU excluded.
+    /// start to the frame's submission, the waits for the GPU excluded. Pipelined
+    /// ([`RenderSettings::pipelined`]): the main thread's, from the update's start to the
+    /// frame's hand-off to the render thread, the wait for the previous frame included (less
+    /// the part of it the render thread spent waiting for the GPU); `cpu_record_ms` ran on the
+    /// render thread meanwhile.
     pub cpu_frame_ms: f32,
+    /// Whether the frame was recorded on the render thread ([`RenderSettings::pipelined`]).
+    pub pipelined: bool,
     /// Milliseconds from the previous frame's submission to this one's (0 for the first): the
     /// time a frame takes as the game sees it, CPU, waits for the GPU and all.
     pub wall_ms: f32,
@@ -435,6 +449,12 @@ pub struct RenderStats {
     extract_ms: f32,
     /// When the last frame was submitted ([`FrameStats::wall_ms`]).
     last_submitted: Option<Instant>,
+    /// A fatal error stopped drawing.
+    failed: bool,
+    /// The offscreen size last refused (reported once).
+    bad_size: Option<(u32, u32)>,
+    /// Pipelined: how long this update waited for the render thread's wait for the GPU.
+    main_gpu_wait_ms: f32,
 }
 
 impl RenderStats {
@@ -469,6 +489,8 @@ impl RenderStats {
 /// System sets of the render schedule, in order.
 #[derive(SystemSet, Clone, Debug, PartialEq, Eq, Hash)]
 pub enum RenderSystems {
+    /// Takes the frame the render thread drew back ([`pipelined::collect_frame`]).
+    Collect,
     /// Change detection into the mirror.
     Extract,
     /// Upload, record and submit.
@@ -498,7 +520,7 @@ impl Plugin for RenderPlugin {
     fn build(&self, app: &mut App) {
         let (mirror, slots) = fresh_mirror();
         app.insert_resource(self.settings.clone()).insert_resource(mirror).insert_resource(slots).insert_resource(RenderStats::default());
-        app.schedule_mut(Render).configure_sets((RenderSystems::Extract, RenderSystems::Render).chain());
+        app.schedule_mut(Render).configure_sets((RenderSystems::Collect, RenderSystems::Extract, RenderSystems::Render).chain());
         app.add_systems(
             Render,
             (
@@ -520,6 +542,7 @@ impl Plugin for RenderPlugin {
                 .in_set(RenderSystems::Extract),
         );
         app.add_systems(Render, render_frame.in_set(RenderSystems::Render));
+        app.add_systems(Render, pipelined::collect_frame.in_set(RenderSystems::Collect));
         app.insert_resource(engine::asset::Assets::<decal::DecalMaterial>::default());
         app.add_message::<engine::changes::Inserted<decal::Decal>>();
         app.add_message::<engine::changes::Inserted<decal::DecalReceiver>>();
@@ -541,38 +564,61 @@ fn end_extract(mut stats: ResMut<RenderStats>, mirror: Res<RenderMirror>) {
     stats.last = FrameCounters { records_written: mirror.0.records_written, ..FrameCounters::default() };
 }
 
-/// Hands the mirror to the renderer: uploads what changed, records and submits the frame.
-fn render_frame(
-    renderer: Option<ResMut<GpuRenderer>>,
-    (window, overlay): (Option<ResMut<WindowTarget>>, Option<ResMut<OverlayInput>>),
-    mut mirror: ResMut<RenderMirror>,
-    (settings, time): (Res<RenderSettings>, Res<engine::time::Time>),
-    (mut stats, animation, propagation): (
-        ResMut<RenderStats>,
-        Option<Res<engine::animation::AnimationStats>>,
-        Option<Res<engine::transform::TransformStats>>,
-    ),
-    (mut bad_size, mut failed): (Local<Option<(u32, u32)>>, Local<bool>),
-    mut commands: Commands,
-) {
-    let Some(mut renderer) = renderer.filter(|_| !*failed) else {
+/// Hands the mirror to the renderer: uploads what changed, records and submits the frame, here
+/// or, with [`RenderSettings::pipelined`], on the render thread ([`pipelined`]).
+fn render_frame(world: &mut World) {
+    if world.resource::<RenderSettings>().pipelined {
+        pipelined::hand_off_frame(world);
         return;
-    };
-    // Offscreen, the render target follows RenderSettings::size (a window follows its surface).
-    // A size the renderer refuses (zero, or past the device's limit) renders nothing and is
-    // reported once; the scene's changes wait in the mirror for a valid size.
-    if window.is_none() && settings.size != renderer.0.size() {
-        let (w, h) = settings.size;
-        if let Err(e) = renderer.0.resize(w, h) {
-            if *bad_size != Some(settings.size) {
-                tracing::warn!("render size {w}x{h} refused ({e}); nothing is rendered until the size is valid");
-                *bad_size = Some(settings.size);
-            }
-            return;
-        }
-        *bad_size = None;
     }
-    let frame_settings = FrameSettings {
+    let Some(settings) = prepare_frame(world) else { return };
+    let context = frame_context(world, false);
+    let overlay = world.get_resource_mut::<OverlayInput>().and_then(|mut o| o.0.take());
+    let result = world.resource_scope(|world, mut renderer: Mut<GpuRenderer>| {
+        world.resource_scope(|world, mut mirror: Mut<RenderMirror>| match world.get_resource_mut::<WindowTarget>() {
+            Some(mut window) => {
+                let mut overlay = overlay;
+                renderer.0.render_to_window(&mut mirror.0, &settings, &mut window.0, overlay.as_mut())
+            }
+            None => renderer.0.render(&mut mirror.0, &settings).map(Some),
+        })
+    });
+    if let Some(exit) = file_report(&mut world.resource_mut::<RenderStats>(), result, context) {
+        world.insert_resource(exit);
+    }
+}
+
+/// This frame's [`FrameSettings`], once the renderer is ready for it: `None` without a
+/// renderer or mirror, after a fatal error, or while the offscreen size is refused. Offscreen,
+/// the render target follows [`RenderSettings::size`] (a window follows its surface); a size
+/// the renderer refuses (zero, or past the device's limit) renders nothing and is reported once,
+/// and the scene's changes wait in the mirror for a valid size.
+fn prepare_frame(world: &mut World) -> Option<FrameSettings> {
+    if world.resource::<RenderStats>().failed || !world.contains_resource::<RenderMirror>() {
+        return None;
+    }
+    let settings = world.resource::<RenderSettings>().clone();
+    let windowed = world.contains_resource::<WindowTarget>();
+    let mut renderer = world.get_resource_mut::<GpuRenderer>()?;
+    let mut refused = None;
+    if !windowed && settings.size != renderer.0.size() {
+        let (w, h) = settings.size;
+        refused = renderer.0.resize(w, h).err();
+    }
+    let mut stats = world.resource_mut::<RenderStats>();
+    if let Some(e) = refused {
+        if stats.bad_size != Some(settings.size) {
+            let (w, h) = settings.size;
+            tracing::warn!("render size {w}x{h} refused ({e}); nothing is rendered until the size is valid");
+            stats.bad_size = Some(settings.size);
+        }
+        return None;
+    }
+    if !windowed {
+        stats.bad_size = None;
+    }
+    let delta_seconds = world.resource::<engine::time::Time>().delta_secs();
+    Some(FrameSettings {
         pipeline: settings.pipeline,
         decal_method: settings.decal_method,
         clear_color: settings.clear_color,
@@ -587,7 +633,7 @@ fn render_frame(
         bloom: settings.bloom,
         occlusion: settings.occlusion,
         exposure: settings.exposure,
-        delta_seconds: time.delta_secs(),
+        delta_seconds,
         reflections: settings.reflections,
         transparency: settings.transparency,
         refraction: settings.refraction,
@@ -597,77 +643,118 @@ fn render_frame(
         refit_pixels: settings.refit_pixels,
         skin_levels: settings.skin_levels,
         reuse_commands: settings.reuse_commands,
-    };
-    let result = match window {
-        Some(mut window) => {
-            let mut overlay = overlay.and_then(|mut o| o.0.take());
-            renderer.0.render_to_window(&mut mirror.0, &frame_settings, &mut window.0, overlay.as_mut())
-        }
-        None => renderer.0.render(&mut mirror.0, &frame_settings).map(Some),
-    };
-    match result {
-        Ok(None) => {} // nothing drawn (minimised window); the changes wait for the next frame
-        Ok(Some(report)) => {
-            stats.last = report.counters;
-            let (extract_ms, visited) = (stats.extract_ms, stats.visited);
-            let now = Instant::now();
-            let wall_ms = stats.last_submitted.replace(now).map_or(0.0, |t| (now - t).as_secs_f32() * 1e3);
-            stats.pending.push_back(FrameStats {
-                frame: report.frame,
-                pipeline: settings.pipeline,
-                decal_method: report.decal_method,
-                decal_surface: report.decal_surface,
-                light_method: report.light_method,
-                shadows: report.shadows,
-                direct_light: report.direct_light,
-                transparency: settings.transparency.effective(settings.pipeline),
-                refraction: settings.refraction && settings.transparency.effective(settings.pipeline).refracts(),
-                aa: report.aa,
-                tonemapper: settings.tonemapper,
-                bloom: settings.bloom.runs(),
-                occlusion: report.occlusion,
-                auto_exposure: settings.exposure.runs(),
-                lights: settings.lights,
-                size: renderer.0.size(),
-                gpu: PassTimes::default(),
-                cpu_extract_ms: extract_ms,
-                cpu_animate_ms: animation.as_ref().map_or(0.0, |a| a.cpu_ms),
-                cpu_propagate_ms: propagation.map_or(0.0, |p| p.cpu_ms),
-                cpu_skin_ms: animation.map_or(0.0, |a| a.skin_cpu_ms),
-                cpu_record_ms: report.record_ms,
-                cpu_submit_ms: report.submit_ms,
-                cpu_prepare_ms: report.prepare_ms,
-                visited,
-                cpu_frame_ms: time.update_started().map_or(0.0, |t| (t.elapsed().as_secs_f32() * 1e3 - report.wait_ms).max(0.0)),
-                wall_ms,
-                counters: report.counters,
-            });
-            if let Some(done) = report.finished {
-                stats.complete(done.frame, done.gpu);
-            }
-            // Frames whose timings never come (their renderer was replaced, or they were read
-            // by `Renderer::finish` directly) must not pile up.
-            while stats.pending.len() > RenderStats::MAX_PENDING {
-                stats.pending.pop_front();
-            }
-        }
+    })
+}
+
+/// What the main thread knows of a frame when it hands the frame to the renderer: what its
+/// statistics ([`FrameStats`]) need besides the renderer's report.
+pub(crate) struct FrameContext {
+    settings: RenderSettings,
+    size: (u32, u32),
+    extract_ms: f32,
+    visited: VisitCounts,
+    animate_ms: f32,
+    propagate_ms: f32,
+    skin_ms: f32,
+    update_started: Option<Instant>,
+    /// Pipelined: the main thread's CPU frame, measured at the hand-off.
+    main_frame_ms: Option<f32>,
+}
+
+/// The context of the frame about to be drawn (before the renderer leaves the world).
+fn frame_context(world: &World, pipelined: bool) -> FrameContext {
+    let stats = world.resource::<RenderStats>();
+    let animation = world.get_resource::<engine::animation::AnimationStats>();
+    let update_started = world.resource::<engine::time::Time>().update_started();
+    FrameContext {
+        settings: world.resource::<RenderSettings>().clone(),
+        size: world.get_resource::<GpuRenderer>().map_or((0, 0), |r| r.0.size()),
+        extract_ms: stats.extract_ms,
+        visited: stats.visited,
+        animate_ms: animation.map_or(0.0, |a| a.cpu_ms),
+        propagate_ms: world.get_resource::<engine::transform::TransformStats>().map_or(0.0, |p| p.cpu_ms),
+        skin_ms: animation.map_or(0.0, |a| a.skin_cpu_ms),
+        update_started,
+        main_frame_ms: pipelined
+            .then(|| update_started.map_or(0.0, |t| (t.elapsed().as_secs_f32() * 1e3 - stats.main_gpu_wait_ms).max(0.0))),
+    }
+}
+
+/// Files a frame's report in `stats`; an error is logged and kept in
+/// [`RenderStats::last_error`], and a fatal one (device lost, memory exhausted) stops drawing
+/// and returns the [`AppExit`] that ends the app: the failed frame left work half-recorded, so
+/// no later frame is drawn. Any other error is reported and the next frame tries again.
+fn file_report(
+    stats: &mut RenderStats,
+    result: Result<Option<render::FrameReport>, render::RenderError>,
+    c: FrameContext,
+) -> Option<AppExit> {
+    let report = match result {
+        Ok(Some(report)) => report,
+        Ok(None) => return None, // nothing drawn (minimised window); the changes wait for the next frame
         Err(e) => {
-            // A fatal error (device lost, memory exhausted) ends the app: the failed frame left
-            // work half-recorded, so no later frame is drawn. Any other error is reported and
-            // the next frame tries again.
             tracing::error!("rendering failed: {e}");
             stats.last_error = Some(e.to_string());
             if e.is_fatal() {
-                *failed = true;
-                commands.insert_resource(AppExit::Error(format!("rendering failed: {e}")));
+                stats.failed = true;
+                return Some(AppExit::Error(format!("rendering failed: {e}")));
             }
+            return None;
         }
+    };
+    stats.last = report.counters;
+    let now = Instant::now();
+    let wall_ms = stats.last_submitted.replace(now).map_or(0.0, |t| (now - t).as_secs_f32() * 1e3);
+    let settings = &c.settings;
+    let transparency = settings.transparency.effective(settings.pipeline);
+    stats.pending.push_back(FrameStats {
+        frame: report.frame,
+        pipeline: settings.pipeline,
+        decal_method: report.decal_method,
+        decal_surface: report.decal_surface,
+        light_method: report.light_method,
+        shadows: report.shadows,
+        direct_light: report.direct_light,
+        transparency,
+        refraction: settings.refraction && transparency.refracts(),
+        aa: report.aa,
+        tonemapper: settings.tonemapper,
+        bloom: settings.bloom.runs(),
+        occlusion: report.occlusion,
+        auto_exposure: settings.exposure.runs(),
+        lights: settings.lights,
+        size: c.size,
+        gpu: PassTimes::default(),
+        cpu_extract_ms: c.extract_ms,
+        cpu_animate_ms: c.animate_ms,
+        cpu_propagate_ms: c.propagate_ms,
+        cpu_skin_ms: c.skin_ms,
+        cpu_record_ms: report.record_ms,
+        cpu_submit_ms: report.submit_ms,
+        cpu_prepare_ms: report.prepare_ms,
+        visited: c.visited,
+        cpu_frame_ms: c
+            .main_frame_ms
+            .unwrap_or_else(|| c.update_started.map_or(0.0, |t| (t.elapsed().as_secs_f32() * 1e3 - report.wait_ms).max(0.0))),
+        pipelined: c.main_frame_ms.is_some(),
+        wall_ms,
+        counters: report.counters,
+    });
+    if let Some(done) = report.finished {
+        stats.complete(done.frame, done.gpu);
     }
+    // Frames whose timings never come (their renderer was replaced, or they were read by
+    // `Renderer::finish` directly) must not pile up.
+    while stats.pending.len() > RenderStats::MAX_PENDING {
+        stats.pending.pop_front();
+    }
+    None
 }
 
 /// Waits for the GPU and moves every pending frame's statistics to `completed`. Call before
 /// reading the final statistics or a screenshot.
 pub fn finish_frames(world: &mut World) {
+    pipelined::collect_frame(world);
     let Some(mut renderer) = world.get_resource_mut::<GpuRenderer>() else { return };
     let finished = renderer.0.finish();
     let mut stats = world.resource_mut::<RenderStats>();

@@ -146,8 +146,9 @@ impl DebugOverlay {
             let passes: Vec<String> = last.gpu.iter().map(|(name, ms)| format!("{name} {ms:.2}")).collect();
             ui.label(format!("GPU {:.2} ms: {}", last.gpu.total_ms, passes.join(", ")));
             ui.label(format!(
-                "CPU {:.2} ms a frame (GPU waits excluded): animate {:.2}, propagate {:.2}, skin {:.2}, extract {:.2}, record {:.2} (of it prepare {:.2}, submit {:.2}); visited {} instances, {} lights, {} decals",
+                "CPU {:.2} ms a frame{} (GPU waits excluded): animate {:.2}, propagate {:.2}, skin {:.2}, extract {:.2}, record {:.2} (of it prepare {:.2}, submit {:.2}); visited {} instances, {} lights, {} decals",
                 last.cpu_frame_ms,
+                if last.pipelined { " on the main thread, recording on the render thread" } else { "" },
                 last.cpu_animate_ms,
                 last.cpu_propagate_ms,
                 last.cpu_skin_ms,
@@ -313,6 +314,7 @@ impl DebugOverlay {
             ui.add(egui::Slider::new(&mut settings.lod_pixels, 0.0..=8.0).text("level-of-detail error (px, 0: off)"));
             ui.add(egui::Slider::new(&mut settings.refit_pixels, 0.0..=256.0).text("characters refit every frame above (px, 0: all)"));
             ui.checkbox(&mut settings.skin_levels, "skin a far character's level of detail only");
+            ui.checkbox(&mut settings.pipelined, "record on the render thread (pipelined)");
         });
     }
 }

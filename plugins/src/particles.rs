@@ -337,6 +337,7 @@ pub struct LeftDecalState {
 /// on request (saving a game), not every frame. Empty without a renderer or before any
 /// particle left a decal.
 pub fn read_left_decals(world: &mut World) -> Result<Vec<LeftDecalState>, render::RenderError> {
+    crate::pipelined::collect_frame(world);
     let Some(mut renderer) = world.get_resource_mut::<crate::GpuRenderer>() else { return Ok(Vec::new()) };
     let born = renderer.0.read_particle_decals()?;
     let slots = world.resource::<MirrorSlots>();

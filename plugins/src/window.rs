@@ -94,6 +94,8 @@ struct Running {
     cursor_grabbed: bool,
     screenshot_requested: bool,
     window: Arc<Window>,
+    /// The renderer's tier, for the title (the renderer may be on the render thread).
+    tier: &'static str,
 }
 
 struct WindowRunner {
@@ -120,6 +122,7 @@ impl WindowRunner {
         let extensions = render::window::required_extensions(display)?;
         start_renderer(&mut app.world, extensions).map_err(|e| format!("could not start the renderer: {e}"))?;
         let renderer = &app.world.resource::<GpuRenderer>().0;
+        let tier = renderer.tier().name();
         let surface = renderer.create_window_surface(display, raw_window, size.width, size.height)?;
         app.insert_resource(WindowTarget(surface));
         app.insert_resource(OverlayInput::default());
@@ -130,7 +133,7 @@ impl WindowRunner {
             (ctx, state)
         });
         let now = Instant::now();
-        Ok(Running { app, egui, last_frame: now, last_title: now, cursor_grabbed: false, screenshot_requested: false, window })
+        Ok(Running { app, egui, last_frame: now, last_title: now, cursor_grabbed: false, screenshot_requested: false, window, tier })
     }
 
     fn frame(&mut self, event_loop: &ActiveEventLoop) {
@@ -156,7 +159,13 @@ impl WindowRunner {
             });
         }
 
-        let window_target = if screenshot { r.app.world.remove_resource::<WindowTarget>() } else { None };
+        // Pipelined, the window target is with the frame in flight: take that frame back first.
+        let window_target = if screenshot {
+            crate::pipelined::collect_frame(&mut r.app.world);
+            r.app.world.remove_resource::<WindowTarget>()
+        } else {
+            None
+        };
         r.app.update();
         if let Some(target) = window_target {
             match save_screenshot(&mut r.app) {
@@ -168,7 +177,7 @@ impl WindowRunner {
         if now.duration_since(r.last_title).as_secs_f32() > 0.5 {
             r.last_title = now;
             let settings = r.app.world.get_resource::<RenderSettings>().map(|s| s.pipeline.name()).unwrap_or("?");
-            let tier = r.app.world.get_resource::<GpuRenderer>().map_or("?", |g| g.0.tier().name());
+            let tier = r.tier;
             r.window.set_title(&format!("{} | {settings} | {tier} | {frame_ms:.1} ms", self.config.title));
         }
         // Events that arrive from now on belong to the next frame (engine::input's contract).
@@ -208,6 +217,7 @@ impl WindowRunner {
     /// Tears down in the only safe order: swapchain, then renderer and device, then window.
     fn shut_down(&mut self) {
         let Some(mut r) = self.running.take() else { return };
+        crate::pipelined::collect_frame(&mut r.app.world);
         if let Some(WindowTarget(surface)) = r.app.world.remove_resource::<WindowTarget>() {
             r.app.world.resource::<GpuRenderer>().0.destroy_window_surface(surface);
         }
@@ -245,6 +255,7 @@ impl ApplicationHandler for WindowRunner {
         match event {
             WindowEvent::CloseRequested => event_loop.exit(),
             WindowEvent::Resized(size) => {
+                crate::pipelined::collect_frame(&mut r.app.world);
                 if let Some(mut target) = r.app.world.get_resource_mut::<WindowTarget>() {
                     target.0.resize(size.width, size.height);
                 }

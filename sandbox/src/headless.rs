@@ -119,6 +119,9 @@ pub struct HeadlessOptions {
     pub compare_lod: bool,
     /// Submit a command buffer again when a frame's commands are exactly those it holds.
     pub reuse_commands: bool,
+    /// Record each frame on a render thread while the next one is simulated
+    /// (`plugins::RenderSettings::pipelined`).
+    pub pipelined: bool,
     /// Run `frames` frames with every culling mode in turn (off, frustum, occlusion).
     pub compare_culling: bool,
     /// What lights the scene from all around (default: the procedural sky).
@@ -347,6 +350,7 @@ impl Default for HeadlessOptions {
             skin_levels: true,
             compare_lod: false,
             reuse_commands: true,
+            pipelined: false,
             compare_culling: false,
             environment: engine::environment::Environment::default(),
             compare_environment: false,
@@ -437,6 +441,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         refit_pixels: opts.refit_pixels,
         skin_levels: opts.skin_levels,
         reuse_commands: opts.reuse_commands,
+        pipelined: opts.pipelined,
         tonemapper: opts.tonemapper,
         bloom: opts.bloom,
         occlusion: opts.occlusion,
@@ -624,6 +629,8 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
     }
     let total = opts.frames as usize * combos.len().max(1);
     let mut frames = Vec::with_capacity(total);
+    let renderer = &app.world.resource::<GpuRenderer>().0;
+    let device = (renderer.tier().name(), renderer.device_name().to_string());
     for i in 0..total {
         if let Some(run) = combos.get(i / opts.frames as usize) {
             let mut settings = app.world.resource_mut::<plugins::RenderSettings>();
@@ -648,10 +655,10 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
         if let Some(e) = app.world.resource::<RenderStats>().last_error.clone() {
             bail!("rendering failed: {e}");
         }
-        drain_stats(&mut app, &mut frames);
+        drain_stats(&mut app, &device, &mut frames);
     }
     finish_frames(&mut app.world);
-    drain_stats(&mut app, &mut frames);
+    drain_stats(&mut app, &device, &mut frames);
     if let Some(f) = &mut stats_file {
         for v in &frames {
             writeln!(f, "{v}")?;
@@ -668,13 +675,13 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
     Ok(RunSummary { app, pixels, frames, validation_errors })
 }
 
-fn drain_stats(app: &mut App, out: &mut Vec<serde_json::Value>) {
-    let renderer = &app.world.resource::<GpuRenderer>().0;
-    let (tier, device) = (renderer.tier().name(), renderer.device_name().to_string());
+/// Moves the finished frames' statistics to `out`; `(tier, device)` names the renderer's (which
+/// may be on the render thread).
+fn drain_stats(app: &mut App, (tier, device): &(&str, String), out: &mut Vec<serde_json::Value>) {
     let imports = app.world.get_resource::<crate::assets::ImportTotals>().copied().unwrap_or_default().0;
     let mut stats = app.world.resource_mut::<RenderStats>();
     while let Some(s) = stats.completed.pop_front() {
-        let mut value = crate::stats::frame_json(&s, tier, &device);
+        let mut value = crate::stats::frame_json(&s, tier, device);
         crate::stats::add_import_counters(&mut value, &imports);
         out.push(value);
     }

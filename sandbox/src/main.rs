@@ -207,6 +207,11 @@ struct Cli {
     /// commands are exactly those it holds (for comparison; --stats counters.commands_reused).
     #[arg(long)]
     record_every_frame: bool,
+    /// Record and submit each frame on a render thread while the main thread simulates the
+    /// next one (pipelined rendering: the CPU frame is the longer of the two, not their sum;
+    /// statistics arrive a frame later).
+    #[arg(long)]
+    pipelined: bool,
     /// Anti-aliasing of the displayed image: none, fxaa (fast approximate, in compute before
     /// tone mapping), smaa (subpixel morphological, 1x, in compute), taa (temporal: jittered frames blended along motion vectors; none under a
     /// debug view), msaa2, msaa4, msaa8 (multisampling in forward and Forward+; taa in the
@@ -558,6 +563,7 @@ fn main() -> Result<()> {
         skin_levels: !cli.full_skinning,
         compare_lod: cli.compare_lod,
         reuse_commands: !cli.record_every_frame,
+        pipelined: cli.pipelined,
         compare_culling: cli.compare_culling,
         environment,
         environment_resolution: cli.environment_resolution,

@@ -176,6 +176,8 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
     // The command buffer: submitted again as recorded, or recorded (`render::gpu::commands`).
     // How the traced shadows of the light lists were made (`crate::lights::sampling`).
     value["direct_light"] = json!(stats.direct_light.map_or("none", |d| d.name()));
+    // Recorded on the render thread while the next update ran (`plugins::pipelined`).
+    value["pipelined"] = json!(stats.pipelined);
     value["counters"]["commands_reused"] = json!(c.commands_reused);
     value["counters"]["command_words"] = json!(c.command_words);
     // Refits deferred for posed meshes small on screen (`render::accel`).

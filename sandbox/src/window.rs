@@ -56,7 +56,8 @@ pub fn run_windowed(opts: WindowOptions) -> Result<()> {
     if let Some(path) = &opts.base.stats {
         let file = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
         app.insert_resource(StatsFile { out: std::io::BufWriter::new(file), next_frame: 0 });
-        app.add_systems(engine::app::Render, write_stats.after(plugins::RenderSystems::Render));
+        // After the render thread's frame is back (pipelined), while the renderer is in the world.
+        app.add_systems(engine::app::Render, write_stats.after(plugins::RenderSystems::Collect).before(plugins::RenderSystems::Render));
     }
     app.run().map_err(|e| anyhow!("{e}"))
 }

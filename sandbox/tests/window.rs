@@ -1,6 +1,6 @@
-//! The windowed sandbox under Xvfb on lavapipe: it runs a few seconds, a screenshot of the X
-//! screen shows the scene and the overlay, the window is resized mid-run, and the process exits
-//! cleanly (a validation error makes it exit with an error). Without a display the same command
+//! The windowed sandbox under Xvfb on lavapipe, pipelined (frames recorded on the render
+//! thread): it runs a few seconds, a screenshot of the X screen shows the scene and the overlay,
+//! the window is resized mid-run, and the process exits cleanly (a validation error makes it exit with an error). Without a display the same command
 //! says so and plays headless, writing a screenshot.
 
 #![forbid(unsafe_code)]
@@ -88,7 +88,9 @@ fn windowed_sandbox_shows_scene_and_overlay_survives_a_resize_and_exits_cleanly(
     std::fs::create_dir_all(&workdir).expect("a working directory");
     let mut sandbox = Command::new(env!("CARGO_BIN_EXE_sandbox"))
         .current_dir(&workdir)
-        .args(["--size", "640x400", "--exit-after", "100", "--resize-to", "560x340", "--stats"])
+        // Pipelined: the window target, the overlay and the screenshot go through the render
+        // thread (the in-place path is the headless tests').
+        .args(["--size", "640x400", "--exit-after", "100", "--resize-to", "560x340", "--pipelined", "--stats"])
         .arg(&stats)
         .env("DISPLAY", &x.display)
         .env_remove("WAYLAND_DISPLAY")

@@ -64,16 +64,18 @@ pub fn run_scripted(opts: &HeadlessOptions, script: Script) -> Result<GameRunSum
     let total = script_frames + u64::from(opts.frames);
     let mut snapshots = Vec::with_capacity(total as usize);
     let mut frames = Vec::with_capacity(total as usize);
+    let renderer = &app.world.resource::<GpuRenderer>().0;
+    let device = (renderer.tier().name(), renderer.device_name().to_string());
     for _ in 0..total {
         app.update();
         if let Some(error) = app.world.resource::<RenderStats>().last_error.clone() {
             bail!("rendering failed: {error}");
         }
         snapshots.push(game_snapshot(&mut app.world));
-        drain_stats(&mut app, &snapshots, &mut frames);
+        drain_stats(&mut app, &device, &snapshots, &mut frames);
     }
     finish_frames(&mut app.world);
-    drain_stats(&mut app, &snapshots, &mut frames);
+    drain_stats(&mut app, &device, &snapshots, &mut frames);
     if let Some(path) = &opts.stats {
         let mut file = std::io::BufWriter::new(create(path)?);
         for frame in &frames {
@@ -109,13 +111,12 @@ fn game_snapshot(world: &mut World) -> Value {
     game
 }
 
-/// Moves finished frames' statistics into `out`, each with the game snapshot of its frame.
-fn drain_stats(app: &mut App, snapshots: &[Value], out: &mut Vec<Value>) {
-    let renderer = &app.world.resource::<GpuRenderer>().0;
-    let (tier, device) = (renderer.tier().name(), renderer.device_name().to_string());
+/// Moves finished frames' statistics into `out`, each with the game snapshot of its frame;
+/// `(tier, device)` names the renderer's (which may be on the render thread).
+fn drain_stats(app: &mut App, (tier, device): &(&str, String), snapshots: &[Value], out: &mut Vec<Value>) {
     let mut stats = app.world.resource_mut::<RenderStats>();
     while let Some(frame) = stats.completed.pop_front() {
-        let mut value = crate::stats::frame_json(&frame, tier, &device);
+        let mut value = crate::stats::frame_json(&frame, tier, device);
         if let (Value::Object(map), Some(game)) = (&mut value, snapshots.get(frame.frame as usize)) {
             map.insert("game".into(), game.clone());
         }
