@@ -118,10 +118,10 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     mirror.sort_transparent(mirror.camera().position);
     let motion_wanted = r.taa.prepare(mirror, s, r.aa, f.graph.extent());
     mirror.set_depth_sample(crate::msaa::Msaa::depth_sample(r.aa.samples(), f.graph.extent()));
-    r.pixel_ids = motion_ids(r, s, mirror);
-    let motion_upload = MotionUpload { wanted: motion_wanted, posed_per_pixel: r.pixel_ids != PixelIds::None };
     r.decals.follow_changes(mirror, r.scene, r.decal_choice);
     r.skinning.prepare(mirror, r.scene, r.counters);
+    r.pixel_ids = motion_ids(r, s, mirror, f.graph.extent());
+    let motion_upload = MotionUpload { wanted: motion_wanted, posed_per_pixel: r.pixel_ids != PixelIds::None };
     let reflections = r.reflections.prepare(f, s, mirror, r.counters)?;
     // The particles' decal ring keeps its structures up to date only while decals are traced.
     let decals_traced = r.decal_choice.applied.traces() || (reflections.traced() && s.reflections.decals_at_hits);
@@ -335,20 +335,29 @@ fn motion(f: &mut Frame, r: &FrameParts) -> Result<Option<MotionVectors>, Render
     r.motion.record(f, r.scene, r.pixel_ids).map(Some)
 }
 
+/// About how many pixels' ids cost what drawing one posed vertex again as a mover costs
+/// ([`motion_ids`]).
+const MOVER_VERTEX_PIXELS: u64 = 3;
+
 /// Where this frame's motion pass finds each pixel's instance and triangle, for the motion of
 /// posed meshes' skin per pixel (`crate::motion`): the visibility buffer, the G-buffer's layers,
 /// or, in the forward pipelines under temporal anti-aliasing with posed meshes in the scene,
 /// the prepass's ids when the settings ask for reflection rays or a decal pass (the prepass then
-/// writes them even in a frame with no reflecting surface or decal, so that the choice is made
-/// before the scene's upload, which must know whether posed meshes are movers: at 10,000 foxes
-/// drawing them again as movers costs far more than the ids). Otherwise the forward prepass
-/// keeps no ids for motion and posed meshes are drawn again as movers; a scene without posed
-/// meshes never pays for ids it has no use for.
-fn motion_ids(r: &FrameParts, s: &FrameSettings, mirror: &SceneMirror) -> PixelIds {
+/// writes them even in a frame with no reflecting surface or decal), or when the posed meshes
+/// skinned this frame hold more than a third as many vertices as the image has pixels: drawing
+/// them again as movers would cost more than the ids. (The lent H100 at 1920×1080: the ids
+/// added 0.48 ms to the prepass, 0.23 ns a pixel; 10,000 foxes of 1,728 vertices took 12.5 ms
+/// as movers, 0.72 ns a vertex. At 64×48 on lavapipe the same foxes took 1.7 s a frame as
+/// movers.) The choice is made once the frame's skinning jobs are known and before the scene's
+/// upload, which must know whether posed meshes are movers. Otherwise the forward prepass keeps
+/// no ids for motion and posed meshes are drawn again as movers; a scene without posed meshes
+/// never pays for ids it has no use for.
+fn motion_ids(r: &FrameParts, s: &FrameSettings, mirror: &SceneMirror, extent: vk::Extent2D) -> PixelIds {
     let decal_pass = r.decal_choice.applied.uses_decal_buffer() && !s.decals_in_forward_shading;
     let rays = s.reflections.mode != crate::settings::ReflectionMode::Off;
     let taa = r.aa == crate::settings::AntiAliasing::Taa;
-    let forward_ids = s.pipeline.is_forward() && taa && mirror.poses.any_posed() && (decal_pass || rays);
+    let many_posed = mirror.poses.job_vertices() * MOVER_VERTEX_PIXELS > extent.width as u64 * extent.height as u64;
+    let forward_ids = s.pipeline.is_forward() && taa && mirror.poses.any_posed() && (decal_pass || rays || many_posed);
     PixelIds::of(s.pipeline, forward_ids)
 }
 

@@ -452,30 +452,44 @@ fn a_morph_target_without_a_skin_follows_its_weight() {
 /// now and turned back about the elbow; its lower half (joint 0, still) has none. The skinning
 /// pass's previous positions give the motion, so this holds within a thirtieth of a pixel: found
 /// per pixel from the ids the deferred and visibility-buffer pipelines keep, and the forward
-/// prepass's when it writes them for the reflection rays; drawn again as a mover in a forward
-/// frame whose prepass keeps no ids (no reflections, no decal pass).
+/// prepass's when it writes them for the reflection rays, or because many posed vertices were
+/// skinned (49 copies of the tube); drawn again as a mover in a forward frame whose prepass keeps
+/// no ids (no reflections, no decal pass, one tube).
 #[test]
 fn a_bending_skin_has_the_motion_of_its_joints_in_every_pipeline() {
     for pipeline in [PipelineKind::Forward, PipelineKind::Deferred, PipelineKind::VisBuffer] {
-        skin_motion(pipeline, true);
+        skin_motion(pipeline, true, 0);
     }
-    skin_motion(PipelineKind::Forward, false);
+    skin_motion(PipelineKind::Forward, false, 0);
+    // 48 more copies on the same joints: 49 × 401 vertices skinned, three times the image's
+    // pixels, so the forward prepass keeps ids rather than draw them all again as movers.
+    skin_motion(PipelineKind::Forward, false, 48);
 }
 
-fn skin_motion(pipeline: PipelineKind, reflections: bool) {
+/// `copies`: more instances of the tube on the same joints, in the same place.
+fn skin_motion(pipeline: PipelineKind, reflections: bool, copies: usize) {
     let reflections = if reflections { render::ReflectionSettings::default() } else { render::ReflectionSettings::OFF };
     let settings =
         RenderSettings { pipeline, aa: render::AntiAliasing::Taa, reflections, decal_method: render::DecalMethod::Off, ..full_detail() };
     let mut app = gpu_app_at(SIZE.0, SIZE.1, settings, Tier::RayQuery);
     let (a0, a1) = (0.3f32, 0.6f32);
     let bend = scene(&mut app, a0);
+    let copy = {
+        let tube = app.world.entity(bend.tube);
+        (tube.get::<MeshInstance>().cloned(), tube.get::<Skin>().cloned(), *tube.get::<Transform>().unwrap(), MorphWeights(vec![BULGE]))
+    };
+    for _ in 0..copies {
+        let (instance, skin, transform, weights) = copy.clone();
+        app.world.spawn((instance.unwrap(), skin.unwrap(), transform, weights));
+    }
     for _ in 0..3 {
         app.update();
     }
     app.world.entity_mut(bend.elbow).insert(Transform::from_xyz(0.0, 1.0, 0.0).with_rotation(Quat::from_rotation_z(-a1)));
     app.update();
     assert_no_validation_errors(&mut app);
-    let movers = u64::from(pipeline == PipelineKind::Forward && reflections.mode == render::ReflectionMode::Off);
+    assert_eq!(app.world.resource::<RenderStats>().last.skinned_meshes, 1 + copies as u64);
+    let movers = u64::from(pipeline == PipelineKind::Forward && reflections.mode == render::ReflectionMode::Off && copies == 0);
     assert_eq!(
         app.world.resource::<RenderStats>().last.motion_movers,
         movers,
