@@ -270,6 +270,7 @@ pub fn start_renderer(world: &mut World, surface_extensions: Vec<&'static std::f
 /// everything, as a first frame does. The old renderer is dropped first (it waits for its GPU
 /// work). On error the app has no renderer; [`RenderStats::last_error`] holds the reason.
 pub fn restart_renderer(world: &mut World, settings: render::RendererSettings) -> Result<(), render::RenderError> {
+    pipelined::collect_frame(world);
     drop(world.remove_resource::<GpuRenderer>());
     world.insert_resource(RendererConfig(settings));
     reset_mirror(world);
@@ -286,6 +287,8 @@ pub fn restart_renderer(world: &mut World, settings: render::RendererSettings) -
 /// extraction, which then rebuilds the whole mirror as a first frame does (what a renderer
 /// restart needs, and the reference that incremental extraction is tested against).
 pub fn reset_mirror(world: &mut World) {
+    // A frame on the render thread would bring the old mirror back.
+    pipelined::collect_frame(world);
     let (mirror, slots) = fresh_mirror();
     world.insert_resource(mirror);
     world.insert_resource(slots);
@@ -394,7 +397,8 @@ pub struct FrameStats {
     /// Whether the frame was recorded on the render thread ([`RenderSettings::pipelined`]).
     pub pipelined: bool,
     /// Milliseconds from the previous frame's submission to this one's (0 for the first): the
-    /// time a frame takes as the game sees it, CPU, waits for the GPU and all.
+    /// time a frame takes as the game sees it, CPU, waits for the GPU and all. Pipelined, from
+    /// the previous frame's collection from the render thread to this one's (as steady).
     pub wall_ms: f32,
     /// Entities its extraction visited.
     pub visited: VisitCounts,
@@ -453,7 +457,8 @@ pub struct RenderStats {
     failed: bool,
     /// The offscreen size last refused (reported once).
     bad_size: Option<(u32, u32)>,
-    /// Pipelined: how long this update waited for the render thread's wait for the GPU.
+    /// Pipelined: how long this update waited for the render thread's wait for the GPU (set
+    /// by the render schedule's collection each update).
     main_gpu_wait_ms: f32,
 }
 
@@ -489,7 +494,8 @@ impl RenderStats {
 /// System sets of the render schedule, in order.
 #[derive(SystemSet, Clone, Debug, PartialEq, Eq, Hash)]
 pub enum RenderSystems {
-    /// Takes the frame the render thread drew back ([`pipelined::collect_frame`]).
+    /// Takes the frame the render thread drew back ([`pipelined::collect_frame`]; nothing when
+    /// rendering is not pipelined).
     Collect,
     /// Change detection into the mirror.
     Extract,
@@ -542,7 +548,7 @@ impl Plugin for RenderPlugin {
                 .in_set(RenderSystems::Extract),
         );
         app.add_systems(Render, render_frame.in_set(RenderSystems::Render));
-        app.add_systems(Render, pipelined::collect_frame.in_set(RenderSystems::Collect));
+        app.add_systems(Render, pipelined::collect_in_update.in_set(RenderSystems::Collect));
         app.insert_resource(engine::asset::Assets::<decal::DecalMaterial>::default());
         app.add_message::<engine::changes::Inserted<decal::Decal>>();
         app.add_message::<engine::changes::Inserted<decal::DecalReceiver>>();
@@ -558,10 +564,14 @@ fn begin_frame(mut mirror: ResMut<RenderMirror>, mut stats: ResMut<RenderStats>)
     stats.extract_started = Some(Instant::now());
 }
 
-fn end_extract(mut stats: ResMut<RenderStats>, mirror: Res<RenderMirror>) {
+fn end_extract(mut stats: ResMut<RenderStats>, mirror: Res<RenderMirror>, renderer: Option<Res<GpuRenderer>>) {
     stats.extract_ms = stats.extract_started.take().map_or(0.0, |t| t.elapsed().as_secs_f32() * 1e3);
-    // Without a GPU (headless ECS tests) these are the frame's counters; the report replaces them.
-    stats.last = FrameCounters { records_written: mirror.0.records_written, ..FrameCounters::default() };
+    // Without a GPU (headless ECS tests) these are the frame's counters. With one, the report
+    // sets them (in place, later in this update; pipelined, the frame collected before
+    // extraction set them already).
+    if renderer.is_none() {
+        stats.last = FrameCounters { records_written: mirror.0.records_written, ..FrameCounters::default() };
+    }
 }
 
 /// Hands the mirror to the renderer: uploads what changed, records and submits the frame, here

@@ -20,7 +20,7 @@
 //! schedule that reads the renderer (a screenshot, validation errors, a read-back) calls
 //! [`collect_frame`] first; [`crate::finish_frames`] does. A frame's statistics and counters
 //! ([`RenderStats`]) arrive one update later than without pipelining, and errors are reported
-//! by the next update. The frames drawn are the same: extraction sees the same world, and the
+//! by the next update (or by [`crate::finish_frames`] after the last). The frames drawn are the same: extraction sees the same world, and the
 //! renderer the same mirror, in the same order.
 
 use std::sync::Mutex;
@@ -37,9 +37,9 @@ use crate::{FrameContext, GpuRenderer, OverlayInput, RenderMirror, RenderStats, 
 
 /// What the render thread draws a frame with (everything it needs, moved to it).
 struct Job {
+    window: Option<WindowSurface>,
     renderer: Renderer,
     mirror: SceneMirror,
-    window: Option<WindowSurface>,
     overlay: Option<OverlayFrame>,
     settings: FrameSettings,
 }
@@ -107,17 +107,33 @@ impl Drop for RenderThread {
 /// [`RenderStats`]. Does nothing when no frame is in flight. Call it before reading the renderer
 /// outside the render schedule while [`crate::RenderSettings::pipelined`] is on.
 pub fn collect_frame(world: &mut World) {
-    let Some(mut thread) = world.get_resource_mut::<RenderThread>() else { return };
+    collect(world);
+}
+
+/// [`collect_frame`] as the render schedule's first system: what the main thread waited for the
+/// render thread's wait for the GPU is left out of this update's CPU frame.
+pub(crate) fn collect_in_update(world: &mut World) {
+    let gpu_wait_ms = collect(world);
+    world.resource_mut::<RenderStats>().main_gpu_wait_ms = gpu_wait_ms;
+}
+
+/// [`collect_frame`]; returns how long the main thread waited for the render thread's wait for
+/// the GPU before recording (milliseconds; 0 when nothing was in flight).
+fn collect(world: &mut World) -> f32 {
+    let Some(mut thread) = world.get_resource_mut::<RenderThread>() else { return 0.0 };
     let waited = Instant::now();
-    let Some(received) = thread.receive() else { return };
+    let Some(received) = thread.receive() else { return 0.0 };
     let Ok((done, context)) = received else {
+        // The renderer went down with the thread: end the app, with a fresh mirror so that
+        // extraction still has one until it exits.
         let message = "the render thread stopped while drawing a frame".to_string();
         tracing::error!("{message}");
+        crate::reset_mirror(world);
         let mut stats = world.resource_mut::<RenderStats>();
         stats.last_error = Some(message.clone());
         stats.failed = true;
         world.insert_resource(engine::app::AppExit::Error(message));
-        return;
+        return 0.0;
     };
     let waited_ms = waited.elapsed().as_secs_f32() * 1e3;
     world.insert_resource(GpuRenderer(done.renderer));
@@ -125,14 +141,13 @@ pub fn collect_frame(world: &mut World) {
     if let Some(window) = done.window {
         world.insert_resource(WindowTarget(window));
     }
-    // The render thread's wait for the GPU before recording is not CPU work: the part of it the
-    // main thread spent waiting here is left out of this update's CPU frame.
+    // The render thread's wait for the GPU before recording is not CPU work: the main thread's
+    // wait here, up to that long, is taken as having waited on it.
     let gpu_wait_ms = done.result.as_ref().ok().and_then(Option::as_ref).map_or(0.0, |r| waited_ms.min(r.wait_ms));
-    let mut stats = world.resource_mut::<RenderStats>();
-    stats.main_gpu_wait_ms = gpu_wait_ms;
-    if let Some(exit) = crate::file_report(&mut stats, done.result, context) {
+    if let Some(exit) = crate::file_report(&mut world.resource_mut::<RenderStats>(), done.result, context) {
         world.insert_resource(exit);
     }
+    gpu_wait_ms
 }
 
 /// The render schedule's last system while pipelining: moves the renderer, the mirror and the

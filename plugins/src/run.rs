@@ -70,8 +70,12 @@ impl HeadlessPlugin {
                 break;
             }
         }
-        app.exit_result()?;
+        // Pipelined, the last frame (and its error) is collected here.
         finish_frames(&mut app.world);
+        if let Some(e) = app.world.get_resource::<RenderStats>().and_then(|s| s.last_error.clone()) {
+            return Err(format!("rendering failed: {e}").into());
+        }
+        app.exit_result()?;
         let size = app.world.get_resource::<RenderSettings>().map_or((0, 0), |s| s.size);
         let Some(mut renderer) = app.world.get_resource_mut::<GpuRenderer>() else {
             return Err("no renderer: add GpuPlugin".into());

@@ -218,10 +218,18 @@ impl WindowRunner {
     fn shut_down(&mut self) {
         let Some(mut r) = self.running.take() else { return };
         crate::pipelined::collect_frame(&mut r.app.world);
-        if let Some(WindowTarget(surface)) = r.app.world.remove_resource::<WindowTarget>() {
-            r.app.world.resource::<GpuRenderer>().0.destroy_window_surface(surface);
+        if let Some(e) = r.app.world.resource::<RenderStats>().last_error.clone()
+            && self.result.is_ok()
+        {
+            self.result = Err(format!("rendering failed: {e}").into());
         }
-        let errors = r.app.world.resource::<GpuRenderer>().0.take_validation_errors();
+        // No renderer when it went down with the render thread (nothing left to destroy with).
+        let target = r.app.world.remove_resource::<WindowTarget>();
+        let Some(renderer) = r.app.world.get_resource::<GpuRenderer>() else { return };
+        if let Some(WindowTarget(surface)) = target {
+            renderer.0.destroy_window_surface(surface);
+        }
+        let errors = renderer.0.take_validation_errors();
         if !errors.is_empty() && self.result.is_ok() {
             self.result = Err(format!("{} Vulkan validation errors, first: {}", errors.len(), errors[0]).into());
         }
@@ -261,8 +269,11 @@ impl ApplicationHandler for WindowRunner {
                 }
                 // The offscreen targets and the camera's aspect follow the window (not while
                 // minimised, when there is nothing to draw).
-                if size.width > 0 && size.height > 0 {
-                    if let Err(e) = r.app.world.resource_mut::<GpuRenderer>().0.resize(size.width, size.height) {
+                if size.width > 0
+                    && size.height > 0
+                    && let Some(mut renderer) = r.app.world.get_resource_mut::<GpuRenderer>()
+                {
+                    if let Err(e) = renderer.0.resize(size.width, size.height) {
                         self.result = Err(format!("resizing the render targets: {e}").into());
                         event_loop.exit();
                         return;

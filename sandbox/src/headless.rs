@@ -658,6 +658,10 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
         drain_stats(&mut app, &device, &mut frames);
     }
     finish_frames(&mut app.world);
+    // Pipelined, the last frame's error arrives with it.
+    if let Some(e) = app.world.resource::<RenderStats>().last_error.clone() {
+        bail!("rendering failed: {e}");
+    }
     drain_stats(&mut app, &device, &mut frames);
     if let Some(f) = &mut stats_file {
         for v in &frames {

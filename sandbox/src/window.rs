@@ -55,9 +55,9 @@ pub fn run_windowed(opts: WindowOptions) -> Result<()> {
     app.add_plugins(OverlayPlugin::default().with(SandboxOverlay { spawn_count: 100, seed: 1 }));
     if let Some(path) = &opts.base.stats {
         let file = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
-        app.insert_resource(StatsFile { out: std::io::BufWriter::new(file), next_frame: 0 });
-        // After the render thread's frame is back (pipelined), while the renderer is in the world.
-        app.add_systems(engine::app::Render, write_stats.after(plugins::RenderSystems::Collect).before(plugins::RenderSystems::Render));
+        app.insert_resource(StatsFile { out: std::io::BufWriter::new(file), next_frame: 0, device: None });
+        app.add_systems(engine::app::Render, note_device.after(plugins::RenderSystems::Collect).before(plugins::RenderSystems::Render));
+        app.add_systems(engine::app::Render, write_stats.after(plugins::RenderSystems::Render));
     }
     app.run().map_err(|e| anyhow!("{e}"))
 }
@@ -68,19 +68,28 @@ struct StatsFile {
     out: std::io::BufWriter<std::fs::File>,
     /// The first frame not yet written.
     next_frame: u64,
+    /// The renderer's tier and device, once seen (pipelined, the renderer is on the render
+    /// thread after the render schedule).
+    device: Option<(&'static str, String)>,
 }
 
-fn write_stats(mut file: ResMut<StatsFile>, stats: Res<plugins::RenderStats>, renderer: Option<Res<plugins::GpuRenderer>>) {
+/// Notes the renderer's tier and device once, while the renderer is in the world.
+fn note_device(mut file: ResMut<StatsFile>, renderer: Option<Res<plugins::GpuRenderer>>) {
+    if let Some(renderer) = renderer.filter(|_| file.device.is_none()) {
+        file.device = Some((renderer.0.tier().name(), renderer.0.device_name().to_string()));
+    }
+}
+
+fn write_stats(mut file: ResMut<StatsFile>, stats: Res<plugins::RenderStats>) {
     use std::io::Write;
-    let Some(renderer) = renderer else { return };
-    let (tier, device) = (renderer.0.tier().name(), renderer.0.device_name());
-    let file = &mut *file;
-    let next = file.next_frame;
+    let StatsFile { out, next_frame, device } = &mut *file;
+    let Some((tier, device)) = device else { return };
+    let next = *next_frame;
     for s in stats.completed.iter().filter(|s| s.frame >= next) {
-        if let Err(e) = writeln!(file.out, "{}", crate::stats::frame_json(s, tier, device)) {
+        if let Err(e) = writeln!(out, "{}", crate::stats::frame_json(s, tier, device)) {
             tracing::warn!("writing the stats file: {e}");
         }
-        file.next_frame = s.frame + 1;
+        *next_frame = s.frame + 1;
     }
 }
 

@@ -75,6 +75,10 @@ pub fn run_scripted(opts: &HeadlessOptions, script: Script) -> Result<GameRunSum
         drain_stats(&mut app, &device, &snapshots, &mut frames);
     }
     finish_frames(&mut app.world);
+    // Pipelined, the last frame's error arrives with it.
+    if let Some(error) = app.world.resource::<RenderStats>().last_error.clone() {
+        bail!("rendering failed: {error}");
+    }
     drain_stats(&mut app, &device, &snapshots, &mut frames);
     if let Some(path) = &opts.stats {
         let mut file = std::io::BufWriter::new(create(path)?);

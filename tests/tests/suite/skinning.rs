@@ -550,6 +550,8 @@ fn pipelined_rendering_draws_the_same_frames_one_update_later() {
             let latest = app.world.resource::<RenderStats>().latest().map(|s| (s.frame, s.pipelined));
             let expected = if pipelined { i.checked_sub(1).map(|f| (f, true)) } else { Some((i, false)) };
             assert_eq!(latest, expected, "pipelined {pipelined}: the frame filed after update {i}");
+            let counters = app.world.resource::<RenderStats>().last;
+            assert_eq!(counters.instances > 0, latest.is_some(), "pipelined {pipelined}: the filed frame's counters after update {i}");
             assert_eq!(app.world.contains_resource::<plugins::GpuRenderer>(), !pipelined, "between updates, pipelined {pipelined}");
         }
         plugins::finish_frames(&mut app.world);
