@@ -201,7 +201,7 @@ impl Lighting {
         };
         let debug = shadows != ShadowMethod::None && !enumerated && s.debug_view.reads_shadow_debug();
         let listed = shadows != ShadowMethod::None && !enumerated;
-        let sampled_lights_above = sampling::sampled_lights_above(l.direct_light, shadows, listed);
+        let sampled_lights_above = sampling::sampled_lights_above(l.direct_light, shadows, listed, mirror.lights.len() as u32);
         let rays = matches!(shadows, ShadowMethod::RayQuery | ShadowMethod::RayPipeline);
         // Searched every frame (a comparison while lights are still), so that no change is missed.
         let found = self.suns.find(&mirror.lights);

@@ -9,7 +9,9 @@
 //! - **Which pixels sample.** Those whose light list holds more lights than
 //!   `GpuLighting::sampled_lights_above`: [`DirectLight::exhaustive_up_to`] of the setting,
 //!   which is every pixel with a light for [`DirectLight::Stochastic`], none for
-//!   [`DirectLight::Exhaustive`], and those with more than 32 lights for [`DirectLight::Auto`].
+//!   [`DirectLight::Exhaustive`], and those with more than 32 lights for [`DirectLight::Auto`]
+//!   (none when the scene has no more lights than that: the frame is then exhaustive, as
+//!   `"direct_light"` says, and the denoiser does not run).
 //!   The shadow pass and shading compare the same list, so they agree pixel by pixel with no
 //!   image between them. Only ray-traced shadows of tiled or every-light lists sample: the glass
 //!   layer, shadow maps and ray-query lights stay exhaustive.
@@ -110,10 +112,12 @@ pub struct ShadowSampling {
 
 /// The list length above which a pixel samples its lights' shadows this frame
 /// (`GpuLighting::sampled_lights_above`; `u32::MAX`: none samples): only ray-traced shadows of
-/// light lists (`listed`) sample.
-pub fn sampled_lights_above(direct: DirectLight, shadows: ShadowMethod, listed: bool) -> u32 {
+/// light lists (`listed`) sample, and none when the scene's live `lights` are no more than
+/// the method traces a ray each for: no list can be longer, so the frame is exhaustive and the
+/// denoiser does not run (the peer scene's 28 lights under `auto`).
+pub fn sampled_lights_above(direct: DirectLight, shadows: ShadowMethod, listed: bool, lights: u32) -> u32 {
     match shadows {
-        ShadowMethod::RayQuery | ShadowMethod::RayPipeline if listed => direct.exhaustive_up_to(),
+        ShadowMethod::RayQuery | ShadowMethod::RayPipeline if listed && lights > direct.exhaustive_up_to() => direct.exhaustive_up_to(),
         _ => u32::MAX,
     }
 }
@@ -198,13 +202,19 @@ mod tests {
     #[test]
     fn only_traced_shadows_of_light_lists_sample() {
         for shadows in [ShadowMethod::RayQuery, ShadowMethod::RayPipeline] {
-            assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, true), 0);
-            assert_eq!(sampled_lights_above(DirectLight::Auto, shadows, true), DirectLight::AUTO_EXHAUSTIVE_UP_TO);
-            assert_eq!(sampled_lights_above(DirectLight::Exhaustive, shadows, true), u32::MAX);
-            assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, false), u32::MAX, "ray-query lights");
+            assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, true, 1000), 0);
+            assert_eq!(sampled_lights_above(DirectLight::Auto, shadows, true, 1000), DirectLight::AUTO_EXHAUSTIVE_UP_TO);
+            assert_eq!(sampled_lights_above(DirectLight::Exhaustive, shadows, true, 1000), u32::MAX);
+            assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, false, 1000), u32::MAX, "ray-query lights");
+            // No list can be longer than the scene's lights.
+            let few = DirectLight::AUTO_EXHAUSTIVE_UP_TO;
+            assert_eq!(sampled_lights_above(DirectLight::Auto, shadows, true, few), u32::MAX, "auto with few lights");
+            assert_eq!(sampled_lights_above(DirectLight::Auto, shadows, true, few + 1), few);
+            assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, true, 1), 0);
+            assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, true, 0), u32::MAX, "no light");
         }
         for shadows in [ShadowMethod::Maps, ShadowMethod::None] {
-            assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, true), u32::MAX);
+            assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, true, 1000), u32::MAX);
         }
         assert_eq!(applied(0, true), Some(DirectLight::Stochastic));
         assert_eq!(applied(32, true), Some(DirectLight::Auto));
