@@ -1,4 +1,5 @@
 #version 460
+#extension GL_EXT_control_flow_attributes : require
 // The environment's diffuse irradiance as nine spherical-harmonic coefficients (Ramamoorthi and
 // Hanrahan 2001, "An Efficient Representation for Irradiance Environment Maps"): one workgroup
 // projects the radiance cube's level of 32² texels a face (or its largest, if smaller), each
@@ -33,10 +34,12 @@ void main() {
     // The cosine lobe's bands (π, 2π/3, π/4), over π: irradiance / π.
     const float band[3] = float[3](1.0, 2.0 / 3.0, 0.25);
     EnvironmentOut out_env = EnvironmentOut(scene.lighting.lighting.environment);
-    for (int k = 0; k < 9; ++k) {
+    // Loops kept loops: lavapipe splits a compute shader at each barrier, and the 90 barriers
+    // of the unrolled reduction took its LLVM most of the pass's first frame to compile.
+    [[dont_unroll]] for (int k = 0; k < 9; ++k) {
         partial[gl_LocalInvocationIndex] = c[k];
         barrier();
-        for (uint stride = 128u; stride > 0u; stride >>= 1u) {
+        [[dont_unroll]] for (uint stride = 128u; stride > 0u; stride >>= 1u) {
             if (gl_LocalInvocationIndex < stride) partial[gl_LocalInvocationIndex] += partial[gl_LocalInvocationIndex + stride];
             barrier();
         }

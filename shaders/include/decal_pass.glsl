@@ -1,6 +1,7 @@
 // What the ray-tracing-pipeline decal pass's shaders share: the payloads and the hit attribute.
 #ifndef DECAL_PASS_GLSL
 #define DECAL_PASS_GLSL
+#extension GL_EXT_control_flow_attributes : require
 
 #include "decals.glsl"
 #include "decal_lists.glsl"
@@ -59,9 +60,10 @@ bool counting_candidates() {
 // particles' decal ring's (each where there is one), into the payload at `location` with hit
 // group `sbt`: the any-hit shaders accumulate into the payload, so the second trace adds to the
 // first. The geometric normal travels as the ray's direction (the intersection shader's angle
-// fade needs it).
+// fade needs it). The loop stays a loop: lavapipe inlines every hit group's any-hit and
+// intersection shaders at each traceRayEXT, so an unrolled one compiles all of them twice.
 #define TRACE_DECALS(sbt, location, s) {                                                                                  \
-        for (uint decal_structure = 0u; decal_structure < 2u; ++decal_structure) {                                      \
+        [[dont_unroll]] for (uint decal_structure = 0u; decal_structure < 2u; ++decal_structure) {                                      \
             uint64_t decal_tlas = decal_structure == 0u ? scene.decal_tlas : particle_decal_tlas();                     \
             if (decal_tlas == 0ul) continue;                                                                            \
             traceRayEXT(accelerationStructureEXT(decal_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, \

@@ -206,11 +206,13 @@ bool apply_decal(inout DecalBlend b, uint index, DecalSurface s) {
 
 #if defined(RAY_QUERY_DECALS) || defined(DECALS_AT_HITS)
 #extension GL_EXT_ray_query : require
+#extension GL_EXT_control_flow_attributes : require
 
 // Listing 4.1: a ray of length zero at the surface point; every AABB containing the point is a
 // candidate, confirmed by apply_decal's box test. Returns the number of candidates (heat map).
 // The scene's decals, then the particles' decal ring (each structure where there is one), in
-// one traversal loop (one inlined query: lavapipe compiles each query site into the shader).
+// one traversal loop, kept a loop (one inlined query: lavapipe compiles each query site into the
+// shader, and unrolled, the two would double the decal code it compiles).
 // The structure (0: the scene's, 1: the ring's) is known here rather than asked of the query
 // for the custom index; the ring's instance (its segment) is asked for. A fragment shader
 // (FRAGMENT_SHADER defined before the includes) skips the queries in helper invocations:
@@ -222,7 +224,7 @@ uint gather_decals(inout DecalBlend b, DecalSurface s) {
     if (gl_HelperInvocation) return 0u;
 #endif
     uint tested = 0u;
-    for (uint structure = 0u; structure < 2u; ++structure) {
+    [[dont_unroll]] for (uint structure = 0u; structure < 2u; ++structure) {
         uint64_t tlas = structure == 0u ? scene.decal_tlas : particle_decal_tlas();
         if (tlas == 0ul) continue;
         rayQueryEXT query;

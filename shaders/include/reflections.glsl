@@ -30,6 +30,7 @@
 // stores the ray's radiance and what it found (reflection_rays: see pack_cell).
 #ifndef REFLECTIONS_GLSL
 #define REFLECTIONS_GLSL
+#extension GL_EXT_control_flow_attributes : require
 
 #ifdef REFLECTION_RAY_QUERY
 #define DECALS_AT_HITS   // shading.glsl's traced_decals at the hit points
@@ -185,14 +186,15 @@ bool decals_dense = false;
 uint hit_decals(inout SurfaceInputs s) {
     if (scene.decal_count == 0u || !decals_traced() || (scene.lighting.lighting.reflection_flags & REFLECT_DECALS) == 0u) return 0u;
     DecalSurface surface = decal_world_view(s.position, s.dpdx, s.dpdy, s.geometric_normal, s.normal, s.decal_layers);
-    if (!decals_dense) collect_decals(surface);
     DecalBlend b;
     blend_init(b);
-    uint tested = blend_decals(b, surface, decals_dense);
-    if (s.skinned) {
-        DecalSurface skin = decal_skin_view(surface, s.rest_position, s.rest_normal);
-        if (!decals_dense) collect_decals(skin);
-        tested += blend_decals(b, skin, decals_dense);
+    uint tested = 0u;
+    // The world's view, then a posed surface's skin view: a loop, so that their traces are one
+    // site each (TRACE_DECALS).
+    [[dont_unroll]] for (uint view = 0u; view < (s.skinned ? 2u : 1u); ++view) {
+        DecalSurface at = view == 0u ? surface : decal_skin_view(surface, s.rest_position, s.rest_normal);
+        if (!decals_dense) collect_decals(at);
+        tested += blend_decals(b, at, decals_dense);
     }
     blend_resolve(b, s.albedo, s.normal, s.roughness, s.metallic, s.emissive);
     return tested;
@@ -219,15 +221,8 @@ vec3 hit_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found) {
     if (l.light_tlas == 0ul) return vec3(0.0);
     bool shadows = (l.flags & SHADOWS_TRACED) != 0u;
     vec3 facing = dot(s.geometric_normal, v) < 0.0 ? -s.geometric_normal : s.geometric_normal;
-    vec3 color = vec3(0.0);
     UnboundedLightsRef unbounded = UnboundedLightsRef(l.unbounded_lights);
     uint unbounded_count = unbounded.count;
-    for (uint k = 0u; k < unbounded_count; ++k) {
-        uint slot = unbounded.slots[k];
-        GpuLight light = scene.lights.lights[slot];
-        color += shadowed_light(light, slot, shade_light(light, brdf, s.position, s.normal, v), s.position, facing, shadows);
-    }
-    found = unbounded_count;
     light_payload.brdf = brdf;
     light_payload.normal = s.normal;
     light_payload.view = v;
@@ -239,12 +234,23 @@ vec3 hit_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found) {
     }
     traceRayEXT(accelerationStructureEXT(l.light_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF, REFLECTION_SBT_LIGHTS,
                 0, REFLECTION_SBT_LIGHTS, s.position, 0.0, vec3(1.0, 0.0, 0.0), 0.0, 2);
-    found += light_payload.found;
-    color += light_payload.color;   // beyond the strongest few: unshadowed
-    for (uint i = 0u; i < LIGHT_SHADOW_SLOTS; ++i) {
-        if (light_payload.slots[i] == NO_SHADOWED_LIGHT) continue;
-        GpuLight light = scene.lights.lights[light_payload.slots[i]];
-        color += shadowed_light(light, light_payload.slots[i], light_payload.slot_color[i], s.position, facing, shadows);
+    found = unbounded_count + light_payload.found;
+    vec3 color = light_payload.color;   // beyond the strongest few: unshadowed
+    // The unbounded lights, then the strongest few the light ray kept, each through its shadow
+    // ray: one loop, kept a loop, so that the shadow ray is one traceRayEXT (lavapipe inlines
+    // every hit group's any-hit and intersection shaders at each).
+    [[dont_unroll]] for (uint k = 0u; k < unbounded_count + LIGHT_SHADOW_SLOTS; ++k) {
+        uint slot;
+        vec3 c;
+        if (k < unbounded_count) {
+            slot = unbounded.slots[k];
+            c = shade_light(scene.lights.lights[slot], brdf, s.position, s.normal, v);
+        } else {
+            slot = light_payload.slots[k - unbounded_count];
+            if (slot == NO_SHADOWED_LIGHT) continue;
+            c = light_payload.slot_color[k - unbounded_count];
+        }
+        color += shadowed_light(scene.lights.lights[slot], slot, c, s.position, facing, shadows);
     }
     return color;
 }
@@ -266,27 +272,30 @@ vec3 shade_hit(SurfaceInputs s, vec3 v, inout ReflectionRay r) {
 ReflectionRay trace_reflection(vec3 origin, vec3 dir, float width0, float spread) {
     ReflectionRay r = ReflectionRay(vec3(0.0), REFLECTION_MAX_DISTANCE, false, false, 0u, 0u);
     ReflectionHits h = trace_hits(origin, dir);
-    if (h.hit) {
-        r.hit = true;
-        r.distance = h.t;
-        VisibleSurface v = hit_surface(h.ids.x, h.ids.y, h.bary, dir, cone_width(width0, spread, h.t));
-        r.radiance = shade_hit(surface_inputs(v), -dir, r);
-    } else {
-        r.radiance = sky_along(dir);
-    }
-    // Glass in front of the hit, blended over it back to front as the transparency passes blend
-    // it on screen: each pane shaded, over what lies behind by its opacity.
-    for (uint done = 0u; done < h.panes; ++done) {
+    r.hit = h.hit;
+    r.distance = h.hit ? h.t : REFLECTION_MAX_DISTANCE;
+    r.radiance = h.hit ? vec3(0.0) : sky_along(dir);
+    // The opaque hit, then the glass in front of it blended over it back to front as the
+    // transparency passes blend it on screen: each pane shaded, over what lies behind by its
+    // opacity. One loop, kept a loop, so that shade_hit and the rays it traces are compiled once
+    // (lavapipe inlines every hit group at each traceRayEXT and each ray query).
+    bool opaque = h.hit;
+    [[dont_unroll]] for (uint done = 0u; done <= h.panes; ++done) {
         uint far = REFLECTION_GLASS;
-        for (uint i = 0u; i < h.panes; ++i) {
-            if (h.glass_t[i] < r.distance && (far == REFLECTION_GLASS || h.glass_t[i] > h.glass_t[far])) far = i;
+        if (!opaque) {
+            for (uint i = 0u; i < h.panes; ++i) {
+                if (h.glass_t[i] < r.distance && (far == REFLECTION_GLASS || h.glass_t[i] > h.glass_t[far])) far = i;
+            }
+            if (far == REFLECTION_GLASS) break;
+            r.glass = true;
         }
-        if (far == REFLECTION_GLASS) break;
-        r.glass = true;
-        VisibleSurface v = hit_surface(h.glass_ids[far].x, h.glass_ids[far].y, h.glass_bary[far], dir, cone_width(width0, spread, h.glass_t[far]));
-        float opacity = clamp(sample_material(v.material, v.uv, v.duvdx, v.duvdy).base.a, 0.0, 1.0);
+        uvec2 ids = opaque ? h.ids : h.glass_ids[far];
+        float t = opaque ? h.t : h.glass_t[far];
+        VisibleSurface v = hit_surface(ids.x, ids.y, opaque ? h.bary : h.glass_bary[far], dir, cone_width(width0, spread, t));
+        float opacity = opaque ? 1.0 : clamp(sample_material(v.material, v.uv, v.duvdx, v.duvdy).base.a, 0.0, 1.0);
         r.radiance = mix(r.radiance, shade_hit(surface_inputs(v), -dir, r), opacity);
-        h.glass_t[far] = REFLECTION_MAX_DISTANCE;   // done
+        if (!opaque) h.glass_t[far] = REFLECTION_MAX_DISTANCE;   // done
+        opaque = false;
     }
     return r;
 }

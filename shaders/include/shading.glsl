@@ -79,8 +79,12 @@ uint traced_decals(inout SurfaceInputs s) {
     DecalSurface surface = decal_world_view(s.position, s.dpdx, s.dpdy, s.geometric_normal, s.normal, s.decal_layers);
     DecalBlend blend;
     blend_init(blend);
-    uint tested = gather_decals(blend, surface);
-    if (s.skinned) tested += gather_decals(blend, decal_skin_view(surface, s.rest_position, s.rest_normal));
+    uint tested = 0u;
+    // The world's view, then a posed surface's skin view: a loop, so that the query is one
+    // site (gather_decals).
+    [[dont_unroll]] for (uint view = 0u; view < (s.skinned ? 2u : 1u); ++view) {
+        tested += gather_decals(blend, view == 0u ? surface : decal_skin_view(surface, s.rest_position, s.rest_normal));
+    }
     blend_resolve(blend, s.albedo, s.normal, s.roughness, s.metallic, s.emissive);
     return tested;
 }

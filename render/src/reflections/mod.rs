@@ -75,6 +75,18 @@ use crate::scene::gpu::GpuScene;
 use crate::settings::{DebugView, FrameSettings, ReflectionMode};
 use crate::stats::FrameCounters;
 
+/// The reflection rays' ray-generation shaders on the ray-tracing-pipeline tier: one for each
+/// surface and way of applying the primary surface's decals (G-buffer: plain, decal buffer;
+/// visibility ids: plain, decal buffer, cluster lists), then the nearest glass's.
+const RAYGENS: [&[u8]; 6] = [
+    shaders::REFLECTIONS_RGEN_GBUFFER,
+    shaders::REFLECTIONS_RGEN_GBUFFER_DECAL_BUFFER,
+    shaders::REFLECTIONS_RGEN,
+    shaders::REFLECTIONS_RGEN_DECAL_BUFFER,
+    shaders::REFLECTIONS_RGEN_CLUSTERED_DECALS,
+    shaders::REFLECTIONS_RGEN_GLASS_LAYER,
+];
+
 pub use crate::stats::ReflectionStats;
 
 /// This frame's reflections, decided before the lighting record is written.
@@ -111,11 +123,9 @@ pub struct Reflections {
     visibility: Option<ShadeVariants>,
     /// Screen-space rays, over the G-buffer and over the visibility ids.
     screen: [ShadeVariants; 2],
-    /// The ray passes on the ray-tracing-pipeline tier: one ray-generation shader for each
-    /// surface and way of applying the primary surface's decals (G-buffer: plain, decal buffer;
-    /// visibility ids: plain, decal buffer, cluster lists), then the nearest glass's. Created
-    /// the first frame that traces reflections there ([`Reflections::ray_pipeline`]).
-    rays: Option<RayTracingPipeline>,
+    /// The ray passes on the ray-tracing-pipeline tier, a pipeline for each of [`RAYGENS`],
+    /// each created the first frame that traces with it ([`Reflections::ray_pipeline`]).
+    rays: [Option<RayTracingPipeline>; RAYGENS.len()],
     /// Whether this device traces reflections with [`Reflections::rays`] (the
     /// ray-tracing-pipeline tier).
     rays_possible: bool,
@@ -206,7 +216,7 @@ impl Reflections {
             gbuffer,
             visibility,
             screen,
-            rays: None,
+            rays: Default::default(),
             rays_possible: ctx.tier != Tier::RayQuery && ctx.ray_support().ray_pipeline,
             layout,
             resolve: LazyPipeline::compute(layout, "reflection resolve", shaders::REFLECTIONS_RESOLVE_COMP),
@@ -231,21 +241,16 @@ impl Reflections {
         })
     }
 
-    /// The ray-tracing pipeline of the reflection rays, created the first time a frame traces
-    /// them on a device without ray queries: with 19 shader stages it is the renderer's largest
-    /// (2 s to create on lavapipe, most of a renderer's start there), and a scene with nothing
-    /// smooth never needs it.
-    fn ray_pipeline(ctx: &GpuContext, layout: vk::PipelineLayout) -> Result<RayTracingPipeline, RenderError> {
+    /// The ray-tracing pipeline of the reflection rays with ray-generation shader `raygen` (of
+    /// [`RAYGENS`]), created the first time a frame traces with it on a device without ray
+    /// queries. A pipeline for each: lavapipe compiles a pipeline's every ray-generation shader
+    /// into one shader, each of their `traceRayEXT`s with every hit group's any-hit and
+    /// intersection shaders inlined, and with the six in one pipeline its LLVM was still compiling
+    /// after 20 minutes on the 2-core machine; a frame needs one or two of them.
+    fn ray_pipeline(ctx: &GpuContext, layout: vk::PipelineLayout, raygen: usize) -> Result<RayTracingPipeline, RenderError> {
         let desc = RayTracingDesc {
             name: "reflection rays (ray-tracing pipeline)",
-            raygen: &[
-                shaders::REFLECTIONS_RGEN_GBUFFER,
-                shaders::REFLECTIONS_RGEN_GBUFFER_DECAL_BUFFER,
-                shaders::REFLECTIONS_RGEN,
-                shaders::REFLECTIONS_RGEN_DECAL_BUFFER,
-                shaders::REFLECTIONS_RGEN_CLUSTERED_DECALS,
-                shaders::REFLECTIONS_RGEN_GLASS_LAYER,
-            ],
+            raygen: &[RAYGENS[raygen]],
             misses: &[
                 shaders::REFLECTIONS_RMISS,
                 shaders::DECAL_PASS_RMISS,
@@ -323,9 +328,6 @@ impl Reflections {
         }
         if !on {
             return Ok(ReflectionFrame::default());
-        }
-        if applied == ReflectionMode::RayTraced && self.rays_possible && self.rays.is_none() {
-            self.rays = Some(Self::ray_pipeline(f.ctx, self.layout)?);
         }
         let (stats, stats_res) = (self.stats.raw, self.stats_res);
         f.pass("reflection_stats_clear", PassKind::Transfer).write(stats_res, BufferUse::Transfer).record(|p| {
@@ -432,7 +434,18 @@ impl Reflections {
             Some(Surface::Visibility | Surface::Depth) => self.visibility.as_ref().map(|v| v.pick(ctx, decals.variant())).transpose()?,
             None => self.glass.as_ref().map(|g| g.get(ctx)).transpose()?,
         };
-        let kind = match (compute, &self.rays) {
+        // The ray-generation shader for this surface and decal method (of `RAYGENS`).
+        let raygen = match source {
+            Some(Surface::GBuffer) => usize::from(decals.buffered()),
+            Some(Surface::Visibility) if decals.buffered() => 3,
+            Some(Surface::Visibility) if decals.clusters_in_shading() => 4,
+            Some(Surface::Visibility | Surface::Depth) => 2,
+            None => 5,
+        };
+        if compute.is_none() && self.rays_possible && self.rays[raygen].is_none() {
+            self.rays[raygen] = Some(Self::ray_pipeline(ctx, self.layout, raygen)?);
+        }
+        let kind = match (compute, &self.rays[raygen]) {
             (Some(_), _) => PassKind::Compute,
             (None, Some(_)) => PassKind::RayTracing,
             (None, None) => return Ok(()),
@@ -463,16 +476,8 @@ impl Reflections {
         let (decals_at_hits, scene_accel, light_boxes) =
             if screen { (None, None, None) } else { (decals.at_hits, lights.scene_accel, lights.light_boxes) };
         let accel = |ids: Option<[ResourceId; 2]>| ids.into_iter().flatten().map(|a| (a, BufferUse::Accel));
-        // The ray-generation shader for this surface and decal method (in `rays`' order).
-        let raygen = match source {
-            Some(Surface::GBuffer) => usize::from(decals.buffered()),
-            Some(Surface::Visibility) if decals.buffered() => 3,
-            Some(Surface::Visibility) if decals.clusters_in_shading() => 4,
-            Some(Surface::Visibility | Surface::Depth) => 2,
-            None => 5,
-        };
         let half = lights.reflection_flags & REFLECT_HALF_RES != 0;
-        let rays = self.rays.as_ref();
+        let rays = self.rays[raygen].as_ref();
         let pass = if source.is_some() { declare_decal_reads(pass, decals) } else { pass };
         pass.reads(accel(decals_at_hits))
             .reads(decals_at_hits.map(|_| decals.ring_reads()).into_iter().flatten())
@@ -491,7 +496,7 @@ impl Reflections {
                     p.cmd.dispatch(cells.width.div_ceil(8), cells.height.div_ceil(8), 1);
                 } else if let Some(rays) = rays {
                     p.bind(vk::PipelineBindPoint::RAY_TRACING_KHR, rays.pipeline, &p.push);
-                    rays.trace(p.cmd, raygen, cells);
+                    rays.trace(p.cmd, 0, cells);
                 }
             })?;
         let resolve = match (source, separate) {
@@ -519,7 +524,7 @@ impl Reflections {
         for v in [self.gbuffer, self.visibility].into_iter().flatten().chain(self.screen) {
             v.destroy(ctx);
         }
-        if let Some(r) = self.rays {
+        for r in self.rays.into_iter().flatten() {
             r.destroy(ctx);
         }
         for p in [self.resolve, self.resolve_separate, self.resolve_glass, self.hiz].into_iter().chain(self.glass) {
