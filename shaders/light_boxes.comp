@@ -14,7 +14,7 @@ void main() {
     GpuLighting l = scene.lighting.lighting;
     uint i = gl_GlobalInvocationID.x;
     if (i >= l.light_box_count) return;
-    uint slots = scene.light_count;
+    uint slots = l.light_count;
     GpuAabb box;
     box.slot = NO_DECAL;
     box.owner = 0u;

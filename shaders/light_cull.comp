@@ -82,7 +82,7 @@ void main() {
     GpuCamera cam = scene.camera.camera;
     uint tile = gl_WorkGroupID.y * l.tiles_x + gl_WorkGroupID.x;
     uint lane = gl_LocalInvocationIndex;
-    uint light_count = scene.light_count;
+    uint light_count = l.light_count;
     bool cached = light_count <= LIGHT_CULL_SHARED_LIGHTS;
     uint mask_words = cached ? (light_count + 31u) / 32u : 2u;
     if (lane == 0u) {

@@ -1273,8 +1273,9 @@ layout! {
         /// Places of the ring in one BLAS of its structure: instance k of the ring's TLAS holds
         /// the places from k × this on (`crate::particles::ring_accel`).
         pub decal_ring_segment: u32,
-        /// Padding.
-        pub sun_pad: u32,
+        /// High-water mark of light slots; empty slots have kind `LIGHT_NONE`. Here rather than in
+        /// the push constants: see [`ScenePush`].
+        pub light_count: u32,
         /// Direct lighting: how many of `suns` hold a directional light's slot.
         pub sun_count: u32,
         /// Direct lighting: the slots of the first `DIRECT_LIGHT_SUNS` directional lights, which a
@@ -1801,7 +1802,12 @@ layout! {
     /// The lighting record (block in scene.glsl).
     buffer_reference LightingRef;
 
-    /// Push constants shared by every pass.
+    /// Push constants shared by every pass: addresses, and values that change per pass or only
+    /// with a setting. No count that bounds a loop lives here: Mesa's lavapipe (the CPU device
+    /// the tests run on) inlines the push-constant values that a shader's branches and loop
+    /// bounds test (`lvp_inline_uniforms.c`) and compiles a variant for each new set of values,
+    /// its loops unrolled to the count; the lights' high-water mark, which changes whenever a
+    /// game spawns a light, is `GpuLighting::light_count` instead.
     #[layout(push_constant, instance = scene)]
     #[derive(Default)]
     pub struct ScenePush {
@@ -1825,8 +1831,8 @@ layout! {
         pub meshes: u64,
         /// Address of the deferred decals' draw order (live slots sorted by channel, then weight).
         pub decal_order: u64,
-        /// High-water mark of light slots; empty slots have kind `LIGHT_NONE`.
-        pub light_count: u32,
+        /// Padding.
+        pub pad: u32,
         /// A full-screen pass's input image (bindless slot); in the shadow-map pass, the view
         /// being drawn.
         pub texture_index: u32,

@@ -82,7 +82,7 @@ LightList light_list(ivec2 px) {
         uint count = w.words[g + 1u];
         if ((count & LIGHT_TILE_OVERFLOW) != 0u) {
             r.offset = 0u;
-            r.count = scene.light_count;
+            r.count = l.light_count;
             r.indexed = false;
             r.rows = NO_SHADOW_ROWS;
         } else {
@@ -93,9 +93,9 @@ LightList light_list(ivec2 px) {
         }
     } else {
         r.offset = 0u;
-        r.count = scene.light_count;
+        r.count = l.light_count;
         r.indexed = false;
-        r.rows = traced ? tile * ((scene.light_count + 31u) / 32u) : NO_SHADOW_ROWS;
+        r.rows = traced ? tile * ((l.light_count + 31u) / 32u) : NO_SHADOW_ROWS;
     }
     return r;
 }

@@ -56,7 +56,7 @@ uint sample_shadow(ivec2 px, LightList list, vec3 p, vec3 n, vec3 origin, bool c
     GpuLighting l = scene.lighting.lighting;
     uint sun_bits = 0u, rays = 0u;
     for (uint k = 0u; k < l.sun_count; ++k) {
-        if (l.suns[k] >= scene.light_count) continue;
+        if (l.suns[k] >= l.light_count) continue;
         GpuLight sun = scene.lights.lights[l.suns[k]];
         if (sun.kind != LIGHT_DIRECTIONAL) continue;
         vec3 dir;

@@ -287,7 +287,7 @@ impl Lighting {
             decal_ring_tlas: 0,
             decal_ring_room: 0,
             decal_ring_segment: 0,
-            sun_pad: 0,
+            light_count: mirror.lights.slot_count(),
             sun_count: suns.count,
             suns: suns.slots,
         });

@@ -155,7 +155,7 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
         ring: r.particles.decal_ring(),
     };
     let decals = r.decals.build_accel(f, r.scene, mirror, r.decal_choice, readers, boxes_changed, r.counters)?;
-    f.push = scene_push(r.scene, mirror, s, &decals);
+    f.push = scene_push(r.scene, s, &decals);
     r.environment.record(f, r.scene, &environment)?;
     if let Some(a) = r.accel.as_deref_mut() {
         a.record(f, r.scene, &accel, r.counters)?;
@@ -552,7 +552,7 @@ impl RayLightPass<'_> {
 }
 
 /// The push constants every scene pass of the frame shares.
-fn scene_push(scene: &GpuScene, mirror: &SceneMirror, s: &FrameSettings, decals: &DecalFrame) -> ScenePush {
+fn scene_push(scene: &GpuScene, s: &FrameSettings, decals: &DecalFrame) -> ScenePush {
     ScenePush {
         camera: scene.camera.address(),
         instances: scene.instances.address(),
@@ -564,7 +564,7 @@ fn scene_push(scene: &GpuScene, mirror: &SceneMirror, s: &FrameSettings, decals:
         decal_aabbs: scene.decal_aabbs.address(),
         meshes: scene.mesh_table.address(),
         decal_order: scene.decal_order.address(),
-        light_count: mirror.lights.slot_count(),
+        pad: 0,
         texture_index: 0,
         debug_view: s.debug_view as u32,
         decal_count: decals.count,
