@@ -19,6 +19,10 @@ export XDG_CACHE_HOME="${CARGO_TARGET_DIR:-$PWD/target}/test-cache"
 # test's time goes to, takes about half as long (the default courtyard's first frame with
 # reflections: 166 s against 90 s on the 2-core machine).
 export LP_NATIVE_VECTOR_WIDTH="${LP_NATIVE_VECTOR_WIDTH:-128}"
+# Mesa keys its shader cache on the shader and the driver's build, not on the vector width: code
+# compiled four lanes wide, loaded by a run at eight, crashes in the shader (seen: a segfault in a
+# llvmpipe thread). So each width has a cache of its own.
+export MESA_SHADER_CACHE_DIR="$XDG_CACHE_HOME/mesa-shader-cache-$LP_NATIVE_VECTOR_WIDTH"
 
 gate() {
   local name="$1"
