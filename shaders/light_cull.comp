@@ -13,6 +13,11 @@
 //    AABB (the seed's "AABB optimisation", which it combines with the plane test: a light stays
 //    only if it passes both, so the AABB removes the planes' false positives at tile corners
 //    without adding its own where the depth range is long).
+// 2b. With LIGHT_CULL_DEPTH_MASK, the tile's depth range is cut into 32 slices and a bit set for
+//    each slice some pixel lies in (Harada, "A 2.5D culling for Forward+", SIGGRAPH Asia 2012
+//    technical briefs): a light whose sphere's depth extent meets no set slice lights no pixel of
+//    the tile, however long its range. Where a tile straddles a near object and a far wall, the
+//    plane and box tests keep every light between the two; the mask drops those in the gap.
 // 3. The survivors, in light order, go into the list at an offset one atomic per tile reserves;
 //    the tile's shadow rows are reserved the same way. Results are kept as bit masks in shared
 //    memory (up to LIGHT_CULL_SHARED_LIGHTS lights; more are simply tested twice), so no light
@@ -29,12 +34,23 @@ shared uint s_count;
 shared uint s_offset;
 shared bool s_write;
 shared uint s_masks[LIGHT_CULL_SHARED_LIGHTS / 32u];
+shared uint s_depth_mask;
 
 struct TileVolume {
     vec4 planes[6];
     vec3 box_min;
     vec3 box_max;
+    // The depth mask's slices: view distance of slice 0's start, slices per metre (0: one
+    // slice), and the occupied slices (all bits when the mask is off).
+    float near;
+    float slices_per_metre;
+    uint depth_mask;
 };
+
+// The slice of view distance `z` in the tile's depth mask (clamped to the 32 slices).
+uint depth_slice(TileVolume v, float z) {
+    return uint(clamp((z - v.near) * v.slices_per_metre, 0.0, 31.0));
+}
 
 bool sphere_outside(vec4 plane, vec3 c, float r) {
     return dot(plane.xyz, c) + plane.w < -r;
@@ -69,7 +85,10 @@ bool light_in_tile(uint slot, TileVolume v, mat4 view, bool aabb) {
         vec3 q = clamp(c, v.box_min, v.box_max) - c;
         if (dot(q, q) > r * r) return false;
     }
-    return true;
+    // The slices the sphere's depth extent spans (view distance is −z).
+    uint lo = depth_slice(v, -c.z - r), hi = depth_slice(v, -c.z + r);
+    uint spans = (0xFFFFFFFFu >> (31u - hi)) & (0xFFFFFFFFu << lo);
+    return (spans & v.depth_mask) != 0u;
 }
 
 // View distance of a reverse-Z depth (seed 001 eq. 4.3 with z = −1: −D / (depth + C)).
@@ -89,6 +108,7 @@ void main() {
         s_depth_min = floatBitsToUint(1.0 / 0.0);
         s_depth_max = 0u;
         s_count = 0u;
+        s_depth_mask = 0u;
     }
     for (uint i = lane; i < mask_words; i += 64u) s_masks[i] = 0u;
     barrier();
@@ -120,9 +140,31 @@ void main() {
 
     TileVolume v;
     bool aabb = (l.flags & LIGHT_CULL_AABB) != 0u;
+    bool depth_mask = (l.flags & LIGHT_CULL_DEPTH_MASK) != 0u;
+    float near = 0.0, far = 0.0;
     if (!empty) {
-        float near = view_distance_of(uintBitsToFloat(s_depth_max), cam.proj);
-        float far = view_distance_of(uintBitsToFloat(s_depth_min), cam.proj);
+        near = view_distance_of(uintBitsToFloat(s_depth_max), cam.proj);
+        far = view_distance_of(uintBitsToFloat(s_depth_min), cam.proj);
+    }
+    v.near = near;
+    v.slices_per_metre = far > near ? 32.0 / (far - near) : 0.0;
+    if (depth_mask && !empty) {
+        // Second look at the tile's pixels: the slices they (and glass in front) lie in.
+        for (uint i = lane; i < ts * ts; i += 64u) {
+            ivec2 px = ivec2(origin + uvec2(i % ts, i / ts));
+            if (any(greaterThanEqual(px, size))) continue;
+            float d = texelFetch(depth_target, px, 0).r;
+            uint bits = d > 0.0 ? 1u << depth_slice(v, view_distance_of(d, cam.proj)) : 0u;
+#ifdef TRANSPARENT
+            float t = texelFetch(transparent_depth, px, 0).r;
+            if (t > d) bits |= 1u << depth_slice(v, view_distance_of(t, cam.proj));
+#endif
+            if (bits != 0u) atomicOr(s_depth_mask, bits);
+        }
+    }
+    barrier();
+    v.depth_mask = depth_mask ? s_depth_mask : 0xFFFFFFFFu;
+    if (!empty) {
         GpuTileFrustum f = TileFrustaRef(l.tile_frusta).frusta[tile];
         v.planes[0] = f.left;
         v.planes[1] = f.right;

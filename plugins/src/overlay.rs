@@ -298,6 +298,7 @@ impl DebugOverlay {
             }
             ui.checkbox(&mut settings.lights.shadow_ray_culling, "shadow-ray culling");
             ui.checkbox(&mut settings.lights.cull_aabb, "tile AABB");
+            ui.checkbox(&mut settings.lights.cull_depth_mask, "tile depth mask");
             ui.checkbox(&mut settings.compute_shading, "compute shading");
         });
         ui.horizontal(|ui| {

@@ -605,6 +605,9 @@ layout! {
     /// `GpuLighting::flags`: the ambient occlusion pass ran (`crate::occlusion`):
     /// shading multiplies ambient light by its image.
     pub const AMBIENT_OCCLUSION: u32 = 512;
+    /// `GpuLighting::flags`: light culling also tests lights against each tile's depth mask (32
+    /// slices of its depth range, a bit for each slice a pixel lies in: Harada 2012's 2.5D culling).
+    pub const LIGHT_CULL_DEPTH_MASK: u32 = 1024;
     /// Coloured shadows: per pixel, how many lights keep the colour their light crossed glass
     /// with (`GpuLighting::shadow_tints`); a pixel's further tinted lights are lit or shadowed
     /// by the tint's luminance.

@@ -360,6 +360,11 @@ pub struct LightSettings {
     pub tile_size: u32,
     /// Light culling also tests lights against each tile's AABB (seed 001 §4.2.2).
     pub cull_aabb: bool,
+    /// Light culling also tests lights against each tile's depth mask: the tile's depth range cut
+    /// in 32 slices, a light kept only if its sphere spans a slice some pixel lies in (Harada,
+    /// "A 2.5D culling for Forward+", 2012). It removes the lights in the gap of a tile that
+    /// straddles a near and a far surface, which the range and the AABB keep.
+    pub cull_depth_mask: bool,
     /// Shadows: traced rays on devices with ray tracing, shadow maps on others.
     pub shadows: bool,
     /// Shadow maps even where rays could be traced (to compare the two).
@@ -384,6 +389,7 @@ impl Default for LightSettings {
             method: LightMethod::Tiled,
             tile_size: 16,
             cull_aabb: true,
+            cull_depth_mask: true,
             shadows: true,
             shadow_maps: false,
             shadow_ray_culling: true,

@@ -118,6 +118,9 @@ struct Cli {
     /// Light culling without the tile AABB test.
     #[arg(long)]
     no_light_aabb: bool,
+    /// Light culling without the tile depth mask (Harada's 2.5D culling: 32 depth slices a tile)
+    #[arg(long)]
+    no_light_depth_mask: bool,
     /// Trace shadow rays even towards lights the surface faces away from.
     #[arg(long)]
     no_shadow_ray_culling: bool,
@@ -549,6 +552,7 @@ fn main() -> Result<()> {
             method: cli.lights,
             tile_size: cli.tile_size,
             cull_aabb: !cli.no_light_aabb,
+            cull_depth_mask: !cli.no_light_depth_mask,
             shadows: !cli.no_shadows,
             shadow_ray_culling: !cli.no_shadow_ray_culling,
             normals: cli.depth_normals,

@@ -115,6 +115,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
         "lights": {
             "tile_size": stats.lights.tile(),
             "aabb": stats.lights.cull_aabb,
+            "depth_mask": stats.lights.cull_depth_mask,
             "shadow_ray_culling": stats.lights.shadow_ray_culling,
             "normals": match stats.lights.normals { render::DepthNormals::Naive => "naive", render::DepthNormals::Improved => "improved" },
             "coloured_shadows": stats.lights.coloured_shadows,

@@ -26,9 +26,9 @@ use crate::gpu::device::GpuContext;
 use crate::graph::targets::{OCCLUSION, SHADOW_DEBUG, SHADOW_RATIO};
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassBuilder, ResourceId};
 use crate::layout::{
-    AMBIENT_OCCLUSION, COLOURED_SHADOWS, GLASS_SHADOWS, GpuLighting, INTERLACED, LIGHT_CULL_AABB, LIGHTS_ALL, LIGHTS_RAY_QUERY,
-    LIGHTS_TILED, REFLECT_SCREEN_SPACE, REFRACTION, SHADOW_DEBUG as SHADOW_DEBUG_FLAG, SHADOW_NORMALS_IMPROVED, SHADOW_RAY_CULLING,
-    SHADOWS_TRACED,
+    AMBIENT_OCCLUSION, COLOURED_SHADOWS, GLASS_SHADOWS, GpuLighting, INTERLACED, LIGHT_CULL_AABB, LIGHT_CULL_DEPTH_MASK, LIGHTS_ALL,
+    LIGHTS_RAY_QUERY, LIGHTS_TILED, REFLECT_SCREEN_SPACE, REFRACTION, SHADOW_DEBUG as SHADOW_DEBUG_FLAG, SHADOW_NORMALS_IMPROVED,
+    SHADOW_RAY_CULLING, SHADOWS_TRACED,
 };
 use crate::occlusion::OcclusionFrame;
 use crate::reflections::ReflectionFrame;
@@ -212,6 +212,7 @@ impl Lighting {
         let mut flags = 0;
         for (on, flag) in [
             (l.cull_aabb, LIGHT_CULL_AABB),
+            (l.cull_depth_mask, LIGHT_CULL_DEPTH_MASK),
             (l.shadow_ray_culling, SHADOW_RAY_CULLING),
             (l.normals == DepthNormals::Improved, SHADOW_NORMALS_IMPROVED),
             (shadows != ShadowMethod::None, SHADOWS_TRACED),
