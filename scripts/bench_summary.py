@@ -45,7 +45,8 @@ def summarise(path):
         config = json.loads(lights)
         label = f"lights={light_method} shadows={shadows}"
         if config:
-            label += (f" tile={config['tile_size']} aabb={int(config['aabb'])} shadow_ray_culling={int(config['shadow_ray_culling'])}"
+            label += (f" tile={config['tile_size']} aabb={int(config['aabb'])} depth_mask={int(config.get('depth_mask', False))}"
+                      f" shadow_ray_culling={int(config['shadow_ray_culling'])}"
                       f" normals={config['normals']}")
         print(f"{path} {pipeline}/{method} {label} frames={len(rows)} {cells}")
 

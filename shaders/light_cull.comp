@@ -18,6 +18,9 @@
 //    technical briefs): a light whose sphere's depth extent meets no set slice lights no pixel of
 //    the tile, however long its range. Where a tile straddles a near object and a far wall, the
 //    plane and box tests keep every light between the two; the mask drops those in the gap.
+//    The TRANSPARENT variant sets every slice from the nearest glass to the opaque surface
+//    behind it (further panes are lit from the same list). Frames that light particles from
+//    these lists cull without the mask (crate::lights), since a particle may float in a gap.
 // 3. The survivors, in light order, go into the list at an offset one atomic per tile reserves;
 //    the tile's shadow rows are reserved the same way. Results are kept as bit masks in shared
 //    memory (up to LIGHT_CULL_SHARED_LIGHTS lights; more are simply tested twice), so no light
@@ -85,7 +88,9 @@ bool light_in_tile(uint slot, TileVolume v, mat4 view, bool aabb) {
         vec3 q = clamp(c, v.box_min, v.box_max) - c;
         if (dot(q, q) > r * r) return false;
     }
-    // The slices the sphere's depth extent spans (view distance is −z).
+    // The slices the sphere's depth extent spans (view distance is −z). With the mask off, a
+    // tile of one depth (one slice) or a light of unbounded range, there is nothing to test.
+    if (v.depth_mask == 0xFFFFFFFFu || !(v.slices_per_metre > 0.0) || isinf(r)) return true;
     uint lo = depth_slice(v, -c.z - r), hi = depth_slice(v, -c.z + r);
     uint spans = (0xFFFFFFFFu >> (31u - hi)) & (0xFFFFFFFFu << lo);
     return (spans & v.depth_mask) != 0u;
@@ -156,8 +161,14 @@ void main() {
             float d = texelFetch(depth_target, px, 0).r;
             uint bits = d > 0.0 ? 1u << depth_slice(v, view_distance_of(d, cam.proj)) : 0u;
 #ifdef TRANSPARENT
+            // Glass in front: every slice from the nearest pane to the opaque surface (or to the
+            // range's end over sky), since panes further back are shaded from this list too.
             float t = texelFetch(transparent_depth, px, 0).r;
-            if (t > d) bits |= 1u << depth_slice(v, view_distance_of(t, cam.proj));
+            if (t > d) {
+                uint first = depth_slice(v, view_distance_of(t, cam.proj));
+                uint last = d > 0.0 ? depth_slice(v, view_distance_of(d, cam.proj)) : 31u;
+                bits |= (0xFFFFFFFFu >> (31u - last)) & (0xFFFFFFFFu << first);
+            }
 #endif
             if (bits != 0u) atomicOr(s_depth_mask, bits);
         }

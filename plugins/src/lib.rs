@@ -349,6 +349,9 @@ pub struct FrameStats {
     pub shadows: render::ShadowMethod,
     /// How the traced shadows of its light lists were made (`None`: none were).
     pub direct_light: Option<render::DirectLight>,
+    /// Whether its light culling tested the tiles' depth masks (the setting, off in frames that
+    /// light particles).
+    pub depth_mask: bool,
     /// How its blended surfaces were drawn (the method applied).
     pub transparency: render::TransparencyMethod,
     /// Whether glass refracted (interlaced and depth-peeled transparency refract).
@@ -725,6 +728,7 @@ fn file_report(
         light_method: report.light_method,
         shadows: report.shadows,
         direct_light: report.direct_light,
+        depth_mask: report.depth_mask,
         transparency,
         refraction: settings.refraction && transparency.refracts(),
         aa: report.aa,

@@ -110,6 +110,9 @@ pub struct FrameReport {
     /// How the traced shadows of the pixels' light lists were made: a ray per light, or
     /// sampled (`crate::lights::sampling`); `None` when no list's shadows were traced.
     pub direct_light: Option<crate::settings::DirectLight>,
+    /// Whether light culling tested the tiles' depth masks (`LightSettings::cull_depth_mask`;
+    /// off in frames that light particles from the tiles' lists).
+    pub depth_mask: bool,
     /// How the frame's ambient light was occluded (`Off` when it was not).
     pub occlusion: crate::settings::OcclusionMethod,
     /// The anti-aliasing applied ([`crate::settings::AntiAliasing::applied`]: MSAA is TAA in the
@@ -587,6 +590,7 @@ impl Renderer {
             light_method: lights.method,
             shadows: lights.shadows,
             direct_light: lights.direct_light,
+            depth_mask: lights.depth_mask,
             occlusion: lights.occlusion.method,
             aa,
             counters,

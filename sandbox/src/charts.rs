@@ -27,7 +27,7 @@ pub fn run_medians(frames: &[Value]) -> Vec<RunMedians> {
     let key = |f: &Value| {
         let lights = &f["lights"];
         format!(
-            "{}/{} lights={} light_count={} shadows={} tile={} aabb={} ray_culling={} normals={} transparency={} refraction={} coloured={}",
+            "{}/{} lights={} light_count={} shadows={} tile={} aabb={} depth_mask={} ray_culling={} normals={} transparency={} refraction={} coloured={}",
             f["pipeline"].as_str().unwrap_or("?"),
             f["decal_method"].as_str().unwrap_or("?"),
             f["light_method"].as_str().unwrap_or("?"),
@@ -35,6 +35,7 @@ pub fn run_medians(frames: &[Value]) -> Vec<RunMedians> {
             f["shadows"].as_str().unwrap_or("?"),
             lights["tile_size"],
             lights["aabb"],
+            lights["depth_mask"],
             lights["shadow_ray_culling"],
             lights["normals"].as_str().unwrap_or("?"),
             f["transparency"].as_str().unwrap_or("?"),

@@ -168,7 +168,8 @@ pub struct HeadlessOptions {
 
 /// The light configurations `--compare-lights` runs, in order, named after the rows of seed 001's
 /// Table 5.1 (8×8 tiles, as the seed measured them), then Table 5.2's tile sizes with every
-/// optimisation, then 16×16 tiles with the depth mask as well; each runs in the Forward+ pipeline, or in forward when light culling is off.
+/// optimisation, then 16×16 tiles with the depth mask as well; each runs in the Forward+
+/// pipeline, or in forward when light culling is off.
 pub const LIGHT_COMPARE_SET: [(&str, LightSettings); 10] = {
     const fn lights(
         method: LightMethod,

@@ -118,7 +118,7 @@ struct Cli {
     /// Light culling without the tile AABB test.
     #[arg(long)]
     no_light_aabb: bool,
-    /// Light culling without the tile depth mask (Harada's 2.5D culling: 32 depth slices a tile)
+    /// Light culling without the tile depth mask (Harada's 2.5D culling: 32 depth slices a tile).
     #[arg(long)]
     no_light_depth_mask: bool,
     /// Trace shadow rays even towards lights the surface faces away from.

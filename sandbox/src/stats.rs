@@ -52,7 +52,8 @@
 //! Lights: `light_method` (applied: `all`, `tiled` or `ray_query`), `direct_light` (applied: `exhaustive`,
 //! `stochastic`, `auto`, or `none` without traced shadows of light lists), `shadows` (`ray_query`, `ray_pipeline`, `maps`
 //! (devices without ray tracing, or `--shadow-maps`), or `none`), `lights` (the settings:
-//! `tile_size`, `aabb`, `shadow_ray_culling`, `normals`, `coloured_shadows`), the counters `scene_blas_builds`,
+//! `tile_size`, `aabb`, `shadow_ray_culling`, `normals`, `coloured_shadows`, and `depth_mask` as
+//! applied: off without tiled lights and in frames that light particles), the counters `scene_blas_builds`,
 //! `scene_blas_compactions`, `scene_tlas_builds`, `scene_tlas_updates`, `light_blas_builds`,
 //! `light_blas_updates`, and, in frames with tiled lights or a light list still held,
 //! `light_tiles`: `tiles`, `tile_size`, `capacity`, `grows`, and, only in frames with tiled
@@ -115,7 +116,7 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
         "lights": {
             "tile_size": stats.lights.tile(),
             "aabb": stats.lights.cull_aabb,
-            "depth_mask": stats.lights.cull_depth_mask,
+            "depth_mask": stats.depth_mask,
             "shadow_ray_culling": stats.lights.shadow_ray_culling,
             "normals": match stats.lights.normals { render::DepthNormals::Naive => "naive", render::DepthNormals::Improved => "improved" },
             "coloured_shadows": stats.lights.coloured_shadows,

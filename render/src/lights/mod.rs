@@ -67,6 +67,9 @@ pub struct LightFrame {
     pub sampled_lights_above: u32,
     /// How the traced shadows of light lists were made (`None`: none were).
     pub direct_light: Option<DirectLight>,
+    /// Whether light culling tested the tiles' depth masks ([`crate::settings::LightSettings::cull_depth_mask`],
+    /// off in frames that light particles from the lists).
+    pub depth_mask: bool,
     /// With ray-query lights: the lights' TLAS, BLAS and box buffer (its unbounded-light list).
     pub light_accel: Option<[ResourceId; 3]>,
     /// When shading traces shadow rays itself (ray-query lights on the ray-query tier): the
@@ -149,7 +152,7 @@ impl Lighting {
     /// Sizes this frame's buffers and sets the lighting record, before the scene's upload. The
     /// frame function hands in what it planned before: the scene's structures (`accel`), this
     /// device's shadow method (`device_shadows`, `crate::shadows`), the ambient occlusion, the
-    /// reflections and the environment.
+    /// reflections, the environment, and whether particles are lit this frame (`particles`).
     #[allow(clippy::too_many_arguments)]
     pub fn prepare(
         &mut self,
@@ -162,6 +165,7 @@ impl Lighting {
         occlusion: OcclusionFrame,
         reflections: &ReflectionFrame,
         environment: &EnvironmentFrame,
+        particles: bool,
         counters: &mut FrameCounters,
     ) -> Result<LightFrame, RenderError> {
         let l = &s.lights;
@@ -209,10 +213,13 @@ impl Lighting {
         let direct_light = sampling::applied(sampled_lights_above, listed && rays);
         let interlaced = glass && s.transparency.effective(s.pipeline).interlaces();
         let reflect = reflections.on() && (!reflections.traced() || accel.tlas_address != 0);
+        // A particle is lit from the list of the tile its centre falls in, wherever it floats
+        // (`shaders/particles_light.comp`): the depth mask would drop the lights of its gap.
+        let depth_mask = l.cull_depth_mask && method == LightMethod::Tiled && !particles;
         let mut flags = 0;
         for (on, flag) in [
             (l.cull_aabb, LIGHT_CULL_AABB),
-            (l.cull_depth_mask, LIGHT_CULL_DEPTH_MASK),
+            (depth_mask, LIGHT_CULL_DEPTH_MASK),
             (l.shadow_ray_culling, SHADOW_RAY_CULLING),
             (l.normals == DepthNormals::Improved, SHADOW_NORMALS_IMPROVED),
             (shadows != ShadowMethod::None, SHADOWS_TRACED),
@@ -307,6 +314,7 @@ impl Lighting {
             debug,
             sampled_lights_above,
             direct_light,
+            depth_mask,
             light_accel,
             inline_shadows,
             reflection_flags: if reflect { reflections.flags } else { 0 },

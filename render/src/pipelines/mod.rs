@@ -134,7 +134,9 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     };
     let occlusion = r.occlusion.plan(&s.occlusion, accel.traced, r.scene.res.meshes);
     let device_shadows = r.shadows.method();
-    let lights = r.lighting.prepare(f, r.scene, mirror, s, &accel, device_shadows, occlusion, &reflections, &environment, r.counters)?;
+    let particles = r.particles.active();
+    let lights =
+        r.lighting.prepare(f, r.scene, mirror, s, &accel, device_shadows, occlusion, &reflections, &environment, particles, r.counters)?;
     let shadows = r.shadows.plan(r.scene, mirror, &lights, r.counters);
     // How much of each pose to skin, once the refits (which read every vertex) are known.
     r.skinning.choose_levels(mirror, s, r.accel.as_deref().map_or(&[], |a| a.refits()), r.counters);

@@ -139,7 +139,13 @@ fn the_pool_drops_what_does_not_fit_and_frees_what_dies() {
     assert_eq!((counts.spawned, counts.dropped, counts.alive, counts.capacity), (256, 744, 0, 256), "{counts:?}");
     // Every slot came back: a second burst fills the pool again, dropping the same share.
     app.world.entity_mut(emitter).insert(short.clone());
-    for _ in 0..8 {
+    app.update();
+    // Particles are lit from the light tiles' lists wherever they float: a frame that draws them
+    // culls lights without the tiles' depth masks.
+    plugins::finish_frames(&mut app.world);
+    let masked = app.world.resource::<RenderStats>().completed.back().expect("a finished frame").depth_mask;
+    assert!(!masked, "no depth mask while particles are drawn");
+    for _ in 0..7 {
         app.update();
     }
     let counts = app.world.resource::<RenderStats>().last.particles;
@@ -150,8 +156,9 @@ fn the_pool_drops_what_does_not_fit_and_frees_what_dies() {
         app.update();
     }
     plugins::finish_frames(&mut app.world);
-    let last = app.world.resource::<RenderStats>().completed.back().expect("a finished frame").gpu;
-    assert!(last.iter().all(|(name, _)| !name.starts_with("particles")), "no particle pass once none can live");
+    let last = app.world.resource::<RenderStats>().completed.back().expect("a finished frame");
+    assert!(last.gpu.iter().all(|(name, _)| !name.starts_with("particles")), "no particle pass once none can live");
+    assert!(last.depth_mask, "the depth mask is back once no particle can live");
     assert_no_validation_errors(&mut app);
 }
 
