@@ -19,8 +19,9 @@
 //    the tile, however long its range. Where a tile straddles a near object and a far wall, the
 //    plane and box tests keep every light between the two; the mask drops those in the gap.
 //    The TRANSPARENT variant sets every slice from the nearest glass to the opaque surface
-//    behind it (further panes are lit from the same list). Frames that light particles from
-//    these lists cull without the mask (crate::lights), since a particle may float in a gap.
+//    behind it (further panes are lit from the same list; over sky the range itself ends at the
+//    nearest glass, as it did before the mask). Frames with live or emitting particles cull
+//    without the mask (crate::lights), since a particle may float in a gap.
 // 3. The survivors, in light order, go into the list at an offset one atomic per tile reserves;
 //    the tile's shadow rows are reserved the same way. Results are kept as bit masks in shared
 //    memory (up to LIGHT_CULL_SHARED_LIGHTS lights; more are simply tested twice), so no light

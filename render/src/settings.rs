@@ -363,7 +363,9 @@ pub struct LightSettings {
     /// Light culling also tests lights against each tile's depth mask: the tile's depth range cut
     /// in 32 slices, a light kept only if its sphere spans a slice some pixel lies in (Harada,
     /// "A 2.5D culling for Forward+", 2012). It removes the lights in the gap of a tile that
-    /// straddles a near and a far surface, which the range and the AABB keep.
+    /// straddles a near and a far surface, which the range and the AABB keep. Frames with live
+    /// or emitting particles cull without it (particles are lit from the tiles' lists wherever
+    /// they float); the frame report says what was applied.
     pub cull_depth_mask: bool,
     /// Shadows: traced rays on devices with ray tracing, shadow maps on others.
     pub shadows: bool,

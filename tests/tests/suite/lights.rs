@@ -312,14 +312,26 @@ fn tile_lists_hold_every_light_that_reaches_their_pixels_at_every_tile_size() {
         })
         .collect();
     lights.extend(&gap);
-    // At the gap's far end, small lights that do reach the ground behind the box (its slices'
-    // edge), and a light of unbounded range: each pixel they reach must list them.
-    for i in 0..3 {
-        let at = eye + (floating - eye) * (1.9 + i as f32 * 0.03);
-        lights.push(
-            app.world.spawn((PointLight { intensity: 5.0, range: Some(0.3), ..Default::default() }, Transform::from_translation(at))).id(),
-        );
-    }
+    // At the gap's far side, small lights just above the visible ground beside the box's
+    // silhouette (found in a first frame's depth: ground 0.9–1.6 m from where the line through
+    // the box meets it, which the box hides), so that they reach pixels in the gap's tiles whose
+    // slices are near the mask's edge; and a light of unbounded range. Every pixel they reach
+    // must list them.
+    let (_, depth) = render(&mut app, DebugView::Lit);
+    let behind = eye + (floating - eye) * 2.0;
+    let ground: Vec<Vec3> = world_positions(&view, &camera, SIZE, &depth)
+        .into_iter()
+        .flatten()
+        .filter(|p| p.y.abs() < 0.02 && (0.9..1.6).contains(&(*p - behind).with_y(0.0).length()))
+        .collect();
+    assert!(ground.len() > 30, "ground is seen beside the floating box ({} pixels)", ground.len());
+    let edge: Vec<Entity> = (0..3)
+        .map(|i| {
+            let at = ground[i * (ground.len() - 1) / 2] + Vec3::Y * 0.15;
+            app.world.spawn((PointLight { intensity: 5.0, range: Some(0.3), ..Default::default() }, Transform::from_translation(at))).id()
+        })
+        .collect();
+    lights.extend(&edge);
     lights.push(
         app.world
             .spawn((PointLight { intensity: 0.5, range: Some(f32::INFINITY), ..Default::default() }, Transform::from_xyz(0.5, 3.0, 0.5)))
@@ -353,6 +365,8 @@ fn tile_lists_hold_every_light_that_reaches_their_pixels_at_every_tile_size() {
             })
             .collect();
         let gap_slots: Vec<u32> = gap.iter().map(|&e| slots.light_slot(e).expect("extracted")).collect();
+        let edge_slots: Vec<u32> = edge.iter().map(|&e| slots.light_slot(e).expect("extracted")).collect();
+        let mut edge_checked = [0usize; 3];
         let (mut checked, mut listed, mut gap_listed) = (0usize, 0usize, 0usize);
         for (i, p) in positions.iter().enumerate() {
             let Some(p) = p else { continue };
@@ -365,6 +379,9 @@ fn tile_lists_hold_every_light_that_reaches_their_pixels_at_every_tile_size() {
                 let reaches = d.length() < range * 0.999 && cone.is_none_or(|(dir, cos_outer)| d.normalize().dot(dir) > cos_outer + 1e-3);
                 if reaches {
                     checked += 1;
+                    if let Some(k) = edge_slots.iter().position(|&s| s == slot) {
+                        edge_checked[k] += 1;
+                    }
                     assert!(
                         list.contains(&slot),
                         "tile {tile} (depth mask {depth_mask}): light {slot} reaches pixel ({x}, {y}) but is not in its tile's list {list:?}"
@@ -373,6 +390,7 @@ fn tile_lists_hold_every_light_that_reaches_their_pixels_at_every_tile_size() {
             }
         }
         let covered = positions.iter().flatten().count();
+        assert!(edge_checked.iter().all(|&n| n > 0), "each light beside the gap reaches pixels: {edge_checked:?}");
         let per_pixel = listed as f32 / covered as f32;
         eprintln!(
             "tiles of {tile}, depth mask {depth_mask}: {checked} (pixel, light) pairs checked, {per_pixel:.2} lights listed per pixel of 59"

@@ -8,7 +8,9 @@
 //! the transparency pass shares). Where the pane covers the floor the image must be
 //! `0.4·P + 0.6·B`, and elsewhere `B`. A second, 50 %-opaque blue pane below the red one,
 //! in the slot after it, checks the back-to-front order: where both cover the floor the image must be
-//! `0.4·P_red + 0.6·(0.5·P_blue + 0.5·B)`.
+//! `0.4·P_red + 0.6·(0.5·P_blue + 0.5·B)`; a small light between the panes lights the blue one
+//! only, so the tiles seen through both must list a light that reaches neither their nearest
+//! glass nor their floor (the light tiles' depth mask covers the slices between the two).
 //!
 //! That runs the forward transparency pass in every pipeline. Depth peeling (seed 002 §4.1.2,
 //! two G-buffers lit in full) is the full-resolution reference: over the red pane alone it must
@@ -89,6 +91,10 @@ fn scene() -> Scene {
     ));
     // Reaches the red pane (0.6 m below) and not the floor (2.1 m below).
     app.world.spawn((PointLight { intensity: 3.0, range: Some(1.2), ..Default::default() }, Transform::from_xyz(0.3, 2.1, 0.2)));
+    // Between the panes, where they overlap: reaches the blue pane (0.3 m below) and neither the
+    // red one (0.7 m above) nor the floor. Seen through the red pane, the blue one is lit by it
+    // only if light culling keeps what lies between the nearest glass and the floor.
+    app.world.spawn((PointLight { intensity: 1.0, range: Some(0.4), ..Default::default() }, Transform::from_xyz(0.85, 0.8, 0.65)));
     // The nearer pane takes the lower slot: drawn in slot order, the blend would come out wrong.
     let red = app.world.spawn((MeshInstance { mesh: pane, material: red_material }, Transform::from_xyz(0.0, 1.5, 0.0))).id();
     let blue = app.world.spawn((MeshInstance { mesh: small, material: blue_material }, Transform::from_xyz(1.2, 0.5, 0.8))).id();
