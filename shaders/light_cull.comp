@@ -56,6 +56,11 @@ uint depth_slice(TileVolume v, float z) {
     return uint(clamp((z - v.near) * v.slices_per_metre, 0.0, 31.0));
 }
 
+// The mask bits of slices `first` to `last` (first ≤ last ≤ 31).
+uint slice_bits(uint first, uint last) {
+    return (0xFFFFFFFFu >> (31u - last)) & (0xFFFFFFFFu << first);
+}
+
 bool sphere_outside(vec4 plane, vec3 c, float r) {
     return dot(plane.xyz, c) + plane.w < -r;
 }
@@ -93,8 +98,7 @@ bool light_in_tile(uint slot, TileVolume v, mat4 view, bool aabb) {
     // tile of one depth (one slice) or a light of unbounded range, there is nothing to test.
     if (v.depth_mask == 0xFFFFFFFFu || !(v.slices_per_metre > 0.0) || isinf(r)) return true;
     uint lo = depth_slice(v, -c.z - r), hi = depth_slice(v, -c.z + r);
-    uint spans = (0xFFFFFFFFu >> (31u - hi)) & (0xFFFFFFFFu << lo);
-    return (spans & v.depth_mask) != 0u;
+    return (slice_bits(lo, hi) & v.depth_mask) != 0u;
 }
 
 // View distance of a reverse-Z depth (seed 001 eq. 4.3 with z = −1: −D / (depth + C)).
@@ -168,7 +172,7 @@ void main() {
             if (t > d) {
                 uint first = depth_slice(v, view_distance_of(t, cam.proj));
                 uint last = d > 0.0 ? depth_slice(v, view_distance_of(d, cam.proj)) : 31u;
-                bits |= (0xFFFFFFFFu >> (31u - last)) & (0xFFFFFFFFu << first);
+                bits |= slice_bits(first, last);
             }
 #endif
             if (bits != 0u) atomicOr(s_depth_mask, bits);
