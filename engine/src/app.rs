@@ -123,6 +123,8 @@ impl App {
         app.add_message::<crate::changes::Inserted<crate::light::PointLight>>();
         app.add_message::<crate::changes::Inserted<crate::light::SpotLight>>();
         app.add_message::<crate::changes::Inserted<crate::light::DirectionalLight>>();
+        app.add_message::<crate::changes::Inserted<crate::light::RectLight>>();
+        app.add_message::<crate::changes::Inserted<crate::light::DiskLight>>();
         app
     }
 

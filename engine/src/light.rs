@@ -1,4 +1,5 @@
-//! Punctual light components in physical units (glTF `KHR_lights_punctual` semantics).
+//! Light components in physical units: punctual lights (glTF `KHR_lights_punctual` semantics)
+//! and one-sided area lights ([`RectLight`], [`DiskLight`]; issue 52, item 1).
 //!
 //! Point and spot lights have an optional range; without one their culling range comes from
 //! their intensity by seed 001 (Elagabani 2025), eq. 4.1: the distance at which the inverse
@@ -123,6 +124,93 @@ impl Default for DirectionalLight {
     }
 }
 
+/// A one-sided rectangular area light (a window, a screen, a ceiling panel) centred on its
+/// entity, `width` along its local X and `height` along its local Y (both scaled by the
+/// transform), emitting from its face that looks along its local -Z.
+///
+/// Shading integrates the rectangle as seen from each point (the cosine-weighted solid angle of
+/// the polygon: linearly transformed cosines with the identity transform, Heitz et al. 2016), so
+/// near a large panel the light is soft and wraps as a real one does; ray-traced shadows aim at
+/// points spread over its face, so its shadows are soft (their penumbra resolves under temporal
+/// anti-aliasing, as a sized [`PointLight`]'s does). Shadow maps do not cover area lights: where
+/// shadows come from maps, they light unshadowed.
+///
+/// Immutable: change it by inserting a new value (see [`crate::changes`]).
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[require(Transform)]
+#[component(immutable, on_insert = crate::changes::note_inserted::<Self>)]
+pub struct RectLight {
+    /// Linear RGB colour.
+    pub color: Vec3,
+    /// Luminance of its face in candela per square metre (nits), the same in every direction
+    /// it emits to: a 1 m² panel of 10 nits seen face-on from afar lights as a 10 cd
+    /// [`PointLight`] does.
+    pub intensity: f32,
+    /// Width in metres (along local X).
+    pub width: f32,
+    /// Height in metres (along local Y).
+    pub height: f32,
+    /// Explicit range in metres from its centre; `None` derives it from the intensity over its
+    /// area ([`RectLight::effective_range`]).
+    pub range: Option<f32>,
+}
+
+impl Default for RectLight {
+    fn default() -> Self {
+        RectLight { color: Vec3::ONE, intensity: 10.0, width: 1.0, height: 1.0, range: None }
+    }
+}
+
+impl RectLight {
+    /// The explicit range, or the range of a point light of its intensity × area
+    /// ([`range_from_intensity`]: its face-on intensity in candela) plus its half diagonal.
+    pub fn effective_range(&self) -> f32 {
+        self.range.unwrap_or_else(|| area_range(self.intensity, self.width * self.height, 0.5 * self.width.hypot(self.height)))
+    }
+}
+
+/// A one-sided disk-shaped area light (a round ceiling lamp, a spot's lens) of `radius` centred
+/// on its entity, in its local XY plane (scaled by the larger of the transform's X and Y
+/// scales), emitting from its face that looks along its local -Z. Shaded and shadowed as
+/// [`RectLight`] is.
+///
+/// Immutable: change it by inserting a new value (see [`crate::changes`]).
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[require(Transform)]
+#[component(immutable, on_insert = crate::changes::note_inserted::<Self>)]
+pub struct DiskLight {
+    /// Linear RGB colour.
+    pub color: Vec3,
+    /// Luminance of its face in candela per square metre (nits), as [`RectLight::intensity`].
+    pub intensity: f32,
+    /// Radius in metres.
+    pub radius: f32,
+    /// Explicit range in metres from its centre; `None` derives it as
+    /// [`RectLight::effective_range`] does.
+    pub range: Option<f32>,
+}
+
+impl Default for DiskLight {
+    fn default() -> Self {
+        DiskLight { color: Vec3::ONE, intensity: 10.0, radius: 0.5, range: None }
+    }
+}
+
+impl DiskLight {
+    /// The explicit range, or the range of a point light of its intensity × area plus its
+    /// radius.
+    pub fn effective_range(&self) -> f32 {
+        self.range.unwrap_or_else(|| area_range(self.intensity, std::f32::consts::PI * self.radius * self.radius, self.radius))
+    }
+}
+
+/// The culling range of an area light of `luminance` over `area`, reaching `reach` from its
+/// centre: the range of a point light of its face-on intensity, plus the reach.
+fn area_range(luminance: f32, area: f32, reach: f32) -> f32 {
+    let range = range_from_intensity(luminance * area);
+    if range > 0.0 && reach.is_finite() { range + reach.max(0.0) } else { range }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -145,5 +233,16 @@ mod tests {
         assert_eq!(light.effective_range(), 3.0);
         let spot = SpotLight { intensity: 8.0, ..Default::default() };
         assert!((spot.effective_range() - 20.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn area_lights_reach_as_far_as_a_point_light_of_their_power_plus_their_size() {
+        // 2 nits over 1 m²: 2 cd face-on, 10 m; plus the half diagonal.
+        let rect = RectLight { intensity: 2.0, width: 1.0, height: 1.0, ..Default::default() };
+        assert!((rect.effective_range() - (10.0 + 0.5 * 2f32.sqrt())).abs() < 1e-4);
+        let disk = DiskLight { intensity: 2.0 / std::f32::consts::PI, radius: 1.0, ..Default::default() };
+        assert!((disk.effective_range() - 11.0).abs() < 1e-4);
+        assert_eq!(RectLight { range: Some(3.0), ..rect }.effective_range(), 3.0);
+        assert_eq!(RectLight { intensity: -1.0, ..rect }.effective_range(), 0.0, "a dark light reaches nothing");
     }
 }

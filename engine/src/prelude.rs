@@ -18,7 +18,7 @@ pub use crate::defaults::DefaultPlugins;
 pub use crate::environment::{Environment, EnvironmentSource, HdrImage};
 pub use crate::image::{ColorSpace, Image};
 pub use crate::input::{Input, InputPlugin, Key, MouseButton};
-pub use crate::light::{DirectionalLight, PointLight, SpotLight};
+pub use crate::light::{DirectionalLight, DiskLight, PointLight, RectLight, SpotLight};
 pub use crate::material::{AlphaMode, Material};
 pub use crate::mesh::{Mesh, shapes};
 pub use crate::scene::{MeshInstance, Name};

@@ -7,7 +7,7 @@ use glam::Vec3;
 use crate::app::PostUpdate;
 use crate::asset::{Assets, Handle};
 use crate::camera::Camera;
-use crate::light::{DirectionalLight, PointLight, SpotLight};
+use crate::light::{DirectionalLight, DiskLight, PointLight, RectLight, SpotLight};
 use crate::material::Material;
 use crate::mesh::Mesh;
 use crate::transform::{GlobalTransform, Transform};
@@ -101,7 +101,9 @@ pub fn frame_scene(world: &mut World) -> FramedScene {
     }
     let lights_spawned = world.query::<&PointLight>().iter(world).next().is_none()
         && world.query::<&SpotLight>().iter(world).next().is_none()
-        && world.query::<&DirectionalLight>().iter(world).next().is_none();
+        && world.query::<&DirectionalLight>().iter(world).next().is_none()
+        && world.query::<&RectLight>().iter(world).next().is_none()
+        && world.query::<&DiskLight>().iter(world).next().is_none();
     if lights_spawned {
         world.spawn((
             DirectionalLight { color: Vec3::new(1.0, 0.96, 0.9), illuminance: 3.0, ..Default::default() },

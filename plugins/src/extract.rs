@@ -15,7 +15,7 @@ use engine::asset::{AssetEvent, Assets, Handle};
 use engine::camera::Camera;
 use engine::changes::Inserted;
 use engine::image::{ColorSpace, Image, TexelFormat};
-use engine::light::{DirectionalLight, PointLight, SpotLight};
+use engine::light::{DirectionalLight, DiskLight, PointLight, RectLight, SpotLight};
 use engine::material::{AlphaMode, Material};
 use engine::mesh::Mesh;
 use engine::scene::MeshInstance;
@@ -593,19 +593,30 @@ pub fn extract_poses(
 /// removed ones. Like instances, the lights to visit come from change lists.
 #[allow(clippy::type_complexity, clippy::too_many_arguments)]
 pub fn extract_lights(
-    all: Query<(&GlobalTransform, Option<&PointLight>, Option<&SpotLight>, Option<&DirectionalLight>)>,
-    (mut inserted_point, mut inserted_spot, mut inserted_dir, moved): (
+    all: Query<(
+        &GlobalTransform,
+        Option<&PointLight>,
+        Option<&SpotLight>,
+        Option<&DirectionalLight>,
+        Option<&RectLight>,
+        Option<&DiskLight>,
+    )>,
+    (mut inserted_point, mut inserted_spot, mut inserted_dir, mut inserted_rect, mut inserted_disk, moved): (
         MessageReader<Inserted<PointLight>>,
         MessageReader<Inserted<SpotLight>>,
         MessageReader<Inserted<DirectionalLight>>,
+        MessageReader<Inserted<RectLight>>,
+        MessageReader<Inserted<DiskLight>>,
         Option<Res<TransformChanges>>,
     ),
-    (mut removed_point, mut removed_spot, mut removed_dir): (
+    (mut removed_point, mut removed_spot, mut removed_dir, mut removed_rect, mut removed_disk): (
         RemovedComponents<PointLight>,
         RemovedComponents<SpotLight>,
         RemovedComponents<DirectionalLight>,
+        RemovedComponents<RectLight>,
+        RemovedComponents<DiskLight>,
     ),
-    live: Query<(), Or<(With<PointLight>, With<SpotLight>, With<DirectionalLight>)>>,
+    live: Query<(), Or<(With<PointLight>, With<SpotLight>, With<DirectionalLight>, With<RectLight>, With<DiskLight>)>>,
     (mut mirror, mut slots): (ResMut<RenderMirror>, ResMut<MirrorSlots>),
     (mut checks, mut visit): (Local<EntityChecks>, Local<Vec<Entity>>),
     (settings, mut stats): (Res<RenderSettings>, ResMut<RenderStats>),
@@ -614,7 +625,8 @@ pub fn extract_lights(
     let mirror = &mut mirror.0;
     let limit = settings.limits.clamped().lights;
     visit.clear();
-    for entity in removed_point.read().chain(removed_spot.read()).chain(removed_dir.read()) {
+    let removed = removed_point.read().chain(removed_spot.read()).chain(removed_dir.read()).chain(removed_rect.read());
+    for entity in removed.chain(removed_disk.read()) {
         if live.contains(entity) {
             visit.push(entity); // one kind of light replaced by another
             continue;
@@ -629,15 +641,23 @@ pub fn extract_lights(
     visit.extend(inserted_point.read().map(|m| m.entity));
     visit.extend(inserted_spot.read().map(|m| m.entity));
     visit.extend(inserted_dir.read().map(|m| m.entity));
+    visit.extend(inserted_rect.read().map(|m| m.entity));
+    visit.extend(inserted_disk.read().map(|m| m.entity));
     finish_visits(&mut visit, moved.as_deref(), waiting.retry(mirror.lights.len(), limit));
     let mut visited = 0;
     for &entity in visit.iter() {
-        let Ok((global, point, spot, dir)) = all.get(entity) else { continue };
-        if point.is_none() && spot.is_none() && dir.is_none() {
+        let Ok((global, point, spot, dir, rect, disk)) = all.get(entity) else { continue };
+        if point.is_none() && spot.is_none() && dir.is_none() && rect.is_none() && disk.is_none() {
             continue; // a moved entity that is not a light
         }
         visited += 1;
-        let record = match validate::light_record(global.compute_matrix(), point, spot, dir) {
+        let world = global.compute_matrix();
+        let checked = if rect.is_some() || disk.is_some() {
+            validate::area_light_record(world, rect, disk)
+        } else {
+            validate::light_record(world, point, spot, dir)
+        };
+        let record = match checked {
             Ok((record, clamped)) => {
                 warned.report(entity, "light", clamped, "drawn clamped");
                 record

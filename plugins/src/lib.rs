@@ -310,6 +310,8 @@ pub fn reset_mirror(world: &mut World) {
     list_all::<engine::light::PointLight>(world);
     list_all::<engine::light::SpotLight>(world);
     list_all::<engine::light::DirectionalLight>(world);
+    list_all::<engine::light::RectLight>(world);
+    list_all::<engine::light::DiskLight>(world);
     list_all::<decal::Decal>(world);
     list_all::<particles::ParticleEmitter>(world);
 }

@@ -20,7 +20,7 @@ use std::collections::HashSet;
 use std::hash::Hash;
 
 use engine::image::{Image, MAX_IMAGE_DIMENSION};
-use engine::light::{DirectionalLight, PointLight, SpotLight};
+use engine::light::{DirectionalLight, DiskLight, PointLight, RectLight, SpotLight};
 use engine::material::Material;
 use engine::mesh::Mesh;
 use glam::{Mat4, Vec3};
@@ -145,6 +145,61 @@ pub fn light_record(
     } else {
         Err("has no light component")
     }
+}
+
+/// Checks an area light ([`RectLight`] or [`DiskLight`]; a rectangle where an entity holds both)
+/// and builds its GPU record: its size is scaled by the transform (a disk by the larger of its X
+/// and Y scales) and its range measured from its centre. A zero, negative or non-finite size is
+/// an error: such a light emits nothing.
+pub fn area_light_record(
+    world: Mat4,
+    rect: Option<&RectLight>,
+    disk: Option<&DiskLight>,
+) -> Result<(GpuLight, Option<&'static str>), &'static str> {
+    if !world.is_finite() {
+        return Err("has a non-finite transform");
+    }
+    let (color, intensity, range) = match (rect, disk) {
+        (Some(l), _) => (l.color, l.intensity, l.range),
+        (None, Some(l)) => (l.color, l.intensity, l.range),
+        (None, None) => return Err("has no light component"),
+    };
+    if !(intensity.is_finite() && intensity >= 0.0 && finite_non_negative(color)) {
+        return Err("has a NaN, infinite or negative intensity or colour");
+    }
+    if range.is_some_and(|r| r.is_nan() || r <= 0.0) {
+        return Err("has a zero, negative or NaN range");
+    }
+    let position = world.w_axis.truncate();
+    let (x, y) = (world.x_axis.truncate(), world.y_axis.truncate());
+    let normal = x.cross(y);
+    if normal.length_squared() <= 1e-12 || !normal.is_finite() {
+        return Err("has a zero or degenerate scale or rotation");
+    }
+    let direction = -normal.normalize();
+    let good = |size: f32| size.is_finite() && size > 0.0;
+    let record = match (rect, disk) {
+        (Some(l), _) => {
+            if !good(l.width) || !good(l.height) {
+                return Err("has a zero, negative or non-finite width or height");
+            }
+            let scaled = RectLight { width: l.width * x.length(), height: l.height * y.length(), ..*l };
+            let right = x.normalize() * (0.5 * scaled.width);
+            GpuLight::rect(position, direction, right, 0.5 * scaled.height, color * intensity, scaled.effective_range())
+        }
+        (None, Some(l)) => {
+            if !good(l.radius) {
+                return Err("has a zero, negative or non-finite radius");
+            }
+            let scaled = DiskLight { radius: l.radius * x.length().max(y.length()), ..*l };
+            GpuLight::disk(position, direction, x.normalize(), scaled.radius, color * intensity, scaled.effective_range())
+        }
+        (None, None) => unreachable!("returned above"),
+    };
+    if !record.range.is_finite() && range.is_none() {
+        return Err("has a size or intensity too large for a range");
+    }
+    Ok((record, None))
 }
 
 /// The largest half-angle of a directional light's disc (30°): past it a "sun" lights a
@@ -417,6 +472,32 @@ mod tests {
         let flat = Mat4::from_scale(Vec3::ZERO);
         let dir = DirectionalLight::default();
         assert!(light_record(flat, None, None, Some(&dir)).is_err(), "a zero rotation has no direction");
+    }
+
+    #[test]
+    fn area_lights_are_checked_and_scaled_by_their_transform() {
+        let at = Mat4::from_scale_rotation_translation(Vec3::new(2.0, 3.0, 1.0), glam::Quat::IDENTITY, Vec3::new(1.0, 2.0, 3.0));
+        let rect = RectLight { width: 1.0, height: 0.5, intensity: 4.0, ..Default::default() };
+        let (record, warning) = area_light_record(at, Some(&rect), None).unwrap();
+        assert_eq!(warning, None);
+        assert_eq!(record.kind, render::scene::LightKind::Rect as u32);
+        assert_eq!(record.position, Vec3::new(1.0, 2.0, 3.0));
+        assert!((record.direction - Vec3::NEG_Z).length() < 1e-6, "emits along local -Z");
+        assert!((record.area_right() - Vec3::X).length() < 1e-6, "half of 1 m scaled by 2");
+        assert!((record.size - 0.75).abs() < 1e-6, "half of 0.5 m scaled by 3");
+        let scaled = RectLight { width: 2.0, height: 1.5, ..rect };
+        assert!((record.range - scaled.effective_range()).abs() < 1e-4, "the range of the scaled light");
+        let disk = DiskLight { radius: 0.5, ..Default::default() };
+        let (record, _) = area_light_record(at, None, Some(&disk)).unwrap();
+        assert_eq!(record.kind, render::scene::LightKind::Disk as u32);
+        assert!((record.size - 1.5).abs() < 1e-6, "the larger scale");
+        for bad in [RectLight { width: 0.0, ..rect }, RectLight { height: f32::NAN, ..rect }, RectLight { intensity: -1.0, ..rect }] {
+            assert!(area_light_record(at, Some(&bad), None).is_err(), "{bad:?}");
+        }
+        assert!(area_light_record(at, None, Some(&DiskLight { radius: -1.0, ..disk })).is_err());
+        assert!(area_light_record(at, None, Some(&DiskLight { range: Some(0.0), ..disk })).is_err());
+        assert!(area_light_record(Mat4::from_scale(Vec3::new(1.0, 0.0, 1.0)), Some(&rect), None).is_err(), "flattened to a line");
+        assert!(area_light_record(at, None, None).is_err());
     }
 
     #[test]

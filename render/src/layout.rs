@@ -532,6 +532,12 @@ layout! {
     pub const LIGHT_SPOT: u32 = 2;
     /// Light kind: infinitely distant light.
     pub const LIGHT_DIRECTIONAL: u32 = 3;
+    /// Light kind: one-sided rectangle (`GpuLight::direction` its facing, the spot fields its
+    /// half-width vector, `size` its half height).
+    pub const LIGHT_RECT: u32 = 4;
+    /// Light kind: one-sided disk (`GpuLight::direction` its facing, the spot fields a unit
+    /// vector in its plane, `size` its radius).
+    pub const LIGHT_DISK: u32 = 5;
 
     /// Decal material flag: blends albedo.
     pub const DECAL_ALBEDO: u32 = 1;
@@ -1039,9 +1045,12 @@ layout! {
         pub color: Vec3,
         /// A `LIGHT_*` kind (`LightKind` in Rust).
         pub kind: u32,
-        /// Direction the light travels (spot, directional), unit length.
+        /// Direction the light travels (spot, directional), unit length; an area light's facing
+        /// (its emitting side's normal).
         pub direction: Vec3,
-        /// 1 / (cos inner − cos outer).
+        /// 1 / (cos inner − cos outer). With `spot_offset` and `cone_cos`, an area light's
+        /// axis in its plane (`GpuLight::area_right`): a rectangle's half-width vector, a unit
+        /// vector for a disk. Area lights have no cone, so the record stays 64 bytes.
         pub spot_scale: f32,
         /// −cos outer × `spot_scale`.
         pub spot_offset: f32,
@@ -1050,7 +1059,8 @@ layout! {
         /// Sine of the spot cone's outer half-angle.
         pub cone_sin: f32,
         /// The light's size (0: a point; hard shadows): its sphere's radius in metres (point,
-        /// spot), or the tangent of its disc's angular radius (directional). Ray-traced
+        /// spot), the tangent of its disc's angular radius (directional), a rectangle's half
+        /// height or a disk's radius in metres. Ray-traced
         /// shadows aim at a point of it that changes from pixel to pixel and frame to frame.
         pub size: f32,
     }

@@ -23,16 +23,20 @@ bool light_position_finite(GpuLight light) {
     return !any(isnan(light.position)) && !any(isinf(light.position));
 }
 
-// Whether the light is found through its box (point and spot lights with a finite range).
+// Whether the light has a position and reaches as far as its range from it (point, spot and
+// area lights).
+bool light_is_placed(GpuLight light) {
+    return light.kind == LIGHT_POINT || light.kind == LIGHT_SPOT || light.kind == LIGHT_RECT || light.kind == LIGHT_DISK;
+}
+
+// Whether the light is found through its box (placed lights with a finite range).
 bool light_is_boxed(GpuLight light) {
-    return (light.kind == LIGHT_POINT || light.kind == LIGHT_SPOT) && light.range > 0.0 && light.range < LIGHT_BOX_MAX_RANGE
-        && light_position_finite(light);
+    return light_is_placed(light) && light.range > 0.0 && light.range < LIGHT_BOX_MAX_RANGE && light_position_finite(light);
 }
 
 // Whether the light is looped over by every pixel.
 bool light_is_unbounded(GpuLight light) {
-    return light.kind == LIGHT_DIRECTIONAL
-        || ((light.kind == LIGHT_POINT || light.kind == LIGHT_SPOT) && !(light.range < LIGHT_BOX_MAX_RANGE) && light_position_finite(light));
+    return light.kind == LIGHT_DIRECTIONAL || (light_is_placed(light) && !(light.range < LIGHT_BOX_MAX_RANGE) && light_position_finite(light));
 }
 
 // The exact test behind a box: the light is boxed and `p` is within its range.

@@ -1,5 +1,6 @@
-// Punctual lights: point, spot and directional, with a smooth window that reaches zero at the
-// light's range (Frostbite §4.5; the range comes from eq. 4.1 of seed 001 when a light has none).
+// Lights: point, spot and directional, and the area lights of area_lights.glsl, with a smooth
+// window that reaches zero at the light's range (Frostbite §4.5; the range comes from eq. 4.1 of
+// seed 001 when a light has none).
 #ifndef LIGHTING_GLSL
 #define LIGHTING_GLSL
 
@@ -7,6 +8,7 @@
 #include "brdf.glsl"
 #include "normals.glsl"
 #include "random.glsl"
+#include "area_lights.glsl"
 
 float distance_window(float dist2, float range) {
     float f = dist2 / (range * range);
@@ -16,6 +18,8 @@ float distance_window(float dist2, float range) {
 
 // The radiance `light` brings to point `p` from direction `l` (unit, towards the light), before
 // any cosine: its colour by the distance window and the inverse square, and the spot's cone.
+// An area light counts as a point at its centre of its area × its face's cosine (what weighs
+// lights against each other, and lights particles; shade_light integrates its shape).
 vec3 light_incidence(GpuLight light, vec3 p, out vec3 l) {
     if (light.kind == LIGHT_DIRECTIONAL) {
         l = -light.direction;
@@ -25,7 +29,9 @@ vec3 light_incidence(GpuLight light, vec3 p, out vec3 l) {
     float dist2 = dot(to_light, to_light);
     l = to_light * inversesqrt(max(dist2, 1e-8));
     float attenuation = distance_window(dist2, light.range) / max(dist2, 1e-4);
-    if (light.kind == LIGHT_SPOT) {
+    if (is_area_light(light)) {
+        attenuation *= area_of(light) * max(dot(light.direction, -l), 0.0);
+    } else if (light.kind == LIGHT_SPOT) {
         float cd = dot(light.direction, -l);
         float a = clamp(cd * light.spot_scale + light.spot_offset, 0.0, 1.0);
         attenuation *= a * a;
@@ -35,6 +41,11 @@ vec3 light_incidence(GpuLight light, vec3 p, out vec3 l) {
 
 // Radiance reflected towards v from one light.
 vec3 shade_light(GpuLight light, SurfaceBrdf s, vec3 p, vec3 n, vec3 v) {
+    if (is_area_light(light)) {
+        vec3 d = light.position - p;
+        float window = distance_window(dot(d, d), light.range);
+        return window > 0.0 && area_faces(light, p) ? area_light_brdf(light, s, p, n, v) * window : vec3(0.0);
+    }
     vec3 l;
     vec3 incident = light_incidence(light, p, l);
     if (all(lessThanEqual(incident, vec3(0.0)))) return vec3(0.0);
@@ -57,6 +68,7 @@ bool shadow_ray_towards(GpuLight light, vec3 p, out vec3 dir, out float tmax) {
     float d = sqrt(d2);
     dir = to / d;
     tmax = d;
+    if (is_area_light(light)) return area_faces(light, p);
     return light.kind != LIGHT_SPOT || dot(light.direction, -dir) * light.spot_scale + light.spot_offset > 0.0;
 }
 
@@ -67,9 +79,17 @@ bool shadow_ray_towards(GpuLight light, vec3 p, out vec3 dir, out float tmax) {
 // the directional light's disc (angular radius atan(size)). Averaged over many `u`, the shadow
 // rays' visibility is the share of the light p sees (each direction weighted alike, the cosine
 // across the light's small cone ignored): the penumbra. A point inside the sphere sees it all.
+// An area light's ray aims at a point spread uniformly over its face (each point of the face
+// weighted alike).
 bool shadow_ray_sampled(GpuLight light, vec3 p, vec2 u, out vec3 dir, out float tmax) {
     if (!shadow_ray_towards(light, p, dir, tmax)) return false;
     if (!(light.size > 0.0) || scene.camera.camera.taa_frame == 0u) return true;
+    if (is_area_light(light)) {
+        vec3 to = area_sample(light, u) - p;
+        tmax = length(to);
+        dir = to / max(tmax, 1e-8);
+        return tmax > 0.0;
+    }
     float cos_max;
     if (light.kind == LIGHT_DIRECTIONAL) {
         cos_max = inversesqrt(1.0 + light.size * light.size);

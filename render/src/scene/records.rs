@@ -52,6 +52,10 @@ pub enum LightKind {
     Spot = crate::layout::LIGHT_SPOT,
     /// Infinitely distant light.
     Directional = crate::layout::LIGHT_DIRECTIONAL,
+    /// One-sided rectangular area light.
+    Rect = crate::layout::LIGHT_RECT,
+    /// One-sided disk-shaped area light.
+    Disk = crate::layout::LIGHT_DISK,
 }
 
 impl GpuLight {
@@ -83,6 +87,34 @@ impl GpuLight {
     /// radius's tangent); a negative or non-finite size counts as 0.
     pub fn with_size(self, size: f32) -> Self {
         Self { size: if size.is_finite() { size.max(0.0) } else { 0.0 }, ..self }
+    }
+
+    /// A one-sided rectangle centred on `position`, emitting along `direction` (its normal),
+    /// with `right` its half-width vector (in its plane) and `half_height` the half of its other
+    /// side, of radiance `color` (colour × luminance) and culling `range` from its centre.
+    pub fn rect(position: Vec3, direction: Vec3, right: Vec3, half_height: f32, color: Vec3, range: f32) -> Self {
+        let direction = direction.normalize_or(Vec3::NEG_Z);
+        // In the plane, whatever rounding left of the normal.
+        let right = right - direction * direction.dot(right);
+        Self { position, range, color, kind: LightKind::Rect as u32, direction, size: half_height, ..Self::zeroed() }.with_right(right)
+    }
+
+    /// A one-sided disk of `radius` centred on `position`, emitting along `direction`, with
+    /// `axis` a direction in its plane (where its polygon starts), as [`GpuLight::rect`].
+    pub fn disk(position: Vec3, direction: Vec3, axis: Vec3, radius: f32, color: Vec3, range: f32) -> Self {
+        let direction = direction.normalize_or(Vec3::NEG_Z);
+        let axis = (axis - direction * direction.dot(axis)).try_normalize().unwrap_or_else(|| direction.any_orthonormal_vector());
+        Self { position, range, color, kind: LightKind::Disk as u32, direction, size: radius, ..Self::zeroed() }.with_right(axis)
+    }
+
+    /// An area light's axis in its plane (the spot fields): a rectangle's half-width vector, a
+    /// unit vector for a disk.
+    pub fn area_right(&self) -> Vec3 {
+        Vec3::new(self.spot_scale, self.spot_offset, self.cone_cos)
+    }
+
+    fn with_right(self, right: Vec3) -> Self {
+        Self { spot_scale: right.x, spot_offset: right.y, cone_cos: right.z, ..self }
     }
 
     /// A directional light travelling along `direction`.

@@ -144,13 +144,13 @@ fn ground_shadows(app: &mut App, view: &TopDownView, expect: impl Fn(Vec3) -> Op
 }
 
 #[test]
-/// Traced on the ray-tracing tiers, shadow-mapped without ray tracing: the same
+/// Traced on the ray-tracing tiers (area lights too), shadow-mapped without ray tracing: the same
 /// classification away from the outline (1 pixel for rays, 2 for the 256² maps, whose texels
 /// are 1 to 2 pixels here: a spot light's 137° cone from 3.5 m).
 fn a_floating_box_casts_its_analytic_shadow_from_every_kind_of_light_on_every_tier() {
     let (lo, hi) = (Vec3::new(-0.5, 0.4, -0.5), Vec3::new(0.5, 1.4, 0.5));
     type SpawnLight = Box<dyn Fn(&mut World) -> Entity>;
-    let lights: [(&str, SpawnLight, Vec3); 3] = [
+    let lights: [(&str, SpawnLight, Vec3); 4] = [
         (
             "point",
             Box::new(|w: &mut World| {
@@ -180,6 +180,18 @@ fn a_floating_box_casts_its_analytic_shadow_from_every_kind_of_light_on_every_ti
             }),
             Vec3::ZERO,
         ),
+        (
+            // Without temporal anti-aliasing an area light's rays aim at its centre.
+            "rect",
+            Box::new(|w: &mut World| {
+                w.spawn((
+                    RectLight { intensity: 30.0, width: 0.6, height: 0.4, range: Some(30.0), ..Default::default() },
+                    Transform::from_xyz(0.5, 3.0, -0.6).looking_at(Vec3::new(0.2, 0.0, -0.3), Vec3::Z),
+                ))
+                .id()
+            }),
+            Vec3::new(0.5, 3.0, -0.6),
+        ),
     ];
     let view = TopDownView::new(6.0, SIZE);
     for tier in [Tier::RayQuery, Tier::RayTracingPipeline, Tier::NoRayTracing] {
@@ -190,6 +202,9 @@ fn a_floating_box_casts_its_analytic_shadow_from_every_kind_of_light_on_every_ti
         app.world.spawn((MeshInstance { mesh: cube, material: grey }, Transform::from_translation((lo + hi) * 0.5)));
         view.spawn(&mut app.world);
         for (name, spawn, at) in &lights {
+            if *name == "rect" && tier == Tier::NoRayTracing {
+                continue; // shadow maps do not cover area lights
+            }
             let light = spawn(&mut app.world);
             let direction = app.world.get::<Transform>(light).unwrap().forward();
             let (got, expected) = ground_shadows(&mut app, &view, |p| {
@@ -819,9 +834,25 @@ fn cone_visibility(p: Vec3, centre: Option<Vec3>, towards: Vec3, size: f32, lo: 
     seen as f32 / (N * N) as f32
 }
 
+/// The share of a rectangle light's face (centre `at`, half-side vectors `x` and `y`) that a
+/// ground point `p` sees past the box `[lo, hi]`, each point of the face weighted alike (as its
+/// shadow rays spread), on a 48 × 48 grid.
+fn rect_visibility(p: Vec3, at: Vec3, x: Vec3, y: Vec3, lo: Vec3, hi: Vec3) -> f32 {
+    const N: u32 = 48;
+    let mut seen = 0;
+    for i in 0..N {
+        for j in 0..N {
+            let q = at + x * ((i as f32 + 0.5) / N as f32 * 2.0 - 1.0) + y * ((j as f32 + 0.5) / N as f32 * 2.0 - 1.0);
+            seen += u32::from(ray_box(p, (q - p).normalize(), lo, hi, q.distance(p)).is_none());
+        }
+    }
+    seen as f32 / (N * N) as f32
+}
+
 #[test]
-/// Lights with a size cast soft shadows (issue 52): a sphere light 0.8 m across and a sun 30°
-/// across, over a plate's straight edge, on both ray-tracing tiers and from shadow maps, with
+/// Lights with a size cast soft shadows (issue 52): a sphere light 0.8 m across, a rectangle
+/// light 0.8 m square (ray-traced tiers only: shadow maps do not cover area lights) and a sun
+/// 30° across, over a plate's straight edge, on both ray-tracing tiers and from shadow maps, with
 /// temporal anti-aliasing asked for (so each frame's rays aim at new points of the light). The
 /// shadow debug view shows each frame's rays; over 8 frames, the lit share of every 2-column
 /// band across the penumbra is within 0.07 of the CPU's integration of the same cone (about
@@ -848,9 +879,19 @@ fn a_light_with_a_size_casts_the_penumbra_its_size_predicts() {
         let plate = mesh(&mut app, shapes::cuboid(hi - lo, 1.0));
         app.world.spawn((MeshInstance { mesh: plate, material: grey }, Transform::from_translation((lo + hi) * 0.5)));
         view.spawn(&mut app.world);
-        let lights: [(&str, Option<Vec3>, f32); 2] = [("sphere", Some(sphere), 0.4), ("sun", None, 15f32.to_radians().tan())];
+        let lights: [(&str, Option<Vec3>, f32); 3] =
+            [("sphere", Some(sphere), 0.4), ("rect", Some(sphere), 0.4), ("sun", None, 15f32.to_radians().tan())];
+        // The rectangle faces the plate's edge.
+        let rect_at = Transform::from_translation(sphere).looking_at(Vec3::new(-0.3, 0.6, 0.0), Vec3::Z);
         for (name, centre, size) in lights {
+            if name == "rect" && tier == Tier::NoRayTracing {
+                continue;
+            }
             let light = match centre {
+                Some(_) if name == "rect" => app.world.spawn((
+                    RectLight { intensity: 40.0, range: Some(30.0), width: 2.0 * size, height: 2.0 * size, ..Default::default() },
+                    rect_at,
+                )),
                 Some(at) => app.world.spawn((
                     PointLight { intensity: 40.0, range: Some(30.0), radius: size, ..Default::default() },
                     Transform::from_translation(at),
@@ -884,7 +925,10 @@ fn a_light_with_a_size_casts_the_penumbra_its_size_predicts() {
                 bands[(i as u32 % SIZE.0) as usize / 2].push((
                     share,
                     f32::from(u8::from(once)),
-                    cone_visibility(p, centre, sun, size, lo, hi),
+                    match name {
+                        "rect" => rect_visibility(p, sphere, rect_at.rotation * Vec3::X * size, rect_at.rotation * Vec3::Y * size, lo, hi),
+                        _ => cone_visibility(p, centre, sun, size, lo, hi),
+                    },
                 ));
             }
             let (mut errors, mut spread, mut spread_once) = (Vec::new(), Vec::new(), Vec::new());
