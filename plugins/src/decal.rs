@@ -82,6 +82,17 @@ pub struct DecalMaterial {
     pub emissive: Option<Vec3>,
     /// Optional emissive texture (rgb; sRGB images are decoded as colours).
     pub emissive_texture: Option<Handle<Image>>,
+    /// Whether a decal of this material that emits also lights the scene (issue 52, item 3): a
+    /// one-sided rectangle light on its box's face, looking out of the surface (its +Z), of the
+    /// radiance it shows on average: `emissive` × the emissive texture's mean × the coverage's
+    /// mean (`base_color`'s alpha × its texture's) × the decal's opacity, so that it sends the
+    /// power it emits. It is then shaded, culled, shadowed and sampled as a
+    /// [`engine::light::RectLight`], and counts against the light limit. Off by default: a
+    /// light costs what any light costs, and small embers light little. Decals on a skin, and
+    /// decals that particles leave, do not light (their place is known on the GPU only); a
+    /// lifetime's fade does not dim the light, which goes with the decal. Changing the material
+    /// reaches the light when the decal is next visited (moved or re-inserted).
+    pub emits_light: bool,
 }
 
 impl DecalMaterial {
@@ -103,6 +114,7 @@ impl Default for DecalMaterial {
             metallic_roughness_texture: None,
             emissive: None,
             emissive_texture: None,
+            emits_light: false,
         }
     }
 }
@@ -377,6 +389,17 @@ pub(crate) fn decal_desc(decal: &Decal, decal_to_world: Mat4, material: u32, lif
 }
 
 /// The GPU record of a decal material, with texture handles resolved to bindless slots.
+/// The radiance an emitting decal of material `m` and `opacity` shows on average over its box's
+/// face, for its light ([`DecalMaterial::emits_light`]): `None` unless the material asks for a
+/// light and emits. A texture that is missing or block-compressed counts by its factor alone.
+pub(crate) fn decal_light_radiance(m: &DecalMaterial, opacity: f32, images: &engine::asset::Assets<Image>) -> Option<Vec3> {
+    let emissive = m.emissive.filter(|_| m.emits_light)?;
+    let mean = |h: Option<Handle<Image>>| h.and_then(|h| images.get(h)).and_then(Image::mean_color).map_or(Vec4::ONE, Vec4::from_array);
+    let coverage = m.base_color.map_or(1.0, |c| c.w) * mean(m.base_color_texture).w;
+    let radiance = emissive * mean(m.emissive_texture).truncate() * coverage * opacity;
+    (radiance.is_finite() && radiance.max_element() > 0.0).then_some(radiance)
+}
+
 pub(crate) fn gpu_decal_material(m: &DecalMaterial, texture: impl Fn(Option<Handle<Image>>, u32) -> u32) -> GpuDecalMaterial {
     let mut flags = 0;
     if m.base_color.is_some() {

@@ -24,8 +24,8 @@ use engine::transform::{GlobalTransform, TransformChanges};
 use glam::{Mat4, Vec2, Vec3};
 use render::scene::poses::PoseSet;
 use render::scene::{
-    DrawItem, GpuCamera, GpuInstance, GpuMaterial, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, MeshId, SceneMirror,
-    TEXTURE_FLAT_NORMAL, TEXTURE_WHITE, TextureData,
+    DrawItem, GpuCamera, GpuInstance, GpuLight, GpuMaterial, MATERIAL_ALPHA_MASK, MATERIAL_BLEND, MATERIAL_DOUBLE_SIDED, MeshId,
+    SceneMirror, TEXTURE_FLAT_NORMAL, TEXTURE_WHITE, TextureData,
 };
 use std::collections::HashMap;
 
@@ -42,6 +42,8 @@ pub struct MirrorSlots {
     instances: EntityHashMap<u32>,
     lights: EntityHashMap<u32>,
     decals: EntityHashMap<u32>,
+    /// The light slots of emitting decals (`DecalMaterial::emits_light`).
+    decal_lights: EntityHashMap<u32>,
     decal_materials: HashMap<Handle<DecalMaterial>, u32>,
     /// Particle emitters (`crate::particles`).
     pub(crate) emitters: EntityHashMap<u32>,
@@ -805,12 +807,14 @@ pub fn extract_decals(
     mut removed: RemovedComponents<Decal>,
     live: Query<(), With<Decal>>,
     (mut mirror, mut slots): (ResMut<RenderMirror>, ResMut<MirrorSlots>),
+    (materials, images): (Res<Assets<DecalMaterial>>, Res<Assets<Image>>),
     (mut checks, mut visit): (Local<EntityChecks>, Local<Vec<Entity>>),
     (settings, mut stats): (Res<RenderSettings>, ResMut<RenderStats>),
 ) {
     let EntityChecks { warned, waiting } = &mut *checks;
     let mirror = &mut mirror.0;
     let limit = settings.limits.clamped().decals;
+    let light_limit = settings.limits.clamped().lights;
     for entity in removed.read() {
         if live.contains(entity) {
             continue;
@@ -821,6 +825,7 @@ pub fn extract_decals(
             mirror.decals.remove(slot);
             mirror.records_written += 1;
         }
+        set_decal_light(mirror, &mut slots.decal_lights, entity, None, light_limit);
     }
     // One visit per changed decal, however many lists name it.
     visit.clear();
@@ -837,9 +842,11 @@ pub fn extract_decals(
                 mirror.decals.remove(slot);
                 mirror.records_written += 1;
             }
+            set_decal_light(mirror, &mut slots.decal_lights, entity, None, light_limit);
             continue;
         };
-        let mut desc = decal_desc(decal, global.compute_matrix(), material, lifetimes.fade_window(entity));
+        let world = global.compute_matrix();
+        let mut desc = decal_desc(decal, world, material, lifetimes.fade_window(entity));
         // On a skin: its parent's instance slot, when the parent is a posed (skinned) instance.
         let skin = parent.map(|p| p.parent()).filter(|p| slots.posed.contains_key(p)).and_then(|p| slots.instances.get(&p).copied());
         desc.on_skin = skin.filter(|_| decal.on_skin);
@@ -858,6 +865,13 @@ pub fn extract_decals(
             desc.angle_fade = None;
         }
         warned.report(entity, "decal", problem, if invalid { "not drawn until it is fixed" } else { "drawn in the world" });
+        // An emitting decal in the world is a light too.
+        let light = (!invalid && !decal.on_skin)
+            .then(|| materials.get(decal.material))
+            .flatten()
+            .and_then(|m| crate::decal::decal_light_radiance(m, decal.opacity, &images))
+            .and_then(|radiance| validate::decal_light_record(world, radiance));
+        set_decal_light(mirror, &mut slots.decal_lights, entity, light, light_limit);
         let slot = slots.decals.get(&entity).copied();
         if slot.is_none() && !waiting.admit(entity, mirror.decals.len(), limit, "decal") {
             continue;
@@ -870,6 +884,24 @@ pub fn extract_decals(
     }
     stats.visited.decals = visited;
     stats.over_limit.decals = waiting.len();
+}
+
+/// Writes, moves or frees the light of an emitting decal (`light`: its record, `None` for no
+/// light). A new light waits while the light table is at its limit (it is tried again when the
+/// decal is next visited).
+fn set_decal_light(mirror: &mut SceneMirror, slots: &mut EntityHashMap<u32>, entity: Entity, light: Option<GpuLight>, limit: u32) {
+    match (light, slots.get(&entity).copied()) {
+        (Some(record), slot) if slot.is_some() || mirror.lights.len() < limit as usize => {
+            let written = SceneMirror::write(&mut mirror.records_written, &mut mirror.lights, slot, record);
+            slots.insert(entity, written);
+        }
+        (None, Some(slot)) => {
+            mirror.lights.remove(slot);
+            mirror.records_written += 1;
+            slots.remove(&entity);
+        }
+        _ => {}
+    }
 }
 
 /// Hands the [`engine::environment::Environment`] resource to the renderer when it changes (or

@@ -176,7 +176,8 @@ pub fn area_light_record(
     if normal.length_squared() <= 1e-12 || !normal.is_finite() {
         return Err("has a zero or degenerate scale or rotation");
     }
-    let direction = -normal.normalize();
+    // Local −Z in the world, also under a mirroring scale (which turns x × y against z).
+    let direction = -normal.normalize() * if normal.dot(world.z_axis.truncate()) < 0.0 { -1.0 } else { 1.0 };
     let good = |size: f32| size.is_finite() && size > 0.0;
     let record = match (rect, disk) {
         (Some(l), _) => {
@@ -196,10 +197,30 @@ pub fn area_light_record(
         }
         (None, None) => unreachable!("returned above"),
     };
-    if !record.range.is_finite() && range.is_none() {
-        return Err("has a size or intensity too large for a range");
+    let scaled_size = record.area_right().length() * record.size;
+    if !scaled_size.is_finite() || (range.is_none() && !(intensity * scaled_size).is_finite()) {
+        return Err("has a size or intensity too large to light by");
     }
     Ok((record, None))
+}
+
+/// The rectangle light an emitting decal makes ([`crate::decal::DecalMaterial::emits_light`]):
+/// its box's face at the box's centre, lifted off the surface by 1 % of its shorter side (at
+/// least a millimetre) so that the surface it sits on is behind it, looking along the box's +Z,
+/// of radiance `radiance`. `None` when it emits nothing or its box is degenerate.
+pub fn decal_light_record(world: Mat4, radiance: Vec3) -> Option<GpuLight> {
+    if !radiance.is_finite() || radiance.max_element() <= 0.0 {
+        return None;
+    }
+    let (x, y, z) = (world.x_axis.truncate().length(), world.y_axis.truncate().length(), world.z_axis.truncate().length());
+    if z <= 0.0 || !z.is_finite() {
+        return None;
+    }
+    let lift = (0.01 * x.min(y)).max(1e-3) / z;
+    // Turned half a turn about Y: the light's -Z (where it emits) is the box's +Z.
+    let light = world * Mat4::from_translation(Vec3::Z * lift) * Mat4::from_rotation_y(std::f32::consts::PI);
+    let rect = RectLight { color: radiance, intensity: 1.0, width: 1.0, height: 1.0, range: None };
+    area_light_record(light, Some(&rect), None).ok().map(|(record, _)| record)
 }
 
 /// The largest half-angle of a directional light's disc (30°): past it a "sun" lights a
@@ -498,6 +519,29 @@ mod tests {
         assert!(area_light_record(at, None, Some(&DiskLight { range: Some(0.0), ..disk })).is_err());
         assert!(area_light_record(Mat4::from_scale(Vec3::new(1.0, 0.0, 1.0)), Some(&rect), None).is_err(), "flattened to a line");
         assert!(area_light_record(at, None, None).is_err());
+        let mirrored = Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));
+        let (record, _) = area_light_record(mirrored, Some(&rect), None).unwrap();
+        assert!((record.direction - Vec3::NEG_Z).length() < 1e-6, "a mirroring scale keeps local -Z: {}", record.direction);
+        let huge = RectLight { width: 1e30, height: 1e30, ..rect };
+        assert!(area_light_record(at, Some(&huge), None).is_err(), "too large to light by");
+    }
+
+    #[test]
+    fn an_emitting_decal_lights_out_of_its_surface_from_its_face() {
+        // A 0.4 × 0.2 m decal on a wall facing +X (the box's +Z turned to +X), 0.1 m deep.
+        let wall = Mat4::from_scale_rotation_translation(
+            Vec3::new(0.4, 0.2, 0.1),
+            glam::Quat::from_rotation_y(std::f32::consts::FRAC_PI_2),
+            Vec3::new(2.0, 1.0, 0.0),
+        );
+        let record = decal_light_record(wall, Vec3::new(3.0, 2.0, 1.0)).expect("an emitting decal is a light");
+        assert_eq!(record.kind, render::scene::LightKind::Rect as u32);
+        assert!((record.direction - Vec3::X).length() < 1e-5, "looks out of the wall: {}", record.direction);
+        assert!((record.position - Vec3::new(2.002, 1.0, 0.0)).length() < 1e-5, "lifted 1 % of 0.2 m: {}", record.position);
+        assert!((record.area_right().length() - 0.2).abs() < 1e-5 && (record.size - 0.1).abs() < 1e-5, "the box's face");
+        assert_eq!(record.color, Vec3::new(3.0, 2.0, 1.0));
+        assert!(decal_light_record(wall, Vec3::ZERO).is_none(), "a dark decal is no light");
+        assert!(decal_light_record(Mat4::from_scale(Vec3::new(1.0, 1.0, 0.0)), Vec3::ONE).is_none(), "a flat box");
     }
 
     #[test]

@@ -617,6 +617,7 @@ pub fn decal_material(set: &DecalTextureSet, world: &mut World) -> DecalMaterial
         roughness: mr.map(|_| 1.0),
         metallic: None,
         metallic_roughness_texture: mr,
+        emits_light: false,
     }
 }
 

@@ -53,7 +53,16 @@ vec3 area_point(GpuLight light, vec2 uv) {
     return light.position + right * uv.x + area_up(light) * uv.y;
 }
 
+// Where a shadow ray to a point of the light's face at distance `d` stops: just short of it, so
+// that the ceiling or wall a panel is mounted flush on does not block it (a mesh placed at the
+// light itself, in front of its face, still does).
+float area_ray_end(float d) {
+    return d - max(1e-3, 1e-4 * d);
+}
+
 // A point spread uniformly over the light's face by `u` in [0, 1)² (the soft shadows' rays).
+// The rays sample the whole face, also a part below the receiver's horizon (shading clips it
+// away): a ray there is blocked by the receiver, so such a light's shadow is a little darker.
 vec3 area_sample(GpuLight light, vec2 u) {
     if (light.kind == LIGHT_RECT) return area_point(light, u * 2.0 - 1.0);
     float r = sqrt(u.x), phi = 2.0 * PI * u.y;

@@ -18,8 +18,9 @@ float distance_window(float dist2, float range) {
 
 // The radiance `light` brings to point `p` from direction `l` (unit, towards the light), before
 // any cosine: its colour by the distance window and the inverse square, and the spot's cone.
-// An area light counts as a point at its centre of its area × its face's cosine (what weighs
-// lights against each other, and lights particles; shade_light integrates its shape).
+// An area light counts as a point at its centre of its area × its face's cosine, up to π
+// (what weighs lights against each other, and lights particles; shade_light integrates its
+// shape).
 vec3 light_incidence(GpuLight light, vec3 p, out vec3 l) {
     if (light.kind == LIGHT_DIRECTIONAL) {
         l = -light.direction;
@@ -28,10 +29,13 @@ vec3 light_incidence(GpuLight light, vec3 p, out vec3 l) {
     vec3 to_light = light.position - p;
     float dist2 = dot(to_light, to_light);
     l = to_light * inversesqrt(max(dist2, 1e-8));
-    float attenuation = distance_window(dist2, light.range) / max(dist2, 1e-4);
     if (is_area_light(light)) {
-        attenuation *= area_of(light) * max(dot(light.direction, -l), 0.0);
-    } else if (light.kind == LIGHT_SPOT) {
+        // The face's solid angle, at most a hemisphere's worth of cosine (π) right at the face.
+        return light.color * distance_window(dist2, light.range)
+            * min(area_of(light) * max(dot(light.direction, -l), 0.0) / max(dist2, 1e-8), PI);
+    }
+    float attenuation = distance_window(dist2, light.range) / max(dist2, 1e-4);
+    if (light.kind == LIGHT_SPOT) {
         float cd = dot(light.direction, -l);
         float a = clamp(cd * light.spot_scale + light.spot_offset, 0.0, 1.0);
         attenuation *= a * a;
@@ -68,7 +72,10 @@ bool shadow_ray_towards(GpuLight light, vec3 p, out vec3 dir, out float tmax) {
     float d = sqrt(d2);
     dir = to / d;
     tmax = d;
-    if (is_area_light(light)) return area_faces(light, p);
+    if (is_area_light(light)) {
+        tmax = area_ray_end(tmax);
+        return area_faces(light, p);
+    }
     return light.kind != LIGHT_SPOT || dot(light.direction, -dir) * light.spot_scale + light.spot_offset > 0.0;
 }
 
@@ -86,8 +93,9 @@ bool shadow_ray_sampled(GpuLight light, vec3 p, vec2 u, out vec3 dir, out float 
     if (!(light.size > 0.0) || scene.camera.camera.taa_frame == 0u) return true;
     if (is_area_light(light)) {
         vec3 to = area_sample(light, u) - p;
-        tmax = length(to);
-        dir = to / max(tmax, 1e-8);
+        float d = length(to);
+        dir = to / max(d, 1e-8);
+        tmax = area_ray_end(d);
         return tmax > 0.0;
     }
     float cos_max;

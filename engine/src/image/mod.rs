@@ -270,6 +270,30 @@ impl Image {
     pub fn mip_size(&self, level: u32) -> (u32, u32) {
         mip_size(self.width, self.height, level)
     }
+
+    /// The mean of the texels as linear RGBA (sRGB channels decoded), taken over the smallest
+    /// level held (the mean of the whole when the chain is complete, as its levels are box
+    /// filtered); `None` for block-compressed texels.
+    pub fn mean_color(&self) -> Option<[f32; 4]> {
+        let level = self.mips.len().checked_sub(1)?;
+        if self.format != TexelFormat::Rgba8 {
+            return None;
+        }
+        let texels = &self.mips[level];
+        let count = texels.len() / 4;
+        if count == 0 {
+            return None;
+        }
+        let decode = mips::srgb_tables();
+        let mut sum = [0.0f64; 4];
+        for texel in texels.chunks_exact(4) {
+            for (c, &v) in texel.iter().enumerate() {
+                let linear = if c < 3 && self.color_space == ColorSpace::Srgb { decode.decode[v as usize] } else { v as f32 / 255.0 };
+                sum[c] += f64::from(linear);
+            }
+        }
+        Some(sum.map(|s| (s / count as f64) as f32))
+    }
 }
 
 /// The limits every decode runs under (see [`MAX_IMAGE_DIMENSION`], [`MAX_DECODE_BYTES`]).
@@ -281,6 +305,18 @@ fn mip_size(width: u32, height: u32, level: u32) -> (u32, u32) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_mean_colour_is_linear_and_compressed_images_have_none() {
+        let image = Image::from_rgba8(2, 1, vec![255, 0, 0, 255, 0, 0, 0, 0], ColorSpace::Srgb).unwrap();
+        let mean = image.mean_color().unwrap();
+        // The 1×1 level: the mean in linear light, stored in 8 bits.
+        assert!((mean[0] - 0.5).abs() < 0.01 && mean[1] == 0.0 && (mean[3] - 0.5).abs() < 0.01, "{mean:?}");
+        let grey = Image::solid([188, 188, 188, 255], ColorSpace::Srgb).mean_color().unwrap();
+        assert!((grey[0] - 0.5029).abs() < 1e-3, "sRGB 188 is about half in linear: {}", grey[0]);
+        let block = Image::from_blocks(4, 4, ColorSpace::Srgb, TexelFormat::Bc1, vec![vec![0; 8], vec![0; 8], vec![0; 8]]).unwrap();
+        assert!(block.mean_color().is_none());
+    }
 
     #[test]
     fn block_compressed_levels_are_checked_against_their_size() {
