@@ -21,7 +21,7 @@ use anyhow::{Result, bail};
 use bevy_ecs::prelude::*;
 use engine::asset::{Assets, Handle};
 
-use engine::light::{DirectionalLight, PointLight, SpotLight};
+use engine::light::{DirectionalLight, DiskLight, PointLight, RectLight, SpotLight};
 use engine::transform::{Static, Transform};
 use glam::{Quat, Vec3};
 use plugins::decal::{Decal, DecalMaterial};
@@ -57,6 +57,10 @@ pub enum BenchScene {
     /// The particles issue's fountain: the courtyard with an emitter keeping `--particles`
     /// particles alive, bouncing on the ground ([`crate::effects::fountain`]).
     Particles,
+    /// Issue 52's dark corridor: glowing sigils on its walls that light it
+    /// (`DecalMaterial::emits_light`), a rectangle light on its ceiling and a disk lamp at its
+    /// end, and nothing else ([`spawn_corridor`]).
+    Corridor,
 }
 
 impl BenchScene {
@@ -74,8 +78,9 @@ impl BenchScene {
             "foxes" => BenchScene::Foxes,
             "crowd" => BenchScene::Crowd,
             "particles" => BenchScene::Particles,
+            "corridor" => BenchScene::Corridor,
             _ => bail!(
-                "unknown bench scene {name:?} (few-blended-decals, decals-and-lights, many-decals, ten-point-lights, many-lights, transparency, many-instances, behind-wall, foxes, crowd, particles)"
+                "unknown bench scene {name:?} (few-blended-decals, decals-and-lights, many-decals, ten-point-lights, many-lights, transparency, many-instances, behind-wall, foxes, crowd, particles, corridor)"
             ),
         })
     }
@@ -116,6 +121,7 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
             return;
         }
         BenchScene::Particles => return spawn_particles(world, PARTICLES, false),
+        BenchScene::Corridor => return spawn_corridor(world),
         _ => {}
     }
     let info = spawn_courtyard(world);
@@ -208,7 +214,12 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
             world.spawn_batch(batch);
         }
         BenchScene::Transparency => unreachable!("spawned above"),
-        BenchScene::ManyInstances | BenchScene::BehindWall | BenchScene::Foxes | BenchScene::Crowd | BenchScene::Particles => {
+        BenchScene::ManyInstances
+        | BenchScene::BehindWall
+        | BenchScene::Foxes
+        | BenchScene::Crowd
+        | BenchScene::Particles
+        | BenchScene::Corridor => {
             unreachable!("spawned above")
         }
     }
@@ -379,6 +390,73 @@ pub fn spawn_behind_wall(world: &mut World, boxes: usize) {
         Transform::default().looking_at(Vec3::new(0.3, -1.0, -0.4), Vec3::Z),
     ));
     world.spawn((Camera::default(), Transform::from_xyz(0.0, 1.7, 0.0).looking_at(Vec3::new(0.0, 1.5, -10.0), Vec3::Y)));
+}
+
+/// Issue 52's dark corridor, 3 m wide, 3 m high and 24 m long down −Z: eight glowing sigils on
+/// its walls that light it (their material's `emits_light`), a 1.2 × 0.4 m rectangle light on its
+/// ceiling halfway down and a 0.5 m disk lamp on its end wall; no sun, no sky (the environment
+/// resource's source is set to none) and no flat ambient. The camera stands at its open end, at
+/// eye height.
+pub fn spawn_corridor(world: &mut World) {
+    use engine::camera::Camera;
+    use engine::material::Material;
+    use engine::mesh::{Mesh, shapes};
+    use engine::scene::MeshInstance;
+
+    let (length, width, height) = (24.0f32, 3.0f32, 3.0f32);
+    let (floor, side, end) = {
+        let mut meshes = world.resource_mut::<Assets<Mesh>>();
+        (
+            meshes.add(shapes::cuboid(Vec3::new(width + 0.4, 0.2, length), 1.0)),
+            meshes.add(shapes::cuboid(Vec3::new(0.2, height, length), 1.0)),
+            meshes.add(shapes::cuboid(Vec3::new(width + 0.4, height, 0.2), 1.0)),
+        )
+    };
+    let stone = world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec3::new(0.55, 0.5, 0.45).extend(1.0), 0.0, 0.6));
+    let middle = -length / 2.0;
+    let pieces = [
+        (floor, Vec3::new(0.0, -0.1, middle)),
+        (floor, Vec3::new(0.0, height + 0.1, middle)),
+        (side, Vec3::new(-(width / 2.0 + 0.1), height / 2.0, middle)),
+        (side, Vec3::new(width / 2.0 + 0.1, height / 2.0, middle)),
+        (end, Vec3::new(0.0, height / 2.0, -length - 0.1)),
+    ];
+    world.spawn_batch(pieces.map(|(mesh, at)| (MeshInstance { mesh, material: stone }, Transform::from_translation(at), Static)));
+    let sigil = {
+        let mut m = decal_textures::decal_material(&decal_textures::sigil(), world);
+        // Brighter than the courtyard's sigils: lamps, not marks.
+        m.emissive = Some(Vec3::splat(12.0));
+        m.emits_light = true;
+        world.resource_mut::<Assets<DecalMaterial>>().add(m)
+    };
+    // On the walls at 1.4 m, alternating sides, each projecting into its wall.
+    let sigils = (0..8).map(|i| {
+        let left = i % 2 == 0;
+        let x = if left { -width / 2.0 } else { width / 2.0 };
+        // The box's +Z out of the wall: it projects into it.
+        let yaw = if left { std::f32::consts::FRAC_PI_2 } else { -std::f32::consts::FRAC_PI_2 };
+        let at = Transform::from_xyz(x, 1.4, -2.5 - i as f32 * 2.5)
+            .with_rotation(Quat::from_rotation_y(yaw))
+            .with_scale(Vec3::new(0.9, 0.9, 0.3));
+        (Decal::new(sigil), at)
+    });
+    world.spawn_batch(sigils.collect::<Vec<_>>());
+    world.spawn((
+        RectLight { color: Vec3::new(1.0, 0.9, 0.7), intensity: 3.0, width: 1.2, height: 0.4, range: None },
+        Transform::from_xyz(0.0, height - 0.01, middle).looking_at(Vec3::new(0.0, 0.0, middle), Vec3::Z),
+    ));
+    world.spawn((
+        DiskLight { color: Vec3::new(0.6, 0.8, 1.0), intensity: 8.0, radius: 0.25, range: None },
+        Transform::from_xyz(0.0, 2.2, -length + 0.01).looking_at(Vec3::new(0.0, 2.2, 0.0), Vec3::Y),
+    ));
+    world.spawn((Camera::default(), Transform::from_xyz(0.6, 1.6, 1.5).looking_at(Vec3::new(0.0, 1.2, -12.0), Vec3::Y)));
+    // Dark but for its own lights: no sky through the open end, no flat ambient.
+    if let Some(mut environment) = world.get_resource_mut::<engine::environment::Environment>() {
+        environment.source = engine::environment::EnvironmentSource::None;
+    }
+    if let Some(mut settings) = world.get_resource_mut::<plugins::RenderSettings>() {
+        settings.ambient = Vec3::ZERO;
+    }
 }
 
 /// Particles the particle scene keeps alive when no count is given.

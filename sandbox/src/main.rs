@@ -82,7 +82,8 @@ struct Cli {
     churn_decals: usize,
     /// A benchmark scene instead of --scene: few-blended-decals, decals-and-lights, many-decals,
     /// ten-point-lights, many-lights, transparency, many-instances, behind-wall, foxes, crowd (foxes seen from eye height),
-    /// particles (a fountain of --particles particles).
+    /// particles (a fountain of --particles particles), corridor (a dark corridor lit by glowing
+    /// decals and area lights).
     #[arg(long)]
     bench_scene: Option<String>,
     /// Run --frames frames with each pipeline and decal method in turn (with --stats, also a CSV
