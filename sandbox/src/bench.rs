@@ -395,8 +395,8 @@ pub fn spawn_behind_wall(world: &mut World, boxes: usize) {
 /// Issue 52's dark corridor, 3 m wide, 3 m high and 24 m long down −Z: eight glowing sigils on
 /// its walls that light it (their material's `emits_light`), a 1.2 × 0.4 m rectangle light on its
 /// ceiling halfway down and a 0.5 m disk lamp on its end wall; no sun, no sky (the environment
-/// resource's source is set to none) and no flat ambient. The camera stands at its open end, at
-/// eye height.
+/// resource's source is set to none) and no flat ambient. The camera stands at eye height just
+/// inside its open end.
 pub fn spawn_corridor(world: &mut World) {
     use engine::camera::Camera;
     use engine::material::Material;
@@ -449,7 +449,7 @@ pub fn spawn_corridor(world: &mut World) {
         DiskLight { color: Vec3::new(0.6, 0.8, 1.0), intensity: 8.0, radius: 0.25, range: None },
         Transform::from_xyz(0.0, 2.2, -length + 0.01).looking_at(Vec3::new(0.0, 2.2, 0.0), Vec3::Y),
     ));
-    world.spawn((Camera::default(), Transform::from_xyz(0.6, 1.6, 1.5).looking_at(Vec3::new(0.0, 1.2, -12.0), Vec3::Y)));
+    world.spawn((Camera::default(), Transform::from_xyz(0.6, 1.6, -0.3).looking_at(Vec3::new(0.0, 1.2, -12.0), Vec3::Y)));
     // Dark but for its own lights: no sky through the open end, no flat ambient.
     if let Some(mut environment) = world.get_resource_mut::<engine::environment::Environment>() {
         environment.source = engine::environment::EnvironmentSource::None;
