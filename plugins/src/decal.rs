@@ -83,15 +83,19 @@ pub struct DecalMaterial {
     /// Optional emissive texture (rgb; sRGB images are decoded as colours).
     pub emissive_texture: Option<Handle<Image>>,
     /// Whether a decal of this material that emits also lights the scene (issue 52, item 3): a
-    /// one-sided rectangle light on its box's face, looking out of the surface (its +Z), of the
-    /// radiance it shows on average: `emissive` × the emissive texture's mean × the coverage's
-    /// mean (`base_color`'s alpha × its texture's) × the decal's opacity, so that it sends the
-    /// power it emits. It is then shaded, culled, shadowed and sampled as a
-    /// [`engine::light::RectLight`], and counts against the light limit. Off by default: a
-    /// light costs what any light costs, and small embers light little. Decals on a skin, and
-    /// decals that particles leave, do not light (their place is known on the GPU only); a
-    /// lifetime's fade does not dim the light, which goes with the decal. Changing the material
-    /// reaches the light when the decal is next visited (moved or re-inserted).
+    /// one-sided rectangle light of its box's size on the box's mid-plane (where a decal
+    /// placed at a surface point has the surface), lifted 1 % of its shorter side and looking
+    /// out of the surface (the box's +Z), of the radiance it shows on average: `emissive` × the
+    /// emissive texture's mean × the coverage's mean (`base_color`'s alpha × its texture's) ×
+    /// the decal's opacity, so that a uniform decal sends the power it emits (a textured one
+    /// about it: the mean of the product is what it shows). It is then shaded, culled,
+    /// shadowed and sampled as a [`engine::light::RectLight`], and counts against the light
+    /// limit (a decal that finds the table full glows but lights nothing, with a warning, until
+    /// it is next visited). Off by default: a light costs what any light costs, and small
+    /// embers light little. Decals on a skin, and decals that particles leave, do not light
+    /// (their place is known on the GPU only); a lifetime's fade, receiver layers and distance
+    /// fades do not touch the light, which goes with the decal. A change of the material or its
+    /// textures reaches the light when the decal is next visited (moved or inserted again).
     pub emits_light: bool,
 }
 
@@ -388,18 +392,38 @@ pub(crate) fn decal_desc(decal: &Decal, decal_to_world: Mat4, material: u32, lif
     }
 }
 
-/// The GPU record of a decal material, with texture handles resolved to bindless slots.
 /// The radiance an emitting decal of material `m` and `opacity` shows on average over its box's
 /// face, for its light ([`DecalMaterial::emits_light`]): `None` unless the material asks for a
-/// light and emits. A texture that is missing or block-compressed counts by its factor alone.
+/// light and emits. The emission's mean × the coverage's mean (not the mean of their product,
+/// which the GPU shows), each texture's over the whole image (whatever part `DecalUv` shows); a
+/// texture not loaded counts by its factor alone. Emission and opacity are clamped as the GPU
+/// clamps them.
 pub(crate) fn decal_light_radiance(m: &DecalMaterial, opacity: f32, images: &engine::asset::Assets<Image>) -> Option<Vec3> {
     let emissive = m.emissive.filter(|_| m.emits_light)?;
-    let mean = |h: Option<Handle<Image>>| h.and_then(|h| images.get(h)).and_then(Image::mean_color).map_or(Vec4::ONE, Vec4::from_array);
-    let coverage = m.base_color.map_or(1.0, |c| c.w) * mean(m.base_color_texture).w;
+    let emissive = Vec3::from_array(emissive.to_array().map(|c| if c.is_finite() { c.max(0.0) } else { 0.0 }));
+    let opacity = if opacity.is_finite() { opacity.clamp(0.0, 1.0) } else { 0.0 };
+    let mean = |h: Option<Handle<Image>>| h.and_then(|h| images.get(h)).and_then(image_mean).unwrap_or(Vec4::ONE);
+    let coverage = m.base_color.map_or(1.0, |c| c.w.clamp(0.0, 1.0)) * mean(m.base_color_texture).w;
     let radiance = emissive * mean(m.emissive_texture).truncate() * coverage * opacity;
     (radiance.is_finite() && radiance.max_element() > 0.0).then_some(radiance)
 }
 
+/// The mean linear RGBA of `image` ([`Image::mean_color`]); a block-compressed image's smallest
+/// level decoded first (one block).
+fn image_mean(image: &Image) -> Option<Vec4> {
+    if let Some(mean) = image.mean_color() {
+        return Some(Vec4::from_array(mean));
+    }
+    let level = image.mips.len().checked_sub(1)?;
+    let (width, height) = image.mip_size(level as u32);
+    let format = crate::extract::vk_format(image.format, image.color_space);
+    let smallest = render::scene::TextureData { width, height, format, mips: vec![image.mips[level].clone()] };
+    let decoded = render::scene::bc::decode_to_rgba8(&smallest)?;
+    let rgba = Image { width, height, color_space: image.color_space, format: engine::image::TexelFormat::Rgba8, mips: decoded.mips };
+    rgba.mean_color().map(Vec4::from_array)
+}
+
+/// The GPU record of a decal material, with texture handles resolved to bindless slots.
 pub(crate) fn gpu_decal_material(m: &DecalMaterial, texture: impl Fn(Option<Handle<Image>>, u32) -> u32) -> GpuDecalMaterial {
     let mut flags = 0;
     if m.base_color.is_some() {
@@ -430,5 +454,29 @@ pub(crate) fn gpu_decal_material(m: &DecalMaterial, texture: impl Fn(Option<Hand
         roughness: m.roughness.unwrap_or(0.0),
         metallic: m.metallic.unwrap_or(0.0),
         pad: 0.0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use engine::image::{ColorSpace, TexelFormat};
+
+    #[test]
+    fn a_decal_light_takes_its_textures_means_also_from_compressed_ones() {
+        let mut images = engine::asset::Assets::<Image>::default();
+        // One BC1 block of pure red (RGB565 0xF800 as colour 0, every index 0), sRGB.
+        let red = vec![0x00, 0xF8, 0x00, 0x00, 0, 0, 0, 0];
+        let block = Image::from_blocks(4, 4, ColorSpace::Srgb, TexelFormat::Bc1, vec![red.clone(), red.clone(), red]).unwrap();
+        let texture = images.add(block);
+        let material =
+            DecalMaterial { emissive: Some(Vec3::splat(2.0)), emissive_texture: Some(texture), emits_light: true, ..Default::default() };
+        let radiance = decal_light_radiance(&material, 0.5, &images).expect("an emitting decal");
+        assert!((radiance - Vec3::new(1.0, 0.0, 0.0)).length() < 1e-3, "2 × red × opacity 0.5: {radiance}");
+        assert_eq!(decal_light_radiance(&DecalMaterial { emits_light: false, ..material }, 1.0, &images), None);
+        let clamped = decal_light_radiance(&material, 3.0, &images).unwrap();
+        assert!((clamped.x - 2.0).abs() < 1e-3, "opacity clamped to 1 as on the GPU: {clamped}");
+        let negative = DecalMaterial { emissive: Some(Vec3::new(-1.0, 0.0, 0.0)), emissive_texture: None, ..material };
+        assert_eq!(decal_light_radiance(&negative, 1.0, &images), None, "negative emission counts as none");
     }
 }

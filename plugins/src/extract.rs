@@ -180,7 +180,7 @@ fn texture_data(image: &Image) -> TextureData {
 
 /// The Vulkan format the renderer samples an image of `format` in `color_space` as (one- and
 /// two-channel data is never sRGB).
-fn vk_format(format: TexelFormat, color_space: ColorSpace) -> ash::vk::Format {
+pub(crate) fn vk_format(format: TexelFormat, color_space: ColorSpace) -> ash::vk::Format {
     use ash::vk::Format as F;
     let srgb = color_space == ColorSpace::Srgb;
     match format {
@@ -865,16 +865,19 @@ pub fn extract_decals(
             desc.angle_fade = None;
         }
         warned.report(entity, "decal", problem, if invalid { "not drawn until it is fixed" } else { "drawn in the world" });
-        // An emitting decal in the world is a light too.
-        let light = (!invalid && !decal.on_skin)
+        let slot = slots.decals.get(&entity).copied();
+        if slot.is_none() && !waiting.admit(entity, mirror.decals.len(), limit, "decal") {
+            set_decal_light(mirror, &mut slots.decal_lights, entity, None, light_limit);
+            continue;
+        }
+        // An emitting decal in the world (not on a skin) is a light too.
+        let light = (!invalid && desc.on_skin.is_none())
             .then(|| materials.get(decal.material))
             .flatten()
             .and_then(|m| crate::decal::decal_light_radiance(m, decal.opacity, &images))
             .and_then(|radiance| validate::decal_light_record(world, radiance));
-        set_decal_light(mirror, &mut slots.decal_lights, entity, light, light_limit);
-        let slot = slots.decals.get(&entity).copied();
-        if slot.is_none() && !waiting.admit(entity, mirror.decals.len(), limit, "decal") {
-            continue;
+        if !set_decal_light(mirror, &mut slots.decal_lights, entity, light, light_limit) {
+            warned.report(entity, "decal's light", Some("finds the light table at its limit"), "the decal glows but lights nothing");
         }
         let written = mirror.decals.write(slot, &desc);
         mirror.records_written += 1;
@@ -887,14 +890,15 @@ pub fn extract_decals(
 }
 
 /// Writes, moves or frees the light of an emitting decal (`light`: its record, `None` for no
-/// light). A new light waits while the light table is at its limit (it is tried again when the
-/// decal is next visited).
-fn set_decal_light(mirror: &mut SceneMirror, slots: &mut EntityHashMap<u32>, entity: Entity, light: Option<GpuLight>, limit: u32) {
+/// light). Returns false when a new light found the light table at its limit: it is not made
+/// (and is tried again only when the decal is next visited: moved or inserted again).
+fn set_decal_light(mirror: &mut SceneMirror, slots: &mut EntityHashMap<u32>, entity: Entity, light: Option<GpuLight>, limit: u32) -> bool {
     match (light, slots.get(&entity).copied()) {
         (Some(record), slot) if slot.is_some() || mirror.lights.len() < limit as usize => {
             let written = SceneMirror::write(&mut mirror.records_written, &mut mirror.lights, slot, record);
             slots.insert(entity, written);
         }
+        (Some(_), None) => return false,
         (None, Some(slot)) => {
             mirror.lights.remove(slot);
             mirror.records_written += 1;
@@ -902,6 +906,7 @@ fn set_decal_light(mirror: &mut SceneMirror, slots: &mut EntityHashMap<u32>, ent
         }
         _ => {}
     }
+    true
 }
 
 /// Hands the [`engine::environment::Environment`] resource to the renderer when it changes (or

@@ -219,7 +219,9 @@ pub fn decal_light_record(world: Mat4, radiance: Vec3) -> Option<GpuLight> {
     let lift = (0.01 * x.min(y)).max(1e-3) / z;
     // Turned half a turn about Y: the light's -Z (where it emits) is the box's +Z.
     let light = world * Mat4::from_translation(Vec3::Z * lift) * Mat4::from_rotation_y(std::f32::consts::PI);
-    let rect = RectLight { color: radiance, intensity: 1.0, width: 1.0, height: 1.0, range: None };
+    // The brightest channel as the luminance, so that the range follows the light's power.
+    let peak = radiance.max_element();
+    let rect = RectLight { color: radiance / peak, intensity: peak, width: 1.0, height: 1.0, range: None };
     area_light_record(light, Some(&rect), None).ok().map(|(record, _)| record)
 }
 
@@ -540,6 +542,8 @@ mod tests {
         assert!((record.position - Vec3::new(2.002, 1.0, 0.0)).length() < 1e-5, "lifted 1 % of 0.2 m: {}", record.position);
         assert!((record.area_right().length() - 0.2).abs() < 1e-5 && (record.size - 0.1).abs() < 1e-5, "the box's face");
         assert_eq!(record.color, Vec3::new(3.0, 2.0, 1.0));
+        let face = RectLight { color: Vec3::new(1.0, 2.0 / 3.0, 1.0 / 3.0), intensity: 3.0, width: 0.4, height: 0.2, range: None };
+        assert!((record.range - face.effective_range()).abs() < 1e-4, "reaches as a 3-nit panel of its face does: {}", record.range);
         assert!(decal_light_record(wall, Vec3::ZERO).is_none(), "a dark decal is no light");
         assert!(decal_light_record(Mat4::from_scale(Vec3::new(1.0, 1.0, 0.0)), Vec3::ONE).is_none(), "a flat box");
     }

@@ -56,8 +56,10 @@ vec3 area_point(GpuLight light, vec2 uv) {
 // Where a shadow ray to a point of the light's face at distance `d` stops: just short of it, so
 // that the ceiling or wall a panel is mounted flush on does not block it (a mesh placed at the
 // light itself, in front of its face, still does).
+// A point within the rays' tmin (1 mm) of the face sees it unblocked (a ray as long as tmin, as
+// a point inside a sphere light has).
 float area_ray_end(float d) {
-    return d - max(1e-3, 1e-4 * d);
+    return max(d - max(1e-3, 1e-4 * d), 1e-3);
 }
 
 // A point spread uniformly over the light's face by `u` in [0, 1)² (the soft shadows' rays).

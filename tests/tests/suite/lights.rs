@@ -1316,7 +1316,8 @@ fn an_emitting_decal_lights_the_floor_as_a_rect_light_of_its_power() {
     // 0.5 m off the wall, facing out of it).
     app.world.entity_mut(decal).insert(Decal::new(unlit));
     let (dark, _) = frame(&mut app);
-    let rect = RectLight { color: glow, intensity: 1.0, width: 0.8, height: 0.5, range: None };
+    // Its luminance the brightest channel, as the decal's light takes it (the range follows it).
+    let rect = RectLight { color: glow / 4.0, intensity: 4.0, width: 0.8, height: 0.5, range: None };
     let light = app.world.spawn((rect, Transform::from_xyz(0.2, 0.9, -0.995).looking_at(Vec3::new(0.2, 0.9, 1.0), Vec3::Y))).id();
     let (rect_lit, _) = frame(&mut app);
     app.world.despawn(light);
