@@ -425,7 +425,7 @@ pub fn spawn_corridor(world: &mut World) {
     let sigil = {
         let mut m = decal_textures::decal_material(&decal_textures::sigil(), world);
         // Brighter than the courtyard's sigils: lamps, not marks.
-        m.emissive = Some(Vec3::splat(12.0));
+        m.emissive = Some(Vec3::splat(24.0));
         m.emits_light = true;
         world.resource_mut::<Assets<DecalMaterial>>().add(m)
     };
