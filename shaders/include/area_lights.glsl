@@ -20,7 +20,6 @@
 // A disk's polygon: 16 sides, their radius scaled so that the polygon's area is the disk's
 // (the form factor then differs from the disk's by far less than a percent at any distance).
 const int AREA_DISK_SIDES = 16;
-const int AREA_MAX_CORNERS = AREA_DISK_SIDES + 1;   // clipping a convex polygon adds one corner
 
 bool is_area_light(GpuLight light) {
     return light.kind == LIGHT_RECT || light.kind == LIGHT_DISK;
@@ -71,53 +70,84 @@ vec3 area_sample(GpuLight light, vec2 u) {
     return area_point(light, r * vec2(cos(phi), sin(phi)));
 }
 
-// The light's corners relative to `p`, in order around it.
-int area_corners(GpuLight light, vec3 p, out vec3 corners[AREA_MAX_CORNERS]) {
-    vec3 c = light.position - p;
-    vec3 up = area_up(light);
+// The light's polygon seen from a point: its centre relative to the point, its two half axes
+// (a disk's scaled so that its 16-gon has the disk's area) and its corner count.
+struct AreaPolygon {
+    vec3 centre;
+    vec3 right;
+    vec3 up;
+    int corners;
+};
+
+AreaPolygon area_polygon(GpuLight light, vec3 p) {
+    AreaPolygon g;
+    g.centre = light.position - p;
+    g.up = area_up(light);
     if (light.kind == LIGHT_RECT) {
-        vec3 right = area_right(light);
-        corners[0] = c - right - up;
-        corners[1] = c + right - up;
-        corners[2] = c + right + up;
-        corners[3] = c - right + up;
-        return 4;
+        g.right = area_right(light);
+        g.corners = 4;
+    } else {
+        // A regular polygon's area is n/2 · r² · sin(2π/n): scaled to πR².
+        float scale = sqrt(PI / (0.5 * float(AREA_DISK_SIDES) * sin(2.0 * PI / float(AREA_DISK_SIDES))));
+        g.right = normalize(area_right(light)) * light.size * scale;
+        g.up *= scale;
+        g.corners = AREA_DISK_SIDES;
     }
-    // A regular polygon's area is n/2 · r² · sin(2π/n): scaled to πR².
-    float scale = sqrt(PI / (0.5 * float(AREA_DISK_SIDES) * sin(2.0 * PI / float(AREA_DISK_SIDES))));
-    vec3 right = normalize(area_right(light)) * light.size * scale;
-    up *= scale;
-    for (int i = 0; i < AREA_DISK_SIDES; ++i) {
-        float a = 2.0 * PI * float(i) / float(AREA_DISK_SIDES);
-        corners[i] = c + right * cos(a) + up * sin(a);
-    }
-    return AREA_DISK_SIDES;
+    return g;
 }
 
-// The cosine-weighted solid angle of the light's face seen from `p` over normal `n`, divided
-// by π (the form factor: 1 for a light filling the hemisphere). The polygon is clipped to the
-// horizon (Sutherland–Hodgman against n·x ≥ 0), and each edge adds its arc's projection on n.
-// `towards` is the polygon's vector form factor's direction: where the light it sends comes
-// from on average (the clipped part's, where the horizon cuts it).
+// Corner `i` of the polygon, in order around it.
+vec3 area_corner(AreaPolygon g, int i) {
+    if (g.corners == 4) {
+        vec2 s = vec2(i == 1 || i == 2 ? 1.0 : -1.0, i >= 2 ? 1.0 : -1.0);
+        return g.centre + g.right * s.x + g.up * s.y;
+    }
+    float a = 2.0 * PI * float(i) / float(g.corners);
+    return g.centre + g.right * cos(a) + g.up * sin(a);
+}
+
+// Lambert's term of the edge from corner `a` to corner `b` (directions from the point): the arc
+// between them times the unit normal of their plane, whose sum over a polygon's edges is its
+// vector form factor × 2π.
+vec3 edge_term(vec3 a, vec3 b) {
+    a = normalize(a);
+    b = normalize(b);
+    vec3 c = cross(a, b);
+    float s = length(c);
+    return s > 1e-7 ? c * (atan(s, dot(a, b)) / s) : vec3(0.0);
+}
+
+// The light's form factor seen from `p` over normal `n`: its cosine-weighted solid angle
+// divided by π (1 for a light filling the hemisphere). The polygon is clipped to the horizon
+// (Sutherland–Hodgman against n·x ≥ 0) as its corners stream by, each kept or cut corner
+// adding the edge from the last one, so that no corner is stored (with arrays of corners the
+// corridor's visibility-buffer shading on the H200 took 0.70 ms, 0.51 without). `towards` is
+// the vector form factor's direction: where the light comes from on average (the clipped
+// part's, where the horizon cuts it). The winding as seen from the point decides the sign,
+// which the one-sided test has already settled.
 float area_form_factor(GpuLight light, vec3 p, vec3 n, out vec3 towards) {
-    vec3 corners[AREA_MAX_CORNERS];
-    int count = area_corners(light, p, corners);
-    vec3 clipped[AREA_MAX_CORNERS];
-    int kept = 0;
-    for (int i = 0; i < count; ++i) {
-        vec3 a = corners[i], b = corners[(i + 1) % count];
-        float da = dot(n, a), db = dot(n, b);
-        if (da >= 0.0 && kept < AREA_MAX_CORNERS) clipped[kept++] = a;
-        if ((da >= 0.0) != (db >= 0.0) && kept < AREA_MAX_CORNERS) clipped[kept++] = mix(a, b, da / (da - db));
+    AreaPolygon g = area_polygon(light, p);
+    vec3 sum = vec3(0.0), first = vec3(0.0), last = vec3(0.0);
+    bool started = false;
+    vec3 a = area_corner(g, 0);
+    float da = dot(n, a);
+    for (int i = 0; i < g.corners; ++i) {
+        vec3 b = area_corner(g, i + 1 == g.corners ? 0 : i + 1);
+        float db = dot(n, b);
+        for (int k = 0; k < 2; ++k) {
+            // The corner a where it is above the horizon, then where the edge crosses it.
+            bool keep = k == 0 ? da >= 0.0 : (da >= 0.0) != (db >= 0.0);
+            if (!keep) continue;
+            vec3 q = k == 0 ? a : mix(a, b, da / (da - db));
+            if (started) sum += edge_term(last, q);
+            else first = q;
+            last = q;
+            started = true;
+        }
+        a = b;
+        da = db;
     }
-    vec3 sum = vec3(0.0);
-    for (int i = 0; i < kept; ++i) {
-        vec3 a = normalize(clipped[i]), b = normalize(clipped[(i + 1) % kept]);
-        vec3 c = cross(a, b);
-        float s = length(c);
-        if (s > 1e-7) sum += c * (atan(s, dot(a, b)) / s);
-    }
-    // The winding as seen from p decides the sign, which the one-sided test has already settled.
+    if (started) sum += edge_term(last, first);
     float form = dot(n, sum);
     towards = sum * sign(form);
     towards = dot(towards, towards) > 0.0 ? normalize(towards) : n;

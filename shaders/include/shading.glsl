@@ -14,6 +14,7 @@
 // ray_pipeline_lights.glsl) the lights come from a zero-length ray instead of a list.
 #ifndef SHADING_GLSL
 #define SHADING_GLSL
+#extension GL_EXT_control_flow_attributes : require
 
 #ifdef CLUSTERED_DECALS
 #define DECAL_BLEND_ONE_CHANNEL   // blend.glsl: a quarter of the blend state (see below)
@@ -218,21 +219,31 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
     bool tinted = shadowed && scene.lighting.lighting.shadow_tints != 0ul;
     ShadowTintsRef tint_words = ShadowTintsRef(scene.lighting.lighting.shadow_tints);
     for (uint t = 0u; t < SHADOW_TINT_SLOTS; ++t) tints[t] = tinted ? tint_words.words[layer_tints + shadow_tint_at(px) + t] : 0u;
-    uint word = 0xFFFFFFFFu;
     vec3 direct = vec3(0.0);
-    for (uint j = 0u; j < list.count; ++j) {
-        if (shadowed && j % 32u == 0u) word = shadow_words.words[layer_words + shadow_word_at(list, j, px)];
-        if ((word & (1u << (j % 32u))) == 0u) continue;
-        GpuLight light = scene.lights.lights[light_slot(list, j)];
-        if (light.kind == LIGHT_NONE) continue;
-        vec3 tint = tinted ? shadow_tint(tints, j) : vec3(1.0);
-        vec3 lit = tint * shade_light(light, brdf, s.position, s.normal, v);
-        int sun = -1;
-        if (suns.count > 0u && light.kind == LIGHT_DIRECTIONAL) sun = sun_index(suns, light_slot(list, j));
-        if (sun < 0) {
-            direct += lit;
-        } else if ((sun_bits & (1u << uint(sun))) != 0u) {
-            color += lit;
+    // Two passes over the list, each compiled with one kind's code (shade_light_of): the
+    // punctual lights, then the area lights where the list holds any.
+    bool areas_listed = false;
+    [[unroll]] for (int pass = 0; pass < 2; ++pass) {
+        if (pass == 1 && !areas_listed) break;
+        uint word = 0xFFFFFFFFu;
+        for (uint j = 0u; j < list.count; ++j) {
+            if (shadowed && j % 32u == 0u) word = shadow_words.words[layer_words + shadow_word_at(list, j, px)];
+            if ((word & (1u << (j % 32u))) == 0u) continue;
+            GpuLight light = scene.lights.lights[light_slot(list, j)];
+            if (light.kind == LIGHT_NONE) continue;
+            if (is_area_light(light) != (pass == 1)) {
+                areas_listed = true;
+                continue;
+            }
+            vec3 tint = tinted ? shadow_tint(tints, j) : vec3(1.0);
+            vec3 lit = tint * shade_light_of(light, brdf, s.position, s.normal, v, pass == 1);
+            int sun = -1;
+            if (suns.count > 0u && light.kind == LIGHT_DIRECTIONAL) sun = sun_index(suns, light_slot(list, j));
+            if (sun < 0) {
+                direct += lit;
+            } else if ((sun_bits & (1u << uint(sun))) != 0u) {
+                color += lit;
+            }
         }
     }
     color += sampled ? direct * imageLoad(shadow_ratio_in, px).rgb : direct;
