@@ -538,6 +538,11 @@ layout! {
     /// Light kind: one-sided disk (`GpuLight::direction` its facing, the spot fields a unit
     /// vector in its plane, `size` its radius).
     pub const LIGHT_DISK: u32 = 5;
+    /// Specialization constant id of `AREA_LIGHTS` (`area_lights.glsl`): whether a pipeline
+    /// keeps the area lights' code (`crate::gpu::pipeline::Specialization`). Without it, rect
+    /// and disk lights give nothing; shading passes drop it while the scene has none, since its
+    /// registers slowed the many-lights scene's shading by a third on the lent H200.
+    pub const SPEC_AREA_LIGHTS: u32 = 0;
 
     /// Decal material flag: blends albedo.
     pub const DECAL_ALBEDO: u32 = 1;

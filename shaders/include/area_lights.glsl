@@ -21,8 +21,15 @@
 // (the form factor then differs from the disk's by far less than a percent at any distance).
 const int AREA_DISK_SIDES = 16;
 
+// Whether this pipeline keeps the area lights' code (a specialization constant, true unless the
+// pipeline says otherwise): the shading passes are made without it while the scene has no area
+// light (render::gpu::pipeline::Specialization). Every area-light branch tests is_area_light,
+// so without it they all fold away (a rect or disk light would then shade as a point light:
+// such pipelines serve only scenes without them).
+layout(constant_id = SPEC_AREA_LIGHTS) const bool AREA_LIGHTS = true;
+
 bool is_area_light(GpuLight light) {
-    return light.kind == LIGHT_RECT || light.kind == LIGHT_DISK;
+    return AREA_LIGHTS && (light.kind == LIGHT_RECT || light.kind == LIGHT_DISK);
 }
 
 // The axis in the light's plane (a rectangle's half-width vector, a disk's unit axis) and the

@@ -221,9 +221,10 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
     for (uint t = 0u; t < SHADOW_TINT_SLOTS; ++t) tints[t] = tinted ? tint_words.words[layer_tints + shadow_tint_at(px) + t] : 0u;
     vec3 direct = vec3(0.0);
     // Two passes over the list, each compiled with one kind's code (shade_light_of): the
-    // punctual lights, then the area lights where the list holds any.
+    // punctual lights, then the area lights where the list holds any (the second pass only in
+    // pipelines made with AREA_LIGHTS).
     bool areas_listed = false;
-    [[unroll]] for (int pass = 0; pass < 2; ++pass) {
+    [[unroll]] for (int pass = 0; pass < (AREA_LIGHTS ? 2 : 1); ++pass) {
         if (pass == 1 && !areas_listed) break;
         uint word = 0xFFFFFFFFu;
         for (uint j = 0u; j < list.count; ++j) {

@@ -109,8 +109,59 @@ impl<'a> GraphicsDesc<'a> {
     }
 }
 
+/// The values of the shaders' specialization constants (`crate::layout::SPEC_*`), fixed when a
+/// pipeline is made. The default keeps every shader's code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Specialization {
+    /// Whether the lighting code keeps the area lights' (`AREA_LIGHTS`, `SPEC_AREA_LIGHTS`).
+    /// Without it the driver drops that code, and the registers it held: the many-lights
+    /// scene's visibility-buffer shading took 5.11 ms with it and 3.75 without on the lent H200
+    /// (driver 580.159.04, 1920×1080, `--bench-scene many-lights --light-radius 0.05`). A pipeline made without
+    /// it shades a rect or disk light as a point light, so it may serve only scenes with none.
+    pub area_lights: bool,
+}
+
+impl Default for Specialization {
+    fn default() -> Self {
+        Self { area_lights: true }
+    }
+}
+
+impl Specialization {
+    /// Calls `f` with the Vulkan description of these values (every stage of a pipeline gets
+    /// it: an id a stage does not declare changes nothing in it).
+    fn with_info<R>(self, f: impl FnOnce(&vk::SpecializationInfo) -> R) -> R {
+        let data = [vk::Bool32::from(self.area_lights)];
+        let entries = [vk::SpecializationMapEntry {
+            constant_id: crate::layout::SPEC_AREA_LIGHTS,
+            offset: 0,
+            size: std::mem::size_of::<vk::Bool32>(),
+        }];
+        f(&vk::SpecializationInfo::default().map_entries(&entries).data(bytemuck::cast_slice(&data)))
+    }
+}
+
 /// Creates a graphics pipeline. Viewport, scissor and cull mode are dynamic.
 pub fn create_graphics(ctx: &GpuContext, layout: vk::PipelineLayout, desc: &GraphicsDesc) -> Result<vk::Pipeline, RenderError> {
+    create_graphics_specialized(ctx, layout, desc, Specialization::default())
+}
+
+/// [`create_graphics`] with the specialization constants `spec`.
+pub fn create_graphics_specialized(
+    ctx: &GpuContext,
+    layout: vk::PipelineLayout,
+    desc: &GraphicsDesc,
+    spec: Specialization,
+) -> Result<vk::Pipeline, RenderError> {
+    spec.with_info(|info| graphics_with(ctx, layout, desc, info))
+}
+
+fn graphics_with(
+    ctx: &GpuContext,
+    layout: vk::PipelineLayout,
+    desc: &GraphicsDesc,
+    spec: &vk::SpecializationInfo,
+) -> Result<vk::Pipeline, RenderError> {
     let d = &ctx.device;
     let vs = shaders::module(ctx, desc.vertex)?;
     let fs = match desc.fragment.map(|f| shaders::module(ctx, f)).transpose() {
@@ -121,9 +172,11 @@ pub fn create_graphics(ctx: &GpuContext, layout: vk::PipelineLayout, desc: &Grap
             return Err(e);
         }
     };
-    let mut stages = vec![vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::VERTEX).module(vs).name(c"main")];
+    let stage =
+        |stage, module| vk::PipelineShaderStageCreateInfo::default().stage(stage).module(module).name(c"main").specialization_info(spec);
+    let mut stages = vec![stage(vk::ShaderStageFlags::VERTEX, vs)];
     if let Some(fs) = fs {
-        stages.push(vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::FRAGMENT).module(fs).name(c"main"));
+        stages.push(stage(vk::ShaderStageFlags::FRAGMENT, fs));
     }
     let bindings = [vk::VertexInputBindingDescription {
         binding: 0,
@@ -239,12 +292,29 @@ pub fn set_viewport(cmd: &Recorder, extent: vk::Extent2D) {
 
 /// Creates a compute pipeline from `spirv` with the shared layout.
 pub fn create_compute(ctx: &GpuContext, layout: vk::PipelineLayout, name: &str, spirv: &[u8]) -> Result<vk::Pipeline, RenderError> {
+    create_compute_specialized(ctx, layout, name, spirv, Specialization::default())
+}
+
+/// [`create_compute`] with the specialization constants `spec`.
+pub fn create_compute_specialized(
+    ctx: &GpuContext,
+    layout: vk::PipelineLayout,
+    name: &str,
+    spirv: &[u8],
+    spec: Specialization,
+) -> Result<vk::Pipeline, RenderError> {
     let module = shaders::module(ctx, spirv)?;
-    let stage = vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
-    let info = vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout);
-    // SAFETY: the create info points at locals; the module may be destroyed once the pipeline
-    // exists (or failed).
-    let result = unsafe { ctx.device.create_compute_pipelines(vk::PipelineCache::null(), &[info], None) };
+    let result = spec.with_info(|spec| {
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(module)
+            .name(c"main")
+            .specialization_info(spec);
+        let info = vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout);
+        // SAFETY: the create info points at locals; the module may be destroyed once the
+        // pipeline exists (or failed).
+        unsafe { ctx.device.create_compute_pipelines(vk::PipelineCache::null(), &[info], None) }
+    });
     // SAFETY: as above.
     unsafe { ctx.device.destroy_shader_module(module, None) };
     let pipeline = result.map_err(|(_, e)| RenderError::Vulkan(e))?[0];
@@ -515,9 +585,17 @@ pub enum ShadeVariant {
 /// A shading pass's pipeline in each way it can apply decals: none, in-shader ray queries (on the
 /// ray-query tier only: SPIR-V with ray queries cannot even be loaded elsewhere), the decal
 /// buffer a decal pass wrote, or (the forward shading pass) the clustered decals' lists walked
-/// in the shader (`DecalFrame::clusters_in_shading` in `crate::decals`), each made the first
-/// frame that picks it. The frame's decals say which they want ([`ShadeVariant`]).
+/// in the shader (`DecalFrame::clusters_in_shading` in `crate::decals`); each with and without
+/// the area lights' code ([`Specialization::area_lights`]), made the first frame that picks it.
+/// The frame's decals say which they want ([`ShadeVariant`]), its lights whether any is an area
+/// light.
 pub struct ShadeVariants {
+    /// Without the area lights' code, then with it.
+    sets: [VariantSet; 2],
+}
+
+/// One [`ShadeVariants`] set, all made with one [`Specialization`].
+struct VariantSet {
     plain: LazyPipeline,
     ray_query: Option<LazyPipeline>,
     decal_buffer: LazyPipeline,
@@ -529,47 +607,63 @@ impl ShadeVariants {
     /// its SPIR-V the first frame that picks it ([`LazyPipeline`]); the ray-query one only on
     /// the ray-query tier.
     pub fn new<M: MakeVariant>(ctx: &GpuContext, [plain, ray_query, decal_buffer]: [&'static [u8]; 3], make: M) -> Self {
-        Self {
-            plain: variant(&make, plain),
-            ray_query: (ctx.tier == Tier::RayQuery).then(|| variant(&make, ray_query)),
-            decal_buffer: variant(&make, decal_buffer),
-            clustered: None,
-        }
+        let set = |area_lights| {
+            let spec = Specialization { area_lights };
+            VariantSet {
+                plain: variant(&make, plain, spec),
+                ray_query: (ctx.tier == Tier::RayQuery).then(|| variant(&make, ray_query, spec)),
+                decal_buffer: variant(&make, decal_buffer, spec),
+                clustered: None,
+            }
+        };
+        Self { sets: [set(false), set(true)] }
     }
 
     /// Adds the variant that walks the clustered decals' lists itself, made by `make` from
     /// `shader`.
     pub fn with_clustered<M: MakeVariant>(mut self, shader: &'static [u8], make: M) -> Self {
-        self.clustered = Some(variant(&make, shader));
+        for (set, area_lights) in self.sets.iter_mut().zip([false, true]) {
+            set.clustered = Some(variant(&make, shader, Specialization { area_lights }));
+        }
         self
     }
 
-    /// The variant `want`, made now if no frame used it before: the plain one where this pass
-    /// has no such variant (no clustered variant, or no ray queries on this tier).
-    pub fn pick(&self, ctx: &GpuContext, want: ShadeVariant) -> Result<vk::Pipeline, RenderError> {
+    /// The variant `want`, with the area lights' code when `area_lights` (the scene has one),
+    /// made now if no frame used it before: the plain one where this pass has no such variant
+    /// (no clustered variant, or no ray queries on this tier).
+    pub fn pick(&self, ctx: &GpuContext, want: ShadeVariant, area_lights: bool) -> Result<vk::Pipeline, RenderError> {
+        let set = &self.sets[usize::from(area_lights)];
         let variant = match want {
-            ShadeVariant::DecalBuffer => &self.decal_buffer,
-            ShadeVariant::ClusteredDecals => self.clustered.as_ref().unwrap_or(&self.plain),
-            ShadeVariant::RayQueryDecals => self.ray_query.as_ref().unwrap_or(&self.plain),
-            ShadeVariant::Plain => &self.plain,
+            ShadeVariant::DecalBuffer => &set.decal_buffer,
+            ShadeVariant::ClusteredDecals => set.clustered.as_ref().unwrap_or(&set.plain),
+            ShadeVariant::RayQueryDecals => set.ray_query.as_ref().unwrap_or(&set.plain),
+            ShadeVariant::Plain => &set.plain,
         };
         variant.get(ctx)
     }
 
     /// Destroys the pipelines that were made; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
-        for p in [self.plain, self.decal_buffer].into_iter().chain(self.ray_query).chain(self.clustered) {
-            p.destroy(ctx);
+        for set in self.sets {
+            for p in [set.plain, set.decal_buffer].into_iter().chain(set.ray_query).chain(set.clustered) {
+                p.destroy(ctx);
+            }
         }
     }
 }
 
-/// Makes one of [`ShadeVariants`]' pipelines from its shader's SPIR-V.
-pub trait MakeVariant: Fn(&GpuContext, &'static [u8]) -> Result<vk::Pipeline, RenderError> + Clone + Send + Sync + 'static {}
+/// Makes one of [`ShadeVariants`]' pipelines from its shader's SPIR-V, specialized so.
+pub trait MakeVariant:
+    Fn(&GpuContext, &'static [u8], Specialization) -> Result<vk::Pipeline, RenderError> + Clone + Send + Sync + 'static
+{
+}
 
-impl<F: Fn(&GpuContext, &'static [u8]) -> Result<vk::Pipeline, RenderError> + Clone + Send + Sync + 'static> MakeVariant for F {}
+impl<F: Fn(&GpuContext, &'static [u8], Specialization) -> Result<vk::Pipeline, RenderError> + Clone + Send + Sync + 'static> MakeVariant
+    for F
+{
+}
 
-fn variant<M: MakeVariant>(make: &M, spirv: &'static [u8]) -> LazyPipeline {
+fn variant<M: MakeVariant>(make: &M, spirv: &'static [u8], spec: Specialization) -> LazyPipeline {
     let make = make.clone();
-    LazyPipeline::new(move |ctx| make(ctx, spirv))
+    LazyPipeline::new(move |ctx| make(ctx, spirv, spec))
 }

@@ -46,7 +46,7 @@ pub struct Lighting {
     /// Ray-query lights' boxes and structures (devices with acceleration structures).
     pub ray_query: Option<RayQueryLights>,
     /// The directional lights sampling pixels trace apart, found again when lights change.
-    suns: sampling::SunSearch,
+    search: sampling::LightSearch,
 }
 
 /// What this frame does with lights.
@@ -90,6 +90,9 @@ pub struct LightFrame {
     /// Whether the shadow pass runs again over the transparent depth (the glass layer: blended
     /// surfaces drawn by the forward transparency pass, with tiled lights).
     pub glass_layer: bool,
+    /// Whether a light of the scene is an area light: the shading passes then use their
+    /// pipelines with the area lights' code (`crate::gpu::pipeline::Specialization`).
+    pub area_lights: bool,
     interlaced: bool,
     tiles: TileFrame,
     ray_query: RayQueryLightFrame,
@@ -145,7 +148,7 @@ impl Lighting {
         Ok(Self {
             tiles: LightTiles::new(ctx, graph, layout)?,
             ray_query: RayQueryLights::new(ctx, graph, layout)?,
-            suns: Default::default(),
+            search: Default::default(),
         })
     }
 
@@ -208,7 +211,7 @@ impl Lighting {
         let sampled_lights_above = sampling::sampled_lights_above(l.direct_light, shadows, listed, mirror.lights.len() as u32);
         let rays = matches!(shadows, ShadowMethod::RayQuery | ShadowMethod::RayPipeline);
         // Searched every frame (a comparison while lights are still), so that no change is missed.
-        let found = self.suns.find(&mirror.lights);
+        let found = self.search.find(&mirror.lights);
         let suns = if sampled_lights_above == u32::MAX { sampling::Suns::default() } else { found };
         let direct_light = sampling::applied(sampled_lights_above, listed && rays);
         let interlaced = glass && s.transparency.effective(s.pipeline).interlaces();
@@ -323,6 +326,7 @@ impl Lighting {
             environment: environment.reads,
             occlusion,
             glass_layer: tiles.glass_layer,
+            area_lights: self.search.area_lights(),
             interlaced,
             tiles,
             ray_query,

@@ -27,7 +27,7 @@ use crate::RenderError;
 use crate::culling::{Draws, Phase};
 use crate::decals::{DecalFrame, DecalRun, DeferredRing, declare_decal_reads};
 use crate::gpu::device::GpuContext;
-use crate::gpu::pipeline::{Blend, GraphicsDesc, ScenePush, create_compute, create_graphics};
+use crate::gpu::pipeline::{Blend, GraphicsDesc, ScenePush, create_compute_specialized, create_graphics, create_graphics_specialized};
 use crate::gpu::shaders;
 use crate::graph::targets::Surface;
 use crate::graph::targets::{
@@ -129,9 +129,9 @@ impl DeferredPasses {
                     shaders::DEFERRED_LIGHTING_FRAG_RAY_QUERY_DECALS,
                     shaders::DEFERRED_LIGHTING_FRAG_DECAL_BUFFER,
                 ],
-                move |ctx, fragment| {
+                move |ctx, fragment, spec| {
                     let desc = GraphicsDesc::fullscreen("deferred lighting", fragment, &[HDR_FORMAT]);
-                    create_graphics(ctx, layout, &GraphicsDesc { blend: Blend::Additive, ..desc })
+                    create_graphics_specialized(ctx, layout, &GraphicsDesc { blend: Blend::Additive, ..desc }, spec)
                 },
             ),
             lighting_compute: ShadeVariants::new(
@@ -141,7 +141,7 @@ impl DeferredPasses {
                     shaders::DEFERRED_LIGHTING_COMP_RAY_QUERY_DECALS,
                     shaders::DEFERRED_LIGHTING_COMP_DECAL_BUFFER,
                 ],
-                move |ctx, spirv| create_compute(ctx, layout, "deferred lighting (compute)", spirv),
+                move |ctx, spirv, spec| create_compute_specialized(ctx, layout, "deferred lighting (compute)", spirv, spec),
             ),
             lighting_rays: RayLightShading::new(
                 ctx,
@@ -258,9 +258,9 @@ impl DeferredPasses {
             .reads(scene.res.shaded());
         let pass = if kind == PassKind::Graphics { pass.color(&HDR, Load::Keep) } else { pass.image(&HDR, ImageUse::StorageWrite) };
         let shade = match rays {
-            Some(_) => Shade::Rays(self.lighting_rays.pick(ctx, decals)?),
-            None if compute => Shade::Compute(self.lighting_compute.pick(ctx, decals.variant())?),
-            None => Shade::Fullscreen(self.lighting.pick(ctx, decals.variant())?),
+            Some(_) => Shade::Rays(self.lighting_rays.pick(ctx, decals, lights)?),
+            None if compute => Shade::Compute(self.lighting_compute.pick(ctx, decals.variant(), lights.area_lights)?),
+            None => Shade::Fullscreen(self.lighting.pick(ctx, decals.variant(), lights.area_lights)?),
         };
         declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| shade.run(p, decals))
     }

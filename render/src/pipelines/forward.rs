@@ -16,8 +16,7 @@ use crate::RenderError;
 use crate::culling::{Draws, Phase};
 use crate::decals::{DecalFrame, declare_decal_reads};
 use crate::gpu::device::GpuContext;
-use crate::gpu::pipeline::ShadeVariants;
-use crate::gpu::pipeline::{GraphicsDesc, create_graphics};
+use crate::gpu::pipeline::{GraphicsDesc, ShadeVariants, Specialization, create_graphics, create_graphics_specialized};
 use crate::gpu::shaders;
 use crate::graph::targets::Surface;
 use crate::graph::targets::{
@@ -47,7 +46,7 @@ impl ForwardPasses {
         let prepass = GraphicsDesc { samples, ..GraphicsDesc::mesh("prepass", None, &[], DEPTH_FORMAT) };
         let ids_formats = [VISIBILITY_FORMAT];
         let ids = GraphicsDesc { samples, ..GraphicsDesc::mesh("prepass ids", Some(shaders::VISBUFFER_FRAG), &ids_formats, DEPTH_FORMAT) };
-        let shade = move |ctx: &GpuContext, fragment: &'static [u8]| {
+        let shade = move |ctx: &GpuContext, fragment: &'static [u8], spec: Specialization| {
             let desc = GraphicsDesc {
                 name: "forward",
                 fragment: Some(fragment),
@@ -56,7 +55,7 @@ impl ForwardPasses {
                 depth_write: false,
                 ..prepass
             };
-            create_graphics(ctx, layout, &desc)
+            create_graphics_specialized(ctx, layout, &desc, spec)
         };
         let (variants, clustered) = if samples > 1 {
             (
@@ -152,7 +151,7 @@ impl ForwardPasses {
             .when(reflected, |p| p.image(&REFLECTION_ADDED, ImageUse::StorageRead))
             .reads(scene.res.drawn())
             .reads(draws.reads());
-        let pipeline = variants.pick(ctx, decals.variant())?;
+        let pipeline = variants.pick(ctx, decals.variant(), lights.area_lights)?;
         declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| {
             let push = p.push;
             p.bind_graphics(pipeline, &push);

@@ -440,8 +440,9 @@ impl RayLightShading {
         raygen: [&'static [u8]; 2],
     ) -> Self {
         if ctx.tier == Tier::RayQuery {
-            let compute =
-                ShadeVariants::new(ctx, compute, move |ctx, spirv| crate::gpu::pipeline::create_compute(ctx, layout, name, spirv));
+            let compute = ShadeVariants::new(ctx, compute, move |ctx, spirv, spec| {
+                crate::gpu::pipeline::create_compute_specialized(ctx, layout, name, spirv, spec)
+            });
             return Self { compute: Some(compute), rays: None };
         }
         if !ctx.ray_support().ray_pipeline {
@@ -459,11 +460,12 @@ impl RayLightShading {
         }
     }
 
-    /// The pipeline that shades with this frame's `decals` (made now if no frame used it
-    /// before), `None` on a device that has neither kind.
-    pub fn pick(&self, ctx: &GpuContext, decals: &DecalFrame) -> Result<Option<RayLightPass<'_>>, RenderError> {
+    /// The pipeline that shades with this frame's `decals` and `lights` (made now if no frame
+    /// used it before), `None` on a device that has neither kind. The ray-generation pipeline
+    /// always keeps the area lights' code (one pipeline, with its shader binding table).
+    pub fn pick(&self, ctx: &GpuContext, decals: &DecalFrame, lights: &LightFrame) -> Result<Option<RayLightPass<'_>>, RenderError> {
         if let Some(compute) = &self.compute {
-            return Ok(Some(RayLightPass { pipeline: compute.pick(ctx, decals.variant())?, rays: None }));
+            return Ok(Some(RayLightPass { pipeline: compute.pick(ctx, decals.variant(), lights.area_lights)?, rays: None }));
         }
         let Some(lazy) = &self.rays else { return Ok(None) };
         let rays = match lazy.made.get() {

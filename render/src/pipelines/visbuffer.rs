@@ -12,7 +12,7 @@ use crate::RenderError;
 use crate::culling::{Draws, Phase};
 use crate::decals::{DecalFrame, declare_decal_reads};
 use crate::gpu::device::GpuContext;
-use crate::gpu::pipeline::{GraphicsDesc, create_compute, create_graphics};
+use crate::gpu::pipeline::{GraphicsDesc, create_compute_specialized, create_graphics, create_graphics_specialized};
 use crate::gpu::shaders;
 use crate::graph::targets::Surface;
 use crate::graph::targets::{DEPTH, DEPTH_FORMAT, HDR, HDR_FORMAT, VISIBILITY, VISIBILITY_FORMAT};
@@ -43,12 +43,14 @@ impl VisBufferPasses {
             shade: ShadeVariants::new(
                 ctx,
                 [shaders::VISBUFFER_SHADE_FRAG, shaders::VISBUFFER_SHADE_FRAG_RAY_QUERY_DECALS, shaders::VISBUFFER_SHADE_FRAG_DECAL_BUFFER],
-                move |ctx, fragment| create_graphics(ctx, layout, &GraphicsDesc::fullscreen("visibility shading", fragment, &[HDR_FORMAT])),
+                move |ctx, fragment, spec| {
+                    create_graphics_specialized(ctx, layout, &GraphicsDesc::fullscreen("visibility shading", fragment, &[HDR_FORMAT]), spec)
+                },
             ),
             shade_compute: ShadeVariants::new(
                 ctx,
                 [shaders::VISBUFFER_SHADE_COMP, shaders::VISBUFFER_SHADE_COMP_RAY_QUERY_DECALS, shaders::VISBUFFER_SHADE_COMP_DECAL_BUFFER],
-                move |ctx, spirv| create_compute(ctx, layout, "visibility shading (compute)", spirv),
+                move |ctx, spirv, spec| create_compute_specialized(ctx, layout, "visibility shading (compute)", spirv, spec),
             ),
             shade_rays: RayLightShading::new(
                 ctx,
@@ -108,9 +110,9 @@ impl VisBufferPasses {
             .read(scene.res.meshes, BufferUse::Storage);
         let pass = if kind == PassKind::Graphics { pass.color(&HDR, Load::Clear(clear)) } else { pass.image(&HDR, ImageUse::StorageWrite) };
         let shade = match rays {
-            Some(_) => Shade::Rays(self.shade_rays.pick(ctx, decals)?),
-            None if compute => Shade::Compute(self.shade_compute.pick(ctx, decals.variant())?),
-            None => Shade::Fullscreen(self.shade.pick(ctx, decals.variant())?),
+            Some(_) => Shade::Rays(self.shade_rays.pick(ctx, decals, lights)?),
+            None if compute => Shade::Compute(self.shade_compute.pick(ctx, decals.variant(), lights.area_lights)?),
+            None => Shade::Fullscreen(self.shade.pick(ctx, decals.variant(), lights.area_lights)?),
         };
         declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| shade.run(p, decals))
     }

@@ -58,7 +58,7 @@ use crate::gpu::memory::Buffer;
 use crate::gpu::memory::Retired;
 use crate::gpu::pipeline::ScenePush;
 use crate::gpu::pipeline::ShadeVariants;
-use crate::gpu::pipeline::{HitGroup, LazyPipeline, RayTracingDesc, RayTracingPipeline, create_compute};
+use crate::gpu::pipeline::{HitGroup, LazyPipeline, RayTracingDesc, RayTracingPipeline, create_compute_specialized};
 use crate::gpu::shaders;
 use crate::graph::pyramid::{dispatch_pyramid, hiz_levels, hiz_words};
 use crate::graph::readback::StatsReadback;
@@ -166,7 +166,8 @@ impl Reflections {
     /// Creates the passes (the ray passes only on the ray-query tier) and the statistics
     /// buffers.
     pub fn new(ctx: &GpuContext, graph: &mut FrameGraph, layout: vk::PipelineLayout) -> Result<Self, RenderError> {
-        let compute = move |ctx: &GpuContext, spirv: &'static [u8]| create_compute(ctx, layout, "reflection rays", spirv);
+        let compute =
+            move |ctx: &GpuContext, spirv: &'static [u8], spec| create_compute_specialized(ctx, layout, "reflection rays", spirv, spec);
         let (gbuffer, visibility) = if ctx.tier == Tier::RayQuery {
             (
                 Some(ShadeVariants::new(
@@ -190,7 +191,9 @@ impl Reflections {
         } else {
             (None, None)
         };
-        let screen = move |ctx: &GpuContext, spirv: &'static [u8]| create_compute(ctx, layout, "reflection rays (screen space)", spirv);
+        let screen = move |ctx: &GpuContext, spirv: &'static [u8], spec| {
+            create_compute_specialized(ctx, layout, "reflection rays (screen space)", spirv, spec)
+        };
         let screen = [
             ShadeVariants::new(
                 ctx,
@@ -429,9 +432,11 @@ impl Reflections {
         let screen = !lights.traced_reflections();
         let ctx = f.ctx;
         let compute = match source {
-            Some(source) if screen => Some(self.screen[source as usize].pick(ctx, decals.variant())?),
-            Some(Surface::GBuffer) => self.gbuffer.as_ref().map(|v| v.pick(ctx, decals.variant())).transpose()?,
-            Some(Surface::Visibility | Surface::Depth) => self.visibility.as_ref().map(|v| v.pick(ctx, decals.variant())).transpose()?,
+            Some(source) if screen => Some(self.screen[source as usize].pick(ctx, decals.variant(), lights.area_lights)?),
+            Some(Surface::GBuffer) => self.gbuffer.as_ref().map(|v| v.pick(ctx, decals.variant(), lights.area_lights)).transpose()?,
+            Some(Surface::Visibility | Surface::Depth) => {
+                self.visibility.as_ref().map(|v| v.pick(ctx, decals.variant(), lights.area_lights)).transpose()?
+            }
             None => self.glass.as_ref().map(|g| g.get(ctx)).transpose()?,
         };
         // The ray-generation shader for this surface and decal method (of `RAYGENS`).

@@ -59,7 +59,7 @@ use crate::gpu::pipeline::create_compute;
 use crate::gpu::shaders;
 use crate::graph::targets::{DEPTH, SHADOW_RATIO, SHADOW_SAMPLES};
 use crate::graph::{BufferUse, Frame, ImageUse, PassKind, ResourceId};
-use crate::layout::{DIRECT_LIGHT_SUNS, LIGHT_DIRECTIONAL};
+use crate::layout::{DIRECT_LIGHT_SUNS, LIGHT_DIRECTIONAL, LIGHT_DISK, LIGHT_RECT};
 use crate::scene::gpu::GpuScene;
 use crate::scene::{GpuLight, SlotTable};
 use crate::settings::{DirectLight, ShadowMethod};
@@ -74,34 +74,47 @@ pub struct Suns {
     pub count: u32,
 }
 
-/// Finds the [`Suns`] when the light table changed since the last search, and keeps them
-/// otherwise: a frame whose lights are still costs a comparison. Called every frame, sampled or
-/// not, so that no change slips by between two frames that sample.
+/// Finds the [`Suns`], and whether any light is an area light (the shading passes then use their
+/// pipelines with the area lights' code, `crate::gpu::pipeline::Specialization`), when the light
+/// table changed since the last search, and keeps them otherwise: a frame whose lights are
+/// still costs a comparison. Called every frame, sampled or not, so that no change slips by
+/// between two frames that sample.
 #[derive(Debug, Default)]
-pub struct SunSearch {
+pub struct LightSearch {
     found: Option<Suns>,
+    area_lights: bool,
     /// The table's slot count at the last search (a trim drops the dirty marks of the slots it
     /// drops, a sun's among them).
     slots: u32,
 }
 
-impl SunSearch {
-    /// The directional lights of `lights`, searched again when a light was written or released
-    /// since the last upload, when the table's slot count changed, or before the first search.
+impl LightSearch {
+    /// The directional lights of `lights`, searched again (with the area lights) when a light
+    /// was written or released since the last upload, when the table's slot count changed, or
+    /// before the first search.
     pub fn find(&mut self, lights: &SlotTable<GpuLight>) -> Suns {
         if lights.dirty_count() > 0 || lights.slot_count() != self.slots || self.found.is_none() {
             self.slots = lights.slot_count();
             let mut suns = Suns::default();
-            for (slot, _) in lights.records().iter().enumerate().filter(|(_, l)| l.kind == LIGHT_DIRECTIONAL) {
-                if suns.count == DIRECT_LIGHT_SUNS {
-                    break;
+            self.area_lights = false;
+            for (slot, light) in lights.records().iter().enumerate() {
+                match light.kind {
+                    LIGHT_DIRECTIONAL if suns.count < DIRECT_LIGHT_SUNS => {
+                        suns.slots[suns.count as usize] = slot as u32;
+                        suns.count += 1;
+                    }
+                    LIGHT_RECT | LIGHT_DISK => self.area_lights = true,
+                    _ => {}
                 }
-                suns.slots[suns.count as usize] = slot as u32;
-                suns.count += 1;
             }
             self.found = Some(suns);
         }
         self.found.unwrap_or_default()
+    }
+
+    /// Whether a light of the last search ([`LightSearch::find`]) is a rect or disk light.
+    pub fn area_lights(&self) -> bool {
+        self.area_lights
     }
 }
 
@@ -172,7 +185,7 @@ mod tests {
         let mut table = SlotTable::default();
         table.insert(light(crate::layout::LIGHT_POINT));
         let sun = table.insert(light(LIGHT_DIRECTIONAL));
-        let mut search = SunSearch::default();
+        let mut search = LightSearch::default();
         assert_eq!(search.find(&table), Suns { slots: [sun, 0, 0, 0], count: 1 });
         table.take_dirty(|_, _| {});
         for _ in 0..5 {
@@ -197,6 +210,33 @@ mod tests {
         table.trim();
         table.take_dirty(|_, _| {});
         assert_eq!(search.find(&table), Suns { slots: [0; 4], count: 0 }, "the removed suns are forgotten");
+        assert!(!search.area_lights());
+    }
+
+    #[test]
+    fn area_lights_are_found_when_written_and_forgotten_when_released() {
+        let light = |kind| GpuLight { kind, ..bytemuck::Zeroable::zeroed() };
+        let mut table = SlotTable::default();
+        let point = table.insert(light(crate::layout::LIGHT_POINT));
+        let mut search = LightSearch::default();
+        search.find(&table);
+        assert!(!search.area_lights(), "a point light is no area light");
+        table.take_dirty(|_, _| {});
+        // A light that becomes a disk in its own slot (same slot count): its dirty mark tells.
+        table.write(point, light(LIGHT_DISK));
+        search.find(&table);
+        assert!(search.area_lights(), "the disk is found");
+        table.take_dirty(|_, _| {});
+        let rect = table.insert(light(LIGHT_RECT));
+        table.write(point, light(crate::layout::LIGHT_POINT));
+        search.find(&table);
+        assert!(search.area_lights(), "the rectangle is found");
+        table.take_dirty(|_, _| {});
+        search.find(&table);
+        assert!(search.area_lights(), "a still frame keeps what was found");
+        table.remove(rect);
+        search.find(&table);
+        assert!(!search.area_lights(), "the released rectangle is forgotten");
     }
 
     #[test]
