@@ -132,8 +132,8 @@ impl Default for DirectionalLight {
 /// the polygon: linearly transformed cosines with the identity transform, Heitz et al. 2016), so
 /// near a large panel the light is soft and wraps as a real one does; ray-traced shadows aim at
 /// points spread over its face, so its shadows are soft (their penumbra resolves under temporal
-/// anti-aliasing, as a sized [`PointLight`]'s does). Shadow maps do not cover area lights: where
-/// shadows come from maps, they light unshadowed.
+/// anti-aliasing, as a sized [`PointLight`]'s does). Where shadows come from maps, it takes a point
+/// light's cube of maps from its centre.
 ///
 /// Immutable: change it by inserting a new value (see [`crate::changes`]).
 #[derive(Component, Clone, Copy, Debug, PartialEq)]

@@ -1,5 +1,5 @@
 // Shadow maps (render/src/shadows/maps.rs): an atlas of tiles, one per view (a spot light's, a
-// point light's six cube faces, a directional light's fitted to the camera), each holding
+// point or area light's six cube faces, a directional light's fitted to the camera), each holding
 // reverse-Z depth and, on odd rows, the colour and opacity of the glass nearest the light
 // (seed 002 §3.2.1, Table 3.3). The views buffer (ScenePush::shadow_views): a header
 // (SHADOW_VIEWS_HEADER words: the word offset of the views, their count), each light slot's
@@ -31,9 +31,15 @@ uint cube_face(vec3 d) {
     return d.z > 0.0 ? 4u : 5u;
 }
 
+// Whether `light` has a cube of six views (render/src/shadows/maps.rs, is_cube): point lights,
+// and area lights from their centre.
+bool cube_mapped(GpuLight light) {
+    return light.kind == LIGHT_POINT || light.kind == LIGHT_RECT || light.kind == LIGHT_DISK;
+}
+
 // The view of light `slot` (whose first view is `first`) that sees world point `x`.
 uint shadow_view_of(uint first, GpuLight light, vec3 x) {
-    return light.kind == LIGHT_POINT ? first + cube_face(x - light.position) : first;
+    return cube_mapped(light) ? first + cube_face(x - light.position) : first;
 }
 
 // Texel `t` of view `v`'s tile and the one in the other row of its pair: the opaque surface's

@@ -113,6 +113,15 @@ impl GpuLight {
         Vec3::new(self.spot_scale, self.spot_offset, self.cone_cos)
     }
 
+    /// An area light's area in square metres (a rectangle's or a disk's face); 0 for other kinds.
+    pub fn area(&self) -> f32 {
+        match self.kind {
+            k if k == LightKind::Rect as u32 => 4.0 * self.area_right().length() * self.size,
+            k if k == LightKind::Disk as u32 => std::f32::consts::PI * self.size * self.size,
+            _ => 0.0,
+        }
+    }
+
     fn with_right(self, right: Vec3) -> Self {
         Self { spot_scale: right.x, spot_offset: right.y, cone_cos: right.z, ..self }
     }

@@ -4,7 +4,10 @@
 //! pipeline's shading reads.
 //!
 //! - **Views** ([`plan_views`], on the CPU, uploaded only when they change): a spot light gets
-//!   one perspective view over its cone, a point light six cube faces, a directional light one
+//!   one perspective view over its cone, a point light six cube faces (and so does an area
+//!   light, from its centre: its hard shadow is the centre's, as with rays without temporal
+//!   anti-aliasing; the face behind a one-sided light is drawn though nothing reads it, and a
+//!   surface flush with the light's plane lies on the faces' edges), a directional light one
 //!   orthographic view fitted to the camera's view up to
 //!   [`ShadowMapBudget::directional_distance`] (a bounding sphere of that slice of the view
 //!   frustum, so the map's size does not change as the camera turns, and its position snapped
@@ -48,7 +51,10 @@ use crate::graph::targets::{
     DEPTH, DEPTH_FORMAT, SHADOW_DEBUG, SHADOW_MAP_DEPTH, SHADOW_MAP_FILTER, SHADOW_MAP_FILTER_FORMAT, TRANSPARENT_DEPTH,
 };
 use crate::graph::{BufferUse, Frame, ImageUse, Load, PassKind};
-use crate::layout::{GpuCamera, GpuLight, GpuShadowView, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, NO_SHADOW_MAP, SHADOW_VIEWS_HEADER};
+use crate::layout::{
+    GpuCamera, GpuLight, GpuShadowView, LIGHT_DIRECTIONAL, LIGHT_DISK, LIGHT_POINT, LIGHT_RECT, LIGHT_SPOT, NO_SHADOW_MAP,
+    SHADOW_VIEWS_HEADER,
+};
 use crate::scene::gpu::GpuScene;
 use crate::settings::ShadowMapBudget;
 use crate::shadows::ShadowInputs;
@@ -265,13 +271,18 @@ fn partition<T>(items: &mut [T], keep: impl Fn(&T) -> bool) -> usize {
 
 /// How much light `light` brings to what a camera at `eye` sees, to rank the lights for the
 /// atlas: directional lights first (they reach everything); a point or spot light by its
-/// intensity (the luminance of the record's colour) times the share of the view its range can
-/// reach, the size of its range sphere from the eye (all of it when the eye is inside).
+/// intensity (the luminance of the record's colour; an area light's luminance times its area)
+/// times the share of the view its range can reach, the size of its range sphere from the eye
+/// (all of it when the eye is inside).
 pub fn map_priority(light: &GpuLight, eye: Vec3) -> f32 {
     if light.kind == LIGHT_DIRECTIONAL {
         return f32::INFINITY;
     }
-    let intensity = light.color.dot(Vec3::new(0.2126, 0.7152, 0.0722)).max(0.0);
+    let luminance = light.color.dot(Vec3::new(0.2126, 0.7152, 0.0722)).max(0.0);
+    let intensity = match light.kind {
+        LIGHT_RECT | LIGHT_DISK => luminance * light.area(),
+        _ => luminance,
+    };
     let distance = light.position.distance(eye).max(1e-3);
     let reach = if light.range.is_finite() { (light.range / distance).min(1.0) } else { 1.0 };
     intensity * reach * reach
@@ -301,7 +312,7 @@ pub fn plan_views(
         lights
             .iter()
             .enumerate()
-            .filter(|(_, l)| matches!(l.kind, LIGHT_POINT | LIGHT_SPOT | LIGHT_DIRECTIONAL))
+            .filter(|(_, l)| matches!(l.kind, LIGHT_POINT | LIGHT_SPOT | LIGHT_DIRECTIONAL | LIGHT_RECT | LIGHT_DISK))
             .map(|(slot, l)| (map_priority(l, camera.position), slot as u32)),
     );
     let shadowable = ranked.len();
@@ -311,7 +322,7 @@ pub fn plan_views(
     let first = (budget.tiles as usize).min(shadowable);
     best_first(ranked, first);
     let take = |slot: u32, views: &mut u32, words: &mut Vec<u32>| {
-        let needs = if lights[slot as usize].kind == LIGHT_POINT { 6 } else { 1 };
+        let needs = if is_cube(lights[slot as usize].kind) { 6 } else { 1 };
         let fits = *views + needs <= budget.tiles;
         if fits {
             words[SHADOW_VIEWS_HEADER as usize + slot as usize] = *views;
@@ -326,7 +337,7 @@ pub fn plan_views(
     let mut more = 0;
     if plan.views < budget.tiles && first < shadowable {
         let rest = &mut ranked[first..];
-        let singles = partition(rest, |&(_, slot)| lights[slot as usize].kind != LIGHT_POINT);
+        let singles = partition(rest, |&(_, slot)| !is_cube(lights[slot as usize].kind));
         more = ((budget.tiles - plan.views) as usize).min(singles);
         best_first(&mut rest[..singles], more);
         for &(_, slot) in &rest[..more] {
@@ -343,7 +354,7 @@ pub fn plan_views(
         let light = &lights[slot as usize];
         let far = if light.range.is_finite() && light.range > NEAR { light.range } else { FAR_UNBOUNDED };
         match light.kind {
-            LIGHT_POINT => {
+            kind if is_cube(kind) => {
                 for dir in CUBE_FACES {
                     let view = Mat4::look_to_rh(light.position, dir, up_for(dir));
                     let texel = 2.0 / budget.tile as f32;
@@ -365,6 +376,12 @@ pub fn plan_views(
     words[0] = views_at as u32;
     words[1] = plan.views;
     plan
+}
+
+/// Whether a light of `kind` takes a cube of six views (`shadow_maps.glsl`'s `cube_mapped`):
+/// point lights, and area lights from their centre.
+fn is_cube(kind: u32) -> bool {
+    matches!(kind, LIGHT_POINT | LIGHT_RECT | LIGHT_DISK)
 }
 
 #[cfg(test)]
@@ -453,6 +470,31 @@ mod tests {
         assert_eq!(plan, ShadowMapPlan { views: 2, missing: 2 });
         assert_eq!(words[4..8], [NO_SHADOW_MAP, 1, NO_SHADOW_MAP, 0]);
         assert!(ranked.capacity() >= 4, "the ranking keeps its room for the next frame");
+    }
+
+    #[test]
+    fn area_lights_take_a_cube_from_their_centre_ranked_by_their_power() {
+        let eye = camera().position;
+        let (mut words, mut ranked) = (Vec::new(), Vec::new());
+        let budget = ShadowMapBudget { tile: 256, tiles: 6, directional_distance: 20.0 };
+        // A 2 m × 1 m panel of luminance 1 brings as much as a point light of intensity 2 (its
+        // face's area), more than a point light of 1.5.
+        let at = Vec3::new(0.5, 2.5, 0.0);
+        let rect = GpuLight::rect(at, Vec3::NEG_Y, Vec3::X, 0.5, Vec3::ONE, 8.0);
+        assert!((rect.area() - 2.0).abs() < 1e-5, "{}", rect.area());
+        let point = GpuLight::point(Vec3::new(0.5, 2.5, 0.1), Vec3::splat(1.5), 8.0);
+        assert!(map_priority(&rect, eye) > map_priority(&point, eye));
+        let plan = plan_views(&mut words, &mut ranked, &[point, rect], &camera(), &budget);
+        assert_eq!(plan, ShadowMapPlan { views: 6, missing: 1 });
+        assert_eq!(words[4..6], [NO_SHADOW_MAP, 0], "the panel takes the cube");
+        for (face, dir) in CUBE_FACES.into_iter().enumerate() {
+            let p = view_of(&words, face as u32).view_proj.project_point3(at + dir);
+            assert!(p.x.abs() < 1e-4 && p.y.abs() < 1e-4 && p.z > 0.0 && p.z < 1.0, "face {face}: {p}");
+        }
+        let disk = GpuLight::disk(at, Vec3::NEG_Y, Vec3::X, 1.0, Vec3::ONE, 8.0);
+        assert!((disk.area() - std::f32::consts::PI).abs() < 1e-5);
+        let plan = plan_views(&mut words, &mut ranked, &[disk], &camera(), &budget);
+        assert_eq!(plan, ShadowMapPlan { views: 6, missing: 0 });
     }
 
     #[test]
