@@ -539,9 +539,11 @@ layout! {
     /// vector in its plane, `size` its radius).
     pub const LIGHT_DISK: u32 = 5;
     /// Specialization constant id of `AREA_LIGHTS` (`area_lights.glsl`): whether a pipeline
-    /// keeps the area lights' code (`crate::gpu::pipeline::Specialization`). Without it, rect
-    /// and disk lights give nothing; shading passes drop it while the scene has none, since its
-    /// registers slowed the many-lights scene's shading by a third on the lent H200.
+    /// keeps the area lights' code (`crate::gpu::pipeline::Specialization`). Without it, a rect
+    /// or disk light would shade as a point light, so shading passes drop it only while the
+    /// scene has none (its registers slowed the many-lights scene's shading by a third on the
+    /// lent H200). Every pipeline is made with this id's entry (true unless specialized): a
+    /// shader must not use id 0 for anything else.
     pub const SPEC_AREA_LIGHTS: u32 = 0;
 
     /// Decal material flag: blends albedo.

@@ -6,8 +6,10 @@
 //! - **Views** ([`plan_views`], on the CPU, uploaded only when they change): a spot light gets
 //!   one perspective view over its cone, a point light six cube faces (and so does an area
 //!   light, from its centre: its hard shadow is the centre's, as with rays without temporal
-//!   anti-aliasing; the face behind a one-sided light is drawn though nothing reads it, and a
-//!   surface flush with the light's plane lies on the faces' edges), a directional light one
+//!   anti-aliasing; a face that sees only what lies behind a one-sided light, when there is
+//!   one, is drawn though nothing reads it; a surface within the near plane's 5 cm of the
+//!   centre, such as a wall beside a panel mounted in a corner, is missing from the face that
+//!   looks at it), a directional light one
 //!   orthographic view fitted to the camera's view up to
 //!   [`ShadowMapBudget::directional_distance`] (a bounding sphere of that slice of the view
 //!   frustum, so the map's size does not change as the camera turns, and its position snapped
