@@ -57,9 +57,17 @@ pub const GPU_BOUND: u64 = 1 << 20;
 /// one: 2 MiB (a leak of one small record per frame over a 10,000-frame run would pass it).
 pub const HEAP_BOUND: u64 = 2 << 20;
 
+/// How many low frames the soak's renderers wait before a buffer gives memory back
+/// ([`render::DeviceSettings::shrink_after_frames`]): 8 instead of the default 60, so that a
+/// cycle's end settles in a few dozen frames (and gameplay shrinks and regrows buffers more often,
+/// which the soak wants to see too).
+pub const SHRINK_AFTER_FRAMES: u32 = 8;
+
 /// Frames rendered in the base configuration before each memory measurement, so that buffers
-/// left unused shrink and retired ones are freed.
-pub const SETTLE_FRAMES: u32 = 140;
+/// left unused shrink and retired ones are freed: two waits of [`SHRINK_AFTER_FRAMES`] (a shrink
+/// can leave another buffer's need low, which then waits its own turn) and a margin of 20 frames
+/// for the frames in flight and the graveyard.
+pub const SETTLE_FRAMES: u32 = 2 * SHRINK_AFTER_FRAMES + 20;
 
 /// What a soak run does.
 #[derive(Clone, Debug)]
@@ -597,6 +605,7 @@ pub fn run(config: &SoakConfig) -> Result<SoakReport> {
         let mut renderer_settings = RendererSettings::default();
         renderer_settings.device.validation = config.validation;
         renderer_settings.device.max_tier = tier;
+        renderer_settings.device.shrink_after_frames = SHRINK_AFTER_FRAMES;
         // Gameplay's directional lights move the sky's sun, and each move refilters the sky: small
         // cubes keep that quick on lavapipe (the passes and their synchronization are the same).
         renderer_settings.environment_resolution = 64;

@@ -299,7 +299,7 @@ impl SceneAccel {
             free_queries: (0..QUERIES).rev().collect(),
             scratch: Scratch::new(ctx, "scene as scratch"),
             shrink_scratch: false,
-            tlas_shrink: Shrink::default(),
+            tlas_shrink: ctx.shrink_rule(),
             instance_pass,
             refit_list: Vec::new(),
             refits: Vec::new(),

@@ -168,7 +168,7 @@ impl DecalClusters {
             fill: [fill, fill_wide],
             bounds,
             pass: [gbuffer, visibility, depth],
-            room: ListRoom::new("decal clusters", initial_capacity),
+            room: ListRoom::new(ctx, "decal clusters", initial_capacity),
             clusters: 0,
             readback,
             latest: DecalClusterStats { measured_frame: u64::MAX, ..Default::default() },

@@ -107,7 +107,7 @@ impl DecalLists {
         };
         Ok(Self {
             offsets,
-            room: ListRoom::new("decal lists", INITIAL_CAPACITY),
+            room: ListRoom::new(ctx, "decal lists", INITIAL_CAPACITY),
             image: (0, 0),
             fresh: false,
             carry: None,

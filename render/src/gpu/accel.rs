@@ -345,7 +345,7 @@ impl AabbAccel {
             built: None,
             refitted_since_build: 0,
             sized_for: 0,
-            shrink: Shrink::default(),
+            shrink: ctx.shrink_rule(),
             res: AabbAccelResources {
                 blas: graph.resource(names.blas),
                 tlas: graph.resource(names.tlas),

@@ -93,6 +93,12 @@ pub struct DeviceSettings {
     /// decoded to RGBA8 as they upload (`crate::scene::bc`). For testing that path, which no
     /// device this renderer runs on needs.
     pub without_texture_compression: bool,
+    /// Frames a buffer that follows a count must need at most a quarter of its room (or go
+    /// unused) before it gives memory back: see [`crate::gpu::upload::Shrink`]. Default:
+    /// [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] (a second at 60 frames a second). Lower lets a
+    /// level change hand its memory back sooner; it is clamped to at least
+    /// [`crate::gpu::FRAMES_IN_FLIGHT`] frames, so that every staging ring sees a frame of it.
+    pub shrink_after_frames: u32,
 }
 
 impl Default for DeviceSettings {
@@ -108,6 +114,7 @@ impl Default for DeviceSettings {
             surface_extensions: Vec::new(),
             memory_budget: None,
             without_texture_compression: false,
+            shrink_after_frames: crate::gpu::upload::SHRINK_AFTER_FRAMES,
         }
     }
 }
@@ -203,6 +210,11 @@ pub struct GpuContext {
     pub memory_budget: Option<u64>,
     /// Size of the device's largest device-local memory heap.
     pub device_local_bytes: u64,
+    /// [`DeviceSettings::shrink_after_frames`] (clamped): the wait of every [`Shrink`] rule
+    /// [`GpuContext::shrink_rule`] gives out.
+    ///
+    /// [`Shrink`]: crate::gpu::upload::Shrink
+    pub shrink_after_frames: u32,
     /// Vulkan objects destroyed so far ([`GpuContext::objects_destroyed`]).
     destroyed: AtomicU64,
 }
@@ -391,6 +403,7 @@ impl GpuContext {
             limits: props.limits,
             memory_budget: settings.memory_budget,
             device_local_bytes,
+            shrink_after_frames: settings.shrink_after_frames.max(crate::gpu::FRAMES_IN_FLIGHT as u32),
             destroyed: AtomicU64::new(0),
         })
     }
@@ -407,6 +420,12 @@ impl GpuContext {
     /// Locks the memory allocator.
     pub fn allocator(&self) -> std::sync::MutexGuard<'_, Allocator> {
         self.allocator.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// The rule by which a buffer that follows a count shrinks or is released, waiting
+    /// [`GpuContext::shrink_after_frames`] low frames.
+    pub fn shrink_rule(&self) -> crate::gpu::upload::Shrink {
+        crate::gpu::upload::Shrink::after(self.shrink_after_frames)
     }
 
     /// The memory the renderer may use: [`GpuContext::memory_budget`] when set, otherwise the

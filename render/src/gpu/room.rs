@@ -62,7 +62,7 @@ pub(crate) struct ListRoom {
 
 impl ListRoom {
     /// No buffer yet; the first gets room for `initial` entries (within the ceiling).
-    pub fn new(name: &'static str, initial: u32) -> Self {
+    pub fn new(ctx: &GpuContext, name: &'static str, initial: u32) -> Self {
         Self {
             name,
             buffer: None,
@@ -70,7 +70,7 @@ impl ListRoom {
             initial: initial.max(1),
             grows: 0,
             shrinks: 0,
-            shrink: Shrink::default(),
+            shrink: ctx.shrink_rule(),
             warned_at_limit: false,
         }
     }

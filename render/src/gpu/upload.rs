@@ -12,7 +12,8 @@
 //! and light acceleration structures and their scratch, light boxes, decal clusters, light tile
 //! lists, the scene's TLAS, these rings) grows at once when it lacks room, and shrinks only when
 //! what it needs has stayed at or below a quarter of its capacity for [`SHRINK_AFTER_FRAMES`]
-//! frames in a row: it is then replaced by one with room for the need's power of two (never
+//! frames in a row (the default of [`crate::DeviceSettings::shrink_after_frames`], which every
+//! rule takes from [`GpuContext::shrink_rule`]): it is then replaced by one with room for the need's power of two (never
 //! below the buffer's floor), through the graveyard, so the frames in flight keep reading the
 //! old one. The factor of four and the wait keep a steady or oscillating size from shrinking and
 //! regrowing in a loop: right after a shrink the need fills more than half the new buffer, and a
@@ -249,7 +250,7 @@ const ALIGN: u64 = 16;
 impl StagingRing {
     /// A ring of `capacity` bytes.
     pub fn new(ctx: &GpuContext, capacity: u64) -> Result<Self, RenderError> {
-        let shrink = Shrink::after(SHRINK_AFTER_FRAMES / crate::gpu::FRAMES_IN_FLIGHT as u32);
+        let shrink = Shrink::after(ctx.shrink_after_frames / crate::gpu::FRAMES_IN_FLIGHT as u32);
         Ok(Self { buffer: Self::create(ctx, capacity)?, used: 0, shrink })
     }
 

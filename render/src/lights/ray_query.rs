@@ -97,7 +97,7 @@ impl RayQueryLights {
             accel: AabbAccel::new(ctx, graph, names),
             pending_changes: 0,
             seen_slots: 0,
-            shrink: Shrink::default(),
+            shrink: ctx.shrink_rule(),
             boxes: graph.resource("light boxes"),
         }))
     }

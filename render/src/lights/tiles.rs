@@ -183,7 +183,7 @@ impl LightTiles {
             cull_transparent_pipeline: create_compute(ctx, layout, "light culling (transparency)", shaders::LIGHT_CULL_COMP_TRANSPARENT)?,
             frusta: None,
             frusta_key: None,
-            list: ListRoom::new("light tiles", 1024),
+            list: ListRoom::new(ctx, "light tiles", 1024),
             tiles_for: (0, 0, 0),
             shadow: None,
             shadow_rows: 0,
@@ -195,7 +195,7 @@ impl LightTiles {
             rows_needed: 0,
             grows: 0,
             shrinks: 0,
-            shadow_shrink: Shrink::default(),
+            shadow_shrink: ctx.shrink_rule(),
             warned_all_shadows: false,
             res: TileResources {
                 frusta: graph.resource("light tile frusta"),

@@ -147,7 +147,7 @@ impl RingAccel {
             born_seen: 0,
             waited: 0,
             restart: None,
-            shrink: Shrink::default(),
+            shrink: ctx.shrink_rule(),
             res: [
                 graph.resource("particle decal tlas"),
                 graph.resource("particle decal blas"),

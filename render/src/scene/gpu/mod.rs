@@ -288,7 +288,7 @@ impl GpuScene {
             mesh_pool: None,
             ranges: RangeAllocator::default(),
             released_ranges: Vec::new(),
-            pool_shrink: Shrink::default(),
+            pool_shrink: ctx.shrink_rule(),
             textures: (0..RESERVED_TEXTURES).map(|_| None).collect(),
             set_layout,
             pool,

@@ -36,7 +36,7 @@ impl GpuTable {
     ) -> Result<Self, RenderError> {
         let stride = std::mem::size_of::<T>() as u64;
         let buffer = Self::create(ctx, name, stride * capacity as u64, extra_usage)?;
-        Ok(Self { name, buffer, capacity, floor: capacity, stride, extra_usage, fill_tail, shrink: Shrink::default(), planned: None })
+        Ok(Self { name, buffer, capacity, floor: capacity, stride, extra_usage, fill_tail, shrink: ctx.shrink_rule(), planned: None })
     }
 
     pub(super) fn create(ctx: &GpuContext, name: &str, size: u64, extra_usage: vk::BufferUsageFlags) -> Result<Buffer, RenderError> {
