@@ -1,6 +1,7 @@
 //! Compiles every GLSL stage in `shaders/` to SPIR-V with the `glslc` program (Debian package
 //! `glslc`). Debian's `libshaderc` does not link from Rust, so we call the program instead.
 //! A shader error fails the build with glslc's own message, which names the file and line.
+//! The stages compile in parallel, as many at once as cargo runs jobs.
 //!
 //! A stage whose first line is `// variants: NAME [NAME…]` is also compiled once per NAME with
 //! `-DNAME`, into `<file>.<NAME>.spv` (e.g. the forward shader with and without ray-query
@@ -17,6 +18,8 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 #[allow(dead_code)]
 #[path = "src/layout.rs"]
@@ -62,25 +65,36 @@ fn main() {
         }
     }
 
-    let mut failures = Vec::new();
-    for (src, define, out) in &jobs {
-        let mut command = Command::new(&glslc);
-        command.arg("--target-env=vulkan1.3").arg("-O").arg("-I").arg(shader_dir.join("include")).arg("-I").arg(&out_dir);
-        for define in define.iter().flat_map(|d| d.split('+')) {
-            command.arg(format!("-D{define}"));
+    // As many glslc processes at once as cargo runs jobs (`NUM_JOBS`): the crate's own compile
+    // waits for this script, so on a fresh build it is on the critical path.
+    let parallel = std::env::var("NUM_JOBS").ok().and_then(|n| n.parse::<usize>().ok()).unwrap_or(1).max(1);
+    let next = AtomicUsize::new(0);
+    let failures = Mutex::new(Vec::new());
+    std::thread::scope(|scope| {
+        for _ in 0..parallel {
+            scope.spawn(|| {
+                while let Some((src, define, out)) = jobs.get(next.fetch_add(1, Ordering::Relaxed)) {
+                    let mut command = Command::new(&glslc);
+                    command.arg("--target-env=vulkan1.3").arg("-O").arg("-I").arg(shader_dir.join("include")).arg("-I").arg(&out_dir);
+                    for define in define.iter().flat_map(|d| d.split('+')) {
+                        command.arg(format!("-D{define}"));
+                    }
+                    match command.arg(src).arg("-o").arg(out).output() {
+                        Ok(o) if o.status.success() => {}
+                        Ok(o) => failures.lock().unwrap().push(format!(
+                            "{}{}{}",
+                            define.as_ref().map(|d| format!("(variant {d}) ")).unwrap_or_default(),
+                            String::from_utf8_lossy(&o.stdout),
+                            String::from_utf8_lossy(&o.stderr)
+                        )),
+                        Err(e) => no_glslc(&glslc, e),
+                    }
+                }
+            });
         }
-        let result = command.arg(src).arg("-o").arg(out).output();
-        match result {
-            Ok(o) if o.status.success() => {}
-            Ok(o) => failures.push(format!(
-                "{}{}{}",
-                define.as_ref().map(|d| format!("(variant {d}) ")).unwrap_or_default(),
-                String::from_utf8_lossy(&o.stdout),
-                String::from_utf8_lossy(&o.stderr)
-            )),
-            Err(e) => no_glslc(&glslc, e),
-        }
-    }
+    });
+    let mut failures = failures.into_inner().unwrap();
+    failures.sort();
     if !failures.is_empty() {
         panic!("shader compilation failed:\n{}", failures.join("\n"));
     }
