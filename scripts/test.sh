@@ -19,10 +19,15 @@ export XDG_CACHE_HOME="${CARGO_TARGET_DIR:-$PWD/target}/test-cache"
 # test's time goes to, takes about half as long (the default courtyard's first frame with
 # reflections: 166 s against 90 s on the 2-core machine).
 export LP_NATIVE_VECTOR_WIDTH="${LP_NATIVE_VECTOR_WIDTH:-128}"
+# Lavapipe's LLVM without its optimization passes: a cold test spends most of its time compiling
+# shaders, and the tests' frames are small. `reflections::glass_reflects_what_is_behind_the_camera`
+# on the 2-core machine: 198 s from an empty shader cache with the passes, 82 s without; 17.7 s
+# against 19.2 s with a warm cache. GALLIVM_PERF= (empty) puts them back.
+export GALLIVM_PERF="${GALLIVM_PERF-nopt}"
 # Mesa keys its shader cache on the shader and the driver's build, not on the vector width: code
 # compiled four lanes wide, loaded by a run at eight, crashes in the shader (seen: a segfault in a
-# llvmpipe thread). So each width has a cache of its own.
-export MESA_SHADER_CACHE_DIR="$XDG_CACHE_HOME/mesa-shader-cache-$LP_NATIVE_VECTOR_WIDTH"
+# llvmpipe thread). So each width (and each set of LLVM passes) has a cache of its own.
+export MESA_SHADER_CACHE_DIR="$XDG_CACHE_HOME/mesa-shader-cache-$LP_NATIVE_VECTOR_WIDTH${GALLIVM_PERF:+-$GALLIVM_PERF}"
 
 gate() {
   local name="$1"
