@@ -9,6 +9,23 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+/// The sandbox as these tests run it: with lavapipe's LLVM optimization passes, which
+/// `scripts/test.sh` turns off for the other tests (`GALLIVM_PERF=nopt`). These two run the
+/// default courtyard with every default on, the windowed one 100 frames at 640×400, where the
+/// unoptimized shaders' frames cost more than their compile saves (in CI 287 s against 122 s,
+/// and 155 s against 108 s for the headless run). Their shaders go to the cache `scripts/test.sh`
+/// names without the `-nopt` (Mesa's cache does not key on the passes).
+fn sandbox_command() -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_sandbox"));
+    if std::env::var("GALLIVM_PERF").is_ok_and(|p| p.contains("nopt")) {
+        command.env_remove("GALLIVM_PERF");
+        if let Some(cache) = std::env::var("MESA_SHADER_CACHE_DIR").ok().and_then(|c| c.strip_suffix("-nopt").map(str::to_owned)) {
+            command.env("MESA_SHADER_CACHE_DIR", cache);
+        }
+    }
+    command
+}
+
 struct Xvfb {
     child: Child,
     display: String,
@@ -86,7 +103,7 @@ fn windowed_sandbox_shows_scene_and_overlay_survives_a_resize_and_exits_cleanly(
     // F12 screenshots land in the working directory: a fresh one.
     let workdir = std::env::temp_dir().join(format!("window_cwd_{}", std::process::id()));
     std::fs::create_dir_all(&workdir).expect("a working directory");
-    let mut sandbox = Command::new(env!("CARGO_BIN_EXE_sandbox"))
+    let mut sandbox = sandbox_command()
         .current_dir(&workdir)
         // Pipelined: the window target, the overlay and the screenshot go through the render
         // thread (the in-place path is the headless tests').
@@ -183,7 +200,7 @@ fn windowed_sandbox_shows_scene_and_overlay_survives_a_resize_and_exits_cleanly(
 fn without_a_display_the_run_command_plays_headless_and_says_where_the_screenshot_is() {
     let dir = std::env::temp_dir().join(format!("sandbox-nodisplay-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let output = Command::new(env!("CARGO_BIN_EXE_sandbox"))
+    let output = sandbox_command()
         .args(["--frames", "3", "--size", "160x90"])
         .current_dir(&dir)
         .env_remove("DISPLAY")
