@@ -10,17 +10,21 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// The sandbox as these tests run it: with lavapipe's LLVM optimization passes, which
-/// `scripts/test.sh` turns off for the other tests (`GALLIVM_PERF=nopt`). These two run the
+/// `scripts/test.sh` turns off for the other tests (`nopt` in `GALLIVM_PERF`). These two run the
 /// default courtyard with every default on, the windowed one 100 frames at 640×400, where the
 /// unoptimized shaders' frames cost more than their compile saves (in CI 287 s against 122 s,
 /// and 155 s against 108 s for the headless run). Their shaders go to the cache `scripts/test.sh`
-/// names without the `-nopt` (Mesa's cache does not key on the passes).
+/// names after the flags they do use, so that each cache holds one kind of code.
 fn sandbox_command() -> Command {
     let mut command = Command::new(env!("CARGO_BIN_EXE_sandbox"));
-    if std::env::var("GALLIVM_PERF").is_ok_and(|p| p.contains("nopt")) {
-        command.env_remove("GALLIVM_PERF");
-        if let Some(cache) = std::env::var("MESA_SHADER_CACHE_DIR").ok().and_then(|c| c.strip_suffix("-nopt").map(str::to_owned)) {
-            command.env("MESA_SHADER_CACHE_DIR", cache);
+    if let Ok(perf) = std::env::var("GALLIVM_PERF")
+        && perf.split(',').any(|flag| flag == "nopt")
+    {
+        let rest = perf.split(',').filter(|flag| !flag.is_empty() && *flag != "nopt").collect::<Vec<_>>().join(",");
+        command.env("GALLIVM_PERF", &rest);
+        if let Some(base) = std::env::var("MESA_SHADER_CACHE_DIR").ok().and_then(|c| c.strip_suffix(&format!("-{perf}")).map(str::to_owned))
+        {
+            command.env("MESA_SHADER_CACHE_DIR", if rest.is_empty() { base } else { format!("{base}-{rest}") });
         }
     }
     command

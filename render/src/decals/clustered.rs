@@ -208,7 +208,7 @@ impl DecalClusters {
     }
 
     /// A frame without clustered decals (another method, or no decal): after
-    /// [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] of them in a row the cluster buffer is
+    /// [`crate::gpu::device::GpuContext::shrink_after_frames`] of them in a row the cluster buffer is
     /// released, and the next frame that bins decals starts again from the initial room.
     /// Until then `stats` shows the room still held and the figures of the last frames that
     /// binned; once released, what it measured is forgotten too.

@@ -166,7 +166,7 @@ impl DecalLists {
     }
 
     /// A frame without the ray-tracing-pipeline decal pass: after
-    /// [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] of them in a row the list buffer is released,
+    /// [`crate::gpu::device::GpuContext::shrink_after_frames`] of them in a row the list buffer is released,
     /// and what it measured is forgotten. Until then `stats` shows the room still held and the
     /// figures of the last frames that used it.
     pub fn idle(&mut self, f: &mut Frame, stats: &mut DecalListStats) {

@@ -430,7 +430,7 @@ impl AabbAccel {
     }
 
     /// A frame that does not bring the structure up to date (nothing to trace, or the method
-    /// that traces it not in use). After [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] of them in
+    /// that traces it not in use). After [`crate::gpu::device::GpuContext::shrink_after_frames`] of them in
     /// a row, everything is released (into the graveyard); the next [`AabbAccel::prepare`]
     /// builds anew.
     pub fn idle(&mut self, up: &mut Upload) {

@@ -3,7 +3,8 @@
 //! ray-tracing-pipeline decal pass's per-pixel lists ([`crate::decals::lists`]) and the light
 //! tiles' index list ([`crate::lights::tiles`]). It grows to a quarter
 //! more than the need, rounded to a power of two; it shrinks with [`Shrink`]'s hysteresis (never
-//! below the initial room) and is released after a second unused; it never takes more than
+//! below the initial room) and is released after a second unused (by default:
+//! [`GpuContext::shrink_after_frames`]); it never takes more than
 //! [`MEMORY_SHARE`] of the renderer's memory, and the first frame whose need stays past that
 //! ceiling is warned about once (again only after the need fitted in between).
 
@@ -133,7 +134,7 @@ impl ListRoom {
         Ok(Fitted::New { previous })
     }
 
-    /// A frame that does not use the buffer: after [`crate::gpu::upload::SHRINK_AFTER_FRAMES`]
+    /// A frame that does not use the buffer: after [`crate::gpu::device::GpuContext::shrink_after_frames`]
     /// of them in a row it is released. Returns whether it was.
     pub fn idle(&mut self, up: &mut Upload) -> bool {
         if self.buffer.is_none() || !self.shrink.unused() {

@@ -60,8 +60,9 @@ impl Shrink {
 
     /// A frame that needs `need` of the buffer's `capacity` (in any unit). Returns the capacity to
     /// shrink to, `need`'s power of two but at least `floor`, once `need` has stayed at or below a
-    /// quarter of `capacity` for [`SHRINK_AFTER_FRAMES`] frames in a row (and that is smaller than
-    /// `capacity`); `None` otherwise.
+    /// quarter of `capacity` for the rule's wait in a row ([`Shrink::after`]; the renderer's rules
+    /// wait [`GpuContext::shrink_after_frames`] frames) and that is smaller than `capacity`;
+    /// `None` otherwise.
     pub fn check(&mut self, capacity: u64, need: u64, floor: u64) -> Option<u64> {
         let target = need.max(floor).max(1).next_power_of_two();
         if need > capacity / 4 || target >= capacity {
@@ -72,7 +73,7 @@ impl Shrink {
     }
 
     /// A frame that does not use the buffer. Returns true once it has gone unused (or low) for
-    /// [`SHRINK_AFTER_FRAMES`] frames in a row: release it.
+    /// the rule's wait of frames in a row: release it.
     pub fn unused(&mut self) -> bool {
         self.due()
     }
@@ -250,7 +251,7 @@ const ALIGN: u64 = 16;
 impl StagingRing {
     /// A ring of `capacity` bytes.
     pub fn new(ctx: &GpuContext, capacity: u64) -> Result<Self, RenderError> {
-        let shrink = Shrink::after(ctx.shrink_after_frames / crate::gpu::FRAMES_IN_FLIGHT as u32);
+        let shrink = Shrink::after(ctx.shrink_after_frames.div_ceil(crate::gpu::FRAMES_IN_FLIGHT as u32));
         Ok(Self { buffer: Self::create(ctx, capacity)?, used: 0, shrink })
     }
 
@@ -266,7 +267,7 @@ impl StagingRing {
     /// Makes room for this frame's `bytes` (0 for a frame that uploads nothing), like
     /// [`StagingRing::reserve`], after replacing the ring by a smaller one (at least
     /// [`STAGING_FLOOR`], and room for `bytes`) when its uses have needed at most a quarter of
-    /// it for [`SHRINK_AFTER_FRAMES`] frames (each ring serves every
+    /// it for [`GpuContext::shrink_after_frames`] frames (each ring serves every
     /// [`crate::gpu::FRAMES_IN_FLIGHT`]th frame, so that many frames' worth of its uses). Called
     /// once per use, before the first push.
     pub fn fit(up: &mut Upload, bytes: u64) -> Result<(), RenderError> {

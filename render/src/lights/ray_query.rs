@@ -144,7 +144,7 @@ impl RayQueryLights {
         })
     }
 
-    /// A frame without ray-query lights: after [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] of
+    /// A frame without ray-query lights: after [`crate::gpu::device::GpuContext::shrink_after_frames`] of
     /// them in a row the boxes and the structures are released.
     fn idle(&mut self, up: &mut Upload) {
         self.accel.idle(up);

@@ -16,8 +16,9 @@
 //!   counted ([`LightTileStats::overflowed`]), and when the CPU reads the needed totals back
 //!   (two frames later, with no wait) the buffers grow to a quarter more than that. When the
 //!   need (with that quarter) has stayed at or below a quarter of a buffer for a second (60
-//!   frames), the buffer shrinks to its power of two, never below the floors (eight entries a
-//!   tile, a shadow row a tile); after a second without tiled lights, or without shadows, the
+//!   frames by default, [`crate::gpu::device::GpuContext::shrink_after_frames`]), the buffer
+//!   shrinks to its power of two, never below the floors (eight entries a tile, a shadow row a
+//!   tile); after as long without tiled lights, or without shadows, the
 //!   list or the shadow words are released ([`crate::gpu::upload::Shrink`]). The list is sized
 //!   by the same code as the decals' list buffers ([`crate::gpu::room`]), with the same kind of
 //!   ceiling, its own: it never takes more than [`crate::gpu::room::MEMORY_SHARE`] of the

@@ -185,7 +185,7 @@ impl RingAccel {
     }
 
     /// A frame that does not follow the ring's boxes (nothing traces decals). After
-    /// [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] of them in a row everything is released.
+    /// [`crate::gpu::device::GpuContext::shrink_after_frames`] of them in a row everything is released.
     pub fn idle(&mut self, up: &mut Upload) {
         if self.tlas.is_none() || !self.shrink.unused() {
             return;

@@ -13,7 +13,7 @@
 //!   to back, and their offsets change (the mesh table, which every reader goes through, is
 //!   uploaded again; acceleration structures keep their own copies of the geometry). When the
 //!   bytes in use have stayed at or below a quarter of the buffer for
-//!   [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] frames, it is repacked smaller, never below
+//!   [`crate::gpu::device::GpuContext::shrink_after_frames`] frames, it is repacked smaller, never below
 //!   [`POOL_FLOOR`]; with no mesh at all for as long, the buffer is released. Repacking also
 //!   undoes fragmentation.
 

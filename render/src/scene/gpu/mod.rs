@@ -10,7 +10,7 @@
 //! **Giving memory back.** The mirror's tables take the lowest free slot and are trimmed at the
 //! start of every frame ([`SceneMirror::trim`]), so their slot counts fall when the highest
 //! records go; a table whose slot count has stayed at or below a quarter of its capacity for
-//! [`crate::gpu::upload::SHRINK_AFTER_FRAMES`] frames is replaced by one with room for the
+//! [`crate::gpu::device::GpuContext::shrink_after_frames`] frames is replaced by one with room for the
 //! count's power of two (through the graveyard, like a grow) and every record is uploaded again
 //! ([`crate::gpu::upload::Shrink`]). Never below the table's initial capacity, its floor: 64
 //! instances, materials, decals, decal boxes, meshes and decal-order entries, 16 lights and
