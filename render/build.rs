@@ -65,8 +65,9 @@ fn main() {
         }
     }
 
-    // As many glslc processes at once as cargo runs jobs (`NUM_JOBS`): the crate's own compile
-    // waits for this script, so on a fresh build it is on the critical path.
+    // As many glslc processes at once as cargo runs jobs (`NUM_JOBS`): after a shader edit the
+    // crate's compile waits for this script. (A fresh build was no quicker for it: there other
+    // crates keep the cores busy meanwhile, docs/TESTING.md.)
     let parallel = std::env::var("NUM_JOBS").ok().and_then(|n| n.parse::<usize>().ok()).unwrap_or(1).max(1);
     let next = AtomicUsize::new(0);
     let failures = Mutex::new(Vec::new());
