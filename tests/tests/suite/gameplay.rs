@@ -131,18 +131,20 @@ fn scripted_shots_land_where_the_ray_meets_the_ground_and_the_wall() {
 }
 
 /// The run command's demo (`assets/scripts/demo.txt`, what `scripts/run.sh` plays without a
-/// display) parses, ends, and plays what it says: every shot lands, one light drops, the walk
-/// leaves footprints. On the ECS alone: the sandbox test of the run command plays a shorter
-/// script on lavapipe.
+/// display) parses, ends, and plays what it says: every shot hits the scene, one light drops,
+/// the walk leaves footprints. On the ECS alone, where no fox walks: the demo's `aim` finds no
+/// character, so its three shots at the fox go to the middle of the view and land on the ground
+/// ahead (the sandbox's own run shows them on the fox). The sandbox test of the run command
+/// plays a shorter script on lavapipe.
 #[test]
 fn the_demo_script_parses_and_ends() {
     let text = include_str!("../../../assets/scripts/demo.txt");
-    let shots = text.lines().filter(|l| l.trim_start().starts_with("shoot")).count() as u64;
+    let shots = text.lines().filter(|l| l.trim_start().to_ascii_lowercase().starts_with("shoot")).count() as u64;
     let (mut app, _) = game_app(GameSettings::default(), DecalCap::default());
     play(&mut app, text, |_| {});
     app.update();
     let stats = *app.world.resource::<GameStats>();
-    assert_eq!((stats.shots, stats.hits), (shots, shots), "every shot of the demo lands: {stats:?}");
+    assert_eq!((stats.shots, stats.hits), (shots, shots), "every shot of the demo hits the scene: {stats:?}");
     assert_eq!(stats.lights, 1, "the demo drops one light");
     assert!(stats.footprints > 0, "the demo's walk leaves footprints");
 }
