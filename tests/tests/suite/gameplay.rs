@@ -139,7 +139,8 @@ fn scripted_shots_land_where_the_ray_meets_the_ground_and_the_wall() {
 #[test]
 fn the_demo_script_parses_and_ends() {
     let text = include_str!("../../../assets/scripts/demo.txt");
-    let shots = text.lines().filter(|l| l.trim_start().to_ascii_lowercase().starts_with("shoot")).count() as u64;
+    let script = Script::parse(text).expect("the demo parses");
+    let shots = script.commands().iter().filter(|(_, c)| matches!(c, sandbox::game::script::Command::Shoot(_))).count() as u64;
     let (mut app, _) = game_app(GameSettings::default(), DecalCap::default());
     play(&mut app, text, |_| {});
     app.update();
