@@ -115,3 +115,79 @@ fn malformed_skins_cost_their_mesh_its_pose_naming_the_skin_and_the_problem() {
         assert_eq!((scene.triangle_count(), scene.animations.len()), (healthy.triangle_count(), 3));
     }
 }
+
+/// The animation budget: a fox near the camera samples its clip every frame, one 200 m away
+/// (a few pixels) every fourth frame, staggered, and a sampled pose is the pose of the current
+/// time, exactly what the same fox shows with the budget off. Between its samples nothing of
+/// the far fox is written, so nothing downstream (propagation, skin matrices) runs for it.
+#[test]
+fn the_animation_budget_samples_a_far_fox_every_fourth_frame_at_the_current_time() {
+    use engine::animation::{AnimatedRadius, AnimationBudget, AnimationOutput, AnimationStats, SkinPose};
+    use engine::camera::Camera;
+
+    let mut scene = gltf::load(&model("Fox")).unwrap();
+    scene.images.clear();
+    // Two worlds, the budget on in the first only; in each a near and a far fox, and a camera at
+    // the origin looking down -Z.
+    let world = |budget: bool| {
+        let mut app = App::new();
+        app.world.resource_mut::<Time>().set_fixed_step(Some(Duration::from_micros(16_667)));
+        *app.world.resource_mut::<AnimationBudget>() =
+            AnimationBudget { enabled: budget, viewport: Vec2::new(1920.0, 1080.0), ..Default::default() };
+        app.world.spawn((Camera::default(), Transform::IDENTITY));
+        let prefab = scene.clone().into_prefab(&mut app.world);
+        let foxes: Vec<(Entity, Entity)> = [-3.0, -200.0]
+            .into_iter()
+            .map(|z| {
+                let root = prefab.spawn(&mut app.world);
+                let run = app.world.get::<GltfAnimations>(root).unwrap().0[2];
+                // The file is in centimetres.
+                let at = Transform::from_xyz(0.0, 0.0, z).with_scale(Vec3::splat(0.01));
+                app.world.entity_mut(root).insert((AnimationPlayer::new(run), at));
+                app.world.flush();
+                // Its skinned mesh: the one whose joints it animates.
+                let targets = app.world.get::<engine::animation::AnimationTargets>(root).unwrap().0.clone();
+                let mesh = app.world.query::<(Entity, &Skin)>().iter(&app.world).find(|(_, s)| targets.contains(&Some(s.joints[0]))).unwrap().0;
+                (root, mesh)
+            })
+            .collect();
+        (app, foxes)
+    };
+    let (mut budgeted, foxes) = world(true);
+    let (mut reference, same) = world(false);
+    let radius = budgeted.world.get::<AnimatedRadius>(foxes[0].0).expect("the glTF spawner sets the radius").0;
+    assert!((50.0..300.0).contains(&radius), "the fox's rest radius is about its length: {radius} cm");
+
+    // The first update places the foxes (a player not yet placed samples every frame).
+    budgeted.update();
+    reference.update();
+    let pose = |app: &App, mesh: Entity| app.world.get::<SkinPose>(mesh).unwrap().0.clone();
+    let mut last = [pose(&budgeted, foxes[0].1), pose(&budgeted, foxes[1].1)];
+    let mut far_samples = 0;
+    for frame in 0..16 {
+        budgeted.update();
+        reference.update();
+        let out = |i: usize| *budgeted.world.get::<AnimationOutput>(foxes[i].0).unwrap();
+        let (near, far) = (out(0), out(1));
+        assert_eq!((near.period(), near.sampled()), (1, true), "frame {frame}: the near fox samples every frame");
+        assert_eq!(far.period(), 4, "frame {frame}: the far fox, a few pixels, every fourth frame");
+        far_samples += u32::from(far.sampled());
+        let stats = *budgeted.world.resource::<AnimationStats>();
+        assert_eq!((stats.players, stats.sampled, stats.max_period), (2, 1 + u32::from(far.sampled()), 4), "frame {frame}");
+        for (i, &(_, mesh)) in foxes.iter().enumerate() {
+            let now = pose(&budgeted, mesh);
+            let sampled = i == 0 || far.sampled();
+            assert_eq!(now != last[i], sampled, "frame {frame}, fox {i}: the pose changes exactly when it is sampled");
+            if sampled {
+                let expected = pose(&reference, same[i].1);
+                assert!(
+                    now.iter().zip(&expected).all(|(a, b)| a.abs_diff_eq(*b, 1e-5)),
+                    "frame {frame}, fox {i}: a sampled pose is the pose of the current time"
+                );
+            }
+            last[i] = now;
+        }
+    }
+    assert_eq!(far_samples, 4, "16 frames: the far fox sampled four times");
+}
+

@@ -385,6 +385,9 @@ pub struct FrameStats {
     /// CPU milliseconds computing skinned meshes' joint matrices
     /// ([`engine::animation::AnimationStats::skin_cpu_ms`]) in the update that drew the frame.
     pub cpu_skin_ms: f32,
+    /// What animation did in the update that drew the frame: players advanced, those sampled
+    /// (the [`engine::animation::AnimationBudget`] defers the rest), the longest period.
+    pub animation: engine::animation::AnimationStats,
     /// CPU milliseconds uploading and recording (the submission included).
     pub cpu_record_ms: f32,
     /// Of those, CPU milliseconds in the driver's queue submission.
@@ -561,6 +564,18 @@ impl Plugin for RenderPlugin {
         app.world.init_resource::<decal::DecalLifetimes>();
         app.world.init_resource::<engine::environment::Environment>();
         app.add_systems(engine::app::Update, decal::expire_decals);
+        app.add_systems(engine::app::PostUpdate, sync_animation_viewport.before(engine::animation::AnimationSystems));
+    }
+}
+
+/// Keeps the [`engine::animation::AnimationBudget`]'s viewport at the render size, which it
+/// measures models on screen in (written only when the size changed).
+fn sync_animation_viewport(settings: Res<RenderSettings>, budget: Option<ResMut<engine::animation::AnimationBudget>>) {
+    if let Some(mut budget) = budget {
+        let viewport = settings.viewport();
+        if budget.viewport != viewport {
+            budget.viewport = viewport;
+        }
     }
 }
 
@@ -671,6 +686,7 @@ pub(crate) struct FrameContext {
     animate_ms: f32,
     propagate_ms: f32,
     skin_ms: f32,
+    animation: engine::animation::AnimationStats,
     update_started: Option<Instant>,
     /// Pipelined: the main thread's CPU frame, measured at the hand-off.
     main_frame_ms: Option<f32>,
@@ -689,6 +705,7 @@ fn frame_context(world: &World, pipelined: bool) -> FrameContext {
         animate_ms: animation.map_or(0.0, |a| a.cpu_ms),
         propagate_ms: world.get_resource::<engine::transform::TransformStats>().map_or(0.0, |p| p.cpu_ms),
         skin_ms: animation.map_or(0.0, |a| a.skin_cpu_ms),
+        animation: animation.copied().unwrap_or_default(),
         update_started,
         main_frame_ms: pipelined
             .then(|| update_started.map_or(0.0, |t| (t.elapsed().as_secs_f32() * 1e3 - stats.main_gpu_wait_ms).max(0.0))),
@@ -745,6 +762,7 @@ fn file_report(
         cpu_animate_ms: c.animate_ms,
         cpu_propagate_ms: c.propagate_ms,
         cpu_skin_ms: c.skin_ms,
+        animation: c.animation,
         cpu_record_ms: report.record_ms,
         cpu_submit_ms: report.submit_ms,
         cpu_prepare_ms: report.prepare_ms,

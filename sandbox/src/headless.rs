@@ -122,6 +122,9 @@ pub struct HeadlessOptions {
     /// Record each frame on a render thread while the next one is simulated
     /// (`plugins::RenderSettings::pipelined`).
     pub pipelined: bool,
+    /// Animate characters small on screen or off it less often
+    /// (`engine::animation::AnimationBudget`).
+    pub animation_budget: bool,
     /// Run `frames` frames with every culling mode in turn (off, frustum, occlusion).
     pub compare_culling: bool,
     /// What lights the scene from all around (default: the procedural sky).
@@ -356,6 +359,7 @@ impl Default for HeadlessOptions {
             compare_lod: false,
             reuse_commands: true,
             pipelined: false,
+            animation_budget: false,
             compare_culling: false,
             environment: engine::environment::Environment::default(),
             compare_environment: false,
@@ -454,6 +458,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         ..Default::default()
     }));
     app.insert_resource(opts.environment.clone());
+    app.insert_resource(engine::animation::AnimationBudget { enabled: opts.animation_budget, ..Default::default() });
     app.insert_resource(crate::effects::Effects(opts.effects));
     app.add_systems(engine::app::Update, crate::effects::expire_effects);
     app.insert_resource(crate::assets::ImportOptions(opts.import.clone()));

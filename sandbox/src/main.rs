@@ -216,6 +216,10 @@ struct Cli {
     /// statistics arrive a frame later).
     #[arg(long)]
     pipelined: bool,
+    /// Animate characters small on screen (under 32 pixels of radius) or off it every second or
+    /// fourth frame, staggered (engine::animation::AnimationBudget; --stats animation.sampled).
+    #[arg(long)]
+    animation_budget: bool,
     /// Anti-aliasing of the displayed image: none, fxaa (fast approximate, in compute before
     /// tone mapping), smaa (subpixel morphological, 1x, in compute), taa (temporal: jittered frames blended along motion vectors; none under a
     /// debug view), msaa2, msaa4, msaa8 (multisampling in forward and Forward+; taa in the
@@ -569,6 +573,7 @@ fn main() -> Result<()> {
         compare_lod: cli.compare_lod,
         reuse_commands: !cli.record_every_frame,
         pipelined: cli.pipelined,
+        animation_budget: cli.animation_budget,
         compare_culling: cli.compare_culling,
         environment,
         environment_resolution: cli.environment_resolution,

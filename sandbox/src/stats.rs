@@ -12,7 +12,9 @@
 //! `extract`; `animate`: sampling animation clips; `propagate`: transform propagation; `skin`:
 //! skinned meshes' joint matrices; `record`; `prepare`: the part of `record` spent preparing the
 //! frame's data and writing the scene's uploads into staging; and `submit`: the part of `record`
-//! spent in the driver's queue submission), and `counters` (`bytes_uploaded`, `records_written`, `blas_builds`,
+//! spent in the driver's queue submission), `animation` (`players` advanced, of them `sampled`:
+//! those whose poses were written this update (the animation budget, `--animation-budget`, defers
+//! the others), and `max_period`: the longest period in frames), and `counters` (`bytes_uploaded`, `records_written`, `blas_builds`,
 //! `blas_updates`, `tlas_builds`, `instances`, `lights`, `decals`, `transparent`: blended instances drawn,
 //! `shadow_map_views`: atlas tiles drawn, `shadow_maps_missing`: lights the atlas had no room
 //! for), and `memory` (GPU memory allocated at the frame's end, in bytes: `textures`,
@@ -178,6 +180,9 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
     // The command buffer: submitted again as recorded, or recorded (`render::gpu::commands`).
     // How the traced shadows of the light lists were made (`crate::lights::sampling`).
     value["direct_light"] = json!(stats.direct_light.map_or("none", |d| d.name()));
+    // Players sampled and deferred by the animation budget (`engine::animation::AnimationBudget`).
+    let a = &stats.animation;
+    value["animation"] = json!({ "players": a.players, "sampled": a.sampled, "max_period": a.max_period });
     // Recorded on the render thread while the next update ran (`plugins::pipelined`).
     value["pipelined"] = json!(stats.pipelined);
     value["counters"]["commands_reused"] = json!(c.commands_reused);

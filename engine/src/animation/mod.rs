@@ -29,6 +29,11 @@
 //! foxes more slowly than one. Sampling where it is written halved the time (`cargo bench -p
 //! engine --bench animation`, docs/experiments/animation-cpu.md).
 //!
+//! **A crowd's far half.** With the [`AnimationBudget`] on, a model small on screen or off it
+//! samples every second or fourth frame, its clock still keeping time (the `budget` module says
+//! the rule and the bound on how old a pose gets); what is not sampled is not written, so
+//! nothing downstream of it runs either.
+//!
 //! ```
 //! use engine::prelude::*;
 //! use engine::animation::{AnimationClip, AnimationPlayer, Channel, Interpolation, Keyframes, AnimationTargets};
@@ -45,6 +50,7 @@
 //! app.update();
 //! ```
 
+mod budget;
 mod sample;
 
 use bevy_ecs::batching::BatchingStrategy;
@@ -54,9 +60,11 @@ use thiserror::Error;
 
 use crate::app::{App, Plugin, PostUpdate};
 use crate::asset::{Assets, Handle};
+use crate::camera::Camera;
 use crate::time::Time;
-use crate::transform::{Transform, TransformSystems};
+use crate::transform::{GlobalTransform, Transform, TransformSystems};
 
+pub use budget::{AnimatedRadius, AnimationBudget};
 pub use sample::{Sampled, sample_channel};
 
 /// How values between two keyframes are found (glTF's `interpolation`).
@@ -486,6 +494,7 @@ impl Plugin for AnimationPlugin {
     fn build(&self, app: &mut App) {
         app.world.get_resource_or_init::<Assets<AnimationClip>>();
         app.world.init_resource::<AnimationStats>();
+        app.world.init_resource::<AnimationBudget>();
         app.add_systems(PostUpdate, (link_animation_targets, animate).chain().in_set(AnimationSystems).before(TransformSystems::Propagate));
         app.add_systems(PostUpdate, update_skin_poses.in_set(SkinPoseSystems).after(TransformSystems::Propagate));
     }
@@ -520,14 +529,34 @@ pub fn update_skin_poses(
 }
 
 /// What a player's targets sample this frame, set by [`animate`]'s first phase (added with
-/// every [`AnimationPlayer`]): up to two clips (the second while cross-fading), and the
-/// generation of the player's links to its targets.
+/// every [`AnimationPlayer`]): up to two clips (the second while cross-fading), whether they
+/// sample at all this frame ([`AnimationBudget`]), and the generation of the player's links to
+/// its targets.
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct AnimationOutput {
     layers: [Option<Layer>; 2],
+    /// Whether the targets sample this frame.
+    sample: bool,
+    /// The player's period in frames this frame (1: every frame).
+    period: u8,
+    /// The frame the targets last sampled in.
+    last: Option<u64>,
     /// Raised each time [`link_animation_targets`] links the player's targets: a target linked
     /// under an older generation is no longer among them.
     links: u32,
+}
+
+impl AnimationOutput {
+    /// The player's period this frame, in frames: 1 when it samples every frame, more when the
+    /// [`AnimationBudget`] found its model small on screen or off it.
+    pub fn period(&self) -> u8 {
+        self.period.max(1)
+    }
+
+    /// Whether the player's targets sampled their clips in the last [`animate`].
+    pub fn sampled(&self) -> bool {
+        self.sample
+    }
 }
 
 /// One clip of a player's pose: the clip, the time in it (after looping or clamping), its
@@ -554,6 +583,12 @@ pub struct AnimationStats {
     pub cpu_ms: f32,
     /// Players it advanced.
     pub players: u32,
+    /// Of those, the players whose targets sampled their clips ([`AnimationBudget`] defers the
+    /// others; without it, every player).
+    pub sampled: u32,
+    /// The longest period of any player, in frames (1 without the budget): its pose may be
+    /// that many frames old less one.
+    pub max_period: u8,
     /// CPU milliseconds [`update_skin_poses`] took: the skinned meshes' joint matrices.
     pub skin_cpu_ms: f32,
 }
@@ -631,20 +666,32 @@ pub fn link_animation_targets(
 pub fn animate(
     time: Res<Time>,
     clips: Option<Res<Assets<AnimationClip>>>,
-    mut players: Query<(&mut AnimationPlayer, &mut AnimationOutput)>,
+    mut players: Query<(Entity, &mut AnimationPlayer, &mut AnimationOutput, Option<&GlobalTransform>, Option<&AnimatedRadius>)>,
     mut targets: Query<(&AnimatedBy, Option<&mut Transform>, Option<&mut MorphWeights>)>,
+    (budget, cameras): (Option<Res<AnimationBudget>>, Query<(&Camera, &GlobalTransform)>),
     stats: Option<ResMut<AnimationStats>>,
 ) {
     let Some(clips) = clips else { return };
     let started = std::time::Instant::now();
     let dt = time.delta_secs();
+    let frame = time.frame();
     let clips = &*clips;
+    let view = budget.and_then(|b| b.view(&cameras));
     // Batches big enough that a small crowd does not wake every core for a few microseconds'
     // work (a player's clock is a few nanoseconds; a target's pose about a hundred).
-    players
-        .par_iter_mut()
-        .batching_strategy(BatchingStrategy::new().min_batch_size(1024))
-        .for_each(|(mut player, mut out)| out.layers = advance(&mut player, clips, dt));
+    players.par_iter_mut().batching_strategy(BatchingStrategy::new().min_batch_size(1024)).for_each(
+        |(entity, mut player, mut out, global, radius)| {
+            out.layers = advance(&mut player, clips, dt);
+            out.period = match (view, global, radius) {
+                (Some(view), Some(global), Some(radius)) => view.period(global, radius.0),
+                _ => 1,
+            };
+            out.sample = budget::due(frame, out.last, out.period, budget::stagger(entity.index_u32()));
+            if out.sample {
+                out.last = Some(frame);
+            }
+        },
+    );
     let players = &players;
     // A model's nodes sit together in their tables, so a target's player is most often the
     // previous target's: each batch keeps the last one it fetched.
@@ -654,19 +701,25 @@ pub fn animate(
             let out = match *last {
                 Some((player, out)) if player == by.player => out,
                 _ => {
-                    let Ok((_, &out)) = players.get(by.player) else { return };
+                    let Ok((_, _, &out, ..)) = players.get(by.player) else { return };
                     *last = Some((by.player, out));
                     out
                 }
             };
-            // Still this player's target?
-            if out.links == by.links {
+            // Still this player's target, and its turn?
+            if out.links == by.links && out.sample {
                 pose_target(clips, &out.layers, by.node as usize, transform, morph);
             }
         },
     );
     if let Some(mut stats) = stats {
-        *stats = AnimationStats { cpu_ms: started.elapsed().as_secs_f32() * 1e3, players: players.iter().len() as u32, ..*stats };
+        let (mut sampled, mut max_period) = (0, 1);
+        for (.., out, _, _) in players.iter() {
+            sampled += u32::from(out.sample);
+            max_period = max_period.max(out.period());
+        }
+        let players = players.iter().len() as u32;
+        *stats = AnimationStats { cpu_ms: started.elapsed().as_secs_f32() * 1e3, players, sampled, max_period, ..*stats };
     }
 }
 

@@ -109,7 +109,7 @@ use glam::{Quat, Vec3, Vec4};
 use thiserror::Error;
 use tracing::{info, warn};
 
-use crate::animation::{AnimationClip, AnimationTargets, MorphWeights, Skin};
+use crate::animation::{AnimatedRadius, AnimationClip, AnimationTargets, MorphWeights, Skin};
 use crate::asset::{Assets, Handle};
 use crate::camera::Camera;
 use crate::image::{Image, ImageError, TextureCache, TextureRole};
@@ -745,6 +745,7 @@ impl GltfScene {
     /// spawning needs: [`GltfPrefab::spawn`] then spawns the scene as often as wanted, every copy
     /// sharing those assets (a crowd of one character: one mesh, one set of clips).
     pub fn into_prefab(self, world: &mut World) -> GltfPrefab {
+        let radius = self.rest_radius();
         let image_handles: Vec<Handle<Image>> = {
             let mut assets = world.get_resource_or_init::<Assets<Image>>();
             self.images.into_iter().map(|image| assets.add(image)).collect()
@@ -761,7 +762,47 @@ impl GltfScene {
             let mut assets = world.get_resource_or_init::<Assets<AnimationClip>>();
             self.animations.into_iter().map(|clip| assets.add(clip)).collect()
         };
-        GltfPrefab { name: self.name, meshes, materials, nodes: self.nodes, roots: self.roots, skins: self.skins, clips }
+        GltfPrefab { name: self.name, meshes, materials, nodes: self.nodes, roots: self.roots, skins: self.skins, clips, radius }
+    }
+
+    /// The radius of a sphere about the root that holds every mesh of the scene in its rest
+    /// pose (what [`AnimatedRadius`] says of a spawned model): each mesh's bounding box placed by
+    /// its node's rest transform, a skinned one by its first joint's rest transform times that
+    /// joint's inverse bind matrix (where glTF's skinning puts the bind pose).
+    pub fn rest_radius(&self) -> f32 {
+        // Rest transforms from the roots down (the nodes form a forest).
+        let mut world = vec![None; self.nodes.len()];
+        let mut stack: Vec<(usize, glam::Affine3A)> = self.roots.iter().map(|&n| (n, glam::Affine3A::IDENTITY)).collect();
+        while let Some((index, parent)) = stack.pop() {
+            let Some(node) = self.nodes.get(index).filter(|_| world[index].is_none()) else { continue };
+            let affine = parent * node.transform.compute_affine();
+            world[index] = Some(affine);
+            stack.extend(node.children.iter().map(|&c| (c, affine)));
+        }
+        let mut radius = 0.0f32;
+        for (node, placed) in self.nodes.iter().zip(&world) {
+            let Some(placed) = *placed else { continue };
+            let skinned = node.skin.and_then(|s| self.skins.get(s)).and_then(|skin| {
+                let (&joint, ibm) = skin.joints.first().zip(skin.inverse_bind_matrices.first())?;
+                Some(glam::Mat4::from(world.get(joint).copied().flatten()?) * *ibm)
+            });
+            let to_root = skinned.unwrap_or_else(|| placed.into());
+            for (mesh, _) in node.mesh.and_then(|m| self.meshes.get(m)).into_iter().flatten() {
+                let (min, max) = mesh.aabb();
+                for corner in 0..8 {
+                    let p = Vec3::new(
+                        if corner & 1 == 0 { min.x } else { max.x },
+                        if corner & 2 == 0 { min.y } else { max.y },
+                        if corner & 4 == 0 { min.z } else { max.z },
+                    );
+                    let at = to_root.project_point3(p).length();
+                    if at.is_finite() {
+                        radius = radius.max(at);
+                    }
+                }
+            }
+        }
+        radius
     }
 }
 
@@ -778,6 +819,8 @@ pub struct GltfPrefab {
     skins: Vec<GltfSkin>,
     /// The animation clips, in the file's order.
     pub clips: Vec<Handle<AnimationClip>>,
+    /// [`GltfScene::rest_radius`]: set on each spawned root with clips as its [`AnimatedRadius`].
+    pub radius: f32,
 }
 
 impl GltfPrefab {
@@ -853,7 +896,7 @@ impl GltfPrefab {
             }
         }
         if !self.clips.is_empty() {
-            world.entity_mut(root).insert((AnimationTargets(entities), GltfAnimations(self.clips.clone())));
+            world.entity_mut(root).insert((AnimationTargets(entities), GltfAnimations(self.clips.clone()), AnimatedRadius(self.radius)));
         }
         root
     }

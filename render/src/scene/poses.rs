@@ -62,6 +62,14 @@ pub fn posed_bounds(joint_bounds: impl IntoIterator<Item = (Vec3, Vec3)>, joints
     (lo.cmple(hi).all() && lo.is_finite() && hi.is_finite()).then_some((lo, hi))
 }
 
+/// Frames a pose stays unchanged before it is skinned whole ("at rest"). Until then the frame
+/// after each change skins only the level of detail it is drawn at, as the change did: a
+/// character that the animation budget (`engine::animation::AnimationBudget`, periods of up to 4
+/// frames by default) poses every few frames never pays for all its vertices, and a pose that
+/// stopped for good holds every vertex from then on. Meanwhile it is drawn no finer than its last
+/// skinning's level (for at most this many frames, were the camera to come close).
+pub const REST_FRAMES: u8 = 8;
+
 /// A posed mesh's joints and skinning state.
 #[derive(Clone, Debug)]
 struct Pose {
@@ -74,8 +82,10 @@ struct Pose {
     fresh: bool,
     /// Set this frame.
     changed: bool,
-    /// Skinned last frame: skinned once more if unchanged, so its previous positions catch up.
-    settling: bool,
+    /// Frames since the pose last changed ([`REST_FRAMES`] or more: at rest, not listed as
+    /// active). The frame after a change it is skinned once more at its level (its previous
+    /// positions catch up), and [`REST_FRAMES`] frames after, still unchanged, whole.
+    since: u8,
     /// The level of detail whose vertices its last skinning wrote (0: every vertex): the finest
     /// level it can be drawn at ([`PoseTable::drawable_level`]).
     level: u32,
@@ -225,7 +235,7 @@ impl PoseTable {
             weights: Vec::new(),
             fresh: true,
             changed: false,
-            settling: false,
+            since: REST_FRAMES,
             level: 0,
         });
         true
@@ -283,6 +293,10 @@ impl PoseTable {
             if pose.vertices == 0 || (pose.joints.is_empty() && pose.weights.is_empty()) {
                 continue;
             }
+            // Changed, catching up the frame after, or come to rest: anything else waits.
+            if !(pose.changed || pose.since == 0 || pose.since + 1 == REST_FRAMES) {
+                continue;
+            }
             most = most.max(pose.vertices);
             self.job_vertices += pose.vertices as u64;
             self.jobs.push(id);
@@ -305,8 +319,8 @@ impl PoseTable {
         active.retain(|&id| {
             let Some(Some(pose)) = self.poses.get_mut(id.0 as usize) else { return false };
             pose.fresh &= pose.joints.is_empty() && pose.weights.is_empty();
-            pose.settling = std::mem::take(&mut pose.changed);
-            pose.settling
+            pose.since = if std::mem::take(&mut pose.changed) { 0 } else { pose.since.saturating_add(1) };
+            pose.since < REST_FRAMES
         });
         self.active = active;
         most
@@ -406,8 +420,9 @@ impl PoseTable {
         for (header, &id) in self.headers.iter_mut().zip(&self.jobs) {
             let Some(pose) = self.poses.get_mut(id.0 as usize).and_then(Option::as_mut) else { continue };
             let source = self.sources.get(pose.source.0 as usize).and_then(Option::as_ref);
-            // `settling` now says whether the pose changed this frame (`take_jobs` moved it on).
-            let partial = header.levels & SKIN_FIRST == 0 && pose.settling;
+            // `since` was moved on by `take_jobs`: 0 for a pose changed this frame, 1 for its
+            // catch-up the frame after, `REST_FRAMES` for its whole skinning at rest.
+            let partial = header.levels & SKIN_FIRST == 0 && pose.since <= 1;
             let (level, vertices) = match source.and_then(|s| s.levels.as_ref()).filter(|_| partial) {
                 Some(levels) => {
                     let level = choose(id, levels).min(levels.count);
@@ -436,7 +451,7 @@ fn set_pose(pose: &mut Pose, source: &Source, joints: impl IntoIterator<Item = M
     }
     pose.weights.clear();
     pose.weights.extend((0..source.morph_reach.len()).map(|t| weights.get(t).copied().filter(|w| w.is_finite()).unwrap_or(0.0)));
-    let newly_active = !pose.changed && !pose.settling;
+    let newly_active = !pose.changed && pose.since >= REST_FRAMES;
     pose.changed = true;
     // Morph targets move vertices by at most their reach times their weight: the boxes grow
     // by that before the joints move them.
@@ -582,6 +597,12 @@ mod tests {
         t.take_jobs();
         assert_eq!(t.jobs(), &[MeshId(1)], "settles once");
         assert_eq!(input(&t)[2], 0);
+        for _ in 2..REST_FRAMES {
+            t.take_jobs();
+            assert!(t.jobs().is_empty() && input(&t).is_empty(), "waits, skinning nothing");
+        }
+        t.take_jobs();
+        assert_eq!(t.jobs(), &[MeshId(1)], "skinned whole at rest");
         t.take_jobs();
         assert!(t.jobs().is_empty() && input(&t).is_empty() && t.is_clean(), "then rests");
     }
@@ -606,8 +627,9 @@ mod tests {
     }
 
     /// A far pose that keeps changing skins the vertices of the level it is chosen, says the
-    /// level of its last skinning, and when it stops changing is skinned whole once more; the
-    /// first skinning is whole too, and the vertices counted are those skinned.
+    /// level of its last skinning, catches up at that level the frame after it stops changing,
+    /// and [`REST_FRAMES`] frames later is skinned whole; the first skinning is whole too, and
+    /// the vertices counted are those skinned.
     #[test]
     fn a_moving_pose_skins_its_level_only_and_rests_with_every_vertex() {
         let mut t = PoseTable::default();
@@ -636,8 +658,17 @@ mod tests {
         assert_eq!(frame(&mut t, true, 2), (Some(2), 3, 2, 1), "then the chosen level's vertices");
         assert_eq!(frame(&mut t, true, 1), (Some(1 | 2 << SKIN_PREVIOUS_SHIFT), 6, 1, 1), "a finer level knows the last one");
         assert_eq!(frame(&mut t, true, 7), (Some(2 | 1 << SKIN_PREVIOUS_SHIFT), 3, 2, 1), "no coarser than the mesh's last level");
-        assert_eq!(frame(&mut t, false, 2), (Some(2 << SKIN_PREVIOUS_SHIFT), 10, 0, 1), "settling skins every vertex");
+        assert_eq!(frame(&mut t, false, 2), (Some(2 | 2 << SKIN_PREVIOUS_SHIFT), 3, 2, 0), "the frame after catches up at its level");
+        for f in 2..REST_FRAMES {
+            assert_eq!(frame(&mut t, false, 2), (None, 0, 2, 0), "{f} frames unchanged: nothing to skin yet");
+        }
+        assert_eq!(frame(&mut t, false, 2), (Some(2 << SKIN_PREVIOUS_SHIFT), 10, 0, 1), "at rest it is skinned whole");
         assert_eq!(frame(&mut t, false, 2), (None, 0, 0, 0), "and the pose rests whole");
+        // A pose set every few frames (the animation budget) never comes to rest.
+        for f in 0..12 {
+            let (_, vertices, level, _) = frame(&mut t, f % 4 == 0, 2);
+            assert!(f == 0 || vertices <= 3, "frame {f}: {vertices} vertices skinned at level {level}");
+        }
     }
 
     /// This frame's skinning input as the upload writes it, in 16-byte aligned memory.
