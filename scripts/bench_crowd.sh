@@ -4,7 +4,7 @@
 #   scripts/bench_crowd.sh Fox.glb NAME=SANDBOX [NAME=SANDBOX...]
 # 60 frames at 1920×1080 a run; prints medians of frames 15–49: the GPU frame, the wall time a
 # frame, every CPU part (`cpu_ms`) and the refit counters. A sandbox named `old` runs in place
-# only (builds before `--pipelined`).
+# only (builds before `--pipelined`). $EXTRA: more sandbox arguments (`--animation-budget`).
 set -uo pipefail
 fox="$1"
 shift
@@ -14,7 +14,7 @@ for spec in "$@"; do
   bin="${spec#*=}"
   for extra in "" "--pipelined"; do
     [ "$name" = old ] && [ -n "$extra" ] && continue
-    timeout 150 "$bin" --headless --frames 60 --size 1920x1080 --bench-scene crowd --character "$fox" $extra \
+    timeout 150 "$bin" --headless --frames 60 --size 1920x1080 --bench-scene crowd --character "$fox" $extra ${EXTRA:-} \
       --stats "$out/crowd.jsonl" >/dev/null 2>&1 || echo "run failed: $name $extra"
     python3 - "$out/crowd.jsonl" "$name ${extra:-in place}" <<'PY'
 import json, statistics, sys
