@@ -15,10 +15,11 @@
 //! How: every pass records through a [`Recorder`], which writes each command and all its
 //! arguments (handles, counts, push-constant bytes, barriers, attachments) as words into a
 //! log instead of calling the driver. At the end of the frame, [`Recorder::finish`] compares the
-//! log with the one its frame slot's command buffer was recorded from. Equal, and no Vulkan object
-//! destroyed since ([`GpuContext::objects_destroyed`]: a new object may reuse a destroyed one's
-//! handle), the command buffer is submitted as it is; otherwise the pool is reset and the log
-//! replayed into it. Acceleration-structure builds and refits are logged too, so a skinned
+//! log with those its frame slot's command buffers were recorded from (the last one submitted and
+//! [`KEPT`] more, for commands that come round every few frames). Equal to one, and no Vulkan
+//! object destroyed since ([`GpuContext::objects_destroyed`]: a new object may reuse a destroyed
+//! one's handle), that command buffer is submitted as it is; otherwise the slot's buffer used
+//! longest ago is reset and the log replayed into it. Acceleration-structure builds and refits are logged too, so a skinned
 //! character's refits repeat like the rest. A command the log does not hold (image uploads,
 //! readbacks, a BLAS compaction and its size query, the overlay's drawing) asks for
 //! [`Recorder::direct`]: the log so far is replayed, everything after it goes straight to the
@@ -38,18 +39,41 @@ use ash::vk::Handle;
 
 use crate::gpu::device::GpuContext;
 
-/// A frame slot's command pool and buffer, the log its buffer was recorded from, and this
-/// frame's log. Lives as long as the renderer; a [`Recorder`] holds it for one frame. The
-/// default is an empty placeholder (null handles) for a slot whose cache a recorder holds.
+/// Command buffers a frame slot keeps besides the one it submitted last: a frame whose commands
+/// come round in a cycle longer than one frame (a crowd posed by the animation budget every
+/// fourth frame refits another quarter of its characters each frame, so a slot's frames
+/// alternate between two sets of thousands of refits) still finds them recorded. Each is a pool
+/// and its buffer.
+const KEPT: usize = 3;
+
+/// A command pool and its one primary buffer, with the log the buffer was recorded from.
 #[derive(Default)]
-pub struct CommandCache {
+struct Recorded {
     pool: vk::CommandPool,
     cmd: vk::CommandBuffer,
-    log: Vec<u64>,
     recorded: Vec<u64>,
     /// The destroyed-object count when `recorded` was recorded; `None` when the buffer holds
     /// commands the log does not (or nothing).
     recorded_at: Option<u64>,
+    /// The slot's frame count when it was last submitted (which kept buffer a new recording
+    /// replaces: the one used longest ago).
+    used: u64,
+}
+
+/// A frame slot's command buffers (the one submitted last and [`KEPT`] more, each with the log
+/// it was recorded from), and this frame's log. Lives as long as the renderer; a [`Recorder`]
+/// holds it for one frame. All the slot's buffers were submitted in the slot's earlier frames,
+/// which have completed when the slot's next frame starts, so any of them may be reset or
+/// submitted again. The default is an empty placeholder (null handles) for a slot whose cache a
+/// recorder holds.
+#[derive(Default)]
+pub struct CommandCache {
+    /// The buffer this frame records into or submits again.
+    current: Recorded,
+    kept: Vec<Recorded>,
+    /// Frames this slot has ended.
+    frames: u64,
+    log: Vec<u64>,
     images: Vec<vk::ImageMemoryBarrier2<'static>>,
     attachments: Vec<vk::RenderingAttachmentInfo<'static>>,
     regions: Vec<vk::BufferCopy>,
@@ -60,27 +84,26 @@ pub struct CommandCache {
 }
 
 impl CommandCache {
-    /// Creates the pool and its one primary command buffer.
+    /// Creates the slot's pools, each with its one primary command buffer.
     pub fn new(ctx: &GpuContext) -> Result<Self, vk::Result> {
-        let d = &ctx.device;
-        // SAFETY: valid create infos; destroyed in `destroy`.
-        let (pool, cmd) = unsafe {
-            let pool = d.create_command_pool(&vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family), None)?;
-            let allocate = vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1);
-            match d.allocate_command_buffers(&allocate) {
-                Ok(cmds) => (pool, cmds[0]),
+        let mut all = Vec::with_capacity(KEPT + 1);
+        for _ in 0..=KEPT {
+            match Recorded::new(ctx) {
+                Ok(r) => all.push(r),
                 Err(e) => {
-                    d.destroy_command_pool(pool, None);
+                    for r in all {
+                        r.destroy(ctx);
+                    }
                     return Err(e);
                 }
             }
-        };
+        }
+        let current = all.pop().expect("KEPT + 1 made");
         Ok(Self {
-            pool,
-            cmd,
+            current,
+            kept: all,
+            frames: 0,
             log: Vec::new(),
-            recorded: Vec::new(),
-            recorded_at: None,
             images: Vec::new(),
             attachments: Vec::new(),
             regions: Vec::new(),
@@ -93,11 +116,59 @@ impl CommandCache {
 
     /// The command buffer (submitted after [`Recorder::finish`]).
     pub fn cmd(&self) -> vk::CommandBuffer {
-        self.cmd
+        self.current.cmd
     }
 
-    /// Destroys the pool; the GPU must be idle.
+    /// Destroys the pools; the GPU must be idle.
     pub fn destroy(self, ctx: &GpuContext) {
+        for r in std::iter::once(self.current).chain(self.kept) {
+            r.destroy(ctx);
+        }
+    }
+
+    /// Makes the kept buffer used longest ago the current one, to be recorded into (the
+    /// current one is kept instead).
+    fn take_oldest(&mut self) {
+        if let Some(oldest) = self.kept.iter_mut().min_by_key(|r| r.used) {
+            std::mem::swap(&mut self.current, oldest);
+        }
+    }
+
+    /// Makes a buffer recorded from exactly this frame's log, with no Vulkan object destroyed
+    /// since (`destroyed`), the current one; whether there was one.
+    fn find(&mut self, destroyed: u64) -> bool {
+        let matches = |r: &Recorded| r.recorded_at == Some(destroyed) && r.recorded == self.log;
+        if matches(&self.current) {
+            return true;
+        }
+        match self.kept.iter().position(matches) {
+            Some(i) => {
+                std::mem::swap(&mut self.current, &mut self.kept[i]);
+                true
+            }
+            None => false,
+        }
+    }
+}
+
+impl Recorded {
+    fn new(ctx: &GpuContext) -> Result<Self, vk::Result> {
+        let d = &ctx.device;
+        // SAFETY: valid create infos; destroyed in `destroy`.
+        unsafe {
+            let pool = d.create_command_pool(&vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family), None)?;
+            let allocate = vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1);
+            match d.allocate_command_buffers(&allocate) {
+                Ok(cmds) => Ok(Self { pool, cmd: cmds[0], ..Default::default() }),
+                Err(e) => {
+                    d.destroy_command_pool(pool, None);
+                    Err(e)
+                }
+            }
+        }
+    }
+
+    fn destroy(self, ctx: &GpuContext) {
         // SAFETY: the GPU is idle, so no submission uses the buffer. (A pool no command names:
         // not counted by `GpuContext::objects_destroyed`.)
         unsafe { ctx.device.destroy_command_pool(self.pool, None) };
@@ -248,6 +319,7 @@ impl<'a> Recorder<'a> {
             return Err(e);
         }
         if !s.direct {
+            s.cache.take_oldest();
             if let Err(e) = begin(self.ctx, &mut s.cache) {
                 s.failed = Some(e);
                 return Err(e);
@@ -255,7 +327,7 @@ impl<'a> Recorder<'a> {
             s.direct = true;
             replay(self.ctx, &mut s);
         }
-        Ok(s.cache.cmd)
+        Ok(s.cache.current.cmd)
     }
 
     /// Words logged so far this frame (every command and its arguments).
@@ -286,21 +358,26 @@ impl<'a> Recorder<'a> {
             return Err(e);
         }
         let destroyed = ctx.objects_destroyed();
+        s.cache.frames += 1;
         let how = if s.direct {
             Recording::Direct
-        } else if s.cache.recorded_at == Some(destroyed) && s.cache.log == s.cache.recorded {
+        } else if s.cache.find(destroyed) {
+            s.cache.current.used = s.cache.frames;
             return Ok(Recording::Reused);
         } else {
+            s.cache.take_oldest();
             begin(ctx, &mut s.cache)?;
             replay(ctx, s);
             Recording::Recorded
         };
+        s.cache.current.used = s.cache.frames;
         // SAFETY: the buffer is recording (begun above or at `direct`) outside a rendering scope.
-        unsafe { ctx.device.end_command_buffer(s.cache.cmd) }?;
+        unsafe { ctx.device.end_command_buffer(s.cache.current.cmd) }?;
         if how == Recording::Recorded {
             // Reusable from now on (a buffer whose end failed never is: `begin` cleared this).
-            std::mem::swap(&mut s.cache.log, &mut s.cache.recorded);
-            s.cache.recorded_at = Some(destroyed);
+            let c = &mut s.cache;
+            std::mem::swap(&mut c.log, &mut c.current.recorded);
+            c.current.recorded_at = Some(destroyed);
         }
         Ok(how)
     }
@@ -694,12 +771,13 @@ unsafe fn replay_builds(ctx: &GpuContext, cmd: vk::CommandBuffer, c: Builds, w: 
 /// Resets the pool and begins its buffer (reusable: no `ONE_TIME_SUBMIT`).
 fn begin(ctx: &GpuContext, cache: &mut CommandCache) -> Result<(), vk::Result> {
     // Whatever the buffer held is gone once the pool is reset.
-    cache.recorded_at = None;
-    // SAFETY: the slot's previous submission has completed (the renderer waits for it before
-    // starting a frame), so its pool may be reset and its buffer begun.
+    cache.current.recorded_at = None;
+    // SAFETY: the slot's previous submissions have completed (the renderer waits for the last
+    // before starting a frame, and every buffer of the slot was submitted in its frames), so
+    // the pool may be reset and its buffer begun.
     unsafe {
-        ctx.device.reset_command_pool(cache.pool, vk::CommandPoolResetFlags::empty())?;
-        ctx.device.begin_command_buffer(cache.cmd, &vk::CommandBufferBeginInfo::default())
+        ctx.device.reset_command_pool(cache.current.pool, vk::CommandPoolResetFlags::empty())?;
+        ctx.device.begin_command_buffer(cache.current.cmd, &vk::CommandBufferBeginInfo::default())
     }
 }
 
@@ -707,7 +785,7 @@ fn begin(ctx: &GpuContext, cache: &mut CommandCache) -> Result<(), vk::Result> {
 fn replay(ctx: &GpuContext, s: &mut State) {
     let d = &ctx.device;
     let c = &mut s.cache;
-    let (log, cmd) = (&c.log, c.cmd);
+    let (log, cmd) = (&c.log, c.current.cmd);
     let mut i = s.replayed;
     // SAFETY: (the whole replay) `cmd` is recording (begun by `begin`). Every command was
     // logged by a `Recorder` method from a pass that names live objects of this device and

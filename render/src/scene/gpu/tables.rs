@@ -110,8 +110,16 @@ pub(super) fn decal_parking(live: &[GpuAabb], first: u32, out: &mut [GpuAabb]) {
     }
 }
 
+/// Clean bytes a copy region spans rather than end: two runs of dirty records at most this far
+/// apart are copied as one region, the clean records between them included (they are the GPU's
+/// already). A region costs the copy about as much as tens of kilobytes: an animation budget
+/// that poses a quarter of 10,000 foxes a frame, scattered, left 2,500 one-record regions in the
+/// culling table, 7 ms of the H200's upload pass, against one region when every fox moved.
+pub(super) const MERGE_GAP_BYTES: u64 = 4096;
+
 /// Copies the dirty records of `table` (or all of them after the buffer was replaced) through
-/// the staging ring into `gpu`. Contiguous dirty slots become one copy region. With a `tail`,
+/// the staging ring into `gpu`. Dirty slots at most [`MERGE_GAP_BYTES`] apart become one copy
+/// region (`bytes_uploaded` counts the clean records copied with them). With a `tail`,
 /// the slots past the table's count are filled with its records when the buffer is replaced,
 /// and those a trim dropped are filled again.
 pub(super) fn upload_table<T: Pod>(
@@ -151,13 +159,14 @@ pub(super) fn upload_table<T: Pod>(
             return;
         }
         park(refill.clone());
+        let gap = (MERGE_GAP_BYTES / stride.max(1)) as u32;
         let mut i = 0;
         while i < dirty.len() {
             let first = dirty[i];
             let mut last = first;
-            while i + 1 < dirty.len() && dirty[i + 1] == last + 1 {
+            while i + 1 < dirty.len() && dirty[i + 1] <= last.saturating_add(1 + gap) {
                 i += 1;
-                last += 1;
+                last = dirty[i];
             }
             let bytes = bytemuck::cast_slice(&records[first as usize..=last as usize]);
             copy.push(staging.push(bytes), first as u64 * stride, bytes.len() as u64);
