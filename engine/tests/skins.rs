@@ -147,7 +147,8 @@ fn the_animation_budget_samples_a_far_fox_every_fourth_frame_at_the_current_time
                 app.world.flush();
                 // Its skinned mesh: the one whose joints it animates.
                 let targets = app.world.get::<engine::animation::AnimationTargets>(root).unwrap().0.clone();
-                let mesh = app.world.query::<(Entity, &Skin)>().iter(&app.world).find(|(_, s)| targets.contains(&Some(s.joints[0]))).unwrap().0;
+                let mesh =
+                    app.world.query::<(Entity, &Skin)>().iter(&app.world).find(|(_, s)| targets.contains(&Some(s.joints[0]))).unwrap().0;
                 (root, mesh)
             })
             .collect();
@@ -190,4 +191,3 @@ fn the_animation_budget_samples_a_far_fox_every_fourth_frame_at_the_current_time
     }
     assert_eq!(far_samples, 4, "16 frames: the far fox sampled four times");
 }
-
