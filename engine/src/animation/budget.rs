@@ -14,7 +14,7 @@
 //! `full_rate_px`, up to [`AnimationBudget::max_period`]; a model outside the view (its shadow
 //! may still be on screen) samples at `max_period`. A player's clock always advances, so a
 //! sampled pose is the pose of the current time: **a pose is at most `period − 1` frames old**
-//! (3 frames, 50 ms at 60 Hz, with the defaults, and only below 8 pixels). Players without an
+//! (3 frames, 50 ms at 60 Hz, with the defaults, and only below 16 pixels). Players without an
 //! [`AnimatedRadius`], or with the budget off (the default), sample every frame.
 
 use bevy_ecs::prelude::*;
