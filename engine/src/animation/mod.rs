@@ -653,6 +653,11 @@ pub fn link_animation_targets(
     }
 }
 
+/// What [`animate`] reads and writes of a player: its clock, what its targets sample, and where
+/// and how large its model is (for the [`AnimationBudget`]).
+type Player =
+    (Entity, &'static mut AnimationPlayer, &'static mut AnimationOutput, Option<&'static GlobalTransform>, Option<&'static AnimatedRadius>);
+
 /// Advances every player by the frame's time and writes the sampled pose into its targets'
 /// [`Transform`]s and [`MorphWeights`]. A property the clip does not animate keeps its value;
 /// during a cross-fade the two clips' values are blended by [`AnimationPlayer::blend`].
@@ -666,7 +671,7 @@ pub fn link_animation_targets(
 pub fn animate(
     time: Res<Time>,
     clips: Option<Res<Assets<AnimationClip>>>,
-    mut players: Query<(Entity, &mut AnimationPlayer, &mut AnimationOutput, Option<&GlobalTransform>, Option<&AnimatedRadius>)>,
+    mut players: Query<Player>,
     mut targets: Query<(&AnimatedBy, Option<&mut Transform>, Option<&mut MorphWeights>)>,
     (budget, cameras): (Option<Res<AnimationBudget>>, Query<(&Camera, &GlobalTransform)>),
     stats: Option<ResMut<AnimationStats>>,
@@ -676,7 +681,7 @@ pub fn animate(
     let dt = time.delta_secs();
     let frame = time.frame();
     let clips = &*clips;
-    let view = budget.and_then(|b| b.view(&cameras));
+    let view = budget.and_then(|b| b.view(cameras));
     // Batches big enough that a small crowd does not wake every core for a few microseconds'
     // work (a player's clock is a few nanoseconds; a target's pose about a hundred).
     players.par_iter_mut().batching_strategy(BatchingStrategy::new().min_batch_size(1024)).for_each(
