@@ -14,8 +14,10 @@
 //! `full_rate_px`, up to [`AnimationBudget::max_period`]; a model outside the view (its shadow
 //! may still be on screen) samples at `max_period`. A player's clock always advances, so a
 //! sampled pose is the pose of the current time: **a pose is at most `period − 1` frames old**
-//! (3 frames, 50 ms at 60 Hz, with the defaults, and only below 16 pixels). Players without an
-//! [`AnimatedRadius`], or with the budget off (the default), sample every frame.
+//! (3 frames, 50 ms at 60 Hz, with the defaults, and only below 16 pixels or off screen). The
+//! sizes are measured from the models' and the camera's global transforms of the frame before
+//! (animation runs before propagation). Players without an [`AnimatedRadius`], or with the
+//! budget off (the default), sample every frame.
 
 use bevy_ecs::prelude::*;
 use glam::{Affine3A, Vec2, Vec3};
@@ -37,8 +39,10 @@ pub struct AnimationBudget {
     pub enabled: bool,
     /// The radius on screen, in pixels, from which a model samples every frame.
     pub full_rate_px: f32,
-    /// The longest period in frames (a power of two; 1 turns the budget off). Off-screen models
-    /// use it.
+    /// The longest period in frames: 1, 2, 4 or 8 (other values are taken as the next of those,
+    /// 8 at most: the renderer skins a pose whole once it has been still for 8 frames, so a
+    /// longer period would pay for every vertex each time; 1 turns the budget off). Off-screen
+    /// models use it.
     pub max_period: u8,
     /// The viewport the active camera draws, in pixels (the render plugin keeps it in step with
     /// the render size).
@@ -84,7 +88,7 @@ impl AnimationBudget {
                 px_per_metre: 0.5 * self.viewport.y / half_y.tan(),
                 planes: [Vec3::new(-cx, 0.0, sx), Vec3::new(cx, 0.0, sx), Vec3::new(0.0, -cy, sy), Vec3::new(0.0, cy, sy)],
                 full_rate_px: self.full_rate_px.max(0.0),
-                max_period: self.max_period.next_power_of_two(),
+                max_period: self.max_period.clamp(1, 8).next_power_of_two(),
             }
         })
     }
@@ -171,6 +175,8 @@ mod tests {
         assert!(on.view([(&camera, &at)]).is_none(), "no active camera");
         assert!(AnimationBudget::default().view([(&Camera::default(), &at)]).is_none(), "off by default");
         assert!(AnimationBudget { max_period: 1, ..on }.view([(&Camera::default(), &at)]).is_none());
+        let longest = |max_period| AnimationBudget { max_period, ..on }.view([(&Camera::default(), &at)]).unwrap().max_period;
+        assert_eq!([3, 8, 200, 255].map(longest), [4, 8, 8, 8], "a power of two, 8 at most");
     }
 
     #[test]

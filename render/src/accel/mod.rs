@@ -33,7 +33,10 @@
 //! followed (new and dropped meshes, the instance count), so the frame a consumer comes back
 //! catches up at once: the meshes that arrived are built, every posed mesh is refit to the pose
 //! the skinning pass last wrote (or rebuilt where refits would have degraded it), and the TLAS is
-//! built anew; that frame traces the current scene.
+//! built anew; that frame traces the current scene. (A posed mesh whose last skinning wrote only
+//! the vertices of its level of detail, `crate::scene::poses::REST_FRAMES`, is skinned whole the
+//! next frame and refit then: its shadow shows its pose from before the dormancy for up to two
+//! frames.)
 //!
 //! **Small characters wait.** A crowd's far characters cover a few pixels each, and refitting all
 //! of them every frame was the structures' whole cost (10,000 foxes: 3.3 ms of GPU and a
@@ -416,9 +419,21 @@ impl SceneAccel {
             }
             self.forget_waiting(); // the wake refits every posed mesh
         } else if std::mem::take(&mut self.dormant) {
-            self.refit_list.extend(
-                self.blas.iter().enumerate().filter(|(_, b)| b.as_ref().is_some_and(|b| b.posed.is_some())).map(|(i, _)| MeshId(i as u32)),
-            );
+            // A posed mesh whose last skinning wrote only its level of detail (its pose changed
+            // within `REST_FRAMES` frames and it is not skinned now) would be refit from vertices
+            // of two poses: it is skinned whole next frame instead, and refit as a changed pose
+            // (at most two frames late).
+            let poses = &mut mirror.poses;
+            for (i, b) in self.blas.iter().enumerate() {
+                if b.as_ref().is_some_and(|b| b.posed.is_some()) {
+                    let id = MeshId(i as u32);
+                    if poses.whole_by_now(id) {
+                        self.refit_list.push(id);
+                    } else {
+                        poses.skin_whole(id);
+                    }
+                }
+            }
             self.pending_rearranged = true; // the instances moved unseen: a full build
             self.forget_waiting();
         } else {

@@ -86,8 +86,17 @@ pub struct CommandCache {
 impl CommandCache {
     /// Creates the slot's pools, each with its one primary command buffer.
     pub fn new(ctx: &GpuContext) -> Result<Self, vk::Result> {
-        let mut all = Vec::with_capacity(KEPT + 1);
-        for _ in 0..=KEPT {
+        Self::with_kept(ctx, KEPT)
+    }
+
+    /// A cache of one command buffer, for commands recorded once ([`GpuContext::run_once`]).
+    pub fn one_off(ctx: &GpuContext) -> Result<Self, vk::Result> {
+        Self::with_kept(ctx, 0)
+    }
+
+    fn with_kept(ctx: &GpuContext, kept: usize) -> Result<Self, vk::Result> {
+        let mut all = Vec::with_capacity(kept + 1);
+        for _ in 0..=kept {
             match Recorded::new(ctx) {
                 Ok(r) => all.push(r),
                 Err(e) => {
@@ -98,7 +107,7 @@ impl CommandCache {
                 }
             }
         }
-        let current = all.pop().expect("KEPT + 1 made");
+        let current = all.pop().expect("kept + 1 made");
         Ok(Self {
             current,
             kept: all,
@@ -126,10 +135,16 @@ impl CommandCache {
         }
     }
 
-    /// Makes the kept buffer used longest ago the current one, to be recorded into (the
-    /// current one is kept instead).
-    fn take_oldest(&mut self) {
-        if let Some(oldest) = self.kept.iter_mut().min_by_key(|r| r.used) {
+    /// Makes the buffer to record into the current one: the current one itself when it can never
+    /// be submitted again as it is (it holds commands the log does not, or names an object
+    /// destroyed since, `destroyed`), else a kept one that cannot, else the kept one used longest
+    /// ago (the current one is kept instead).
+    fn take_oldest(&mut self, destroyed: u64) {
+        let spent = |r: &Recorded| r.recorded_at != Some(destroyed);
+        if spent(&self.current) {
+            return;
+        }
+        if let Some(oldest) = self.kept.iter_mut().min_by_key(|r| (!spent(r), r.used)) {
             std::mem::swap(&mut self.current, oldest);
         }
     }
@@ -319,7 +334,7 @@ impl<'a> Recorder<'a> {
             return Err(e);
         }
         if !s.direct {
-            s.cache.take_oldest();
+            s.cache.take_oldest(self.ctx.objects_destroyed());
             if let Err(e) = begin(self.ctx, &mut s.cache) {
                 s.failed = Some(e);
                 return Err(e);
@@ -365,7 +380,7 @@ impl<'a> Recorder<'a> {
             s.cache.current.used = s.cache.frames;
             return Ok(Recording::Reused);
         } else {
-            s.cache.take_oldest();
+            s.cache.take_oldest(destroyed);
             begin(ctx, &mut s.cache)?;
             replay(ctx, s);
             Recording::Recorded

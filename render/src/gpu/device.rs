@@ -520,7 +520,7 @@ impl GpuContext {
     /// both as a [`Recorder`] (recording directly) and raw, for commands the recorder does not
     /// have. For setup work, readbacks and tests only (never per frame).
     pub fn run_once(&self, record: impl FnOnce(&Recorder, vk::CommandBuffer)) -> Result<(), RenderError> {
-        let recorder = Recorder::new(self, CommandCache::new(self)?, false);
+        let recorder = Recorder::new(self, CommandCache::one_off(self)?, false);
         let recorded = recorder.direct().map(|cmd| record(&recorder, cmd));
         let (cache, finished) = recorder.finish();
         let result = recorded.and(finished).map_err(RenderError::from).and_then(|_| self.submit_once(cache.cmd()));

@@ -89,6 +89,10 @@ struct Pose {
     /// The level of detail whose vertices its last skinning wrote (0: every vertex): the finest
     /// level it can be drawn at ([`PoseTable::drawable_level`]).
     level: u32,
+    /// Its next skinning writes every vertex ([`PoseTable::skin_whole`]).
+    whole_next: bool,
+    /// The [`PoseTable::take_jobs`] call that last found it listed.
+    taken: u32,
 }
 
 /// A skinned (or morphed) mesh that posed meshes copy.
@@ -157,8 +161,11 @@ pub struct PoseTable {
     sources: Vec<Option<Source>>,
     /// By mesh id: the pose of a posed mesh.
     poses: Vec<Option<Pose>>,
-    /// Posed meshes set this frame or settling.
+    /// Posed meshes set this frame, catching up, or still short of [`REST_FRAMES`] (a mesh id
+    /// freed and posed again may be listed twice: [`PoseTable::take_jobs`] drops the second).
     active: Vec<MeshId>,
+    /// [`PoseTable::take_jobs`] calls so far (what `Pose::taken` is stamped with).
+    takes: u32,
     /// Posed meshes (the `Some` entries of `poses`).
     posed: u32,
     /// This frame's jobs (posed meshes skinned), once [`PoseTable::take_jobs`] has run.
@@ -237,6 +244,8 @@ impl PoseTable {
             changed: false,
             since: REST_FRAMES,
             level: 0,
+            whole_next: false,
+            taken: 0,
         });
         true
     }
@@ -279,10 +288,21 @@ impl PoseTable {
         self.active.extend(batch.iter().filter(|s| s.newly_active).map(|s| s.mesh));
     }
 
-    /// Collects this frame's skinning jobs and moves every pose a frame on: what changed settles
-    /// next frame, what settled rests. Returns the most vertices of a job. The jobs' input is
+    /// Collects this frame's skinning jobs and moves every pose a frame on: what changed catches
+    /// up next frame, and what has not changed for [`REST_FRAMES`] frames is skinned whole and
+    /// rests. Returns the most vertices of a job. The jobs' input is
     /// written straight into the upload's staging memory ([`PoseTable::write_input`]).
     pub(crate) fn take_jobs(&mut self) -> u32 {
+        // Each listed pose once.
+        self.takes = self.takes.wrapping_add(1);
+        let (takes, poses) = (self.takes, &mut self.poses);
+        self.active.retain(|&id| match poses.get_mut(id.0 as usize) {
+            Some(Some(pose)) if pose.taken != takes => {
+                pose.taken = takes;
+                true
+            }
+            _ => false,
+        });
         self.jobs.clear();
         self.job_vertices = 0;
         let mut most = 0;
@@ -401,6 +421,27 @@ impl PoseTable {
         self.active.is_empty()
     }
 
+    /// Whether every vertex of posed mesh `id` holds its current pose by the end of this frame's
+    /// skinning, so that a structure refit from it now is the pose's: its last skinning wrote
+    /// every vertex, or it is skinned this frame (a job, which a refit makes whole). True for
+    /// every mesh that is not posed.
+    pub fn whole_by_now(&self, id: MeshId) -> bool {
+        let Some(Some(pose)) = self.poses.get(id.0 as usize) else { return true };
+        pose.level == 0 || (pose.taken == self.takes && (pose.since <= 1 || pose.since == REST_FRAMES))
+    }
+
+    /// Skins posed mesh `id` whole next frame, in its current pose (for a structure woken from
+    /// dormancy that must be refit from it while its last skinning wrote its level of detail
+    /// alone).
+    pub fn skin_whole(&mut self, id: MeshId) {
+        let Some(Some(pose)) = self.poses.get_mut(id.0 as usize) else { return };
+        if !pose.changed && pose.since >= REST_FRAMES {
+            self.active.push(id);
+        }
+        pose.changed = true;
+        pose.whole_next = true;
+    }
+
     /// The finest level of detail posed mesh `id` can be drawn at: its last skinning wrote the
     /// vertices of that level and the coarser ones only (0 for every other mesh).
     pub fn drawable_level(&self, id: MeshId) -> u32 {
@@ -409,8 +450,9 @@ impl PoseTable {
 
     /// Sets the level of detail whose vertices each of this frame's jobs skins (once the jobs
     /// were taken): `choose(posed mesh, its source's levels)` for a job that may skin fewer
-    /// vertices, and 0 (every vertex) for the first skinning of a pose and for the last one of a
-    /// pose that stopped changing, so that a pose at rest always holds every vertex. Counts the
+    /// vertices, and 0 (every vertex) for the first skinning of a pose, for its skinning once it
+    /// has been still for [`REST_FRAMES`] frames (so that a pose at rest holds every vertex), and
+    /// after [`PoseTable::skin_whole`]. Counts the
     /// vertices skinned ([`PoseTable::job_vertices`]) and lists the posed meshes whose level
     /// changed in `changed` (their culling records name it). Returns the most vertices a job
     /// skins.
@@ -422,7 +464,7 @@ impl PoseTable {
             let source = self.sources.get(pose.source.0 as usize).and_then(Option::as_ref);
             // `since` was moved on by `take_jobs`: 0 for a pose changed this frame, 1 for its
             // catch-up the frame after, `REST_FRAMES` for its whole skinning at rest.
-            let partial = header.levels & SKIN_FIRST == 0 && pose.since <= 1;
+            let partial = header.levels & SKIN_FIRST == 0 && pose.since <= 1 && !std::mem::take(&mut pose.whole_next);
             let (level, vertices) = match source.and_then(|s| s.levels.as_ref()).filter(|_| partial) {
                 Some(levels) => {
                     let level = choose(id, levels).min(levels.count);
@@ -669,6 +711,50 @@ mod tests {
             let (_, vertices, level, _) = frame(&mut t, f % 4 == 0, 2);
             assert!(f == 0 || vertices <= 3, "frame {f}: {vertices} vertices skinned at level {level}");
         }
+    }
+
+    /// A pose partly skinned (its level of detail) is not whole until `skin_whole` has it skinned
+    /// whole the next frame, in the same pose; a mesh id freed and posed again while still listed
+    /// is skinned once a frame.
+    #[test]
+    fn a_partly_skinned_pose_is_skinned_whole_on_request_and_a_reused_id_once() {
+        let mut t = PoseTable::default();
+        let levels = SkinLevels { count: 2, errors: [0.01, 0.05, 0.0, 0.0], vertices: [10, 6, 3, 0, 0] };
+        let desc = || SourceDesc {
+            joint_bounds: vec![(Vec3::ZERO, Vec3::ONE)],
+            vertices: 10,
+            rest_bounds: (Vec3::ZERO, Vec3::ONE),
+            morph_reach: vec![],
+            levels: Some(levels),
+        };
+        t.set_source(MeshId(0), Some(desc()));
+        assert!(t.add(MeshId(1), MeshId(0)));
+        let frame = |t: &mut PoseTable, set: bool| {
+            if set {
+                t.set(MeshId(1), [Mat4::IDENTITY], &[]).expect("a posed mesh");
+            }
+            t.take_jobs();
+            t.set_levels(|_, _| 2, &mut Vec::new());
+            (t.jobs().len(), t.job_vertices())
+        };
+        assert_eq!(frame(&mut t, true), (1, 10), "the first skinning is whole");
+        assert_eq!(frame(&mut t, true), (1, 3), "then its level");
+        assert!(t.whole_by_now(MeshId(1)), "skinned this frame");
+        assert_eq!(frame(&mut t, false), (1, 3), "the catch-up, at its level");
+        assert_eq!(frame(&mut t, false), (0, 0));
+        assert!(!t.whole_by_now(MeshId(1)), "its other vertices hold an older pose");
+        t.skin_whole(MeshId(1));
+        assert_eq!(frame(&mut t, false), (1, 10), "skinned whole on request");
+        assert!(t.whole_by_now(MeshId(1)));
+        assert_eq!(frame(&mut t, false), (1, 3), "caught up at its level, the same pose");
+        assert!(t.whole_by_now(MeshId(1)));
+        // Freed and posed again while listed: one job.
+        t.set(MeshId(1), [Mat4::IDENTITY], &[]).expect("a posed mesh");
+        t.remove(MeshId(1));
+        t.set_source(MeshId(0), Some(desc()));
+        assert!(t.add(MeshId(1), MeshId(0)));
+        t.set(MeshId(1), [Mat4::IDENTITY], &[]).expect("a posed mesh");
+        assert_eq!(frame(&mut t, false), (1, 10), "one job, the new pose's first");
     }
 
     /// This frame's skinning input as the upload writes it, in 16-byte aligned memory.

@@ -117,9 +117,15 @@ pub(super) fn decal_parking(live: &[GpuAabb], first: u32, out: &mut [GpuAabb]) {
 /// culling table, 7 ms of the H200's upload pass, against one region when every fox moved.
 pub(super) const MERGE_GAP_BYTES: u64 = 4096;
 
+/// Clean bytes a frame's merges may copy, per dirty record of the table: what
+/// [`staging_need`] reserves for them, so that merging never overruns the staging ring (a
+/// merge that would pass it is not made).
+pub(super) const MERGE_ALLOWANCE_BYTES: u64 = 512;
+
 /// Copies the dirty records of `table` (or all of them after the buffer was replaced) through
 /// the staging ring into `gpu`. Dirty slots at most [`MERGE_GAP_BYTES`] apart become one copy
-/// region (`bytes_uploaded` counts the clean records copied with them). With a `tail`,
+/// region, within [`MERGE_ALLOWANCE_BYTES`] of clean records a dirty one (`bytes_uploaded`
+/// counts the clean records copied with them). With a `tail`,
 /// the slots past the table's count are filled with its records when the buffer is replaced,
 /// and those a trim dropped are filled again.
 pub(super) fn upload_table<T: Pod>(
@@ -159,19 +165,10 @@ pub(super) fn upload_table<T: Pod>(
             return;
         }
         park(refill.clone());
-        let gap = (MERGE_GAP_BYTES / stride.max(1)) as u32;
-        let mut i = 0;
-        while i < dirty.len() {
-            let first = dirty[i];
-            let mut last = first;
-            while i + 1 < dirty.len() && dirty[i + 1] <= last.saturating_add(1 + gap) {
-                i += 1;
-                last = dirty[i];
-            }
+        copy_runs(dirty, stride, |first, last| {
             let bytes = bytemuck::cast_slice(&records[first as usize..=last as usize]);
             copy.push(staging.push(bytes), first as u64 * stride, bytes.len() as u64);
-            i += 1;
-        }
+        });
     });
     up.bytes += copy.bytes();
     Ok(())
@@ -272,6 +269,31 @@ impl SkinInput {
     }
 }
 
+/// The copy regions of the sorted, distinct `dirty` slots of a table of `stride`-byte records,
+/// as inclusive slot ranges handed to `region` in order: runs at most [`MERGE_GAP_BYTES`] apart
+/// merge, the clean slots between them included, while the clean bytes copied stay within
+/// [`MERGE_ALLOWANCE_BYTES`] a dirty slot.
+pub(super) fn copy_runs(dirty: &[u32], stride: u64, mut region: impl FnMut(u32, u32)) {
+    let gap = (MERGE_GAP_BYTES / stride.max(1)) as u32;
+    let mut allowance = dirty.len() as u64 * MERGE_ALLOWANCE_BYTES;
+    let mut i = 0;
+    while i < dirty.len() {
+        let first = dirty[i];
+        let mut last = first;
+        while i + 1 < dirty.len() && dirty[i + 1] <= last.saturating_add(1 + gap) {
+            let clean = u64::from(dirty[i + 1] - last - 1) * stride;
+            if clean > allowance {
+                break;
+            }
+            allowance -= clean;
+            i += 1;
+            last = dirty[i];
+        }
+        region(first, last);
+        i += 1;
+    }
+}
+
 /// Bytes the dirty records of `table` need in the staging ring (worst case: all of them), after
 /// the frame's [`GpuTable::plan`].
 pub(super) fn staging_need<T: Pod>(table: &SlotTable<T>, gpu: &GpuTable) -> u64 {
@@ -280,8 +302,45 @@ pub(super) fn staging_need<T: Pod>(table: &SlotTable<T>, gpu: &GpuTable) -> u64 
         // The whole new capacity (records plus any tail), in two pieces.
         gpu.planned_capacity() as u64 * stride + 48
     } else {
-        // Contiguous slots share a piece; a trimmed tail to re-park is one more.
+        // A piece per dirty slot at most (slots close together share one, with the clean
+        // records between them, up to the merges' allowance); a trimmed tail to re-park is one
+        // more.
         let trimmed = if gpu.fill_tail { table.trimmed_tail() } else { 0..0 };
-        table.dirty_count() as u64 * (stride + 16) + (trimmed.end - trimmed.start) as u64 * stride + 16
+        table.dirty_count() as u64 * (stride + 16 + MERGE_ALLOWANCE_BYTES) + (trimmed.end - trimmed.start) as u64 * stride + 16
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn runs(dirty: &[u32], stride: u64) -> Vec<(u32, u32)> {
+        let mut out = Vec::new();
+        copy_runs(dirty, stride, |a, b| out.push((a, b)));
+        out
+    }
+
+    /// A quarter of 10,000 culling records (32 bytes), scattered, go up as one region; runs
+    /// farther apart than the gap stay apart; every dirty slot is covered, and the bytes copied
+    /// stay within what the staging ring reserves for them.
+    #[test]
+    fn scattered_dirty_records_merge_into_few_regions_within_the_staging_reserve() {
+        let scattered: Vec<u32> = (0..10_000u32).filter(|i| i.wrapping_mul(0x9E37_79B9) >> 30 == 0).collect();
+        assert!((2_000..3_000).contains(&scattered.len()));
+        assert_eq!(runs(&scattered, 32), [(scattered[0], *scattered.last().unwrap())], "one region");
+        let far = [3u32, 4, 5, 1_000, 5_000];
+        assert_eq!(runs(&far, 32), [(3, 5), (1_000, 1_000), (5_000, 5_000)], "128 records of 32 bytes is the gap");
+        assert_eq!(runs(&[0, 100], 64), [(0, 0), (100, 100)], "64 records of 64 bytes is the gap");
+        for (dirty, stride) in [(&scattered[..], 32u64), (&far[..], 32), (&[0u32, 7, 9, 300][..], 144)] {
+            let regions = runs(dirty, stride);
+            let covered = |s: &u32| regions.iter().any(|&(a, b)| (a..=b).contains(s));
+            assert!(dirty.iter().all(covered));
+            let bytes: u64 = regions.iter().map(|&(a, b)| u64::from(b - a + 1) * stride).sum();
+            let reserve = dirty.len() as u64 * (stride + MERGE_ALLOWANCE_BYTES);
+            assert!(bytes <= reserve, "{bytes} bytes copied, {reserve} reserved");
+        }
+        // Within the gap, the allowance (512 bytes a dirty record, 1,024 for two) decides.
+        assert_eq!(runs(&[0, 30], 32), [(0, 30)], "29 clean records, 928 bytes: merged");
+        assert_eq!(runs(&[0, 100], 32), [(0, 0), (100, 100)], "99 clean records, 3,168 bytes: apart");
     }
 }
