@@ -44,7 +44,7 @@ use crate::gpu::device::GpuContext;
 /// fourth frame refits another quarter of its characters each frame, so a slot's frames
 /// alternate between two sets of thousands of refits) still finds them recorded. Each is a pool
 /// and its buffer.
-const KEPT: usize = 3;
+pub const KEPT: usize = 3;
 
 /// A command pool and its one primary buffer, with the log the buffer was recorded from.
 #[derive(Default)]
