@@ -47,7 +47,10 @@
 //! its pose changed: its shadow, occlusion and reflections show a pose at most a frame (17 ms at
 //! 60 frames a second) older than the drawn one, where the pose moves a pixel at most. Following
 //! the slots keeps each slot's command buffer the same from frame to frame, so it is submitted
-//! again as recorded: the driver's cost of recording thousands of refits is paid once. Its
+//! again as recorded: the driver's cost of recording thousands of refits is paid once. For the
+//! same reason a mesh's class (every frame, or its slot's turn) is decided once in
+//! [`REFIT_CLASS_FRAMES`] frames, not every frame: a walking crowd's characters cross the limit
+//! a few a frame, and each crossing changed the commands. Its
 //! vertices are already the new pose's, so a hit reads attributes a frame newer than the box it
 //! hit; for a character this small that is below a pixel. Characters off screen are
 //! judged by size too (their shadows may fall in view). The counters say how many refits were
@@ -114,6 +117,8 @@ struct PosedBlas {
     stale: u32,
     /// Tall enough on screen to be refit every frame its pose changes (with hysteresis).
     large: bool,
+    /// The [`REFIT_CLASS_FRAMES`] epoch `large` was decided in (`None`: not yet).
+    classified: Option<u64>,
 }
 
 /// Refits recorded per `vkCmdBuildAccelerationStructuresKHR` call.
@@ -132,6 +137,20 @@ pub const MAX_REFIT_STALENESS: u32 = FRAMES_IN_FLIGHT as u32 - 1;
 /// A posed mesh refit every frame stays so until it is shorter than this fraction of
 /// `refit_pixels` on screen.
 const REFIT_HYSTERESIS: f32 = 0.75;
+
+/// Frames in which a posed mesh keeps its class (refit every frame, or on its slot's turn):
+/// classes are decided once an epoch of this many frames (the frame's timeline value divided by
+/// it), the first frame of the epoch the mesh waits for a refit in. A crowd that walks has a few
+/// characters crossing `refit_pixels` every frame; decided every frame, the set of every-frame
+/// refits changed with each of them and no frame's commands matched an earlier one's (10,000
+/// walking foxes at 1920×1080: 6,100 refits recorded anew every frame, 9–12 ms of the driver's
+/// submission on the lent H200's host). Decided once an epoch, each frame slot's refits repeat
+/// for the epoch's frames and its command buffers are submitted again as recorded. Staleness
+/// is unaffected: a mesh that grew past the limit within an epoch is still refit on its slot's
+/// turn, [`MAX_REFIT_STALENESS`] frames behind at most; one that shrank is refit every frame
+/// until the epoch ends. A multiple of `FRAMES_IN_FLIGHT`, so that both slots see each epoch's
+/// classes.
+pub const REFIT_CLASS_FRAMES: u64 = 16;
 
 /// A posed BLAS is rebuilt after this many refits at the latest.
 pub const POSED_REBUILD_REFITS: u32 = 240;
@@ -248,6 +267,8 @@ pub struct SceneAccel {
     /// Per mesh id, the largest height on screen (pixels) of the instances drawing it, while
     /// refits are chosen.
     sizes: Vec<f32>,
+    /// The `refit_pixels` the posed meshes' classes were decided with.
+    classed_at: f32,
 
     /// No consumer wanted the structures last frame: what moved since is not in them.
     dormant: bool,
@@ -308,6 +329,7 @@ impl SceneAccel {
             refits: Vec::new(),
             waiting: Vec::new(),
             sizes: Vec::new(),
+            classed_at: 0.0,
             dormant: false,
             res: SceneAccelResources {
                 blas: graph.resource("scene blas"),
@@ -396,8 +418,17 @@ impl SceneAccel {
             )?;
             let area = mirror.mesh_bounds(id).map_or(0.0, surface_area);
             let update_scratch = sizes.update_scratch_size.next_multiple_of(256);
-            let posed =
-                PosedBlas { refits: 0, built_area: area, area, needs_refit: false, update_scratch, waiting: false, stale: 0, large: true };
+            let posed = PosedBlas {
+                refits: 0,
+                built_area: area,
+                area,
+                needs_refit: false,
+                update_scratch,
+                waiting: false,
+                stale: 0,
+                large: true,
+                classified: None,
+            };
             self.blas[slot] = Some(MeshBlas {
                 accel,
                 query: None,
@@ -571,7 +602,8 @@ impl SceneAccel {
 
     /// Lists this frame's refits in `refit_list`: the posed meshes skinned this frame join those
     /// waiting; each is refit now if it is at least `refit_pixels` tall on screen (every one when
-    /// `refit_pixels` is 0), if its structure is [`MAX_REFIT_STALENESS`] frames behind, or if
+    /// `refit_pixels` is 0; decided once an epoch of [`REFIT_CLASS_FRAMES`] frames), if its
+    /// structure is [`MAX_REFIT_STALENESS`] frames behind, or if
     /// this is its turn (the frames of one frame slot, spread over the meshes by id; `frame` is
     /// this frame's timeline value); the rest wait a frame more. Counts the deferred refits and
     /// the stalest structure.
@@ -587,10 +619,27 @@ impl SceneAccel {
         if self.waiting.is_empty() {
             return;
         }
+        // Classes are decided once an epoch (`REFIT_CLASS_FRAMES`), and again at once when the
+        // limit changed.
+        let epoch = frame / REFIT_CLASS_FRAMES;
+        if self.classed_at != refit_pixels {
+            self.classed_at = refit_pixels;
+            for b in self.blas.iter_mut().flatten() {
+                if let Some(posed) = b.posed.as_mut() {
+                    posed.classified = None;
+                }
+            }
+        }
+        let blas = &self.blas;
+        let unclassified = |id: &MeshId| {
+            let posed = blas.get(id.0 as usize).and_then(Option::as_ref).and_then(|b| b.posed.as_ref());
+            posed.is_some_and(|posed| posed.classified != Some(epoch))
+        };
         // Each posed mesh's height on screen: the largest of the instances that draw it (one,
-        // for a skinned instance), from their culling records' world bounds.
+        // for a skinned instance), from their culling records' world bounds; only in frames that
+        // classify a mesh.
         self.sizes.clear();
-        if refit_pixels > 0.0 {
+        if refit_pixels > 0.0 && self.waiting.iter().any(unclassified) {
             self.sizes.resize(self.blas.len(), 0.0);
             let camera = mirror.camera();
             for slot in 0..mirror.culls.slot_count() {
@@ -608,8 +657,11 @@ impl SceneAccel {
             // Hysteresis: a mesh changes class only well past the limit, so that a crowd whose
             // poses sway about it keeps the same refits, and the same command buffers, frame to
             // frame.
-            let size = sizes.get(id.0 as usize).copied().unwrap_or(0.0);
-            posed.large = refit_pixels <= 0.0 || size >= refit_pixels || (posed.large && size >= REFIT_HYSTERESIS * refit_pixels);
+            if posed.classified != Some(epoch) {
+                posed.classified = Some(epoch);
+                let size = sizes.get(id.0 as usize).copied().unwrap_or(0.0);
+                posed.large = refit_pixels <= 0.0 || size >= refit_pixels || (posed.large && size >= REFIT_HYSTERESIS * refit_pixels);
+            }
             let large = posed.large;
             if b.needs_build || large || posed.stale >= MAX_REFIT_STALENESS || u64::from(id.0) % FRAMES_IN_FLIGHT as u64 == turn {
                 refit_list.push(id);
@@ -620,6 +672,9 @@ impl SceneAccel {
             stalest = stalest.max(posed.stale);
             true
         });
+        // In mesh order, not in the order the meshes began to wait (which follows which were
+        // deferred before): equal sets of refits record equal commands.
+        refit_list.sort_unstable();
         counters.scene_blas_refits_deferred = deferred;
         counters.scene_blas_stalest = stalest.into();
     }
