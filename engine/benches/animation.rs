@@ -8,7 +8,7 @@
 //! `frame_budget/N`: the same frame with the animation budget on
 //! ([`engine::animation::AnimationBudget`]), seen as the sandbox's `foxes` scene sees the crowd
 //! (from above, all of it in a 1920×1080 view, each fox a few pixels): most foxes sample every
-//! fourth frame.
+//! fourth frame; `animate_budget/N`, `propagate_budget/N` and `skin_budget/N` its parts.
 //!
 //! Run: `cargo bench -p engine --bench animation`
 
@@ -65,27 +65,30 @@ fn foxes(c: &mut Criterion) {
             AnimationBudget { enabled: true, viewport: Vec2::new(1920.0, 1080.0), ..Default::default() };
         app.update();
         group.bench_function(format!("frame_budget/{n}"), |b| b.iter(|| app.update()));
-        app.world.resource_mut::<AnimationBudget>().enabled = false;
-        app.update();
         // The same frames, timed by what each part reports of itself: `animate`, transform
         // propagation and the skin matrices (the sandbox's `cpu_ms.animate`, `.propagate` and
-        // `.skin`).
+        // `.skin`), without the budget and with it (`animate_budget/N`, ...).
         let parts: [(&str, PartMs); 3] = [
             ("animate", |w| w.resource::<AnimationStats>().cpu_ms),
             ("propagate", |w| w.resource::<TransformStats>().cpu_ms),
             ("skin", |w| w.resource::<AnimationStats>().skin_cpu_ms),
         ];
-        for (part, ms) in parts {
-            group.bench_function(format!("{part}/{n}"), |b| {
-                b.iter_custom(|iters| {
-                    (0..iters)
-                        .map(|_| {
-                            app.update();
-                            Duration::from_secs_f32(ms(&app.world) * 1e-3)
-                        })
-                        .sum()
-                })
-            });
+        for budget in [false, true] {
+            app.world.resource_mut::<AnimationBudget>().enabled = budget;
+            app.update();
+            for (part, ms) in parts {
+                let name = if budget { format!("{part}_budget/{n}") } else { format!("{part}/{n}") };
+                group.bench_function(name, |b| {
+                    b.iter_custom(|iters| {
+                        (0..iters)
+                            .map(|_| {
+                                app.update();
+                                Duration::from_secs_f32(ms(&app.world) * 1e-3)
+                            })
+                            .sum()
+                    })
+                });
+            }
         }
     }
     group.finish();

@@ -699,14 +699,17 @@ pub fn animate(
     );
     let players = &players;
     // A model's nodes sit together in their tables, so a target's player is most often the
-    // previous target's: each batch keeps the last one it fetched.
+    // previous target's: each batch keeps the last one it fetched, by reference. (A copy of the
+    // player's `AnimationOutput`, 120 bytes, copied again for every target, cost the 2-core
+    // machine's 10,000 foxes 4.3 ms to walk their 240,000 targets posing none, against 2.8 ms
+    // by reference; `animate/10000` 11.8–13.9 ms against 10.6–11.0 in alternating runs.)
     targets.par_iter_mut().batching_strategy(BatchingStrategy::new().min_batch_size(256)).for_each_init(
         || None,
-        |last: &mut Option<(Entity, AnimationOutput)>, (by, transform, morph)| {
+        |last: &mut Option<(Entity, &AnimationOutput)>, (by, transform, morph)| {
             let out = match *last {
                 Some((player, out)) if player == by.player => out,
                 _ => {
-                    let Ok((_, _, &out, ..)) = players.get(by.player) else { return };
+                    let Ok((_, _, out, ..)) = players.get(by.player) else { return };
                     *last = Some((by.player, out));
                     out
                 }
