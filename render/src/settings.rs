@@ -930,7 +930,10 @@ pub struct FrameSettings {
     /// Skinned and morphed meshes shorter on screen than this many pixels (48 by default) have
     /// their ray-tracing structure refit every other frame instead of each frame their pose
     /// changes: their shadows, occlusion and reflections lag their drawn pose by at most
-    /// `crate::accel::MAX_REFIT_STALENESS` frames. 0 refits every one each frame.
+    /// `crate::accel::MAX_REFIT_STALENESS` frames. The class is decided once every
+    /// `crate::accel::REFIT_CLASS_FRAMES` frames, so a mesh that grows within them waits up to
+    /// that long to be refit every frame, unless it grows past `crate::accel::REFIT_PROMOTE`
+    /// times the limit. 0 refits every one each frame.
     pub refit_pixels: f32,
     /// Submit a frame slot's command buffer again when a frame logs exactly the commands it was
     /// recorded with, instead of recording it again (`crate::gpu::commands`). On by default;

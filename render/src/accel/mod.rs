@@ -45,14 +45,16 @@
 //! around its instance's bounds) is refit in the frames of one frame slot (one frame in two, the
 //! meshes spread over the slots by id), never later than [`MAX_REFIT_STALENESS`] (1) frame after
 //! its pose changed: its shadow, occlusion and reflections show a pose at most a frame (17 ms at
-//! 60 frames a second) older than the drawn one, where the pose moves a pixel at most. Following
+//! 60 frames a second) older than the drawn one, where the pose moves a pixel or two at most. Following
 //! the slots keeps each slot's command buffer the same from frame to frame, so it is submitted
 //! again as recorded: the driver's cost of recording thousands of refits is paid once. For the
 //! same reason a mesh's class (every frame, or its slot's turn) is decided once in
 //! [`REFIT_CLASS_FRAMES`] frames, not every frame: a walking crowd's characters cross the limit
-//! a few a frame, and each crossing changed the commands. Its
+//! a few a frame, and each crossing changed the commands (one that grows past twice the limit
+//! is refit every frame at once, so a structure a frame behind is never drawn taller than
+//! that). Its
 //! vertices are already the new pose's, so a hit reads attributes a frame newer than the box it
-//! hit; for a character this small that is below a pixel. Characters off screen are
+//! hit; for a character this small (under twice the limit) that is a pixel or two. Characters off screen are
 //! judged by size too (their shadows may fall in view). The counters say how many refits were
 //! deferred and how far behind the stalest structure is.
 //!
@@ -138,19 +140,27 @@ pub const MAX_REFIT_STALENESS: u32 = FRAMES_IN_FLIGHT as u32 - 1;
 /// `refit_pixels` on screen.
 const REFIT_HYSTERESIS: f32 = 0.75;
 
-/// Frames in which a posed mesh keeps its class (refit every frame, or on its slot's turn):
-/// classes are decided once an epoch of this many frames (the frame's timeline value divided by
-/// it), the first frame of the epoch the mesh waits for a refit in. A crowd that walks has a few
-/// characters crossing `refit_pixels` every frame; decided every frame, the set of every-frame
-/// refits changed with each of them and no frame's commands matched an earlier one's (10,000
-/// walking foxes at 1920×1080: 6,100 refits recorded anew every frame, 9–12 ms of the driver's
-/// submission on the lent H200's host). Decided once an epoch, each frame slot's refits repeat
-/// for the epoch's frames and its command buffers are submitted again as recorded. Staleness
-/// is unaffected: a mesh that grew past the limit within an epoch is still refit on its slot's
-/// turn, [`MAX_REFIT_STALENESS`] frames behind at most; one that shrank is refit every frame
+/// Frames in which a posed mesh keeps its class (refit every frame, or on its slot's turn)
+/// unless it grows past [`REFIT_PROMOTE`]: classes are decided once an epoch of this many frames
+/// (the frame's timeline value divided by it), the first frame of the epoch the mesh waits for a
+/// refit in. A crowd that walks has a few characters crossing `refit_pixels` every frame;
+/// decided every frame, the set of every-frame refits changed with each of them and no frame's
+/// commands matched an earlier one's (10,000 walking foxes at 1920×1080: 6,100 refits recorded
+/// anew every frame, 9–12 ms of the driver's submission on the lent H200's host). Decided once
+/// an epoch, each frame slot's refits repeat for the epoch's frames and its command buffers are
+/// submitted again as recorded. Staleness is unaffected: a mesh that grew past the limit within
+/// an epoch is still refit on its slot's turn, [`MAX_REFIT_STALENESS`] frames behind at most,
+/// and one that grew past [`REFIT_PROMOTE`] times the limit (a camera cut, a character running
+/// up to the camera) is refit every frame from then on; one that shrank is refit every frame
 /// until the epoch ends. A multiple of `FRAMES_IN_FLIGHT`, so that both slots see each epoch's
 /// classes.
 pub const REFIT_CLASS_FRAMES: u64 = 16;
+const _: () = assert!(REFIT_CLASS_FRAMES.is_multiple_of(FRAMES_IN_FLIGHT as u64));
+
+/// Within an epoch, a mesh refit on its slot's turn is refit every frame as soon as it is this
+/// many times `refit_pixels` tall on screen: a structure a frame behind its pose is never drawn
+/// larger than twice the limit.
+pub const REFIT_PROMOTE: f32 = 2.0;
 
 /// A posed BLAS is rebuilt after this many refits at the latest.
 pub const POSED_REBUILD_REFITS: u32 = 240;
@@ -620,9 +630,9 @@ impl SceneAccel {
             return;
         }
         // Classes are decided once an epoch (`REFIT_CLASS_FRAMES`), and again at once when the
-        // limit changed.
+        // limit changed (compared by bits: a NaN limit is not "changed" every frame).
         let epoch = frame / REFIT_CLASS_FRAMES;
-        if self.classed_at != refit_pixels {
+        if self.classed_at.to_bits() != refit_pixels.to_bits() {
             self.classed_at = refit_pixels;
             for b in self.blas.iter_mut().flatten() {
                 if let Some(posed) = b.posed.as_mut() {
@@ -630,16 +640,10 @@ impl SceneAccel {
                 }
             }
         }
-        let blas = &self.blas;
-        let unclassified = |id: &MeshId| {
-            let posed = blas.get(id.0 as usize).and_then(Option::as_ref).and_then(|b| b.posed.as_ref());
-            posed.is_some_and(|posed| posed.classified != Some(epoch))
-        };
         // Each posed mesh's height on screen: the largest of the instances that draw it (one,
-        // for a skinned instance), from their culling records' world bounds; only in frames that
-        // classify a mesh.
+        // for a skinned instance), from their culling records' world bounds.
         self.sizes.clear();
-        if refit_pixels > 0.0 && self.waiting.iter().any(unclassified) {
+        if refit_pixels > 0.0 {
             self.sizes.resize(self.blas.len(), 0.0);
             let camera = mirror.camera();
             for slot in 0..mirror.culls.slot_count() {
@@ -657,10 +661,12 @@ impl SceneAccel {
             // Hysteresis: a mesh changes class only well past the limit, so that a crowd whose
             // poses sway about it keeps the same refits, and the same command buffers, frame to
             // frame.
+            let size = sizes.get(id.0 as usize).copied().unwrap_or(0.0);
             if posed.classified != Some(epoch) {
                 posed.classified = Some(epoch);
-                let size = sizes.get(id.0 as usize).copied().unwrap_or(0.0);
                 posed.large = refit_pixels <= 0.0 || size >= refit_pixels || (posed.large && size >= REFIT_HYSTERESIS * refit_pixels);
+            } else if !posed.large && size >= REFIT_PROMOTE * refit_pixels {
+                posed.large = true;
             }
             let large = posed.large;
             if b.needs_build || large || posed.stale >= MAX_REFIT_STALENESS || u64::from(id.0) % FRAMES_IN_FLIGHT as u64 == turn {
