@@ -45,3 +45,18 @@ fn a_missing_barrier_is_reported() {
     b.destroy(&ctx);
     assert!(errors.iter().any(|e| e.contains("SYNC-HAZARD")), "expected a synchronization hazard, got {errors:?}");
 }
+
+/// Pipeline statistics are a profiling aid: asked for on a device without
+/// `VK_KHR_pipeline_executable_properties` (lavapipe), the device is still made, without them;
+/// where the device offers them they are on, and a pipeline made with them (its statistics
+/// captured and logged) gives validation nothing to say either way.
+#[test]
+fn pipeline_statistics_are_on_only_where_the_device_offers_them() {
+    for asked in [true, false] {
+        let ctx = GpuContext::new(&DeviceSettings { validation: true, pipeline_statistics: asked, ..Default::default() }).expect("device");
+        assert_eq!(ctx.pipeline_statistics, asked && ctx.capabilities.pipeline_executable_properties);
+        let skinning = render::skinning::Skinning::new(&ctx).expect("a compute pipeline");
+        skinning.destroy(&ctx);
+        assert_eq!(ctx.validation.take_errors(), Vec::<String>::new());
+    }
+}

@@ -47,7 +47,8 @@ impl Tier {
     }
 }
 
-/// The ray tracing extensions a physical device offers.
+/// What a physical device offers beyond the renderer's requirements: ray tracing,
+/// block-compressed textures, pipeline statistics.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Capabilities {
     /// `VK_KHR_acceleration_structure` (with deferred host operations).
@@ -58,6 +59,9 @@ pub struct Capabilities {
     pub ray_tracing_pipeline: bool,
     /// `textureCompressionBC`: block-compressed textures (BC1 to BC7) can be sampled.
     pub texture_compression_bc: bool,
+    /// `VK_KHR_pipeline_executable_properties`: the driver reports what it compiled each
+    /// pipeline into (registers, binary size): see [`DeviceSettings::pipeline_statistics`].
+    pub pipeline_executable_properties: bool,
 }
 
 impl Capabilities {
@@ -99,6 +103,14 @@ pub struct DeviceSettings {
     /// level change hand its memory back sooner; it is clamped to at least
     /// [`crate::gpu::FRAMES_IN_FLIGHT`] frames, so that every staging ring sees a frame of it.
     pub shrink_after_frames: u32,
+    /// Log what the driver compiled each pipeline into (`VK_KHR_pipeline_executable_properties`:
+    /// on NVIDIA its register count, binary size and shared memory) at `info` level as the
+    /// pipeline is made, target `render::gpu::pipeline`. Registers decide how many invocations
+    /// of a shader run at once, which a loop over hundreds of lights a pixel waits on. Ignored,
+    /// with a warning, on a device without the extension (lavapipe). Default: off, or on when
+    /// `RENDER_PIPELINE_STATISTICS=1`. A tool for profiling: it may make the driver keep more
+    /// per pipeline, so leave it off when measuring memory.
+    pub pipeline_statistics: bool,
 }
 
 impl Default for DeviceSettings {
@@ -115,6 +127,7 @@ impl Default for DeviceSettings {
             memory_budget: None,
             without_texture_compression: false,
             shrink_after_frames: crate::gpu::upload::SHRINK_AFTER_FRAMES,
+            pipeline_statistics: std::env::var("RENDER_PIPELINE_STATISTICS").as_deref() == Ok("1"),
         }
     }
 }
@@ -203,6 +216,9 @@ pub struct GpuContext {
     pub validation: Arc<ValidationLog>,
     /// Whether the validation layer is active.
     pub validation_enabled: bool,
+    /// Whether pipelines are made with their statistics captured and logged
+    /// ([`DeviceSettings::pipeline_statistics`], where the device offers them).
+    pub pipeline_statistics: bool,
     debug_utils: Option<(ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     /// Device limits.
     pub limits: vk::PhysicalDeviceLimits,
@@ -315,6 +331,13 @@ impl GpuContext {
         if tier == Tier::RayQuery {
             extensions.push(khr::ray_query::NAME);
         }
+        let pipeline_statistics = settings.pipeline_statistics && caps.pipeline_executable_properties;
+        if settings.pipeline_statistics && !pipeline_statistics {
+            tracing::warn!(device = %device_name, "pipeline statistics were asked for, but the device lacks VK_KHR_pipeline_executable_properties");
+        }
+        if pipeline_statistics {
+            extensions.push(khr::pipeline_executable_properties::NAME);
+        }
         let ext_ptrs: Vec<*const i8> = extensions.iter().map(|e| e.as_ptr()).collect();
 
         let features = vk::PhysicalDeviceFeatures::default()
@@ -362,8 +385,13 @@ impl GpuContext {
         if tier == Tier::RayQuery {
             device_info = device_info.push_next(&mut f_rq);
         }
+        let mut f_stats = vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default().pipeline_executable_info(true);
+        if pipeline_statistics {
+            device_info = device_info.push_next(&mut f_stats);
+        }
         // SAFETY: the create info and its chain point at locals alive for the call; the
-        // physical device supports every feature requested (checked in pick_physical_device).
+        // physical device supports every feature requested (checked in pick_physical_device;
+        // pipelineExecutableInfo is required of every device that offers its extension).
         let device = unsafe { instance.create_device(physical, &device_info, None) }?;
         // SAFETY: queue 0 of the family we created.
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
@@ -399,6 +427,7 @@ impl GpuContext {
             ray_tracing,
             validation: validation_log,
             validation_enabled: validation,
+            pipeline_statistics,
             debug_utils,
             limits: props.limits,
             memory_budget: settings.memory_budget,
@@ -628,6 +657,7 @@ fn pick_physical_device(instance: &ash::Instance) -> Result<(vk::PhysicalDevice,
             ray_query: has(khr::ray_query::NAME),
             ray_tracing_pipeline: has(khr::ray_tracing_pipeline::NAME),
             texture_compression_bc: base.texture_compression_bc == vk::TRUE,
+            pipeline_executable_properties: has(khr::pipeline_executable_properties::NAME),
         };
         let score = match props.device_type {
             vk::PhysicalDeviceType::DISCRETE_GPU => 3,

@@ -265,10 +265,14 @@ fn graphics_with(
         .color_blend_state(&blend)
         .dynamic_state(&dynamic)
         .layout(layout)
+        .flags(statistics_flags(ctx))
         .push_next(&mut rendering);
     // SAFETY: every state struct points at locals that outlive the call; the modules are
     // destroyed after pipeline creation, which the spec allows.
     let result = unsafe { d.create_graphics_pipelines(vk::PipelineCache::null(), &[info], None) };
+    if let Ok(pipelines) = &result {
+        log_statistics(ctx, pipelines[0], desc.name);
+    }
     // SAFETY: modules are no longer needed once the pipeline exists (or failed).
     unsafe {
         d.destroy_shader_module(vs, None);
@@ -288,6 +292,55 @@ pub fn set_viewport(cmd: &Recorder, extent: vk::Extent2D) {
     let (w, h) = (extent.width as f32, extent.height as f32);
     let viewport = vk::Viewport { x: 0.0, y: h, width: w, height: -h, min_depth: 0.0, max_depth: 1.0 };
     cmd.set_viewport(viewport, vk::Rect2D { offset: vk::Offset2D::default(), extent });
+}
+
+/// The creation flags that capture a pipeline's statistics, where
+/// [`crate::gpu::DeviceSettings::pipeline_statistics`] turned them on.
+fn statistics_flags(ctx: &GpuContext) -> vk::PipelineCreateFlags {
+    if ctx.pipeline_statistics { vk::PipelineCreateFlags::CAPTURE_STATISTICS_KHR } else { vk::PipelineCreateFlags::empty() }
+}
+
+/// Logs what the driver reports of `pipeline`'s executables (one a stage on most drivers), one
+/// `info` line each: its statistics by their names (on NVIDIA "Register Count", "Binary Size",
+/// "Shared Memory Size"...). Nothing unless the context captures statistics.
+fn log_statistics(ctx: &GpuContext, pipeline: vk::Pipeline, name: &str) {
+    if !ctx.pipeline_statistics {
+        return;
+    }
+    let loader = ash::khr::pipeline_executable_properties::Device::new(&ctx.instance, &ctx.device);
+    // SAFETY: the pipeline was just made, with CAPTURE_STATISTICS, on a device with the
+    // extension and its feature enabled.
+    let executables = match unsafe { loader.get_pipeline_executable_properties(&vk::PipelineInfoKHR::default().pipeline(pipeline)) } {
+        Ok(executables) => executables,
+        Err(e) => {
+            tracing::warn!(name, error = %e, "no pipeline statistics");
+            return;
+        }
+    };
+    for (index, executable) in executables.iter().enumerate() {
+        let info = vk::PipelineExecutableInfoKHR::default().pipeline(pipeline).executable_index(index as u32);
+        // SAFETY: as above; `index` is one of the executables just listed.
+        let Ok(statistics) = (unsafe { loader.get_pipeline_executable_statistics(&info) }) else { continue };
+        let text: Vec<String> = statistics.iter().map(statistic_text).collect();
+        let stage = executable.name_as_c_str().map(|c| c.to_string_lossy().into_owned()).unwrap_or_default();
+        tracing::info!(name, stage, statistics = text.join(", "), "pipeline statistics");
+    }
+}
+
+/// "Name=value" of one pipeline statistic.
+fn statistic_text(statistic: &vk::PipelineExecutableStatisticKHR) -> String {
+    let name = statistic.name_as_c_str().map(|c| c.to_string_lossy().into_owned()).unwrap_or_default();
+    // SAFETY: each arm reads the member of the value union that `format` says is set.
+    let value = unsafe {
+        match statistic.format {
+            vk::PipelineExecutableStatisticFormatKHR::BOOL32 => (statistic.value.b32 != vk::FALSE).to_string(),
+            vk::PipelineExecutableStatisticFormatKHR::INT64 => statistic.value.i64.to_string(),
+            vk::PipelineExecutableStatisticFormatKHR::UINT64 => statistic.value.u64.to_string(),
+            vk::PipelineExecutableStatisticFormatKHR::FLOAT64 => statistic.value.f64.to_string(),
+            _ => "?".to_string(),
+        }
+    };
+    format!("{name}={value}")
 }
 
 /// Creates a compute pipeline from `spirv` with the shared layout.
@@ -310,11 +363,14 @@ pub fn create_compute_specialized(
             .module(module)
             .name(c"main")
             .specialization_info(spec);
-        let info = vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout);
+        let info = vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout).flags(statistics_flags(ctx));
         // SAFETY: the create info points at locals; the module may be destroyed once the
         // pipeline exists (or failed).
         unsafe { ctx.device.create_compute_pipelines(vk::PipelineCache::null(), &[info], None) }
     });
+    if let Ok(pipelines) = &result {
+        log_statistics(ctx, pipelines[0], name);
+    }
     // SAFETY: as above.
     unsafe { ctx.device.destroy_shader_module(module, None) };
     let pipeline = result.map_err(|(_, e)| RenderError::Vulkan(e))?[0];
@@ -500,9 +556,13 @@ impl RayTracingPipeline {
             .stages(&stages)
             .groups(&groups)
             .max_pipeline_ray_recursion_depth(1)
-            .layout(layout);
+            .layout(layout)
+            .flags(statistics_flags(ctx));
         // SAFETY: the create info points at locals; modules may be destroyed afterwards.
         let result = unsafe { rt.create_ray_tracing_pipelines(vk::DeferredOperationKHR::null(), vk::PipelineCache::null(), &[info], None) };
+        if let Ok(pipelines) = &result {
+            log_statistics(ctx, pipelines[0], desc.name);
+        }
         // SAFETY: the modules are no longer needed once the pipeline exists (or failed).
         modules.iter().for_each(|&m| unsafe { ctx.device.destroy_shader_module(m, None) });
         let pipeline = result.map_err(|(_, e)| RenderError::Vulkan(e))?[0];
