@@ -40,7 +40,8 @@ const uint NO_SLOT = 0xFFFFFFFFu;
 // The directional lights a sampling pixel traces a ray to each, rather than sampling them with
 // the rest (GpuLighting::suns): a sun is in every list and often the strongest light, so drawn
 // with the others it would be found by few pixels and light them brightly (noise no small
-// neighbourhood averages out). Read once, before a loop over lights.
+// neighbourhood averages out). Read once before a loop over lights, or, in a loop whose
+// registers are scarce (shading.glsl's), where a directional light needs it.
 struct Suns {
     uint count;
     uvec4 slots;

@@ -23,6 +23,9 @@
 #include "scene.glsl"
 
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer LightTileWordsRef { uint words[]; };
+// The same words as the passes after light culling read them: read-only, so that the shading
+// loops' loads of the lists may take the non-coherent cache path.
+layout(buffer_reference, std430, buffer_reference_align = 4) readonly restrict buffer LightListRef { uint words[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer TileFrustaRef { GpuTileFrustum frusta[]; };
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer ShadowWordsRef { uint words[]; };
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer ShadowTintsRef { uint words[]; };
@@ -61,8 +64,10 @@ uint list_at() {
 }
 
 LightTileWordsRef light_tile_words() { return LightTileWordsRef(scene.lighting.lighting.light_tiles); }
+LightListRef light_list_words() { return LightListRef(scene.lighting.lighting.light_tiles); }
 
-// The lights a pixel loops over: list entries [0, count), through the tile's list when
+// The lights a pixel loops over: list entries [0, count), through the tile's list (from word
+// `offset` of the light tile words, resolved once rather than a light at a time) when
 // `indexed`, else light slots 0..count; `rows` is the first shadow row (NO_SHADOW_ROWS: none).
 struct LightList {
     uint offset;
@@ -78,7 +83,7 @@ LightList light_list(ivec2 px) {
     bool traced = (l.flags & SHADOWS_TRACED) != 0u;
     if (l.mode == LIGHTS_TILED) {
         uint g = grid_at(tile);
-        LightTileWordsRef w = light_tile_words();
+        LightListRef w = light_list_words();
         uint count = w.words[g + 1u];
         if ((count & LIGHT_TILE_OVERFLOW) != 0u) {
             r.offset = 0u;
@@ -86,7 +91,7 @@ LightList light_list(ivec2 px) {
             r.indexed = false;
             r.rows = NO_SHADOW_ROWS;
         } else {
-            r.offset = w.words[g];
+            r.offset = list_at() + w.words[g];
             r.count = count;
             r.indexed = true;
             r.rows = traced ? w.words[g + 2u] : NO_SHADOW_ROWS;
@@ -101,7 +106,7 @@ LightList light_list(ivec2 px) {
 }
 
 uint light_slot(LightList list, uint j) {
-    return list.indexed ? light_tile_words().words[list_at() + list.offset + j] : j;
+    return list.indexed ? light_list_words().words[list.offset + j] : j;
 }
 
 // Index of the shadow word holding entry j (and the 31 after it in its row) for pixel `px`.
@@ -125,10 +130,13 @@ uint shadow_tint_at(ivec2 px) {
     return (uint(px.y) * uint(scene.camera.camera.viewport_size.x) + uint(px.x)) * SHADOW_TINT_SLOTS;
 }
 
-// The tint of list entry j at a pixel whose tint words are `tints` (white when it has none).
-vec3 shadow_tint(uint tints[SHADOW_TINT_SLOTS], uint j) {
+// The tint of list entry j at a pixel whose tint words start at word `at` of the shadow tints
+// (white when it has none).
+vec3 shadow_tint_of(uint at, uint j) {
+    ShadowTintsRef words = ShadowTintsRef(scene.lighting.lighting.shadow_tints);
     for (uint s = 0u; s < SHADOW_TINT_SLOTS; ++s) {
-        if ((tints[s] >> 24) == j + 1u) return unpackUnorm4x8(tints[s]).rgb;
+        uint t = words.words[at + s];
+        if ((t >> 24) == j + 1u) return unpackUnorm4x8(t).rgb;
     }
     return vec3(1.0);
 }

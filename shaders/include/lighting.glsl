@@ -28,13 +28,15 @@ vec3 light_incidence(GpuLight light, vec3 p, out vec3 l) {
     }
     vec3 to_light = light.position - p;
     float dist2 = dot(to_light, to_light);
-    l = to_light * inversesqrt(max(dist2, 1e-8));
+    float inv_dist = inversesqrt(max(dist2, 1e-8));
+    l = to_light * inv_dist;
     if (is_area_light(light)) {
         // The face's solid angle, at most a hemisphere's worth of cosine (π) right at the face.
         return light.color * distance_window(dist2, light.range)
             * min(area_of(light) * max(dot(light.direction, -l), 0.0) / max(dist2, 1e-8), PI);
     }
-    float attenuation = distance_window(dist2, light.range) / max(dist2, 1e-4);
+    // 1 / max(d², 10⁻⁴) from the reciprocal distance above, without a division of its own.
+    float attenuation = distance_window(dist2, light.range) * (dist2 >= 1e-4 ? inv_dist * inv_dist : 1e4);
     if (light.kind == LIGHT_SPOT) {
         float cd = dot(light.direction, -l);
         float a = clamp(cd * light.spot_scale + light.spot_offset, 0.0, 1.0);
