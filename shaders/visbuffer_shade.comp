@@ -7,22 +7,29 @@
 // queries (ray_query_lights.glsl).
 #ifdef RAY_QUERY_LIGHTS
 #define ENUMERATED_LIGHTS
+#else
+#define TILE_SHARED_LIGHTS
 #endif
+// Before the includes: shading.glsl's staged lights are a workgroup's worth.
+layout(local_size_x = 8, local_size_y = 8) in;
 #include "visbuffer_surface.glsl"
 #ifdef RAY_QUERY_LIGHTS
 #include "ray_query_lights.glsl"
 #endif
 
 layout(set = 0, binding = BINDING_HDR_STORAGE, rgba16f) uniform writeonly image2D hdr_image;
-layout(local_size_x = 8, local_size_y = 8) in;
 
 void main() {
     ivec2 px = ivec2(gl_GlobalInvocationID.xy);
-    if (any(greaterThanEqual(px, ivec2(scene.camera.camera.viewport_size)))) return;
+    bool inside = all(lessThan(px, ivec2(scene.camera.camera.viewport_size)));
     SurfaceInputs s;
-    if (!visbuffer_surface(px, s)) {
-        imageStore(hdr_image, px, scene.lighting.lighting.clear_color);
-        return;
-    }
-    imageStore(hdr_image, px, shade_surface(s, px));
+    bool covered = inside && visbuffer_surface(px, s);
+#ifdef TILE_SHARED_LIGHTS
+    // A pipeline that stages its lights shades on every thread, surface or not: the whole
+    // workgroup stages them (shading.glsl).
+    vec4 shaded = covered || STAGED_LIGHTS ? shade_surface_in_group(s, px, covered) : vec4(0.0);
+#else
+    vec4 shaded = covered ? shade_surface(s, px) : vec4(0.0);
+#endif
+    if (inside) imageStore(hdr_image, px, covered ? shaded : scene.lighting.lighting.clear_color);
 }

@@ -351,6 +351,9 @@ pub struct FrameStats {
     pub shadows: render::ShadowMethod,
     /// How the traced shadows of its light lists were made (`None`: none were).
     pub direct_light: Option<render::DirectLight>,
+    /// Whether its shading staged the workgroups' light lists in shared memory (compute shading
+    /// of long unshadowed lists).
+    pub staged_lights: bool,
     /// Whether its light culling tested the tiles' depth masks (the setting, off in frames that
     /// light particles).
     pub depth_mask: bool,
@@ -747,6 +750,7 @@ fn file_report(
         light_method: report.light_method,
         shadows: report.shadows,
         direct_light: report.direct_light,
+        staged_lights: report.staged_lights,
         depth_mask: report.depth_mask,
         transparency,
         refraction: settings.refraction && transparency.refracts(),

@@ -545,6 +545,16 @@ layout! {
     /// lent H200). Every pipeline is made with this id's entry (true unless specialized): a
     /// shader must not use id 0 for anything else.
     pub const SPEC_AREA_LIGHTS: u32 = 0;
+    /// Specialization constant id of `STAGED_LIGHTS` (`shading.glsl`): whether a compute shading
+    /// pass stages its workgroup's unshadowed light lists in shared memory
+    /// (`crate::gpu::pipeline::Specialization`). Shading passes use it only in frames where
+    /// pixels sample their shadows: its registers slowed the lists that are walked a thread at a
+    /// time. Every pipeline is made with this id's entry: a shader must not use id 1 for
+    /// anything else.
+    pub const SPEC_STAGED_LIGHTS: u32 = 1;
+    /// The lights a staging workgroup reads at once (`STAGED_LIGHTS`, `shading.glsl`: one a
+    /// thread of its 8×8); a list no longer than this is not staged.
+    pub const STAGED_LIGHTS_CHUNK: u32 = 64;
 
     /// Decal material flag: blends albedo.
     pub const DECAL_ALBEDO: u32 = 1;

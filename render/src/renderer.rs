@@ -110,6 +110,9 @@ pub struct FrameReport {
     /// How the traced shadows of the pixels' light lists were made: a ray per light, or
     /// sampled (`crate::lights::sampling`); `None` when no list's shadows were traced.
     pub direct_light: Option<crate::settings::DirectLight>,
+    /// Whether the shading pass staged its workgroups' light lists in shared memory (compute
+    /// shading of long unshadowed lists: `crate::gpu::pipeline::Specialization::staged_lights`).
+    pub staged_lights: bool,
     /// Whether light culling tested the tiles' depth masks (`LightSettings::cull_depth_mask`;
     /// off in frames that light particles from the tiles' lists).
     pub depth_mask: bool,
@@ -590,6 +593,7 @@ impl Renderer {
             light_method: lights.method,
             shadows: lights.shadows,
             direct_light: lights.direct_light,
+            staged_lights: lights.staged(),
             depth_mask: lights.depth_mask,
             occlusion: lights.occlusion.method,
             aa,

@@ -52,7 +52,8 @@
 //! environment was first used).
 //!
 //! Lights: `light_method` (applied: `all`, `tiled` or `ray_query`), `direct_light` (applied: `exhaustive`,
-//! `stochastic`, `auto`, or `none` without traced shadows of light lists), `shadows` (`ray_query`, `ray_pipeline`, `maps`
+//! `stochastic`, `auto`, or `none` without traced shadows of light lists), `staged_lights` (whether
+//! compute shading read its long unshadowed lists a workgroup at a time), `shadows` (`ray_query`, `ray_pipeline`, `maps`
 //! (devices without ray tracing, or `--shadow-maps`), or `none`), `lights` (the settings:
 //! `tile_size`, `aabb`, `shadow_ray_culling`, `normals`, `coloured_shadows`, and `depth_mask` as
 //! applied: off without tiled lights and in frames that light particles), the counters `scene_blas_builds`,
@@ -180,6 +181,8 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
     // The command buffer: submitted again as recorded, or recorded (`render::gpu::commands`).
     // How the traced shadows of the light lists were made (`crate::lights::sampling`).
     value["direct_light"] = json!(stats.direct_light.map_or("none", |d| d.name()));
+    // Whether shading staged its workgroups' long unshadowed light lists (`render::gpu::pipeline::Specialization`).
+    value["staged_lights"] = json!(stats.staged_lights);
     // Players sampled and deferred by the animation budget (`engine::animation::AnimationBudget`).
     let a = &stats.animation;
     value["animation"] = json!({ "players": a.players, "sampled": a.sampled, "max_period": a.max_period });

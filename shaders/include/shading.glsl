@@ -134,10 +134,102 @@ uint apply_surface_decals(inout SurfaceInputs s, ivec2 px) {
     return decals_tested;
 }
 
-// `px` is the pixel being shaded (its tile's lights, its shadow bits, its decal buffer texel).
-vec4 shade_surface(SurfaceInputs s, ivec2 px) {
+#ifdef TILE_SHARED_LIGHTS
+// Staged lights (the compute shading passes, in frames whose lists are unshadowed). A
+// workgroup of 64 threads (8×8) lies inside one light tile (8, 16 or 32 pixels), so its pixels
+// share one list. Where that list is unshadowed (sampled shadows, or none), the workgroup reads
+// it 64 entries at a time: each thread fetches one listed light's record, keeps it if the light's
+// range reaches the box around the workgroup's surface points, and the kept records go to shared
+// memory in list order; every thread then loops over them. Without staging, each thread reads a
+// slot and then the record it names, one light after the other: those loads were half the
+// loop's time in the many-lights scene (docs/experiments/lights-shading-loop.md). A light out of
+// range contributes 0 and the order is kept, so the image is the same. Shadowed lists are walked
+// a thread at a time as without staging (a light whose bit is off is then never read).
+// Every thread of a staging workgroup calls shade_surface_in_group (those with no surface with
+// `shades` false: they help stage and shade nothing), so that the barriers are reached by all;
+// a workgroup with no surface stages nothing.
+//
+// Whether this pipeline stages (a specialization constant: only in frames where pixels sample
+// their shadows or none are made, and the scene has more than a chunk of lights, for its registers
+// slow the lists walked a thread at a time; render::gpu::pipeline::Specialization).
+layout(constant_id = SPEC_STAGED_LIGHTS) const bool STAGED_LIGHTS = false;
+const uint LIGHT_STAGE = STAGED_LIGHTS_CHUNK;
+const uint STAGE_WORDS = LIGHT_STAGE / 32u;
+// Pipelines that do not stage take (almost) no shared memory: with the 4 KB of the staged
+// records, the H200's compiler gave the unstaged loop 96 registers instead of 64, and it ran 18 %
+// slower.
+const uint STAGE_SLOTS = STAGED_LIGHTS ? LIGHT_STAGE : 1u;
+shared GpuLight staged_lights[STAGE_SLOTS];
+shared uint staged_entries[STAGE_SLOTS];
+shared uint staged_kept[STAGED_LIGHTS ? 2u * STAGE_WORDS : 1u];   // by chunk parity: the next chunk's are cleared early
+shared uint group_box[STAGED_LIGHTS ? 6u : 1u];   // the low corner's ordered bits, then the high's
+shared bool staged_areas;
+
+// A float's bits, ordered as unsigned integers are (for shared atomic min and max).
+uint ordered_bits(float f) {
+    uint u = floatBitsToUint(f);
+    return (u & 0x80000000u) != 0u ? ~u : u | 0x80000000u;
+}
+float from_ordered_bits(uint u) {
+    return uintBitsToFloat((u & 0x80000000u) != 0u ? u & 0x7FFFFFFFu : ~u);
+}
+
+// The box around the surface points of the workgroup's threads that shade (false: none does).
+bool group_bounds(vec3 p, bool shades, out vec3 lo, out vec3 hi) {
+    if (gl_LocalInvocationIndex < 3u) {
+        group_box[gl_LocalInvocationIndex] = 0xFFFFFFFFu;
+        group_box[3u + gl_LocalInvocationIndex] = 0u;
+    }
+    barrier();
+    if (shades) {
+        for (uint i = 0u; i < 3u; ++i) {
+            atomicMin(group_box[i], ordered_bits(p[i]));
+            atomicMax(group_box[3u + i], ordered_bits(p[i]));
+        }
+    }
+    barrier();
+    lo = vec3(from_ordered_bits(group_box[0]), from_ordered_bits(group_box[1]), from_ordered_bits(group_box[2]));
+    hi = vec3(from_ordered_bits(group_box[3]), from_ordered_bits(group_box[4]), from_ordered_bits(group_box[5]));
+    return group_box[3] != 0u;
+}
+
+// Whether `light` can light some point of the box [lo, hi] (its distance window is 0 at and
+// beyond its range).
+bool reaches_box(GpuLight light, vec3 lo, vec3 hi) {
+    if (light.kind == LIGHT_NONE) return false;
+    if (light.kind == LIGHT_DIRECTIONAL) return true;
+    vec3 d = max(max(lo - light.position, light.position - hi), vec3(0.0));
+    return dot(d, d) < light.range * light.range;
+}
+#endif
+
+// One listed light's share of a pixel's light, `tint` the glass it crossed (the body of
+// shade_surface_in_group's loops): added to `direct`, the sum the sampled shadows' ratio scales,
+// or, for a sun a sampling pixel traced (`sun_bits` its rays' answers), to `color` where its
+// ray got through. `entry` is the light's place in `list`. The pass over `areas` (the area
+// lights, or the others) skips the other kind and notes in `areas_listed` that it met one.
+void add_listed_light(GpuLight light, bool areas, vec3 tint, SurfaceBrdf brdf, SurfaceInputs s, vec3 v, bool suns_traced,
+                      uint sun_bits, LightList list, uint entry, inout vec3 direct, inout vec3 color, inout bool areas_listed) {
+    if (light.kind == LIGHT_NONE) return;
+    if (is_area_light(light) != areas) {
+        areas_listed = true;
+        return;
+    }
+    vec3 lit = tint * shade_light_of(light, brdf, s.position, s.normal, v, areas);
+    int sun = -1;
+    if (suns_traced && light.kind == LIGHT_DIRECTIONAL) sun = sun_index(sampling_suns(), light_slot(list, entry));
+    if (sun < 0) {
+        direct += lit;
+    } else if ((sun_bits & (1u << uint(sun))) != 0u) {
+        color += lit;
+    }
+}
+
+// `px` is the pixel being shaded (its tile's lights, its shadow bits, its decal buffer texel);
+// `shades` is false for a thread of a TILE_SHARED_LIGHTS workgroup that has no surface to shade.
+vec4 shade_surface_in_group(SurfaceInputs s, ivec2 px, bool shades) {
     if (scene.debug_view == DEBUG_LOD) return vec4(s.albedo, 1.0); // the level's colour, set where the surface was built
-    uint decals_tested = apply_surface_decals(s, px);
+    uint decals_tested = shades ? apply_surface_decals(s, px) : 0u;
     if (scene.debug_view == DEBUG_ALBEDO) return vec4(s.albedo, 1.0);
     if (scene.debug_view == DEBUG_NORMAL) return vec4(s.normal * 0.5 + 0.5, 1.0);
     if (scene.debug_view == DEBUG_ROUGHNESS_METALLIC) return vec4(s.roughness, s.metallic, 0.0, 1.0);
@@ -226,26 +318,74 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
     // punctual lights, then the area lights where the list holds any (the second pass only in
     // pipelines made with AREA_LIGHTS).
     bool areas_listed = false;
+#ifdef TILE_SHARED_LIGHTS
+    // Long unshadowed lists (sampled shadows, or none) are staged and culled to the workgroup's
+    // box; the rest are walked a thread at a time (a light whose shadow bit is off is then never
+    // read, and a list of one chunk or less gains nothing from staging: the peer scene's 28
+    // lights shaded about 30 % slower so). Uniform in the workgroup: the list is its tile's, and so is
+    // whether it is shadowed.
+    bool staging = STAGED_LIGHTS && !shadowed && list.count > LIGHT_STAGE;
+    vec3 group_lo = vec3(0.0), group_hi = vec3(0.0);
+    uint staged_count = staging && group_bounds(s.position, shades, group_lo, group_hi) ? list.count : 0u;
+#else
+    const bool staging = false;
+    uint staged_count = 0u;
+#endif
     [[unroll]] for (int pass = 0; pass < (AREA_LIGHTS ? 2 : 1); ++pass) {
         if (pass == 1 && !areas_listed) break;
-        uint word = 0xFFFFFFFFu;
-        for (uint j = 0u; j < list.count; ++j) {
-            if (shadowed && j % 32u == 0u) word = shadow_words.words[layer_words + shadow_word_at(list, j, px)];
-            if ((word & (1u << (j % 32u))) == 0u) continue;
-            GpuLight light = scene.lights.lights[light_slot(list, j)];
-            if (light.kind == LIGHT_NONE) continue;
-            if (is_area_light(light) != (pass == 1)) {
-                areas_listed = true;
-                continue;
+        bool areas = pass == 1;
+#ifdef TILE_SHARED_LIGHTS
+        if (staging) {
+            uint lid = gl_LocalInvocationIndex;
+            if (pass == 0 && lid == 0u) staged_areas = false;
+            if (lid < STAGE_WORDS) staged_kept[lid] = 0u;
+            for (uint base = 0u; base < staged_count; base += LIGHT_STAGE) {
+                uint parity = (base / LIGHT_STAGE) & 1u;
+                barrier();   // every thread is done with the last chunk
+                if (lid < STAGE_WORDS) staged_kept[(parity ^ 1u) * STAGE_WORDS + lid] = 0u;
+                uint at = base + lid;
+                GpuLight staged;
+                bool kept = false;
+                if (at < staged_count) {
+                    staged = scene.lights.lights[light_slot(list, at)];
+                    if (pass == 0 && is_area_light(staged)) staged_areas = true;
+                    kept = reaches_box(staged, group_lo, group_hi);
+                    if (kept) atomicOr(staged_kept[parity * STAGE_WORDS + lid / 32u], 1u << (lid % 32u));
+                }
+                barrier();
+                // Compacted in list order: a kept light's place is the number kept before it.
+                uint below = 0u, kept_count = 0u;
+                for (uint w = 0u; w < STAGE_WORDS; ++w) {
+                    uint bits = staged_kept[parity * STAGE_WORDS + w];
+                    if (w < lid / 32u) below += bitCount(bits);
+                    if (w == lid / 32u) below += bitCount(bits & ((1u << (lid % 32u)) - 1u));
+                    kept_count += bitCount(bits);
+                }
+                if (kept) {
+                    staged_lights[below] = staged;
+                    staged_entries[below] = at;
+                }
+                barrier();
+                for (uint k = 0u; k < (shades ? kept_count : 0u); ++k) {
+                    add_listed_light(staged_lights[k], areas, vec3(1.0), brdf, s, v, suns_traced, sun_bits, list, staged_entries[k], direct, color, areas_listed);
+                }
             }
-            vec3 tint = tinted ? shadow_tint_of(tint_at, j) : vec3(1.0);
-            vec3 lit = tint * shade_light_of(light, brdf, s.position, s.normal, v, pass == 1);
-            int sun = -1;
-            if (suns_traced && light.kind == LIGHT_DIRECTIONAL) sun = sun_index(sampling_suns(), light_slot(list, j));
-            if (sun < 0) {
-                direct += lit;
-            } else if ((sun_bits & (1u << uint(sun))) != 0u) {
-                color += lit;
+            // The same answer for every thread: the second pass's barriers are reached by all.
+            if (pass == 0) areas_listed = staged_count > 0u && staged_areas;
+        }
+#endif
+        if (!staging) {
+            uint word = 0xFFFFFFFFu;
+            for (uint j = 0u; j < (shades ? list.count : 0u); ++j) {
+                if (shadowed && j % 32u == 0u) word = shadow_words.words[layer_words + shadow_word_at(list, j, px)];
+                if ((word & (1u << (j % 32u))) == 0u) continue;
+                GpuLight light = scene.lights.lights[light_slot(list, j)];
+                if (light.kind == LIGHT_NONE || is_area_light(light) != areas) {
+                    areas_listed = areas_listed || light.kind != LIGHT_NONE;
+                    continue;
+                }
+                vec3 tint = tinted ? shadow_tint_of(tint_at, j) : vec3(1.0);
+                add_listed_light(light, areas, tint, brdf, s, v, suns_traced, sun_bits, list, j, direct, color, areas_listed);
             }
         }
     }
@@ -253,5 +393,12 @@ vec4 shade_surface(SurfaceInputs s, ivec2 px) {
 #endif
     return vec4(storable_radiance(color), 1.0);
 }
+
+#ifndef TILE_SHARED_LIGHTS
+// `px` is the pixel being shaded (its tile's lights, its shadow bits, its decal buffer texel).
+vec4 shade_surface(SurfaceInputs s, ivec2 px) {
+    return shade_surface_in_group(s, px, true);
+}
+#endif
 
 #endif

@@ -110,7 +110,7 @@ impl<'a> GraphicsDesc<'a> {
 }
 
 /// The values of the shaders' specialization constants (`crate::layout::SPEC_*`), fixed when a
-/// pipeline is made. The default keeps every shader's code.
+/// pipeline is made. The default keeps the area lights' code and stages no lights.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Specialization {
     /// Whether the lighting code keeps the area lights' (`AREA_LIGHTS`, `SPEC_AREA_LIGHTS`).
@@ -119,11 +119,22 @@ pub struct Specialization {
     /// (driver 580.159.04, 1920×1080, `--bench-scene many-lights --light-radius 0.05`). A pipeline made without
     /// it shades a rect or disk light as a point light, so it may serve only scenes with none.
     pub area_lights: bool,
+    /// Whether a compute shading pass reads its workgroup's long unshadowed light lists into
+    /// shared memory a chunk at a time, keeping the lights that reach the workgroup's surface
+    /// points (`STAGED_LIGHTS`, `SPEC_STAGED_LIGHTS`; `shaders/include/shading.glsl`). In the
+    /// many-lights scene with sampled shadows, the visibility buffer's shading took 2.82 ms with
+    /// it and 3.56 without on the lent H200 (driver 580.159.04, 1920×1080,
+    /// `docs/experiments/lights-staged-lists.md`). Compiled in, its code and shared memory gave
+    /// the whole pass 96 registers a thread, which slowed the lists walked a thread at a time
+    /// (shadowed ones, and short ones) by up to 30 %; so the shading passes use it only in frames
+    /// whose lists are unshadowed and can be longer than a chunk
+    /// (`crate::lights::LightFrame::shading`). The image is the same either way.
+    pub staged_lights: bool,
 }
 
 impl Default for Specialization {
     fn default() -> Self {
-        Self { area_lights: true }
+        Self { area_lights: true, staged_lights: false }
     }
 }
 
@@ -131,12 +142,13 @@ impl Specialization {
     /// Calls `f` with the Vulkan description of these values (every stage of a pipeline gets
     /// it: an id a stage does not declare changes nothing in it).
     fn with_info<R>(self, f: impl FnOnce(&vk::SpecializationInfo) -> R) -> R {
-        let data = [vk::Bool32::from(self.area_lights)];
-        let entries = [vk::SpecializationMapEntry {
-            constant_id: crate::layout::SPEC_AREA_LIGHTS,
-            offset: 0,
-            size: std::mem::size_of::<vk::Bool32>(),
-        }];
+        let data = [vk::Bool32::from(self.area_lights), vk::Bool32::from(self.staged_lights)];
+        let size = std::mem::size_of::<vk::Bool32>();
+        let mut entries = [crate::layout::SPEC_AREA_LIGHTS, crate::layout::SPEC_STAGED_LIGHTS]
+            .map(|constant_id| vk::SpecializationMapEntry { constant_id, offset: 0, size });
+        for (offset, entry) in (0u32..).step_by(size).zip(&mut entries) {
+            entry.offset = offset; // the value's place in `data`
+        }
         f(&vk::SpecializationInfo::default().map_entries(&entries).data(bytemuck::cast_slice(&data)))
     }
 }
@@ -650,8 +662,9 @@ pub enum ShadeVariant {
 /// The frame's decals say which they want ([`ShadeVariant`]), its lights whether any is an area
 /// light.
 pub struct ShadeVariants {
-    /// Without the area lights' code, then with it.
-    sets: [VariantSet; 2],
+    /// By [`Specialization`]: without the area lights' code, then with it; each unstaged, then
+    /// staged (see [`ShadeVariants::set`]).
+    sets: [VariantSet; 4],
 }
 
 /// One [`ShadeVariants`] set, all made with one [`Specialization`].
@@ -667,32 +680,43 @@ impl ShadeVariants {
     /// its SPIR-V the first frame that picks it ([`LazyPipeline`]); the ray-query one only on
     /// the ray-query tier.
     pub fn new<M: MakeVariant>(ctx: &GpuContext, [plain, ray_query, decal_buffer]: [&'static [u8]; 3], make: M) -> Self {
-        let set = |area_lights| {
-            let spec = Specialization { area_lights };
-            VariantSet {
-                plain: variant(&make, plain, spec),
-                ray_query: (ctx.tier == Tier::RayQuery).then(|| variant(&make, ray_query, spec)),
-                decal_buffer: variant(&make, decal_buffer, spec),
-                clustered: None,
-            }
-        };
-        Self { sets: [set(false), set(true)] }
+        let sets = Self::SPECS.map(|spec| VariantSet {
+            plain: variant(&make, plain, spec),
+            ray_query: (ctx.tier == Tier::RayQuery).then(|| variant(&make, ray_query, spec)),
+            decal_buffer: variant(&make, decal_buffer, spec),
+            clustered: None,
+        });
+        Self { sets }
+    }
+
+    /// The specialization of each set, in [`ShadeVariants::set`]'s order.
+    const SPECS: [Specialization; 4] = [
+        Specialization { area_lights: false, staged_lights: false },
+        Specialization { area_lights: false, staged_lights: true },
+        Specialization { area_lights: true, staged_lights: false },
+        Specialization { area_lights: true, staged_lights: true },
+    ];
+
+    /// The index of `spec`'s set.
+    fn set(spec: Specialization) -> usize {
+        usize::from(spec.area_lights) * 2 + usize::from(spec.staged_lights)
     }
 
     /// Adds the variant that walks the clustered decals' lists itself, made by `make` from
     /// `shader`.
     pub fn with_clustered<M: MakeVariant>(mut self, shader: &'static [u8], make: M) -> Self {
-        for (set, area_lights) in self.sets.iter_mut().zip([false, true]) {
-            set.clustered = Some(variant(&make, shader, Specialization { area_lights }));
+        for (set, spec) in self.sets.iter_mut().zip(Self::SPECS) {
+            set.clustered = Some(variant(&make, shader, spec));
         }
         self
     }
 
-    /// The variant `want`, with the area lights' code when `area_lights` (the scene has one),
+    /// The variant `want` made with `spec` (the area lights' code when the scene has one; the
+    /// staged lights in compute passes of frames that sample: `crate::lights::LightFrame::shading`),
     /// made now if no frame used it before: the plain one where this pass has no such variant
     /// (no clustered variant, or no ray queries on this tier).
-    pub fn pick(&self, ctx: &GpuContext, want: ShadeVariant, area_lights: bool) -> Result<vk::Pipeline, RenderError> {
-        let set = &self.sets[usize::from(area_lights)];
+    pub fn pick(&self, ctx: &GpuContext, want: ShadeVariant, spec: Specialization) -> Result<vk::Pipeline, RenderError> {
+        let set = &self.sets[Self::set(spec)];
         let variant = match want {
             ShadeVariant::DecalBuffer => &set.decal_buffer,
             ShadeVariant::ClusteredDecals => set.clustered.as_ref().unwrap_or(&set.plain),

@@ -23,12 +23,13 @@ use crate::RenderError;
 use crate::accel::SceneAccelFrame;
 use crate::environment::EnvironmentFrame;
 use crate::gpu::device::GpuContext;
+use crate::gpu::pipeline::Specialization;
 use crate::graph::targets::{OCCLUSION, SHADOW_DEBUG, SHADOW_RATIO};
 use crate::graph::{BufferUse, Frame, FrameGraph, ImageUse, PassBuilder, ResourceId};
 use crate::layout::{
     AMBIENT_OCCLUSION, COLOURED_SHADOWS, GLASS_SHADOWS, GpuLighting, INTERLACED, LIGHT_CULL_AABB, LIGHT_CULL_DEPTH_MASK, LIGHTS_ALL,
     LIGHTS_RAY_QUERY, LIGHTS_TILED, REFLECT_SCREEN_SPACE, REFRACTION, SHADOW_DEBUG as SHADOW_DEBUG_FLAG, SHADOW_NORMALS_IMPROVED,
-    SHADOW_RAY_CULLING, SHADOWS_TRACED,
+    SHADOW_RAY_CULLING, SHADOWS_TRACED, STAGED_LIGHTS_CHUNK,
 };
 use crate::occlusion::OcclusionFrame;
 use crate::reflections::ReflectionFrame;
@@ -50,7 +51,7 @@ pub struct Lighting {
 }
 
 /// What this frame does with lights.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct LightFrame {
     /// The light method applied.
     pub method: LightMethod,
@@ -94,6 +95,10 @@ pub struct LightFrame {
     /// pipelines with the area lights' code (`crate::gpu::pipeline::Specialization`).
     pub area_lights: bool,
     interlaced: bool,
+    /// The scene's live lights: no list is longer.
+    live_lights: u32,
+    /// Whether a shading pass was specialized to stage its lists ([`LightFrame::shading`]).
+    staged: std::cell::Cell<bool>,
     tiles: TileFrame,
     ray_query: RayQueryLightFrame,
 }
@@ -108,6 +113,23 @@ impl LightFrame {
     /// the sampled shadows, the denoiser runs and shading reads its ratio.
     pub fn samples(&self) -> bool {
         self.sampled_lights_above != u32::MAX
+    }
+
+    /// How a shading pass's pipeline is specialized this frame: with the area lights' code when
+    /// the scene has an area light, and, for a pass in `compute`, staging its unshadowed lists
+    /// (`Specialization::staged_lights` says why only then) when a list can be longer than one
+    /// chunk ([`STAGED_LIGHTS_CHUNK`]) and lists are unshadowed: pixels sample their shadows,
+    /// or no shadows are made. [`LightFrame::staged`] then says so.
+    pub fn shading(&self, compute: bool) -> Specialization {
+        let unshadowed = self.samples() || self.shadows == ShadowMethod::None;
+        let staged_lights = compute && unshadowed && self.method != LightMethod::RayQuery && self.live_lights > STAGED_LIGHTS_CHUNK;
+        self.staged.set(self.staged.get() || staged_lights);
+        Specialization { area_lights: self.area_lights, staged_lights }
+    }
+
+    /// Whether a shading pass of this frame staged its lights ([`LightFrame::shading`]).
+    pub fn staged(&self) -> bool {
+        self.staged.get()
     }
 
     /// Whether the reflection pass runs this frame (`crate::reflections`: asked for, and the
@@ -328,6 +350,8 @@ impl Lighting {
             glass_layer: tiles.glass_layer,
             area_lights: self.search.area_lights(),
             interlaced,
+            live_lights: mirror.lights.len() as u32,
+            staged: std::cell::Cell::new(false),
             tiles,
             ray_query,
         })

@@ -259,8 +259,8 @@ impl DeferredPasses {
         let pass = if kind == PassKind::Graphics { pass.color(&HDR, Load::Keep) } else { pass.image(&HDR, ImageUse::StorageWrite) };
         let shade = match rays {
             Some(_) => Shade::Rays(self.lighting_rays.pick(ctx, decals, lights)?),
-            None if compute => Shade::Compute(self.lighting_compute.pick(ctx, decals.variant(), lights.area_lights)?),
-            None => Shade::Fullscreen(self.lighting.pick(ctx, decals.variant(), lights.area_lights)?),
+            None if compute => Shade::Compute(self.lighting_compute.pick(ctx, decals.variant(), lights.shading(true))?),
+            None => Shade::Fullscreen(self.lighting.pick(ctx, decals.variant(), lights.shading(false))?),
         };
         declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| shade.run(p, decals))
     }

@@ -151,7 +151,7 @@ impl ForwardPasses {
             .when(reflected, |p| p.image(&REFLECTION_ADDED, ImageUse::StorageRead))
             .reads(scene.res.drawn())
             .reads(draws.reads());
-        let pipeline = variants.pick(ctx, decals.variant(), lights.area_lights)?;
+        let pipeline = variants.pick(ctx, decals.variant(), lights.shading(false))?;
         declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| {
             let push = p.push;
             p.bind_graphics(pipeline, &push);

@@ -465,7 +465,7 @@ impl RayLightShading {
     /// always keeps the area lights' code (one pipeline, with its shader binding table).
     pub fn pick(&self, ctx: &GpuContext, decals: &DecalFrame, lights: &LightFrame) -> Result<Option<RayLightPass<'_>>, RenderError> {
         if let Some(compute) = &self.compute {
-            return Ok(Some(RayLightPass { pipeline: compute.pick(ctx, decals.variant(), lights.area_lights)?, rays: None }));
+            return Ok(Some(RayLightPass { pipeline: compute.pick(ctx, decals.variant(), lights.shading(false))?, rays: None }));
         }
         let Some(lazy) = &self.rays else { return Ok(None) };
         let rays = match lazy.made.get() {

@@ -111,8 +111,8 @@ impl VisBufferPasses {
         let pass = if kind == PassKind::Graphics { pass.color(&HDR, Load::Clear(clear)) } else { pass.image(&HDR, ImageUse::StorageWrite) };
         let shade = match rays {
             Some(_) => Shade::Rays(self.shade_rays.pick(ctx, decals, lights)?),
-            None if compute => Shade::Compute(self.shade_compute.pick(ctx, decals.variant(), lights.area_lights)?),
-            None => Shade::Fullscreen(self.shade.pick(ctx, decals.variant(), lights.area_lights)?),
+            None if compute => Shade::Compute(self.shade_compute.pick(ctx, decals.variant(), lights.shading(true))?),
+            None => Shade::Fullscreen(self.shade.pick(ctx, decals.variant(), lights.shading(false))?),
         };
         declare_light_reads(declare_decal_reads(pass, decals), lights).record(|p| shade.run(p, decals))
     }

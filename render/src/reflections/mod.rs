@@ -432,10 +432,10 @@ impl Reflections {
         let screen = !lights.traced_reflections();
         let ctx = f.ctx;
         let compute = match source {
-            Some(source) if screen => Some(self.screen[source as usize].pick(ctx, decals.variant(), lights.area_lights)?),
-            Some(Surface::GBuffer) => self.gbuffer.as_ref().map(|v| v.pick(ctx, decals.variant(), lights.area_lights)).transpose()?,
+            Some(source) if screen => Some(self.screen[source as usize].pick(ctx, decals.variant(), lights.shading(false))?),
+            Some(Surface::GBuffer) => self.gbuffer.as_ref().map(|v| v.pick(ctx, decals.variant(), lights.shading(false))).transpose()?,
             Some(Surface::Visibility | Surface::Depth) => {
-                self.visibility.as_ref().map(|v| v.pick(ctx, decals.variant(), lights.area_lights)).transpose()?
+                self.visibility.as_ref().map(|v| v.pick(ctx, decals.variant(), lights.shading(false))).transpose()?
             }
             None => self.glass.as_ref().map(|g| g.get(ctx)).transpose()?,
         };

@@ -713,6 +713,56 @@ fn light_mix(app: &mut App) {
     app.world.spawn((PointLight { intensity: 0.5, range: Some(f32::INFINITY), ..Default::default() }, Transform::from_xyz(0.0, 6.0, 0.0)));
 }
 
+/// Staged lights (`shaders/include/shading.glsl`, `render::gpu::pipeline::Specialization::staged_lights`):
+/// compute shading reads long unshadowed lists a workgroup at a time into shared memory and
+/// keeps the lights whose range reaches the workgroup's surface points, in list order. The image
+/// is the fragment passes' (which never stage) to the bit, in the visibility buffer and deferred
+/// shading, with lists longer than a chunk (checked), an area light and a light of infinite
+/// range; the frame says it staged, and does not where lists are shadowed one light at a time.
+/// Sampled shadows stage the same way (the frame says so).
+#[test]
+fn staged_lights_shade_as_the_lights_walked_a_pixel_at_a_time() {
+    let unshadowed = LightSettings { shadows: false, ..Default::default() };
+    let mut app = gpu_app(SIZE.0, SIZE.1, settings(unshadowed));
+    boxes_scene(&mut app);
+    light_mix(&mut app);
+    for i in 0..100 {
+        let at = Vec3::new((i % 10) as f32 - 4.5, 1.0 + (i % 3) as f32 * 0.5, (i / 10) as f32 - 4.5);
+        let light = PointLight { color: Vec3::ONE, intensity: 0.05, range: Some(6.0), radius: 0.0 };
+        app.world.spawn((light, Transform::from_translation(at)));
+    }
+    let rect = RectLight { intensity: 30.0, width: 0.6, height: 0.4, range: Some(30.0), ..Default::default() };
+    app.world.spawn((rect, Transform::from_xyz(0.5, 3.0, -0.6).looking_at(Vec3::new(0.2, 0.0, -0.3), Vec3::Z)));
+    let (counts, _) = render(&mut app, DebugView::LightCount);
+    let longest = counts.iter().map(|p| p[0]).fold(0.0, f32::max);
+    assert!(longest > 64.0, "some lists are longer than a chunk ({longest} lights at most)");
+    let image = |app: &mut App, pipeline: PipelineKind, lights: LightSettings, compute: bool| {
+        {
+            let mut s = app.world.resource_mut::<RenderSettings>();
+            s.pipeline = pipeline;
+            s.lights = lights;
+            s.compute_shading = compute;
+        }
+        // Frames report when they complete: two before, so that the last report is of these settings.
+        app.update();
+        app.update();
+        let (image, _) = render(app, DebugView::Lit);
+        (image, app.world.resource::<RenderStats>().completed.back().map(|s| s.staged_lights))
+    };
+    for pipeline in [PipelineKind::VisBuffer, PipelineKind::Deferred] {
+        let (staged, staged_said) = image(&mut app, pipeline, unshadowed, true);
+        let (walked, walked_said) = image(&mut app, pipeline, unshadowed, false);
+        assert_eq!((staged_said, walked_said), (Some(true), Some(false)), "{pipeline:?}: the frames say whether they staged");
+        assert!(staged.iter().any(|p| p[0] > 0.0), "{pipeline:?}: the scene is lit");
+        assert!(staged == walked, "{pipeline:?}: staged and walked a pixel at a time, the lights shade alike to the bit");
+    }
+    let exhaustive = LightSettings { direct_light: DirectLight::Exhaustive, ..Default::default() };
+    let (_, said) = image(&mut app, PipelineKind::VisBuffer, exhaustive, true);
+    assert_eq!(said, Some(false), "shadowed lists are walked a pixel at a time");
+    let (_, said) = image(&mut app, PipelineKind::VisBuffer, LightSettings { direct_light: DirectLight::Stochastic, ..exhaustive }, true);
+    assert_eq!(said, Some(true), "sampled shadows' unshadowed lists are staged");
+}
+
 #[test]
 fn ray_query_lights_light_the_scene_as_tiled_culling_does_on_both_ray_tracing_tiers() {
     for tier in [Tier::RayQuery, Tier::RayTracingPipeline] {
