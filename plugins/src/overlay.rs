@@ -176,10 +176,11 @@ impl DebugOverlay {
         // What the GPU applied, which may differ from the request (a device without ray queries).
         if let Some(last) = self.history.back() {
             ui.label(format!(
-                "decals applied: {} (surface: {})   lights: {}   shadows: {} (direct light: {})   ambient occlusion: {}",
+                "decals applied: {} (surface: {})   lights: {}{}   shadows: {} (direct light: {})   ambient occlusion: {}",
                 last.decal_method.name(),
                 last.decal_surface.map_or("none", |s| s.name()),
                 last.light_method.name(),
+                if last.staged_lights { ", lists staged" } else { "" },
                 last.shadows.name(),
                 last.direct_light.map_or("none", |d| d.name()),
                 last.occlusion.name()
