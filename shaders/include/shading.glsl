@@ -235,7 +235,8 @@ vec4 shade_surface_in_group(SurfaceInputs s, ivec2 px, bool shades) {
     if (scene.debug_view == DEBUG_ROUGHNESS_METALLIC) return vec4(s.roughness, s.metallic, 0.0, 1.0);
     if (scene.debug_view == DEBUG_DECAL_COUNT || scene.debug_view == DEBUG_DECAL_FLOOR) return vec4(float(decals_tested), 0.0, 0.0, 1.0);
     if (scene.debug_view == DEBUG_DECAL_HEATMAP) return vec4(heatmap(float(decals_tested) / 16.0), 1.0);
-    float occlusion = s.occlusion * ambient_occlusion(px);
+    // A thread that does not shade may lie outside the viewport: it reads no image at `px`.
+    float occlusion = s.occlusion * (shades ? ambient_occlusion(px) : 1.0);
     if (scene.debug_view == DEBUG_AMBIENT_OCCLUSION) return vec4(vec3(occlusion), 1.0);
 
     GpuCamera cam = scene.camera.camera;
@@ -287,10 +288,10 @@ vec4 shade_surface_in_group(SurfaceInputs s, ivec2 px, bool shades) {
 #else
     bool shadow_debug = (scene.lighting.lighting.flags & SHADOW_DEBUG) != 0u;
 #endif
-    if (scene.debug_view == DEBUG_SHADOW_RAYS) return vec4(shadow_debug ? heatmap(imageLoad(shadow_debug_in, px).a / 16.0) : vec3(0.0), 1.0);
+    if (scene.debug_view == DEBUG_SHADOW_RAYS) return vec4(shadow_debug && shades ? heatmap(imageLoad(shadow_debug_in, px).a / 16.0) : vec3(0.0), 1.0);
     if (scene.debug_view == DEBUG_DEPTH_NORMALS) {
         bool reconstructed = float(px.x) < scene.camera.camera.viewport_size.x * 0.5;
-        vec3 rebuilt = shadow_debug ? imageLoad(shadow_debug_in, px).rgb : vec3(0.0);
+        vec3 rebuilt = shadow_debug && shades ? imageLoad(shadow_debug_in, px).rgb : vec3(0.0);
         return vec4(reconstructed ? rebuilt : s.normal * 0.5 + 0.5, 1.0);
     }
 
@@ -389,7 +390,7 @@ vec4 shade_surface_in_group(SurfaceInputs s, ivec2 px, bool shades) {
             }
         }
     }
-    color += sampled ? direct * imageLoad(shadow_ratio_in, px).rgb : direct;
+    color += sampled && shades ? direct * imageLoad(shadow_ratio_in, px).rgb : direct;
 #endif
     return vec4(storable_radiance(color), 1.0);
 }
