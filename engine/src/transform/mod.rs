@@ -627,7 +627,8 @@ mod tests {
 
         /// The parallel walk gives the global transforms and the moved entities of the serial
         /// one, frame after frame of random moves, re-insertions, re-parentings and orphanings
-        /// of static and moving entities; a frame with no change moves nothing.
+        /// of static and moving entities, and both equal the product of each entity's local
+        /// transforms up to its root; a frame with no change moves nothing.
         #[test]
         fn parallel_propagation_matches_the_serial_one((nodes, frames) in hierarchies()) {
             let pool = ComputeTaskPool::get_or_init(|| TaskPoolBuilder::new().num_threads(4).build());
@@ -648,6 +649,15 @@ mod tests {
                 prop_assert_eq!(&a, &b, "frame {}: the same entities moved", f);
                 for &e in &entities {
                     prop_assert_eq!(serial.get::<GlobalTransform>(e), parallel.get::<GlobalTransform>(e), "frame {}: {:?}", f, e);
+                    // And both are right: the product of the local transforms up to the root.
+                    let mut expected = Affine3A::IDENTITY;
+                    let mut node = Some(e);
+                    while let Some(current) = node {
+                        expected = serial.get::<Transform>(current).unwrap().compute_affine() * expected;
+                        node = serial.get::<ChildOf>(current).map(ChildOf::parent);
+                    }
+                    let global = serial.get::<GlobalTransform>(e).unwrap().0;
+                    prop_assert!(global.abs_diff_eq(expected, 1e-3), "frame {}: {:?} is at {:?}, not {:?}", f, e, global, expected);
                 }
                 if f > 0 && changes.is_empty() {
                     prop_assert!(a.is_empty(), "frame {}: nothing changed, nothing moved: {:?}", f, a);
