@@ -203,19 +203,22 @@ bool reaches_box(GpuLight light, vec3 lo, vec3 hi) {
 }
 #endif
 
-// One listed light's share of a pixel's light, `tint` the glass it crossed (the body of
-// shade_surface_in_group's loops): added to `direct`, the sum the sampled shadows' ratio scales,
-// or, for a sun a sampling pixel traced (`sun_bits` its rays' answers), to `color` where its
-// ray got through. `entry` is the light's place in `list`. The pass over `areas` (the area
-// lights, or the others) skips the other kind and notes in `areas_listed` that it met one.
-void add_listed_light(GpuLight light, bool areas, vec3 tint, SurfaceBrdf brdf, SurfaceInputs s, vec3 v, bool suns_traced,
-                      uint sun_bits, LightList list, uint entry, inout vec3 direct, inout vec3 color, inout bool areas_listed) {
+// One listed light's share of a pixel's light (the body of shade_surface_in_group's loops):
+// added to `direct`, the sum the sampled shadows' ratio scales, or, for a sun a sampling pixel
+// traced (`sun_bits` its rays' answers), to `color` where its ray got through. `entry` is the
+// light's place in `list`; where `tinted`, the glass it crossed tints it (read from the tint
+// words at `tint_at` only for a light that is shaded). The pass over `areas` (the area lights,
+// or the others) skips the other kind and notes in `areas_listed` that it met one.
+void add_listed_light(GpuLight light, bool areas, bool tinted, uint tint_at, SurfaceBrdf brdf, SurfaceInputs s, vec3 v,
+                      bool suns_traced, uint sun_bits, LightList list, uint entry, inout vec3 direct, inout vec3 color,
+                      inout bool areas_listed) {
     if (light.kind == LIGHT_NONE) return;
     if (is_area_light(light) != areas) {
         areas_listed = true;
         return;
     }
-    vec3 lit = tint * shade_light_of(light, brdf, s.position, s.normal, v, areas);
+    vec3 lit = shade_light_of(light, brdf, s.position, s.normal, v, areas);
+    if (tinted) lit *= shadow_tint_of(tint_at, entry);
     int sun = -1;
     if (suns_traced && light.kind == LIGHT_DIRECTIONAL) sun = sun_index(sampling_suns(), light_slot(list, entry));
     if (sun < 0) {
@@ -224,6 +227,54 @@ void add_listed_light(GpuLight light, bool areas, vec3 tint, SurfaceBrdf brdf, S
         color += lit;
     }
 }
+
+#ifdef TILE_SHARED_LIGHTS
+// Pass `pass` (over `areas`) of a staging workgroup: the tile's `staged_count` listed lights, a
+// chunk at a time, kept where they reach the box [group_lo, group_hi] of the workgroup's surface
+// points, and shaded from shared memory by the threads that `shades`. Every thread of the
+// workgroup calls it alike (its barriers); after pass 0 `areas_listed` says for all of them
+// whether the list holds an area light.
+void shade_staged_lights(int pass, bool areas, uint staged_count, vec3 group_lo, vec3 group_hi, LightList list, bool shades,
+                         SurfaceBrdf brdf, SurfaceInputs s, vec3 v, bool suns_traced, uint sun_bits, inout vec3 direct,
+                         inout vec3 color, inout bool areas_listed) {
+    uint lid = gl_LocalInvocationIndex;
+    if (pass == 0 && lid == 0u) staged_areas = false;
+    if (lid < STAGE_WORDS) staged_kept[lid] = 0u;
+    for (uint base = 0u; base < staged_count; base += LIGHT_STAGE) {
+        uint parity = (base / LIGHT_STAGE) & 1u;
+        barrier();   // every thread is done with the last chunk
+        if (lid < STAGE_WORDS) staged_kept[(parity ^ 1u) * STAGE_WORDS + lid] = 0u;
+        uint at = base + lid;
+        GpuLight staged;
+        bool kept = false;
+        if (at < staged_count) {
+            staged = scene.lights.lights[light_slot(list, at)];
+            if (pass == 0 && is_area_light(staged)) staged_areas = true;
+            kept = reaches_box(staged, group_lo, group_hi);
+            if (kept) atomicOr(staged_kept[parity * STAGE_WORDS + lid / 32u], 1u << (lid % 32u));
+        }
+        barrier();
+        // Compacted in list order: a kept light's place is the number kept before it.
+        uint below = 0u, kept_count = 0u;
+        for (uint w = 0u; w < STAGE_WORDS; ++w) {
+            uint bits = staged_kept[parity * STAGE_WORDS + w];
+            if (w < lid / 32u) below += bitCount(bits);
+            if (w == lid / 32u) below += bitCount(bits & ((1u << (lid % 32u)) - 1u));
+            kept_count += bitCount(bits);
+        }
+        if (kept) {
+            staged_lights[below] = staged;
+            staged_entries[below] = at;
+        }
+        barrier();
+        for (uint k = 0u; k < (shades ? kept_count : 0u); ++k) {
+            add_listed_light(staged_lights[k], areas, false, 0u, brdf, s, v, suns_traced, sun_bits, list, staged_entries[k], direct, color, areas_listed);
+        }
+    }
+    // The same answer for every thread: the second pass's barriers are reached by all.
+    if (pass == 0) areas_listed = staged_count > 0u && staged_areas;
+}
+#endif
 
 // `px` is the pixel being shaded (its tile's lights, its shadow bits, its decal buffer texel);
 // `shades` is false for a thread of a TILE_SHARED_LIGHTS workgroup that has no surface to shade.
@@ -337,42 +388,8 @@ vec4 shade_surface_in_group(SurfaceInputs s, ivec2 px, bool shades) {
         bool areas = pass == 1;
 #ifdef TILE_SHARED_LIGHTS
         if (staging) {
-            uint lid = gl_LocalInvocationIndex;
-            if (pass == 0 && lid == 0u) staged_areas = false;
-            if (lid < STAGE_WORDS) staged_kept[lid] = 0u;
-            for (uint base = 0u; base < staged_count; base += LIGHT_STAGE) {
-                uint parity = (base / LIGHT_STAGE) & 1u;
-                barrier();   // every thread is done with the last chunk
-                if (lid < STAGE_WORDS) staged_kept[(parity ^ 1u) * STAGE_WORDS + lid] = 0u;
-                uint at = base + lid;
-                GpuLight staged;
-                bool kept = false;
-                if (at < staged_count) {
-                    staged = scene.lights.lights[light_slot(list, at)];
-                    if (pass == 0 && is_area_light(staged)) staged_areas = true;
-                    kept = reaches_box(staged, group_lo, group_hi);
-                    if (kept) atomicOr(staged_kept[parity * STAGE_WORDS + lid / 32u], 1u << (lid % 32u));
-                }
-                barrier();
-                // Compacted in list order: a kept light's place is the number kept before it.
-                uint below = 0u, kept_count = 0u;
-                for (uint w = 0u; w < STAGE_WORDS; ++w) {
-                    uint bits = staged_kept[parity * STAGE_WORDS + w];
-                    if (w < lid / 32u) below += bitCount(bits);
-                    if (w == lid / 32u) below += bitCount(bits & ((1u << (lid % 32u)) - 1u));
-                    kept_count += bitCount(bits);
-                }
-                if (kept) {
-                    staged_lights[below] = staged;
-                    staged_entries[below] = at;
-                }
-                barrier();
-                for (uint k = 0u; k < (shades ? kept_count : 0u); ++k) {
-                    add_listed_light(staged_lights[k], areas, vec3(1.0), brdf, s, v, suns_traced, sun_bits, list, staged_entries[k], direct, color, areas_listed);
-                }
-            }
-            // The same answer for every thread: the second pass's barriers are reached by all.
-            if (pass == 0) areas_listed = staged_count > 0u && staged_areas;
+            shade_staged_lights(pass, areas, staged_count, group_lo, group_hi, list, shades, brdf, s, v, suns_traced, sun_bits,
+                                direct, color, areas_listed);
         }
 #endif
         if (!staging) {
@@ -381,12 +398,7 @@ vec4 shade_surface_in_group(SurfaceInputs s, ivec2 px, bool shades) {
                 if (shadowed && j % 32u == 0u) word = shadow_words.words[layer_words + shadow_word_at(list, j, px)];
                 if ((word & (1u << (j % 32u))) == 0u) continue;
                 GpuLight light = scene.lights.lights[light_slot(list, j)];
-                if (light.kind == LIGHT_NONE || is_area_light(light) != areas) {
-                    areas_listed = areas_listed || light.kind != LIGHT_NONE;
-                    continue;
-                }
-                vec3 tint = tinted ? shadow_tint_of(tint_at, j) : vec3(1.0);
-                add_listed_light(light, areas, tint, brdf, s, v, suns_traced, sun_bits, list, j, direct, color, areas_listed);
+                add_listed_light(light, areas, tinted, tint_at, brdf, s, v, suns_traced, sun_bits, list, j, direct, color, areas_listed);
             }
         }
     }
