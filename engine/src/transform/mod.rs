@@ -22,8 +22,10 @@
 //!
 //! **On every core.** A crowd moves hundreds of thousands of joints a frame (10,000 foxes: about
 //! 240,000), which one core walked alone. Both halves of the work now run on the compute task
-//! pool: finding the changed entities that have no changed ancestor (read-only, a parallel query)
-//! and walking the subtrees below them (disjoint, so one task a batch of subtrees:
+//! pool: finding the changed entities that have no changed ancestor (read-only, a parallel query
+//! that first marks every changed entity in a dense array, so that "did my parent change?" reads
+//! one slot instead of looking the parent up) and walking the subtrees below them (disjoint, so
+//! one task a batch of subtrees:
 //! [`parallel`], one of the two modules of the crate allowed `unsafe`, says why that is sound). Bevy's
 //! `bevy_transform` walks in parallel the same way, but it could not be taken as a dependency:
 //! it brings its own transform components and has no [`Static`] entities, [`Joint`]s or
