@@ -539,6 +539,9 @@ mod tests {
         Reparent(usize, usize),
         Orphan(usize),
         Reinsert(usize, Vec3),
+        /// A leaf despawned and an entity spawned in its place (at its index, a generation on),
+        /// under the same parent.
+        Respawn(usize, Vec3),
     }
 
     /// An entity of the random hierarchy: its parent (an earlier entity) if any, translation,
@@ -555,12 +558,13 @@ mod tests {
             prop::bool::weighted(0.2),
             prop::bool::weighted(0.3),
         );
-        let change = (0usize..4, any::<usize>(), any::<usize>(), prop::array::uniform3(-2.0f32..2.0).prop_map(Vec3::from)).prop_map(
+        let change = (0usize..5, any::<usize>(), any::<usize>(), prop::array::uniform3(-2.0f32..2.0).prop_map(Vec3::from)).prop_map(
             |(kind, a, b, v)| match kind {
                 0 => Change::Move(a, v),
                 1 => Change::Reparent(a, b),
                 2 => Change::Orphan(a),
-                _ => Change::Reinsert(a, v),
+                3 => Change::Reinsert(a, v),
+                _ => Change::Respawn(a, v),
             },
         );
         (prop::collection::vec(node, 1..120), prop::collection::vec(prop::collection::vec(change, 0..12), 1..5))
@@ -590,7 +594,7 @@ mod tests {
         (world, entities)
     }
 
-    fn apply(world: &mut World, entities: &[Entity], change: &Change) {
+    fn apply(world: &mut World, entities: &mut [Entity], change: &Change) {
         let n = entities.len();
         match *change {
             Change::Move(a, v) => {
@@ -613,6 +617,27 @@ mod tests {
                 let t = *world.get::<Transform>(e).unwrap();
                 world.entity_mut(e).insert(t.with_translation(t.translation + v));
             }
+            Change::Respawn(a, v) => {
+                let old = world.entity(entities[a % n]);
+                if old.contains::<Children>() {
+                    return;
+                }
+                let (parent, is_static, joint) =
+                    (old.get::<ChildOf>().map(ChildOf::parent), old.contains::<Static>(), old.contains::<Joint>());
+                // Its index again, a generation on (despawning frees an index for later).
+                let reused = world.despawn_no_free(entities[a % n]).unwrap();
+                let mut e = world.spawn_at(reused, Transform::from_translation(v)).unwrap();
+                if let Some(parent) = parent {
+                    e.insert(ChildOf(parent));
+                }
+                if is_static {
+                    e.insert(Static);
+                }
+                if joint {
+                    e.insert(Joint);
+                }
+                entities[a % n] = e.id();
+            }
         }
     }
 
@@ -629,14 +654,15 @@ mod tests {
 
         /// The parallel walk gives the global transforms and the moved entities of the serial
         /// one, frame after frame of random moves, re-insertions, re-parentings and orphanings
-        /// of static and moving entities, and both equal the product of each entity's local
-        /// transforms up to its root; a frame with no change moves nothing.
+        /// of static and moving entities, and leaves despawned with another entity spawned at
+        /// their index; both equal the product of each entity's local transforms up to its
+        /// root; a frame with no change moves nothing.
         #[test]
         fn parallel_propagation_matches_the_serial_one((nodes, frames) in hierarchies()) {
             let pool = ComputeTaskPool::get_or_init(|| TaskPoolBuilder::new().num_threads(4).build());
             prop_assert!(pool.thread_num() > 1, "the parallel walk needs more than one thread to be tested");
-            let (mut serial, entities) = world_with(&nodes);
-            let (mut parallel, same) = world_with(&nodes);
+            let (mut serial, mut entities) = world_with(&nodes);
+            let (mut parallel, mut same) = world_with(&nodes);
             prop_assert_eq!(&entities, &same);
             let mut serial_schedule = Schedule::default();
             serial_schedule.add_systems(propagate_transforms_serial);
@@ -644,9 +670,10 @@ mod tests {
             parallel_schedule.add_systems(propagate_transforms);
             for (f, changes) in std::iter::once(&Vec::new()).chain(&frames).chain([&Vec::new()]).enumerate() {
                 for change in changes {
-                    apply(&mut serial, &entities, change);
-                    apply(&mut parallel, &entities, change);
+                    apply(&mut serial, &mut entities, change);
+                    apply(&mut parallel, &mut same, change);
                 }
+                prop_assert_eq!(&entities, &same, "frame {}: the same entities respawned", f);
                 let (a, b) = (frame(&mut serial, &mut serial_schedule), frame(&mut parallel, &mut parallel_schedule));
                 prop_assert_eq!(&a, &b, "frame {}: the same entities moved", f);
                 for &e in &entities {
