@@ -342,10 +342,13 @@ impl DirtyMarks {
     }
 
     /// Marks `entity` dirty for this run (from any thread).
+    ///
+    /// Panics rather than skip an entity whose index is beyond the slots: a changed entity left
+    /// unmarked would let its changed children be seeds inside its subtree, which the parallel
+    /// walk's soundness forbids ([`parallel`]). It cannot happen: the slots cover
+    /// `Entities::len()`, every index allocated when the run started, and the run spawns nothing.
     fn mark(&self, entity: Entity) {
-        if let Some(slot) = self.slots.get(entity.index_u32() as usize) {
-            slot.store(self.stamp(entity), std::sync::atomic::Ordering::Relaxed);
-        }
+        self.slots[entity.index_u32() as usize].store(self.stamp(entity), std::sync::atomic::Ordering::Relaxed);
     }
 
     /// Whether `entity` was marked in this run.

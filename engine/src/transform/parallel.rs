@@ -14,7 +14,8 @@
 //! - The roots are the seeds of [`propagate_transforms`](super::propagate_transforms): changed
 //!   entities none of whose ancestors (found by walking `ChildOf` up to a root, cycles and
 //!   over-deep chains refused) is changed, each listed once. So no root is the ancestor of
-//!   another root.
+//!   another root. (Whether an ancestor changed is read from marks every changed entity gets
+//!   before the seeds are sought; marking one panics rather than skip it.)
 //! - From a node the walk descends only to the children whose own `ChildOf` names that node. An
 //!   entity has one `ChildOf`, so it is reached from one parent only, and by induction from one
 //!   root only, once: the subtrees are disjoint trees even if a `Children` list disagreed with
