@@ -488,7 +488,7 @@ fn propagate(p: Propagation, pool: Option<&TaskPool>) {
             .extend(dirty.iter().filter(|&(entity, child_of)| is_seed(entity, child_of)).map(|(entity, child_of)| root(entity, child_of))),
     }
     // Static entities (never also dirty: a seed is listed once).
-    roots.extend(pending.iter().copied().filter(|&entity| !dirty.contains(entity)).filter_map(|entity| {
+    roots.extend(pending.iter().copied().filter(|&entity| !marks.is_marked(entity)).filter_map(|entity| {
         let child_of = parents.get(entity).ok();
         is_seed(entity, child_of).then(|| root(entity, child_of))
     }));
