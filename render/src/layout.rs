@@ -467,6 +467,10 @@ layout! {
     pub const TEXTURE_WHITE: u32 = 0;
     /// Bindless slot of the built-in flat normal map.
     pub const TEXTURE_FLAT_NORMAL: u32 = 1;
+    /// Bindless slot of the built-in table of the GGX lobe's linearly transformed cosines and
+    /// magnitudes that area lights shade their specular term with (`crate::lights::ltc`, RGBA32F,
+    /// `2 × LTC_SIZE` by `LTC_SIZE` texels, fetched with `texelFetch`).
+    pub const TEXTURE_LTC: u32 = 2;
     /// Descriptor binding (set 0) of the HDR target (`hdr_target`; tone mapping samples it).
     /// Each render target has a binding of its own, not a slot in the bindless array: a shader
     /// then statically uses exactly the targets its pass declares it samples, and the
@@ -812,6 +816,9 @@ layout! {
     pub const EXPOSURE_LOG2_RANGE: u32 = 24;
     /// Side of the split-sum BRDF table in texels.
     pub const BRDF_LUT_SIZE: u32 = 64;
+    /// Cells along each axis of the area lights' LTC table (`TEXTURE_LTC`): perceptual
+    /// roughness and √(1 − n·v), each from 0 to 1.
+    pub const LTC_SIZE: u32 = 32;
     /// `GpuLighting::reflection_flags`: the reflection pass runs this frame.
     pub const REFLECT_ON: u32 = 1;
     /// `GpuLighting::reflection_flags`: one ray per 2×2 pixels (a cell), upsampled by depth.
@@ -1891,7 +1898,7 @@ const _: () = assert!(std::mem::size_of::<GpuVertex>() == VERTEX_BYTES as usize,
 const _: () = assert!(std::mem::size_of::<ScenePush>() <= 128, "push constants within the 128 bytes every device offers");
 
 const _: () = {
-    let slots = [TEXTURE_WHITE, TEXTURE_FLAT_NORMAL];
+    let slots = [TEXTURE_WHITE, TEXTURE_FLAT_NORMAL, TEXTURE_LTC];
     let mut i = 0;
     while i < slots.len() {
         assert!(slots[i] < RESERVED_TEXTURES, "built-in bindless slots must be below RESERVED_TEXTURES");

@@ -215,6 +215,7 @@ impl Renderer {
         let display_check = DisplayCheck::new(ctx, &mut graph)?;
         scene.set_display_check(display_check.as_ref().map_or(0, DisplayCheck::address));
         scene.set_texture_budget(settings.texture_budget);
+        scene.add_builtin_texture(crate::layout::TEXTURE_LTC, crate::lights::ltc::texture())?;
         let layout = create_layout(ctx, scene.set_layout)?;
         let mut type_info = vk::SemaphoreTypeCreateInfo::default().semaphore_type(vk::SemaphoreType::TIMELINE).initial_value(0);
         // SAFETY: valid create info; destroyed in Drop.

@@ -5,16 +5,16 @@
 //   (Heitz, Dupuy, Hill and Neubelt 2016, "Real-Time Polygonal-Light Shading with Linearly
 //   Transformed Cosines", §4: the polygon's edge integral, Lambert's formula). A disk is the
 //   regular polygon of AREA_DISK_SIDES sides of its area.
-// - Specular: the most representative point (Karis 2013, "Real Shading in Unreal Engine 4",
-//   area lights): the point of the shape nearest the mirror direction, where the GGX lobe peaks,
-//   weighs the light's cosine-weighted solid angle, and a light wider than the lobe reflects no
-//   more than the share of the lobe it spans (area_light_brdf). LTC's fitted GGX tables would
-//   be closer for glossy surfaces; this needs no table.
+// - Specular: the same integral over the polygon transformed by the inverse of the linearly
+//   transformed cosine fitted to our GGX lobe (Heitz et al. 2016, §5), times the lobe's
+//   magnitude with Fresnel; both from the fitted table TEXTURE_LTC (render::lights::ltc,
+//   fitted by render/examples/ltc_fit.rs).
 // The record (GpuLight): `direction` the facing, spot_scale/spot_offset/cone_cos an axis in the
 // plane (a rectangle's half-width vector, a disk's unit axis), `size` the half height or radius.
 #ifndef AREA_LIGHTS_GLSL
 #define AREA_LIGHTS_GLSL
 
+#include "scene.glsl"
 #include "brdf.glsl"
 
 // A disk's polygon: 16 sides, their radius scaled so that the polygon's area is the disk's
@@ -113,27 +113,40 @@ vec3 area_corner(AreaPolygon g, int i) {
     return g.centre + g.right * cos(a) + g.up * sin(a);
 }
 
+// The polygon with every corner transformed by `to` (its corners are linear in its centre and
+// axes, so transforming those three transforms them all).
+AreaPolygon area_transformed(AreaPolygon g, mat3 to) {
+    g.centre = to * g.centre;
+    g.right = to * g.right;
+    g.up = to * g.up;
+    return g;
+}
+
 // Lambert's term of the edge from corner `a` to corner `b` (directions from the point): the arc
 // between them times the unit normal of their plane, whose sum over a polygon's edges is its
-// vector form factor × 2π.
+// vector form factor × 2π. The arc over the sine, θ / sin θ, comes from the cosine by the
+// rational fit of Heitz and Hill's LTC code (2017; within 2e-6 of it relatively over the whole
+// range, measured), cheaper than the inverse tangent and the cross product's length.
 vec3 edge_term(vec3 a, vec3 b) {
     a = normalize(a);
     b = normalize(b);
-    vec3 c = cross(a, b);
-    float s = length(c);
-    return s > 1e-7 ? c * (atan(s, dot(a, b)) / s) : vec3(0.0);
+    float x = dot(a, b);
+    float y = abs(x);
+    // θ / (2π sin θ) for the acute angle; for an obtuse one, π − θ is the acute one.
+    float acute = (0.8543985 + (0.4965155 + 0.0145206 * y) * y) / (3.4175940 + (4.1616724 + y) * y);
+    float over_sin = x > 0.0 ? acute : 0.5 * inversesqrt(max(1.0 - x * x, 1e-7)) - acute;
+    return cross(a, b) * (2.0 * PI * over_sin);
 }
 
-// The light's form factor seen from `p` over normal `n`: its cosine-weighted solid angle
-// divided by π (1 for a light filling the hemisphere). The polygon is clipped to the horizon
-// (Sutherland–Hodgman against n·x ≥ 0) as its corners stream by, each kept or cut corner
-// adding the edge from the last one, so that no corner is stored (with arrays of corners the
-// corridor's visibility-buffer shading on the H200 took 0.70 ms, 0.51 without). `towards` is
-// the vector form factor's direction: where the light comes from on average (the clipped
-// part's, where the horizon cuts it). The winding as seen from the point decides the sign,
-// which the one-sided test has already settled.
-float area_form_factor(GpuLight light, vec3 p, vec3 n, out vec3 towards) {
-    AreaPolygon g = area_polygon(light, p);
+// The form factor of the polygon `g` (its corners relative to the point) over normal `n`: its
+// cosine-weighted solid angle divided by π (1 for a polygon filling the hemisphere). The polygon
+// is clipped to the horizon (Sutherland–Hodgman against n·x ≥ 0) as its corners stream by, each
+// kept or cut corner adding the edge from the last one, so that no corner is stored (with arrays
+// of corners the corridor's visibility-buffer shading on the H200 took 0.70 ms, 0.51 without).
+// `towards` is the vector form factor's direction: where the light comes from on average (the
+// clipped part's, where the horizon cuts it). The winding as seen from the point decides the
+// sign, which the one-sided test has already settled.
+float polygon_form_factor(AreaPolygon g, vec3 n, out vec3 towards) {
     vec3 sum = vec3(0.0), first = vec3(0.0), last = vec3(0.0);
     bool started = false;
     vec3 a = area_corner(g, 0);
@@ -161,26 +174,39 @@ float area_form_factor(GpuLight light, vec3 p, vec3 n, out vec3 towards) {
     return abs(form) * (0.5 / PI);
 }
 
-// The point of the light's shape nearest the mirror direction `r` from `p`: where the ray meets
-// the light's plane, clamped to the shape; a ray that turns away from the plane aims at the
-// shape's point nearest where it heads.
-vec3 area_representative_point(GpuLight light, vec3 p, vec3 r) {
-    float towards = -dot(r, light.direction);
-    float height = dot(light.direction, p - light.position);
-    vec3 hit = towards > 1e-4 ? p + r * (height / towards) : p + r * 1e4;
-    vec3 local = hit - light.position;
-    vec3 right = area_right(light), up = area_up(light);
-    // In the shape's units: half widths and half heights, or radii (a disk's axis is a unit vector).
-    float across = light.kind == LIGHT_RECT ? dot(right, right) : light.size;
-    vec2 uv = vec2(dot(local, right) / across, dot(local, up) / dot(up, up));
-    return area_point(light, light.kind == LIGHT_RECT ? clamp(uv, -1.0, 1.0) : uv);
+// The LTC table, bilinear between its cells, for perceptual roughness `roughness` and view
+// cosine `n_dot_v`; `half_` picks the half: 0 the inverse matrix's (a, b, c, d), 1 the
+// lobe's magnitude (render::lights::ltc has the layout).
+vec4 ltc_lookup(float roughness, float n_dot_v, int half_) {
+    vec2 cell = clamp(vec2(sqrt(max(1.0 - n_dot_v, 0.0)), roughness), 0.0, 1.0) * float(LTC_SIZE - 1u);
+    ivec2 lo = min(ivec2(cell), ivec2(int(LTC_SIZE) - 2));
+    vec2 f = cell - vec2(lo);
+    lo.x += half_ * int(LTC_SIZE);
+    vec4 t00 = texelFetch(textures[TEXTURE_LTC], lo, 0), t10 = texelFetch(textures[TEXTURE_LTC], lo + ivec2(1, 0), 0);
+    vec4 t01 = texelFetch(textures[TEXTURE_LTC], lo + ivec2(0, 1), 0), t11 = texelFetch(textures[TEXTURE_LTC], lo + ivec2(1, 1), 0);
+    return mix(mix(t00, t10, f.x), mix(t01, t11, f.x), f.y);
 }
 
-// The share of GGX's distribution of normals (D·(n·h), alpha `alpha`) within `tan_theta` of its
-// peak: its cumulative distribution, tan²θ / (α² + tan²θ).
-float ggx_share_within(float tan_theta, float alpha) {
-    float t2 = tan_theta * tan_theta;
-    return t2 / (alpha * alpha + t2);
+// The share of the GGX lobe (normalised to 1) that the light's polygon `g` covers, for normal
+// `n`, view `v` and perceptual roughness `roughness`: the polygon in the shading frame (x along
+// the view's tangent, z the normal), transformed by the lobe's inverse LTC and integrated as a
+// clamped cosine (Heitz et al. 2016, §4–5).
+float area_ltc_share(AreaPolygon g, vec3 n, vec3 v, float roughness, float n_dot_v) {
+    vec3 t1 = v - n * dot(n, v);
+    t1 = dot(t1, t1) > 1e-10 ? normalize(t1) : normalize(cross(n, abs(n.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0)));
+    vec3 t2 = cross(n, t1);
+    vec4 m = ltc_lookup(roughness, n_dot_v, 0);
+    // GLSL's mat3 takes columns: M⁻¹ = [[a, 0, b], [0, c, 0], [d, 0, 1]].
+    mat3 inverse_ltc = mat3(vec3(m.x, 0.0, m.w), vec3(0.0, m.z, 0.0), vec3(m.y, 0.0, 1.0));
+    AreaPolygon lobe = area_transformed(g, inverse_ltc * transpose(mat3(t1, t2, n)));
+    // Clipped where the transformed cosine ends, z' ≥ 0, as Heitz et al. do; the cosine reaches
+    // a little below the surface's own horizon there, where the lobe is nothing, so a light the
+    // horizon cuts (a panel standing on the floor) reflects somewhat too much. Clipping to that
+    // horizon as well, (−d, 0, a)·x' ≥ 0 in the transformed space, took the test's rectangle
+    // from 51 % to 36 % and the corridor's shading from 0.52 to 0.80 ms on the H200
+    // (docs/experiments/area-lights-ltc-table.md).
+    vec3 towards;
+    return polygon_form_factor(lobe, vec3(0.0, 0.0, 1.0), towards);
 }
 
 // The radiance reflected towards `v` from an area light of radiance `light.color` that `p`
@@ -188,35 +214,19 @@ float ggx_share_within(float tan_theta, float alpha) {
 // `n`, without shadow.
 // - Diffuse: the renormalised Disney factor taken towards where the light comes from on
 //   average, by the exact form factor.
-// - Specular: the lobe's value at the most representative point over the light's
-//   cosine-weighted solid angle, which is exact while the lobe is wider than the light; a light
-//   wider than the lobe reflects no more than the share of the lobe's normals it spans (seen as
-//   a cone of its solid angle, half of it in normals, centred on the lobe) of what the whole
-//   lobe reflects (the split sum's env_brdf_approx).
+// - Specular: the share of the GGX lobe the face covers (area_ltc_share) times what the whole
+//   lobe reflects with Schlick's Fresnel (the table's scale and bias of F0).
 vec3 area_light_brdf(GpuLight light, SurfaceBrdf s, vec3 p, vec3 n, vec3 v) {
     vec3 towards;
-    float form = area_form_factor(light, p, n, towards);
+    AreaPolygon g = area_polygon(light, p);
+    float form = polygon_form_factor(g, n, towards);
     if (!(form > 0.0)) return vec3(0.0);
     float n_dot_v = min(abs(dot(n, v)) + 1e-5, 1.0);
     vec3 hd = normalize(v + towards);
     float fd = fd_disney_renormalized(n_dot_v, clamp(dot(n, towards), 0.0, 1.0), clamp(dot(towards, hd), 0.0, 1.0), s.roughness);
     vec3 diffuse = s.diffuse_color * fd * form;
-    vec3 ls = normalize(area_representative_point(light, p, reflect(-v, n)) - p);
-    float n_dot_l = dot(n, ls);
-    vec3 specular = vec3(0.0);
-    if (n_dot_l > 0.0) {
-        vec3 h = normalize(v + ls);
-        vec3 f = f_schlick(s.f0, 1.0, clamp(dot(ls, h), 0.0, 1.0));
-        float normals = d_ggx(clamp(dot(n, h), 0.0, 1.0), s.alpha);
-        float lobe = normals * v_smith_ggx_correlated(n_dot_v, n_dot_l, s.alpha);
-        // The solid angle of the part above the horizon, from its cosine-weighted one.
-        float solid_angle = min(PI * form / max(dot(n, towards), 0.05), 2.0 * PI);
-        float cone = acos(clamp(1.0 - solid_angle / (2.0 * PI), -1.0, 1.0));
-        float share = ggx_share_within(tan(0.5 * min(cone, 0.5 * PI)), s.alpha);
-        // Off the lobe's peak, the share shrinks as the normals there thin out (D against its peak).
-        float off_peak = normals * PI * s.alpha * s.alpha;
-        specular = min(f * lobe * PI * form, env_brdf_approx(s.f0, s.roughness, n_dot_v) * share * off_peak);
-    }
+    vec2 magnitude = ltc_lookup(s.roughness, n_dot_v, 1).xy;
+    vec3 specular = (s.f0 * magnitude.x + magnitude.y) * area_ltc_share(g, n, v, s.roughness, n_dot_v);
     return (diffuse + specular) * light.color;
 }
 

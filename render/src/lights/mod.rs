@@ -5,7 +5,8 @@
 //! plans its passes from this frame's [`LightFrame`]), the ambient occlusion (`crate::occlusion`),
 //! the reflections and the environment. The light records themselves live in the scene's
 //! tables, kept by change detection, and the shading math in `shaders/include/lighting.glsl`
-//! and `shading.glsl`. Seed 001 §4.2 (tiled light culling), seed 000 §5.2.5 (ray-query lights).
+//! and `shading.glsl` (area lights' in `area_lights.glsl`, with the fitted table [`ltc`]). Seed
+//! 001 §4.2 (tiled light culling), seed 000 §5.2.5 (ray-query lights).
 //!
 //! Each frame function calls, in order: [`Lighting::prepare`] before the scene's upload (it sizes
 //! the buffers and writes the lighting record the shaders find them through), [`Lighting::build`]
@@ -13,6 +14,7 @@
 //! frame's depth exists (light culling; the frame function records the shadow pass after it).
 //! The shading passes then declare [`declare_light_reads`].
 
+pub mod ltc;
 pub mod ray_query;
 pub mod sampling;
 pub mod tiles;

@@ -110,13 +110,14 @@ impl MeshLods {
 }
 
 /// Bytes of one level of `width` × `height` texels of a texture `format` the renderer samples:
-/// RGBA8 (UNORM or sRGB), or the block-compressed BC1 (RGB or RGBA), BC3, BC4, BC5 and BC7 (4×4 texels a
+/// RGBA8 (UNORM or sRGB), RGBA32F (the renderer's own tables), or the block-compressed BC1 (RGB or RGBA), BC3, BC4, BC5 and BC7 (4×4 texels a
 /// block). `None` for any other format.
 pub fn level_bytes(format: ash::vk::Format, width: u32, height: u32) -> Option<u64> {
     use ash::vk::Format as F;
     let blocks = width.div_ceil(4) as u64 * height.div_ceil(4) as u64;
     match format {
         F::R8G8B8A8_UNORM | F::R8G8B8A8_SRGB => Some(width as u64 * height as u64 * 4),
+        F::R32G32B32A32_SFLOAT => Some(width as u64 * height as u64 * 16),
         F::BC1_RGB_UNORM_BLOCK | F::BC1_RGB_SRGB_BLOCK | F::BC1_RGBA_UNORM_BLOCK | F::BC1_RGBA_SRGB_BLOCK | F::BC4_UNORM_BLOCK => {
             Some(blocks * 8)
         }

@@ -143,9 +143,12 @@ fn integrate_area(point: impl Fn(Vec2) -> Vec3, area: f32, facing: Vec3, p: Vec3
 /// factor; the disk a 16-gon of its area) but takes Disney's retro-reflection factor towards the
 /// light's mean direction: on the rough dielectric the relative error per pixel is 3.1 % on
 /// average, 8.8 % at the 95th percentile for the rectangle (the horizon's cut), 1.2 % and 1.7 %
-/// for the disk. The specular term is the most representative point's (area_lights.glsl), an
-/// approximation: on the glossy metal 60 % and 147 % for the rectangle, 20 % and 49 % for the
-/// disk, so its bound only catches a light gone wrong (docs/lights-and-shadows.md).
+/// for the disk (2.7 % and 6.9 %, 0.18 % and 0.51 % with the LTC specular term's share in them).
+/// The specular term is a fitted linearly transformed cosine (area_lights.glsl,
+/// `render::lights::ltc`), which follows the GGX lobe closely seen from above and less so at
+/// grazing views and in the lobe's tails: on the glossy metal 51 % and 85 % for the rectangle
+/// (the representative point it replaced: 60 % and 147 %), 16 % and 60 % for the disk (20 % and
+/// 49 %). Its bound catches a table read wrong or a lobe gone astray (docs/lights-and-shadows.md).
 #[test]
 fn area_lights_match_the_brdf_integrated_over_their_face() {
     let (w, h) = (96u32, 72u32);
@@ -222,7 +225,7 @@ fn area_lights_match_the_brdf_integrated_over_their_face() {
             errors.last().unwrap()
         );
         assert!(errors.len() > 150, "{shape}: the light lights the plane ({} pixels)", errors.len());
-        let (mean_bound, p95_bound) = if metallic > 0.0 { (0.7, 1.6) } else { (0.05, 0.1) };
+        let (mean_bound, p95_bound) = if metallic > 0.0 { (0.6, 1.0) } else { (0.05, 0.1) };
         assert!(mean <= mean_bound && p95 <= p95_bound, "{shape} on material {material}: relative error mean {mean}, p95 {p95}");
     }
 }

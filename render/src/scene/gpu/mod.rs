@@ -316,6 +316,18 @@ impl GpuScene {
         Ok(scene)
     }
 
+    /// Adds a texture of the renderer's own (a technique's table, such as the area lights'
+    /// `crate::lights::ltc`) at a reserved bindless slot: it goes up with the next upload, which
+    /// does not count it among the scene's uploaded bytes.
+    pub fn add_builtin_texture(&mut self, slot: u32, data: TextureData) -> Result<(), RenderError> {
+        if slot < RESERVED_TEXTURES {
+            self.builtins.push((slot, data));
+            Ok(())
+        } else {
+            Err(RenderError::Other(format!("built-in texture slot {slot} is not below RESERVED_TEXTURES ({RESERVED_TEXTURES})")))
+        }
+    }
+
     /// Brings the GPU scene up to date with `mirror`: prepares copies of what is dirty (only
     /// dirty records, new meshes and new textures) and records them as the frame's `upload`
     /// pass. Returns the number of decal boxes rewritten (they drive the BLAS refit).

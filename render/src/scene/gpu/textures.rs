@@ -206,7 +206,8 @@ impl GpuScene {
             return Err(RenderError::Other(format!("texture slot {slot} exceeds the bindless array ({MAX_TEXTURES})")));
         }
         let rgba8 = matches!(data.format, vk::Format::R8G8B8A8_UNORM | vk::Format::R8G8B8A8_SRGB);
-        if !rgba8 && !ctx.capabilities.texture_compression_bc {
+        let compressed = !rgba8 && data.format != vk::Format::R32G32B32A32_SFLOAT;
+        if compressed && !ctx.capabilities.texture_compression_bc {
             // No device this renderer runs on lacks BC: one that did gets the texture decoded
             // to RGBA8 (four times the memory), with one warning.
             let Some(decoded) = crate::scene::bc::decode_to_rgba8(data) else {
@@ -218,8 +219,9 @@ impl GpuScene {
             }
             return self.prepare_texture(up, copies, slot, &decoded);
         }
-        // A block-compressed copy's offset must be a multiple of the block's bytes: each level
-        // of such a texture starts 16-byte aligned (RGBA8 levels are multiples of 4 as they are).
+        // A copy's offset must be a multiple of the texel block's bytes: each level of a
+        // block-compressed or RGBA32F texture starts 16-byte aligned (RGBA8 levels are
+        // multiples of 4 as they are).
         let align = if rgba8 { 4 } else { 16 };
         let mut offset = 0usize;
         for (level, mip) in data.mips.iter().enumerate() {
