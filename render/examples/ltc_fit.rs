@@ -20,8 +20,9 @@
 //! split sum writes it, the scale and bias of F0 (∫ lobe · (1 − (1 − v·h)⁵) and ∫ lobe · (1 − v·h)⁵,
 //! Schlick's Fresnel), as Heitz et al.'s second table carries it.
 //!
-//! Row `r` is perceptual roughness `r / (LTC_SIZE − 1)` (at least `MIN_ROUGHNESS`, as shading
-//! clamps it), column `c` is √(1 − n·v) = `c / (LTC_SIZE − 1)`. About 3 minutes (release).
+//! Row `r` is perceptual roughness `r / (LTC_SIZE − 1)` (row 0, roughness 0, repeats row 1:
+//! shading clamps roughness to 0.045, between rows 1 and 2), column `c` is √(1 − n·v) =
+//! `c / (LTC_SIZE − 1)`. About 3 minutes (release).
 
 use glam::{DMat3, DVec3};
 use std::f64::consts::PI;
@@ -31,8 +32,6 @@ use std::f64::consts::PI;
 const SIZE: usize = 32;
 /// Directions drawn from each of the two distributions to estimate the error.
 const SAMPLES: u32 = 2048;
-/// The smallest perceptual roughness the shading uses (`surface_brdf` clamps to it).
-const MIN_ROUGHNESS: f64 = 0.045;
 
 fn d_ggx(n_dot_h: f64, alpha: f64) -> f64 {
     let a2 = alpha * alpha;
@@ -214,7 +213,9 @@ fn main() {
         let mut guess = [1.0, 1.0, 0.0];
         let mut last_alpha = 1.0;
         for row in (0..SIZE).rev() {
-            let roughness = (row as f64 / (SIZE - 1) as f64).max(MIN_ROUGHNESS);
+            // Row 0 (roughness 0, no lobe) repeats row 1: shading clamps roughness to 0.045
+            // (`surface_brdf`), which falls between rows 1 and 2, so row 0 is never read.
+            let roughness = row.max(1) as f64 / (SIZE - 1) as f64;
             let lobe = Lobe::new(roughness, cos_v);
             if row == SIZE - 1 {
                 guess = [1.0, 1.0, 0.0];

@@ -170,7 +170,7 @@ fn lit_quad_renders_and_quiet_frames_upload_nothing() {
 /// A device that cannot sample BC textures (as `without_texture_compression` pretends) gets
 /// them decoded to RGBA8: the BC1 cyan texture shades the quad cyan, and no BC image exists.
 #[test]
-fn without_bc_textures_are_decoded_to_rgba8() {
+fn without_bc_textures_are_decoded_to_rgba8_and_float_scene_textures_are_refused() {
     let (w, h) = (32, 24);
     let device = render::DeviceSettings { without_texture_compression: true, ..Default::default() };
     let mut r = Renderer::new(&RendererSettings { device, ..Default::default() }, w, h).expect("renderer");
@@ -197,4 +197,9 @@ fn without_bc_textures_are_decoded_to_rgba8() {
     assert_eq!(bc, 0, "no BC image on a device without BC: {memory:?}");
     let errors = r.take_validation_errors();
     assert!(errors.is_empty(), "validation errors: {errors:#?}");
+    // RGBA32F is for the renderer's own tables in built-in slots (the area lights' LTC table),
+    // fetched texel by texel: a scene texture in it, which materials would filter, is refused.
+    m.add_texture(TextureData { width: 1, height: 1, format: ash::vk::Format::R32G32B32A32_SFLOAT, mips: vec![vec![0; 16]] });
+    let refused = r.render(&mut m, &settings).expect_err("an RGBA32F scene texture is refused");
+    assert!(refused.to_string().contains("RGBA32F"), "{refused}");
 }

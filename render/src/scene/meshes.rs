@@ -110,7 +110,7 @@ impl MeshLods {
 }
 
 /// Bytes of one level of `width` × `height` texels of a texture `format` the renderer samples:
-/// RGBA8 (UNORM or sRGB), RGBA32F (the renderer's own tables), or the block-compressed BC1 (RGB or RGBA), BC3, BC4, BC5 and BC7 (4×4 texels a
+/// RGBA8 (UNORM or sRGB), RGBA32F (the renderer's own tables, in built-in slots only), or the block-compressed BC1 (RGB or RGBA), BC3, BC4, BC5 and BC7 (4×4 texels a
 /// block). `None` for any other format.
 pub fn level_bytes(format: ash::vk::Format, width: u32, height: u32) -> Option<u64> {
     use ash::vk::Format as F;

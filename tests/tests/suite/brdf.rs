@@ -143,11 +143,11 @@ fn integrate_area(point: impl Fn(Vec2) -> Vec3, area: f32, facing: Vec3, p: Vec3
 /// factor; the disk a 16-gon of its area) but takes Disney's retro-reflection factor towards the
 /// light's mean direction: on the rough dielectric the relative error per pixel is 3.1 % on
 /// average, 8.8 % at the 95th percentile for the rectangle (the horizon's cut), 1.2 % and 1.7 %
-/// for the disk (2.7 % and 6.9 %, 0.18 % and 0.51 % with the LTC specular term's share in them).
+/// for the disk (2.7 % and 7.0 %, 0.19 % and 0.51 % with the LTC specular term's share in them).
 /// The specular term is a fitted linearly transformed cosine (area_lights.glsl,
 /// `render::lights::ltc`), which follows the GGX lobe closely seen from above and less so at
 /// grazing views and in the lobe's tails: on the glossy metal 51 % and 85 % for the rectangle
-/// (the representative point it replaced: 60 % and 147 %), 16 % and 60 % for the disk (20 % and
+/// (the representative point it replaced: 60 % and 147 %), 16 % and 59 % for the disk (20 % and
 /// 49 %). Its bound catches a table read wrong or a lobe gone astray (docs/lights-and-shadows.md).
 #[test]
 fn area_lights_match_the_brdf_integrated_over_their_face() {

@@ -14,7 +14,8 @@
 //! lights (docs/experiments/area-lights-ltc-table.md).
 //!
 //! The texture is `2 × LTC_SIZE` texels wide and [`LTC_SIZE`] high, RGBA32F: row `r` is
-//! perceptual roughness `r / (LTC_SIZE − 1)` (fitted at 0.045 at least, as shading clamps it),
+//! perceptual roughness `r / (LTC_SIZE − 1)` (row 0 repeats row 1: shading clamps roughness to
+//! 0.045, between rows 1 and 2),
 //! column `c < LTC_SIZE` is √(1 − n·v) = `c / (LTC_SIZE − 1)` and holds (a, b, c, d) of
 //! M⁻¹ = [[a, 0, b], [0, c, 0], [d, 0, 1]] in the shading frame (x along the view's tangent, z
 //! the normal); column `LTC_SIZE + c` holds the magnitude's (scale, bias, 0, 0).

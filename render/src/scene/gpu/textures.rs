@@ -206,7 +206,15 @@ impl GpuScene {
             return Err(RenderError::Other(format!("texture slot {slot} exceeds the bindless array ({MAX_TEXTURES})")));
         }
         let rgba8 = matches!(data.format, vk::Format::R8G8B8A8_UNORM | vk::Format::R8G8B8A8_SRGB);
-        let compressed = !rgba8 && data.format != vk::Format::R32G32B32A32_SFLOAT;
+        let table = data.format == vk::Format::R32G32B32A32_SFLOAT;
+        if table && slot >= RESERVED_TEXTURES {
+            // Fetched texel by texel by the technique that owns it: the materials' sampler filters
+            // linearly, which devices need not offer for 32-bit floats.
+            return Err(RenderError::Other(format!(
+                "texture slot {slot}: RGBA32F is for the renderer's own tables in built-in slots; scene textures are RGBA8 or block-compressed"
+            )));
+        }
+        let compressed = !rgba8 && !table;
         if compressed && !ctx.capabilities.texture_compression_bc {
             // No device this renderer runs on lacks BC: one that did gets the texture decoded
             // to RGBA8 (four times the memory), with one warning.
