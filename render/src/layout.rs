@@ -1291,7 +1291,9 @@ layout! {
         /// Direct lighting (`crate::lights::sampling`): a pixel whose light list holds more
         /// lights than this samples their shadows (one ray to a light drawn in proportion to its
         /// unshadowed light, `shaders/include/direct_sampling.glsl`) instead of a ray per light;
-        /// `u32::MAX` while no pixel samples.
+        /// `u32::MAX` while no pixel samples. With ray-query lights, which find a pixel's lights
+        /// while shading it (`shaders/include/ray_query_lights.glsl`): the lights a pixel traces a
+        /// ray each before it draws from the rest.
         pub sampled_lights_above: u32,
         /// Address of the particle system's state (`GpuParticleState`, `crate::particles`; 0
         /// while no emitter or particle exists).

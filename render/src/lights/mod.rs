@@ -232,12 +232,17 @@ impl Lighting {
         };
         let debug = shadows != ShadowMethod::None && !enumerated && s.debug_view.reads_shadow_debug();
         let listed = shadows != ShadowMethod::None && !enumerated;
-        let sampled_lights_above = sampling::sampled_lights_above(l.direct_light, shadows, listed, mirror.lights.len() as u32);
+        // What shading draws from: the light lists, or the lights the ray-query lights find
+        // (which sample inline, with no shadow pass, denoiser or ratio: `sampled_lights_above`
+        // stays `u32::MAX` for the passes, and the GPU record gets the walk's threshold).
+        let drawn = shadows != ShadowMethod::None;
+        let sampled_gpu = sampling::sampled_lights_above(l.direct_light, shadows, drawn, mirror.lights.len() as u32);
+        let sampled_lights_above = if enumerated { u32::MAX } else { sampled_gpu };
         let rays = matches!(shadows, ShadowMethod::RayQuery | ShadowMethod::RayPipeline);
         // Searched every frame (a comparison while lights are still), so that no change is missed.
         let found = self.search.find(&mirror.lights);
-        let suns = if sampled_lights_above == u32::MAX { sampling::Suns::default() } else { found };
-        let direct_light = sampling::applied(sampled_lights_above, listed && rays);
+        let suns = if sampled_gpu == u32::MAX { sampling::Suns::default() } else { found };
+        let direct_light = sampling::applied(sampled_gpu, drawn && rays);
         let interlaced = glass && s.transparency.effective(s.pipeline).interlaces();
         let reflect = reflections.on() && (!reflections.traced() || accel.tlas_address != 0);
         // A particle is lit from the list of the tile its centre falls in, wherever it floats
@@ -315,7 +320,7 @@ impl Lighting {
             display_check: 0, // the renderer's to set (`GpuScene::set_display_check`)
             movers: 0,        // the upload's to set
             lod_lift: 0.0,    // the frame's to set (`GpuScene::set_lod_lift`)
-            sampled_lights_above,
+            sampled_lights_above: sampled_gpu,
             particles: 0, // the particles' to set (`GpuScene::set_particles`, `set_decal_ring`)
             decal_ring: 0,
             decal_ring_boxes: 0,

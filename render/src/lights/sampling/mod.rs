@@ -13,8 +13,14 @@
 //!   (none when the scene has no more lights than that: the frame is then exhaustive, as
 //!   `"direct_light"` says, and the denoiser does not run).
 //!   The shadow pass and shading compare the same list, so they agree pixel by pixel with no
-//!   image between them. Only ray-traced shadows of tiled or every-light lists sample: the glass
-//!   layer, shadow maps and ray-query lights stay exhaustive.
+//!   image between them. Only ray-traced shadows of tiled or every-light lists sample this way:
+//!   the glass layer and shadow maps stay exhaustive.
+//! - **Ray-query lights** have no list and no shadow pass: shading finds a pixel's lights and
+//!   traces their rays itself. It samples there, inline (`shaders/include/ray_query_lights.glsl`):
+//!   the first `sampled_lights_above` lights found get a ray each, the rest are summed
+//!   unshadowed while one of them is drawn in proportion to its light (the whole BRDF's: the
+//!   material is at hand), and one ray to it scales the sum. The pixel's own ratio, with no
+//!   denoiser: the frame's [`LightFrame::samples`](super::LightFrame::samples) stays false.
 //! - **Drawing** (`shaders/include/direct_sampling.glsl`, in the shadow pass). A pixel weighs
 //!   the lights of its list by their unshadowed light on a diffuse surface at the point, draws
 //!   one in proportion by weighted reservoir sampling (one pass, no table), and traces one ray
@@ -127,19 +133,21 @@ pub struct ShadowSampling {
 
 /// The list length above which a pixel samples its lights' shadows this frame
 /// (`GpuLighting::sampled_lights_above`; `u32::MAX`: none samples): only ray-traced shadows of
-/// light lists (`listed`) sample, and none when the scene's live `lights` are no more than
-/// the method traces a ray each for: no list can be longer, so the frame is exhaustive and the
+/// lights a pixel can draw from (`drawn`: its light list, or the lights the ray-query lights
+/// find while shading) sample, and none when the scene's live `lights` are no more than the
+/// method traces a ray each for: no pixel can find more, so the frame is exhaustive and the
 /// denoiser does not run (the peer scene's 28 lights under `auto`).
-pub fn sampled_lights_above(direct: DirectLight, shadows: ShadowMethod, listed: bool, lights: u32) -> u32 {
+pub fn sampled_lights_above(direct: DirectLight, shadows: ShadowMethod, drawn: bool, lights: u32) -> u32 {
     match shadows {
-        ShadowMethod::RayQuery | ShadowMethod::RayPipeline if listed && lights > direct.exhaustive_up_to() => direct.exhaustive_up_to(),
+        ShadowMethod::RayQuery | ShadowMethod::RayPipeline if drawn && lights > direct.exhaustive_up_to() => direct.exhaustive_up_to(),
         _ => u32::MAX,
     }
 }
 
-/// The method a frame applied, for statistics: `None` without traced shadows of light lists.
-pub fn applied(sampled_lights_above: u32, listed_and_traced: bool) -> Option<DirectLight> {
-    listed_and_traced.then_some(match sampled_lights_above {
+/// The method a frame applied, for statistics: `None` without traced shadows of lights a pixel
+/// draws from.
+pub fn applied(sampled_lights_above: u32, drawn_and_traced: bool) -> Option<DirectLight> {
+    drawn_and_traced.then_some(match sampled_lights_above {
         u32::MAX => DirectLight::Exhaustive,
         0 => DirectLight::Stochastic,
         _ => DirectLight::Auto,
@@ -247,7 +255,7 @@ mod tests {
             assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, true, 1000), 0);
             assert_eq!(sampled_lights_above(DirectLight::Auto, shadows, true, 1000), DirectLight::AUTO_EXHAUSTIVE_UP_TO);
             assert_eq!(sampled_lights_above(DirectLight::Exhaustive, shadows, true, 1000), u32::MAX);
-            assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, false, 1000), u32::MAX, "ray-query lights");
+            assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, false, 1000), u32::MAX, "nothing drawn from");
             // No list can be longer than the scene's lights.
             let few = DirectLight::AUTO_EXHAUSTIVE_UP_TO;
             assert_eq!(sampled_lights_above(DirectLight::Auto, shadows, true, few), u32::MAX, "auto with few lights");
