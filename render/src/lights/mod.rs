@@ -231,7 +231,6 @@ impl Lighting {
             _ => ShadowMethod::None,
         };
         let debug = shadows != ShadowMethod::None && !enumerated && s.debug_view.reads_shadow_debug();
-        let listed = shadows != ShadowMethod::None && !enumerated;
         // What shading draws from: the light lists, or the lights the ray-query lights find
         // (which sample inline, with no shadow pass, denoiser or ratio: `sampled_lights_above`
         // stays `u32::MAX` for the passes, and the GPU record gets the walk's threshold).
