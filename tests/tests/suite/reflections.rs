@@ -8,7 +8,7 @@
 use engine::prelude::*;
 use plugins::decal::{Decal, DecalMaterial};
 use plugins::{RenderSettings, RenderStats};
-use render::{DecalMethod, PipelineKind, ReflectionMode, ReflectionSettings, Tier};
+use render::{DecalMethod, DirectLight, PipelineKind, ReflectionMode, ReflectionSettings, Tier};
 use tests::{assert_no_validation_errors, gpu_app_at, renderer};
 
 const SIZE: (u32, u32) = (96, 72);
@@ -368,11 +368,30 @@ fn a_mirror_shows_what_a_light_the_camera_does_not_see_lights_and_its_shadow() {
         let dark = render(&mut app);
         app.world.spawn((PointLight { intensity: 5.0, range: Some(1.0), ..Default::default() }, Transform::from_xyz(0.0, 1.0, 2.4)));
         let lit = render(&mut app);
+        // On the ray-query tier the hit point's lights are drawn from as ray-query lights draw
+        // (`shaders/include/ray_query_lights.glsl`): with one light the draw is that light, so
+        // the panel looks the same lit and shadowed.
+        let sampled = |app: &mut App| {
+            (tier == Tier::RayQuery).then(|| {
+                app.world.resource_mut::<RenderSettings>().lights.direct_light = DirectLight::Stochastic;
+                let seen = render(app);
+                app.world.resource_mut::<RenderSettings>().lights.direct_light = DirectLight::Auto;
+                seen
+            })
+        };
+        let lit_sampled = sampled(&mut app);
         // 10 cm in front of the light: its shadow covers the panel; its own image, the middle of
         // the panel's.
         app.world.spawn((MeshInstance { mesh: small, material: panel }, Transform::from_xyz(0.0, 1.0, 2.5)));
         let shadowed = render(&mut app);
         eprintln!("{tier:?} {pipeline:?}: the panel in the mirror unlit {dark}, lit {lit}, in the occluder's shadow {shadowed}");
+        if let (Some(lit_sampled), Some(shadowed_sampled)) = (lit_sampled, sampled(&mut app)) {
+            assert!(lit_sampled.abs_diff_eq(lit, 1e-3 * lit.x), "{tier:?} {pipeline:?}: sampled, lit {lit_sampled} against {lit}");
+            assert!(
+                shadowed_sampled.abs_diff_eq(shadowed, 1e-3 * lit.x),
+                "{tier:?} {pipeline:?}: sampled, shadowed {shadowed_sampled} against {shadowed}"
+            );
+        }
         assert!(
             lit.x > 0.1 && lit.x > 10.0 * dark.x,
             "{tier:?} {pipeline:?}: the light behind the camera lights the panel in the mirror: {dark} / {lit}"
