@@ -1,4 +1,4 @@
-// variants: SHADOWED_LIGHTS
+// variants: SHADOWED_LIGHTS SAMPLED_LIGHTS
 #version 460
 // Ray-query lights, miss: the payload already holds every light found.
 #extension GL_EXT_ray_tracing : require

@@ -4,15 +4,28 @@
 // intersection shader (light_rays.rint) runs the exact range test on each box holding the
 // ray's origin; the any-hit shader (light_rays.rahit) adds the light's radiance to the payload
 // and ignores the hit, so traversal goes on to every other light there. Radiance adds up in any
-// order, so the arbitrary order of any-hit invocations changes nothing but rounding. An any-hit
-// shader cannot trace a ray, so these lights cast no shadows on this tier (reported as
-// "shadows":"none"); tiled lights have them.
+// order, so the arbitrary order of any-hit invocations changes nothing but rounding.
+//
+// Shadows: an any-hit shader cannot trace a ray, so it cannot give each light found its shadow
+// ray as the ray-query tier does. With SAMPLED_LIGHTS (the lighting pass's pipeline for frames
+// with shadows) it draws instead (light_draw.glsl): each light found is shaded unshadowed into
+// the payload's sum and offered to a draw in proportion to its light, and the ray-generation
+// shader then traces one shadow ray, to the drawn light, whose share scales the sum; the
+// unbounded lights (the suns among them) get a ray each there. So on this tier ray-query lights'
+// shadows are always sampled, whatever `--direct-light` asks ("direct_light":"stochastic" as
+// applied): a ray each would need every light found kept in the payload.
 #ifndef RAY_PIPELINE_LIGHTS_GLSL
 #define RAY_PIPELINE_LIGHTS_GLSL
 
 #include "color.glsl"
 #include "lighting.glsl"
 #include "light_boxes.glsl"
+#ifdef SAMPLED_LIGHTS
+#ifndef LIGHT_RAYGEN
+#define LIGHT_DRAW_OFFER_ONLY
+#endif
+#include "light_draw.glsl"
+#endif
 
 // The surface travels with the ray (its position is the ray's origin); the radiance and the
 // number of lights found come back. With SHADOWED_LIGHTS (the reflection rays' hit points,
@@ -28,6 +41,9 @@ struct LightPayload {
 #ifdef SHADOWED_LIGHTS
     uint slots[LIGHT_SHADOW_SLOTS];    // light slots (NO_SHADOWED_LIGHT: none)
     vec3 slot_color[LIGHT_SHADOW_SLOTS];
+#endif
+#ifdef SAMPLED_LIGHTS
+    LightDraw draw;                    // the lights found, drawn from (`color` stays empty)
 #endif
 };
 const uint NO_SHADOWED_LIGHT = 0xFFFFFFFFu;
@@ -63,6 +79,19 @@ void keep_light(inout LightPayload p, uint slot, vec3 c) {
 #endif
 layout(location = LIGHT_PAYLOAD_LOCATION) rayPayloadEXT LightPayload light_payload;
 
+#ifdef SAMPLED_LIGHTS
+// The lighting pass's shadow rays: the shadow pass's any-hit and miss shaders (shadows.rahit,
+// shadows.rmiss) at hit group and miss index 1, with their payload at location 1.
+layout(location = 1) rayPayloadEXT vec4 shadow_payload;
+
+vec3 shadow_ray_transmittance(vec3 origin, vec3 dir, float tmin, float tmax) {
+    shadow_payload = vec4(1.0, 1.0, 1.0, 0.0);
+    traceRayEXT(accelerationStructureEXT(scene.lighting.lighting.scene_tlas),
+                gl_RayFlagsTerminateOnFirstHitEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF, 1, 0, 1, origin, tmin, dir, tmax, 1);
+    return shadow_payload.w != 0.0 ? shadow_payload.rgb : vec3(0.0);
+}
+#endif
+
 vec3 enumerated_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found) {
     GpuLighting l = scene.lighting.lighting;
     found = 0u;
@@ -72,15 +101,30 @@ vec3 enumerated_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found
     light_payload.view = v;
     light_payload.color = vec3(0.0);
     light_payload.found = 0u;
+#ifdef SAMPLED_LIGHTS
+    light_payload.draw = light_draw_start(s.position);
+    bool cull = (l.flags & SHADOW_RAY_CULLING) != 0u;
+    vec3 facing = dot(s.geometric_normal, v) < 0.0 ? -s.geometric_normal : s.geometric_normal;
+#endif
     UnboundedLightsRef unbounded = UnboundedLightsRef(l.unbounded_lights);
     uint unbounded_count = unbounded.count;
+    vec3 color = vec3(0.0);
     for (uint k = 0u; k < unbounded_count; ++k) {
-        light_payload.color += shade_light(scene.lights.lights[unbounded.slots[k]], brdf, s.position, s.normal, v);
+        uint slot = unbounded.slots[k];
+        GpuLight light = scene.lights.lights[slot];
+        vec3 c = shade_light(light, brdf, s.position, s.normal, v);
+#ifdef SAMPLED_LIGHTS
+        c = shadowed_by_ray(light, slot, c, s.position, facing, cull);
+#endif
+        color += c;
     }
     traceRayEXT(accelerationStructureEXT(l.light_tlas), gl_RayFlagsNoOpaqueEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF, LIGHT_SBT_OFFSET, 0,
                 LIGHT_SBT_OFFSET, s.position, 0.0, vec3(1.0, 0.0, 0.0), 0.0, LIGHT_PAYLOAD_LOCATION);
     found = unbounded_count + light_payload.found;
-    return light_payload.color;
+#ifdef SAMPLED_LIGHTS
+    color += light_draw_resolve(light_payload.draw, s.position, facing, cull);
+#endif
+    return color + light_payload.color;
 }
 #endif
 

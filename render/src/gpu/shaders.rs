@@ -88,6 +88,8 @@ spirv! {
     REFLECTIONS_RMISS = "reflections.rmiss";
     LIGHT_RAYS_RAHIT_SHADOWED_LIGHTS = "light_rays.rahit.SHADOWED_LIGHTS";
     LIGHT_RAYS_RMISS_SHADOWED_LIGHTS = "light_rays.rmiss.SHADOWED_LIGHTS";
+    LIGHT_RAYS_RAHIT_SAMPLED_LIGHTS = "light_rays.rahit.SAMPLED_LIGHTS";
+    LIGHT_RAYS_RMISS_SAMPLED_LIGHTS = "light_rays.rmiss.SAMPLED_LIGHTS";
     DECAL_BOXES_VERT = "decal_boxes.vert";
     GBUFFER_FRAG = "gbuffer.frag";
     GBUFFER_FRAG_ALPHA_MASK = "gbuffer.frag.ALPHA_MASK";
@@ -185,8 +187,12 @@ spirv! {
     VISBUFFER_SHADE_COMP_RAY_QUERY_LIGHTS_DECAL_BUFFER = "visbuffer_shade.comp.RAY_QUERY_LIGHTS+DECAL_BUFFER";
     DEFERRED_LIGHTING_RGEN = "deferred_lighting.rgen";
     DEFERRED_LIGHTING_RGEN_DECAL_BUFFER = "deferred_lighting.rgen.DECAL_BUFFER";
+    DEFERRED_LIGHTING_RGEN_SAMPLED_LIGHTS = "deferred_lighting.rgen.SAMPLED_LIGHTS";
+    DEFERRED_LIGHTING_RGEN_SAMPLED_LIGHTS_DECAL_BUFFER = "deferred_lighting.rgen.SAMPLED_LIGHTS+DECAL_BUFFER";
     VISBUFFER_SHADE_RGEN = "visbuffer_shade.rgen";
     VISBUFFER_SHADE_RGEN_DECAL_BUFFER = "visbuffer_shade.rgen.DECAL_BUFFER";
+    VISBUFFER_SHADE_RGEN_SAMPLED_LIGHTS = "visbuffer_shade.rgen.SAMPLED_LIGHTS";
+    VISBUFFER_SHADE_RGEN_SAMPLED_LIGHTS_DECAL_BUFFER = "visbuffer_shade.rgen.SAMPLED_LIGHTS+DECAL_BUFFER";
     LIGHT_RAYS_RINT = "light_rays.rint";
     LIGHT_RAYS_RAHIT = "light_rays.rahit";
     LIGHT_RAYS_RMISS = "light_rays.rmiss";

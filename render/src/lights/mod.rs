@@ -223,9 +223,10 @@ impl Lighting {
         };
         let tiles = self.tiles.prepare(f, &request, &mut stats)?;
         counters.light_tiles = stats;
-        // Ray-query lights trace their shadow rays while shading, with ray queries only.
+        // Ray-query lights trace their shadow rays while shading: a ray each on the ray-query
+        // tier, one to a light drawn from those found on the ray-tracing-pipeline tier.
         let shadows = match traced {
-            ShadowMethod::RayQuery if enumerated => ShadowMethod::RayQuery,
+            ShadowMethod::RayQuery | ShadowMethod::RayPipeline if enumerated => traced,
             _ if enumerated => ShadowMethod::None,
             t if tiles.shadows => t,
             _ => ShadowMethod::None,
@@ -235,7 +236,10 @@ impl Lighting {
         // (which sample inline, with no shadow pass, denoiser or ratio: `sampled_lights_above`
         // stays `u32::MAX` for the passes, and the GPU record gets the walk's threshold).
         let drawn = shadows != ShadowMethod::None;
-        let sampled_gpu = sampling::sampled_lights_above(l.direct_light, shadows, drawn, mirror.lights.len() as u32);
+        // An any-hit shader cannot trace: on the ray-tracing-pipeline tier ray-query lights
+        // always draw (`shaders/include/ray_pipeline_lights.glsl`), and say so.
+        let direct = if enumerated && shadows == ShadowMethod::RayPipeline { DirectLight::Stochastic } else { l.direct_light };
+        let sampled_gpu = sampling::sampled_lights_above(direct, shadows, drawn, mirror.lights.len() as u32);
         let sampled_lights_above = if enumerated { u32::MAX } else { sampled_gpu };
         let rays = matches!(shadows, ShadowMethod::RayQuery | ShadowMethod::RayPipeline);
         // Searched every frame (a comparison while lights are still), so that no change is missed.

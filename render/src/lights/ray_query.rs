@@ -25,8 +25,10 @@
 //!   passes run the query and trace each found light's shadow ray inline
 //!   (`shaders/include/ray_query_lights.glsl`). On the ray-tracing-pipeline tier (the lent GPUs)
 //!   the lighting pass is a ray-generation shader whose any-hit shader shades each light found
-//!   (`shaders/include/ray_pipeline_lights.glsl`); an any-hit shader cannot trace, so those lights
-//!   are unshadowed there and `--stats` says `"shadows":"none"`.
+//!   (`shaders/include/ray_pipeline_lights.glsl`); an any-hit shader cannot trace, so there it
+//!   offers each light to a draw, and the ray-generation shader traces one shadow ray to the
+//!   drawn light ([`crate::lights::sampling`]; `"shadows":"ray_pipeline"` and
+//!   `"direct_light":"stochastic"` in `--stats`).
 
 use ash::vk;
 use gpu_allocator::MemoryLocation;

@@ -153,6 +153,7 @@ impl DeferredPasses {
                     shaders::DEFERRED_LIGHTING_COMP_RAY_QUERY_LIGHTS_DECAL_BUFFER,
                 ],
                 [shaders::DEFERRED_LIGHTING_RGEN, shaders::DEFERRED_LIGHTING_RGEN_DECAL_BUFFER],
+                [shaders::DEFERRED_LIGHTING_RGEN_SAMPLED_LIGHTS, shaders::DEFERRED_LIGHTING_RGEN_SAMPLED_LIGHTS_DECAL_BUFFER],
             ),
             decals,
         })

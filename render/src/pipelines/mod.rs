@@ -422,10 +422,13 @@ fn transparent_depth(f: &mut Frame, r: &FrameParts, draws: &Draws, mirror: &Scen
 /// A lighting pass with ray-query lights (`crate::lights::ray_query`): on the ray-query tier
 /// the compute variants whose lights come from ray queries, in each way they apply decals; on
 /// the ray-tracing-pipeline tier a ray-generation pipeline (`[plain, decal buffer]`) whose
-/// lights come from a traced zero-length ray, shaded in its any-hit shader.
+/// lights come from a traced zero-length ray, shaded in its any-hit shader, and another for
+/// frames with shadows, whose any-hit shader draws one of the lights for the ray-generation
+/// shader's one shadow ray (`shaders/include/ray_pipeline_lights.glsl`).
 pub struct RayLightShading {
     compute: Option<ShadeVariants>,
     rays: Option<LazyRays>,
+    shadowed: Option<LazyRays>,
 }
 
 impl RayLightShading {
@@ -438,17 +441,19 @@ impl RayLightShading {
         name: &'static str,
         compute: [&'static [u8]; 3],
         raygen: [&'static [u8]; 2],
+        raygen_shadowed: [&'static [u8]; 2],
     ) -> Self {
         if ctx.tier == Tier::RayQuery {
             let compute = ShadeVariants::new(ctx, compute, move |ctx, spirv, spec| {
                 crate::gpu::pipeline::create_compute_specialized(ctx, layout, name, spirv, spec)
             });
-            return Self { compute: Some(compute), rays: None };
+            return Self { compute: Some(compute), rays: None, shadowed: None };
         }
         if !ctx.ray_support().ray_pipeline {
-            return Self { compute: None, rays: None };
+            return Self { compute: None, rays: None, shadowed: None };
         }
-        Self { compute: None, rays: Some(LazyRays { made: std::sync::OnceLock::new(), layout, name, raygen }) }
+        let lazy = |raygen, shadows| LazyRays { made: std::sync::OnceLock::new(), layout, name, raygen, shadows };
+        Self { compute: None, rays: Some(lazy(raygen, false)), shadowed: Some(lazy(raygen_shadowed, true)) }
     }
 
     /// The kind of pass it records, `None` on a device that has neither.
@@ -461,22 +466,32 @@ impl RayLightShading {
     }
 
     /// The pipeline that shades with this frame's `decals` and `lights` (made now if no frame
-    /// used it before), `None` on a device that has neither kind. The ray-generation pipeline
-    /// always keeps the area lights' code (one pipeline, with its shader binding table).
+    /// used it before), `None` on a device that has neither kind. The ray-generation pipelines
+    /// always keep the area lights' code (one pipeline each, with its shader binding table):
+    /// the one with shadow rays in frames whose shading traces them
+    /// ([`LightFrame::inline_shadows`]).
     pub fn pick(&self, ctx: &GpuContext, decals: &DecalFrame, lights: &LightFrame) -> Result<Option<RayLightPass<'_>>, RenderError> {
         if let Some(compute) = &self.compute {
             return Ok(Some(RayLightPass { pipeline: compute.pick(ctx, decals.variant(), lights.shading(false))?, rays: None }));
         }
-        let Some(lazy) = &self.rays else { return Ok(None) };
+        let lazy = if lights.inline_shadows.is_some() { &self.shadowed } else { &self.rays };
+        let Some(lazy) = lazy else { return Ok(None) };
         let rays = match lazy.made.get() {
             Some(rays) => rays,
             None => {
-                let desc = RayTracingDesc {
-                    name: lazy.name,
-                    raygen: &lazy.raygen,
-                    misses: &[shaders::LIGHT_RAYS_RMISS],
-                    hit_groups: &[HitGroup::any_hit(shaders::LIGHT_RAYS_RAHIT, Some(shaders::LIGHT_RAYS_RINT))],
+                // Shadow rays take the shadow pass's miss and any-hit shaders, at index 1.
+                let (misses, hit_groups) = if lazy.shadows {
+                    (
+                        &[shaders::LIGHT_RAYS_RMISS_SAMPLED_LIGHTS, shaders::SHADOWS_RMISS][..],
+                        &[
+                            HitGroup::any_hit(shaders::LIGHT_RAYS_RAHIT_SAMPLED_LIGHTS, Some(shaders::LIGHT_RAYS_RINT)),
+                            HitGroup::any_hit(shaders::SHADOWS_RAHIT, None),
+                        ][..],
+                    )
+                } else {
+                    (&[shaders::LIGHT_RAYS_RMISS][..], &[HitGroup::any_hit(shaders::LIGHT_RAYS_RAHIT, Some(shaders::LIGHT_RAYS_RINT))][..])
                 };
+                let desc = RayTracingDesc { name: lazy.name, raygen: &lazy.raygen, misses, hit_groups };
                 let made = RayTracingPipeline::new(ctx, lazy.layout, &desc)?;
                 lazy.made.get_or_init(|| made)
             }
@@ -489,8 +504,10 @@ impl RayLightShading {
         if let Some(c) = self.compute {
             c.destroy(ctx);
         }
-        if let Some(r) = self.rays.and_then(|r| r.made.into_inner()) {
-            r.destroy(ctx);
+        for lazy in [self.rays, self.shadowed].into_iter().flatten() {
+            if let Some(r) = lazy.made.into_inner() {
+                r.destroy(ctx);
+            }
         }
     }
 }
@@ -524,12 +541,14 @@ impl Shade<'_> {
     }
 }
 
-/// The ray-generation pipeline of a [`RayLightShading`], made the first frame that uses it.
+/// A ray-generation pipeline of a [`RayLightShading`], made the first frame that uses it.
 struct LazyRays {
     made: std::sync::OnceLock<RayTracingPipeline>,
     layout: vk::PipelineLayout,
     name: &'static str,
     raygen: [&'static [u8]; 2],
+    /// Whether it traces shadow rays (its lights drawn from: `SAMPLED_LIGHTS`).
+    shadows: bool,
 }
 
 /// The pipeline a [`RayLightShading`] picked for a frame.

@@ -62,6 +62,7 @@ impl VisBufferPasses {
                     shaders::VISBUFFER_SHADE_COMP_RAY_QUERY_LIGHTS_DECAL_BUFFER,
                 ],
                 [shaders::VISBUFFER_SHADE_RGEN, shaders::VISBUFFER_SHADE_RGEN_DECAL_BUFFER],
+                [shaders::VISBUFFER_SHADE_RGEN_SAMPLED_LIGHTS, shaders::VISBUFFER_SHADE_RGEN_SAMPLED_LIGHTS_DECAL_BUFFER],
             ),
         })
     }

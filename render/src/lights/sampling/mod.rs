@@ -20,7 +20,11 @@
 //!   the first `sampled_lights_above` lights found get a ray each, the rest are summed
 //!   unshadowed while one of them is drawn in proportion to its light (the whole BRDF's: the
 //!   material is at hand), and one ray to it scales the sum. The pixel's own ratio, with no
-//!   denoiser: the frame's [`LightFrame::samples`](super::LightFrame::samples) stays false.
+//!   denoiser: the frame's [`LightFrame::samples`](super::LightFrame::samples) stays false. On
+//!   the ray-tracing-pipeline tier the lights are found by an any-hit shader, which offers each
+//!   to the draw but cannot trace, so there every light found is drawn from (`stochastic` as
+//!   applied) and the ray-generation shader traces the one ray
+//!   (`shaders/include/ray_pipeline_lights.glsl`).
 //! - **Drawing** (`shaders/include/direct_sampling.glsl`, in the shadow pass). A pixel weighs
 //!   the lights of its list by their unshadowed light on a diffuse surface at the point, draws
 //!   one in proportion by weighted reservoir sampling (one pass, no table), and traces one ray
