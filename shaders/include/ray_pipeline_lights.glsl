@@ -82,14 +82,9 @@ layout(location = LIGHT_PAYLOAD_LOCATION) rayPayloadEXT LightPayload light_paylo
 #ifdef SAMPLED_LIGHTS
 // The lighting pass's shadow rays: the shadow pass's any-hit and miss shaders (shadows.rahit,
 // shadows.rmiss) at hit group and miss index 1, with their payload at location 1.
-layout(location = 1) rayPayloadEXT vec4 shadow_payload;
-
-vec3 shadow_ray_transmittance(vec3 origin, vec3 dir, float tmin, float tmax) {
-    shadow_payload = vec4(1.0, 1.0, 1.0, 0.0);
-    traceRayEXT(accelerationStructureEXT(scene.lighting.lighting.scene_tlas),
-                gl_RayFlagsTerminateOnFirstHitEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFF, 1, 0, 1, origin, tmin, dir, tmax, 1);
-    return shadow_payload.w != 0.0 ? shadow_payload.rgb : vec3(0.0);
-}
+#define SHADOW_SBT_INDEX 1
+#define SHADOW_PAYLOAD_LOCATION 1
+#include "shadow_ray_pipeline.glsl"
 #endif
 
 vec3 enumerated_lights(SurfaceBrdf brdf, SurfaceInputs s, vec3 v, out uint found) {
