@@ -314,13 +314,15 @@ pub enum DirectLight {
     /// A shadow ray towards every light of the pixel's list (seed 001 §4.3): exact, and as
     /// costly as the lights a pixel has.
     Exhaustive,
-    /// One shadow ray a pixel towards a light drawn from its list in proportion to its
-    /// unshadowed light, and one to each of the first four directional lights; the drawn lights
-    /// are shaded unshadowed and scaled by the denoised share that got through (the ratio
-    /// estimator of Heitz et al. 2018). Noisy where it is not averaged.
+    /// One shadow ray a pixel towards a light drawn from its list (or from the lights ray-query
+    /// lights find) in proportion to its unshadowed light, and one to each of the first four
+    /// directional lights; the drawn lights are shaded unshadowed and scaled by the share that
+    /// got through (the ratio estimator of Heitz et al. 2018: denoised over neighbours for
+    /// lists, a pixel's own for ray-query lights). Noisy where it is not averaged.
     Stochastic,
     /// Exhaustive where a pixel's list holds at most [`DirectLight::AUTO_EXHAUSTIVE_UP_TO`]
-    /// lights, sampled where it holds more.
+    /// lights, sampled where it holds more (ray-query lights: a ray to each of the first that
+    /// many lights a pixel finds, the rest sampled).
     #[default]
     Auto,
 }
@@ -380,8 +382,9 @@ pub struct LightSettings {
     /// surface (the cheaper shadows of seed 002 Table 4.3).
     pub coloured_shadows: bool,
     /// Traced shadows towards every light of a pixel's list, or towards one sampled light
-    /// (ray-traced shadows with tiled or every-light lists; ray-query lights and shadow maps are
-    /// always exhaustive).
+    /// (ray-traced shadows with tiled or every-light lists, and ray-query lights; shadow maps
+    /// are always exhaustive, and ray-query lights on the ray-tracing-pipeline tier always
+    /// sampled: `crate::lights::sampling`).
     pub direct_light: DirectLight,
 }
 

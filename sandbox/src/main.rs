@@ -156,9 +156,9 @@ struct Cli {
     /// Normals from depth for the shadow pass: naive or improved.
     #[arg(long, default_value = "improved", value_parser = parse_depth_normals)]
     depth_normals: render::DepthNormals,
-    /// Traced shadows of the lights' lists: exhaustive (a ray per light), stochastic (one ray a
-    /// pixel to a sampled light, denoised ratio) or auto (stochastic where a list holds more
-    /// than 32 lights).
+    /// Traced shadows of the lights' lists (and of ray-query lights): exhaustive (a ray per
+    /// light), stochastic (one ray a pixel to a sampled light) or auto (stochastic where a list
+    /// holds more than 32 lights; ray-query lights: the first 32 a pixel finds get a ray each).
     #[arg(long, default_value = "auto", value_parser = parse_direct_light)]
     direct_light: render::DirectLight,
     /// Run --frames frames with each direct-light method (exhaustive, stochastic, auto), then

@@ -52,7 +52,7 @@
 //! environment was first used).
 //!
 //! Lights: `light_method` (applied: `all`, `tiled` or `ray_query`), `direct_light` (applied: `exhaustive`,
-//! `stochastic`, `auto`, or `none` without traced shadows of light lists), `staged_lights` (whether
+//! `stochastic`, `auto`, or `none` without traced shadows of light lists or ray-query lights), `staged_lights` (whether
 //! compute shading read its long unshadowed lists a workgroup at a time), `shadows` (`ray_query`, `ray_pipeline`, `maps`
 //! (devices without ray tracing, or `--shadow-maps`), or `none`), `lights` (the settings:
 //! `tile_size`, `aabb`, `shadow_ray_culling`, `normals`, `coloured_shadows`, and `depth_mask` as

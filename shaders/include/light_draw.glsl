@@ -48,6 +48,17 @@ void light_draw_offer(inout LightDraw d, uint slot, vec3 c) {
 // including shader: a ray query (shadow_ray_query.glsl) or a traced ray (ray_pipeline_lights.glsl).
 vec3 shadow_ray_transmittance(vec3 origin, vec3 dir, float tmin, float tmax);
 
+// Where a shadow ray leaves surface point `p` (facing the camera along `n`): from a rasterised
+// surface lifted by the level-of-detail limit too (raster_origin), from a reflection's hit,
+// which lies on the full mesh the rays trace, by shadow_origin alone.
+vec3 light_ray_origin(vec3 p, vec3 n) {
+#ifdef REFLECTION_RAY_QUERY
+    return shadow_origin(p, n);
+#else
+    return raster_origin(p, n);
+#endif
+}
+
 // `c`, the radiance of `light` (in `slot`) at surface point `p`, through its shadow ray: zero
 // when blocked or culled (the surface, facing the camera along `facing`, its geometric normal,
 // faces away), filtered by the glass it crossed. The ray aims at a point of the light's shape
@@ -58,7 +69,7 @@ vec3 shadowed_by_ray(GpuLight light, uint slot, vec3 c, vec3 p, vec3 facing, boo
     float tmax;
     if (!shadow_ray_sampled(light, p, shadow_sample_at(p, slot), dir, tmax)) return vec3(0.0);
     if (cull && dot(facing, dir) <= 0.0) return vec3(0.0);
-    return c * shadow_ray_transmittance(shadow_origin(p, facing), dir, 1e-3, tmax);
+    return c * shadow_ray_transmittance(light_ray_origin(p, facing), dir, 1e-3, tmax);
 }
 
 // The drawn lights' light at `p`: their unshadowed sum through one shadow ray to the drawn one.

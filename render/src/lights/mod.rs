@@ -75,8 +75,10 @@ pub struct LightFrame {
     pub depth_mask: bool,
     /// With ray-query lights: the lights' TLAS, BLAS and box buffer (its unbounded-light list).
     pub light_accel: Option<[ResourceId; 3]>,
-    /// When shading traces shadow rays itself (ray-query lights on the ray-query tier): the
-    /// scene's TLAS, BLAS and meshes (alpha-masked hits read their texture coordinates).
+    /// When shading traces shadow rays itself (ray-query lights with shadows, on either
+    /// ray-tracing tier; on the ray-tracing-pipeline tier it also picks the lighting pipeline
+    /// with shadow rays): the scene's TLAS, BLAS and meshes (alpha-masked hits read their
+    /// texture coordinates).
     pub inline_shadows: Option<[ResourceId; 3]>,
     /// The `REFLECT_*` flags of the lighting record (0 when off).
     pub reflection_flags: u32,
@@ -235,17 +237,18 @@ impl Lighting {
         // What shading draws from: the light lists, or the lights the ray-query lights find
         // (which sample inline, with no shadow pass, denoiser or ratio: `sampled_lights_above`
         // stays `u32::MAX` for the passes, and the GPU record gets the walk's threshold).
-        let drawn = shadows != ShadowMethod::None;
-        // An any-hit shader cannot trace: on the ray-tracing-pipeline tier ray-query lights
-        // always draw (`shaders/include/ray_pipeline_lights.glsl`), and say so.
-        let direct = if enumerated && shadows == ShadowMethod::RayPipeline { DirectLight::Stochastic } else { l.direct_light };
-        let sampled_gpu = sampling::sampled_lights_above(direct, shadows, drawn, mirror.lights.len() as u32);
+        let sampled_gpu = sampling::sampled_lights_above(l.direct_light, shadows, mirror.lights.len() as u32);
         let sampled_lights_above = if enumerated { u32::MAX } else { sampled_gpu };
         let rays = matches!(shadows, ShadowMethod::RayQuery | ShadowMethod::RayPipeline);
         // Searched every frame (a comparison while lights are still), so that no change is missed.
         let found = self.search.find(&mirror.lights);
         let suns = if sampled_gpu == u32::MAX { sampling::Suns::default() } else { found };
-        let direct_light = sampling::applied(sampled_gpu, drawn && rays);
+        // An any-hit shader cannot trace: on the ray-tracing-pipeline tier ray-query lights always
+        // draw (`shaders/include/ray_pipeline_lights.glsl`, which reads no threshold), and say so.
+        let direct_light = match shadows {
+            ShadowMethod::RayPipeline if enumerated => Some(DirectLight::Stochastic),
+            _ => sampling::applied(sampled_gpu, rays),
+        };
         let interlaced = glass && s.transparency.effective(s.pipeline).interlaces();
         let reflect = reflections.on() && (!reflections.traced() || accel.tlas_address != 0);
         // A particle is lit from the list of the tile its centre falls in, wherever it floats

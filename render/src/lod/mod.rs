@@ -52,8 +52,9 @@
 //!   distance ([`lift`], while some live instance's mesh has levels:
 //!   [`crate::scene::SceneMirror::lod_instances`]) on top of the 0.1 % of the distance every ray gets: a level never
 //!   shadows or reflects itself, at the cost of contact shadows starting that much later (at
-//!   1920×1080 and 60°, 1 px is about 0.1 % of the distance). Not yet lifted: the shadow rays
-//!   of `--lights ray_query` (which shade reflections' hits and primary surfaces alike).
+//!   1920×1080 and 60°, 1 px is about 0.1 % of the distance). The shadow rays of `--lights
+//!   ray_query` are lifted from primary surfaces, not from reflections' hits
+//!   (`shaders/include/light_draw.glsl`).
 
 use glam::Vec3;
 

@@ -370,7 +370,8 @@ fn a_mirror_shows_what_a_light_the_camera_does_not_see_lights_and_its_shadow() {
         let lit = render(&mut app);
         // On the ray-query tier the hit point's lights are drawn from as ray-query lights draw
         // (`shaders/include/ray_query_lights.glsl`): with one light the draw is that light, so
-        // the panel looks the same lit and shadowed.
+        // the panel looks the same lit and shadowed (the drawn path's sum and its one ray give
+        // the light and its shadow; this cannot tell whether the hit drew at all).
         let sampled = |app: &mut App| {
             (tier == Tier::RayQuery).then(|| {
                 app.world.resource_mut::<RenderSettings>().lights.direct_light = DirectLight::Stochastic;

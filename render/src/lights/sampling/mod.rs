@@ -136,22 +136,21 @@ pub struct ShadowSampling {
 }
 
 /// The list length above which a pixel samples its lights' shadows this frame
-/// (`GpuLighting::sampled_lights_above`; `u32::MAX`: none samples): only ray-traced shadows of
-/// lights a pixel can draw from (`drawn`: its light list, or the lights the ray-query lights
-/// find while shading) sample, and none when the scene's live `lights` are no more than the
-/// method traces a ray each for: no pixel can find more, so the frame is exhaustive and the
-/// denoiser does not run (the peer scene's 28 lights under `auto`).
-pub fn sampled_lights_above(direct: DirectLight, shadows: ShadowMethod, drawn: bool, lights: u32) -> u32 {
+/// (`GpuLighting::sampled_lights_above`; `u32::MAX`: none samples): only ray-traced shadows
+/// sample (of a pixel's light list, or of the lights the ray-query lights find while shading),
+/// and none when the scene's live `lights` are no more than the method traces a ray each for:
+/// no pixel can find more, so the frame is exhaustive and the denoiser does not run (the peer
+/// scene's 28 lights under `auto`).
+pub fn sampled_lights_above(direct: DirectLight, shadows: ShadowMethod, lights: u32) -> u32 {
     match shadows {
-        ShadowMethod::RayQuery | ShadowMethod::RayPipeline if drawn && lights > direct.exhaustive_up_to() => direct.exhaustive_up_to(),
+        ShadowMethod::RayQuery | ShadowMethod::RayPipeline if lights > direct.exhaustive_up_to() => direct.exhaustive_up_to(),
         _ => u32::MAX,
     }
 }
 
-/// The method a frame applied, for statistics: `None` without traced shadows of lights a pixel
-/// draws from.
-pub fn applied(sampled_lights_above: u32, drawn_and_traced: bool) -> Option<DirectLight> {
-    drawn_and_traced.then_some(match sampled_lights_above {
+/// The method a frame applied, for statistics: `None` without ray-traced shadows.
+pub fn applied(sampled_lights_above: u32, traced: bool) -> Option<DirectLight> {
+    traced.then_some(match sampled_lights_above {
         u32::MAX => DirectLight::Exhaustive,
         0 => DirectLight::Stochastic,
         _ => DirectLight::Auto,
@@ -254,21 +253,20 @@ mod tests {
     }
 
     #[test]
-    fn only_traced_shadows_of_light_lists_sample() {
+    fn only_ray_traced_shadows_sample() {
         for shadows in [ShadowMethod::RayQuery, ShadowMethod::RayPipeline] {
-            assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, true, 1000), 0);
-            assert_eq!(sampled_lights_above(DirectLight::Auto, shadows, true, 1000), DirectLight::AUTO_EXHAUSTIVE_UP_TO);
-            assert_eq!(sampled_lights_above(DirectLight::Exhaustive, shadows, true, 1000), u32::MAX);
-            assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, false, 1000), u32::MAX, "nothing drawn from");
+            assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, 1000), 0);
+            assert_eq!(sampled_lights_above(DirectLight::Auto, shadows, 1000), DirectLight::AUTO_EXHAUSTIVE_UP_TO);
+            assert_eq!(sampled_lights_above(DirectLight::Exhaustive, shadows, 1000), u32::MAX);
             // No list can be longer than the scene's lights.
             let few = DirectLight::AUTO_EXHAUSTIVE_UP_TO;
-            assert_eq!(sampled_lights_above(DirectLight::Auto, shadows, true, few), u32::MAX, "auto with few lights");
-            assert_eq!(sampled_lights_above(DirectLight::Auto, shadows, true, few + 1), few);
-            assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, true, 1), 0);
-            assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, true, 0), u32::MAX, "no light");
+            assert_eq!(sampled_lights_above(DirectLight::Auto, shadows, few), u32::MAX, "auto with few lights");
+            assert_eq!(sampled_lights_above(DirectLight::Auto, shadows, few + 1), few);
+            assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, 1), 0);
+            assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, 0), u32::MAX, "no light");
         }
         for shadows in [ShadowMethod::Maps, ShadowMethod::None] {
-            assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, true, 1000), u32::MAX);
+            assert_eq!(sampled_lights_above(DirectLight::Stochastic, shadows, 1000), u32::MAX);
         }
         assert_eq!(applied(0, true), Some(DirectLight::Stochastic));
         assert_eq!(applied(32, true), Some(DirectLight::Auto));
