@@ -24,7 +24,8 @@
 //! - **Shading.** On the ray-query tier the deferred and visibility-buffer lighting compute
 //!   passes run the query and trace the found lights' shadow rays inline, a ray each or one to
 //!   a light drawn from them as `--direct-light` says (`shaders/include/ray_query_lights.glsl`).
-//!   On the ray-tracing-pipeline tier (the lent GPUs) the lighting pass is a ray-generation shader whose any-hit shader shades each light found
+//!   On the ray-tracing-pipeline tier (the lent GPUs) the lighting pass is a ray-generation
+//!   shader whose any-hit shader shades each light found
 //!   (`shaders/include/ray_pipeline_lights.glsl`); an any-hit shader cannot trace, so there it
 //!   offers each light to a draw, and the ray-generation shader traces one shadow ray to the
 //!   drawn light ([`crate::lights::sampling`]; `"shadows":"ray_pipeline"` and
