@@ -10,6 +10,9 @@
 //! (from above, all of it in a 1920×1080 view, each fox a few pixels): most foxes sample every
 //! fourth frame; `animate_budget/N`, `propagate_budget/N` and `skin_budget/N` its parts.
 //!
+//! `frame_compact/N` and its parts: the same crowd with every skin a
+//! [`engine::animation::CompactSkeleton`] (posed in one pass, its bones' entities left alone).
+//!
 //! Run: `cargo bench -p engine --bench animation`
 
 #![forbid(unsafe_code)]
@@ -17,7 +20,7 @@
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use engine::animation::{AnimationBudget, AnimationPlayer, AnimationStats};
+use engine::animation::{AnimationBudget, AnimationPlayer, AnimationStats, CompactSkeleton, Skin};
 use engine::camera::Camera;
 use engine::gltf::{self, GltfAnimations};
 use engine::prelude::*;
@@ -60,38 +63,53 @@ fn foxes(c: &mut Criterion) {
         let eye = centre + Vec3::new(0.0, distance * 0.6, distance);
         app.world.spawn((Camera::default(), Transform::from_translation(eye).looking_at(centre, Vec3::Y)));
         app.update();
-        group.bench_function(format!("frame/{n}"), |b| b.iter(|| app.update()));
-        *app.world.resource_mut::<AnimationBudget>() =
-            AnimationBudget { enabled: true, viewport: Vec2::new(1920.0, 1080.0), ..Default::default() };
-        app.update();
-        group.bench_function(format!("frame_budget/{n}"), |b| b.iter(|| app.update()));
-        // The same frames, timed by what each part reports of itself: `animate`, transform
-        // propagation and the skin matrices (the sandbox's `cpu_ms.animate`, `.propagate` and
-        // `.skin`), without the budget and with it (`animate_budget/N`, ...).
-        let parts: [(&str, PartMs); 3] = [
-            ("animate", |w| w.resource::<AnimationStats>().cpu_ms),
-            ("propagate", |w| w.resource::<TransformStats>().cpu_ms),
-            ("skin", |w| w.resource::<AnimationStats>().skin_cpu_ms),
-        ];
-        for budget in [false, true] {
-            app.world.resource_mut::<AnimationBudget>().enabled = budget;
-            app.update();
-            for (part, ms) in parts {
-                let name = if budget { format!("{part}_budget/{n}") } else { format!("{part}/{n}") };
-                group.bench_function(name, |b| {
-                    b.iter_custom(|iters| {
-                        (0..iters)
-                            .map(|_| {
-                                app.update();
-                                Duration::from_secs_f32(ms(&app.world) * 1e-3)
-                            })
-                            .sum()
-                    })
-                });
-            }
+        frames(&mut group, &mut app, n, "");
+        // The same crowd with compact skeletons: each skin posed in one pass from the clips,
+        // its bones' entities left alone (`engine::animation::CompactSkeleton`).
+        let skinned: Vec<Entity> = app.world.query_filtered::<Entity, With<Skin>>().iter(&app.world).collect();
+        for entity in skinned {
+            app.world.entity_mut(entity).insert(CompactSkeleton);
         }
+        app.world.resource_mut::<AnimationBudget>().enabled = false;
+        app.update();
+        frames(&mut group, &mut app, n, "_compact");
     }
     group.finish();
+}
+
+/// `frame{suffix}/N` and `frame{suffix}_budget/N`, then each part alone as it times itself
+/// (`animate{suffix}/N`, ...), without the budget and with it.
+fn frames(group: &mut criterion::BenchmarkGroup<criterion::measurement::WallTime>, app: &mut App, n: usize, suffix: &str) {
+    group.bench_function(format!("frame{suffix}/{n}"), |b| b.iter(|| app.update()));
+    *app.world.resource_mut::<AnimationBudget>() =
+        AnimationBudget { enabled: true, viewport: Vec2::new(1920.0, 1080.0), ..Default::default() };
+    app.update();
+    group.bench_function(format!("frame{suffix}_budget/{n}"), |b| b.iter(|| app.update()));
+    // The same frames, timed by what each part reports of itself: `animate`, transform
+    // propagation and the skin matrices (the sandbox's `cpu_ms.animate`, `.propagate` and
+    // `.skin`), without the budget and with it (`animate_budget/N`, ...).
+    let parts: [(&str, PartMs); 3] = [
+        ("animate", |w| w.resource::<AnimationStats>().cpu_ms),
+        ("propagate", |w| w.resource::<TransformStats>().cpu_ms),
+        ("skin", |w| w.resource::<AnimationStats>().skin_cpu_ms),
+    ];
+    for budget in [false, true] {
+        app.world.resource_mut::<AnimationBudget>().enabled = budget;
+        app.update();
+        for (part, ms) in parts {
+            let name = if budget { format!("{part}{suffix}_budget/{n}") } else { format!("{part}{suffix}/{n}") };
+            group.bench_function(name, |b| {
+                b.iter_custom(|iters| {
+                    (0..iters)
+                        .map(|_| {
+                            app.update();
+                            Duration::from_secs_f32(ms(&app.world) * 1e-3)
+                        })
+                        .sum()
+                })
+            });
+        }
+    }
 }
 
 criterion_group!(benches, foxes);

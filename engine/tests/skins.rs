@@ -191,3 +191,106 @@ fn the_animation_budget_samples_a_far_fox_every_fourth_frame_at_the_current_time
     }
     assert_eq!(far_samples, 4, "16 frames: the far fox sampled four times");
 }
+
+/// A compact skeleton (`engine::animation::CompactSkeleton`) poses the fox as its bones'
+/// entities would, through a cross-fade and while the fox moves, without moving those entities;
+/// `SkinPose::joint_world` gives a bone's world transform back. Removing the mark gives the
+/// bones back to animation, and a skin with something hung on a bone refuses it.
+#[test]
+fn a_compact_skeleton_poses_the_fox_as_its_bones_would_without_moving_them() {
+    use engine::animation::{AnimationTargets, CompactSkeleton, PosedInSkin, SkinPose};
+
+    let mut scene = gltf::load(&model("Fox")).unwrap();
+    scene.images.clear();
+    let mut app = App::new();
+    app.world.resource_mut::<Time>().set_fixed_step(Some(Duration::from_micros(16_667)));
+    let mut prefab = scene.into_prefab(&mut app.world);
+    // Three foxes in the same place: bones as entities, compact (as the prefab spawns it), and
+    // compact with a sword in a bone's hand.
+    let foxes: Vec<(Entity, Entity)> = (0..3)
+        .map(|i| {
+            prefab.compact_skeletons = i > 0;
+            let root = prefab.spawn(&mut app.world);
+            let clips = app.world.get::<GltfAnimations>(root).unwrap().0.clone();
+            let mut player = AnimationPlayer::new(clips[1]);
+            player.seek(0.4);
+            app.world.entity_mut(root).insert((player, Transform::from_xyz(1.0, 0.0, 0.0).with_scale(Vec3::splat(0.01))));
+            app.world.flush();
+            let targets = app.world.get::<AnimationTargets>(root).unwrap().0.clone();
+            let mesh = app.world.query::<(Entity, &Skin)>().iter(&app.world).find(|(_, s)| targets.contains(&Some(s.joints[0]))).unwrap().0;
+            (root, mesh)
+        })
+        .collect();
+    let [(entities, bones_mesh), (compact, compact_mesh), (armed, armed_mesh)] = foxes[..] else { unreachable!() };
+    let hand = app.world.get::<Skin>(armed_mesh).unwrap().joints[10];
+    app.world.spawn((Transform::IDENTITY, ChildOf(hand)));
+    let joints = app.world.get::<Skin>(compact_mesh).unwrap().joints.clone();
+    let rest: Vec<Transform> = joints.iter().map(|&j| *app.world.get::<Transform>(j).unwrap()).collect();
+
+    let clips = app.world.get::<GltfAnimations>(entities).unwrap().0.clone();
+    let pose = |app: &App, mesh: Entity| app.world.get::<SkinPose>(mesh).unwrap().0.clone();
+    let same = |a: &[Mat4], b: &[Mat4]| {
+        a.len() == b.len()
+            && a.iter()
+                .zip(b)
+                .all(|(a, b)| a.to_cols_array().iter().zip(b.to_cols_array()).all(|(x, y)| (x - y).abs() <= 1e-4 * x.abs().max(1.0)))
+    };
+    for frame in 0..12 {
+        if frame == 4 {
+            // Walk to run, over a fifth of a second.
+            for root in [entities, compact, armed] {
+                app.world.get_mut::<AnimationPlayer>(root).unwrap().cross_fade(clips[2], 0.2);
+            }
+        }
+        for root in [entities, compact, armed] {
+            app.world.get_mut::<Transform>(root).unwrap().translation.z = frame as f32 * 0.1;
+        }
+        app.update();
+        let reference = pose(&app, bones_mesh);
+        assert!(same(&pose(&app, compact_mesh), &reference), "frame {frame}: the compact skin's pose is the bones' pose");
+        assert!(same(&pose(&app, armed_mesh), &reference), "frame {frame}: the armed fox, its bones entities, too");
+        let moved_bones = joints.iter().zip(&rest).filter(|&(&j, r)| app.world.get::<Transform>(j).unwrap() != r).count();
+        assert_eq!(moved_bones, 0, "frame {frame}: the compact skin's bones keep their rest transforms");
+        assert!(joints.iter().all(|&j| app.world.get::<PosedInSkin>(j).is_some()));
+        let skin = app.world.get::<Skin>(compact_mesh).unwrap();
+        let mesh_world = app.world.get::<GlobalTransform>(compact_mesh).unwrap();
+        let reference_joints = &app.world.get::<Skin>(bones_mesh).unwrap().joints;
+        for (i, &joint) in reference_joints.iter().enumerate() {
+            let world = pose(&app, compact_mesh);
+            let found = SkinPose(world).joint_world(skin, mesh_world, i).expect("an invertible bind matrix");
+            let expected = app.world.get::<GlobalTransform>(joint).unwrap().0;
+            assert!(found.abs_diff_eq(expected, 1e-4), "frame {frame}, joint {i}: {found:?} against {expected:?}");
+        }
+    }
+    assert!(app.world.get::<CompactSkeleton>(armed_mesh).is_none(), "a bone carrying a sword keeps its skin's bones entities");
+
+    // Paused, a compact skin's pose is not written again: nothing downstream runs for it.
+    #[derive(Resource, Default)]
+    struct Posed(Vec<Entity>);
+    app.world.init_resource::<Posed>();
+    app.add_systems(engine::app::Render, |changed: Query<Entity, Changed<SkinPose>>, mut posed: ResMut<Posed>| {
+        posed.0 = changed.iter().collect();
+    });
+    app.update();
+    app.update();
+    assert!(app.world.resource::<Posed>().0.contains(&compact_mesh), "it changes while walking");
+    for root in [entities, compact, armed] {
+        app.world.get_mut::<AnimationPlayer>(root).unwrap().paused = true;
+    }
+    app.update();
+    app.update();
+    assert!(app.world.resource::<Posed>().0.is_empty(), "paused, no pose changes: {:?}", app.world.resource::<Posed>().0);
+    for root in [entities, compact, armed] {
+        app.world.get_mut::<AnimationPlayer>(root).unwrap().paused = false;
+    }
+
+    // Without the mark, animation moves the bones again and the pose stays the same.
+    app.world.entity_mut(compact_mesh).remove::<CompactSkeleton>();
+    for _ in 0..2 {
+        app.update();
+    }
+    assert!(same(&pose(&app, compact_mesh), &pose(&app, bones_mesh)));
+    let moved_bones = joints.iter().zip(&rest).filter(|&(&j, r)| app.world.get::<Transform>(j).unwrap() != r).count();
+    assert!(moved_bones > 12, "the bones move again: {moved_bones} of 24");
+    assert!(joints.iter().all(|&j| app.world.get::<PosedInSkin>(j).is_none()));
+}

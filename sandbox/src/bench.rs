@@ -229,14 +229,23 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
 /// `clip` (its walk, or PEERS.md's run) from its own time (so every pose differs and is skinned
 /// every frame), a sun, and a camera: above, seeing the whole crowd (`eye_level` false: the
 /// `foxes` scene), or at eye height at the plaza's edge looking across it (`crowd`: near foxes
-/// large, far ones a few pixels, what levels of detail are for).
-pub fn spawn_foxes(world: &mut World, character: &std::path::Path, clip: &str, count: usize, eye_level: bool) -> anyhow::Result<()> {
+/// large, far ones a few pixels, what levels of detail are for). With `compact`, the characters
+/// are compact skeletons (`engine::animation::CompactSkeleton`: posed in one pass, their bones'
+/// entities left alone).
+pub fn spawn_foxes(
+    world: &mut World,
+    character: &std::path::Path,
+    clip: &str,
+    count: usize,
+    eye_level: bool,
+    compact: bool,
+) -> anyhow::Result<()> {
     use engine::camera::Camera;
     use engine::material::Material;
     use engine::mesh::{Mesh, shapes};
     use engine::scene::MeshInstance;
 
-    let half = crate::character::spawn_crowd(world, character, clip, count)?;
+    let half = crate::character::spawn_crowd(world, character, clip, count, compact)?;
     let ground = world.resource_mut::<Assets<Mesh>>().add(shapes::plane(2.0 * half + 8.0, 2.0 * half + 8.0, 1, 1.0));
     let grey = world.resource_mut::<Assets<Material>>().add(Material::from_color(Vec3::new(0.5, 0.5, 0.48).extend(1.0), 0.0, 0.8));
     world.spawn((MeshInstance { mesh: ground, material: grey }, Transform::default(), Static));

@@ -89,9 +89,11 @@ pub fn spawn_walker(world: &mut World, path: &Path, center: Vec3, radius: f32) -
 }
 
 /// Spawns `count` copies of the character in a grid facing +Z (2 m apart), each playing `clip`
-/// from its own time, and returns the grid's half extent in metres.
-pub fn spawn_crowd(world: &mut World, path: &Path, clip: &str, count: usize) -> Result<f32> {
-    let prefab = load_character(world, path)?;
+/// from its own time, as compact skeletons when `compact` is set, and returns the grid's half
+/// extent in metres.
+pub fn spawn_crowd(world: &mut World, path: &Path, clip: &str, count: usize, compact: bool) -> Result<f32> {
+    let mut prefab = load_character(world, path)?;
+    prefab.compact_skeletons = compact;
     let walk = clip_named(world, &prefab, clip);
     let side = (count as f32).sqrt().ceil().max(1.0) as usize;
     let pitch = 2.0;

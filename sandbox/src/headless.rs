@@ -125,6 +125,9 @@ pub struct HeadlessOptions {
     /// Animate characters small on screen or off it less often
     /// (`engine::animation::AnimationBudget`).
     pub animation_budget: bool,
+    /// Pose the `foxes` and `crowd` scenes' skins through their bones' entities instead of as
+    /// compact skeletons (`engine::animation::CompactSkeleton`).
+    pub bone_entities: bool,
     /// Run `frames` frames with every culling mode in turn (off, frustum, occlusion).
     pub compare_culling: bool,
     /// What lights the scene from all around (default: the procedural sky).
@@ -360,6 +363,7 @@ impl Default for HeadlessOptions {
             reuse_commands: true,
             pipelined: false,
             animation_budget: false,
+            bone_entities: false,
             compare_culling: false,
             environment: engine::environment::Environment::default(),
             compare_environment: false,
@@ -469,7 +473,7 @@ pub fn build_scene_app(opts: &HeadlessOptions) -> Result<App> {
         Some(scene @ (crate::bench::BenchScene::Foxes | crate::bench::BenchScene::Crowd)) => {
             let path = opts.character.as_deref().context("the foxes and crowd scenes need a character (--character PATH)")?;
             let eye_level = scene == crate::bench::BenchScene::Crowd;
-            crate::bench::spawn_foxes(&mut app.world, path, &opts.character_clip, opts.instances, eye_level)?;
+            crate::bench::spawn_foxes(&mut app.world, path, &opts.character_clip, opts.instances, eye_level, !opts.bone_entities)?;
         }
         Some(scene) => crate::bench::spawn_bench_scene(&mut app.world, scene),
         None => load_scene(&mut app.world, &opts.scene, opts.character.as_deref())?,

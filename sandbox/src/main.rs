@@ -220,6 +220,11 @@ struct Cli {
     /// fourth frame, staggered (engine::animation::AnimationBudget; --stats animation.sampled).
     #[arg(long)]
     animation_budget: bool,
+    /// Pose the foxes and crowd scenes' characters through their bones' entities (animation,
+    /// transform propagation, skin matrices: what a character carrying things needs) instead of
+    /// as compact skeletons posed in one pass (engine::animation::CompactSkeleton; for comparison).
+    #[arg(long)]
+    bone_entities: bool,
     /// Anti-aliasing of the displayed image: none, fxaa (fast approximate, in compute before
     /// tone mapping), smaa (subpixel morphological, 1x, in compute), taa (temporal: jittered frames blended along motion vectors; none under a
     /// debug view), msaa2, msaa4, msaa8 (multisampling in forward and Forward+; taa in the
@@ -574,6 +579,7 @@ fn main() -> Result<()> {
         reuse_commands: !cli.record_every_frame,
         pipelined: cli.pipelined,
         animation_budget: cli.animation_budget,
+        bone_entities: cli.bone_entities,
         compare_culling: cli.compare_culling,
         environment,
         environment_resolution: cli.environment_resolution,

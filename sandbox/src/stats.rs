@@ -185,7 +185,15 @@ pub fn frame_json(stats: &FrameStats, tier: &str, device: &str) -> Value {
     value["staged_lights"] = json!(stats.staged_lights);
     // Players sampled and deferred by the animation budget (`engine::animation::AnimationBudget`).
     let a = &stats.animation;
-    value["animation"] = json!({ "players": a.players, "sampled": a.sampled, "max_period": a.max_period });
+    // And the skins posed as compact skeletons (`engine::animation::CompactSkeleton`): all of
+    // them, and those posed this update.
+    value["animation"] = json!({
+        "players": a.players,
+        "sampled": a.sampled,
+        "max_period": a.max_period,
+        "compact_skins": a.compact_skins,
+        "compact_posed": a.compact_posed,
+    });
     // Recorded on the render thread while the next update ran (`plugins::pipelined`).
     value["pipelined"] = json!(stats.pipelined);
     value["counters"]["commands_reused"] = json!(c.commands_reused);

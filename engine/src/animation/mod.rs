@@ -51,6 +51,7 @@
 //! ```
 
 mod budget;
+mod compact;
 mod sample;
 
 use bevy_ecs::batching::BatchingStrategy;
@@ -64,7 +65,9 @@ use crate::camera::Camera;
 use crate::time::Time;
 use crate::transform::{GlobalTransform, Transform, TransformSystems};
 
+pub use crate::transform::PosedInSkin;
 pub use budget::{AnimatedRadius, AnimationBudget};
+pub use compact::{CompactScratch, CompactSkeleton, RigShapes, SkinRig, build_compact_skins};
 pub use sample::{Sampled, sample_channel};
 
 /// How values between two keyframes are found (glTF's `interpolation`).
@@ -495,7 +498,10 @@ impl Plugin for AnimationPlugin {
         app.world.get_resource_or_init::<Assets<AnimationClip>>();
         app.world.init_resource::<AnimationStats>();
         app.world.init_resource::<AnimationBudget>();
-        app.add_systems(PostUpdate, (link_animation_targets, animate).chain().in_set(AnimationSystems).before(TransformSystems::Propagate));
+        app.add_systems(
+            PostUpdate,
+            (link_animation_targets, build_compact_skins, animate).chain().in_set(AnimationSystems).before(TransformSystems::Propagate),
+        );
         app.add_systems(PostUpdate, update_skin_poses.in_set(SkinPoseSystems).after(TransformSystems::Propagate));
     }
 }
@@ -509,12 +515,17 @@ pub struct SkinPose(pub Vec<glam::Mat4>);
 
 /// Recomputes the [`SkinPose`] of every skinned entity whose pose changed ([`Skin::pose_changed`]),
 /// in parallel across the entities (each reads its joints' global transforms and writes only its
-/// own matrices).
+/// own matrices), and poses the [`CompactSkeleton`]s (which sample their bones' channels here:
+/// the `compact` module).
 ///
 /// Times itself into [`AnimationStats::skin_cpu_ms`] (`cpu_ms.skin` in the sandbox's `--stats`).
+#[allow(clippy::type_complexity)]
 pub fn update_skin_poses(
-    mut skinned: Query<(Ref<Skin>, Ref<crate::transform::GlobalTransform>, &mut SkinPose)>,
+    mut skinned: Query<(Ref<Skin>, Ref<crate::transform::GlobalTransform>, &mut SkinPose), Without<SkinRig>>,
+    mut compact: Query<(Entity, &SkinRig, Ref<crate::transform::GlobalTransform>, &mut SkinPose)>,
     joints: Query<Ref<crate::transform::GlobalTransform>>,
+    (outputs, clips): (Query<&AnimationOutput>, Option<Res<Assets<AnimationClip>>>),
+    (mut scratch, mut commands): (Local<CompactScratch>, Commands),
     stats: Option<ResMut<AnimationStats>>,
 ) {
     let started = std::time::Instant::now();
@@ -523,8 +534,11 @@ pub fn update_skin_poses(
             skin.joint_matrices(&global, |j| joints.get(j).ok().map(|g| g.0), &mut pose.0);
         }
     });
+    let (compact_skins, compact_posed) =
+        compact::pose_compact_skins(&mut compact, &joints, &outputs, clips.as_deref(), &mut scratch, &mut commands);
     if let Some(mut stats) = stats {
         stats.skin_cpu_ms = started.elapsed().as_secs_f32() * 1e3;
+        (stats.compact_skins, stats.compact_posed) = (compact_skins, compact_posed);
     }
 }
 
@@ -589,8 +603,14 @@ pub struct AnimationStats {
     /// The longest period of any player, in frames (1 without the budget): its pose may be
     /// that many frames old less one.
     pub max_period: u8,
-    /// CPU milliseconds [`update_skin_poses`] took: the skinned meshes' joint matrices.
+    /// CPU milliseconds [`update_skin_poses`] took: the skinned meshes' joint matrices (and the
+    /// sampling of compact skeletons' bones, which happens there).
     pub skin_cpu_ms: f32,
+    /// Skins posed as [`CompactSkeleton`]s.
+    pub compact_skins: u32,
+    /// Of those, the skins whose pose was computed in the last [`update_skin_poses`] (their
+    /// player sampled, or their model moved).
+    pub compact_posed: u32,
 }
 
 /// Advances one player by `dt`; returns the clips its targets sample (blended while
@@ -658,6 +678,10 @@ pub fn link_animation_targets(
 type Player =
     (Entity, &'static mut AnimationPlayer, &'static mut AnimationOutput, Option<&'static GlobalTransform>, Option<&'static AnimatedRadius>);
 
+/// What [`animate`] writes of a target: its transform and morph weights (the bones of compact
+/// skeletons left out: [`PosedInSkin`]).
+type Target = (&'static AnimatedBy, Option<&'static mut Transform>, Option<&'static mut MorphWeights>);
+
 /// Advances every player by the frame's time and writes the sampled pose into its targets'
 /// [`Transform`]s and [`MorphWeights`]. A property the clip does not animate keeps its value;
 /// during a cross-fade the two clips' values are blended by [`AnimationPlayer::blend`].
@@ -672,7 +696,7 @@ pub fn animate(
     time: Res<Time>,
     clips: Option<Res<Assets<AnimationClip>>>,
     mut players: Query<Player>,
-    mut targets: Query<(&AnimatedBy, Option<&mut Transform>, Option<&mut MorphWeights>)>,
+    mut targets: Query<Target, Without<PosedInSkin>>,
     (budget, cameras): (Option<Res<AnimationBudget>>, Query<(&Camera, &GlobalTransform)>),
     stats: Option<ResMut<AnimationStats>>,
 ) {
@@ -731,6 +755,69 @@ pub fn animate(
     }
 }
 
+/// What a node's channels give at the layers' times: each transform property a clip animates
+/// (blended over the layers, with its total weight) and the morph weight channels with their
+/// keyframes and weight.
+struct NodeSample<'a> {
+    translation: Option<(Vec3, f32)>,
+    rotation: Option<(Quat, f32)>,
+    scale: Option<(Vec3, f32)>,
+    weights: [Option<(&'a Channel, sample::Keys, f32)>; 2],
+}
+
+impl NodeSample<'_> {
+    /// `rest` with the properties the clips animate replaced, or `None` when they animate none.
+    #[inline(always)]
+    fn transform(&self, rest: Transform) -> Option<Transform> {
+        if self.translation.is_none() && self.rotation.is_none() && self.scale.is_none() {
+            return None;
+        }
+        let mut next = rest;
+        if let Some((v, _)) = self.translation {
+            next.translation = v;
+        }
+        if let Some((q, _)) = self.rotation {
+            next.rotation = q;
+        }
+        if let Some((v, _)) = self.scale {
+            next.scale = v;
+        }
+        Some(next)
+    }
+}
+
+/// Samples node `node`'s channels in `layers` (blended while cross-fading).
+#[inline(always)]
+fn sample_node<'a>(clips: &'a Assets<AnimationClip>, layers: &[Option<Layer>; 2], node: usize) -> NodeSample<'a> {
+    let mut out = NodeSample { translation: None, rotation: None, scale: None, weights: [None; 2] };
+    for (i, layer) in layers.iter().flatten().enumerate() {
+        if let Some(clip) = clips.get(layer.clip) {
+            sample_layer(clip, layer, node, i, &mut out);
+        }
+    }
+    out
+}
+
+/// Adds node `node`'s channels in `clip`, the `i`-th of the layers, to `out`.
+#[inline(always)]
+fn sample_layer<'a>(clip: &'a AnimationClip, layer: &Layer, node: usize, i: usize, out: &mut NodeSample<'a>) {
+    let Some([t, r, s, w]) = clip.channels_of(node) else { return };
+    let (time, weight) = (layer.time, layer.weight);
+    let keys = |c: &Channel| layer.keys.unwrap_or_else(|| c.keys(time));
+    // Each property sampled by its own typed path rather than through `Channel::value_at`'s
+    // enum, which measured 10–15 % slower on one core at 1,000 foxes.
+    if let Some(c @ Channel { keyframes: Keyframes::Translation(v), .. }) = t {
+        accumulate(&mut out.translation, sample::vec3_at(c.interpolation, v, keys(c)), weight, Vec3::lerp);
+    }
+    if let Some(c @ Channel { keyframes: Keyframes::Rotation(v), .. }) = r {
+        accumulate(&mut out.rotation, sample::rotation_at(c.interpolation, v, &c.arcs, keys(c)), weight, Quat::slerp);
+    }
+    if let Some(c @ Channel { keyframes: Keyframes::Scale(v), .. }) = s {
+        accumulate(&mut out.scale, sample::vec3_at(c.interpolation, v, keys(c)), weight, Vec3::lerp);
+    }
+    out.weights[i] = w.map(|c| (c, keys(c), weight));
+}
+
 /// Samples node `node`'s channels in `layers` and writes them: the transform when a clip
 /// animates it (flagged changed only if a value changed), and the morph weights likewise (an
 /// entity may have either).
@@ -741,43 +828,14 @@ fn pose_target(
     transform: Option<Mut<Transform>>,
     morph: Option<Mut<MorphWeights>>,
 ) {
-    let mut translation = None;
-    let mut rotation = None;
-    let mut scale = None;
-    // The morph weight channels, with their keyframes and weight.
-    let mut weights: [Option<(&Channel, sample::Keys, f32)>; 2] = [None; 2];
-    for (i, layer) in layers.iter().flatten().enumerate() {
-        let Some([t, r, s, w]) = clips.get(layer.clip).and_then(|clip| clip.channels_of(node)) else { continue };
-        let (time, weight) = (layer.time, layer.weight);
-        let keys = |c: &Channel| layer.keys.unwrap_or_else(|| c.keys(time));
-        // Each property sampled by its own typed path rather than through `Channel::value_at`'s
-        // enum, which measured 10–15 % slower on one core at 1,000 foxes.
-        if let Some(c @ Channel { keyframes: Keyframes::Translation(v), .. }) = t {
-            accumulate(&mut translation, sample::vec3_at(c.interpolation, v, keys(c)), weight, Vec3::lerp);
-        }
-        if let Some(c @ Channel { keyframes: Keyframes::Rotation(v), .. }) = r {
-            accumulate(&mut rotation, sample::rotation_at(c.interpolation, v, &c.arcs, keys(c)), weight, Quat::slerp);
-        }
-        if let Some(c @ Channel { keyframes: Keyframes::Scale(v), .. }) = s {
-            accumulate(&mut scale, sample::vec3_at(c.interpolation, v, keys(c)), weight, Vec3::lerp);
-        }
-        weights[i] = w.map(|c| (c, keys(c), weight));
-    }
-    if let Some(mut transform) = transform.filter(|_| translation.is_some() || rotation.is_some() || scale.is_some()) {
-        let mut next = *transform;
-        if let Some((v, _)) = translation {
-            next.translation = v;
-        }
-        if let Some((q, _)) = rotation {
-            next.rotation = q;
-        }
-        if let Some((v, _)) = scale {
-            next.scale = v;
-        }
+    let sampled = sample_node(clips, layers, node);
+    if let Some(mut transform) = transform
+        && let Some(next) = sampled.transform(*transform)
+    {
         transform.set_if_neq(next);
     }
     if let Some(mut morph) = morph {
-        write_weights(&mut morph, weights);
+        write_weights(&mut morph, sampled.weights);
     }
 }
 

@@ -109,7 +109,7 @@ use glam::{Quat, Vec3, Vec4};
 use thiserror::Error;
 use tracing::{info, warn};
 
-use crate::animation::{AnimatedRadius, AnimationClip, AnimationTargets, MorphWeights, Skin};
+use crate::animation::{AnimatedRadius, AnimationClip, AnimationTargets, CompactSkeleton, MorphWeights, Skin};
 use crate::asset::{Assets, Handle};
 use crate::camera::Camera;
 use crate::image::{Image, ImageError, TextureCache, TextureRole};
@@ -762,7 +762,17 @@ impl GltfScene {
             let mut assets = world.get_resource_or_init::<Assets<AnimationClip>>();
             self.animations.into_iter().map(|clip| assets.add(clip)).collect()
         };
-        GltfPrefab { name: self.name, meshes, materials, nodes: self.nodes, roots: self.roots, skins: self.skins, clips, radius }
+        GltfPrefab {
+            name: self.name,
+            meshes,
+            materials,
+            nodes: self.nodes,
+            roots: self.roots,
+            skins: self.skins,
+            clips,
+            radius,
+            compact_skeletons: false,
+        }
     }
 
     /// The radius of a sphere about the root that holds every mesh of the scene in its rest
@@ -821,6 +831,10 @@ pub struct GltfPrefab {
     pub clips: Vec<Handle<AnimationClip>>,
     /// [`GltfScene::rest_radius`]: set on each spawned root with clips as its [`AnimatedRadius`].
     pub radius: f32,
+    /// Whether spawned skins are [`CompactSkeleton`]s: posed from the clips in one pass, their
+    /// bones' entities not moved by animation (for crowds: `engine::animation`'s `compact`
+    /// module says what it saves and what it changes). Off by default.
+    pub compact_skeletons: bool,
 }
 
 impl GltfPrefab {
@@ -890,7 +904,12 @@ impl GltfPrefab {
                             world.entity_mut(joint).insert(crate::transform::Joint);
                         }
                     }
-                    world.entity_mut(primitive).insert(Skin { joints, inverse_bind_matrices: skin.inverse_bind_matrices.clone().into() });
+                    let skin = Skin { joints, inverse_bind_matrices: skin.inverse_bind_matrices.clone().into() };
+                    let mut primitive = world.entity_mut(primitive);
+                    primitive.insert(skin);
+                    if self.compact_skeletons {
+                        primitive.insert(CompactSkeleton);
+                    }
                 }
                 None => warn!(skin = ?skin.name, "a joint of this skin is not in the spawned scene; its mesh stays in its bind pose"),
             }

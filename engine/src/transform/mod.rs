@@ -205,6 +205,14 @@ pub struct Static;
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Joint;
 
+/// A bone posed by a compact skeleton (`crate::animation::CompactSkeleton`), which computes its
+/// skin's matrices without it: animation samples nothing into it, and propagation neither
+/// visits it nor descends below it (its subtree is bones of the same skin), so its
+/// `GlobalTransform` keeps the value it had when the skeleton was made compact. Set and cleared
+/// with the skin's rig.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PosedInSkin;
+
 /// What transform propagation must look at besides its scan, and what it moved.
 ///
 /// Kept by the [`TransformPlugin`]: component hooks list the [`Static`] entities whose transform
@@ -363,6 +371,10 @@ impl DirtyMarks {
 /// walk checks it).
 type Node = (&'static Transform, &'static mut GlobalTransform, Option<&'static Children>, Has<Joint>, Option<&'static ChildOf>);
 
+/// The entities propagation visits: every one with transforms but the bones of compact skeletons
+/// ([`PosedInSkin`]); a walk that reaches one stops there.
+type Visited = Without<PosedInSkin>;
+
 /// Non-static entities whose own transform or parent link changed since the last run.
 type Dirty = (With<Transform>, Without<Static>, Or<(Changed<Transform>, Changed<ChildOf>)>);
 
@@ -381,7 +393,7 @@ pub struct TransformStats {
 pub struct Propagation<'w, 's> {
     dirty: Query<'w, 's, (Entity, Option<&'static ChildOf>), Dirty>,
     parents: Query<'w, 's, &'static ChildOf>,
-    nodes: Query<'w, 's, Node>,
+    nodes: Query<'w, 's, Node, Visited>,
     orphaned: RemovedComponents<'w, 's, ChildOf>,
     entities: &'w Entities,
     changes: Option<ResMut<'w, TransformChanges>>,
@@ -512,7 +524,7 @@ fn propagate(p: Propagation, pool: Option<&TaskPool>) {
 
 /// Recomputes the subtrees rooted at the entities on `stack`, depth first, emptying it, and
 /// lists the entities whose global transform changed in `moved`.
-fn propagate_stack(stack: &mut Vec<(Entity, Affine3A)>, nodes: &mut Query<Node>, moved: &mut Vec<Entity>) {
+fn propagate_stack(stack: &mut Vec<(Entity, Affine3A)>, nodes: &mut Query<Node, Visited>, moved: &mut Vec<Entity>) {
     while let Some((entity, parent_affine)) = stack.pop() {
         let Ok((transform, mut global, children, joint, _)) = nodes.get_mut(entity) else {
             continue;

@@ -36,7 +36,7 @@ use bevy_tasks::TaskPool;
 use bevy_utils::Parallel;
 use glam::Affine3A;
 
-use super::{GlobalTransform, Node};
+use super::{GlobalTransform, Node, Visited};
 
 /// The per-thread frontiers and moved lists of [`walk`], kept between runs so that a warm walk
 /// allocates nothing.
@@ -71,13 +71,19 @@ type Visit = (Entity, Affine3A, Option<Entity>);
 /// subtrees at a time ([`SUBTREES_AT_ONCE`]), so that what was asked for is still cached. The
 /// same entities get the same transforms; only the order they are visited in (and listed in
 /// `moved`) differs from the depth-first reference.
-pub(super) fn walk(roots: &[(Entity, Affine3A)], nodes: &mut Query<Node>, moved: &mut Vec<Entity>, walks: &mut Walks, pool: &TaskPool) {
+pub(super) fn walk(
+    roots: &[(Entity, Affine3A)],
+    nodes: &mut Query<Node, Visited>,
+    moved: &mut Vec<Entity>,
+    walks: &mut Walks,
+    pool: &TaskPool,
+) {
     if roots.is_empty() {
         return;
     }
     // A few batches a thread, so that uneven subtrees even out.
     let batch = roots.len().div_ceil(pool.thread_num() * 4).max(1);
-    let nodes: &Query<Node> = nodes;
+    let nodes: &Query<Node, Visited> = nodes;
     let shared: &Walks = walks;
     pool.scope(|scope| {
         for chunk in roots.chunks(batch) {
@@ -137,7 +143,7 @@ pub(super) fn walk(roots: &[(Entity, Affine3A)], nodes: &mut Query<Node>, moved:
 /// Asks the memory for what visiting `entity` reads (its transforms and its `Children`), without
 /// waiting for it.
 #[inline(always)]
-fn ask(nodes: &Query<Node>, entity: Entity) {
+fn ask(nodes: &Query<Node, Visited>, entity: Entity) {
     // SAFETY: the fetch only reads addresses and is dropped at once; the entity is fetched by
     // this task alone (see `walk`), and no other fetch of it by this task is alive meanwhile.
     if let Ok((transform, global, children, ..)) = unsafe { nodes.get_unchecked(entity) } {

@@ -1,0 +1,416 @@
+//! Compact skeletons: a crowd's skinned meshes posed without writing their bones' entities.
+//! Not a technique of the seeds: it is what production engines offer for crowds (Unity's
+//! "Optimize Game Objects" on an animator, which keeps a skeleton's bones out of the scene's
+//! transform hierarchy unless exposed; Unreal's skeletal meshes, whose bones are never scene
+//! components).
+//!
+//! **Why.** By default every bone is an entity: [`animate`](super::animate) writes its
+//! `Transform`, transform propagation its `GlobalTransform`, and
+//! [`update_skin_poses`](super::update_skin_poses) reads those back for the skin matrices. For
+//! 10,000 foxes that is 240,000 entities' transforms written and read three times a frame, most of
+//! the CPU frame on a machine whose memory is the bottleneck (`docs/experiments/
+//! crowds-rig-posing.md` measured that no order of those three passes moves fewer bytes). A skin
+//! with [`CompactSkeleton`] is posed in one pass instead, from the clips straight to its
+//! [`SkinPose`]: its bones' local and global transforms live in a few kilobytes of one task's
+//! scratch memory, and the only bytes written per bone are its skin matrix.
+//!
+//! **What it changes.** The bones' entities stay (their names, their `Joint` mark), but
+//! animation no longer moves them: their `Transform` and `GlobalTransform` keep the values they had
+//! when the skeleton was made compact (the rest pose, for a model just spawned), and transform
+//! propagation does not descend into them ([`PosedInSkin`]), so a crowd that walks costs it
+//! its models' few nodes, not their bones. A bone's posed world transform is still one call away,
+//! [`SkinPose::joint_world`]. A skin whose bones carry anything that is not a bone of the same
+//! skin (a sword in a hand, a light), whose bones are animated by more than one player, or whose
+//! root bones hang from different parents stays as it is, with a warning: those need the bones'
+//! entities. Removing [`CompactSkeleton`] gives the bones back to animation.
+//!
+//! **How.** [`build_compact_skins`] makes a [`SkinRig`] for each new compact skin: its bones
+//! parents first, each with its parent's place in that list, its node index in the player's
+//! clips and its rest transform. Every instance of a model has the same rig, so the rigs are
+//! shared (one allocation for a crowd of one character: what a frame reads of it stays in the
+//! cache). [`pose_compact_skins`] then, in parallel over the skins, samples each bone's
+//! channels at its player's time, composes the global transforms down the list, and writes
+//! `base × global × inverse bind` into the pose. The [`AnimationBudget`](super::AnimationBudget)
+//! applies as before: a player that does not sample this frame leaves its skins' poses as they
+//! are, unless the model moved relative to the mesh.
+
+use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
+use std::sync::Arc;
+
+use bevy_ecs::lifecycle::HookContext;
+use bevy_ecs::prelude::*;
+use bevy_ecs::world::DeferredWorld;
+use bevy_utils::Parallel;
+use glam::{Affine3A, Mat4, Vec4};
+use tracing::warn;
+
+use super::{AnimatedBy, AnimationClip, AnimationOutput, Layer, NodeSample, Skin, SkinPose, sample_layer};
+use crate::asset::Assets;
+use crate::transform::{GlobalTransform, PosedInSkin, Transform};
+
+/// On an entity with a [`Skin`]: pose it from its player's clips in one pass, without moving its
+/// bones' entities (the module docs say what that changes, and when a skin cannot be compact).
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[component(on_remove = compact_skeleton_removed)]
+pub struct CompactSkeleton;
+
+/// The rig of a compact skin, made by [`build_compact_skins`]: the shape every instance of a
+/// model shares, and this instance's player and the entity its root bones hang from.
+#[derive(Component, Clone, Debug)]
+pub struct SkinRig {
+    shape: Arc<RigShape>,
+    /// The player animating the bones (`None`: no bone is animated; the pose is the rest pose).
+    player: Option<Entity>,
+    /// The parent of the root bones (`None`: they are roots of the world).
+    base: Option<Entity>,
+    /// The player's link generation the rig was made under.
+    links: u32,
+}
+
+impl SkinRig {
+    /// How many bones the rig poses.
+    pub fn len(&self) -> usize {
+        self.shape.bones.len()
+    }
+
+    /// Whether the rig poses no bone.
+    pub fn is_empty(&self) -> bool {
+        self.shape.bones.is_empty()
+    }
+
+    /// The player animating the bones, if any.
+    pub fn player(&self) -> Option<Entity> {
+        self.player
+    }
+}
+
+/// What every instance of a model shares of a compact skin's rig.
+#[derive(Debug, PartialEq)]
+struct RigShape {
+    /// The bones, parents first.
+    bones: Vec<RigBone>,
+    /// The skin's inverse bind matrices (by the skin's joint order), in affine form where they
+    /// are affine (glTF's are): `None` for one that is not.
+    inverse_binds: Vec<Option<Affine3A>>,
+    /// The same matrices as given.
+    inverse_bind_matrices: Arc<[Mat4]>,
+}
+
+/// One bone of a [`RigShape`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct RigBone {
+    /// Its place in the skin's joints (and in the pose).
+    joint: u32,
+    /// Its parent's place in [`RigShape::bones`] (always earlier), or [`NO_PARENT`]: it hangs
+    /// from the rig's base.
+    parent: u32,
+    /// Its node index in the player's clips, or [`NO_PARENT`] when no player animates it.
+    node: u32,
+    /// Its `Transform` when the rig was made: what the clips do not animate keeps this.
+    rest: Transform,
+}
+
+/// The parent of a root bone, and the node of a bone no player animates.
+const NO_PARENT: u32 = u32::MAX;
+
+impl SkinPose {
+    /// The world transform of joint `joint` of a skinned entity posed by this pose (whether by
+    /// bones' entities or by a [`CompactSkeleton`]): `mesh_world × pose × inverse bind⁻¹`.
+    /// `None` for a joint out of range or whose inverse bind matrix cannot be inverted.
+    pub fn joint_world(&self, skin: &Skin, mesh_world: &GlobalTransform, joint: usize) -> Option<Affine3A> {
+        let pose = self.0.get(joint)?;
+        let bind = skin.inverse_bind_matrices.get(joint)?;
+        let bind_inverse = bind.inverse();
+        if !bind_inverse.is_finite() {
+            return None;
+        }
+        Some(mesh_world.0 * Affine3A::from_mat4(*pose * bind_inverse))
+    }
+}
+
+/// When [`CompactSkeleton`] is removed, the rig goes too and the bones return to animation and
+/// propagation: flagged changed, so that propagation places every one of them again (those no
+/// clip animates too: they missed every move of their model meanwhile).
+fn compact_skeleton_removed(mut world: DeferredWorld, ctx: HookContext) {
+    let Some(joints) = world.get::<Skin>(ctx.entity).map(|skin| skin.joints.clone()) else { return };
+    let mesh = ctx.entity;
+    world.commands().queue(move |world: &mut World| {
+        if let Ok(mut mesh) = world.get_entity_mut(mesh) {
+            mesh.remove::<SkinRig>();
+        }
+        for joint in joints {
+            if let Ok(mut joint) = world.get_entity_mut(joint) {
+                joint.remove::<PosedInSkin>();
+                if let Some(mut transform) = joint.get_mut::<Transform>() {
+                    transform.set_changed();
+                }
+            }
+        }
+    });
+}
+
+/// What [`build_compact_skins`] reads of a bone.
+type BoneQuery = (&'static Transform, Option<&'static ChildOf>, Option<&'static AnimatedBy>, Option<&'static Children>);
+
+/// The rig shapes made so far, by a hash of their contents: instances of one model share one.
+#[derive(Default)]
+pub struct RigShapes(HashMap<u64, Vec<Arc<RigShape>>>);
+
+impl RigShapes {
+    /// The shared shape equal to `shape`, kept if new.
+    fn share(&mut self, shape: RigShape) -> Arc<RigShape> {
+        let mut hasher = std::collections::hash_map::DefaultHasher::new();
+        for bone in &shape.bones {
+            (bone.joint, bone.parent, bone.node).hash(&mut hasher);
+            let rest = bone.rest;
+            for x in rest.translation.to_array().into_iter().chain(rest.rotation.to_array()).chain(rest.scale.to_array()) {
+                x.to_bits().hash(&mut hasher);
+            }
+        }
+        for m in shape.inverse_bind_matrices.iter() {
+            m.to_cols_array().map(f32::to_bits).hash(&mut hasher);
+        }
+        let same = self.0.entry(hasher.finish()).or_default();
+        // Shapes no rig uses any more are dropped as others are made.
+        same.retain(|s| Arc::strong_count(s) > 1);
+        if let Some(found) = same.iter().find(|s| ***s == shape) {
+            return found.clone();
+        }
+        let shape = Arc::new(shape);
+        same.push(shape.clone());
+        shape
+    }
+}
+
+/// Makes the [`SkinRig`] of each [`CompactSkeleton`] skin that has none (new, or its player's
+/// targets re-linked) or whose [`Skin`] changed, and marks its bones [`PosedInSkin`]. A skin
+/// that cannot be compact (the module docs say when) loses its `CompactSkeleton`, with a
+/// warning. Runs after [`link_animation_targets`](super::link_animation_targets) and before
+/// [`animate`](super::animate).
+#[allow(clippy::type_complexity)]
+pub fn build_compact_skins(
+    mut commands: Commands,
+    pending: Query<(Entity, Ref<Skin>, Option<&SkinRig>), (With<CompactSkeleton>, Or<(Without<SkinRig>, Changed<Skin>)>)>,
+    bones: Query<BoneQuery>,
+    outputs: Query<&AnimationOutput>,
+    mut shapes: Local<RigShapes>,
+) {
+    for (entity, skin, rig) in &pending {
+        if rig.is_some() && !skin.is_changed() {
+            continue;
+        }
+        match make_rig(&skin, &bones, &outputs) {
+            Ok((shape, player, base, links)) => {
+                let shape = shapes.share(shape);
+                commands.entity(entity).insert(SkinRig { shape, player, base, links });
+                for &joint in &skin.joints {
+                    commands.entity(joint).try_insert(PosedInSkin);
+                }
+            }
+            Err(why) => {
+                warn!(?entity, "this skin cannot be a compact skeleton: {why}; its bones stay entities that animation moves");
+                commands.entity(entity).remove::<CompactSkeleton>();
+            }
+        }
+    }
+}
+
+/// The rig of `skin`: its shape, player, base and the player's link generation.
+fn make_rig(
+    skin: &Skin,
+    bones: &Query<BoneQuery>,
+    outputs: &Query<&AnimationOutput>,
+) -> Result<(RigShape, Option<Entity>, Option<Entity>, u32), String> {
+    let joints = &skin.joints;
+    if joints.len() != skin.inverse_bind_matrices.len() {
+        return Err(format!("it has {} joints and {} inverse bind matrices", joints.len(), skin.inverse_bind_matrices.len()));
+    }
+    if joints.len() >= NO_PARENT as usize {
+        return Err("it has too many joints".into());
+    }
+    let place = |e: Entity| joints.iter().position(|&j| j == e);
+    let mut player: Option<(Entity, u32)> = None;
+    let mut base: Option<Option<Entity>> = None;
+    let mut parents = Vec::with_capacity(joints.len());
+    let mut nodes = Vec::with_capacity(joints.len());
+    let mut rests = Vec::with_capacity(joints.len());
+    for (i, &joint) in joints.iter().enumerate() {
+        if joints[..i].contains(&joint) {
+            return Err(format!("joint {joint} is listed twice"));
+        }
+        let (rest, child_of, by, children) = bones.get(joint).map_err(|_| format!("joint {joint} has no Transform"))?;
+        if let Some(other) = children.into_iter().flat_map(|c| c.iter()).find(|&c| place(c).is_none()) {
+            return Err(format!("joint {joint} carries {other}, which is not a joint of the skin"));
+        }
+        let parent_entity = child_of.map(ChildOf::parent);
+        let parent = parent_entity.and_then(place);
+        if parent.is_none() {
+            match base {
+                None => base = Some(parent_entity),
+                Some(b) if b == parent_entity => {}
+                Some(_) => return Err("its root joints hang from different parents".into()),
+            }
+        }
+        let node = match by {
+            Some(by) => {
+                let links = outputs.get(by.player).map(|out| out.links);
+                if links != Ok(by.links) {
+                    NO_PARENT // a stale link: the player is gone or no longer animates this joint
+                } else {
+                    let links = by.links;
+                    match player {
+                        None => player = Some((by.player, links)),
+                        Some((p, _)) if p == by.player => {}
+                        Some(_) => return Err("its joints are animated by more than one player".into()),
+                    }
+                    by.node
+                }
+            }
+            None => NO_PARENT,
+        };
+        parents.push(parent);
+        nodes.push(node);
+        rests.push(*rest);
+    }
+    // Parents first: each bone after its chain of ancestors within the skin.
+    let mut depth = vec![None::<u32>; joints.len()];
+    for i in 0..joints.len() {
+        let mut chain = vec![i];
+        while let Some(&top) = chain.last() {
+            if depth[top].is_some() {
+                break;
+            }
+            match parents[top] {
+                Some(p) if chain.contains(&p) => return Err("its joints' parents form a cycle".into()),
+                Some(p) => chain.push(p),
+                None => {
+                    depth[top] = Some(0);
+                    break;
+                }
+            }
+        }
+        for &j in chain.iter().rev() {
+            if depth[j].is_none() {
+                depth[j] = depth[parents[j].expect("a joint without depth has a parent")].map(|d| d + 1);
+            }
+        }
+    }
+    let mut order: Vec<usize> = (0..joints.len()).collect();
+    order.sort_by_key(|&i| depth[i]);
+    let mut slot = vec![0u32; joints.len()];
+    for (k, &i) in order.iter().enumerate() {
+        slot[i] = k as u32;
+    }
+    let bones = order
+        .iter()
+        .map(|&i| RigBone { joint: i as u32, parent: parents[i].map_or(NO_PARENT, |p| slot[p]), node: nodes[i], rest: rests[i] })
+        .collect();
+    let inverse_binds = skin.inverse_bind_matrices.iter().map(|m| (m.row(3) == Vec4::W).then(|| Affine3A::from_mat4(*m))).collect();
+    let shape = RigShape { bones, inverse_binds, inverse_bind_matrices: skin.inverse_bind_matrices.clone() };
+    let (player, links) = player.map_or((None, 0), |(p, l)| (Some(p), l));
+    Ok((shape, player, base.flatten(), links))
+}
+
+/// What [`pose_compact_skins`] keeps between frames: per-thread scratch for the bones' global
+/// transforms and the skins whose rig went stale, so that a warm frame allocates nothing.
+#[derive(Default)]
+pub struct CompactScratch {
+    globals: Parallel<Vec<Affine3A>>,
+    stale: Parallel<Vec<Entity>>,
+    posed: Parallel<u32>,
+}
+
+/// Poses every compact skin whose player sampled this frame, or whose base moved relative to
+/// the mesh, or whose pose is new (the module docs say how). A skin whose player's targets were
+/// re-linked, or whose player or base is gone, keeps its pose and has its rig made again.
+/// Runs after transform propagation, with [`update_skin_poses`](super::update_skin_poses).
+/// Returns how many compact skins there are and how many it posed.
+#[allow(clippy::type_complexity)]
+pub(super) fn pose_compact_skins(
+    skins: &mut Query<(Entity, &SkinRig, Ref<GlobalTransform>, &mut SkinPose)>,
+    globals: &Query<Ref<GlobalTransform>>,
+    outputs: &Query<&AnimationOutput>,
+    clips: Option<&Assets<AnimationClip>>,
+    scratch: &mut CompactScratch,
+    commands: &mut Commands,
+) -> (u32, u32) {
+    let CompactScratch { globals: scratches, stale, posed } = scratch;
+    let (scratches, stale_ref, posed_ref) = (&*scratches, &*stale, &*posed);
+    skins.par_iter_mut().for_each(|(entity, rig, mesh_world, mut pose)| {
+        let output = match rig.player {
+            Some(player) => match outputs.get(player) {
+                Ok(out) if out.links == rig.links => Some(out),
+                _ => {
+                    stale_ref.borrow_local_mut().push(entity);
+                    return;
+                }
+            },
+            None => None,
+        };
+        let base = match rig.base {
+            Some(base) => match globals.get(base) {
+                Ok(base) => Some(base),
+                Err(_) => {
+                    stale_ref.borrow_local_mut().push(entity);
+                    return;
+                }
+            },
+            None => None,
+        };
+        let sampled = output.is_some_and(|out| out.sample);
+        let moved = mesh_world.is_changed() || base.as_ref().is_some_and(|b| b.is_changed());
+        if !sampled && !moved && pose.0.len() == rig.shape.inverse_binds.len() {
+            return;
+        }
+        *posed_ref.borrow_local_mut() += 1;
+        let to_base = mesh_world.0.inverse() * base.map_or(Affine3A::IDENTITY, |b| b.0);
+        // The layers' clips, found once for the skin rather than once a bone.
+        let mut layers: [Option<(&AnimationClip, &Layer)>; 2] = [None; 2];
+        if let (Some(out), Some(clips)) = (output, clips) {
+            for (slot, layer) in layers.iter_mut().zip(out.layers.iter().flatten()) {
+                *slot = clips.get(layer.clip).map(|clip| (clip, layer));
+            }
+        }
+        let mut bones = scratches.borrow_local_mut();
+        bones.clear();
+        // Written in place and flagged changed only if a matrix changed: a paused player's
+        // skins cost nothing downstream.
+        let mut changed = pose.0.len() != rig.shape.inverse_binds.len();
+        let matrices = &mut pose.bypass_change_detection().0;
+        matrices.resize(rig.shape.inverse_binds.len(), Mat4::IDENTITY);
+        for bone in &rig.shape.bones {
+            let local = if bone.node == NO_PARENT {
+                bone.rest
+            } else {
+                let mut sampled = NodeSample { translation: None, rotation: None, scale: None, weights: [None; 2] };
+                for (i, (clip, layer)) in layers.iter().flatten().enumerate() {
+                    sample_layer(clip, layer, bone.node as usize, i, &mut sampled);
+                }
+                sampled.transform(bone.rest).unwrap_or(bone.rest)
+            };
+            let parent = if bone.parent == NO_PARENT { to_base } else { bones[bone.parent as usize] };
+            let global = parent * local.compute_affine();
+            bones.push(global);
+            let joint = bone.joint as usize;
+            let matrix = match rig.shape.inverse_binds[joint] {
+                Some(bind) => Mat4::from(global * bind),
+                None => Mat4::from(global) * rig.shape.inverse_bind_matrices[joint],
+            };
+            if matrices[joint] != matrix {
+                matrices[joint] = matrix;
+                changed = true;
+            }
+        }
+        if changed {
+            pose.set_changed();
+        }
+    });
+    for list in stale.iter_mut() {
+        for entity in list.drain(..) {
+            commands.entity(entity).try_remove::<SkinRig>();
+        }
+    }
+    let posed = posed.iter_mut().map(std::mem::take).sum();
+    (skins.iter().len() as u32, posed)
+}
