@@ -37,7 +37,9 @@
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicU32, Ordering};
 
+use bevy_ecs::batching::BatchingStrategy;
 use bevy_ecs::lifecycle::HookContext;
 use bevy_ecs::prelude::*;
 use bevy_ecs::world::DeferredWorld;
@@ -312,13 +314,33 @@ fn make_rig(
     Ok((shape, player, base.flatten(), links))
 }
 
-/// What [`pose_compact_skins`] keeps between frames: per-thread scratch for the bones' global
-/// transforms and the skins whose rig went stale, so that a warm frame allocates nothing.
+/// What [`pose_compact_skins`] keeps between frames: per-thread scratch for the global transforms
+/// of rigs of more than [`STACK_BONES`] bones and the skins whose rig went stale, so that a warm
+/// frame allocates nothing.
 #[derive(Default)]
 pub struct CompactScratch {
     globals: Parallel<Vec<Affine3A>>,
     stale: Parallel<Vec<Entity>>,
-    posed: Parallel<u32>,
+}
+
+/// Bones whose global transforms a task keeps in its batch's own array (a fox has 24); a larger
+/// rig uses the thread's [`CompactScratch`].
+const STACK_BONES: usize = 64;
+
+/// What a task keeps while it poses a batch of skins: the bones' global transforms, and the
+/// skins it posed, added to the frame's count when the batch ends. Nothing in it is shared
+/// with another task while the batch runs (a per-thread cell would put every task's counter and
+/// borrow flag in the same cache lines, written for every skin).
+struct Batch<'a> {
+    bones: [Affine3A; STACK_BONES],
+    posed: u32,
+    total: &'a AtomicU32,
+}
+
+impl Drop for Batch<'_> {
+    fn drop(&mut self) {
+        self.total.fetch_add(self.posed, Ordering::Relaxed);
+    }
 }
 
 /// Poses every compact skin whose player sampled this frame, or whose base moved relative to
@@ -335,9 +357,13 @@ pub(super) fn pose_compact_skins(
     scratch: &mut CompactScratch,
     commands: &mut Commands,
 ) -> (u32, u32) {
-    let CompactScratch { globals: scratches, stale, posed } = scratch;
-    let (scratches, stale_ref, posed_ref) = (&*scratches, &*stale, &*posed);
-    skins.par_iter_mut().for_each(|(entity, rig, mesh_world, mut pose)| {
+    let CompactScratch { globals: scratches, stale } = scratch;
+    let (scratches, stale_ref) = (&*scratches, &*stale);
+    let posed = AtomicU32::new(0);
+    // Several batches a thread, so that a thread held up elsewhere does not hold up the pass.
+    let batching = BatchingStrategy::new().min_batch_size(16).batches_per_thread(4);
+    let start = || Batch { bones: [Affine3A::IDENTITY; STACK_BONES], posed: 0, total: &posed };
+    skins.par_iter_mut().batching_strategy(batching).for_each_init(start, |batch, (entity, rig, mesh_world, mut pose)| {
         let output = match rig.player {
             Some(player) => match outputs.get(player) {
                 Ok(out) if out.links == rig.links => Some(out),
@@ -363,7 +389,7 @@ pub(super) fn pose_compact_skins(
         if !sampled && !moved && pose.0.len() == rig.shape.inverse_binds.len() {
             return;
         }
-        *posed_ref.borrow_local_mut() += 1;
+        batch.posed += 1;
         let to_base = mesh_world.0.inverse() * base.map_or(Affine3A::IDENTITY, |b| b.0);
         // The layers' clips, found once for the skin rather than once a bone.
         let mut layers: [Option<(&AnimationClip, &Layer)>; 2] = [None; 2];
@@ -372,14 +398,21 @@ pub(super) fn pose_compact_skins(
                 *slot = clips.get(layer.clip).map(|clip| (clip, layer));
             }
         }
-        let mut bones = scratches.borrow_local_mut();
-        bones.clear();
+        let count = rig.shape.bones.len();
+        let mut heap = (count > STACK_BONES).then(|| scratches.borrow_local_mut());
+        let bones: &mut [Affine3A] = match heap.as_deref_mut() {
+            Some(bones) => {
+                bones.resize(count, Affine3A::IDENTITY);
+                bones
+            }
+            None => &mut batch.bones[..count],
+        };
         // Written in place and flagged changed only if a matrix changed: a paused player's
         // skins cost nothing downstream.
         let mut changed = pose.0.len() != rig.shape.inverse_binds.len();
         let matrices = &mut pose.bypass_change_detection().0;
         matrices.resize(rig.shape.inverse_binds.len(), Mat4::IDENTITY);
-        for bone in &rig.shape.bones {
+        for (slot, bone) in rig.shape.bones.iter().enumerate() {
             let local = if bone.node == NO_PARENT {
                 bone.rest
             } else {
@@ -391,7 +424,7 @@ pub(super) fn pose_compact_skins(
             };
             let parent = if bone.parent == NO_PARENT { to_base } else { bones[bone.parent as usize] };
             let global = parent * local.compute_affine();
-            bones.push(global);
+            bones[slot] = global;
             let joint = bone.joint as usize;
             let matrix = match rig.shape.inverse_binds[joint] {
                 Some(bind) => Mat4::from(global * bind),
@@ -411,6 +444,5 @@ pub(super) fn pose_compact_skins(
             commands.entity(entity).try_remove::<SkinRig>();
         }
     }
-    let posed = posed.iter_mut().map(std::mem::take).sum();
-    (skins.iter().len() as u32, posed)
+    (skins.iter().len() as u32, posed.into_inner())
 }
