@@ -235,6 +235,7 @@ fn a_compact_skeleton_poses_the_fox_as_its_bones_would_without_moving_them() {
                 .zip(b)
                 .all(|(a, b)| a.to_cols_array().iter().zip(b.to_cols_array()).all(|(x, y)| (x - y).abs() <= 1e-4 * x.abs().max(1.0)))
     };
+    let mut rest_globals: Option<Vec<GlobalTransform>> = None;
     for frame in 0..12 {
         if frame == 4 {
             // Walk to run, over a fifth of a second.
@@ -251,6 +252,9 @@ fn a_compact_skeleton_poses_the_fox_as_its_bones_would_without_moving_them() {
         assert!(same(&pose(&app, armed_mesh), &reference), "frame {frame}: the armed fox, its bones entities, too");
         let moved_bones = joints.iter().zip(&rest).filter(|&(&j, r)| app.world.get::<Transform>(j).unwrap() != r).count();
         assert_eq!(moved_bones, 0, "frame {frame}: the compact skin's bones keep their rest transforms");
+        let globals: Vec<GlobalTransform> = joints.iter().map(|&j| *app.world.get::<GlobalTransform>(j).unwrap()).collect();
+        let first = rest_globals.get_or_insert_with(|| globals.clone());
+        assert_eq!(&globals, first, "frame {frame}: propagation does not visit the bones while the fox moves");
         assert!(joints.iter().all(|&j| app.world.get::<PosedInSkin>(j).is_some()));
         let skin = app.world.get::<Skin>(compact_mesh).unwrap();
         let mesh_world = app.world.get::<GlobalTransform>(compact_mesh).unwrap();

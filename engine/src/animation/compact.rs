@@ -15,11 +15,13 @@
 //! scratch memory, and the only bytes written per bone are its skin matrix.
 //!
 //! **What it changes.** The bones' entities stay (their names, their `Joint` mark), but
-//! animation no longer moves them: their `Transform` and `GlobalTransform` keep the values they had
-//! when the skeleton was made compact (the rest pose, for a model just spawned), and transform
-//! propagation does not descend into them ([`PosedInSkin`]), so a crowd that walks costs it
-//! its models' few nodes, not their bones. A bone's posed world transform is still one call away,
-//! [`SkinPose::joint_world`]. A skin whose bones carry anything that is not a bone of the same
+//! animation no longer moves them and transform propagation does not descend into them
+//! ([`PosedInSkin`]), so a crowd that walks costs it its models' few nodes, not their bones.
+//! Their `Transform` keeps the value it had when the skeleton was made compact (the rest pose,
+//! for a model just spawned), and their `GlobalTransform` the last value propagation wrote (none,
+//! for a model spawned compact): neither says where the bone is. Its posed world transform is
+//! one call away, [`SkinPose::joint_world`]. Writing a bone's `Transform` (inverse kinematics, a
+//! head turned to look) does nothing while the skeleton is compact. A skin whose bones carry anything that is not a bone of the same
 //! skin (a sword in a hand, a light), whose bones are animated by more than one player, or whose
 //! root bones hang from different parents stays as it is, with a warning: those need the bones'
 //! entities. Removing [`CompactSkeleton`] gives the bones back to animation.
@@ -314,9 +316,10 @@ fn make_rig(
     Ok((shape, player, base.flatten(), links))
 }
 
-/// What [`pose_compact_skins`] keeps between frames: per-thread scratch for the global transforms
-/// of rigs of more than [`STACK_BONES`] bones and the skins whose rig went stale, so that a warm
-/// frame allocates nothing.
+/// What the posing of compact skins keeps between frames (a `Local` of
+/// [`update_skin_poses`](super::update_skin_poses)): per-thread scratch for the global transforms
+/// of rigs of more than 64 bones and the skins whose rig went stale, so that a warm frame
+/// allocates nothing.
 #[derive(Default)]
 pub struct CompactScratch {
     globals: Parallel<Vec<Affine3A>>,

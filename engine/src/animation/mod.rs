@@ -29,6 +29,11 @@
 //! foxes more slowly than one. Sampling where it is written halved the time (`cargo bench -p
 //! engine --bench animation`, docs/experiments/animation-cpu.md).
 //!
+//! **A crowd's skeletons.** A skinned entity with [`CompactSkeleton`] is posed from its clips
+//! in one pass, straight into its [`SkinPose`], without animating or propagating its bones'
+//! entities: for a crowd, whose bones nothing else reads (the `compact` module says what it
+//! saves and what it changes).
+//!
 //! **A crowd's far half.** With the [`AnimationBudget`] on, a model small on screen or off it
 //! samples every second or fourth frame, its clock still keeping time (the `budget` module says
 //! the rule and the bound on how old a pose gets); what is not sampled is not written, so

@@ -208,8 +208,7 @@ pub struct Joint;
 /// A bone posed by a compact skeleton (`crate::animation::CompactSkeleton`), which computes its
 /// skin's matrices without it: animation samples nothing into it, and propagation neither
 /// visits it nor descends below it (its subtree is bones of the same skin), so its
-/// `GlobalTransform` keeps the value it had when the skeleton was made compact. Set and cleared
-/// with the skin's rig.
+/// `GlobalTransform` keeps the last value propagation wrote. Set and cleared with the skin's rig.
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PosedInSkin;
 
