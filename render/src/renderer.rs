@@ -607,6 +607,13 @@ impl Renderer {
         }))
     }
 
+    /// Waits until the GPU has finished everything submitted so far (what a headless benchmark
+    /// does between frames where the GPU is emulated on the same cores: the sandbox's
+    /// `--gpu-idle-between-frames`).
+    pub fn wait_gpu_idle(&self) {
+        self.ctx.wait_idle();
+    }
+
     /// Waits for the GPU and returns the timings of every frame not yet reported, oldest first.
     pub fn finish(&mut self) -> Vec<FinishedFrame> {
         self.ctx.wait_idle();

@@ -128,6 +128,8 @@ pub struct HeadlessOptions {
     /// Pose the `foxes` and `crowd` scenes' skins through their bones' entities instead of as
     /// compact skeletons (`engine::animation::CompactSkeleton`).
     pub bone_entities: bool,
+    /// Wait for the GPU to finish each frame before the next update starts (not pipelined).
+    pub gpu_idle_between_frames: bool,
     /// Run `frames` frames with every culling mode in turn (off, frustum, occlusion).
     pub compare_culling: bool,
     /// What lights the scene from all around (default: the procedural sky).
@@ -364,6 +366,7 @@ impl Default for HeadlessOptions {
             pipelined: false,
             animation_budget: false,
             bone_entities: false,
+            gpu_idle_between_frames: false,
             compare_culling: false,
             environment: engine::environment::Environment::default(),
             compare_environment: false,
@@ -668,6 +671,10 @@ pub fn run(opts: &HeadlessOptions) -> Result<RunSummary> {
         app.update();
         if let Some(e) = app.world.resource::<RenderStats>().last_error.clone() {
             bail!("rendering failed: {e}");
+        }
+        if opts.gpu_idle_between_frames {
+            // Outside the frame's CPU time, which excludes the waits for the GPU anyway.
+            app.world.resource::<GpuRenderer>().0.wait_gpu_idle();
         }
         drain_stats(&mut app, &device, &mut frames);
     }

@@ -225,6 +225,12 @@ struct Cli {
     /// as compact skeletons posed in one pass (engine::animation::CompactSkeleton; for comparison).
     #[arg(long)]
     bone_entities: bool,
+    /// Wait for the GPU to finish each frame before the next update starts (headless, not with
+    /// --pipelined). Where the GPU is emulated on the CPU's own cores (lavapipe), its work
+    /// otherwise runs beside the next frame's update, and cpu_ms then measures the two sharing
+    /// the cores.
+    #[arg(long, conflicts_with = "pipelined")]
+    gpu_idle_between_frames: bool,
     /// Anti-aliasing of the displayed image: none, fxaa (fast approximate, in compute before
     /// tone mapping), smaa (subpixel morphological, 1x, in compute), taa (temporal: jittered frames blended along motion vectors; none under a
     /// debug view), msaa2, msaa4, msaa8 (multisampling in forward and Forward+; taa in the
@@ -580,6 +586,7 @@ fn main() -> Result<()> {
         pipelined: cli.pipelined,
         animation_budget: cli.animation_budget,
         bone_entities: cli.bone_entities,
+        gpu_idle_between_frames: cli.gpu_idle_between_frames,
         compare_culling: cli.compare_culling,
         environment,
         environment_resolution: cli.environment_resolution,
