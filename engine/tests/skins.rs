@@ -221,25 +221,27 @@ fn a_compact_skeleton_poses_the_fox_as_its_bones_would_without_moving_them() {
     let mut app = App::new();
     app.world.resource_mut::<Time>().set_fixed_step(Some(Duration::from_micros(16_667)));
     let mut prefab = scene.into_prefab(&mut app.world);
-    // Three foxes in the same place: bones as entities, compact (as the prefab spawns it), and
-    // compact with a sword in a bone's hand.
-    let foxes: Vec<(Entity, Entity)> = (0..3)
+    // Four foxes in the same place: bones as entities, compact (as the prefab spawns it),
+    // compact until a sword is hung in a bone's hand, and compact with its player given late.
+    let foxes: Vec<(Entity, Entity)> = (0..4)
         .map(|i| {
             prefab.compact_skeletons = i > 0;
             let root = prefab.spawn(&mut app.world);
             let clips = app.world.get::<GltfAnimations>(root).unwrap().0.clone();
             let mut player = AnimationPlayer::new(clips[1]);
             player.seek(0.4);
-            app.world.entity_mut(root).insert((player, Transform::from_xyz(1.0, 0.0, 0.0).with_scale(Vec3::splat(0.01))));
+            app.world.entity_mut(root).insert(Transform::from_xyz(1.0, 0.0, 0.0).with_scale(Vec3::splat(0.01)));
+            if i < 3 {
+                app.world.entity_mut(root).insert(player);
+            }
             app.world.flush();
             let targets = app.world.get::<AnimationTargets>(root).unwrap().0.clone();
             let mesh = app.world.query::<(Entity, &Skin)>().iter(&app.world).find(|(_, s)| targets.contains(&Some(s.joints[0]))).unwrap().0;
             (root, mesh)
         })
         .collect();
-    let [(entities, bones_mesh), (compact, compact_mesh), (armed, armed_mesh)] = foxes[..] else { unreachable!() };
+    let [(entities, bones_mesh), (compact, compact_mesh), (armed, armed_mesh), (late, late_mesh)] = foxes[..] else { unreachable!() };
     let hand = app.world.get::<Skin>(armed_mesh).unwrap().joints[10];
-    app.world.spawn((Transform::IDENTITY, ChildOf(hand)));
     let joints = app.world.get::<Skin>(compact_mesh).unwrap().joints.clone();
     let rest: Vec<Transform> = joints.iter().map(|&j| *app.world.get::<Transform>(j).unwrap()).collect();
 
@@ -259,13 +261,26 @@ fn a_compact_skeleton_poses_the_fox_as_its_bones_would_without_moving_them() {
                 app.world.get_mut::<AnimationPlayer>(root).unwrap().cross_fade(clips[2], 0.2);
             }
         }
-        for root in [entities, compact, armed] {
+        if frame == 2 {
+            assert!(app.world.get::<CompactSkeleton>(armed_mesh).is_some());
+            app.world.spawn((Transform::IDENTITY, ChildOf(hand)));
+        }
+        if frame == 6 {
+            // The late fox gets its player, in the state the others' players are in.
+            let player = app.world.get::<AnimationPlayer>(entities).unwrap().clone();
+            app.world.entity_mut(late).insert(player);
+        }
+        for root in [entities, compact, armed, late] {
             app.world.get_mut::<Transform>(root).unwrap().translation.z = frame as f32 * 0.1;
         }
         app.update();
         let reference = pose(&app, bones_mesh);
         assert!(same(&pose(&app, compact_mesh), &reference), "frame {frame}: the compact skin's pose is the bones' pose");
-        assert!(same(&pose(&app, armed_mesh), &reference), "frame {frame}: the armed fox, its bones entities, too");
+        assert!(same(&pose(&app, armed_mesh), &reference), "frame {frame}: the armed fox, compact or with its bones as entities, too");
+        assert_eq!(same(&pose(&app, late_mesh), &reference), frame >= 6, "frame {frame}: the late fox is posed once it has a player");
+        if frame >= 2 {
+            assert!(app.world.get::<CompactSkeleton>(armed_mesh).is_none(), "a bone carrying a sword needs its skin's bones as entities");
+        }
         let moved_bones = joints.iter().zip(&rest).filter(|&(&j, r)| app.world.get::<Transform>(j).unwrap() != r).count();
         assert_eq!(moved_bones, 0, "frame {frame}: the compact skin's bones keep their rest transforms");
         let globals: Vec<GlobalTransform> = joints.iter().map(|&j| *app.world.get::<GlobalTransform>(j).unwrap()).collect();
@@ -282,7 +297,6 @@ fn a_compact_skeleton_poses_the_fox_as_its_bones_would_without_moving_them() {
             assert!(found.abs_diff_eq(expected, 1e-4), "frame {frame}, joint {i}: {found:?} against {expected:?}");
         }
     }
-    assert!(app.world.get::<CompactSkeleton>(armed_mesh).is_none(), "a bone carrying a sword keeps its skin's bones entities");
 
     // Paused, a compact skin's pose is not written again: nothing downstream runs for it.
     #[derive(Resource, Default)]
@@ -294,13 +308,13 @@ fn a_compact_skeleton_poses_the_fox_as_its_bones_would_without_moving_them() {
     app.update();
     app.update();
     assert!(app.world.resource::<Posed>().0.contains(&compact_mesh), "it changes while walking");
-    for root in [entities, compact, armed] {
+    for root in [entities, compact, armed, late] {
         app.world.get_mut::<AnimationPlayer>(root).unwrap().paused = true;
     }
     app.update();
     app.update();
     assert!(app.world.resource::<Posed>().0.is_empty(), "paused, no pose changes: {:?}", app.world.resource::<Posed>().0);
-    for root in [entities, compact, armed] {
+    for root in [entities, compact, armed, late] {
         app.world.get_mut::<AnimationPlayer>(root).unwrap().paused = false;
     }
 
@@ -313,4 +327,17 @@ fn a_compact_skeleton_poses_the_fox_as_its_bones_would_without_moving_them() {
     let moved_bones = joints.iter().zip(&rest).filter(|&(&j, r)| app.world.get::<Transform>(j).unwrap() != r).count();
     assert!(moved_bones > 12, "the bones move again: {moved_bones} of 24");
     assert!(joints.iter().all(|&j| app.world.get::<PosedInSkin>(j).is_none()));
+
+    // A skin posed from its joints' entities, given the late fox's bones, takes them back.
+    let late_skin = app.world.get::<Skin>(late_mesh).unwrap().clone();
+    let late_joints = late_skin.joints.clone();
+    assert!(late_joints.iter().all(|&j| app.world.get::<PosedInSkin>(j).is_some()));
+    let second = app.world.spawn((late_skin, Transform::IDENTITY, ChildOf(app.world.get::<ChildOf>(late_mesh).unwrap().parent()))).id();
+    for _ in 0..2 {
+        app.update();
+    }
+    assert!(app.world.get::<CompactSkeleton>(late_mesh).is_none(), "the compact skeleton gave its bones back");
+    assert!(late_joints.iter().all(|&j| app.world.get::<PosedInSkin>(j).is_none()));
+    assert!(same(&pose(&app, second), &pose(&app, bones_mesh)), "the second skin follows the bones");
+    assert!(same(&pose(&app, late_mesh), &pose(&app, bones_mesh)));
 }

@@ -17,24 +17,40 @@
 //! **What it changes.** The bones' entities stay (their names, their `Joint` mark), but
 //! animation no longer moves them and transform propagation does not descend into them
 //! ([`PosedInSkin`]), so a crowd that walks costs it its models' few nodes, not their bones.
-//! Their `Transform` keeps the value it had when the skeleton was made compact (the rest pose,
-//! for a model just spawned), and their `GlobalTransform` the last value propagation wrote (none,
-//! for a model spawned compact): neither says where the bone is. Its posed world transform is
-//! one call away, [`SkinPose::joint_world`]. Writing a bone's `Transform` (inverse kinematics, a
-//! head turned to look) does nothing while the skeleton is compact. A skin whose bones carry anything that is not a bone of the same
-//! skin (a sword in a hand, a light), whose bones are animated by more than one player, or whose
-//! root bones hang from different parents stays as it is, with a warning: those need the bones'
-//! entities. Removing [`CompactSkeleton`] gives the bones back to animation.
+//! - Their `Transform` keeps the value it had when the skeleton was made compact (the rest pose,
+//!   for a model just spawned), and their `GlobalTransform` the last value propagation wrote
+//!   (the identity, for a model spawned compact): neither says where the bone is. Its posed
+//!   world transform is one call away, [`SkinPose::joint_world`].
+//! - Writing a bone's `Transform` (inverse kinematics, a head turned to look) does nothing while
+//!   the skeleton is compact.
+//! - A bone property the playing clips do not animate takes its rest value. With bones as
+//!   entities it keeps the last value a clip wrote; the two differ only after a switch to a clip
+//!   that animates fewer properties.
 //!
-//! **How.** [`build_compact_skins`] makes a [`SkinRig`] for each new compact skin: its bones
-//! parents first, each with its parent's place in that list, its node index in the player's
-//! clips and its rest transform. Every instance of a model has the same rig, so the rigs are
-//! shared (one allocation for a crowd of one character: what a frame reads of it stays in the
-//! cache). [`pose_compact_skins`] then, in parallel over the skins, samples each bone's
-//! channels at its player's time, composes the global transforms down the list, and writes
-//! `base × global × inverse bind` into the pose. The [`AnimationBudget`](super::AnimationBudget)
-//! applies as before: a player that does not sample this frame leaves its skins' poses as they
-//! are, unless the model moved relative to the mesh.
+//! **When a skin cannot be compact.** It stays as it is, or gives its bones back, with a warning,
+//! when something needs the bones' entities moved:
+//! - a bone carries anything that is not a bone of the same skin: a child (a sword in a hand,
+//!   checked when the rig is made and whenever a child is hung on a bone later), or a light,
+//!   camera, mesh or morph weights on the bone itself;
+//! - a bone is also a joint of a skin posed from its joints' entities (one sharing the skeleton,
+//!   now or later); skins that share a skeleton can all be compact;
+//! - the bones are animated by more than one player, or the root bones hang from different
+//!   parents.
+//!
+//! Removing [`CompactSkeleton`], or replacing the [`Skin`], gives the bones back to animation
+//! and propagation, which place them all again.
+//!
+//! **How.** [`build_compact_skins`] makes a [`SkinRig`] for each compact skin that has none: its
+//! bones parents first, each with its parent's place in that list, its node index in the
+//! player's clips and its rest transform. It does so again when a bone is re-linked to a player
+//! (one added late, or targets changed) or re-parented. Every instance of a model has the same
+//! rig, so the rigs are shared (one allocation for a crowd of one character: what a frame reads
+//! of it stays in the cache). [`update_skin_poses`](super::update_skin_poses) then, in parallel
+//! over the skins, samples each bone's channels at its player's time, composes the global
+//! transforms down the list, and writes `mesh⁻¹ × base × global × inverse bind` into the pose.
+//! The [`AnimationBudget`](super::AnimationBudget) applies as before: a player that does not
+//! sample this frame leaves its skins' poses as they are, unless the base moved relative to the
+//! mesh (a model that walks as a whole keeps its pose).
 
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
@@ -42,15 +58,20 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 use bevy_ecs::batching::BatchingStrategy;
+use bevy_ecs::entity::EntityHashSet;
 use bevy_ecs::lifecycle::HookContext;
 use bevy_ecs::prelude::*;
+use bevy_ecs::system::SystemParam;
 use bevy_ecs::world::DeferredWorld;
 use bevy_utils::Parallel;
 use glam::{Affine3A, Mat4, Vec4};
 use tracing::warn;
 
-use super::{AnimatedBy, AnimationClip, AnimationOutput, Layer, NodeSample, Skin, SkinPose, sample_layer};
+use super::{AnimatedBy, AnimationClip, AnimationOutput, Layer, MorphWeights, NodeSample, Skin, SkinPose, sample_layer};
 use crate::asset::Assets;
+use crate::camera::Camera;
+use crate::light::{DirectionalLight, DiskLight, PointLight, RectLight, SpotLight};
+use crate::scene::MeshInstance;
 use crate::transform::{GlobalTransform, PosedInSkin, Transform};
 
 /// On an entity with a [`Skin`]: pose it from its player's clips in one pass, without moving its
@@ -70,6 +91,9 @@ pub struct SkinRig {
     base: Option<Entity>,
     /// The player's link generation the rig was made under.
     links: u32,
+    /// The base in the mesh's space when the skin was last posed (NaN before): a model that
+    /// moves as a whole leaves it, and a pose not due is then left as it is.
+    last_base: Affine3A,
 }
 
 impl SkinRig {
@@ -134,17 +158,51 @@ impl SkinPose {
 }
 
 /// When [`CompactSkeleton`] is removed, the rig goes too and the bones return to animation and
-/// propagation: flagged changed, so that propagation places every one of them again (those no
-/// clip animates too: they missed every move of their model meanwhile).
+/// propagation.
 fn compact_skeleton_removed(mut world: DeferredWorld, ctx: HookContext) {
-    let Some(joints) = world.get::<Skin>(ctx.entity).map(|skin| skin.joints.clone()) else { return };
-    let mesh = ctx.entity;
+    if let Some(joints) = world.get::<Skin>(ctx.entity).map(|skin| skin.joints.clone()) {
+        release_bones(&mut world, ctx.entity, joints);
+    }
+}
+
+/// When a compact skin's [`Skin`] is replaced or removed, its old bones return to animation and
+/// propagation (a new `Skin` gets a new rig). A `Skin` inserted whose joints a compact skeleton
+/// poses makes that skeleton give them back: a skin posed from its joints' entities needs them
+/// moved.
+pub(super) fn skin_replaced(mut world: DeferredWorld, ctx: HookContext) {
+    if world.get::<SkinRig>(ctx.entity).is_some()
+        && let Some(joints) = world.get::<Skin>(ctx.entity).map(|skin| skin.joints.clone())
+    {
+        release_bones(&mut world, ctx.entity, joints);
+    }
+}
+
+/// See [`skin_replaced`].
+pub(super) fn skin_inserted(mut world: DeferredWorld, ctx: HookContext) {
+    if world.get::<CompactSkeleton>(ctx.entity).is_some() {
+        return;
+    }
+    let Some(skin) = world.get::<Skin>(ctx.entity) else { return };
+    let owners: Vec<Entity> =
+        skin.joints.iter().filter_map(|&j| world.get::<PosedInSkin>(j).map(|p| p.0)).filter(|&o| o != ctx.entity).collect();
+    for owner in owners {
+        warn!(skin = ?ctx.entity, compact = ?owner, "a skin shares bones with a compact skeleton, which gives them back to animation");
+        world.commands().entity(owner).try_remove::<CompactSkeleton>();
+    }
+}
+
+/// Removes `mesh`'s rig and gives its bones back: each bone it marked loses [`PosedInSkin`] and
+/// is flagged changed, so that propagation places every one of them again (those no clip
+/// animates too: they missed every move of their model meanwhile).
+fn release_bones(world: &mut DeferredWorld, mesh: Entity, joints: Vec<Entity>) {
     world.commands().queue(move |world: &mut World| {
         if let Ok(mut mesh) = world.get_entity_mut(mesh) {
             mesh.remove::<SkinRig>();
         }
         for joint in joints {
-            if let Ok(mut joint) = world.get_entity_mut(joint) {
+            if let Ok(mut joint) = world.get_entity_mut(joint)
+                && joint.get::<PosedInSkin>().is_some_and(|p| p.0 == mesh)
+            {
                 joint.remove::<PosedInSkin>();
                 if let Some(mut transform) = joint.get_mut::<Transform>() {
                     transform.set_changed();
@@ -154,8 +212,51 @@ fn compact_skeleton_removed(mut world: DeferredWorld, ctx: HookContext) {
     });
 }
 
+/// A compact skin whose bones were re-linked to a player, or re-parented, is made again; one
+/// whose bone was given a child that is not a bone of it (an attachment) stops being compact,
+/// with a warning (the child needs its parent's `GlobalTransform`).
+pub(super) fn bone_relinked(event: On<Insert<AnimatedBy>>, posed: Query<&PosedInSkin>, mut commands: Commands) {
+    if let Ok(&PosedInSkin(skin)) = posed.get(event.entity) {
+        commands.entity(skin).try_remove::<SkinRig>();
+    }
+}
+
+/// See [`bone_relinked`].
+pub(super) fn bone_reparented(event: On<Insert<ChildOf>>, parents: Query<&ChildOf>, posed: Query<&PosedInSkin>, mut commands: Commands) {
+    let child = event.entity;
+    if let Ok(&PosedInSkin(skin)) = posed.get(child) {
+        commands.entity(skin).try_remove::<SkinRig>();
+        return;
+    }
+    if let Some(&PosedInSkin(skin)) = parents.get(child).ok().and_then(|c| posed.get(c.parent()).ok()) {
+        warn!(?child, ?skin, "an entity was hung on a bone of a compact skeleton, which gives its bones back to animation");
+        commands.entity(skin).try_remove::<CompactSkeleton>();
+    }
+}
+
 /// What [`build_compact_skins`] reads of a bone.
 type BoneQuery = (&'static Transform, Option<&'static ChildOf>, Option<&'static AnimatedBy>, Option<&'static Children>);
+
+/// Bones a compact skeleton refuses: they carry something that needs their entity moved.
+type Carrier = Or<(
+    With<PointLight>,
+    With<SpotLight>,
+    With<DirectionalLight>,
+    With<RectLight>,
+    With<DiskLight>,
+    With<Camera>,
+    With<MeshInstance>,
+    With<MorphWeights>,
+)>;
+
+/// What [`build_compact_skins`] looks up to make a rig.
+#[derive(SystemParam)]
+pub struct RigLookups<'w, 's> {
+    bones: Query<'w, 's, BoneQuery>,
+    carriers: Query<'w, 's, (), Carrier>,
+    placed: Query<'w, 's, (), With<GlobalTransform>>,
+    outputs: Query<'w, 's, &'static AnimationOutput>,
+}
 
 /// The rig shapes made so far, by a hash of their contents: instances of one model share one.
 #[derive(Default)]
@@ -187,29 +288,32 @@ impl RigShapes {
     }
 }
 
-/// Makes the [`SkinRig`] of each [`CompactSkeleton`] skin that has none (new, or its player's
-/// targets re-linked) or whose [`Skin`] changed, and marks its bones [`PosedInSkin`]. A skin
+/// Makes the [`SkinRig`] of each [`CompactSkeleton`] skin that has none (new, its bones
+/// re-linked or re-parented, its `Skin` replaced), and marks its bones [`PosedInSkin`]. A skin
 /// that cannot be compact (the module docs say when) loses its `CompactSkeleton`, with a
 /// warning. Runs after [`link_animation_targets`](super::link_animation_targets) and before
 /// [`animate`](super::animate).
 #[allow(clippy::type_complexity)]
 pub fn build_compact_skins(
     mut commands: Commands,
-    pending: Query<(Entity, Ref<Skin>, Option<&SkinRig>), (With<CompactSkeleton>, Or<(Without<SkinRig>, Changed<Skin>)>)>,
-    bones: Query<BoneQuery>,
-    outputs: Query<&AnimationOutput>,
-    mut shapes: Local<RigShapes>,
+    pending: Query<(Entity, &Skin), (With<CompactSkeleton>, Without<SkinRig>)>,
+    skins: Query<(&Skin, Has<CompactSkeleton>)>,
+    lookups: RigLookups,
+    (mut shapes, mut shared): (Local<RigShapes>, Local<EntityHashSet>),
 ) {
-    for (entity, skin, rig) in &pending {
-        if rig.is_some() && !skin.is_changed() {
-            continue;
-        }
-        match make_rig(&skin, &bones, &outputs) {
+    if pending.is_empty() {
+        return;
+    }
+    // Bones that a skin posed from its joints' entities also uses (a frame that makes rigs only).
+    shared.clear();
+    shared.extend(skins.iter().filter(|(_, compact)| !compact).flat_map(|(skin, _)| skin.joints.iter().copied()));
+    for (entity, skin) in &pending {
+        match make_rig(skin, &lookups, &shared) {
             Ok((shape, player, base, links)) => {
                 let shape = shapes.share(shape);
-                commands.entity(entity).insert(SkinRig { shape, player, base, links });
+                commands.entity(entity).insert(SkinRig { shape, player, base, links, last_base: Affine3A::NAN });
                 for &joint in &skin.joints {
-                    commands.entity(joint).try_insert(PosedInSkin);
+                    commands.entity(joint).try_insert(PosedInSkin(entity));
                 }
             }
             Err(why) => {
@@ -221,11 +325,9 @@ pub fn build_compact_skins(
 }
 
 /// The rig of `skin`: its shape, player, base and the player's link generation.
-fn make_rig(
-    skin: &Skin,
-    bones: &Query<BoneQuery>,
-    outputs: &Query<&AnimationOutput>,
-) -> Result<(RigShape, Option<Entity>, Option<Entity>, u32), String> {
+/// `shared`: bones that some skin not compact also uses.
+fn make_rig(skin: &Skin, lookups: &RigLookups, shared: &EntityHashSet) -> Result<(RigShape, Option<Entity>, Option<Entity>, u32), String> {
+    let RigLookups { bones, carriers, placed, outputs } = lookups;
     let joints = &skin.joints;
     if joints.len() != skin.inverse_bind_matrices.len() {
         return Err(format!("it has {} joints and {} inverse bind matrices", joints.len(), skin.inverse_bind_matrices.len()));
@@ -244,10 +346,17 @@ fn make_rig(
             return Err(format!("joint {joint} is listed twice"));
         }
         let (rest, child_of, by, children) = bones.get(joint).map_err(|_| format!("joint {joint} has no Transform"))?;
+        if carriers.contains(joint) {
+            return Err(format!("joint {joint} carries a light, camera, mesh or morph weights"));
+        }
+        if shared.contains(&joint) {
+            return Err(format!("joint {joint} is also a joint of a skin that is not compact"));
+        }
         if let Some(other) = children.into_iter().flat_map(|c| c.iter()).find(|&c| place(c).is_none()) {
             return Err(format!("joint {joint} carries {other}, which is not a joint of the skin"));
         }
-        let parent_entity = child_of.map(ChildOf::parent);
+        // A parent without a global transform is no parent: propagation takes the bone as a root.
+        let parent_entity = child_of.map(ChildOf::parent).filter(|&p| placed.contains(p));
         let parent = parent_entity.and_then(place);
         if parent.is_none() {
             match base {
@@ -353,7 +462,7 @@ impl Drop for Batch<'_> {
 /// Returns how many compact skins there are and how many it posed.
 #[allow(clippy::type_complexity)]
 pub(super) fn pose_compact_skins(
-    skins: &mut Query<(Entity, &SkinRig, Ref<GlobalTransform>, &mut SkinPose)>,
+    skins: &mut Query<(Entity, &mut SkinRig, Ref<GlobalTransform>, &mut SkinPose)>,
     globals: &Query<Ref<GlobalTransform>>,
     outputs: &Query<&AnimationOutput>,
     clips: Option<&Assets<AnimationClip>>,
@@ -366,7 +475,7 @@ pub(super) fn pose_compact_skins(
     // Several batches a thread, so that a thread held up elsewhere does not hold up the pass.
     let batching = BatchingStrategy::new().min_batch_size(16).batches_per_thread(4);
     let start = || Batch { bones: [Affine3A::IDENTITY; STACK_BONES], posed: 0, total: &posed };
-    skins.par_iter_mut().batching_strategy(batching).for_each_init(start, |batch, (entity, rig, mesh_world, mut pose)| {
+    skins.par_iter_mut().batching_strategy(batching).for_each_init(start, |batch, (entity, mut rig, mesh_world, mut pose)| {
         let output = match rig.player {
             Some(player) => match outputs.get(player) {
                 Ok(out) if out.links == rig.links => Some(out),
@@ -388,12 +497,17 @@ pub(super) fn pose_compact_skins(
             None => None,
         };
         let sampled = output.is_some_and(|out| out.sample);
+        // The pose is in the mesh's space: a model that moves as a whole (mesh and base
+        // together) keeps it, to rounding.
         let moved = mesh_world.is_changed() || base.as_ref().is_some_and(|b| b.is_changed());
-        if !sampled && !moved && pose.0.len() == rig.shape.inverse_binds.len() {
+        let to_base =
+            if moved || rig.last_base.is_nan() { mesh_world.0.inverse() * base.map_or(Affine3A::IDENTITY, |b| b.0) } else { rig.last_base };
+        let shifted = !to_base.abs_diff_eq(rig.last_base, 1e-6 * to_base.translation.abs().max_element().max(1.0));
+        if !sampled && !shifted && !rig.is_changed() && pose.0.len() == rig.shape.inverse_binds.len() {
             return;
         }
+        rig.bypass_change_detection().last_base = to_base;
         batch.posed += 1;
-        let to_base = mesh_world.0.inverse() * base.map_or(Affine3A::IDENTITY, |b| b.0);
         // The layers' clips, found once for the skin rather than once a bone.
         let mut layers: [Option<(&AnimationClip, &Layer)>; 2] = [None; 2];
         if let (Some(out), Some(clips)) = (output, clips) {

@@ -344,6 +344,7 @@ pub struct AnimationTargets(pub Vec<Option<Entity>>);
 /// is posed at `Σ w_i · joint_i · inverse_bind_i · p` (in the mesh's space, glTF §3.7.3).
 #[derive(Component, Clone, Debug, PartialEq)]
 #[require(SkinPose)]
+#[component(on_insert = compact::skin_inserted, on_discard = compact::skin_replaced)]
 pub struct Skin {
     /// The joints' entities, in the order the mesh's joint indices count.
     pub joints: Vec<Entity>,
@@ -503,6 +504,8 @@ impl Plugin for AnimationPlugin {
         app.world.get_resource_or_init::<Assets<AnimationClip>>();
         app.world.init_resource::<AnimationStats>();
         app.world.init_resource::<AnimationBudget>();
+        app.world.add_observer(compact::bone_relinked);
+        app.world.add_observer(compact::bone_reparented);
         app.add_systems(
             PostUpdate,
             (link_animation_targets, build_compact_skins, animate).chain().in_set(AnimationSystems).before(TransformSystems::Propagate),
@@ -527,7 +530,7 @@ pub struct SkinPose(pub Vec<glam::Mat4>);
 #[allow(clippy::type_complexity)]
 pub fn update_skin_poses(
     mut skinned: Query<(Ref<Skin>, Ref<crate::transform::GlobalTransform>, &mut SkinPose), Without<SkinRig>>,
-    mut compact: Query<(Entity, &SkinRig, Ref<crate::transform::GlobalTransform>, &mut SkinPose)>,
+    mut compact: Query<(Entity, &mut SkinRig, Ref<crate::transform::GlobalTransform>, &mut SkinPose)>,
     joints: Query<Ref<crate::transform::GlobalTransform>>,
     (outputs, clips): (Query<&AnimationOutput>, Option<Res<Assets<AnimationClip>>>),
     (mut scratch, mut commands): (Local<CompactScratch>, Commands),

@@ -205,12 +205,13 @@ pub struct Static;
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Joint;
 
-/// A bone posed by a compact skeleton (`crate::animation::CompactSkeleton`), which computes its
-/// skin's matrices without it: animation samples nothing into it, and propagation neither
-/// visits it nor descends below it (its subtree is bones of the same skin), so its
-/// `GlobalTransform` keeps the last value propagation wrote. Set and cleared with the skin's rig.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct PosedInSkin;
+/// A bone posed by a compact skeleton (`crate::animation::CompactSkeleton`) on the skinned
+/// entity it names, which computes its skin's matrices without it: animation samples nothing
+/// into it, and propagation neither visits it nor descends below it (its subtree is bones of the
+/// same skin), so its `GlobalTransform` keeps the last value propagation wrote. Set and cleared
+/// with the skin's rig.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PosedInSkin(pub Entity);
 
 /// What transform propagation must look at besides its scan, and what it moved.
 ///
