@@ -1,4 +1,4 @@
-// variants: GLASS_LAYER
+// variants: GLASS_LAYER SHADOW_MATERIAL
 #version 460
 // The shadow pass on the ray-query tier (seed 001 §4.3, as the seed wrote it: a compute shader
 // with ray queries). Masked materials' candidate hits run the alpha test before they count.

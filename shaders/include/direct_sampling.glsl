@@ -1,10 +1,11 @@
 // Stochastic direct lighting's shadows (render/src/lights/sampling): instead of a shadow ray
 // towards every light of its list (seed 001 §4.3), a pixel whose list holds more than
 // GpuLighting::sampled_lights_above lights draws one of them (of at most DIRECT_LIGHT_CANDIDATES
-// candidates) in proportion to its unshadowed light on a diffuse surface (weighted reservoir
+// candidates) in proportion to its unshadowed light (through the whole BRDF where the pass has
+// the material, on a diffuse surface otherwise: unshadowed_weight; weighted reservoir
 // sampling, as ReSTIR streams its candidates: Bitterli et al. 2020 §3), and one shadow ray goes
 // to a point of that light's shape. The ray's
-// visibility V, with the pixel's whole unshadowed light S (on a diffuse surface), makes the
+// visibility V, with the pixel's whole unshadowed light S (weighed alike), makes the
 // ratio estimator of Heitz et al. 2018 (I3D, "Combining analytic direct illumination and
 // stochastic shadows"): the denoiser averages V weighted by S over neighbours on the same surface,
 // and shading multiplies the exact unshadowed sum of the pixel's lights by that ratio, so what is
@@ -29,8 +30,8 @@ bool samples_lights(LightList list) {
 }
 
 // What resampling a pixel's list gives: the slot of the light its shadow ray goes to (NO_SLOT:
-// none reaches the point), and S, the list's whole unshadowed light on a diffuse surface (its
-// estimate from the candidates, for long lists).
+// none reaches the point), and S, the list's whole unshadowed light as unshadowed_weight weighs
+// it (its estimate from the candidates, for long lists).
 struct LightSample {
     uint slot;
     float estimate;
@@ -61,12 +62,32 @@ int sun_index(Suns suns, uint slot) {
     return -1;
 }
 
+// The point a pixel draws its lights for: where it is, its normal and, where the pass has the
+// material (SHADOW_MATERIAL: the deferred pipeline's G-buffer), the direction to the eye and the
+// surface's BRDF.
+struct DrawPoint {
+    vec3 p;
+    vec3 n;
+#ifdef SHADOW_MATERIAL
+    vec3 v;
+    SurfaceBrdf brdf;
+#endif
+};
+
 // The target function resampling draws in proportion to: the luminance of the light `light`
-// brings a diffuse surface at `p` with normal `n`, unshadowed (zero where it cannot reach).
-float unshadowed_weight(GpuLight light, vec3 p, vec3 n) {
+// reflects at `at`, unshadowed (zero where it cannot reach). Through the whole BRDF, specular
+// lobe included, where the material is known (SHADOW_MATERIAL); otherwise the light a diffuse
+// surface receives. Shading multiplies its exact unshadowed sum by the ratio the draws estimate,
+// which is exact on average only when the draws weigh each light by its share of that sum: a
+// glossy floor's highlight is most of it, and the diffuse weight does not see it.
+float unshadowed_weight(GpuLight light, DrawPoint at) {
     vec3 l;
-    vec3 incident = light_incidence(light, p, l);
-    return luminance(incident) * max(dot(n, l), 0.0);
+    vec3 incident = light_incidence(light, at.p, l);
+#ifdef SHADOW_MATERIAL
+    return luminance(brdf_cos(at.brdf, at.n, at.v, l) * incident);
+#else
+    return luminance(incident) * max(dot(at.n, l), 0.0);
+#endif
 }
 
 // Draws one light of `list` for point `p` (normal `n`) in proportion to its unshadowed light, by
@@ -80,7 +101,7 @@ float unshadowed_weight(GpuLight light, vec3 p, vec3 n) {
 // stratum's length: S is then an unbiased estimate, and V a ratio of two random sums, biased dark
 // by a share that shrinks as the candidates grow (with eight candidates a test pixel whose lights
 // were 2 % shadowed came out 27 % too dark).
-LightSample draw_light(LightList list, vec3 p, vec3 n, inout uint seed) {
+LightSample draw_light(LightList list, DrawPoint at, inout uint seed) {
     uint m = min(list.count, DIRECT_LIGHT_CANDIDATES);
     float stratum = float(list.count) / float(m);
     float offset = m < list.count ? random01(seed) : 0.0;
@@ -91,7 +112,7 @@ LightSample draw_light(LightList list, vec3 p, vec3 n, inout uint seed) {
         uint slot = light_slot(list, j);
         GpuLight light = scene.lights.lights[slot];
         if (light.kind == LIGHT_DIRECTIONAL && sun_index(suns, slot) >= 0) continue;
-        float w = unshadowed_weight(light, p, n) * stratum;
+        float w = unshadowed_weight(light, at) * stratum;
         if (!(w > 0.0)) continue;
         chosen.estimate += w;
         if (random01(seed) * chosen.estimate <= w) chosen.slot = slot;

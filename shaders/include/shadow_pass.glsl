@@ -18,7 +18,8 @@
 // Pixels whose list holds more lights than GpuLighting::sampled_lights_above trace one ray
 // instead, to a light drawn from the list (direct_sampling.glsl), into the sampled shadows'
 // image; the rest write a mark there that they sampled nothing. Not over the glass layer, nor
-// with shadow maps: those are exhaustive.
+// with shadow maps: those are exhaustive. SHADOW_MATERIAL (the deferred pipeline, whose
+// G-buffer is written before its shadows) weighs the draw through the surface's whole BRDF.
 // Rays follow the seed: tmin 0.001, tmax the distance to the light (1000 for directional
 // lights), first hit ends the ray; a light with a size (a sphere's radius, a sun's disc) is aimed
 // at a point of its disc that changes per pixel and per frame (shadow_ray_sampled, lighting.glsl),
@@ -67,7 +68,17 @@ uint sample_shadow(ivec2 px, LightList list, vec3 p, vec3 n, vec3 origin, bool c
     }
     ShadowWordsRef(l.shadow_bits).words[shadow_word_at(list, 0u, px)] = sun_bits;
     uint seed = light_draw_seed(px);
-    LightSample chosen = draw_light(list, p, n, seed);
+#ifdef SHADOW_MATERIAL
+    // The G-buffer's surface, as the deferred lighting pass will shade it (before the deferred
+    // decals change its material).
+    vec3 shading_normal = safe_normalize(texelFetch(gbuffer_normal, px, 0).xyz * 2.0 - 1.0, n);
+    vec2 rm = texelFetch(gbuffer_material, px, 0).rg;
+    SurfaceBrdf brdf = surface_brdf(texelFetch(gbuffer_albedo, px, 0).rgb, rm.g, rm.r);
+    DrawPoint at = DrawPoint(p, shading_normal, normalize(scene.camera.camera.position - p), brdf);
+#else
+    DrawPoint at = DrawPoint(p, n);
+#endif
+    LightSample chosen = draw_light(list, at, seed);
     vec3 through = vec3(0.0);
     if (chosen.slot != NO_SLOT) {
         GpuLight light = scene.lights.lights[chosen.slot];

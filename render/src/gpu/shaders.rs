@@ -150,12 +150,14 @@ spirv! {
     LIGHT_CULL_COMP_TRANSPARENT = "light_cull.comp.TRANSPARENT";
     SHADOWS_COMP = "shadows.comp";
     SHADOWS_COMP_GLASS_LAYER = "shadows.comp.GLASS_LAYER";
+    SHADOWS_COMP_SHADOW_MATERIAL = "shadows.comp.SHADOW_MATERIAL";
     SHADOWS_MAPPED_COMP = "shadows_mapped.comp";
     SHADOWS_MAPPED_COMP_GLASS_LAYER = "shadows_mapped.comp.GLASS_LAYER";
     SHADOW_MAP_VERT = "shadow_map.vert";
     SHADOW_MAP_FRAG = "shadow_map.frag";
     SHADOWS_RGEN = "shadows.rgen";
     SHADOWS_RGEN_GLASS_LAYER = "shadows.rgen.GLASS_LAYER";
+    SHADOWS_RGEN_SHADOW_MATERIAL = "shadows.rgen.SHADOW_MATERIAL";
     SHADOWS_RMISS = "shadows.rmiss";
     SHADOWS_RAHIT = "shadows.rahit";
     OCCLUSION_COMP = "occlusion.comp";

@@ -137,7 +137,7 @@ fn begin(f: &mut Frame, r: &mut FrameParts, mirror: &mut SceneMirror, s: &FrameS
     let particles = r.particles.active();
     let lights =
         r.lighting.prepare(f, r.scene, mirror, s, &accel, device_shadows, occlusion, &reflections, &environment, particles, r.counters)?;
-    let shadows = r.shadows.plan(r.scene, mirror, &lights, r.counters);
+    let shadows = r.shadows.plan(r.scene, mirror, &lights, s.pipeline == crate::settings::PipelineKind::Deferred, r.counters);
     // How much of each pose to skin, once the refits (which read every vertex) are known.
     r.skinning.choose_levels(mirror, s, r.accel.as_deref().map_or(&[], |a| a.refits()), r.counters);
     // Rays leave rasterised surfaces lifted by the level-of-detail limit while some instance

@@ -48,7 +48,7 @@ use crate::culling::Draws;
 use crate::gpu::device::{GpuContext, Tier};
 use crate::gpu::pipeline::{HitGroup, RayTracingDesc, RayTracingPipeline, create_compute};
 use crate::gpu::shaders;
-use crate::graph::targets::{DEPTH, SHADOW_DEBUG, SHADOW_SAMPLES, TRANSPARENT_DEPTH};
+use crate::graph::targets::{DEPTH, GBUFFER_ALBEDO, GBUFFER_MATERIAL, GBUFFER_NORMAL, SHADOW_DEBUG, SHADOW_SAMPLES, TRANSPARENT_DEPTH};
 use crate::graph::{BufferUse, Frame, ImageUse, PassKind, ResourceId};
 use crate::lights::LightFrame;
 use crate::lights::sampling::ShadowSampling;
@@ -60,9 +60,10 @@ use maps::{ShadowMapPlan, ShadowMaps};
 
 /// The shadow passes this device can run.
 pub struct ShadowPass {
-    /// `[depth target, glass layer]`.
-    ray_query: Option<[vk::Pipeline; 2]>,
-    /// Its ray-generation shaders are `[depth target, glass layer]`.
+    /// `[depth target, glass layer, depth target with the G-buffer's material]`.
+    ray_query: Option<[vk::Pipeline; 3]>,
+    /// Its ray-generation shaders are `[depth target, glass layer, depth target with the
+    /// G-buffer's material]`.
     ray_pipeline: Option<RayTracingPipeline>,
     /// Shadow maps (every device).
     pub maps: ShadowMaps,
@@ -90,6 +91,10 @@ pub struct ShadowInputs {
     /// transparency pass draws) into the second layer of words and tints, instead of over the
     /// depth target.
     pub glass: bool,
+    /// Whether the sampled shadows weigh their draws through the surface's whole BRDF, read from
+    /// the G-buffer (the deferred pipeline's, written before its shadows); otherwise by the light
+    /// a diffuse surface receives (`shaders/include/direct_sampling.glsl`).
+    pub material: bool,
 }
 
 /// What the shadow passes do this frame, planned before the scene's upload.
@@ -126,6 +131,7 @@ impl ShadowPass {
             Some([
                 create_compute(ctx, layout, "shadows (ray query)", shaders::SHADOWS_COMP)?,
                 create_compute(ctx, layout, "glass shadows (ray query)", shaders::SHADOWS_COMP_GLASS_LAYER)?,
+                create_compute(ctx, layout, "shadows from the G-buffer (ray query)", shaders::SHADOWS_COMP_SHADOW_MATERIAL)?,
             ])
         } else {
             None
@@ -136,7 +142,7 @@ impl ShadowPass {
                 layout,
                 &RayTracingDesc {
                     name: "shadows (ray-tracing pipeline)",
-                    raygen: &[shaders::SHADOWS_RGEN, shaders::SHADOWS_RGEN_GLASS_LAYER],
+                    raygen: &[shaders::SHADOWS_RGEN, shaders::SHADOWS_RGEN_GLASS_LAYER, shaders::SHADOWS_RGEN_SHADOW_MATERIAL],
                     misses: &[shaders::SHADOWS_RMISS],
                     hit_groups: &[HitGroup::any_hit(shaders::SHADOWS_RAHIT, None)],
                 },
@@ -178,8 +184,17 @@ impl ShadowPass {
 
     /// Plans this frame's passes from the lights' frame: draws the shadow maps' views when
     /// shadows are mapped (handing them to the scene, and sets the lighting record's atlas
-    /// layout), and names what the pass reads and writes. Before the scene's upload.
-    pub fn plan(&mut self, scene: &mut GpuScene, mirror: &SceneMirror, lights: &LightFrame, counters: &mut FrameCounters) -> ShadowFrame {
+    /// layout), and names what the pass reads and writes. `gbuffer`: the pipeline writes a
+    /// G-buffer before its shadows, which the sampled shadows then weigh their draws by. Before
+    /// the scene's upload.
+    pub fn plan(
+        &mut self,
+        scene: &mut GpuScene,
+        mirror: &SceneMirror,
+        lights: &LightFrame,
+        gbuffer: bool,
+        counters: &mut FrameCounters,
+    ) -> ShadowFrame {
         scene.set_shadow_maps(self.maps.tile(), self.maps.columns());
         let maps = if lights.shadows == ShadowMethod::Maps {
             self.maps.plan(scene, mirror.lights.records(), mirror.camera())
@@ -195,7 +210,17 @@ impl ShadowPass {
             };
             let method = lights.shadows;
             let sampled = lights.samples();
-            Some(ShadowInputs { method, traced, light_tiles: lights.light_tiles, shadow_bits, sampled, debug: lights.debug, glass: false })
+            let material = sampled && gbuffer;
+            Some(ShadowInputs {
+                method,
+                traced,
+                light_tiles: lights.light_tiles,
+                shadow_bits,
+                sampled,
+                debug: lights.debug,
+                glass: false,
+                material,
+            })
         });
         ShadowFrame { maps, inputs, glass: lights.glass_shadows() }
     }
@@ -226,7 +251,7 @@ impl ShadowPass {
         self.record_pass(f, scene, draws, maps, &inputs)?;
         if frame.glass {
             // The glass layer: the same over the transparent depth, reading the maps just drawn.
-            let glass = ShadowInputs { debug: false, sampled: false, glass: true, ..inputs };
+            let glass = ShadowInputs { debug: false, sampled: false, glass: true, material: false, ..inputs };
             self.record_pass(f, scene, draws, ShadowMapPlan { views: 0, ..maps }, &glass)?;
         }
         Ok(())
@@ -267,7 +292,14 @@ impl ShadowPass {
             (_, false) => "shadows_ray_query",
             (_, true) => "glass_shadows_ray_query",
         };
-        let layer = usize::from(inputs.glass);
+        // The pipeline's variant: the glass layer's, the G-buffer's, or the plain one.
+        let layer = if inputs.glass {
+            1
+        } else if inputs.material {
+            2
+        } else {
+            0
+        };
         let pass = f
             .pass(name, kind)
             .sample(if inputs.glass { &TRANSPARENT_DEPTH } else { &DEPTH })
@@ -277,6 +309,7 @@ impl ShadowPass {
             .reads(inputs.light_tiles.map(|t| (t, BufferUse::Storage)))
             .write(inputs.shadow_bits, BufferUse::Storage)
             .when(inputs.sampled, |p| p.image(&SHADOW_SAMPLES, ImageUse::StorageWrite))
+            .when(inputs.material, |p| p.sample(&GBUFFER_ALBEDO).sample(&GBUFFER_NORMAL).sample(&GBUFFER_MATERIAL))
             .when(inputs.debug, |p| p.image(&SHADOW_DEBUG, ImageUse::StorageWrite));
         match inputs.method {
             ShadowMethod::RayPipeline => {
