@@ -371,9 +371,8 @@ fn make_rig(skin: &Skin, lookups: &RigLookups, shared: &EntityHashSet) -> Result
                 if links != Ok(by.links) {
                     NO_PARENT // a stale link: the player is gone or no longer animates this joint
                 } else {
-                    let links = by.links;
                     match player {
-                        None => player = Some((by.player, links)),
+                        None => player = Some((by.player, by.links)),
                         Some((p, _)) if p == by.player => {}
                         Some(_) => return Err("its joints are animated by more than one player".into()),
                     }

@@ -1269,8 +1269,9 @@ fn sampled_shadows_averaged_over_blocks_match_a_ray_per_light_in_every_pipeline_
 /// of 16 sampled frames is compared with a ray per light over 8×8 blocks, in deferred shading
 /// and in forward (diffuse weights), on both ray-tracing tiers.
 ///
-/// Measured on lavapipe (96×72, blocks' means of r + g + b away from silhouettes): see the
-/// figures this test prints (`--no-capture`).
+/// Measured on lavapipe (96×72, blocks' means of r + g + b away from silhouettes, both tiers
+/// alike): the shadows change the blocks by 0.478 (15.9 at most); sampled, forward's are 0.290
+/// (9.65) off a ray per light, deferred's 0.0069 (0.16).
 #[test]
 fn sampled_shadows_weigh_a_glossy_floor_through_its_brdf_in_deferred_shading() {
     const SIZE: (u32, u32) = (96, 72);
@@ -1305,13 +1306,12 @@ fn sampled_shadows_weigh_a_glossy_floor_through_its_brdf_in_deferred_shading() {
             eprintln!("{tier:?} {pipeline:?}: sampled blocks against a ray per light: mean {mean}, largest {largest}");
             errors.push((mean, largest));
         }
-        let [(forward, forward_max), (deferred, deferred_max)] = errors[..] else { unreachable!() };
+        let [(forward, _), (deferred, deferred_max)] = errors[..] else { unreachable!() };
         assert!(
             deferred <= 0.25 * shadows && deferred_max <= 0.25 * shadows_max,
             "{tier:?}: deferred, weighed by the BRDF: {deferred}, {deferred_max}"
         );
         assert!(deferred <= 0.5 * forward, "{tier:?}: the BRDF's weights ({deferred}) beat the diffuse ones ({forward}) on metal");
-        let _ = forward_max;
     }
 }
 
