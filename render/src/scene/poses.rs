@@ -678,8 +678,12 @@ mod tests {
         let moved = [GpuJointMatrix::from_mat4(Mat4::IDENTITY), GpuJointMatrix::from_mat4(Mat4::from_translation(Vec3::X * 3.0))];
         assert_eq!(posed_bounds(bounds.iter().copied(), moved.map(|m| m.to_mat4())), Some((Vec3::ZERO, Vec3::new(3.0, 2.0, 0.0))));
         // A quarter turn about z takes the second joint's box (y from 1 to 2) to x from -2 to -1.
-        let turned = posed_bounds(bounds.iter().copied(), [Mat4::IDENTITY, Mat4::from_rotation_z(std::f32::consts::FRAC_PI_2)]).expect("bounds");
-        assert!(turned.0.abs_diff_eq(Vec3::new(-2.0, 0.0, 0.0), 1e-6) && turned.1.abs_diff_eq(Vec3::new(0.0, 1.0, 0.0), 1e-6), "{turned:?}");
+        let turned =
+            posed_bounds(bounds.iter().copied(), [Mat4::IDENTITY, Mat4::from_rotation_z(std::f32::consts::FRAC_PI_2)]).expect("bounds");
+        assert!(
+            turned.0.abs_diff_eq(Vec3::new(-2.0, 0.0, 0.0), 1e-6) && turned.1.abs_diff_eq(Vec3::new(0.0, 1.0, 0.0), 1e-6),
+            "{turned:?}"
+        );
         // A matrix that is not a number, first or last, leaves the bounds unknown.
         let nan = Mat4::from_translation(Vec3::NAN);
         assert_eq!(posed_bounds(bounds.iter().copied(), [nan, Mat4::IDENTITY]), None);
