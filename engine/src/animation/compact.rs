@@ -426,9 +426,9 @@ fn make_rig(skin: &Skin, lookups: &RigLookups, shared: &EntityHashSet) -> Result
 }
 
 /// What the posing of compact skins keeps between frames (a `Local` of
-/// [`update_skin_poses`](super::update_skin_poses)): per-thread scratch for the global transforms
-/// of rigs of more than 64 bones and the skins whose rig went stale, so that a warm frame
-/// allocates nothing.
+/// [`update_skin_poses`](super::update_skin_poses)): per-thread scratch for the bones' global
+/// transforms (grown to the largest rig a thread posed) and the skins whose rig went stale, so
+/// that a warm frame allocates nothing.
 #[derive(Default)]
 pub struct CompactScratch {
     globals: Parallel<Vec<Affine3A>>,
