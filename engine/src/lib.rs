@@ -30,8 +30,9 @@
 //! ```
 
 #![warn(missing_docs)]
-// Denied everywhere but in two audited modules (their docs say why): `transform::parallel`, and
-// `gltf::ext_meshopt`, which calls meshoptimizer's decoders the `meshopt` crate does not wrap.
+// Denied everywhere but in three audited modules (their docs say why): `transform::parallel`,
+// `animation::compact::bones` (both fetch entities from parallel tasks), and `gltf::ext_meshopt`,
+// which calls meshoptimizer's decoders the `meshopt` crate does not wrap.
 #![deny(unsafe_code)]
 
 pub mod animation;

@@ -206,32 +206,58 @@ fn budget_samples_a_far_fox(compact: bool) {
         }
     }
     assert_eq!(far_samples, 4, "16 frames: the far fox sampled four times (compact: {compact})");
+
+    // The far fox walks 1 m a frame: on a frame it does not sample, its bones' entities still
+    // follow it (a compact skin places them from its standing pose).
+    let far_joints = budgeted.world.get::<Skin>(foxes[1].1).unwrap().joints.clone();
+    let mut skipped = 0;
+    for _ in 0..4 {
+        let before: Vec<Vec3> =
+            far_joints.iter().map(|&j| budgeted.world.get::<GlobalTransform>(j).unwrap().0.translation.into()).collect();
+        budgeted.world.get_mut::<Transform>(foxes[1].0).unwrap().translation.x += 1.0;
+        budgeted.update();
+        if budgeted.world.get::<AnimationOutput>(foxes[1].0).unwrap().sampled() {
+            continue;
+        }
+        skipped += 1;
+        for (&joint, before) in far_joints.iter().zip(before) {
+            let now: Vec3 = budgeted.world.get::<GlobalTransform>(joint).unwrap().0.translation.into();
+            assert!(now.abs_diff_eq(before + Vec3::X, 1e-3), "compact {compact}: a bone of the walking far fox at {now}, from {before}");
+        }
+    }
+    assert_eq!(skipped, 3, "four frames: three without sampling");
 }
 
-/// A compact skeleton (`engine::animation::CompactSkeleton`) poses the fox as its bones'
-/// entities would, through a cross-fade and while the fox moves, without moving those entities;
+/// A compact skeleton (`engine::animation::CompactSkeleton`, as the prefab spawns skins) poses
+/// the fox as its bones' entities would, through a cross-fade and while the fox moves, and
+/// places those entities where they would be; with `UnplacedBones` it leaves them alone, and
 /// `SkinPose::joint_world` gives a bone's world transform back. Removing the mark gives the
-/// bones back to animation, and a skin with something hung on a bone refuses it.
+/// bones back to animation, a skin with something hung on a bone refuses it, and a bone's
+/// `Transform` written by the game (inverse kinematics) poses the skin as it poses bones as
+/// entities, which the skin then goes back to.
 #[test]
-fn a_compact_skeleton_poses_the_fox_as_its_bones_would_without_moving_them() {
-    use engine::animation::{AnimationTargets, CompactSkeleton, PosedInSkin, SkinPose};
+fn a_compact_skeleton_poses_the_fox_as_its_bones_would_and_places_them() {
+    use engine::animation::{AnimationSystems, AnimationTargets, CompactSkeleton, PosedInSkin, SkinPose, UnplacedBones};
+    use engine::app::PostUpdate;
+    use engine::transform::TransformSystems;
 
     let mut scene = gltf::load(&model("Fox")).unwrap();
     scene.images.clear();
     let mut app = App::new();
     app.world.resource_mut::<Time>().set_fixed_step(Some(Duration::from_micros(16_667)));
     let mut prefab = scene.into_prefab(&mut app.world);
-    // Four foxes in the same place: bones as entities, compact (as the prefab spawns it),
-    // compact until a sword is hung in a bone's hand, and compact with its player given late.
-    let foxes: Vec<(Entity, Entity)> = (0..4)
+    // Five foxes in the same place: bones as entities, compact with its bones unplaced, compact
+    // (as the prefab spawns it) until a sword is hung in a bone's hand, compact with its player
+    // given late, and compact placing its bones.
+    let foxes: Vec<(Entity, Entity)> = (0..5)
         .map(|i| {
-            prefab.compact_skeletons = i > 0;
+            (prefab.compact_skeletons, prefab.unplaced_bones) = (i > 0, i == 1);
             let root = prefab.spawn(&mut app.world);
             let clips = app.world.get::<GltfAnimations>(root).unwrap().0.clone();
             let mut player = AnimationPlayer::new(clips[1]);
             player.seek(0.4);
             app.world.entity_mut(root).insert(Transform::from_xyz(1.0, 0.0, 0.0).with_scale(Vec3::splat(0.01)));
-            if i < 3 {
+            if i != 3 {
                 app.world.entity_mut(root).insert(player);
             }
             app.world.flush();
@@ -240,7 +266,10 @@ fn a_compact_skeleton_poses_the_fox_as_its_bones_would_without_moving_them() {
             (root, mesh)
         })
         .collect();
-    let [(entities, bones_mesh), (compact, compact_mesh), (armed, armed_mesh), (late, late_mesh)] = foxes[..] else { unreachable!() };
+    let [(entities, bones_mesh), (compact, compact_mesh), (armed, armed_mesh), (late, late_mesh), (placed, placed_mesh)] = foxes[..] else {
+        unreachable!()
+    };
+    assert!(app.world.get::<UnplacedBones>(compact_mesh).is_some() && app.world.get::<UnplacedBones>(placed_mesh).is_none());
     let hand = app.world.get::<Skin>(armed_mesh).unwrap().joints[10];
     let joints = app.world.get::<Skin>(compact_mesh).unwrap().joints.clone();
     let rest: Vec<Transform> = joints.iter().map(|&j| *app.world.get::<Transform>(j).unwrap()).collect();
@@ -257,7 +286,7 @@ fn a_compact_skeleton_poses_the_fox_as_its_bones_would_without_moving_them() {
     for frame in 0..12 {
         if frame == 4 {
             // Walk to run, over a fifth of a second.
-            for root in [entities, compact, armed] {
+            for root in [entities, compact, armed, placed] {
                 app.world.get_mut::<AnimationPlayer>(root).unwrap().cross_fade(clips[2], 0.2);
             }
         }
@@ -270,22 +299,37 @@ fn a_compact_skeleton_poses_the_fox_as_its_bones_would_without_moving_them() {
             let player = app.world.get::<AnimationPlayer>(entities).unwrap().clone();
             app.world.entity_mut(late).insert(player);
         }
-        for root in [entities, compact, armed, late] {
+        for root in [entities, compact, armed, late, placed] {
             app.world.get_mut::<Transform>(root).unwrap().translation.z = frame as f32 * 0.1;
         }
         app.update();
         let reference = pose(&app, bones_mesh);
         assert!(same(&pose(&app, compact_mesh), &reference), "frame {frame}: the compact skin's pose is the bones' pose");
+        assert!(same(&pose(&app, placed_mesh), &reference), "frame {frame}: placing the bones too");
+        // The placed fox's bones are where the reference fox's are, local and world.
+        let reference_joints = app.world.get::<Skin>(bones_mesh).unwrap().joints.clone();
+        let placed_joints = app.world.get::<Skin>(placed_mesh).unwrap().joints.clone();
+        for (i, (&r, &p)) in reference_joints.iter().zip(&placed_joints).enumerate() {
+            let (rt, pt) = (app.world.get::<Transform>(r).unwrap(), app.world.get::<Transform>(p).unwrap());
+            assert!(
+                rt.translation.abs_diff_eq(pt.translation, 1e-4)
+                    && rt.rotation.abs_diff_eq(pt.rotation, 1e-5)
+                    && rt.scale.abs_diff_eq(pt.scale, 1e-5),
+                "frame {frame}, bone {i}: {pt:?} against {rt:?}"
+            );
+            let (rg, pg) = (app.world.get::<GlobalTransform>(r).unwrap().0, app.world.get::<GlobalTransform>(p).unwrap().0);
+            assert!(pg.abs_diff_eq(rg, 1e-4), "frame {frame}, bone {i}: placed at {pg:?}, its bone entity's twin at {rg:?}");
+        }
         assert!(same(&pose(&app, armed_mesh), &reference), "frame {frame}: the armed fox, compact or with its bones as entities, too");
         assert_eq!(same(&pose(&app, late_mesh), &reference), frame >= 6, "frame {frame}: the late fox is posed once it has a player");
         if frame >= 2 {
             assert!(app.world.get::<CompactSkeleton>(armed_mesh).is_none(), "a bone carrying a sword needs its skin's bones as entities");
         }
         let moved_bones = joints.iter().zip(&rest).filter(|&(&j, r)| app.world.get::<Transform>(j).unwrap() != r).count();
-        assert_eq!(moved_bones, 0, "frame {frame}: the compact skin's bones keep their rest transforms");
+        assert_eq!(moved_bones, 0, "frame {frame}: the unplaced skin's bones keep their rest transforms");
         let globals: Vec<GlobalTransform> = joints.iter().map(|&j| *app.world.get::<GlobalTransform>(j).unwrap()).collect();
         let first = rest_globals.get_or_insert_with(|| globals.clone());
-        assert_eq!(&globals, first, "frame {frame}: propagation does not visit the bones while the fox moves");
+        assert_eq!(&globals, first, "frame {frame}: nothing places the unplaced skin's bones while the fox moves");
         assert!(joints.iter().all(|&j| app.world.get::<PosedInSkin>(j).is_some()));
         let skin = app.world.get::<Skin>(compact_mesh).unwrap();
         let mesh_world = app.world.get::<GlobalTransform>(compact_mesh).unwrap();
@@ -308,13 +352,13 @@ fn a_compact_skeleton_poses_the_fox_as_its_bones_would_without_moving_them() {
     app.update();
     app.update();
     assert!(app.world.resource::<Posed>().0.contains(&compact_mesh), "it changes while walking");
-    for root in [entities, compact, armed, late] {
+    for root in [entities, compact, armed, late, placed] {
         app.world.get_mut::<AnimationPlayer>(root).unwrap().paused = true;
     }
     app.update();
     app.update();
     assert!(app.world.resource::<Posed>().0.is_empty(), "paused, no pose changes: {:?}", app.world.resource::<Posed>().0);
-    for root in [entities, compact, armed, late] {
+    for root in [entities, compact, armed, late, placed] {
         app.world.get_mut::<AnimationPlayer>(root).unwrap().paused = false;
     }
 
@@ -340,4 +384,29 @@ fn a_compact_skeleton_poses_the_fox_as_its_bones_would_without_moving_them() {
     assert!(late_joints.iter().all(|&j| app.world.get::<PosedInSkin>(j).is_none()));
     assert!(same(&pose(&app, second), &pose(&app, bones_mesh)), "the second skin follows the bones");
     assert!(same(&pose(&app, late_mesh), &pose(&app, bones_mesh)));
+
+    // Inverse kinematics: a system between animation and propagation sets bone 5's whole
+    // `Transform` on the reference fox and the placed one. The placed skin is posed from the
+    // written transform that frame, as the bones' entities are, and then gives its bones back.
+    #[derive(Resource)]
+    struct Ik(Vec<Entity>);
+    let ik_bones = vec![app.world.get::<Skin>(bones_mesh).unwrap().joints[5], app.world.get::<Skin>(placed_mesh).unwrap().joints[5]];
+    app.world.insert_resource(Ik(ik_bones));
+    app.add_systems(
+        PostUpdate,
+        (|ik: Res<Ik>, mut transforms: Query<&mut Transform>| {
+            for &bone in &ik.0 {
+                *transforms.get_mut(bone).unwrap() = Transform::from_xyz(0.0, 5.0, 0.0).with_rotation(Quat::from_rotation_x(0.7));
+            }
+        })
+        .after(AnimationSystems)
+        .before(TransformSystems::Propagate),
+    );
+    for frame in 0..3 {
+        app.update();
+        assert!(same(&pose(&app, placed_mesh), &pose(&app, bones_mesh)), "IK frame {frame}: the written bone poses the skin");
+        let bones_far = pose(&app, placed_mesh).iter().zip(pose(&app, compact_mesh)).any(|(a, b)| !a.abs_diff_eq(b, 1e-3));
+        assert!(bones_far, "IK frame {frame}: the written bone moved the skin away from the unwritten fox's pose");
+        assert!(app.world.get::<CompactSkeleton>(placed_mesh).is_none(), "IK frame {frame}: the skin went back to bones as entities");
+    }
 }

@@ -72,7 +72,7 @@ use crate::transform::{GlobalTransform, Transform, TransformSystems};
 
 pub use crate::transform::PosedInSkin;
 pub use budget::{AnimatedRadius, AnimationBudget};
-pub use compact::{CompactScratch, CompactSkeleton, RigShapes, SkinRig, build_compact_skins};
+pub use compact::{CompactScratch, CompactSkeleton, RigShapes, SkinRig, UnplacedBones, build_compact_skins, find_bone_writes};
 pub use sample::{Sampled, sample_channel};
 
 /// How values between two keyframes are found (glTF's `interpolation`).
@@ -379,10 +379,10 @@ impl Skin {
     /// Whether the pose of the skinned entity with this skin and `global` transform may have
     /// changed since the calling system last ran: the entity moved, its skin was replaced, or a
     /// joint's global transform changed.
-    pub fn pose_changed(
+    pub fn pose_changed<F: bevy_ecs::query::QueryFilter>(
         skin: &Ref<Skin>,
         global: &Ref<crate::transform::GlobalTransform>,
-        joints: &Query<Ref<crate::transform::GlobalTransform>>,
+        joints: &Query<Ref<crate::transform::GlobalTransform>, F>,
     ) -> bool {
         global.is_changed() || skin.is_changed() || skin.joints.iter().any(|&j| joints.get(j).is_ok_and(|g| g.is_changed()))
     }
@@ -510,7 +510,10 @@ impl Plugin for AnimationPlugin {
             PostUpdate,
             (link_animation_targets, build_compact_skins, animate).chain().in_set(AnimationSystems).before(TransformSystems::Propagate),
         );
-        app.add_systems(PostUpdate, update_skin_poses.in_set(SkinPoseSystems).after(TransformSystems::Propagate));
+        app.add_systems(
+            PostUpdate,
+            (compact::find_bone_writes, update_skin_poses).chain().in_set(SkinPoseSystems).after(TransformSystems::Propagate),
+        );
     }
 }
 
@@ -529,9 +532,10 @@ pub struct SkinPose(pub Vec<glam::Mat4>);
 /// Times itself into [`AnimationStats::skin_cpu_ms`] (`cpu_ms.skin` in the sandbox's `--stats`).
 #[allow(clippy::type_complexity)]
 pub fn update_skin_poses(
-    mut skinned: Query<(Ref<Skin>, Ref<crate::transform::GlobalTransform>, &mut SkinPose), Without<SkinRig>>,
-    mut compact: Query<(Entity, &mut SkinRig, Ref<crate::transform::GlobalTransform>, &mut SkinPose)>,
-    joints: Query<Ref<crate::transform::GlobalTransform>>,
+    mut skinned: Query<(Ref<Skin>, Ref<GlobalTransform>, &mut SkinPose), (Without<SkinRig>, Without<PosedInSkin>)>,
+    mut compact: Query<compact::CompactSkin, Without<PosedInSkin>>,
+    joints: Query<Ref<GlobalTransform>, Without<PosedInSkin>>,
+    (mut bones, owners): (compact::BoneTransforms, Query<&'static PosedInSkin>),
     (outputs, clips): (Query<&AnimationOutput>, Option<Res<Assets<AnimationClip>>>),
     (mut scratch, mut commands): (Local<CompactScratch>, Commands),
     stats: Option<ResMut<AnimationStats>>,
@@ -542,8 +546,15 @@ pub fn update_skin_poses(
             skin.joint_matrices(&global, |j| joints.get(j).ok().map(|g| g.0), &mut pose.0);
         }
     });
-    let (compact_skins, compact_posed) =
-        compact::pose_compact_skins(&mut compact, &joints, &outputs, clips.as_deref(), &mut scratch, &mut commands);
+    let (compact_skins, compact_posed) = compact::pose_compact_skins(
+        &mut compact,
+        &joints,
+        compact::BoneWriter::new(&mut bones, &owners),
+        &outputs,
+        clips.as_deref(),
+        &mut scratch,
+        &mut commands,
+    );
     if let Some(mut stats) = stats {
         stats.skin_cpu_ms = started.elapsed().as_secs_f32() * 1e3;
         (stats.compact_skins, stats.compact_posed) = (compact_skins, compact_posed);

@@ -26,7 +26,7 @@
 //! that first marks every changed entity in a dense array, so that "did my parent change?" reads
 //! one slot instead of looking the parent up) and walking the subtrees below them (disjoint, so
 //! one task a batch of subtrees:
-//! [`parallel`], one of the two modules of the crate allowed `unsafe`, says why that is sound). Bevy's
+//! [`parallel`], one of the three modules of the crate allowed `unsafe`, says why that is sound). Bevy's
 //! `bevy_transform` walks in parallel the same way, but it could not be taken as a dependency:
 //! it brings its own transform components and has no [`Static`] entities, [`Joint`]s or
 //! [`TransformChanges`] lists. [`propagate_transforms_serial`] is the one-thread reference the

@@ -1,31 +1,46 @@
-//! Compact skeletons: a crowd's skinned meshes posed without writing their bones' entities.
-//! Not a technique of the seeds: it is what production engines offer for crowds (Unity's
+//! Compact skeletons: a skinned mesh posed in one pass from its clips, its bones' entities placed
+//! as it goes. Not a technique of the seeds: it is what production engines offer for crowds (Unity's
 //! "Optimize Game Objects" on an animator, which keeps a skeleton's bones out of the scene's
 //! transform hierarchy unless exposed; Unreal's skeletal meshes, whose bones are never scene
 //! components).
 //!
-//! **Why.** By default every bone is an entity: [`animate`](super::animate) writes its
-//! `Transform`, transform propagation its `GlobalTransform`, and
-//! [`update_skin_poses`](super::update_skin_poses) reads those back for the skin matrices. For
-//! 10,000 foxes that is 240,000 entities' transforms written and read three times a frame, most of
-//! the CPU frame on a machine whose memory is the bottleneck (`docs/experiments/
-//! crowds-rig-posing.md` measured that no order of those three passes moves fewer bytes). A skin
-//! with [`CompactSkeleton`] is posed in one pass instead, from the clips straight to its
-//! [`SkinPose`]: its bones' local and global transforms live in a few kilobytes of one task's
-//! scratch memory, and the only bytes written per bone are its skin matrix.
+//! **Why.** With bones as entities, every bone is moved by three passes:
+//! [`animate`](super::animate) writes its `Transform`, transform propagation its
+//! `GlobalTransform`, and [`update_skin_poses`](super::update_skin_poses) reads those back for
+//! the skin matrices, each pass finding the bone again by its entity. For 10,000 foxes that is
+//! 240,000 entities' transforms written and read three times a frame, most of the CPU frame on a
+//! machine whose memory is the bottleneck (`docs/experiments/crowds-rig-posing.md` measured that
+//! no order of those three passes moves fewer bytes). A skin with [`CompactSkeleton`] is posed
+//! in one pass instead, from the clips straight to its [`SkinPose`]: its bones' local and global
+//! transforms are composed in a few kilobytes of one task's scratch memory, and written to the
+//! bones' entities as they are made. On the 2-core development machine `cargo bench -p engine
+//! --bench animation -- '/10000$'` took 10.3–10.8 ms a frame this way, against 17.1–19.3 ms
+//! with bones as entities and 6.1–6.6 ms with the bones left unplaced. So the glTF prefab spawns
+//! skins compact by default (`GltfPrefab::compact_skeletons`).
 //!
-//! **What it changes.** The bones' entities stay (their names, their `Joint` mark), but
-//! animation no longer moves them and transform propagation does not descend into them
-//! ([`PosedInSkin`]), so a crowd that walks costs it its models' few nodes, not their bones.
-//! - Their `Transform` keeps the value it had when the skeleton was made compact (the rest pose,
-//!   for a model just spawned), and their `GlobalTransform` the last value propagation wrote
-//!   (the identity, for a model spawned compact): neither says where the bone is. Its posed
-//!   world transform is one call away, [`SkinPose::joint_world`].
-//! - Writing a bone's `Transform` (inverse kinematics, a head turned to look) does nothing while
-//!   the skeleton is compact.
+//! **What it changes.** Little, by design: the bones keep their entities, and each frame the
+//! pose pass writes their `Transform` (the sampled local transform) and `GlobalTransform` (where
+//! they are), as animation and propagation would ([`bones`] says how that is done from parallel
+//! tasks). Transform propagation does not visit them ([`PosedInSkin`]), so a crowd that walks
+//! costs it its models' few nodes, not their bones. The differences:
+//! - The bones' transforms are written in [`SkinPoseSystems`](super::SkinPoseSystems), after
+//!   propagation: a system that reads a bone's `GlobalTransform` in `PostUpdate` runs after that
+//!   set to see this frame's.
+//! - The pose pass writes a bone's `Transform` without flagging it changed (`Changed<Transform>`
+//!   does not fire on compact bones; `Changed<GlobalTransform>` does), so that a write by the
+//!   game stands out.
 //! - A bone property the playing clips do not animate takes its rest value. With bones as
 //!   entities it keeps the last value a clip wrote; the two differ only after a switch to a clip
 //!   that animates fewer properties.
+//! - **A bone's `Transform` written by the game** (inverse kinematics, a head turned to look)
+//!   poses the skin that frame, as it would the bones' entities ([`find_bone_writes`] finds it),
+//!   and the skin then gives its bones back to animation and propagation for good. In that one
+//!   frame a property the game did not write keeps the previous frame's sampled value.
+//!
+//! [`UnplacedBones`] leaves the bones' entities alone as well, for crowds nothing reads the bones
+//! of: their `Transform` keeps the value it had when the skeleton was made compact and their
+//! `GlobalTransform` the last value propagation wrote; neither says where the bone is, and
+//! [`SkinPose::joint_world`] does. Writing a bone's `Transform` then does nothing.
 //!
 //! **When a skin cannot be compact.** It stays as it is, or gives its bones back, with a warning,
 //! when something needs the bones' entities moved:
@@ -38,7 +53,8 @@
 //!   parents.
 //!
 //! Removing [`CompactSkeleton`], or replacing the [`Skin`], gives the bones back to animation
-//! and propagation, which place them all again.
+//! and propagation, which place them all again. Several skins sharing a skeleton can all be
+//! compact; the last made owns the bones' entities ([`PosedInSkin`] names it) and places them.
 //!
 //! **How.** [`build_compact_skins`] makes a [`SkinRig`] for each compact skin that has none: its
 //! bones parents first, each with its parent's place in that list, its node index in the
@@ -47,10 +63,11 @@
 //! rig, so the rigs are shared (one allocation for a crowd of one character: what a frame reads
 //! of it stays in the cache). [`update_skin_poses`](super::update_skin_poses) then, in parallel
 //! over the skins, samples each bone's channels at its player's time, composes the global
-//! transforms down the list, and writes `mesh⁻¹ × base × global × inverse bind` into the pose.
-//! The [`AnimationBudget`](super::AnimationBudget) applies as before: a player that does not
-//! sample this frame leaves its skins' poses as they are, unless the base moved relative to the
-//! mesh (a model that walks as a whole keeps its pose).
+//! transforms down the list, writes `mesh⁻¹ × base × global × inverse bind` into the pose, and
+//! places the bones it owns. The [`AnimationBudget`](super::AnimationBudget) applies as before:
+//! a player that does not sample this frame leaves its skins' poses as they are, unless the base
+//! moved relative to the mesh (a model that walks as a whole keeps its pose, and its bones'
+//! entities are placed again from it).
 
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
@@ -66,7 +83,11 @@ use bevy_ecs::system::SystemParam;
 use bevy_ecs::world::DeferredWorld;
 use bevy_utils::Parallel;
 use glam::{Affine3A, Mat4, Vec4};
-use tracing::warn;
+use tracing::{info, warn};
+
+mod bones;
+
+pub(crate) use bones::{BoneTransforms, BoneWriter};
 
 use super::{AnimatedBy, AnimationClip, AnimationOutput, Layer, MorphWeights, NodeSample, Skin, SkinPose, sample_layer};
 use crate::asset::Assets;
@@ -80,6 +101,12 @@ use crate::transform::{GlobalTransform, PosedInSkin, Transform};
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[component(on_remove = compact_skeleton_removed)]
 pub struct CompactSkeleton;
+
+/// On a [`CompactSkeleton`] skin: its bones' entities are not written at all, neither their
+/// `Transform` nor their `GlobalTransform` (the module docs say what that saves and what it
+/// changes). For crowds nothing reads the bones of.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct UnplacedBones;
 
 /// The rig of a compact skin, made by [`build_compact_skins`]: the shape every instance of a
 /// model shares, and this instance's player and the entity its root bones hang from.
@@ -95,6 +122,10 @@ pub struct SkinRig {
     /// The base in the mesh's space when the skin was last posed (NaN before): a model that
     /// moves as a whole leaves it, and a pose not due is then left as it is.
     last_base: Affine3A,
+    /// Whether the game wrote one of the bones' `Transform`s since the last pose (set by
+    /// [`find_bone_writes`]): the skin is posed this frame from what was written, and then gives
+    /// its bones back.
+    written: bool,
 }
 
 impl SkinRig {
@@ -124,6 +155,10 @@ struct RigShape {
     inverse_binds: Vec<Option<Affine3A>>,
     /// The same matrices as given.
     inverse_bind_matrices: Arc<[Mat4]>,
+    /// The inverses of [`Self::inverse_binds`] (`None` where that is `None` or cannot be
+    /// inverted): a bone's transform in the mesh's space from its skin matrix, to place the
+    /// bones' entities again when the model moves between two poses.
+    binds: Vec<Option<Affine3A>>,
 }
 
 /// One bone of a [`RigShape`].
@@ -312,7 +347,7 @@ pub fn build_compact_skins(
         match make_rig(skin, &lookups, &shared) {
             Ok((shape, player, base, links)) => {
                 let shape = shapes.share(shape);
-                commands.entity(entity).insert(SkinRig { shape, player, base, links, last_base: Affine3A::NAN });
+                commands.entity(entity).insert(SkinRig { shape, player, base, links, last_base: Affine3A::NAN, written: false });
                 for &joint in &skin.joints {
                     commands.entity(joint).try_insert(PosedInSkin(entity));
                 }
@@ -419,8 +454,9 @@ fn make_rig(skin: &Skin, lookups: &RigLookups, shared: &EntityHashSet) -> Result
         .iter()
         .map(|&i| RigBone { joint: i as u32, parent: parents[i].map_or(NO_PARENT, |p| slot[p]), node: nodes[i], rest: rests[i] })
         .collect();
-    let inverse_binds = skin.inverse_bind_matrices.iter().map(|m| (m.row(3) == Vec4::W).then(|| Affine3A::from_mat4(*m))).collect();
-    let shape = RigShape { bones, inverse_binds, inverse_bind_matrices: skin.inverse_bind_matrices.clone() };
+    let inverse_binds: Vec<_> = skin.inverse_bind_matrices.iter().map(|m| (m.row(3) == Vec4::W).then(|| Affine3A::from_mat4(*m))).collect();
+    let binds = inverse_binds.iter().map(|m| m.map(|m| m.inverse()).filter(|b| b.is_finite())).collect();
+    let shape = RigShape { bones, inverse_binds, inverse_bind_matrices: skin.inverse_bind_matrices.clone(), binds };
     let (player, links) = player.map_or((None, 0), |(p, l)| (Some(p), l));
     Ok((shape, player, base.flatten(), links))
 }
@@ -433,6 +469,7 @@ fn make_rig(skin: &Skin, lookups: &RigLookups, shared: &EntityHashSet) -> Result
 pub struct CompactScratch {
     globals: Parallel<Vec<Affine3A>>,
     stale: Parallel<Vec<Entity>>,
+    handed_back: Parallel<Vec<Entity>>,
 }
 
 /// What a task keeps while it poses a batch of skins: the bones' global transforms, in its
@@ -453,6 +490,10 @@ impl<B: DerefMut<Target = Vec<Affine3A>>> Drop for Batch<'_, B> {
     }
 }
 
+/// What the pose pass reads and writes of a compact skin.
+pub(crate) type CompactSkin =
+    (Entity, &'static mut SkinRig, Ref<'static, GlobalTransform>, &'static mut SkinPose, &'static Skin, Has<UnplacedBones>);
+
 /// Poses every compact skin whose player sampled this frame, or whose base moved relative to
 /// the mesh, or whose pose is new (the module docs say how). A skin whose player's targets were
 /// re-linked, or whose player or base is gone, keeps its pose and has its rig made again.
@@ -460,100 +501,170 @@ impl<B: DerefMut<Target = Vec<Affine3A>>> Drop for Batch<'_, B> {
 /// Returns how many compact skins there are and how many it posed.
 #[allow(clippy::type_complexity)]
 pub(super) fn pose_compact_skins(
-    skins: &mut Query<(Entity, &mut SkinRig, Ref<GlobalTransform>, &mut SkinPose)>,
-    globals: &Query<Ref<GlobalTransform>>,
+    skins: &mut Query<CompactSkin, Without<PosedInSkin>>,
+    globals: &Query<Ref<GlobalTransform>, Without<PosedInSkin>>,
+    writer: BoneWriter,
     outputs: &Query<&AnimationOutput>,
     clips: Option<&Assets<AnimationClip>>,
     scratch: &mut CompactScratch,
     commands: &mut Commands,
 ) -> (u32, u32) {
-    let CompactScratch { globals: scratches, stale } = scratch;
-    let (scratches, stale_ref) = (&*scratches, &*stale);
+    let CompactScratch { globals: scratches, stale, handed_back } = scratch;
+    let (scratches, stale_ref, handed_back_ref) = (&*scratches, &*stale, &*handed_back);
     let posed = AtomicU32::new(0);
     // Several batches a thread, so that a thread held up elsewhere does not hold up the pass.
     let batching = BatchingStrategy::new().min_batch_size(16).batches_per_thread(4);
     let start = || Batch { bones: scratches.borrow_local_mut(), posed: 0, total: &posed };
-    skins.par_iter_mut().batching_strategy(batching).for_each_init(start, |batch, (entity, mut rig, mesh_world, mut pose)| {
-        let output = match rig.player {
-            Some(player) => match outputs.get(player) {
-                Ok(out) if out.links == rig.links => Some(out),
-                _ => {
-                    stale_ref.borrow_local_mut().push(entity);
-                    return;
-                }
-            },
-            None => None,
-        };
-        let base = match rig.base {
-            Some(base) => match globals.get(base) {
-                Ok(base) => Some(base),
-                Err(_) => {
-                    stale_ref.borrow_local_mut().push(entity);
-                    return;
-                }
-            },
-            None => None,
-        };
-        let sampled = output.is_some_and(|out| out.sample);
-        // The pose is in the mesh's space: a model that moves as a whole (mesh and base
-        // together) keeps it, to rounding.
-        let moved = mesh_world.is_changed() || base.as_ref().is_some_and(|b| b.is_changed());
-        let to_base =
-            if moved || rig.last_base.is_nan() { mesh_world.0.inverse() * base.map_or(Affine3A::IDENTITY, |b| b.0) } else { rig.last_base };
-        let shifted = !to_base.abs_diff_eq(rig.last_base, 1e-6 * to_base.translation.abs().max_element().max(1.0));
-        if !sampled && !shifted && !rig.is_changed() && pose.0.len() == rig.shape.inverse_binds.len() {
-            return;
-        }
-        rig.bypass_change_detection().last_base = to_base;
-        batch.posed += 1;
-        // The layers' clips, found once for the skin rather than once a bone.
-        let mut layers: [Option<(&AnimationClip, &Layer)>; 2] = [None; 2];
-        if let (Some(out), Some(clips)) = (output, clips) {
-            for (slot, layer) in layers.iter_mut().zip(out.layers.iter().flatten()) {
-                *slot = clips.get(layer.clip).map(|clip| (clip, layer));
-            }
-        }
-        let count = rig.shape.bones.len();
-        if batch.bones.len() < count {
-            batch.bones.resize(count, Affine3A::IDENTITY);
-        }
-        let bones = &mut batch.bones[..count];
-        // Written in place and flagged changed only if a matrix changed: a paused player's
-        // skins cost nothing downstream.
-        let mut changed = pose.0.len() != rig.shape.inverse_binds.len();
-        let matrices = &mut pose.bypass_change_detection().0;
-        matrices.resize(rig.shape.inverse_binds.len(), Mat4::IDENTITY);
-        for (slot, bone) in rig.shape.bones.iter().enumerate() {
-            let local = if bone.node == NO_PARENT {
-                bone.rest
+    skins.par_iter_mut().batching_strategy(batching).for_each_init(
+        start,
+        |batch, (entity, mut rig, mesh_world, mut pose, skin, unplaced)| {
+            let output = match rig.player {
+                Some(player) => match outputs.get(player) {
+                    Ok(out) if out.links == rig.links => Some(out),
+                    _ => {
+                        stale_ref.borrow_local_mut().push(entity);
+                        return;
+                    }
+                },
+                None => None,
+            };
+            let base = match rig.base {
+                Some(base) => match globals.get(base) {
+                    Ok(base) => Some(base),
+                    Err(_) => {
+                        stale_ref.borrow_local_mut().push(entity);
+                        return;
+                    }
+                },
+                None => None,
+            };
+            let sampled = output.is_some_and(|out| out.sample);
+            // The pose is in the mesh's space: a model that moves as a whole (mesh and base
+            // together) keeps it, to rounding.
+            let moved = mesh_world.is_changed() || base.as_ref().is_some_and(|b| b.is_changed());
+            let to_base = if moved || rig.last_base.is_nan() {
+                mesh_world.0.inverse() * base.map_or(Affine3A::IDENTITY, |b| b.0)
             } else {
-                let mut sampled = NodeSample { translation: None, rotation: None, scale: None, weights: [None; 2] };
-                for (i, (clip, layer)) in layers.iter().flatten().enumerate() {
-                    sample_layer(clip, layer, bone.node as usize, i, &mut sampled);
+                rig.last_base
+            };
+            let shifted = !to_base.abs_diff_eq(rig.last_base, 1e-6 * to_base.translation.abs().max_element().max(1.0));
+            if !sampled && !shifted && !rig.is_changed() && pose.0.len() == rig.shape.inverse_binds.len() {
+                // The pose stands; the bones' entities follow a model that moved.
+                if moved && !unplaced {
+                    place_bones(&rig.shape, entity, skin, mesh_world.0, &pose.0, &writer);
                 }
-                sampled.transform(bone.rest).unwrap_or(bone.rest)
-            };
-            let parent = if bone.parent == NO_PARENT { to_base } else { bones[bone.parent as usize] };
-            let global = parent * local.compute_affine();
-            bones[slot] = global;
-            let joint = bone.joint as usize;
-            let matrix = match rig.shape.inverse_binds[joint] {
-                Some(bind) => Mat4::from(global * bind),
-                None => Mat4::from(global) * rig.shape.inverse_bind_matrices[joint],
-            };
-            if matrices[joint] != matrix {
-                matrices[joint] = matrix;
-                changed = true;
+                return;
             }
-        }
-        if changed {
-            pose.set_changed();
-        }
-    });
+            let rig_state = rig.bypass_change_detection();
+            let watch = std::mem::take(&mut rig_state.written);
+            rig_state.last_base = to_base;
+            batch.posed += 1;
+            // The layers' clips, found once for the skin rather than once a bone.
+            let mut layers: [Option<(&AnimationClip, &Layer)>; 2] = [None; 2];
+            if let (Some(out), Some(clips)) = (output, clips) {
+                for (slot, layer) in layers.iter_mut().zip(out.layers.iter().flatten()) {
+                    *slot = clips.get(layer.clip).map(|clip| (clip, layer));
+                }
+            }
+            let count = rig.shape.bones.len();
+            if batch.bones.len() < count {
+                batch.bones.resize(count, Affine3A::IDENTITY);
+            }
+            let bones = &mut batch.bones[..count];
+            // Written in place and flagged changed only if a matrix changed: a paused player's
+            // skins cost nothing downstream.
+            let mut changed = pose.0.len() != rig.shape.inverse_binds.len();
+            let matrices = &mut pose.bypass_change_detection().0;
+            matrices.resize(rig.shape.inverse_binds.len(), Mat4::IDENTITY);
+            let mut handed = false;
+            for (slot, bone) in rig.shape.bones.iter().enumerate() {
+                let mut local = if bone.node == NO_PARENT {
+                    bone.rest
+                } else {
+                    let mut sampled = NodeSample { translation: None, rotation: None, scale: None, weights: [None; 2] };
+                    for (i, (clip, layer)) in layers.iter().flatten().enumerate() {
+                        sample_layer(clip, layer, bone.node as usize, i, &mut sampled);
+                    }
+                    sampled.transform(bone.rest).unwrap_or(bone.rest)
+                };
+                let parent = if bone.parent == NO_PARENT { to_base } else { bones[bone.parent as usize] };
+                let mut global = parent * local.compute_affine();
+                let joint = bone.joint as usize;
+                // The bone's entity, when this skin owns it, gets the pose too: its `Transform`
+                // without a change flag (so that a write by the game stands out), its
+                // `GlobalTransform` flagged only if it changed.
+                if let Some(&bone_entity) = skin.joints.get(joint).filter(|_| !unplaced) {
+                    writer.write(entity, bone_entity, |mut transform, mut world| {
+                        if watch && transform.is_changed() && !transform.is_added() {
+                            // The game wrote this bone's `Transform` (inverse kinematics): it poses
+                            // the bone this frame, and the skin gives its bones back from the next.
+                            local = *transform;
+                            global = parent * local.compute_affine();
+                            handed = true;
+                        } else if *transform != local {
+                            *transform.bypass_change_detection() = local;
+                        }
+                        world.set_if_neq(GlobalTransform(mesh_world.0 * global));
+                    });
+                }
+                bones[slot] = global;
+                let matrix = match rig.shape.inverse_binds[joint] {
+                    Some(bind) => Mat4::from(global * bind),
+                    None => Mat4::from(global) * rig.shape.inverse_bind_matrices[joint],
+                };
+                if matrices[joint] != matrix {
+                    matrices[joint] = matrix;
+                    changed = true;
+                }
+            }
+            if changed {
+                pose.set_changed();
+            }
+            if handed {
+                handed_back_ref.borrow_local_mut().push(entity);
+            }
+        },
+    );
     for list in stale.iter_mut() {
         for entity in list.drain(..) {
             commands.entity(entity).try_remove::<SkinRig>();
         }
     }
+    for list in handed_back.iter_mut() {
+        for entity in list.drain(..) {
+            info!(skin = ?entity, "a bone of this compact skeleton was written by the game: its bones are entities that animation moves from now on");
+            commands.entity(entity).try_remove::<CompactSkeleton>();
+        }
+    }
     (skins.iter().len() as u32, posed.into_inner())
+}
+
+/// Places the bones' entities of a skin whose pose stands while its model moved: each bone
+/// `skin`'s pose owns gets `mesh_world × pose × bind` as its `GlobalTransform` (a bone whose
+/// inverse bind matrix is not affine or not invertible keeps its own).
+fn place_bones(shape: &RigShape, entity: Entity, skin: &Skin, mesh_world: Affine3A, pose: &[Mat4], writer: &BoneWriter) {
+    for (joint, (&bone, bind)) in skin.joints.iter().zip(&shape.binds).enumerate() {
+        let (Some(bind), Some(matrix)) = (bind, pose.get(joint)) else { continue };
+        let global = mesh_world * Affine3A::from_mat4(*matrix) * *bind;
+        writer.write(entity, bone, |_, mut world| world.set_if_neq(GlobalTransform(global)));
+    }
+}
+
+/// Finds the compact skins one of whose bones' `Transform` the game wrote since the last frame
+/// (inverse kinematics, a head turned to look), and marks their rigs: the pose pass then poses
+/// them from what was written and gives their bones back (the pose pass writes the bones'
+/// transforms without a change flag, so only the game's writes are seen). A scan of the change
+/// ticks of the bones' archetypes (a few bytes a bone, in parallel), run before
+/// [`update_skin_poses`](super::update_skin_poses).
+pub fn find_bone_writes(written: Query<(&PosedInSkin, Ref<Transform>), Changed<Transform>>, mut rigs: Query<&mut SkinRig>) {
+    for (&PosedInSkin(skin), transform) in &written {
+        if transform.is_added() {
+            continue;
+        }
+        if let Ok(mut rig) = rigs.get_mut(skin)
+            && !rig.is_added()
+        {
+            rig.written = true;
+        }
+    }
 }
