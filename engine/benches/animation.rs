@@ -10,8 +10,12 @@
 //! (from above, all of it in a 1920×1080 view, each fox a few pixels): most foxes sample every
 //! fourth frame; `animate_budget/N`, `propagate_budget/N` and `skin_budget/N` its parts.
 //!
-//! `frame_compact/N` and its parts: the same crowd with every skin a
-//! [`engine::animation::CompactSkeleton`] (posed in one pass, its bones' entities left alone).
+//! The crowd is spawned as the glTF prefab spawns it by default: every skin a
+//! [`engine::animation::CompactSkeleton`], posed in one pass that also places its bones'
+//! entities. `frame_bones/N` and its parts: the same crowd with its bones posed as entities
+//! (animation, propagation, then the skin matrices from the bones); `frame_unplaced/N`: compact,
+//! its bones' entities left unplaced ([`engine::animation::UnplacedBones`], as the sandbox spawns
+//! its crowds).
 //!
 //! Run: `cargo bench -p engine --bench animation`
 
@@ -43,15 +47,14 @@ fn foxes(c: &mut Criterion) {
     }
     let mut group = c.benchmark_group("animate foxes");
     for n in [1usize, 100, 1_000, 10_000] {
-        // Bones as entities, then the same crowd spawned as compact skeletons: each skin posed in
-        // one pass from the clips, its bones' entities left alone
-        // (`engine::animation::CompactSkeleton`), one rig shared by all, as the sandbox spawns it.
-        for (compact, suffix) in [(false, ""), (true, "_compact")] {
+        // The prefab's default (compact skeletons placing their bones), bones as entities, and
+        // compact skeletons leaving their bones unplaced: one rig shared by all.
+        for (compact, unplaced, suffix) in [(true, false, ""), (false, false, "_bones"), (true, true, "_unplaced")] {
             let mut app = App::new();
             app.world.resource_mut::<Time>().set_fixed_step(Some(Duration::from_micros(16_667)));
             // One set of assets shared by the crowd, as the sandbox's `foxes` scene spawns it.
             let mut prefab = scene.clone().into_prefab(&mut app.world);
-            prefab.compact_skeletons = compact;
+            (prefab.compact_skeletons, prefab.unplaced_bones) = (compact, unplaced);
             for i in 0..n {
                 let root = prefab.spawn(&mut app.world);
                 let walk = app.world.get::<GltfAnimations>(root).unwrap().0[1];

@@ -230,8 +230,8 @@ pub fn spawn_bench_scene(world: &mut World, scene: BenchScene) {
 /// every frame), a sun, and a camera: above, seeing the whole crowd (`eye_level` false: the
 /// `foxes` scene), or at eye height at the plaza's edge looking across it (`crowd`: near foxes
 /// large, far ones a few pixels, what levels of detail are for). With `compact`, the characters
-/// are compact skeletons (`engine::animation::CompactSkeleton`: posed in one pass, their bones'
-/// entities left alone).
+/// are compact skeletons (`engine::animation::CompactSkeleton`: posed in one pass) whose bones'
+/// entities are left unplaced (`engine::animation::UnplacedBones`).
 pub fn spawn_foxes(
     world: &mut World,
     character: &std::path::Path,

@@ -89,11 +89,13 @@ pub fn spawn_walker(world: &mut World, path: &Path, center: Vec3, radius: f32) -
 }
 
 /// Spawns `count` copies of the character in a grid facing +Z (2 m apart), each playing `clip`
-/// from its own time, as compact skeletons when `compact` is set, and returns the grid's half
-/// extent in metres.
+/// from its own time, as compact skeletons whose bones' entities are left unplaced when
+/// `compact` is set (nothing reads a crowd's bones), and returns the grid's half extent in
+/// metres.
 pub fn spawn_crowd(world: &mut World, path: &Path, clip: &str, count: usize, compact: bool) -> Result<f32> {
     let mut prefab = load_character(world, path)?;
     prefab.compact_skeletons = compact;
+    prefab.unplaced_bones = compact;
     let walk = clip_named(world, &prefab, clip);
     let side = (count as f32).sqrt().ceil().max(1.0) as usize;
     let pitch = 2.0;

@@ -222,7 +222,8 @@ struct Cli {
     animation_budget: bool,
     /// Pose the foxes and crowd scenes' characters through their bones' entities (animation,
     /// transform propagation, skin matrices: what a character carrying things needs) instead of
-    /// as compact skeletons posed in one pass (engine::animation::CompactSkeleton; for comparison).
+    /// as compact skeletons posed in one pass, their bones' entities left unplaced
+    /// (engine::animation::CompactSkeleton and UnplacedBones; for comparison).
     #[arg(long)]
     bone_entities: bool,
     /// Wait for the GPU to finish each frame before the next update starts (headless, not with

@@ -109,7 +109,7 @@ use glam::{Quat, Vec3, Vec4};
 use thiserror::Error;
 use tracing::{info, warn};
 
-use crate::animation::{AnimatedRadius, AnimationClip, AnimationTargets, CompactSkeleton, MorphWeights, Skin};
+use crate::animation::{AnimatedRadius, AnimationClip, AnimationTargets, CompactSkeleton, MorphWeights, Skin, UnplacedBones};
 use crate::asset::{Assets, Handle};
 use crate::camera::Camera;
 use crate::image::{Image, ImageError, TextureCache, TextureRole};
@@ -771,7 +771,8 @@ impl GltfScene {
             skins: self.skins,
             clips,
             radius,
-            compact_skeletons: false,
+            compact_skeletons: true,
+            unplaced_bones: false,
         }
     }
 
@@ -831,10 +832,14 @@ pub struct GltfPrefab {
     pub clips: Vec<Handle<AnimationClip>>,
     /// [`GltfScene::rest_radius`]: set on each spawned root with clips as its [`AnimatedRadius`].
     pub radius: f32,
-    /// Whether spawned skins are [`CompactSkeleton`]s: posed from the clips in one pass, their
-    /// bones' entities not moved by animation (for crowds: `engine::animation`'s `compact`
-    /// module says what it saves and what it changes). Off by default.
+    /// Whether spawned skins are [`CompactSkeleton`]s: each posed from the clips in one pass,
+    /// which also places its bones' entities, rather than by animation, propagation and the skin
+    /// matrices each going over the bones (`engine::animation`'s `compact` module says what it
+    /// saves, and when a skin gives its bones back to those passes). On by default.
     pub compact_skeletons: bool,
+    /// Whether compact skins leave their bones' entities unplaced ([`UnplacedBones`]: for crowds
+    /// nothing reads the bones of). Off by default.
+    pub unplaced_bones: bool,
 }
 
 impl GltfPrefab {
@@ -909,6 +914,9 @@ impl GltfPrefab {
                     primitive.insert(skin);
                     if self.compact_skeletons {
                         primitive.insert(CompactSkeleton);
+                        if self.unplaced_bones {
+                            primitive.insert(UnplacedBones);
+                        }
                     }
                 }
                 None => warn!(skin = ?skin.name, "a joint of this skin is not in the spawned scene; its mesh stays in its bind pose"),
