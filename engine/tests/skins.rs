@@ -237,7 +237,7 @@ fn budget_samples_a_far_fox(compact: bool) {
 /// entities, which the skin then goes back to.
 #[test]
 fn a_compact_skeleton_poses_the_fox_as_its_bones_would_and_places_them() {
-    use engine::animation::{AnimationSystems, AnimationTargets, CompactSkeleton, PosedInSkin, SkinPose, UnplacedBones};
+    use engine::animation::{AnimationSystems, AnimationTargets, CompactSkeleton, PosedInSkin, SkinPose, SkinRig, UnplacedBones};
     use engine::app::PostUpdate;
     use engine::transform::TransformSystems;
 
@@ -385,9 +385,24 @@ fn a_compact_skeleton_poses_the_fox_as_its_bones_would_and_places_them() {
     assert!(same(&pose(&app, second), &pose(&app, bones_mesh)), "the second skin follows the bones");
     assert!(same(&pose(&app, late_mesh), &pose(&app, bones_mesh)));
 
+    // A second compact skin on the placed fox's skeleton (as a glTF mesh's other primitives
+    // have): one of the two owns and places the bones, the other follows them.
+    let placed_skin = app.world.get::<Skin>(placed_mesh).unwrap().clone();
+    let twin = app
+        .world
+        .spawn((placed_skin, CompactSkeleton, Transform::IDENTITY, ChildOf(app.world.get::<ChildOf>(placed_mesh).unwrap().parent())))
+        .id();
+    for _ in 0..2 {
+        app.update();
+    }
+    let rigs = [placed_mesh, twin].map(|mesh| app.world.get::<SkinRig>(mesh).expect("both compact").follows());
+    assert_eq!(rigs.iter().filter(|&&f| f).count(), 1, "one of the two follows the other's bones: {rigs:?}");
+    assert!(same(&pose(&app, twin), &pose(&app, bones_mesh)) && same(&pose(&app, placed_mesh), &pose(&app, bones_mesh)));
+
     // Inverse kinematics: a system between animation and propagation sets bone 5's whole
-    // `Transform` on the reference fox and the placed one. The placed skin is posed from the
-    // written transform that frame, as the bones' entities are, and then gives its bones back.
+    // `Transform` on the reference fox and the placed one. The placed skins are posed from the
+    // written transform that frame, as the bones' entities are, and the owner then gives its
+    // bones back (the follower follows them still).
     #[derive(Resource)]
     struct Ik(Vec<Entity>);
     let ik_bones = vec![app.world.get::<Skin>(bones_mesh).unwrap().joints[5], app.world.get::<Skin>(placed_mesh).unwrap().joints[5]];
@@ -405,8 +420,10 @@ fn a_compact_skeleton_poses_the_fox_as_its_bones_would_and_places_them() {
     for frame in 0..3 {
         app.update();
         assert!(same(&pose(&app, placed_mesh), &pose(&app, bones_mesh)), "IK frame {frame}: the written bone poses the skin");
+        assert!(same(&pose(&app, twin), &pose(&app, bones_mesh)), "IK frame {frame}: and the skin that shares its skeleton");
         let bones_far = pose(&app, placed_mesh).iter().zip(pose(&app, compact_mesh)).any(|(a, b)| !a.abs_diff_eq(b, 1e-3));
         assert!(bones_far, "IK frame {frame}: the written bone moved the skin away from the unwritten fox's pose");
-        assert!(app.world.get::<CompactSkeleton>(placed_mesh).is_none(), "IK frame {frame}: the skin went back to bones as entities");
+        let owner = [placed_mesh, twin].into_iter().find(|&m| app.world.get::<CompactSkeleton>(m).is_none());
+        assert!(owner.is_some(), "IK frame {frame}: the owner went back to bones as entities");
     }
 }

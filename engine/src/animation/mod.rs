@@ -29,10 +29,11 @@
 //! foxes more slowly than one. Sampling where it is written halved the time (`cargo bench -p
 //! engine --bench animation`, docs/experiments/animation-cpu.md).
 //!
-//! **A crowd's skeletons.** A skinned entity with [`CompactSkeleton`] is posed from its clips
-//! in one pass, straight into its [`SkinPose`], without animating or propagating its bones'
-//! entities: for a crowd, whose bones nothing else reads (the `compact` module says what it
-//! saves and what it changes).
+//! **Skeletons in one pass.** A skinned entity with [`CompactSkeleton`] (what the glTF prefab
+//! spawns) is posed from its clips in one pass, straight into its [`SkinPose`], placing its
+//! bones' entities as it goes instead of animating and propagating them ([`UnplacedBones`]: not
+//! placing them at all, for a crowd whose bones nothing reads). The `compact` module says what it
+//! saves and what it changes.
 //!
 //! **A crowd's far half.** With the [`AnimationBudget`] on, a model small on screen or off it
 //! samples every second or fourth frame, its clock still keeping time (the `budget` module says
@@ -72,7 +73,7 @@ use crate::transform::{GlobalTransform, Transform, TransformSystems};
 
 pub use crate::transform::PosedInSkin;
 pub use budget::{AnimatedRadius, AnimationBudget};
-pub use compact::{CompactScratch, CompactSkeleton, RigShapes, SkinRig, UnplacedBones, build_compact_skins, find_bone_writes};
+pub use compact::{CompactScratch, CompactSkeleton, RigShapes, SkinRig, UnplacedBones, build_compact_skins, pose_compact_skins};
 pub use sample::{Sampled, sample_channel};
 
 /// How values between two keyframes are found (glTF's `interpolation`).
@@ -379,10 +380,10 @@ impl Skin {
     /// Whether the pose of the skinned entity with this skin and `global` transform may have
     /// changed since the calling system last ran: the entity moved, its skin was replaced, or a
     /// joint's global transform changed.
-    pub fn pose_changed<F: bevy_ecs::query::QueryFilter>(
+    pub fn pose_changed(
         skin: &Ref<Skin>,
         global: &Ref<crate::transform::GlobalTransform>,
-        joints: &Query<Ref<crate::transform::GlobalTransform>, F>,
+        joints: &Query<Ref<crate::transform::GlobalTransform>>,
     ) -> bool {
         global.is_changed() || skin.is_changed() || skin.joints.iter().any(|&j| joints.get(j).is_ok_and(|g| g.is_changed()))
     }
@@ -512,7 +513,7 @@ impl Plugin for AnimationPlugin {
         );
         app.add_systems(
             PostUpdate,
-            (compact::find_bone_writes, update_skin_poses).chain().in_set(SkinPoseSystems).after(TransformSystems::Propagate),
+            (compact::pose_compact_skins, update_skin_poses).chain().in_set(SkinPoseSystems).after(TransformSystems::Propagate),
         );
     }
 }
@@ -524,40 +525,30 @@ impl Plugin for AnimationPlugin {
 #[derive(Component, Clone, Debug, Default, PartialEq)]
 pub struct SkinPose(pub Vec<glam::Mat4>);
 
-/// Recomputes the [`SkinPose`] of every skinned entity whose pose changed ([`Skin::pose_changed`]),
-/// in parallel across the entities (each reads its joints' global transforms and writes only its
-/// own matrices), and poses the [`CompactSkeleton`]s (which sample their bones' channels here:
-/// the `compact` module).
+/// Recomputes the [`SkinPose`] of every skinned entity whose pose changed ([`Skin::pose_changed`])
+/// from its joints' global transforms, in parallel across the entities (each reads its joints'
+/// global transforms and writes only its own matrices): the skins without a [`SkinRig`], and the
+/// compact skins that follow bones another compact skin places ([`SkinRig::follows`]). Runs
+/// after [`compact::pose_compact_skins`], which poses the other compact skins.
 ///
-/// Times itself into [`AnimationStats::skin_cpu_ms`] (`cpu_ms.skin` in the sandbox's `--stats`).
+/// Adds its time to [`AnimationStats::skin_cpu_ms`] (`cpu_ms.skin` in the sandbox's `--stats`).
 #[allow(clippy::type_complexity)]
 pub fn update_skin_poses(
-    mut skinned: Query<(Ref<Skin>, Ref<GlobalTransform>, &mut SkinPose), (Without<SkinRig>, Without<PosedInSkin>)>,
-    mut compact: Query<compact::CompactSkin, Without<PosedInSkin>>,
-    joints: Query<Ref<GlobalTransform>, Without<PosedInSkin>>,
-    (mut bones, owners): (compact::BoneTransforms, Query<&'static PosedInSkin>),
-    (outputs, clips): (Query<&AnimationOutput>, Option<Res<Assets<AnimationClip>>>),
-    (mut scratch, mut commands): (Local<CompactScratch>, Commands),
+    mut skinned: Query<(Ref<Skin>, Ref<GlobalTransform>, &mut SkinPose, Option<Ref<SkinRig>>)>,
+    joints: Query<Ref<GlobalTransform>>,
     stats: Option<ResMut<AnimationStats>>,
 ) {
     let started = std::time::Instant::now();
-    skinned.par_iter_mut().for_each(|(skin, global, mut pose)| {
-        if pose.0.len() != skin.joints.len() || Skin::pose_changed(&skin, &global, &joints) {
+    skinned.par_iter_mut().for_each(|(skin, global, mut pose, rig)| {
+        if rig.as_ref().is_some_and(|rig| !rig.follows()) {
+            return;
+        }
+        if pose.0.len() != skin.joints.len() || rig.is_some_and(|rig| rig.is_changed()) || Skin::pose_changed(&skin, &global, &joints) {
             skin.joint_matrices(&global, |j| joints.get(j).ok().map(|g| g.0), &mut pose.0);
         }
     });
-    let (compact_skins, compact_posed) = compact::pose_compact_skins(
-        &mut compact,
-        &joints,
-        compact::BoneWriter::new(&mut bones, &owners),
-        &outputs,
-        clips.as_deref(),
-        &mut scratch,
-        &mut commands,
-    );
     if let Some(mut stats) = stats {
-        stats.skin_cpu_ms = started.elapsed().as_secs_f32() * 1e3;
-        (stats.compact_skins, stats.compact_posed) = (compact_skins, compact_posed);
+        stats.skin_cpu_ms += started.elapsed().as_secs_f32() * 1e3;
     }
 }
 

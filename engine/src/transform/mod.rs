@@ -206,10 +206,11 @@ pub struct Static;
 pub struct Joint;
 
 /// A bone posed by a compact skeleton (`crate::animation::CompactSkeleton`) on the skinned
-/// entity it names, which computes its skin's matrices without it: animation samples nothing
+/// entity it names, which samples, places and skins it in one pass: animation samples nothing
 /// into it, and propagation neither visits it nor descends below it (its subtree is bones of the
-/// same skin), so its `GlobalTransform` keeps the last value propagation wrote. Set and cleared
-/// with the skin's rig.
+/// same skin). Its `Transform` and `GlobalTransform` are written by that pass, after propagation
+/// (or not at all, for a skin with `crate::animation::UnplacedBones`). Set and cleared with the
+/// skin's rig.
 #[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PosedInSkin(pub Entity);
 

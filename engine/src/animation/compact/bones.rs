@@ -16,8 +16,9 @@
 //!   commands and hooks, outside it).
 //! - Each skin is posed by one task, once a frame: the skins are the items of one
 //!   `par_iter_mut`.
-//! - The closure given the fetch cannot keep it (it is borrowed for the call only), so a task
-//!   never holds two fetches of one bone, even if a `Skin` listed that bone twice.
+//! - A fetch lives within one call of [`BoneWriter::place`] or [`BoneWriter::place_world`],
+//!   which call nothing that could reach the writer again, so a task never holds two fetches of
+//!   one bone, even if a `Skin` listed that bone twice.
 //! - Nothing else reads or writes the bones' transforms meanwhile: the writer's query is held by
 //!   the calling system for the whole pass, and the system's other queries of `Transform` and
 //!   `GlobalTransform` filter the marked entities out (`Without<PosedInSkin>`).
@@ -26,6 +27,7 @@
 #![allow(unsafe_code)]
 
 use bevy_ecs::prelude::*;
+use glam::Affine3A;
 
 use crate::transform::{GlobalTransform, PosedInSkin, Transform};
 
@@ -33,7 +35,8 @@ use crate::transform::{GlobalTransform, PosedInSkin, Transform};
 pub(crate) type BoneTransforms<'w, 's> = Query<'w, 's, (&'static mut Transform, &'static mut GlobalTransform), With<PosedInSkin>>;
 
 /// Writes bones' transforms from the tasks that pose their skins (the module docs say why that
-/// is sound).
+/// is sound). Copied into each task: it is two references.
+#[derive(Clone, Copy)]
 pub(crate) struct BoneWriter<'q, 'w, 's, 'ow, 'os> {
     bones: &'q BoneTransforms<'w, 's>,
     owners: &'q Query<'ow, 'os, &'static PosedInSkin>,
@@ -46,18 +49,53 @@ impl<'q, 'w, 's, 'ow, 'os> BoneWriter<'q, 'w, 's, 'ow, 'os> {
         BoneWriter { bones, owners }
     }
 
-    /// Calls `write` with `bone`'s transforms if `bone` is marked as posed by `skin`; returns
-    /// what it returned, or `None` for a bone another skin owns (or gone).
+    /// Places `bone`, if it is marked as posed by `skin`: its `Transform` becomes `local`
+    /// (without a change flag) and its `GlobalTransform` `mesh_world × parent × local` (flagged
+    /// only if it changed). With `watch`, a `Transform` the game wrote since the calling system
+    /// last ran is kept and poses the bone instead. Returns the local transform and the
+    /// transform in the mesh's space the bone was placed with, or `None` for a bone another skin
+    /// owns (or gone).
     #[inline(always)]
-    pub(crate) fn write<R>(&self, skin: Entity, bone: Entity, write: impl FnOnce(Mut<Transform>, Mut<GlobalTransform>) -> R) -> Option<R> {
+    pub(crate) fn place(
+        &self,
+        skin: Entity,
+        bone: Entity,
+        watch: bool,
+        local: Transform,
+        parent: Affine3A,
+        mesh_world: Affine3A,
+    ) -> Option<(Transform, Affine3A)> {
         if self.owners.get(bone).ok()? != &PosedInSkin(skin) {
             return None;
         }
         // SAFETY: `bone` is marked as posed by `skin`, and only the one task posing `skin` this
-        // frame gets here for it; the fetch lives for this call only, and the writer's query
-        // is held mutably by the calling system, whose other transform queries leave the
-        // marked entities out (the module docs).
-        let (transform, global) = unsafe { self.bones.get_unchecked(bone) }.ok()?;
-        Some(write(transform, global))
+        // frame gets here for it; the fetch is dropped before this call returns and nothing
+        // here can call the writer again; the writer's query is held mutably by the calling
+        // system, whose other transform queries leave the marked entities out (the module docs).
+        let (mut transform, mut world) = unsafe { self.bones.get_unchecked(bone) }.ok()?;
+        let local = if watch && transform.is_changed() && !transform.is_added() {
+            *transform
+        } else {
+            if *transform != local {
+                *transform.bypass_change_detection() = local;
+            }
+            local
+        };
+        let global = parent * local.compute_affine();
+        world.set_if_neq(GlobalTransform(mesh_world * global));
+        Some((local, global))
+    }
+
+    /// Sets `bone`'s `GlobalTransform` to `world` (flagged only if it changed), if it is marked
+    /// as posed by `skin`.
+    #[inline(always)]
+    pub(crate) fn place_world(&self, skin: Entity, bone: Entity, world: Affine3A) {
+        if self.owners.get(bone).ok() != Some(&PosedInSkin(skin)) {
+            return;
+        }
+        // SAFETY: as in `place`.
+        if let Ok((_, mut global)) = unsafe { self.bones.get_unchecked(bone) } {
+            global.set_if_neq(GlobalTransform(world));
+        }
     }
 }

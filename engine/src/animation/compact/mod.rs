@@ -33,16 +33,19 @@
 //!   entities it keeps the last value a clip wrote; the two differ only after a switch to a clip
 //!   that animates fewer properties.
 //! - **A bone's `Transform` written by the game** (inverse kinematics, a head turned to look)
-//!   poses the skin that frame, as it would the bones' entities ([`find_bone_writes`] finds it),
-//!   and the skin then gives its bones back to animation and propagation for good. In that one
-//!   frame a property the game did not write keeps the previous frame's sampled value.
+//!   poses the skin that frame, as it would the bones' entities ([`pose_compact_skins`] finds
+//!   it from the bones' change ticks), and the skin then gives its bones back to animation and
+//!   propagation for good. In that one frame a property the game did not write keeps the
+//!   previous frame's sampled value. A write in the one frame a skin's rig is made again (its
+//!   player re-linked, say) is not seen; the next is.
 //!
 //! [`UnplacedBones`] leaves the bones' entities alone as well, for crowds nothing reads the bones
 //! of: their `Transform` keeps the value it had when the skeleton was made compact and their
 //! `GlobalTransform` the last value propagation wrote; neither says where the bone is, and
 //! [`SkinPose::joint_world`] does. Writing a bone's `Transform` then does nothing.
 //!
-//! **When a skin cannot be compact.** It stays as it is, or gives its bones back, with a warning,
+//! **When a skin cannot be compact.** It stays as it is, or gives its bones back, saying so (an
+//! `info` event: compact skeletons are the default, and these are ordinary cases),
 //! when something needs the bones' entities moved:
 //! - a bone carries anything that is not a bone of the same skin: a child (a sword in a hand,
 //!   checked when the rig is made and whenever a child is hung on a bone later), or a light,
@@ -53,8 +56,14 @@
 //!   parents.
 //!
 //! Removing [`CompactSkeleton`], or replacing the [`Skin`], gives the bones back to animation
-//! and propagation, which place them all again. Several skins sharing a skeleton can all be
-//! compact; the last made owns the bones' entities ([`PosedInSkin`] names it) and places them.
+//! and propagation, which place them all again.
+//!
+//! **Skins that share a skeleton** (a glTF mesh's primitives each have the mesh's skin) can all
+//! be compact. The last made owns the bones' entities ([`PosedInSkin`] names it) and places
+//! them; the others follow ([`SkinRig::follows`]): [`update_skin_poses`](super::update_skin_poses)
+//! poses them from the placed bones, as it poses a skin without a rig. So they agree with the
+//! owner in every frame, the game's writes included, and keep following the bones once the owner
+//! gave them back. With [`UnplacedBones`] on the owner, each skin poses itself from the clips.
 //!
 //! **How.** [`build_compact_skins`] makes a [`SkinRig`] for each compact skin that has none: its
 //! bones parents first, each with its parent's place in that list, its node index in the
@@ -83,11 +92,11 @@ use bevy_ecs::system::SystemParam;
 use bevy_ecs::world::DeferredWorld;
 use bevy_utils::Parallel;
 use glam::{Affine3A, Mat4, Vec4};
-use tracing::{info, warn};
+use tracing::info;
 
 mod bones;
 
-pub(crate) use bones::{BoneTransforms, BoneWriter};
+use bones::{BoneTransforms, BoneWriter};
 
 use super::{AnimatedBy, AnimationClip, AnimationOutput, Layer, MorphWeights, NodeSample, Skin, SkinPose, sample_layer};
 use crate::asset::Assets;
@@ -96,8 +105,10 @@ use crate::light::{DirectionalLight, DiskLight, PointLight, RectLight, SpotLight
 use crate::scene::MeshInstance;
 use crate::transform::{GlobalTransform, PosedInSkin, Transform};
 
-/// On an entity with a [`Skin`]: pose it from its player's clips in one pass, without moving its
-/// bones' entities (the module docs say what that changes, and when a skin cannot be compact).
+/// On an entity with a [`Skin`]: pose it from its player's clips in one pass, which places its
+/// bones' entities as it goes, rather than through animation and propagation of those entities
+/// (the module docs say what that changes, and when a skin cannot be compact). The glTF prefab
+/// puts it on every skin it spawns unless told not to.
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[component(on_remove = compact_skeleton_removed)]
 pub struct CompactSkeleton;
@@ -123,9 +134,12 @@ pub struct SkinRig {
     /// moves as a whole leaves it, and a pose not due is then left as it is.
     last_base: Affine3A,
     /// Whether the game wrote one of the bones' `Transform`s since the last pose (set by
-    /// [`find_bone_writes`]): the skin is posed this frame from what was written, and then gives
+    /// [`pose_compact_skins`]): the skin is posed this frame from what was written, and then gives
     /// its bones back.
     written: bool,
+    /// Whether another skin owns and places the bones: this one is then posed from them, by
+    /// [`update_skin_poses`](super::update_skin_poses).
+    follows: bool,
 }
 
 impl SkinRig {
@@ -142,6 +156,12 @@ impl SkinRig {
     /// The player animating the bones, if any.
     pub fn player(&self) -> Option<Entity> {
         self.player
+    }
+
+    /// Whether the skin follows bones another skin sharing its skeleton owns and places (it
+    /// is then posed from their entities, as a skin without a rig is).
+    pub fn follows(&self) -> bool {
+        self.follows
     }
 }
 
@@ -222,7 +242,7 @@ pub(super) fn skin_inserted(mut world: DeferredWorld, ctx: HookContext) {
     let owners: Vec<Entity> =
         skin.joints.iter().filter_map(|&j| world.get::<PosedInSkin>(j).map(|p| p.0)).filter(|&o| o != ctx.entity).collect();
     for owner in owners {
-        warn!(skin = ?ctx.entity, compact = ?owner, "a skin shares bones with a compact skeleton, which gives them back to animation");
+        info!(skin = ?ctx.entity, compact = ?owner, "a skin shares bones with a compact skeleton, which gives them back to animation");
         world.commands().entity(owner).try_remove::<CompactSkeleton>();
     }
 }
@@ -250,7 +270,7 @@ fn release_bones(world: &mut DeferredWorld, mesh: Entity, joints: Vec<Entity>) {
 
 /// A compact skin whose bones were re-linked to a player, or re-parented, is made again; one
 /// whose bone was given a child that is not a bone of it (an attachment) stops being compact,
-/// with a warning (the child needs its parent's `GlobalTransform`).
+/// saying so (the child needs its parent's `GlobalTransform`).
 pub(super) fn bone_relinked(event: On<Insert<AnimatedBy>>, posed: Query<&PosedInSkin>, mut commands: Commands) {
     if let Ok(&PosedInSkin(skin)) = posed.get(event.entity) {
         commands.entity(skin).try_remove::<SkinRig>();
@@ -265,7 +285,7 @@ pub(super) fn bone_reparented(event: On<Insert<ChildOf>>, parents: Query<&ChildO
         return;
     }
     if let Some(&PosedInSkin(skin)) = parents.get(child).ok().and_then(|c| posed.get(c.parent()).ok()) {
-        warn!(?child, ?skin, "an entity was hung on a bone of a compact skeleton, which gives its bones back to animation");
+        info!(?child, ?skin, "an entity was hung on a bone of a compact skeleton, which gives its bones back to animation");
         commands.entity(skin).try_remove::<CompactSkeleton>();
     }
 }
@@ -326,8 +346,8 @@ impl RigShapes {
 
 /// Makes the [`SkinRig`] of each [`CompactSkeleton`] skin that has none (new, its bones
 /// re-linked or re-parented, its `Skin` replaced), and marks its bones [`PosedInSkin`]. A skin
-/// that cannot be compact (the module docs say when) loses its `CompactSkeleton`, with a
-/// warning. Runs after [`link_animation_targets`](super::link_animation_targets) and before
+/// that cannot be compact (the module docs say when) loses its `CompactSkeleton`, saying why.
+/// Runs after [`link_animation_targets`](super::link_animation_targets) and before
 /// [`animate`](super::animate).
 #[allow(clippy::type_complexity)]
 pub fn build_compact_skins(
@@ -347,13 +367,21 @@ pub fn build_compact_skins(
         match make_rig(skin, &lookups, &shared) {
             Ok((shape, player, base, links)) => {
                 let shape = shapes.share(shape);
-                commands.entity(entity).insert(SkinRig { shape, player, base, links, last_base: Affine3A::NAN, written: false });
+                commands.entity(entity).insert(SkinRig {
+                    shape,
+                    player,
+                    base,
+                    links,
+                    last_base: Affine3A::NAN,
+                    written: false,
+                    follows: false,
+                });
                 for &joint in &skin.joints {
                     commands.entity(joint).try_insert(PosedInSkin(entity));
                 }
             }
             Err(why) => {
-                warn!(?entity, "this skin cannot be a compact skeleton: {why}; its bones stay entities that animation moves");
+                info!(?entity, "this skin cannot be a compact skeleton: {why}; its bones stay entities that animation moves");
                 commands.entity(entity).remove::<CompactSkeleton>();
             }
         }
@@ -491,25 +519,50 @@ impl<B: DerefMut<Target = Vec<Affine3A>>> Drop for Batch<'_, B> {
 }
 
 /// What the pose pass reads and writes of a compact skin.
-pub(crate) type CompactSkin =
-    (Entity, &'static mut SkinRig, Ref<'static, GlobalTransform>, &'static mut SkinPose, &'static Skin, Has<UnplacedBones>);
+type CompactSkin = (Entity, &'static mut SkinRig, Ref<'static, GlobalTransform>, &'static mut SkinPose, &'static Skin, Has<UnplacedBones>);
+
+/// The bones' transforms the game wrote since the pose pass last ran (inverse kinematics).
+type WrittenBones = Query<'static, 'static, (&'static PosedInSkin, Ref<'static, Transform>), Changed<Transform>>;
 
 /// Poses every compact skin whose player sampled this frame, or whose base moved relative to
-/// the mesh, or whose pose is new (the module docs say how). A skin whose player's targets were
-/// re-linked, or whose player or base is gone, keeps its pose and has its rig made again.
-/// Runs after transform propagation, with [`update_skin_poses`](super::update_skin_poses).
-/// Returns how many compact skins there are and how many it posed.
-#[allow(clippy::type_complexity)]
-pub(super) fn pose_compact_skins(
-    skins: &mut Query<CompactSkin, Without<PosedInSkin>>,
-    globals: &Query<Ref<GlobalTransform>, Without<PosedInSkin>>,
-    writer: BoneWriter,
-    outputs: &Query<&AnimationOutput>,
-    clips: Option<&Assets<AnimationClip>>,
-    scratch: &mut CompactScratch,
-    commands: &mut Commands,
-) -> (u32, u32) {
-    let CompactScratch { globals: scratches, stale, handed_back } = scratch;
+/// the mesh, or whose pose is new, or one of whose bones the game wrote (the module docs say
+/// how), and places the bones it owns. A skin whose player's targets were re-linked, or whose
+/// player or base is gone, keeps its pose and has its rig made again. A skin that shares its
+/// skeleton with another that owns and places the bones (a glTF mesh's other primitives) is
+/// left to [`update_skin_poses`](super::update_skin_poses), which poses it from the placed
+/// bones: so it follows whatever placed them, the game's writes included.
+///
+/// Runs after transform propagation, before [`update_skin_poses`](super::update_skin_poses),
+/// and times itself into [`AnimationStats::skin_cpu_ms`](super::AnimationStats::skin_cpu_ms)
+/// (which that system adds to).
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
+pub fn pose_compact_skins(
+    mut skins: Query<CompactSkin, Without<PosedInSkin>>,
+    globals: Query<Ref<GlobalTransform>, Without<PosedInSkin>>,
+    mut bones: ParamSet<(BoneTransforms, WrittenBones)>,
+    (owners, unplaced_owners): (Query<&'static PosedInSkin>, Query<(), With<UnplacedBones>>),
+    (outputs, clips): (Query<&AnimationOutput>, Option<Res<Assets<AnimationClip>>>),
+    mut scratch: Local<CompactScratch>,
+    mut commands: Commands,
+    stats: Option<ResMut<super::AnimationStats>>,
+) {
+    let started = std::time::Instant::now();
+    // The game's writes, seen against this system's own last run (a few bytes of change ticks a
+    // bone, only in the bones' archetypes).
+    for (&PosedInSkin(owner), transform) in &bones.p1() {
+        if transform.is_added() {
+            continue;
+        }
+        if let Ok((_, mut rig, .., false)) = skins.get_mut(owner)
+            && !rig.is_added()
+        {
+            rig.bypass_change_detection().written = true;
+        }
+    }
+    let clips = clips.as_deref();
+    let mut bone_transforms = bones.p0();
+    let writer = BoneWriter::new(&mut bone_transforms, &owners);
+    let CompactScratch { globals: scratches, stale, handed_back } = &mut *scratch;
     let (scratches, stale_ref, handed_back_ref) = (&*scratches, &*stale, &*handed_back);
     let posed = AtomicU32::new(0);
     // Several batches a thread, so that a thread held up elsewhere does not hold up the pass.
@@ -518,6 +571,19 @@ pub(super) fn pose_compact_skins(
     skins.par_iter_mut().batching_strategy(batching).for_each_init(
         start,
         |batch, (entity, mut rig, mesh_world, mut pose, skin, unplaced)| {
+            // Another skin owns these bones and places them: this one follows them.
+            let follows = !unplaced
+                && skin.joints.first().is_some_and(|&bone| match owners.get(bone) {
+                    Ok(&PosedInSkin(owner)) => owner != entity && !unplaced_owners.contains(owner),
+                    Err(_) => true,
+                });
+            if rig.follows != follows {
+                // Flagged changed: the pass that now poses the skin poses it again.
+                rig.follows = follows;
+            }
+            if follows {
+                return;
+            }
             let output = match rig.player {
                 Some(player) => match outputs.get(player) {
                     Ok(out) if out.links == rig.links => Some(out),
@@ -548,7 +614,7 @@ pub(super) fn pose_compact_skins(
                 rig.last_base
             };
             let shifted = !to_base.abs_diff_eq(rig.last_base, 1e-6 * to_base.translation.abs().max_element().max(1.0));
-            if !sampled && !shifted && !rig.is_changed() && pose.0.len() == rig.shape.inverse_binds.len() {
+            if !sampled && !shifted && !rig.written && !rig.is_changed() && pose.0.len() == rig.shape.inverse_binds.len() {
                 // The pose stands; the bones' entities follow a model that moved.
                 if moved && !unplaced {
                     place_bones(&rig.shape, entity, skin, mesh_world.0, &pose.0, &writer);
@@ -578,7 +644,7 @@ pub(super) fn pose_compact_skins(
             matrices.resize(rig.shape.inverse_binds.len(), Mat4::IDENTITY);
             let mut handed = false;
             for (slot, bone) in rig.shape.bones.iter().enumerate() {
-                let mut local = if bone.node == NO_PARENT {
+                let local = if bone.node == NO_PARENT {
                     bone.rest
                 } else {
                     let mut sampled = NodeSample { translation: None, rotation: None, scale: None, weights: [None; 2] };
@@ -588,25 +654,20 @@ pub(super) fn pose_compact_skins(
                     sampled.transform(bone.rest).unwrap_or(bone.rest)
                 };
                 let parent = if bone.parent == NO_PARENT { to_base } else { bones[bone.parent as usize] };
-                let mut global = parent * local.compute_affine();
                 let joint = bone.joint as usize;
-                // The bone's entity, when this skin owns it, gets the pose too: its `Transform`
-                // without a change flag (so that a write by the game stands out), its
-                // `GlobalTransform` flagged only if it changed.
-                if let Some(&bone_entity) = skin.joints.get(joint).filter(|_| !unplaced) {
-                    writer.write(entity, bone_entity, |mut transform, mut world| {
-                        if watch && transform.is_changed() && !transform.is_added() {
-                            // The game wrote this bone's `Transform` (inverse kinematics): it poses
-                            // the bone this frame, and the skin gives its bones back from the next.
-                            local = *transform;
-                            global = parent * local.compute_affine();
-                            handed = true;
-                        } else if *transform != local {
-                            *transform.bypass_change_detection() = local;
-                        }
-                        world.set_if_neq(GlobalTransform(mesh_world.0 * global));
-                    });
-                }
+                // The bone's entity, when this skin owns it, is placed too; a `Transform` the
+                // game wrote poses the bone instead, and the skin then gives its bones back.
+                let placed = match skin.joints.get(joint) {
+                    Some(&bone_entity) if !unplaced => writer.place(entity, bone_entity, watch, local, parent, mesh_world.0),
+                    _ => None,
+                };
+                let global = match placed {
+                    Some((placed_local, global)) => {
+                        handed |= placed_local != local;
+                        global
+                    }
+                    None => parent * local.compute_affine(),
+                };
                 bones[slot] = global;
                 let matrix = match rig.shape.inverse_binds[joint] {
                     Some(bind) => Mat4::from(global * bind),
@@ -636,7 +697,10 @@ pub(super) fn pose_compact_skins(
             commands.entity(entity).try_remove::<CompactSkeleton>();
         }
     }
-    (skins.iter().len() as u32, posed.into_inner())
+    if let Some(mut stats) = stats {
+        stats.skin_cpu_ms = started.elapsed().as_secs_f32() * 1e3;
+        (stats.compact_skins, stats.compact_posed) = (skins.iter().len() as u32, posed.into_inner());
+    }
 }
 
 /// Places the bones' entities of a skin whose pose stands while its model moved: each bone
@@ -646,25 +710,6 @@ fn place_bones(shape: &RigShape, entity: Entity, skin: &Skin, mesh_world: Affine
     for (joint, (&bone, bind)) in skin.joints.iter().zip(&shape.binds).enumerate() {
         let (Some(bind), Some(matrix)) = (bind, pose.get(joint)) else { continue };
         let global = mesh_world * Affine3A::from_mat4(*matrix) * *bind;
-        writer.write(entity, bone, |_, mut world| world.set_if_neq(GlobalTransform(global)));
-    }
-}
-
-/// Finds the compact skins one of whose bones' `Transform` the game wrote since the last frame
-/// (inverse kinematics, a head turned to look), and marks their rigs: the pose pass then poses
-/// them from what was written and gives their bones back (the pose pass writes the bones'
-/// transforms without a change flag, so only the game's writes are seen). A scan of the change
-/// ticks of the bones' archetypes (a few bytes a bone, in parallel), run before
-/// [`update_skin_poses`](super::update_skin_poses).
-pub fn find_bone_writes(written: Query<(&PosedInSkin, Ref<Transform>), Changed<Transform>>, mut rigs: Query<&mut SkinRig>) {
-    for (&PosedInSkin(skin), transform) in &written {
-        if transform.is_added() {
-            continue;
-        }
-        if let Ok(mut rig) = rigs.get_mut(skin)
-            && !rig.is_added()
-        {
-            rig.written = true;
-        }
+        writer.place_world(entity, bone, global);
     }
 }
