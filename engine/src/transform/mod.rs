@@ -319,6 +319,11 @@ pub struct PropagationScratch {
     changes: TransformChanges,
     /// Which entities are dirty this run, by entity index ([`DirtyMarks`]).
     marks: DirtyMarks,
+    /// The dirty entities each thread found while marking them, with their parents: the seeds
+    /// are sought among these rather than by a second scan of every transform's change tick.
+    dirty: Parallel<Vec<(Entity, Option<Entity>)>>,
+    /// Those lists, joined.
+    dirty_all: Vec<(Entity, Option<Entity>)>,
 }
 
 /// The dirty entities of one propagation run, marked by entity index, so that finding the
@@ -431,7 +436,7 @@ pub fn propagate_transforms_serial(p: Propagation) {
 fn propagate(p: Propagation, pool: Option<&TaskPool>) {
     let started = std::time::Instant::now();
     let Propagation { dirty, parents, mut nodes, mut orphaned, entities, changes, time, stats, mut scratch } = p;
-    let PropagationScratch { stack, roots, found, walks, changes: own, marks } = &mut *scratch;
+    let PropagationScratch { stack, roots, found, walks, changes: own, marks, dirty: dirty_lists, dirty_all } = &mut *scratch;
     let changes = match changes {
         Some(changes) => changes.into_inner(),
         None => own,
@@ -444,8 +449,14 @@ fn propagate(p: Propagation, pool: Option<&TaskPool>) {
     let TransformChanges { pending, moved, .. } = changes;
     marks.start(entities.len() as usize);
     let marks = &*marks;
+    // The scan of every non-static transform's change tick, once: a million moving-capable
+    // decals cost it about a millisecond a pass on one core, and the seeds below are sought
+    // among what it found.
     match pool {
-        Some(_) => dirty.par_iter().for_each(|(entity, _)| marks.mark(entity)),
+        Some(_) => dirty.par_iter().for_each(|(entity, child_of)| {
+            marks.mark(entity);
+            dirty_lists.scope(|list| list.push((entity, child_of.map(ChildOf::parent))));
+        }),
         None => dirty.iter().for_each(|(entity, _)| marks.mark(entity)),
     }
     let is_dirty = |entity: Entity| marks.is_marked(entity) || (!pending.is_empty() && pending.contains(&entity));
@@ -464,9 +475,9 @@ fn propagate(p: Propagation, pool: Option<&TaskPool>) {
     // entity's own parent link comes with it (read in table order, not looked up), and an
     // ancestor's link is looked up only past a parent that did not change (in a crowd, nearly
     // every changed joint's parent changed too: one lookup decides it).
-    let is_seed = |entity: Entity, child_of: Option<&ChildOf>| {
+    let is_seed = |entity: Entity, parent: Option<Entity>| {
         let mut depth = 0;
-        let mut parent = child_of.map(ChildOf::parent);
+        let mut parent = parent;
         while let Some(current) = parent {
             depth += 1;
             if depth > MAX_DEPTH || current == entity {
@@ -481,29 +492,45 @@ fn propagate(p: Propagation, pool: Option<&TaskPool>) {
         true
     };
     // A seed's walk starts from its parent's global transform (read before any is written).
-    let root = |entity: Entity, child_of: Option<&ChildOf>| {
-        let parent = child_of.and_then(|child_of| nodes.get(child_of.parent()).ok());
+    let root = |entity: Entity, parent: Option<Entity>| {
+        let parent = parent.and_then(|parent| nodes.get(parent).ok());
         (entity, parent.map_or(Affine3A::IDENTITY, |(_, global, ..)| global.0))
     };
     roots.clear();
     match pool {
-        Some(_) => {
-            dirty.par_iter().for_each(|(entity, child_of)| {
-                if is_seed(entity, child_of) {
-                    found.scope(|roots| roots.push(root(entity, child_of)));
+        Some(pool) => {
+            // The dirty entities the threads listed, a few chunks a thread.
+            dirty_all.clear();
+            for list in dirty_lists.iter_mut() {
+                dirty_all.append(list);
+            }
+            let chunk = dirty_all.len().div_ceil(pool.thread_num() * 4).max(256);
+            let (is_seed, root, seeds) = (&is_seed, &root, &*found);
+            pool.scope(|scope| {
+                for part in dirty_all.chunks(chunk) {
+                    scope.spawn(async move {
+                        seeds.scope(|roots| {
+                            roots.extend(part.iter().filter(|&&(e, p)| is_seed(e, p)).map(|&(e, p)| root(e, p)));
+                        });
+                    });
                 }
             });
             for list in found.iter_mut() {
                 roots.append(list);
             }
         }
-        None => roots
-            .extend(dirty.iter().filter(|&(entity, child_of)| is_seed(entity, child_of)).map(|(entity, child_of)| root(entity, child_of))),
+        None => roots.extend(
+            dirty
+                .iter()
+                .map(|(entity, child_of)| (entity, child_of.map(ChildOf::parent)))
+                .filter(|&(entity, parent)| is_seed(entity, parent))
+                .map(|(entity, parent)| root(entity, parent)),
+        ),
     }
     // Static entities (never also dirty: a seed is listed once).
     roots.extend(pending.iter().copied().filter(|&entity| !marks.is_marked(entity)).filter_map(|entity| {
-        let child_of = parents.get(entity).ok();
-        is_seed(entity, child_of).then(|| root(entity, child_of))
+        let parent = parents.get(entity).ok().map(ChildOf::parent);
+        is_seed(entity, parent).then(|| root(entity, parent))
     }));
     match pool {
         Some(pool) => parallel::walk(roots, &mut nodes, moved, walks, pool),
