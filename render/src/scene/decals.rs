@@ -66,8 +66,14 @@ impl DecalDesc {
 
     /// The GPU record.
     pub fn record(&self) -> GpuDecal {
+        self.checked_record().0
+    }
+
+    /// The GPU record, and whether the decal is valid ([`DecalDesc::is_valid`]): one inversion
+    /// of the transform for both.
+    fn checked_record(&self) -> (GpuDecal, bool) {
         let Some(world_to_decal) = self.world_to_decal() else {
-            return GpuDecal { receivers: 0, weight: 1.0, ..GpuDecal::zeroed() };
+            return (GpuDecal { receivers: 0, weight: 1.0, ..GpuDecal::zeroed() }, false);
         };
         let c = self.uv_corners;
         let (fade_scale, fade_offset) = match self.angle_fade {
@@ -85,7 +91,7 @@ impl DecalDesc {
             }
             _ => (0.0, 1.0),
         };
-        GpuDecal {
+        let record = GpuDecal {
             world_to_decal,
             uv01: [c[0].x, c[0].y, c[1].x, c[1].y],
             uv23: [c[2].x, c[2].y, c[3].x, c[3].y],
@@ -102,7 +108,8 @@ impl DecalDesc {
             },
             life_scale,
             life_offset,
-        }
+        };
+        (record, true)
     }
 }
 
@@ -125,18 +132,18 @@ pub struct DecalTable {
 impl DecalTable {
     /// Writes `decal` into `slot` (or a new slot): its record and its box.
     pub fn write(&mut self, slot: Option<u32>, decal: &DecalDesc) -> u32 {
-        let record = decal.record();
+        let (record, valid) = decal.checked_record();
         self.on_skin += u32::from(record.receivers & DECAL_ON_SKIN != 0);
         match slot {
             Some(slot) => {
                 self.forget_skin(slot);
                 self.records.write(slot, record);
-                self.aabbs.write(self.box_of[slot as usize], GpuAabb::of_decal(decal, slot));
+                self.aabbs.write(self.box_of[slot as usize], GpuAabb::of_checked_decal(decal, slot, valid));
                 slot
             }
             None => {
                 let slot = self.records.insert(record);
-                let aabb = self.aabbs.insert(GpuAabb::of_decal(decal, slot));
+                let aabb = self.aabbs.insert(GpuAabb::of_checked_decal(decal, slot, valid));
                 debug_assert_eq!(aabb as usize, self.records.len() - 1, "boxes stay dense");
                 if self.box_of.len() <= slot as usize {
                     self.box_of.resize(slot as usize + 1, NO_DECAL);

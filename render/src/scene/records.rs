@@ -186,7 +186,12 @@ impl GpuAabb {
     /// The box a decal's record in `slot` is found by: its unit box's AABB, or a point where it
     /// stands when its transform is invalid ([`DecalDesc::is_valid`]).
     pub fn of_decal(decal: &DecalDesc, slot: u32) -> Self {
-        if decal.is_valid() {
+        Self::of_checked_decal(decal, slot, decal.is_valid())
+    }
+
+    /// [`GpuAabb::of_decal`] of a decal whose validity is known.
+    pub(crate) fn of_checked_decal(decal: &DecalDesc, slot: u32, valid: bool) -> Self {
+        if valid {
             return Self { owner: decal.on_skin.map_or(0, |instance| instance + 1), ..Self::of_unit_box(decal.decal_to_world, slot) };
         }
         let at = decal.decal_to_world.w_axis.truncate();
