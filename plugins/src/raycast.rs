@@ -498,7 +498,7 @@ pub fn rebuild_raycaster(
     let removed = removed_instances.read().count() + removed_receivers.read().count() + removed_ignored.read().count() > 0;
     let solid = |entity: Entity| instances.contains(entity) && !is_ignored(entity, &ignored, &parents);
     listed.clear();
-    changes.drain_into(&mut listed);
+    changes.drain_into(&mut listed, |entity| instances.contains(entity));
     let Some(meshes) = meshes else { return };
     // A skinned instance moving is its pose changing ([`pose_skinned_solids`]), not a rebuild.
     let known_skin = |entity: Entity| instances.get(entity).is_ok_and(|i| i.4) && raycaster.skinned_index.contains_key(&entity);

@@ -69,6 +69,15 @@ impl DecalDesc {
         self.checked_record().0
     }
 
+    /// The decal's record and box, ready for [`DecalTable::write_prepared`]: the arithmetic of
+    /// a write (one inversion of the transform), apart from the table, so that an extraction
+    /// visiting many decals can do it on every core and then only copy the results in.
+    pub fn prepare(&self) -> PreparedDecal {
+        let (record, valid) = self.checked_record();
+        // The box's slot is the table's to fill in.
+        PreparedDecal { record, aabb: GpuAabb::of_checked_decal(self, 0, valid), valid }
+    }
+
     /// The GPU record, and whether the decal is valid ([`DecalDesc::is_valid`]): one inversion
     /// of the transform for both.
     fn checked_record(&self) -> (GpuDecal, bool) {
@@ -113,6 +122,22 @@ impl DecalDesc {
     }
 }
 
+/// A decal's GPU record and box, made by [`DecalDesc::prepare`] (on any thread) and copied into
+/// its slot by [`DecalTable::write_prepared`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PreparedDecal {
+    record: GpuDecal,
+    aabb: GpuAabb,
+    valid: bool,
+}
+
+impl PreparedDecal {
+    /// Whether the decal was valid ([`DecalDesc::is_valid`]): one that is not lands nowhere.
+    pub fn is_valid(&self) -> bool {
+        self.valid
+    }
+}
+
 /// Decal records in stable slots, and their boxes kept dense: box *i* (BLAS primitive *i*) holds
 /// the slot of its record, and the first [`DecalTable::len`] boxes are exactly the live decals'.
 /// A despawn moves the last box into the freed place (two box uploads), so the BLAS is built
@@ -132,18 +157,24 @@ pub struct DecalTable {
 impl DecalTable {
     /// Writes `decal` into `slot` (or a new slot): its record and its box.
     pub fn write(&mut self, slot: Option<u32>, decal: &DecalDesc) -> u32 {
-        let (record, valid) = decal.checked_record();
+        self.write_prepared(slot, &decal.prepare())
+    }
+
+    /// Writes a decal's record and box made by [`DecalDesc::prepare`] into `slot` (or a new
+    /// slot): two copies, no arithmetic.
+    pub fn write_prepared(&mut self, slot: Option<u32>, decal: &PreparedDecal) -> u32 {
+        let PreparedDecal { record, aabb, .. } = *decal;
         self.on_skin += u32::from(record.receivers & DECAL_ON_SKIN != 0);
         match slot {
             Some(slot) => {
                 self.forget_skin(slot);
                 self.records.write(slot, record);
-                self.aabbs.write(self.box_of[slot as usize], GpuAabb::of_checked_decal(decal, slot, valid));
+                self.aabbs.write(self.box_of[slot as usize], GpuAabb { slot, ..aabb });
                 slot
             }
             None => {
                 let slot = self.records.insert(record);
-                let aabb = self.aabbs.insert(GpuAabb::of_checked_decal(decal, slot, valid));
+                let aabb = self.aabbs.insert(GpuAabb { slot, ..aabb });
                 debug_assert_eq!(aabb as usize, self.records.len() - 1, "boxes stay dense");
                 if self.box_of.len() <= slot as usize {
                     self.box_of.resize(slot as usize + 1, NO_DECAL);

@@ -33,7 +33,7 @@ use std::collections::BTreeSet;
 use bytemuck::Pod;
 use glam::{Mat4, Vec2, Vec3};
 
-pub use decals::{DecalDesc, DecalTable, pack_half2};
+pub use decals::{DecalDesc, DecalTable, PreparedDecal, pack_half2};
 pub use meshes::{DrawItem, MeshData, MeshId, MeshLods, TextureData, level_bytes};
 pub use records::LightKind;
 pub use slots::SlotTable;

@@ -213,6 +213,52 @@ fn decal_extraction_visits_only_what_changed_and_equals_a_full_re_extraction() {
     assert!(lifetime.life_scale < 0.0, "the lifetime fade reached the record");
 }
 
+/// Enough decals in a frame for extraction to read them on several tasks
+/// (`plugins::extract::extract_decals`' first half): slots are still given out in the visits'
+/// (the entities') order, a bad decal among them still lands nowhere, and moving them all (each
+/// with a slot already) writes each in its own slot.
+#[test]
+fn a_large_batch_of_decals_is_extracted_in_order_with_its_bad_ones_inert() {
+    let mut app = ecs_app();
+    let material = app.world.resource_mut::<Assets<DecalMaterial>>().add(DecalMaterial::default());
+    let n = 3_000;
+    let decals: Vec<Entity> = app.world.spawn_batch((0..n).map(|i| (Decal::new(material), Transform::from_xyz(i as f32, 0.0, 0.0)))).collect();
+    let (singular, not_finite) = (decals[100], decals[2_000]);
+    app.world.get_mut::<Transform>(singular).unwrap().scale = Vec3::ZERO;
+    app.world.get_mut::<Transform>(not_finite).unwrap().translation.y = f32::NAN;
+    app.update();
+    let mut sorted = decals.clone();
+    sorted.sort_unstable();
+    // Where a decal's record takes the point it was placed at (its box's centre: the origin).
+    let check = |app: &App, offset: f32, bad: &[Entity]| {
+        let slots = app.world.resource::<MirrorSlots>();
+        let records = &app.world.resource::<RenderMirror>().0.decals.records;
+        for (i, &e) in decals.iter().enumerate() {
+            let slot = slots.decal(e).expect("every decal has a slot");
+            assert_eq!(sorted.get(slot as usize), Some(&e), "slots follow the entities' order");
+            let record = records.get(slot).unwrap();
+            if bad.contains(&e) {
+                assert_eq!(record.receivers, 0, "decal {i} is invalid: it lands nowhere");
+            } else {
+                let at = record.world_to_decal.transform_point3(Vec3::new(i as f32 + offset, 0.0, 0.0));
+                assert!(record.receivers != 0 && at.length() < 1e-3, "decal {i}'s record places it at {at}");
+            }
+        }
+    };
+    check(&app, 0.0, &[singular, not_finite]);
+    assert_eq!(app.world.resource::<RenderStats>().visited.decals, n as u64);
+
+    // All of them moved; the singular one mended.
+    for &e in &decals {
+        app.world.get_mut::<Transform>(e).unwrap().translation.x += 0.5;
+    }
+    app.world.get_mut::<Transform>(singular).unwrap().scale = Vec3::ONE;
+    app.update();
+    assert_eq!(app.world.resource::<RenderStats>().visited.decals, n as u64);
+    assert_eq!(app.world.resource::<RenderMirror>().0.decals.len(), n);
+    check(&app, 0.5, &[not_finite]);
+}
+
 #[test]
 fn instance_and_light_extraction_visits_only_what_changed_and_equals_a_full_re_extraction() {
     use plugins::decal::DecalReceiver;
