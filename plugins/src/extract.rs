@@ -804,7 +804,7 @@ pub fn extract_decal_materials(
 /// that was. (Without the engine's `TransformPlugin` no moves are listed.)
 ///
 /// The visits run in two halves. The first reads and computes, on every core of the compute task
-/// pool: each decal's description, its record and box ([`DecalDesc::prepare`]: an inversion of
+/// pool: each decal's description, its record and box ([`DecalDesc::prepare`](render::scene::DecalDesc::prepare): an inversion of
 /// its transform), its problems and its light, and the slots it already has. The second writes,
 /// on this thread, in the visits' order (so slots are given out as a serial run would): for a
 /// decal that only moved, two copies into its slot. With 1 % of a million decals moving on the

@@ -222,7 +222,8 @@ fn a_large_batch_of_decals_is_extracted_in_order_with_its_bad_ones_inert() {
     let mut app = ecs_app();
     let material = app.world.resource_mut::<Assets<DecalMaterial>>().add(DecalMaterial::default());
     let n = 3_000;
-    let decals: Vec<Entity> = app.world.spawn_batch((0..n).map(|i| (Decal::new(material), Transform::from_xyz(i as f32, 0.0, 0.0)))).collect();
+    let decals: Vec<Entity> =
+        app.world.spawn_batch((0..n).map(|i| (Decal::new(material), Transform::from_xyz(i as f32, 0.0, 0.0)))).collect();
     let (singular, not_finite) = (decals[100], decals[2_000]);
     app.world.get_mut::<Transform>(singular).unwrap().scale = Vec3::ZERO;
     app.world.get_mut::<Transform>(not_finite).unwrap().translation.y = f32::NAN;
