@@ -8,7 +8,7 @@ use super::SlotTable;
 use crate::layout::{DECAL_ON_SKIN, GpuAabb, GpuDecal, NO_DECAL};
 
 /// A decal as the renderer takes it: plain data, no ECS types. Its GPU record and its box are
-/// built from this in one place ([`DecalDesc::record`], [`DecalTable::write`]).
+/// built from this in one place ([`DecalDesc::prepare`], which [`DecalTable::write`] calls).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DecalDesc {
     /// Decal space (the unit box `[-0.5, 0.5]³`, projecting along −Z) to world.
